@@ -1,0 +1,4 @@
+//! The `gantry` sender's library: command implementations and the emulated board.
+
+pub mod check;
+pub mod simulate;

@@ -1,0 +1,48 @@
+//! `gantry`: stream, check, simulate and preview G-code for a Gantry board (or its emulation).
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "gantry",
+    version,
+    about = "Gantry USB CNC controller: sender, checker and emulated board"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Interpret a program without motion and report every error (line, N word, the bad word, why).
+    Check {
+        file: PathBuf,
+        /// Print the interpreted program as JSON Lines of canonical actions (DESIGN §7).
+        #[arg(long)]
+        canon: bool,
+    },
+    /// Plan a program and print each move's entry/cruise/exit speed and time.
+    Simulate {
+        file: PathBuf,
+        /// JSON Lines instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Check { file, canon } => host_sender::check::run(&file, canon),
+        Command::Simulate { file, json } => host_sender::simulate::run(&file, json),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("gantry: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,14 @@
+//! Gantry's shared core: everything that decides anything.
+//!
+//! The interpreter, look-ahead planner, step kernel and controller state machine live here, with no
+//! HAL or executor dependency, so the firmware and the host's emulated board run the very same code.
+//! There is no floating point anywhere in this crate: lengths are integer nanometres ([`units`]) and
+//! geometry uses the `fixed` crate, so the same input gives bit-identical output on every target.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![forbid(unsafe_code)]
+
+pub mod canon;
+pub mod gcode;
+pub mod motion;
+pub mod units;
+pub mod vectors;

@@ -1,0 +1,6 @@
+//! Motion: arc linearisation, look-ahead planner, segment preparation and the step kernel.
+
+use crate::vectors::Vector;
+
+/// Cross-target vectors of the planner and step kernel (see [`crate::vectors`]).
+pub const VECTORS: &[Vector] = &[];
