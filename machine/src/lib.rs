@@ -10,5 +10,6 @@
 pub mod canon;
 pub mod gcode;
 pub mod motion;
+pub mod setup;
 pub mod units;
 pub mod vectors;

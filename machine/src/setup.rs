@@ -1,0 +1,179 @@
+//! The machine setup: every user setting, as stored in flash and sent over the link.
+//!
+//! This is the one persistent description of a machine. The host reads it from a commented TOML
+//! file (`gantry setup`), the board keeps it in flash, and the interpreter, planner and controller
+//! each take their part of it. All values are integers in machine units (nm, nm/min, nm/s², µs),
+//! so the same setup means bit-identical behaviour on every target.
+
+use crate::units::{FeedNmPerMin, Nm, Pos, MAX_AXES, NM_PER_MM};
+use heapless::Vec;
+use serde::{Deserialize, Serialize};
+
+/// Number of tool-table entries the board keeps.
+pub const MAX_TOOLS: usize = 32;
+/// Number of user M-code lists.
+pub const MAX_USER_MCODES: usize = 16;
+/// Commands a user M-code list may hold.
+pub const MAX_LIST_COMMANDS: usize = 8;
+
+/// G-code dialect profile (DESIGN §3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Dialect {
+    /// RS274NGC / Fanuc-style mill programs (LinuxCNC is the oracle).
+    Ngc,
+    /// The seed controller's dialect (seed 003): two-digit G words, `;` comments, centre modes …
+    Gixa,
+}
+
+/// How G4's P word is read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum DwellUnits {
+    /// P in seconds, decimals allowed (RS274NGC).
+    Seconds,
+    /// Integer P in milliseconds (classic Fanuc).
+    Milliseconds,
+}
+
+/// Per-axis setup.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct AxisSetup {
+    /// Exact ratio: `steps` motor steps move the axis `units_nm` nanometres (seed "Ratiometric Steps per Unit").
+    pub steps: u32,
+    pub units_nm: Nm,
+    /// Highest speed of this axis (rapid rate) in nm/min.
+    pub max_rate: FeedNmPerMin,
+    /// Acceleration in nm/s².
+    pub accel: i64,
+    /// Speed reachable instantly from rest (seed "Starting Speed"), nm/min.
+    pub start_speed: FeedNmPerMin,
+    /// Soft-limit box in machine coordinates, nm (min ≤ max).
+    pub travel_min: Nm,
+    pub travel_max: Nm,
+    /// Reverse the direction output.
+    pub invert_dir: bool,
+}
+
+/// One tool-table entry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Tool {
+    pub number: u32,
+    pub length: Nm,
+    pub diameter: Nm,
+}
+
+/// Path-planning settings shared by all axes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PathSetup {
+    /// grbl junction deviation, nm.
+    pub junction_deviation: Nm,
+    /// Largest speed jump allowed at a junction (seed "Feed Shift"), nm/min.
+    pub feed_shift: FeedNmPerMin,
+    /// Largest chord error when arcs are cut into lines, nm.
+    pub chord_tolerance: Nm,
+    /// Largest angle of one arc segment, millidegrees (0 = no limit).
+    pub arc_segment_angle_mdeg: u32,
+    /// Most segments one arc may be cut into (0 = no limit).
+    pub arc_max_segments: u32,
+}
+
+/// Interpreter settings.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ProgramSetup {
+    pub dialect: Dialect,
+    pub dwell_units: DwellUnits,
+    /// Retract clearance of G73/G83 pecks, nm (default 0.254 mm).
+    pub peck_clearance: Nm,
+    /// Partial retract of the `gixa` G87 chip-break cycle, nm.
+    pub chip_break_retract: Nm,
+    pub tools: Vec<Tool, MAX_TOOLS>,
+    /// G54..G59.3 offsets (9 systems), nm.
+    pub work_offsets: [Pos; 9],
+    /// G28 / G30 home positions in machine coordinates.
+    pub g28_home: Pos,
+    pub g30_home: Pos,
+    /// M codes the user has defined; each reaches the controller as a user M-code action.
+    pub user_mcodes: Vec<u16, MAX_USER_MCODES>,
+}
+
+/// Operator-input behaviour.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct OperatorSetup {
+    /// After a feed hold is released: resume at once (seed behaviour) or wait for cycle start.
+    pub resume_needs_cycle_start: bool,
+    /// Cycle start needs both start inputs (two-hand start).
+    pub two_hand_start: bool,
+    /// Feed-override potentiometer range, percent (ADC low → `fro_low`, high → `fro_high`).
+    pub fro_low: u16,
+    pub fro_high: u16,
+    /// Feed used for every feed move during a dry run, nm/min.
+    pub dry_run_feed: FeedNmPerMin,
+}
+
+/// The whole machine setup.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Setup {
+    /// Axes in use (X, Y, Z, A, B, C in that order), 1..=6.
+    pub axis_count: u8,
+    pub axes: [AxisSetup; MAX_AXES],
+    pub path: PathSetup,
+    pub program: ProgramSetup,
+    pub operator: OperatorSetup,
+}
+
+const fn mm(v: i64) -> Nm {
+    v * NM_PER_MM
+}
+
+impl AxisSetup {
+    /// A typical router axis: 3200 steps per 5 mm lead screw, 3000 mm/min, 200 mm/s², travel
+    /// ±`travel_mm` around the power-up position (which is machine zero until the axis is homed).
+    pub const fn default_linear(travel_mm: i64) -> Self {
+        AxisSetup {
+            steps: 3200,
+            units_nm: mm(5),
+            max_rate: mm(3000),
+            accel: mm(200),
+            start_speed: mm(60),
+            travel_min: -mm(travel_mm),
+            travel_max: mm(travel_mm),
+            invert_dir: false,
+        }
+    }
+}
+
+impl Default for Setup {
+    fn default() -> Self {
+        let mut axes = [AxisSetup::default_linear(300); MAX_AXES];
+        axes[1] = AxisSetup::default_linear(200);
+        axes[2] = AxisSetup::default_linear(100);
+        Setup {
+            axis_count: 3,
+            axes,
+            path: PathSetup {
+                junction_deviation: 10_000,
+                feed_shift: mm(60),
+                chord_tolerance: 2_000,
+                arc_segment_angle_mdeg: 0,
+                arc_max_segments: 0,
+            },
+            program: ProgramSetup {
+                dialect: Dialect::Ngc,
+                dwell_units: DwellUnits::Seconds,
+                peck_clearance: 254_000,
+                chip_break_retract: 254_000,
+                tools: Vec::new(),
+                work_offsets: [[0; MAX_AXES]; 9],
+                g28_home: [0; MAX_AXES],
+                g30_home: [0; MAX_AXES],
+                user_mcodes: Vec::new(),
+            },
+            operator: OperatorSetup {
+                resume_needs_cycle_start: false,
+                two_hand_start: false,
+                fro_low: 10,
+                fro_high: 200,
+                dry_run_feed: mm(2000),
+            },
+        }
+    }
+}
