@@ -1,5 +1,7 @@
 //! Motion: arc linearisation, look-ahead planner, segment preparation and the step kernel.
 
+pub mod kernel;
+
 use crate::vectors::Vector;
 
 /// Cross-target vectors of the planner and step kernel (see [`crate::vectors`]).

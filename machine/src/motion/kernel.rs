@@ -1,0 +1,354 @@
+//! Step kernel: the code the step timer interrupt runs, once per tick.
+//!
+//! Segment preparation (main context) hands the kernel short constant-rate [`Segment`]s through a
+//! [`SegmentSource`] (an SPSC queue on the firmware, a ring in the host driver). Each segment says
+//! how many ticks it lasts, the timer period of each tick, the direction byte and how many steps
+//! every axis makes during it. The kernel spreads each axis's steps over the ticks with Bresenham
+//! (an add, a compare and a subtract per axis), so a segment emits *exactly* its step counts.
+//!
+//! AMASS-style smoothing is decided by segment prep, not here: at low rates prep over-drives the
+//! tick (`ticks = dominant_steps << level`, `period >>= level`), so the non-dominant axes get
+//! 2, 4 or 8 times finer step placement. The kernel is the same either way.
+//!
+//! The tick does no division and no multiplication; positions are counted per axis in whole steps.
+//! `stop = true` (a limit flag) latches: from that tick on no step is emitted, the current segment
+//! is dropped and the kernel reports idle until [`StepKernel::clear_stop`] is called.
+
+use crate::units::MAX_AXES;
+
+/// Frequency of the step timer the periods count in (F411: 96 MHz / 4, F446: 168 MHz / 7).
+pub const KERNEL_TIMER_HZ: u32 = 24_000_000;
+
+/// A piece of motion at a constant tick rate with exact per-axis step counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Segment {
+    /// Steps each axis makes during the segment (each ≤ `ticks`).
+    pub steps: [u32; MAX_AXES],
+    /// Number of ticks the segment lasts (≥ 1).
+    pub ticks: u32,
+    /// Timer counts (at [`KERNEL_TIMER_HZ`]) between two ticks (≥ 1).
+    pub period: u32,
+    /// Direction byte: bit i set = axis i moves towards negative.
+    pub dir: u8,
+}
+
+impl Segment {
+    /// A segment that makes no step for `ticks × period` timer counts (used for dwells).
+    pub const fn idle(ticks: u32, period: u32) -> Self {
+        Segment {
+            steps: [0; MAX_AXES],
+            ticks,
+            period,
+            dir: 0,
+        }
+    }
+
+    /// Number of axes up to and including the highest one that steps.
+    fn axes_in_use(&self) -> usize {
+        let mut n = 0;
+        for (i, s) in self.steps.iter().enumerate() {
+            if *s != 0 {
+                n = i + 1;
+            }
+        }
+        n
+    }
+
+    /// Duration in timer counts.
+    pub fn duration(&self) -> u64 {
+        self.ticks as u64 * self.period as u64
+    }
+}
+
+/// Where the kernel pulls its segments from.
+pub trait SegmentSource {
+    /// The next segment, or `None` when nothing is queued.
+    fn next_segment(&mut self) -> Option<Segment>;
+}
+
+/// What one tick produced.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TickOut {
+    /// Step byte: bit i = axis i steps now (write DIR before STEP).
+    pub step: u8,
+    /// Direction byte: bit i set = axis i moves towards negative.
+    pub dir: u8,
+    /// Timer counts to the next tick; 0 = idle (no segment), stop the timer.
+    pub period: u32,
+}
+
+/// The per-tick Bresenham state machine.
+#[derive(Clone, Debug)]
+pub struct StepKernel {
+    /// Bresenham increments of the running segment (its step counts).
+    increment: [u32; MAX_AXES],
+    /// Bresenham accumulators.
+    accumulator: [u32; MAX_AXES],
+    /// Steps made by each axis in the running segment.
+    done: [u32; MAX_AXES],
+    /// Ticks of the running segment (the Bresenham denominator).
+    ticks: u32,
+    /// Ticks left in the running segment.
+    ticks_left: u32,
+    period: u32,
+    dir: u8,
+    /// Axes 0..axes are stepped by the running segment.
+    axes: u8,
+    /// Position at the start of the running segment, in steps.
+    base: [i64; MAX_AXES],
+    stopped: bool,
+}
+
+impl Default for StepKernel {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl StepKernel {
+    /// An idle kernel at step position 0.
+    pub const fn new() -> Self {
+        StepKernel {
+            increment: [0; MAX_AXES],
+            accumulator: [0; MAX_AXES],
+            done: [0; MAX_AXES],
+            ticks: 0,
+            ticks_left: 0,
+            period: 0,
+            dir: 0,
+            axes: 0,
+            base: [0; MAX_AXES],
+            stopped: false,
+        }
+    }
+
+    /// Runs one tick: load a segment if needed, step the axes whose Bresenham term overflows.
+    #[inline]
+    pub fn tick(&mut self, src: &mut impl SegmentSource, stop: bool) -> TickOut {
+        if stop || self.stopped {
+            return self.halt();
+        }
+        if self.ticks_left == 0 && !self.load(src) {
+            return TickOut {
+                step: 0,
+                dir: self.dir,
+                period: 0,
+            };
+        }
+        let ticks = self.ticks;
+        let n = self.axes as usize;
+        let mut step = 0u8;
+        let mut bit = 1u8;
+        for ((acc, inc), done) in self.accumulator[..n]
+            .iter_mut()
+            .zip(&self.increment[..n])
+            .zip(&mut self.done[..n])
+        {
+            *acc += *inc;
+            if *acc >= ticks {
+                *acc -= ticks;
+                *done += 1;
+                step |= bit;
+            }
+            bit <<= 1;
+        }
+        self.ticks_left -= 1;
+        TickOut {
+            step,
+            dir: self.dir,
+            period: self.period,
+        }
+    }
+
+    /// Takes the next segment from `src`; false when there is none.
+    #[inline(never)]
+    fn load(&mut self, src: &mut impl SegmentSource) -> bool {
+        self.fold_position();
+        let Some(seg) = src.next_segment() else {
+            return false;
+        };
+        let ticks = seg.ticks.max(1);
+        self.increment = seg.steps;
+        // Start every accumulator half way so steps sit in the middle of their tick slots.
+        self.accumulator = [ticks >> 1; MAX_AXES];
+        self.ticks = ticks;
+        self.ticks_left = ticks;
+        self.period = seg.period.max(1);
+        self.dir = seg.dir;
+        self.axes = seg.axes_in_use() as u8;
+        true
+    }
+
+    /// Adds the steps of the running segment to the base position.
+    fn fold_position(&mut self) {
+        for (i, done) in self.done.iter_mut().enumerate() {
+            if self.dir & (1 << i) != 0 {
+                self.base[i] -= *done as i64;
+            } else {
+                self.base[i] += *done as i64;
+            }
+            *done = 0;
+        }
+    }
+
+    #[cold]
+    fn halt(&mut self) -> TickOut {
+        if !self.stopped {
+            self.stopped = true;
+            self.fold_position();
+            self.ticks_left = 0;
+            self.axes = 0;
+        }
+        TickOut {
+            step: 0,
+            dir: self.dir,
+            period: 0,
+        }
+    }
+
+    /// True once a `stop` tick has latched; no step is emitted until [`Self::clear_stop`].
+    pub fn is_stopped(&self) -> bool {
+        self.stopped
+    }
+
+    /// Re-arms the kernel after a stop (flush the segment queue first).
+    pub fn clear_stop(&mut self) {
+        self.stopped = false;
+    }
+
+    /// True while a segment is running (ticks are still due).
+    pub fn is_busy(&self) -> bool {
+        self.ticks_left != 0
+    }
+
+    /// Exact position in steps of every axis, counting the steps already made in the running segment.
+    pub fn position(&self) -> [i64; MAX_AXES] {
+        let mut p = self.base;
+        for (i, d) in self.done.iter().enumerate() {
+            if self.dir & (1 << i) != 0 {
+                p[i] -= *d as i64;
+            } else {
+                p[i] += *d as i64;
+            }
+        }
+        p
+    }
+
+    /// Sets the step position (homing, or reset after an abort); drops the running segment.
+    pub fn set_position(&mut self, steps: [i64; MAX_AXES]) {
+        self.base = steps;
+        self.done = [0; MAX_AXES];
+        self.ticks_left = 0;
+        self.axes = 0;
+    }
+
+    /// Drops the running segment (abort); the position keeps the steps already made.
+    pub fn flush(&mut self) {
+        self.fold_position();
+        self.ticks_left = 0;
+        self.axes = 0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Queue<'a>(&'a [Segment], usize);
+    impl SegmentSource for Queue<'_> {
+        fn next_segment(&mut self) -> Option<Segment> {
+            let s = self.0.get(self.1).copied();
+            self.1 += 1;
+            s
+        }
+    }
+
+    fn seg(steps: [u32; 6], ticks: u32, dir: u8) -> Segment {
+        Segment {
+            steps,
+            ticks,
+            period: 100,
+            dir,
+        }
+    }
+
+    #[test]
+    fn counts_are_exact_and_spread() {
+        let segs = [
+            seg([10, 7, 3, 0, 0, 1], 10, 0b10),
+            seg([80, 0, 0, 0, 0, 0], 80, 0),
+        ];
+        let mut q = Queue(&segs, 0);
+        let mut k = StepKernel::new();
+        let mut counts = [0u32; 6];
+        let mut ticks = 0;
+        let mut last_y = None;
+        loop {
+            let out = k.tick(&mut q, false);
+            if out.period == 0 {
+                break;
+            }
+            assert_eq!(out.period, 100);
+            for (i, c) in counts.iter_mut().enumerate() {
+                if out.step & (1 << i) != 0 {
+                    *c += 1;
+                    if i == 1 {
+                        // No two Y steps in adjacent ticks when 7 steps share 10 ticks... at most 2 apart.
+                        if let Some(l) = last_y {
+                            assert!(ticks - l <= 2);
+                        }
+                        last_y = Some(ticks);
+                        assert_eq!(out.dir, 0b10);
+                    }
+                }
+            }
+            ticks += 1;
+        }
+        assert_eq!(ticks, 90);
+        assert_eq!(counts, [90, 7, 3, 0, 0, 1]);
+        assert_eq!(k.position(), [90, -7, 3, 0, 0, 1]);
+        assert!(!k.is_busy());
+    }
+
+    #[test]
+    fn idle_without_segment() {
+        let mut q = Queue(&[], 0);
+        let mut k = StepKernel::new();
+        assert_eq!(k.tick(&mut q, false).period, 0);
+    }
+
+    #[test]
+    fn stop_latches_and_keeps_exact_position() {
+        let segs = [seg([100, 50, 0, 0, 0, 0], 100, 0)];
+        let mut q = Queue(&segs, 0);
+        let mut k = StepKernel::new();
+        for _ in 0..10 {
+            k.tick(&mut q, false);
+        }
+        assert_eq!(k.position(), [10, 5, 0, 0, 0, 0]);
+        let out = k.tick(&mut q, true);
+        assert_eq!((out.step, out.period), (0, 0));
+        let out = k.tick(&mut q, false);
+        assert_eq!((out.step, out.period), (0, 0));
+        assert!(k.is_stopped());
+        assert_eq!(k.position(), [10, 5, 0, 0, 0, 0]);
+        k.clear_stop();
+        assert_eq!(k.tick(&mut q, false).period, 0);
+    }
+
+    #[test]
+    fn amass_overdrive_keeps_dominant_rate() {
+        // 4 dominant steps over-driven ×8 (32 ticks): the X steps land every 8 ticks.
+        let segs = [seg([4, 3, 0, 0, 0, 0], 32, 0)];
+        let mut q = Queue(&segs, 0);
+        let mut k = StepKernel::new();
+        let mut x_ticks = heapless::Vec::<u32, 8>::new();
+        for t in 0..32 {
+            if k.tick(&mut q, false).step & 1 != 0 {
+                x_ticks.push(t).unwrap();
+            }
+        }
+        assert_eq!(x_ticks.as_slice(), &[3, 11, 19, 27]);
+        assert_eq!(k.position()[1], 3);
+    }
+}
