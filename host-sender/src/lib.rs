@@ -2,3 +2,4 @@
 
 pub mod check;
 pub mod simulate;
+pub mod setup_file;
