@@ -23,6 +23,11 @@ enum Command {
         #[arg(long)]
         canon: bool,
     },
+    /// Show or check the machine setup (docs/settings.md).
+    Setup {
+        #[command(subcommand)]
+        action: SetupAction,
+    },
     /// Plan a program and print each move's entry/cruise/exit speed and time.
     Simulate {
         file: PathBuf,
@@ -32,10 +37,37 @@ enum Command {
     },
 }
 
+#[derive(Subcommand)]
+enum SetupAction {
+    /// Print a setup file's effective values (every default filled in), or the defaults.
+    Show { file: Option<PathBuf> },
+    /// Validate a setup file; every error names the key and the allowed range.
+    Check { file: PathBuf },
+}
+
+fn setup(action: SetupAction) -> anyhow::Result<ExitCode> {
+    use host_sender::setup_file::{to_toml, SetupFile};
+    match action {
+        SetupAction::Show { file } => {
+            let setup = match file {
+                Some(f) => SetupFile::load(&f)?,
+                None => Default::default(),
+            };
+            print!("{}", to_toml(&setup));
+        }
+        SetupAction::Check { file } => {
+            SetupFile::load(&file)?;
+            println!("{}: setup is valid", file.display());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Check { file, canon } => host_sender::check::run(&file, canon),
+        Command::Setup { action } => setup(action),
         Command::Simulate { file, json } => host_sender::simulate::run(&file, json),
     };
     match result {

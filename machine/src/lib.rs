@@ -8,6 +8,7 @@
 #![forbid(unsafe_code)]
 
 pub mod canon;
+pub mod controller;
 pub mod gcode;
 pub mod motion;
 pub mod setup;

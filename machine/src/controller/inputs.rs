@@ -1,0 +1,177 @@
+//! Operator and machine inputs: raw pin levels → debounced logical signals and edges.
+//!
+//! The firmware samples its input pins into an [`InputBits`] word once per millisecond (the emulated
+//! board does the same from its virtual pins); this module applies the polarity setting, debounces
+//! each bit and reports which signals changed. Limit switches are *also* seen raw by the step
+//! interrupt (DESIGN §6): debouncing here never delays the stop, only the alarm bookkeeping.
+
+use serde::{Deserialize, Serialize};
+
+/// One bit per input signal, as the board's pins are sampled.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct InputBits(pub u32);
+
+/// Input signals and their bit numbers in [`InputBits`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Signal {
+    /// Feed hold (wired normally closed: the pin opening means hold).
+    FeedHold = 0,
+    /// Abort push button.
+    Abort = 1,
+    /// Cycle start 1 and 2 (two-hand start uses both).
+    CycleStart1 = 2,
+    CycleStart2 = 3,
+    /// Joystick switches: S1 down, S2 left, S3 right, S4 up.
+    JogS1 = 4,
+    JogS2 = 5,
+    JogS3 = 6,
+    JogS4 = 7,
+    /// Joystick Mark (S8) and Release switches.
+    Mark = 8,
+    Release = 9,
+    /// Joystick selectors: stage pair 1, accelerated mode, nudge mode.
+    PairSelect = 10,
+    Accelerated = 11,
+    Nudge = 12,
+    /// Single block, optional stop, block delete and dry run switches.
+    SingleBlock = 13,
+    OptionalStop = 14,
+    BlockDelete = 15,
+}
+
+/// First bit of the six min-limit inputs (X..C), then six max-limit inputs.
+pub const LIMIT_MIN_BIT: u32 = 16;
+pub const LIMIT_MAX_BIT: u32 = 22;
+
+impl InputBits {
+    pub const fn get(self, s: Signal) -> bool {
+        self.0 & (1 << s as u32) != 0
+    }
+
+    pub fn set(&mut self, s: Signal, on: bool) {
+        self.set_bit(s as u32, on);
+    }
+
+    pub fn set_bit(&mut self, bit: u32, on: bool) {
+        if on {
+            self.0 |= 1 << bit;
+        } else {
+            self.0 &= !(1 << bit);
+        }
+    }
+
+    /// Axes (bit i = axis i) whose min limit switch is active.
+    pub const fn limits_min(self) -> u8 {
+        ((self.0 >> LIMIT_MIN_BIT) & 0x3f) as u8
+    }
+
+    /// Axes whose max limit switch is active.
+    pub const fn limits_max(self) -> u8 {
+        ((self.0 >> LIMIT_MAX_BIT) & 0x3f) as u8
+    }
+}
+
+/// Debounces every input bit: a bit's new level is accepted once it has read the same for
+/// `samples` consecutive samples.
+#[derive(Clone, Debug)]
+pub struct Debouncer {
+    /// Pins that are active low (their logical level is the inverted pin level).
+    invert: u32,
+    samples: u8,
+    stable: InputBits,
+    candidate: u32,
+    counts: [u8; 32],
+}
+
+impl Debouncer {
+    /// `invert`: bit mask of active-low pins; `samples`: consecutive equal samples needed (≥ 1).
+    /// The signals start at their idle level (`0` logical) so power-up never looks like a press.
+    pub const fn new(invert: u32, samples: u8) -> Self {
+        Debouncer {
+            invert,
+            samples: if samples == 0 { 1 } else { samples },
+            stable: InputBits(0),
+            candidate: 0,
+            counts: [0; 32],
+        }
+    }
+
+    /// Feeds one sample of raw pin levels; returns the debounced logical levels and the bits that
+    /// changed with this sample.
+    pub fn sample(&mut self, pins: u32) -> (InputBits, u32) {
+        let logical = pins ^ self.invert;
+        let differs = logical ^ self.stable.0;
+        let mut changed = 0;
+        for bit in 0..32 {
+            let mask = 1u32 << bit;
+            if differs & mask == 0 {
+                self.counts[bit] = 0;
+                continue;
+            }
+            if (self.candidate ^ logical) & mask != 0 {
+                self.counts[bit] = 0;
+            }
+            self.counts[bit] += 1;
+            if self.counts[bit] >= self.samples {
+                self.stable.0 ^= mask;
+                self.counts[bit] = 0;
+                changed |= mask;
+            }
+        }
+        self.candidate = logical;
+        (self.stable, changed)
+    }
+
+    /// The current debounced logical levels.
+    pub const fn levels(&self) -> InputBits {
+        self.stable
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_level_is_accepted_after_the_configured_samples() {
+        let mut d = Debouncer::new(0, 3);
+        assert_eq!(d.sample(0b1), (InputBits(0), 0));
+        assert_eq!(d.sample(0b1), (InputBits(0), 0));
+        assert_eq!(d.sample(0b1), (InputBits(1), 1));
+        assert_eq!(d.sample(0b1), (InputBits(1), 0));
+    }
+
+    #[test]
+    fn bounces_restart_the_count() {
+        let mut d = Debouncer::new(0, 3);
+        for pins in [1, 1, 0, 1, 1] {
+            assert_eq!(d.sample(pins).0, InputBits(0));
+        }
+        assert_eq!(d.sample(1), (InputBits(1), 1));
+    }
+
+    #[test]
+    fn active_low_pins_are_inverted_and_start_idle() {
+        // Feed hold wired normally closed to ground: pin high (open) means hold.
+        let nc = 1 << Signal::FeedHold as u32;
+        let mut d = Debouncer::new(0, 1);
+        assert!(!d.levels().get(Signal::FeedHold));
+        let (levels, changed) = d.sample(nc);
+        assert!(levels.get(Signal::FeedHold));
+        assert_eq!(changed, nc);
+        // An active-low cycle-start button reads pressed when its pin is low.
+        let start = 1 << Signal::CycleStart1 as u32;
+        let mut d = Debouncer::new(start, 1);
+        assert!(d.sample(0).0.get(Signal::CycleStart1));
+        assert!(!d.sample(start).0.get(Signal::CycleStart1));
+    }
+
+    #[test]
+    fn limit_fields_map_to_axes() {
+        let mut b = InputBits(0);
+        b.set_bit(LIMIT_MIN_BIT + 2, true);
+        b.set_bit(LIMIT_MAX_BIT, true);
+        assert_eq!((b.limits_min(), b.limits_max()), (0b100, 0b1));
+    }
+}
