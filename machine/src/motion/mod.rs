@@ -1,6 +1,9 @@
 //! Motion: arc linearisation, look-ahead planner, segment preparation and the step kernel.
 
+pub mod arc;
+pub mod config;
 pub mod kernel;
+pub mod trig;
 
 use crate::vectors::Vector;
 
