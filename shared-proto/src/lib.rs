@@ -1,6 +1,38 @@
 //! Gantry wire protocol shared by the firmware and the host sender (no_std).
-#![cfg_attr(not(feature = "std"), no_std)]
+//!
+//! * [`messages`]: what host and board say to each other ([`HostMsg`], [`BoardMsg`]).
+//! * [`frame`]: COBS frames with a fixed header and CRC-32 ([`encode_frame`], [`FrameDecoder`]).
+//! * [`crc`]: the frame check sequence.
+//! * [`window`]: per-lane sliding windows (sequence numbers, acks, credit, retransmit).
+//! * [`channel`]: the sans-IO [`Endpoint`] both sides run ([`HostEndpoint`], [`BoardEndpoint`]).
+//! * [`fault`]: a deterministic lossy byte pipe for tests.
+//!
+//! The full specification is `docs/protocol.md`.
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![forbid(unsafe_code)]
 
-/// Protocol version exchanged in the handshake; bumped on any incompatible change.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub mod channel;
+pub mod crc;
+pub mod fault;
+pub mod frame;
+pub mod messages;
+pub mod window;
+
+pub use channel::{
+    BoardEndpoint, Config, Endpoint, HostEndpoint, LinkEvent, LinkState, LinkStats, Role, SendError,
+};
+pub use frame::{encode_frame, Frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
+pub use messages::{
+    BoardMsg, Hello, HelloAck, HostMsg, Jog, Lane, Line, LineText, MachineState, Status, Wire,
+    AXES, LINE_MAX,
+};
+
+/// Protocol version exchanged in the handshake: major in the high byte, minor
+/// in the low byte. Endpoints connect only when the majors are equal (see
+/// `docs/protocol.md`, version policy).
+pub const PROTOCOL_VERSION: u16 = 0x0100;
+
+/// True when two protocol versions can talk (same major).
+pub const fn versions_compatible(a: u16, b: u16) -> bool {
+    a >> 8 == b >> 8
+}

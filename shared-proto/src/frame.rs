@@ -1,0 +1,324 @@
+//! Frame layout, `encode_frame` and the streaming [`FrameDecoder`].
+//!
+//! On the wire a frame is `COBS(header ‖ payload ‖ crc32_le) ‖ 0x00`:
+//!
+//! | offset | size | field |
+//! |---|---|---|
+//! | 0 | 1 | kind (low nibble) and flags (high nibble) |
+//! | 1 | 2 | `seq` (LE): sequence number of a Data or Realtime frame, else 0 |
+//! | 3 | 2 | `ack` (LE): next queued-lane seq the sender of this frame expects |
+//! | 5 | 1 | `win`: free queued-lane slots after `ack` (credit) |
+//! | 6 | 2 | `rt_ack` (LE): next realtime-lane seq expected |
+//! | 8 | 1 | `rt_win`: free realtime-lane slots |
+//! | 9 | n | postcard payload (empty for Ack and Desync) |
+//! | 9+n | 4 | CRC-32/ISO-HDLC over bytes 0..9+n, little-endian |
+//!
+//! COBS (the `cobs` crate) removes every 0x00 from the frame so 0x00 marks
+//! frame boundaries; a receiver that starts mid-stream or sees garbage loses
+//! at most the frame in progress and resynchronises on the next 0x00.
+
+use crate::crc::{crc32, CRC_LEN};
+use serde::Serialize;
+
+/// Bytes of the fixed header.
+pub const HEADER_LEN: usize = 9;
+/// Largest raw frame (header + payload + CRC) before COBS.
+pub const MAX_RAW: usize = 192;
+/// Largest payload.
+pub const MAX_PAYLOAD: usize = MAX_RAW - HEADER_LEN - CRC_LEN;
+/// Largest frame on the wire, COBS overhead and delimiter included. Buffers
+/// passed to [`encode_frame`] and `poll_transmit` must be at least this long.
+pub const MAX_FRAME_LEN: usize = MAX_RAW + MAX_RAW.div_ceil(254) + 1;
+
+/// Frame kind (low nibble of byte 0).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Kind {
+    /// Acknowledgement / window update / probe only; no payload.
+    Ack = 0,
+    /// A sequenced message of the queued lane.
+    Data = 1,
+    /// A sequenced message of the realtime lane.
+    Realtime = 2,
+    /// Handshake request (payload [`crate::messages::Hello`]).
+    Hello = 3,
+    /// Handshake answer (payload [`crate::messages::HelloAck`]).
+    HelloAck = 4,
+    /// "I have no session with you, say Hello first" (board → host, no payload).
+    Desync = 5,
+}
+
+impl Kind {
+    fn from_u8(v: u8) -> Option<Self> {
+        Some(match v {
+            0 => Kind::Ack,
+            1 => Kind::Data,
+            2 => Kind::Realtime,
+            3 => Kind::Hello,
+            4 => Kind::HelloAck,
+            5 => Kind::Desync,
+            _ => return None,
+        })
+    }
+}
+
+/// Flag: the sender of this frame saw a gap in the queued lane (fast retransmit hint).
+pub const FLAG_NAK: u8 = 0x10;
+/// Flag: the sender of this frame saw a gap in the realtime lane.
+pub const FLAG_RT_NAK: u8 = 0x20;
+/// Flag: please answer with an Ack (window probe / keepalive).
+pub const FLAG_POLL: u8 = 0x40;
+const FLAGS_KNOWN: u8 = FLAG_NAK | FLAG_RT_NAK | FLAG_POLL;
+
+/// The fixed frame header.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Header {
+    pub kind: Kind,
+    pub flags: u8,
+    pub seq: u16,
+    pub ack: u16,
+    pub win: u8,
+    pub rt_ack: u16,
+    pub rt_win: u8,
+}
+
+impl Header {
+    /// A header of `kind` with every other field zero.
+    pub fn new(kind: Kind) -> Self {
+        Self {
+            kind,
+            flags: 0,
+            seq: 0,
+            ack: 0,
+            win: 0,
+            rt_ack: 0,
+            rt_win: 0,
+        }
+    }
+
+    fn write(&self, b: &mut [u8]) {
+        b[0] = self.kind as u8 | (self.flags & FLAGS_KNOWN);
+        b[1..3].copy_from_slice(&self.seq.to_le_bytes());
+        b[3..5].copy_from_slice(&self.ack.to_le_bytes());
+        b[5] = self.win;
+        b[6..8].copy_from_slice(&self.rt_ack.to_le_bytes());
+        b[8] = self.rt_win;
+    }
+
+    fn read(b: &[u8]) -> Option<Self> {
+        let kind = Kind::from_u8(b[0] & 0x0F)?;
+        let flags = b[0] & 0xF0;
+        if flags & !FLAGS_KNOWN != 0 {
+            return None;
+        }
+        Some(Self {
+            kind,
+            flags,
+            seq: u16::from_le_bytes([b[1], b[2]]),
+            ack: u16::from_le_bytes([b[3], b[4]]),
+            win: b[5],
+            rt_ack: u16::from_le_bytes([b[6], b[7]]),
+            rt_win: b[8],
+        })
+    }
+}
+
+/// Why a frame could not be encoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EncodeError {
+    /// The payload does not fit in [`MAX_PAYLOAD`].
+    PayloadTooLarge,
+    /// `out` is shorter than the encoded frame.
+    OutputTooSmall,
+}
+
+/// Encodes `header` and the postcard form of `payload` (if any) as one
+/// complete wire frame (delimiter included) into `out`; returns its length.
+pub fn encode_frame<P: Serialize + ?Sized>(
+    header: &Header,
+    payload: Option<&P>,
+    out: &mut [u8],
+) -> Result<usize, EncodeError> {
+    let mut raw = [0u8; MAX_RAW];
+    header.write(&mut raw[..HEADER_LEN]);
+    let plen = match payload {
+        Some(p) => postcard::to_slice(p, &mut raw[HEADER_LEN..MAX_RAW - CRC_LEN])
+            .map_err(|_| EncodeError::PayloadTooLarge)?
+            .len(),
+        None => 0,
+    };
+    let body = HEADER_LEN + plen;
+    let crc = crc32(&raw[..body]);
+    raw[body..body + CRC_LEN].copy_from_slice(&crc.to_le_bytes());
+    let raw_len = body + CRC_LEN;
+    let n = cobs::try_encode(&raw[..raw_len], out).map_err(|_| EncodeError::OutputTooSmall)?;
+    if n >= out.len() {
+        return Err(EncodeError::OutputTooSmall);
+    }
+    out[n] = 0;
+    Ok(n + 1)
+}
+
+/// A valid frame handed out by the decoder; `payload` borrows its buffer.
+#[derive(Debug)]
+pub struct Frame<'a> {
+    pub header: Header,
+    pub payload: &'a [u8],
+}
+
+/// Counters of what the decoder saw.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DecoderStats {
+    /// Frames that passed every check.
+    pub frames: u32,
+    /// Frames whose COBS structure was broken.
+    pub bad_cobs: u32,
+    /// Frames shorter than a header plus CRC.
+    pub runts: u32,
+    /// Frames with a CRC mismatch.
+    pub bad_crc: u32,
+    /// Frames with a valid CRC but an unknown kind or flag.
+    pub bad_header: u32,
+    /// Frames longer than [`MAX_FRAME_LEN`] (discarded up to the next 0x00).
+    pub oversize: u32,
+}
+
+/// Streaming decoder: feed it bytes in any chunking; it yields each valid
+/// frame once and silently drops (and counts) everything else. Memory is one
+/// fixed buffer of [`MAX_FRAME_LEN`] bytes.
+pub struct FrameDecoder {
+    buf: [u8; MAX_FRAME_LEN],
+    len: usize,
+    overflow: bool,
+    stats: DecoderStats,
+}
+
+impl Default for FrameDecoder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl FrameDecoder {
+    pub const fn new() -> Self {
+        Self {
+            buf: [0; MAX_FRAME_LEN],
+            len: 0,
+            overflow: false,
+            stats: DecoderStats {
+                frames: 0,
+                bad_cobs: 0,
+                runts: 0,
+                bad_crc: 0,
+                bad_header: 0,
+                oversize: 0,
+            },
+        }
+    }
+
+    /// What the decoder has seen so far.
+    pub fn stats(&self) -> DecoderStats {
+        self.stats
+    }
+
+    /// Bytes of the frame in progress (always ≤ [`MAX_FRAME_LEN`]).
+    pub fn buffered(&self) -> usize {
+        self.len
+    }
+
+    /// Feeds one byte; returns a frame when this byte completes a valid one.
+    /// The frame borrows the decoder until the next call.
+    pub fn push_byte(&mut self, b: u8) -> Option<Frame<'_>> {
+        if b != 0 {
+            if self.len < self.buf.len() {
+                self.buf[self.len] = b;
+                self.len += 1;
+            } else {
+                self.overflow = true;
+            }
+            return None;
+        }
+        let len = core::mem::replace(&mut self.len, 0);
+        if core::mem::replace(&mut self.overflow, false) {
+            self.stats.oversize = self.stats.oversize.wrapping_add(1);
+            return None;
+        }
+        if len == 0 {
+            return None; // back-to-back delimiters: idle fill, not an error
+        }
+        let n = match cobs::decode_in_place(&mut self.buf[..len]) {
+            Ok(n) => n,
+            Err(_) => {
+                self.stats.bad_cobs = self.stats.bad_cobs.wrapping_add(1);
+                return None;
+            }
+        };
+        if n < HEADER_LEN + CRC_LEN {
+            self.stats.runts = self.stats.runts.wrapping_add(1);
+            return None;
+        }
+        let body = n - CRC_LEN;
+        let mut crc = [0u8; CRC_LEN];
+        crc.copy_from_slice(&self.buf[body..n]);
+        if crc32(&self.buf[..body]) != u32::from_le_bytes(crc) {
+            self.stats.bad_crc = self.stats.bad_crc.wrapping_add(1);
+            return None;
+        }
+        let Some(header) = Header::read(&self.buf[..HEADER_LEN]) else {
+            self.stats.bad_header = self.stats.bad_header.wrapping_add(1);
+            return None;
+        };
+        self.stats.frames = self.stats.frames.wrapping_add(1);
+        Some(Frame {
+            header,
+            payload: &self.buf[HEADER_LEN..body],
+        })
+    }
+
+    /// Feeds a chunk and calls `f` for every valid frame it completes.
+    pub fn feed(&mut self, bytes: &[u8], mut f: impl FnMut(Frame<'_>)) {
+        for &b in bytes {
+            if let Some(frame) = self.push_byte(b) {
+                f(frame);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn header_round_trip_and_sizes() {
+        let h = Header {
+            kind: Kind::Data,
+            flags: FLAG_NAK | FLAG_POLL,
+            seq: 0xBEEF,
+            ack: 0x1234,
+            win: 7,
+            rt_ack: 0xFFFF,
+            rt_win: 3,
+        };
+        let mut out = [0u8; MAX_FRAME_LEN];
+        let n = encode_frame(&h, Some(&(1u32, 2u8)), &mut out).unwrap();
+        assert_eq!(out[n - 1], 0);
+        assert!(out[..n - 1].iter().all(|&b| b != 0));
+        let mut d = FrameDecoder::new();
+        let mut got = None;
+        d.feed(&out[..n], |f| got = Some((f.header, f.payload.to_vec())));
+        let (gh, gp) = got.unwrap();
+        assert_eq!(gh, h);
+        assert_eq!(postcard::from_bytes::<(u32, u8)>(&gp).unwrap(), (1, 2));
+        assert_eq!(MAX_FRAME_LEN, 194);
+    }
+
+    #[test]
+    fn too_small_output_is_an_error() {
+        let mut out = [0u8; 8];
+        assert_eq!(
+            encode_frame::<()>(&Header::new(Kind::Ack), None, &mut out),
+            Err(EncodeError::OutputTooSmall)
+        );
+    }
+}

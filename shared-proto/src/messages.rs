@@ -1,0 +1,274 @@
+//! Application messages carried by the link, in both directions.
+//!
+//! Every type here has a fixed maximum size (heapless strings and vectors, no
+//! allocation) and is serialised with postcard. Each message belongs to a
+//! [`Lane`]: `Queued` messages are delivered in order and consume the
+//! receiver's credit (its free queue slots); `Realtime` messages travel on a
+//! separate sequence space that bypasses the queue (see `docs/protocol.md`).
+//!
+//! Units: lengths in nanometres (`i64`, exact to 1 nm over ±10 m), feeds in
+//! micrometres per minute, overrides in percent.
+
+use heapless::{String, Vec};
+use serde::{de::DeserializeOwned, Deserialize, Serialize};
+
+/// Longest G-code line (bytes) a [`Line`] carries.
+///
+/// 104 bytes is the largest text for which the worst-case `Line` frame
+/// (9-byte header, 1-byte tag, 5-byte varint line number, 1-byte length,
+/// text, 4-byte CRC, 1 byte of COBS overhead and the 0x00 delimiter = 126 B)
+/// still fits in two 64-byte USB full-speed bulk packets. It is longer than
+/// grbl's 80-byte line buffer; the host strips comments and blanks before
+/// sending, so CAM output (typically < 60 bytes) fits with room to spare. A
+/// longer line is an error reported by the host against that line.
+pub const LINE_MAX: usize = 104;
+
+/// Bytes per setup chunk (one USB packet of payload).
+pub const SETUP_CHUNK_MAX: usize = 64;
+
+/// Number of axes the wire format carries (X Y Z A B C).
+pub const AXES: usize = 6;
+
+/// Text of one G-code line.
+pub type LineText = String<LINE_MAX>;
+
+/// Which path a message takes through the link.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lane {
+    /// Ordered, credit-limited, delivered through the receiver's queue.
+    Queued,
+    /// Ordered among realtime messages only; delivered at once, no credit needed
+    /// from the application queue.
+    Realtime,
+}
+
+/// A message type the link can carry.
+pub trait Wire: Serialize + DeserializeOwned + Clone {
+    /// The lane this message travels on.
+    fn lane(&self) -> Lane;
+}
+
+/// One G-code line of the streamed job.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq, Eq)]
+pub struct Line {
+    /// Line number in the host's file (1-based), used in errors and status.
+    pub line_no: u32,
+    /// The text, comments and blanks stripped by the host.
+    pub text: LineText,
+}
+
+impl Line {
+    /// Builds a line; `None` when `text` is longer than [`LINE_MAX`].
+    pub fn new(line_no: u32, text: &str) -> Option<Self> {
+        Some(Self {
+            line_no,
+            text: LineText::try_from(text).ok()?,
+        })
+    }
+}
+
+/// A jog command (realtime).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Jog {
+    /// Axis index 0..AXES (X=0).
+    pub axis: u8,
+    /// Signed velocity in µm/min; the sign gives the direction.
+    pub feed_um_min: i32,
+    /// Distance to travel in nm; 0 = continuous until `JogStop`.
+    pub distance_nm: u64,
+}
+
+/// Messages from the host to the board.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq, Eq)]
+pub enum HostMsg {
+    // ---- queued ----
+    /// A line of the streamed job.
+    Line(Line),
+    /// Program server answer: line `line.line_no` of subprogram `O<program>`,
+    /// sent in order after a [`BoardMsg::ProgramRequest`].
+    ProgramLine { program: u32, line: Line },
+    /// Program server answer: `O<program>` has no line at or after `line_no`
+    /// (end of program, or no such program when `found` is false).
+    ProgramEnd {
+        program: u32,
+        line_no: u32,
+        found: bool,
+    },
+    /// A chunk of the opaque setup blob at byte `offset`.
+    SetupChunk {
+        offset: u32,
+        bytes: Vec<u8, SETUP_CHUNK_MAX>,
+    },
+    /// The setup blob is complete: `len` bytes with CRC-32/ISO-HDLC `crc32`.
+    /// The board validates and applies it (and writes flash only when idle).
+    SetupCommit { len: u32, crc32: u32 },
+    /// Start executing the streamed job from its first line.
+    Start,
+    /// Start (resume) the job from line `line_no`; the host replays the modal
+    /// preamble as ordinary lines before it.
+    StartFromLine { line_no: u32 },
+    /// No more lines follow for this job (lets the board tell "done" from "starved").
+    EndOfJob,
+    // ---- realtime ----
+    /// Decelerate on the path and hold.
+    FeedHold,
+    /// Resume from hold.
+    Resume,
+    /// Stop now, run the program-stop sequence, remember the resume point.
+    Abort,
+    /// Feed override in percent (10..=200).
+    FeedOverride(u16),
+    /// Rapid override in percent (e.g. 25, 50, 100).
+    RapidOverride(u16),
+    /// Jog one axis.
+    Jog(Jog),
+    /// Stop jogging and flush jog motion.
+    JogStop,
+    /// Ask for a [`BoardMsg::Status`].
+    StatusRequest,
+    /// Clear an alarm lock.
+    Unlock,
+    /// Run the homing cycle for the axes in the bit mask (bit 0 = X; 0 = all).
+    Home { axes: u8 },
+}
+
+impl Wire for HostMsg {
+    fn lane(&self) -> Lane {
+        use HostMsg::*;
+        match self {
+            Line(_)
+            | ProgramLine { .. }
+            | ProgramEnd { .. }
+            | SetupChunk { .. }
+            | SetupCommit { .. }
+            | Start
+            | StartFromLine { .. }
+            | EndOfJob => Lane::Queued,
+            FeedHold
+            | Resume
+            | Abort
+            | FeedOverride(_)
+            | RapidOverride(_)
+            | Jog(_)
+            | JogStop
+            | StatusRequest
+            | Unlock
+            | Home { .. } => Lane::Realtime,
+        }
+    }
+}
+
+/// Controller state as reported in [`Status`].
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MachineState {
+    Idle,
+    Run,
+    /// Feed hold; `stopped` once motion has come to rest.
+    Hold {
+        stopped: bool,
+    },
+    Jog,
+    Alarm,
+    Homing,
+    Check,
+}
+
+/// Periodic or requested status report.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq, Eq)]
+pub struct Status {
+    pub state: MachineState,
+    /// Machine position, nm.
+    pub machine_pos: [i64; AXES],
+    /// Work position (machine minus active offsets), nm.
+    pub work_pos: [i64; AXES],
+    /// Current feed, µm/min.
+    pub feed_um_min: u32,
+    /// Feed override, %.
+    pub feed_override: u16,
+    /// Rapid override, %.
+    pub rapid_override: u16,
+    /// Planner blocks in use.
+    pub planner_fill: u16,
+    /// Link queue slots in use (lines received but not yet interpreted).
+    pub queue_fill: u16,
+    /// Line number of the block being executed.
+    pub line: u32,
+    /// Input pins (bit per input: limits, probe, hold, start, ...).
+    pub inputs: u32,
+    /// Homed axes (bit 0 = X).
+    pub homed: u8,
+}
+
+/// Messages from the board to the host.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq, Eq)]
+pub enum BoardMsg {
+    // ---- realtime ----
+    /// Status report.
+    Status(Status),
+    /// Alarm raised (machine locked until unlock/home).
+    Alarm { code: u16 },
+    /// Limit switch hit on `axis` (the axis is now unhomed).
+    Limit { axis: u8 },
+    // ---- queued ----
+    /// The block of `line` was rejected: `code` says why, `column` where (0 = unknown).
+    Error { line: u32, code: u16, column: u16 },
+    /// Execution reached `line` (a resume point the host may record); `id` is
+    /// a board-chosen tag (e.g. an M-code mark).
+    Mark { line: u32, id: u32 },
+    /// The interpreter jumped (M98/M99): send lines of `O<program>` from `from_line`.
+    ProgramRequest { program: u32, from_line: u32 },
+    /// The job finished; `line` is the last executed line.
+    JobDone { line: u32 },
+}
+
+impl Wire for BoardMsg {
+    fn lane(&self) -> Lane {
+        match self {
+            BoardMsg::Status(_) | BoardMsg::Alarm { .. } | BoardMsg::Limit { .. } => Lane::Realtime,
+            _ => Lane::Queued,
+        }
+    }
+}
+
+/// Handshake request (host → board), sent in a `Hello` control frame.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Hello {
+    /// The host's [`crate::PROTOCOL_VERSION`].
+    pub version: u16,
+    /// Random per-attempt value echoed in the answer, so stale answers are ignored.
+    pub nonce: u32,
+    /// Free slots of the host's queued-lane receive queue.
+    pub window: u8,
+    /// Free slots of the host's realtime-lane receive queue.
+    pub rt_window: u8,
+}
+
+/// Handshake answer (board → host), sent in a `HelloAck` control frame. It
+/// tells the host where both sequence spaces stand so it can continue
+/// without loss or repetition.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HelloAck {
+    /// The board's [`crate::PROTOCOL_VERSION`].
+    pub version: u16,
+    /// Echo of [`Hello::nonce`].
+    pub nonce: u32,
+    /// Identifies this power-up of the board; a change means the board reset.
+    pub boot_id: u32,
+    /// Queued-lane receive queue size (slots) of the board.
+    pub rx_capacity: u16,
+    /// Realtime-lane receive queue size of the board.
+    pub rt_capacity: u16,
+    /// Next host→board queued sequence number the board will deliver
+    /// (= last delivered + 1).
+    pub next_expected: u16,
+    /// Same for the realtime lane.
+    pub rt_next_expected: u16,
+    /// Current free slots (credit) of the queued lane.
+    pub window: u8,
+    /// Current free slots of the realtime lane.
+    pub rt_window: u8,
+    /// Oldest board→host queued sequence number not yet acknowledged.
+    pub tx_base: u16,
+    /// Same for the realtime lane.
+    pub rt_tx_base: u16,
+}

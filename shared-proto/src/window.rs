@@ -1,0 +1,372 @@
+//! One lane's sliding window: the sending half ([`SendLane`]) and the
+//! receiving half ([`RecvLane`]).
+//!
+//! Sequence numbers are `u16` and wrap; they are compared by wrapping
+//! difference, which is sound because a window never exceeds 255 frames.
+//!
+//! * The receiver delivers in order. A frame below `expected` is a duplicate
+//!   (dropped, re-acknowledged); a frame inside the window but beyond
+//!   `expected` is parked in a slot until the gap fills (and a NAK hint is
+//!   sent); a frame beyond the window is a credit violation (dropped, counted).
+//! * The window (credit) is the number of free slots in the receiver's
+//!   delivery queue. A limit `ack + win` once advertised stays valid forever,
+//!   because the queue only shrinks by the application popping and only grows
+//!   by accepting frames below that limit; so the sender keeps the largest
+//!   limit it has seen, and stale or reordered advertisements are harmless.
+//! * The sender keeps every unacknowledged message with the time it was last
+//!   sent and retransmits each one `rto` after its last transmission (oldest
+//!   first). A NAK for its oldest frame makes that frame due at once, at most
+//!   once per `rto / 4`.
+
+use heapless::Deque;
+
+/// Wrapping "a is before b".
+#[inline]
+pub(crate) fn seq_before(a: u16, b: u16) -> bool {
+    (a.wrapping_sub(b) as i16) < 0
+}
+
+struct Slot<T> {
+    msg: T,
+    sent_at: u32,
+}
+
+/// Sending half of a lane: up to `N` messages from the oldest unacknowledged.
+pub struct SendLane<T, const N: usize> {
+    q: Deque<Slot<T>, N>,
+    /// Sequence number of `q[0]`.
+    base: u16,
+    /// Entries of `q` transmitted at least once (a prefix).
+    sent: usize,
+    /// The peer accepts sequence numbers before this.
+    limit: u16,
+    retransmits: u32,
+}
+
+impl<T, const N: usize> Default for SendLane<T, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T, const N: usize> SendLane<T, N> {
+    pub const fn new() -> Self {
+        Self {
+            q: Deque::new(),
+            base: 0,
+            sent: 0,
+            limit: 0,
+            retransmits: 0,
+        }
+    }
+
+    /// Queues a message; gives it back when the lane is full.
+    pub fn push(&mut self, msg: T) -> Result<(), T> {
+        self.q
+            .push_back(Slot { msg, sent_at: 0 })
+            .map_err(|s| s.msg)
+    }
+
+    /// Free places for [`push`](Self::push).
+    pub fn free(&self) -> usize {
+        N - self.q.len()
+    }
+
+    /// Messages queued (sent or not) and not yet acknowledged.
+    pub fn len(&self) -> usize {
+        self.q.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.q.is_empty()
+    }
+
+    /// Messages sent and waiting for an acknowledgement.
+    pub fn in_flight(&self) -> usize {
+        self.sent
+    }
+
+    /// Oldest unacknowledged sequence number.
+    pub fn base(&self) -> u16 {
+        self.base
+    }
+
+    /// Sequence number the next new message will get.
+    pub fn next_seq(&self) -> u16 {
+        self.base.wrapping_add(self.q.len() as u16)
+    }
+
+    /// The peer's credit limit (sequence numbers before it are allowed).
+    pub fn limit(&self) -> u16 {
+        self.limit
+    }
+
+    /// Total retransmissions so far.
+    pub fn retransmits(&self) -> u32 {
+        self.retransmits
+    }
+
+    /// There are unsent messages but the peer's window is closed.
+    pub fn blocked(&self) -> bool {
+        self.sent < self.q.len()
+            && !seq_before(self.base.wrapping_add(self.sent as u16), self.limit)
+    }
+
+    /// Applies a cumulative ack `ack` (next seq the peer expects) with credit
+    /// `win`. Returns how many messages it acknowledged. Acks outside
+    /// `base..=base+in_flight` are ignored.
+    pub fn on_ack(&mut self, ack: u16, win: u8) -> usize {
+        let d = ack.wrapping_sub(self.base) as usize;
+        if d > self.sent {
+            return 0;
+        }
+        for _ in 0..d {
+            self.q.pop_front();
+        }
+        self.sent -= d;
+        self.base = ack;
+        let new_limit = ack.wrapping_add(win as u16);
+        if seq_before(self.limit, new_limit) {
+            self.limit = new_limit;
+        }
+        d
+    }
+
+    /// Fast-retransmit hint: the peer still expects `ack` and saw later frames.
+    pub fn on_nak(&mut self, ack: u16, now: u32, rto: u32) {
+        if ack != self.base || self.sent == 0 {
+            return;
+        }
+        let holdoff = (rto / 4).max(1);
+        if let Some(front) = self.q.front_mut() {
+            if now.wrapping_sub(front.sent_at) >= holdoff {
+                front.sent_at = now.wrapping_sub(rto);
+            }
+        }
+    }
+
+    /// Makes every sent message due for retransmission at `now`.
+    pub fn rewind(&mut self, now: u32, rto: u32) {
+        for s in self.q.iter_mut().take(self.sent) {
+            s.sent_at = now.wrapping_sub(rto);
+        }
+    }
+
+    /// Renumbers everything still queued to start at `base` (the peer lost its
+    /// state or we have none); all of it will be sent again as new.
+    pub fn renumber(&mut self, base: u16, win: u8) {
+        self.base = base;
+        self.sent = 0;
+        self.limit = base.wrapping_add(win as u16);
+    }
+
+    /// Forgets every queued message.
+    pub fn clear(&mut self) {
+        self.q.clear();
+        self.sent = 0;
+    }
+
+    /// The next message to put on the wire at `now`, if any: the oldest
+    /// message whose retransmit timer expired, else the next new message
+    /// inside the peer's window. Marks it sent at `now`.
+    pub fn next_transmit(&mut self, now: u32, rto: u32) -> Option<(u16, &T)> {
+        let due = self
+            .q
+            .iter()
+            .take(self.sent)
+            .position(|s| now.wrapping_sub(s.sent_at) >= rto);
+        let idx = match due {
+            Some(i) => {
+                self.retransmits = self.retransmits.wrapping_add(1);
+                i
+            }
+            None => {
+                if self.sent >= self.q.len() || self.blocked() {
+                    return None;
+                }
+                self.sent += 1;
+                self.sent - 1
+            }
+        };
+        let slot = self.q.get_mut(idx)?;
+        slot.sent_at = now;
+        Some((self.base.wrapping_add(idx as u16), &slot.msg))
+    }
+
+    /// Earliest time at which a retransmission falls due, if anything is in flight.
+    pub fn next_timeout(&self, rto: u32) -> Option<u32> {
+        self.q
+            .iter()
+            .take(self.sent)
+            .map(|s| s.sent_at.wrapping_add(rto))
+            .next()
+    }
+}
+
+/// What [`RecvLane::on_frame`] did with a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RxOutcome {
+    /// Delivered, with this many messages in total (parked ones included).
+    Delivered(usize),
+    /// Inside the window but after a gap: parked until the gap fills.
+    Parked,
+    /// Already delivered (or already parked): dropped.
+    Duplicate,
+    /// Beyond the advertised window: dropped.
+    Violation,
+}
+
+/// Receiving half of a lane: a delivery queue of `N` slots (its free slots
+/// are the advertised credit) and `N` parking slots for out-of-order frames.
+pub struct RecvLane<T, const N: usize> {
+    ready: Deque<T, N>,
+    parked: [Option<(u16, T)>; N],
+    expected: u16,
+    delivered: u32,
+    duplicates: u32,
+    violations: u32,
+}
+
+impl<T, const N: usize> Default for RecvLane<T, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T, const N: usize> RecvLane<T, N> {
+    pub fn new() -> Self {
+        Self {
+            ready: Deque::new(),
+            parked: core::array::from_fn(|_| None),
+            expected: 0,
+            delivered: 0,
+            duplicates: 0,
+            violations: 0,
+        }
+    }
+
+    /// Next sequence number to deliver (the cumulative ack).
+    pub fn expected(&self) -> u16 {
+        self.expected
+    }
+
+    /// Credit: free slots in the delivery queue (capped at 255).
+    pub fn window(&self) -> u8 {
+        (N - self.ready.len()).min(255) as u8
+    }
+
+    /// Messages delivered and not yet popped.
+    pub fn ready_len(&self) -> usize {
+        self.ready.len()
+    }
+
+    /// Messages parked after a gap.
+    pub fn parked_len(&self) -> usize {
+        self.parked.iter().filter(|p| p.is_some()).count()
+    }
+
+    /// Counters: (delivered, duplicates, violations).
+    pub fn counters(&self) -> (u32, u32, u32) {
+        (self.delivered, self.duplicates, self.violations)
+    }
+
+    /// Takes the oldest delivered message.
+    pub fn pop(&mut self) -> Option<T> {
+        self.ready.pop_front()
+    }
+
+    /// Looks at the oldest delivered message without taking it.
+    pub fn peek(&self) -> Option<&T> {
+        self.ready.front()
+    }
+
+    /// Accepts frame `seq` carrying `msg`.
+    pub fn on_frame(&mut self, seq: u16, msg: T) -> RxOutcome {
+        let d = seq.wrapping_sub(self.expected) as i16;
+        if d < 0 {
+            self.duplicates = self.duplicates.wrapping_add(1);
+            return RxOutcome::Duplicate;
+        }
+        if d as usize >= self.window() as usize {
+            self.violations = self.violations.wrapping_add(1);
+            return RxOutcome::Violation;
+        }
+        if d > 0 {
+            let slot = &mut self.parked[seq as usize % N];
+            if matches!(slot, Some((s, _)) if *s == seq) {
+                self.duplicates = self.duplicates.wrapping_add(1);
+                return RxOutcome::Duplicate;
+            }
+            *slot = Some((seq, msg));
+            return RxOutcome::Parked;
+        }
+        // d == 0 and window >= 1, so there is room.
+        let mut n = 0;
+        let mut next = Some(msg);
+        while let Some(m) = next.take() {
+            if self.ready.push_back(m).is_err() {
+                break; // unreachable: the window guarantees room
+            }
+            self.expected = self.expected.wrapping_add(1);
+            n += 1;
+            let slot = &mut self.parked[self.expected as usize % N];
+            if matches!(slot, Some((s, _)) if *s == self.expected) {
+                next = slot.take().map(|(_, m)| m);
+            }
+        }
+        self.delivered = self.delivered.wrapping_add(n as u32);
+        RxOutcome::Delivered(n)
+    }
+
+    /// Restarts the sequence space at `expected`, dropping parked frames
+    /// (delivered messages stay for the application).
+    pub fn reset(&mut self, expected: u16) {
+        self.expected = expected;
+        for p in self.parked.iter_mut() {
+            *p = None;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn receiver_orders_and_dedups() {
+        let mut r: RecvLane<u32, 4> = RecvLane::new();
+        assert_eq!(r.on_frame(1, 11), RxOutcome::Parked);
+        assert_eq!(r.on_frame(1, 11), RxOutcome::Duplicate);
+        assert_eq!(r.on_frame(4, 14), RxOutcome::Violation);
+        assert_eq!(r.on_frame(0, 10), RxOutcome::Delivered(2));
+        assert_eq!(r.on_frame(0, 10), RxOutcome::Duplicate);
+        assert_eq!(r.window(), 2);
+        assert_eq!(r.pop(), Some(10));
+        assert_eq!(r.pop(), Some(11));
+        assert_eq!(r.expected(), 2);
+    }
+
+    #[test]
+    fn sender_respects_window_and_retransmits() {
+        let mut s: SendLane<u32, 8> = SendLane::new();
+        for i in 0..5 {
+            s.push(i).unwrap();
+        }
+        s.on_ack(0, 2);
+        assert_eq!(s.next_transmit(0, 10).map(|(q, m)| (q, *m)), Some((0, 0)));
+        assert_eq!(s.next_transmit(0, 10).map(|(q, m)| (q, *m)), Some((1, 1)));
+        assert!(s.next_transmit(1, 10).is_none());
+        assert!(s.blocked());
+        // Timeout: oldest first.
+        assert_eq!(s.next_transmit(10, 10).map(|(q, _)| q), Some(0));
+        assert_eq!(s.on_ack(1, 2), 1);
+        assert_eq!(s.limit(), 3);
+        // Seq 1 (sent at 0) is overdue and goes before the new seq 2.
+        assert_eq!(s.next_transmit(11, 10).map(|(q, _)| q), Some(1));
+        assert_eq!(s.next_transmit(11, 10).map(|(q, _)| q), Some(2));
+        assert!(s.next_transmit(11, 10).is_none());
+        // A bogus ack beyond what was sent is ignored.
+        assert_eq!(s.on_ack(9, 9), 0);
+        assert_eq!(s.base(), 1);
+    }
+}
