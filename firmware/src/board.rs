@@ -1,0 +1,283 @@
+//! Board glue: expands a `boards/*.rs` table into configured embassy drivers.
+//!
+//! `gantry_board!` is invoked by the board file chosen with the `board-*` feature (see `main.rs`).
+//! It produces the board's constants (name, clocks, step/dir pin numbers) and `split()`, which moves
+//! every listed pin out of `Peripherals` into a driver in its power-up state: outputs off, steppers
+//! disabled. A pin listed twice fails to compile (use of a moved field), and a wrong EXTI channel,
+//! a non-ADC1 analog pin or a step/dir pin on a second port fail too.
+
+use embassy_stm32::pac;
+
+/// A GPIO pin by port index (A = 0) and number, parsed from its embassy name at compile time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PinId {
+    pub port: u8,
+    pub pin: u8,
+}
+
+impl PinId {
+    /// Parses `"PB12"`; fails const evaluation on anything else.
+    pub const fn parse(name: &str) -> PinId {
+        let b = name.as_bytes();
+        assert!(b.len() == 3 || b.len() == 4, "pin name is P<port><0..15>");
+        assert!(
+            b[0] == b'P' && b[1] >= b'A' && b[1] <= b'K',
+            "pin name is P<port><0..15>"
+        );
+        let mut pin = (b[2] - b'0') as u32;
+        if b.len() == 4 {
+            pin = pin * 10 + (b[3] - b'0') as u32;
+        }
+        assert!(pin < 16, "pin number above 15");
+        PinId {
+            port: b[1] - b'A',
+            pin: pin as u8,
+        }
+    }
+
+    /// Single-bit mask of this pin in a 16-bit port.
+    pub const fn mask(self) -> u32 {
+        1 << self.pin
+    }
+}
+
+/// The board's clock tree as plain numbers (converted to embassy's RCC config in `clocks`).
+#[derive(Clone, Copy, Debug)]
+pub struct Clocks {
+    pub hse_hz: u32,
+    pub hse_bypass: bool,
+    pub pll_m: u32,
+    pub pll_n: u32,
+    pub pll_p: u32,
+    pub pll_q: u32,
+    pub apb1_div: u32,
+    pub apb2_div: u32,
+}
+
+impl Clocks {
+    /// SYSCLK = HCLK (AHB /1).
+    pub const fn sysclk_hz(&self) -> u32 {
+        self.hse_hz / self.pll_m * self.pll_n / self.pll_p
+    }
+
+    /// Clock of the timers on APB1 (TIM2): twice PCLK1 unless APB1 is undivided.
+    pub const fn tim_apb1_hz(&self) -> u32 {
+        let pclk1 = self.sysclk_hz() / self.apb1_div;
+        if self.apb1_div == 1 {
+            pclk1
+        } else {
+            2 * pclk1
+        }
+    }
+}
+
+/// True if every pin of `pins` is on the port of the first one.
+pub const fn same_port(pins: &[PinId]) -> bool {
+    let mut i = 1;
+    while i < pins.len() {
+        if pins[i].port != pins[0].port {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
+/// GPIO register block of a port index (ports A-E exist on every supported chip).
+pub const fn gpio_block(port: u8) -> pac::gpio::Gpio {
+    match port {
+        0 => pac::GPIOA,
+        1 => pac::GPIOB,
+        2 => pac::GPIOC,
+        3 => pac::GPIOD,
+        4 => pac::GPIOE,
+        _ => panic!("step/dir port must be one of A-E"),
+    }
+}
+
+embassy_stm32::bind_interrupts!(
+    /// Interrupts serviced by embassy drivers (priorities are lowered in `main`).
+    pub struct Irqs {
+        OTG_FS => embassy_stm32::usb::InterruptHandler<embassy_stm32::peripherals::USB_OTG_FS>;
+        EXTI0 => embassy_stm32::exti::InterruptHandler<embassy_stm32::interrupt::typelevel::EXTI0>;
+        EXTI1 => embassy_stm32::exti::InterruptHandler<embassy_stm32::interrupt::typelevel::EXTI1>;
+        EXTI2 => embassy_stm32::exti::InterruptHandler<embassy_stm32::interrupt::typelevel::EXTI2>;
+        EXTI3 => embassy_stm32::exti::InterruptHandler<embassy_stm32::interrupt::typelevel::EXTI3>;
+        EXTI4 => embassy_stm32::exti::InterruptHandler<embassy_stm32::interrupt::typelevel::EXTI4>;
+        EXTI9_5 => embassy_stm32::exti::InterruptHandler<embassy_stm32::interrupt::typelevel::EXTI9_5>;
+        EXTI15_10 => embassy_stm32::exti::InterruptHandler<embassy_stm32::interrupt::typelevel::EXTI15_10>;
+    }
+);
+
+/// Expands a board table (see boards/README.md) into constants, driver structs and `split()`.
+macro_rules! gantry_board {
+    (
+        name: $name:literal,
+        probe_chip: $chip:literal,
+        clocks: {
+            hse_hz: $hse:expr,
+            hse_bypass: $bypass:expr,
+            pll_m: $m:expr,
+            pll_n: $n:expr,
+            pll_p: $p:expr,
+            pll_q: $q:expr,
+            apb1_div: $apb1:expr,
+            apb2_div: $apb2:expr $(,)?
+        },
+        step: [$($step:ident),+ $(,)?],
+        dir: [$($dir:ident),+ $(,)?],
+        stepper_enable: $en:ident,
+        limit: [$($lim:ident $lim_ch:ident),+ $(,)?],
+        feed_hold: $hold:ident $hold_ch:ident,
+        abort: $abort:ident $abort_ch:ident,
+        cycle_start: [$cs1:ident $cs1_ch:ident, $cs2:ident $cs2_ch:ident $(,)?],
+        fro_pot: $fro:ident,
+        joystick_axes: [$jx:ident, $jy:ident $(,)?],
+        joystick_switches: [$($jsw:ident),* $(,)?],
+        spindle_enable: $sp_en:ident,
+        spindle_dir: $sp_dir:ident,
+        spindle_pwm: $sp_pwm:ident $sp_pwm_ch:ident,
+        coolant_flood: $flood:ident,
+        coolant_mist: $mist:ident,
+        outputs: [$($out:ident),+ $(,)?] $(,)?
+    ) => {
+        use embassy_stm32::adc::{AdcChannel as _, AnyAdcChannel};
+        use embassy_stm32::exti::ExtiInput;
+        use embassy_stm32::gpio::{Input, Level, Output, Pull, Speed};
+        use embassy_stm32::mode::Async;
+        use embassy_stm32::{peripherals, Peri};
+        use $crate::board::PinId;
+
+        /// Board name (as in boards/README.md).
+        pub const NAME: &str = $name;
+        /// probe-rs chip name for flashing.
+        pub const PROBE_CHIP: &str = $chip;
+        /// Clock tree numbers.
+        pub const CLOCKS: $crate::board::Clocks = $crate::board::Clocks {
+            hse_hz: $hse,
+            hse_bypass: $bypass,
+            pll_m: $m,
+            pll_n: $n,
+            pll_p: $p,
+            pll_q: $q,
+            apb1_div: $apb1,
+            apb2_div: $apb2,
+        };
+        /// Number of stepper axes wired (X Y Z A ... order).
+        pub const AXES: usize = [$(stringify!($step)),+].len();
+        /// Step pins, axis order.
+        pub const STEP: [PinId; AXES] = [$(PinId::parse(stringify!($step))),+];
+        /// Dir pins, axis order.
+        pub const DIR: [PinId; AXES] = [$(PinId::parse(stringify!($dir))),+];
+        const USER_OUTPUTS: usize = [$(stringify!($out)),+].len();
+
+        const _: () = assert!(AXES <= 6, "the step tables cover 6 axes");
+        const _: () = assert!($crate::board::same_port(&STEP), "step pins must share one port");
+        const _: () = assert!($crate::board::same_port(&DIR), "dir pins must share one port");
+        const _: () = assert!(USER_OUTPUTS >= 4, "at least four user outputs");
+
+        /// Index in [`Inputs::exti`] of the first limit input (one per axis, axis order).
+        pub const LIMIT0: usize = 0;
+        /// Index in [`Inputs::exti`] of the feed hold input.
+        pub const FEED_HOLD: usize = AXES;
+        /// Index in [`Inputs::exti`] of the abort input.
+        pub const ABORT: usize = AXES + 1;
+        /// Index in [`Inputs::exti`] of the first of the two cycle start inputs.
+        pub const CYCLE_START0: usize = AXES + 2;
+        /// Number of EXTI inputs.
+        pub const EXTI_INPUTS: usize = AXES + 4;
+        /// Number of joystick switches.
+        pub const JOYSTICK_SWITCHES: usize = [$(stringify!($jsw)),*].len();
+
+        /// Every input of the board, configured with pull-ups (switches close to ground).
+        pub struct Inputs {
+            /// Limits, feed hold, abort, cycle start ×2 (see [`LIMIT0`] and friends).
+            pub exti: [ExtiInput<'static, Async>; EXTI_INPUTS],
+            pub joystick_switches: [Input<'static>; JOYSTICK_SWITCHES],
+        }
+
+        /// Analog inputs on ADC1.
+        pub struct Analog {
+            pub fro_pot: AnyAdcChannel<'static, peripherals::ADC1>,
+            pub joystick: [AnyAdcChannel<'static, peripherals::ADC1>; 2],
+        }
+
+        /// Every output of the board except step/dir (which the step ISR drives by register).
+        pub struct Outputs {
+            /// Stepper driver enable, active low: starts high (steppers disabled). The
+            /// controller drives it once motion starts; a stop leaves it alone (holding torque).
+            #[allow(dead_code)]
+            pub stepper_enable: Output<'static>,
+            pub spindle_enable: Output<'static>,
+            pub spindle_dir: Output<'static>,
+            /// Plain output (off) until the spindle PWM driver lands.
+            pub spindle_pwm: Output<'static>,
+            pub coolant_flood: Output<'static>,
+            pub coolant_mist: Output<'static>,
+            pub user: [Output<'static>; USER_OUTPUTS],
+        }
+
+        /// The board's pins as configured drivers.
+        pub struct Pins {
+            /// Step then dir outputs, low; kept only so the pins stay configured.
+            pub step_dir: [Output<'static>; 2 * AXES],
+            pub inputs: Inputs,
+            pub analog: Analog,
+            pub outputs: Outputs,
+        }
+
+        /// Peripherals the firmware uses besides the board's pins.
+        pub struct Rest {
+            pub usb: Peri<'static, peripherals::USB_OTG_FS>,
+            pub usb_dp: Peri<'static, peripherals::PA12>,
+            pub usb_dm: Peri<'static, peripherals::PA11>,
+            pub tim2: Peri<'static, peripherals::TIM2>,
+            pub adc1: Peri<'static, peripherals::ADC1>,
+        }
+
+        /// Moves the board's pins out of `p` into drivers in their power-up state.
+        pub fn split(p: embassy_stm32::Peripherals) -> (Pins, Rest) {
+            let out = |pin: Peri<'static, embassy_stm32::gpio::AnyPin>, level| {
+                Output::new(pin, level, Speed::VeryHigh)
+            };
+            let irqs = $crate::board::Irqs;
+            let pins = Pins {
+                step_dir: [
+                    $(out(p.$step.into(), Level::Low),)+
+                    $(out(p.$dir.into(), Level::Low),)+
+                ],
+                inputs: Inputs {
+                    exti: [
+                        $(ExtiInput::new(p.$lim, p.$lim_ch, Pull::Up, irqs),)+
+                        ExtiInput::new(p.$hold, p.$hold_ch, Pull::Up, irqs),
+                        ExtiInput::new(p.$abort, p.$abort_ch, Pull::Up, irqs),
+                        ExtiInput::new(p.$cs1, p.$cs1_ch, Pull::Up, irqs),
+                        ExtiInput::new(p.$cs2, p.$cs2_ch, Pull::Up, irqs),
+                    ],
+                    joystick_switches: [$(Input::new(p.$jsw, Pull::Up)),*],
+                },
+                analog: Analog {
+                    fro_pot: p.$fro.degrade_adc(),
+                    joystick: [p.$jx.degrade_adc(), p.$jy.degrade_adc()],
+                },
+                outputs: Outputs {
+                    stepper_enable: out(p.$en.into(), Level::High),
+                    spindle_enable: out(p.$sp_en.into(), Level::Low),
+                    spindle_dir: out(p.$sp_dir.into(), Level::Low),
+                    spindle_pwm: out(p.$sp_pwm.into(), Level::Low),
+                    coolant_flood: out(p.$flood.into(), Level::Low),
+                    coolant_mist: out(p.$mist.into(), Level::Low),
+                    user: [$(out(p.$out.into(), Level::Low)),+],
+                },
+            };
+            let rest = Rest {
+                usb: p.USB_OTG_FS,
+                usb_dp: p.PA12,
+                usb_dm: p.PA11,
+                tim2: p.TIM2,
+                adc1: p.ADC1,
+            };
+            (pins, rest)
+        }
+    };
+}
