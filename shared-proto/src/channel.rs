@@ -147,6 +147,7 @@ pub struct Endpoint<T, R, const TQ: usize, const RQ: usize, const TRT: usize, co
     last_tx: u32,
     last_rx: Option<u32>,
     events: Deque<LinkEvent, EVENTS>,
+    last_token: u32,
     frames_tx: u32,
     frames_rx: u32,
     undecodable: u32,
@@ -187,6 +188,7 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
             last_tx: 0,
             last_rx: None,
             events: Deque::new(),
+            last_token: 0,
             frames_tx: 0,
             frames_rx: 0,
             undecodable: 0,
@@ -217,6 +219,17 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
 
     pub fn is_up(&self) -> bool {
         self.state == LinkState::Up
+    }
+
+    /// Stream token ([`Wire::stream_token`]) of the last queued message
+    /// delivered by this endpoint (0 = none yet).
+    pub fn last_delivered_token(&self) -> u32 {
+        self.last_token
+    }
+
+    /// Host: the nonce of the current handshake attempt.
+    pub fn nonce(&self) -> u32 {
+        self.nonce
     }
 
     /// The peer's protocol version once known.
@@ -419,7 +432,13 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
                 };
                 self.ack_owed = true;
                 if h.kind == Kind::Data {
-                    if self.rx.on_frame(h.seq, msg) == RxOutcome::Parked {
+                    let last = &mut self.last_token;
+                    let r = self.rx.on_frame_with(h.seq, msg, |m| {
+                        if let Some(t) = m.stream_token() {
+                            *last = t;
+                        }
+                    });
+                    if r == RxOutcome::Parked {
                         self.nak_owed = true;
                     }
                 } else if self.rt_rx.on_frame(h.seq, msg) == RxOutcome::Parked {
@@ -544,6 +563,9 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
         if out.len() < MAX_FRAME_LEN {
             return None;
         }
+        if let Some(nonce) = self.hello_ack_owed.take() {
+            return self.send_hello_ack(now, nonce, out);
+        }
         match self.state {
             LinkState::Connecting => {
                 if self
@@ -581,25 +603,27 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
         }
     }
 
+    fn send_hello_ack(&mut self, now: u32, nonce: u32, out: &mut [u8]) -> Option<usize> {
+        let a = HelloAck {
+            version: PROTOCOL_VERSION,
+            nonce,
+            boot_id: self.boot_id,
+            rx_capacity: RQ as u16,
+            rt_capacity: RRT as u16,
+            next_expected: self.rx.expected(),
+            rt_next_expected: self.rt_rx.expected(),
+            window: self.rx.window(),
+            rt_window: self.rt_rx.window(),
+            tx_base: self.tx.base(),
+            rt_tx_base: self.rt_tx.base(),
+            last_line: self.last_token,
+        };
+        let n = encode_frame(&Header::new(Kind::HelloAck), Some(&a), out).ok()?;
+        self.sent(now, n)
+    }
+
     fn poll_up(&mut self, now: u32, out: &mut [u8]) -> Option<usize> {
         let rto = self.cfg.rto;
-        if let Some(nonce) = self.hello_ack_owed.take() {
-            let a = HelloAck {
-                version: PROTOCOL_VERSION,
-                nonce,
-                boot_id: self.boot_id,
-                rx_capacity: RQ as u16,
-                rt_capacity: RRT as u16,
-                next_expected: self.rx.expected(),
-                rt_next_expected: self.rt_rx.expected(),
-                window: self.rx.window(),
-                rt_window: self.rt_rx.window(),
-                tx_base: self.tx.base(),
-                rt_tx_base: self.rt_tx.base(),
-            };
-            let n = encode_frame(&Header::new(Kind::HelloAck), Some(&a), out).ok()?;
-            return self.sent(now, n);
-        }
         let mut h = self.ack_header(Kind::Realtime);
         if let Some((seq, msg)) = self.rt_tx.next_transmit(now, rto) {
             h.seq = seq;
@@ -661,7 +685,7 @@ fn seq_before32(a: u32, b: u32) -> bool {
 
 fn decode_exact<M: serde::de::DeserializeOwned>(payload: &[u8]) -> Option<M> {
     match postcard::take_from_bytes::<M>(payload) {
-        Ok((m, rest)) if rest.is_empty() => Some(m),
+        Ok((m, [])) => Some(m),
         _ => None,
     }
 }

@@ -46,6 +46,14 @@ pub enum Lane {
 pub trait Wire: Serialize + DeserializeOwned + Clone {
     /// The lane this message travels on.
     fn lane(&self) -> Lane;
+
+    /// A position in the stream this message marks (the job line number for
+    /// [`HostMsg::Line`]). The receiving endpoint remembers the token of the
+    /// last message it delivered and reports it in [`HelloAck::last_line`],
+    /// so a restarted host knows where to continue.
+    fn stream_token(&self) -> Option<u32> {
+        None
+    }
 }
 
 /// One G-code line of the streamed job.
@@ -154,6 +162,13 @@ impl Wire for HostMsg {
             | StatusRequest
             | Unlock
             | Home { .. } => Lane::Realtime,
+        }
+    }
+
+    fn stream_token(&self) -> Option<u32> {
+        match self {
+            HostMsg::Line(l) => Some(l.line_no),
+            _ => None,
         }
     }
 }
@@ -271,4 +286,7 @@ pub struct HelloAck {
     pub tx_base: u16,
     /// Same for the realtime lane.
     pub rt_tx_base: u16,
+    /// `line_no` of the last job [`Line`] the board delivered (0 = none): a
+    /// restarted host continues the job with the line after it.
+    pub last_line: u32,
 }

@@ -282,6 +282,12 @@ impl<T, const N: usize> RecvLane<T, N> {
 
     /// Accepts frame `seq` carrying `msg`.
     pub fn on_frame(&mut self, seq: u16, msg: T) -> RxOutcome {
+        self.on_frame_with(seq, msg, |_| {})
+    }
+
+    /// Like [`on_frame`](Self::on_frame), calling `delivered` for each
+    /// message as it is delivered, in order.
+    pub fn on_frame_with(&mut self, seq: u16, msg: T, mut delivered: impl FnMut(&T)) -> RxOutcome {
         let d = seq.wrapping_sub(self.expected) as i16;
         if d < 0 {
             self.duplicates = self.duplicates.wrapping_add(1);
@@ -304,6 +310,7 @@ impl<T, const N: usize> RecvLane<T, N> {
         let mut n = 0;
         let mut next = Some(msg);
         while let Some(m) = next.take() {
+            delivered(&m);
             if self.ready.push_back(m).is_err() {
                 break; // unreachable: the window guarantees room
             }
