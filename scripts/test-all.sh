@@ -1,0 +1,132 @@
+#!/usr/bin/env bash
+# Gantry's one test command: `bash scripts/test-all.sh` from anywhere in the repository.
+#
+# On a fresh Debian machine with rustup it installs what it needs (thumbv7em target, rustfmt,
+# clippy, qemu-system-arm), then: formatting, clippy (host workspace, boards, firmware per board,
+# target tests), host tests, the firmware release build for every board with its size (the F411
+# must fit 128 KiB flash and 48 KiB static RAM), and the core's vectors on a Cortex-M4 under QEMU
+# (must pass; the `wrong-vector` build must fail). Each crate uses its default target directory.
+set -euo pipefail
+
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+ROOT=$PWD
+unset CARGO_TARGET_DIR
+
+# Board features of the firmware, and the size budget of the default board (F411).
+BOARDS=(board-f411 board-f446)
+F411_FLASH_LIMIT=$((128 * 1024))
+F411_RAM_LIMIT=$((48 * 1024))
+THUMB=thumbv7em-none-eabihf
+QEMU_TIMEOUT=300
+
+T0=$(date +%s)
+SECTION_T=$T0
+section() {
+    local now
+    now=$(date +%s)
+    printf '\n==== [%4ds, +%ds] %s ====\n' "$((now - T0))" "$((now - SECTION_T))" "$*"
+    SECTION_T=$now
+}
+fail() {
+    printf '\nFAILED: %s\n' "$*" >&2
+    exit 1
+}
+
+section "toolchain and tools"
+rustc --version
+if ! rustup target list --installed | grep -qx "$THUMB"; then
+    rustup target add "$THUMB"
+fi
+for comp in rustfmt clippy; do
+    if ! rustup component list --installed | grep -q "^$comp"; then
+        rustup component add "$comp"
+    fi
+done
+if ! command -v qemu-system-arm >/dev/null; then
+    SUDO=""
+    if [ "$(id -u)" -ne 0 ]; then SUDO=sudo; fi
+    $SUDO apt-get update
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y qemu-system-arm
+fi
+qemu-system-arm --version | head -n 1
+command -v readelf >/dev/null || fail "readelf (binutils) is needed for the size report"
+
+section "cargo fmt --check (root, boards, firmware, target-tests)"
+cargo fmt --all --check
+for dir in boards firmware target-tests; do
+    (cd "$dir" && cargo fmt --check)
+done
+
+section "clippy: host workspace"
+cargo clippy --workspace --all-targets -- -D warnings
+
+section "clippy + tests: board tables (boards/)"
+(cd boards && cargo clippy --all-targets -- -D warnings && cargo test)
+
+section "host tests"
+if cargo nextest --version >/dev/null 2>&1; then
+    cargo nextest run --workspace --no-tests=warn
+    cargo test --workspace --doc
+else
+    cargo test --workspace
+fi
+
+# text/data/bss of an ARM ELF from its section headers (as Berkeley `size` counts them):
+# text = allocated read-only sections, data = allocated writable PROGBITS, bss = NOBITS.
+elf_size() {
+    local text=0 data=0 bss=0 name type addr off size es flags rest
+    while read -r name type addr off size es flags rest; do
+        case "$flags" in *A*) ;; *) continue ;; esac
+        if [ "$type" = NOBITS ]; then
+            bss=$((bss + 16#$size))
+        elif [[ $flags == *W* ]]; then
+            data=$((data + 16#$size))
+        else
+            text=$((text + 16#$size))
+        fi
+    done < <(readelf -S -W "$1" | sed -n 's/^ *\[ *[0-9]*\] //p')
+    echo "$text $data $bss"
+}
+
+section "firmware: clippy and release build per board"
+SIZES=()
+for board in "${BOARDS[@]}"; do
+    echo "-- $board"
+    (cd firmware && cargo clippy --release --no-default-features --features "$board" -- -D warnings)
+    (cd firmware && cargo build --release --no-default-features --features "$board")
+    elf="firmware/target/$THUMB/release/gantry-firmware"
+    read -r text data bss < <(elf_size "$elf")
+    flash=$((text + data))
+    ram=$((data + bss))
+    line=$(printf '%-11s text %7d  data %6d  bss %6d  -> flash %7d B (%d KiB), static RAM %6d B (%d KiB)' \
+        "$board" "$text" "$data" "$bss" "$flash" $(((flash + 1023) / 1024)) "$ram" $(((ram + 1023) / 1024)))
+    echo "$line"
+    SIZES+=("$line")
+    if [ "$board" = board-f411 ]; then
+        [ "$flash" -le "$F411_FLASH_LIMIT" ] || fail "F411 firmware uses $flash B flash (limit $F411_FLASH_LIMIT)"
+        [ "$ram" -le "$F411_RAM_LIMIT" ] || fail "F411 firmware uses $ram B static RAM (limit $F411_RAM_LIMIT)"
+    fi
+done
+
+section "target tests: core vectors on Cortex-M4 (QEMU mps2-an386)"
+cd "$ROOT/target-tests"
+cargo clippy --release --all-targets -- -D warnings
+cargo build --release --bin vectors
+timeout "$QEMU_TIMEOUT" cargo run --release --bin vectors || fail "target vectors failed under QEMU"
+
+section "target tests: the wrong-vector build must fail"
+cargo build --release --bin vectors --features wrong-vector
+set +e
+out=$(timeout "$QEMU_TIMEOUT" cargo run --release --bin vectors --features wrong-vector 2>&1)
+rc=$?
+set -e
+echo "$out" | tail -n 3
+[ "$rc" -ne 0 ] || fail "the wrong-vector build exited 0: the harness cannot fail"
+echo "$out" | grep -q '^FAIL harness/deliberately-wrong-expectation' ||
+    fail "the wrong-vector build failed (exit $rc) without reporting the wrong vector"
+echo "wrong-vector build failed as it must (exit $rc)"
+cd "$ROOT"
+
+section "summary"
+printf '%s\n' "${SIZES[@]}"
+echo "all checks passed in $(($(date +%s) - T0)) s"
