@@ -1,0 +1,231 @@
+//! Round trip of every message through postcard and through a frame, and
+//! worst-case sizes.
+
+use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN, MAX_PAYLOAD};
+use gantry_proto::messages::SETUP_CHUNK_MAX;
+use gantry_proto::{
+    BoardMsg, Hello, HelloAck, HostMsg, Jog, Lane, Line, MachineState, Status, Wire, AXES, LINE_MAX,
+};
+use serde::{de::DeserializeOwned, Serialize};
+use std::fmt::Debug;
+
+fn worst_line() -> Line {
+    Line::new(u32::MAX, &"X".repeat(LINE_MAX)).unwrap()
+}
+
+fn all_host() -> Vec<HostMsg> {
+    vec![
+        HostMsg::Line(Line::new(1, "G1 X10 Y-2.5 F1200").unwrap()),
+        HostMsg::Line(worst_line()),
+        HostMsg::Line(Line::new(7, "").unwrap()),
+        HostMsg::ProgramLine {
+            program: 9001,
+            line: Line::new(3, "G91 G0 Z1").unwrap(),
+        },
+        HostMsg::ProgramLine {
+            program: u32::MAX,
+            line: worst_line(),
+        },
+        HostMsg::ProgramEnd {
+            program: 12,
+            line_no: 40,
+            found: true,
+        },
+        HostMsg::SetupChunk {
+            offset: 128,
+            bytes: heapless::Vec::from_slice(&[0, 1, 2, 0xFF]).unwrap(),
+        },
+        HostMsg::SetupChunk {
+            offset: u32::MAX,
+            bytes: heapless::Vec::from_slice(&[0xFF; SETUP_CHUNK_MAX]).unwrap(),
+        },
+        HostMsg::SetupCommit {
+            len: 1000,
+            crc32: 0xDEAD_BEEF,
+        },
+        HostMsg::Start,
+        HostMsg::StartFromLine { line_no: 1234 },
+        HostMsg::EndOfJob,
+        HostMsg::FeedHold,
+        HostMsg::Resume,
+        HostMsg::Abort,
+        HostMsg::FeedOverride(150),
+        HostMsg::RapidOverride(25),
+        HostMsg::Jog(Jog {
+            axis: 2,
+            feed_um_min: -500_000,
+            distance_nm: 0,
+        }),
+        HostMsg::Jog(Jog {
+            axis: 5,
+            feed_um_min: i32::MIN,
+            distance_nm: u64::MAX,
+        }),
+        HostMsg::JogStop,
+        HostMsg::StatusRequest,
+        HostMsg::Unlock,
+        HostMsg::Home { axes: 0b111 },
+    ]
+}
+
+fn worst_status() -> Status {
+    Status {
+        state: MachineState::Hold { stopped: true },
+        machine_pos: [i64::MIN; AXES],
+        work_pos: [i64::MAX; AXES],
+        feed_um_min: u32::MAX,
+        feed_override: u16::MAX,
+        rapid_override: u16::MAX,
+        planner_fill: u16::MAX,
+        queue_fill: u16::MAX,
+        line: u32::MAX,
+        inputs: u32::MAX,
+        homed: u8::MAX,
+    }
+}
+
+fn all_board() -> Vec<BoardMsg> {
+    let states = [
+        MachineState::Idle,
+        MachineState::Run,
+        MachineState::Hold { stopped: false },
+        MachineState::Jog,
+        MachineState::Alarm,
+        MachineState::Homing,
+        MachineState::Check,
+    ];
+    let mut v: Vec<BoardMsg> = states
+        .iter()
+        .map(|&state| {
+            BoardMsg::Status(Status {
+                state,
+                machine_pos: [10_000_000_000, -1, 0, 5, 6, 7],
+                work_pos: [-10_000_000_000, 1, 2, 3, 4, 5],
+                feed_um_min: 1_200_000,
+                feed_override: 100,
+                rapid_override: 50,
+                planner_fill: 127,
+                queue_fill: 16,
+                line: 99,
+                inputs: 0b1010,
+                homed: 0b111,
+            })
+        })
+        .collect();
+    v.extend([
+        BoardMsg::Status(worst_status()),
+        BoardMsg::Alarm { code: 3 },
+        BoardMsg::Limit { axis: 1 },
+        BoardMsg::Error {
+            line: 17,
+            code: 33,
+            column: 5,
+        },
+        BoardMsg::Mark { line: 200, id: 7 },
+        BoardMsg::ProgramRequest {
+            program: 100,
+            from_line: 1,
+        },
+        BoardMsg::JobDone { line: u32::MAX },
+    ]);
+    v
+}
+
+fn round_trip<M: Serialize + DeserializeOwned + PartialEq + Debug>(m: &M) -> usize {
+    let mut buf = [0u8; 512];
+    let bytes = postcard::to_slice(m, &mut buf).unwrap();
+    let n = bytes.len();
+    let back: M = postcard::from_bytes(bytes).unwrap();
+    assert_eq!(&back, m);
+    // And inside a frame.
+    let mut out = [0u8; MAX_FRAME_LEN];
+    let len = encode_frame(&Header::new(Kind::Data), Some(m), &mut out)
+        .unwrap_or_else(|e| panic!("{m:?} does not fit a frame: {e:?}"));
+    let mut d = FrameDecoder::new();
+    let mut got = None;
+    d.feed(&out[..len], |f| {
+        got = Some(postcard::from_bytes::<M>(f.payload).unwrap())
+    });
+    assert_eq!(got.as_ref(), Some(m));
+    n
+}
+
+#[test]
+fn every_host_message_round_trips() {
+    for m in all_host() {
+        let n = round_trip(&m);
+        assert!(n <= MAX_PAYLOAD);
+    }
+}
+
+#[test]
+fn every_board_message_round_trips() {
+    for m in all_board() {
+        let n = round_trip(&m);
+        assert!(n <= MAX_PAYLOAD);
+    }
+}
+
+#[test]
+fn handshake_messages_round_trip() {
+    round_trip(&Hello {
+        version: gantry_proto::PROTOCOL_VERSION,
+        nonce: u32::MAX,
+        window: 32,
+        rt_window: 8,
+    });
+    round_trip(&HelloAck {
+        version: 0x0100,
+        nonce: u32::MAX,
+        boot_id: u32::MAX,
+        rx_capacity: u16::MAX,
+        rt_capacity: u16::MAX,
+        next_expected: u16::MAX,
+        rt_next_expected: u16::MAX,
+        window: u8::MAX,
+        rt_window: u8::MAX,
+        tx_base: u16::MAX,
+        rt_tx_base: u16::MAX,
+        last_line: u32::MAX,
+    });
+}
+
+#[test]
+fn worst_case_line_frame_fits_two_usb_packets() {
+    let mut out = [0u8; MAX_FRAME_LEN];
+    let h = Header {
+        kind: Kind::Data,
+        flags: 0x70,
+        seq: u16::MAX,
+        ack: u16::MAX,
+        win: 255,
+        rt_ack: u16::MAX,
+        rt_win: 255,
+    };
+    let n = encode_frame(&h, Some(&HostMsg::Line(worst_line())), &mut out).unwrap();
+    assert!(n <= 128, "worst Line frame is {n} bytes");
+    assert!(Line::new(1, &"X".repeat(LINE_MAX + 1)).is_none());
+}
+
+#[test]
+fn lanes() {
+    for m in all_host() {
+        let rt = matches!(
+            m,
+            HostMsg::FeedHold
+                | HostMsg::Resume
+                | HostMsg::Abort
+                | HostMsg::FeedOverride(_)
+                | HostMsg::RapidOverride(_)
+                | HostMsg::Jog(_)
+                | HostMsg::JogStop
+                | HostMsg::StatusRequest
+                | HostMsg::Unlock
+                | HostMsg::Home { .. }
+        );
+        assert_eq!(m.lane() == Lane::Realtime, rt, "{m:?}");
+    }
+    assert_eq!(BoardMsg::Alarm { code: 1 }.lane(), Lane::Realtime);
+    assert_eq!(BoardMsg::JobDone { line: 1 }.lane(), Lane::Queued);
+    assert_eq!(HostMsg::Line(worst_line()).stream_token(), Some(u32::MAX));
+}
