@@ -1,8 +1,20 @@
 //! Motion: arc linearisation, look-ahead planner, segment preparation and the step kernel.
+//!
+//! Data flow: [`pipeline::Motion::push`] (canonical actions; arcs cut by [`arc`]) → [`planner`]
+//! (look-ahead ring) → [`prep`] (constant-rate [`kernel::Segment`]s, timed by [`profile`]) →
+//! [`kernel::StepKernel::tick`] (the step interrupt). [`sim`] runs all of it on virtual time.
+
+// Per-axis loops index several parallel arrays by axis number; iterator chains would hide that.
+#![allow(clippy::needless_range_loop)]
 
 pub mod arc;
 pub mod config;
 pub mod kernel;
+pub mod pipeline;
+pub mod planner;
+pub mod prep;
+pub mod profile;
+pub mod sim;
 pub mod trig;
 
 use crate::vectors::Vector;

@@ -1,0 +1,412 @@
+//! The motion pipeline the controller drives: canonical actions in, step segments out.
+//!
+//! [`Motion`] owns the planner ring (`N` blocks), the arc being cut into chords, segment prep and
+//! the sync points (M codes, tool changes, program stops) that wait in the queue with the motion.
+//!
+//! Main-context use: `push` canonical actions while it accepts them, `next_segment` to fill the
+//! kernel's segment queue, and `sync_point` / `release_sync` when the queue reaches an action the
+//! controller must perform at rest. Realtime requests: [`Motion::feed_hold`], [`Motion::resume`],
+//! [`Motion::abort`], [`Motion::set_feed_override`], [`Motion::set_rapid_override`].
+
+use super::arc::{plane_axes, ArcChords};
+use super::config::MotionConfig;
+use super::kernel::{Segment, KERNEL_TIMER_HZ};
+use super::planner::{Block, BlockKind, LineRequest, Planner};
+use super::prep::{BlockReport, Prep, PrepOut, PrepState};
+use super::trig::{polar, QUARTER_TURN};
+use crate::canon::{Action, Canon};
+use crate::units::{Pos, MAX_AXES};
+use heapless::Deque;
+
+/// Sync points the queue holds at once.
+pub const MAX_SYNCS: usize = 16;
+
+/// Why a canonical action was not taken.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PushError {
+    /// The queue is full: prepare segments (let motion run) and push the same action again.
+    Full,
+    /// The move leaves the travel box of this axis (soft limit); nothing was queued.
+    Travel { axis: usize },
+}
+
+/// What the pipeline is doing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MotionState {
+    /// Nothing queued.
+    Idle,
+    Running,
+    /// Decelerating for a feed hold or an abort.
+    Holding,
+    /// Stopped on the path by a hold; `resume` continues.
+    Held,
+    /// The queue reached a sync point (see [`Motion::sync_point`]).
+    Sync,
+}
+
+/// An arc being fed into the planner chord by chord.
+#[derive(Clone, Copy, Debug)]
+struct PendingArc {
+    chords: ArcChords,
+    line: u32,
+    speed: u64,
+}
+
+/// Planner + arc cutter + segment prep.
+pub struct Motion<const N: usize> {
+    cfg: MotionConfig,
+    planner: Planner<N>,
+    prep: Prep,
+    arc: Option<PendingArc>,
+    syncs: Deque<Canon, MAX_SYNCS>,
+    /// End of the last queued move: machine position (nm) and its exact step position.
+    position: Pos,
+    steps: [i64; MAX_AXES],
+    exact_stop: bool,
+    junction_deviation: u64,
+    abort_pending: bool,
+    at_sync: bool,
+}
+
+impl<const N: usize> Motion<N> {
+    /// An idle pipeline at machine position 0.
+    pub fn new(cfg: MotionConfig) -> Self {
+        Motion {
+            cfg,
+            planner: Planner::new(),
+            prep: Prep::new(),
+            arc: None,
+            syncs: Deque::new(),
+            position: [0; MAX_AXES],
+            steps: [0; MAX_AXES],
+            exact_stop: false,
+            junction_deviation: cfg.junction_deviation.max(0) as u64,
+            abort_pending: false,
+            at_sync: false,
+        }
+    }
+
+    pub fn config(&self) -> &MotionConfig {
+        &self.cfg
+    }
+
+    /// The planner (read-only, for status and tests).
+    pub fn planner(&self) -> &Planner<N> {
+        &self.planner
+    }
+
+    /// Machine position (nm) at the end of everything queued.
+    pub fn queued_position(&self) -> Pos {
+        self.position
+    }
+
+    /// Step position at the end of everything prepared (handed out as segments).
+    pub fn prepared_steps(&self) -> [i64; MAX_AXES] {
+        self.prep.position()
+    }
+
+    /// Sets the machine position (homing, G92-free resync). Only while idle; false otherwise.
+    pub fn set_position(&mut self, position: Pos) -> bool {
+        if self.state() != MotionState::Idle {
+            return false;
+        }
+        self.position = position;
+        self.steps = self.cfg.to_steps(&position);
+        self.prep.set_position(self.steps);
+        true
+    }
+
+    /// Queues one canonical action. Non-motion actions that must happen at rest become sync points.
+    pub fn push(&mut self, canon: &Canon) -> Result<(), PushError> {
+        self.feed_arc();
+        if self.arc.is_some() || self.planner.is_full() || self.abort_pending {
+            return Err(PushError::Full);
+        }
+        match canon.action {
+            Action::Rapid { to } => self.push_line(canon.line, &to, None),
+            Action::Feed { to, feed } => self.push_line(canon.line, &to, Some(speed_of(feed))),
+            Action::Arc {
+                to,
+                center,
+                plane,
+                dir,
+                turns,
+                feed,
+            } => {
+                let to = self.masked(&to);
+                let chords =
+                    ArcChords::new(&self.cfg, &self.position, &to, &center, plane, dir, turns);
+                self.check_arc_travel(&chords, &center, plane, &to)?;
+                self.arc = Some(PendingArc {
+                    chords,
+                    line: canon.line,
+                    speed: speed_of(feed),
+                });
+                self.feed_arc();
+                Ok(())
+            }
+            Action::Dwell { micros } => {
+                let counts = micros.saturating_mul(KERNEL_TIMER_HZ as u64 / 1_000_000);
+                self.planner
+                    .push_marker(Block::marker(BlockKind::Dwell { counts }, canon.line));
+                Ok(())
+            }
+            Action::PathMode(mode) => {
+                match mode {
+                    crate::canon::PathMode::ExactStop => self.exact_stop = true,
+                    crate::canon::PathMode::Blend { tolerance } => {
+                        self.exact_stop = false;
+                        self.junction_deviation = if tolerance > 0 {
+                            tolerance as u64
+                        } else {
+                            self.cfg.junction_deviation.max(0) as u64
+                        };
+                    }
+                }
+                Ok(())
+            }
+            Action::Spindle { .. }
+            | Action::Coolant { .. }
+            | Action::ToolChange { .. }
+            | Action::UserMCode { .. }
+            | Action::Stop(_) => {
+                if self.syncs.is_full() {
+                    return Err(PushError::Full);
+                }
+                let _ = self.syncs.push_back(*canon);
+                self.planner
+                    .push_marker(Block::marker(BlockKind::Sync, canon.line));
+                Ok(())
+            }
+        }
+    }
+
+    /// Axes beyond the configured count stay where they are.
+    fn masked(&self, to: &Pos) -> Pos {
+        let mut p = self.position;
+        p[..self.cfg.axis_count as usize].copy_from_slice(&to[..self.cfg.axis_count as usize]);
+        p
+    }
+
+    fn push_line(&mut self, line: u32, to: &Pos, speed: Option<u64>) -> Result<(), PushError> {
+        let to = self.masked(to);
+        if let Some(axis) = self.cfg.travel_violation(&to) {
+            return Err(PushError::Travel { axis });
+        }
+        self.queue_line(line, &to, speed);
+        Ok(())
+    }
+
+    /// Plans a line to `to` (the ring has room).
+    fn queue_line(&mut self, line: u32, to: &Pos, speed: Option<u64>) {
+        let target = self.cfg.to_steps(to);
+        let mut req = LineRequest {
+            line,
+            steps: [0; MAX_AXES],
+            delta: [0; MAX_AXES],
+            speed,
+            exact_stop_before: self.exact_stop,
+            junction_deviation: self.junction_deviation,
+        };
+        for i in 0..MAX_AXES {
+            req.steps[i] = target[i] - self.steps[i];
+            req.delta[i] = to[i] - self.position[i];
+        }
+        let queued = self.planner.push_line(&self.cfg, &req);
+        debug_assert!(queued);
+        self.position = *to;
+        self.steps = target;
+    }
+
+    /// Moves chords of the pending arc into the ring while it has room.
+    fn feed_arc(&mut self) {
+        while let Some(arc) = self.arc.as_mut() {
+            if self.planner.is_full() || self.abort_pending {
+                return;
+            }
+            let (line, speed) = (arc.line, arc.speed);
+            match arc.chords.next_point() {
+                Some(p) => self.queue_line(line, &p, Some(speed)),
+                None => self.arc = None,
+            }
+            if self.arc.is_some_and(|a| a.chords.is_done()) {
+                self.arc = None;
+            }
+        }
+    }
+
+    /// Soft-limit check of an arc: its end and every axis extreme its sweep passes.
+    fn check_arc_travel(
+        &self,
+        chords: &ArcChords,
+        center: &[i64; 3],
+        plane: crate::canon::Plane,
+        to: &Pos,
+    ) -> Result<(), PushError> {
+        if let Some(axis) = self.cfg.travel_violation(to) {
+            return Err(PushError::Travel { axis });
+        }
+        let (a0, a1, _) = plane_axes(plane);
+        let (sx, sy) = (
+            self.position[a0] - center[a0],
+            self.position[a1] - center[a1],
+        );
+        let start = super::trig::atan2(sy, sx);
+        let sweep = chords.sweep();
+        let r = {
+            let (ex, ey) = (to[a0] - center[a0], to[a1] - center[a1]);
+            let r2 = |x: i64, y: i64| (x as i128 * x as i128 + y as i128 * y as i128) as u128;
+            super::trig::isqrt_u128(r2(sx, sy).max(r2(ex, ey))) as i64
+        };
+        for k in 0..4i64 {
+            let q = k * QUARTER_TURN;
+            // Is the cardinal angle q inside the swept range?
+            let rel = if sweep >= 0 {
+                (q - start).rem_euclid(super::trig::TURN)
+            } else {
+                (start - q).rem_euclid(super::trig::TURN)
+            };
+            if rel <= sweep.abs() {
+                let (dx, dy) = polar(r, q);
+                let mut p = self.position;
+                p[a0] = center[a0] + dx;
+                p[a1] = center[a1] + dy;
+                if let Some(axis) = self.cfg.travel_violation(&p) {
+                    if axis == a0 || axis == a1 {
+                        return Err(PushError::Travel { axis });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Prepares the next step segment for the kernel's queue (`None`: nothing now).
+    pub fn next_segment(&mut self) -> Option<Segment> {
+        loop {
+            if self.at_sync {
+                return None;
+            }
+            let out = self.prep.next(&mut self.planner);
+            self.feed_arc();
+            match out {
+                PrepOut::Segment(s) => return Some(s),
+                PrepOut::Sync => {
+                    if self.abort_pending {
+                        self.finish_abort();
+                        continue;
+                    }
+                    self.at_sync = true;
+                    return None;
+                }
+                PrepOut::Idle => {
+                    if self.abort_pending
+                        && (self.prep.state == PrepState::Held || self.planner.is_empty())
+                    {
+                        self.finish_abort();
+                    }
+                    return None;
+                }
+            }
+        }
+    }
+
+    /// The sync point the queue stopped at: once the kernel has run every segment handed out,
+    /// perform it, then call [`Self::release_sync`].
+    pub fn sync_point(&self) -> Option<&Canon> {
+        if self.at_sync {
+            self.syncs.front()
+        } else {
+            None
+        }
+    }
+
+    /// Continues past the current sync point.
+    pub fn release_sync(&mut self) {
+        if self.at_sync {
+            self.at_sync = false;
+            self.syncs.pop_front();
+            self.planner.pop();
+        }
+    }
+
+    /// The report of the block segment prep finished last (once).
+    pub fn take_report(&mut self) -> Option<BlockReport> {
+        self.prep.take_report()
+    }
+
+    pub fn state(&self) -> MotionState {
+        if self.at_sync {
+            return MotionState::Sync;
+        }
+        match self.prep.state {
+            PrepState::Holding => MotionState::Holding,
+            PrepState::Held => MotionState::Held,
+            PrepState::Running => {
+                if self.planner.is_empty() && self.arc.is_none() && !self.prep.is_active() {
+                    MotionState::Idle
+                } else {
+                    MotionState::Running
+                }
+            }
+        }
+    }
+
+    /// Feed hold: decelerate on the path (after the segments already handed out) and stop.
+    pub fn feed_hold(&mut self) {
+        if self.prep.state == PrepState::Running {
+            self.prep.state = PrepState::Holding;
+        }
+    }
+
+    /// Resumes after a hold, on the path, from where it stopped (or from the current speed).
+    pub fn resume(&mut self) {
+        if self.abort_pending {
+            return;
+        }
+        if self.prep.state != PrepState::Running {
+            self.prep.state = PrepState::Running;
+            self.planner.replan_all();
+        }
+    }
+
+    /// Abort: decelerate on the path like a hold, then drop everything queued. The step position
+    /// stays exact ([`Self::prepared_steps`]); the queued position becomes the stopped position.
+    pub fn abort(&mut self) {
+        self.abort_pending = true;
+        self.arc = None;
+        if self.at_sync || !self.prep.is_active() {
+            self.finish_abort();
+        } else {
+            self.feed_hold();
+        }
+    }
+
+    fn finish_abort(&mut self) {
+        self.planner.clear();
+        self.syncs.clear();
+        self.arc = None;
+        self.at_sync = false;
+        self.prep.reset();
+        self.abort_pending = false;
+        self.steps = self.prep.position();
+        self.position = self.cfg.to_nm(&self.steps);
+    }
+
+    /// Feed override in percent (clamped to 10-200), applied at once.
+    pub fn set_feed_override(&mut self, pct: u16) {
+        let rapid = self.planner.rapid_override();
+        self.planner.set_overrides(pct.clamp(10, 200), rapid);
+    }
+
+    /// Rapid override in percent (clamped to 1-100), applied at once.
+    pub fn set_rapid_override(&mut self, pct: u16) {
+        let feed = self.planner.feed_override();
+        self.planner.set_overrides(feed, pct.clamp(1, 100));
+    }
+}
+
+/// nm/min → nm/s.
+fn speed_of(feed: i64) -> u64 {
+    (feed.max(0) as u64 / 60).max(1)
+}

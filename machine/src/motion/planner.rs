@@ -1,0 +1,500 @@
+//! Look-ahead planner: a ring of blocks with grbl-style junction limits and a reverse pass.
+//!
+//! Speeds are planned as squares (nm²/s²). Each line block knows its length, its per-axis-limited
+//! top speed, acceleration and start speed, and the geometric junction limit with the block before
+//! (grbl junction deviation and the seed's "Feed Shift"). The *reverse pass* runs from the newest
+//! block back and stops at the first block whose entry limit did not change, so streaming costs
+//! O(blocks within stopping distance of the end), not O(ring). The end of the buffer is always
+//! planned to stop (exit speed 0), so the machine can stop on whatever is buffered.
+//!
+//! The *forward pass* (acceleration limit) is applied lazily by segment prep: it profiles the head
+//! block from the speed it really has, aiming at `min(reverse limit, reachable)`. A full replan
+//! (override change, resume) recomputes every limit, as grbl does.
+
+use super::config::{MotionConfig, MAX_SPEED};
+use super::trig::{isqrt_u128, isqrt_u64, mul_div};
+use crate::units::MAX_AXES;
+
+/// Unit vectors are scaled by 2³⁰.
+const UNIT: i64 = 1 << 30;
+
+/// What a block does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlockKind {
+    /// A straight move (G0, G1 or an arc chord).
+    Line,
+    /// A dwell of this many kernel timer counts.
+    Dwell { counts: u64 },
+    /// A point where motion stops and the controller acts (M codes, tool change, program stop).
+    Sync,
+}
+
+/// One planner block.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Block {
+    pub kind: BlockKind,
+    /// Source line.
+    pub line: u32,
+    /// Absolute step count of each axis.
+    pub steps: [u32; MAX_AXES],
+    /// Direction byte (bit i set = axis i moves towards negative).
+    pub dir: u8,
+    /// Step events of the dominant axis.
+    pub events: u32,
+    /// Path length, nm.
+    pub length: u64,
+    /// Path acceleration (every axis within its limit), nm/s².
+    pub accel: u64,
+    /// Path speed at which some axis reaches its max rate, nm/s.
+    pub max_speed: u64,
+    /// Programmed path speed, nm/s (rapids: `max_speed`).
+    pub programmed: u64,
+    pub rapid: bool,
+    /// Path speed reachable instantly from rest (every axis within its start speed), nm/s.
+    pub start_speed: u64,
+    /// Geometric junction limit with the previous block, nm²/s².
+    pub junction_sq: u64,
+    /// The machine is at rest before this block (first after a stop, G61, dwell or sync).
+    pub stop_before: bool,
+    /// The machine comes to rest after this block.
+    pub stop_after: bool,
+    /// Largest entry speed², from junction and nominal speeds.
+    pub max_entry_sq: u64,
+    /// Entry speed² limit from the reverse pass.
+    pub entry_sq: u64,
+    /// 2·a·length, saturated: the speed² the block can gain or shed.
+    pub budget: u64,
+}
+
+impl Block {
+    const EMPTY: Block = Block {
+        kind: BlockKind::Sync,
+        line: 0,
+        steps: [0; MAX_AXES],
+        dir: 0,
+        events: 0,
+        length: 0,
+        accel: 1,
+        max_speed: 1,
+        programmed: 1,
+        rapid: false,
+        start_speed: 0,
+        junction_sq: 0,
+        stop_before: true,
+        stop_after: true,
+        max_entry_sq: 0,
+        entry_sq: 0,
+        budget: 0,
+    };
+
+    /// A non-motion block.
+    pub fn marker(kind: BlockKind, line: u32) -> Self {
+        Block {
+            kind,
+            line,
+            ..Self::EMPTY
+        }
+    }
+}
+
+/// A line to plan, in machine terms.
+#[derive(Clone, Copy, Debug)]
+pub struct LineRequest {
+    pub line: u32,
+    /// Displacement in steps per axis.
+    pub steps: [i64; MAX_AXES],
+    /// Displacement in nm per axis.
+    pub delta: [i64; MAX_AXES],
+    /// Programmed speed, nm/s; `None` = rapid.
+    pub speed: Option<u64>,
+    /// The block before must end at rest (G61 exact stop).
+    pub exact_stop_before: bool,
+    /// Junction deviation for this corner, nm.
+    pub junction_deviation: u64,
+}
+
+/// The block ring and the planning state.
+pub struct Planner<const N: usize> {
+    ring: [Block; N],
+    head: usize,
+    len: usize,
+    /// Unit vector of the last line block, if the next line may blend with it.
+    prev_unit: Option<[i64; MAX_AXES]>,
+    feed_pct: u16,
+    rapid_pct: u16,
+}
+
+impl<const N: usize> Default for Planner<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> Planner<N> {
+    pub const fn new() -> Self {
+        Planner {
+            ring: [Block::EMPTY; N],
+            head: 0,
+            len: 0,
+            prev_unit: None,
+            feed_pct: 100,
+            rapid_pct: 100,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    pub fn is_full(&self) -> bool {
+        self.len == N
+    }
+
+    fn index(&self, offset: usize) -> usize {
+        let i = self.head + offset;
+        if i >= N {
+            i - N
+        } else {
+            i
+        }
+    }
+
+    /// The block `offset` places after the head.
+    pub fn get(&self, offset: usize) -> Option<&Block> {
+        (offset < self.len).then(|| &self.ring[self.index(offset)])
+    }
+
+    /// The oldest block (the one segment prep works on).
+    pub fn head(&self) -> Option<&Block> {
+        self.get(0)
+    }
+
+    /// Retires the head block.
+    pub fn pop(&mut self) {
+        if self.len > 0 {
+            self.head = self.index(1);
+            self.len -= 1;
+            if self.len == 0 {
+                self.prev_unit = None;
+            }
+        }
+    }
+
+    /// Drops every block.
+    pub fn clear(&mut self) {
+        self.len = 0;
+        self.prev_unit = None;
+    }
+
+    pub fn feed_override(&self) -> u16 {
+        self.feed_pct
+    }
+
+    pub fn rapid_override(&self) -> u16 {
+        self.rapid_pct
+    }
+
+    /// Sets the overrides (percent) and replans every block.
+    pub fn set_overrides(&mut self, feed_pct: u16, rapid_pct: u16) {
+        self.feed_pct = feed_pct;
+        self.rapid_pct = rapid_pct;
+        self.replan_all();
+    }
+
+    /// Speed the block cruises at with the current overrides, nm/s.
+    pub fn nominal(&self, b: &Block) -> u64 {
+        let v = if b.rapid {
+            b.max_speed * self.rapid_pct as u64 / 100
+        } else {
+            (b.programmed * self.feed_pct as u64 / 100).min(b.max_speed)
+        };
+        v.clamp(1, MAX_SPEED)
+    }
+
+    /// Speed² the block `offset` must exit with at most (reverse-pass limit).
+    pub fn exit_sq(&self, offset: usize) -> u64 {
+        let b = &self.ring[self.index(offset)];
+        if b.stop_after {
+            self.stop_exit_sq(b)
+        } else if offset + 1 >= self.len {
+            0
+        } else {
+            self.ring[self.index(offset + 1)].entry_sq
+        }
+    }
+
+    /// Speed² a block may end with when the machine stops right after it (its start speed).
+    fn stop_exit_sq(&self, b: &Block) -> u64 {
+        let v = b.start_speed.min(self.nominal(b));
+        v * v
+    }
+
+    /// Largest entry speed² of the block at `offset` given its predecessor.
+    fn max_entry_sq(&self, offset: usize) -> u64 {
+        let b = &self.ring[self.index(offset)];
+        let nom = self.nominal(b);
+        if b.stop_before || offset == 0 {
+            let v = b.start_speed.min(nom);
+            return if b.stop_before { v * v } else { nom * nom };
+        }
+        let prev = &self.ring[self.index(offset - 1)];
+        let prev_nom = self.nominal(prev);
+        let v = nom.min(prev_nom);
+        b.junction_sq.min(v * v)
+    }
+
+    /// Adds a non-motion block (dwell or sync); the machine stops before it.
+    pub fn push_marker(&mut self, block: Block) -> bool {
+        if self.is_full() {
+            return false;
+        }
+        if self.len > 0 {
+            let last = self.index(self.len - 1);
+            self.ring[last].stop_after = true;
+        }
+        let i = self.index(self.len);
+        self.ring[i] = block;
+        self.len += 1;
+        self.prev_unit = None;
+        let from = self.len.saturating_sub(2).max(1);
+        self.reverse_pass(from);
+        true
+    }
+
+    /// Plans a straight move; false when the ring is full. A move without steps is dropped (true).
+    pub fn push_line(&mut self, cfg: &MotionConfig, req: &LineRequest) -> bool {
+        if self.is_full() {
+            return false;
+        }
+        let axes = cfg.axis_count as usize;
+        let mut steps = [0u32; MAX_AXES];
+        let mut dir = 0u8;
+        let mut events = 0u32;
+        let mut len_sq: u128 = 0;
+        for i in 0..axes {
+            let s = req.steps[i];
+            steps[i] = s.unsigned_abs().min(u32::MAX as u64) as u32;
+            if s < 0 {
+                dir |= 1 << i;
+            }
+            events = events.max(steps[i]);
+            len_sq += (req.delta[i] as i128 * req.delta[i] as i128) as u128;
+        }
+        if events == 0 {
+            return true;
+        }
+        let length = (isqrt_u128(len_sq) as u64).max(1);
+        let mut max_speed = MAX_SPEED;
+        let mut accel = u64::MAX;
+        let mut start_speed = MAX_SPEED;
+        let mut unit = [0i64; MAX_AXES];
+        for i in 0..axes {
+            let d = req.delta[i].unsigned_abs();
+            if d == 0 {
+                continue;
+            }
+            let ax = &cfg.axes[i];
+            max_speed = max_speed.min(mul_div(ax.max_rate, length, d));
+            accel = accel.min(mul_div(ax.accel, length, d));
+            start_speed = start_speed.min(mul_div(ax.start_speed, length, d));
+            unit[i] = ((req.delta[i] as i128 * UNIT as i128) / length as i128) as i64;
+        }
+        let max_speed = max_speed.max(1);
+        let accel = accel.max(1);
+        let (programmed, rapid) = match req.speed {
+            Some(v) => (v.clamp(1, MAX_SPEED), false),
+            None => (max_speed, true),
+        };
+        let stop_before = req.exact_stop_before || self.prev_unit.is_none() || self.len == 0;
+        let junction_sq = match (stop_before, self.prev_unit) {
+            (false, Some(prev)) => junction_limit_sq(cfg, &prev, &unit, req.junction_deviation),
+            _ => 0,
+        };
+        if stop_before && self.len > 0 {
+            let last = self.index(self.len - 1);
+            self.ring[last].stop_after = true;
+        }
+        let block = Block {
+            kind: BlockKind::Line,
+            line: req.line,
+            steps,
+            dir,
+            events,
+            length,
+            accel,
+            max_speed,
+            programmed,
+            rapid,
+            start_speed,
+            junction_sq,
+            stop_before,
+            stop_after: false,
+            max_entry_sq: 0,
+            entry_sq: u64::MAX,
+            budget: accel.saturating_mul(2).saturating_mul(length),
+        };
+        let i = self.index(self.len);
+        self.ring[i] = block;
+        self.len += 1;
+        let off = self.len - 1;
+        self.ring[i].max_entry_sq = self.max_entry_sq(off);
+        self.prev_unit = Some(unit);
+        let from = if stop_before {
+            off.saturating_sub(1)
+        } else {
+            off
+        }
+        .max(1);
+        self.reverse_pass(from);
+        true
+    }
+
+    /// Recomputes every entry limit (after an override change or a resume).
+    pub fn replan_all(&mut self) {
+        for off in 0..self.len {
+            let i = self.index(off);
+            if self.ring[i].kind == BlockKind::Line {
+                self.ring[i].max_entry_sq = self.max_entry_sq(off);
+            }
+        }
+        self.reverse_pass(1);
+    }
+
+    /// Reverse pass from the newest block down to the block after the head. Blocks at offsets
+    /// ≥ `force_from` are always recomputed; below it the pass stops at the first unchanged entry.
+    fn reverse_pass(&mut self, force_from: usize) {
+        let mut next_entry = 0u64;
+        let mut off = self.len;
+        while off > 1 {
+            off -= 1;
+            let i = self.index(off);
+            let b = self.ring[i];
+            let entry = if b.kind == BlockKind::Line {
+                let exit = if b.stop_after {
+                    self.stop_exit_sq(&b)
+                } else if off + 1 == self.len {
+                    0
+                } else {
+                    next_entry
+                };
+                b.max_entry_sq.min(exit.saturating_add(b.budget))
+            } else {
+                0
+            };
+            if entry == b.entry_sq && off < force_from {
+                break;
+            }
+            self.ring[i].entry_sq = entry;
+            next_entry = entry;
+        }
+    }
+}
+
+/// Junction speed² limit between unit vectors `prev` and `cur` (2³⁰ scale): the smaller of grbl's
+/// junction-deviation limit and the seed's Feed Shift (largest vector-speed change at the corner).
+fn junction_limit_sq(
+    cfg: &MotionConfig,
+    prev: &[i64; MAX_AXES],
+    cur: &[i64; MAX_AXES],
+    deviation: u64,
+) -> u64 {
+    let mut dot: i64 = 0;
+    let mut jump_sq: u128 = 0;
+    let mut jump = [0i64; MAX_AXES];
+    for i in 0..MAX_AXES {
+        dot += prev[i] * cur[i];
+        jump[i] = cur[i] - prev[i];
+        jump_sq += (jump[i] as i128 * jump[i] as i128) as u128;
+    }
+    // |û_cur − û_prev| in 2³⁰ units; 0 means a straight continuation.
+    let jump_len = isqrt_u128(jump_sq) as u64;
+    if jump_len <= 2 {
+        return u64::MAX;
+    }
+    // sin(θ/2) = √((1 + û_prev·û_cur) / 2), θ the angle between −û_prev and û_cur (grbl).
+    let unit_sq = (UNIT as i128) * (UNIT as i128);
+    let half = ((unit_sq + dot as i128).max(0) / 2) as u64;
+    let sin_half = isqrt_u64(half).min(UNIT as u64);
+    let mut limit = u64::MAX;
+    if sin_half < UNIT as u64 {
+        // Acceleration along the junction direction, every axis within its own limit.
+        let mut accel = u64::MAX;
+        for (i, j) in jump.iter().enumerate() {
+            if *j != 0 && i < cfg.axis_count as usize {
+                accel = accel.min(mul_div(cfg.axes[i].accel, jump_len, j.unsigned_abs()));
+            }
+        }
+        let num = accel as u128 * deviation as u128 * sin_half as u128;
+        let den = (UNIT as u64 - sin_half) as u128;
+        limit = (num / den).min(u64::MAX as u128) as u64;
+    }
+    if cfg.feed_shift > 0 {
+        let v = mul_div(cfg.feed_shift, UNIT as u64, jump_len).min(MAX_SPEED);
+        limit = limit.min(v * v);
+    }
+    limit
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::units::NM_PER_MM;
+
+    fn line(cfg: &MotionConfig, dx: i64, dy: i64, feed_mm_min: u64) -> LineRequest {
+        let delta = [dx, dy, 0, 0, 0, 0];
+        let mut steps = [0; MAX_AXES];
+        for i in 0..2 {
+            steps[i] = cfg.axes[i].nm_to_steps(delta[i]);
+        }
+        LineRequest {
+            line: 1,
+            steps,
+            delta,
+            speed: Some(feed_mm_min * NM_PER_MM as u64 / 60),
+            exact_stop_before: false,
+            junction_deviation: cfg.junction_deviation as u64,
+        }
+    }
+
+    #[test]
+    fn right_angle_junction_matches_grbl_formula() {
+        let cfg = MotionConfig {
+            feed_shift: 0,
+            ..Default::default()
+        };
+        let x = [UNIT, 0, 0, 0, 0, 0];
+        let y = [0, UNIT, 0, 0, 0, 0];
+        // a_j: junction vector (−1, 1)/√2 → a = 200 mm/s² · √2 on each axis limit = 282.8 mm/s².
+        // v² = a·δ·sin45/(1 − sin45) = 2.828e8 · 1e4 · 2.414 = 6.83e12 → 2.61 mm/s.
+        let v = isqrt_u64(junction_limit_sq(&cfg, &x, &y, 10_000));
+        assert!((2_600_000..2_620_000).contains(&v), "{v}");
+        assert_eq!(junction_limit_sq(&cfg, &x, &x, 10_000), u64::MAX);
+        let back = [-UNIT, 0, 0, 0, 0, 0];
+        assert_eq!(junction_limit_sq(&cfg, &x, &back, 10_000), 0);
+        // Feed Shift 60 mm/min = 1 mm/s over a √2 vector jump: 0.707 mm/s.
+        let cfg = MotionConfig::default();
+        let v = isqrt_u64(junction_limit_sq(&cfg, &x, &y, 10_000));
+        assert!((706_000..708_000).contains(&v), "{v}");
+    }
+
+    #[test]
+    fn buffer_end_always_stops_and_entries_only_grow() {
+        let cfg = MotionConfig::default();
+        let mut p: Planner<8> = Planner::new();
+        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
+        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
+        assert_eq!(p.exit_sq(1), 0);
+        let e1 = p.get(1).unwrap().entry_sq;
+        // 1 mm at 200 mm/s²: entry² ≤ 2·a·L = 4e14 (20 mm/s) — below nominal 20 mm/s²…
+        assert_eq!(e1, 400_000_000_000_000);
+        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
+        let nominal = 20_000_000u64;
+        assert_eq!(p.get(1).unwrap().entry_sq, nominal * nominal);
+        assert!(p.get(1).unwrap().entry_sq >= e1);
+        assert_eq!(p.exit_sq(2), 0);
+    }
+}

@@ -1,0 +1,337 @@
+//! Segment preparation (main context): cuts the head block into short constant-rate segments.
+//!
+//! Each segment covers a whole number of dominant-axis steps chosen to last about
+//! [`SEGMENT_COUNTS`] (2 ms). Step counts are *cumulative*: after dominant step `c` of `N`, axis
+//! `i` has made `round(steps_i · c / N)` steps, so a block always ends with exactly its step counts
+//! and a job with the rational conversion of its end point. The segment's duration comes from the
+//! closed-form [`Profile`] time at the segment's end, minus the time already emitted, so the
+//! rounding of tick periods never drifts. At low step rates the tick is over-driven 2×, 4× or 8×
+//! (AMASS) so the other axes place their steps more finely.
+
+use super::kernel::{Segment, KERNEL_TIMER_HZ};
+use super::planner::{Block, BlockKind, Planner};
+use super::profile::Profile;
+use super::trig::{isqrt_u64, mul_div};
+use crate::units::MAX_AXES;
+
+/// Target segment duration in kernel timer counts (2 ms).
+pub const SEGMENT_COUNTS: u64 = KERNEL_TIMER_HZ as u64 / 500;
+
+/// Dominant step periods above which AMASS over-drives the tick ×2, ×4, ×8 (8, 4, 2 kHz).
+const AMASS_PERIODS: [u64; 3] = [
+    KERNEL_TIMER_HZ as u64 / 8_000,
+    KERNEL_TIMER_HZ as u64 / 4_000,
+    KERNEL_TIMER_HZ as u64 / 2_000,
+];
+
+/// Run / hold state of segment preparation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrepState {
+    Running,
+    /// Decelerating on the path towards a stop.
+    Holding,
+    /// Stopped by a hold; nothing is prepared until resumed.
+    Held,
+}
+
+/// What happened to one finished block (for `gantry simulate` and status reports).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BlockReport {
+    pub line: u32,
+    pub rapid: bool,
+    /// Path length, nm.
+    pub length: u64,
+    /// Entry, highest and exit speeds, nm/s.
+    pub entry: u64,
+    pub peak: u64,
+    pub exit: u64,
+    /// Duration, kernel timer counts.
+    pub counts: u64,
+}
+
+/// Result of one preparation step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrepOut {
+    Segment(Segment),
+    /// The head block is a sync point: wait for the kernel to drain, act, then pop it.
+    Sync,
+    /// Nothing to prepare (empty, held).
+    Idle,
+}
+
+/// Segment preparation state for the head block.
+#[derive(Clone, Debug)]
+pub struct Prep {
+    pub state: PrepState,
+    /// The head block is checked out.
+    active: bool,
+    /// Dominant steps done in the head block, and the path position (nm) they reach.
+    done: u32,
+    s_now: u64,
+    /// Steps done per axis in the head block.
+    cum: [u32; MAX_AXES],
+    profile: Profile,
+    /// Counts emitted since the profile's origin.
+    emitted: u64,
+    /// Exit target and cruise speed the profile was built with.
+    exit_sq: u64,
+    nominal: u64,
+    holding: bool,
+    /// Speed carried into the next block, nm/s.
+    carry: u64,
+    dwell_left: u64,
+    /// Step position after every prepared segment.
+    position: [i64; MAX_AXES],
+    report: BlockReport,
+    finished: Option<BlockReport>,
+}
+
+impl Default for Prep {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Prep {
+    pub const fn new() -> Self {
+        Prep {
+            state: PrepState::Running,
+            active: false,
+            done: 0,
+            s_now: 0,
+            cum: [0; MAX_AXES],
+            profile: Profile::ZERO,
+            emitted: 0,
+            exit_sq: 0,
+            nominal: 0,
+            holding: false,
+            carry: 0,
+            dwell_left: 0,
+            position: [0; MAX_AXES],
+            report: BlockReport {
+                line: 0,
+                rapid: false,
+                length: 0,
+                entry: 0,
+                peak: 0,
+                exit: 0,
+                counts: 0,
+            },
+            finished: None,
+        }
+    }
+
+    /// Forgets the head block (after an abort); the step position stays.
+    pub fn reset(&mut self) {
+        let position = self.position;
+        *self = Prep::new();
+        self.position = position;
+    }
+
+    /// Step position at the end of everything prepared so far.
+    pub fn position(&self) -> [i64; MAX_AXES] {
+        self.position
+    }
+
+    pub fn set_position(&mut self, steps: [i64; MAX_AXES]) {
+        self.position = steps;
+    }
+
+    /// True while the head block is partly prepared.
+    pub fn is_active(&self) -> bool {
+        self.active
+    }
+
+    /// Speed at the end of what is prepared, nm/s.
+    pub fn speed(&self) -> u64 {
+        if self.active {
+            self.profile.speed_at(self.s_now)
+        } else {
+            self.carry
+        }
+    }
+
+    /// The report of the last finished block, once.
+    pub fn take_report(&mut self) -> Option<BlockReport> {
+        self.finished.take()
+    }
+
+    /// Prepares the next segment of the planner's head block.
+    pub fn next<const N: usize>(&mut self, planner: &mut Planner<N>) -> PrepOut {
+        loop {
+            if self.state == PrepState::Held {
+                return PrepOut::Idle;
+            }
+            let Some(head) = planner.head().copied() else {
+                if self.state == PrepState::Holding {
+                    self.state = PrepState::Held;
+                }
+                self.carry = 0;
+                return PrepOut::Idle;
+            };
+            match head.kind {
+                BlockKind::Sync => {
+                    self.carry = 0;
+                    if self.state == PrepState::Holding {
+                        self.state = PrepState::Held;
+                        return PrepOut::Idle;
+                    }
+                    return PrepOut::Sync;
+                }
+                BlockKind::Dwell { counts } => {
+                    self.carry = 0;
+                    if self.state == PrepState::Holding {
+                        self.state = PrepState::Held;
+                        return PrepOut::Idle;
+                    }
+                    if !self.active {
+                        self.active = true;
+                        self.dwell_left = counts;
+                    }
+                    if self.dwell_left == 0 {
+                        self.active = false;
+                        planner.pop();
+                        continue;
+                    }
+                    let p = self.dwell_left.min(SEGMENT_COUNTS);
+                    self.dwell_left -= p;
+                    return PrepOut::Segment(Segment::idle(1, p as u32));
+                }
+                BlockKind::Line => {
+                    if let Some(seg) = self.line_segment(&head, planner) {
+                        return PrepOut::Segment(seg);
+                    }
+                    if self.state == PrepState::Held {
+                        return PrepOut::Idle;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Builds the head block's profile from path position `s` at speed `v`.
+    fn reprofile<const N: usize>(&mut self, b: &Block, planner: &Planner<N>, s: u64, v: u64) {
+        self.emitted = 0;
+        if self.state == PrepState::Holding {
+            self.profile = Profile::hold(s, v, b.length, b.accel);
+            self.holding = true;
+            return;
+        }
+        let exit_sq = planner.exit_sq(0);
+        let nominal = planner.nominal(b);
+        let v0 = if v == 0 {
+            // From rest the speed may jump to the start speed, if the block can still stop.
+            let reach_sq = exit_sq
+                .min(nominal * nominal)
+                .saturating_add(b.accel.saturating_mul(2).saturating_mul(b.length - s));
+            b.start_speed.min(nominal).min(isqrt_u64(reach_sq))
+        } else {
+            v
+        };
+        self.profile = Profile::plan(s, v0, b.length, nominal, exit_sq, b.accel);
+        self.exit_sq = exit_sq;
+        self.nominal = nominal;
+        self.holding = false;
+    }
+
+    /// Path position (nm) of dominant step `c` of the block.
+    fn s_of(b: &Block, c: u32) -> u64 {
+        mul_div(c as u64, b.length, b.events as u64)
+    }
+
+    /// Next segment of a line block, or `None` when the block finished or a hold stopped.
+    fn line_segment<const N: usize>(
+        &mut self,
+        b: &Block,
+        planner: &mut Planner<N>,
+    ) -> Option<Segment> {
+        if !self.active {
+            self.active = true;
+            self.done = 0;
+            self.s_now = 0;
+            self.cum = [0; MAX_AXES];
+            let v_in = if b.stop_before { 0 } else { self.carry };
+            self.reprofile(b, planner, 0, v_in);
+            self.report = BlockReport {
+                line: b.line,
+                rapid: b.rapid,
+                length: b.length,
+                entry: self.profile.v0,
+                peak: self.profile.v0,
+                exit: 0,
+                counts: 0,
+            };
+        } else {
+            let hold = self.state == PrepState::Holding;
+            let stale = if hold {
+                !self.holding
+            } else {
+                self.holding
+                    || planner.exit_sq(0) != self.exit_sq
+                    || planner.nominal(b) != self.nominal
+            };
+            if stale {
+                let v = self.profile.speed_at(self.s_now);
+                self.reprofile(b, planner, self.s_now, v);
+            }
+        }
+        let end = if self.holding && self.profile.s3 < b.length {
+            (mul_div(self.profile.s3, b.events as u64, b.length) as u32).max(self.done)
+        } else {
+            b.events
+        };
+        if self.done >= end {
+            if self.done < b.events {
+                // A hold came to rest inside the block.
+                self.state = PrepState::Held;
+                return None;
+            }
+            self.carry = self.profile.speed_at(b.length);
+            self.report.exit = self.carry;
+            self.finished = Some(self.report);
+            self.active = false;
+            planner.pop();
+            if self.holding && self.carry == 0 {
+                self.state = PrepState::Held;
+            }
+            return None;
+        }
+        // Dominant steps for about one segment time at the current speed.
+        let v = self.profile.speed_at(self.s_now);
+        let nm = mul_div(v, SEGMENT_COUNTS, KERNEL_TIMER_HZ as u64);
+        let n = mul_div(nm, b.events as u64, b.length).clamp(1, (end - self.done) as u64) as u32;
+        let c = self.done + n;
+        let s = Self::s_of(b, c);
+        let dt = self.profile.time_at(s).saturating_sub(self.emitted).max(1);
+        let per_step = dt / n as u64;
+        let level = AMASS_PERIODS.iter().filter(|&&p| per_step > p).count() as u32;
+        let ticks = n << level;
+        let period = (dt / ticks as u64).clamp(1, u32::MAX as u64) as u32;
+        let duration = ticks as u64 * period as u64;
+        self.emitted += duration;
+        let mut steps = [0u32; MAX_AXES];
+        let events = b.events as u64;
+        for i in 0..MAX_AXES {
+            // round(steps_i · c / N): cumulative, so the block ends exactly on steps_i.
+            let total = (b.steps[i] as u64 * c as u64 + events / 2) / events;
+            let total = total as u32;
+            steps[i] = total - self.cum[i];
+            self.cum[i] = total;
+            if b.dir & (1 << i) != 0 {
+                self.position[i] -= steps[i] as i64;
+            } else {
+                self.position[i] += steps[i] as i64;
+            }
+        }
+        self.done = c;
+        self.s_now = s;
+        self.report.counts += duration;
+        self.report.peak = self.report.peak.max(self.profile.speed_at(s));
+        Some(Segment {
+            steps,
+            ticks,
+            period,
+            dir: b.dir,
+        })
+    }
+}

@@ -1,0 +1,200 @@
+//! Deterministic driver: planner + prep + kernel on virtual time, reporting every step event.
+//!
+//! Used by the tests, the cross-target vectors, `gantry simulate` and the emulated board. Time is
+//! counted in kernel timer counts ([`KERNEL_TIMER_HZ`]); each kernel tick advances it by the period
+//! the tick returned. Segments go through a small FIFO exactly as on the board (prep in the main
+//! context, the kernel pulling from the queue), and sync points are released automatically once
+//! the kernel has drained (override [`Sim::auto_release`] to act on them yourself).
+
+use super::config::MotionConfig;
+use super::kernel::{Segment, SegmentSource, StepKernel, TickOut, KERNEL_TIMER_HZ};
+use super::pipeline::{Motion, MotionState, PushError};
+use super::prep::BlockReport;
+use crate::canon::Canon;
+use heapless::Deque;
+
+/// Segments queued between prep and the kernel (≈ 16 ms at 2 ms per segment).
+pub const SEGMENT_QUEUE: usize = 8;
+
+/// One tick that stepped at least one axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StepEvent {
+    /// Virtual time of the tick, kernel timer counts.
+    pub time: u64,
+    pub step: u8,
+    pub dir: u8,
+}
+
+/// Everything the driver reports.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SimEvent {
+    Step(StepEvent),
+    /// Segment prep finished a block (reported when prepared, `time` is the virtual time then).
+    Block {
+        report: BlockReport,
+        time: u64,
+    },
+    /// The kernel drained at a sync point; it is released after this event when auto-releasing.
+    Sync {
+        canon: Canon,
+        time: u64,
+    },
+}
+
+/// The SPSC segment queue between prep and the kernel.
+#[derive(Default)]
+pub struct SegmentFifo<const Q: usize>(pub Deque<Segment, Q>);
+
+impl<const Q: usize> SegmentSource for SegmentFifo<Q> {
+    fn next_segment(&mut self) -> Option<Segment> {
+        self.0.pop_front()
+    }
+}
+
+/// Planner, prep and kernel on virtual time.
+pub struct Sim<const N: usize> {
+    pub motion: Motion<N>,
+    pub kernel: StepKernel,
+    pub fifo: SegmentFifo<SEGMENT_QUEUE>,
+    /// Virtual time, kernel timer counts.
+    pub now: u64,
+    /// Release sync points automatically once the kernel is idle.
+    pub auto_release: bool,
+    /// Times the kernel went idle while motion was running and not at a sync (segment underrun).
+    pub underruns: u32,
+    /// Limit flag handed to the kernel.
+    pub stop: bool,
+}
+
+impl<const N: usize> Sim<N> {
+    pub fn new(cfg: MotionConfig) -> Self {
+        Sim {
+            motion: Motion::new(cfg),
+            kernel: StepKernel::new(),
+            fifo: SegmentFifo::default(),
+            now: 0,
+            auto_release: true,
+            underruns: 0,
+            stop: false,
+        }
+    }
+
+    /// Virtual time in seconds × 1000 (milliseconds, rounded down).
+    pub fn millis(&self) -> u64 {
+        self.now / (KERNEL_TIMER_HZ as u64 / 1000)
+    }
+
+    /// Tops up the segment queue from prep.
+    pub fn fill(&mut self, on: &mut impl FnMut(SimEvent)) {
+        while !self.fifo.0.is_full() {
+            let seg = self.motion.next_segment();
+            if let Some(report) = self.motion.take_report() {
+                on(SimEvent::Block {
+                    report,
+                    time: self.now,
+                });
+            }
+            match seg {
+                Some(s) => {
+                    let _ = self.fifo.0.push_back(s);
+                }
+                None => break,
+            }
+        }
+    }
+
+    /// Runs one kernel tick and advances virtual time. Returns the tick's output (`period == 0`:
+    /// the kernel is idle; time does not advance).
+    pub fn tick(&mut self, on: &mut impl FnMut(SimEvent)) -> TickOut {
+        if self.fifo.0.len() < SEGMENT_QUEUE / 2 {
+            self.fill(on);
+        }
+        let out = self.kernel.tick(&mut self.fifo, self.stop);
+        if out.step != 0 {
+            on(SimEvent::Step(StepEvent {
+                time: self.now,
+                step: out.step,
+                dir: out.dir,
+            }));
+        }
+        if out.period == 0 {
+            self.fill(on);
+            if let Some(canon) = self.motion.sync_point().copied() {
+                if self.fifo.0.is_empty() {
+                    on(SimEvent::Sync {
+                        canon,
+                        time: self.now,
+                    });
+                    if self.auto_release {
+                        self.motion.release_sync();
+                    }
+                }
+            } else if self.fifo.0.is_empty() && self.motion.state() == MotionState::Running {
+                self.underruns += 1;
+            }
+        }
+        self.now += out.period as u64;
+        out
+    }
+
+    /// Runs until the kernel is idle and nothing more can be prepared (program done, held, or
+    /// waiting at a sync point that is not auto-released).
+    pub fn run_until_idle(&mut self, on: &mut impl FnMut(SimEvent)) {
+        let mut idle_ticks = 0;
+        loop {
+            let out = self.tick(on);
+            if out.period == 0 {
+                idle_ticks += 1;
+                if idle_ticks > 2 {
+                    return;
+                }
+            } else {
+                idle_ticks = 0;
+            }
+        }
+    }
+
+    /// Runs a whole program: pushes actions whenever the queue accepts them and ticks the kernel.
+    pub fn run(
+        &mut self,
+        program: impl IntoIterator<Item = Canon>,
+        on: &mut impl FnMut(SimEvent),
+    ) -> Result<(), (Canon, PushError)> {
+        let mut program = program.into_iter();
+        let mut pending: Option<Canon> = None;
+        let mut exhausted = false;
+        let mut idle_ticks = 0;
+        loop {
+            while !exhausted {
+                let Some(c) = pending.take().or_else(|| program.next()) else {
+                    exhausted = true;
+                    break;
+                };
+                match self.motion.push(&c) {
+                    Ok(()) => {}
+                    Err(PushError::Full) => {
+                        pending = Some(c);
+                        break;
+                    }
+                    Err(e) => return Err((c, e)),
+                }
+            }
+            let out = self.tick(on);
+            if out.period == 0 {
+                idle_ticks += 1;
+                let stuck = matches!(
+                    self.motion.state(),
+                    MotionState::Held | MotionState::Sync | MotionState::Idle
+                );
+                if exhausted && stuck && idle_ticks > 2 {
+                    return Ok(());
+                }
+                if idle_ticks > 1_000_000 {
+                    return Ok(());
+                }
+            } else {
+                idle_ticks = 0;
+            }
+        }
+    }
+}
