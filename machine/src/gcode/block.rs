@@ -1,0 +1,309 @@
+//! Blocks: the words of one line sorted by letter, G codes by modal group, M codes by group.
+//!
+//! This is where "same word twice", "two G codes of one modal group" and unknown codes are caught.
+//! G codes are integers in tenths (`G28.1` = 281) so decimal codes need no floating point.
+
+use super::config::{Dialect, InterpConfig};
+use super::error::ErrorCode;
+use super::lexer::{Lexer, Word, MICRO};
+
+/// Modal groups of G codes (RS274NGC numbering in the comments).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum GGroup {
+    /// 0: G4 G10 G28 G28.1 G30 G30.1 G53 G92 G92.1 G92.2 G92.3.
+    NonModal = 0,
+    /// 1: G0 G1 G2 G3 G73 G80-G89.
+    Motion,
+    /// 2: G17 G18 G19.
+    Plane,
+    /// 3: G90 G91.
+    Distance,
+    /// 4: G90.1 G91.1.
+    ArcDistance,
+    /// 5: G93 G94.
+    FeedMode,
+    /// 6: G20 G21.
+    Units,
+    /// 7: G40 G41 G42.
+    CutterComp,
+    /// 8: G43 G43.1 G49.
+    ToolLength,
+    /// 10: G98 G99.
+    Return,
+    /// 12: G54-G59.3.
+    Coordinate,
+    /// 13: G61 G61.1 G64.
+    Path,
+}
+
+/// Number of [`GGroup`]s.
+pub const G_GROUPS: usize = 12;
+
+/// The group of a G code in tenths, or `None` if unknown.
+pub fn g_group(code: u16) -> Option<GGroup> {
+    use GGroup::*;
+    Some(match code {
+        40 | 100 | 280 | 281 | 300 | 301 | 530 | 920 | 921 | 922 | 923 => NonModal,
+        0 | 10 | 20 | 30 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => {
+            Motion
+        }
+        170 | 180 | 190 => Plane,
+        900 | 910 => Distance,
+        901 | 911 => ArcDistance,
+        930 | 940 => FeedMode,
+        200 | 210 => Units,
+        400 | 410 | 420 => CutterComp,
+        430 | 431 | 490 => ToolLength,
+        980 | 990 => Return,
+        540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => Coordinate,
+        610 | 611 | 640 => Path,
+        _ => return None,
+    })
+}
+
+/// Groups of M codes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum MGroup {
+    /// M0 M1 M2 M30 M98 M99: stops and program flow.
+    Flow = 0,
+    /// M6.
+    ToolChange,
+    /// M3 M4 M5.
+    Spindle,
+    /// M7 M8 M9 (M7 and M8 may share a block).
+    Coolant,
+    /// M48 M49 (accepted, no effect).
+    Override,
+    /// User M codes of the setup.
+    User,
+}
+
+/// Number of [`MGroup`]s.
+pub const M_GROUPS: usize = 6;
+
+/// The group of an M code under `config`, or `None` if unknown.
+pub fn m_group(code: u16, config: &InterpConfig) -> Option<MGroup> {
+    use MGroup::*;
+    Some(match code {
+        0 | 1 | 2 | 30 | 98 | 99 => Flow,
+        6 => ToolChange,
+        3..=5 => Spindle,
+        7..=9 => Coolant,
+        48 | 49 => Override,
+        c if config.is_user_m_code(c) => User,
+        _ => return None,
+    })
+}
+
+/// A G or M code with the columns it was written at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Code {
+    pub code: u16,
+    pub cols: (u16, u16),
+}
+
+/// Most M words in one block (as LinuxCNC).
+pub const MAX_M_WORDS: usize = 5;
+
+/// One parsed block.
+#[derive(Clone, Debug)]
+pub struct Block {
+    /// N word.
+    pub n: Option<u32>,
+    /// O word (program number label).
+    pub o: Option<Code>,
+    /// The block started with `/`.
+    pub block_delete: bool,
+    /// Value words by letter (`A`..`Z`, G/M/N/O unused here).
+    words: [Option<Word>; 26],
+    /// G codes by group.
+    pub g: [Option<Code>; G_GROUPS],
+    /// M codes in the order written.
+    pub m: heapless::Vec<(MGroup, Code), MAX_M_WORDS>,
+    /// True if the block has no words at all (blank or comment line).
+    pub empty: bool,
+}
+
+/// A block error with the columns to blame.
+pub type BlockError = (ErrorCode, Option<(u16, u16)>);
+
+impl Block {
+    fn new() -> Self {
+        Block {
+            n: None,
+            o: None,
+            block_delete: false,
+            words: [None; 26],
+            g: [None; G_GROUPS],
+            m: heapless::Vec::new(),
+            empty: true,
+        }
+    }
+
+    /// The word with letter `l` (upper case).
+    pub fn word(&self, l: u8) -> Option<Word> {
+        self.words[(l - b'A') as usize]
+    }
+
+    /// True if the block has the word with letter `l`.
+    pub fn has(&self, l: u8) -> bool {
+        self.word(l).is_some()
+    }
+
+    /// Removes a word (once an earlier step consumed it).
+    pub fn take(&mut self, l: u8) -> Option<Word> {
+        self.words[(l - b'A') as usize].take()
+    }
+
+    /// The G code given for a group.
+    pub fn g_of(&self, group: GGroup) -> Option<u16> {
+        self.g[group as usize].map(|c| c.code)
+    }
+
+    /// True if the block has this G code (tenths).
+    pub fn has_g(&self, code: u16) -> bool {
+        g_group(code).is_some_and(|grp| self.g_of(grp) == Some(code))
+    }
+
+    /// True if the block has this M code.
+    pub fn has_m(&self, code: u16) -> bool {
+        self.m.iter().any(|(_, c)| c.code == code)
+    }
+
+    /// The columns of a G code in the block.
+    pub fn g_cols(&self, code: u16) -> Option<(u16, u16)> {
+        g_group(code).and_then(|grp| self.g[grp as usize].map(|c| c.cols))
+    }
+
+    /// Iterates over the letters of all value words present.
+    pub fn letters(&self) -> impl Iterator<Item = u8> + '_ {
+        (0..26u8)
+            .filter(move |&i| self.words[i as usize].is_some())
+            .map(|i| b'A' + i)
+    }
+}
+
+/// Parses the words of a line into a block. `Ok(None)` for `%`-framing and `E` lines are handled by
+/// the caller through [`Lexer::start`].
+pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block, BlockError> {
+    let mut b = Block::new();
+    b.block_delete = lexer.block_delete;
+    let gixa = config.dialect == Dialect::Gixa;
+    while let Some(w) = lexer.next_word().map_err(|(c, cols)| (c, Some(cols)))? {
+        b.empty = false;
+        let cols = Some(w.cols);
+        match w.letter {
+            b'G' => {
+                if w.value < 0 || w.value % (MICRO / 10) != 0 || w.value >= 1000 * MICRO {
+                    return Err((ErrorCode::UnknownGCode, cols));
+                }
+                if gixa && w.int_digits < 2 {
+                    return Err((ErrorCode::BadWordFormat, cols));
+                }
+                let code = (w.value / (MICRO / 10)) as u16;
+                let group = g_group(code).ok_or((ErrorCode::UnknownGCode, cols))?;
+                let slot = &mut b.g[group as usize];
+                if slot.is_some() {
+                    return Err((ErrorCode::ModalGroupConflict, cols));
+                }
+                *slot = Some(Code { code, cols: w.cols });
+            }
+            b'M' => {
+                let v = w.integer().ok_or((ErrorCode::NotAnInteger, cols))?;
+                if !(0..=9999).contains(&v) {
+                    return Err((ErrorCode::UnknownMCode, cols));
+                }
+                let code = v as u16;
+                if gixa && code <= 1 && w.int_digits < 2 {
+                    return Err((ErrorCode::BadWordFormat, cols));
+                }
+                let group = m_group(code, config).ok_or((ErrorCode::UnknownMCode, cols))?;
+                for (g, c) in b.m.iter() {
+                    let coolant_pair =
+                        group == MGroup::Coolant && matches!((c.code, code), (7, 8) | (8, 7));
+                    if *g == group && group != MGroup::User && !coolant_pair {
+                        return Err((ErrorCode::MCodeGroupConflict, cols));
+                    }
+                    if c.code == code {
+                        return Err((ErrorCode::RepeatedWord, cols));
+                    }
+                }
+                b.m.push((group, Code { code, cols: w.cols }))
+                    .map_err(|_| (ErrorCode::TooManyMCodes, cols))?;
+            }
+            b'N' => {
+                if b.n.is_some() {
+                    return Err((ErrorCode::RepeatedWord, cols));
+                }
+                let v = w.integer().ok_or((ErrorCode::NotAnInteger, cols))?;
+                if !(0..=99_999_999).contains(&v) {
+                    return Err((ErrorCode::ValueOutOfRange, cols));
+                }
+                b.n = Some(v as u32);
+            }
+            b'O' => {
+                if b.o.is_some() {
+                    return Err((ErrorCode::RepeatedWord, cols));
+                }
+                let v = w.integer().ok_or((ErrorCode::NotAnInteger, cols))?;
+                if !(0..=99_999_999).contains(&v) {
+                    return Err((ErrorCode::ValueOutOfRange, cols));
+                }
+                b.o = Some(Code {
+                    code: 0,
+                    cols: w.cols,
+                });
+                // The O number itself is kept as a value word slot.
+                b.words[(b'O' - b'A') as usize] = Some(w);
+            }
+            b'E' | b'U' | b'V' | b'W' => return Err((ErrorCode::UnexpectedCharacter, cols)),
+            l => {
+                let slot = &mut b.words[(l - b'A') as usize];
+                if slot.is_some() {
+                    return Err((ErrorCode::RepeatedWord, cols));
+                }
+                *slot = Some(w);
+            }
+        }
+    }
+    Ok(b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(s: &str) -> Result<Block, BlockError> {
+        let cfg = InterpConfig::default();
+        let mut lx = Lexer::new(s.as_bytes(), true);
+        lx.start();
+        parse_block(&mut lx, &cfg)
+    }
+
+    #[test]
+    fn groups_and_conflicts() {
+        let b = parse("N10 G01 G90 G28.1 M3 M8 X1").unwrap();
+        assert_eq!(b.n, Some(10));
+        assert_eq!(b.g_of(GGroup::Motion), Some(10));
+        assert_eq!(b.g_of(GGroup::NonModal), Some(281));
+        assert!(b.has_m(3) && b.has_m(8));
+        assert_eq!(
+            parse("G0 G1 X1").unwrap_err(),
+            (ErrorCode::ModalGroupConflict, Some((3, 5)))
+        );
+        assert_eq!(parse("X1 X2").unwrap_err().0, ErrorCode::RepeatedWord);
+        assert_eq!(parse("N5 N6 G0").unwrap_err().0, ErrorCode::RepeatedWord);
+        assert_eq!(parse("M3 M4").unwrap_err().0, ErrorCode::MCodeGroupConflict);
+        assert!(parse("M7 M8").is_ok());
+        assert_eq!(parse("G12").unwrap_err().0, ErrorCode::UnknownGCode);
+        assert_eq!(parse("G1.5").unwrap_err().0, ErrorCode::UnknownGCode);
+        assert_eq!(parse("M77").unwrap_err().0, ErrorCode::UnknownMCode);
+        assert_eq!(parse("M3.5").unwrap_err().0, ErrorCode::NotAnInteger);
+        assert_eq!(
+            parse("M3 M7 M48 M6 M0 M9").unwrap_err().0,
+            ErrorCode::MCodeGroupConflict
+        );
+    }
+}

@@ -1,0 +1,185 @@
+//! Interpreter setup: dialect, tool table, offsets at start, home positions, switches, user M codes.
+//!
+//! Everything is fixed size (no heap) so the setup can live in flash on the board and be sent by the
+//! host as one message.
+
+use crate::canon::Plane;
+use crate::units::{Nm, Pos, MAX_AXES};
+
+/// Which G-code dialect to interpret.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Dialect {
+    /// RS274NGC / Fanuc mill programs as CAM posts emit them (LinuxCNC is the oracle).
+    Rs274,
+    /// Ability Systems "G Code Controller" (GIXA) programs (seed 003).
+    Gixa,
+}
+
+/// How a G4 P (or canned-cycle P) number is read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DwellUnits {
+    /// P is seconds, with or without a decimal point (LinuxCNC).
+    Seconds,
+    /// Fanuc: an integer P is milliseconds, a P with a decimal point is seconds.
+    FanucIntegerMillis,
+}
+
+/// How gixa reads I/J arc centres (Job › Arc Translation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ArcCenterMode {
+    /// Relative to the arc start (recommended by GIXA, and the default).
+    Incremental,
+    /// Absolute program coordinates.
+    Absolute,
+    /// Follows G90/G91.
+    FollowsDistanceMode,
+}
+
+/// One tool-table entry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct ToolEntry {
+    /// Tool number (T and H words). 0 marks an unused slot.
+    pub number: u32,
+    /// Tool length offset along Z in nm (added to Z by G43).
+    pub length: Nm,
+}
+
+/// Tool-table size.
+pub const MAX_TOOLS: usize = 32;
+/// User M-code list size.
+pub const MAX_USER_M_CODES: usize = 32;
+/// Number of work coordinate systems: G54..G59, G59.1..G59.3.
+pub const WORK_SYSTEMS: usize = 9;
+
+/// Gixa-only setup fields (Job setup).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GixaSetup {
+    /// I/J centre interpretation.
+    pub arc_centers: ArcCenterMode,
+    /// G87 chip-break partial retract distance in nm.
+    pub partial_retract: Nm,
+    /// Plane at job start.
+    pub plane: Plane,
+    /// Distance mode at job start: `true` = G90.
+    pub absolute: bool,
+    /// Default F (Job Vector Speed) in nm/min, restored by M30.
+    pub default_feed: i64,
+}
+
+impl Default for GixaSetup {
+    fn default() -> Self {
+        GixaSetup {
+            arc_centers: ArcCenterMode::Incremental,
+            partial_retract: 254_000,
+            plane: Plane::XY,
+            absolute: true,
+            default_feed: 0,
+        }
+    }
+}
+
+/// The interpreter's setup.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct InterpConfig {
+    pub dialect: Dialect,
+    /// Axes present (3 = XYZ, up to 6 = XYZABC). Words for absent axes are errors.
+    pub axis_count: u8,
+    /// Tool table (unused slots have number 0).
+    pub tools: [ToolEntry; MAX_TOOLS],
+    /// Work offsets G54..G59.3 in machine nm at program start.
+    pub work_offsets: [Pos; WORK_SYSTEMS],
+    /// G28 and G30 positions (machine coordinates).
+    pub g28_position: Pos,
+    pub g30_position: Pos,
+    /// Reading of G4 P.
+    pub dwell_units: DwellUnits,
+    /// G73/G83 retract clearance in nm (LinuxCNC's G83 "rapid delta"); default 0.254 mm.
+    pub peck_clearance: Nm,
+    /// Block delete switch: `/` blocks are skipped when on.
+    pub block_delete: bool,
+    /// Optional stop switch: M1 stops when on.
+    pub optional_stop: bool,
+    /// User M codes (0 = unused slot); each becomes [`crate::canon::Action::UserMCode`].
+    pub user_m_codes: [u16; MAX_USER_M_CODES],
+    /// Start in inch mode (G20).
+    pub start_inch: bool,
+    /// Gixa job setup (ignored by the RS274 dialect).
+    pub gixa: GixaSetup,
+}
+
+impl Default for InterpConfig {
+    fn default() -> Self {
+        InterpConfig {
+            dialect: Dialect::Rs274,
+            axis_count: MAX_AXES as u8,
+            tools: [ToolEntry::default(); MAX_TOOLS],
+            work_offsets: [[0; MAX_AXES]; WORK_SYSTEMS],
+            g28_position: [0; MAX_AXES],
+            g30_position: [0; MAX_AXES],
+            dwell_units: DwellUnits::Seconds,
+            peck_clearance: 254_000,
+            block_delete: false,
+            optional_stop: false,
+            user_m_codes: [0; MAX_USER_M_CODES],
+            start_inch: false,
+            gixa: GixaSetup::default(),
+        }
+    }
+}
+
+impl InterpConfig {
+    /// The default setup of the gixa dialect (M10 punch list registered as a user M code).
+    pub fn gixa() -> Self {
+        let mut c = InterpConfig {
+            dialect: Dialect::Gixa,
+            ..InterpConfig::default()
+        };
+        c.user_m_codes[0] = 10;
+        c
+    }
+
+    /// True if `code` is one of the setup's user M codes.
+    pub fn is_user_m_code(&self, code: u16) -> bool {
+        code != 0 && self.user_m_codes.contains(&code)
+    }
+
+    /// Adds a user M code; false if the list is full.
+    pub fn add_user_m_code(&mut self, code: u16) -> bool {
+        if self.is_user_m_code(code) {
+            return true;
+        }
+        match self.user_m_codes.iter_mut().find(|c| **c == 0) {
+            Some(slot) => {
+                *slot = code;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Adds or replaces a tool; false if the table is full.
+    pub fn set_tool(&mut self, number: u32, length: Nm) -> bool {
+        if number == 0 {
+            return false;
+        }
+        if let Some(t) = self.tools.iter_mut().find(|t| t.number == number) {
+            t.length = length;
+            return true;
+        }
+        match self.tools.iter_mut().find(|t| t.number == 0) {
+            Some(t) => {
+                *t = ToolEntry { number, length };
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Looks a tool up.
+    pub fn tool(&self, number: u32) -> Option<ToolEntry> {
+        self.tools
+            .iter()
+            .copied()
+            .find(|t| t.number == number && number != 0)
+    }
+}

@@ -1,0 +1,334 @@
+//! Canned cycles, generated lazily: one hole position or one peck per step, so a cycle with many
+//! repeats or thousands of pecks never needs more than a few queue slots.
+//!
+//! The motions follow LinuxCNC's `interp_cycles.cc` (RS274 dialect) and GIXA's cycle table (gixa
+//! dialect). All values are program coordinates on the plane axes `a`, `b` and the drilling axis
+//! `c`; `offset` converts them to machine coordinates when an action is emitted.
+
+use crate::canon::{Action, Canon, Spindle, StopKind};
+use crate::units::{Nm, Pos};
+
+/// Maximum actions one step pushes (the tapping body: feed, 2 spindle, dwell, feed, 2 spindle).
+pub const MAX_ACTIONS_PER_STEP: usize = 8;
+
+/// What a cycle does at the bottom and on the way out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CycleBody {
+    /// G81: feed down, rapid out.
+    Drill,
+    /// G82: feed down, dwell, rapid out.
+    DrillDwell,
+    /// G83 (and gixa G83 with zero clearance): pecks with a rapid out to R between them.
+    PeckFull,
+    /// G73 (and gixa G87): pecks with a short rapid back-off of `clearance`.
+    PeckChipBreak,
+    /// G84: feed down, reverse the spindle, dwell, feed out, restore the spindle.
+    Tap,
+    /// G85: feed down, feed out to R, rapid to clear.
+    Bore,
+    /// G86: feed down, dwell, spindle stop, rapid out, spindle restart.
+    BoreSpindleStop,
+    /// gixa G86: feed down, program pause (operator), rapid out.
+    DrillPause,
+    /// G89: feed down, dwell, feed out (to clear in RS274, to R then rapid in gixa).
+    BoreDwell,
+    /// gixa G88: punch: position only, then the M10 list.
+    Punch,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    Position,
+    Body,
+    Peck,
+    Finish,
+}
+
+/// One canned-cycle block being expanded.
+#[derive(Clone, Copy, Debug)]
+pub struct CycleRun {
+    pub line: u32,
+    pub body: CycleBody,
+    /// gixa positioning and retract rules.
+    pub gixa: bool,
+    /// Plane axes and drilling axis indices.
+    pub axes: (usize, usize, usize),
+    /// Program position of every axis (a, b, c slots are overwritten as the cycle moves).
+    pub program: Pos,
+    /// Program → machine offset.
+    pub offset: Pos,
+    /// Per-repeat increments on a, b (G91).
+    pub inc: (Nm, Nm),
+    pub r: Nm,
+    pub bottom: Nm,
+    pub clear: Nm,
+    /// Drilling-axis value before the first hole (LinuxCNC `current_cc`).
+    pub start_c: Nm,
+    /// Rapid up to R first (LinuxCNC, when the tool starts below R).
+    pub raise_first: bool,
+    pub q: Nm,
+    pub clearance: Nm,
+    pub dwell_us: u64,
+    pub feed: i64,
+    pub spindle: Spindle,
+    pub rpm: u32,
+    /// User M code run at each punch position (gixa M10).
+    pub punch_m_code: u16,
+    pub repeats_left: u32,
+    pub first: bool,
+    depth: Nm,
+    phase: Phase,
+}
+
+impl CycleRun {
+    /// A run ready to start (`repeats` ≥ 1).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        line: u32,
+        body: CycleBody,
+        gixa: bool,
+        axes: (usize, usize, usize),
+        program: Pos,
+        offset: Pos,
+        repeats: u32,
+    ) -> Self {
+        CycleRun {
+            line,
+            body,
+            gixa,
+            axes,
+            program,
+            offset,
+            inc: (0, 0),
+            r: 0,
+            bottom: 0,
+            clear: 0,
+            start_c: program[axes.2],
+            raise_first: false,
+            q: 0,
+            clearance: 0,
+            dwell_us: 0,
+            feed: 0,
+            spindle: Spindle::Off,
+            rpm: 0,
+            punch_m_code: 10,
+            repeats_left: repeats,
+            first: true,
+            depth: 0,
+            phase: Phase::Position,
+        }
+    }
+
+    fn machine(&self) -> Pos {
+        let mut p = self.program;
+        for (v, o) in p.iter_mut().zip(self.offset) {
+            *v += o;
+        }
+        p
+    }
+
+    fn push(&self, out: &mut impl FnMut(Canon), action: Action) {
+        out(Canon {
+            line: self.line,
+            action,
+        })
+    }
+
+    fn rapid_c(&mut self, c: Nm, out: &mut impl FnMut(Canon)) {
+        self.program[self.axes.2] = c;
+        let to = self.machine();
+        self.push(out, Action::Rapid { to });
+    }
+
+    fn feed_c(&mut self, c: Nm, out: &mut impl FnMut(Canon)) {
+        self.program[self.axes.2] = c;
+        let to = self.machine();
+        let feed = self.feed;
+        self.push(out, Action::Feed { to, feed });
+    }
+
+    fn rapid_ab_c(&mut self, c: Nm, out: &mut impl FnMut(Canon)) {
+        self.rapid_c(c, out)
+    }
+
+    fn dwell(&self, out: &mut impl FnMut(Canon)) {
+        self.push(
+            out,
+            Action::Dwell {
+                micros: self.dwell_us,
+            },
+        );
+    }
+
+    fn spindle(&self, state: Spindle, out: &mut impl FnMut(Canon)) {
+        self.push(
+            out,
+            Action::Spindle {
+                state,
+                rpm: if state == Spindle::Off { 0 } else { self.rpm },
+            },
+        );
+    }
+
+    /// Pushes the next few actions; returns false when the cycle is complete (nothing pushed).
+    pub fn step(&mut self, out: &mut impl FnMut(Canon)) -> bool {
+        let (a, b, _) = self.axes;
+        match self.phase {
+            Phase::Position => {
+                if self.repeats_left == 0 {
+                    return false;
+                }
+                let current_c = self.program[self.axes.2];
+                if self.first && self.raise_first {
+                    self.rapid_c(self.r, out);
+                    self.start_c = self.r;
+                }
+                self.program[a] += self.inc.0;
+                self.program[b] += self.inc.1;
+                if self.gixa {
+                    // Rapid in the plane at the current level, then down (or up) to R.
+                    self.rapid_ab_c(current_c, out);
+                    if self.body == CycleBody::Punch {
+                        self.push(
+                            out,
+                            Action::UserMCode {
+                                code: self.punch_m_code,
+                            },
+                        );
+                        self.first = false;
+                        self.repeats_left -= 1;
+                        return true;
+                    }
+                    if current_c != self.r {
+                        self.rapid_c(self.r, out);
+                    }
+                } else if self.first && self.start_c > self.r {
+                    self.rapid_ab_c(self.start_c, out);
+                    self.rapid_c(self.r, out);
+                } else {
+                    self.rapid_ab_c(self.clear, out);
+                    if self.clear > self.r {
+                        self.rapid_c(self.r, out);
+                    }
+                }
+                self.first = false;
+                self.depth = self.r - self.q;
+                self.phase = match self.body {
+                    CycleBody::PeckFull | CycleBody::PeckChipBreak => Phase::Peck,
+                    _ => Phase::Body,
+                };
+                true
+            }
+            Phase::Peck => {
+                if self.depth > self.bottom {
+                    let depth = self.depth;
+                    self.feed_c(depth, out);
+                    if self.body == CycleBody::PeckFull {
+                        self.rapid_c(self.r, out);
+                    }
+                    self.rapid_c(depth + self.clearance, out);
+                    self.depth -= self.q;
+                } else {
+                    self.feed_c(self.bottom, out);
+                    self.rapid_c(self.clear, out);
+                    self.phase = Phase::Finish;
+                }
+                true
+            }
+            Phase::Body => {
+                let (bottom, clear, r) = (self.bottom, self.clear, self.r);
+                match self.body {
+                    CycleBody::Drill => {
+                        self.feed_c(bottom, out);
+                        self.rapid_c(clear, out);
+                    }
+                    CycleBody::DrillDwell => {
+                        self.feed_c(bottom, out);
+                        self.dwell(out);
+                        self.rapid_c(clear, out);
+                    }
+                    CycleBody::Tap => {
+                        let (reverse, forward) = if self.spindle == Spindle::Cw {
+                            (Spindle::Ccw, Spindle::Cw)
+                        } else {
+                            (Spindle::Cw, Spindle::Ccw)
+                        };
+                        self.feed_c(bottom, out);
+                        if !self.gixa {
+                            self.spindle(Spindle::Off, out);
+                        }
+                        self.spindle(reverse, out);
+                        if self.dwell_us > 0 {
+                            self.dwell(out);
+                        }
+                        if self.gixa {
+                            self.feed_c(r, out);
+                            self.spindle(forward, out);
+                            if clear != r {
+                                self.rapid_c(clear, out);
+                            }
+                        } else {
+                            self.feed_c(clear, out);
+                            self.spindle(Spindle::Off, out);
+                            self.spindle(forward, out);
+                        }
+                    }
+                    CycleBody::Bore => {
+                        self.feed_c(bottom, out);
+                        self.feed_c(r, out);
+                        if !self.gixa || clear != r {
+                            self.rapid_c(clear, out);
+                        }
+                    }
+                    CycleBody::BoreSpindleStop => {
+                        self.feed_c(bottom, out);
+                        self.dwell(out);
+                        self.spindle(Spindle::Off, out);
+                        self.rapid_c(clear, out);
+                        self.spindle(self.spindle, out);
+                    }
+                    CycleBody::DrillPause => {
+                        self.feed_c(bottom, out);
+                        self.push(out, Action::Stop(StopKind::Pause));
+                        self.rapid_c(clear, out);
+                    }
+                    CycleBody::BoreDwell => {
+                        self.feed_c(bottom, out);
+                        self.dwell(out);
+                        if self.gixa {
+                            self.feed_c(r, out);
+                            if clear != r {
+                                self.rapid_c(clear, out);
+                            }
+                        } else {
+                            self.feed_c(clear, out);
+                        }
+                    }
+                    CycleBody::PeckFull | CycleBody::PeckChipBreak | CycleBody::Punch => {}
+                }
+                self.phase = Phase::Finish;
+                true
+            }
+            Phase::Finish => {
+                self.repeats_left -= 1;
+                self.phase = Phase::Position;
+                self.step(out)
+            }
+        }
+    }
+
+    /// Program position after the whole run (for the interpreter's state).
+    pub fn final_program_position(&self) -> Pos {
+        let mut p = self.program;
+        let n = self.repeats_left as i64;
+        let (a, b, c) = self.axes;
+        p[a] += self.inc.0 * n;
+        p[b] += self.inc.1 * n;
+        if self.body == CycleBody::Punch {
+            // Punching never moves the drilling axis.
+            return p;
+        }
+        p[c] = self.clear;
+        p
+    }
+}

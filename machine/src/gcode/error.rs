@@ -1,0 +1,326 @@
+//! Interpreter errors: where (line, N word, columns of the bad word) and what ([`ErrorCode`]).
+//!
+//! The numeric codes are stable: they are documented in `docs/errors.md`, and hosts may match on
+//! them. A block that produces an error produces no action at all.
+
+/// An error of one block.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GcodeError {
+    /// 1-based line number in the program file.
+    pub line: u32,
+    /// The block's N word, if it had one.
+    pub n_word: Option<u32>,
+    /// Byte columns (0-based start, exclusive end) of the offending word, if one word is to blame.
+    pub columns: Option<(u16, u16)>,
+    /// What is wrong.
+    pub code: ErrorCode,
+}
+
+impl GcodeError {
+    /// The human-readable message of the error code.
+    pub fn message(&self) -> &'static str {
+        self.code.message()
+    }
+}
+
+/// What went wrong, with a stable number (see [`ErrorCode::number`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ErrorCode {
+    // --- 1xx lexical ---
+    /// A character that cannot start a word (digit without letter, `#`, `[`, unknown letter...).
+    UnexpectedCharacter,
+    /// A letter without a number after it.
+    MissingNumber,
+    /// `(` without a closing `)` on the same line.
+    UnclosedComment,
+    /// A number with too many digits, or outside the range of its word.
+    NumberOutOfRange,
+    /// The dialect requires a different word format (gixa: two-digit G words, `M00`/`M01`).
+    BadWordFormat,
+    // --- 2xx block structure ---
+    /// The same letter twice in one block (`X1 X2`, `N5 N6`).
+    RepeatedWord,
+    /// Two G codes of the same modal group in one block.
+    ModalGroupConflict,
+    /// Two M codes of the same group in one block.
+    MCodeGroupConflict,
+    /// A G code this interpreter does not know.
+    UnknownGCode,
+    /// An M code that is neither built in nor a user M code of the setup.
+    UnknownMCode,
+    /// A word value outside its allowed range (negative F or S, H or T too big...).
+    ValueOutOfRange,
+    /// A word that must be a whole number has a fraction.
+    NotAnInteger,
+    /// More M words in one block than allowed (5).
+    TooManyMCodes,
+    /// Two G codes in one block both want the axis words.
+    AxisWordsConflict,
+    /// Axis words but no motion mode to use them (G80 active or given).
+    AxisWordsWithoutMotion,
+    /// A word that no G or M code of the block uses (`Q` without G83...).
+    UnusedWord,
+    /// An axis letter for an axis the machine does not have.
+    AxisNotConfigured,
+    // --- 3xx motion ---
+    /// Feed move with zero feed rate (no F programmed yet).
+    ZeroFeedRate,
+    /// G2/G3 without R or I/J/K.
+    ArcCenterMissing,
+    /// G2/G3 with both R and I/J/K.
+    ArcMixedFormats,
+    /// A centre word that does not belong to the active plane (K in G17...).
+    ArcOffsetWrongPlane,
+    /// R smaller than half the chord.
+    ArcRadiusTooSmall,
+    /// The end point is not on the circle through the start point (beyond LinuxCNC's tolerance).
+    ArcRadiusMismatch,
+    /// The centre is (almost) on the start or end point.
+    ArcZeroRadius,
+    /// R-format arc whose end point equals its start point.
+    ArcEndEqualsStart,
+    /// R-format arc without any end-point word of the plane.
+    ArcEndPointMissing,
+    /// P (turns) of an arc is not a positive whole number.
+    ArcTurnsInvalid,
+    /// G93 inverse time: a feed move without F.
+    InverseTimeFeedMissing,
+    /// A coordinate, offset or feed beyond the representable range (±100 m).
+    CoordinateOverflow,
+    /// A centre word is missing in absolute arc-centre mode (G90.1).
+    ArcAbsoluteCenterMissing,
+    // --- 4xx canned cycles ---
+    /// First block of a cycle without R.
+    CycleRMissing,
+    /// First block of a cycle without its depth word.
+    CycleDepthMissing,
+    /// R plane below the bottom of the hole.
+    CycleRBelowBottom,
+    /// G73/G83 (gixa G87) without Q, or Q not positive.
+    CycleQInvalid,
+    /// G82/G86/G89 without a dwell P.
+    CycleDwellMissing,
+    /// G84 needs the spindle turning clockwise (M3), G86 needs it on.
+    CycleSpindleState,
+    /// Canned cycle in G93 inverse-time mode.
+    CycleInverseTime,
+    /// Rotary axis word in a canned-cycle block.
+    CycleRotaryAxis,
+    /// K/L repeat count invalid (negative or fractional).
+    CycleRepeatInvalid,
+    /// gixa G87: Q not larger than the partial-retract distance.
+    CyclePeckNotAboveRetract,
+    /// A canned cycle this dialect does not support (G74, G76, default G87/G88).
+    CycleNotSupported,
+    // --- 5xx offsets, tools, settings ---
+    /// G10 with a missing or unsupported L, or P out of range.
+    G10Invalid,
+    /// G43 H (or tool number) not in the tool table.
+    ToolNotInTable,
+    /// G53 needs G0 or G1 and absolute mode.
+    G53Invalid,
+    /// G41/G42 cutter radius compensation is not supported yet.
+    CutterCompNotSupported,
+    /// G4 without a P (or X) time.
+    DwellTimeMissing,
+    /// A feature this dialect does not support (G95, expressions, gixa O file index...).
+    NotSupported,
+    /// G28/G30 or G92 need axis words / were given invalid words.
+    MissingAxisWords,
+    // --- 6xx program flow ---
+    /// M98 calls a program number that is not in the file.
+    UnknownProgram,
+    /// The same O number is defined twice in the file.
+    DuplicateProgram,
+    /// Subprogram calls nested deeper than the stack (16).
+    NestingTooDeep,
+    /// M98 without P.
+    SubprogramPMissing,
+    /// The file ended inside a subprogram (no M99).
+    SubprogramWithoutM99,
+    /// The program source could not jump to the requested line.
+    SourceJumpFailed,
+}
+
+impl ErrorCode {
+    /// Every code, in numeric order (used by the documentation test).
+    pub const ALL: &'static [ErrorCode] = &[
+        ErrorCode::UnexpectedCharacter,
+        ErrorCode::MissingNumber,
+        ErrorCode::UnclosedComment,
+        ErrorCode::NumberOutOfRange,
+        ErrorCode::BadWordFormat,
+        ErrorCode::RepeatedWord,
+        ErrorCode::ModalGroupConflict,
+        ErrorCode::MCodeGroupConflict,
+        ErrorCode::UnknownGCode,
+        ErrorCode::UnknownMCode,
+        ErrorCode::ValueOutOfRange,
+        ErrorCode::NotAnInteger,
+        ErrorCode::TooManyMCodes,
+        ErrorCode::AxisWordsConflict,
+        ErrorCode::AxisWordsWithoutMotion,
+        ErrorCode::UnusedWord,
+        ErrorCode::AxisNotConfigured,
+        ErrorCode::ZeroFeedRate,
+        ErrorCode::ArcCenterMissing,
+        ErrorCode::ArcMixedFormats,
+        ErrorCode::ArcOffsetWrongPlane,
+        ErrorCode::ArcRadiusTooSmall,
+        ErrorCode::ArcRadiusMismatch,
+        ErrorCode::ArcZeroRadius,
+        ErrorCode::ArcEndEqualsStart,
+        ErrorCode::ArcEndPointMissing,
+        ErrorCode::ArcTurnsInvalid,
+        ErrorCode::InverseTimeFeedMissing,
+        ErrorCode::CoordinateOverflow,
+        ErrorCode::ArcAbsoluteCenterMissing,
+        ErrorCode::CycleRMissing,
+        ErrorCode::CycleDepthMissing,
+        ErrorCode::CycleRBelowBottom,
+        ErrorCode::CycleQInvalid,
+        ErrorCode::CycleDwellMissing,
+        ErrorCode::CycleSpindleState,
+        ErrorCode::CycleInverseTime,
+        ErrorCode::CycleRotaryAxis,
+        ErrorCode::CycleRepeatInvalid,
+        ErrorCode::CyclePeckNotAboveRetract,
+        ErrorCode::CycleNotSupported,
+        ErrorCode::G10Invalid,
+        ErrorCode::ToolNotInTable,
+        ErrorCode::G53Invalid,
+        ErrorCode::CutterCompNotSupported,
+        ErrorCode::DwellTimeMissing,
+        ErrorCode::NotSupported,
+        ErrorCode::MissingAxisWords,
+        ErrorCode::UnknownProgram,
+        ErrorCode::DuplicateProgram,
+        ErrorCode::NestingTooDeep,
+        ErrorCode::SubprogramPMissing,
+        ErrorCode::SubprogramWithoutM99,
+        ErrorCode::SourceJumpFailed,
+    ];
+
+    /// The stable number of the code (`E` + this number in messages).
+    pub const fn number(self) -> u16 {
+        use ErrorCode::*;
+        match self {
+            UnexpectedCharacter => 101,
+            MissingNumber => 102,
+            UnclosedComment => 103,
+            NumberOutOfRange => 104,
+            BadWordFormat => 105,
+            RepeatedWord => 201,
+            ModalGroupConflict => 202,
+            MCodeGroupConflict => 203,
+            UnknownGCode => 204,
+            UnknownMCode => 205,
+            ValueOutOfRange => 206,
+            NotAnInteger => 207,
+            TooManyMCodes => 208,
+            AxisWordsConflict => 209,
+            AxisWordsWithoutMotion => 210,
+            UnusedWord => 211,
+            AxisNotConfigured => 212,
+            ZeroFeedRate => 301,
+            ArcCenterMissing => 302,
+            ArcMixedFormats => 303,
+            ArcOffsetWrongPlane => 304,
+            ArcRadiusTooSmall => 305,
+            ArcRadiusMismatch => 306,
+            ArcZeroRadius => 307,
+            ArcEndEqualsStart => 308,
+            ArcEndPointMissing => 309,
+            ArcTurnsInvalid => 310,
+            InverseTimeFeedMissing => 311,
+            CoordinateOverflow => 312,
+            ArcAbsoluteCenterMissing => 313,
+            CycleRMissing => 401,
+            CycleDepthMissing => 402,
+            CycleRBelowBottom => 403,
+            CycleQInvalid => 404,
+            CycleDwellMissing => 405,
+            CycleSpindleState => 406,
+            CycleInverseTime => 407,
+            CycleRotaryAxis => 408,
+            CycleRepeatInvalid => 409,
+            CyclePeckNotAboveRetract => 410,
+            CycleNotSupported => 411,
+            G10Invalid => 501,
+            ToolNotInTable => 502,
+            G53Invalid => 503,
+            CutterCompNotSupported => 504,
+            DwellTimeMissing => 505,
+            NotSupported => 506,
+            MissingAxisWords => 507,
+            UnknownProgram => 601,
+            DuplicateProgram => 602,
+            NestingTooDeep => 603,
+            SubprogramPMissing => 604,
+            SubprogramWithoutM99 => 605,
+            SourceJumpFailed => 606,
+        }
+    }
+
+    /// A one-line explanation for the operator.
+    pub const fn message(self) -> &'static str {
+        use ErrorCode::*;
+        match self {
+            UnexpectedCharacter => "unexpected character (expected a word letter followed by a number)",
+            MissingNumber => "a word letter must be followed by a number",
+            UnclosedComment => "comment '(' is not closed on this line",
+            NumberOutOfRange => "number too large for this word",
+            BadWordFormat => "word format not allowed in this dialect (gixa: G needs two digits, M00/M01 need the leading zero)",
+            RepeatedWord => "the same word appears twice in one block",
+            ModalGroupConflict => "two G codes of the same modal group in one block",
+            MCodeGroupConflict => "two M codes of the same group in one block",
+            UnknownGCode => "unknown or unsupported G code",
+            UnknownMCode => "unknown M code (not built in and not a user M code of the setup)",
+            ValueOutOfRange => "value out of range for this word",
+            NotAnInteger => "this word needs a whole number",
+            TooManyMCodes => "more than 5 M words in one block",
+            AxisWordsConflict => "two G codes in this block both use the axis words",
+            AxisWordsWithoutMotion => "axis words without a motion mode to use them (G80 is active)",
+            UnusedWord => "word not used by any G or M code of this block",
+            AxisNotConfigured => "axis word for an axis this machine does not have",
+            ZeroFeedRate => "feed move with zero feed rate (program an F word)",
+            ArcCenterMissing => "arc needs R or I/J/K words",
+            ArcMixedFormats => "arc with both R and I/J/K words",
+            ArcOffsetWrongPlane => "arc centre word does not belong to the selected plane",
+            ArcRadiusTooSmall => "arc radius too small to reach the end point",
+            ArcRadiusMismatch => "radius to the arc end point differs from radius to the start point",
+            ArcZeroRadius => "zero-radius arc (centre on the start or end point)",
+            ArcEndEqualsStart => "R-format arc with end point equal to the start point",
+            ArcEndPointMissing => "R-format arc without end-point words in the selected plane",
+            ArcTurnsInvalid => "arc P (turns) must be a positive whole number",
+            InverseTimeFeedMissing => "G93 inverse time: every feed move needs an F word",
+            CoordinateOverflow => "coordinate, offset or feed out of the representable range",
+            ArcAbsoluteCenterMissing => "centre word missing for an arc in absolute centre mode (G90.1)",
+            CycleRMissing => "canned cycle needs an R word in its first block",
+            CycleDepthMissing => "canned cycle needs its depth word (Z in G17) in its first block",
+            CycleRBelowBottom => "canned cycle R plane is below the bottom of the hole",
+            CycleQInvalid => "peck cycle needs a positive Q (peck depth)",
+            CycleDwellMissing => "canned cycle needs a dwell P in its first block",
+            CycleSpindleState => "spindle state wrong for this cycle (G84 needs M3, G86 needs the spindle on)",
+            CycleInverseTime => "canned cycles cannot run in G93 inverse-time mode",
+            CycleRotaryAxis => "rotary axis words are not allowed in a canned-cycle block",
+            CycleRepeatInvalid => "canned-cycle repeat count (K/L) must be a whole number >= 0",
+            CyclePeckNotAboveRetract => "G87 peck Q must be larger than the partial-retract distance",
+            CycleNotSupported => "canned cycle not supported in this dialect",
+            G10Invalid => "G10 needs L2 or L20 and P0..P9",
+            ToolNotInTable => "tool not in the tool table",
+            G53Invalid => "G53 needs G0 or G1 and absolute distance mode (G90)",
+            CutterCompNotSupported => "cutter radius compensation (G41/G42) is not supported yet",
+            DwellTimeMissing => "G4 dwell needs a P time",
+            NotSupported => "feature not supported by this interpreter or dialect",
+            MissingAxisWords => "this G code needs axis words",
+            UnknownProgram => "subprogram (O number) not found in the program",
+            DuplicateProgram => "the same O number is defined twice in the program",
+            NestingTooDeep => "subprogram calls nested too deeply",
+            SubprogramPMissing => "M98 needs a P word (program number)",
+            SubprogramWithoutM99 => "end of file inside a subprogram (missing M99)",
+            SourceJumpFailed => "cannot jump to that line of the program",
+        }
+    }
+}

@@ -1,0 +1,310 @@
+//! Integer geometry for the interpreter: square roots, arc centres, radius checks and sweep angles.
+//!
+//! All arithmetic is on `i64` nanometres with `i128` intermediates; the angle routine is a CORDIC
+//! over a constant table, so results are bit-identical on every target and no float is involved.
+
+use super::error::ErrorCode;
+use crate::units::Nm;
+
+/// Floor of the square root of `v`.
+pub fn isqrt(v: u128) -> u128 {
+    if v < 2 {
+        return v;
+    }
+    // Initial guess from the bit length, then Newton iterations (monotone from above).
+    let bits = 128 - v.leading_zeros();
+    let mut x: u128 = 1u128 << bits.div_ceil(2);
+    loop {
+        let y = (x + v / x) / 2;
+        if y >= x {
+            return x;
+        }
+        x = y;
+    }
+}
+
+/// Square root rounded to the nearest integer.
+pub fn isqrt_round(v: u128) -> u128 {
+    let r = isqrt(v);
+    // (r + 0.5)^2 = r^2 + r + 0.25 ; round up when v > r^2 + r.
+    if v > r * r + r {
+        r + 1
+    } else {
+        r
+    }
+}
+
+/// Length of a 2-D vector, rounded to the nearest nm.
+pub fn hypot(a: Nm, b: Nm) -> Nm {
+    let s = (a as i128) * (a as i128) + (b as i128) * (b as i128);
+    isqrt_round(s as u128) as Nm
+}
+
+/// Length of a 3-D vector, rounded.
+pub fn hypot3(a: Nm, b: Nm, c: Nm) -> Nm {
+    let s = (a as i128) * (a as i128) + (b as i128) * (b as i128) + (c as i128) * (c as i128);
+    isqrt_round(s as u128) as Nm
+}
+
+/// Divides rounding half away from zero.
+pub fn div_round(n: i128, d: i128) -> i128 {
+    let q = n / d;
+    let r = n % d;
+    if 2 * r.abs() >= d.abs() {
+        if (n < 0) != (d < 0) {
+            q - 1
+        } else {
+            q + 1
+        }
+    } else {
+        q
+    }
+}
+
+/// LinuxCNC's arc tolerances for the current length units, in nm.
+#[derive(Clone, Copy, Debug)]
+pub struct ArcTolerances {
+    /// Smallest radius (and largest R-format chord excess).
+    pub radius: Nm,
+    /// Absolute start/end radius difference allowed when the relative error exceeds 0.1 %.
+    pub spiral_abs: Nm,
+}
+
+impl ArcTolerances {
+    /// Metric: 0.00127 mm and 0.02·√2 mm; inch: 0.00005 in and 0.002·√2 in.
+    pub fn for_units(inch: bool) -> Self {
+        if inch {
+            ArcTolerances {
+                radius: 1_270,
+                spiral_abs: 71_842,
+            }
+        } else {
+            ArcTolerances {
+                radius: 1_270,
+                spiral_abs: 28_284,
+            }
+        }
+    }
+}
+
+/// Checks an I/J/K arc: both radii above the minimum, end on the circle within LinuxCNC's rule
+/// (error if |r1-r2| > 100·abs, or if the relative error > 0.1 % and |r1-r2| > abs).
+pub fn check_center_arc(
+    start: (Nm, Nm),
+    end: (Nm, Nm),
+    center: (Nm, Nm),
+    tol: ArcTolerances,
+) -> Result<(), ErrorCode> {
+    let r1 = hypot(start.0 - center.0, start.1 - center.1);
+    let r2 = hypot(end.0 - center.0, end.1 - center.1);
+    if r1 < tol.radius || r2 < tol.radius {
+        return Err(ErrorCode::ArcZeroRadius);
+    }
+    let abs_err = (r1 - r2).abs() as i128;
+    let max_r = r1.max(r2) as i128;
+    let spiral = tol.spiral_abs as i128;
+    if abs_err > spiral * 100 || (abs_err * 1000 > max_r && abs_err > spiral) {
+        return Err(ErrorCode::ArcRadiusMismatch);
+    }
+    Ok(())
+}
+
+/// Centre of an R-format arc (LinuxCNC `arc_data_r`): positive R is the short way, negative R the
+/// long way; `cw` is G2.
+pub fn r_format_center(
+    start: (Nm, Nm),
+    end: (Nm, Nm),
+    radius: Nm,
+    cw: bool,
+    tol: ArcTolerances,
+) -> Result<(Nm, Nm), ErrorCode> {
+    if start == end {
+        return Err(ErrorCode::ArcEndEqualsStart);
+    }
+    let abs_r = radius.unsigned_abs() as i128;
+    let dx = (end.0 - start.0) as i128;
+    let dy = (end.1 - start.1) as i128;
+    let chord_sq = dx * dx + dy * dy;
+    let chord = isqrt_round(chord_sq as u128) as i128;
+    // half_length - |R| > tolerance  <=>  chord - 2|R| > 2 tolerance
+    if chord - 2 * abs_r > 2 * tol.radius as i128 {
+        return Err(ErrorCode::ArcRadiusTooSmall);
+    }
+    // Distance from the chord midpoint to the centre: sqrt(R^2 - (chord/2)^2), computed in
+    // doubled units: 2*offset = sqrt(4R^2 - chord^2).
+    let four_r_sq = 4 * abs_r * abs_r;
+    let offset2 = if chord_sq >= four_r_sq {
+        0
+    } else {
+        isqrt_round((four_r_sq - chord_sq) as u128) as i128
+    };
+    // Unit perpendicular: right of the chord for (G2, R>0) or (G3, R<0), else left.
+    let right = cw == (radius > 0);
+    let (px, py) = if right { (dy, -dx) } else { (-dy, dx) };
+    // centre = mid + (offset2/2) * p / chord, everything doubled then halved once.
+    let mid2x = (start.0 as i128) + (end.0 as i128);
+    let mid2y = (start.1 as i128) + (end.1 as i128);
+    let cx2 = mid2x * chord + offset2 * px;
+    let cy2 = mid2y * chord + offset2 * py;
+    let cx = div_round(cx2, 2 * chord);
+    let cy = div_round(cy2, 2 * chord);
+    Ok((cx as Nm, cy as Nm))
+}
+
+/// Angles in units of 2^-48 radian.
+pub const ANGLE_ONE: i64 = 1 << 48;
+/// π in 2^-48 rad.
+pub const PI: i64 = 884_279_719_003_555;
+
+const ATAN_TABLE: [i64; 48] = [
+    221069929750889,
+    130505199945453,
+    68955363498242,
+    35002819193903,
+    17569333089919,
+    8793231387230,
+    4397688649582,
+    2198978517948,
+    1099506035422,
+    549755114839,
+    274877819563,
+    137438942549,
+    68719475371,
+    34359738197,
+    17179869163,
+    8589934589,
+    4294967296,
+    2147483648,
+    1073741824,
+    536870912,
+    268435456,
+    134217728,
+    67108864,
+    33554432,
+    16777216,
+    8388608,
+    4194304,
+    2097152,
+    1048576,
+    524288,
+    262144,
+    131072,
+    65536,
+    32768,
+    16384,
+    8192,
+    4096,
+    2048,
+    1024,
+    512,
+    256,
+    128,
+    64,
+    32,
+    16,
+    8,
+    4,
+    2,
+];
+
+/// atan2(y, x) in 2^-48 rad, in (-π, π]; 0 for the zero vector.
+pub fn atan2(y: i128, x: i128) -> i64 {
+    if y == 0 {
+        return if x < 0 { PI } else { 0 };
+    }
+    // Scale into ±2^58 so CORDIC growth (×1.65) cannot overflow i64.
+    let m = x.unsigned_abs().max(y.unsigned_abs());
+    let bits = 128 - m.leading_zeros();
+    let shift = bits.saturating_sub(58);
+    let (mut x, mut y) = ((x >> shift) as i64, (y >> shift) as i64);
+    let mut angle: i64 = 0;
+    if x < 0 {
+        if y >= 0 {
+            (x, y) = (y, -x);
+            angle = PI / 2;
+        } else {
+            (x, y) = (-y, x);
+            angle = -PI / 2;
+        }
+    }
+    for (i, &a) in ATAN_TABLE.iter().enumerate() {
+        let (xs, ys) = (x >> i, y >> i);
+        if y > 0 {
+            x += ys;
+            y -= xs;
+            angle += a;
+        } else {
+            x -= ys;
+            y += xs;
+            angle -= a;
+        }
+    }
+    if angle <= -PI {
+        angle += 2 * PI;
+    }
+    angle
+}
+
+/// Swept angle (2^-48 rad, > 0) of an arc from `start` to `end` about `center`, `turns` ≥ 1.
+pub fn sweep(start: (Nm, Nm), end: (Nm, Nm), center: (Nm, Nm), ccw: bool, turns: u32) -> i128 {
+    let (sx, sy) = ((start.0 - center.0) as i128, (start.1 - center.1) as i128);
+    let (ex, ey) = ((end.0 - center.0) as i128, (end.1 - center.1) as i128);
+    let cross = sx * ey - sy * ex;
+    let dot = sx * ex + sy * ey;
+    let a = atan2(cross, dot) as i128;
+    let two_pi = 2 * PI as i128;
+    let mut s = if ccw { a } else { -a };
+    if s <= 0 {
+        s += two_pi;
+    }
+    s + (turns.max(1) as i128 - 1) * two_pi
+}
+
+/// Path length of a helical arc: sqrt((sweep·r)^2 + normal^2), in nm.
+pub fn arc_length(sweep: i128, radius: Nm, normal: Nm) -> i128 {
+    let planar = (sweep * radius as i128) >> 48;
+    let s = planar * planar + (normal as i128) * (normal as i128);
+    isqrt_round(s as u128) as i128
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn square_roots() {
+        assert_eq!(isqrt(0), 0);
+        assert_eq!(isqrt(15), 3);
+        assert_eq!(isqrt(16), 4);
+        assert_eq!(isqrt(u128::MAX), u64::MAX as u128);
+        assert_eq!(isqrt_round(15), 4);
+        assert_eq!(hypot(3_000_000, 4_000_000), 5_000_000);
+    }
+
+    #[test]
+    fn r_format_centres_from_seed_002() {
+        let tol = ArcTolerances::for_units(false);
+        // G2 X10 Y0 R10 from the origin: centre (5, -8.660254)
+        let c = r_format_center((0, 0), (10_000_000, 0), 10_000_000, true, tol).unwrap();
+        assert_eq!(c, (5_000_000, -8_660_254));
+        let c = r_format_center((0, 0), (10_000_000, 0), -10_000_000, true, tol).unwrap();
+        assert_eq!(c, (5_000_000, 8_660_254));
+        // exact semicircle
+        let c = r_format_center((0, 0), (10_000_000, 0), 5_000_000, true, tol).unwrap();
+        assert_eq!(c, (5_000_000, 0));
+        assert_eq!(
+            r_format_center((0, 0), (10_000_000, 0), 4_000_000, true, tol),
+            Err(ErrorCode::ArcRadiusTooSmall)
+        );
+    }
+
+    #[test]
+    fn cordic_angles() {
+        let quarter = atan2(1, 0);
+        assert!((quarter - PI / 2).abs() < 16, "{quarter}");
+        assert!((atan2(0, -5) - PI).abs() < 16);
+        assert!((atan2(-1, -1) + 3 * PI / 4).abs() < 16);
+        let full = sweep((10, 0), (10, 0), (0, 0), true, 1);
+        assert_eq!(full, 2 * PI as i128);
+    }
+}

@@ -1,0 +1,1179 @@
+//! The interpreter: pulls lines from a [`ProgramSource`], executes each block in RS274NGC order and
+//! hands out canonical actions one at a time.
+//!
+//! A block expands into a small queue of actions (spindle, coolant, motion, stop...); canned cycles
+//! are expanded lazily by [`CycleRun`], and subprogram calls only move the source, so memory stays
+//! bounded whatever the program does. A failing block restores the state saved before it and
+//! produces no action.
+
+use heapless::Deque;
+
+use super::block::{parse_block, Block, BlockError, GGroup, MGroup};
+use super::config::{ArcCenterMode, Dialect, DwellUnits, InterpConfig};
+use super::cycles::{CycleBody, CycleRun};
+use super::error::{ErrorCode, GcodeError};
+use super::geometry::{self, ArcTolerances};
+use super::lexer::{Lexer, LineStart, Word, MICRO};
+use super::source::{ProgramSource, SourceError};
+use super::state::{CycleMemory, ModalState, MotionMode};
+use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
+use crate::units::{Nm, Pos, MAX_AXES};
+
+/// Capacity of the per-block action queue.
+pub const QUEUE_CAPACITY: usize = 16;
+/// Deepest subprogram nesting.
+pub const MAX_NESTING: usize = 16;
+/// Largest coordinate magnitude accepted (100 m).
+const MAX_COORD: Nm = 100_000_000_000_000 / 1000;
+/// Largest axis word value (999999.999999 units).
+const MAX_WORD: i64 = 999_999_999_999;
+
+const AXIS_LETTERS: [u8; MAX_AXES] = [b'X', b'Y', b'Z', b'A', b'B', b'C'];
+
+/// What runs after the block's motion (and its canned cycle) is out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Post {
+    None,
+    Stop(StopKind, u32),
+}
+
+/// One subprogram call on the stack.
+#[derive(Clone, Copy, Debug)]
+struct Frame {
+    /// Line to continue at after the last repeat.
+    return_line: u32,
+    /// First line of the subprogram (for repeats).
+    start_line: u32,
+    /// Repeats still to run, including the current one.
+    remaining: u32,
+}
+
+/// The G-code interpreter (see the module documentation).
+pub struct Interpreter {
+    config: InterpConfig,
+    state: ModalState,
+    queue: Deque<Canon, QUEUE_CAPACITY>,
+    cycle: Option<CycleRun>,
+    post: Post,
+    stack: heapless::Vec<Frame, MAX_NESTING>,
+    finished: bool,
+    percent_lines: u8,
+    restarts: u32,
+}
+
+const _: () = assert!(core::mem::size_of::<Interpreter>() <= 4096);
+
+type Res<T> = Result<T, BlockError>;
+
+fn err<T>(code: ErrorCode, word: Option<Word>) -> Res<T> {
+    Err((code, word.map(|w| w.cols)))
+}
+
+impl Interpreter {
+    /// A fresh interpreter for a setup (power-up modal state, offsets from the setup).
+    pub fn new(config: &InterpConfig) -> Self {
+        Interpreter {
+            config: config.clone(),
+            state: ModalState::new(config),
+            queue: Deque::new(),
+            cycle: None,
+            post: Post::None,
+            stack: heapless::Vec::new(),
+            finished: false,
+            percent_lines: 0,
+            restarts: 0,
+        }
+    }
+
+    /// The modal state and position after the last interpreted block (for status and resume).
+    pub fn state(&self) -> &ModalState {
+        &self.state
+    }
+
+    /// Replaces the modal state (resume from a line with a state rebuilt by the host).
+    pub fn set_state(&mut self, state: ModalState) {
+        self.state = state;
+    }
+
+    /// Block-delete switch (`/` blocks skipped when on).
+    pub fn set_block_delete(&mut self, on: bool) {
+        self.config.block_delete = on;
+    }
+
+    /// Optional-stop switch (M1 stops when on).
+    pub fn set_optional_stop(&mut self, on: bool) {
+        self.config.optional_stop = on;
+    }
+
+    /// The setup in use.
+    pub fn config(&self) -> &InterpConfig {
+        &self.config
+    }
+
+    /// True once M2/M30, the closing `%`, `E` or the end of the file was reached.
+    pub fn is_finished(&self) -> bool {
+        self.finished && self.queue.is_empty() && self.cycle.is_none() && self.post == Post::None
+    }
+
+    /// How many times M99 in the main program restarted it.
+    pub fn restarts(&self) -> u32 {
+        self.restarts
+    }
+
+    /// Current subprogram nesting depth.
+    pub fn call_depth(&self) -> usize {
+        self.stack.len()
+    }
+
+    /// Starts the program again (after M30): keeps modal state, clears the call stack.
+    pub fn rewind(&mut self) {
+        self.queue.clear();
+        self.cycle = None;
+        self.post = Post::None;
+        self.stack.clear();
+        self.finished = false;
+        self.percent_lines = 0;
+    }
+
+    /// The next canonical action, an error of the next bad block, or `None` at the end.
+    /// After an error the next call continues with the following line.
+    pub fn next(&mut self, src: &mut impl ProgramSource) -> Option<Result<Canon, GcodeError>> {
+        loop {
+            if let Some(c) = self.queue.pop_front() {
+                return Some(Ok(c));
+            }
+            if let Some(run) = self.cycle.as_mut() {
+                let queue = &mut self.queue;
+                let more = run.step(&mut |c| {
+                    // Capacity is guaranteed: the queue is empty when a step starts.
+                    let _ = queue.push_back(c);
+                });
+                if !more {
+                    self.cycle = None;
+                }
+                continue;
+            }
+            if let Post::Stop(kind, line) = self.post {
+                self.post = Post::None;
+                let _ = self.queue.push_back(Canon {
+                    line,
+                    action: Action::Stop(kind),
+                });
+                continue;
+            }
+            if self.finished {
+                return None;
+            }
+            let (line, parsed) = match src.next_line() {
+                Some((line, bytes)) => (line, self.parse_line(bytes)),
+                None => {
+                    self.finished = true;
+                    if !self.stack.is_empty() {
+                        self.stack.clear();
+                        return Some(Err(GcodeError {
+                            line: 0,
+                            n_word: None,
+                            columns: None,
+                            code: ErrorCode::SubprogramWithoutM99,
+                        }));
+                    }
+                    return None;
+                }
+            };
+            let mut block = match parsed {
+                Ok(Some(b)) => b,
+                Ok(None) => continue,
+                Err((n_word, (code, columns))) => {
+                    return Some(Err(GcodeError {
+                        line,
+                        n_word,
+                        columns,
+                        code,
+                    }))
+                }
+            };
+            let saved = self.state;
+            let saved_finished = self.finished;
+            match self.execute(&mut block, line, src) {
+                Ok(()) => {}
+                Err((code, columns)) => {
+                    self.state = saved;
+                    self.finished = saved_finished;
+                    self.queue.clear();
+                    self.cycle = None;
+                    self.post = Post::None;
+                    return Some(Err(GcodeError {
+                        line,
+                        n_word: block.n,
+                        columns,
+                        code,
+                    }));
+                }
+            }
+        }
+    }
+}
+
+/// Plane axes for arcs: (first, second, normal), so that G2 turns first → second clockwise seen
+/// from the positive normal axis.
+fn arc_axes(plane: Plane) -> (usize, usize, usize) {
+    match plane {
+        Plane::XY => (0, 1, 2),
+        Plane::ZX => (2, 0, 1),
+        Plane::YZ => (1, 2, 0),
+    }
+}
+
+impl Interpreter {
+    fn parse_line(&mut self, bytes: &[u8]) -> Result<Option<Block>, (Option<u32>, BlockError)> {
+        let mut lexer = Lexer::new(bytes, true);
+        match lexer.start() {
+            LineStart::Percent => {
+                self.percent_lines = self.percent_lines.saturating_add(1);
+                if self.percent_lines >= 2 {
+                    self.finished = true;
+                }
+                return Ok(None);
+            }
+            LineStart::EndOfTape => {
+                self.finished = true;
+                return Ok(None);
+            }
+            LineStart::Block => {}
+        }
+        if lexer.block_delete && self.config.block_delete {
+            return Ok(None);
+        }
+        match parse_block(&mut lexer, &self.config) {
+            Ok(b) if b.empty => Ok(None),
+            Ok(b) => Ok(Some(b)),
+            Err(e) => Err((super::source::leading_number(bytes, b"N"), e)),
+        }
+    }
+
+    fn push(&mut self, line: u32, action: Action) -> Res<()> {
+        self.queue
+            .push_back(Canon { line, action })
+            .map_err(|_| (ErrorCode::NotSupported, None))
+    }
+
+    fn gixa(&self) -> bool {
+        self.config.dialect == Dialect::Gixa
+    }
+
+    /// A length word in program units to nm (inch: ×25.4, rounded to the nearest nm).
+    fn len(&self, value: i64) -> Nm {
+        if self.state.inch {
+            geometry::div_round(value as i128 * 254, 10) as Nm
+        } else {
+            value
+        }
+    }
+
+    /// An axis word to nm (linear) or 1e-6 degree (rotary), range-checked.
+    fn axis_value(&self, axis: usize, w: Word) -> Res<Nm> {
+        if w.value.abs() > MAX_WORD {
+            return err(ErrorCode::NumberOutOfRange, Some(w));
+        }
+        Ok(if axis < 3 { self.len(w.value) } else { w.value })
+    }
+
+    fn len_word(&self, w: Word) -> Res<Nm> {
+        self.axis_value(0, w)
+    }
+
+    fn integer(w: Word, max: i64) -> Res<i64> {
+        let v = w.integer().ok_or((ErrorCode::NotAnInteger, Some(w.cols)))?;
+        if v < 0 || v > max {
+            return err(ErrorCode::ValueOutOfRange, Some(w));
+        }
+        Ok(v)
+    }
+
+    /// Dwell time of a P (or Fanuc X) word in microseconds.
+    fn dwell_us(&self, w: Word) -> Res<u64> {
+        if w.value < 0 {
+            return err(ErrorCode::ValueOutOfRange, Some(w));
+        }
+        let v = w.value as u64;
+        Ok(if self.gixa() {
+            // Hundredths of a second.
+            v / 100
+        } else {
+            match self.config.dwell_units {
+                DwellUnits::Seconds => v,
+                DwellUnits::FanucIntegerMillis if w.has_point => v,
+                DwellUnits::FanucIntegerMillis => v / 1000,
+            }
+        })
+    }
+
+    /// The machine end point of a move from the block's axis words (consumed).
+    fn target(&self, b: &mut Block, g53: bool) -> Res<Pos> {
+        let mut to = self.state.position;
+        let offset = self.state.offset();
+        for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
+            if let Some(w) = b.take(letter) {
+                let v = self.axis_value(i, w)?;
+                let m = if g53 {
+                    v
+                } else if self.state.absolute {
+                    v + offset[i]
+                } else {
+                    to[i] + v
+                };
+                if m.abs() > MAX_COORD {
+                    return err(ErrorCode::CoordinateOverflow, Some(w));
+                }
+                to[i] = m;
+            }
+        }
+        Ok(to)
+    }
+
+    /// Feed (nm/min, or 1e-6 deg/min for rotary-only moves) of a straight feed move.
+    fn straight_feed(&self, from: Pos, to: Pos, f_given: bool) -> Res<i64> {
+        let d = |i: usize| to[i] - from[i];
+        let linear = (0..3).any(|i| d(i) != 0);
+        let rotary = (3..MAX_AXES).any(|i| d(i) != 0);
+        if self.state.inverse_time {
+            if !f_given {
+                return err(ErrorCode::InverseTimeFeedMissing, None);
+            }
+            if self.state.feed == 0 {
+                return err(ErrorCode::ZeroFeedRate, None);
+            }
+            let length = if linear || !rotary {
+                geometry::hypot3(d(0), d(1), d(2))
+            } else {
+                geometry::hypot3(d(3), d(4), d(5))
+            };
+            return self.inverse_time_feed(length as i128);
+        }
+        if self.state.feed == 0 {
+            return err(ErrorCode::ZeroFeedRate, None);
+        }
+        Ok(if !linear && rotary {
+            self.state.feed
+        } else {
+            self.len(self.state.feed)
+        })
+    }
+
+    fn inverse_time_feed(&self, length: i128) -> Res<i64> {
+        let feed = length * self.state.feed as i128 / MICRO as i128;
+        if feed > i64::MAX as i128 / 4 {
+            return err(ErrorCode::CoordinateOverflow, None);
+        }
+        Ok((feed as i64).max(1))
+    }
+
+    fn execute(&mut self, b: &mut Block, line: u32, src: &mut impl ProgramSource) -> Res<()> {
+        let gixa = self.gixa();
+        for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
+            if i >= self.config.axis_count as usize {
+                if let Some(w) = b.word(letter) {
+                    return err(ErrorCode::AxisNotConfigured, Some(w));
+                }
+            }
+        }
+        if let Some(c) = b.g[GGroup::CutterComp as usize] {
+            if c.code != 400 {
+                return Err((ErrorCode::CutterCompNotSupported, Some(c.cols)));
+            }
+        }
+        if gixa && b.has_m(98) {
+            if let Some(o) = b.word(b'O') {
+                return err(ErrorCode::NotSupported, Some(o));
+            }
+        }
+        b.take(b'O');
+        let nonmodal = b.g_of(GGroup::NonModal);
+        // Fanuc: G4 X<time> is a dwell, not a move.
+        let dwell_word = if nonmodal == Some(40) {
+            match b.take(b'P') {
+                Some(p) => Some(p),
+                None if !gixa => b.take(b'X'),
+                None => None,
+            }
+        } else {
+            None
+        };
+        let motion_g = b.g[GGroup::Motion as usize];
+        let first_axis = AXIS_LETTERS.iter().find_map(|&l| b.word(l));
+        let nonmodal_axes = matches!(nonmodal, Some(100 | 280 | 300 | 920))
+            || b.g_of(GGroup::ToolLength) == Some(431);
+        if nonmodal_axes {
+            if let Some(m) = motion_g {
+                if m.code != 800 {
+                    return Err((ErrorCode::AxisWordsConflict, Some(m.cols)));
+                }
+            }
+        }
+        let motion = match motion_g {
+            Some(m) => Some(decode_motion(m.code)),
+            None if first_axis.is_some() && !nonmodal_axes => Some(self.state.motion),
+            None => None,
+        };
+        if motion == Some(MotionMode::None) && !nonmodal_axes && !(gixa && motion_g.is_some()) {
+            if let Some(w) = first_axis {
+                return err(ErrorCode::AxisWordsWithoutMotion, Some(w));
+            }
+        }
+        let f_given = b.has(b'F');
+
+        // 1. feed mode, F, S, T
+        match b.g_of(GGroup::FeedMode) {
+            Some(930) => self.state.inverse_time = true,
+            Some(940) => self.state.inverse_time = false,
+            _ => {}
+        }
+        if let Some(w) = b.take(b'F') {
+            if w.value < 0 {
+                return err(ErrorCode::ValueOutOfRange, Some(w));
+            }
+            if w.value > MAX_WORD {
+                return err(ErrorCode::NumberOutOfRange, Some(w));
+            }
+            self.state.feed = w.value;
+        }
+        let s_word = b.take(b'S');
+        if let Some(w) = s_word {
+            if w.value < 0 {
+                return err(ErrorCode::ValueOutOfRange, Some(w));
+            }
+            self.state.rpm = ((w.value + MICRO / 2) / MICRO).min(u32::MAX as i64) as u32;
+        }
+        if let Some(w) = b.take(b'T') {
+            self.state.tool_selected = Self::integer(w, 99_999_999)? as u32;
+        }
+        // 2. M6, spindle, coolant, user M codes (in RS274NGC order)
+        if b.has_m(6) {
+            self.state.tool_loaded = self.state.tool_selected;
+            let tool = self.state.tool_loaded;
+            self.push(line, Action::ToolChange { tool })?;
+        }
+        let spindle_m =
+            b.m.iter()
+                .find(|(g, _)| *g == MGroup::Spindle)
+                .map(|(_, c)| c.code);
+        if let Some(code) = spindle_m {
+            self.state.spindle = match code {
+                3 => Spindle::Cw,
+                4 => Spindle::Ccw,
+                _ => Spindle::Off,
+            };
+        }
+        if spindle_m.is_some() || (s_word.is_some() && self.state.spindle != Spindle::Off) {
+            let (state, rpm) = (self.state.spindle, self.state.rpm);
+            self.push(line, Action::Spindle { state, rpm })?;
+        }
+        if b.m.iter().any(|(g, _)| *g == MGroup::Coolant) {
+            if b.has_m(9) {
+                self.state.mist = false;
+                self.state.flood = false;
+            }
+            if b.has_m(7) {
+                self.state.mist = true;
+            }
+            if b.has_m(8) {
+                self.state.flood = true;
+            }
+            let (mist, flood) = (self.state.mist, self.state.flood);
+            self.push(line, Action::Coolant { mist, flood })?;
+        }
+        let mut user_codes: heapless::Vec<u16, 5> = heapless::Vec::new();
+        for (g, c) in b.m.iter() {
+            if *g == MGroup::User {
+                let _ = user_codes.push(c.code);
+            }
+        }
+        for code in user_codes {
+            self.push(line, Action::UserMCode { code })?;
+        }
+        // 3. dwell
+        if nonmodal == Some(40) {
+            let w = dwell_word.ok_or((ErrorCode::DwellTimeMissing, b.g_cols(40)))?;
+            let micros = self.dwell_us(w)?;
+            if gixa {
+                self.state.stored_dwell_us = micros;
+            } else {
+                self.push(line, Action::Dwell { micros })?;
+            }
+        }
+        // 4. plane, units, cutter comp (G40 only), tool length
+        match b.g_of(GGroup::Plane) {
+            Some(170) => self.state.plane = Plane::XY,
+            Some(180) => self.state.plane = Plane::ZX,
+            Some(190) => self.state.plane = Plane::YZ,
+            _ => {}
+        }
+        match b.g_of(GGroup::Units) {
+            Some(200) => self.state.inch = true,
+            Some(210) => self.state.inch = false,
+            _ => {}
+        }
+        match b.g_of(GGroup::ToolLength) {
+            Some(430) => {
+                let h = b.take(b'H');
+                let number = match h {
+                    Some(w) => Self::integer(w, 99_999_999)? as u32,
+                    None => self.state.tool_loaded,
+                };
+                let length = if number == 0 {
+                    0
+                } else {
+                    self.config
+                        .tool(number)
+                        .ok_or((
+                            ErrorCode::ToolNotInTable,
+                            h.map(|w| w.cols).or(b.g_cols(430)),
+                        ))?
+                        .length
+                };
+                self.state.tool_offset = [0, 0, length, 0, 0, 0];
+            }
+            Some(431) => {
+                let mut offset = [0; MAX_AXES];
+                for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
+                    if let Some(w) = b.take(letter) {
+                        offset[i] = self.axis_value(i, w)?;
+                    }
+                }
+                self.state.tool_offset = offset;
+            }
+            Some(490) => self.state.tool_offset = [0; MAX_AXES],
+            _ => {}
+        }
+        // 5. coordinate system, path mode, distance modes, retract mode
+        if let Some(code) = b.g_of(GGroup::Coordinate) {
+            self.state.work_system = match code {
+                540..=590 => ((code - 540) / 10) as u8,
+                c => (c - 591 + 6) as u8,
+            };
+        }
+        match b.g_of(GGroup::Path) {
+            Some(610) | Some(611) => {
+                self.state.path = PathMode::ExactStop;
+                self.push(line, Action::PathMode(PathMode::ExactStop))?;
+            }
+            Some(640) => {
+                let tolerance = match b.take(b'P') {
+                    Some(w) if w.value < 0 => return err(ErrorCode::ValueOutOfRange, Some(w)),
+                    Some(w) => self.len_word(w)?,
+                    None => 0,
+                };
+                self.state.path = PathMode::Blend { tolerance };
+                self.push(line, Action::PathMode(self.state.path))?;
+            }
+            _ => {}
+        }
+        match b.g_of(GGroup::Distance) {
+            Some(900) => self.state.absolute = true,
+            Some(910) => self.state.absolute = false,
+            _ => {}
+        }
+        match b.g_of(GGroup::ArcDistance) {
+            Some(901) => self.state.arc_absolute = true,
+            Some(911) => self.state.arc_absolute = false,
+            _ => {}
+        }
+        match b.g_of(GGroup::Return) {
+            Some(980) => self.state.retract_to_r = false,
+            Some(990) => self.state.retract_to_r = true,
+            _ => {}
+        }
+        // 6. G10 / G28 / G30 / G92 family
+        let g53 = nonmodal == Some(530);
+        match nonmodal {
+            Some(100) => self.set_work_offset(b)?,
+            Some(280) | Some(300) => {
+                let home = if nonmodal == Some(280) {
+                    self.state.g28
+                } else {
+                    self.state.g30
+                };
+                let named: [bool; MAX_AXES] = core::array::from_fn(|i| b.has(AXIS_LETTERS[i]));
+                let via = self.target(b, false)?;
+                self.push(line, Action::Rapid { to: via })?;
+                let mut to = via;
+                let any = named.iter().any(|&n| n);
+                for i in 0..MAX_AXES {
+                    if named[i] || (!any && i < self.config.axis_count as usize) {
+                        to[i] = home[i];
+                    }
+                }
+                self.push(line, Action::Rapid { to })?;
+                self.state.position = to;
+            }
+            Some(281) => self.state.g28 = self.state.position,
+            Some(301) => self.state.g30 = self.state.position,
+            Some(920) => {
+                if !AXIS_LETTERS.iter().any(|&l| b.has(l)) {
+                    return Err((ErrorCode::MissingAxisWords, b.g_cols(920)));
+                }
+                let w = self.state.work_offsets[self.state.work_system as usize];
+                for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
+                    if let Some(word) = b.take(letter) {
+                        let v = self.axis_value(i, word)?;
+                        self.state.g92[i] =
+                            self.state.position[i] - w[i] - self.state.tool_offset[i] - v;
+                    }
+                }
+                self.state.g92_saved = self.state.g92;
+            }
+            Some(921) => {
+                self.state.g92 = [0; MAX_AXES];
+                self.state.g92_saved = [0; MAX_AXES];
+            }
+            Some(922) => self.state.g92 = [0; MAX_AXES],
+            Some(923) => self.state.g92 = self.state.g92_saved,
+            _ => {}
+        }
+        // 7. motion
+        if let Some(mode) = motion {
+            if g53
+                && (!matches!(mode, MotionMode::Rapid | MotionMode::Linear) || !self.state.absolute)
+            {
+                return Err((ErrorCode::G53Invalid, b.g_cols(530)));
+            }
+            self.motion(b, line, mode, motion_g.is_some(), g53, f_given)?;
+        }
+        let (call_p, call_l) = if b.has_m(98) {
+            (b.take(b'P'), b.take(b'L'))
+        } else {
+            (None, None)
+        };
+        // 8. every word must have been used
+        if let Some(l) = b.letters().next() {
+            return err(ErrorCode::UnusedWord, b.word(l));
+        }
+        // 9. stops and program flow
+        self.flow(b, line, src, call_p, call_l)
+    }
+
+    fn set_work_offset(&mut self, b: &mut Block) -> Res<()> {
+        let g10 = b.g_cols(100);
+        let l = b.take(b'L').ok_or((ErrorCode::G10Invalid, g10))?;
+        let p = b.take(b'P').ok_or((ErrorCode::G10Invalid, g10))?;
+        let l_value = l.integer().ok_or((ErrorCode::G10Invalid, Some(l.cols)))?;
+        let p_value = p.integer().ok_or((ErrorCode::G10Invalid, Some(p.cols)))?;
+        if !(0..=9).contains(&p_value) {
+            return err(ErrorCode::G10Invalid, Some(p));
+        }
+        if let Some(r) = b.word(b'R') {
+            return err(ErrorCode::NotSupported, Some(r));
+        }
+        let index = if p_value == 0 {
+            self.state.work_system as usize
+        } else {
+            p_value as usize - 1
+        };
+        for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
+            if let Some(w) = b.take(letter) {
+                let v = self.axis_value(i, w)?;
+                let value = match l_value {
+                    2 => v,
+                    20 => {
+                        self.state.position[i] - self.state.g92[i] - self.state.tool_offset[i] - v
+                    }
+                    _ => return err(ErrorCode::G10Invalid, Some(l)),
+                };
+                self.state.work_offsets[index][i] = value;
+            }
+        }
+        if l_value != 2 && l_value != 20 {
+            return err(ErrorCode::G10Invalid, Some(l));
+        }
+        Ok(())
+    }
+
+    fn motion(
+        &mut self,
+        b: &mut Block,
+        line: u32,
+        mode: MotionMode,
+        explicit: bool,
+        g53: bool,
+        f_given: bool,
+    ) -> Res<()> {
+        let gixa = self.gixa();
+        match mode {
+            MotionMode::Rapid | MotionMode::Linear | MotionMode::ArcCw | MotionMode::ArcCcw => {
+                if explicit || !matches!(self.state.motion, MotionMode::Cycle(_)) {
+                    self.state.cycle = CycleMemory::default();
+                }
+            }
+            _ => {}
+        }
+        match mode {
+            MotionMode::Rapid => {
+                let to = self.target(b, g53)?;
+                if to != self.state.position || explicit || g53 {
+                    self.push(line, Action::Rapid { to })?;
+                }
+                self.state.position = to;
+            }
+            MotionMode::Linear => {
+                let has_axes = AXIS_LETTERS.iter().any(|&l| b.has(l));
+                let to = self.target(b, g53)?;
+                if has_axes {
+                    let feed = self.straight_feed(self.state.position, to, f_given)?;
+                    self.push(line, Action::Feed { to, feed })?;
+                }
+                self.state.position = to;
+            }
+            MotionMode::ArcCw | MotionMode::ArcCcw => {
+                self.arc(b, line, mode == MotionMode::ArcCw, f_given)?;
+            }
+            MotionMode::None => {
+                self.state.cycle = CycleMemory::default();
+                if gixa && explicit {
+                    self.state.motion = self.state.motion_before_cycle;
+                    return Ok(());
+                }
+            }
+            MotionMode::Cycle(code) => {
+                self.cycle(b, line, code)?;
+                if !matches!(self.state.motion, MotionMode::Cycle(_)) {
+                    self.state.motion_before_cycle = self.state.motion;
+                }
+            }
+        }
+        self.state.motion = mode;
+        Ok(())
+    }
+
+    fn arc(&mut self, b: &mut Block, line: u32, cw: bool, f_given: bool) -> Res<()> {
+        let gixa = self.gixa();
+        let plane = self.state.plane;
+        let (first, second, normal) = arc_axes(plane);
+        // Centre words for the first and second plane axes.
+        let (w_first, w_second, wrong): (Option<Word>, Option<Word>, Option<Word>);
+        let mut absolute_center = self.state.arc_absolute;
+        if gixa {
+            if let Some(r) = b.word(b'R') {
+                return err(ErrorCode::NotSupported, Some(r));
+            }
+            // I: X centre (Y in G19); J: Y centre in G17, Z centre in G18/G19.
+            let i = b.take(b'I');
+            let j = b.take(b'J');
+            let (for_x_or_y, for_y_or_z) = (i, j);
+            let map = |axis: usize| -> Option<Word> {
+                match (plane, axis) {
+                    (Plane::XY, 0) | (Plane::ZX, 0) | (Plane::YZ, 1) => for_x_or_y,
+                    _ => for_y_or_z,
+                }
+            };
+            w_first = map(first);
+            w_second = map(second);
+            wrong = b.word(b'K');
+            absolute_center = match self.config.gixa.arc_centers {
+                ArcCenterMode::Absolute => true,
+                ArcCenterMode::Incremental => false,
+                ArcCenterMode::FollowsDistanceMode => self.state.absolute,
+            };
+            if w_first.is_none() && w_second.is_none() {
+                return Err((ErrorCode::ArcCenterMissing, None));
+            }
+        } else {
+            let letter = |axis: usize| [b'I', b'J', b'K'][axis];
+            let has_ijk = b.has(b'I') || b.has(b'J') || b.has(b'K');
+            let r = b.word(b'R');
+            if r.is_none() && !has_ijk {
+                return Err((ErrorCode::ArcCenterMissing, None));
+            }
+            if let (Some(r), true) = (r, has_ijk) {
+                return err(ErrorCode::ArcMixedFormats, Some(r));
+            }
+            wrong = b.word(letter(normal));
+            w_first = b.take(letter(first));
+            w_second = b.take(letter(second));
+        }
+        if let Some(w) = wrong {
+            return err(ErrorCode::ArcOffsetWrongPlane, Some(w));
+        }
+        if self.state.inverse_time {
+            if !f_given {
+                return err(ErrorCode::InverseTimeFeedMissing, None);
+            }
+        }
+        if self.state.feed == 0 {
+            return err(ErrorCode::ZeroFeedRate, None);
+        }
+        let turns = match b.take(b'P') {
+            Some(p) if gixa => return err(ErrorCode::UnusedWord, Some(p)),
+            Some(p) => match p.integer() {
+                Some(t) if (1..=1_000_000).contains(&t) => t as u32,
+                _ => return err(ErrorCode::ArcTurnsInvalid, Some(p)),
+            },
+            None => 1,
+        };
+        let r_word = if gixa { None } else { b.take(b'R') };
+        if r_word.is_some() && !b.has(AXIS_LETTERS[first]) && !b.has(AXIS_LETTERS[second]) {
+            return Err((ErrorCode::ArcEndPointMissing, r_word.map(|w| w.cols)));
+        }
+        let start = self.state.position;
+        let to = self.target(b, false)?;
+        let offset = self.state.offset();
+        let tol = ArcTolerances::for_units(self.state.inch);
+        let s2 = (start[first], start[second]);
+        let e2 = (to[first], to[second]);
+        let center = match r_word {
+            Some(r) => {
+                let radius = self.len_word(r)?;
+                geometry::r_format_center(s2, e2, radius, cw, tol).map_err(|c| (c, Some(r.cols)))?
+            }
+            None => {
+                let value = |w: Option<Word>, axis: usize| -> Res<Nm> {
+                    match w {
+                        Some(w) => {
+                            let v = self.len_word(w)?;
+                            Ok(if absolute_center {
+                                v + offset[axis]
+                            } else {
+                                start[axis] + v
+                            })
+                        }
+                        None if absolute_center => Err((ErrorCode::ArcAbsoluteCenterMissing, None)),
+                        None => Ok(start[axis]),
+                    }
+                };
+                let c = (value(w_first, first)?, value(w_second, second)?);
+                geometry::check_center_arc(s2, e2, c, tol)
+                    .map_err(|code| (code, w_first.or(w_second).map(|w| w.cols)))?;
+                c
+            }
+        };
+        let feed = if self.state.inverse_time {
+            let sweep = geometry::sweep(s2, e2, center, !cw, turns);
+            let radius = geometry::hypot(s2.0 - center.0, s2.1 - center.1);
+            let length = geometry::arc_length(sweep, radius, to[normal] - start[normal]);
+            self.inverse_time_feed(length)?
+        } else {
+            self.len(self.state.feed)
+        };
+        let mut c3 = [0; 3];
+        c3[first] = center.0;
+        c3[second] = center.1;
+        c3[normal] = start[normal];
+        self.push(
+            line,
+            Action::Arc {
+                to,
+                center: c3,
+                plane,
+                dir: if cw { ArcDir::Cw } else { ArcDir::Ccw },
+                turns,
+                feed,
+            },
+        )?;
+        self.state.position = to;
+        Ok(())
+    }
+
+    fn cycle(&mut self, b: &mut Block, line: u32, code: u16) -> Res<()> {
+        let gixa = self.gixa();
+        let g_cols = b.g_cols(code);
+        let body = match (gixa, code) {
+            (false, 730) => CycleBody::PeckChipBreak,
+            (_, 810) => CycleBody::Drill,
+            (_, 820) => CycleBody::DrillDwell,
+            (_, 830) => CycleBody::PeckFull,
+            (_, 840) => CycleBody::Tap,
+            (_, 850) => CycleBody::Bore,
+            (false, 860) => CycleBody::BoreSpindleStop,
+            (true, 860) => CycleBody::DrillPause,
+            (true, 870) => CycleBody::PeckChipBreak,
+            (true, 880) => CycleBody::Punch,
+            (_, 890) => CycleBody::BoreDwell,
+            _ => return Err((ErrorCode::CycleNotSupported, g_cols)),
+        };
+        if self.state.inverse_time {
+            return Err((ErrorCode::CycleInverseTime, g_cols));
+        }
+        for &letter in &AXIS_LETTERS[3..] {
+            if let Some(w) = b.word(letter) {
+                return err(ErrorCode::CycleRotaryAxis, Some(w));
+            }
+        }
+        if self.state.feed == 0 && body != CycleBody::Punch {
+            return Err((ErrorCode::ZeroFeedRate, g_cols));
+        }
+        let (a, bx, c) = arc_axes(self.state.plane);
+        let same = self.state.motion == MotionMode::Cycle(code);
+        let prog = self.state.program_position();
+        let offset = self.state.offset();
+        let mem = self.state.cycle;
+        let a_w = b.take(AXIS_LETTERS[a]);
+        let b_w = b.take(AXIS_LETTERS[bx]);
+        let c_w = b.take(AXIS_LETTERS[c]);
+        let r_w = b.take(b'R');
+        let a_v = a_w.map(|w| self.axis_value(a, w)).transpose()?;
+        let b_v = b_w.map(|w| self.axis_value(bx, w)).transpose()?;
+        let initial = mem.initial_level.unwrap_or(prog[c]);
+        let r_raw = match r_w {
+            Some(w) => self.len_word(w)?,
+            None if same || gixa => mem.r.unwrap_or(0),
+            None => return Err((ErrorCode::CycleRMissing, g_cols)),
+        };
+        let depth_raw = match c_w {
+            Some(w) => self.len_word(w)?,
+            None => match mem.depth {
+                Some(d) if same || gixa => d,
+                _ if body == CycleBody::Punch => 0,
+                _ => return Err((ErrorCode::CycleDepthMissing, g_cols)),
+            },
+        };
+        let mut repeats = 1u32;
+        if !gixa {
+            if let Some(w) = b.take(b'L').or_else(|| b.take(b'K')) {
+                repeats = w
+                    .integer()
+                    .filter(|v| (0..=1_000_000).contains(v))
+                    .ok_or((ErrorCode::CycleRepeatInvalid, Some(w.cols)))?
+                    as u32;
+            }
+        }
+        let (aa, bb, inc, r, bottom) = if gixa {
+            let (aa, bb) = if self.state.absolute {
+                (a_v.unwrap_or(prog[a]), b_v.unwrap_or(prog[bx]))
+            } else {
+                (prog[a] + a_v.unwrap_or(0), prog[bx] + b_v.unwrap_or(0))
+            };
+            let (r, bottom) = if self.state.absolute {
+                (r_raw, depth_raw)
+            } else {
+                let r = initial - r_raw.abs();
+                (r, r - depth_raw.abs())
+            };
+            (aa, bb, (0, 0), r, bottom)
+        } else if self.state.absolute {
+            let aa = a_v.unwrap_or(prog[a]);
+            let bb = b_v.unwrap_or(prog[bx]);
+            (aa, bb, (0, 0), r_raw, depth_raw)
+        } else {
+            let r = r_raw + initial;
+            (
+                prog[a],
+                prog[bx],
+                (a_v.unwrap_or(0), b_v.unwrap_or(0)),
+                r,
+                r + depth_raw,
+            )
+        };
+        if r < bottom && body != CycleBody::Punch {
+            return Err((
+                ErrorCode::CycleRBelowBottom,
+                r_w.or(c_w).map(|w| w.cols).or(g_cols),
+            ));
+        }
+        for v in [aa, bb, r, bottom] {
+            if v.abs() > MAX_COORD {
+                return Err((ErrorCode::CoordinateOverflow, g_cols));
+            }
+        }
+        if (inc.0.abs() as i128 + inc.1.abs() as i128) * repeats as i128 > MAX_COORD as i128 {
+            return Err((ErrorCode::CoordinateOverflow, g_cols));
+        }
+        // Body parameters.
+        let mut q = 0;
+        if matches!(body, CycleBody::PeckFull | CycleBody::PeckChipBreak) {
+            let q_w = b.take(b'Q');
+            q = match q_w {
+                Some(w) => self.len_word(w)?,
+                None if same || gixa => mem.q.unwrap_or(0),
+                None => 0,
+            };
+            if q <= 0 {
+                return Err((ErrorCode::CycleQInvalid, q_w.map(|w| w.cols).or(g_cols)));
+            }
+            if gixa && body == CycleBody::PeckChipBreak && q <= self.config.gixa.partial_retract {
+                return Err((
+                    ErrorCode::CyclePeckNotAboveRetract,
+                    q_w.map(|w| w.cols).or(g_cols),
+                ));
+            }
+        }
+        let mut dwell_us = 0;
+        if gixa {
+            dwell_us = self.state.stored_dwell_us;
+        } else if matches!(
+            body,
+            CycleBody::DrillDwell
+                | CycleBody::BoreSpindleStop
+                | CycleBody::BoreDwell
+                | CycleBody::Tap
+        ) {
+            dwell_us = match b.take(b'P') {
+                Some(w) => self.dwell_us(w)?,
+                None if same || body == CycleBody::Tap => mem.dwell_us.unwrap_or(0),
+                None => return Err((ErrorCode::CycleDwellMissing, g_cols)),
+            };
+        }
+        if !gixa {
+            let ok = match body {
+                CycleBody::Tap => self.state.spindle == Spindle::Cw,
+                CycleBody::BoreSpindleStop => self.state.spindle != Spindle::Off,
+                _ => true,
+            };
+            if !ok {
+                return Err((ErrorCode::CycleSpindleState, g_cols));
+            }
+        }
+        self.state.cycle = CycleMemory {
+            r: Some(r_raw),
+            depth: Some(depth_raw),
+            q: if q > 0 { Some(q) } else { mem.q },
+            dwell_us: Some(dwell_us),
+            initial_level: Some(initial),
+        };
+        if repeats == 0 {
+            return Ok(());
+        }
+        let mut program = prog;
+        program[a] = aa;
+        program[bx] = bb;
+        let mut run = CycleRun::new(line, body, gixa, (a, bx, c), program, offset, repeats);
+        run.inc = inc;
+        run.r = r;
+        run.bottom = bottom;
+        let old_c = if !gixa && initial < r { r } else { initial };
+        run.raise_first = !gixa && initial < r;
+        run.clear = if self.state.retract_to_r { r } else { old_c };
+        run.q = q;
+        run.clearance = match (gixa, body) {
+            (true, CycleBody::PeckFull) => 0,
+            (true, _) => self.config.gixa.partial_retract,
+            (false, _) => self.config.peck_clearance,
+        };
+        run.dwell_us = dwell_us;
+        run.feed = self.len(self.state.feed);
+        run.spindle = self.state.spindle;
+        run.rpm = self.state.rpm;
+        let end = run.final_program_position();
+        let mut machine = end;
+        for (v, o) in machine.iter_mut().zip(offset) {
+            *v += o;
+        }
+        self.state.position = machine;
+        if body == CycleBody::Tap && gixa {
+            // The spindle ends as it started.
+        }
+        self.cycle = Some(run);
+        Ok(())
+    }
+
+    fn flow(
+        &mut self,
+        b: &Block,
+        line: u32,
+        src: &mut impl ProgramSource,
+        call_p: Option<Word>,
+        call_l: Option<Word>,
+    ) -> Res<()> {
+        let Some(&(_, code)) = b.m.iter().find(|(g, _)| *g == MGroup::Flow) else {
+            return Ok(());
+        };
+        match code.code {
+            0 => self.post = Post::Stop(StopKind::Pause, line),
+            1 => {
+                if self.config.optional_stop {
+                    self.post = Post::Stop(StopKind::OptionalPause, line);
+                }
+            }
+            2 | 30 => {
+                let kind = if code.code == 2 {
+                    StopKind::End
+                } else {
+                    StopKind::EndRewind
+                };
+                self.post = Post::Stop(kind, line);
+                self.state.reset_at_program_end(&self.config);
+                self.stack.clear();
+                self.finished = true;
+            }
+            98 => self.call(line, code.cols, src, call_p, call_l)?,
+            99 => {
+                let result = match self.stack.last_mut() {
+                    Some(top) if top.remaining > 1 => {
+                        top.remaining -= 1;
+                        src.jump_to_line(top.start_line)
+                    }
+                    Some(_) => {
+                        let frame = self.stack.pop().unwrap_or(Frame {
+                            return_line: 1,
+                            start_line: 1,
+                            remaining: 0,
+                        });
+                        src.jump_to_line(frame.return_line)
+                    }
+                    None => {
+                        self.restarts = self.restarts.saturating_add(1);
+                        self.percent_lines = 0;
+                        src.jump_to_line(1)
+                    }
+                };
+                result.map_err(|_| (ErrorCode::SourceJumpFailed, Some(code.cols)))?;
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn call(
+        &mut self,
+        line: u32,
+        cols: (u16, u16),
+        src: &mut impl ProgramSource,
+        p: Option<Word>,
+        l: Option<Word>,
+    ) -> Res<()> {
+        let p = p.ok_or((ErrorCode::SubprogramPMissing, Some(cols)))?;
+        let mut repeats = match l {
+            Some(w) => Self::integer(w, 1_000_000)? as u32,
+            None => 1,
+        };
+        let mut program = Self::integer(p, 99_999_999)? as u32;
+        if !self.gixa() && l.is_none() && program > 9999 {
+            repeats = program / 10_000;
+            program %= 10_000;
+        }
+        if repeats == 0 {
+            return Ok(());
+        }
+        if self.stack.is_full() {
+            return Err((ErrorCode::NestingTooDeep, Some(cols)));
+        }
+        let start = if self.gixa() {
+            src.jump_to_sequence(program)
+        } else {
+            src.jump_to_program(program)
+        }
+        .map_err(|e| {
+            let code = match e {
+                SourceError::DuplicateProgram => ErrorCode::DuplicateProgram,
+                SourceError::NoSuchLine => ErrorCode::SourceJumpFailed,
+                _ => ErrorCode::UnknownProgram,
+            };
+            (code, Some(p.cols))
+        })?;
+        let _ = self.stack.push(Frame {
+            return_line: line + 1,
+            start_line: start,
+            remaining: repeats,
+        });
+        Ok(())
+    }
+}
+
+fn decode_motion(code: u16) -> MotionMode {
+    match code {
+        0 => MotionMode::Rapid,
+        10 => MotionMode::Linear,
+        20 => MotionMode::ArcCw,
+        30 => MotionMode::ArcCcw,
+        800 => MotionMode::None,
+        c => MotionMode::Cycle(c),
+    }
+}

@@ -1,0 +1,310 @@
+//! Lexer: one source line into words (letter + exact decimal number), with no floating point.
+//!
+//! Numbers become integers scaled by 10^6 ("micro units"): `1.` `.5` `-.25` `+3` `007` all parse,
+//! spaces are allowed anywhere (as in RS274NGC), `( )` and `;` comments are skipped, and the caller
+//! learns the byte columns of every word for error carets.
+
+use super::error::ErrorCode;
+
+/// Scale of [`Word::value`]: the number times 10^6.
+pub const MICRO: i64 = 1_000_000;
+
+/// Largest magnitude of any number (< 10^9 before the point).
+const MAX_INTEGER_DIGITS: u32 = 9;
+
+/// One word of a block.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct Word {
+    /// Upper-case letter.
+    pub letter: u8,
+    /// The number times 10^6, rounded half away from zero at the 7th decimal.
+    pub value: i64,
+    /// A decimal point was written.
+    pub has_point: bool,
+    /// Number of digits written before the decimal point (leading zeros included).
+    pub int_digits: u8,
+    /// Byte columns of the word: start (0-based), end (exclusive).
+    pub cols: (u16, u16),
+}
+
+impl Word {
+    /// The value as a whole number, if it has no fraction.
+    pub fn integer(&self) -> Option<i64> {
+        if self.value % MICRO == 0 {
+            Some(self.value / MICRO)
+        } else {
+            None
+        }
+    }
+}
+
+/// What kind of line the lexer found before the words.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LineStart {
+    /// An ordinary block (possibly empty or comment-only).
+    Block,
+    /// A line holding only `%` (tape framing).
+    Percent,
+    /// A line holding only `E` (end of tape).
+    EndOfTape,
+}
+
+/// A lexer error: code and the columns to blame.
+pub type LexError = (ErrorCode, (u16, u16));
+
+/// Word scanner over one line.
+pub struct Lexer<'a> {
+    line: &'a [u8],
+    pos: usize,
+    semicolon_comments: bool,
+    /// The block started with `/` (block delete).
+    pub block_delete: bool,
+}
+
+fn col(i: usize) -> u16 {
+    i.min(u16::MAX as usize) as u16
+}
+
+impl<'a> Lexer<'a> {
+    /// Prepares a lexer; `semicolon_comments` makes `;` start a comment to the end of the line.
+    pub fn new(line: &'a [u8], semicolon_comments: bool) -> Self {
+        Lexer {
+            line,
+            pos: 0,
+            semicolon_comments,
+            block_delete: false,
+        }
+    }
+
+    /// Classifies the line (framing, end of tape, block) and consumes a leading `/`.
+    pub fn start(&mut self) -> LineStart {
+        let trimmed = trim(self.line);
+        if trimmed == b"%" {
+            return LineStart::Percent;
+        }
+        if trimmed == b"E" || trimmed == b"e" {
+            return LineStart::EndOfTape;
+        }
+        self.skip_blanks();
+        if self.pos < self.line.len() && self.line[self.pos] == b'/' {
+            self.block_delete = true;
+            self.pos += 1;
+        }
+        LineStart::Block
+    }
+
+    fn skip_blanks(&mut self) {
+        while self.pos < self.line.len() && matches!(self.line[self.pos], b' ' | b'\t' | b'\r') {
+            self.pos += 1;
+        }
+    }
+
+    /// Skips blanks and comments; returns an error for an unclosed `(`.
+    fn skip_ignorable(&mut self) -> Result<(), LexError> {
+        loop {
+            self.skip_blanks();
+            if self.pos >= self.line.len() {
+                return Ok(());
+            }
+            match self.line[self.pos] {
+                b'(' => {
+                    let start = self.pos;
+                    match self.line[start..].iter().position(|&c| c == b')') {
+                        Some(off) => self.pos = start + off + 1,
+                        None => {
+                            return Err((
+                                ErrorCode::UnclosedComment,
+                                (col(start), col(self.line.len())),
+                            ))
+                        }
+                    }
+                }
+                b';' if self.semicolon_comments => {
+                    self.pos = self.line.len();
+                    return Ok(());
+                }
+                b'\n' => {
+                    self.pos = self.line.len();
+                    return Ok(());
+                }
+                _ => return Ok(()),
+            }
+        }
+    }
+
+    /// The next word, `Ok(None)` at the end of the line.
+    pub fn next_word(&mut self) -> Result<Option<Word>, LexError> {
+        self.skip_ignorable()?;
+        if self.pos >= self.line.len() {
+            return Ok(None);
+        }
+        let start = self.pos;
+        let c = self.line[start];
+        let letter = match c {
+            b'a'..=b'z' => c - 32,
+            b'A'..=b'Z' => c,
+            b':' => b'O',
+            _ => return Err((ErrorCode::UnexpectedCharacter, (col(start), col(start + 1)))),
+        };
+        self.pos += 1;
+        let mut word = self.number(start)?;
+        word.letter = letter;
+        word.cols = (col(start), col(self.pos));
+        Ok(Some(word))
+    }
+
+    /// Parses an optionally signed decimal number (spaces allowed between its characters).
+    fn number(&mut self, word_start: usize) -> Result<Word, LexError> {
+        let mut negative = false;
+        self.skip_blanks();
+        if self.pos < self.line.len() && matches!(self.line[self.pos], b'+' | b'-') {
+            negative = self.line[self.pos] == b'-';
+            self.pos += 1;
+        }
+        let mut int_part: i64 = 0;
+        let mut int_digits: u32 = 0;
+        let mut significant: u32 = 0;
+        let mut frac: i64 = 0;
+        let mut frac_digits: u32 = 0;
+        let mut round_up = false;
+        let mut has_point = false;
+        let mut any_digit = false;
+        loop {
+            self.skip_blanks();
+            if self.pos >= self.line.len() {
+                break;
+            }
+            let ch = self.line[self.pos];
+            match ch {
+                b'0'..=b'9' => {
+                    let d = (ch - b'0') as i64;
+                    any_digit = true;
+                    if has_point {
+                        if frac_digits < 6 {
+                            frac = frac * 10 + d;
+                            frac_digits += 1;
+                        } else if frac_digits == 6 {
+                            round_up = d >= 5;
+                            frac_digits += 1;
+                        }
+                    } else {
+                        int_digits = int_digits.saturating_add(1);
+                        if significant > 0 || d != 0 {
+                            significant += 1;
+                        }
+                        if significant > MAX_INTEGER_DIGITS {
+                            return Err((
+                                ErrorCode::NumberOutOfRange,
+                                (col(word_start), col(self.pos + 1)),
+                            ));
+                        }
+                        int_part = int_part * 10 + d;
+                    }
+                }
+                b'.' if !has_point => has_point = true,
+                _ => break,
+            }
+            self.pos += 1;
+        }
+        if !any_digit {
+            return Err((
+                ErrorCode::MissingNumber,
+                (col(word_start), col(self.pos.max(word_start + 1))),
+            ));
+        }
+        while frac_digits < 6 {
+            frac *= 10;
+            frac_digits += 1;
+        }
+        let mut value = int_part * MICRO + frac;
+        if round_up {
+            value += 1;
+        }
+        if negative {
+            value = -value;
+        }
+        Ok(Word {
+            letter: 0,
+            value,
+            has_point,
+            int_digits: int_digits.min(255) as u8,
+            cols: (0, 0),
+        })
+    }
+}
+
+fn trim(line: &[u8]) -> &[u8] {
+    let mut s = line;
+    while let [first, rest @ ..] = s {
+        if first.is_ascii_whitespace() {
+            s = rest;
+        } else {
+            break;
+        }
+    }
+    while let [rest @ .., last] = s {
+        if last.is_ascii_whitespace() {
+            s = rest;
+        } else {
+            break;
+        }
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn words(line: &str) -> Result<heapless::Vec<(u8, i64), 16>, LexError> {
+        let mut lx = Lexer::new(line.as_bytes(), true);
+        lx.start();
+        let mut out = heapless::Vec::new();
+        while let Some(w) = lx.next_word()? {
+            out.push((w.letter, w.value)).unwrap();
+        }
+        Ok(out)
+    }
+
+    #[test]
+    fn numbers_in_every_spelling() {
+        let w = words("g01x1.y.5 Z-.25 a+3 (comment) b 1 0 . 5 ; rest").unwrap();
+        assert_eq!(
+            &w[..],
+            &[
+                (b'G', 1_000_000),
+                (b'X', 1_000_000),
+                (b'Y', 500_000),
+                (b'Z', -250_000),
+                (b'A', 3_000_000),
+                (b'B', 10_500_000),
+            ]
+        );
+    }
+
+    #[test]
+    fn seventh_decimal_rounds() {
+        assert_eq!(&words("X1.0000005").unwrap()[..], &[(b'X', 1_000_001)]);
+        assert_eq!(&words("X-1.0000004").unwrap()[..], &[(b'X', -1_000_000)]);
+    }
+
+    #[test]
+    fn errors_carry_columns() {
+        assert_eq!(
+            words("G0 X").unwrap_err(),
+            (ErrorCode::MissingNumber, (3, 4))
+        );
+        assert_eq!(
+            words("G0 (open").unwrap_err(),
+            (ErrorCode::UnclosedComment, (3, 8))
+        );
+        assert_eq!(
+            words("G0 12").unwrap_err(),
+            (ErrorCode::UnexpectedCharacter, (3, 4))
+        );
+        assert_eq!(
+            words("X1234567890").unwrap_err().0,
+            ErrorCode::NumberOutOfRange
+        );
+    }
+}

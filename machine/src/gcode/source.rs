@@ -1,0 +1,232 @@
+//! Program sources: where the interpreter pulls lines from, with the jumps subprograms need.
+//!
+//! The interpreter owns the call stack; a source only serves lines and repositions on request, so a
+//! streaming host can answer "program O from its start" or "line n" without knowing any G-code
+//! semantics. [`MemorySource`] serves a program held in memory (flash or RAM) with no heap.
+
+/// Why a source could not jump.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SourceError {
+    /// No `O<program>` line in the program.
+    UnknownProgram,
+    /// Two `O<program>` lines in the program.
+    DuplicateProgram,
+    /// No block with that N word (gixa M98 P).
+    UnknownSequence,
+    /// The line number does not exist.
+    NoSuchLine,
+}
+
+/// A G-code program that can be read line by line and repositioned.
+pub trait ProgramSource {
+    /// The next line: its 1-based line number in the file and its bytes (without the newline), or
+    /// `None` at the end of the file.
+    fn next_line(&mut self) -> Option<(u32, &[u8])>;
+
+    /// Repositions so that the next line returned is the `O<program>` line itself; returns its line
+    /// number.
+    fn jump_to_program(&mut self, program: u32) -> Result<u32, SourceError>;
+
+    /// Repositions so that the next line returned is the first block whose N word is `n` (gixa
+    /// subroutines are addressed by N); returns its line number.
+    fn jump_to_sequence(&mut self, n: u32) -> Result<u32, SourceError>;
+
+    /// Repositions so that the next line returned is line `line` (1-based); `line` may be one past
+    /// the last line (then the source is at its end).
+    fn jump_to_line(&mut self, line: u32) -> Result<(), SourceError>;
+}
+
+/// Remembered (line, byte offset) pairs, so returns from subprograms do not rescan the file.
+const POSITION_CACHE: usize = 16;
+
+/// A program in memory (`&[u8]`), indexed lazily: jumps scan the text and remember recent targets.
+pub struct MemorySource<'a> {
+    text: &'a [u8],
+    offset: usize,
+    line: u32,
+    cache: heapless::Vec<(u32, usize), POSITION_CACHE>,
+    cache_next: usize,
+}
+
+impl<'a> MemorySource<'a> {
+    /// A source positioned at line 1.
+    pub fn new(text: &'a [u8]) -> Self {
+        MemorySource {
+            text,
+            offset: 0,
+            line: 1,
+            cache: heapless::Vec::new(),
+            cache_next: 0,
+        }
+    }
+
+    /// Back to line 1.
+    pub fn rewind(&mut self) {
+        self.offset = 0;
+        self.line = 1;
+    }
+
+    fn remember(&mut self, line: u32, offset: usize) {
+        if self.cache.iter().any(|&(l, _)| l == line) {
+            return;
+        }
+        if self.cache.push((line, offset)).is_err() {
+            self.cache[self.cache_next] = (line, offset);
+            self.cache_next = (self.cache_next + 1) % POSITION_CACHE;
+        }
+    }
+
+    /// Iterates over (line number, byte offset, line bytes) from the start of the text.
+    fn lines(&self) -> impl Iterator<Item = (u32, usize, &'a [u8])> + 'a {
+        let text = self.text;
+        let mut offset = 0usize;
+        let mut line = 0u32;
+        core::iter::from_fn(move || {
+            if offset >= text.len() {
+                return None;
+            }
+            let start = offset;
+            let end = text[start..]
+                .iter()
+                .position(|&c| c == b'\n')
+                .map_or(text.len(), |p| start + p);
+            offset = end + 1;
+            line += 1;
+            Some((line, start, &text[start..end]))
+        })
+    }
+
+    fn find<F: Fn(&[u8]) -> bool>(&self, matches: F) -> (Option<(u32, usize)>, bool) {
+        let mut found = None;
+        for (line, offset, bytes) in self.lines() {
+            if matches(bytes) {
+                if found.is_some() {
+                    return (found, true);
+                }
+                found = Some((line, offset));
+            }
+        }
+        (found, false)
+    }
+}
+
+/// The number after a leading letter (`O`/`:` or `N`) at the start of a line, spaces skipped.
+pub(crate) fn leading_number(line: &[u8], letters: &[u8]) -> Option<u32> {
+    let mut i = 0;
+    while i < line.len() && (line[i] == b' ' || line[i] == b'\t' || line[i] == b'/') {
+        i += 1;
+    }
+    if i >= line.len() || !letters.contains(&line[i].to_ascii_uppercase()) {
+        return None;
+    }
+    i += 1;
+    let mut v: u64 = 0;
+    let mut digits = 0;
+    while i < line.len() {
+        match line[i] {
+            b'0'..=b'9' => {
+                v = v * 10 + (line[i] - b'0') as u64;
+                digits += 1;
+                if digits > 9 {
+                    return None;
+                }
+            }
+            b' ' | b'\t' => {}
+            _ => break,
+        }
+        i += 1;
+    }
+    (digits > 0).then_some(v as u32)
+}
+
+impl ProgramSource for MemorySource<'_> {
+    fn next_line(&mut self) -> Option<(u32, &[u8])> {
+        if self.offset >= self.text.len() {
+            return None;
+        }
+        let start = self.offset;
+        let end = self.text[start..]
+            .iter()
+            .position(|&c| c == b'\n')
+            .map_or(self.text.len(), |p| start + p);
+        let line = self.line;
+        self.offset = end + 1;
+        self.line += 1;
+        Some((line, &self.text[start..end]))
+    }
+
+    fn jump_to_program(&mut self, program: u32) -> Result<u32, SourceError> {
+        let (found, duplicate) = self.find(|bytes| leading_number(bytes, b"O:") == Some(program));
+        if duplicate {
+            return Err(SourceError::DuplicateProgram);
+        }
+        let (line, offset) = found.ok_or(SourceError::UnknownProgram)?;
+        // Remember where we are: the caller will come back here after M99.
+        self.remember(self.line, self.offset);
+        self.remember(line, offset);
+        self.line = line;
+        self.offset = offset;
+        Ok(line)
+    }
+
+    fn jump_to_sequence(&mut self, n: u32) -> Result<u32, SourceError> {
+        let (found, _) = self.find(|bytes| leading_number(bytes, b"N") == Some(n));
+        let (line, offset) = found.ok_or(SourceError::UnknownSequence)?;
+        self.remember(self.line, self.offset);
+        self.remember(line, offset);
+        self.line = line;
+        self.offset = offset;
+        Ok(line)
+    }
+
+    fn jump_to_line(&mut self, line: u32) -> Result<(), SourceError> {
+        if line == 0 {
+            return Err(SourceError::NoSuchLine);
+        }
+        if let Some(&(l, o)) = self.cache.iter().find(|&&(l, _)| l == line) {
+            self.line = l;
+            self.offset = o;
+            return Ok(());
+        }
+        let mut end_line = 1;
+        for (l, o, _) in self.lines() {
+            if l == line {
+                self.line = l;
+                self.offset = o;
+                self.remember(l, o);
+                return Ok(());
+            }
+            end_line = l + 1;
+        }
+        if line == end_line {
+            self.line = line;
+            self.offset = self.text.len();
+            return Ok(());
+        }
+        Err(SourceError::NoSuchLine)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_and_jumps() {
+        let text = b"G0 X1\nM98 P7\nM30\nO7 (sub)\nG0 X2\nM99\n";
+        let mut s = MemorySource::new(text);
+        assert_eq!(s.next_line(), Some((1, &b"G0 X1"[..])));
+        assert_eq!(s.next_line().unwrap().0, 2);
+        assert_eq!(s.jump_to_program(7), Ok(4));
+        assert_eq!(s.next_line(), Some((4, &b"O7 (sub)"[..])));
+        s.jump_to_line(3).unwrap();
+        assert_eq!(s.next_line(), Some((3, &b"M30"[..])));
+        assert_eq!(s.jump_to_program(8), Err(SourceError::UnknownProgram));
+        s.jump_to_line(7).unwrap();
+        assert_eq!(s.next_line(), None);
+        assert_eq!(s.jump_to_line(9), Err(SourceError::NoSuchLine));
+        let dup = b"O5\nM99\nO0005\nM99\n";
+        let mut s = MemorySource::new(dup);
+        assert_eq!(s.jump_to_program(5), Err(SourceError::DuplicateProgram));
+    }
+}

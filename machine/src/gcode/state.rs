@@ -1,0 +1,176 @@
+//! Modal state: everything a block leaves behind for the next one (modes, offsets, position).
+//!
+//! The state is `Copy`, so the interpreter can snapshot it before a block and restore it when the
+//! block fails: a bad block leaves no trace. Positions are machine nanometres; the program
+//! (work) coordinate of an axis is `machine - work offset - G92 offset - tool offset`.
+
+use super::config::{InterpConfig, WORK_SYSTEMS};
+use crate::canon::{PathMode, Plane, Spindle};
+use crate::units::{Nm, Pos, MAX_AXES};
+
+/// Motion mode (G-code group 1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MotionMode {
+    /// G0.
+    Rapid,
+    /// G1.
+    Linear,
+    /// G2.
+    ArcCw,
+    /// G3.
+    ArcCcw,
+    /// G80: no motion mode.
+    None,
+    /// G73, G81..G89 (the code in tenths, e.g. 810).
+    Cycle(u16),
+}
+
+/// Data a canned cycle remembers between blocks (cleared by G80 and motion codes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct CycleMemory {
+    /// R as programmed (absolute program value, or increment in G91), nm.
+    pub r: Option<Nm>,
+    /// Depth word as programmed, nm.
+    pub depth: Option<Nm>,
+    /// Q peck, nm.
+    pub q: Option<Nm>,
+    /// Dwell in microseconds (P).
+    pub dwell_us: Option<u64>,
+    /// Initial level (program coordinate on the drilling axis), latched by the first cycle block.
+    pub initial_level: Option<Nm>,
+}
+
+/// The modal state of the interpreter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ModalState {
+    pub motion: MotionMode,
+    /// Motion mode before the current cycle (gixa G80 restores it).
+    pub motion_before_cycle: MotionMode,
+    pub plane: Plane,
+    /// G90 (true) / G91.
+    pub absolute: bool,
+    /// G90.1 (true) / G91.1: I/J/K absolute.
+    pub arc_absolute: bool,
+    /// G93 (true) / G94.
+    pub inverse_time: bool,
+    /// G20 (true) / G21.
+    pub inch: bool,
+    /// Active work system 0..8 = G54..G59.3.
+    pub work_system: u8,
+    pub path: PathMode,
+    /// G99 (true) / G98.
+    pub retract_to_r: bool,
+    /// Feed in nm/min (or 1e-6 deg/min for rotary-only moves); in G93 the inverse-time value ×10^6.
+    pub feed: i64,
+    /// F in program units ×10^6 as last written (rotary-only moves use it directly).
+    pub feed_raw: i64,
+    pub spindle: Spindle,
+    pub rpm: u32,
+    pub mist: bool,
+    pub flood: bool,
+    /// Selected tool (T) and tool in the spindle (after M6).
+    pub tool_selected: u32,
+    pub tool_loaded: u32,
+    /// Current machine position, nm.
+    pub position: Pos,
+    /// Work offsets G54..G59.3, machine nm.
+    pub work_offsets: [Pos; WORK_SYSTEMS],
+    /// G92 offset in force, and the saved value G92.3 restores.
+    pub g92: Pos,
+    pub g92_saved: Pos,
+    /// Tool length offset (G43 H / G43.1).
+    pub tool_offset: Pos,
+    pub g28: Pos,
+    pub g30: Pos,
+    pub cycle: CycleMemory,
+    /// gixa: dwell stored by G04 P, microseconds.
+    pub stored_dwell_us: u64,
+}
+
+impl ModalState {
+    /// The power-up state for a setup.
+    pub fn new(config: &InterpConfig) -> Self {
+        let gixa = config.dialect == super::config::Dialect::Gixa;
+        ModalState {
+            motion: MotionMode::Rapid,
+            motion_before_cycle: MotionMode::Rapid,
+            plane: if gixa { config.gixa.plane } else { Plane::XY },
+            absolute: if gixa { config.gixa.absolute } else { true },
+            arc_absolute: false,
+            inverse_time: false,
+            inch: config.start_inch,
+            work_system: 0,
+            path: PathMode::Blend { tolerance: 0 },
+            retract_to_r: false,
+            feed: if gixa { config.gixa.default_feed } else { 0 },
+            feed_raw: 0,
+            spindle: Spindle::Off,
+            rpm: 0,
+            mist: false,
+            flood: false,
+            tool_selected: 0,
+            tool_loaded: 0,
+            position: [0; MAX_AXES],
+            work_offsets: config.work_offsets,
+            g92: [0; MAX_AXES],
+            g92_saved: [0; MAX_AXES],
+            tool_offset: [0; MAX_AXES],
+            g28: config.g28_position,
+            g30: config.g30_position,
+            cycle: CycleMemory::default(),
+            stored_dwell_us: 0,
+        }
+    }
+
+    /// Total offset from program to machine coordinates on every axis.
+    pub fn offset(&self) -> Pos {
+        let w = &self.work_offsets[self.work_system as usize];
+        let mut o = [0; MAX_AXES];
+        for (i, v) in o.iter_mut().enumerate() {
+            *v = w[i] + self.g92[i] + self.tool_offset[i];
+        }
+        o
+    }
+
+    /// The current position in program (work) coordinates.
+    pub fn program_position(&self) -> Pos {
+        let o = self.offset();
+        let mut p = self.position;
+        for (v, off) in p.iter_mut().zip(o) {
+            *v -= off;
+        }
+        p
+    }
+
+    /// Program coordinates to machine coordinates.
+    pub fn to_machine(&self, program: Pos) -> Pos {
+        let o = self.offset();
+        let mut p = program;
+        for (v, off) in p.iter_mut().zip(o) {
+            *v += off;
+        }
+        p
+    }
+
+    /// Resets what M2/M30 reset (Fanuc/LinuxCNC): G54, G17, G90, G94, G80 → G0, G98, M5, M9, G92
+    /// offsets off (saved values kept). Units, tool offset and path mode survive.
+    pub fn reset_at_program_end(&mut self, config: &InterpConfig) {
+        let fresh = ModalState::new(config);
+        self.motion = MotionMode::Rapid;
+        self.motion_before_cycle = MotionMode::Rapid;
+        self.plane = fresh.plane;
+        self.absolute = fresh.absolute;
+        self.arc_absolute = false;
+        self.inverse_time = false;
+        self.work_system = 0;
+        self.retract_to_r = false;
+        self.spindle = Spindle::Off;
+        self.mist = false;
+        self.flood = false;
+        self.g92 = [0; MAX_AXES];
+        self.cycle = CycleMemory::default();
+        if config.dialect == super::config::Dialect::Gixa {
+            self.feed = config.gixa.default_feed;
+        }
+    }
+}
