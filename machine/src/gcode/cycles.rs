@@ -64,8 +64,6 @@ pub struct CycleRun {
     pub clear: Nm,
     /// Drilling-axis value before the first hole (LinuxCNC `current_cc`).
     pub start_c: Nm,
-    /// Rapid up to R first (LinuxCNC, when the tool starts below R).
-    pub raise_first: bool,
     pub q: Nm,
     pub clearance: Nm,
     pub dwell_us: u64,
@@ -104,7 +102,6 @@ impl CycleRun {
             bottom: 0,
             clear: 0,
             start_c: program[axes.2],
-            raise_first: false,
             q: 0,
             clearance: 0,
             dwell_us: 0,
@@ -179,10 +176,6 @@ impl CycleRun {
                     return false;
                 }
                 let current_c = self.program[self.axes.2];
-                if self.first && self.raise_first {
-                    self.rapid_c(self.r, out);
-                    self.start_c = self.r;
-                }
                 self.program[a] += self.inc.0;
                 self.program[b] += self.inc.1;
                 if self.gixa {

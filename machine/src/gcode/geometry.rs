@@ -215,8 +215,14 @@ pub fn atan2(y: i128, x: i128) -> i64 {
     // Scale into ±2^58 so CORDIC growth (×1.65) cannot overflow i64.
     let m = x.unsigned_abs().max(y.unsigned_abs());
     let bits = 128 - m.leading_zeros();
-    let shift = bits.saturating_sub(58);
-    let (mut x, mut y) = ((x >> shift) as i64, (y >> shift) as i64);
+    // Normalise into [2^57, 2^58): big enough for full precision, small enough for CORDIC growth.
+    let (mut x, mut y) = if bits > 58 {
+        let shift = bits - 58;
+        ((x >> shift) as i64, (y >> shift) as i64)
+    } else {
+        let shift = 58 - bits;
+        ((x << shift) as i64, (y << shift) as i64)
+    };
     let mut angle: i64 = 0;
     if x < 0 {
         if y >= 0 {

@@ -1031,15 +1031,25 @@ impl Interpreter {
         if repeats == 0 {
             return Ok(());
         }
+        let raise_first = !gixa && initial < r;
+        if raise_first {
+            // LinuxCNC: a tool below R first rises to R where it stands.
+            let mut up = prog;
+            up[c] = r;
+            let to = self.state.to_machine(up);
+            self.push(line, Action::Rapid { to })?;
+        }
         let mut program = prog;
         program[a] = aa;
         program[bx] = bb;
+        if raise_first {
+            program[c] = r;
+        }
         let mut run = CycleRun::new(line, body, gixa, (a, bx, c), program, offset, repeats);
         run.inc = inc;
         run.r = r;
         run.bottom = bottom;
         let old_c = if !gixa && initial < r { r } else { initial };
-        run.raise_first = !gixa && initial < r;
         run.clear = if self.state.retract_to_r { r } else { old_c };
         run.q = q;
         run.clearance = match (gixa, body) {

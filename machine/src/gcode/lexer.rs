@@ -59,6 +59,7 @@ pub struct Lexer<'a> {
     semicolon_comments: bool,
     /// The block started with `/` (block delete).
     pub block_delete: bool,
+    word_end: usize,
 }
 
 fn col(i: usize) -> u16 {
@@ -73,6 +74,7 @@ impl<'a> Lexer<'a> {
             pos: 0,
             semicolon_comments,
             block_delete: false,
+            word_end: 0,
         }
     }
 
@@ -149,7 +151,7 @@ impl<'a> Lexer<'a> {
         self.pos += 1;
         let mut word = self.number(start)?;
         word.letter = letter;
-        word.cols = (col(start), col(self.pos));
+        word.cols = (col(start), col(self.word_end));
         Ok(Some(word))
     }
 
@@ -169,6 +171,7 @@ impl<'a> Lexer<'a> {
         let mut round_up = false;
         let mut has_point = false;
         let mut any_digit = false;
+        let mut end = self.pos;
         loop {
             self.skip_blanks();
             if self.pos >= self.line.len() {
@@ -205,7 +208,9 @@ impl<'a> Lexer<'a> {
                 _ => break,
             }
             self.pos += 1;
+            end = self.pos;
         }
+        self.word_end = end;
         if !any_digit {
             return Err((
                 ErrorCode::MissingNumber,
@@ -299,7 +304,7 @@ mod tests {
             (ErrorCode::UnclosedComment, (3, 8))
         );
         assert_eq!(
-            words("G0 12").unwrap_err(),
+            words("G0 #1").unwrap_err(),
             (ErrorCode::UnexpectedCharacter, (3, 4))
         );
         assert_eq!(
