@@ -315,6 +315,15 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
         m
     }
 
+    /// Next sequence number this endpoint will deliver on `lane` (its
+    /// cumulative ack), for diagnostics.
+    pub fn next_expected(&self, lane: Lane) -> u16 {
+        match lane {
+            Lane::Queued => self.rx.expected(),
+            Lane::Realtime => self.rt_rx.expected(),
+        }
+    }
+
     /// Looks at the next queued message without taking it (e.g. to wait for
     /// planner room before consuming a line).
     pub fn peek_queued(&self) -> Option<&R> {
