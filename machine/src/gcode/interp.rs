@@ -708,8 +708,9 @@ impl Interpreter {
         }
         match mode {
             MotionMode::Rapid => {
+                let has_axes = AXIS_LETTERS.iter().any(|&l| b.has(l));
                 let to = self.target(b, g53)?;
-                if to != self.state.position || explicit || g53 {
+                if has_axes {
                     self.push(line, Action::Rapid { to })?;
                 }
                 self.state.position = to;
@@ -734,6 +735,9 @@ impl Interpreter {
                 }
             }
             MotionMode::Cycle(code) => {
+                if explicit && !AXIS_LETTERS.iter().any(|&l| b.has(l)) {
+                    return Err((ErrorCode::MissingAxisWords, b.g_cols(code)));
+                }
                 self.cycle(b, line, code)?;
                 if !matches!(self.state.motion, MotionMode::Cycle(_)) {
                     self.state.motion_before_cycle = self.state.motion;
@@ -768,6 +772,9 @@ impl Interpreter {
             w_first = map(first);
             w_second = map(second);
             wrong = b.word(b'K');
+            if let Some(w) = wrong {
+                return err(ErrorCode::ArcOffsetWrongPlane, Some(w));
+            }
             absolute_center = match self.config.gixa.arc_centers {
                 ArcCenterMode::Absolute => true,
                 ArcCenterMode::Incremental => false,

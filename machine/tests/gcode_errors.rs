@@ -1,0 +1,400 @@
+//! Every error code: a program that triggers it, the line/columns reported, no action from the
+//! bad block, and an entry in docs/errors.md.
+
+use gantry_machine::canon::Canon;
+use gantry_machine::gcode::{
+    ErrorCode, GcodeError, InterpConfig, Interpreter, MemorySource, ProgramSource, SourceError,
+};
+
+fn run_src(src: &mut impl ProgramSource, cfg: &InterpConfig) -> Vec<Result<Canon, GcodeError>> {
+    let mut it = Interpreter::new(cfg);
+    let mut out = Vec::new();
+    while let Some(x) = it.next(src) {
+        let stop = x.is_err();
+        out.push(x);
+        if stop || out.len() > 10_000 {
+            break;
+        }
+    }
+    out
+}
+
+fn cfg_default() -> InterpConfig {
+    let mut c = InterpConfig::default();
+    for code in 100..=105 {
+        c.add_user_m_code(code);
+    }
+    c
+}
+
+fn cfg_gixa() -> InterpConfig {
+    InterpConfig::gixa()
+}
+
+fn cfg_3axis() -> InterpConfig {
+    let mut c = InterpConfig::default();
+    c.axis_count = 3;
+    c
+}
+
+/// (program, setup, expected code, expected columns of the blamed word on the last line)
+type Case = (
+    &'static str,
+    fn() -> InterpConfig,
+    ErrorCode,
+    Option<(u16, u16)>,
+);
+
+const CASES: &[Case] = &[
+    (
+        "G0 #1",
+        cfg_default,
+        ErrorCode::UnexpectedCharacter,
+        Some((3, 4)),
+    ),
+    ("G0 X", cfg_default, ErrorCode::MissingNumber, Some((3, 4))),
+    (
+        "G0 (abc",
+        cfg_default,
+        ErrorCode::UnclosedComment,
+        Some((3, 7)),
+    ),
+    (
+        "G0 X9999999",
+        cfg_default,
+        ErrorCode::NumberOutOfRange,
+        Some((3, 11)),
+    ),
+    (
+        "G1 X1 F10",
+        cfg_gixa,
+        ErrorCode::BadWordFormat,
+        Some((0, 2)),
+    ),
+    ("X1 X2", cfg_default, ErrorCode::RepeatedWord, Some((3, 5))),
+    (
+        "G0 G1 X1",
+        cfg_default,
+        ErrorCode::ModalGroupConflict,
+        Some((3, 5)),
+    ),
+    (
+        "M3 M4",
+        cfg_default,
+        ErrorCode::MCodeGroupConflict,
+        Some((3, 5)),
+    ),
+    ("G12 X1", cfg_default, ErrorCode::UnknownGCode, Some((0, 3))),
+    ("M77", cfg_default, ErrorCode::UnknownMCode, Some((0, 3))),
+    ("F-1", cfg_default, ErrorCode::ValueOutOfRange, Some((0, 3))),
+    ("T1.5", cfg_default, ErrorCode::NotAnInteger, Some((0, 4))),
+    (
+        "M100 M101 M102 M103 M104 M105",
+        cfg_default,
+        ErrorCode::TooManyMCodes,
+        Some((25, 29)),
+    ),
+    (
+        "G28 G1 X0",
+        cfg_default,
+        ErrorCode::AxisWordsConflict,
+        Some((4, 6)),
+    ),
+    (
+        "G80 X1",
+        cfg_default,
+        ErrorCode::AxisWordsWithoutMotion,
+        Some((4, 6)),
+    ),
+    ("G0 X1 Q2", cfg_default, ErrorCode::UnusedWord, Some((6, 8))),
+    (
+        "G0 A1",
+        cfg_3axis,
+        ErrorCode::AxisNotConfigured,
+        Some((3, 5)),
+    ),
+    ("G1 X1", cfg_default, ErrorCode::ZeroFeedRate, None),
+    ("G2 X1 F1", cfg_default, ErrorCode::ArcCenterMissing, None),
+    (
+        "G2 X1 R1 I1 F1",
+        cfg_default,
+        ErrorCode::ArcMixedFormats,
+        Some((6, 8)),
+    ),
+    (
+        "G2 X1 K1 F1",
+        cfg_default,
+        ErrorCode::ArcOffsetWrongPlane,
+        Some((6, 8)),
+    ),
+    (
+        "G2 X10 R4 F1",
+        cfg_default,
+        ErrorCode::ArcRadiusTooSmall,
+        Some((7, 9)),
+    ),
+    (
+        "G2 X10 I3 F1",
+        cfg_default,
+        ErrorCode::ArcRadiusMismatch,
+        Some((7, 9)),
+    ),
+    (
+        "G2 I0.0001 F1",
+        cfg_default,
+        ErrorCode::ArcZeroRadius,
+        Some((3, 10)),
+    ),
+    (
+        "G2 X0 R5 F1",
+        cfg_default,
+        ErrorCode::ArcEndEqualsStart,
+        Some((6, 8)),
+    ),
+    (
+        "G2 Z1 R5 F1",
+        cfg_default,
+        ErrorCode::ArcEndPointMissing,
+        Some((6, 8)),
+    ),
+    (
+        "G2 X10 I5 P0 F1",
+        cfg_default,
+        ErrorCode::ArcTurnsInvalid,
+        Some((10, 12)),
+    ),
+    (
+        "G93 G1 X1",
+        cfg_default,
+        ErrorCode::InverseTimeFeedMissing,
+        None,
+    ),
+    (
+        "G91 G0 X999999",
+        cfg_default,
+        ErrorCode::CoordinateOverflow,
+        Some((7, 14)),
+    ),
+    (
+        "G90.1 G2 X10 I5 F1",
+        cfg_default,
+        ErrorCode::ArcAbsoluteCenterMissing,
+        None,
+    ),
+    (
+        "G81 X1 Z-1 F1",
+        cfg_default,
+        ErrorCode::CycleRMissing,
+        Some((0, 3)),
+    ),
+    (
+        "G81 X1 R1 F1",
+        cfg_default,
+        ErrorCode::CycleDepthMissing,
+        Some((0, 3)),
+    ),
+    (
+        "G81 X1 R-2 Z-1 F1",
+        cfg_default,
+        ErrorCode::CycleRBelowBottom,
+        Some((7, 10)),
+    ),
+    (
+        "G83 X1 R1 Z-1 F1",
+        cfg_default,
+        ErrorCode::CycleQInvalid,
+        Some((0, 3)),
+    ),
+    (
+        "G82 X1 R1 Z-1 F1",
+        cfg_default,
+        ErrorCode::CycleDwellMissing,
+        Some((0, 3)),
+    ),
+    (
+        "G84 X1 R1 Z-1 F1",
+        cfg_default,
+        ErrorCode::CycleSpindleState,
+        Some((0, 3)),
+    ),
+    (
+        "G93 G81 X1 R1 Z-1 F1",
+        cfg_default,
+        ErrorCode::CycleInverseTime,
+        Some((4, 7)),
+    ),
+    (
+        "G81 X1 A1 R1 Z-1 F1",
+        cfg_default,
+        ErrorCode::CycleRotaryAxis,
+        Some((7, 9)),
+    ),
+    (
+        "G81 X1 R1 Z-1 K1.5 F1",
+        cfg_default,
+        ErrorCode::CycleRepeatInvalid,
+        Some((14, 18)),
+    ),
+    (
+        "G87 X1 R1 Z-1 Q0.1 F1",
+        cfg_gixa,
+        ErrorCode::CyclePeckNotAboveRetract,
+        Some((14, 18)),
+    ),
+    (
+        "G87 X1 R1 Z-1 F1",
+        cfg_default,
+        ErrorCode::CycleNotSupported,
+        Some((0, 3)),
+    ),
+    (
+        "G10 L1 P1 X1",
+        cfg_default,
+        ErrorCode::G10Invalid,
+        Some((4, 6)),
+    ),
+    (
+        "G43 H7",
+        cfg_default,
+        ErrorCode::ToolNotInTable,
+        Some((4, 6)),
+    ),
+    (
+        "G91 G53 G0 X1",
+        cfg_default,
+        ErrorCode::G53Invalid,
+        Some((4, 7)),
+    ),
+    (
+        "G41 G1 X1 F1",
+        cfg_default,
+        ErrorCode::CutterCompNotSupported,
+        Some((0, 3)),
+    ),
+    ("G4", cfg_default, ErrorCode::DwellTimeMissing, Some((0, 2))),
+    (
+        "G10 L2 P1 R5",
+        cfg_default,
+        ErrorCode::NotSupported,
+        Some((10, 12)),
+    ),
+    (
+        "G92",
+        cfg_default,
+        ErrorCode::MissingAxisWords,
+        Some((0, 3)),
+    ),
+    (
+        "M98 P9",
+        cfg_default,
+        ErrorCode::UnknownProgram,
+        Some((4, 6)),
+    ),
+    (
+        "M98 P5\nM30\nO5\nM99\nO0005\nM99",
+        cfg_default,
+        ErrorCode::DuplicateProgram,
+        Some((4, 6)),
+    ),
+    (
+        "M98 P1\nM30\nO1\nM98 P1",
+        cfg_default,
+        ErrorCode::NestingTooDeep,
+        Some((0, 3)),
+    ),
+    (
+        "M98",
+        cfg_default,
+        ErrorCode::SubprogramPMissing,
+        Some((0, 3)),
+    ),
+    (
+        "M98 P1\nM30\nO1\nG0 X1",
+        cfg_default,
+        ErrorCode::SubprogramWithoutM99,
+        None,
+    ),
+];
+
+#[test]
+fn every_error_code_is_reachable_and_blames_the_right_word() {
+    let mut seen = Vec::new();
+    for &(program, cfg, code, cols) in CASES {
+        let text = format!("G00 X0\n{program}\n");
+        let out = run_src(&mut MemorySource::new(text.as_bytes()), &cfg());
+        let e = out
+            .iter()
+            .find_map(|r| r.as_ref().err())
+            .unwrap_or_else(|| panic!("no error for {program:?}: {out:?}"));
+        assert_eq!(e.code, code, "program {program:?}");
+        if code != ErrorCode::SubprogramWithoutM99 && code != ErrorCode::DuplicateProgram {
+            assert_eq!(e.columns, cols, "columns for {program:?}");
+        }
+        // The bad block produced no action.
+        if e.line > 0 {
+            assert!(
+                out.iter()
+                    .filter_map(|r| r.as_ref().ok())
+                    .all(|c| c.line != e.line),
+                "action from the bad block of {program:?}: {out:?}"
+            );
+        }
+        seen.push(code);
+    }
+    // The jump failure needs a source that cannot jump.
+    struct NoJump<'a>(MemorySource<'a>);
+    impl ProgramSource for NoJump<'_> {
+        fn next_line(&mut self) -> Option<(u32, &[u8])> {
+            self.0.next_line()
+        }
+        fn jump_to_program(&mut self, p: u32) -> Result<u32, SourceError> {
+            self.0.jump_to_program(p)
+        }
+        fn jump_to_sequence(&mut self, n: u32) -> Result<u32, SourceError> {
+            self.0.jump_to_sequence(n)
+        }
+        fn jump_to_line(&mut self, _: u32) -> Result<(), SourceError> {
+            Err(SourceError::NoSuchLine)
+        }
+    }
+    let out = run_src(
+        &mut NoJump(MemorySource::new(b"G0 X1\nM99\n")),
+        &cfg_default(),
+    );
+    let e = out.last().unwrap().as_ref().unwrap_err();
+    assert_eq!(
+        (e.code, e.line, e.columns),
+        (ErrorCode::SourceJumpFailed, 2, Some((0, 3)))
+    );
+    seen.push(e.code);
+    for code in ErrorCode::ALL {
+        assert!(seen.contains(code), "no test case for {code:?}");
+    }
+}
+
+#[test]
+fn codes_are_unique_and_documented() {
+    let doc = include_str!("../../docs/errors.md");
+    let mut numbers: Vec<u16> = ErrorCode::ALL.iter().map(|c| c.number()).collect();
+    for code in ErrorCode::ALL {
+        let row = format!("| E{} |", code.number());
+        assert!(doc.contains(&row), "docs/errors.md lacks {row}");
+        assert!(
+            doc.contains(code.message()),
+            "docs/errors.md lacks the message of {code:?}"
+        );
+    }
+    numbers.sort();
+    numbers.dedup();
+    assert_eq!(numbers.len(), ErrorCode::ALL.len());
+}
+
+#[test]
+fn n_word_is_reported_even_for_lexical_errors() {
+    let out = run_src(&mut MemorySource::new(b"N70 G0 X#\n"), &cfg_default());
+    let e = out[0].as_ref().unwrap_err();
+    assert_eq!(
+        (e.line, e.n_word, e.code),
+        (1, Some(70), ErrorCode::MissingNumber)
+    );
+}
