@@ -1,8 +1,147 @@
 //! `gantry simulate`: plan a program and report per-move speeds and the total time.
+//!
+//! The program is interpreted with the default setup, then run through the real motion core
+//! (planner, segment prep and step kernel) on virtual time. Each move (consecutive planner blocks
+//! of one source line, so an arc is one move) prints its line, entry, cruise (highest) and exit
+//! speed in mm/min and its duration; `--json` prints the same as JSON Lines. The last line is
+//! always `total time: T s` (dwells included).
+use std::fmt::Write as _;
 use std::path::Path;
 use std::process::ExitCode;
 
+use gantry_machine::canon::Canon;
+use gantry_machine::gcode::{InterpConfig, Interpreter, MemorySource};
+use gantry_machine::motion::config::MotionConfig;
+use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
+use gantry_machine::motion::pipeline::PushError;
+use gantry_machine::motion::prep::BlockReport;
+use gantry_machine::motion::sim::{Sim, SimEvent};
+use gantry_machine::setup::Setup;
+
+/// Most actions one simulation takes (endless loops, huge repeat counts).
+const MAX_ACTIONS: usize = 5_000_000;
+
+/// One reported move: consecutive blocks of the same source line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Move {
+    pub line: u32,
+    /// Speeds in mm/min.
+    pub entry: f64,
+    pub cruise: f64,
+    pub exit: f64,
+    /// Duration in seconds.
+    pub time: f64,
+}
+
+/// nm/s → mm/min.
+fn mm_min(v: u64) -> f64 {
+    v as f64 * 60.0 / 1e6
+}
+
+/// Simulates `program` on the default machine; returns the moves and the total time in seconds.
+pub fn simulate(program: &[u8]) -> anyhow::Result<(Vec<Move>, f64)> {
+    let mut interp = Interpreter::new(&InterpConfig::default());
+    let mut src = MemorySource::new(program);
+    let mut actions: Vec<Canon> = Vec::new();
+    while let Some(item) = interp.next(&mut src) {
+        let c = item.map_err(|e| anyhow::anyhow!("line {}: {:?}", e.line, e))?;
+        actions.push(c);
+        if interp.restarts() > 0 {
+            break;
+        }
+        if actions.len() >= MAX_ACTIONS {
+            anyhow::bail!("more than {MAX_ACTIONS} actions, simulation stopped");
+        }
+    }
+    let cfg = MotionConfig::from_setup(&Setup::default());
+    let mut sim: Box<Sim<128>> = Box::new(Sim::new(cfg));
+    let mut reports: Vec<BlockReport> = Vec::new();
+    sim.run(actions, &mut |e| {
+        if let SimEvent::Block { report, .. } = e {
+            reports.push(report);
+        }
+    })
+    .map_err(|(c, e)| match e {
+        PushError::Travel { axis } => anyhow::anyhow!(
+            "line {}: move leaves the travel of axis {}",
+            c.line,
+            gantry_machine::units::AXIS_LETTERS[axis]
+        ),
+        PushError::Full => anyhow::anyhow!("line {}: motion queue refused the action", c.line),
+    })?;
+    let mut moves: Vec<Move> = Vec::new();
+    let hz = KERNEL_TIMER_HZ as f64;
+    let mut last_line = None;
+    for r in &reports {
+        let time = r.counts as f64 / hz;
+        match moves.last_mut() {
+            Some(m) if last_line == Some(r.line) => {
+                m.cruise = m.cruise.max(mm_min(r.peak));
+                m.exit = mm_min(r.exit);
+                m.time += time;
+            }
+            _ => moves.push(Move {
+                line: r.line,
+                entry: mm_min(r.entry),
+                cruise: mm_min(r.peak),
+                exit: mm_min(r.exit),
+                time,
+            }),
+        }
+        last_line = Some(r.line);
+    }
+    Ok((moves, sim.now as f64 / hz))
+}
+
+/// The whole report text.
+pub fn report(moves: &[Move], total: f64, json: bool) -> String {
+    let mut out = String::new();
+    for m in moves {
+        if json {
+            let _ = writeln!(
+                out,
+                "{{\"line\":{},\"entry\":{:.3},\"cruise\":{:.3},\"exit\":{:.3},\"time\":{:.6}}}",
+                m.line, m.entry, m.cruise, m.exit, m.time
+            );
+        } else {
+            let _ = writeln!(
+                out,
+                "line {:>6}  entry {:>9.3}  cruise {:>9.3}  exit {:>9.3} mm/min  time {:>9.6} s",
+                m.line, m.entry, m.cruise, m.exit, m.time
+            );
+        }
+    }
+    let _ = writeln!(out, "total time: {total:.3} s");
+    out
+}
+
 /// Runs `gantry simulate FILE [--json]`.
-pub fn run(_file: &Path, _json: bool) -> anyhow::Result<ExitCode> {
-    anyhow::bail!("simulate is not implemented yet")
+pub fn run(file: &Path, json: bool) -> anyhow::Result<ExitCode> {
+    let text =
+        std::fs::read(file).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
+    let (moves, total) = simulate(&text)?;
+    print!("{}", report(&moves, total, json));
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_line_time_and_speeds() {
+        // 60 mm at F1200 (20 mm/s), 200 mm/s², start speed 60 mm/min: ramps of ≈1 mm each.
+        let (moves, total) = simulate(b"G21 G90\nG1 X60 F1200\nM2\n").unwrap();
+        assert_eq!(moves.len(), 1);
+        let m = moves[0];
+        assert_eq!(m.line, 2);
+        assert!((m.cruise - 1200.0).abs() < 0.01, "{m:?}");
+        assert!((m.entry - 60.0).abs() < 0.01, "{m:?}");
+        // 3 s cruise + about 0.1 s extra for the two ramps.
+        assert!(total > 3.0 && total < 3.11, "{total}");
+        let text = report(&moves, total, false);
+        assert!(text.lines().last().unwrap().starts_with("total time: 3.0"));
+        let json = report(&moves, total, true);
+        assert!(json.starts_with("{\"line\":2,\"entry\":60.000,\"cruise\":1200.000"));
+    }
 }
