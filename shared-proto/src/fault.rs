@@ -7,6 +7,9 @@
 //! wanted, an on-target soak test. Order is preserved: a delayed byte also
 //! holds back the bytes behind it, like a stalled USB endpoint.
 
+use crate::channel::Endpoint;
+use crate::frame::MAX_FRAME_LEN;
+use crate::messages::Wire;
 use heapless::Deque;
 
 /// SplitMix64: tiny, fast, good enough for test randomness; not cryptographic.
@@ -198,6 +201,78 @@ impl<const N: usize> FaultyPipe<N> {
     }
 }
 
+/// Two lossy pipes joining endpoint `a` and endpoint `b`, with a helper that
+/// runs one step of both (for whole-system tests: the sender on one side, the
+/// emulated board on the other).
+pub struct Duplex<const N: usize> {
+    pub a_to_b: FaultyPipe<N>,
+    pub b_to_a: FaultyPipe<N>,
+    chunking: Rng,
+}
+
+impl<const N: usize> Duplex<N> {
+    /// Both directions with the same fault probabilities, seeded from `seed`.
+    pub fn new(seed: u64, faults: Faults) -> Self {
+        Self {
+            a_to_b: FaultyPipe::new(seed, faults),
+            b_to_a: FaultyPipe::new(seed ^ 0x5555_5555_5555_5555, faults),
+            chunking: Rng::new(seed.wrapping_add(1)),
+        }
+    }
+
+    /// Sets the faults of both directions (e.g. 100 % drop for a cable pull).
+    pub fn set_faults(&mut self, faults: Faults) {
+        self.a_to_b.set_faults(faults);
+        self.b_to_a.set_faults(faults);
+    }
+
+    /// At time `now`: both endpoints transmit everything due, then every byte
+    /// due is delivered in random chunk sizes (1..=64 bytes).
+    #[allow(clippy::type_complexity)]
+    pub fn step<
+        T: Wire,
+        R: Wire,
+        const ATQ: usize,
+        const ARQ: usize,
+        const ATRT: usize,
+        const ARRT: usize,
+        const BTQ: usize,
+        const BRQ: usize,
+        const BTRT: usize,
+        const BRRT: usize,
+    >(
+        &mut self,
+        now: u32,
+        a: &mut Endpoint<T, R, ATQ, ARQ, ATRT, ARRT>,
+        b: &mut Endpoint<R, T, BTQ, BRQ, BTRT, BRRT>,
+    ) {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        while let Some(n) = a.poll_transmit(now, &mut buf) {
+            self.a_to_b.write(now, &buf[..n]);
+        }
+        while let Some(n) = b.poll_transmit(now, &mut buf) {
+            self.b_to_a.write(now, &buf[..n]);
+        }
+        let mut chunk = [0u8; 64];
+        loop {
+            let want = 1 + self.chunking.below(64) as usize;
+            let n = self.a_to_b.read(now, &mut chunk[..want]);
+            if n == 0 {
+                break;
+            }
+            b.on_bytes(now, &chunk[..n]);
+        }
+        loop {
+            let want = 1 + self.chunking.below(64) as usize;
+            let n = self.b_to_a.read(now, &mut chunk[..want]);
+            if n == 0 {
+                break;
+            }
+            a.on_bytes(now, &chunk[..n]);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -229,5 +304,21 @@ mod tests {
         }
         assert_eq!(got, data);
         assert!(p.stats().delayed > 0);
+    }
+
+    #[test]
+    fn duplex_connects_a_host_and_a_board() {
+        use crate::{BoardEndpoint, Config, HostEndpoint, HostMsg};
+        let mut d: Duplex<4096> = Duplex::new(3, Faults::uniform(10_000));
+        let mut host = HostEndpoint::new_host(Config::USB_MS, 1);
+        let mut board = BoardEndpoint::new_board(Config::USB_MS, 2);
+        host.send(HostMsg::Start).unwrap();
+        for t in 0..5_000 {
+            d.step(t, &mut host, &mut board);
+            if board.recv() == Some(HostMsg::Start) {
+                return;
+            }
+        }
+        panic!("not delivered");
     }
 }

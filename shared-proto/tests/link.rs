@@ -443,3 +443,53 @@ fn version_mismatch_is_refused() {
     dec.feed(&buf[..n], |f| kind = Some(f.header.kind));
     assert_eq!(kind, Some(Kind::HelloAck));
 }
+
+/// The window update that reopens a closed window is lost: the sender's
+/// probe (Ack with POLL after `rto`) recovers, no deadlock.
+#[test]
+fn lost_window_update_is_recovered_by_probe() {
+    let mut sim = Sim::new(21, Faults::NONE, SIM);
+    sim.connect(100);
+    for n in 1..=40 {
+        let _ = sim.host.send(HostMsg::Line(line(n)));
+    }
+    for _ in 0..30 {
+        sim.pump();
+    }
+    assert_eq!(sim.board.queued_len(), BOARD_RX_QUEUE_LEN);
+    let mut got = 0;
+    while sim.board.recv_queued().is_some() {
+        got += 1;
+    }
+    // The board's window update goes out, and is lost.
+    sim.transmit();
+    sim.b2h.clear();
+    sim.h2b.clear();
+    let t0 = sim.now;
+    while sim.board.queued_len() == 0 {
+        sim.now += 1;
+        sim.pump();
+        assert!(sim.now - t0 < 3 * SIM.rto, "host never probed"); // keepalive is 50
+    }
+    while sim.board.recv_queued().is_some() {
+        got += 1;
+    }
+    assert!(got > 16);
+}
+
+#[test]
+fn next_deadline_tracks_retransmission() {
+    let mut sim = Sim::new(23, Faults::NONE, SIM);
+    sim.connect(100);
+    sim.pump();
+    sim.host.send(HostMsg::Start).unwrap();
+    sim.transmit(); // sent, not delivered yet
+    let sent_at = sim.now;
+    sim.h2b.clear(); // lost
+    let d = sim.host.next_deadline().unwrap();
+    assert_eq!(d, sent_at + SIM.rto);
+    while sim.board.recv().is_none() {
+        sim.pump();
+        assert!(sim.now <= d + 2);
+    }
+}
