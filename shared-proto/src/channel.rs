@@ -123,7 +123,7 @@ const EVENTS: usize = 4;
 ///
 /// `TQ`/`RQ`: queued-lane send queue and receive queue (the receive queue's
 /// free slots are the credit advertised to the peer); `TRT`/`RRT`: the same
-/// for the realtime lane. All at most 255.
+/// for the realtime lane. Each in 1..=255 (checked at compile time).
 pub struct Endpoint<T, R, const TQ: usize, const RQ: usize, const TRT: usize, const RRT: usize> {
     role: Role,
     cfg: Config,
@@ -157,7 +157,17 @@ pub struct Endpoint<T, R, const TQ: usize, const RQ: usize, const TRT: usize, co
 impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const RRT: usize>
     Endpoint<T, R, TQ, RQ, TRT, RRT>
 {
-    const CAPS_OK: () = assert!(TQ <= 255 && RQ <= 255 && TRT <= 255 && RRT <= 255);
+    const CAPS_OK: () = assert!(
+        TQ > 0
+            && RQ > 0
+            && TRT > 0
+            && RRT > 0
+            && TQ <= 255
+            && RQ <= 255
+            && TRT <= 255
+            && RRT <= 255,
+        "lane capacities must be 1..=255"
+    );
 
     fn new(role: Role, cfg: Config, id: u32) -> Self {
         #[allow(clippy::let_unit_value)]
