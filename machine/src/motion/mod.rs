@@ -15,9 +15,8 @@ pub mod planner;
 pub mod prep;
 pub mod profile;
 pub mod sim;
+mod test_vectors;
 pub mod trig;
 
-use crate::vectors::Vector;
-
 /// Cross-target vectors of the planner and step kernel (see [`crate::vectors`]).
-pub const VECTORS: &[Vector] = &[];
+pub use test_vectors::VECTORS;

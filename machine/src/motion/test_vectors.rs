@@ -1,0 +1,266 @@
+//! Cross-target vectors of the motion core: planner + prep + kernel runs digested step by step.
+//!
+//! Every step event (virtual tick time, step byte, direction byte) and the final step position
+//! feed a [`Digest`], so any difference in integer arithmetic between targets shows up.
+
+use super::config::MotionConfig;
+use super::kernel::{Segment, SegmentSource, StepKernel};
+use super::sim::{Sim, SimEvent};
+use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, StopKind};
+use crate::units::Pos;
+use crate::vectors::{Digest, Vector};
+
+const MM: i64 = 1_000_000;
+
+const fn at(x: i64, y: i64, z: i64) -> Pos {
+    [x, y, z, 0, 0, 0]
+}
+
+const fn feed(line: u32, to: Pos, mm_min: i64) -> Canon {
+    Canon {
+        line,
+        action: Action::Feed {
+            to,
+            feed: mm_min * MM,
+        },
+    }
+}
+
+const fn rapid(line: u32, to: Pos) -> Canon {
+    Canon {
+        line,
+        action: Action::Rapid { to },
+    }
+}
+
+/// Runs `program` on a 48-block pipeline; `hold_at`: feed hold at that tick time, resumed once held.
+fn digest_run(cfg: MotionConfig, program: &[Canon], hold_at: Option<u64>, fro: u16) -> u32 {
+    let mut sim: Sim<48> = Sim::new(cfg);
+    let mut d = Digest::new();
+    let mut on = |e: SimEvent| {
+        if let SimEvent::Step(s) = e {
+            d.u64(s.time);
+            d.bytes(&[s.step, s.dir]);
+        }
+    };
+    let mut next = 0;
+    let mut held = false;
+    let mut idle = 0;
+    loop {
+        while next < program.len() && sim.motion.push(&program[next]).is_ok() {
+            next += 1;
+        }
+        if let Some(t) = hold_at {
+            if !held && sim.now >= t {
+                sim.motion.feed_hold();
+                sim.motion.set_feed_override(fro);
+                held = true;
+            }
+        }
+        if held && sim.motion.state() == super::pipeline::MotionState::Held {
+            sim.motion.resume();
+        }
+        if sim.tick(&mut on).period == 0 {
+            idle += 1;
+            if idle > 3 && next >= program.len() {
+                break;
+            }
+        } else {
+            idle = 0;
+        }
+    }
+    for p in sim.kernel.position() {
+        d.i64(p);
+    }
+    d.finish()
+}
+
+struct Fixed<'a>(&'a [Segment], usize);
+
+impl SegmentSource for Fixed<'_> {
+    fn next_segment(&mut self) -> Option<Segment> {
+        let s = self.0.get(self.1).copied();
+        self.1 += 1;
+        s
+    }
+}
+
+fn kernel_bresenham() -> u32 {
+    let segs = [
+        Segment {
+            steps: [10, 7, 3, 0, 0, 1],
+            ticks: 10,
+            period: 2400,
+            dir: 0b10,
+        },
+        Segment {
+            steps: [4, 3, 1, 2, 0, 0],
+            ticks: 32,
+            period: 750,
+            dir: 0b0101,
+        },
+        Segment::idle(3, 1000),
+        Segment {
+            steps: [97, 96, 1, 50, 49, 2],
+            ticks: 97,
+            period: 300,
+            dir: 0b11_1111,
+        },
+    ];
+    let mut src = Fixed(&segs, 0);
+    let mut k = StepKernel::new();
+    let mut d = Digest::new();
+    loop {
+        let out = k.tick(&mut src, false);
+        if out.period == 0 {
+            break;
+        }
+        d.bytes(&[out.step, out.dir]);
+        d.u64(out.period as u64);
+    }
+    for p in k.position() {
+        d.i64(p);
+    }
+    d.finish()
+}
+
+const SQUARE: [Canon; 6] = [
+    feed(1, at(10 * MM, 0, 0), 1200),
+    feed(2, at(10 * MM, 10 * MM, 0), 3000),
+    feed(3, at(0, 10 * MM, MM), 600),
+    feed(4, at(0, 0, 0), 2400),
+    rapid(5, at(7 * MM, 3 * MM, 2 * MM)),
+    rapid(6, at(0, 0, 0)),
+];
+
+fn planner_square() -> u32 {
+    digest_run(MotionConfig::default(), &SQUARE, None, 100)
+}
+
+const ARCS: [Canon; 5] = [
+    rapid(1, at(10 * MM, 0, 0)),
+    Canon {
+        line: 2,
+        action: Action::Arc {
+            to: at(0, 10 * MM, 0),
+            center: [0, 0, 0],
+            plane: Plane::XY,
+            dir: ArcDir::Ccw,
+            turns: 1,
+            feed: 2000 * MM,
+        },
+    },
+    Canon {
+        line: 3,
+        action: Action::Arc {
+            to: at(0, 10 * MM, -2 * MM),
+            center: [0, 5 * MM, 0],
+            plane: Plane::XY,
+            dir: ArcDir::Cw,
+            turns: 2,
+            feed: 1500 * MM,
+        },
+    },
+    Canon {
+        line: 4,
+        action: Action::Arc {
+            to: at(4 * MM, 10 * MM, -6 * MM),
+            center: [2 * MM, 0, -4 * MM],
+            plane: Plane::ZX,
+            dir: ArcDir::Ccw,
+            turns: 1,
+            feed: 900 * MM,
+        },
+    },
+    rapid(5, at(0, 0, 0)),
+];
+
+fn arcs_and_helix() -> u32 {
+    digest_run(MotionConfig::default(), &ARCS, None, 100)
+}
+
+const HOLD_JOB: [Canon; 4] = [
+    feed(1, at(30 * MM, 0, 0), 3000),
+    feed(2, at(30 * MM, 20 * MM, 0), 3000),
+    feed(3, at(0, 0, 0), 2000),
+    Canon {
+        line: 4,
+        action: Action::Stop(StopKind::End),
+    },
+];
+
+fn hold_resume_override() -> u32 {
+    // Hold at 0.3 s, resume at 150 % feed override.
+    digest_run(MotionConfig::default(), &HOLD_JOB, Some(7_200_000), 150)
+}
+
+const ODD_JOB: [Canon; 7] = [
+    Canon {
+        line: 1,
+        action: Action::PathMode(PathMode::ExactStop),
+    },
+    feed(2, at(3_103_000, -1_234_567, 0), 800),
+    Canon {
+        line: 3,
+        action: Action::Dwell { micros: 25_000 },
+    },
+    Canon {
+        line: 4,
+        action: Action::PathMode(PathMode::Blend { tolerance: 50_000 }),
+    },
+    feed(5, at(-2_000_001, 4_000_003, 777), 1700),
+    feed(6, at(5_555_555, 1, -999), 2500),
+    rapid(7, at(0, 0, 0)),
+];
+
+fn odd_ratios_dwell_exact_stop() -> u32 {
+    let mut cfg = MotionConfig::default();
+    cfg.axes[0].steps = 3000;
+    cfg.axes[0].units = 78_816_200;
+    cfg.axes[1].steps = 4000;
+    cfg.axes[1].units = 7_000_001;
+    cfg.axes[2].steps = 200;
+    cfg.axes[2].units = 1_270_000;
+    digest_run(cfg, &ODD_JOB, None, 100)
+}
+
+pub const VECTORS: &[Vector] = &[
+    Vector {
+        name: "motion/kernel-bresenham",
+        run: kernel_bresenham,
+        expected: 0x1253_0f50,
+    },
+    Vector {
+        name: "motion/planner-square",
+        run: planner_square,
+        expected: 0x107b_ba9f,
+    },
+    Vector {
+        name: "motion/arcs-helix",
+        run: arcs_and_helix,
+        expected: 0xb220_0221,
+    },
+    Vector {
+        name: "motion/hold-resume-override",
+        run: hold_resume_override,
+        expected: 0xb5eb_5dec,
+    },
+    Vector {
+        name: "motion/odd-ratios-dwell-exact-stop",
+        run: odd_ratios_dwell_exact_stop,
+        expected: 0x3fe7_3a70,
+    },
+];
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    /// `cargo test -p gantry-machine --lib print_motion_digests -- --nocapture` regenerates them.
+    #[test]
+    fn print_motion_digests() {
+        for v in super::VECTORS {
+            std::println!("{} {:#010x}", v.name, (v.run)());
+        }
+    }
+}
