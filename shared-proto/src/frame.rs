@@ -132,6 +132,18 @@ pub enum EncodeError {
     OutputTooSmall,
 }
 
+impl core::fmt::Display for EncodeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            EncodeError::PayloadTooLarge => "payload larger than a frame allows",
+            EncodeError::OutputTooSmall => "output buffer shorter than the frame",
+        })
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for EncodeError {}
+
 /// Encodes `header` and the postcard form of `payload` (if any) as one
 /// complete wire frame (delimiter included) into `out`; returns its length.
 pub fn encode_frame<P: Serialize + ?Sized>(
