@@ -23,8 +23,8 @@ pub use channel::{
 };
 pub use frame::{encode_frame, Frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
 pub use messages::{
-    BoardMsg, Hello, HelloAck, HostMsg, Jog, Lane, Line, LineText, MachineState, Status, Wire,
-    AXES, LINE_MAX,
+    BoardMsg, Hello, HelloAck, HostMsg, Jog, Lane, Line, LineText, MachineState, ProgramTarget,
+    Status, Wire, AXES, LINE_MAX,
 };
 
 /// Protocol version exchanged in the handshake: major in the high byte, minor

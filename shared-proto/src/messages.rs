@@ -92,16 +92,12 @@ pub enum HostMsg {
     // ---- queued ----
     /// A line of the streamed job.
     Line(Line),
-    /// Program server answer: line `line.line_no` of subprogram `O<program>`,
-    /// sent in order after a [`BoardMsg::ProgramRequest`].
-    ProgramLine { program: u32, line: Line },
-    /// Program server answer: `O<program>` has no line at or after `line_no`
-    /// (end of program, or no such program when `found` is false).
-    ProgramEnd {
-        program: u32,
-        line_no: u32,
-        found: bool,
-    },
+    /// Program server answer to the [`BoardMsg::ProgramRequest`] with the same `id`: the
+    /// next line from the requested place on (lines are sent in file order).
+    ProgramLine { id: u16, line: Line },
+    /// Program server answer: no more lines follow for request `id` (end of the file), or the
+    /// requested place does not exist (`found` false).
+    ProgramEnd { id: u16, found: bool },
     /// A chunk of the opaque setup blob at byte `offset`.
     SetupChunk {
         offset: u32,
@@ -214,6 +210,17 @@ pub struct Status {
     pub homed: u8,
 }
 
+/// Where a [`BoardMsg::ProgramRequest`] asks the host to continue serving lines.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProgramTarget {
+    /// The `O<program>` line of a subprogram (RS274NGC/Fanuc `M98 P<program>`).
+    Program(u32),
+    /// The first block with N word `n` (gixa subroutines are addressed by N).
+    Sequence(u32),
+    /// Line `n` of the file (1-based): the return from `M99`, or `1` for a restart.
+    Line(u32),
+}
+
 /// Messages from the board to the host.
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq, Eq)]
 pub enum BoardMsg {
@@ -230,8 +237,9 @@ pub enum BoardMsg {
     /// Execution reached `line` (a resume point the host may record); `id` is
     /// a board-chosen tag (e.g. an M-code mark).
     Mark { line: u32, id: u32 },
-    /// The interpreter jumped (M98/M99): send lines of `O<program>` from `from_line`.
-    ProgramRequest { program: u32, from_line: u32 },
+    /// The interpreter jumped (M98/M99): stop serving the previous place and serve lines from
+    /// `target` on as `ProgramLine { id, .. }`. Lines for older ids are dropped by the board.
+    ProgramRequest { id: u16, target: ProgramTarget },
     /// The job finished; `line` is the last executed line.
     JobDone { line: u32 },
 }

@@ -4,7 +4,8 @@
 use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN, MAX_PAYLOAD};
 use gantry_proto::messages::SETUP_CHUNK_MAX;
 use gantry_proto::{
-    BoardMsg, Hello, HelloAck, HostMsg, Jog, Lane, Line, MachineState, Status, Wire, AXES, LINE_MAX,
+    BoardMsg, Hello, HelloAck, HostMsg, Jog, Lane, Line, MachineState, ProgramTarget, Status, Wire,
+    AXES, LINE_MAX,
 };
 use serde::{de::DeserializeOwned, Serialize};
 use std::fmt::Debug;
@@ -19,16 +20,15 @@ fn all_host() -> Vec<HostMsg> {
         HostMsg::Line(worst_line()),
         HostMsg::Line(Line::new(7, "").unwrap()),
         HostMsg::ProgramLine {
-            program: 9001,
+            id: 9001,
             line: Line::new(3, "G91 G0 Z1").unwrap(),
         },
         HostMsg::ProgramLine {
-            program: u32::MAX,
+            id: u16::MAX,
             line: worst_line(),
         },
         HostMsg::ProgramEnd {
-            program: 12,
-            line_no: 40,
+            id: 12,
             found: true,
         },
         HostMsg::SetupChunk {
@@ -123,8 +123,12 @@ fn all_board() -> Vec<BoardMsg> {
         },
         BoardMsg::Mark { line: 200, id: 7 },
         BoardMsg::ProgramRequest {
-            program: 100,
-            from_line: 1,
+            id: 1,
+            target: ProgramTarget::Program(100),
+        },
+        BoardMsg::ProgramRequest {
+            id: u16::MAX,
+            target: ProgramTarget::Line(u32::MAX),
         },
         BoardMsg::JobDone { line: u32::MAX },
     ]);
