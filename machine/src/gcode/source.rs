@@ -34,6 +34,13 @@ pub trait ProgramSource {
     /// Repositions so that the next line returned is line `line` (1-based); `line` may be one past
     /// the last line (then the source is at its end).
     fn jump_to_line(&mut self, line: u32) -> Result<(), SourceError>;
+
+    /// True when no line will ever follow (the end of the file). A streaming source returns false
+    /// while it merely waits for the host: the interpreter then returns `None` from
+    /// [`crate::gcode::Interpreter::next`] without finishing, and continues once lines arrive.
+    fn is_exhausted(&self) -> bool {
+        true
+    }
 }
 
 /// Remembered (line, byte offset) pairs, so returns from subprograms do not rescan the file.
