@@ -1,0 +1,174 @@
+//! MCU cost of the motion core: instructions per step-kernel tick (1, 3 and 6 axes stepping) and
+//! per short G1 block (plan + segment prep), read from SysTick on QEMU `mps2-an386`.
+//!
+//! Run with one virtual nanosecond per instruction:
+//! `qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -icount shift=0 -semihosting-config
+//! enable=on,target=native -nographic -kernel target/thumbv7em-none-eabihf/release/bench_motion`.
+//! SysTick counts the 25 MHz system clock, so one count is 40 instructions; a calibration loop of
+//! known length checks that ratio. The figures are printed on the last line.
+#![no_std]
+#![no_main]
+
+use core::hint::black_box;
+use core::sync::atomic::{AtomicU32, Ordering};
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SYST;
+use cortex_m_rt::{entry, exception};
+use gantry_machine::canon::{Action, Canon};
+use gantry_machine::motion::config::MotionConfig;
+use gantry_machine::motion::kernel::{Segment, SegmentSource, StepKernel, TickOut};
+use gantry_machine::motion::pipeline::{Motion, PushError};
+use gantry_target_tests::{exit, println};
+
+const RELOAD: u32 = 0x00FF_FFFF;
+static WRAPS: AtomicU32 = AtomicU32::new(0);
+
+#[exception]
+fn SysTick() {
+    WRAPS.fetch_add(1, Ordering::Relaxed);
+}
+
+/// SysTick counts since start (wraps counted by the exception).
+fn now() -> u64 {
+    loop {
+        let w = WRAPS.load(Ordering::Relaxed);
+        let c = SYST::get_current();
+        if WRAPS.load(Ordering::Relaxed) == w {
+            return w as u64 * (RELOAD as u64 + 1) + (RELOAD - c) as u64;
+        }
+    }
+}
+
+/// A segment source that hands out the same segment for ever.
+struct Repeat(Segment);
+
+impl SegmentSource for Repeat {
+    fn next_segment(&mut self) -> Option<Segment> {
+        Some(self.0)
+    }
+}
+
+/// The step interrupt's body: one kernel tick.
+#[inline(never)]
+fn isr_body(k: &mut StepKernel, src: &mut Repeat) -> TickOut {
+    k.tick(src, false)
+}
+
+/// An empty body with the same call shape (loop and call overhead).
+#[inline(never)]
+fn empty_body(_k: &mut StepKernel, src: &mut Repeat) -> TickOut {
+    TickOut {
+        step: src.0.dir,
+        dir: 0,
+        period: 1,
+    }
+}
+
+const TICKS: u32 = 20_000;
+
+/// Counts per tick × 1000 for a segment stepping `axes` axes.
+fn tick_cost(axes: usize, body: fn(&mut StepKernel, &mut Repeat) -> TickOut) -> u64 {
+    let mut steps = [0u32; 6];
+    let shares = [1000, 731, 457, 999, 123, 611];
+    steps[..axes].copy_from_slice(&shares[..axes]);
+    let mut src = Repeat(Segment {
+        steps,
+        ticks: 1000,
+        period: 240,
+        dir: 0b101,
+    });
+    let mut k = StepKernel::new();
+    let t0 = now();
+    for _ in 0..TICKS {
+        black_box(body(black_box(&mut k), black_box(&mut src)));
+    }
+    (now() - t0) * 1000 / TICKS as u64
+}
+
+/// Instructions per SysTick count × 1000, from a loop of known length.
+fn calibrate() -> u64 {
+    const N: u32 = 200_000;
+    let t0 = now();
+    let mut i = N;
+    while black_box(i) != 0 {
+        i -= 1;
+    }
+    let counts = now() - t0;
+    println!("calibration loop: {} iterations in {} counts", N, counts);
+    // The loop body: black_box store and load, `subs`, `cmp`, `bne` (see the disassembly).
+    let per_iter = 5;
+    per_iter * N as u64 * 1000 / counts.max(1)
+}
+
+/// Counts per short G1 block × 1000: push (plan) + prepare all its segments, streaming steady state.
+fn block_cost() -> (u64, u64) {
+    let mut motion: Motion<128> = Motion::new(MotionConfig::default());
+    let mut line = 0u32;
+    let next_canon = |line: &mut u32| {
+        *line += 1;
+        // 0.1 mm steps along a gentle zigzag (0.06° corners, like a fine CAM polyline) at F3000.
+        let x = *line as i64 * 100_000;
+        let y = if *line % 2 == 0 { 0 } else { 100 };
+        Canon {
+            line: *line,
+            action: Action::Feed {
+                to: [x - 100_000_000, y, 0, 0, 0, 0],
+                feed: 3_000_000_000,
+            },
+        }
+    };
+    // Fill the ring first.
+    while motion.push(&next_canon(&mut line)).is_ok() {}
+    const BLOCKS: u32 = 2000;
+    let mut push_counts = 0u64;
+    let t0 = now();
+    for _ in 0..BLOCKS {
+        let c = next_canon(&mut line);
+        loop {
+            let p0 = now();
+            let r = motion.push(&c);
+            push_counts += now() - p0;
+            match r {
+                Ok(()) => break,
+                Err(PushError::Full) => {
+                    black_box(motion.next_segment());
+                }
+                Err(_) => exit(false),
+            }
+        }
+    }
+    let total = now() - t0;
+    (total * 1000 / BLOCKS as u64, push_counts * 1000 / BLOCKS as u64)
+}
+
+#[entry]
+fn main() -> ! {
+    let mut cp = cortex_m::Peripherals::take().unwrap();
+    cp.SYST.set_clock_source(SystClkSource::Core);
+    cp.SYST.set_reload(RELOAD);
+    cp.SYST.clear_current();
+    cp.SYST.enable_interrupt();
+    cp.SYST.enable_counter();
+    // The counter starts at 0 and reloads on the first clock: wait for that before timing.
+    while SYST::get_current() == 0 {}
+
+    let ipc = calibrate(); // instructions per count × 1000
+    println!("calibration: {}.{:03} instructions per SysTick count", ipc / 1000, ipc % 1000);
+    let to_instr = |milli_counts: u64| milli_counts * 40 / 1000;
+    let base = to_instr(tick_cost(1, empty_body));
+    let t1 = to_instr(tick_cost(1, isr_body)).saturating_sub(base);
+    let t3 = to_instr(tick_cost(3, isr_body)).saturating_sub(base);
+    let t6 = to_instr(tick_cost(6, isr_body)).saturating_sub(base);
+    println!("loop+call overhead: {} instructions per tick (subtracted)", base);
+    let (block, push) = block_cost();
+    let (block, push) = (to_instr(block), to_instr(push));
+    println!("short G1 block: {} instructions (plan {})", block, push);
+    // F411 at 96 MHz: ISR = tick + 12 entry + 10 exit + ~8 for the GPIO/timer writes, CPI ≈ 1.
+    let isr = t3 + 30;
+    let rate_khz = 96_000 / isr;
+    println!(
+        "kernel instructions/tick: 1 axis {}, 3 axes {}, 6 axes {}; block {}; F411@96MHz 3-axis tick ceiling {} kHz (100% CPU, {} cycles/ISR), {} kHz at 25% CPU",
+        t1, t3, t6, block, rate_khz, isr, rate_khz / 4
+    );
+    exit(true)
+}
