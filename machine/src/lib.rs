@@ -7,6 +7,7 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![forbid(unsafe_code)]
 
+pub mod board;
 pub mod canon;
 pub mod controller;
 pub mod gcode;

@@ -177,3 +177,39 @@ impl Default for Setup {
         }
     }
 }
+
+impl Setup {
+    /// The interpreter's part of the setup.
+    pub fn interp_config(&self) -> crate::gcode::InterpConfig {
+        use crate::gcode::{config::ToolEntry, Dialect as GDialect, DwellUnits as GDwell};
+        let p = &self.program;
+        let mut c = match p.dialect {
+            Dialect::Ngc => crate::gcode::InterpConfig::default(),
+            Dialect::Gixa => crate::gcode::InterpConfig::gixa(),
+        };
+        c.dialect = match p.dialect {
+            Dialect::Ngc => GDialect::Rs274,
+            Dialect::Gixa => GDialect::Gixa,
+        };
+        c.axis_count = self.axis_count;
+        c.dwell_units = match p.dwell_units {
+            DwellUnits::Seconds => GDwell::Seconds,
+            DwellUnits::Milliseconds => GDwell::FanucIntegerMillis,
+        };
+        c.peck_clearance = p.peck_clearance;
+        c.gixa.partial_retract = p.chip_break_retract;
+        c.work_offsets = p.work_offsets;
+        c.g28_position = p.g28_home;
+        c.g30_position = p.g30_home;
+        for (slot, t) in c.tools.iter_mut().zip(p.tools.iter()) {
+            *slot = ToolEntry {
+                number: t.number,
+                length: t.length,
+            };
+        }
+        for &code in &p.user_mcodes {
+            c.add_user_m_code(code);
+        }
+        c
+    }
+}
