@@ -30,9 +30,15 @@ use serde_json::Value;
 /// Keep in step with the "Known differences" table of tests/golden/rs274/README.md.
 const KNOWN_DIFFERENCES: &[(&str, &str)] = &[
     // LinuxCNC starts cutter compensation on an arc; seed-002 14.14 requires an error.
-    ("63-g41-arc-start", "cutter compensation started by an arc is an error (Fanuc)"),
+    (
+        "63-g41-arc-start",
+        "cutter compensation started by an arc is an error (Fanuc)",
+    ),
     // LinuxCNC rejects `G4 X1.5` (X is an axis word there); Fanuc dwells 1.5 s (seed-002 14.8).
-    ("65-g4-x-word", "G4 X is a dwell time (Fanuc); LinuxCNC errors"),
+    (
+        "65-g4-x-word",
+        "G4 X is a dwell time (Fanuc); LinuxCNC errors",
+    ),
 ];
 
 /// Programs that need the tool table rs274 was given (`tools.tbl`): they run through
@@ -58,14 +64,18 @@ struct Rec {
 }
 
 fn golden_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("golden").join("rs274")
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("golden")
+        .join("rs274")
 }
 
 fn parse_lines(text: &str, what: &str) -> Result<Vec<Value>, String> {
     text.lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(i, l)| serde_json::from_str::<Value>(l).map_err(|e| format!("{what} line {}: {e}: {l}", i + 1)))
+        .map(|(i, l)| {
+            serde_json::from_str::<Value>(l).map_err(|e| format!("{what} line {}: {e}: {l}", i + 1))
+        })
         .collect()
 }
 
@@ -94,15 +104,24 @@ fn normalise(all: &[Value], tol: f64) -> Vec<Rec> {
                     }
                     pos = to;
                 }
-                out.push(Rec { index, raw: v.clone() });
+                out.push(Rec {
+                    index,
+                    raw: v.clone(),
+                });
             }
             "arc" => {
                 if let Some(to) = point(v, "to") {
                     pos = to;
                 }
-                out.push(Rec { index, raw: v.clone() });
+                out.push(Rec {
+                    index,
+                    raw: v.clone(),
+                });
             }
-            "error" => out.push(Rec { index, raw: v.clone() }),
+            "error" => out.push(Rec {
+                index,
+                raw: v.clone(),
+            }),
             _ => {}
         }
     }
@@ -112,7 +131,8 @@ fn normalise(all: &[Value], tol: f64) -> Vec<Rec> {
 /// The `--canon` default setup plus the tool lengths of rs274's tool table. rs274 reads the table
 /// in inches (`T<n> P<pocket> Z<length> D<diameter> ;comment`); Gantry's table has lengths only.
 fn tool_table_config(path: &Path) -> Result<InterpConfig, String> {
-    let text = fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let text =
+        fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     let mut config = InterpConfig::default();
     for line in text.lines() {
         let line = line.split(';').next().unwrap_or("").trim();
@@ -124,7 +144,11 @@ fn tool_table_config(path: &Path) -> Result<InterpConfig, String> {
             let (letter, value) = word.split_at(1);
             match letter {
                 "T" => tool = value.parse::<u32>().ok(),
-                "Z" => length_in = value.parse::<f64>().map_err(|e| format!("{}: {word}: {e}", path.display()))?,
+                "Z" => {
+                    length_in = value
+                        .parse::<f64>()
+                        .map_err(|e| format!("{}: {word}: {e}", path.display()))?
+                }
                 _ => {}
             }
         }
@@ -147,7 +171,10 @@ fn differs(expected: &Value, actual: &Value, tol: f64) -> Option<String> {
     if eo != ao {
         return Some(format!("op {ao:?} instead of {eo:?}"));
     }
-    let (el, al) = (expected.get("line").and_then(Value::as_u64), actual.get("line").and_then(Value::as_u64));
+    let (el, al) = (
+        expected.get("line").and_then(Value::as_u64),
+        actual.get("line").and_then(Value::as_u64),
+    );
     if el != al {
         return Some(format!("line {al:?} instead of {el:?}"));
     }
@@ -174,7 +201,10 @@ fn differs(expected: &Value, actual: &Value, tol: f64) -> Option<String> {
         }
     }
     if eo == "feed" || eo == "arc" {
-        let (e, a) = (expected.get("feed").and_then(Value::as_f64), actual.get("feed").and_then(Value::as_f64));
+        let (e, a) = (
+            expected.get("feed").and_then(Value::as_f64),
+            actual.get("feed").and_then(Value::as_f64),
+        );
         match (e, a) {
             (Some(e), Some(a)) if close(e, a, tol) => {}
             _ => return Some(format!("feed {a:?} instead of {e:?} mm/min")),
@@ -183,10 +213,17 @@ fn differs(expected: &Value, actual: &Value, tol: f64) -> Option<String> {
     if eo == "arc" {
         for key in ["plane", "dir"] {
             if expected.get(key) != actual.get(key) {
-                return Some(format!("{key} {:?} instead of {:?}", actual.get(key), expected.get(key)));
+                return Some(format!(
+                    "{key} {:?} instead of {:?}",
+                    actual.get(key),
+                    expected.get(key)
+                ));
             }
         }
-        let (e, a) = (expected.get("turns").and_then(Value::as_u64), actual.get("turns").and_then(Value::as_u64));
+        let (e, a) = (
+            expected.get("turns").and_then(Value::as_u64),
+            actual.get("turns").and_then(Value::as_u64),
+        );
         if e != a {
             return Some(format!("turns {a:?} instead of {e:?}"));
         }
@@ -195,7 +232,8 @@ fn differs(expected: &Value, actual: &Value, tol: f64) -> Option<String> {
 }
 
 enum Outcome {
-    Pass,
+    /// Passed, with the number of records compared.
+    Pass(usize),
     Fail(String),
 }
 
@@ -272,7 +310,7 @@ fn run_one(ngc: &Path) -> Outcome {
             ));
         }
     }
-    Outcome::Pass
+    Outcome::Pass(exp.len())
 }
 
 #[test]
@@ -284,31 +322,44 @@ fn golden_rs274() {
         .filter(|p| p.extension().is_some_and(|x| x == "ngc"))
         .collect();
     programs.sort();
-    assert!(programs.len() >= 45, "expected at least 45 golden programs, found {}", programs.len());
+    assert!(
+        programs.len() >= 45,
+        "expected at least 45 golden programs, found {}",
+        programs.len()
+    );
     for (name, _) in KNOWN_DIFFERENCES {
-        assert!(dir.join(format!("{name}.ngc")).exists(), "KNOWN_DIFFERENCES names a missing program {name}");
+        assert!(
+            dir.join(format!("{name}.ngc")).exists(),
+            "KNOWN_DIFFERENCES names a missing program {name}"
+        );
     }
 
     let (mut pass, mut fail, mut known) = (Vec::new(), Vec::new(), Vec::new());
+    let mut records = 0usize;
     for ngc in &programs {
         let name = ngc.file_stem().unwrap().to_string_lossy().to_string();
         let outcome = run_one(ngc);
         if let Some((_, why)) = KNOWN_DIFFERENCES.iter().find(|(n, _)| *n == name) {
             let state = match outcome {
-                Outcome::Pass => "now agrees with rs274 (remove it from KNOWN_DIFFERENCES?)".to_string(),
+                Outcome::Pass(_) => {
+                    "now agrees with rs274 (remove it from KNOWN_DIFFERENCES?)".to_string()
+                }
                 Outcome::Fail(d) => format!("differs as expected\n  {d}"),
             };
             known.push(format!("{name}: known difference ({why}): {state}"));
             continue;
         }
         match outcome {
-            Outcome::Pass => pass.push(name),
+            Outcome::Pass(n) => {
+                records += n;
+                pass.push(name)
+            }
             Outcome::Fail(d) => fail.push(d),
         }
     }
 
     let mut report = format!(
-        "golden rs274: {} programs, {} pass, {} fail, {} known differences not compared\n",
+        "golden rs274: {} programs, {} pass ({records} records compared), {} fail, {} known differences not compared\n",
         programs.len(),
         pass.len(),
         fail.len(),
