@@ -65,10 +65,10 @@ section "clippy + tests: board tables (boards/)"
 
 section "host tests"
 if cargo nextest --version >/dev/null 2>&1; then
-    cargo nextest run --workspace --no-tests=warn
+    cargo nextest run --workspace --no-fail-fast --no-tests=warn
     cargo test --workspace --doc
 else
-    cargo test --workspace
+    cargo test --workspace --no-fail-fast
 fi
 
 # text/data/bss of an ARM ELF from its section headers (as Berkeley `size` counts them):

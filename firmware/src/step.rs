@@ -45,6 +45,12 @@ const STEP_RESET: u32 = mask(&STEP) << 16;
 /// BSRR word setting every dir pin for each 6-bit dir mask (bit set = negative = pin high).
 static DIR_WORD: [u32; 64] = dir_table(&DIR);
 
+const _: () = {
+    assert!(STEP_SET[0] == 0 && STEP_SET[63] == mask(&STEP), "step table covers the step pins");
+    assert!(DIR_WORD[0] == mask(&DIR) << 16 && DIR_WORD[63] == mask(&DIR), "dir table");
+    assert!(MIN_PERIOD_COUNTS > STEP_PULSE_COUNTS, "the pulse must end within the tick");
+};
+
 const STEP_GPIO: pac::gpio::Gpio = gpio_block(STEP[0].port);
 const DIR_GPIO: pac::gpio::Gpio = gpio_block(DIR[0].port);
 const TIM: pac::timer::TimGp32 = pac::TIM2;
