@@ -33,6 +33,11 @@ fail() {
 }
 
 section "toolchain and tools"
+# The toolchain pinned by rust-toolchain.toml, installed if this rustup does not have it yet.
+CHANNEL=$(sed -n 's/^channel *= *"\(.*\)"/\1/p' rust-toolchain.toml)
+if ! rustup run "$CHANNEL" rustc --version >/dev/null 2>&1; then
+    rustup toolchain install "$CHANNEL" --profile minimal
+fi
 rustc --version
 if ! rustup target list --installed | grep -qx "$THUMB"; then
     rustup target add "$THUMB"
