@@ -71,9 +71,11 @@ pub const TIM2_PSC: u16 = (CLOCKS.tim_apb1_hz() / KERNEL_TIMER_HZ - 1) as u16;
 /// SYSCLK in Hz, for the boot log.
 pub const SYSCLK_HZ: u32 = CLOCKS.sysclk_hz();
 
-/// embassy config: HSE → PLL → SYSCLK, USB 48 MHz from PLL Q.
+/// embassy config: HSE → PLL → SYSCLK, USB 48 MHz from PLL Q; DMA interrupts below the step timer.
 pub fn config() -> embassy_stm32::Config {
     let mut config = embassy_stm32::Config::default();
+    // embassy defaults DMA interrupts to P0, which belongs to the step timer alone.
+    config.dma_interrupt_priority = embassy_stm32::interrupt::Priority::P2;
     let rcc = &mut config.rcc;
     rcc.hse = Some(Hse {
         freq: Hertz(CLOCKS.hse_hz),

@@ -1,8 +1,8 @@
 //! Gantry firmware: embassy glue around the `gantry-machine` core.
 //!
 //! Interrupt priorities (lower number = more urgent): TIM2 step ISR P0 alone; EXTI lines and the
-//! fast executor (inputs) P1; embassy's time driver (TIM4) P2; USB OTG FS P3; everything else runs
-//! in the thread-mode executor.
+//! fast executor (inputs) P1; embassy's time driver (TIM4) and DMA P2; USB OTG FS P3; everything
+//! else runs in the thread-mode executor.
 #![no_std]
 #![no_main]
 

@@ -46,9 +46,18 @@ const STEP_RESET: u32 = mask(&STEP) << 16;
 static DIR_WORD: [u32; 64] = dir_table(&DIR);
 
 const _: () = {
-    assert!(STEP_SET[0] == 0 && STEP_SET[63] == mask(&STEP), "step table covers the step pins");
-    assert!(DIR_WORD[0] == mask(&DIR) << 16 && DIR_WORD[63] == mask(&DIR), "dir table");
-    assert!(MIN_PERIOD_COUNTS > STEP_PULSE_COUNTS, "the pulse must end within the tick");
+    assert!(
+        STEP_SET[0] == 0 && STEP_SET[63] == mask(&STEP),
+        "step table covers the step pins"
+    );
+    assert!(
+        DIR_WORD[0] == mask(&DIR) << 16 && DIR_WORD[63] == mask(&DIR),
+        "dir table"
+    );
+    assert!(
+        MIN_PERIOD_COUNTS > STEP_PULSE_COUNTS,
+        "the pulse must end within the tick"
+    );
 };
 
 const STEP_GPIO: pac::gpio::Gpio = gpio_block(STEP[0].port);
