@@ -2,8 +2,10 @@
 //! the dialect oracle of DESIGN.md section 3.
 //!
 //! Every `tests/golden/rs274/NN-name.ngc` is run through `host_sender::check::canon_jsonl` (what
-//! `gantry check --canon FILE` prints, DESIGN.md section 7) and compared record by record with
-//! `NN-name.canon.jsonl`, recorded from rs274 by `scripts/record-rs274.sh` (CI never runs rs274).
+//! `gantry check --canon FILE` prints, DESIGN.md section 7; the few programs that need rs274's tool
+//! table go through `check::canon_output` with it, see `TOOL_TABLE_PROGRAMS`) and compared with
+//! `NN-name.canon.jsonl` record by record, recorded from rs274 by `scripts/record-rs274.sh`
+//! (CI never runs rs274).
 //! See `tests/golden/rs274/README.md` for the coordinate mapping and the known differences.
 //!
 //! Comparison rules:
