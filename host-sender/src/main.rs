@@ -23,6 +23,16 @@ enum Command {
         #[arg(long)]
         canon: bool,
     },
+    /// Stream a program to the board (with no --port: the emulated board) with progress and a report.
+    Stream {
+        file: PathBuf,
+        /// Serial port of the board (e.g. /dev/ttyACM0); without it, the emulated board runs the job.
+        #[arg(long)]
+        port: Option<String>,
+        /// Machine setup for the emulated board (default: the built-in defaults, docs/settings.md).
+        #[arg(long)]
+        setup: Option<PathBuf>,
+    },
     /// Show or check the machine setup (docs/settings.md).
     Setup {
         #[command(subcommand)]
@@ -34,6 +44,16 @@ enum Command {
         /// JSON Lines instead of a table.
         #[arg(long)]
         json: bool,
+    },
+    /// Draw a program's tool path (top, front, side, isometric views) to a PNG or SVG file.
+    Preview {
+        file: PathBuf,
+        /// Output picture; the extension (.png or .svg) picks the format.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Machine setup file (travel box, rates); the default setup otherwise.
+        #[arg(long)]
+        setup: Option<PathBuf>,
     },
 }
 
@@ -63,12 +83,39 @@ fn setup(action: SetupAction) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+fn stream(
+    file: &std::path::Path,
+    port: Option<String>,
+    setup: Option<PathBuf>,
+) -> anyhow::Result<ExitCode> {
+    use host_sender::stream::{run, Target};
+    let target = match port {
+        Some(p) => Target::Port(p),
+        None => Target::Emulated(match setup {
+            Some(f) => host_sender::setup_file::SetupFile::load(&f)?,
+            None => Default::default(),
+        }),
+    };
+    run(file, target)
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Check { file, canon } => host_sender::check::run(&file, canon),
         Command::Setup { action } => setup(action),
+        Command::Stream { file, port, setup } => stream(&file, port, setup),
         Command::Simulate { file, json } => host_sender::simulate::run(&file, json),
+        Command::Preview {
+            file,
+            output,
+            setup,
+        } => setup
+            .map_or_else(
+                || Ok(Default::default()),
+                |f| host_sender::setup_file::SetupFile::load(&f),
+            )
+            .and_then(|s| host_sender::preview::run(&file, &output, &s)),
     };
     match result {
         Ok(code) => code,

@@ -1,0 +1,156 @@
+//! A G-code file as the sender serves it: numbered lines, the text that goes on the wire, and
+//! where each `O` subprogram and `N` block starts (for the board's jump requests).
+
+use anyhow::Context;
+use gantry_proto::LINE_MAX;
+use std::path::Path;
+
+/// A program file, line by line (line 1 is the first line of the file).
+pub struct Program {
+    lines: Vec<String>,
+}
+
+/// Where a board asked the sender to continue.
+pub use gantry_proto::ProgramTarget;
+
+impl Program {
+    pub fn load(path: &Path) -> anyhow::Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        Ok(Self::from_text(&text))
+    }
+
+    pub fn from_text(text: &str) -> Self {
+        Program {
+            lines: text.lines().map(str::to_owned).collect(),
+        }
+    }
+
+    /// Number of lines in the file.
+    pub fn len(&self) -> u32 {
+        self.lines.len() as u32
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.lines.is_empty()
+    }
+
+    /// Line `n` as written (1-based).
+    pub fn line(&self, n: u32) -> Option<&str> {
+        self.lines
+            .get(n.checked_sub(1)? as usize)
+            .map(String::as_str)
+    }
+
+    /// The text sent for line `n`: comments and blanks removed (they never change what a block
+    /// does). `Ok(None)` when nothing is left; `Err` when it is longer than the protocol's limit.
+    pub fn wire_text(&self, n: u32) -> Result<Option<String>, WireTextError> {
+        let Some(line) = self.line(n) else {
+            return Ok(None);
+        };
+        let text = strip(line);
+        if text.is_empty() {
+            Ok(None)
+        } else if text.len() > LINE_MAX {
+            Err(WireTextError {
+                line: n,
+                len: text.len(),
+            })
+        } else {
+            Ok(Some(text))
+        }
+    }
+
+    /// The first line a jump target refers to.
+    pub fn resolve(&self, target: ProgramTarget) -> Option<u32> {
+        match target {
+            ProgramTarget::Line(n) => (n >= 1 && n <= self.len() + 1).then_some(n),
+            ProgramTarget::Program(p) => self.find(|t| word_value(t, b'O') == Some(p)),
+            ProgramTarget::Sequence(s) => self.find(|t| word_value(t, b'N') == Some(s)),
+        }
+    }
+
+    fn find(&self, pred: impl Fn(&str) -> bool) -> Option<u32> {
+        (1..=self.len()).find(|&n| pred(&strip(&self.lines[n as usize - 1])))
+    }
+}
+
+/// A line too long for the protocol even after comments and blanks were removed.
+#[derive(Debug, PartialEq, Eq)]
+pub struct WireTextError {
+    pub line: u32,
+    pub len: usize,
+}
+
+impl std::fmt::Display for WireTextError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "line {}: {} characters without comments and blanks, the board takes at most {LINE_MAX}",
+            self.line, self.len
+        )
+    }
+}
+
+/// Removes `( … )` and `;` comments and white space.
+fn strip(line: &str) -> String {
+    let mut out = String::with_capacity(line.len());
+    let mut in_comment = false;
+    for c in line.chars() {
+        match c {
+            '(' if !in_comment => in_comment = true,
+            ')' if in_comment => in_comment = false,
+            ';' if !in_comment => break,
+            c if in_comment || c.is_whitespace() => {}
+            c => out.push(c),
+        }
+    }
+    // An unclosed comment is left for the board to report, with the rest of the line.
+    if in_comment {
+        return line.trim().to_owned();
+    }
+    out
+}
+
+/// The value of a leading word `letter<digits>` (after an optional `/`), e.g. `O100` → 100.
+fn word_value(text: &str, letter: u8) -> Option<u32> {
+    let t = text.strip_prefix('/').unwrap_or(text).as_bytes();
+    let (&first, rest) = t.split_first()?;
+    if first.to_ascii_uppercase() != letter {
+        return None;
+    }
+    let digits: &[u8] = &rest[..rest.iter().take_while(|b| b.is_ascii_digit()).count()];
+    std::str::from_utf8(digits).ok()?.parse().ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn comments_and_blanks_are_not_sent() {
+        let p = Program::from_text("G0 X1 (rapid) Y2 ; done\n(only a comment)\n\nG1 X(unclosed\n");
+        assert_eq!(p.wire_text(1), Ok(Some("G0X1Y2".into())));
+        assert_eq!(p.wire_text(2), Ok(None));
+        assert_eq!(p.wire_text(3), Ok(None));
+        assert_eq!(p.wire_text(4), Ok(Some("G1 X(unclosed".into())));
+        assert_eq!(p.wire_text(5), Ok(None));
+    }
+
+    #[test]
+    fn long_lines_are_refused_with_their_number() {
+        let long = format!("G1 X1 (c) {}", "Y1".repeat(60));
+        let p = Program::from_text(&format!("G0\n{long}\n"));
+        assert_eq!(p.wire_text(2), Err(WireTextError { line: 2, len: 124 }));
+    }
+
+    #[test]
+    fn jump_targets_resolve_to_file_lines() {
+        let p = Program::from_text("O1\nM98 P100\nM30\nO100 (sub)\nN20 G0 X1\nM99\n");
+        assert_eq!(p.resolve(ProgramTarget::Program(100)), Some(4));
+        assert_eq!(p.resolve(ProgramTarget::Program(7)), None);
+        assert_eq!(p.resolve(ProgramTarget::Sequence(20)), Some(5));
+        assert_eq!(p.resolve(ProgramTarget::Line(3)), Some(3));
+        assert_eq!(p.resolve(ProgramTarget::Line(9)), None);
+    }
+}

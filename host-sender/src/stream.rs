@@ -1,0 +1,375 @@
+//! `gantry stream`: send a program to the board line by line, serve its subprogram jumps, show
+//! progress and report how the job ended.
+//!
+//! The sender keeps the board's line buffer full through the link's credit window (no round trip
+//! per line). It serves one *place* at a time: the main stream from line 1 (id 0), then whatever
+//! the board asks for after an M98/M99 jump (a new id each time).
+
+use crate::link::{Client, Transport};
+use crate::program::{Program, ProgramTarget};
+use anyhow::bail;
+use gantry_machine::gcode::ErrorCode;
+use gantry_proto::{BoardMsg, HostMsg, Line, MachineState, Status};
+
+/// What the sender is serving now.
+struct Serving {
+    /// 0 = the main stream, else the id of the board's jump request.
+    id: u16,
+    next_line: u32,
+    ended: bool,
+}
+
+/// A rejected block, as the board reported it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BoardError {
+    pub line: u32,
+    pub code: u16,
+    pub column: u16,
+}
+
+impl BoardError {
+    /// "line 12: error 231: arc radius mismatch" style text, with the source line.
+    pub fn describe(&self, program: &Program) -> String {
+        let message = ErrorCode::ALL
+            .iter()
+            .find(|c| c.number() == self.code)
+            .map(|c| c.message())
+            .unwrap_or(match self.code {
+                gantry_machine::board::ERROR_SOFT_LIMIT => {
+                    "move exceeds the machine travel (soft limit)"
+                }
+                _ => "unknown error",
+            });
+        let text = program.line(self.line).unwrap_or("").trim();
+        format!(
+            "line {}: error {}: {message}\n    {text}",
+            self.line, self.code
+        )
+    }
+}
+
+/// Progress as the sender sees it.
+#[derive(Clone, Debug, Default)]
+pub struct Progress {
+    /// Line the board is executing.
+    pub line: u32,
+    /// Lines in the file.
+    pub total_lines: u32,
+    /// Link clock, ms since the link opened.
+    pub elapsed_ms: u32,
+    pub status: Option<Status>,
+}
+
+/// How a streamed job ended.
+#[derive(Clone, Debug)]
+pub struct StreamReport {
+    pub completed: bool,
+    pub errors: Vec<BoardError>,
+    pub alarms: Vec<u16>,
+    pub last_line: u32,
+    /// Lines sent (main stream and subprogram serving).
+    pub lines_sent: u32,
+    pub jumps_served: u32,
+    /// Link clock at the end, ms.
+    pub elapsed_ms: u32,
+    pub final_status: Option<Status>,
+}
+
+/// Streams `program` over a connected link until the board reports the job done.
+pub fn stream_program<T: Transport>(
+    client: &mut Client<T>,
+    program: &Program,
+    on_progress: &mut dyn FnMut(&Progress),
+) -> anyhow::Result<StreamReport> {
+    let start_ms = client.transport.now_ms();
+    client.send(HostMsg::Start)?;
+    let mut serving = Serving {
+        id: 0,
+        next_line: 1,
+        ended: false,
+    };
+    let mut report = StreamReport {
+        completed: false,
+        errors: Vec::new(),
+        alarms: Vec::new(),
+        last_line: 0,
+        lines_sent: 0,
+        jumps_served: 0,
+        elapsed_ms: 0,
+        final_status: None,
+    };
+    let mut progress = Progress {
+        total_lines: program.len(),
+        ..Progress::default()
+    };
+    let mut done = false;
+    while !done {
+        serve(client, program, &mut serving, &mut report)?;
+        client.pump(1)?;
+        while let Some(msg) = client.recv() {
+            match msg {
+                BoardMsg::Status(s) => {
+                    progress.line = s.line;
+                    progress.status = Some(s);
+                }
+                BoardMsg::Error { line, code, column } => {
+                    report.errors.push(BoardError { line, code, column })
+                }
+                BoardMsg::Alarm { code } => report.alarms.push(code),
+                BoardMsg::ProgramRequest { id, target } => {
+                    report.jumps_served += 1;
+                    match program.resolve(target) {
+                        Some(line) => {
+                            serving = Serving {
+                                id,
+                                next_line: line,
+                                ended: false,
+                            }
+                        }
+                        None => {
+                            client.send(HostMsg::ProgramEnd { id, found: false })?;
+                            serving = Serving {
+                                id,
+                                next_line: program.len() + 1,
+                                ended: true,
+                            };
+                            if let ProgramTarget::Program(p) = target {
+                                eprintln!(
+                                    "gantry: the program calls O{p}, which is not in the file"
+                                );
+                            }
+                        }
+                    }
+                }
+                BoardMsg::JobDone { line } => {
+                    report.last_line = line;
+                    done = true;
+                }
+                BoardMsg::Limit { .. } | BoardMsg::Mark { .. } => {}
+            }
+        }
+        progress.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);
+        on_progress(&progress);
+    }
+    report.final_status = Some(fresh_status(client)?);
+    report.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);
+    report.completed = report.errors.is_empty() && report.alarms.is_empty();
+    Ok(report)
+}
+
+/// Sends lines of the current place while the link has credit.
+fn serve<T: Transport>(
+    client: &mut Client<T>,
+    program: &Program,
+    serving: &mut Serving,
+    report: &mut StreamReport,
+) -> anyhow::Result<()> {
+    while !serving.ended && client.queued_room() > 0 {
+        let n = serving.next_line;
+        if n > program.len() {
+            let end = if serving.id == 0 {
+                HostMsg::EndOfJob
+            } else {
+                HostMsg::ProgramEnd {
+                    id: serving.id,
+                    found: true,
+                }
+            };
+            client.send(end)?;
+            serving.ended = true;
+            break;
+        }
+        serving.next_line += 1;
+        let text = match program.wire_text(n) {
+            Ok(Some(t)) => t,
+            Ok(None) => continue,
+            Err(e) => bail!("{e}"),
+        };
+        let line = Line::new(n, &text).expect("wire_text checked the length");
+        let msg = if serving.id == 0 {
+            HostMsg::Line(line)
+        } else {
+            HostMsg::ProgramLine {
+                id: serving.id,
+                line,
+            }
+        };
+        client.send(msg)?;
+        report.lines_sent += 1;
+    }
+    Ok(())
+}
+
+/// Asks for a status report and waits for it.
+pub fn fresh_status<T: Transport>(client: &mut Client<T>) -> anyhow::Result<Status> {
+    client.send(HostMsg::StatusRequest)?;
+    for _ in 0..2000 {
+        client.pump(1)?;
+        while let Some(msg) = client.recv() {
+            if let BoardMsg::Status(s) = msg {
+                return Ok(s);
+            }
+        }
+    }
+    bail!("the board sent no status within 2 s")
+}
+
+/// `Idle`, `Run`, … as users read it.
+pub fn state_name(s: MachineState) -> &'static str {
+    match s {
+        MachineState::Idle => "Idle",
+        MachineState::Run => "Run",
+        MachineState::Hold { .. } => "Hold",
+        MachineState::Jog => "Jog",
+        MachineState::Alarm => "Alarm",
+        MachineState::Homing => "Homing",
+        MachineState::Check => "Check",
+    }
+}
+
+/// Where `gantry` sends its commands.
+pub enum Target {
+    /// The built-in emulated board, with this setup.
+    Emulated(gantry_machine::setup::Setup),
+    /// A board on this serial port.
+    Port(String),
+}
+
+fn mm(nm: i64) -> String {
+    format!("{:.3}", nm as f64 / 1e6)
+}
+
+fn axes_line(p: &[i64], axes: usize) -> String {
+    let names = gantry_machine::units::AXIS_LETTERS;
+    (0..axes)
+        .map(|i| format!("{} {}", names[i], mm(p[i])))
+        .collect::<Vec<_>>()
+        .join("  ")
+}
+
+/// Runs `gantry stream FILE`: progress while it runs, a final report, exit code 1 on errors.
+pub fn run(file: &std::path::Path, target: Target) -> anyhow::Result<std::process::ExitCode> {
+    use crate::emulator::EmulatedBoard;
+    use crate::link::SerialTransport;
+    let program = Program::load(file)?;
+    let wall = std::time::Instant::now();
+    match target {
+        Target::Emulated(setup) => {
+            let axes = setup.axis_count as usize;
+            println!(
+                "gantry: no --port given: streaming {} to the emulated board",
+                file.display()
+            );
+            let mut client = Client::connect(EmulatedBoard::new(setup), 2000)?;
+            let report = stream_with_progress(&mut client, &program)?;
+            let board = &client.transport;
+            print_report(&report, &program, axes, wall.elapsed());
+            let steps = board.kernel.position();
+            println!(
+                "steps:    {}   (pulses: {})",
+                (0..axes)
+                    .map(|i| format!("{} {}", gantry_machine::units::AXIS_LETTERS[i], steps[i]))
+                    .collect::<Vec<_>>()
+                    .join("  "),
+                board.pulses[..axes]
+                    .iter()
+                    .map(u64::to_string)
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            );
+            Ok(exit_code(&report))
+        }
+        Target::Port(port) => {
+            let mut client = Client::connect(SerialTransport::open(&port)?, 3000)?;
+            let report = stream_with_progress(&mut client, &program)?;
+            print_report(&report, &program, 3, wall.elapsed());
+            Ok(exit_code(&report))
+        }
+    }
+}
+
+fn exit_code(report: &StreamReport) -> std::process::ExitCode {
+    if report.completed {
+        std::process::ExitCode::SUCCESS
+    } else {
+        std::process::ExitCode::from(1)
+    }
+}
+
+/// Streams with a live progress bar on a terminal, or a progress line every 10 % otherwise.
+fn stream_with_progress<T: Transport>(
+    client: &mut Client<T>,
+    program: &Program,
+) -> anyhow::Result<StreamReport> {
+    use std::io::IsTerminal;
+    let total = program.len().max(1) as u64;
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let b = indicatif::ProgressBar::new(total);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{bar:30} line {pos}/{len} {percent}%  {msg}")
+                .expect("valid template"),
+        );
+        b
+    });
+    let mut last_decile = 0;
+    let report = stream_program(client, program, &mut |p| {
+        let pct = p.line as u64 * 100 / total;
+        let machine_s = p.elapsed_ms as f64 / 1000.0;
+        let eta = if p.line > 0 {
+            machine_s * (total as f64 - p.line as f64) / p.line as f64
+        } else {
+            0.0
+        };
+        let state = p.status.as_ref().map_or("-", |s| state_name(s.state));
+        match &bar {
+            Some(b) => {
+                b.set_position(p.line as u64);
+                b.set_message(format!("{state}  {machine_s:.1} s  ETA {eta:.0} s"));
+            }
+            None => {
+                if pct / 10 > last_decile {
+                    last_decile = pct / 10;
+                    println!(
+                        "progress: line {}/{} ({pct}%)  {state}  {machine_s:.1} s  ETA {eta:.0} s",
+                        p.line, total
+                    );
+                }
+            }
+        }
+    });
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    report
+}
+
+fn print_report(report: &StreamReport, program: &Program, axes: usize, wall: std::time::Duration) {
+    for e in &report.errors {
+        println!("error: {}", e.describe(program));
+    }
+    for a in &report.alarms {
+        println!("alarm {a}");
+    }
+    let verdict = if report.completed {
+        "job done"
+    } else {
+        "job stopped"
+    };
+    println!(
+        "{verdict}: last line {} of {}, {} lines sent, {} subprogram jumps served",
+        report.last_line,
+        program.len(),
+        report.lines_sent,
+        report.jumps_served
+    );
+    println!(
+        "time:     {:.3} s machine time ({:.2} s wall)",
+        report.elapsed_ms as f64 / 1000.0,
+        wall.as_secs_f64()
+    );
+    if let Some(s) = &report.final_status {
+        println!("machine:  {}", axes_line(&s.machine_pos, axes));
+        println!("work:     {}", axes_line(&s.work_pos, axes));
+        println!("state:    {}", state_name(s.state));
+    }
+}
