@@ -1,0 +1,178 @@
+//! Adapters into the renderer's input: canonical actions (from the interpreter or from canon JSON
+//! Lines, DESIGN §7) become [`PreviewMove`]s in millimetres, with the programmed feed as the speed
+//! and a time estimate without acceleration.
+
+use super::geom::length;
+use super::model::{
+    ArcGeom, Box3, Interpreted, MoveKind, PreviewJob, PreviewMove, ProgramError, SpeedSource, P3,
+};
+use anyhow::{bail, Context};
+use gantry_machine::canon::{Action, ArcDir, Canon, Plane};
+use gantry_machine::setup::Setup;
+use gantry_machine::units::{Nm, Pos, NM_PER_MM};
+
+fn mm3(p: &Pos) -> P3 {
+    [0, 1, 2].map(|i| p[i] as f64 / NM_PER_MM as f64)
+}
+
+/// Turns canonical actions into a preview job. The machine starts at 0,0,0 (DESIGN §7); speeds are
+/// the programmed feeds and the total time is estimated from feeds and per-axis rapid rates
+/// without acceleration (the planner's figures replace both when available).
+pub fn from_canon(actions: &[Canon], setup: &Setup, title: &str) -> PreviewJob {
+    let rates: [f64; 3] = [0, 1, 2].map(|i| setup.axes[i].max_rate as f64 / NM_PER_MM as f64);
+    let mut at: P3 = [0.0; 3];
+    let mut moves = Vec::new();
+    let mut seconds = 0.0;
+    for c in actions {
+        let (kind, to, feed) = match c.action {
+            Action::Rapid { to } => (MoveKind::Rapid, mm3(&to), None),
+            Action::Feed { to, feed } => (MoveKind::Feed, mm3(&to), Some(feed)),
+            Action::Arc {
+                to,
+                center,
+                plane,
+                dir,
+                turns,
+                feed,
+            } => {
+                let arc = ArcGeom {
+                    center: mm3(&[center[0], center[1], center[2], 0, 0, 0]),
+                    plane,
+                    ccw: dir == ArcDir::Ccw,
+                    turns: turns.max(1),
+                };
+                (MoveKind::Arc(arc), mm3(&to), Some(feed))
+            }
+            Action::Dwell { micros } => {
+                seconds += micros as f64 / 1e6;
+                continue;
+            }
+            _ => continue,
+        };
+        let speed = feed.map(|f| f as f64 / NM_PER_MM as f64);
+        let m = PreviewMove {
+            line: c.line,
+            kind,
+            from: at,
+            to,
+            speed_mm_min: speed,
+        };
+        seconds += estimate_seconds(&m, &rates);
+        moves.push(m);
+        at = to;
+    }
+    PreviewJob {
+        title: title.to_string(),
+        moves,
+        total_time_s: Some(seconds),
+        speed_source: SpeedSource::Programmed,
+        travel: Some(Box3::travel(setup)),
+    }
+}
+
+/// Time of one move at its programmed feed (rapids at the axes' rates), limited by the slowest
+/// axis' maximum rate, without acceleration.
+fn estimate_seconds(m: &PreviewMove, rates_mm_min: &[f64; 3]) -> f64 {
+    let axis_limited = (0..3)
+        .filter(|&i| rates_mm_min[i] > 0.0)
+        .map(|i| (m.to[i] - m.from[i]).abs() / rates_mm_min[i])
+        .fold(0.0, f64::max);
+    let at_feed = match m.speed_mm_min {
+        Some(f) if f > 0.0 => length(m) / f,
+        _ => 0.0,
+    };
+    axis_limited.max(at_feed) * 60.0
+}
+
+/// Canon JSON Lines (DESIGN §7) back into canonical actions. Records other than motion are
+/// skipped; an `error` record ends the program and is returned with its line and message.
+pub fn canon_from_jsonl(text: &str) -> anyhow::Result<Interpreted> {
+    let mut out = Vec::new();
+    for (n, raw) in text.lines().enumerate() {
+        let raw = raw.trim();
+        if raw.is_empty() {
+            continue;
+        }
+        let v: serde_json::Value =
+            serde_json::from_str(raw).with_context(|| format!("canon record {}", n + 1))?;
+        let line = v["line"].as_u64().unwrap_or(0) as u32;
+        let nm3 = |key: &str| -> anyhow::Result<[Nm; 3]> {
+            let a = v[key]
+                .as_array()
+                .with_context(|| format!("canon record {}: no {key}", n + 1))?;
+            let mut p = [0; 3];
+            for (i, slot) in p.iter_mut().enumerate() {
+                let mm = a.get(i).and_then(|x| x.as_f64()).unwrap_or(0.0);
+                *slot = (mm * NM_PER_MM as f64).round() as Nm;
+            }
+            Ok(p)
+        };
+        let pos = |p: [Nm; 3]| -> Pos { [p[0], p[1], p[2], 0, 0, 0] };
+        let feed = || (v["feed"].as_f64().unwrap_or(0.0) * NM_PER_MM as f64).round() as i64;
+        let action = match v["op"].as_str().unwrap_or("") {
+            "rapid" => Action::Rapid {
+                to: pos(nm3("to")?),
+            },
+            "feed" => Action::Feed {
+                to: pos(nm3("to")?),
+                feed: feed(),
+            },
+            "arc" => Action::Arc {
+                to: pos(nm3("to")?),
+                center: nm3("center")?,
+                plane: match v["plane"].as_str() {
+                    Some("XY") => Plane::XY,
+                    Some("ZX") => Plane::ZX,
+                    Some("YZ") => Plane::YZ,
+                    other => bail!("canon record {}: unknown plane {other:?}", n + 1),
+                },
+                dir: match v["dir"].as_str() {
+                    Some("cw") => ArcDir::Cw,
+                    Some("ccw") => ArcDir::Ccw,
+                    other => bail!("canon record {}: unknown arc direction {other:?}", n + 1),
+                },
+                turns: v["turns"].as_u64().unwrap_or(1) as u32,
+                feed: feed(),
+            },
+            "dwell" => match v["seconds"].as_f64() {
+                Some(s) => Action::Dwell {
+                    micros: (s * 1e6).round() as u64,
+                },
+                None => continue,
+            },
+            "error" => {
+                let message = v["message"].as_str().unwrap_or("error").to_string();
+                return Ok((out, Some(ProgramError { line, message })));
+            }
+            _ => continue,
+        };
+        out.push(Canon { line, action });
+    }
+    Ok((out, None))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn jsonl_round_trip_and_estimate() {
+        let text = r#"{"line":2,"op":"rapid","to":[10,0,0]}
+{"line":3,"op":"feed","to":[10,10,0],"feed":600}
+{"line":4,"op":"spindle","rpm":1000}
+{"line":5,"op":"arc","to":[0,10,0],"center":[5,10,0],"plane":"XY","dir":"ccw","turns":1,"feed":600}
+{"line":6,"op":"error","message":"bad word"}
+{"line":7,"op":"rapid","to":[0,0,0]}"#;
+        let (canon, err) = canon_from_jsonl(text).unwrap();
+        assert_eq!(canon.len(), 3);
+        let err = err.unwrap();
+        assert_eq!((err.line, err.message.as_str()), (6, "bad word"));
+        let job = from_canon(&canon, &Setup::default(), "t");
+        assert_eq!(job.moves.len(), 3);
+        assert_eq!(job.moves[1].from, [10.0, 0.0, 0.0]);
+        assert_eq!(job.moves[2].speed_mm_min, Some(600.0));
+        // Rapid 10 mm at 3000 mm/min = 0.2 s, feed 10 mm at 600 = 1 s, half circle r 5 = 5π/600 min.
+        let expect = 0.2 + 1.0 + 5.0 * std::f64::consts::PI / 10.0;
+        assert!((job.total_time_s.unwrap() - expect).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,138 @@
+//! `gantry preview FILE -o out.png|out.svg`: a picture of a program's tool path.
+//!
+//! Four views (top, front, side, isometric) with rapids dashed, feeds and arcs coloured by planned
+//! speed, arcs drawn as true curves, the machine travel box and a legend with the total time and
+//! the job's extents. The picture is built as SVG ([`svg`]) and rasterised by resvg for PNG
+//! ([`raster`]), with an embedded font, so it looks the same everywhere.
+//!
+//! Pipeline: program → canonical actions (the core's interpreter, or canon JSON Lines for
+//! `.jsonl` files) → [`adapt`] → [`PreviewJob`] → [`plan`] (planned speeds and time, when the
+//! planner accepts the program) → [`render`].
+
+pub mod adapt;
+pub mod colour;
+pub mod geom;
+pub mod model;
+pub mod plan;
+pub mod raster;
+pub mod source;
+pub mod svg;
+pub mod view;
+
+pub use model::{ArcGeom, Box3, MoveKind, PreviewJob, PreviewMove, ProgramError, SpeedSource};
+pub use svg::{Layout, RenderOptions};
+pub use view::View;
+
+use anyhow::{bail, Context};
+use gantry_machine::setup::Setup;
+use std::path::Path;
+use std::process::ExitCode;
+
+/// Output format of the picture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Svg,
+    Png,
+}
+
+impl Format {
+    /// From the output file's extension.
+    pub fn from_path(p: &Path) -> anyhow::Result<Format> {
+        match p
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("svg") => Ok(Format::Svg),
+            Some("png") => Ok(Format::Png),
+            _ => bail!("{}: the output must end in .png or .svg", p.display()),
+        }
+    }
+}
+
+/// Renders a job into the bytes of an SVG or PNG file. Pure: no files, no interpreter.
+pub fn render(job: &PreviewJob, format: Format, opts: &RenderOptions) -> anyhow::Result<Vec<u8>> {
+    let (text, _) = svg::render_svg(job, opts);
+    match format {
+        Format::Svg => Ok(text.into_bytes()),
+        Format::Png => raster::svg_to_png(&text),
+    }
+}
+
+/// A program made ready for drawing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prepared {
+    pub job: PreviewJob,
+    /// The interpreter error that ended the program early.
+    pub error: Option<ProgramError>,
+    /// Why the planner's figures are missing, when they are.
+    pub note: Option<String>,
+}
+
+/// Builds the preview job of a program text: interprets it (or reads canon JSON Lines when
+/// `jsonl`), then plans it.
+pub fn job_from_program(
+    program: &[u8],
+    jsonl: bool,
+    setup: &Setup,
+    title: &str,
+) -> anyhow::Result<Prepared> {
+    let (canon, error) = if jsonl {
+        adapt::canon_from_jsonl(std::str::from_utf8(program).context("canon JSON Lines")?)?
+    } else {
+        source::interpret(program, setup)
+    };
+    let mut job = adapt::from_canon(&canon, setup, title);
+    let note = match plan::plan(&canon, setup) {
+        Ok(p) => {
+            plan::apply(&mut job, &p);
+            None
+        }
+        Err(e) => Some(format!(
+            "planner: {e:#}; colouring by programmed feed, time estimated without acceleration"
+        )),
+    };
+    Ok(Prepared { job, error, note })
+}
+
+/// Runs `gantry preview FILE -o OUT`: exit code 0, or 1 when the program has an error (the
+/// picture then shows it up to the error).
+pub fn run(file: &Path, out: &Path, setup: &Setup) -> anyhow::Result<ExitCode> {
+    let format = Format::from_path(out)?;
+    let program = std::fs::read(file).with_context(|| format!("cannot read {}", file.display()))?;
+    let jsonl = file.extension().is_some_and(|e| e == "jsonl");
+    let title = file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let Prepared { job, error, note } = job_from_program(&program, jsonl, setup, &title)?;
+    if let Some(n) = note {
+        eprintln!("gantry preview: {n}");
+    }
+    if let Some(e) = &error {
+        eprintln!(
+            "{}:{}: {} (the preview shows the program up to this line)",
+            file.display(),
+            e.line,
+            e.message
+        );
+    }
+    let bytes = render(&job, format, &RenderOptions::default())?;
+    std::fs::write(out, &bytes).with_context(|| format!("cannot write {}", out.display()))?;
+    println!(
+        "{}: {} moves, total time {} → {} ({} bytes)",
+        file.display(),
+        job.moves.len(),
+        job.total_time_s
+            .map(svg::fmt_duration)
+            .unwrap_or_else(|| "unknown".into()),
+        out.display(),
+        bytes.len()
+    );
+    Ok(if error.is_some() {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}

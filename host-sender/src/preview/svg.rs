@@ -1,0 +1,817 @@
+//! Renders a [`PreviewJob`] as an SVG document: the four views in a 2×2 grid and a legend panel.
+//!
+//! Every move becomes one `<path>` per view (`class="rapid"` with a dash pattern, or `class="feed"`
+//! / `class="arc"` stroked in its speed colour, `data-line` holding the source line); arcs are
+//! cubic Béziers from [`super::geom`]. The same document is rasterised for PNG output, so both
+//! formats always show the same picture.
+
+use super::colour::{colour_at, hex, nice_step, SpeedScale, STOPS};
+use super::geom::{arc_cubics, extents, length};
+use super::model::{Box3, MoveKind, PreviewJob, PreviewMove, SpeedSource};
+use super::view::{Fit, View};
+use std::fmt::Write;
+
+/// Picture size in pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderOptions {
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            width: 1400,
+            height: 1000,
+        }
+    }
+}
+
+/// Where a view was drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Panel {
+    pub view: View,
+    /// Plot area in pixels: x, y, width, height.
+    pub plot: [f64; 4],
+    /// Machine → pixel mapping of this view.
+    pub fit: Fit,
+}
+
+/// The picture's geometry, for callers (and tests) that need to find things in it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layout {
+    pub width: u32,
+    pub height: u32,
+    pub panels: Vec<Panel>,
+}
+
+/// Figures the legend shows.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stats {
+    pub extents: Box3,
+    pub rapids: usize,
+    pub feeds: usize,
+    pub arcs: usize,
+    pub rapid_len_mm: f64,
+    pub feed_len_mm: f64,
+    pub scale: Option<SpeedScale>,
+}
+
+impl Stats {
+    pub fn of(job: &PreviewJob) -> Stats {
+        let mut s = Stats {
+            extents: extents(&job.moves),
+            rapids: 0,
+            feeds: 0,
+            arcs: 0,
+            rapid_len_mm: 0.0,
+            feed_len_mm: 0.0,
+            scale: SpeedScale::from_speeds(
+                job.moves
+                    .iter()
+                    .filter(|m| m.kind != MoveKind::Rapid)
+                    .filter_map(|m| m.speed_mm_min),
+            ),
+        };
+        for m in &job.moves {
+            match m.kind {
+                MoveKind::Rapid => {
+                    s.rapids += 1;
+                    s.rapid_len_mm += length(m);
+                }
+                MoveKind::Feed => {
+                    s.feeds += 1;
+                    s.feed_len_mm += length(m);
+                }
+                MoveKind::Arc(_) => {
+                    s.arcs += 1;
+                    s.feed_len_mm += length(m);
+                }
+            }
+        }
+        s
+    }
+}
+
+const FONT: &str = "DejaVu Sans, sans-serif";
+const RAPID_COLOUR: &str = "#7b8591";
+const RAPID_DASH: &str = "5 3";
+const NO_SPEED_COLOUR: &str = "#495057";
+const TRAVEL_COLOUR: &str = "#343a40";
+const TRAVEL_DASH: &str = "12 3 2 3";
+const WARN_COLOUR: &str = "#c92a2a";
+const TEXT: &str = "#212529";
+const MUTED: &str = "#6c757d";
+
+/// Renders the job; returns the SVG text and where each view went.
+pub fn render_svg(job: &PreviewJob, opts: &RenderOptions) -> (String, Layout) {
+    let stats = Stats::of(job);
+    let (w, h) = (opts.width as f64, opts.height as f64);
+    let legend_w = (w * 0.25).clamp(240.0, 340.0);
+    let layout = layout(job, &stats, w - legend_w, h, opts);
+
+    let mut s = String::with_capacity(4096 + job.moves.len() * 4 * 96);
+    let _ = write!(
+        s,
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="{FONT}">
+<rect width="{w}" height="{h}" fill="#ffffff"/>
+<defs>
+<linearGradient id="speed" x1="0" y1="0" x2="1" y2="0">
+"##
+    );
+    for (f, c) in STOPS {
+        let _ = writeln!(s, r#"<stop offset="{f}" stop-color="{}"/>"#, hex(c));
+    }
+    s.push_str("</linearGradient>\n");
+    for (i, p) in layout.panels.iter().enumerate() {
+        let [x, y, pw, ph] = p.plot;
+        let _ = writeln!(
+            s,
+            r#"<clipPath id="clip{i}"><rect x="{x:.1}" y="{y:.1}" width="{pw:.1}" height="{ph:.1}"/></clipPath>"#
+        );
+    }
+    s.push_str("</defs>\n");
+
+    for (i, p) in layout.panels.iter().enumerate() {
+        draw_panel(&mut s, job, &stats, p, i);
+    }
+    draw_legend(&mut s, job, &stats, w - legend_w + 4.0, legend_w - 16.0, h);
+    s.push_str("</svg>\n");
+    (s, layout)
+}
+
+/// Places the four views: top and isometric above, front and side below (front under top, so X
+/// lines up). The lower row is only as tall as the job's Z range needs (within 28–50 % of the
+/// height). The three orthographic views share one scale, so they can be compared; the isometric
+/// view has its own.
+fn layout(job: &PreviewJob, stats: &Stats, views_w: f64, h: f64, opts: &RenderOptions) -> Layout {
+    const CHROME_W: f64 = 84.0;
+    const CHROME_H: f64 = 72.0;
+    let content = padded(content_box(job, stats));
+    let size = |i: usize| content.max[i] - content.min[i];
+    let pw = views_w / 2.0;
+    let s_w = ((pw - CHROME_W) / size(0)).min((pw - CHROME_W) / size(1));
+    let s0 = s_w.min((h - 2.0 * CHROME_H) / (size(1) + size(2)));
+    let lower = (size(2) * s0 + CHROME_H).clamp(0.28 * h, 0.5 * h);
+    let rows = [(0.0, h - lower), (h - lower, lower)];
+    let plots: Vec<(View, [f64; 4])> = [View::Top, View::Iso, View::Front, View::Side]
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            let (top, rh) = rows[i / 2];
+            let (bx, by) = ((i % 2) as f64 * pw + 6.0, top + 6.0);
+            let (bw, bh) = (pw - 12.0, rh - 12.0);
+            let plot = if v == View::Iso {
+                [bx + 12.0, by + 32.0, bw - 24.0, bh - 44.0]
+            } else {
+                [
+                    bx + 58.0,
+                    by + 32.0,
+                    bw - CHROME_W + 12.0,
+                    bh - CHROME_H + 12.0,
+                ]
+            };
+            (v, plot)
+        })
+        .collect();
+    let fit_scale = |v: View, p: &[f64; 4]| Fit::scale_to_fit(v.bounds(&content), p[2], p[3]);
+    let ortho = plots
+        .iter()
+        .filter(|(v, _)| *v != View::Iso)
+        .map(|(v, p)| fit_scale(*v, p))
+        .fold(f64::INFINITY, f64::min);
+    let panels = plots
+        .into_iter()
+        .map(|(view, plot)| {
+            let scale = if view == View::Iso {
+                fit_scale(view, &plot)
+            } else {
+                ortho
+            };
+            let fit = Fit::centred(view, view.bounds(&content), plot, scale);
+            Panel { view, plot, fit }
+        })
+        .collect();
+    Layout {
+        width: opts.width,
+        height: opts.height,
+        panels,
+    }
+}
+
+/// What the views are fitted to: the job, or the travel box when there is no motion.
+fn content_box(job: &PreviewJob, stats: &Stats) -> Box3 {
+    if !stats.extents.is_empty() {
+        stats.extents
+    } else if let Some(t) = job.travel.filter(|t| !t.is_empty()) {
+        t
+    } else {
+        Box3 {
+            min: [-1.0; 3],
+            max: [1.0; 3],
+        }
+    }
+}
+
+fn padded(b: Box3) -> Box3 {
+    let size = (0..3).map(|i| b.max[i] - b.min[i]).fold(0.0, f64::max);
+    let pad = (size * 0.04).max(0.5);
+    Box3 {
+        min: b.min.map(|v| v - pad),
+        max: b.max.map(|v| v + pad),
+    }
+}
+
+fn draw_panel(s: &mut String, job: &PreviewJob, stats: &Stats, p: &Panel, index: usize) {
+    let [x, y, w, h] = p.plot;
+    let fit = &p.fit;
+    let box_ = if p.view == View::Iso {
+        [x - 6.0, y - 26.0, w + 12.0, h + 32.0]
+    } else {
+        [x - 52.0, y - 26.0, w + 66.0, h + 54.0]
+    };
+    let _ = writeln!(
+        s,
+        r##"<g class="view" id="view-{index}"><rect x="{:.1}" y="{:.1}" width="{:.1}" height="{:.1}" rx="4" fill="#ffffff" stroke="#dee2e6"/>"##,
+        box_[0], box_[1], box_[2], box_[3]
+    );
+    text(
+        s,
+        box_[0] + 10.0,
+        box_[1] + 19.0,
+        14.0,
+        "bold",
+        TEXT,
+        "start",
+        p.view.title(),
+    );
+
+    if let Some((hname, vname)) = p.view.axis_names() {
+        draw_grid(s, p);
+        text(
+            s,
+            x + w - 6.0,
+            y + h - 6.0,
+            11.0,
+            "bold",
+            MUTED,
+            "end",
+            &format!("{hname} mm"),
+        );
+        text(
+            s,
+            x + 6.0,
+            y + 14.0,
+            11.0,
+            "bold",
+            MUTED,
+            "start",
+            &format!("{vname} mm"),
+        );
+    } else {
+        draw_triad(s, p);
+    }
+    let _ = writeln!(s, r#"<g clip-path="url(#clip{index})">"#);
+    if let Some(t) = job.travel.filter(|t| !t.is_empty()) {
+        draw_travel(s, p, &t, &stats.extents);
+    }
+    if p.view == View::Iso && !stats.extents.is_empty() {
+        // The job's bounding box gives the isometric view its depth cue.
+        let _ = write!(
+            s,
+            r##"<path class="extents" fill="none" stroke="#ced4da" stroke-width="1" d="{}"/>"##,
+            box_edges(fit, &stats.extents)
+        );
+        s.push('\n');
+    }
+    draw_moves(s, job, stats, fit);
+    s.push_str("</g></g>\n");
+}
+
+/// Grid lines at a round spacing, labelled along the left and bottom edges.
+fn draw_grid(s: &mut String, p: &Panel) {
+    let [x, y, w, h] = p.plot;
+    let fit = &p.fit;
+    let step = nice_step(64.0 / fit.scale);
+    let decimals = (-step.log10().floor()).max(0.0) as usize;
+    let (x0, y1) = fit.unpx(x, y);
+    let (x1, y0) = fit.unpx(x + w, y + h);
+    let mut grid = String::new();
+    let mut axes = String::new();
+    let mut k = (x0 / step).ceil() as i64;
+    while k as f64 * step <= x1 {
+        let v = k as f64 * step;
+        let (px, _) = fit.px2(v, 0.0);
+        let d = if k == 0 { &mut axes } else { &mut grid };
+        let _ = write!(d, "M{px:.1} {y:.1}V{:.1}", y + h);
+        let label = fmt_num(v, decimals);
+        text(s, px, y + h + 14.0, 10.0, "normal", MUTED, "middle", &label);
+        k += 1;
+    }
+    let mut k = (y0 / step).ceil() as i64;
+    while k as f64 * step <= y1 {
+        let v = k as f64 * step;
+        let (_, py) = fit.px2(0.0, v);
+        let d = if k == 0 { &mut axes } else { &mut grid };
+        let _ = write!(d, "M{x:.1} {py:.1}H{:.1}", x + w);
+        let label = fmt_num(v, decimals);
+        text(s, x - 5.0, py + 3.5, 10.0, "normal", MUTED, "end", &label);
+        k += 1;
+    }
+    let note = format!("grid {} mm", fmt_num(step, decimals));
+    text(s, x + w, y - 12.0, 10.5, "normal", MUTED, "end", &note);
+    let _ = writeln!(
+        s,
+        r##"<path class="grid" fill="none" stroke="#edf0f2" stroke-width="1" d="{grid}"/>"##
+    );
+    if !axes.is_empty() {
+        let _ = writeln!(
+            s,
+            r##"<path class="grid axis" fill="none" stroke="#adb5bd" stroke-width="1" d="{axes}"/>"##
+        );
+    }
+}
+
+/// Axis directions in the isometric view.
+fn draw_triad(s: &mut String, p: &Panel) {
+    let [x, y, _, h] = p.plot;
+    let (ox, oy) = (x + 34.0, y + h - 30.0);
+    for (i, name) in ["X", "Y", "Z"].iter().enumerate() {
+        let mut unit = [0.0; 3];
+        unit[i] = 1.0;
+        let (dx, dy) = p.view.project(unit);
+        let len = dx.hypot(dy);
+        let (ex, ey) = (ox + dx / len * 22.0, oy - dy / len * 22.0);
+        let _ = writeln!(
+            s,
+            r##"<path class="triad" stroke="#495057" stroke-width="1.5" d="M{ox:.1} {oy:.1}L{ex:.1} {ey:.1}"/>"##
+        );
+        let (lx, ly) = (ox + dx / len * 31.0, oy - dy / len * 31.0 + 4.0);
+        text(s, lx, ly, 11.0, "bold", "#495057", "middle", name);
+    }
+}
+
+/// The machine travel box: a red outline, and a red tint over what lies outside it.
+fn draw_travel(s: &mut String, p: &Panel, t: &Box3, job: &Box3) {
+    let fit = &p.fit;
+    if p.view == View::Iso {
+        // A far-away travel box is only a stray line across the view: draw it when it is
+        // about the job's size or when the job leaves it.
+        let area = |b: [f64; 4]| (b[2] - b[0]) * (b[3] - b[1]);
+        let near = job.is_empty() || area(p.view.bounds(t)) <= 6.0 * area(p.view.bounds(job));
+        if near || !t.contains(job) {
+            let _ = writeln!(
+                s,
+                r#"<path class="travel" fill="none" stroke="{TRAVEL_COLOUR}" stroke-width="1.5" stroke-dasharray="{TRAVEL_DASH}" d="{}"/>"#,
+                box_edges(fit, t)
+            );
+        }
+        return;
+    }
+    let b = p.view.bounds(t);
+    let (ax, ay) = fit.px2(b[0], b[3]);
+    let (bx, by) = fit.px2(b[2], b[1]);
+    // Clamp the outer rectangle to a little beyond the plot so huge boxes stay sane numbers.
+    let [x, y, w, h] = p.plot;
+    let cl = |v: f64, lo: f64, hi: f64| v.clamp(lo - 10.0, hi + 10.0);
+    let (ax, bx) = (cl(ax, x, x + w), cl(bx, x, x + w));
+    let (ay, by) = (cl(ay, y, y + h), cl(by, y, y + h));
+    let _ = writeln!(
+        s,
+        r##"<path class="outside-travel" fill="#868e96" fill-opacity="0.14" fill-rule="evenodd" d="M{:.1} {:.1}H{:.1}V{:.1}H{:.1}Z M{ax:.1} {ay:.1}H{bx:.1}V{by:.1}H{ax:.1}Z"/>"##,
+        x - 10.0,
+        y - 10.0,
+        x + w + 10.0,
+        y + h + 10.0,
+        x - 10.0
+    );
+    let _ = writeln!(
+        s,
+        r#"<path class="travel" fill="none" stroke="{TRAVEL_COLOUR}" stroke-width="1.5" stroke-dasharray="{TRAVEL_DASH}" d="M{ax:.1} {ay:.1}H{bx:.1}V{by:.1}H{ax:.1}Z"/>"#
+    );
+}
+
+/// The twelve edges of a box as path data.
+fn box_edges(fit: &Fit, b: &Box3) -> String {
+    let c = b.corners();
+    let mut d = String::new();
+    for (i, j) in [
+        (0, 1),
+        (2, 3),
+        (4, 5),
+        (6, 7),
+        (0, 2),
+        (1, 3),
+        (4, 6),
+        (5, 7),
+        (0, 4),
+        (1, 5),
+        (2, 6),
+        (3, 7),
+    ] {
+        let (ax, ay) = fit.px(c[i]);
+        let (bx, by) = fit.px(c[j]);
+        let _ = write!(d, "M{ax:.1} {ay:.1}L{bx:.1} {by:.1}");
+    }
+    d
+}
+
+/// Rapids first (dashed, underneath), then feeds and arcs in their speed colours, then the
+/// start and end markers.
+fn draw_moves(s: &mut String, job: &PreviewJob, stats: &Stats, fit: &Fit) {
+    s.push_str(r#"<g class="rapids" fill="none" stroke-width="1" stroke-linecap="butt">"#);
+    s.push('\n');
+    for m in job.moves.iter().filter(|m| m.kind == MoveKind::Rapid) {
+        let _ = writeln!(
+            s,
+            r#"<path class="rapid" data-line="{}" stroke="{RAPID_COLOUR}" stroke-dasharray="{RAPID_DASH}" d="{}"/>"#,
+            m.line,
+            path_data(fit, m)
+        );
+    }
+    s.push_str("</g>\n");
+    s.push_str(
+        r#"<g class="feeds" fill="none" stroke-width="1.8" stroke-linecap="round" stroke-linejoin="round">"#,
+    );
+    s.push('\n');
+    for m in job.moves.iter().filter(|m| m.kind != MoveKind::Rapid) {
+        let class = if matches!(m.kind, MoveKind::Arc(_)) {
+            "arc"
+        } else {
+            "feed"
+        };
+        let colour = match (m.speed_mm_min, stats.scale) {
+            (Some(v), Some(sc)) => hex(sc.colour(v)),
+            _ => NO_SPEED_COLOUR.to_string(),
+        };
+        let _ = writeln!(
+            s,
+            r#"<path class="{class}" data-line="{}" stroke="{colour}" d="{}"/>"#,
+            m.line,
+            path_data(fit, m)
+        );
+    }
+    s.push_str("</g>\n");
+    if let (Some(first), Some(last)) = (job.moves.first(), job.moves.last()) {
+        let (ax, ay) = fit.px(first.from);
+        let (bx, by) = fit.px(last.to);
+        let _ = writeln!(
+            s,
+            r##"<circle class="start" cx="{ax:.1}" cy="{ay:.1}" r="4" fill="#2f9e44" stroke="#ffffff"/>"##
+        );
+        let _ = writeln!(
+            s,
+            r##"<rect class="end" x="{:.1}" y="{:.1}" width="7" height="7" fill="#212529" stroke="#ffffff"/>"##,
+            bx - 3.5,
+            by - 3.5
+        );
+    }
+}
+
+/// SVG path data of one move in one view.
+fn path_data(fit: &Fit, m: &PreviewMove) -> String {
+    let (ax, ay) = fit.px(m.from);
+    let mut d = format!("M{ax:.2} {ay:.2}");
+    match &m.kind {
+        MoveKind::Rapid | MoveKind::Feed => {
+            let (bx, by) = fit.px(m.to);
+            let _ = write!(d, "L{bx:.2} {by:.2}");
+        }
+        MoveKind::Arc(arc) => {
+            for c in arc_cubics(m.from, m.to, arc) {
+                let (p1, p2, p3) = (fit.px(c[1]), fit.px(c[2]), fit.px(c[3]));
+                let _ = write!(
+                    d,
+                    "C{:.2} {:.2} {:.2} {:.2} {:.2} {:.2}",
+                    p1.0, p1.1, p2.0, p2.1, p3.0, p3.1
+                );
+            }
+        }
+    }
+    d
+}
+
+fn draw_legend(s: &mut String, job: &PreviewJob, stats: &Stats, x: f64, w: f64, h: f64) {
+    let _ = writeln!(
+        s,
+        r##"<g class="legend"><rect x="{x:.1}" y="6" width="{w:.1}" height="{:.1}" rx="4" fill="#f8f9fa" stroke="#dee2e6"/>"##,
+        h - 12.0
+    );
+    let x0 = x + 14.0;
+    let right = x + w - 14.0;
+    let mut y = 34.0;
+    text(s, x0, y, 17.0, "bold", TEXT, "start", "Gantry preview");
+    y += 20.0;
+    text(
+        s,
+        x0,
+        y,
+        12.0,
+        "normal",
+        MUTED,
+        "start",
+        &ellipsize(&job.title, 44),
+    );
+    y += 30.0;
+
+    text(s, x0, y, 13.0, "bold", TEXT, "start", "Total time");
+    let time = job
+        .total_time_s
+        .map(fmt_duration)
+        .unwrap_or_else(|| "unknown".into());
+    text(s, right, y, 13.0, "bold", TEXT, "end", &time);
+    y += 16.0;
+    let how = match job.speed_source {
+        SpeedSource::Planned => "planned with acceleration (look-ahead)",
+        SpeedSource::Programmed => "estimate: programmed feeds, no acceleration",
+    };
+    text(s, x0, y, 10.5, "normal", MUTED, "start", how);
+    y += 24.0;
+
+    let rows = [
+        (
+            "Moves",
+            format!(
+                "{}  ({} rapid, {} feed, {} arc)",
+                stats.rapids + stats.feeds + stats.arcs,
+                stats.rapids,
+                stats.feeds,
+                stats.arcs
+            ),
+        ),
+        ("Cutting path", format!("{:.1} mm", stats.feed_len_mm)),
+        ("Rapid path", format!("{:.1} mm", stats.rapid_len_mm)),
+    ];
+    for (k, v) in rows {
+        text(s, x0, y, 12.0, "normal", TEXT, "start", k);
+        text(s, right, y, 12.0, "normal", TEXT, "end", &v);
+        y += 18.0;
+    }
+    y += 12.0;
+
+    y = box_table(s, "Job extents (mm)", &stats.extents, x0, right, y);
+    if let Some(t) = job.travel.filter(|t| !t.is_empty()) {
+        y = box_table(s, "Machine travel (mm)", &t, x0, right, y);
+        let (msg, colour) = travel_status(&t, &stats.extents);
+        for line in msg {
+            text(s, x0, y, 11.5, "bold", colour, "start", &line);
+            y += 16.0;
+        }
+        y += 8.0;
+    }
+
+    if let Some(sc) = stats.scale {
+        y += 8.0;
+        let title = match job.speed_source {
+            SpeedSource::Planned => "Planned speed (mm/min)",
+            SpeedSource::Programmed => "Programmed feed (mm/min)",
+        };
+        text(s, x0, y, 13.0, "bold", TEXT, "start", title);
+        y += 10.0;
+        let bw = right - x0;
+        let _ = writeln!(
+            s,
+            r##"<rect class="speed-scale" x="{x0:.1}" y="{y:.1}" width="{bw:.1}" height="14" fill="url(#speed)" stroke="#adb5bd" stroke-width="0.5"/>"##
+        );
+        let mut labels: Vec<f64> = vec![sc.lo, sc.hi];
+        for t in sc.ticks() {
+            let f = sc.fraction(t);
+            if f > 0.12 && f < 0.88 {
+                labels.push(t);
+            }
+        }
+        for v in labels {
+            let px = x0 + sc.fraction(v) * bw;
+            let _ = writeln!(
+                s,
+                r##"<path class="tick" stroke="#495057" d="M{px:.1} {:.1}V{:.1}"/>"##,
+                y + 14.0,
+                y + 19.0
+            );
+            let anchor = if px <= x0 + 1.0 {
+                "start"
+            } else if px >= right - 1.0 {
+                "end"
+            } else {
+                "middle"
+            };
+            text(
+                s,
+                px,
+                y + 31.0,
+                10.5,
+                "normal",
+                TEXT,
+                anchor,
+                &fmt_num(v, 0),
+            );
+        }
+        y += 58.0;
+    }
+
+    text(s, x0, y, 13.0, "bold", TEXT, "start", "Key");
+    y += 20.0;
+    let key_line = |s: &mut String, y: f64, attrs: &str, label: &str| {
+        let _ = writeln!(
+            s,
+            r#"<path class="key" fill="none" {attrs} d="M{x0:.1} {:.1}h34"/>"#,
+            y - 4.0
+        );
+        text(s, x0 + 44.0, y, 12.0, "normal", TEXT, "start", label);
+    };
+    key_line(
+        s,
+        y,
+        &format!(r#"stroke="{RAPID_COLOUR}" stroke-width="1" stroke-dasharray="{RAPID_DASH}""#),
+        "rapid (G0)",
+    );
+    y += 18.0;
+    key_line(
+        s,
+        y,
+        &format!(r#"stroke="{}" stroke-width="1.8""#, hex(colour_at(0.5))),
+        "feed / arc (G1, G2, G3), coloured by speed",
+    );
+    y += 18.0;
+    key_line(
+        s,
+        y,
+        &format!(r#"stroke="{TRAVEL_COLOUR}" stroke-width="1.5" stroke-dasharray="{TRAVEL_DASH}""#),
+        "machine travel (outside: grey)",
+    );
+    y += 18.0;
+    let _ = writeln!(
+        s,
+        r##"<circle cx="{:.1}" cy="{:.1}" r="4" fill="#2f9e44"/><rect x="{:.1}" y="{:.1}" width="7" height="7" fill="#212529"/>"##,
+        x0 + 8.0,
+        y - 4.0,
+        x0 + 22.5,
+        y - 7.5
+    );
+    text(
+        s,
+        x0 + 44.0,
+        y,
+        12.0,
+        "normal",
+        TEXT,
+        "start",
+        "program start / end",
+    );
+    s.push_str("</g>\n");
+}
+
+/// A heading and one row per axis: min … max (size).
+fn box_table(s: &mut String, title: &str, b: &Box3, x0: f64, right: f64, mut y: f64) -> f64 {
+    text(s, x0, y, 13.0, "bold", TEXT, "start", title);
+    y += 18.0;
+    if b.is_empty() {
+        text(s, x0, y, 12.0, "normal", MUTED, "start", "no motion");
+        return y + 26.0;
+    }
+    for (i, axis) in ["X", "Y", "Z"].iter().enumerate() {
+        text(s, x0, y, 12.0, "bold", TEXT, "start", axis);
+        text(
+            s,
+            x0 + 92.0,
+            y,
+            12.0,
+            "normal",
+            TEXT,
+            "end",
+            &fmt_num(b.min[i], 3),
+        );
+        text(s, x0 + 104.0, y, 12.0, "normal", MUTED, "middle", "…");
+        text(
+            s,
+            x0 + 176.0,
+            y,
+            12.0,
+            "normal",
+            TEXT,
+            "end",
+            &fmt_num(b.max[i], 3),
+        );
+        let size = format!("({})", fmt_num(b.max[i] - b.min[i], 3));
+        text(s, right, y, 12.0, "normal", MUTED, "end", &size);
+        y += 17.0;
+    }
+    y + 10.0
+}
+
+/// Whether the job stays inside the travel box, and by how much it leaves it on which side.
+pub fn travel_status(t: &Box3, job: &Box3) -> (Vec<String>, &'static str) {
+    if job.is_empty() || t.contains(job) {
+        return (vec!["✓ job inside machine travel".into()], "#2b8a3e");
+    }
+    let mut out = Vec::new();
+    for (i, axis) in ["X", "Y", "Z"].iter().enumerate() {
+        let below = t.min[i] - job.min[i];
+        let above = job.max[i] - t.max[i];
+        if below > 1e-6 {
+            out.push(format!("{axis}− by {} mm", fmt_num(below, 3)));
+        }
+        if above > 1e-6 {
+            out.push(format!("{axis}+ by {} mm", fmt_num(above, 3)));
+        }
+    }
+    let mut lines = vec!["✗ job leaves machine travel:".to_string()];
+    lines.push(format!("   {}", out.join(", ")));
+    (lines, WARN_COLOUR)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn text(
+    s: &mut String,
+    x: f64,
+    y: f64,
+    size: f64,
+    weight: &str,
+    fill: &str,
+    anchor: &str,
+    t: &str,
+) {
+    let _ = writeln!(
+        s,
+        r#"<text x="{x:.1}" y="{y:.1}" font-size="{size}" font-weight="{weight}" fill="{fill}" text-anchor="{anchor}">{}</text>"#,
+        escape(t)
+    );
+}
+
+fn escape(t: &str) -> String {
+    t.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn ellipsize(t: &str, max: usize) -> String {
+    let n = t.chars().count();
+    if n <= max {
+        t.to_string()
+    } else {
+        let tail: String = t.chars().skip(n - (max - 1)).collect();
+        format!("…{tail}")
+    }
+}
+
+/// A number with `decimals` decimals, a real minus sign and no "-0".
+pub fn fmt_num(v: f64, decimals: usize) -> String {
+    let t = format!("{:.*}", decimals, v);
+    let zero = t
+        .trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.');
+    match t.strip_prefix('-') {
+        Some(rest) if !zero => format!("−{rest}"),
+        Some(rest) => rest.to_string(),
+        None => t,
+    }
+}
+
+/// `12.3 s`, `4 min 05.2 s`, `1 h 02 min 03 s`.
+pub fn fmt_duration(secs: f64) -> String {
+    if secs < 60.0 {
+        format!("{secs:.1} s")
+    } else if secs < 3600.0 {
+        let m = (secs / 60.0).floor();
+        format!("{m:.0} min {:04.1} s", secs - m * 60.0)
+    } else {
+        let total = secs.round() as u64;
+        format!(
+            "{} h {:02} min {:02} s",
+            total / 3600,
+            total / 60 % 60,
+            total % 60
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn number_and_time_formats() {
+        assert_eq!(fmt_num(-0.0001, 3), "0.000");
+        assert_eq!(fmt_num(-4.0, 3), "−4.000");
+        assert_eq!(fmt_num(12.5, 1), "12.5");
+        assert_eq!(fmt_duration(12.34), "12.3 s");
+        assert_eq!(fmt_duration(245.2), "4 min 05.2 s");
+        assert_eq!(fmt_duration(3723.0), "1 h 02 min 03 s");
+    }
+
+    #[test]
+    fn travel_status_names_the_side() {
+        let t = Box3 {
+            min: [0.0; 3],
+            max: [100.0; 3],
+        };
+        let job = Box3 {
+            min: [-4.0, 0.0, 0.0],
+            max: [50.0, 50.0, 101.0],
+        };
+        let (lines, _) = travel_status(&t, &job);
+        assert_eq!(lines[1].trim(), "X− by 4.000 mm, Z+ by 1.000 mm");
+    }
+}

@@ -1,0 +1,486 @@
+//! Value Change Dump (IEEE 1364 §18) traces of the emulated board's pins, for GTKWave or PulseView.
+//!
+//! The board (or the emulated board's kernel ticks) hands in [`VcdEvent`]s in time order: the
+//! axes that step at that instant, the direction and enable levels and the input levels. Each
+//! step becomes a pulse: high at the event's time, low `pulse_ns` later. Only changes are
+//! written, with a 1 ns timescale, optionally limited to a `--from/--to` window. [`read_vcd`] is a
+//! small reader (enough for the tests and for checking a trace): it counts rising edges per signal.
+
+use std::collections::{HashMap, VecDeque};
+use std::io::{self, Write};
+
+/// Axis letters, in axis-bit order.
+const AXES: [&str; 6] = ["x", "y", "z", "a", "b", "c"];
+
+/// The pins at one instant.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VcdEvent {
+    /// Time since the trace started, ns (non-decreasing from event to event).
+    pub time_ns: u64,
+    /// Axes that put out a step pulse now (bit i = axis i).
+    pub step: u8,
+    /// Direction levels (bit i = axis i; 1 = the pin is high).
+    pub dir: u8,
+    /// Driver enable level.
+    pub enable: bool,
+    /// Input levels (bit i = input i).
+    pub inputs: u32,
+}
+
+/// Converts a time in step-kernel timer counts to ns, rounding to the nearest ns.
+pub fn counts_to_ns(counts: u64, timer_hz: u32) -> u64 {
+    ((counts as u128 * 1_000_000_000 + timer_hz as u128 / 2) / timer_hz as u128) as u64
+}
+
+/// What to write.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct VcdOptions {
+    /// Number of axes (1..=6); each gets `<axis>_step` and `<axis>_dir`.
+    pub axes: usize,
+    /// Names of the input signals, bit 0 first (at most 32).
+    pub inputs: Vec<String>,
+    /// Step pulse width, ns.
+    pub pulse_ns: u64,
+    /// Only changes at `from_ns..=to_ns` are written; the state at `from_ns` is the dump's start.
+    pub from_ns: Option<u64>,
+    pub to_ns: Option<u64>,
+}
+
+impl Default for VcdOptions {
+    fn default() -> Self {
+        VcdOptions {
+            axes: 3,
+            inputs: Vec::new(),
+            pulse_ns: 2_000,
+            from_ns: None,
+            to_ns: None,
+        }
+    }
+}
+
+/// What was written.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct VcdSummary {
+    /// Rising edges written per axis.
+    pub steps: [u64; 6],
+    /// Steps that came while the axis' previous pulse was still high at the same instant and
+    /// could not be shown as a separate pulse.
+    pub merged: u64,
+    /// Time of the last change written, ns.
+    pub end_ns: u64,
+}
+
+/// Writes a VCD with `axes` axes, no named inputs, 2 µs pulses and no window.
+pub fn write_vcd(
+    out: &mut impl Write,
+    axes: usize,
+    events: impl Iterator<Item = VcdEvent>,
+) -> io::Result<VcdSummary> {
+    let opts = VcdOptions {
+        axes,
+        ..VcdOptions::default()
+    };
+    write_vcd_with(out, &opts, events)
+}
+
+/// VCD identifier of signal `n`: printable ASCII `!`..`~`, more characters past 94 signals.
+fn ident(mut n: usize) -> String {
+    let mut s = String::new();
+    loop {
+        s.push((b'!' + (n % 94) as u8) as char);
+        n /= 94;
+        if n == 0 {
+            return s;
+        }
+        n -= 1;
+    }
+}
+
+/// The signals in order: per axis step and dir, then enable, then the inputs.
+struct Signals {
+    axes: usize,
+    inputs: usize,
+}
+
+impl Signals {
+    fn step(&self, axis: usize) -> usize {
+        2 * axis
+    }
+    fn dir(&self, axis: usize) -> usize {
+        2 * axis + 1
+    }
+    fn enable(&self) -> usize {
+        2 * self.axes
+    }
+    fn input(&self, i: usize) -> usize {
+        2 * self.axes + 1 + i
+    }
+    fn count(&self) -> usize {
+        2 * self.axes + 1 + self.inputs
+    }
+}
+
+/// Emits changes at increasing times, within the window.
+struct Emitter<'a, W: Write> {
+    out: &'a mut W,
+    ids: Vec<String>,
+    /// Current level of every signal.
+    level: Vec<bool>,
+    /// Time of the last `#t` line, if any.
+    stamped: Option<u64>,
+    from: u64,
+    to: u64,
+    started: bool,
+    summary: VcdSummary,
+}
+
+impl<W: Write> Emitter<'_, W> {
+    /// Starts the dump at `from` with the current levels.
+    fn start(&mut self) -> io::Result<()> {
+        if self.started {
+            return Ok(());
+        }
+        self.started = true;
+        writeln!(self.out, "#{}", self.from)?;
+        self.stamped = Some(self.from);
+        writeln!(self.out, "$dumpvars")?;
+        for (id, l) in self.ids.iter().zip(&self.level) {
+            writeln!(self.out, "{}{id}", u8::from(*l))?;
+        }
+        writeln!(self.out, "$end")?;
+        self.summary.end_ns = self.from;
+        Ok(())
+    }
+
+    fn set(&mut self, t: u64, sig: usize, v: bool) -> io::Result<bool> {
+        if self.level[sig] == v {
+            return Ok(false);
+        }
+        if t >= self.from && !self.started {
+            self.start()?;
+        }
+        self.level[sig] = v;
+        if t < self.from || t > self.to {
+            return Ok(false);
+        }
+        if self.stamped != Some(t) {
+            writeln!(self.out, "#{t}")?;
+            self.stamped = Some(t);
+        }
+        writeln!(self.out, "{}{}", u8::from(v), self.ids[sig])?;
+        self.summary.end_ns = t;
+        Ok(true)
+    }
+}
+
+/// Writes a VCD of `events` with the given options.
+pub fn write_vcd_with(
+    out: &mut impl Write,
+    opts: &VcdOptions,
+    events: impl Iterator<Item = VcdEvent>,
+) -> io::Result<VcdSummary> {
+    if opts.axes == 0 || opts.axes > AXES.len() || opts.inputs.len() > 32 {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "a VCD trace has 1..=6 axes and at most 32 inputs",
+        ));
+    }
+    let sig = Signals {
+        axes: opts.axes,
+        inputs: opts.inputs.len(),
+    };
+    let ids: Vec<String> = (0..sig.count()).map(ident).collect();
+    writeln!(out, "$version Gantry emulated board $end")?;
+    writeln!(out, "$timescale 1 ns $end")?;
+    writeln!(out, "$scope module gantry $end")?;
+    for (a, name) in AXES.iter().enumerate().take(opts.axes) {
+        writeln!(out, "$var wire 1 {} {name}_step $end", ids[sig.step(a)])?;
+        writeln!(out, "$var wire 1 {} {name}_dir $end", ids[sig.dir(a)])?;
+    }
+    writeln!(out, "$var wire 1 {} enable $end", ids[sig.enable()])?;
+    if !opts.inputs.is_empty() {
+        writeln!(out, "$scope module inputs $end")?;
+        for (i, name) in opts.inputs.iter().enumerate() {
+            let name: String = name
+                .chars()
+                .map(|c| if c.is_ascii_graphic() { c } else { '_' })
+                .collect();
+            writeln!(out, "$var wire 1 {} {name} $end", ids[sig.input(i)])?;
+        }
+        writeln!(out, "$upscope $end")?;
+    }
+    writeln!(out, "$upscope $end")?;
+    writeln!(out, "$enddefinitions $end")?;
+
+    let mut em = Emitter {
+        out,
+        level: vec![false; ids.len()],
+        ids,
+        stamped: None,
+        from: opts.from_ns.unwrap_or(0),
+        to: opts.to_ns.unwrap_or(u64::MAX),
+        started: false,
+        summary: VcdSummary::default(),
+    };
+    let pulse = opts.pulse_ns.max(1);
+    // Falling edges still to come, in time order (all pulses are equally wide).
+    let mut falls: VecDeque<(u64, u8)> = VecDeque::new();
+    let mask = ((1u16 << opts.axes) - 1) as u8;
+    for e in events {
+        // Pulses that end before this event.
+        while let Some(&(t, m)) = falls.front() {
+            if t >= e.time_ns {
+                break;
+            }
+            falls.pop_front();
+            fall(&mut em, &sig, t, m)?;
+        }
+        if e.time_ns > em.to {
+            falls.clear();
+            break;
+        }
+        // Pulses ending exactly now. An axis that steps again at this instant goes low 1 ns
+        // earlier, so the two pulses stay apart; one that steps while its pulse is still high
+        // cannot show a second pulse and is counted as merged.
+        let mut ending = 0u8;
+        while let Some(&(t, m)) = falls.front() {
+            if t != e.time_ns {
+                break;
+            }
+            falls.pop_front();
+            ending |= m;
+        }
+        let step = e.step & mask;
+        let high = falls.iter().fold(0u8, |acc, (_, m)| acc | m);
+        em.summary.merged += u64::from((step & high).count_ones());
+        let earlier = e.time_ns.saturating_sub(1).max(em.stamped.unwrap_or(0));
+        fall(&mut em, &sig, earlier, ending & step)?;
+        fall(&mut em, &sig, e.time_ns, ending & !step)?;
+        for a in 0..opts.axes {
+            em.set(e.time_ns, sig.dir(a), e.dir >> a & 1 == 1)?;
+        }
+        em.set(e.time_ns, sig.enable(), e.enable)?;
+        for i in 0..opts.inputs.len() {
+            em.set(e.time_ns, sig.input(i), e.inputs >> i & 1 == 1)?;
+        }
+        let rise = step & !high;
+        for a in 0..opts.axes {
+            if rise >> a & 1 == 1 && em.set(e.time_ns, sig.step(a), true)? {
+                em.summary.steps[a] += 1;
+            }
+        }
+        if rise != 0 {
+            falls.push_back((e.time_ns + pulse, rise));
+        }
+    }
+    while let Some((t, m)) = falls.pop_front() {
+        if t > em.to {
+            break;
+        }
+        fall(&mut em, &sig, t, m)?;
+    }
+    if !em.started {
+        em.start()?;
+    }
+    let summary = em.summary.clone();
+    em.out.flush()?;
+    Ok(summary)
+}
+
+fn fall<W: Write>(em: &mut Emitter<'_, W>, sig: &Signals, t: u64, m: u8) -> io::Result<()> {
+    for a in 0..sig.axes {
+        if m >> a & 1 == 1 {
+            em.set(t, sig.step(a), false)?;
+        }
+    }
+    Ok(())
+}
+
+/// A parsed VCD: signal names and their rising edges.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct VcdTrace {
+    /// Signal reference names in declaration order.
+    pub signals: Vec<String>,
+    /// Rising edges (0 → 1 after the initial dump) per signal name.
+    pub rising: HashMap<String, u64>,
+    /// Level of each signal at the end.
+    pub last: HashMap<String, bool>,
+    /// Timescale text, e.g. `1 ns`.
+    pub timescale: String,
+    /// Last timestamp.
+    pub end_time: u64,
+}
+
+/// Reads a VCD of 1-bit signals (what [`write_vcd_with`] writes, and most logic-analyser dumps).
+pub fn read_vcd(text: &str) -> Result<VcdTrace, String> {
+    let mut t = VcdTrace::default();
+    let mut by_id: HashMap<String, String> = HashMap::new();
+    let mut level: HashMap<String, Option<bool>> = HashMap::new();
+    let mut toks = text.split_whitespace().peekable();
+    let mut in_defs = true;
+    let mut in_dump = false;
+    let mut last_time = None;
+    while let Some(tok) = toks.next() {
+        if in_defs {
+            match tok {
+                "$var" => {
+                    let f: Vec<&str> = toks.by_ref().take_while(|w| *w != "$end").collect();
+                    if f.len() < 4 {
+                        return Err(format!("bad $var: {f:?}"));
+                    }
+                    if f[1] != "1" {
+                        return Err(format!("{}: only 1-bit signals are supported", f[3]));
+                    }
+                    by_id.insert(f[2].to_string(), f[3].to_string());
+                    t.signals.push(f[3].to_string());
+                    t.rising.insert(f[3].to_string(), 0);
+                }
+                "$timescale" => {
+                    let f: Vec<&str> = toks.by_ref().take_while(|w| *w != "$end").collect();
+                    t.timescale = f.join(" ");
+                }
+                "$enddefinitions" => {
+                    toks.next();
+                    in_defs = false;
+                }
+                w if w.starts_with('$') => {
+                    for w in toks.by_ref() {
+                        if w == "$end" {
+                            break;
+                        }
+                    }
+                }
+                other => return Err(format!("unexpected {other:?} in the header")),
+            }
+            continue;
+        }
+        match tok {
+            "$dumpvars" => in_dump = true,
+            "$end" => in_dump = false,
+            "$dumpall" | "$dumpon" | "$dumpoff" => {}
+            w if w.starts_with('#') => {
+                let v: u64 = w[1..].parse().map_err(|_| format!("bad time {w}"))?;
+                if last_time.is_some_and(|l| v < l) {
+                    return Err(format!("time goes backwards at {w}"));
+                }
+                last_time = Some(v);
+                t.end_time = v;
+            }
+            w => {
+                let (v, id) = w.split_at(1);
+                let v = match v {
+                    "0" => Some(false),
+                    "1" => Some(true),
+                    "x" | "X" | "z" | "Z" => None,
+                    _ => return Err(format!("unsupported value change {w}")),
+                };
+                let name = by_id
+                    .get(id)
+                    .ok_or_else(|| format!("unknown identifier {id}"))?;
+                let prev = level.insert(name.clone(), v).flatten();
+                if !in_dump && prev == Some(false) && v == Some(true) {
+                    *t.rising.entry(name.clone()).or_default() += 1;
+                }
+                if let Some(b) = v {
+                    t.last.insert(name.clone(), b);
+                }
+            }
+        }
+    }
+    if in_defs {
+        return Err("no $enddefinitions".into());
+    }
+    Ok(t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ev(time_ns: u64, step: u8, dir: u8) -> VcdEvent {
+        VcdEvent {
+            time_ns,
+            step,
+            dir,
+            enable: true,
+            inputs: 0,
+        }
+    }
+
+    #[test]
+    fn identifiers_are_unique_and_printable() {
+        let ids: Vec<String> = (0..500).map(ident).collect();
+        let set: std::collections::HashSet<_> = ids.iter().collect();
+        assert_eq!(set.len(), 500);
+        assert!(ids.iter().all(|s| s.chars().all(|c| c.is_ascii_graphic())));
+    }
+
+    #[test]
+    fn pulses_and_header() {
+        let mut out = Vec::new();
+        let s = write_vcd(
+            &mut out,
+            2,
+            [ev(0, 0b01, 0b10), ev(10_000, 0b11, 0)].into_iter(),
+        )
+        .unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(text.contains("$timescale 1 ns $end"));
+        assert!(text.contains("$var wire 1 ! x_step $end"));
+        assert!(text.contains("$enddefinitions $end"));
+        assert!(text.contains("#2000\n0!"), "{text}");
+        assert_eq!(s.steps[..2], [2, 1]);
+        let r = read_vcd(&text).unwrap();
+        assert_eq!(r.rising["x_step"], 2);
+        assert_eq!(r.rising["y_step"], 1);
+        assert_eq!(r.rising["enable"], 1);
+        assert!(!r.last["x_step"]);
+        assert_eq!(r.end_time, 12_000);
+    }
+
+    #[test]
+    fn back_to_back_pulses_stay_separate() {
+        // A step exactly when the previous pulse ends: low one ns earlier, high again now.
+        let mut out = Vec::new();
+        let opts = VcdOptions {
+            axes: 1,
+            pulse_ns: 1000,
+            ..Default::default()
+        };
+        let s = write_vcd_with(
+            &mut out,
+            &opts,
+            [ev(0, 1, 0), ev(1000, 1, 0), ev(1500, 1, 0)].into_iter(),
+        )
+        .unwrap();
+        let r = read_vcd(std::str::from_utf8(&out).unwrap()).unwrap();
+        // The third step comes while the second pulse is high: merged, not shown.
+        assert_eq!(r.rising["x_step"] + s.merged, 3);
+        assert_eq!(s.merged, 1);
+    }
+
+    #[test]
+    fn window_keeps_only_its_changes() {
+        let events = (0..100u64).map(|i| ev(i * 10_000, 1, 1));
+        let mut out = Vec::new();
+        let opts = VcdOptions {
+            axes: 1,
+            from_ns: Some(250_000),
+            to_ns: Some(500_000),
+            ..Default::default()
+        };
+        write_vcd_with(&mut out, &opts, events).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        let r = read_vcd(&text).unwrap();
+        // Steps at 250 µs … 500 µs.
+        assert_eq!(r.rising["x_step"], 26);
+        assert!(text.contains("#250000\n$dumpvars"));
+        assert_eq!(r.end_time, 500_000);
+    }
+
+    #[test]
+    fn kernel_counts() {
+        assert_eq!(counts_to_ns(24_000_000, 24_000_000), 1_000_000_000);
+        assert_eq!(counts_to_ns(1, 24_000_000), 42);
+    }
+}
