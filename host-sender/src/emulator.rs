@@ -9,7 +9,9 @@
 
 use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::Board;
+use gantry_machine::controller::State;
 use gantry_machine::motion::kernel::{StepKernel, KERNEL_TIMER_HZ};
+use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::motion::sim::{SegmentFifo, SEGMENT_QUEUE};
 use gantry_machine::setup::Setup;
 use gantry_machine::units::MAX_AXES;
@@ -48,6 +50,9 @@ pub struct EmulatedBoard {
     pulses_at_last_loop: [u64; MAX_AXES],
     measured_um_min: u32,
     observer: Option<Box<dyn FnMut(PinEvent)>>,
+    /// Main-loop passes that found the kernel idle with motion still to run and nothing prepared
+    /// (the planner starved the kernel).
+    pub underruns: u64,
     /// Bytes the board has sent and the host not yet read.
     outbox: Vec<u8>,
 }
@@ -69,6 +74,7 @@ impl EmulatedBoard {
             pulses_at_last_loop: [0; MAX_AXES],
             measured_um_min: 0,
             observer: None,
+            underruns: 0,
             outbox: Vec::new(),
         }
     }
@@ -181,8 +187,15 @@ impl EmulatedBoard {
                 None => break,
             }
         }
-        if self.next_tick.is_none() && !self.fifo.0.is_empty() {
-            self.next_tick = Some(self.now);
+        if self.next_tick.is_none() {
+            if !self.fifo.0.is_empty() {
+                self.next_tick = Some(self.now);
+            } else if drained
+                && self.board.motion().state() == MotionState::Running
+                && self.board.state() == State::Run
+            {
+                self.underruns += 1;
+            }
         }
         // Events raised by this poll go out in the same pass.
         self.link.service(&mut self.board, now, &view);

@@ -1,0 +1,138 @@
+//! Whole-system streaming tests: the `gantry` sender against the emulated board over the real
+//! protocol. Every job must end exactly where the core's own simulation of the same file ends.
+
+use gantry_machine::setup::Setup;
+use gantry_proto::fault::Faults;
+use host_sender::emulator::EmulatedBoard;
+use host_sender::link::Client;
+use host_sender::program::Program;
+use host_sender::stream::{stream_program, StreamReport};
+use system_tests::{cam_program, reference, FaultyBoard};
+
+fn stream_emulated(text: &str) -> (StreamReport, EmulatedBoard) {
+    let mut client = Client::connect(EmulatedBoard::new(Setup::default()), 2000).unwrap();
+    let report = stream_program(&mut client, &Program::from_text(text), &mut |_| {}).unwrap();
+    (report, client.transport)
+}
+
+const BRACKET: &str = include_str!("../../examples/bracket.ngc");
+
+#[test]
+fn the_example_job_ends_where_the_core_simulation_ends() {
+    let (report, board) = stream_emulated(BRACKET);
+    assert!(report.completed, "{:?}", report.errors);
+    let r = reference(BRACKET, &Setup::default());
+    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.pulses, r.pulses);
+    // The program ends at X0 Y0 Z10: 10 mm at 3200 steps / 5 mm.
+    assert_eq!(&r.steps[..3], &[0, 0, 6400]);
+    let status = report.final_status.unwrap();
+    assert_eq!(&status.machine_pos[..3], &[0, 0, 10_000_000]);
+}
+
+#[test]
+fn a_rejected_block_stops_the_job_before_its_motion() {
+    let program = "G21 G90\nG1 X1 F600\nG2 X10 Y0 R2\nG1 X5\nM30\n";
+    let (report, board) = stream_emulated(program);
+    assert!(!report.completed);
+    assert_eq!(report.errors.len(), 1);
+    assert_eq!(report.errors[0].line, 3);
+    // Only line 2 ran: X stands at 1 mm = 640 steps, nothing after the bad block moved.
+    assert_eq!(board.kernel.position()[..3], [640, 0, 0]);
+}
+
+#[test]
+fn a_soft_limit_violation_is_an_error_before_any_motion_of_that_block() {
+    let program = "G21 G90\nG0 X10\nG0 X400\nG0 X20\nM30\n";
+    let (report, board) = stream_emulated(program);
+    assert_eq!(report.errors.len(), 1);
+    assert_eq!(
+        (report.errors[0].line, report.errors[0].code),
+        (3, gantry_machine::board::ERROR_SOFT_LIMIT)
+    );
+    assert_eq!(board.kernel.position()[0], 6400);
+}
+
+#[test]
+fn subprograms_after_m30_are_served_on_request_and_repeat() {
+    // O100 is called 3 times with L3 and once more from O200 (nested); the main program is longer
+    // than the board's line buffer, so the jumps happen while the stream is in flight.
+    let mut p = String::from("G21 G90 G94\nG0 X0 Y0 Z0\n");
+    for i in 0..40 {
+        p.push_str(&format!("G1 X{} F3000\n", i % 5));
+    }
+    p.push_str("M98 P100 L3\nG0 X0\nM98 P200\nG0 Y0\nM30\n");
+    p.push_str("O100\nG91 G1 Y1 F3000\nG90\nM99\n");
+    p.push_str("O200\nG91 G1 Z-1 F3000\nM98 P100\nG90\nM99\n");
+    let (report, board) = stream_emulated(&p);
+    assert!(report.completed, "{:?}", report.errors);
+    // Four calls of O100 (+1 mm Y each), then G0 Y0; one O200 (-1 mm Z).
+    assert_eq!(board.kernel.position()[..3], [0, 0, -640]);
+    let r = reference(&p, &Setup::default());
+    assert_eq!(board.pulses, r.pulses);
+    assert_eq!(board.kernel.position(), r.steps);
+    // 3 calls + 3 returns/repeats for L3, 2 for O200, 2 for the nested O100.
+    assert!(report.jumps_served >= 7, "{}", report.jumps_served);
+}
+
+#[test]
+fn one_percent_dropped_corrupted_and_duplicated_bytes_lose_nothing() {
+    let program = cam_program(3_000);
+    let setup = Setup::default();
+    let faults = Faults::uniform(10_000);
+    let mut client = Client::connect(FaultyBoard::new(setup.clone(), 7, faults), 5000).unwrap();
+    let report = stream_program(&mut client, &Program::from_text(&program), &mut |_| {}).unwrap();
+    assert!(report.completed, "{:?} {:?}", report.errors, report.alarms);
+    let r = reference(&program, &setup);
+    let board = &client.transport.board;
+    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.pulses, r.pulses);
+    let stats = client.transport.to_board.stats();
+    assert!(
+        stats.dropped > 100 && stats.corrupted > 100 && stats.duplicated > 100,
+        "{stats:?}"
+    );
+}
+
+#[test]
+fn a_100k_line_cam_program_streams_without_loss() {
+    let program = cam_program(100_000);
+    let (report, board) = stream_emulated(&program);
+    assert!(report.completed, "{:?}", report.errors);
+    assert_eq!(report.lines_sent, 100_007);
+    assert_eq!(board.underruns, 0, "the planner starved the kernel");
+    let r = reference(&program, &Setup::default());
+    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.pulses, r.pulses);
+}
+
+#[test]
+fn a_thousand_blocks_per_second_never_starve_the_planner() {
+    // 0.1 mm segments at 6000 mm/min = 1000 blocks/s; axes fast enough not to limit the feed.
+    let mut setup = Setup::default();
+    for a in setup.axes.iter_mut() {
+        a.max_rate = 10_000_000_000;
+        a.accel = 2_000_000_000;
+    }
+    // The Z ripple deflects the path ~2° per block; the default feed shift (largest speed jump at
+    // a junction, 60 mm/min) would cap the feed near 1500 mm/min there.
+    setup.path.feed_shift = 600_000_000;
+    let program = system_tests::cam_program_at(20_000, 6000);
+    let mut client = Client::connect(EmulatedBoard::new(setup.clone()), 2000).unwrap();
+    let report = stream_program(&mut client, &Program::from_text(&program), &mut |_| {}).unwrap();
+    assert!(report.completed, "{:?}", report.errors);
+    let board = &client.transport;
+    assert_eq!(board.underruns, 0, "the planner starved the kernel");
+    let r = reference(&program, &setup);
+    assert_eq!(board.kernel.position(), r.steps);
+    // The streamed job takes as long as the core's own simulation (the link never held motion
+    // up). 2000 mm of path at 100 mm/s is 20 s, plus 40 row reversals at 2000 mm/s² (about
+    // 0.05 s each) and the approach: 22.3 s means the 1000 blocks/s rate was really held.
+    let seconds = report.elapsed_ms as f64 / 1000.0;
+    assert!(
+        (seconds - r.seconds).abs() < 0.1,
+        "{seconds} s, reference {} s",
+        r.seconds
+    );
+    assert!(r.seconds < 22.5, "reference {} s", r.seconds);
+}
