@@ -2,16 +2,22 @@
 //!
 //! The update interrupt starts a tick: it raises the step pins computed on the previous tick (one
 //! BSRR write), runs `StepKernel::tick`, and loads the kernel's period into the preloaded ARR, so it
-//! times the period after the step just emitted. Compare channel 1 fires `STEP_PULSE_COUNTS`
-//! later: it drops the step pins (one BSRR write) and sets the dir pins for the next step (one BSRR
-//! write), which gives every step a full period minus the pulse of dir set-up time. Pin words come
-//! from 64-entry tables built at compile time from the board's pin numbers, so the ISR does
-//! lookups, no loops. When the kernel is idle the timer keeps polling the queue every millisecond.
+//! times the period after the step just emitted. It also points compare channel 1 at
+//! `STEP_PULSE_COUNTS` after the moment the pins rose; that interrupt drops the step pins (one BSRR
+//! write) and sets the dir pins for the next step (one BSRR write), giving every step a full period
+//! minus the pulse of dir set-up time. Pin words come from 64-entry tables built at compile time
+//! from the board's pin numbers, so the ISR does lookups, no loops.
+//!
+//! If the ISR starts so late that the pulse could not end within the current period, it emits
+//! nothing and retries on the next update (counted in [`LATE_TICKS`]), so no edge is ever lost.
+//! A stop seen by the kernel takes effect at that tick; the step computed on the tick before is
+//! still emitted, so the kernel's position count stays exact. When the kernel is idle the timer
+//! keeps polling the queue every millisecond.
 
 use crate::board::{gpio_block, PinId};
 use crate::board_def::{AXES, DIR, STEP};
 use core::cell::RefCell;
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use critical_section::Mutex;
 use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
@@ -37,6 +43,8 @@ pub const SEGMENT_QUEUE_LEN: usize = 32;
 
 /// Set by the input task (limit or abort asserted); the kernel latches it on its next tick.
 pub static STOP: AtomicBool = AtomicBool::new(false);
+/// Ticks deferred because the ISR started too late to fit the step pulse (should stay 0).
+pub static LATE_TICKS: AtomicU32 = AtomicU32::new(0);
 
 /// BSRR word raising the step pins of each 6-bit step mask.
 static STEP_SET: [u32; 64] = step_set_table(&STEP);
@@ -194,6 +202,14 @@ fn TIM2() {
     }
     if sr & UIF != 0 {
         clear_flags(UIF);
+        // ARR still holds the running period's reload value (the new one is written below).
+        let pulse_end = TIM.cnt().read() + STEP_PULSE_COUNTS;
+        if pulse_end > TIM.arr().read() {
+            // Too late to fit the pulse in this period: keep `pending` for the next update.
+            LATE_TICKS.store(LATE_TICKS.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
+            return;
+        }
+        TIM.ccr(0).write_value(pulse_end);
         STEP_GPIO.bsrr().write_value(pac::gpio::regs::Bsrr(
             STEP_SET[(isr.pending.step & 63) as usize],
         ));
