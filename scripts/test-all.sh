@@ -24,7 +24,10 @@ SECTION_T=$T0
 section() {
     local now
     now=$(date +%s)
-    printf '\n==== [%4ds, +%ds] %s ====\n' "$((now - T0))" "$((now - SECTION_T))" "$*"
+    if [ "$now" != "$T0" ] || [ "$SECTION_T" != "$T0" ]; then
+        printf '(step took %d s)\n' "$((now - SECTION_T))"
+    fi
+    printf '\n==== [t=%ds] %s ====\n' "$((now - T0))" "$*"
     SECTION_T=$now
 }
 fail() {
@@ -51,9 +54,9 @@ if ! command -v qemu-system-arm >/dev/null; then
     SUDO=""
     if [ "$(id -u)" -ne 0 ]; then SUDO=sudo; fi
     $SUDO apt-get update
-    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y qemu-system-arm
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y --no-install-recommends qemu-system-arm
 fi
-qemu-system-arm --version | head -n 1
+qemu-system-arm --version | sed -n 1p
 command -v readelf >/dev/null || fail "readelf (binutils) is needed for the size report"
 
 section "cargo fmt --check (root, boards, firmware, target-tests)"
