@@ -162,6 +162,11 @@ impl<T: Transport> Client<T> {
         self.endpoint.recv()
     }
 
+    /// Closes the link and gives the transport back (the board keeps its state).
+    pub fn into_transport(self) -> T {
+        self.transport
+    }
+
     pub fn stats(&self) -> gantry_proto::LinkStats {
         self.endpoint.stats()
     }

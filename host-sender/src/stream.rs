@@ -75,19 +75,54 @@ pub struct StreamReport {
     pub final_status: Option<Status>,
 }
 
+/// What the progress callback wants next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flow {
+    Continue,
+    /// Stop streaming now and return (the board keeps the job; see [`continue_job`]).
+    Detach,
+}
+
 /// Streams `program` over a connected link until the board reports the job done.
 pub fn stream_program<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
-    on_progress: &mut dyn FnMut(&Progress),
+    on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
-    let start_ms = client.transport.now_ms();
     client.send(HostMsg::Start)?;
-    let mut serving = Serving {
+    let serving = Serving {
         id: 0,
         next_line: 1,
         ended: false,
     };
+    run_job(client, program, Some(serving), on_progress)
+}
+
+/// Takes over a job the board is already running (after the link was lost, or from a new
+/// `gantry` process): the board asks for exactly the lines it is missing, and the job resumes
+/// from where the board holds.
+pub fn continue_job<T: Transport>(
+    client: &mut Client<T>,
+    program: &Program,
+    on_progress: &mut dyn FnMut(&Progress) -> Flow,
+) -> anyhow::Result<StreamReport> {
+    client.send(HostMsg::Resume)?;
+    run_job(client, program, None, on_progress)
+}
+
+fn run_job<T: Transport>(
+    client: &mut Client<T>,
+    program: &Program,
+    serving: Option<Serving>,
+    on_progress: &mut dyn FnMut(&Progress) -> Flow,
+) -> anyhow::Result<StreamReport> {
+    let start_ms = client.transport.now_ms();
+    // Until the board says where to serve from, nothing is sent.
+    let mut serving = serving.unwrap_or(Serving {
+        id: 0,
+        next_line: 1,
+        ended: true,
+    });
     let mut report = StreamReport {
         completed: false,
         errors: Vec::new(),
@@ -102,11 +137,18 @@ pub fn stream_program<T: Transport>(
         total_lines: program.len(),
         ..Progress::default()
     };
+    let mut last_heard = client.transport.now_ms();
     let mut done = false;
     while !done {
         serve(client, program, &mut serving, &mut report)?;
         client.pump(1)?;
+        let now = client.transport.now_ms();
         while let Some(msg) = client.recv() {
+            if now.wrapping_sub(last_heard) > gantry_machine::board::link::HOST_TIMEOUT_MS {
+                // The link was down long enough for the board to hold the job: resume it.
+                client.send(HostMsg::Resume)?;
+            }
+            last_heard = now;
             match msg {
                 BoardMsg::Status(s) => {
                     progress.line = s.line;
@@ -149,7 +191,10 @@ pub fn stream_program<T: Transport>(
             }
         }
         progress.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);
-        on_progress(&progress);
+        if on_progress(&progress) == Flow::Detach {
+            report.elapsed_ms = progress.elapsed_ms;
+            return Ok(report);
+        }
     }
     report.final_status = Some(fresh_status(client)?);
     report.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);
@@ -336,6 +381,7 @@ fn stream_with_progress<T: Transport>(
                 }
             }
         }
+        Flow::Continue
     });
     if let Some(b) = bar {
         b.finish_and_clear();

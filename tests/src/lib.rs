@@ -22,6 +22,8 @@ pub struct FaultyBoard {
     pub to_host: Box<FaultyPipe<PIPE_BYTES>>,
     /// While false, nothing gets through in either direction (a pulled cable).
     pub connected: bool,
+    /// A scheduled cable pull: no byte gets through from the first to the second link time (ms).
+    pub outage: Option<(u32, u32)>,
 }
 
 impl FaultyBoard {
@@ -31,13 +33,23 @@ impl FaultyBoard {
             to_board: Box::new(FaultyPipe::new(seed, faults)),
             to_host: Box::new(FaultyPipe::new(seed ^ 0xa5a5_a5a5, faults)),
             connected: true,
+            outage: None,
         }
+    }
+
+    /// True when bytes get through now.
+    fn link_up(&self) -> bool {
+        let now = self.board.now_ms();
+        self.connected
+            && !self
+                .outage
+                .is_some_and(|(from, to)| now >= from && now < to)
     }
 }
 
 impl Transport for FaultyBoard {
     fn write(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
-        if self.connected {
+        if self.link_up() {
             let now = self.board.now_ms();
             self.to_board.write(now, bytes);
         }
@@ -69,7 +81,7 @@ impl Transport for FaultyBoard {
             }
             self.board.wait(1);
             let out = self.board.take_output();
-            if self.connected {
+            if self.link_up() {
                 let now = self.board.now_ms();
                 self.to_host.write(now, &out);
             }

@@ -4,14 +4,17 @@
 use gantry_machine::setup::Setup;
 use gantry_proto::fault::Faults;
 use host_sender::emulator::EmulatedBoard;
-use host_sender::link::Client;
+use host_sender::link::{Client, Transport};
 use host_sender::program::Program;
-use host_sender::stream::{stream_program, StreamReport};
+use host_sender::stream::{continue_job, stream_program, Flow, StreamReport};
 use system_tests::{cam_program, reference, FaultyBoard};
 
 fn stream_emulated(text: &str) -> (StreamReport, EmulatedBoard) {
     let mut client = Client::connect(EmulatedBoard::new(Setup::default()), 2000).unwrap();
-    let report = stream_program(&mut client, &Program::from_text(text), &mut |_| {}).unwrap();
+    let report = stream_program(&mut client, &Program::from_text(text), &mut |_| {
+        Flow::Continue
+    })
+    .unwrap();
     (report, client.transport)
 }
 
@@ -81,7 +84,10 @@ fn one_percent_dropped_corrupted_and_duplicated_bytes_lose_nothing() {
     let setup = Setup::default();
     let faults = Faults::uniform(10_000);
     let mut client = Client::connect(FaultyBoard::new(setup.clone(), 7, faults), 5000).unwrap();
-    let report = stream_program(&mut client, &Program::from_text(&program), &mut |_| {}).unwrap();
+    let report = stream_program(&mut client, &Program::from_text(&program), &mut |_| {
+        Flow::Continue
+    })
+    .unwrap();
     assert!(report.completed, "{:?} {:?}", report.errors, report.alarms);
     let r = reference(&program, &setup);
     let board = &client.transport.board;
@@ -119,7 +125,10 @@ fn a_thousand_blocks_per_second_never_starve_the_planner() {
     setup.path.feed_shift = 600_000_000;
     let program = system_tests::cam_program_at(20_000, 6000);
     let mut client = Client::connect(EmulatedBoard::new(setup.clone()), 2000).unwrap();
-    let report = stream_program(&mut client, &Program::from_text(&program), &mut |_| {}).unwrap();
+    let report = stream_program(&mut client, &Program::from_text(&program), &mut |_| {
+        Flow::Continue
+    })
+    .unwrap();
     assert!(report.completed, "{:?}", report.errors);
     let board = &client.transport;
     assert_eq!(board.underruns, 0, "the planner starved the kernel");
@@ -135,4 +144,81 @@ fn a_thousand_blocks_per_second_never_starve_the_planner() {
         r.seconds
     );
     assert!(r.seconds < 22.5, "reference {} s", r.seconds);
+}
+
+#[test]
+fn a_new_host_takes_over_a_job_after_the_cable_was_pulled() {
+    let program = cam_program(4_000);
+    let setup = Setup::default();
+    let text = Program::from_text(&program);
+    let mut client =
+        Client::connect(FaultyBoard::new(setup.clone(), 3, Faults::NONE), 2000).unwrap();
+    // Stream until the board runs line 1500, then the cable goes and this host process is gone.
+    let first = stream_program(&mut client, &text, &mut |p| {
+        if p.line >= 1500 {
+            Flow::Detach
+        } else {
+            Flow::Continue
+        }
+    })
+    .unwrap();
+    assert!(!first.completed);
+    let mut transport = client.into_transport();
+    transport.connected = false;
+    transport.to_board.clear();
+    transport.to_host.clear();
+    transport.wait(3000);
+    // The board noticed the silence and held the job on its path.
+    let held_at = transport.board.kernel.position();
+    assert_eq!(
+        transport.board.board.state(),
+        gantry_machine::controller::State::Hold
+    );
+    transport.wait(500);
+    assert_eq!(
+        transport.board.kernel.position(),
+        held_at,
+        "held means no motion"
+    );
+    // A new host connects, is asked for exactly the missing lines, and resumes.
+    transport.connected = true;
+    let mut client = Client::connect(transport, 2000).unwrap();
+    let report = continue_job(&mut client, &text, &mut |_| Flow::Continue).unwrap();
+    assert!(report.completed, "{:?}", report.errors);
+    assert!(report.jumps_served >= 1);
+    let r = reference(&program, &setup);
+    let board = &client.transport.board;
+    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.pulses, r.pulses);
+}
+
+#[test]
+fn the_same_host_resumes_after_a_short_cable_pull() {
+    let program = cam_program(4_000);
+    let setup = Setup::default();
+    let text = Program::from_text(&program);
+    let mut transport = FaultyBoard::new(setup.clone(), 5, Faults::NONE);
+    // The cable is out from 8 s to 10 s of link time, mid-job: long enough for the board to hold.
+    transport.outage = Some((8_000, 10_000));
+    let mut client = Client::connect(transport, 2000).unwrap();
+    let mut states = Vec::new();
+    let report = stream_program(&mut client, &text, &mut |p| {
+        if let Some(s) = &p.status {
+            states.push((p.elapsed_ms, s.state));
+        }
+        Flow::Continue
+    })
+    .unwrap();
+    assert!(report.completed, "{:?}", report.errors);
+    let board = &client.transport.board;
+    assert!(board.board.state() == gantry_machine::controller::State::Idle);
+    let r = reference(&program, &setup);
+    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.pulses, r.pulses);
+    // The job took longer than an uninterrupted one: the board really held during the outage.
+    assert!(
+        report.elapsed_ms as f64 / 1000.0 > r.seconds + 1.0,
+        "{} ms",
+        report.elapsed_ms
+    );
 }

@@ -12,6 +12,10 @@ use gantry_proto::{
 /// Interval between unsolicited status reports, ms.
 pub const STATUS_INTERVAL_MS: u32 = 100;
 
+/// Silence after which the host counts as gone (four keepalive intervals), ms: the board then
+/// holds a running job on its path (DESIGN §5) until a host reconnects and resumes it.
+pub const HOST_TIMEOUT_MS: u32 = 4 * Config::USB_MS.keepalive;
+
 /// What only the kernel's owner knows, for status reports.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct KernelView {
@@ -31,6 +35,8 @@ pub struct BoardLink {
     last_status: Option<u32>,
     status_requested: bool,
     host_attached: bool,
+    /// The host went silent during this power-up.
+    host_lost: bool,
 }
 
 impl BoardLink {
@@ -42,6 +48,7 @@ impl BoardLink {
             last_status: None,
             status_requested: false,
             host_attached: false,
+            host_lost: false,
         }
     }
 
@@ -71,9 +78,20 @@ impl BoardLink {
     pub fn service(&mut self, board: &mut Board, now_ms: u32, view: &KernelView) {
         while let Some(ev) = self.endpoint.poll_event() {
             if let LinkEvent::HostAttached { .. } = ev {
+                if self.host_attached || self.host_lost {
+                    // A host came back (or a new one took over): it serves the job again from
+                    // the line after the last one interpreted.
+                    board.resync_stream();
+                }
                 self.host_attached = true;
+                self.host_lost = false;
                 self.status_requested = true;
             }
+        }
+        if self.host_attached && !self.endpoint.peer_alive(now_ms, HOST_TIMEOUT_MS) {
+            self.host_attached = false;
+            self.host_lost = true;
+            board.feed_hold();
         }
         while let Some(msg) = self.endpoint.recv_realtime() {
             self.realtime(board, msg);

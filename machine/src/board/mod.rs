@@ -238,6 +238,14 @@ impl Board {
         self.source.push(id, line_no, text)
     }
 
+    /// A host (re)attached: if a job is running, ask it for every line after the last one the
+    /// interpreter took, so a reconnect neither loses nor repeats a block.
+    pub fn resync_stream(&mut self) {
+        if matches!(self.state, State::Run | State::Hold) && self.ending == Ending::No {
+            self.source.resync();
+        }
+    }
+
     /// The host has no more lines for place `id`.
     pub fn end_of_lines(&mut self, id: u16) {
         self.source.end(id);

@@ -44,6 +44,10 @@ pub struct StreamSource<const N: usize> {
     ended: bool,
     /// A jump not yet sent to the host.
     pending: Option<JumpRequest>,
+    /// Where the current place started (the last jump's target), and the last line handed to
+    /// the interpreter from it: enough to ask a reconnected host for exactly what is missing.
+    origin: JumpTarget,
+    last_out: Option<u32>,
 }
 
 impl<const N: usize> Default for StreamSource<N> {
@@ -60,6 +64,8 @@ impl<const N: usize> StreamSource<N> {
             id: 0,
             ended: false,
             pending: None,
+            origin: JumpTarget::Line(1),
+            last_out: None,
         }
     }
 
@@ -125,10 +131,23 @@ impl<const N: usize> StreamSource<N> {
         self.id = self.id.wrapping_add(1).max(1);
         self.lines.clear();
         self.ended = false;
+        self.origin = target;
+        self.last_out = None;
         self.pending = Some(JumpRequest {
             id: self.id,
             target,
         });
+    }
+
+    /// A (re)connected host knows nothing of what was in flight: drop the buffered lines and ask
+    /// for everything after the last line the interpreter took (or the place's start), under a new
+    /// id, so nothing is lost and nothing runs twice.
+    pub fn resync(&mut self) {
+        let target = match self.last_out {
+            Some(n) => JumpTarget::Line(n + 1),
+            None => self.origin,
+        };
+        self.jump(target);
     }
 }
 
@@ -136,6 +155,7 @@ impl<const N: usize> ProgramSource for StreamSource<N> {
     fn next_line(&mut self) -> Option<(u32, &[u8])> {
         let (n, text) = self.lines.pop_front()?;
         self.current = text;
+        self.last_out = Some(n);
         Some((n, self.current.as_bytes()))
     }
 
@@ -206,6 +226,41 @@ mod tests {
             Some(JumpRequest {
                 id: 3,
                 target: JumpTarget::Line(3)
+            })
+        );
+    }
+
+    #[test]
+    fn resync_asks_for_the_line_after_the_last_one_interpreted() {
+        let mut s: StreamSource<4> = StreamSource::new();
+        s.resync();
+        assert_eq!(
+            s.take_request(),
+            Some(JumpRequest {
+                id: 1,
+                target: JumpTarget::Line(1)
+            })
+        );
+        assert!(s.push(1, 1, "G0 X1"));
+        assert!(s.push(1, 2, "G0 X2"));
+        s.next_line();
+        s.resync();
+        assert_eq!(
+            s.take_request(),
+            Some(JumpRequest {
+                id: 2,
+                target: JumpTarget::Line(2)
+            })
+        );
+        assert_eq!(s.len(), 0);
+        s.jump_to_program(9).unwrap();
+        s.take_request();
+        s.resync();
+        assert_eq!(
+            s.take_request(),
+            Some(JumpRequest {
+                id: 4,
+                target: JumpTarget::Program(9)
             })
         );
     }
