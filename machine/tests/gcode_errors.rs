@@ -314,6 +314,12 @@ const CASES: &[Case] = &[
         ErrorCode::SubprogramWithoutM99,
         None,
     ),
+    (
+        "M98 P1 L20000\nM30\nO1\nM99",
+        cfg_default,
+        ErrorCode::EndlessLoop,
+        Some((0, 3)),
+    ),
 ];
 
 #[test]

@@ -141,6 +141,8 @@ pub enum ErrorCode {
     SubprogramWithoutM99,
     /// The program source could not jump to the requested line.
     SourceJumpFailed,
+    /// Subprogram calls/returns or M99 restarts kept looping without producing any action.
+    EndlessLoop,
 }
 
 impl ErrorCode {
@@ -200,6 +202,7 @@ impl ErrorCode {
         ErrorCode::SubprogramPMissing,
         ErrorCode::SubprogramWithoutM99,
         ErrorCode::SourceJumpFailed,
+        ErrorCode::EndlessLoop,
     ];
 
     /// The stable number of the code (`E` + this number in messages).
@@ -260,6 +263,7 @@ impl ErrorCode {
             SubprogramPMissing => 604,
             SubprogramWithoutM99 => 605,
             SourceJumpFailed => 606,
+            EndlessLoop => 607,
         }
     }
 
@@ -321,6 +325,7 @@ impl ErrorCode {
             SubprogramPMissing => "M98 needs a P word (program number)",
             SubprogramWithoutM99 => "end of file inside a subprogram (missing M99)",
             SourceJumpFailed => "cannot jump to that line of the program",
+            EndlessLoop => "endless loop: 10000 subprogram jumps or M99 restarts without any action",
         }
     }
 }

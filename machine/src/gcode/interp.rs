@@ -59,7 +59,12 @@ pub struct Interpreter {
     finished: bool,
     percent_lines: u8,
     restarts: u32,
+    /// M98/M99 jumps since the last action handed out (endless-loop guard).
+    jumps_without_action: u32,
 }
+
+/// Most subprogram jumps without an action before the program is declared an endless loop.
+pub const MAX_JUMPS_WITHOUT_ACTION: u32 = 10_000;
 
 const _: () = assert!(core::mem::size_of::<Interpreter>() <= 4096);
 
@@ -82,6 +87,7 @@ impl Interpreter {
             finished: false,
             percent_lines: 0,
             restarts: 0,
+            jumps_without_action: 0,
         }
     }
 
@@ -140,6 +146,7 @@ impl Interpreter {
     pub fn next(&mut self, src: &mut impl ProgramSource) -> Option<Result<Canon, GcodeError>> {
         loop {
             if let Some(c) = self.queue.pop_front() {
+                self.jumps_without_action = 0;
                 return Some(Ok(c));
             }
             if let Some(run) = self.cycle.as_mut() {
@@ -167,6 +174,9 @@ impl Interpreter {
             let (line, parsed) = match src.next_line() {
                 Some((line, bytes)) => (line, self.parse_line(bytes)),
                 None => {
+                    if !src.is_exhausted() {
+                        return None;
+                    }
                     self.finished = true;
                     if !self.stack.is_empty() {
                         self.stack.clear();
@@ -198,7 +208,8 @@ impl Interpreter {
                 Ok(()) => {}
                 Err((code, columns)) => {
                     self.state = saved;
-                    self.finished = saved_finished;
+                    // An endless loop ends the program; other errors skip the block.
+                    self.finished = saved_finished || code == ErrorCode::EndlessLoop;
                     self.queue.clear();
                     self.cycle = None;
                     self.post = Post::None;
@@ -537,7 +548,7 @@ impl Interpreter {
                 let mut offset = [0; MAX_AXES];
                 for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
                     if let Some(w) = b.take(letter) {
-                        offset[i] = self.axis_value(i, w)?;
+                        offset[i] = bounded(self.axis_value(i, w)?, w)?;
                     }
                 }
                 self.state.tool_offset = offset;
@@ -616,8 +627,10 @@ impl Interpreter {
                 for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
                     if let Some(word) = b.take(letter) {
                         let v = self.axis_value(i, word)?;
-                        self.state.g92[i] =
-                            self.state.position[i] - w[i] - self.state.tool_offset[i] - v;
+                        self.state.g92[i] = bounded(
+                            self.state.position[i] - w[i] - self.state.tool_offset[i] - v,
+                            word,
+                        )?;
                     }
                 }
                 self.state.g92_saved = self.state.g92;
@@ -679,7 +692,7 @@ impl Interpreter {
                     }
                     _ => return err(ErrorCode::G10Invalid, Some(l)),
                 };
-                self.state.work_offsets[index][i] = value;
+                self.state.work_offsets[index][i] = bounded(value, w)?;
             }
         }
         if l_value != 2 && l_value != 20 {
@@ -1110,6 +1123,17 @@ impl Interpreter {
                 self.stack.clear();
                 self.finished = true;
             }
+            98 | 99 => {
+                self.jumps_without_action += 1;
+                if self.jumps_without_action > MAX_JUMPS_WITHOUT_ACTION {
+                    self.finished = true;
+                    self.stack.clear();
+                    return Err((ErrorCode::EndlessLoop, Some(code.cols)));
+                }
+            }
+            _ => {}
+        }
+        match code.code {
             98 => self.call(line, code.cols, src, call_p, call_l)?,
             99 => {
                 let result = match self.stack.last_mut() {
@@ -1182,6 +1206,14 @@ impl Interpreter {
         });
         Ok(())
     }
+}
+
+/// Offsets stay within ±10 × the coordinate range, so offset arithmetic can never overflow.
+fn bounded(v: Nm, w: Word) -> Res<Nm> {
+    if v.abs() > 10 * MAX_COORD {
+        return err(ErrorCode::CoordinateOverflow, Some(w));
+    }
+    Ok(v)
 }
 
 fn decode_motion(code: u16) -> MotionMode {
