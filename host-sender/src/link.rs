@@ -18,6 +18,24 @@ pub trait Transport {
     fn now_ms(&self) -> u32;
 }
 
+impl Transport for Box<dyn Transport> {
+    fn write(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
+        (**self).write(bytes)
+    }
+
+    fn read(&mut self, into: &mut Vec<u8>) -> anyhow::Result<()> {
+        (**self).read(into)
+    }
+
+    fn wait(&mut self, ms: u32) {
+        (**self).wait(ms)
+    }
+
+    fn now_ms(&self) -> u32 {
+        (**self).now_ms()
+    }
+}
+
 /// The emulated board as a transport: waiting runs it on virtual time.
 impl Transport for EmulatedBoard {
     fn write(&mut self, bytes: &[u8]) -> anyhow::Result<()> {

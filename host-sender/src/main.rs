@@ -1,5 +1,7 @@
 //! `gantry`: stream, check, simulate and preview G-code for a Gantry board (or its emulation).
 use clap::{Parser, Subcommand};
+use gantry_proto::HostMsg;
+use host_sender::commands;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -26,12 +28,44 @@ enum Command {
     /// Stream a program to the board (with no --port: the emulated board) with progress and a report.
     Stream {
         file: PathBuf,
-        /// Serial port of the board (e.g. /dev/ttyACM0); without it, the emulated board runs the job.
+        #[command(flatten)]
+        board: BoardArgs,
+    },
+    /// Show the board's status: state, positions, feed, overrides, line, buffers, inputs.
+    Status {
+        #[command(flatten)]
+        board: BoardArgs,
+    },
+    /// Feed hold: decelerate on the path and stop there.
+    Hold {
+        #[command(flatten)]
+        board: BoardArgs,
+    },
+    /// Resume after a feed hold or an M0/M1 stop (cycle start).
+    Resume {
+        #[command(flatten)]
+        board: BoardArgs,
+    },
+    /// Abort the job: stop on the path, spindle and coolant off, remember the line.
+    Abort {
+        #[command(flatten)]
+        board: BoardArgs,
+    },
+    /// Set the feed (10-200 %) and/or rapid (1-100 %) override.
+    Override {
         #[arg(long)]
-        port: Option<String>,
-        /// Machine setup for the emulated board (default: the built-in defaults, docs/settings.md).
+        feed: Option<u16>,
         #[arg(long)]
-        setup: Option<PathBuf>,
+        rapid: Option<u16>,
+        #[command(flatten)]
+        board: BoardArgs,
+    },
+    /// Run blocks typed here (each argument one line), e.g. `gantry mdi "G0 X10 Y5"`.
+    Mdi {
+        #[arg(required = true)]
+        blocks: Vec<String>,
+        #[command(flatten)]
+        board: BoardArgs,
     },
     /// Show or check the machine setup (docs/settings.md).
     Setup {
@@ -55,6 +89,30 @@ enum Command {
         #[arg(long)]
         setup: Option<PathBuf>,
     },
+}
+
+/// Which board a command talks to.
+#[derive(clap::Args)]
+struct BoardArgs {
+    /// Serial port of the board (e.g. /dev/ttyACM0); without it, the emulated board.
+    #[arg(long)]
+    port: Option<String>,
+    /// Machine setup for the emulated board (default: the built-in defaults, docs/settings.md).
+    #[arg(long)]
+    setup: Option<PathBuf>,
+}
+
+impl BoardArgs {
+    fn target(self) -> anyhow::Result<host_sender::stream::Target> {
+        use host_sender::stream::Target;
+        Ok(match self.port {
+            Some(p) => Target::Port(p),
+            None => Target::Emulated(match self.setup {
+                Some(f) => host_sender::setup_file::SetupFile::load(&f)?,
+                None => Default::default(),
+            }),
+        })
+    }
 }
 
 #[derive(Subcommand)]
@@ -83,28 +141,40 @@ fn setup(action: SetupAction) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn stream(
-    file: &std::path::Path,
-    port: Option<String>,
-    setup: Option<PathBuf>,
-) -> anyhow::Result<ExitCode> {
-    use host_sender::stream::{run, Target};
-    let target = match port {
-        Some(p) => Target::Port(p),
-        None => Target::Emulated(match setup {
-            Some(f) => host_sender::setup_file::SetupFile::load(&f)?,
-            None => Default::default(),
-        }),
-    };
-    run(file, target)
-}
-
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Check { file, canon } => host_sender::check::run(&file, canon),
         Command::Setup { action } => setup(action),
-        Command::Stream { file, port, setup } => stream(&file, port, setup),
+        Command::Stream { file, board } => board
+            .target()
+            .and_then(|t| host_sender::stream::run(&file, t)),
+        Command::Status { board } => board.target().and_then(|t| commands::realtime(t, None)),
+        Command::Hold { board } => board
+            .target()
+            .and_then(|t| commands::realtime(t, Some(HostMsg::FeedHold))),
+        Command::Resume { board } => board
+            .target()
+            .and_then(|t| commands::realtime(t, Some(HostMsg::Resume))),
+        Command::Abort { board } => board
+            .target()
+            .and_then(|t| commands::realtime(t, Some(HostMsg::Abort))),
+        Command::Override { feed, rapid, board } => board.target().and_then(|t| {
+            let (mut client, axes) = commands::connect(t)?;
+            if let Some(f) = feed {
+                anyhow::ensure!((10..=200).contains(&f), "--feed {f}: must be 10-200 %");
+                client.send(HostMsg::FeedOverride(f))?;
+            }
+            if let Some(r) = rapid {
+                anyhow::ensure!((1..=100).contains(&r), "--rapid {r}: must be 1-100 %");
+                client.send(HostMsg::RapidOverride(r))?;
+            }
+            client.pump(100)?;
+            let status = host_sender::stream::fresh_status(&mut client)?;
+            println!("{}", commands::format_status(&status, axes));
+            Ok(ExitCode::SUCCESS)
+        }),
+        Command::Mdi { blocks, board } => board.target().and_then(|t| commands::mdi(t, &blocks)),
         Command::Simulate { file, json } => host_sender::simulate::run(&file, json),
         Command::Preview {
             file,

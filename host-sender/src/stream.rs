@@ -64,6 +64,8 @@ pub struct Progress {
 #[derive(Clone, Debug)]
 pub struct StreamReport {
     pub completed: bool,
+    /// The job was aborted from this sender (Ctrl-C).
+    pub aborted: bool,
     pub errors: Vec<BoardError>,
     pub alarms: Vec<u16>,
     pub last_line: u32,
@@ -81,6 +83,10 @@ pub enum Flow {
     Continue,
     /// Stop streaming now and return (the board keeps the job; see [`continue_job`]).
     Detach,
+    /// Send a feed hold, a resume or an abort, and go on.
+    Hold,
+    Resume,
+    Abort,
 }
 
 /// Streams `program` over a connected link until the board reports the job done.
@@ -125,6 +131,7 @@ fn run_job<T: Transport>(
     });
     let mut report = StreamReport {
         completed: false,
+        aborted: false,
         errors: Vec::new(),
         alarms: Vec::new(),
         last_line: 0,
@@ -191,14 +198,23 @@ fn run_job<T: Transport>(
             }
         }
         progress.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);
-        if on_progress(&progress) == Flow::Detach {
-            report.elapsed_ms = progress.elapsed_ms;
-            return Ok(report);
+        match on_progress(&progress) {
+            Flow::Continue => {}
+            Flow::Detach => {
+                report.elapsed_ms = progress.elapsed_ms;
+                return Ok(report);
+            }
+            Flow::Hold => client.send(HostMsg::FeedHold)?,
+            Flow::Resume => client.send(HostMsg::Resume)?,
+            Flow::Abort => {
+                report.aborted = true;
+                client.send(HostMsg::Abort)?
+            }
         }
     }
     report.final_status = Some(fresh_status(client)?);
     report.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);
-    report.completed = report.errors.is_empty() && report.alarms.is_empty();
+    report.completed = report.errors.is_empty() && report.alarms.is_empty() && !report.aborted;
     Ok(report)
 }
 
@@ -245,8 +261,10 @@ fn serve<T: Transport>(
     Ok(())
 }
 
-/// Asks for a status report and waits for it.
+/// Asks for a status report and waits for it; messages still queued from before are dropped.
 pub fn fresh_status<T: Transport>(client: &mut Client<T>) -> anyhow::Result<Status> {
+    // Reports already received predate the request (and whatever was sent before it).
+    while client.recv().is_some() {}
     client.send(HostMsg::StatusRequest)?;
     for _ in 0..2000 {
         client.pump(1)?;
@@ -341,6 +359,49 @@ fn exit_code(report: &StreamReport) -> std::process::ExitCode {
     }
 }
 
+/// A flag set by Ctrl-C (installed once per process).
+fn ctrl_c_flag() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::{Arc, OnceLock};
+    static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+    FLAG.get_or_init(|| {
+        let flag = Arc::new(AtomicBool::new(false));
+        let f = flag.clone();
+        // If no handler can be installed, Ctrl-C keeps its default meaning (the board then holds
+        // by itself when the link goes silent).
+        let _ = ctrlc::set_handler(move || f.store(true, Ordering::SeqCst));
+        flag
+    })
+    .clone()
+}
+
+/// After a Ctrl-C hold: asks whether to abort (without a terminal to ask, aborts).
+fn ask_after_hold(bar: Option<&indicatif::ProgressBar>) -> Flow {
+    use std::io::{BufRead, IsTerminal, Write};
+    let question = "feed hold: abort the job? [y/N] ";
+    let answer = if std::io::stdin().is_terminal() {
+        let mut line = String::new();
+        let mut read = || {
+            eprint!("{question}");
+            let _ = std::io::stderr().flush();
+            std::io::stdin().lock().read_line(&mut line)
+        };
+        let _ = match bar {
+            Some(b) => b.suspend(read),
+            None => read(),
+        };
+        line.trim().eq_ignore_ascii_case("y")
+    } else {
+        eprintln!("{question}no terminal to ask: aborting");
+        true
+    };
+    if answer {
+        Flow::Abort
+    } else {
+        Flow::Resume
+    }
+}
+
 /// Streams with a live progress bar on a terminal, or a progress line every 10 % otherwise.
 fn stream_with_progress<T: Transport>(
     client: &mut Client<T>,
@@ -357,7 +418,18 @@ fn stream_with_progress<T: Transport>(
         b
     });
     let mut last_decile = 0;
+    let interrupted = ctrl_c_flag();
+    let mut asking = false;
     let report = stream_program(client, program, &mut |p| {
+        if asking {
+            asking = false;
+            return ask_after_hold(bar.as_ref());
+        }
+        if interrupted.swap(false, std::sync::atomic::Ordering::SeqCst) {
+            // Ctrl-C: hold first (decelerate on the path), then ask what to do.
+            asking = true;
+            return Flow::Hold;
+        }
         let pct = p.line as u64 * 100 / total;
         let machine_s = p.elapsed_ms as f64 / 1000.0;
         let eta = if p.line > 0 {
@@ -398,6 +470,8 @@ fn print_report(report: &StreamReport, program: &Program, axes: usize, wall: std
     }
     let verdict = if report.completed {
         "job done"
+    } else if report.aborted {
+        "job aborted"
     } else {
         "job stopped"
     };
@@ -413,6 +487,12 @@ fn print_report(report: &StreamReport, program: &Program, axes: usize, wall: std
         report.elapsed_ms as f64 / 1000.0,
         wall.as_secs_f64()
     );
+    if report.aborted {
+        println!(
+            "resume:   gantry stream FILE --from-line {}",
+            report.last_line.max(1)
+        );
+    }
     if let Some(s) = &report.final_status {
         println!("machine:  {}", axes_line(&s.machine_pos, axes));
         println!("work:     {}", axes_line(&s.work_pos, axes));

@@ -121,8 +121,8 @@ impl Signals {
 }
 
 /// Emits changes at increasing times, within the window.
-struct Emitter<'a, W: Write> {
-    out: &'a mut W,
+struct Emitter<W: Write> {
+    out: W,
     ids: Vec<String>,
     /// Current level of every signal.
     level: Vec<bool>,
@@ -134,7 +134,7 @@ struct Emitter<'a, W: Write> {
     summary: VcdSummary,
 }
 
-impl<W: Write> Emitter<'_, W> {
+impl<W: Write> Emitter<W> {
     /// Starts the dump at `from` with the current levels.
     fn start(&mut self) -> io::Result<()> {
         if self.started {
@@ -152,6 +152,7 @@ impl<W: Write> Emitter<'_, W> {
         Ok(())
     }
 
+    /// Sets a signal; returns whether a change was written.
     fn set(&mut self, t: u64, sig: usize, v: bool) -> io::Result<bool> {
         if self.level[sig] == v {
             return Ok(false);
@@ -171,6 +172,183 @@ impl<W: Write> Emitter<'_, W> {
         self.summary.end_ns = t;
         Ok(true)
     }
+
+    /// Ends the step pulses of the axes in `mask`.
+    fn fall(&mut self, sig: &Signals, t: u64, mask: u8) -> io::Result<()> {
+        for a in 0..sig.axes {
+            if mask >> a & 1 == 1 {
+                self.set(t, sig.step(a), false)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A VCD being written event by event (for callers that are handed events one at a time, like
+/// the emulated board's tick observer). Call [`VcdWriter::finish`] at the end; dropping an
+/// unfinished writer finishes it and ignores errors.
+pub struct VcdWriter<W: Write> {
+    em: Emitter<W>,
+    sig: Signals,
+    pulse: u64,
+    mask: u8,
+    /// Falling edges still to come, in time order (all pulses are equally wide).
+    falls: VecDeque<(u64, u8)>,
+    last_time: u64,
+    finished: bool,
+}
+
+impl<W: Write> VcdWriter<W> {
+    /// Writes the header ($timescale 1 ns, one `gantry` scope with `<axis>_step`, `<axis>_dir`,
+    /// `enable`, and an `inputs` scope).
+    pub fn new(mut out: W, opts: &VcdOptions) -> io::Result<Self> {
+        if opts.axes == 0 || opts.axes > AXES.len() || opts.inputs.len() > 32 {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                "a VCD trace has 1..=6 axes and at most 32 inputs",
+            ));
+        }
+        let sig = Signals {
+            axes: opts.axes,
+            inputs: opts.inputs.len(),
+        };
+        let ids: Vec<String> = (0..sig.count()).map(ident).collect();
+        writeln!(out, "$version Gantry emulated board $end")?;
+        writeln!(out, "$timescale 1 ns $end")?;
+        writeln!(out, "$scope module gantry $end")?;
+        for (a, name) in AXES.iter().enumerate().take(opts.axes) {
+            writeln!(out, "$var wire 1 {} {name}_step $end", ids[sig.step(a)])?;
+            writeln!(out, "$var wire 1 {} {name}_dir $end", ids[sig.dir(a)])?;
+        }
+        writeln!(out, "$var wire 1 {} enable $end", ids[sig.enable()])?;
+        if !opts.inputs.is_empty() {
+            writeln!(out, "$scope module inputs $end")?;
+            for (i, name) in opts.inputs.iter().enumerate() {
+                let name: String = name
+                    .chars()
+                    .map(|c| if c.is_ascii_graphic() { c } else { '_' })
+                    .collect();
+                writeln!(out, "$var wire 1 {} {name} $end", ids[sig.input(i)])?;
+            }
+            writeln!(out, "$upscope $end")?;
+        }
+        writeln!(out, "$upscope $end")?;
+        writeln!(out, "$enddefinitions $end")?;
+        Ok(VcdWriter {
+            em: Emitter {
+                out,
+                level: vec![false; ids.len()],
+                ids,
+                stamped: None,
+                from: opts.from_ns.unwrap_or(0),
+                to: opts.to_ns.unwrap_or(u64::MAX),
+                started: false,
+                summary: VcdSummary::default(),
+            },
+            sig,
+            pulse: opts.pulse_ns.max(1),
+            mask: ((1u16 << opts.axes) - 1) as u8,
+            falls: VecDeque::new(),
+            last_time: 0,
+            finished: false,
+        })
+    }
+
+    /// Records the pins at one instant (times must not go backwards). Events after the window
+    /// are accepted and ignored.
+    pub fn event(&mut self, e: VcdEvent) -> io::Result<()> {
+        if e.time_ns < self.last_time {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!(
+                    "VCD event at {} ns after one at {} ns",
+                    e.time_ns, self.last_time
+                ),
+            ));
+        }
+        self.last_time = e.time_ns;
+        let (em, sig) = (&mut self.em, &self.sig);
+        // Pulses that end before this event.
+        while let Some(&(t, m)) = self.falls.front() {
+            if t >= e.time_ns {
+                break;
+            }
+            self.falls.pop_front();
+            em.fall(sig, t, m)?;
+        }
+        if e.time_ns > em.to {
+            return Ok(());
+        }
+        // Pulses ending exactly now. An axis that steps again at this instant goes low 1 ns
+        // earlier, so the two pulses stay apart; one that steps while its pulse is still high
+        // cannot show a second pulse and is counted as merged.
+        let mut ending = 0u8;
+        while let Some(&(t, m)) = self.falls.front() {
+            if t != e.time_ns {
+                break;
+            }
+            self.falls.pop_front();
+            ending |= m;
+        }
+        let step = e.step & self.mask;
+        let high = self.falls.iter().fold(0u8, |acc, (_, m)| acc | m);
+        em.summary.merged += u64::from((step & high).count_ones());
+        let earlier = e.time_ns.saturating_sub(1).max(em.stamped.unwrap_or(0));
+        em.fall(sig, earlier, ending & step)?;
+        em.fall(sig, e.time_ns, ending & !step)?;
+        for a in 0..sig.axes {
+            em.set(e.time_ns, sig.dir(a), e.dir >> a & 1 == 1)?;
+        }
+        em.set(e.time_ns, sig.enable(), e.enable)?;
+        for i in 0..sig.inputs {
+            em.set(e.time_ns, sig.input(i), e.inputs >> i & 1 == 1)?;
+        }
+        let rise = step & !high;
+        for a in 0..sig.axes {
+            if rise >> a & 1 == 1 && em.set(e.time_ns, sig.step(a), true)? {
+                em.summary.steps[a] += 1;
+            }
+        }
+        if rise != 0 {
+            self.falls.push_back((e.time_ns + self.pulse, rise));
+        }
+        Ok(())
+    }
+
+    /// What has been written so far.
+    pub fn summary(&self) -> &VcdSummary {
+        &self.em.summary
+    }
+
+    /// Ends the last pulses, flushes and returns the summary.
+    pub fn finish(mut self) -> io::Result<VcdSummary> {
+        self.end()?;
+        Ok(self.em.summary.clone())
+    }
+
+    fn end(&mut self) -> io::Result<()> {
+        if self.finished {
+            return Ok(());
+        }
+        self.finished = true;
+        while let Some((t, m)) = self.falls.pop_front() {
+            if t > self.em.to {
+                break;
+            }
+            self.em.fall(&self.sig, t, m)?;
+        }
+        self.falls.clear();
+        if !self.em.started {
+            self.em.start()?;
+        }
+        self.em.out.flush()
+    }
+}
+
+impl<W: Write> Drop for VcdWriter<W> {
+    fn drop(&mut self) {
+        let _ = self.end();
+    }
 }
 
 /// Writes a VCD of `events` with the given options.
@@ -179,121 +357,14 @@ pub fn write_vcd_with(
     opts: &VcdOptions,
     events: impl Iterator<Item = VcdEvent>,
 ) -> io::Result<VcdSummary> {
-    if opts.axes == 0 || opts.axes > AXES.len() || opts.inputs.len() > 32 {
-        return Err(io::Error::new(
-            io::ErrorKind::InvalidInput,
-            "a VCD trace has 1..=6 axes and at most 32 inputs",
-        ));
-    }
-    let sig = Signals {
-        axes: opts.axes,
-        inputs: opts.inputs.len(),
-    };
-    let ids: Vec<String> = (0..sig.count()).map(ident).collect();
-    writeln!(out, "$version Gantry emulated board $end")?;
-    writeln!(out, "$timescale 1 ns $end")?;
-    writeln!(out, "$scope module gantry $end")?;
-    for (a, name) in AXES.iter().enumerate().take(opts.axes) {
-        writeln!(out, "$var wire 1 {} {name}_step $end", ids[sig.step(a)])?;
-        writeln!(out, "$var wire 1 {} {name}_dir $end", ids[sig.dir(a)])?;
-    }
-    writeln!(out, "$var wire 1 {} enable $end", ids[sig.enable()])?;
-    if !opts.inputs.is_empty() {
-        writeln!(out, "$scope module inputs $end")?;
-        for (i, name) in opts.inputs.iter().enumerate() {
-            let name: String = name
-                .chars()
-                .map(|c| if c.is_ascii_graphic() { c } else { '_' })
-                .collect();
-            writeln!(out, "$var wire 1 {} {name} $end", ids[sig.input(i)])?;
-        }
-        writeln!(out, "$upscope $end")?;
-    }
-    writeln!(out, "$upscope $end")?;
-    writeln!(out, "$enddefinitions $end")?;
-
-    let mut em = Emitter {
-        out,
-        level: vec![false; ids.len()],
-        ids,
-        stamped: None,
-        from: opts.from_ns.unwrap_or(0),
-        to: opts.to_ns.unwrap_or(u64::MAX),
-        started: false,
-        summary: VcdSummary::default(),
-    };
-    let pulse = opts.pulse_ns.max(1);
-    // Falling edges still to come, in time order (all pulses are equally wide).
-    let mut falls: VecDeque<(u64, u8)> = VecDeque::new();
-    let mask = ((1u16 << opts.axes) - 1) as u8;
+    let mut w = VcdWriter::new(out, opts)?;
     for e in events {
-        // Pulses that end before this event.
-        while let Some(&(t, m)) = falls.front() {
-            if t >= e.time_ns {
-                break;
-            }
-            falls.pop_front();
-            fall(&mut em, &sig, t, m)?;
-        }
-        if e.time_ns > em.to {
-            falls.clear();
+        if e.time_ns > w.em.to {
             break;
         }
-        // Pulses ending exactly now. An axis that steps again at this instant goes low 1 ns
-        // earlier, so the two pulses stay apart; one that steps while its pulse is still high
-        // cannot show a second pulse and is counted as merged.
-        let mut ending = 0u8;
-        while let Some(&(t, m)) = falls.front() {
-            if t != e.time_ns {
-                break;
-            }
-            falls.pop_front();
-            ending |= m;
-        }
-        let step = e.step & mask;
-        let high = falls.iter().fold(0u8, |acc, (_, m)| acc | m);
-        em.summary.merged += u64::from((step & high).count_ones());
-        let earlier = e.time_ns.saturating_sub(1).max(em.stamped.unwrap_or(0));
-        fall(&mut em, &sig, earlier, ending & step)?;
-        fall(&mut em, &sig, e.time_ns, ending & !step)?;
-        for a in 0..opts.axes {
-            em.set(e.time_ns, sig.dir(a), e.dir >> a & 1 == 1)?;
-        }
-        em.set(e.time_ns, sig.enable(), e.enable)?;
-        for i in 0..opts.inputs.len() {
-            em.set(e.time_ns, sig.input(i), e.inputs >> i & 1 == 1)?;
-        }
-        let rise = step & !high;
-        for a in 0..opts.axes {
-            if rise >> a & 1 == 1 && em.set(e.time_ns, sig.step(a), true)? {
-                em.summary.steps[a] += 1;
-            }
-        }
-        if rise != 0 {
-            falls.push_back((e.time_ns + pulse, rise));
-        }
+        w.event(e)?;
     }
-    while let Some((t, m)) = falls.pop_front() {
-        if t > em.to {
-            break;
-        }
-        fall(&mut em, &sig, t, m)?;
-    }
-    if !em.started {
-        em.start()?;
-    }
-    let summary = em.summary.clone();
-    em.out.flush()?;
-    Ok(summary)
-}
-
-fn fall<W: Write>(em: &mut Emitter<'_, W>, sig: &Signals, t: u64, m: u8) -> io::Result<()> {
-    for a in 0..sig.axes {
-        if m >> a & 1 == 1 {
-            em.set(t, sig.step(a), false)?;
-        }
-    }
-    Ok(())
+    w.finish()
 }
 
 /// A parsed VCD: signal names and their rising edges.

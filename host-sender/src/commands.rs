@@ -1,0 +1,88 @@
+//! The one-shot board commands: `status`, `hold`, `resume`, `abort`, `override`, `mdi`.
+//!
+//! Each opens the link (to the board on `--port`, or a fresh emulated board), does its one thing,
+//! prints the resulting status and closes the link; the board keeps running whatever it runs.
+
+use crate::emulator::EmulatedBoard;
+use crate::link::{Client, SerialTransport, Transport};
+use crate::program::Program;
+use crate::stream::{fresh_status, state_name, stream_program, Flow, Target};
+use gantry_machine::units::AXIS_LETTERS;
+use gantry_proto::{HostMsg, Status};
+use std::process::ExitCode;
+
+/// Opens the link to the target.
+pub fn connect(target: Target) -> anyhow::Result<(Client<Box<dyn Transport>>, usize)> {
+    Ok(match target {
+        Target::Emulated(setup) => {
+            let axes = setup.axis_count as usize;
+            let t: Box<dyn Transport> = Box::new(EmulatedBoard::new(setup));
+            (Client::connect(t, 2000)?, axes)
+        }
+        Target::Port(p) => {
+            let t: Box<dyn Transport> = Box::new(SerialTransport::open(&p)?);
+            (Client::connect(t, 3000)?, 3)
+        }
+    })
+}
+
+fn mm(nm: i64) -> String {
+    format!("{:.3}", nm as f64 / 1e6)
+}
+
+/// The status as a short table.
+pub fn format_status(s: &Status, axes: usize) -> String {
+    let pos = |p: &[i64]| {
+        (0..axes)
+            .map(|i| format!("{} {}", AXIS_LETTERS[i], mm(p[i])))
+            .collect::<Vec<_>>()
+            .join("  ")
+    };
+    let homed: String = (0..axes)
+        .filter(|i| s.homed >> i & 1 == 1)
+        .map(|i| AXIS_LETTERS[i])
+        .collect();
+    format!(
+        "state:     {}\nmachine:   {}\nwork:      {}\nfeed:      {:.1} mm/min (override feed {} %, rapid {} %)\nline:      {}\nbuffers:   {} planner blocks, {} lines\ninputs:    {:#010x}\nhomed:     {}",
+        state_name(s.state),
+        pos(&s.machine_pos),
+        pos(&s.work_pos),
+        s.feed_um_min as f64 / 1000.0,
+        s.feed_override,
+        s.rapid_override,
+        s.line,
+        s.planner_fill,
+        s.queue_fill,
+        s.inputs,
+        if homed.is_empty() { "none".into() } else { homed }
+    )
+}
+
+/// Sends one realtime message (or none), waits a moment and prints the status.
+pub fn realtime(target: Target, msg: Option<HostMsg>) -> anyhow::Result<ExitCode> {
+    let (mut client, axes) = connect(target)?;
+    if let Some(m) = msg {
+        client.send(m)?;
+        client.pump(100)?;
+    }
+    println!("{}", format_status(&fresh_status(&mut client)?, axes));
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Runs blocks typed on the command line as a small job and prints the result.
+pub fn mdi(target: Target, blocks: &[String]) -> anyhow::Result<ExitCode> {
+    let (mut client, axes) = connect(target)?;
+    let program = Program::from_text(&blocks.join("\n"));
+    let report = stream_program(&mut client, &program, &mut |_| Flow::Continue)?;
+    for e in &report.errors {
+        println!("error: {}", e.describe(&program));
+    }
+    if let Some(s) = &report.final_status {
+        println!("{}", format_status(s, axes));
+    }
+    Ok(if report.completed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
