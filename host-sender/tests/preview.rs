@@ -280,3 +280,54 @@ fn vcd_rising_edges_equal_the_steps_fed_in() {
     );
     assert_eq!(trace.rising["y_step"], fed[1]);
 }
+
+#[test]
+fn vcd_of_the_bracket_run_on_virtual_time() {
+    use gantry_machine::motion::config::MotionConfig;
+    use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
+    use gantry_machine::motion::sim::{Sim, SimEvent};
+    use host_sender::vcd::{counts_to_ns, VcdWriter};
+
+    let setup = Setup::default();
+    let text = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/bracket.ngc"
+    ))
+    .unwrap();
+    let (canon, err) = preview::source::interpret(&text, &setup);
+    assert!(err.is_none());
+    let mut sim: Sim<128> = Sim::new(MotionConfig::from_setup(&setup));
+    let mut fed = [0u64; 3];
+    let mut buf = Vec::new();
+    let mut w = VcdWriter::new(&mut buf, &VcdOptions::default()).unwrap();
+    sim.run(canon, &mut |e| {
+        if let SimEvent::Step(s) = e {
+            for (a, n) in fed.iter_mut().enumerate() {
+                *n += u64::from(s.step >> a & 1);
+            }
+            let e = VcdEvent {
+                time_ns: counts_to_ns(s.time, KERNEL_TIMER_HZ),
+                step: s.step,
+                dir: s.dir,
+                enable: true,
+                inputs: 0,
+            };
+            w.event(e).unwrap();
+        }
+    })
+    .unwrap();
+    let summary = w.finish().unwrap();
+    assert_eq!(summary.merged, 0);
+    assert_eq!(summary.steps[..3], fed);
+    assert!(fed.iter().all(|&n| n > 1000), "{fed:?}");
+    let trace = read_vcd(std::str::from_utf8(&buf).unwrap()).unwrap();
+    for (a, name) in ["x_step", "y_step", "z_step"].iter().enumerate() {
+        assert_eq!(trace.rising[*name], fed[a], "{name}");
+    }
+    // The trace ends one pulse after the job's last step, on the planner's clock.
+    let end_s = trace.end_time as f64 / 1e9;
+    assert!(
+        (end_s - sim.now as f64 / KERNEL_TIMER_HZ as f64).abs() < 0.01,
+        "{end_s}"
+    );
+}
