@@ -1,6 +1,215 @@
-//! Cross-target vectors: embedded programs interpreted and every action digested.
+//! Cross-target vectors: embedded programs interpreted and every action (and error) digested.
+//!
+//! The host test in `vectors.rs` and the QEMU Cortex-M4 harness run the same functions; equal
+//! digests prove the interpreter bit-identical on both instruction sets.
 
-use crate::vectors::Vector;
+use super::config::{DwellUnits, InterpConfig};
+use super::interp::Interpreter;
+use super::source::MemorySource;
+use crate::canon::{Action, ArcDir, Plane, Spindle, StopKind};
+use crate::vectors::{Digest, Vector};
+
+/// Interprets `program` with `config` and digests every action and error.
+pub fn digest_program(program: &[u8], config: &InterpConfig) -> u32 {
+    let mut interp = Interpreter::new(config);
+    let mut src = MemorySource::new(program);
+    let mut d = Digest::new();
+    let mut count: u64 = 0;
+    while let Some(item) = interp.next(&mut src) {
+        count += 1;
+        match item {
+            Ok(c) => {
+                d.u64(c.line as u64);
+                digest_action(&mut d, &c.action);
+            }
+            Err(e) => {
+                d.bytes(b"E");
+                d.u64(e.line as u64);
+                d.u64(e.code.number() as u64);
+                let (a, b) = e.columns.unwrap_or((0, 0));
+                d.u64(((a as u64) << 16) | b as u64);
+            }
+        }
+        if count > 100_000 {
+            break;
+        }
+    }
+    d.u64(count);
+    for v in interp.state().position {
+        d.i64(v);
+    }
+    d.finish()
+}
+
+fn digest_action(d: &mut Digest, a: &Action) {
+    match *a {
+        Action::Rapid { to } => {
+            d.bytes(b"r");
+            to.iter().for_each(|&v| d.i64(v));
+        }
+        Action::Feed { to, feed } => {
+            d.bytes(b"f");
+            to.iter().for_each(|&v| d.i64(v));
+            d.i64(feed);
+        }
+        Action::Arc {
+            to,
+            center,
+            plane,
+            dir,
+            turns,
+            feed,
+        } => {
+            d.bytes(b"a");
+            to.iter().for_each(|&v| d.i64(v));
+            center.iter().for_each(|&v| d.i64(v));
+            d.bytes(&[
+                match plane {
+                    Plane::XY => 0,
+                    Plane::ZX => 1,
+                    Plane::YZ => 2,
+                },
+                match dir {
+                    ArcDir::Cw => 0,
+                    ArcDir::Ccw => 1,
+                },
+            ]);
+            d.u64(turns as u64);
+            d.i64(feed);
+        }
+        Action::Dwell { micros } => {
+            d.bytes(b"d");
+            d.u64(micros);
+        }
+        Action::Spindle { state, rpm } => {
+            d.bytes(b"s");
+            d.bytes(&[match state {
+                Spindle::Off => 0,
+                Spindle::Cw => 1,
+                Spindle::Ccw => 2,
+            }]);
+            d.u64(rpm as u64);
+        }
+        Action::Coolant { mist, flood } => d.bytes(&[b'c', mist as u8, flood as u8]),
+        Action::ToolChange { tool } => {
+            d.bytes(b"t");
+            d.u64(tool as u64);
+        }
+        Action::UserMCode { code } => {
+            d.bytes(b"m");
+            d.u64(code as u64);
+        }
+        Action::PathMode(mode) => {
+            d.bytes(b"p");
+            match mode {
+                crate::canon::PathMode::ExactStop => d.i64(-1),
+                crate::canon::PathMode::Blend { tolerance } => d.i64(tolerance),
+            }
+        }
+        Action::Stop(kind) => d.bytes(&[
+            b'S',
+            match kind {
+                StopKind::Pause => 0,
+                StopKind::OptionalPause => 1,
+                StopKind::End => 2,
+                StopKind::EndRewind => 3,
+            },
+        ]),
+    }
+}
+
+const ARCS: &[u8] =
+    b"G21 G90 G17\nG0 X10 Y0 Z0\nG3 X0 Y10 I-10 J0 F600\nX-10 Y0 I0 J-10\nG2 X10 Y0 R-10\n\
+G2 X20 Y0 R5.000001\nG3 X20 Y0 Z-5 I-10 P2\nG18 G0 X10 Y0 Z0\nG2 X0 Z10 I-10 K0\nG19 G0 Y10 Z0\n\
+G3 Y0 Z10 J-10 K0\nG17 G0 X0 Y0 Z0\nG2 X3.3333 Y-7.7777 R9.1\nG93 G3 X5 Y5 R7 F3\n\
+G94 G2 X7 Y7 I1 J1 F123.456\nG2 X10 Y10 I3 F10\nM30\n";
+
+const CYCLES: &[u8] = b"G21 G90 G17 G0 X0 Y0 Z10\nM3 S1200\nG91 G99 G81 X10 Z-5 R-8 K3 F100\nG90 G98 G83 X1 Y2 Z-10 R1 Q4\n\
+X3\nG73 X4 Z-3.3 R0.5 Q0.7\nG82 X5 Z-2 R1 P0.25\nG84 X6 Z-4 R2 F80\nG85 X7 Z-1 R1\nG86 X8 Z-1 R1 P0\n\
+G89 X9 Z-1 R1 P1.5\nG18 G81 X1 Z1 Y-2 R1\nG80\nG0 X0 Y0\nG81 X1 Z-1\nM30\n";
+
+const INCH_OFFSETS: &[u8] = b"G20 G90\nG10 L2 P1 X1 Y2 Z-0.5\nG10 L2 P2 X-3.25\nG0 X0 Y0 Z0\nG55 G0 X0.0001\nG92 X0 Y0\n\
+G1 X1.23456 Y-0.00001 F12.5\nG92.2\nG0 X0\nG92.3\nG0 X0\nG43 H2\nG0 Z0\nG91 G28 Z0\nG90 G53 G0 X-1\n\
+G10 L20 P3 X5\nG56 G0 X0\nG21 G54 G0 X1\nG4 P0.5\nG64 P0.01\nG61\nM30\n";
+
+const SUBPROGRAMS: &[u8] =
+    b"%\nO1000 (main)\nG90 G0 X0 Y0\nM98 P2001 L3\nM98 P32002\nM6 T1\nM7 M8\nM101\nM1\nM9\n\
+/G0 X99\nM30\nO2001\nG91 G1 X1 F200\nM98 P2002\nG90\nM99\nO2002\nG91 G0 Y0.5\nG90\nM99\n%\n";
+
+const ERRORS_AND_GIXA: &[u8] =
+    b"G0 X1\nG1 X2\nG2 X10 R4 F10\nG1 X1 X2\nM98 P77\nG81 X1 Z-1\nG41 G1 X1\n\
+G0 X0 Y0\nG2 X10 I3 F10\nG0 X$\nG0 (\nM30\n";
+
+const GIXA: &[u8] =
+    b"G00 Z5\nG04 P25\nN200 G81 X1.5 Y2.0 R.5 Z2 F20 M03 G99 G91\nN201 X1 G98\nN202 G80\n\
+G90 G87 X0 Y0 R0 Z-2 Q1 F50\nG80\nG18\nG02 X0 Z10 I-10 J0 F100\nG17\nG88 X1 Y1\nX2\nG80\n\
+M98 P900 L2\nM30\nN900 G91 G00 X1 ; sub\nM99\n";
+
+fn arcs() -> u32 {
+    digest_program(ARCS, &InterpConfig::default())
+}
+
+fn cycles() -> u32 {
+    let mut cfg = InterpConfig::default();
+    cfg.peck_clearance = 500_000;
+    digest_program(CYCLES, &cfg)
+}
+
+fn inch_offsets() -> u32 {
+    let mut cfg = InterpConfig::default();
+    cfg.set_tool(2, 12_345_678);
+    cfg.g28_position = [1, 2, 3, 0, 0, 0];
+    cfg.work_offsets[0] = [100_000_000, -50_000_000, 0, 0, 0, 0];
+    cfg.dwell_units = DwellUnits::FanucIntegerMillis;
+    digest_program(INCH_OFFSETS, &cfg)
+}
+
+fn subprograms() -> u32 {
+    let mut cfg = InterpConfig::default();
+    cfg.add_user_m_code(101);
+    cfg.optional_stop = true;
+    cfg.block_delete = true;
+    digest_program(SUBPROGRAMS, &cfg)
+}
+
+fn errors() -> u32 {
+    digest_program(ERRORS_AND_GIXA, &InterpConfig::default())
+}
+
+fn gixa() -> u32 {
+    digest_program(GIXA, &InterpConfig::gixa())
+}
 
 /// Cross-target vectors of the interpreter (see [`crate::vectors`]).
-pub const VECTORS: &[Vector] = &[];
+pub const VECTORS: &[Vector] = &[
+    Vector {
+        name: "gcode/arcs",
+        run: arcs,
+        expected: 0xb571_ee93,
+    },
+    Vector {
+        name: "gcode/canned-cycles",
+        run: cycles,
+        expected: 0x6949_e643,
+    },
+    Vector {
+        name: "gcode/inch-offsets",
+        run: inch_offsets,
+        expected: 0xa6c1_6add,
+    },
+    Vector {
+        name: "gcode/subprograms",
+        run: subprograms,
+        expected: 0x7b53_7bf7,
+    },
+    Vector {
+        name: "gcode/errors",
+        run: errors,
+        expected: 0xaa9c_fee5,
+    },
+    Vector {
+        name: "gcode/gixa",
+        run: gixa,
+        expected: 0xc2c4_e45d,
+    },
+];
