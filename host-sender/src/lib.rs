@@ -6,6 +6,7 @@ pub mod emulator;
 pub mod link;
 pub mod preview;
 pub mod program;
+pub mod resume;
 pub mod setup_file;
 pub mod simulate;
 pub mod stream;

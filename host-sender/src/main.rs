@@ -28,6 +28,10 @@ enum Command {
     /// Stream a program to the board (with no --port: the emulated board) with progress and a report.
     Stream {
         file: PathBuf,
+        /// Run from this line: the state before it is rebuilt by interpreting without motion, and
+        /// a short preamble (offsets, tool, spindle, coolant, position, modes) runs first.
+        #[arg(long)]
+        from_line: Option<u32>,
         #[command(flatten)]
         board: BoardArgs,
     },
@@ -103,14 +107,19 @@ struct BoardArgs {
 }
 
 impl BoardArgs {
-    fn target(self) -> anyhow::Result<host_sender::stream::Target> {
+    /// The setup file given, or the defaults.
+    fn setup(&self) -> anyhow::Result<gantry_machine::setup::Setup> {
+        match &self.setup {
+            Some(f) => host_sender::setup_file::SetupFile::load(f),
+            None => Ok(Default::default()),
+        }
+    }
+
+    fn target(&self) -> anyhow::Result<host_sender::stream::Target> {
         use host_sender::stream::Target;
-        Ok(match self.port {
-            Some(p) => Target::Port(p),
-            None => Target::Emulated(match self.setup {
-                Some(f) => host_sender::setup_file::SetupFile::load(&f)?,
-                None => Default::default(),
-            }),
+        Ok(match &self.port {
+            Some(p) => Target::Port(p.clone()),
+            None => Target::Emulated(self.setup()?),
         })
     }
 }
@@ -146,9 +155,14 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Check { file, canon } => host_sender::check::run(&file, canon),
         Command::Setup { action } => setup(action),
-        Command::Stream { file, board } => board
-            .target()
-            .and_then(|t| host_sender::stream::run(&file, t)),
+        Command::Stream {
+            file,
+            from_line,
+            board,
+        } => board.setup().and_then(|setup| {
+            let target = board.target()?;
+            host_sender::stream::run(&file, target, setup, from_line)
+        }),
         Command::Status { board } => board.target().and_then(|t| commands::realtime(t, None)),
         Command::Hold { board } => board
             .target()

@@ -17,6 +17,19 @@ struct Serving {
     id: u16,
     next_line: u32,
     ended: bool,
+    /// Blocks sent before `next_line` (a run-from-line preamble), as line 0.
+    preamble: std::collections::VecDeque<String>,
+}
+
+impl Serving {
+    fn at(id: u16, next_line: u32) -> Self {
+        Serving {
+            id,
+            next_line,
+            ended: false,
+            preamble: Default::default(),
+        }
+    }
 }
 
 /// A rejected block, as the board reported it.
@@ -96,12 +109,7 @@ pub fn stream_program<T: Transport>(
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
     client.send(HostMsg::Start)?;
-    let serving = Serving {
-        id: 0,
-        next_line: 1,
-        ended: false,
-    };
-    run_job(client, program, Some(serving), on_progress)
+    run_job(client, program, Some(Serving::at(0, 1)), None, on_progress)
 }
 
 /// Takes over a job the board is already running (after the link was lost, or from a new
@@ -113,21 +121,42 @@ pub fn continue_job<T: Transport>(
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
     client.send(HostMsg::Resume)?;
-    run_job(client, program, None, on_progress)
+    run_job(client, program, None, None, on_progress)
+}
+
+/// Streams `program` from line `from` after `preamble` (see [`crate::resume`]): the blocks that
+/// rebuild the program's state there are sent first, as line 0.
+pub fn stream_from_line<T: Transport>(
+    client: &mut Client<T>,
+    program: &Program,
+    from: u32,
+    preamble: Vec<String>,
+    on_progress: &mut dyn FnMut(&Progress) -> Flow,
+) -> anyhow::Result<StreamReport> {
+    client.send(HostMsg::StartFromLine { line_no: from })?;
+    let mut serving = Serving::at(0, from);
+    serving.preamble = preamble.iter().cloned().collect();
+    run_job(
+        client,
+        program,
+        Some(serving),
+        Some((from, preamble)),
+        on_progress,
+    )
 }
 
 fn run_job<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
     serving: Option<Serving>,
+    resume: Option<(u32, Vec<String>)>,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
     let start_ms = client.transport.now_ms();
     // Until the board says where to serve from, nothing is sent.
     let mut serving = serving.unwrap_or(Serving {
-        id: 0,
-        next_line: 1,
         ended: true,
+        ..Serving::at(0, 1)
     });
     let mut report = StreamReport {
         completed: false,
@@ -167,20 +196,21 @@ fn run_job<T: Transport>(
                 BoardMsg::Alarm { code } => report.alarms.push(code),
                 BoardMsg::ProgramRequest { id, target } => {
                     report.jumps_served += 1;
-                    match program.resolve(target) {
-                        Some(line) => {
-                            serving = Serving {
-                                id,
-                                next_line: line,
-                                ended: false,
-                            }
+                    match (program.resolve(target), &resume) {
+                        // A board that resynchronises before it ran the first resumed line asks
+                        // for line 1 (it has taken only preamble blocks, numbered 0): serve the
+                        // preamble again, then the resume line.
+                        (_, Some((from, pre))) if matches!(target, ProgramTarget::Line(n) if n <= 1) =>
+                        {
+                            serving = Serving::at(id, *from);
+                            serving.preamble = pre.iter().cloned().collect();
                         }
-                        None => {
+                        (Some(line), _) => serving = Serving::at(id, line),
+                        (None, _) => {
                             client.send(HostMsg::ProgramEnd { id, found: false })?;
                             serving = Serving {
-                                id,
-                                next_line: program.len() + 1,
                                 ended: true,
+                                ..Serving::at(id, program.len() + 1)
                             };
                             if let ProgramTarget::Program(p) = target {
                                 eprintln!(
@@ -226,6 +256,19 @@ fn serve<T: Transport>(
     report: &mut StreamReport,
 ) -> anyhow::Result<()> {
     while !serving.ended && client.queued_room() > 0 {
+        if let Some(text) = serving.preamble.pop_front() {
+            let line = Line::new(0, &text)
+                .ok_or_else(|| anyhow::anyhow!("resume preamble block too long: {text}"))?;
+            client.send(if serving.id == 0 {
+                HostMsg::Line(line)
+            } else {
+                HostMsg::ProgramLine {
+                    id: serving.id,
+                    line,
+                }
+            })?;
+            continue;
+        }
         let n = serving.next_line;
         if n > program.len() {
             let end = if serving.id == 0 {
@@ -310,45 +353,51 @@ fn axes_line(p: &[i64], axes: usize) -> String {
         .join("  ")
 }
 
-/// Runs `gantry stream FILE`: progress while it runs, a final report, exit code 1 on errors.
-pub fn run(file: &std::path::Path, target: Target) -> anyhow::Result<std::process::ExitCode> {
-    use crate::emulator::EmulatedBoard;
-    use crate::link::SerialTransport;
+/// Runs `gantry stream FILE [--from-line N]`: progress while it runs, a final report, exit code 1
+/// on errors. `setup` describes the machine for the run-from-line preamble (the emulated board
+/// runs with it too).
+pub fn run(
+    file: &std::path::Path,
+    target: Target,
+    setup: gantry_machine::setup::Setup,
+    from_line: Option<u32>,
+) -> anyhow::Result<std::process::ExitCode> {
     let program = Program::load(file)?;
+    let text = std::fs::read_to_string(file)?;
     let wall = std::time::Instant::now();
-    match target {
-        Target::Emulated(setup) => {
-            let axes = setup.axis_count as usize;
-            println!(
-                "gantry: no --port given: streaming {} to the emulated board",
-                file.display()
-            );
-            let mut client = Client::connect(EmulatedBoard::new(setup), 2000)?;
-            let report = stream_with_progress(&mut client, &program)?;
-            let board = &client.transport;
-            print_report(&report, &program, axes, wall.elapsed());
-            let steps = board.kernel.position();
-            println!(
-                "steps:    {}   (pulses: {})",
-                (0..axes)
-                    .map(|i| format!("{} {}", gantry_machine::units::AXIS_LETTERS[i], steps[i]))
-                    .collect::<Vec<_>>()
-                    .join("  "),
-                board.pulses[..axes]
-                    .iter()
-                    .map(u64::to_string)
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            );
-            Ok(exit_code(&report))
-        }
-        Target::Port(port) => {
-            let mut client = Client::connect(SerialTransport::open(&port)?, 3000)?;
-            let report = stream_with_progress(&mut client, &program)?;
-            print_report(&report, &program, 3, wall.elapsed());
-            Ok(exit_code(&report))
-        }
+    let axes = setup.axis_count as usize;
+    if matches!(target, Target::Emulated(_)) {
+        println!(
+            "gantry: no --port given: streaming {} to the emulated board",
+            file.display()
+        );
     }
+    let (mut client, _) = crate::commands::connect(target)?;
+    let report = match from_line {
+        None => stream_with_progress(&mut client, &program, None)?,
+        Some(n) => {
+            let here = fresh_status(&mut client)?.machine_pos;
+            let pre = crate::resume::resume_preamble(&program, &text, n, &setup, &here)?;
+            println!("resuming at line {n} after {} preamble blocks:", pre.len());
+            for b in &pre {
+                println!("    {b}");
+            }
+            stream_with_progress(&mut client, &program, Some((n, pre)))?
+        }
+    };
+    print_report(&report, &program, axes, wall.elapsed());
+    if let Some(s) = &report.final_status {
+        let cfg = gantry_machine::motion::config::MotionConfig::from_setup(&setup);
+        let steps = cfg.to_steps(&s.machine_pos);
+        println!(
+            "steps:    {}",
+            (0..axes)
+                .map(|i| format!("{} {}", gantry_machine::units::AXIS_LETTERS[i], steps[i]))
+                .collect::<Vec<_>>()
+                .join("  ")
+        );
+    }
+    Ok(exit_code(&report))
 }
 
 fn exit_code(report: &StreamReport) -> std::process::ExitCode {
@@ -406,6 +455,7 @@ fn ask_after_hold(bar: Option<&indicatif::ProgressBar>) -> Flow {
 fn stream_with_progress<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
+    resume: Option<(u32, Vec<String>)>,
 ) -> anyhow::Result<StreamReport> {
     use std::io::IsTerminal;
     let total = program.len().max(1) as u64;
@@ -420,7 +470,7 @@ fn stream_with_progress<T: Transport>(
     let mut last_decile = 0;
     let interrupted = ctrl_c_flag();
     let mut asking = false;
-    let report = stream_program(client, program, &mut |p| {
+    let mut on_progress = |p: &Progress| {
         if asking {
             asking = false;
             return ask_after_hold(bar.as_ref());
@@ -454,7 +504,11 @@ fn stream_with_progress<T: Transport>(
             }
         }
         Flow::Continue
-    });
+    };
+    let report = match resume {
+        None => stream_program(client, program, &mut on_progress),
+        Some((from, pre)) => stream_from_line(client, program, from, pre, &mut on_progress),
+    };
     if let Some(b) = bar {
         b.finish_and_clear();
     }

@@ -222,3 +222,32 @@ fn the_same_host_resumes_after_a_short_cable_pull() {
         report.elapsed_ms
     );
 }
+
+#[test]
+fn running_from_a_line_rebuilds_the_state_and_ends_like_a_full_run() {
+    use host_sender::resume::resume_preamble;
+    use host_sender::stream::stream_from_line;
+    let text = "G21 G90 G17\nG10 L2 P2 X5 Y5\nG55\nG92 X1\nT1 M6\nS1000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F300\nG1 X10 F900\nX20 Y3\nG91 X1\nG90 G0 Z5\nM30\n";
+    let setup = Setup::default();
+    let (full, full_board) = stream_emulated(text);
+    assert!(full.completed, "{:?}", full.errors);
+    for from in [9, 10, 11] {
+        let program = Program::from_text(text);
+        let mut client = Client::connect(EmulatedBoard::new(setup.clone()), 2000).unwrap();
+        let pre = resume_preamble(&program, text, from, &setup, &[0; 6]).unwrap();
+        let report =
+            stream_from_line(&mut client, &program, from, pre, &mut |_| Flow::Continue).unwrap();
+        assert!(report.completed, "from {from}: {:?}", report.errors);
+        assert_eq!(
+            client.transport.kernel.position(),
+            full_board.kernel.position(),
+            "from line {from}"
+        );
+        // The work offsets were rebuilt too: same work position as the full run.
+        assert_eq!(
+            report.final_status.unwrap().work_pos,
+            full.final_status.clone().unwrap().work_pos,
+            "from line {from}"
+        );
+    }
+}

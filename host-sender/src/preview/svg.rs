@@ -272,8 +272,9 @@ fn draw_panel(s: &mut String, job: &PreviewJob, stats: &Stats, p: &Panel, index:
         draw_triad(s, p);
     }
     let _ = writeln!(s, r#"<g clip-path="url(#clip{index})">"#);
-    if let Some(t) = job.travel.filter(|t| !t.is_empty()) {
-        draw_travel(s, p, &t, &stats.extents);
+    let travel = job.travel.filter(|t| !t.is_empty());
+    if let Some(t) = &travel {
+        draw_outside_travel(s, p, t);
     }
     if p.view == View::Iso && !stats.extents.is_empty() {
         // The job's bounding box gives the isometric view its depth cue.
@@ -285,6 +286,11 @@ fn draw_panel(s: &mut String, job: &PreviewJob, stats: &Stats, p: &Panel, index:
         s.push('\n');
     }
     draw_moves(s, job, stats, fit);
+    // The outline goes on top, so a job that covers it cannot hide it.
+    if let Some(t) = &travel {
+        draw_travel(s, p, t, &stats.extents);
+    }
+    draw_markers(s, job, fit);
     s.push_str("</g></g>\n");
 }
 
@@ -368,14 +374,36 @@ fn draw_travel(s: &mut String, p: &Panel, t: &Box3, job: &Box3) {
         }
         return;
     }
+    let [ax, ay, bx, by] = travel_rect(p, t);
+    let _ = writeln!(
+        s,
+        r#"<path class="travel" fill="none" stroke="{TRAVEL_COLOUR}" stroke-width="1.5" stroke-dasharray="{TRAVEL_DASH}" d="M{ax:.1} {ay:.1}H{bx:.1}V{by:.1}H{ax:.1}Z"/>"#
+    );
+}
+
+/// The travel box of an orthographic view in pixels (left, top, right, bottom), clamped to a
+/// little beyond the plot so huge boxes stay sane numbers.
+fn travel_rect(p: &Panel, t: &Box3) -> [f64; 4] {
     let b = p.view.bounds(t);
-    let (ax, ay) = fit.px2(b[0], b[3]);
-    let (bx, by) = fit.px2(b[2], b[1]);
-    // Clamp the outer rectangle to a little beyond the plot so huge boxes stay sane numbers.
+    let (ax, ay) = p.fit.px2(b[0], b[3]);
+    let (bx, by) = p.fit.px2(b[2], b[1]);
     let [x, y, w, h] = p.plot;
     let cl = |v: f64, lo: f64, hi: f64| v.clamp(lo - 10.0, hi + 10.0);
-    let (ax, bx) = (cl(ax, x, x + w), cl(bx, x, x + w));
-    let (ay, by) = (cl(ay, y, y + h), cl(by, y, y + h));
+    [
+        cl(ax, x, x + w),
+        cl(ay, y, y + h),
+        cl(bx, x, x + w),
+        cl(by, y, y + h),
+    ]
+}
+
+/// Greys what lies outside the travel box in an orthographic view.
+fn draw_outside_travel(s: &mut String, p: &Panel, t: &Box3) {
+    if p.view == View::Iso {
+        return;
+    }
+    let [x, y, w, h] = p.plot;
+    let [ax, ay, bx, by] = travel_rect(p, t);
     let _ = writeln!(
         s,
         r##"<path class="outside-travel" fill="#868e96" fill-opacity="0.14" fill-rule="evenodd" d="M{:.1} {:.1}H{:.1}V{:.1}H{:.1}Z M{ax:.1} {ay:.1}H{bx:.1}V{by:.1}H{ax:.1}Z"/>"##,
@@ -384,10 +412,6 @@ fn draw_travel(s: &mut String, p: &Panel, t: &Box3, job: &Box3) {
         x + w + 10.0,
         y + h + 10.0,
         x - 10.0
-    );
-    let _ = writeln!(
-        s,
-        r#"<path class="travel" fill="none" stroke="{TRAVEL_COLOUR}" stroke-width="1.5" stroke-dasharray="{TRAVEL_DASH}" d="M{ax:.1} {ay:.1}H{bx:.1}V{by:.1}H{ax:.1}Z"/>"#
     );
 }
 
@@ -416,8 +440,7 @@ fn box_edges(fit: &Fit, b: &Box3) -> String {
     d
 }
 
-/// Rapids first (dashed, underneath), then feeds and arcs in their speed colours, then the
-/// start and end markers.
+/// Rapids first (dashed, underneath), then feeds and arcs in their speed colours.
 fn draw_moves(s: &mut String, job: &PreviewJob, stats: &Stats, fit: &Fit) {
     s.push_str(r#"<g class="rapids" fill="none" stroke-width="1" stroke-linecap="butt">"#);
     s.push('\n');
@@ -452,6 +475,10 @@ fn draw_moves(s: &mut String, job: &PreviewJob, stats: &Stats, fit: &Fit) {
         );
     }
     s.push_str("</g>\n");
+}
+
+/// Program start (green dot) and end (black square).
+fn draw_markers(s: &mut String, job: &PreviewJob, fit: &Fit) {
     if let (Some(first), Some(last)) = (job.moves.first(), job.moves.last()) {
         let (ax, ay) = fit.px(first.from);
         let (bx, by) = fit.px(last.to);
@@ -576,7 +603,7 @@ fn draw_legend(s: &mut String, job: &PreviewJob, stats: &Stats, x: f64, w: f64, 
         let mut labels: Vec<f64> = vec![sc.lo, sc.hi];
         for t in sc.ticks() {
             let f = sc.fraction(t);
-            if f > 0.12 && f < 0.88 {
+            if f > 0.15 && f < 0.85 {
                 labels.push(t);
             }
         }
@@ -716,7 +743,7 @@ pub fn travel_status(t: &Box3, job: &Box3) -> (Vec<String>, &'static str) {
         }
     }
     let mut lines = vec!["✗ job leaves machine travel:".to_string()];
-    lines.push(format!("   {}", out.join(", ")));
+    lines.extend(out.into_iter().map(|o| format!("    {o}")));
     (lines, WARN_COLOUR)
 }
 
@@ -812,6 +839,7 @@ mod tests {
             max: [50.0, 50.0, 101.0],
         };
         let (lines, _) = travel_status(&t, &job);
-        assert_eq!(lines[1].trim(), "X− by 4.000 mm, Z+ by 1.000 mm");
+        assert_eq!(lines[1].trim(), "X− by 4.000 mm");
+        assert_eq!(lines[2].trim(), "Z+ by 1.000 mm");
     }
 }
