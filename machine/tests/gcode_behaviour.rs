@@ -1,4 +1,5 @@
 //! Interpreter behaviour with exact nanometre expectations (seed-002 §14 programs included).
+#![allow(clippy::field_reassign_with_default, clippy::type_complexity)]
 
 use gantry_machine::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
 use gantry_machine::gcode::{
@@ -601,7 +602,7 @@ fn g92_family() {
 #[test]
 fn g28_g30_positions_and_set() {
     let mut cfg = InterpConfig::default();
-    cfg.g30_position = [1 * MM, 2 * MM, 3 * MM, 0, 0, 0];
+    cfg.g30_position = [MM, 2 * MM, 3 * MM, 0, 0, 0];
     let a: Vec<Canon> = run_with("G0 X7 Y7 Z7\nG28.1\nG0 X0 Y0 Z0\nG28 X1\nG30\n", &cfg)
         .into_iter()
         .map(Result::unwrap)

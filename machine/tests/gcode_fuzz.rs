@@ -3,6 +3,7 @@
 //!
 //! The default suite runs a few thousand executions. The long run is ignored by default:
 //! `GCODE_FUZZ_EXECUTIONS=1000000 cargo test --release -p gantry-machine --test gcode_fuzz -- --ignored --nocapture`
+#![allow(clippy::field_reassign_with_default, clippy::type_complexity)]
 
 use std::time::Instant;
 

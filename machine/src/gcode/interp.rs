@@ -711,13 +711,12 @@ impl Interpreter {
         f_given: bool,
     ) -> Res<()> {
         let gixa = self.gixa();
-        match mode {
-            MotionMode::Rapid | MotionMode::Linear | MotionMode::ArcCw | MotionMode::ArcCcw => {
-                if explicit || !matches!(self.state.motion, MotionMode::Cycle(_)) {
-                    self.state.cycle = CycleMemory::default();
-                }
-            }
-            _ => {}
+        let straight_or_arc = matches!(
+            mode,
+            MotionMode::Rapid | MotionMode::Linear | MotionMode::ArcCw | MotionMode::ArcCcw
+        );
+        if straight_or_arc && (explicit || !matches!(self.state.motion, MotionMode::Cycle(_))) {
+            self.state.cycle = CycleMemory::default();
         }
         match mode {
             MotionMode::Rapid => {
@@ -813,10 +812,8 @@ impl Interpreter {
         if let Some(w) = wrong {
             return err(ErrorCode::ArcOffsetWrongPlane, Some(w));
         }
-        if self.state.inverse_time {
-            if !f_given {
-                return err(ErrorCode::InverseTimeFeedMissing, None);
-            }
+        if self.state.inverse_time && !f_given {
+            return err(ErrorCode::InverseTimeFeedMissing, None);
         }
         if self.state.feed == 0 {
             return err(ErrorCode::ZeroFeedRate, None);
@@ -1107,10 +1104,8 @@ impl Interpreter {
         };
         match code.code {
             0 => self.post = Post::Stop(StopKind::Pause, line),
-            1 => {
-                if self.config.optional_stop {
-                    self.post = Post::Stop(StopKind::OptionalPause, line);
-                }
+            1 if self.config.optional_stop => {
+                self.post = Post::Stop(StopKind::OptionalPause, line);
             }
             2 | 30 => {
                 let kind = if code.code == 2 {

@@ -150,8 +150,10 @@ fn arcs() -> u32 {
 }
 
 fn cycles() -> u32 {
-    let mut cfg = InterpConfig::default();
-    cfg.peck_clearance = 500_000;
+    let cfg = InterpConfig {
+        peck_clearance: 500_000,
+        ..InterpConfig::default()
+    };
     digest_program(CYCLES, &cfg)
 }
 
