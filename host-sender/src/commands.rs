@@ -16,7 +16,7 @@ pub fn connect(target: Target) -> anyhow::Result<(Client<Box<dyn Transport>>, us
     Ok(match target {
         Target::Emulated(setup) => {
             let axes = setup.axis_count as usize;
-            let t: Box<dyn Transport> = Box::new(EmulatedBoard::new(setup));
+            let t: Box<dyn Transport> = Box::new(EmulatedBoard::new(*setup));
             (Client::connect(t, 2000)?, axes)
         }
         Target::Port(p) => {

@@ -153,8 +153,10 @@ impl<T: Transport> Client<T> {
     }
 
     /// Queues a message; gives it back when its lane is full (pump and try again).
-    pub fn try_send(&mut self, msg: HostMsg) -> Result<(), HostMsg> {
-        self.endpoint.send(msg).map_err(|SendError::Full(m)| m)
+    pub fn try_send(&mut self, msg: HostMsg) -> Result<(), Box<HostMsg>> {
+        self.endpoint
+            .send(msg)
+            .map_err(|SendError::Full(m)| Box::new(m))
     }
 
     /// Queues a message, pumping until there is room.
@@ -163,7 +165,7 @@ impl<T: Transport> Client<T> {
             match self.try_send(msg) {
                 Ok(()) => return Ok(()),
                 Err(m) => {
-                    msg = m;
+                    msg = *m;
                     self.pump(1)?;
                 }
             }

@@ -119,7 +119,7 @@ impl BoardArgs {
         use host_sender::stream::Target;
         Ok(match &self.port {
             Some(p) => Target::Port(p.clone()),
-            None => Target::Emulated(self.setup()?),
+            None => Target::Emulated(Box::new(self.setup()?)),
         })
     }
 }

@@ -336,7 +336,7 @@ pub fn state_name(s: MachineState) -> &'static str {
 /// Where `gantry` sends its commands.
 pub enum Target {
     /// The built-in emulated board, with this setup.
-    Emulated(gantry_machine::setup::Setup),
+    Emulated(Box<gantry_machine::setup::Setup>),
     /// A board on this serial port.
     Port(String),
 }
