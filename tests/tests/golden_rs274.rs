@@ -41,6 +41,12 @@ const KNOWN_DIFFERENCES: &[(&str, &str)] = &[
         "65-g4-x-word",
         "G4 X is a dwell time (Fanuc); LinuxCNC errors",
     ),
+    // LinuxCNC rejects L0 on a cycle; Fanuc K0/L0 stores the cycle data without drilling
+    // (seed-002 13.5 "K/L repeat (0 = store only)"), which the interpreter does on purpose.
+    (
+        "96-cycle-l0",
+        "L0 stores the cycle without drilling (Fanuc); LinuxCNC errors",
+    ),
 ];
 
 /// Programs that need the tool table rs274 was given (`tools.tbl`): they run through
