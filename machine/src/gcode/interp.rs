@@ -61,6 +61,8 @@ pub struct Interpreter {
     restarts: u32,
     /// M98/M99 jumps since the last action handed out (endless-loop guard).
     jumps_without_action: u32,
+    /// Line number of the last line read.
+    last_line: u32,
 }
 
 /// Most subprogram jumps without an action before the program is declared an endless loop.
@@ -88,6 +90,7 @@ impl Interpreter {
             percent_lines: 0,
             restarts: 0,
             jumps_without_action: 0,
+            last_line: 0,
         }
     }
 
@@ -172,7 +175,10 @@ impl Interpreter {
                 return None;
             }
             let (line, parsed) = match src.next_line() {
-                Some((line, bytes)) => (line, self.parse_line(bytes)),
+                Some((line, bytes)) => {
+                    self.last_line = line;
+                    (line, self.parse_line(bytes))
+                }
                 None => {
                     if !src.is_exhausted() {
                         return None;
@@ -181,7 +187,7 @@ impl Interpreter {
                     if !self.stack.is_empty() {
                         self.stack.clear();
                         return Some(Err(GcodeError {
-                            line: 0,
+                            line: self.last_line,
                             n_word: None,
                             columns: None,
                             code: ErrorCode::SubprogramWithoutM99,
