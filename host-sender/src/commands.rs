@@ -86,3 +86,83 @@ pub fn mdi(target: Target, blocks: &[String]) -> anyhow::Result<ExitCode> {
         ExitCode::from(1)
     })
 }
+
+/// Sends a setup to the board, which validates it, applies it and saves it to flash (idle only).
+pub fn setup_push(target: Target, setup: &gantry_machine::setup::Setup) -> anyhow::Result<()> {
+    let (mut client, _) = connect(target)?;
+    push_setup_over(&mut client, setup)
+}
+
+/// [`setup_push`] over an open link.
+pub fn push_setup_over<T: Transport>(
+    client: &mut Client<T>,
+    setup: &gantry_machine::setup::Setup,
+) -> anyhow::Result<()> {
+    use gantry_machine::setup::SETUP_BLOB_MAX;
+    use gantry_proto::messages::SETUP_CHUNK_MAX;
+    let mut buf = [0u8; SETUP_BLOB_MAX];
+    let blob = setup.to_blob(&mut buf).ok_or_else(|| {
+        anyhow::anyhow!("the setup does not fit the board's {SETUP_BLOB_MAX} bytes")
+    })?;
+    for (i, chunk) in blob.chunks(SETUP_CHUNK_MAX).enumerate() {
+        client.send(HostMsg::SetupChunk {
+            offset: (i * SETUP_CHUNK_MAX) as u32,
+            bytes: heapless::Vec::from_slice(chunk).expect("chunk size"),
+        })?;
+    }
+    client.send(HostMsg::SetupCommit {
+        len: blob.len() as u32,
+        crc32: gantry_proto::crc::crc32(blob),
+    })?;
+    for _ in 0..3000 {
+        client.pump(1)?;
+        while let Some(msg) = client.recv() {
+            if let gantry_proto::BoardMsg::SetupResult { code } = msg {
+                return match code {
+                    0 => Ok(()),
+                    1 => anyhow::bail!("the board received a damaged setup (length or CRC)"),
+                    2 => anyhow::bail!("the board refused the setup as invalid"),
+                    3 => anyhow::bail!("the board is not idle: setups are changed only when idle"),
+                    c => anyhow::bail!("the board refused the setup (code {c})"),
+                };
+            }
+        }
+    }
+    anyhow::bail!("the board did not answer the setup within 3 s")
+}
+
+/// Reads the board's setup.
+pub fn setup_pull(target: Target) -> anyhow::Result<gantry_machine::setup::Setup> {
+    let (mut client, _) = connect(target)?;
+    pull_setup_over(&mut client)
+}
+
+/// [`setup_pull`] over an open link.
+pub fn pull_setup_over<T: Transport>(
+    client: &mut Client<T>,
+) -> anyhow::Result<gantry_machine::setup::Setup> {
+    use gantry_proto::BoardMsg;
+    client.send(HostMsg::SetupRequest)?;
+    let mut blob = Vec::new();
+    for _ in 0..3000 {
+        client.pump(1)?;
+        while let Some(msg) = client.recv() {
+            match msg {
+                BoardMsg::SetupChunk { offset, bytes } => {
+                    anyhow::ensure!(offset as usize == blob.len(), "setup chunk out of order");
+                    blob.extend_from_slice(&bytes);
+                }
+                BoardMsg::SetupEnd { len, crc32 } => {
+                    anyhow::ensure!(
+                        len as usize == blob.len() && gantry_proto::crc::crc32(&blob) == crc32,
+                        "the board's setup arrived damaged"
+                    );
+                    return gantry_machine::setup::Setup::from_blob(&blob)
+                        .ok_or_else(|| anyhow::anyhow!("the board sent an invalid setup"));
+                }
+                _ => {}
+            }
+        }
+    }
+    anyhow::bail!("the board did not send its setup within 3 s")
+}

@@ -130,6 +130,18 @@ enum SetupAction {
     Show { file: Option<PathBuf> },
     /// Validate a setup file; every error names the key and the allowed range.
     Check { file: PathBuf },
+    /// Validate a setup file and send it to the board, which saves it in flash (only when idle).
+    Push {
+        file: PathBuf,
+        #[command(flatten)]
+        board: BoardArgs,
+    },
+    /// Read the board's setup and write it as a setup file (to standard output without FILE).
+    Pull {
+        file: Option<PathBuf>,
+        #[command(flatten)]
+        board: BoardArgs,
+    },
 }
 
 fn setup(action: SetupAction) -> anyhow::Result<ExitCode> {
@@ -145,6 +157,29 @@ fn setup(action: SetupAction) -> anyhow::Result<ExitCode> {
         SetupAction::Check { file } => {
             SetupFile::load(&file)?;
             println!("{}: setup is valid", file.display());
+        }
+        SetupAction::Push { file, board } => {
+            let setup = SetupFile::load(&file)?;
+            let emulated = board.port.is_none();
+            commands::setup_push(board.target()?, &setup)?;
+            if emulated {
+                println!(
+                    "{}: valid, and applied by the emulated board (which forgets it when gantry exits: give --setup FILE to commands that use the emulated board)",
+                    file.display()
+                );
+            } else {
+                println!("{}: sent, applied and saved by the board", file.display());
+            }
+        }
+        SetupAction::Pull { file, board } => {
+            let text = to_toml(&commands::setup_pull(board.target()?)?);
+            match file {
+                Some(f) => {
+                    std::fs::write(&f, text)?;
+                    println!("board setup written to {}", f.display());
+                }
+                None => print!("{text}"),
+            }
         }
     }
     Ok(ExitCode::SUCCESS)

@@ -224,7 +224,11 @@ fn run_job<T: Transport>(
                     report.last_line = line;
                     done = true;
                 }
-                BoardMsg::Limit { .. } | BoardMsg::Mark { .. } => {}
+                BoardMsg::Limit { .. }
+                | BoardMsg::Mark { .. }
+                | BoardMsg::SetupChunk { .. }
+                | BoardMsg::SetupEnd { .. }
+                | BoardMsg::SetupResult { .. } => {}
             }
         }
         progress.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);

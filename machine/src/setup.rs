@@ -213,3 +213,76 @@ impl Setup {
         c
     }
 }
+
+/// Largest encoded setup (bytes): the flash record and the link transfer are sized for it.
+pub const SETUP_BLOB_MAX: usize = 2048;
+
+impl Setup {
+    /// Encodes the setup for flash and the link (postcard); `None` if it does not fit `out`.
+    pub fn to_blob<'a>(&self, out: &'a mut [u8]) -> Option<&'a mut [u8]> {
+        postcard::to_slice(self, out).ok()
+    }
+
+    /// Decodes and checks a setup blob; `None` when it is not a valid setup.
+    pub fn from_blob(bytes: &[u8]) -> Option<Setup> {
+        let s: Setup = postcard::from_bytes(bytes).ok()?;
+        s.is_valid().then_some(s)
+    }
+
+    /// The invariants every part of the core relies on (the host validates each value with a
+    /// message; this is the board's own last line of defence against a corrupt or foreign blob).
+    pub fn is_valid(&self) -> bool {
+        let n = self.axis_count as usize;
+        (1..=MAX_AXES).contains(&n)
+            && self.axes[..n].iter().all(|a| {
+                a.steps > 0
+                    && a.units_nm > 0
+                    && a.max_rate > 0
+                    && a.accel > 0
+                    && a.start_speed >= 0
+                    && a.start_speed <= a.max_rate
+                    && a.travel_min <= a.travel_max
+            })
+            && self.path.chord_tolerance > 0
+            && self.path.junction_deviation >= 0
+            && self.operator.fro_low <= self.operator.fro_high
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_full_setup_fits_the_blob_and_round_trips() {
+        let mut s = Setup::default();
+        s.axis_count = 6;
+        for i in 0..MAX_TOOLS {
+            s.program
+                .tools
+                .push(Tool {
+                    number: 1000 + i as u32,
+                    length: -123_456_789,
+                    diameter: 25_400_000,
+                })
+                .unwrap();
+        }
+        for i in 0..MAX_USER_MCODES {
+            s.program.user_mcodes.push(100 + i as u16).unwrap();
+        }
+        s.program.work_offsets = [[-1_000_000_000; MAX_AXES]; 9];
+        let mut buf = [0u8; SETUP_BLOB_MAX];
+        let blob = s.to_blob(&mut buf).expect("fits");
+        assert_eq!(Setup::from_blob(blob), Some(s));
+    }
+
+    #[test]
+    fn invalid_blobs_are_refused() {
+        let mut buf = [0u8; SETUP_BLOB_MAX];
+        let mut s = Setup::default();
+        s.axes[0].steps = 0;
+        let blob = s.to_blob(&mut buf).unwrap();
+        assert_eq!(Setup::from_blob(blob), None);
+        assert_eq!(Setup::from_blob(&[1, 2, 3]), None);
+    }
+}

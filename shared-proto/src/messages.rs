@@ -106,6 +106,9 @@ pub enum HostMsg {
     /// The setup blob is complete: `len` bytes with CRC-32/ISO-HDLC `crc32`.
     /// The board validates and applies it (and writes flash only when idle).
     SetupCommit { len: u32, crc32: u32 },
+    /// Ask the board to send its setup blob (as [`BoardMsg::SetupChunk`]s and a
+    /// [`BoardMsg::SetupEnd`]).
+    SetupRequest,
     /// Start executing the streamed job from its first line.
     Start,
     /// Start (resume) the job from line `line_no`; the host replays the modal
@@ -145,6 +148,7 @@ impl Wire for HostMsg {
             | ProgramEnd { .. }
             | SetupChunk { .. }
             | SetupCommit { .. }
+            | SetupRequest
             | Start
             | StartFromLine { .. }
             | EndOfJob => Lane::Queued,
@@ -240,6 +244,16 @@ pub enum BoardMsg {
     /// The interpreter jumped (M98/M99): stop serving the previous place and serve lines from
     /// `target` on as `ProgramLine { id, .. }`. Lines for older ids are dropped by the board.
     ProgramRequest { id: u16, target: ProgramTarget },
+    /// A chunk of the board's setup blob at byte `offset` (answer to `SetupRequest`).
+    SetupChunk {
+        offset: u32,
+        bytes: Vec<u8, SETUP_CHUNK_MAX>,
+    },
+    /// The setup blob is complete: `len` bytes with CRC-32/ISO-HDLC `crc32`.
+    SetupEnd { len: u32, crc32: u32 },
+    /// Answer to `SetupCommit`: 0 = applied (and saved), else why not (1 = bad length or CRC,
+    /// 2 = not a valid setup, 3 = not idle).
+    SetupResult { code: u16 },
     /// The job finished; `line` is the last executed line.
     JobDone { line: u32 },
 }

@@ -43,6 +43,7 @@ fn all_host() -> Vec<HostMsg> {
             len: 1000,
             crc32: 0xDEAD_BEEF,
         },
+        HostMsg::SetupRequest,
         HostMsg::Start,
         HostMsg::StartFromLine { line_no: 1234 },
         HostMsg::EndOfJob,
@@ -130,6 +131,15 @@ fn all_board() -> Vec<BoardMsg> {
             id: u16::MAX,
             target: ProgramTarget::Line(u32::MAX),
         },
+        BoardMsg::SetupChunk {
+            offset: u32::MAX,
+            bytes: heapless::Vec::from_slice(&[0xff; SETUP_CHUNK_MAX]).unwrap(),
+        },
+        BoardMsg::SetupEnd {
+            len: u32::MAX,
+            crc32: u32::MAX,
+        },
+        BoardMsg::SetupResult { code: 3 },
         BoardMsg::JobDone { line: u32::MAX },
     ]);
     v

@@ -4,6 +4,7 @@
 
 use super::{Board, BoardEvent, JumpTarget};
 use crate::controller::State;
+use crate::setup::{Setup, SETUP_BLOB_MAX};
 use crate::units::MAX_AXES;
 use gantry_proto::{
     BoardEndpoint, BoardMsg, Config, HostMsg, Lane, LinkEvent, MachineState, ProgramTarget, Status,
@@ -27,16 +28,27 @@ pub struct KernelView {
     pub feed_um_min: u32,
 }
 
+/// A setup blob being received from, or sent to, the host.
+struct SetupTransfer {
+    blob: heapless::Vec<u8, SETUP_BLOB_MAX>,
+    /// Bytes of `blob` already sent (outgoing transfers).
+    sent: usize,
+}
+
 /// Link endpoint + the glue to the board.
 pub struct BoardLink {
     endpoint: BoardEndpoint,
-    /// An event the send queue had no room for yet.
-    unsent: Option<BoardMsg>,
+    /// Messages for the host the send queue had no room for yet, oldest first.
+    outbox: heapless::Deque<BoardMsg, 4>,
     last_status: Option<u32>,
     status_requested: bool,
     host_attached: bool,
     /// The host went silent during this power-up.
     host_lost: bool,
+    setup_in: SetupTransfer,
+    setup_out: Option<SetupTransfer>,
+    /// A new setup was applied: the firmware saves it to flash (when idle).
+    setup_changed: bool,
 }
 
 impl BoardLink {
@@ -44,11 +56,17 @@ impl BoardLink {
     pub fn new(boot_id: u32) -> Self {
         BoardLink {
             endpoint: BoardEndpoint::new_board(Config::USB_MS, boot_id),
-            unsent: None,
+            outbox: heapless::Deque::new(),
             last_status: None,
             status_requested: false,
             host_attached: false,
             host_lost: false,
+            setup_in: SetupTransfer {
+                blob: heapless::Vec::new(),
+                sent: 0,
+            },
+            setup_out: None,
+            setup_changed: false,
         }
     }
 
@@ -106,9 +124,10 @@ impl BoardLink {
             let Some(msg) = self.endpoint.recv_queued() else {
                 break;
             };
-            Self::queued(board, msg);
+            self.queued(board, msg);
         }
         self.send_events(board);
+        self.send_setup();
         let due = self
             .last_status
             .is_none_or(|t| now_ms.wrapping_sub(t) >= STATUS_INTERVAL_MS);
@@ -137,8 +156,53 @@ impl BoardLink {
         }
     }
 
-    fn queued(board: &mut Board, msg: HostMsg) {
+    /// True once after a setup from the host was applied: the owner persists `board.setup()`.
+    pub fn take_setup_changed(&mut self) -> bool {
+        core::mem::take(&mut self.setup_changed)
+    }
+
+    fn queued(&mut self, board: &mut Board, msg: HostMsg) {
         match msg {
+            HostMsg::SetupChunk { offset, bytes } => {
+                let rx = &mut self.setup_in.blob;
+                if offset == 0 {
+                    rx.clear();
+                }
+                // Chunks arrive in order (queued lane); a gap or overflow fails at commit.
+                if offset as usize == rx.len() && rx.extend_from_slice(&bytes).is_err() {
+                    rx.clear();
+                }
+            }
+            HostMsg::SetupCommit { len, crc32 } => {
+                let blob = &self.setup_in.blob;
+                let code = if blob.len() != len as usize || gantry_proto::crc::crc32(blob) != crc32
+                {
+                    1
+                } else {
+                    match Setup::from_blob(blob) {
+                        None => 2,
+                        Some(setup) => {
+                            if board.set_setup(setup) {
+                                self.setup_changed = true;
+                                0
+                            } else {
+                                3
+                            }
+                        }
+                    }
+                };
+                self.setup_in.blob.clear();
+                self.queue_event(BoardMsg::SetupResult { code });
+            }
+            HostMsg::SetupRequest => {
+                let mut buf = [0u8; SETUP_BLOB_MAX];
+                if let Some(blob) = board.setup().to_blob(&mut buf) {
+                    self.setup_out = Some(SetupTransfer {
+                        blob: heapless::Vec::from_slice(blob).unwrap_or_default(),
+                        sent: 0,
+                    });
+                }
+            }
             HostMsg::Start | HostMsg::StartFromLine { .. } => {
                 board.start_job();
             }
@@ -154,9 +218,44 @@ impl BoardLink {
         }
     }
 
+    /// Queues a message after the ones already waiting (sent by [`Self::send_events`]).
+    fn queue_event(&mut self, msg: BoardMsg) {
+        // At most one setup answer waits at a time, so the outbox never overflows.
+        let _ = self.outbox.push_back(msg);
+    }
+
+    /// Sends the next chunks of an outgoing setup blob as the queue allows.
+    fn send_setup(&mut self) {
+        let Some(out) = self.setup_out.as_mut() else {
+            return;
+        };
+        while self.endpoint.send_capacity(Lane::Queued) > 0 {
+            if out.sent >= out.blob.len() {
+                let end = BoardMsg::SetupEnd {
+                    len: out.blob.len() as u32,
+                    crc32: gantry_proto::crc::crc32(&out.blob),
+                };
+                if self.endpoint.send(end).is_ok() {
+                    self.setup_out = None;
+                }
+                return;
+            }
+            let n = (out.blob.len() - out.sent).min(gantry_proto::messages::SETUP_CHUNK_MAX);
+            let chunk = BoardMsg::SetupChunk {
+                offset: out.sent as u32,
+                bytes: heapless::Vec::from_slice(&out.blob[out.sent..out.sent + n])
+                    .unwrap_or_default(),
+            };
+            if self.endpoint.send(chunk).is_err() {
+                return;
+            }
+            out.sent += n;
+        }
+    }
+
     fn send_events(&mut self, board: &mut Board) {
         loop {
-            let msg = match self.unsent.take() {
+            let msg = match self.outbox.pop_front() {
                 Some(m) => m,
                 None => match board.take_event() {
                     Some(e) => event_message(e),
@@ -164,7 +263,7 @@ impl BoardLink {
                 },
             };
             if let Err(gantry_proto::SendError::Full(m)) = self.endpoint.send(msg) {
-                self.unsent = Some(m);
+                let _ = self.outbox.push_front(m);
                 return;
             }
         }

@@ -355,6 +355,12 @@ impl Board {
         while let Some(report) = self.motion.take_report() {
             self.line = report.line;
         }
+        // The block being prepared is the one about to run (segments lead the kernel by a few ms).
+        if let Some(head) = self.motion.planner().head() {
+            if seg.is_some() {
+                self.line = head.line;
+            }
+        }
         seg
     }
 

@@ -1,0 +1,49 @@
+//! The machine setup travels to the board and back over the real protocol, and a board refuses
+//! a setup while a job runs.
+
+use gantry_machine::setup::Setup;
+use host_sender::commands::{pull_setup_over, push_setup_over};
+use host_sender::emulator::EmulatedBoard;
+use host_sender::link::Client;
+use host_sender::program::Program;
+use host_sender::setup_file::SetupFile;
+use host_sender::stream::{stream_program, Flow};
+
+#[test]
+fn a_pushed_setup_is_applied_and_pulled_back_identical() {
+    let setup = SetupFile::parse(
+        "axes = [\"X\", \"Y\", \"Z\", \"A\"]\n[axis.X]\nsteps_per = [400, 0.2]\n[axis.A]\nsteps_per = [4000, 360.0]\n[[tool]]\nnumber = 3\nlength = 12.5\n[work_offsets]\n\"G55\" = [10, 20, 0, 0]\n",
+    )
+    .unwrap();
+    let mut client = Client::connect(EmulatedBoard::new(Setup::default()), 2000).unwrap();
+    push_setup_over(&mut client, &setup).unwrap();
+    assert_eq!(client.transport.board.setup(), &setup);
+    assert_eq!(pull_setup_over(&mut client).unwrap(), setup);
+    // The new step ratio is in force: G0 X1 is 1 mm at 400 steps per 0.2 mm = 2000 steps.
+    let report = stream_program(
+        &mut client,
+        &Program::from_text("G21 G90 G0 X1 A90\nM30\n"),
+        &mut |_| Flow::Continue,
+    )
+    .unwrap();
+    assert!(report.completed, "{:?}", report.errors);
+    assert_eq!(client.transport.kernel.position()[0], 2000);
+    assert_eq!(client.transport.kernel.position()[3], 1000);
+}
+
+#[test]
+fn a_setup_is_refused_while_a_job_runs() {
+    let mut client = Client::connect(EmulatedBoard::new(Setup::default()), 2000).unwrap();
+    let program = Program::from_text("G21 G90 G1 X100 F600\nM30\n");
+    stream_program(&mut client, &program, &mut |p| {
+        if p.line >= 1 {
+            Flow::Detach
+        } else {
+            Flow::Continue
+        }
+    })
+    .unwrap();
+    assert_eq!(client.transport.board.state(), gantry_machine::controller::State::Run);
+    let err = push_setup_over(&mut client, &Setup::default()).unwrap_err();
+    assert!(err.to_string().contains("not idle"), "{err}");
+}
