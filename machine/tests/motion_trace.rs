@@ -192,13 +192,7 @@ fn corner_speed(cfg: MotionConfig) -> f64 {
             feed(2, xyz(20.0, 20.0, 0.0), 3000),
         ],
     );
-    let last_x = trace
-        .events
-        .iter()
-        .filter(|e| e.step & 1 != 0)
-        .last()
-        .unwrap()
-        .time;
+    let last_x = trace.events.iter().rfind(|e| e.step & 1 != 0).unwrap().time;
     let first_y = trace.events.iter().find(|e| e.step & 2 != 0).unwrap().time;
     HZ / (first_y - last_x) as f64
 }

@@ -12,7 +12,7 @@
 //! (override change, resume) recomputes every limit, as grbl does.
 
 use super::config::{MotionConfig, MAX_SPEED};
-use super::trig::{isqrt_u128, isqrt_u64, mul_div};
+use super::trig::{div_u64, isqrt_u128, isqrt_u64, mul_div};
 use crate::units::MAX_AXES;
 
 /// Unit vectors are scaled by 2³⁰.
@@ -50,6 +50,8 @@ pub struct Block {
     /// Programmed path speed, nm/s (rapids: `max_speed`).
     pub programmed: u64,
     pub rapid: bool,
+    /// Cruise speed with the current overrides, nm/s (kept up to date by the planner).
+    pub nominal: u64,
     /// Path speed reachable instantly from rest (every axis within its start speed), nm/s.
     pub start_speed: u64,
     /// Geometric junction limit with the previous block, nm²/s².
@@ -78,6 +80,7 @@ impl Block {
         max_speed: 1,
         programmed: 1,
         rapid: false,
+        nominal: 1,
         start_speed: 0,
         junction_sq: 0,
         stop_before: true,
@@ -207,6 +210,11 @@ impl<const N: usize> Planner<N> {
 
     /// Speed the block cruises at with the current overrides, nm/s.
     pub fn nominal(&self, b: &Block) -> u64 {
+        b.nominal
+    }
+
+    /// Computes the cruise speed of a block for the current overrides.
+    fn override_speed(&self, b: &Block) -> u64 {
         let v = if b.rapid {
             b.max_speed * self.rapid_pct as u64 / 100
         } else {
@@ -282,12 +290,21 @@ impl<const N: usize> Planner<N> {
                 dir |= 1 << i;
             }
             events = events.max(steps[i]);
-            len_sq += (req.delta[i] as i128 * req.delta[i] as i128) as u128;
+            let d = req.delta[i].unsigned_abs();
+            len_sq += match d.checked_mul(d) {
+                Some(sq) => sq as u128,
+                None => d as u128 * d as u128,
+            };
         }
         if events == 0 {
             return true;
         }
-        let length = (isqrt_u128(len_sq) as u64).max(1);
+        let length = if len_sq <= u64::MAX as u128 {
+            isqrt_u64(len_sq as u64)
+        } else {
+            isqrt_u128(len_sq) as u64
+        }
+        .max(1);
         let mut max_speed = MAX_SPEED;
         let mut accel = u64::MAX;
         let mut start_speed = MAX_SPEED;
@@ -301,7 +318,10 @@ impl<const N: usize> Planner<N> {
             max_speed = max_speed.min(mul_div(ax.max_rate, length, d));
             accel = accel.min(mul_div(ax.accel, length, d));
             start_speed = start_speed.min(mul_div(ax.start_speed, length, d));
-            unit[i] = ((req.delta[i] as i128 * UNIT as i128) / length as i128) as i64;
+            unit[i] = match req.delta[i].checked_mul(UNIT) {
+                Some(p) => p / length as i64,
+                None => ((req.delta[i] as i128 * UNIT as i128) / length as i128) as i64,
+            };
         }
         let max_speed = max_speed.max(1);
         let accel = accel.max(1);
@@ -329,6 +349,7 @@ impl<const N: usize> Planner<N> {
             max_speed,
             programmed,
             rapid,
+            nominal: 1,
             start_speed,
             junction_sq,
             stop_before,
@@ -339,6 +360,7 @@ impl<const N: usize> Planner<N> {
         };
         let i = self.index(self.len);
         self.ring[i] = block;
+        self.ring[i].nominal = self.override_speed(&block);
         self.len += 1;
         let off = self.len - 1;
         self.ring[i].max_entry_sq = self.max_entry_sq(off);
@@ -357,6 +379,10 @@ impl<const N: usize> Planner<N> {
     pub fn replan_all(&mut self) {
         for off in 0..self.len {
             let i = self.index(off);
+            self.ring[i].nominal = self.override_speed(&self.ring[i]);
+        }
+        for off in 0..self.len {
+            let i = self.index(off);
             if self.ring[i].kind == BlockKind::Line {
                 self.ring[i].max_entry_sq = self.max_entry_sq(off);
             }
@@ -369,14 +395,16 @@ impl<const N: usize> Planner<N> {
     fn reverse_pass(&mut self, force_from: usize) {
         let mut next_entry = 0u64;
         let mut off = self.len;
+        let last = self.len.wrapping_sub(1);
         while off > 1 {
             off -= 1;
             let i = self.index(off);
-            let b = self.ring[i];
+            let b = &self.ring[i];
             let entry = if b.kind == BlockKind::Line {
                 let exit = if b.stop_after {
-                    self.stop_exit_sq(&b)
-                } else if off + 1 == self.len {
+                    let v = b.start_speed.min(b.nominal);
+                    v * v
+                } else if off == last {
                     0
                 } else {
                     next_entry
@@ -403,15 +431,16 @@ fn junction_limit_sq(
     deviation: u64,
 ) -> u64 {
     let mut dot: i64 = 0;
-    let mut jump_sq: u128 = 0;
+    let mut jump_sq: u64 = 0;
     let mut jump = [0i64; MAX_AXES];
-    for i in 0..MAX_AXES {
+    for i in 0..cfg.axis_count as usize {
         dot += prev[i] * cur[i];
         jump[i] = cur[i] - prev[i];
-        jump_sq += (jump[i] as i128 * jump[i] as i128) as u128;
+        // |jump| ≤ 2·2³⁰, so the sum of squares stays below 2⁶².
+        jump_sq += (jump[i] * jump[i]) as u64;
     }
     // |û_cur − û_prev| in 2³⁰ units; 0 means a straight continuation.
-    let jump_len = isqrt_u128(jump_sq) as u64;
+    let jump_len = isqrt_u64(jump_sq);
     if jump_len <= 2 {
         return u64::MAX;
     }
@@ -428,9 +457,12 @@ fn junction_limit_sq(
                 accel = accel.min(mul_div(cfg.axes[i].accel, jump_len, j.unsigned_abs()));
             }
         }
-        let num = accel as u128 * deviation as u128 * sin_half as u128;
-        let den = (UNIT as u64 - sin_half) as u128;
-        limit = (num / den).min(u64::MAX as u128) as u64;
+        // a·δ·sin / (1 − sin), split so every product stays within 64 bits.
+        let q = accel.saturating_mul(deviation);
+        let den = UNIT as u64 - sin_half;
+        let q_den = div_u64(q, den);
+        let whole = q_den.saturating_mul(sin_half);
+        limit = whole.saturating_add(div_u64((q - q_den * den) * sin_half, den));
     }
     if cfg.feed_shift > 0 {
         let v = mul_div(cfg.feed_shift, UNIT as u64, jump_len).min(MAX_SPEED);

@@ -11,7 +11,7 @@
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::planner::{Block, BlockKind, Planner};
 use super::profile::Profile;
-use super::trig::{isqrt_u64, mul_div};
+use super::trig::{div_u64, isqrt_u64, mul_div};
 use crate::units::MAX_AXES;
 
 /// Target segment duration in kernel timer counts (2 ms).
@@ -303,18 +303,21 @@ impl Prep {
         let c = self.done + n;
         let s = Self::s_of(b, c);
         let dt = self.profile.time_at(s).saturating_sub(self.emitted).max(1);
-        let per_step = dt / n as u64;
-        let level = AMASS_PERIODS.iter().filter(|&&p| per_step > p).count() as u32;
+        // AMASS level from the dominant step period dt / n, compared without dividing.
+        let level = AMASS_PERIODS.iter().filter(|&&p| dt > p * n as u64).count() as u32;
         let ticks = n << level;
-        let period = (dt / ticks as u64).clamp(1, u32::MAX as u64) as u32;
+        let period = div_u64(dt, ticks as u64).clamp(1, u32::MAX as u64) as u32;
         let duration = ticks as u64 * period as u64;
         self.emitted += duration;
         let mut steps = [0u32; MAX_AXES];
         let events = b.events as u64;
         for i in 0..MAX_AXES {
-            // round(steps_i · c / N): cumulative, so the block ends exactly on steps_i.
-            let total = (b.steps[i] as u64 * c as u64 + events / 2) / events;
-            let total = total as u32;
+            let total = match b.steps[i] {
+                0 => continue,
+                s if s == b.events => c,
+                // round(steps_i · c / N): cumulative, so the block ends exactly on steps_i.
+                s => div_u64(s as u64 * c as u64 + events / 2, events) as u32,
+            };
             steps[i] = total - self.cum[i];
             self.cum[i] = total;
             if b.dir & (1 << i) != 0 {

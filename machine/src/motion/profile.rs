@@ -7,7 +7,7 @@
 //! Speeds are nm/s, accelerations nm/s², times kernel timer counts.
 
 use super::kernel::KERNEL_TIMER_HZ;
-use super::trig::{isqrt_u64, mul_div};
+use super::trig::{div_u64, isqrt_u64, mul_div};
 
 const HZ: u64 = KERNEL_TIMER_HZ as u64;
 
@@ -30,7 +30,12 @@ pub struct Profile {
 }
 
 fn ramp_len(v_hi_sq: u64, v_lo_sq: u64, two_a: u64) -> u64 {
-    v_hi_sq.saturating_sub(v_lo_sq).div_ceil(two_a)
+    let d = v_hi_sq.saturating_sub(v_lo_sq);
+    if d == 0 {
+        0
+    } else {
+        div_u64(d - 1, two_a) + 1
+    }
 }
 
 impl Profile {
@@ -102,7 +107,7 @@ impl Profile {
         let gain = two_a.saturating_mul(rem);
         let v0sq = v0 * v0;
         let (s3, v3) = if v0sq <= gain {
-            (s0 + v0sq / two_a, 0)
+            (s0 + div_u64(v0sq, two_a), 0)
         } else {
             (length, isqrt_u64(v0sq - gain))
         };

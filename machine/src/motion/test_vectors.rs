@@ -238,7 +238,7 @@ pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/arcs-helix",
         run: arcs_and_helix,
-        expected: 0xb220_0221,
+        expected: 0x0c92_8a26,
     },
     Vector {
         name: "motion/hold-resume-override",

@@ -66,9 +66,30 @@ pub fn isqrt_u64(v: u64) -> u64 {
     if v < 2 {
         return v;
     }
-    // Start from a power of two above the root, then Newton steps (monotonically decreasing).
-    let bits = 64 - v.leading_zeros();
-    let mut x = 1u64 << bits.div_ceil(2);
+    if v <= u32::MAX as u64 {
+        return isqrt_u32(v as u32) as u64;
+    }
+    // Tangent-line start from 2^k (k = ⌊log₂v / 2⌋) is above the root, then Newton steps
+    // decrease monotonically to ⌊√v⌋.
+    let k = (63 - v.leading_zeros()) / 2;
+    let mut x = (v >> (k + 1)) + (1u64 << (k - 1)) + 1;
+    loop {
+        let y = (x + div_u64(v, x)) >> 1;
+        if y >= x {
+            return x;
+        }
+        x = y;
+    }
+}
+
+/// ⌊√v⌋ of a 32-bit value (hardware 32-bit division on Cortex-M4).
+fn isqrt_u32(v: u32) -> u32 {
+    let k = (31 - v.leading_zeros()) / 2;
+    let mut x = if k == 0 {
+        v
+    } else {
+        (v >> (k + 1)) + (1u32 << (k - 1)) + 1
+    };
     loop {
         let y = (x + v / x) >> 1;
         if y >= x {
@@ -94,11 +115,66 @@ pub fn isqrt_u128(v: u128) -> u128 {
     }
 }
 
+/// ⌊n / d⌋ for `d ≠ 0`, using the Cortex-M4's 32-bit divider where the operands allow.
+///
+/// A 64-by-64 division is a ~250-instruction library call on ARMv7-M; with a 32-bit divisor this
+/// runs Hacker's Delight `divlu` (two 16-bit quotient digits on the hardware `udiv`) instead.
+#[inline]
+pub fn div_u64(n: u64, d: u64) -> u64 {
+    debug_assert!(d != 0);
+    if d > u32::MAX as u64 {
+        return n / d;
+    }
+    let d = d as u32;
+    let hi = (n >> 32) as u32;
+    if hi == 0 {
+        return ((n as u32) / d) as u64;
+    }
+    let q_hi = hi / d;
+    let r = hi % d;
+    ((q_hi as u64) << 32) | divlu(r, n as u32, d) as u64
+}
+
+/// Quotient of `(u1·2³² + u0) / v` when `u1 < v` (so it fits 32 bits).
+fn divlu(u1: u32, u0: u32, v: u32) -> u32 {
+    const B: u32 = 1 << 16;
+    let s = v.leading_zeros();
+    let v = v << s;
+    let (vn1, vn0) = (v >> 16, v & 0xFFFF);
+    let un32 = if s == 0 {
+        u1
+    } else {
+        (u1 << s) | (u0 >> (32 - s))
+    };
+    let un10 = u0 << s;
+    let (un1, un0) = (un10 >> 16, un10 & 0xFFFF);
+    let mut q1 = un32 / vn1;
+    let mut rhat = un32 - q1 * vn1;
+    while q1 >= B || (q1 as u64) * (vn0 as u64) > ((rhat as u64) << 16 | un1 as u64) {
+        q1 -= 1;
+        rhat += vn1;
+        if rhat >= B {
+            break;
+        }
+    }
+    let un21 = (((un32 as u64) << 16 | un1 as u64) - (q1 as u64) * (v as u64)) as u32;
+    let mut q0 = un21 / vn1;
+    rhat = un21 - q0 * vn1;
+    while q0 >= B || (q0 as u64) * (vn0 as u64) > ((rhat as u64) << 16 | un0 as u64) {
+        q0 -= 1;
+        rhat += vn1;
+        if rhat >= B {
+            break;
+        }
+    }
+    (q1 << 16) | q0
+}
+
 /// ⌊a × b / c⌋ without overflow (64-bit fast path); saturates at `u64::MAX`.
 pub fn mul_div(a: u64, b: u64, c: u64) -> u64 {
     debug_assert!(c != 0);
     match a.checked_mul(b) {
-        Some(p) => p / c,
+        Some(p) => div_u64(p, c),
         None => {
             let q = (a as u128 * b as u128) / c as u128;
             q.min(u64::MAX as u128) as u64
@@ -109,7 +185,7 @@ pub fn mul_div(a: u64, b: u64, c: u64) -> u64 {
 /// ⌈a × b / c⌉ without overflow; saturates at `u64::MAX`.
 pub fn mul_div_ceil(a: u64, b: u64, c: u64) -> u64 {
     match a.checked_mul(b) {
-        Some(p) => p.div_ceil(c),
+        Some(p) => div_u64(p.saturating_add(c - 1), c),
         None => {
             let q = (a as u128 * b as u128).div_ceil(c as u128);
             q.min(u64::MAX as u128) as u64
@@ -219,9 +295,62 @@ mod tests {
             let r = isqrt_u64(v) as u128;
             assert!(r * r <= v as u128 && (r + 1) * (r + 1) > v as u128, "{v}");
         }
+        for k in 0..64 {
+            for v in [
+                (1u64 << k) - 1,
+                1u64 << k,
+                (1u64 << k) + 1,
+                (1u64 << k) / 3 * 2,
+            ] {
+                let r = isqrt_u64(v) as u128;
+                assert!(r * r <= v as u128 && (r + 1) * (r + 1) > v as u128, "{v}");
+            }
+        }
         let v = u128::MAX / 3;
         let r = isqrt_u128(v);
         assert!(r * r <= v && (r + 1) * (r + 1) > v);
+    }
+
+    #[test]
+    fn fast_division_matches_native() {
+        let mut seed = 0x1234_5678_9abc_def0u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for i in 0..200_000 {
+            let n = next() >> (i % 64);
+            let d = (next() >> (32 + i % 32)).max(1);
+            assert_eq!(div_u64(n, d), n / d, "{n} / {d}");
+            let d = next().max(1);
+            assert_eq!(div_u64(n, d), n / d, "{n} / {d}");
+        }
+        for (n, d) in [
+            (u64::MAX, 1),
+            (u64::MAX, u32::MAX as u64),
+            (u64::MAX, 3),
+            (1 << 63, 0x8000_0001),
+        ] {
+            assert_eq!(div_u64(n, d), n / d);
+        }
+    }
+
+    #[test]
+    fn square_roots_of_random_values() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        for i in 0..100_000 {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            let v = seed >> (i % 64);
+            let r = isqrt_u64(v) as u128;
+            assert!(
+                r * r <= v as u128 && (r + 1) * (r + 1) > v as u128,
+                "{v} -> {r}"
+            );
+        }
     }
 
     #[test]

@@ -141,6 +141,32 @@ fn block_cost() -> (u64, u64) {
     (total * 1000 / BLOCKS as u64, push_counts * 1000 / BLOCKS as u64)
 }
 
+/// Instructions per call of a few core helpers (for finding where block time goes).
+fn helper_costs() {
+    use gantry_machine::motion::profile::Profile;
+    use gantry_machine::motion::trig::{isqrt_u64, mul_div};
+    const N: u64 = 1000;
+    let t0 = now();
+    let mut acc = 0u64;
+    for i in 0..N {
+        acc = acc.wrapping_add(isqrt_u64(black_box(2_500_000_000_000_000 + i * 7919)));
+    }
+    let sqrt = (now() - t0) * 40 / N;
+    let t0 = now();
+    for i in 0..N {
+        acc = acc.wrapping_add(mul_div(black_box(50_000_000 + i), 24_000_000, black_box(200_000_000)));
+    }
+    let md = (now() - t0) * 40 / N;
+    let t0 = now();
+    for i in 0..N {
+        let p = Profile::plan(0, black_box(40_000_000 + i), 100_000, 50_000_000, 1_600_000_000_000_000, 200_000_000);
+        acc = acc.wrapping_add(p.time_at(black_box(50_000)));
+    }
+    let plan = (now() - t0) * 40 / N;
+    black_box(acc);
+    println!("helpers: isqrt_u64 {} instr, mul_div {} instr, Profile::plan + time_at {} instr", sqrt, md, plan);
+}
+
 #[entry]
 fn main() -> ! {
     let mut cp = cortex_m::Peripherals::take().unwrap();
@@ -160,6 +186,7 @@ fn main() -> ! {
     let t3 = to_instr(tick_cost(3, isr_body)).saturating_sub(base);
     let t6 = to_instr(tick_cost(6, isr_body)).saturating_sub(base);
     println!("loop+call overhead: {} instructions per tick (subtracted)", base);
+    helper_costs();
     let (block, push) = block_cost();
     let (block, push) = (to_instr(block), to_instr(push));
     println!("short G1 block: {} instructions (plan {})", block, push);
