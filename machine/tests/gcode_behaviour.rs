@@ -910,3 +910,73 @@ fn errors_report_line_n_word_and_columns() {
     assert_eq!(e.n_word, Some(40));
     assert_eq!(e.columns, Some((18, 20)));
 }
+
+#[test]
+fn absolute_arc_centres_with_g90_1() {
+    let a = ok("G10 L2 P1 X100\nG0 X10 Y0\nG90.1 G3 X0 Y10 I0 J0 F100\nG91.1 G3 X-10 Y0 I0 J-10\n");
+    let c: Vec<_> = arcs(&a).iter().map(|x| x.1).collect();
+    assert_eq!(c, vec![[100 * MM, 0, 0], [100 * MM, 0, 0]]);
+}
+
+#[test]
+fn g19_cycle_drills_along_x() {
+    let a = ok("G19 G0 X10 Y0 Z0\nG99 G81 Y1 Z2 X-1 R1 F60\n");
+    assert_eq!(
+        moves(&a)[1..],
+        [
+            r(10.0, 1.0, 2.0),
+            r(1.0, 1.0, 2.0),
+            f(-1.0, 1.0, 2.0),
+            r(1.0, 1.0, 2.0)
+        ]
+    );
+}
+
+#[test]
+fn small_settings_and_framing() {
+    // M98 L0 calls nothing; G43 H0 cancels the length; lines after the closing % are not read.
+    let a = ok("%\nM98 P5 L0\nG43 H0\nG0 Z1\n%\nG0 X99\n");
+    assert_eq!(moves(&a), vec![r(0.0, 0.0, 1.0)]);
+    // G30.1 stores the position for G30; CRLF and lower case are fine.
+    let a = ok("g0 x3 y4\r\ng30.1\r\ng0 x0 y0\r\ng30\r\n");
+    assert_eq!(moves(&a)[3], r(3.0, 4.0, 0.0));
+}
+
+#[test]
+fn pulling_reads_only_what_it_needs() {
+    use gantry_machine::gcode::{ProgramSource, SourceError};
+    struct Counting<'a> {
+        inner: MemorySource<'a>,
+        reads: u32,
+    }
+    impl ProgramSource for Counting<'_> {
+        fn next_line(&mut self) -> Option<(u32, &[u8])> {
+            self.reads += 1;
+            self.inner.next_line()
+        }
+        fn jump_to_program(&mut self, p: u32) -> Result<u32, SourceError> {
+            self.inner.jump_to_program(p)
+        }
+        fn jump_to_sequence(&mut self, n: u32) -> Result<u32, SourceError> {
+            self.inner.jump_to_sequence(n)
+        }
+        fn jump_to_line(&mut self, l: u32) -> Result<(), SourceError> {
+            self.inner.jump_to_line(l)
+        }
+    }
+    let mut src = Counting {
+        inner: MemorySource::new(b"(header)\nG0 X1\nG91 G81 X1 Z-1 R1 L1000 F100\nG0 X9\n"),
+        reads: 0,
+    };
+    let mut it = Interpreter::new(&InterpConfig::default());
+    it.next(&mut src).unwrap().unwrap();
+    assert_eq!(
+        src.reads, 2,
+        "one action needs only the lines up to its block"
+    );
+    // A thousand drilled holes come out of one block without reading further.
+    for _ in 0..3000 {
+        it.next(&mut src).unwrap().unwrap();
+    }
+    assert_eq!(src.reads, 3);
+}
