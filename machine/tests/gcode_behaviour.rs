@@ -980,3 +980,16 @@ fn pulling_reads_only_what_it_needs() {
     }
     assert_eq!(src.reads, 3);
 }
+
+#[test]
+fn bare_motion_codes_move_nowhere_like_linuxcnc() {
+    // A CAM safety line with an explicit G0 and no axis words is a zero-length rapid in rs274.
+    let a = ok("G0 X1\nG0 G17 G40 G49 G90\nY2\n");
+    assert_eq!(
+        moves(&a),
+        vec![r(1.0, 0.0, 0.0), r(1.0, 0.0, 0.0), r(1.0, 2.0, 0.0)]
+    );
+    assert_eq!(first_error("G1\n").code, ErrorCode::ZeroFeedRate);
+    // Non-motion blocks in a modal motion mode do not move.
+    assert!(moves(&ok("G1 F100\nF200\nM8\n")).len() == 1);
+}

@@ -726,9 +726,10 @@ impl Interpreter {
         }
         match mode {
             MotionMode::Rapid => {
+                // As LinuxCNC, an explicit G0 without axis words is a zero-length move.
                 let has_axes = AXIS_LETTERS.iter().any(|&l| b.has(l));
                 let to = self.target(b, g53)?;
-                if has_axes {
+                if has_axes || explicit {
                     self.push(line, Action::Rapid { to })?;
                 }
                 self.state.position = to;
@@ -736,7 +737,7 @@ impl Interpreter {
             MotionMode::Linear => {
                 let has_axes = AXIS_LETTERS.iter().any(|&l| b.has(l));
                 let to = self.target(b, g53)?;
-                if has_axes {
+                if has_axes || explicit {
                     let feed = self.straight_feed(self.state.position, to, f_given)?;
                     self.push(line, Action::Feed { to, feed })?;
                 }
