@@ -237,14 +237,18 @@ macro_rules! gantry_board {
 
         /// Moves the board's pins out of `p` into drivers in their power-up state.
         pub fn split(p: embassy_stm32::Peripherals) -> (Pins, Rest) {
+            // Step/dir edges fast; everything else slow (less EMI, and PC13-PC15 allow 2 MHz only).
+            let fast = |pin: Peri<'static, embassy_stm32::gpio::AnyPin>| {
+                Output::new(pin, Level::Low, Speed::VeryHigh)
+            };
             let out = |pin: Peri<'static, embassy_stm32::gpio::AnyPin>, level| {
-                Output::new(pin, level, Speed::VeryHigh)
+                Output::new(pin, level, Speed::Low)
             };
             let irqs = $crate::board::Irqs;
             let pins = Pins {
                 step_dir: [
-                    $(out(p.$step.into(), Level::Low),)+
-                    $(out(p.$dir.into(), Level::Low),)+
+                    $(fast(p.$step.into()),)+
+                    $(fast(p.$dir.into()),)+
                 ],
                 inputs: Inputs {
                     exti: [
