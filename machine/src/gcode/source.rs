@@ -53,7 +53,13 @@ pub struct MemorySource<'a> {
     line: u32,
     cache: heapless::Vec<(u32, usize), POSITION_CACHE>,
     cache_next: usize,
+    /// Programs already located: (O number, line, byte offset); found once, with duplicates checked.
+    programs: heapless::Vec<(u32, u32, usize), PROGRAM_CACHE>,
+    programs_next: usize,
 }
+
+/// Remembered subprogram locations.
+const PROGRAM_CACHE: usize = 8;
 
 impl<'a> MemorySource<'a> {
     /// A source positioned at line 1.
@@ -64,6 +70,8 @@ impl<'a> MemorySource<'a> {
             line: 1,
             cache: heapless::Vec::new(),
             cache_next: 0,
+            programs: heapless::Vec::new(),
+            programs_next: 0,
         }
     }
 
@@ -163,11 +171,28 @@ impl ProgramSource for MemorySource<'_> {
     }
 
     fn jump_to_program(&mut self, program: u32) -> Result<u32, SourceError> {
-        let (found, duplicate) = self.find(|bytes| leading_number(bytes, b"O:") == Some(program));
-        if duplicate {
-            return Err(SourceError::DuplicateProgram);
-        }
-        let (line, offset) = found.ok_or(SourceError::UnknownProgram)?;
+        let known = self
+            .programs
+            .iter()
+            .find(|&&(p, _, _)| p == program)
+            .map(|&(_, l, o)| (l, o));
+        let (line, offset) = match known {
+            Some(found) => found,
+            None => {
+                let (found, duplicate) =
+                    self.find(|bytes| leading_number(bytes, b"O:") == Some(program));
+                if duplicate {
+                    return Err(SourceError::DuplicateProgram);
+                }
+                let (line, offset) = found.ok_or(SourceError::UnknownProgram)?;
+                let entry = (program, line, offset);
+                if self.programs.push(entry).is_err() {
+                    self.programs[self.programs_next] = entry;
+                    self.programs_next = (self.programs_next + 1) % PROGRAM_CACHE;
+                }
+                (line, offset)
+            }
+        };
         // Remember where we are: the caller will come back here after M99.
         self.remember(self.line, self.offset);
         self.remember(line, offset);
