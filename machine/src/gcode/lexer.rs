@@ -43,7 +43,7 @@ impl Word {
 pub enum LineStart {
     /// An ordinary block (possibly empty or comment-only).
     Block,
-    /// A line holding only `%` (tape framing).
+    /// A line starting with `%` (tape framing; the rest of the line is ignored).
     Percent,
     /// A line holding only `E` (end of tape).
     EndOfTape,
@@ -81,7 +81,8 @@ impl<'a> Lexer<'a> {
     /// Classifies the line (framing, end of tape, block) and consumes a leading `/`.
     pub fn start(&mut self) -> LineStart {
         let trimmed = trim(self.line);
-        if trimmed == b"%" {
+        // `%` framing, possibly followed by a comment or a program name on the same line.
+        if trimmed.first() == Some(&b'%') {
             return LineStart::Percent;
         }
         if trimmed == b"E" || trimmed == b"e" {
