@@ -23,8 +23,9 @@ gantry_board! {
     step: [PC6, PC7, PC8, PC9],
     dir: [PB12, PB13, PB14, PB15],
     stepper_enable: PB1,
-    // One input per axis: min and max switches of an axis wired together (NC in series).
+    // Separate min and max limit inputs per axis.
     limit: [PC0 EXTI0, PC1 EXTI1, PC2 EXTI2, PC3 EXTI3],
+    limit_max: [PA6 EXTI6, PA7 EXTI7, PA9 EXTI9, PA10 EXTI10],
     feed_hold: PC4 EXTI4,
     abort: PC5 EXTI5,
     cycle_start: [PC13 EXTI13, PA15 EXTI15],

@@ -139,6 +139,7 @@ macro_rules! gantry_board {
         dir: [$($dir:ident),+ $(,)?],
         stepper_enable: $en:ident,
         limit: [$($lim:ident $lim_ch:ident),+ $(,)?],
+        $(limit_max: [$($limx:ident $limx_ch:ident),+ $(,)?],)?
         feed_hold: $hold:ident $hold_ch:ident,
         abort: $abort:ident $abort_ch:ident,
         cycle_start: [$cs1:ident $cs1_ch:ident, $cs2:ident $cs2_ch:ident $(,)?],
@@ -159,6 +160,7 @@ macro_rules! gantry_board {
             exti_inputs.push(("abort", stringify!($abort), stringify!($abort_ch)));
             exti_inputs.push(("cycle_start1", stringify!($cs1), stringify!($cs1_ch)));
             exti_inputs.push(("cycle_start2", stringify!($cs2), stringify!($cs2_ch)));
+            $($(exti_inputs.push(("limit_max", stringify!($limx), stringify!($limx_ch)));)+)?
             let mut outputs = vec![
                 ("spindle_enable", stringify!($sp_en)),
                 ("spindle_dir", stringify!($sp_dir)),

@@ -73,6 +73,12 @@ fn step_and_dir_pins_each_share_one_port() {
         assert_eq!(b.step.len(), b.dir.len(), "{}: one dir per step", b.name);
         let limits = b.exti_inputs.iter().filter(|i| i.0 == "limit").count();
         assert_eq!(b.step.len(), limits, "{}: one limit input per axis", b.name);
+        let max = b.exti_inputs.iter().filter(|i| i.0 == "limit_max").count();
+        assert!(
+            max == 0 || max == limits,
+            "{}: limit_max is per axis or absent",
+            b.name
+        );
         for group in [&b.step, &b.dir] {
             let port = pin(group[0]).port;
             for name in group.iter() {

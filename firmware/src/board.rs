@@ -128,6 +128,7 @@ macro_rules! gantry_board {
         dir: [$($dir:ident),+ $(,)?],
         stepper_enable: $en:ident,
         limit: [$($lim:ident $lim_ch:ident),+ $(,)?],
+        $(limit_max: [$($limx:ident $limx_ch:ident),+ $(,)?],)?
         feed_hold: $hold:ident $hold_ch:ident,
         abort: $abort:ident $abort_ch:ident,
         cycle_start: [$cs1:ident $cs1_ch:ident, $cs2:ident $cs2_ch:ident $(,)?],
@@ -175,8 +176,13 @@ macro_rules! gantry_board {
         const _: () = assert!($crate::board::same_port(&STEP), "step pins must share one port");
         const _: () = assert!($crate::board::same_port(&DIR), "dir pins must share one port");
         const _: () = assert!(USER_OUTPUTS >= 4, "at least four user outputs");
+        const _: () = assert!(
+            LIMIT_MAX_INPUTS == 0 || LIMIT_MAX_INPUTS == AXES,
+            "limit_max lists one input per axis, or is left out"
+        );
 
-        /// Index in [`Inputs::exti`] of the first limit input (one per axis, axis order).
+        /// Index in [`Inputs::exti`] of the first limit input: one per axis, axis order; the min
+        /// switch, or min and max wired together when the board has no `limit_max` inputs.
         pub const LIMIT0: usize = 0;
         /// Index in [`Inputs::exti`] of the feed hold input.
         pub const FEED_HOLD: usize = AXES;
@@ -184,14 +190,18 @@ macro_rules! gantry_board {
         pub const ABORT: usize = AXES + 1;
         /// Index in [`Inputs::exti`] of the first of the two cycle start inputs.
         pub const CYCLE_START0: usize = AXES + 2;
+        /// Index in [`Inputs::exti`] of the first separate max-limit input (if any).
+        pub const LIMIT_MAX0: usize = AXES + 4;
+        /// Number of separate max-limit inputs: 0 or one per axis.
+        pub const LIMIT_MAX_INPUTS: usize = <[&str]>::len(&[$($(stringify!($limx),)+)?]);
         /// Number of EXTI inputs.
-        pub const EXTI_INPUTS: usize = AXES + 4;
+        pub const EXTI_INPUTS: usize = AXES + 4 + LIMIT_MAX_INPUTS;
         /// Number of joystick switches.
         pub const JOYSTICK_SWITCHES: usize = [$(stringify!($jsw)),*].len();
 
         /// Every input of the board, configured with pull-ups (switches close to ground).
         pub struct Inputs {
-            /// Limits, feed hold, abort, cycle start ×2 (see [`LIMIT0`] and friends).
+            /// Limits, feed hold, abort, cycle start ×2, max limits (see [`LIMIT0`] and friends).
             pub exti: [ExtiInput<'static, Async>; EXTI_INPUTS],
             pub joystick_switches: [Input<'static>; JOYSTICK_SWITCHES],
         }
@@ -257,6 +267,7 @@ macro_rules! gantry_board {
                         ExtiInput::new(p.$abort, p.$abort_ch, Pull::Up, irqs),
                         ExtiInput::new(p.$cs1, p.$cs1_ch, Pull::Up, irqs),
                         ExtiInput::new(p.$cs2, p.$cs2_ch, Pull::Up, irqs),
+                        $($(ExtiInput::new(p.$limx, p.$limx_ch, Pull::Up, irqs),)+)?
                     ],
                     joystick_switches: [$(Input::new(p.$jsw, Pull::Up)),*],
                 },

@@ -7,7 +7,8 @@
 //! asserted input means beyond the latched stop and the outputs' safe state.
 
 use crate::board_def::{
-    Inputs, Outputs, ABORT, AXES, CYCLE_START0, EXTI_INPUTS, FEED_HOLD, LIMIT0,
+    Inputs, Outputs, ABORT, AXES, CYCLE_START0, EXTI_INPUTS, FEED_HOLD, JOYSTICK_SWITCHES, LIMIT0,
+    LIMIT_MAX0, LIMIT_MAX_INPUTS,
 };
 use crate::step::STOP;
 use core::sync::atomic::{AtomicU32, Ordering};
@@ -17,8 +18,11 @@ use embassy_time::{Duration, Timer};
 /// Asserted inputs: bit i = `Inputs::exti[i]`, then the joystick switches from bit `EXTI_INPUTS`.
 pub static ASSERTED: AtomicU32 = AtomicU32::new(0);
 
-/// Bits of `ASSERTED` that stop motion at once.
-const STOP_MASK: u32 = (((1 << AXES) - 1) << LIMIT0) | (1 << ABORT);
+/// Bits of `ASSERTED` that stop motion at once: every limit input and abort.
+const STOP_MASK: u32 =
+    (((1 << AXES) - 1) << LIMIT0) | (((1 << LIMIT_MAX_INPUTS) - 1) << LIMIT_MAX0) | (1 << ABORT);
+
+const _: () = assert!(EXTI_INPUTS + JOYSTICK_SWITCHES <= 32, "inputs fit one word");
 
 fn sample(inputs: &Inputs) -> u32 {
     let mut word = 0;
@@ -55,8 +59,9 @@ pub async fn run(mut inputs: Inputs, mut outputs: Outputs) {
         ASSERTED.store(word, Ordering::Relaxed);
         if word != last {
             defmt::info!(
-                "inputs: limits {=u32:b} hold {=bool} abort {=bool} cycle start {=u32:b} joystick {=u32:b}",
+                "inputs: limits {=u32:b} max {=u32:b} hold {=bool} abort {=bool} cycle start {=u32:b} joystick {=u32:b}",
                 (word >> LIMIT0) & ((1 << AXES) - 1),
+                (word >> LIMIT_MAX0) & ((1 << LIMIT_MAX_INPUTS) - 1),
                 word & (1 << FEED_HOLD) != 0,
                 word & (1 << ABORT) != 0,
                 (word >> CYCLE_START0) & 0b11,
