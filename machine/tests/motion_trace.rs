@@ -437,3 +437,56 @@ fn exact_stop_mode_stops_at_every_block() {
         assert!(b.entry <= 1_000_000, "{b:?}");
     }
 }
+
+#[test]
+fn rapid_override_scales_rapids_only() {
+    let cfg = MotionConfig::default();
+    let run = |pct: u16| {
+        let mut sim: Sim<128> = Sim::new(cfg);
+        sim.motion.set_rapid_override(pct);
+        let mut blocks = Vec::new();
+        sim.run(
+            vec![
+                rapid(1, xyz(100.0, 0.0, 0.0)),
+                feed(2, xyz(0.0, 0.0, 0.0), 1200),
+            ],
+            &mut |e| {
+                if let SimEvent::Block { report, .. } = e {
+                    blocks.push(report)
+                }
+            },
+        )
+        .unwrap();
+        (blocks[0].peak, blocks[1].peak)
+    };
+    assert_eq!(run(100), (50_000_000, 20_000_000));
+    assert_eq!(run(25), (12_500_000, 20_000_000));
+}
+
+#[test]
+fn limit_stop_then_reset_keeps_exact_steps() {
+    let cfg = MotionConfig::default();
+    let mut sim: Sim<128> = Sim::new(cfg);
+    let mut on = |_e: SimEvent| {};
+    sim.motion
+        .push(&feed(1, xyz(50.0, 20.0, 0.0), 3000))
+        .unwrap();
+    while sim.now < KERNEL_TIMER_HZ as u64 / 3 {
+        sim.tick(&mut on);
+    }
+    // Limit switch: the kernel stops stepping at this tick.
+    sim.stop = true;
+    let out = sim.tick(&mut on);
+    assert_eq!((out.step, out.period), (0, 0));
+    let at = sim.kernel.position();
+    // Controller: flush the queue, resync motion to the kernel, clear the stop.
+    sim.fifo.0.clear();
+    sim.motion.reset(at);
+    sim.kernel.clear_stop();
+    sim.stop = false;
+    assert_eq!(sim.motion.state(), MotionState::Idle);
+    assert_eq!(sim.motion.prepared_steps(), at);
+    sim.motion.push(&feed(2, xyz(0.0, 0.0, 0.0), 3000)).unwrap();
+    sim.run_until_idle(&mut on);
+    assert_eq!(sim.kernel.position(), [0; MAX_AXES]);
+}

@@ -393,6 +393,15 @@ impl<const N: usize> Motion<N> {
         self.position = self.cfg.to_nm(&self.steps);
     }
 
+    /// Drops everything queued at once, without deceleration, and takes `steps` (normally
+    /// [`super::kernel::StepKernel::position`]) as the exact position. For a limit stop: the kernel
+    /// has already stopped stepping, so flush the segment queue, then call this.
+    pub fn reset(&mut self, steps: [i64; MAX_AXES]) {
+        self.prep.set_position(steps);
+        self.finish_abort();
+        self.prep.state = PrepState::Running;
+    }
+
     /// Feed override in percent (clamped to 10-200), applied at once.
     pub fn set_feed_override(&mut self, pct: u16) {
         let rapid = self.planner.rapid_override();
