@@ -60,9 +60,9 @@ qemu-system-arm --version | sed -n 1p
 command -v readelf >/dev/null || fail "readelf (binutils) is needed for the size report"
 
 section "cargo fmt --check (root, boards, firmware, target-tests)"
-cargo fmt --all --check
+cargo fmt --all --check || fail "formatting: run 'cargo fmt --all'"
 for dir in boards firmware target-tests; do
-    (cd "$dir" && cargo fmt --check)
+    (cd "$dir" && cargo fmt --check) || fail "formatting: run 'cargo fmt' in $dir/"
 done
 
 section "clippy: host workspace"
