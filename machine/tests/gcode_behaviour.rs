@@ -458,15 +458,57 @@ fn seed_14_12_g92_shifts_every_work_system() {
     let mut cfg = InterpConfig::default();
     cfg.work_offsets[0][0] = 100 * MM;
     cfg.work_offsets[1][0] = 200 * MM;
-    let a: Vec<Canon> = run_with("G54 G0 X10\nG92 X0\nG55 G0 X0\nG92.1\nG0 X0\n", &cfg)
-        .into_iter()
-        .map(Result::unwrap)
-        .collect();
+    // LinuxCNC: G52 sets the same offset G92 does (to the value given), so X0 is machine 205.
+    let a: Vec<Canon> = run_with(
+        "G54 G0 X10\nG92 X0\nG55 G0 X0\nG52 X5\nG0 X0\nG92.1\nG0 X0\n",
+        &cfg,
+    )
+    .into_iter()
+    .map(Result::unwrap)
+    .collect();
     assert_eq!(
         moves(&a),
-        vec![r(110.0, 0.0, 0.0), r(210.0, 0.0, 0.0), r(200.0, 0.0, 0.0)]
+        vec![
+            r(110.0, 0.0, 0.0),
+            r(210.0, 0.0, 0.0),
+            r(205.0, 0.0, 0.0),
+            r(200.0, 0.0, 0.0)
+        ]
     );
-    assert_eq!(first_error("G52 X5\n").code, ErrorCode::UnknownGCode);
+    assert_eq!(first_error("G52\n").code, ErrorCode::MissingAxisWords);
+}
+
+#[test]
+fn feed_keeps_its_physical_value_across_units_and_g94_clears_it() {
+    let feeds = |a: &[Canon]| -> Vec<i64> {
+        a.iter()
+            .filter_map(|c| match c.action {
+                Action::Feed { feed, .. } => Some(feed),
+                _ => None,
+            })
+            .collect()
+    };
+    assert_eq!(
+        feeds(&ok("G21 G1 X1 F254\nG20\nG1 X1\nG21 G1 X2\n")),
+        vec![254 * MM, 254 * MM, 254 * MM]
+    );
+    let e = first_error("G93 G1 X10 F2\nG94 G1 X20\n");
+    assert_eq!((e.code, e.line), (ErrorCode::ZeroFeedRate, 2));
+    // A redundant G94 keeps the feed (Fanuc; LinuxCNC would clear it).
+    assert_eq!(
+        feeds(&ok("G1 X1 F100\nG94 G1 X2\n")),
+        vec![100 * MM, 100 * MM]
+    );
+}
+
+#[test]
+fn g10_l1_writes_the_tool_table() {
+    let a = ok("G10 L1 P5 Z10 R2\nG43 H5\nG0 Z0\n");
+    assert_eq!(moves(&a), vec![r(0.0, 0.0, 10.0)]);
+    // The bad block leaves the table untouched.
+    let out = run("G10 L1 P6 Z10 Q1\nG43 H6\n");
+    assert_eq!(out[0].as_ref().unwrap_err().code, ErrorCode::UnusedWord);
+    assert_eq!(out[1].as_ref().unwrap_err().code, ErrorCode::ToolNotInTable);
 }
 
 #[test]
@@ -577,7 +619,7 @@ fn work_offsets_g10_and_p0() {
         moves(&a),
         vec![r(10.0, 20.0, 0.0), r(10.0, 20.0, -5.0), r(9.0, 20.0, -5.0)]
     );
-    assert_eq!(first_error("G10 L1 P1 X1\n").code, ErrorCode::G10Invalid);
+    assert_eq!(first_error("G10 L3 P1 X1\n").code, ErrorCode::G10Invalid);
     assert_eq!(first_error("G10 L2 P12 X1\n").code, ErrorCode::G10Invalid);
     // G59.1..G59.3 exist
     let a = ok("G10 L2 P9 X3\nG59.3 G0 X0\n");

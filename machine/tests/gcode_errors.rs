@@ -249,7 +249,7 @@ const CASES: &[Case] = &[
         Some((0, 3)),
     ),
     (
-        "G10 L1 P1 X1",
+        "G10 L3 P1 X1",
         cfg_default,
         ErrorCode::G10Invalid,
         Some((4, 6)),

@@ -11,7 +11,7 @@ use super::lexer::{Lexer, Word, MICRO};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
 pub enum GGroup {
-    /// 0: G4 G10 G28 G28.1 G30 G30.1 G53 G92 G92.1 G92.2 G92.3.
+    /// 0: G4 G10 G28 G28.1 G30 G30.1 G52 G53 G92 G92.1 G92.2 G92.3.
     NonModal = 0,
     /// 1: G0 G1 G2 G3 G73 G80-G89.
     Motion,
@@ -44,7 +44,7 @@ pub const G_GROUPS: usize = 12;
 pub fn g_group(code: u16) -> Option<GGroup> {
     use GGroup::*;
     Some(match code {
-        40 | 100 | 280 | 281 | 300 | 301 | 530 | 920 | 921 | 922 | 923 => NonModal,
+        40 | 100 | 280 | 281 | 300 | 301 | 520 | 530 | 920 | 921 | 922 | 923 => NonModal,
         0 | 10 | 20 | 30 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => {
             Motion
         }

@@ -114,7 +114,7 @@ pub enum ErrorCode {
     /// A canned cycle this dialect does not support (G74, G76, default G87/G88).
     CycleNotSupported,
     // --- 5xx offsets, tools, settings ---
-    /// G10 with a missing or unsupported L, or P out of range.
+    /// G10 with a missing or unsupported L, or P out of range (or a full tool table for L1).
     G10Invalid,
     /// G43 H (or tool number) not in the tool table.
     ToolNotInTable,
@@ -312,7 +312,7 @@ impl ErrorCode {
             CycleRepeatInvalid => "canned-cycle repeat count (K/L) must be a whole number >= 0",
             CyclePeckNotAboveRetract => "G87 peck Q must be larger than the partial-retract distance",
             CycleNotSupported => "canned cycle not supported in this dialect",
-            G10Invalid => "G10 needs L2 or L20 and P0..P9",
+            G10Invalid => "G10 needs L1 (P tool), L2 or L20 (P0..P9)",
             ToolNotInTable => "tool not in the tool table",
             G53Invalid => "G53 needs G0 or G1 and absolute distance mode (G90)",
             CutterCompNotSupported => "cutter radius compensation (G41/G42) is not supported yet",

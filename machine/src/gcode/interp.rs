@@ -418,7 +418,7 @@ impl Interpreter {
         };
         let motion_g = b.g[GGroup::Motion as usize];
         let first_axis = AXIS_LETTERS.iter().find_map(|&l| b.word(l));
-        let nonmodal_axes = matches!(nonmodal, Some(100 | 280 | 300 | 920))
+        let nonmodal_axes = matches!(nonmodal, Some(100 | 280 | 300 | 520 | 920))
             || b.g_of(GGroup::ToolLength) == Some(431);
         if nonmodal_axes {
             if let Some(m) = motion_g {
@@ -442,7 +442,13 @@ impl Interpreter {
         // 1. feed mode, F, S, T
         match b.g_of(GGroup::FeedMode) {
             Some(930) => self.state.inverse_time = true,
-            Some(940) => self.state.inverse_time = false,
+            Some(940) => {
+                // LinuxCNC: leaving inverse time leaves no feed rate (an F must follow).
+                if self.state.inverse_time {
+                    self.state.feed = 0;
+                }
+                self.state.inverse_time = false;
+            }
             _ => {}
         }
         if let Some(w) = b.take(b'F') {
@@ -525,10 +531,18 @@ impl Interpreter {
             Some(190) => self.state.plane = Plane::YZ,
             _ => {}
         }
-        match b.g_of(GGroup::Units) {
-            Some(200) => self.state.inch = true,
-            Some(210) => self.state.inch = false,
-            _ => {}
+        if let Some(code) = b.g_of(GGroup::Units) {
+            let inch = code == 200;
+            if inch != self.state.inch && !self.state.inverse_time {
+                // The feed keeps its physical value (LinuxCNC converts the feed in force).
+                let f = self.state.feed as i128;
+                self.state.feed = if inch {
+                    geometry::div_round(f * 10, 254)
+                } else {
+                    geometry::div_round(f * 254, 10)
+                } as i64;
+            }
+            self.state.inch = inch;
         }
         match b.g_of(GGroup::ToolLength) {
             Some(430) => {
@@ -600,10 +614,23 @@ impl Interpreter {
             Some(990) => self.state.retract_to_r = true,
             _ => {}
         }
-        // 6. G10 / G28 / G30 / G92 family
+        // 6. G10 / G28 / G30 / G52 / G92 family
         let g53 = nonmodal == Some(530);
+        let mut tool_write = None;
         match nonmodal {
-            Some(100) => self.set_work_offset(b)?,
+            Some(100) => tool_write = self.set_work_offset(b)?,
+            Some(520) => {
+                // LinuxCNC: G52 sets the same offset as G92, to the values given.
+                if !AXIS_LETTERS.iter().any(|&l| b.has(l)) {
+                    return Err((ErrorCode::MissingAxisWords, b.g_cols(520)));
+                }
+                for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
+                    if let Some(word) = b.take(letter) {
+                        self.state.g92[i] = bounded(self.axis_value(i, word)?, word)?;
+                    }
+                }
+                self.state.g92_saved = self.state.g92;
+            }
             Some(280) | Some(300) => {
                 let home = if nonmodal == Some(280) {
                     self.state.g28
@@ -667,16 +694,38 @@ impl Interpreter {
         if let Some(l) = b.letters().next() {
             return err(ErrorCode::UnusedWord, b.word(l));
         }
+        if let Some((tool, length)) = tool_write {
+            if !self.config.set_tool(tool, length) {
+                return Err((ErrorCode::G10Invalid, b.g_cols(100)));
+            }
+        }
         // 9. stops and program flow
         self.flow(b, line, src, call_p, call_l)
     }
 
-    fn set_work_offset(&mut self, b: &mut Block) -> Res<()> {
+    /// G10 L2/L20 (work offsets, applied now) and G10 L1 (tool length, returned to be written
+    /// once the whole block is known to be valid).
+    fn set_work_offset(&mut self, b: &mut Block) -> Res<Option<(u32, Nm)>> {
         let g10 = b.g_cols(100);
         let l = b.take(b'L').ok_or((ErrorCode::G10Invalid, g10))?;
         let p = b.take(b'P').ok_or((ErrorCode::G10Invalid, g10))?;
         let l_value = l.integer().ok_or((ErrorCode::G10Invalid, Some(l.cols)))?;
         let p_value = p.integer().ok_or((ErrorCode::G10Invalid, Some(p.cols)))?;
+        if l_value == 1 {
+            // Tool table: P tool, Z length (R, the radius, is accepted and unused).
+            if !(1..=99_999_999).contains(&p_value) {
+                return err(ErrorCode::G10Invalid, Some(p));
+            }
+            b.take(b'R');
+            for &letter in &[b'X', b'Y', b'A', b'B', b'C'] {
+                if let Some(w) = b.word(letter) {
+                    return err(ErrorCode::NotSupported, Some(w));
+                }
+            }
+            let z = b.take(b'Z').ok_or((ErrorCode::MissingAxisWords, g10))?;
+            let length = bounded(self.len_word(z)?, z)?;
+            return Ok(Some((p_value as u32, length)));
+        }
         if !(0..=9).contains(&p_value) {
             return err(ErrorCode::G10Invalid, Some(p));
         }
@@ -704,7 +753,7 @@ impl Interpreter {
         if l_value != 2 && l_value != 20 {
             return err(ErrorCode::G10Invalid, Some(l));
         }
-        Ok(())
+        Ok(None)
     }
 
     fn motion(
