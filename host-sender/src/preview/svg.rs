@@ -600,10 +600,15 @@ fn draw_legend(s: &mut String, job: &PreviewJob, stats: &Stats, x: f64, w: f64, 
             s,
             r##"<rect class="speed-scale" x="{x0:.1}" y="{y:.1}" width="{bw:.1}" height="14" fill="url(#speed)" stroke="#adb5bd" stroke-width="0.5"/>"##
         );
+        // The ends are labelled (start- and end-aligned); round ticks in between only where
+        // their labels keep clear of the ends' (about 6.5 px per character at this size).
+        let width = |v: f64| 6.5 * fmt_num(v, 0).chars().count() as f64;
         let mut labels: Vec<f64> = vec![sc.lo, sc.hi];
         for t in sc.ticks() {
-            let f = sc.fraction(t);
-            if f > 0.15 && f < 0.85 {
+            let px = sc.fraction(t) * bw;
+            let clear_lo = px - width(t) / 2.0 > width(sc.lo) + 8.0;
+            let clear_hi = bw - px - width(t) / 2.0 > width(sc.hi) + 8.0;
+            if clear_lo && clear_hi {
                 labels.push(t);
             }
         }
