@@ -2,10 +2,17 @@
 //!
 //! Speeds are planned as squares (nm²/s²). Each line block knows its length, its per-axis-limited
 //! top speed, acceleration and start speed, and the geometric junction limit with the block before
-//! (grbl junction deviation and the seed's "Feed Shift"). The *reverse pass* runs from the newest
-//! block back and stops at the first block whose entry limit did not change, so streaming costs
-//! O(blocks within stopping distance of the end), not O(ring). The end of the buffer is always
-//! planned to stop (exit speed 0), so the machine can stop on whatever is buffered.
+//! (grbl junction deviation and the seed's "Feed Shift"). The end of the buffer is always planned
+//! to stop (exit speed 0), so the machine can stop on whatever is buffered.
+//!
+//! *Reverse pass in O(1) per block.* Unrolled, grbl's reverse recurrence
+//! `E_k = min(C_k, E_{k+1} + D_k)` (C = max entry², D = 2·a·length) is
+//! `E_k = min(min_{m ≥ k} (C_m + P_m), P_end) − P_k` with P the prefix sums of D. The planner keeps
+//! the candidates `C_m + P_m` of the open contour (the blocks since the last stop) in a monotonic
+//! queue (increasing keys), so appending a block costs amortized O(1) and the head's exit limit is
+//! read off the queue front. When a stop closes a contour (G61, dwell, M code, program stop), one
+//! explicit pass settles that contour's limits; every block is settled once, so that too is O(1)
+//! amortized. Override changes and resumes replan everything, O(ring), as grbl does.
 //!
 //! The *forward pass* (acceleration limit) is applied lazily by segment prep: it profiles the head
 //! block from the speed it really has, aiming at `min(reverse limit, reachable)`. A full replan
@@ -14,6 +21,7 @@
 use super::config::{MotionConfig, MAX_SPEED};
 use super::trig::{div_u64, isqrt_u128, isqrt_u64, mul_div};
 use crate::units::MAX_AXES;
+use heapless::Deque;
 
 /// Unit vectors are scaled by 2³⁰.
 const UNIT: i64 = 1 << 30;
@@ -33,6 +41,10 @@ pub enum BlockKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Block {
     pub kind: BlockKind,
+    /// Sequence number (increases by one per queued block).
+    pub seq: u32,
+    /// Sum of the `budget`s of the blocks before this one in its contour.
+    pub prefix: u128,
     /// Source line.
     pub line: u32,
     /// Absolute step count of each axis.
@@ -62,7 +74,8 @@ pub struct Block {
     pub stop_after: bool,
     /// Largest entry speed², from junction and nominal speeds.
     pub max_entry_sq: u64,
-    /// Entry speed² limit from the reverse pass.
+    /// Entry speed² limit from the reverse pass (settled once the block's contour is closed;
+    /// use [`Planner::exit_sq`] for the live value).
     pub entry_sq: u64,
     /// 2·a·length, saturated: the speed² the block can gain or shed.
     pub budget: u64,
@@ -71,6 +84,8 @@ pub struct Block {
 impl Block {
     const EMPTY: Block = Block {
         kind: BlockKind::Sync,
+        seq: 0,
+        prefix: 0,
         line: 0,
         steps: [0; MAX_AXES],
         dir: 0,
@@ -125,6 +140,14 @@ pub struct Planner<const N: usize> {
     prev_unit: Option<[i64; MAX_AXES]>,
     feed_pct: u16,
     rapid_pct: u16,
+    /// Sequence number of the next block.
+    next_seq: u32,
+    /// First sequence number of the open contour.
+    open_from: u32,
+    /// Sum of the budgets of the open contour.
+    prefix_end: u128,
+    /// Monotonic queue of (sequence, C + P) candidates of the open contour, increasing keys.
+    hull: Deque<(u32, u128), N>,
 }
 
 impl<const N: usize> Default for Planner<N> {
@@ -142,6 +165,10 @@ impl<const N: usize> Planner<N> {
             prev_unit: None,
             feed_pct: 100,
             rapid_pct: 100,
+            next_seq: 0,
+            open_from: 0,
+            prefix_end: 0,
+            hull: Deque::new(),
         }
     }
 
@@ -179,6 +206,10 @@ impl<const N: usize> Planner<N> {
     /// Retires the head block.
     pub fn pop(&mut self) {
         if self.len > 0 {
+            let seq = self.ring[self.head].seq;
+            while self.hull.front().is_some_and(|&(s, _)| s <= seq) {
+                self.hull.pop_front();
+            }
             self.head = self.index(1);
             self.len -= 1;
             if self.len == 0 {
@@ -191,6 +222,9 @@ impl<const N: usize> Planner<N> {
     pub fn clear(&mut self) {
         self.len = 0;
         self.prev_unit = None;
+        self.hull.clear();
+        self.prefix_end = 0;
+        self.open_from = self.next_seq;
     }
 
     pub fn feed_override(&self) -> u16 {
@@ -231,8 +265,49 @@ impl<const N: usize> Planner<N> {
         } else if offset + 1 >= self.len {
             0
         } else {
-            self.ring[self.index(offset + 1)].entry_sq
+            let next = &self.ring[self.index(offset + 1)];
+            if next.seq < self.open_from {
+                next.entry_sq
+            } else {
+                self.open_entry_sq(next)
+            }
         }
+    }
+
+    /// Reverse-pass entry limit of a block of the open contour, from the candidate queue.
+    fn open_entry_sq(&self, b: &Block) -> u64 {
+        // The open end exits at rest: candidate P_end.
+        let mut min = self.prefix_end;
+        if let Some(&(_, key)) = self.hull.iter().find(|&&(s, _)| s >= b.seq) {
+            min = min.min(key);
+        }
+        (min - b.prefix).min(u64::MAX as u128) as u64
+    }
+
+    /// Adds a block of the open contour to the candidate queue.
+    fn add_candidate(&mut self, i: usize) {
+        let b = &mut self.ring[i];
+        b.prefix = self.prefix_end;
+        let key = b.max_entry_sq as u128 + b.prefix;
+        let seq = b.seq;
+        self.prefix_end += b.budget as u128;
+        while self.hull.back().is_some_and(|&(_, k)| k >= key) {
+            self.hull.pop_back();
+        }
+        let _ = self.hull.push_back((seq, key));
+    }
+
+    /// Ends the open contour: its last block now comes to rest, and one reverse pass settles the
+    /// contour's entry limits. The next block opens a new contour.
+    fn close_contour(&mut self) {
+        if self.len > 0 {
+            let last = self.index(self.len - 1);
+            self.ring[last].stop_after = true;
+            self.settle(self.open_from);
+        }
+        self.hull.clear();
+        self.prefix_end = 0;
+        self.open_from = self.next_seq;
     }
 
     /// Speed² a block may end with when the machine stops right after it (its start speed).
@@ -260,16 +335,14 @@ impl<const N: usize> Planner<N> {
         if self.is_full() {
             return false;
         }
-        if self.len > 0 {
-            let last = self.index(self.len - 1);
-            self.ring[last].stop_after = true;
-        }
+        self.close_contour();
         let i = self.index(self.len);
         self.ring[i] = block;
+        self.ring[i].seq = self.next_seq;
+        self.next_seq = self.next_seq.wrapping_add(1);
+        self.open_from = self.next_seq;
         self.len += 1;
         self.prev_unit = None;
-        let from = self.len.saturating_sub(2).max(1);
-        self.reverse_pass(from);
         true
     }
 
@@ -334,12 +407,13 @@ impl<const N: usize> Planner<N> {
             (false, Some(prev)) => junction_limit_sq(cfg, &prev, &unit, req.junction_deviation),
             _ => 0,
         };
-        if stop_before && self.len > 0 {
-            let last = self.index(self.len - 1);
-            self.ring[last].stop_after = true;
+        if stop_before {
+            self.close_contour();
         }
         let block = Block {
             kind: BlockKind::Line,
+            seq: self.next_seq,
+            prefix: 0,
             line: req.line,
             steps,
             dir,
@@ -364,14 +438,9 @@ impl<const N: usize> Planner<N> {
         self.len += 1;
         let off = self.len - 1;
         self.ring[i].max_entry_sq = self.max_entry_sq(off);
+        self.next_seq = self.next_seq.wrapping_add(1);
+        self.add_candidate(i);
         self.prev_unit = Some(unit);
-        let from = if stop_before {
-            off.saturating_sub(1)
-        } else {
-            off
-        }
-        .max(1);
-        self.reverse_pass(from);
         true
     }
 
@@ -387,19 +456,33 @@ impl<const N: usize> Planner<N> {
                 self.ring[i].max_entry_sq = self.max_entry_sq(off);
             }
         }
-        self.reverse_pass(1);
+        self.settle(0);
+        self.hull.clear();
+        self.prefix_end = 0;
+        for off in 0..self.len {
+            let i = self.index(off);
+            if self.ring[i].seq >= self.open_from && self.ring[i].kind == BlockKind::Line {
+                self.add_candidate(i);
+            }
+        }
     }
 
-    /// Reverse pass from the newest block down to the block after the head. Blocks at offsets
-    /// ≥ `force_from` are always recomputed; below it the pass stops at the first unchanged entry.
-    fn reverse_pass(&mut self, force_from: usize) {
+    /// Explicit reverse pass over the blocks numbered `from_seq` or later, newest first, down to
+    /// the block after the head.
+    fn settle(&mut self, from_seq: u32) {
+        if self.len == 0 {
+            return;
+        }
         let mut next_entry = 0u64;
         let mut off = self.len;
-        let last = self.len.wrapping_sub(1);
+        let last = self.len - 1;
         while off > 1 {
             off -= 1;
             let i = self.index(off);
             let b = &self.ring[i];
+            if b.seq < from_seq {
+                break;
+            }
             let entry = if b.kind == BlockKind::Line {
                 let exit = if b.stop_after {
                     let v = b.start_speed.min(b.nominal);
@@ -413,9 +496,6 @@ impl<const N: usize> Planner<N> {
             } else {
                 0
             };
-            if entry == b.entry_sq && off < force_from {
-                break;
-            }
             self.ring[i].entry_sq = entry;
             next_entry = entry;
         }
@@ -473,8 +553,11 @@ fn junction_limit_sq(
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
     use super::*;
     use crate::units::NM_PER_MM;
+    use std::vec;
+    use std::vec::Vec;
 
     fn line(cfg: &MotionConfig, dx: i64, dy: i64, feed_mm_min: u64) -> LineRequest {
         let delta = [dx, dy, 0, 0, 0, 0];
@@ -520,13 +603,76 @@ mod tests {
         assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
         assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
         assert_eq!(p.exit_sq(1), 0);
-        let e1 = p.get(1).unwrap().entry_sq;
-        // 1 mm at 200 mm/s²: entry² ≤ 2·a·L = 4e14 (20 mm/s) — below nominal 20 mm/s²…
+        let e1 = p.exit_sq(0);
+        // 1 mm at 200 mm/s²: entry² ≤ 2·a·L = 4e14, i.e. exactly the nominal 20 mm/s.
         assert_eq!(e1, 400_000_000_000_000);
-        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
-        let nominal = 20_000_000u64;
-        assert_eq!(p.get(1).unwrap().entry_sq, nominal * nominal);
-        assert!(p.get(1).unwrap().entry_sq >= e1);
+        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM / 2, 0, 1200)));
+        assert_eq!(p.exit_sq(0), e1);
+        // Block 1 (0.5 mm) can only gain 2e14 before block 2 must stop: 4e14 vs 2e14 + 2e14.
+        assert_eq!(p.exit_sq(1), 200_000_000_000_000);
         assert_eq!(p.exit_sq(2), 0);
+    }
+
+    /// Exit limits recomputed naively (full grbl recurrence) for comparison.
+    fn naive_exits<const N: usize>(p: &Planner<N>) -> Vec<u64> {
+        let n = p.len();
+        let mut entry = vec![0u64; n];
+        let mut exits = vec![0u64; n];
+        for off in (0..n).rev() {
+            let b = p.get(off).unwrap();
+            let exit = if b.stop_after {
+                let v = b.start_speed.min(b.nominal);
+                v * v
+            } else if off == n - 1 {
+                0
+            } else {
+                entry[off + 1]
+            };
+            exits[off] = exit;
+            entry[off] = if b.kind == BlockKind::Line {
+                b.max_entry_sq.min(exit.saturating_add(b.budget))
+            } else {
+                0
+            };
+        }
+        exits
+    }
+
+    #[test]
+    fn candidate_queue_matches_the_full_reverse_pass() {
+        extern crate std;
+        use std::vec::Vec;
+        let cfg = MotionConfig::default();
+        let mut p: Planner<32> = Planner::new();
+        let mut seed = 77u64;
+        let mut rnd = |m: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % m
+        };
+        for step in 0..20_000 {
+            match rnd(20) {
+                0..=10 if !p.is_full() => {
+                    let dx = rnd(4_000_000) as i64 - 2_000_000;
+                    let dy = rnd(400_000) as i64 - 200_000;
+                    let mut req = line(&cfg, dx, dy, 100 + rnd(5000));
+                    req.exact_stop_before = rnd(25) == 0;
+                    if rnd(10) == 0 {
+                        req.speed = None;
+                    }
+                    assert!(p.push_line(&cfg, &req));
+                }
+                11 if !p.is_full() => {
+                    assert!(p.push_marker(Block::marker(BlockKind::Sync, 0)));
+                }
+                12 => p.set_overrides(10 + rnd(190) as u16, 1 + rnd(100) as u16),
+                _ => p.pop(),
+            }
+            let naive: Vec<u64> = naive_exits(&p);
+            for (off, want) in naive.iter().enumerate() {
+                assert_eq!(p.exit_sq(off), *want, "step {step} offset {off}");
+            }
+        }
     }
 }

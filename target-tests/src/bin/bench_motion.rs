@@ -189,7 +189,13 @@ fn main() -> ! {
     helper_costs();
     let (block, push) = block_cost();
     let (block, push) = (to_instr(block), to_instr(push));
-    println!("short G1 block: {} instructions (plan {})", block, push);
+    println!(
+        "short G1 block: {} instructions (plan {}); RAM: Motion<128> {} bytes, StepKernel {} bytes",
+        block,
+        push,
+        core::mem::size_of::<Motion<128>>(),
+        core::mem::size_of::<StepKernel>()
+    );
     // F411 at 96 MHz: ISR = tick + 12 entry + 10 exit + ~8 for the GPIO/timer writes, CPI ≈ 1.
     let isr = t3 + 30;
     let rate_khz = 96_000 / isr;
