@@ -226,6 +226,18 @@ fn run_writes_png_and_svg_files() {
         assert!(std::fs::metadata(&out).unwrap().len() > 1000);
     }
     assert!(preview::run(&jsonl, &dir.join("p.jpg"), &Setup::default()).is_err());
+    // A program error: the picture shows the program up to it, and the exit code says so.
+    let bad = dir.join("bad.jsonl");
+    std::fs::write(
+        &bad,
+        "{\"line\":1,\"op\":\"feed\",\"to\":[5,5,0],\"feed\":100}\n{\"line\":2,\"op\":\"error\",\"message\":\"E1: bad\"}\n",
+    )
+    .unwrap();
+    let out = dir.join("bad.svg");
+    let code = preview::run(&bad, &out, &Setup::default()).unwrap();
+    assert_eq!(code, std::process::ExitCode::from(1));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(count(&text, r#"<path class="feed""#), 4);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -330,4 +342,76 @@ fn vcd_of_the_bracket_run_on_virtual_time() {
         (end_s - sim.now as f64 / KERNEL_TIMER_HZ as f64).abs() < 0.01,
         "{end_s}"
     );
+}
+
+#[test]
+fn drawn_arcs_follow_the_cores_arc_chords_in_every_plane() {
+    use gantry_machine::motion::arc::ArcChords;
+    use gantry_machine::motion::config::MotionConfig;
+    use host_sender::preview::geom::arc_cubics;
+    use host_sender::preview::ArcGeom;
+
+    let cfg = MotionConfig::from_setup(&Setup::default());
+    let to_mm = |p: &Pos| [0, 1, 2].map(|i| p[i] as f64 / NM_PER_MM as f64);
+    // From (10, 0) around (0, 0) in plane coordinates, to 90° / 180° / back to the start,
+    // optionally climbing 3 mm along the normal axis.
+    for plane in [Plane::XY, Plane::ZX, Plane::YZ] {
+        let (a, b, n) = match plane {
+            Plane::XY => (0, 1, 2),
+            Plane::ZX => (2, 0, 1),
+            Plane::YZ => (1, 2, 0),
+        };
+        for dir in [ArcDir::Cw, ArcDir::Ccw] {
+            for (end, turns, climb) in [
+                ((0.0, 10.0), 1, 0.0),
+                ((-10.0, 0.0), 1, 3.0),
+                ((10.0, 0.0), 2, 3.0),
+            ] {
+                let mut from = [0i64; 6];
+                let mut to = [0i64; 6];
+                from[a] = mm(10.0);
+                to[a] = mm(end.0);
+                to[b] = mm(end.1);
+                to[n] = mm(climb);
+                let center = [0i64; 3];
+                let mut chords = ArcChords::new(&cfg, &from, &to, &center, plane, dir, turns);
+                let geom = ArcGeom {
+                    center: [0.0; 3],
+                    plane,
+                    ccw: dir == ArcDir::Ccw,
+                    turns,
+                };
+                let cubics = arc_cubics(to_mm(&from), to_mm(&to), &geom);
+                let mut samples = Vec::new();
+                for c in &cubics {
+                    for k in 0..=400 {
+                        let t = k as f64 / 400.0;
+                        let s = 1.0 - t;
+                        samples.push([0, 1, 2].map(|i| {
+                            s * s * s * c[0][i]
+                                + 3.0 * s * s * t * c[1][i]
+                                + 3.0 * s * t * t * c[2][i]
+                                + t * t * t * c[3][i]
+                        }));
+                    }
+                }
+                let mut worst = 0.0f64;
+                while let Some(p) = chords.next_point() {
+                    let p = to_mm(&p);
+                    let d = samples
+                        .iter()
+                        .map(|q| {
+                            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2))
+                                .sqrt()
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    worst = worst.max(d);
+                }
+                assert!(
+                    worst < 0.03,
+                    "{plane:?} {dir:?} turns {turns} climb {climb}: {worst} mm off"
+                );
+            }
+        }
+    }
 }
