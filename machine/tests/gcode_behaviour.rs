@@ -1035,3 +1035,13 @@ fn bare_motion_codes_move_nowhere_like_linuxcnc() {
     // Non-motion blocks in a modal motion mode do not move.
     assert!(moves(&ok("G1 F100\nF200\nM8\n")).len() == 1);
 }
+
+#[test]
+fn the_busiest_block_fits_the_action_queue() {
+    let mut cfg = InterpConfig::default();
+    cfg.add_user_m_code(100);
+    cfg.add_user_m_code(101);
+    let out = run_with("T1 M6 M3 S100 M8 M100 M101 G4 P1 G64 G28 X0\n", &cfg);
+    assert_eq!(out.len(), 9);
+    assert!(out.iter().all(|r| r.is_ok()), "{out:?}");
+}

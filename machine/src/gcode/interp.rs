@@ -19,8 +19,8 @@ use super::state::{CycleMemory, ModalState, MotionMode};
 use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
 use crate::units::{Nm, Pos, MAX_AXES};
 
-/// Capacity of the per-block action queue.
-pub const QUEUE_CAPACITY: usize = 16;
+/// Capacity of the per-block action queue (a block expands to at most 10 actions; cycle steps to 7).
+pub const QUEUE_CAPACITY: usize = 12;
 /// Deepest subprogram nesting.
 pub const MAX_NESTING: usize = 16;
 /// Largest coordinate magnitude accepted (100 m).
