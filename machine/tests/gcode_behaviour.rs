@@ -1041,7 +1041,8 @@ fn the_busiest_block_fits_the_action_queue() {
     let mut cfg = InterpConfig::default();
     cfg.add_user_m_code(100);
     cfg.add_user_m_code(101);
-    let out = run_with("T1 M6 M3 S100 M8 M100 M101 G4 P1 G64 G28 X0\n", &cfg);
-    assert_eq!(out.len(), 9);
+    // G4 and G28 share modal group 0, so the busiest block has one or the other.
+    let out = run_with("T1 M6 M3 S100 M8 M100 M101 G64 G28 X0\n", &cfg);
+    assert_eq!(out.len(), 8);
     assert!(out.iter().all(|r| r.is_ok()), "{out:?}");
 }

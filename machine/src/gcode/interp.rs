@@ -717,7 +717,7 @@ impl Interpreter {
                 return err(ErrorCode::G10Invalid, Some(p));
             }
             b.take(b'R');
-            for &letter in &[b'X', b'Y', b'A', b'B', b'C'] {
+            for &letter in b"XYABC" {
                 if let Some(w) = b.word(letter) {
                     return err(ErrorCode::NotSupported, Some(w));
                 }
