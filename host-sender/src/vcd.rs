@@ -32,6 +32,30 @@ pub fn counts_to_ns(counts: u64, timer_hz: u32) -> u64 {
     ((counts as u128 * 1_000_000_000 + timer_hz as u128 / 2) / timer_hz as u128) as u64
 }
 
+/// Parses a `--from`/`--to` time: a number with `s`, `ms`, `us` (or `µs`) or `ns`; a bare
+/// number is seconds. Returns ns.
+pub fn parse_time_ns(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let (num, scale) = [
+        ("ns", 1.0),
+        ("us", 1e3),
+        ("µs", 1e3),
+        ("ms", 1e6),
+        ("s", 1e9),
+    ]
+    .iter()
+    .find_map(|(unit, scale)| t.strip_suffix(unit).map(|n| (n, *scale)))
+    .unwrap_or((t, 1e9));
+    let v: f64 = num
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?}: not a time (examples: 1.5s, 200ms, 50us, 800ns)"))?;
+    if !v.is_finite() || v < 0.0 {
+        return Err(format!("{text:?}: a time must be zero or positive"));
+    }
+    Ok((v * scale).round() as u64)
+}
+
 /// What to write.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct VcdOptions {
@@ -547,6 +571,18 @@ mod tests {
         assert_eq!(r.rising["x_step"], 26);
         assert!(text.contains("#250000\n$dumpvars"));
         assert_eq!(r.end_time, 500_000);
+    }
+
+    #[test]
+    fn window_times() {
+        assert_eq!(parse_time_ns("1.5s"), Ok(1_500_000_000));
+        assert_eq!(parse_time_ns("2"), Ok(2_000_000_000));
+        assert_eq!(parse_time_ns("200ms"), Ok(200_000_000));
+        assert_eq!(parse_time_ns("50us"), Ok(50_000));
+        assert_eq!(parse_time_ns("50µs"), Ok(50_000));
+        assert_eq!(parse_time_ns("800 ns"), Ok(800));
+        assert!(parse_time_ns("-1s").is_err());
+        assert!(parse_time_ns("soon").is_err());
     }
 
     #[test]
