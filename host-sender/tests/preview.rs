@@ -415,3 +415,28 @@ fn drawn_arcs_follow_the_cores_arc_chords_in_every_plane() {
         }
     }
 }
+
+#[test]
+fn empty_and_degenerate_jobs_still_render() {
+    let setup = Setup::default();
+    let empty = adapt::from_canon(&[], &setup, "empty");
+    let png = preview::render(&empty, Format::Png, &RenderOptions::default()).unwrap();
+    assert!(png.len() > 1000);
+    // One move that goes nowhere, and a job with no travel box.
+    let mut still = adapt::from_canon(
+        &[Canon {
+            line: 1,
+            action: Action::Feed {
+                to: [0; 6],
+                feed: mm(100.0),
+            },
+        }],
+        &setup,
+        "still",
+    );
+    still.travel = None;
+    let (text, layout) = svg::render_svg(&still, &RenderOptions::default());
+    assert!(!text.contains("NaN") && !text.contains("inf"));
+    assert!(layout.panels.iter().all(|p| p.fit.scale.is_finite()));
+    raster::rasterise(&text).unwrap();
+}
