@@ -43,7 +43,10 @@ fn a_setup_is_refused_while_a_job_runs() {
         }
     })
     .unwrap();
-    assert_eq!(client.transport.board.state(), gantry_machine::controller::State::Run);
+    assert_eq!(
+        client.transport.board.state(),
+        gantry_machine::controller::State::Run
+    );
     let err = push_setup_over(&mut client, &Setup::default()).unwrap_err();
     assert!(err.to_string().contains("not idle"), "{err}");
 }
