@@ -10,4 +10,5 @@ pub mod resume;
 pub mod setup_file;
 pub mod simulate;
 pub mod stream;
+pub mod trace;
 pub mod vcd;

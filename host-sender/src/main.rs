@@ -82,6 +82,19 @@ enum Command {
         /// JSON Lines instead of a table.
         #[arg(long)]
         json: bool,
+        /// Also run the job on the emulated board and write its step/dir/enable/input pins as a
+        /// VCD trace (GTKWave, PulseView).
+        #[arg(long)]
+        vcd: Option<PathBuf>,
+        /// Start of the trace window (e.g. `1.5s`, `200ms`, `750us`, `1200ns`).
+        #[arg(long, requires = "vcd")]
+        from: Option<String>,
+        /// End of the trace window.
+        #[arg(long, requires = "vcd")]
+        to: Option<String>,
+        /// Machine setup for the emulated board.
+        #[arg(long)]
+        setup: Option<PathBuf>,
     },
     /// Draw a program's tool path (top, front, side, isometric views) to a PNG or SVG file.
     Preview {
@@ -185,6 +198,39 @@ fn setup(action: SetupAction) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+fn simulate(
+    file: &std::path::Path,
+    json: bool,
+    vcd: Option<PathBuf>,
+    from: Option<String>,
+    to: Option<String>,
+    setup: Option<PathBuf>,
+) -> anyhow::Result<ExitCode> {
+    let code = host_sender::simulate::run(file, json)?;
+    let Some(out) = vcd else {
+        return Ok(code);
+    };
+    let time = |t: Option<String>| -> anyhow::Result<Option<u64>> {
+        t.map(|t| host_sender::vcd::parse_time_ns(&t).map_err(anyhow::Error::msg))
+            .transpose()
+    };
+    let setup = match setup {
+        Some(f) => host_sender::setup_file::SetupFile::load(&f)?,
+        None => Default::default(),
+    };
+    let axes = setup.axis_count as usize;
+    let program = host_sender::program::Program::load(file)?;
+    let r = host_sender::trace::trace(&program, setup, &out, time(from)?, time(to)?)?;
+    println!(
+        "vcd: {} written, {:.3} s; step pulses per axis {:?} (emulated board counted {:?})",
+        out.display(),
+        r.summary.end_ns as f64 / 1e9,
+        &r.summary.steps[..axes],
+        &r.pulses[..axes]
+    );
+    Ok(if r.completed { code } else { ExitCode::from(1) })
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -224,7 +270,14 @@ fn main() -> ExitCode {
             Ok(ExitCode::SUCCESS)
         }),
         Command::Mdi { blocks, board } => board.target().and_then(|t| commands::mdi(t, &blocks)),
-        Command::Simulate { file, json } => host_sender::simulate::run(&file, json),
+        Command::Simulate {
+            file,
+            json,
+            vcd,
+            from,
+            to,
+            setup,
+        } => simulate(&file, json, vcd, from, to, setup),
         Command::Preview {
             file,
             output,

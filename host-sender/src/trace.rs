@@ -1,0 +1,102 @@
+//! `gantry simulate FILE --vcd out.vcd`: run the job on the emulated board and record its step,
+//! direction, enable and input pins as a VCD trace (GTKWave, PulseView).
+
+use crate::emulator::{EmulatedBoard, PinEvent};
+use crate::link::Client;
+use crate::program::Program;
+use crate::stream::{stream_program, Flow};
+use crate::vcd::{counts_to_ns, VcdEvent, VcdOptions, VcdSummary, VcdWriter};
+use anyhow::Context;
+use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
+use gantry_machine::setup::Setup;
+use std::cell::RefCell;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::Path;
+use std::rc::Rc;
+
+/// Names of the input bits in the trace, in bit order (see `gantry_machine::controller::inputs`).
+pub const INPUT_NAMES: [&str; 16] = [
+    "feed_hold",
+    "abort",
+    "cycle_start_1",
+    "cycle_start_2",
+    "jog_s1",
+    "jog_s2",
+    "jog_s3",
+    "jog_s4",
+    "mark",
+    "release",
+    "pair_select",
+    "accelerated",
+    "nudge",
+    "single_block",
+    "optional_stop",
+    "block_delete",
+];
+
+/// What a traced run produced.
+pub struct TraceResult {
+    pub summary: VcdSummary,
+    /// Step pulses the emulated board counted per axis (must equal the trace's rising edges when
+    /// no window is set).
+    pub pulses: [u64; 6],
+    pub completed: bool,
+}
+
+/// Streams `program` to an emulated board and writes its pins to `out`.
+pub fn trace(
+    program: &Program,
+    setup: Setup,
+    out: &Path,
+    from_ns: Option<u64>,
+    to_ns: Option<u64>,
+) -> anyhow::Result<TraceResult> {
+    let file = File::create(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let opts = VcdOptions {
+        axes: setup.axis_count as usize,
+        inputs: INPUT_NAMES.iter().map(|s| s.to_string()).collect(),
+        pulse_ns: 2_000,
+        from_ns,
+        to_ns,
+    };
+    let writer = Rc::new(RefCell::new(Some(VcdWriter::new(
+        BufWriter::new(file),
+        &opts,
+    )?)));
+    let error: Rc<RefCell<Option<std::io::Error>>> = Rc::default();
+    let mut board = EmulatedBoard::new(setup);
+    let (w, e) = (writer.clone(), error.clone());
+    // Steppers are enabled by the first motion (DESIGN §6) and stay enabled for the job.
+    let mut enabled = false;
+    board.observe(move |p: PinEvent| {
+        enabled |= p.step != 0;
+        if let Some(wr) = w.borrow_mut().as_mut() {
+            let ev = VcdEvent {
+                time_ns: counts_to_ns(p.time, KERNEL_TIMER_HZ),
+                step: p.step,
+                dir: p.dir,
+                enable: enabled,
+                inputs: 0,
+            };
+            if let Err(err) = wr.event(ev) {
+                e.borrow_mut().get_or_insert(err);
+            }
+        }
+    });
+    let mut client = Client::connect(board, 2000)?;
+    let report = stream_program(&mut client, program, &mut |_| Flow::Continue)?;
+    if let Some(err) = error.borrow_mut().take() {
+        return Err(err).context("writing the VCD trace");
+    }
+    let summary = writer
+        .borrow_mut()
+        .take()
+        .expect("the writer is only taken here")
+        .finish()?;
+    Ok(TraceResult {
+        summary,
+        pulses: client.transport.pulses,
+        completed: report.completed,
+    })
+}
