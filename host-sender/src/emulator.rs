@@ -6,10 +6,17 @@
 //! periods it asks for, so the emulation runs as fast as the host can while keeping the board's
 //! timing. Every step is counted per axis, and an optional observer sees every tick that stepped
 //! (for VCD traces).
+//!
+//! Inputs are virtual pins ([`EmulatedBoard::pins`], raw levels before the polarity setting) and
+//! ADC readings, sampled and debounced once per main-loop pass exactly as the firmware does.
+//! Limit switches can be modelled at fixed machine positions ([`EmulatedBoard::add_switch`]): the
+//! switch pin follows the kernel's step position after every tick, and the kernel's limit flag is
+//! set in that same tick when the switch is armed, so the next tick stops (DESIGN §6).
 
 use gantry_machine::board::link::{BoardLink, KernelView};
-use gantry_machine::board::Board;
-use gantry_machine::controller::State;
+use gantry_machine::board::{Board, LIMIT_BITS};
+use gantry_machine::controller::inputs::{Debouncer, InputBits, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+use gantry_machine::controller::{AdcReadings, State};
 use gantry_machine::motion::kernel::{StepKernel, KERNEL_TIMER_HZ};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::motion::sim::{SegmentFifo, SEGMENT_QUEUE};
@@ -28,6 +35,27 @@ pub struct PinEvent {
     pub dir: u8,
 }
 
+/// A limit switch at a fixed place of the machine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LimitSwitch {
+    pub axis: usize,
+    /// The max-side switch (active at or beyond `at`); else the min-side one (at or below).
+    pub max: bool,
+    /// Physical position in steps (the kernel's step count at power-up; homing moves the
+    /// kernel's zero, not the switch).
+    pub at: i64,
+}
+
+impl LimitSwitch {
+    fn bit(&self) -> u32 {
+        1 << (if self.max {
+            LIMIT_MAX_BIT
+        } else {
+            LIMIT_MIN_BIT
+        } + self.axis as u32)
+    }
+}
+
 /// A board with its kernel on a virtual clock.
 pub struct EmulatedBoard {
     pub board: Board,
@@ -43,8 +71,23 @@ pub struct EmulatedBoard {
     pub pulses: [u64; MAX_AXES],
     /// Debounced input levels the controller sees.
     pub inputs: u32,
-    /// Limit flag handed to the kernel.
+    /// Forces the kernel's limit flag (the switch model sets it by itself).
     pub limit: bool,
+    /// Raw input pin levels set by the test or user (modelled switches override their bits).
+    pub pins: u32,
+    /// ADC readings sampled with the inputs.
+    pub adc: AdcReadings,
+    /// Modelled limit switches.
+    pub switches: Vec<LimitSwitch>,
+    /// Physical position = kernel steps + offset (homing redefines the kernel's zero).
+    phys_offset: [i64; MAX_AXES],
+    debouncer: Debouncer,
+    /// Limit bits armed for the kernel (from the board, once per main-loop pass).
+    arm: u32,
+    /// The switch model raised the kernel's limit flag.
+    switch_stop: bool,
+    /// Ticks that stopped the kernel on a limit, and the virtual time of the last one.
+    pub limit_stops: u32,
     last_dir: u8,
     /// Pulses at the previous main-loop pass, and the path speed measured from them.
     pulses_at_last_loop: [u64; MAX_AXES],
@@ -59,6 +102,7 @@ pub struct EmulatedBoard {
 
 impl EmulatedBoard {
     pub fn new(setup: Setup) -> Self {
+        let debouncer = Debouncer::new(setup.inputs.invert, setup.inputs.debounce_ms);
         EmulatedBoard {
             board: Board::new(setup),
             link: BoardLink::new(0x6a17_0001),
@@ -70,6 +114,14 @@ impl EmulatedBoard {
             pulses: [0; MAX_AXES],
             inputs: 0,
             limit: false,
+            pins: 0,
+            adc: AdcReadings::default(),
+            switches: Vec::new(),
+            phys_offset: [0; MAX_AXES],
+            debouncer,
+            arm: 0,
+            switch_stop: false,
+            limit_stops: 0,
             last_dir: 0,
             pulses_at_last_loop: [0; MAX_AXES],
             measured_um_min: 0,
@@ -77,6 +129,77 @@ impl EmulatedBoard {
             underruns: 0,
             outbox: Vec::new(),
         }
+    }
+
+    /// Models a limit switch of `axis` at machine position `at_nm` (as the machine position is
+    /// now): the min switch is active at or below it, the max switch at or above.
+    pub fn add_switch(&mut self, axis: usize, max: bool, at_nm: i64) {
+        let steps = self.board.motion_config().axes[axis].nm_to_steps(at_nm);
+        let at = steps - self.kernel.position()[axis] + self.physical()[axis];
+        self.switches.push(LimitSwitch { axis, max, at });
+    }
+
+    /// Physical step position (kernel position + the offset homing introduced).
+    pub fn physical(&self) -> [i64; MAX_AXES] {
+        let mut p = self.kernel.position();
+        for (v, o) in p.iter_mut().zip(self.phys_offset) {
+            *v += o;
+        }
+        p
+    }
+
+    /// Logical levels of the modelled switches now, and the bits they own.
+    fn switch_levels(&self) -> (u32, u32) {
+        let p = self.physical();
+        let (mut on, mut owned) = (0, 0);
+        for s in &self.switches {
+            owned |= s.bit();
+            let active = if s.max {
+                p[s.axis] >= s.at
+            } else {
+                p[s.axis] <= s.at
+            };
+            if active {
+                on |= s.bit();
+            }
+        }
+        (on, owned)
+    }
+
+    /// Raw pin levels: the test's pins with the modelled switches' pins.
+    pub fn raw_pins(&self) -> u32 {
+        let invert = self.board.setup().inputs.invert;
+        let (on, owned) = self.switch_levels();
+        (self.pins & !owned) | ((on ^ invert) & owned)
+    }
+
+    /// Logical levels the step interrupt sees (raw pins, polarity applied, no debounce).
+    fn logical_pins(&self) -> u32 {
+        self.raw_pins() ^ self.board.setup().inputs.invert
+    }
+
+    /// Sets or clears one raw pin.
+    pub fn set_pin(&mut self, bit: u32, on: bool) {
+        let mut b = InputBits(self.pins);
+        b.set_bit(bit, on);
+        self.pins = b.0;
+    }
+
+    /// Runs until `done` holds (checked every virtual millisecond) or `max_ms` have passed;
+    /// true if `done` held.
+    pub fn run_until(&mut self, max_ms: u64, mut done: impl FnMut(&EmulatedBoard) -> bool) -> bool {
+        for _ in 0..max_ms {
+            if done(self) {
+                return true;
+            }
+            self.run_for(COUNTS_PER_MS);
+        }
+        done(self)
+    }
+
+    /// Runs `ms` virtual milliseconds.
+    pub fn run_ms(&mut self, ms: u64) {
+        self.run_for(ms * COUNTS_PER_MS);
     }
 
     /// Calls `f` for every kernel tick that stepped or changed direction.
@@ -139,7 +262,13 @@ impl EmulatedBoard {
     }
 
     fn tick(&mut self) {
-        let out = self.kernel.tick(&mut self.fifo, self.limit);
+        let out = self
+            .kernel
+            .tick(&mut self.fifo, self.limit || self.switch_stop);
+        if out.step != 0 && !self.switches.is_empty() {
+            // The switch pin follows this tick's step; the interrupt sees it on the next tick.
+            self.switch_stop = self.logical_pins() & self.arm & LIMIT_BITS != 0;
+        }
         if out.step != 0 || out.dir != self.last_dir {
             for (axis, p) in self.pulses.iter_mut().enumerate() {
                 *p += u64::from(out.step >> axis & 1);
@@ -175,10 +304,33 @@ impl EmulatedBoard {
     fn main_loop(&mut self) {
         self.measure_speed();
         let now = self.now_ms();
+        if self.kernel.is_stopped() {
+            // The kernel latched a limit stop: drop the queue, tell the board, re-arm.
+            self.limit_stops += 1;
+            self.fifo.0.clear();
+            self.kernel.flush();
+            self.next_tick = None;
+            let levels = InputBits(self.logical_pins());
+            let steps = self.kernel.position();
+            self.board.limit_stop(levels, &steps);
+            self.kernel.clear_stop();
+            self.switch_stop = false;
+            self.limit = false;
+        }
+        let (levels, changed) = self.debouncer.sample(self.raw_pins());
+        self.inputs = levels.0;
+        self.board.on_inputs(now, levels, changed, self.adc);
         let view = self.kernel_view();
         self.link.service(&mut self.board, now, &view);
         let drained = self.fifo.0.is_empty() && self.next_tick.is_none();
         self.board.poll(drained);
+        if let Some(steps) = self.board.take_position_reset() {
+            let old = self.kernel.position();
+            for i in 0..MAX_AXES {
+                self.phys_offset[i] += old[i] - steps[i];
+            }
+            self.kernel.set_position(steps);
+        }
         while !self.fifo.0.is_full() {
             match self.board.next_segment() {
                 Some(s) => {
@@ -197,6 +349,9 @@ impl EmulatedBoard {
                 self.underruns += 1;
             }
         }
+        self.arm = self.board.limit_arm();
+        // An armed switch that is already active stops the kernel's next tick.
+        self.switch_stop = self.logical_pins() & self.arm != 0;
         // Events raised by this poll go out in the same pass.
         self.link.service(&mut self.board, now, &view);
         let mut frame = [0u8; gantry_proto::MAX_FRAME_LEN];

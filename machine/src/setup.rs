@@ -109,6 +109,130 @@ pub struct OperatorSetup {
     pub dry_run_feed: FeedNmPerMin,
 }
 
+/// Commands a homing list (before seek, before retract, after retract) may hold.
+pub const MAX_HOMING_COMMANDS: usize = 4;
+/// User M codes that may carry a command list.
+pub const MAX_MCODE_LISTS: usize = 8;
+/// Commands one M-code list may hold.
+pub const MAX_MCODE_COMMANDS: usize = 6;
+/// User outputs (bit numbers 0..16 of [`crate::controller::OutputLevels::user`]).
+pub const USER_OUTPUTS: u8 = 16;
+
+/// One entry of a command list (homing lists, user M-code lists), seed 003 §2.12 reduced to
+/// output actions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ListCommand {
+    /// Switch user output `n` on.
+    Set(u8),
+    /// Switch user output `n` off.
+    Clear(u8),
+    /// Wait this many milliseconds.
+    DwellMs(u16),
+    /// Wait until input bit `bit` (an [`crate::controller::inputs::InputBits`] bit) reads `level`;
+    /// after `timeout_ms` the controller alarms (0 = wait forever).
+    WaitInput {
+        bit: u8,
+        level: bool,
+        timeout_ms: u16,
+    },
+    /// Seed `#disable_limit_report`: limit switches hit while this list's sequence runs are not
+    /// reported to the host (homing and squaring).
+    DisableLimitReport,
+}
+
+/// Input wiring: polarity, debounce and which switches are installed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct InputSetup {
+    /// Active-low pins: bit i set = input bit i reads active when its pin is low.
+    pub invert: u32,
+    /// Consecutive equal 1 ms samples before an input level is accepted (1 = no debounce).
+    /// Limit switches stop the step kernel from the raw pin regardless (DESIGN §6).
+    pub debounce_ms: u8,
+    /// Installed limit switches: bit i = axis i (X = bit 0).
+    pub limit_min: u8,
+    pub limit_max: u8,
+    /// Hard limits enabled: an installed switch stops motion and raises the alarm.
+    pub hard_limits: bool,
+    /// Feed-hold and abort switches installed (seed 003 §2.4).
+    pub feed_hold: bool,
+    pub abort: bool,
+    /// Feed-rate override potentiometer installed (seed 003 §2.5).
+    pub fro_pot: bool,
+    /// ADC full-scale reading (a 12-bit ADC: 4095).
+    pub adc_max: u16,
+}
+
+/// Limit-switch seek (homing) of one axis, seed 003 §2.2.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct HomingAxis {
+    /// Order in the seek: lower goes first, one axis at a time; 0 = the axis is not homed.
+    pub priority: u8,
+    /// Seek the min switch (else the max switch).
+    pub seek_low: bool,
+    /// Constant seek speed, nm/min (keep it at or below the axis start speed for a ramp-free seek).
+    pub seek_rate: FeedNmPerMin,
+    /// Back-off from the switch at the rapid rate, nm.
+    pub retract: Nm,
+    /// After the retract, set the axis position to `home_position` (seed "Set Home After Retract").
+    pub set_home: bool,
+    /// Machine position (nm) the axis gets after the retract.
+    pub home_position: Nm,
+}
+
+/// Homing: per-axis seek settings and the three command lists.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct HomingSetup {
+    pub axes: [HomingAxis; MAX_AXES],
+    /// Motion is refused after power-up and after a hard limit until the axes are homed.
+    pub required: bool,
+    pub before_seek: Vec<ListCommand, MAX_HOMING_COMMANDS>,
+    pub before_retract: Vec<ListCommand, MAX_HOMING_COMMANDS>,
+    pub after_retract: Vec<ListCommand, MAX_HOMING_COMMANDS>,
+}
+
+/// Joystick jog, seed 003 §2.6.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct JogSetup {
+    /// Axis pairs by stage-pair selector position: `[down/up (S1/S4) axis, left/right (S2/S3) axis]`;
+    /// 255 = no axis.
+    pub pairs: [[u8; 2]; 2],
+    /// Constant speed of Instantaneous mode, nm/min (at or below the start speed: no ramp).
+    pub instant_speed: FeedNmPerMin,
+    /// Distance of one nudge, nm.
+    pub nudge_distance: Nm,
+    /// Time between nudges while a switch is held, ms (seed: 500).
+    pub nudge_interval_ms: u16,
+    /// Analog stick: axes driven by ADC channels 0 and 1 (255 = none).
+    pub analog_axes: [u8; 2],
+    /// ADC reading around the centre that counts as neutral (±).
+    pub analog_deadband: u16,
+    /// Speed at full deflection, nm/min.
+    pub analog_max_speed: FeedNmPerMin,
+}
+
+/// Spindle output mapping and user M-code command lists.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct OutputSetup {
+    /// S range mapped linearly onto the PWM duty (S ≤ min → duty at min, S ≥ max → full duty).
+    pub spindle_min_rpm: u32,
+    pub spindle_max_rpm: u32,
+    /// PWM duty at `spindle_max_rpm` (the timer's period count).
+    pub pwm_max: u16,
+    /// PWM duty at `spindle_min_rpm` (0 is allowed).
+    pub pwm_min: u16,
+    /// Command lists of user M codes.
+    pub mcode_lists: Vec<McodeList, MAX_MCODE_LISTS>,
+}
+
+/// The command list of one user M code.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct McodeList {
+    pub code: u16,
+    /// Seed "Disable these commands for Dry Run".
+    pub dry_run_disabled: bool,
+    pub commands: Vec<ListCommand, MAX_MCODE_COMMANDS>,
+}
+
 /// The whole machine setup.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Setup {
@@ -118,6 +242,10 @@ pub struct Setup {
     pub path: PathSetup,
     pub program: ProgramSetup,
     pub operator: OperatorSetup,
+    pub inputs: InputSetup,
+    pub homing: HomingSetup,
+    pub jog: JogSetup,
+    pub outputs: OutputSetup,
 }
 
 const fn mm(v: i64) -> Nm {
@@ -173,6 +301,47 @@ impl Default for Setup {
                 fro_low: 10,
                 fro_high: 200,
                 dry_run_feed: mm(2000),
+            },
+            inputs: InputSetup {
+                invert: 0,
+                debounce_ms: 5,
+                limit_min: 0,
+                limit_max: 0,
+                hard_limits: true,
+                feed_hold: true,
+                abort: true,
+                fro_pot: false,
+                adc_max: 4095,
+            },
+            homing: HomingSetup {
+                axes: [HomingAxis {
+                    priority: 0,
+                    seek_low: true,
+                    seek_rate: mm(60),
+                    retract: mm(2),
+                    set_home: true,
+                    home_position: 0,
+                }; MAX_AXES],
+                required: false,
+                before_seek: Vec::new(),
+                before_retract: Vec::new(),
+                after_retract: Vec::new(),
+            },
+            jog: JogSetup {
+                pairs: [[1, 0], [2, 255]],
+                instant_speed: mm(60),
+                nudge_distance: 10_000,
+                nudge_interval_ms: 500,
+                analog_axes: [0, 1],
+                analog_deadband: 100,
+                analog_max_speed: mm(1000),
+            },
+            outputs: OutputSetup {
+                spindle_min_rpm: 0,
+                spindle_max_rpm: 24_000,
+                pwm_max: 1000,
+                pwm_min: 0,
+                mcode_lists: Vec::new(),
             },
         }
     }
@@ -246,6 +415,14 @@ impl Setup {
             && self.path.chord_tolerance > 0
             && self.path.junction_deviation >= 0
             && self.operator.fro_low <= self.operator.fro_high
+            && self.inputs.adc_max > 0
+            && self.homing.axes[..n]
+                .iter()
+                .all(|h| h.priority == 0 || (h.seek_rate > 0 && h.retract >= 0))
+            && self.jog.nudge_interval_ms > 0
+            && self.jog.instant_speed > 0
+            && self.outputs.spindle_min_rpm < self.outputs.spindle_max_rpm
+            && self.outputs.pwm_min <= self.outputs.pwm_max
     }
 }
 
@@ -271,6 +448,27 @@ mod tests {
             s.program.user_mcodes.push(100 + i as u16).unwrap();
         }
         s.program.work_offsets = [[-1_000_000_000; MAX_AXES]; 9];
+        let wait = ListCommand::WaitInput {
+            bit: 31,
+            level: true,
+            timeout_ms: 60_000,
+        };
+        for _ in 0..MAX_HOMING_COMMANDS {
+            s.homing.before_seek.push(wait).unwrap();
+            s.homing.before_retract.push(wait).unwrap();
+            s.homing.after_retract.push(wait).unwrap();
+        }
+        for i in 0..MAX_MCODE_LISTS {
+            let mut l = McodeList {
+                code: 100 + i as u16,
+                dry_run_disabled: true,
+                commands: Vec::new(),
+            };
+            for _ in 0..MAX_MCODE_COMMANDS {
+                l.commands.push(wait).unwrap();
+            }
+            s.outputs.mcode_lists.push(l).unwrap();
+        }
         let mut buf = [0u8; SETUP_BLOB_MAX];
         let blob = s.to_blob(&mut buf).expect("fits");
         assert_eq!(Setup::from_blob(blob), Some(s));

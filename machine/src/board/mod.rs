@@ -10,7 +10,12 @@ pub mod link;
 pub mod source;
 
 use crate::canon::{Action, Canon, Spindle, StopKind};
-use crate::controller::{AlarmCode, State};
+use crate::controller::homing::{self, Homing, Phase};
+use crate::controller::inputs::{InputBits, Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+use crate::controller::jog::{self, JogMode};
+use crate::controller::lists::{ListRunner, ListStatus};
+use crate::controller::outputs::{spindle_duty, OutputLevels};
+use crate::controller::{fro_from_adc, AdcReadings, AlarmCode, State};
 use crate::gcode::{GcodeError, Interpreter};
 use crate::motion::config::MotionConfig;
 use crate::motion::kernel::Segment;
@@ -29,6 +34,48 @@ const EVENT_QUEUE: usize = 8;
 
 /// Error code reported when a move would leave the machine travel (soft limit).
 pub const ERROR_SOFT_LIMIT: u16 = 900;
+/// Error code reported when motion is refused: homing is required first.
+pub const ERROR_HOMING_REQUIRED: u16 = 901;
+/// Mark events waiting for the link.
+const MARK_QUEUE: usize = 4;
+/// Every limit-switch bit of [`InputBits`].
+pub const LIMIT_BITS: u32 = (0x3f << LIMIT_MIN_BIT) | (0x3f << LIMIT_MAX_BIT);
+
+/// The joystick's Mark switch was pressed in jog mode (seed 003 teach-in): the host hears where
+/// the machine stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MarkEvent {
+    /// Running count of marks since power-up (1, 2, …).
+    pub id: u32,
+    /// Machine position, nm.
+    pub position: Pos,
+}
+
+/// What a joystick jog is doing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct StickMove {
+    /// Direction weights per axis (±1 for switches, nm/min for the analog stick).
+    dirs: [i64; MAX_AXES],
+    /// Instantaneous/analog feed (nm/min); 0 = rapid (Accelerated mode).
+    feed: i64,
+}
+
+/// Jog bookkeeping (host jogs and the joystick).
+#[derive(Clone, Copy, Debug, Default)]
+struct JogState {
+    /// Joystick jog mode (entered and left with Mark + Release).
+    joystick: bool,
+    /// A host jog is moving.
+    host: bool,
+    /// The stick move now planned (None: none).
+    running: Option<StickMove>,
+    /// The motion is stopping (decelerating and flushing) for a stick change or jog stop.
+    stopping: bool,
+    /// Nudge: the switches' directions at the last nudge and when the next one is due.
+    nudge_dirs: [i8; MAX_AXES],
+    next_nudge: u32,
+    marks: u32,
+}
 
 /// Something the host must hear about (in order, never dropped).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,6 +150,32 @@ pub struct Board {
     resume_line: u32,
     alarm: Option<AlarmCode>,
     homed: u8,
+    /// Main-loop time from the last [`Board::on_inputs`], ms.
+    now_ms: u32,
+    /// Debounced input levels from the last [`Board::on_inputs`].
+    levels: InputBits,
+    /// User outputs (bit n = output n) set by command lists.
+    user_outputs: u16,
+    /// A user M-code list running at its sync point.
+    list: Option<ListRunner>,
+    /// Homing cycle in progress and its running list.
+    homing: Option<Homing>,
+    homing_list: Option<ListRunner>,
+    /// Step position the kernel's owner must load (homing set a new home).
+    position_reset: Option<[i64; MAX_AXES]>,
+    /// Limit bits ignored until they release (a switch still pressed when the alarm was raised).
+    disarmed: u32,
+    jog: JogState,
+    marks: Deque<MarkEvent, MARK_QUEUE>,
+    /// Feed override in force (host or potentiometer), percent.
+    feed_override: u16,
+    fro_pot: Option<u16>,
+    dry_run: bool,
+    single_block: bool,
+    /// Line of the last motion pushed (single block pauses when it changes).
+    last_motion_line: u32,
+    /// Last poll saw the kernel drained.
+    drained: bool,
 }
 
 impl Board {
@@ -110,7 +183,8 @@ impl Board {
     pub fn new(setup: Setup) -> Self {
         let interp = Interpreter::new(&setup.interp_config());
         let motion = Motion::new(MotionConfig::from_setup(&setup));
-        Board {
+        let needs_home = setup.homing.required && !homing::order(&setup, 0).is_empty();
+        let mut board = Board {
             setup,
             state: State::Idle,
             interp,
@@ -128,7 +202,29 @@ impl Board {
             resume_line: 0,
             alarm: None,
             homed: 0,
+            now_ms: 0,
+            levels: InputBits(0),
+            user_outputs: 0,
+            list: None,
+            homing: None,
+            homing_list: None,
+            position_reset: None,
+            disarmed: 0,
+            jog: JogState::default(),
+            marks: Deque::new(),
+            feed_override: 100,
+            fro_pot: None,
+            dry_run: false,
+            single_block: false,
+            last_motion_line: 0,
+            drained: true,
+        };
+        if needs_home {
+            // Power-up with homing required: locked until homed (grbl's boot alarm).
+            board.alarm = Some(AlarmCode::HomingRequired);
+            board.state = State::Alarm;
         }
+        board
     }
 
     pub fn setup(&self) -> &Setup {
@@ -194,11 +290,43 @@ impl Board {
         let position = self.motion.queued_position();
         *self = Board {
             homed: self.homed,
+            now_ms: self.now_ms,
+            levels: self.levels,
             ..Board::new(setup)
         };
+        if self.alarm == Some(AlarmCode::HomingRequired) && !self.homing_missing() {
+            self.alarm = None;
+            self.state = State::Idle;
+        }
         self.motion.set_position(position);
         self.sync_interpreter_position();
         true
+    }
+
+    /// Homing is required and some axis with a homing priority is not homed.
+    fn homing_missing(&self) -> bool {
+        self.setup.homing.required
+            && homing::order(&self.setup, 0)
+                .iter()
+                .any(|&a| self.homed & (1 << a) == 0)
+    }
+
+    /// Refuses motion (error 901) while homing is required and missing.
+    fn refuse_unhomed(&mut self) -> bool {
+        if self.homing_missing() {
+            self.emit(BoardEvent::Error {
+                line: 0,
+                code: ERROR_HOMING_REQUIRED,
+                column: 0,
+            });
+            return true;
+        }
+        false
+    }
+
+    /// The next Mark event for the host (joystick teach-in).
+    pub fn take_mark(&mut self) -> Option<MarkEvent> {
+        self.marks.pop_front()
     }
 
     /// The next event for the host.
@@ -216,9 +344,20 @@ impl Board {
 
     /// Starts a streamed job at the current position (only from idle).
     pub fn start_job(&mut self) -> bool {
-        if self.state != State::Idle {
+        self.start(State::Run)
+    }
+
+    /// Starts a streamed job in check mode: interpreted and checked against the soft limits
+    /// without any motion or output (grbl `$C`); ends with `JobDone` or the first error.
+    pub fn start_check(&mut self) -> bool {
+        self.start(State::Check)
+    }
+
+    fn start(&mut self, state: State) -> bool {
+        if self.state != State::Idle || (state == State::Run && self.refuse_unhomed()) {
             return false;
         }
+        self.last_motion_line = 0;
         self.source.reset();
         self.interp.rewind();
         self.sync_interpreter_position();
@@ -226,13 +365,13 @@ impl Board {
         self.ending = Ending::No;
         self.paused = false;
         self.held = false;
-        self.state = State::Run;
+        self.state = state;
         true
     }
 
     /// A streamed line for place `id` (0 = the main stream). False when dropped (stale or full).
     pub fn push_line(&mut self, id: u16, line_no: u32, text: &str) -> bool {
-        if self.state == State::Idle || self.state == State::Alarm {
+        if !matches!(self.state, State::Run | State::Hold | State::Check) {
             return false;
         }
         self.source.push(id, line_no, text)
@@ -251,18 +390,29 @@ impl Board {
         self.source.end(id);
     }
 
-    /// Feed hold: decelerate on the path and stop there.
+    /// Feed hold: decelerate on the path and stop there. During a jog it stops the jog (like a
+    /// jog stop); it does nothing in other states.
     pub fn feed_hold(&mut self) {
-        if matches!(self.state, State::Run | State::Jog) {
-            self.motion.feed_hold();
-            self.held = true;
-            self.state = State::Hold;
+        match self.state {
+            State::Run => {
+                self.motion.feed_hold();
+                self.held = true;
+                self.state = State::Hold;
+            }
+            State::Jog => self.jog_stop(),
+            _ => {}
         }
     }
 
-    /// Cycle start / resume: continue after a feed hold or an M0/M1 pause.
+    /// True while the feed-hold input is installed and open.
+    fn hold_input_active(&self) -> bool {
+        self.setup.inputs.feed_hold && self.levels.get(Signal::FeedHold)
+    }
+
+    /// Cycle start / resume: continue after a feed hold or an M0/M1 pause (refused while the
+    /// feed-hold switch is still open).
     pub fn resume(&mut self) {
-        if self.state != State::Hold {
+        if self.state != State::Hold || self.hold_input_active() {
             return;
         }
         if self.paused {
@@ -279,11 +429,42 @@ impl Board {
         self.state = State::Run;
     }
 
+    /// The feed-hold switch closed again: continue the held motion (seed behaviour), unless the
+    /// setup wants a cycle start for that.
+    fn release_hold(&mut self) {
+        if self.state == State::Hold && self.held {
+            self.held = false;
+            self.motion.resume();
+            if !self.paused {
+                self.state = State::Run;
+            }
+        }
+    }
+
     /// Abort: stop on the path, run the program-stop sequence (spindle and coolant off), forget
-    /// the rest of the job, and remember the line to resume from.
+    /// the rest of the job, and remember the line to resume from. During homing it raises
+    /// alarm 6; during a jog it stops the jog and leaves joystick mode.
     pub fn abort(&mut self) {
-        if !matches!(self.state, State::Run | State::Hold | State::Jog) {
-            return;
+        match self.state {
+            State::Homing => {
+                self.motion.abort();
+                self.homing = None;
+                self.homing_list = None;
+                self.enter_alarm(AlarmCode::HomingAborted);
+                return;
+            }
+            State::Jog => {
+                self.jog.joystick = false;
+                self.jog_stop();
+                return;
+            }
+            State::Check => {
+                self.source.reset();
+                self.ending = Ending::Failed;
+                return;
+            }
+            State::Run | State::Hold => {}
+            _ => return,
         }
         self.resume_line = self.line;
         self.motion.abort();
@@ -297,11 +478,13 @@ impl Board {
             ..Outputs::SAFE
         };
         self.saved_outputs = None;
+        self.list = None;
         self.ending = Ending::Failed;
         self.state = State::Run;
     }
 
     pub fn set_feed_override(&mut self, pct: u16) {
+        self.feed_override = pct.clamp(10, 200);
         self.motion.set_feed_override(pct);
     }
 
@@ -312,22 +495,92 @@ impl Board {
     /// A hard limit tripped: the kernel has already stopped stepping (DESIGN §6). `kernel_steps`
     /// is where it stopped; the owner flushes its segment queue. The tripped axes lose home.
     pub fn hard_limit(&mut self, axes: u8, kernel_steps: &[i64; MAX_AXES]) {
-        let cfg = *self.motion.config();
-        self.motion = Motion::new(cfg);
-        self.motion.set_position(cfg.to_nm(kernel_steps));
+        self.rebuild_motion(true, kernel_steps);
         self.source.reset();
         self.pending = None;
         self.homed &= !axes;
+        self.homing = None;
+        self.homing_list = None;
+        self.enter_alarm(AlarmCode::HardLimit);
+    }
+
+    /// The step kernel latched a stop (its limit flag): `levels` are the logical input levels the
+    /// interrupt saw (raw pins with the polarity applied), `kernel_steps` where it stopped. The
+    /// owner has dropped its segment queue and re-arms the kernel after this call. The seek of a
+    /// homing cycle ends here; anything else is a hard limit on the tripped axes.
+    pub fn limit_stop(&mut self, levels: InputBits, kernel_steps: &[i64; MAX_AXES]) {
+        let tripped = levels.0 & self.limit_arm();
+        if let Some(h) = self.homing.as_ref() {
+            let axis = h.axis();
+            let bit = homing::switch_bit(axis, &self.setup.homing.axes[axis]);
+            if h.phase == Phase::Seek && tripped & (1 << bit) != 0 {
+                self.rebuild_motion(false, kernel_steps);
+                if let Some(h) = self.homing.as_mut() {
+                    h.phase = Phase::BeforeRetract;
+                }
+                return;
+            }
+        }
+        let t = InputBits(tripped);
+        let mut axes = t.limits_min() | t.limits_max();
+        if axes == 0 {
+            // Stopped without a known switch: every axis's position is suspect.
+            axes = (1u8 << self.setup.axis_count) - 1;
+        }
+        self.disarmed |= levels.0 & LIMIT_BITS;
+        self.hard_limit(axes, kernel_steps);
+    }
+
+    /// Limit input bits whose switch must stop the step kernel now: the firmware's step interrupt
+    /// stops when `logical_pins & limit_arm() != 0` (read it once per main-loop pass).
+    /// Installed switches with hard limits on, minus switches still pressed since the last alarm
+    /// (they re-arm when they release, so an axis can be jogged off its switch); during homing the
+    /// seek switch is armed for the seek and ignored for the retract.
+    pub fn limit_arm(&self) -> u32 {
+        let i = &self.setup.inputs;
+        let installed =
+            (u32::from(i.limit_min) << LIMIT_MIN_BIT) | (u32::from(i.limit_max) << LIMIT_MAX_BIT);
+        let mut arm = if i.hard_limits { installed } else { 0 } & !self.disarmed;
+        if let Some(h) = self.homing.as_ref() {
+            let axis = h.axis();
+            let bit = 1 << homing::switch_bit(axis, &self.setup.homing.axes[axis]);
+            if h.phase == Phase::Seek {
+                arm |= bit;
+            } else {
+                arm &= !bit;
+            }
+        }
+        arm & LIMIT_BITS
+    }
+
+    /// A new motion pipeline at a kernel step position (after a stop dropped the queue), with
+    /// soft limits on or off (homing seeks beyond the box) and the feed override kept.
+    fn rebuild_motion(&mut self, soft_limits: bool, kernel_steps: &[i64; MAX_AXES]) {
+        let mut cfg = MotionConfig::from_setup(&self.setup);
+        cfg.soft_limits = soft_limits;
+        let position = cfg.to_nm(kernel_steps);
+        self.motion = Motion::new(cfg);
+        self.motion.set_position(position);
+        self.motion.set_feed_override(self.feed_override);
+    }
+
+    fn outputs_safe(&mut self) {
         self.outputs = Outputs {
             tool: self.outputs.tool,
             ..Outputs::SAFE
         };
         self.saved_outputs = None;
-        self.enter_alarm(AlarmCode::HardLimit);
+        self.user_outputs = 0;
+        self.list = None;
     }
 
     fn enter_alarm(&mut self, code: AlarmCode) {
-        let was_running = matches!(self.state, State::Run | State::Hold | State::Jog);
+        let was_running = matches!(self.state, State::Run | State::Hold | State::Check);
+        self.outputs_safe();
+        self.jog = JogState {
+            marks: self.jog.marks,
+            ..JogState::default()
+        };
         self.alarm = Some(code);
         self.state = State::Alarm;
         self.ending = Ending::No;
@@ -341,12 +594,21 @@ impl Board {
         self.sync_interpreter_position();
     }
 
-    /// Clears an alarm (unlock); motion is allowed again.
+    /// Clears an alarm (unlock); motion is allowed again. While homing is required and an axis
+    /// is unhomed the board stays in alarm 11 (only homing is allowed).
     pub fn unlock(&mut self) {
-        if self.state == State::Alarm {
-            self.alarm = None;
-            self.state = State::Idle;
+        if self.state != State::Alarm || self.motion.state() != MotionState::Idle {
+            return;
         }
+        if self.homing_missing() {
+            if self.alarm != Some(AlarmCode::HomingRequired) {
+                self.alarm = Some(AlarmCode::HomingRequired);
+                self.emit(BoardEvent::Alarm(AlarmCode::HomingRequired));
+            }
+            return;
+        }
+        self.alarm = None;
+        self.state = State::Idle;
     }
 
     /// The next step segment for the kernel's queue.
@@ -368,7 +630,31 @@ impl Board {
     /// the kernel has drained (`kernel_drained`: the segment queue is empty and the kernel idle),
     /// and finish the job when everything has run.
     pub fn poll(&mut self, kernel_drained: bool) {
-        if self.state == State::Run && self.ending == Ending::No && !self.aborting {
+        self.drained = kernel_drained;
+        if !self.motion.config().soft_limits
+            && self.state != State::Homing
+            && kernel_drained
+            && self.motion.state() == MotionState::Idle
+        {
+            // A homing cycle ended early (alarm): soft limits apply again once at rest.
+            let steps = self.motion.prepared_steps();
+            self.rebuild_motion(true, &steps);
+        }
+        match self.state {
+            State::Homing => {
+                self.poll_homing(kernel_drained);
+                return;
+            }
+            State::Jog => {
+                self.poll_jog(kernel_drained);
+                return;
+            }
+            _ => {}
+        }
+        if matches!(self.state, State::Run | State::Check)
+            && self.ending == Ending::No
+            && !self.aborting
+        {
             self.interpret();
         }
         if let Some(req) = self.source.take_request() {
@@ -380,7 +666,7 @@ impl Board {
         if self.aborting && self.motion.state() == MotionState::Idle {
             self.aborting = false;
         }
-        if self.state == State::Run
+        if matches!(self.state, State::Run | State::Check)
             && self.ending != Ending::No
             && !self.aborting
             && kernel_drained
@@ -390,9 +676,6 @@ impl Board {
             self.state = State::Idle;
             self.sync_interpreter_position();
             self.emit(BoardEvent::JobDone { line: self.line });
-        }
-        if self.state == State::Hold && self.held && self.motion.state() == MotionState::Idle {
-            // Held with nothing left to run: keep holding (resume continues the stream).
         }
     }
 
@@ -414,6 +697,31 @@ impl Board {
                     }
                 },
             };
+            let canon = self.dry_run_feed(canon);
+            if self.state == State::Check {
+                if !self.check_only(&canon) {
+                    return;
+                }
+                continue;
+            }
+            if is_motion(&canon) {
+                if self.single_block
+                    && self.last_motion_line != 0
+                    && canon.line != self.last_motion_line
+                {
+                    // Single block: a breakpoint after each block (seed 003 "Each Block"), with
+                    // the M0 stop/restore rules.
+                    let pause = Canon {
+                        line: self.last_motion_line,
+                        action: Action::Stop(StopKind::Pause),
+                    };
+                    if self.motion.push(&pause).is_err() {
+                        self.pending = Some(canon);
+                        return;
+                    }
+                }
+                self.last_motion_line = canon.line;
+            }
             match self.motion.push(&canon) {
                 Ok(()) => {}
                 Err(PushError::Full) => {
@@ -433,6 +741,43 @@ impl Board {
         }
     }
 
+    /// Dry run: every feed move at the setup's dry-run feed.
+    fn dry_run_feed(&self, mut canon: Canon) -> Canon {
+        if self.dry_run {
+            let dry = self.setup.operator.dry_run_feed;
+            match &mut canon.action {
+                Action::Feed { feed, .. } | Action::Arc { feed, .. } => *feed = dry,
+                _ => {}
+            }
+        }
+        canon
+    }
+
+    /// Check mode: soft-limit check of the end point, no motion. False when the job ended.
+    fn check_only(&mut self, canon: &Canon) -> bool {
+        match canon.action {
+            Action::Rapid { to } | Action::Feed { to, .. } | Action::Arc { to, .. } => {
+                if self.motion.config().travel_violation(&to).is_some() {
+                    self.emit(BoardEvent::Error {
+                        line: canon.line,
+                        code: ERROR_SOFT_LIMIT,
+                        column: 0,
+                    });
+                    self.ending = Ending::Failed;
+                    return false;
+                }
+            }
+            Action::Stop(StopKind::End | StopKind::EndRewind) => {
+                self.line = canon.line;
+                self.ending = Ending::Finished;
+                return false;
+            }
+            _ => {}
+        }
+        self.line = canon.line;
+        true
+    }
+
     fn reject(&mut self, e: GcodeError) {
         self.emit(BoardEvent::Error {
             line: e.line,
@@ -450,8 +795,27 @@ impl Board {
         if self.paused {
             return;
         }
+        if let Some(list) = self.list.as_mut() {
+            match list.step(self.now_ms, self.levels, &mut self.user_outputs) {
+                ListStatus::Running => {}
+                ListStatus::Done => {
+                    self.list = None;
+                    self.motion.release_sync();
+                }
+                ListStatus::Timeout => {
+                    let steps = self.motion.prepared_steps();
+                    self.rebuild_motion(true, &steps);
+                    self.source.reset();
+                    self.pending = None;
+                    self.enter_alarm(AlarmCode::ListInputTimeout);
+                }
+            }
+            return;
+        }
         self.line = canon.line;
         match canon.action {
+            // Dry run: spindle and coolant stay as they are (seed: S has no effect).
+            Action::Spindle { .. } | Action::Coolant { .. } if self.dry_run => {}
             Action::Spindle { state, rpm } => {
                 self.outputs.spindle = state;
                 self.outputs.rpm = rpm;
@@ -461,7 +825,20 @@ impl Board {
                 self.outputs.flood = flood;
             }
             Action::ToolChange { tool } => self.outputs.tool = tool,
-            Action::UserMCode { code } => self.outputs.last_user_mcode = code,
+            Action::UserMCode { code } => {
+                self.outputs.last_user_mcode = code;
+                let list = self
+                    .setup
+                    .outputs
+                    .mcode_lists
+                    .iter()
+                    .find(|l| l.code == code);
+                if let Some(l) = list.filter(|l| !(self.dry_run && l.dry_run_disabled)) {
+                    self.list = Some(ListRunner::new(&l.commands));
+                    self.perform_sync();
+                    return;
+                }
+            }
             Action::Stop(StopKind::Pause | StopKind::OptionalPause) => {
                 // Seed 003 stop rule: spindle and coolant off while stopped, restored on resume.
                 self.saved_outputs = Some(self.outputs);
@@ -477,6 +854,7 @@ impl Board {
                     tool: self.outputs.tool,
                     ..Outputs::SAFE
                 };
+                self.saved_outputs = None;
                 self.ending = Ending::Finished;
             }
             _ => {}
@@ -506,4 +884,433 @@ impl Board {
         }
         w
     }
+
+    /// Output levels for the pins (spindle enable/direction/PWM, coolant, user outputs).
+    pub fn output_levels(&self) -> OutputLevels {
+        let o = &self.outputs;
+        OutputLevels {
+            spindle_enable: o.spindle != Spindle::Off,
+            spindle_ccw: o.spindle == Spindle::Ccw,
+            spindle_pwm: spindle_duty(&self.setup.outputs, o.spindle, o.rpm),
+            mist: o.mist,
+            flood: o.flood,
+            user: self.user_outputs,
+        }
+    }
+
+    /// A new step position for the kernel (homing set home): the owner loads it into the kernel
+    /// (`StepKernel::set_position`) right after the [`Board::poll`] that produced it, before
+    /// handing out new segments. The kernel is at rest then.
+    pub fn take_position_reset(&mut self) -> Option<[i64; MAX_AXES]> {
+        self.position_reset.take()
+    }
+
+    /// Dry run on or off (only while idle): feed moves at `operator.dry_run_feed`, spindle and
+    /// coolant untouched, M-code lists flagged `dry_run_disabled` skipped.
+    pub fn set_dry_run(&mut self, on: bool) -> bool {
+        if self.state != State::Idle {
+            return false;
+        }
+        self.dry_run = on;
+        true
+    }
+
+    /// Single block on or off (any time): the job stops after each block until cycle start.
+    pub fn set_single_block(&mut self, on: bool) {
+        self.single_block = on;
+    }
+
+    /// Feed-rate override in force, percent.
+    pub fn feed_override(&self) -> u16 {
+        self.feed_override
+    }
+
+    /// The debounced input levels the controller last saw.
+    pub fn inputs(&self) -> InputBits {
+        self.levels
+    }
+
+    /// Cycle start: resumes a hold or an M0/M1/single-block stop.
+    pub fn cycle_start(&mut self) {
+        if self.state == State::Hold {
+            self.resume();
+        }
+    }
+
+    /// The inputs of one main-loop pass (every millisecond): `levels` are the debounced logical
+    /// levels ([`crate::controller::inputs::Debouncer`] with the setup's polarity and debounce),
+    /// `changed` the bits that changed with this sample, `adc` the analog readings. Drives feed
+    /// hold, abort, cycle start, the switches (single block, optional stop, block delete), the
+    /// feed-override potentiometer and the joystick.
+    pub fn on_inputs(&mut self, now_ms: u32, levels: InputBits, changed: u32, adc: AdcReadings) {
+        let prev = self.levels;
+        self.now_ms = now_ms;
+        self.levels = levels;
+        // A disarmed limit switch re-arms once it has released.
+        self.disarmed &= levels.0;
+        let rose = |s: Signal| changed & (1 << s as u32) != 0 && levels.get(s);
+        let fell = |s: Signal| changed & (1 << s as u32) != 0 && !levels.get(s);
+        let inputs = self.setup.inputs;
+        if inputs.abort && rose(Signal::Abort) {
+            self.abort();
+        }
+        if inputs.feed_hold {
+            if rose(Signal::FeedHold) && self.state == State::Run {
+                self.feed_hold();
+            }
+            if fell(Signal::FeedHold) && !self.setup.operator.resume_needs_cycle_start {
+                self.release_hold();
+            }
+        }
+        let start = |l: InputBits| {
+            let (a, b) = (l.get(Signal::CycleStart1), l.get(Signal::CycleStart2));
+            if self.setup.operator.two_hand_start {
+                a && b
+            } else {
+                a || b
+            }
+        };
+        if start(levels) && !start(prev) {
+            self.cycle_start();
+        }
+        if changed & (1 << Signal::SingleBlock as u32) != 0 {
+            self.single_block = levels.get(Signal::SingleBlock);
+        }
+        if changed & (1 << Signal::OptionalStop as u32) != 0 {
+            self.interp
+                .set_optional_stop(levels.get(Signal::OptionalStop));
+        }
+        if changed & (1 << Signal::BlockDelete as u32) != 0 {
+            self.interp
+                .set_block_delete(levels.get(Signal::BlockDelete));
+        }
+        if let (true, Some(raw)) = (inputs.fro_pot, adc.fro) {
+            let op = &self.setup.operator;
+            let pct = fro_from_adc(raw, inputs.adc_max, op.fro_low, op.fro_high);
+            // Applied when the pot moves, so a host override stays until the knob is turned.
+            if self.fro_pot != Some(pct) {
+                self.fro_pot = Some(pct);
+                self.set_feed_override(pct);
+            }
+        }
+        self.joystick(prev, levels, adc);
+    }
+
+    /// Starts a homing cycle of `axes` (bit mask, 0 = every axis with a homing priority), from
+    /// idle or alarm with the machine at rest. False when refused.
+    pub fn home(&mut self, axes: u8) -> bool {
+        if !matches!(self.state, State::Idle | State::Alarm)
+            || self.motion.state() != MotionState::Idle
+        {
+            return false;
+        }
+        let Some(h) = Homing::new(&self.setup, axes) else {
+            return false;
+        };
+        let steps = self.motion.prepared_steps();
+        self.rebuild_motion(false, &steps);
+        for &a in &h.order {
+            self.homed &= !(1 << a);
+        }
+        self.homing = Some(h);
+        self.homing_list = None;
+        self.alarm = None;
+        self.state = State::Homing;
+        true
+    }
+
+    fn poll_homing(&mut self, drained: bool) {
+        let Some(mut h) = self.homing.take() else {
+            return;
+        };
+        let axis = h.axis();
+        let ha = self.setup.homing.axes[axis];
+        let idle = drained && self.motion.state() == MotionState::Idle;
+        if !idle {
+            self.homing = Some(h);
+            return;
+        }
+        let at = self.motion.queued_position();
+        match h.phase {
+            Phase::BeforeSeek | Phase::BeforeRetract | Phase::AfterRetract => {
+                let list = match h.phase {
+                    Phase::BeforeSeek => &self.setup.homing.before_seek,
+                    Phase::BeforeRetract => &self.setup.homing.before_retract,
+                    _ => &self.setup.homing.after_retract,
+                };
+                let runner = self
+                    .homing_list
+                    .get_or_insert_with(|| ListRunner::new(list));
+                match runner.step(self.now_ms, self.levels, &mut self.user_outputs) {
+                    ListStatus::Running => {}
+                    ListStatus::Timeout => {
+                        self.homing_list = None;
+                        self.enter_alarm(AlarmCode::ListInputTimeout);
+                        return;
+                    }
+                    ListStatus::Done => {
+                        self.homing_list = None;
+                        match h.phase {
+                            Phase::BeforeSeek => {
+                                let mut to = at;
+                                to[axis] = homing::seek_target(&self.setup, axis, at[axis]);
+                                let feed = ha.seek_rate;
+                                let _ = self.motion.push(&Canon {
+                                    line: 0,
+                                    action: Action::Feed { to, feed },
+                                });
+                                h.phase = Phase::Seek;
+                            }
+                            Phase::BeforeRetract => {
+                                let mut to = at;
+                                to[axis] = homing::retract_target(&ha, at[axis]);
+                                let _ = self.motion.push(&Canon {
+                                    line: 0,
+                                    action: Action::Rapid { to },
+                                });
+                                h.phase = Phase::Retract;
+                            }
+                            _ => {
+                                h.done |= 1 << axis;
+                                self.homed |= 1 << axis;
+                                h.index += 1;
+                                if h.index == h.order.len() {
+                                    let steps = self.motion.prepared_steps();
+                                    self.rebuild_motion(true, &steps);
+                                    self.sync_interpreter_position();
+                                    self.state = State::Idle;
+                                    return;
+                                }
+                                h.phase = Phase::BeforeSeek;
+                            }
+                        }
+                    }
+                }
+            }
+            Phase::Seek => {
+                // The seek ran its whole length without meeting the switch.
+                self.enter_alarm(AlarmCode::HomingSwitchNotFound);
+                return;
+            }
+            Phase::Retract => {
+                if self.levels.0 & (1 << homing::switch_bit(axis, &ha)) != 0 {
+                    self.enter_alarm(AlarmCode::HomingPullOffFailed);
+                    return;
+                }
+                if ha.set_home {
+                    let mut steps = self.motion.prepared_steps();
+                    steps[axis] = self.motion.config().axes[axis].nm_to_steps(ha.home_position);
+                    self.rebuild_motion(false, &steps);
+                    self.position_reset = Some(steps);
+                }
+                h.phase = Phase::AfterRetract;
+            }
+        }
+        self.homing = Some(h);
+    }
+
+    /// Host jog of one axis at `velocity_um_min` (sign = direction): `distance_nm` far, or
+    /// (0) toward the soft limit until [`Board::jog_stop`]. From idle, or after the previous jog
+    /// has stopped; false when refused (an increment beyond the soft limits reports error 900).
+    pub fn jog(&mut self, axis: u8, velocity_um_min: i32, distance_nm: u64) -> bool {
+        let free = self.state == State::Idle
+            || (self.state == State::Jog
+                && !self.jog.joystick
+                && !self.jog.stopping
+                && self.motion.state() == MotionState::Idle);
+        if !free || axis >= self.setup.axis_count || velocity_um_min == 0 || self.refuse_unhomed() {
+            return false;
+        }
+        let mut dirs = [0i64; MAX_AXES];
+        dirs[axis as usize] = i64::from(velocity_um_min.signum());
+        let distance = (distance_nm > 0).then(|| distance_nm.min(i64::MAX as u64 / 4) as i64);
+        let from = self.motion.queued_position();
+        let Some(to) = jog::jog_target(self.motion.config(), &from, &dirs, distance) else {
+            if distance.is_some() {
+                self.emit(BoardEvent::Error {
+                    line: 0,
+                    code: ERROR_SOFT_LIMIT,
+                    column: 0,
+                });
+            }
+            return false;
+        };
+        let feed = i64::from(velocity_um_min.unsigned_abs()) * 1000;
+        if self
+            .motion
+            .push(&Canon {
+                line: 0,
+                action: Action::Feed { to, feed },
+            })
+            .is_err()
+        {
+            return false;
+        }
+        self.jog.host = true;
+        self.state = State::Jog;
+        true
+    }
+
+    /// Stops a jog within its deceleration distance and drops what was queued of it.
+    pub fn jog_stop(&mut self) {
+        if self.state != State::Jog {
+            return;
+        }
+        if self.motion.state() != MotionState::Idle {
+            self.motion.abort();
+            self.jog.stopping = true;
+        }
+        self.jog.running = None;
+    }
+
+    fn poll_jog(&mut self, drained: bool) {
+        if self.motion.state() == MotionState::Idle {
+            self.jog.stopping = false;
+            if drained {
+                self.jog.host = false;
+            }
+        }
+        if !self.jog.joystick
+            && !self.jog.host
+            && !self.jog.stopping
+            && drained
+            && self.motion.state() == MotionState::Idle
+        {
+            self.state = State::Idle;
+            self.sync_interpreter_position();
+        }
+    }
+
+    /// Joystick handling of one input sample (seed 003 §2.6).
+    fn joystick(&mut self, prev: InputBits, levels: InputBits, adc: AdcReadings) {
+        let both = |l: InputBits| l.get(Signal::Mark) && l.get(Signal::Release);
+        if both(levels) && !both(prev) {
+            if self.state == State::Idle && !self.refuse_unhomed() {
+                self.jog.joystick = true;
+                self.jog.nudge_dirs = [0; MAX_AXES];
+                self.state = State::Jog;
+            } else if self.state == State::Jog && self.jog.joystick {
+                self.jog.joystick = false;
+                self.jog_stop();
+            }
+            return;
+        }
+        if !(self.state == State::Jog && self.jog.joystick) {
+            return;
+        }
+        if levels.get(Signal::Mark) && !prev.get(Signal::Mark) && !levels.get(Signal::Release) {
+            self.jog.marks += 1;
+            let position = self.motion.config().to_nm(&self.motion.prepared_steps());
+            if self.marks.is_full() {
+                self.marks.pop_front();
+            }
+            let _ = self.marks.push_back(MarkEvent {
+                id: self.jog.marks,
+                position,
+            });
+        }
+        let mode = jog::mode_of(levels);
+        let dirs = jog::stick_directions(levels, &self.setup.jog);
+        let mut want = None;
+        if let Some(m) = self.analog_request(adc) {
+            want = Some(m);
+        } else if mode != JogMode::Nudge && dirs.iter().any(|&d| d != 0) {
+            want = Some(StickMove {
+                dirs: dirs.map(i64::from),
+                feed: if mode == JogMode::Accelerated {
+                    0
+                } else {
+                    self.setup.jog.instant_speed
+                },
+            });
+        }
+        if self.jog.stopping {
+            if self.motion.state() != MotionState::Idle {
+                return;
+            }
+            self.jog.stopping = false;
+        }
+        if want != self.jog.running {
+            if self.motion.state() != MotionState::Idle {
+                if self.jog.running.is_some() {
+                    self.motion.abort();
+                    self.jog.stopping = true;
+                    self.jog.running = None;
+                }
+                return;
+            }
+            self.jog.running = None;
+            if let Some(m) = want {
+                self.start_stick_move(m);
+            }
+        }
+        if mode == JogMode::Nudge && want.is_none() {
+            let any = dirs.iter().any(|&d| d != 0);
+            let due = dirs != self.jog.nudge_dirs
+                || self.now_ms.wrapping_sub(self.jog.next_nudge) < u32::MAX / 2;
+            if any && due {
+                self.nudge(&dirs);
+                self.jog.next_nudge = self
+                    .now_ms
+                    .wrapping_add(u32::from(self.setup.jog.nudge_interval_ms));
+            }
+            self.jog.nudge_dirs = dirs;
+        } else {
+            self.jog.nudge_dirs = [0; MAX_AXES];
+        }
+    }
+
+    /// The analog stick's request: proportional speeds on its two axes.
+    fn analog_request(&self, adc: AdcReadings) -> Option<StickMove> {
+        let stick = adc.stick?;
+        let j = &self.setup.jog;
+        let mut dirs = [0i64; MAX_AXES];
+        for (ch, &axis) in j.analog_axes.iter().enumerate() {
+            if axis < self.setup.axis_count {
+                dirs[axis as usize] = jog::analog_speed(stick[ch], self.setup.inputs.adc_max, j);
+            }
+        }
+        let sq: u128 = dirs.iter().map(|&v| (v as i128 * v as i128) as u128).sum();
+        (sq != 0).then(|| StickMove {
+            dirs,
+            feed: jog::isqrt(sq) as i64,
+        })
+    }
+
+    fn start_stick_move(&mut self, m: StickMove) {
+        let from = self.motion.queued_position();
+        // At the edge already: remember the request so it is not retried every millisecond.
+        self.jog.running = Some(m);
+        let Some(to) = jog::jog_target(self.motion.config(), &from, &m.dirs, None) else {
+            return;
+        };
+        let action = if m.feed == 0 {
+            Action::Rapid { to }
+        } else {
+            Action::Feed { to, feed: m.feed }
+        };
+        let _ = self.motion.push(&Canon { line: 0, action });
+    }
+
+    /// One nudge increment (skipped when it would leave the soft-limit box).
+    fn nudge(&mut self, dirs: &[i8; MAX_AXES]) {
+        let from = self.motion.queued_position();
+        let d = self.setup.jog.nudge_distance;
+        let w = dirs.map(i64::from);
+        if let Some(to) = jog::jog_target(self.motion.config(), &from, &w, Some(d)) {
+            let feed = self.setup.jog.instant_speed;
+            let _ = self.motion.push(&Canon {
+                line: 0,
+                action: Action::Feed { to, feed },
+            });
+        }
+    }
+}
+
+/// Actions that move (single block counts blocks by them).
+fn is_motion(c: &Canon) -> bool {
+    matches!(
+        c.action,
+        Action::Rapid { .. } | Action::Feed { .. } | Action::Arc { .. } | Action::Dwell { .. }
+    )
 }

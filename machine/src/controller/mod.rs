@@ -3,7 +3,13 @@
 //! The firmware and the emulated board both drive this one implementation, so a board and its
 //! emulation behave identically (DESIGN §1).
 
+pub mod homing;
 pub mod inputs;
+pub mod jog;
+pub mod lists;
+pub mod outputs;
+
+pub use outputs::OutputLevels;
 
 use serde::{Deserialize, Serialize};
 
@@ -39,8 +45,14 @@ pub enum AlarmCode {
     AbortDuringMotion = 3,
     /// Homing: the switch was not found within the axis travel.
     HomingSwitchNotFound = 9,
+    /// Homing was aborted (abort input or host) before it finished; the axes stay unhomed.
+    HomingAborted = 6,
     /// Homing: the switch did not release during the retract.
     HomingPullOffFailed = 8,
+    /// Homing is required (setup `homing.required`) after power-up or a hard limit.
+    HomingRequired = 11,
+    /// A command list waited for an input longer than its timeout.
+    ListInputTimeout = 21,
     /// The host link was lost during a job and the board held the machine (resume on reconnect).
     HostLost = 20,
 }
@@ -54,7 +66,41 @@ impl AlarmCode {
             AlarmCode::AbortDuringMotion => "aborted during motion; position kept",
             AlarmCode::HomingSwitchNotFound => "homing: limit switch not found within the travel",
             AlarmCode::HomingPullOffFailed => "homing: switch still active after the retract",
+            AlarmCode::HomingAborted => "homing aborted; axes not homed",
+            AlarmCode::HomingRequired => "homing required before motion",
+            AlarmCode::ListInputTimeout => "command list: input wait timed out",
             AlarmCode::HostLost => "host link lost during a job; machine held",
         }
+    }
+}
+
+/// Analog readings the firmware samples with the inputs (raw ADC counts, `0..=setup.inputs.adc_max`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AdcReadings {
+    /// Feed-rate override potentiometer (`None`: not sampled).
+    pub fro: Option<u16>,
+    /// Analog joystick channels 0 and 1 (`None`: no analog stick).
+    pub stick: Option<[u16; 2]>,
+}
+
+/// Feed override (percent) from a potentiometer reading: `0..=adc_max` maps linearly onto
+/// `low..=high`, rounded to the nearest percent.
+pub fn fro_from_adc(adc: u16, adc_max: u16, low: u16, high: u16) -> u16 {
+    let max = u32::from(adc_max.max(1));
+    let a = u32::from(adc).min(max);
+    let span = u32::from(high.saturating_sub(low));
+    (u32::from(low) + (a * span + max / 2) / max) as u16
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fro_pot_maps_the_adc_range_onto_the_percent_range() {
+        assert_eq!(fro_from_adc(0, 4095, 30, 130), 30);
+        assert_eq!(fro_from_adc(4095, 4095, 30, 130), 130);
+        assert_eq!(fro_from_adc(2048, 4095, 30, 130), 80);
+        assert_eq!(fro_from_adc(5000, 4095, 10, 200), 200);
     }
 }

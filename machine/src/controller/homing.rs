@@ -1,0 +1,126 @@
+//! Limit-switch seek (homing), seed 003 §2.2: axes one at a time in priority order; for each, the
+//! before-seek list, a constant-rate seek toward the switch (given up after the axis travel), the
+//! before-retract list, a retract at the rapid rate, set home, the after-retract list.
+//!
+//! This module holds the pure parts (order, targets, switch bits, phases); the board drives the
+//! motion and the lists.
+
+use super::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+use crate::setup::{HomingAxis, Setup};
+use crate::units::{Nm, MAX_AXES};
+use heapless::Vec;
+
+/// Where one axis's homing stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    BeforeSeek,
+    Seek,
+    BeforeRetract,
+    Retract,
+    AfterRetract,
+}
+
+/// A homing cycle in progress.
+#[derive(Clone, Debug)]
+pub struct Homing {
+    /// Axes to home, in order.
+    pub order: Vec<u8, MAX_AXES>,
+    /// Index into `order` of the axis being homed.
+    pub index: usize,
+    pub phase: Phase,
+    /// Axes homed by this cycle so far.
+    pub done: u8,
+}
+
+impl Homing {
+    /// A cycle over `axes` (bit mask; 0 = every axis with a priority), lowest priority number
+    /// first, ties by axis order. `None` when no requested axis has homing configured.
+    pub fn new(setup: &Setup, axes: u8) -> Option<Homing> {
+        let order = order(setup, axes);
+        (!order.is_empty()).then_some(Homing {
+            order,
+            index: 0,
+            phase: Phase::BeforeSeek,
+            done: 0,
+        })
+    }
+
+    /// The axis being homed.
+    pub fn axis(&self) -> usize {
+        self.order[self.index] as usize
+    }
+}
+
+/// Axes of `axes` (0 = all) that have a homing priority, in seek order.
+pub fn order(setup: &Setup, axes: u8) -> Vec<u8, MAX_AXES> {
+    let n = setup.axis_count as usize;
+    let mut v: Vec<u8, MAX_AXES> = Vec::new();
+    for (i, h) in setup.homing.axes[..n].iter().enumerate() {
+        if h.priority != 0 && (axes == 0 || axes & (1 << i) != 0) {
+            let _ = v.push(i as u8);
+        }
+    }
+    v.sort_unstable_by_key(|&i| (setup.homing.axes[i as usize].priority, i));
+    v
+}
+
+/// The input bit of the switch an axis seeks.
+pub const fn switch_bit(axis: usize, h: &HomingAxis) -> u32 {
+    if h.seek_low {
+        LIMIT_MIN_BIT + axis as u32
+    } else {
+        LIMIT_MAX_BIT + axis as u32
+    }
+}
+
+/// The seek's end point from `from`: the whole travel span plus the retract toward the switch.
+/// Reaching it without the switch means the switch was not found.
+pub fn seek_target(setup: &Setup, axis: usize, from: Nm) -> Nm {
+    let a = &setup.axes[axis];
+    let h = &setup.homing.axes[axis];
+    let span = a.travel_max.saturating_sub(a.travel_min) + h.retract.max(0);
+    if h.seek_low {
+        from - span
+    } else {
+        from + span
+    }
+}
+
+/// The retract's end point from the switch position `at` (away from the switch).
+pub fn retract_target(h: &HomingAxis, at: Nm) -> Nm {
+    if h.seek_low {
+        at + h.retract
+    } else {
+        at - h.retract
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::units::NM_PER_MM;
+
+    #[test]
+    fn axes_home_by_priority_then_axis_order() {
+        let mut s = Setup::default();
+        s.homing.axes[0].priority = 2;
+        s.homing.axes[1].priority = 2;
+        s.homing.axes[2].priority = 1;
+        assert_eq!(&order(&s, 0)[..], &[2, 0, 1]);
+        assert_eq!(&order(&s, 0b011)[..], &[0, 1]);
+        s.homing.axes[2].priority = 0;
+        assert_eq!(&order(&s, 0b100)[..], &[] as &[u8]);
+    }
+
+    #[test]
+    fn seek_covers_the_travel_and_retract_backs_off() {
+        let s = Setup::default();
+        // X travel ±300 mm, retract 2 mm, seek low.
+        assert_eq!(seek_target(&s, 0, 0), -602 * NM_PER_MM);
+        assert_eq!(
+            retract_target(&s.homing.axes[0], -5 * NM_PER_MM),
+            -3 * NM_PER_MM
+        );
+        assert_eq!(switch_bit(1, &s.homing.axes[1]), LIMIT_MIN_BIT + 1);
+    }
+}

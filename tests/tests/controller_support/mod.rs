@@ -1,0 +1,75 @@
+//! Helpers shared by the controller scenario tests: an emulated board with switches, jobs fed
+//! straight into the board, and waits on the virtual clock.
+#![allow(dead_code)]
+
+use gantry_machine::board::BoardEvent;
+use gantry_machine::controller::inputs::Signal;
+use gantry_machine::controller::State;
+use gantry_machine::setup::Setup;
+use gantry_machine::units::NM_PER_MM;
+use host_sender::emulator::EmulatedBoard;
+
+pub const MM: i64 = NM_PER_MM;
+/// Default axes: 3200 steps per 5 mm.
+pub const STEPS_PER_MM: i64 = 640;
+
+/// A board with no debounce delay beyond one sample and the given setup changes.
+pub fn board(edit: impl FnOnce(&mut Setup)) -> EmulatedBoard {
+    let mut s = Setup::default();
+    s.inputs.debounce_ms = 1;
+    edit(&mut s);
+    EmulatedBoard::new(s)
+}
+
+/// Starts a job and feeds `text` to the board line by line as it takes them.
+pub fn job(eb: &mut EmulatedBoard, text: &str) {
+    assert!(
+        eb.board.start_job(),
+        "start refused in {:?}",
+        eb.board.state()
+    );
+    for (i, l) in text.lines().enumerate() {
+        let mut tries = 0;
+        while !eb.board.push_line(0, i as u32 + 1, l) {
+            eb.run_ms(1);
+            tries += 1;
+            if tries > 600_000 || !matches!(eb.board.state(), State::Run | State::Hold) {
+                return;
+            }
+        }
+    }
+    eb.board.end_of_lines(0);
+}
+
+/// Runs until the board is in `state` (at most `max_ms`).
+pub fn until_state(eb: &mut EmulatedBoard, state: State, max_ms: u64) {
+    let ok = eb.run_until(max_ms, |b| b.board.state() == state);
+    assert!(
+        ok,
+        "still {:?} after {max_ms} ms, wanted {state:?}",
+        eb.board.state()
+    );
+}
+
+/// Runs until the kernel has stopped stepping and the board is idle-ish (no motion queued).
+pub fn until_at_rest(eb: &mut EmulatedBoard, max_ms: u64) {
+    let ok = eb.run_until(max_ms, |b| {
+        b.board.motion().state() == gantry_machine::motion::pipeline::MotionState::Idle
+            && !b.kernel.is_busy()
+    });
+    assert!(ok, "still moving after {max_ms} ms");
+}
+
+/// Presses (`true`) or releases an input given by its logical level (no inverted pins here).
+pub fn set(eb: &mut EmulatedBoard, s: Signal, on: bool) {
+    eb.set_pin(s as u32, on);
+}
+
+/// Every event the board has queued (the link takes them in each main-loop pass).
+pub fn events(eb: &mut EmulatedBoard) -> Vec<BoardEvent> {
+    std::iter::from_fn(|| eb.board.take_event()).collect()
+}
+
+pub fn steps(eb: &EmulatedBoard) -> [i64; 6] {
+    eb.kernel.position()
+}
