@@ -607,6 +607,10 @@ impl Board {
             }
             return;
         }
+        if !self.motion.config().soft_limits {
+            let steps = self.motion.prepared_steps();
+            self.rebuild_motion(true, &steps);
+        }
         self.alarm = None;
         self.state = State::Idle;
     }

@@ -1,0 +1,143 @@
+//! Homing (limit-switch seek, seed 003 §2.2) on the emulated board: priority order one axis at a
+//! time, constant seek rate, retract at rapid to the exact step, set home, command lists, and the
+//! failure alarms.
+
+mod controller_support;
+
+use controller_support::*;
+use gantry_machine::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+use gantry_machine::controller::{AlarmCode, State};
+use gantry_machine::setup::ListCommand;
+use host_sender::emulator::EmulatedBoard;
+
+/// X seeks its min switch (physical -3 mm) second, Z its max switch (physical +7 mm) first.
+fn machine(edit: impl FnOnce(&mut gantry_machine::setup::Setup)) -> EmulatedBoard {
+    let mut eb = board(|s| {
+        s.inputs.limit_min = 0b001;
+        s.inputs.limit_max = 0b100;
+        s.homing.axes[0].priority = 2;
+        s.homing.axes[0].retract = 2 * MM;
+        s.homing.axes[0].home_position = -10 * MM;
+        s.homing.axes[2].priority = 1;
+        s.homing.axes[2].seek_low = false;
+        s.homing.axes[2].retract = MM;
+        s.homing.axes[2].home_position = 0;
+        edit(s);
+    });
+    eb.add_switch(0, false, -3 * MM);
+    eb.add_switch(2, true, 7 * MM);
+    eb
+}
+
+#[test]
+fn axes_home_in_priority_order_and_the_retract_lands_on_the_exact_step() {
+    let mut eb = machine(|_| {});
+    assert!(eb.board.home(0));
+    assert_eq!(eb.board.state(), State::Homing);
+    // Z goes first; X does not move until Z is homed.
+    eb.run_until(30_000, |b| b.board.homed() & 0b100 != 0);
+    assert_eq!(eb.physical()[0], 0);
+    assert_eq!(eb.board.state(), State::Homing);
+    until_state(&mut eb, State::Idle, 30_000);
+    assert_eq!(eb.board.homed(), 0b101);
+    // Physical: on the switch step, then exactly the retract away from it.
+    let p = eb.physical();
+    assert_eq!(p[0], -3 * STEPS_PER_MM + 2 * STEPS_PER_MM);
+    assert_eq!(p[2], 7 * STEPS_PER_MM - STEPS_PER_MM);
+    // Set home: the machine position after the retract is the configured home position.
+    assert_eq!(eb.kernel.position()[0], -10 * STEPS_PER_MM);
+    assert_eq!(eb.kernel.position()[2], 0);
+    let m = eb.board.machine_position(&eb.kernel.position());
+    assert_eq!((m[0], m[2]), (-10 * MM, 0));
+    assert_eq!(eb.board.motion().queued_position(), m);
+    // Soft limits apply again in the new coordinates: X travel is ±300 mm.
+    job(&mut eb, "G90 G21\nG0 X-305\nM30\n");
+    until_state(&mut eb, State::Idle, 1_000);
+    assert_eq!(eb.kernel.position()[0], -10 * STEPS_PER_MM);
+}
+
+#[test]
+fn the_seek_runs_at_a_constant_rate() {
+    // Seek rate = start speed (60 mm/min = 640 steps/s): no ramp.
+    let mut eb = machine(|s| s.homing.axes[2].priority = 0);
+    let mut counts = Vec::new();
+    eb.board.home(0b001);
+    for _ in 0..8 {
+        let before = eb.pulses[0];
+        eb.run_ms(250);
+        counts.push(eb.pulses[0] - before);
+    }
+    assert!(counts.iter().all(|&c| c == 160), "{counts:?}");
+}
+
+#[test]
+fn a_missing_switch_alarms_after_the_travel() {
+    let mut eb = machine(|s| s.homing.axes[2].priority = 0);
+    eb.switches.clear();
+    let mut s = eb.board.setup().clone();
+    s.axes[0].travel_min = -5 * MM;
+    s.axes[0].travel_max = 5 * MM;
+    s.homing.axes[0].seek_rate = 600 * MM;
+    assert!(eb.board.set_setup(s));
+    assert!(eb.board.home(0b001));
+    until_state(&mut eb, State::Alarm, 30_000);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HomingSwitchNotFound));
+    assert_eq!(eb.board.homed(), 0);
+    // It gave up after the travel span plus the retract: 12 mm.
+    assert_eq!(eb.physical()[0], -12 * STEPS_PER_MM);
+}
+
+#[test]
+fn a_switch_that_stays_active_fails_the_pull_off() {
+    let mut eb = machine(|s| s.homing.axes[2].priority = 0);
+    eb.switches.clear();
+    eb.set_pin(LIMIT_MIN_BIT, true);
+    eb.run_ms(5);
+    assert!(eb.board.home(0b001));
+    until_state(&mut eb, State::Alarm, 30_000);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HomingPullOffFailed));
+    // The seek stopped at once (the switch was already active), the retract moved 2 mm.
+    assert_eq!(eb.physical()[0], 2 * STEPS_PER_MM);
+}
+
+#[test]
+fn command_lists_run_before_seek_before_retract_and_after_retract() {
+    let mut eb = machine(|s| {
+        s.homing.axes[2].priority = 0;
+        s.homing.before_seek.push(ListCommand::Set(1)).unwrap();
+        s.homing
+            .before_retract
+            .push(ListCommand::DwellMs(300))
+            .unwrap();
+        s.homing.before_retract.push(ListCommand::Set(3)).unwrap();
+        s.homing.after_retract.push(ListCommand::Clear(1)).unwrap();
+    });
+    assert!(eb.board.home(0));
+    eb.run_ms(100);
+    assert_eq!(eb.board.output_levels().user, 0b0010);
+    // Seek ends on the switch; the dwell holds the retract back for 300 ms.
+    eb.run_until(30_000, |b| b.limit_stops == 1);
+    let on_switch = eb.physical()[0];
+    assert_eq!(on_switch, -3 * STEPS_PER_MM);
+    eb.run_ms(250);
+    assert_eq!(eb.physical()[0], on_switch);
+    assert_eq!(eb.board.output_levels().user, 0b0010);
+    until_state(&mut eb, State::Idle, 30_000);
+    assert_eq!(eb.board.output_levels().user, 0b1000);
+}
+
+#[test]
+fn abort_during_homing_alarms_and_leaves_the_axis_unhomed() {
+    let mut eb = machine(|_| {});
+    assert!(eb.board.home(0));
+    eb.run_ms(500);
+    eb.board.abort();
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HomingAborted));
+    until_at_rest(&mut eb, 5_000);
+    assert_eq!(eb.board.homed(), 0);
+    eb.board.unlock();
+    assert_eq!(eb.board.state(), State::Idle);
+    // Soft limits are back once at rest.
+    assert!(eb.board.motion().config().soft_limits);
+    let _ = LIMIT_MAX_BIT;
+}
