@@ -197,6 +197,12 @@ impl EmulatedBoard {
         done(self)
     }
 
+    /// Virtual time the kernel's segment queue holds (not counting the running segment), ms.
+    pub fn queued_ms(&self) -> f64 {
+        let counts: u64 = self.fifo.0.iter().map(|s| s.duration()).sum();
+        counts as f64 / COUNTS_PER_MS as f64
+    }
+
     /// Runs `ms` virtual milliseconds.
     pub fn run_ms(&mut self, ms: u64) {
         self.run_for(ms * COUNTS_PER_MS);

@@ -1,0 +1,201 @@
+//! Jogging on the emulated board: host jogs (increment, continuous, stop), the joystick's
+//! switches through the pair selector in Accelerated, Instantaneous and Nudge modes, Mark and
+//! Release, the analog stick, and the soft limits.
+
+mod controller_support;
+
+use controller_support::*;
+use gantry_machine::controller::inputs::Signal;
+use gantry_machine::controller::{AdcReadings, State};
+use host_sender::emulator::EmulatedBoard;
+
+/// Steps per ms of the emulator's last main-loop pass on X (speed probe).
+fn x_speed_mm_min(eb: &mut EmulatedBoard) -> f64 {
+    let before = eb.pulses[0];
+    eb.run_ms(10);
+    (eb.pulses[0] - before) as f64 / STEPS_PER_MM as f64 * 6000.0
+}
+
+fn enter_joystick(eb: &mut EmulatedBoard) {
+    set(eb, Signal::Mark, true);
+    set(eb, Signal::Release, true);
+    eb.run_ms(2);
+    set(eb, Signal::Mark, false);
+    set(eb, Signal::Release, false);
+    eb.run_ms(2);
+    assert_eq!(eb.board.state(), State::Jog);
+}
+
+#[test]
+fn a_host_jog_increment_moves_exactly_and_refuses_to_leave_the_travel() {
+    let mut eb = board(|_| {});
+    assert!(eb.board.jog(0, 600_000, 10_000_000));
+    assert_eq!(eb.board.state(), State::Jog);
+    until_state(&mut eb, State::Idle, 10_000);
+    assert_eq!(eb.kernel.position()[0], 10 * STEPS_PER_MM);
+    // 300 mm is the X travel: 295 more would leave it.
+    assert!(!eb.board.jog(0, 600_000, 295_000_000));
+    eb.run_ms(100);
+    assert_eq!(eb.kernel.position()[0], 10 * STEPS_PER_MM);
+    assert_eq!(eb.board.state(), State::Idle);
+}
+
+#[test]
+fn a_continuous_host_jog_ends_on_the_soft_limit() {
+    let mut eb = board(|s| s.axes[1].travel_max = 20 * MM);
+    assert!(eb.board.jog(1, 3_000_000, 0));
+    until_state(&mut eb, State::Idle, 10_000);
+    assert_eq!(eb.kernel.position()[1], 20 * STEPS_PER_MM);
+}
+
+#[test]
+fn jog_stop_stops_within_the_deceleration_distance() {
+    let mut eb = board(|_| {});
+    assert!(eb.board.jog(0, 3_000_000, 0));
+    eb.run_ms(1000);
+    let v = x_speed_mm_min(&mut eb);
+    assert!((2900.0..=3100.0).contains(&v), "at {v} mm/min");
+    let at = eb.kernel.position()[0];
+    let lead = eb.queued_ms();
+    eb.board.jog_stop();
+    until_state(&mut eb, State::Idle, 5_000);
+    let overrun = (eb.kernel.position()[0] - at) as f64 / STEPS_PER_MM as f64;
+    // 50 mm/s at 200 mm/s²: 6.25 mm to stop, after the segments the kernel already holds (they
+    // run at full speed) and the rest of the main-loop millisecond. Nothing queued beyond runs.
+    let decel = (v / 60.0).powi(2) / (2.0 * 200.0);
+    let latency = v / 60.0 * (lead + 2.0) / 1000.0;
+    println!(
+        "jog stop: {v:.0} mm/min, overrun {overrun:.3} mm = decel {decel:.3} mm + kernel queue {lead:.1} ms"
+    );
+    assert!(
+        overrun <= decel + latency,
+        "overrun {overrun} mm > {decel} + {latency} mm"
+    );
+    assert!(overrun >= decel - 0.1);
+}
+
+#[test]
+fn joystick_nudge_moves_exactly_n_increments() {
+    let mut eb = board(|s| s.jog.nudge_distance = 50_000);
+    enter_joystick(&mut eb);
+    set(&mut eb, Signal::Nudge, true);
+    set(&mut eb, Signal::JogS3, true); // right = +X (pair 0)
+    eb.run_ms(1200); // nudges at 0, 500 and 1000 ms
+    set(&mut eb, Signal::JogS3, false);
+    eb.run_ms(500);
+    assert_eq!(eb.kernel.position()[0], 3 * 32);
+    // S1 (down) = -Y: one press, one nudge.
+    set(&mut eb, Signal::JogS1, true);
+    eb.run_ms(100);
+    set(&mut eb, Signal::JogS1, false);
+    eb.run_ms(300);
+    assert_eq!(eb.kernel.position()[..2], [96, -32]);
+    assert_eq!(eb.board.state(), State::Jog);
+}
+
+#[test]
+fn joystick_release_in_accelerated_mode_stops_within_the_deceleration_distance() {
+    let mut eb = board(|_| {});
+    enter_joystick(&mut eb);
+    set(&mut eb, Signal::Accelerated, true);
+    set(&mut eb, Signal::JogS3, true);
+    eb.run_ms(1500);
+    let v = x_speed_mm_min(&mut eb);
+    assert!((2900.0..=3100.0).contains(&v), "at {v} mm/min");
+    let at = eb.kernel.position()[0];
+    let lead = eb.queued_ms();
+    set(&mut eb, Signal::JogS3, false);
+    until_at_rest(&mut eb, 5_000);
+    eb.run_ms(5);
+    let overrun = (eb.kernel.position()[0] - at) as f64 / STEPS_PER_MM as f64;
+    let decel = (v / 60.0).powi(2) / (2.0 * 200.0);
+    // One debounce sample and one main-loop pass, plus the kernel's queued segments.
+    let latency = v / 60.0 * (lead + 3.0) / 1000.0;
+    println!("stick release: {v:.0} mm/min, overrun {overrun:.3} mm, decel {decel:.3} mm, kernel queue {lead:.1} ms");
+    assert!(
+        overrun <= decel + latency,
+        "overrun {overrun} mm > {decel} + {latency} mm"
+    );
+    assert_eq!(eb.board.state(), State::Jog);
+    // Reversing: S2 drives -X.
+    let at = eb.kernel.position()[0];
+    set(&mut eb, Signal::JogS2, true);
+    eb.run_ms(300);
+    set(&mut eb, Signal::JogS2, false);
+    until_at_rest(&mut eb, 5_000);
+    assert!(eb.kernel.position()[0] < at);
+}
+
+#[test]
+fn instantaneous_mode_runs_at_the_jog_speed_and_stops_on_the_soft_limit() {
+    let mut eb = board(|s| {
+        s.axes[2].travel_max = 2 * MM;
+        s.jog.instant_speed = 60 * MM;
+    });
+    enter_joystick(&mut eb);
+    set(&mut eb, Signal::PairSelect, true);
+    set(&mut eb, Signal::JogS4, true); // up = +Z in pair 1
+    eb.run_ms(500);
+    let before = eb.pulses[2];
+    eb.run_ms(500);
+    assert_eq!(eb.pulses[2] - before, 320); // 60 mm/min = 640 steps/s
+    eb.run_ms(3000);
+    assert_eq!(eb.kernel.position()[2], 2 * STEPS_PER_MM);
+    set(&mut eb, Signal::JogS4, false);
+    eb.run_ms(10);
+    assert_eq!(eb.kernel.position()[2], 2 * STEPS_PER_MM);
+}
+
+#[test]
+fn mark_reports_the_position_and_mark_with_release_leaves_jog() {
+    let mut eb = board(|s| s.jog.nudge_distance = 50_000);
+    assert!(eb.board.jog(0, 600_000, 5_000_000));
+    until_state(&mut eb, State::Idle, 5_000);
+    enter_joystick(&mut eb);
+    set(&mut eb, Signal::Mark, true);
+    eb.run_ms(2);
+    set(&mut eb, Signal::Mark, false);
+    eb.run_ms(2);
+    let m = eb.board.take_mark().expect("mark event");
+    assert_eq!((m.id, m.position[0]), (1, 5 * MM));
+    assert_eq!(eb.board.take_mark(), None);
+    enter_joystick_leave(&mut eb);
+}
+
+fn enter_joystick_leave(eb: &mut EmulatedBoard) {
+    set(eb, Signal::Release, true);
+    eb.run_ms(2);
+    set(eb, Signal::Mark, true);
+    eb.run_ms(2);
+    set(eb, Signal::Mark, false);
+    set(eb, Signal::Release, false);
+    eb.run_ms(5);
+    assert_eq!(eb.board.state(), State::Idle);
+}
+
+#[test]
+fn the_analog_stick_drives_proportional_speed() {
+    let mut eb = board(|s| s.jog.analog_max_speed = 1200 * MM);
+    enter_joystick(&mut eb);
+    // Full right on channel 0 (X), neutral on channel 1 (Y).
+    eb.adc = AdcReadings {
+        fro: None,
+        stick: Some([4095, 2047]),
+    };
+    eb.run_ms(1000);
+    let v = x_speed_mm_min(&mut eb);
+    assert!((1150.0..=1250.0).contains(&v), "{v}");
+    // Half deflection: half speed (quantised in eighths).
+    eb.adc.stick = Some([2047 + 1024, 2047]);
+    eb.run_ms(1500);
+    let v = x_speed_mm_min(&mut eb);
+    println!("analog half deflection: {v:.0} mm/min");
+    assert!(
+        (550.0..=650.0).contains(&v) || (650.0..=760.0).contains(&v),
+        "{v}"
+    );
+    assert_eq!(eb.kernel.position()[1], 0);
+    eb.adc.stick = Some([2047, 2047]);
+    until_at_rest(&mut eb, 5_000);
+    assert_eq!(eb.board.state(), State::Jog);
+}
