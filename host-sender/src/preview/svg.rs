@@ -275,6 +275,10 @@ fn draw_panel(s: &mut String, job: &PreviewJob, stats: &Stats, p: &Panel, index:
     let travel = job.travel.filter(|t| !t.is_empty());
     if let Some(t) = &travel {
         draw_outside_travel(s, p, t);
+        if p.view == View::Iso {
+            // Context only: beneath the moves, which it would otherwise cross.
+            draw_travel(s, p, t, &stats.extents);
+        }
     }
     if p.view == View::Iso && !stats.extents.is_empty() {
         // The job's bounding box gives the isometric view its depth cue.
@@ -286,9 +290,9 @@ fn draw_panel(s: &mut String, job: &PreviewJob, stats: &Stats, p: &Panel, index:
         s.push('\n');
     }
     draw_moves(s, job, stats, fit);
-    // The outline goes on top, so a job that covers it cannot hide it.
-    if let Some(t) = &travel {
-        draw_travel(s, p, t, &stats.extents);
+    // In the flat views the outline goes on top, so a job that covers it cannot hide it.
+    if let Some(t) = travel.filter(|_| p.view != View::Iso) {
+        draw_travel(s, p, &t, &stats.extents);
     }
     draw_markers(s, job, fit);
     s.push_str("</g></g>\n");
@@ -368,7 +372,7 @@ fn draw_travel(s: &mut String, p: &Panel, t: &Box3, job: &Box3) {
         if near || !t.contains(job) {
             let _ = writeln!(
                 s,
-                r#"<path class="travel" fill="none" stroke="{TRAVEL_COLOUR}" stroke-width="1.5" stroke-dasharray="{TRAVEL_DASH}" d="{}"/>"#,
+                r##"<path class="travel" fill="none" stroke="#868e96" stroke-width="1" stroke-dasharray="{TRAVEL_DASH}" d="{}"/>"##,
                 box_edges(fit, t)
             );
         }
