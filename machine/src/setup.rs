@@ -432,8 +432,10 @@ mod tests {
 
     #[test]
     fn a_full_setup_fits_the_blob_and_round_trips() {
-        let mut s = Setup::default();
-        s.axis_count = 6;
+        let mut s = Setup {
+            axis_count: 6,
+            ..Default::default()
+        };
         for i in 0..MAX_TOOLS {
             s.program
                 .tools

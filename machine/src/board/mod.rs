@@ -760,16 +760,16 @@ impl Board {
     /// Check mode: soft-limit check of the end point, no motion. False when the job ended.
     fn check_only(&mut self, canon: &Canon) -> bool {
         match canon.action {
-            Action::Rapid { to } | Action::Feed { to, .. } | Action::Arc { to, .. } => {
-                if self.motion.config().travel_violation(&to).is_some() {
-                    self.emit(BoardEvent::Error {
-                        line: canon.line,
-                        code: ERROR_SOFT_LIMIT,
-                        column: 0,
-                    });
-                    self.ending = Ending::Failed;
-                    return false;
-                }
+            Action::Rapid { to } | Action::Feed { to, .. } | Action::Arc { to, .. }
+                if self.motion.config().travel_violation(&to).is_some() =>
+            {
+                self.emit(BoardEvent::Error {
+                    line: canon.line,
+                    code: ERROR_SOFT_LIMIT,
+                    column: 0,
+                });
+                self.ending = Ending::Failed;
+                return false;
             }
             Action::Stop(StopKind::End | StopKind::EndRewind) => {
                 self.line = canon.line;
