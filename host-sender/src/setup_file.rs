@@ -6,7 +6,8 @@
 
 use anyhow::{bail, Context};
 use gantry_machine::setup::{
-    AxisSetup, Dialect, DwellUnits, Setup, Tool, MAX_TOOLS, MAX_USER_MCODES,
+    AxisSetup, Dialect, DwellUnits, ListCommand, McodeList, Setup, Tool, MAX_TOOLS,
+    MAX_USER_MCODES, USER_OUTPUTS,
 };
 use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES, NM_PER_MM};
 use serde::{Deserialize, Serialize};
@@ -32,6 +33,246 @@ pub struct SetupFile {
     pub work_offsets: BTreeMap<String, Vec<f64>>,
     #[serde(default)]
     pub operator: OperatorFile,
+    #[serde(default)]
+    pub inputs: InputsFile,
+    #[serde(default)]
+    pub homing: HomingFile,
+    #[serde(default)]
+    pub jog: JogFile,
+    #[serde(default)]
+    pub spindle: SpindleFile,
+    #[serde(default)]
+    pub mcode: Vec<McodeFile>,
+}
+
+#[derive(Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputsFile {
+    /// Inputs whose pin is active low, by name (`feed_hold`, `x_min`, `in20`, …).
+    pub active_low: Option<Vec<String>>,
+    pub debounce_ms: Option<u8>,
+    /// Axes with a min / max limit switch.
+    pub limits_min: Option<Vec<String>>,
+    pub limits_max: Option<Vec<String>>,
+    pub hard_limits: Option<bool>,
+    pub feed_hold: Option<bool>,
+    pub abort: Option<bool>,
+    pub fro_pot: Option<bool>,
+    pub adc_max: Option<u16>,
+}
+
+#[derive(Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct HomingFile {
+    pub required: Option<bool>,
+    pub before_seek: Option<Vec<String>>,
+    pub before_retract: Option<Vec<String>>,
+    pub after_retract: Option<Vec<String>>,
+    #[serde(default)]
+    pub axis: BTreeMap<String, HomingAxisFile>,
+}
+
+#[derive(Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct HomingAxisFile {
+    pub priority: Option<u8>,
+    /// `"low"` or `"high"`.
+    pub seek: Option<String>,
+    pub seek_rate: Option<f64>,
+    pub retract: Option<f64>,
+    pub set_home: Option<bool>,
+    pub home_position: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct JogFile {
+    /// `[down/up axis, left/right axis]` per selector position; `"-"` = none.
+    pub pair0: Option<(String, String)>,
+    pub pair1: Option<(String, String)>,
+    pub instant_speed: Option<f64>,
+    pub nudge_distance: Option<f64>,
+    pub nudge_interval_ms: Option<u16>,
+    pub analog_axes: Option<(String, String)>,
+    pub analog_deadband: Option<u16>,
+    pub analog_max_speed: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpindleFile {
+    pub rpm_range: Option<(u32, u32)>,
+    pub pwm_range: Option<(u16, u16)>,
+}
+
+#[derive(Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct McodeFile {
+    pub code: u16,
+    #[serde(default)]
+    pub dry_run_disabled: bool,
+    #[serde(default)]
+    pub commands: Vec<String>,
+}
+
+/// Names of the input bits (`InputBits`); other bits are `inN`.
+const INPUT_NAMES: [&str; 28] = [
+    "feed_hold",
+    "abort",
+    "cycle_start1",
+    "cycle_start2",
+    "jog_s1",
+    "jog_s2",
+    "jog_s3",
+    "jog_s4",
+    "mark",
+    "release",
+    "pair_select",
+    "accelerated",
+    "nudge",
+    "single_block",
+    "optional_stop",
+    "block_delete",
+    "x_min",
+    "y_min",
+    "z_min",
+    "a_min",
+    "b_min",
+    "c_min",
+    "x_max",
+    "y_max",
+    "z_max",
+    "a_max",
+    "b_max",
+    "c_max",
+];
+
+fn input_name(bit: u8) -> String {
+    INPUT_NAMES
+        .get(bit as usize)
+        .map_or_else(|| format!("in{bit}"), |n| n.to_string())
+}
+
+fn input_bit(key: &str, name: &str) -> anyhow::Result<u8> {
+    if let Some(i) = INPUT_NAMES
+        .iter()
+        .position(|n| n.eq_ignore_ascii_case(name))
+    {
+        return Ok(i as u8);
+    }
+    match name.strip_prefix("in").and_then(|n| n.parse::<u8>().ok()) {
+        Some(b) if b < 32 => Ok(b),
+        _ => bail!("{key}: unknown input {name:?} (a name such as \"feed_hold\" or \"x_min\", or in0-in31)"),
+    }
+}
+
+/// Axis letter → index among the axes in use (`"-"` → 255 = none).
+fn axis_index(key: &str, name: &str, count: usize, allow_none: bool) -> anyhow::Result<u8> {
+    if allow_none && name == "-" {
+        return Ok(255);
+    }
+    AXIS_LETTERS[..count]
+        .iter()
+        .position(|l| name.eq_ignore_ascii_case(&l.to_string()))
+        .map(|i| i as u8)
+        .ok_or_else(|| {
+            anyhow::anyhow!(
+                "{key} = {name:?}: not an axis in use (axes in use: {:?}{})",
+                &AXIS_LETTERS[..count],
+                if allow_none {
+                    ", or \"-\" for none"
+                } else {
+                    ""
+                }
+            )
+        })
+}
+
+fn axis_mask(key: &str, names: &[String], count: usize) -> anyhow::Result<u8> {
+    let mut m = 0;
+    for n in names {
+        m |= 1 << axis_index(key, n, count, false)?;
+    }
+    Ok(m)
+}
+
+fn axis_names(mask: u8, count: usize) -> String {
+    let v: Vec<String> = (0..count)
+        .filter(|i| mask & (1 << i) != 0)
+        .map(|i| format!("\"{}\"", AXIS_LETTERS[i]))
+        .collect();
+    format!("[{}]", v.join(", "))
+}
+
+/// Parses a list command: `set N`, `clear N`, `dwell MS`, `wait INPUT high|low [TIMEOUT_MS]`,
+/// `disable_limit_report`.
+fn list_command(key: &str, text: &str) -> anyhow::Result<ListCommand> {
+    let w: Vec<&str> = text.split_whitespace().collect();
+    let num = |v: &str, max: u32| -> anyhow::Result<u32> {
+        match v.parse::<u32>() {
+            Ok(n) if n <= max => Ok(n),
+            _ => bail!("{key}: {text:?}: {v:?} must be a whole number 0-{max}"),
+        }
+    };
+    Ok(match w.as_slice() {
+        ["set", n] => ListCommand::Set(num(n, u32::from(USER_OUTPUTS) - 1)? as u8),
+        ["clear", n] => ListCommand::Clear(num(n, u32::from(USER_OUTPUTS) - 1)? as u8),
+        ["dwell", ms] => ListCommand::DwellMs(num(ms, 65_535)? as u16),
+        ["wait", input, level, rest @ ..] if rest.len() <= 1 => ListCommand::WaitInput {
+            bit: input_bit(key, input)?,
+            level: match *level {
+                "high" => true,
+                "low" => false,
+                _ => bail!("{key}: {text:?}: the level must be \"high\" or \"low\""),
+            },
+            timeout_ms: match rest.first() {
+                Some(t) => num(t, 65_535)? as u16,
+                None => 0,
+            },
+        },
+        ["disable_limit_report"] => ListCommand::DisableLimitReport,
+        _ => bail!(
+            "{key}: {text:?}: expected \"set N\", \"clear N\", \"dwell MS\", \"wait INPUT high|low [TIMEOUT_MS]\" or \"disable_limit_report\""
+        ),
+    })
+}
+
+fn list_text(c: &ListCommand) -> String {
+    match *c {
+        ListCommand::Set(n) => format!("set {n}"),
+        ListCommand::Clear(n) => format!("clear {n}"),
+        ListCommand::DwellMs(ms) => format!("dwell {ms}"),
+        ListCommand::WaitInput {
+            bit,
+            level,
+            timeout_ms,
+        } => format!(
+            "wait {} {} {timeout_ms}",
+            input_name(bit),
+            if level { "high" } else { "low" }
+        ),
+        ListCommand::DisableLimitReport => "disable_limit_report".into(),
+    }
+}
+
+fn list_toml(list: &[ListCommand]) -> String {
+    let v: Vec<String> = list
+        .iter()
+        .map(|c| format!("\"{}\"", list_text(c)))
+        .collect();
+    format!("[{}]", v.join(", "))
+}
+
+fn commands<const N: usize>(
+    key: &str,
+    texts: &[String],
+) -> anyhow::Result<heapless::Vec<ListCommand, N>> {
+    let mut v = heapless::Vec::new();
+    for (i, t) in texts.iter().enumerate() {
+        v.push(list_command(&format!("{key}[{i}]"), t)?)
+            .map_err(|_| anyhow::anyhow!("{key}: at most {N} commands"))?;
+    }
+    Ok(v)
 }
 
 #[derive(Debug, Default, Deserialize, Serialize)]
@@ -265,7 +506,173 @@ impl SetupFile {
         if let Some(v) = o.dry_run_feed {
             s.operator.dry_run_feed = nm("operator.dry_run_feed", v, 1.0, 100_000.0)?;
         }
+        self.apply_controller(&mut s)?;
         Ok(s)
+    }
+
+    /// The `[inputs]`, `[homing]`, `[jog]`, `[spindle]` and `[[mcode]]` sections.
+    fn apply_controller(&self, s: &mut Setup) -> anyhow::Result<()> {
+        let count = s.axis_count as usize;
+        let i = &self.inputs;
+        if let Some(names) = &i.active_low {
+            s.inputs.invert = 0;
+            for n in names {
+                s.inputs.invert |= 1 << input_bit("inputs.active_low", n)?;
+            }
+        }
+        if let Some(v) = i.debounce_ms {
+            if !(1..=100).contains(&v) {
+                bail!("inputs.debounce_ms = {v}: must be between 1 and 100");
+            }
+            s.inputs.debounce_ms = v;
+        }
+        if let Some(v) = &i.limits_min {
+            s.inputs.limit_min = axis_mask("inputs.limits_min", v, count)?;
+        }
+        if let Some(v) = &i.limits_max {
+            s.inputs.limit_max = axis_mask("inputs.limits_max", v, count)?;
+        }
+        if let Some(v) = i.hard_limits {
+            s.inputs.hard_limits = v;
+        }
+        if let Some(v) = i.feed_hold {
+            s.inputs.feed_hold = v;
+        }
+        if let Some(v) = i.abort {
+            s.inputs.abort = v;
+        }
+        if let Some(v) = i.fro_pot {
+            s.inputs.fro_pot = v;
+        }
+        if let Some(v) = i.adc_max {
+            if v < 255 {
+                bail!("inputs.adc_max = {v}: must be between 255 and 65535");
+            }
+            s.inputs.adc_max = v;
+        }
+        let h = &self.homing;
+        if let Some(v) = h.required {
+            s.homing.required = v;
+        }
+        if let Some(v) = &h.before_seek {
+            s.homing.before_seek = commands("homing.before_seek", v)?;
+        }
+        if let Some(v) = &h.before_retract {
+            s.homing.before_retract = commands("homing.before_retract", v)?;
+        }
+        if let Some(v) = &h.after_retract {
+            s.homing.after_retract = commands("homing.after_retract", v)?;
+        }
+        for (name, a) in &h.axis {
+            let key = format!("homing.axis.{name}");
+            let idx = axis_index(&key, name, count, false)? as usize;
+            let ha = &mut s.homing.axes[idx];
+            if let Some(v) = a.priority {
+                ha.priority = v;
+            }
+            if let Some(v) = &a.seek {
+                ha.seek_low = match v.as_str() {
+                    "low" => true,
+                    "high" => false,
+                    _ => bail!("{key}.seek = {v:?}: must be \"low\" or \"high\""),
+                };
+            }
+            if let Some(v) = a.seek_rate {
+                ha.seek_rate = nm(&format!("{key}.seek_rate"), v, 0.001, 200_000.0)?;
+            }
+            if let Some(v) = a.retract {
+                ha.retract = nm(&format!("{key}.retract"), v, 0.0, 1000.0)?;
+            }
+            if let Some(v) = a.set_home {
+                ha.set_home = v;
+            }
+            if let Some(v) = a.home_position {
+                ha.home_position = nm(
+                    &format!("{key}.home_position"),
+                    v,
+                    -MAX_LENGTH_MM,
+                    MAX_LENGTH_MM,
+                )?;
+            }
+        }
+        let j = &self.jog;
+        for (k, pair) in [(0, &j.pair0), (1, &j.pair1)] {
+            if let Some((a, b)) = pair {
+                let key = format!("jog.pair{k}");
+                s.jog.pairs[k] = [
+                    axis_index(&key, a, count, true)?,
+                    axis_index(&key, b, count, true)?,
+                ];
+            }
+        }
+        if let Some(v) = j.instant_speed {
+            s.jog.instant_speed = nm("jog.instant_speed", v, 0.001, 200_000.0)?;
+        }
+        if let Some(v) = j.nudge_distance {
+            s.jog.nudge_distance = nm("jog.nudge_distance", v, 0.000_001, 100.0)?;
+        }
+        if let Some(v) = j.nudge_interval_ms {
+            if !(10..=10_000).contains(&v) {
+                bail!("jog.nudge_interval_ms = {v}: must be between 10 and 10000");
+            }
+            s.jog.nudge_interval_ms = v;
+        }
+        if let Some((a, b)) = &j.analog_axes {
+            s.jog.analog_axes = [
+                axis_index("jog.analog_axes", a, count, true)?,
+                axis_index("jog.analog_axes", b, count, true)?,
+            ];
+        }
+        if let Some(v) = j.analog_deadband {
+            if u32::from(v) * 2 >= u32::from(s.inputs.adc_max) {
+                bail!(
+                    "jog.analog_deadband = {v}: must be below half of inputs.adc_max ({})",
+                    s.inputs.adc_max
+                );
+            }
+            s.jog.analog_deadband = v;
+        }
+        if let Some(v) = j.analog_max_speed {
+            s.jog.analog_max_speed = nm("jog.analog_max_speed", v, 0.001, 200_000.0)?;
+        }
+        if let Some((lo, hi)) = self.spindle.rpm_range {
+            if lo >= hi || hi > 1_000_000 {
+                bail!("spindle.rpm_range = [{lo}, {hi}]: need 0 ≤ low < high ≤ 1000000");
+            }
+            s.outputs.spindle_min_rpm = lo;
+            s.outputs.spindle_max_rpm = hi;
+        }
+        if let Some((lo, hi)) = self.spindle.pwm_range {
+            if lo > hi || hi == 0 {
+                bail!("spindle.pwm_range = [{lo}, {hi}]: need 0 ≤ low ≤ high, high ≥ 1");
+            }
+            s.outputs.pwm_min = lo;
+            s.outputs.pwm_max = hi;
+        }
+        for (k, m) in self.mcode.iter().enumerate() {
+            let key = format!("mcode[{k}]");
+            if !s.program.user_mcodes.contains(&m.code) {
+                bail!(
+                    "{key}.code = {}: not in program.user_mcodes (define the M code there first)",
+                    m.code
+                );
+            }
+            if s.outputs.mcode_lists.iter().any(|l| l.code == m.code) {
+                bail!("{key}.code = {}: list defined twice", m.code);
+            }
+            let list = McodeList {
+                code: m.code,
+                dry_run_disabled: m.dry_run_disabled,
+                commands: commands(&format!("{key}.commands"), &m.commands)?,
+            };
+            s.outputs.mcode_lists.push(list).map_err(|_| {
+                anyhow::anyhow!(
+                    "mcode: at most {} lists",
+                    gantry_machine::setup::MAX_MCODE_LISTS
+                )
+            })?;
+        }
+        Ok(())
     }
 }
 
@@ -444,7 +851,91 @@ pub fn to_toml(s: &Setup) -> String {
     let _ = writeln!(t, "two_hand_start = {}", o.two_hand_start);
     let _ = writeln!(t, "fro_range = [{}, {}]", o.fro_low, o.fro_high);
     let _ = writeln!(t, "dry_run_feed = {}", mm(o.dry_run_feed));
+    controller_toml(s, &mut t);
     t
+}
+
+fn controller_toml(s: &Setup, t: &mut String) {
+    let n = s.axis_count as usize;
+    let i = &s.inputs;
+    let _ = writeln!(t, "\n[inputs]");
+    let low: Vec<String> = (0..32u8)
+        .filter(|b| i.invert & (1 << b) != 0)
+        .map(|b| format!("\"{}\"", input_name(b)))
+        .collect();
+    let _ = writeln!(
+        t,
+        "active_low = [{}]   # pins active when low",
+        low.join(", ")
+    );
+    let _ = writeln!(t, "debounce_ms = {}", i.debounce_ms);
+    let _ = writeln!(t, "limits_min = {}", axis_names(i.limit_min, n));
+    let _ = writeln!(t, "limits_max = {}", axis_names(i.limit_max, n));
+    let _ = writeln!(t, "hard_limits = {}", i.hard_limits);
+    let _ = writeln!(t, "feed_hold = {}", i.feed_hold);
+    let _ = writeln!(t, "abort = {}", i.abort);
+    let _ = writeln!(t, "fro_pot = {}", i.fro_pot);
+    let _ = writeln!(t, "adc_max = {}", i.adc_max);
+    let h = &s.homing;
+    let _ = writeln!(t, "\n[homing]");
+    let _ = writeln!(t, "required = {}", h.required);
+    let _ = writeln!(t, "before_seek = {}", list_toml(&h.before_seek));
+    let _ = writeln!(t, "before_retract = {}", list_toml(&h.before_retract));
+    let _ = writeln!(t, "after_retract = {}", list_toml(&h.after_retract));
+    for (k, a) in h.axes[..n].iter().enumerate() {
+        let _ = writeln!(t, "\n[homing.axis.{}]", AXIS_LETTERS[k]);
+        let _ = writeln!(t, "priority = {}   # 0 = not homed", a.priority);
+        let _ = writeln!(t, "seek = \"{}\"", if a.seek_low { "low" } else { "high" });
+        let _ = writeln!(t, "seek_rate = {}", mm(a.seek_rate));
+        let _ = writeln!(t, "retract = {}", mm(a.retract));
+        let _ = writeln!(t, "set_home = {}", a.set_home);
+        let _ = writeln!(t, "home_position = {}", mm(a.home_position));
+    }
+    let j = &s.jog;
+    let name = |a: u8| {
+        if (a as usize) < n {
+            AXIS_LETTERS[a as usize].to_string()
+        } else {
+            "-".to_string()
+        }
+    };
+    let _ = writeln!(t, "\n[jog]");
+    for (k, p) in j.pairs.iter().enumerate() {
+        let _ = writeln!(
+            t,
+            "pair{k} = [\"{}\", \"{}\"]   # [down/up, left/right]",
+            name(p[0]),
+            name(p[1])
+        );
+    }
+    let _ = writeln!(t, "instant_speed = {}", mm(j.instant_speed));
+    let _ = writeln!(t, "nudge_distance = {}", mm(j.nudge_distance));
+    let _ = writeln!(t, "nudge_interval_ms = {}", j.nudge_interval_ms);
+    let _ = writeln!(
+        t,
+        "analog_axes = [\"{}\", \"{}\"]",
+        name(j.analog_axes[0]),
+        name(j.analog_axes[1])
+    );
+    let _ = writeln!(t, "analog_deadband = {}", j.analog_deadband);
+    let _ = writeln!(t, "analog_max_speed = {}", mm(j.analog_max_speed));
+    let o = &s.outputs;
+    let _ = writeln!(t, "\n[spindle]");
+    let _ = writeln!(
+        t,
+        "rpm_range = [{}, {}]",
+        o.spindle_min_rpm, o.spindle_max_rpm
+    );
+    let _ = writeln!(t, "pwm_range = [{}, {}]", o.pwm_min, o.pwm_max);
+    for l in &o.mcode_lists {
+        let _ = writeln!(
+            t,
+            "\n[[mcode]]\ncode = {}\ndry_run_disabled = {}\ncommands = {}",
+            l.code,
+            l.dry_run_disabled,
+            list_toml(&l.commands)
+        );
+    }
 }
 
 #[cfg(test)]
@@ -491,5 +982,83 @@ mod tests {
         );
         let e = SetupFile::parse("[program]\nuser_mcodes = [3]\n").unwrap_err();
         assert!(e.to_string().contains("M3 is reserved"), "{e}");
+        let e = SetupFile::parse("[inputs]\ndebounce_ms = 0\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "inputs.debounce_ms = 0: must be between 1 and 100"
+        );
+        let e = SetupFile::parse("[homing.axis.X]\nseek_rate = 0\n").unwrap_err();
+        assert!(
+            e.to_string().starts_with("homing.axis.X.seek_rate = 0"),
+            "{e}"
+        );
+        let e = SetupFile::parse("[homing]\nbefore_seek = [\"set 99\"]\n").unwrap_err();
+        assert!(e.to_string().starts_with("homing.before_seek[0]"), "{e}");
+        let e = SetupFile::parse("[inputs]\nlimits_min = [\"A\"]\n").unwrap_err();
+        assert!(e.to_string().starts_with("inputs.limits_min"), "{e}");
+        let e = SetupFile::parse("[[mcode]]\ncode = 100\n").unwrap_err();
+        assert!(e.to_string().contains("not in program.user_mcodes"), "{e}");
+        let e = SetupFile::parse("[spindle]\nrpm_range = [5000, 100]\n").unwrap_err();
+        assert!(e.to_string().starts_with("spindle.rpm_range"), "{e}");
+    }
+
+    #[test]
+    fn controller_sections_round_trip() {
+        let text = r#"
+[program]
+user_mcodes = [100, 101]
+[inputs]
+active_low = ["cycle_start1", "x_min", "in30"]
+debounce_ms = 3
+limits_min = ["X", "Y"]
+limits_max = ["Z"]
+hard_limits = true
+fro_pot = true
+[homing]
+required = true
+before_seek = ["set 1", "disable_limit_report"]
+before_retract = ["dwell 250"]
+after_retract = ["wait in30 high 2000", "clear 1"]
+[homing.axis.X]
+priority = 2
+seek = "low"
+seek_rate = 120.0
+retract = 1.5
+home_position = -3.25
+[homing.axis.Z]
+priority = 1
+seek = "high"
+[jog]
+pair0 = ["Y", "X"]
+pair1 = ["Z", "-"]
+instant_speed = 50.0
+nudge_distance = 0.005
+analog_axes = ["X", "-"]
+[spindle]
+rpm_range = [6000, 24000]
+pwm_range = [10, 999]
+[[mcode]]
+code = 101
+dry_run_disabled = true
+commands = ["set 4", "wait feed_hold low 100", "clear 4"]
+"#;
+        let s = SetupFile::parse(text).unwrap();
+        assert_eq!(s.inputs.invert, (1 << 2) | (1 << 16) | (1 << 30));
+        assert_eq!((s.inputs.limit_min, s.inputs.limit_max), (0b011, 0b100));
+        assert_eq!(s.homing.axes[0].home_position, -3_250_000);
+        assert_eq!(s.homing.axes[0].seek_rate, 120_000_000);
+        assert!(!s.homing.axes[2].seek_low);
+        assert_eq!(s.jog.pairs, [[1, 0], [2, 255]]);
+        assert_eq!(s.jog.analog_axes, [0, 255]);
+        assert_eq!(
+            s.outputs.mcode_lists[0].commands[1],
+            ListCommand::WaitInput {
+                bit: 0,
+                level: false,
+                timeout_ms: 100
+            }
+        );
+        assert!(s.is_valid());
+        assert_eq!(SetupFile::parse(&to_toml(&s)).unwrap(), s);
     }
 }
