@@ -1,8 +1,7 @@
 //! ST Nucleo-F446RE (LQFP64), wired on the morpho headers.
 //!
-//! 8 MHz HSE bypass (ST-LINK MCO) → 144 MHz SYSCLK (/4 ×144 /2); USB 48 MHz from PLL Q (/6);
-//! APB1 36 MHz (TIM2 clock 72 MHz = 3 × the step kernel's 24 MHz), APB2 72 MHz. 168 MHz would give
-//! TIM2 84 MHz, which 24 MHz does not divide; see boards/README.md. USB D-/D+ are PA11/PA12 on
+//! 8 MHz HSE bypass (ST-LINK MCO) → 168 MHz SYSCLK (/4 ×168 /2); USB 48 MHz from PLL Q (/7);
+//! APB1 42 MHz (TIM2 clock 84 MHz = 7 × the step kernel's 12 MHz), APB2 84 MHz. USB D-/D+ are PA11/PA12 on
 //! CN10 (the Nucleo has no user USB connector: wire one). Left alone: PA2/PA3 (ST-LINK virtual COM
 //! port), PA13/PA14 (SWD), PB3 (SWO), PC14/PC15 (32 kHz crystal), PH0/PH1 (HSE). PC13 is the blue
 //! B1 button (cycle start 1), PA5 the green LD2 LED (user output 4).
@@ -13,9 +12,9 @@ gantry_board! {
         hse_hz: 8_000_000,
         hse_bypass: true,
         pll_m: 4,
-        pll_n: 144,
+        pll_n: 168,
         pll_p: 2,
-        pll_q: 6,
+        pll_q: 7,
         apb1_div: 4,
         apb2_div: 2,
     },

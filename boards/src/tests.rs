@@ -191,7 +191,7 @@ fn documented_clock_figures() {
     let f446 = nucleo_f446::board().clocks;
     assert_eq!(
         (f446.sysclk_hz(), f446.tim_apb1_hz()),
-        (144_000_000, 72_000_000)
+        (168_000_000, 84_000_000)
     );
     assert!(f446.hse_bypass);
 }

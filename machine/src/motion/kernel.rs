@@ -16,8 +16,10 @@
 
 use crate::units::MAX_AXES;
 
-/// Frequency of the step timer the periods count in (F411: 96 MHz / 4, F446: 168 MHz / 7).
-pub const KERNEL_TIMER_HZ: u32 = 24_000_000;
+/// Frequency of the step timer the periods count in: 12 MHz divides both boards' TIM2 clocks
+/// (F411 at 96 MHz: TIM2 96 MHz / 8; F446 at 168 MHz: APB1 42 MHz, TIM2 84 MHz / 7). One count is
+/// 83.3 ns, fine enough for step rates far beyond what drivers accept.
+pub const KERNEL_TIMER_HZ: u32 = 12_000_000;
 
 /// A piece of motion at a constant tick rate with exact per-axis step counts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

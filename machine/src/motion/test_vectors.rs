@@ -233,22 +233,22 @@ pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/planner-square",
         run: planner_square,
-        expected: 0x107b_ba9f,
+        expected: 0x0d2e_600a,
     },
     Vector {
         name: "motion/arcs-helix",
         run: arcs_and_helix,
-        expected: 0x0c92_8a26,
+        expected: 0x8434_1796,
     },
     Vector {
         name: "motion/hold-resume-override",
         run: hold_resume_override,
-        expected: 0xb5eb_5dec,
+        expected: 0x8a37_7d18,
     },
     Vector {
         name: "motion/odd-ratios-dwell-exact-stop",
         run: odd_ratios_dwell_exact_stop,
-        expected: 0x3fe7_3a70,
+        expected: 0x4098_ce2f,
     },
 ];
 
