@@ -14,8 +14,14 @@ use gantry_machine::units::Nm;
 /// Most actions one check produces before it gives up (endless M99 loops, huge repeat counts).
 const MAX_ACTIONS: usize = 5_000_000;
 
-/// Runs `gantry check FILE [--canon]`.
-pub fn run(file: &Path, canon: bool) -> anyhow::Result<ExitCode> {
+/// Runs `gantry check FILE [--canon]`. `--canon` uses the default interpreter setup (DESIGN §7);
+/// plain `check` interprets with the machine `setup` and ends with the job summary
+/// ([`crate::check_summary`]); exit code 1 on errors or when the job would exceed the travel.
+pub fn run(
+    file: &Path,
+    canon: bool,
+    setup: &gantry_machine::setup::Setup,
+) -> anyhow::Result<ExitCode> {
     let text =
         std::fs::read(file).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
     if canon {
@@ -27,10 +33,14 @@ pub fn run(file: &Path, canon: bool) -> anyhow::Result<ExitCode> {
             ExitCode::SUCCESS
         });
     }
-    let (report, errors) =
-        human_report(&file.display().to_string(), &text, &InterpConfig::default());
+    let (report, errors) = human_report(&file.display().to_string(), &text, &setup.interp_config());
     print!("{report}");
-    Ok(if errors > 0 {
+    let summary = crate::check_summary::summarize(&text, setup);
+    if errors > 0 {
+        println!("(the summary covers the program up to its first error)");
+    }
+    print!("{}", crate::check_summary::format_summary(&summary, setup));
+    Ok(if errors > 0 || summary.leaves_travel.is_some() {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS

@@ -56,6 +56,36 @@ impl LimitSwitch {
     }
 }
 
+/// Two motors on one step/dir channel (a ganged axis, seed 003 "Squaring Parallel Drives"):
+/// each motor moves only while its enable output is on, and its limit switch is gated by the same
+/// output; both switches share the axis's limit input.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Gang {
+    pub axis: usize,
+    /// The switches are on the max side (else the min side).
+    pub max: bool,
+    /// User output bits enabling motor 0 and motor 1.
+    pub enable: [u8; 2],
+    /// Switch position of each motor, physical steps.
+    pub at: [i64; 2],
+    /// Position of each motor, physical steps.
+    pub motors: [i64; 2],
+}
+
+impl Gang {
+    fn bit(&self) -> u32 {
+        1 << (if self.max { LIMIT_MAX_BIT } else { LIMIT_MIN_BIT } + self.axis as u32)
+    }
+
+    fn on_switch(&self, m: usize) -> bool {
+        if self.max {
+            self.motors[m] >= self.at[m]
+        } else {
+            self.motors[m] <= self.at[m]
+        }
+    }
+}
+
 /// A board with its kernel on a virtual clock.
 pub struct EmulatedBoard {
     pub board: Board,
@@ -79,6 +109,12 @@ pub struct EmulatedBoard {
     pub adc: AdcReadings,
     /// Modelled limit switches.
     pub switches: Vec<LimitSwitch>,
+    /// A modelled ganged axis.
+    pub gang: Option<Gang>,
+    /// User outputs as the board drove them at the last main-loop pass.
+    user_outputs: u16,
+    /// Polarity and debounce the debouncer was built with.
+    debounce_setup: (u32, u8),
     /// Physical position = kernel steps + offset (homing redefines the kernel's zero).
     phys_offset: [i64; MAX_AXES],
     debouncer: Debouncer,
@@ -104,6 +140,7 @@ impl EmulatedBoard {
     pub fn new(setup: Setup) -> Self {
         let debouncer = Debouncer::new(setup.inputs.invert, setup.inputs.debounce_ms);
         EmulatedBoard {
+            debounce_setup: (setup.inputs.invert, setup.inputs.debounce_ms),
             board: Board::new(setup),
             link: BoardLink::new(0x6a17_0001),
             kernel: StepKernel::new(),
@@ -117,6 +154,8 @@ impl EmulatedBoard {
             pins: 0,
             adc: AdcReadings::default(),
             switches: Vec::new(),
+            gang: None,
+            user_outputs: 0,
             phys_offset: [0; MAX_AXES],
             debouncer,
             arm: 0,
@@ -139,6 +178,21 @@ impl EmulatedBoard {
         self.switches.push(LimitSwitch { axis, max, at });
     }
 
+    /// Models `axis` as two ganged motors, enabled by user outputs `enable`, with switches at
+    /// machine positions `at_nm` (min side, or max side with `max`); both start where the axis is.
+    pub fn add_gang(&mut self, axis: usize, max: bool, enable: [u8; 2], at_nm: [i64; 2]) {
+        let a = self.board.motion_config().axes[axis];
+        let here = self.physical()[axis];
+        let k = self.kernel.position()[axis];
+        self.gang = Some(Gang {
+            axis,
+            max,
+            enable,
+            at: at_nm.map(|v| a.nm_to_steps(v) - k + here),
+            motors: [here; 2],
+        });
+    }
+
     /// Physical step position (kernel position + the offset homing introduced).
     pub fn physical(&self) -> [i64; MAX_AXES] {
         let mut p = self.kernel.position();
@@ -152,6 +206,14 @@ impl EmulatedBoard {
     fn switch_levels(&self) -> (u32, u32) {
         let p = self.physical();
         let (mut on, mut owned) = (0, 0);
+        if let Some(g) = &self.gang {
+            owned |= g.bit();
+            for m in 0..2 {
+                if self.user_outputs & (1 << g.enable[m]) != 0 && g.on_switch(m) {
+                    on |= g.bit();
+                }
+            }
+        }
         for s in &self.switches {
             owned |= s.bit();
             let active = if s.max {
@@ -271,7 +333,17 @@ impl EmulatedBoard {
         let out = self
             .kernel
             .tick(&mut self.fifo, self.limit || self.switch_stop);
-        if out.step != 0 && !self.switches.is_empty() {
+        if let Some(g) = self.gang.as_mut() {
+            if out.step & (1 << g.axis) != 0 {
+                let d = if out.dir & (1 << g.axis) != 0 { -1 } else { 1 };
+                for m in 0..2 {
+                    if self.user_outputs & (1 << g.enable[m]) != 0 {
+                        g.motors[m] += d;
+                    }
+                }
+            }
+        }
+        if out.step != 0 && (!self.switches.is_empty() || self.gang.is_some()) {
             // The switch pin follows this tick's step; the interrupt sees it on the next tick.
             self.switch_stop = self.logical_pins() & self.arm & LIMIT_BITS != 0;
         }
@@ -323,6 +395,12 @@ impl EmulatedBoard {
             self.switch_stop = false;
             self.limit = false;
         }
+        let inputs = self.board.setup().inputs;
+        if (inputs.invert, inputs.debounce_ms) != self.debounce_setup {
+            // A new setup arrived over the link: sample with its polarity and debounce.
+            self.debounce_setup = (inputs.invert, inputs.debounce_ms);
+            self.debouncer = Debouncer::new(inputs.invert, inputs.debounce_ms);
+        }
         let (levels, changed) = self.debouncer.sample(self.raw_pins());
         self.inputs = levels.0;
         self.board.on_inputs(now, levels, changed, self.adc);
@@ -356,6 +434,7 @@ impl EmulatedBoard {
             }
         }
         self.arm = self.board.limit_arm();
+        self.user_outputs = self.board.output_levels().user;
         // An armed switch that is already active stops the kernel's next tick.
         self.switch_stop = self.logical_pins() & self.arm != 0;
         // Events raised by this poll go out in the same pass.

@@ -1,6 +1,7 @@
 //! The `gantry` sender's library: command implementations and the emulated board.
 
 pub mod check;
+pub mod check_summary;
 pub mod commands;
 pub mod emulator;
 pub mod link;

@@ -24,6 +24,9 @@ enum Command {
         /// Print the interpreted program as JSON Lines of canonical actions (DESIGN §7).
         #[arg(long)]
         canon: bool,
+        /// Machine setup (dialect, tools, travel) for plain `check` (default: built-in defaults).
+        #[arg(long)]
+        setup: Option<PathBuf>,
     },
     /// Stream a program to the board (with no --port: the emulated board) with progress and a report.
     Stream {
@@ -234,7 +237,12 @@ fn simulate(
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Check { file, canon } => host_sender::check::run(&file, canon),
+        Command::Check { file, canon, setup } => setup
+            .map_or_else(
+                || Ok(Default::default()),
+                |f| host_sender::setup_file::SetupFile::load(&f),
+            )
+            .and_then(|s| host_sender::check::run(&file, canon, &s)),
         Command::Setup { action } => setup(action),
         Command::Stream {
             file,

@@ -231,8 +231,9 @@ fn list_command(key: &str, text: &str) -> anyhow::Result<ListCommand> {
             },
         },
         ["disable_limit_report"] => ListCommand::DisableLimitReport,
+        ["seek"] => ListCommand::Seek,
         _ => bail!(
-            "{key}: {text:?}: expected \"set N\", \"clear N\", \"dwell MS\", \"wait INPUT high|low [TIMEOUT_MS]\" or \"disable_limit_report\""
+            "{key}: {text:?}: expected \"set N\", \"clear N\", \"dwell MS\", \"wait INPUT high|low [TIMEOUT_MS]\", \"seek\" or \"disable_limit_report\""
         ),
     })
 }
@@ -252,6 +253,7 @@ fn list_text(c: &ListCommand) -> String {
             if level { "high" } else { "low" }
         ),
         ListCommand::DisableLimitReport => "disable_limit_report".into(),
+        ListCommand::Seek => "seek".into(),
     }
 }
 
@@ -1017,7 +1019,7 @@ fro_pot = true
 [homing]
 required = true
 before_seek = ["set 1", "disable_limit_report"]
-before_retract = ["dwell 250"]
+before_retract = ["dwell 250", "seek"]
 after_retract = ["wait in30 high 2000", "clear 1"]
 [homing.axis.X]
 priority = 2

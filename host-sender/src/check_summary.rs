@@ -1,0 +1,156 @@
+//! The summary table plain `gantry check` ends with: extents against the machine travel (and the
+//! first line that would hit a soft limit), tools used, and the run time the planner estimates —
+//! the same figure the board takes at 100 % override.
+
+use crate::preview::adapt::from_canon;
+use crate::preview::geom::{extend, extents};
+use crate::preview::model::Box3;
+use crate::preview::{plan, source};
+use gantry_machine::canon::Action;
+use gantry_machine::setup::Setup;
+use std::fmt::Write as _;
+
+/// What the summary found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JobSummary {
+    /// Job extents, mm (X, Y, Z), `None` for a job without motion.
+    pub extents: Option<Box3>,
+    /// First line whose move leaves the travel, with the axis letter.
+    pub leaves_travel: Option<(u32, char)>,
+    /// Tools loaded by M6, in order of first use.
+    pub tools: Vec<u32>,
+    /// Planned run time at 100 % override, s (`None` when the planner refused the program).
+    pub run_time_s: Option<f64>,
+    pub moves: usize,
+}
+
+/// Interprets and plans `program` on `setup` (only the part before a first error, if any).
+pub fn summarize(program: &[u8], setup: &Setup) -> JobSummary {
+    let (canon, _error) = source::interpret(program, setup);
+    let job = from_canon(&canon, setup, "");
+    let travel = Box3::travel(setup);
+    let mut leaves_travel = None;
+    for m in &job.moves {
+        let mut b = Box3::EMPTY;
+        extend(&mut b, m);
+        if !travel.contains(&b) {
+            let axis = (0..3)
+                .find(|&i| b.min[i] < travel.min[i] - 1e-6 || b.max[i] > travel.max[i] + 1e-6)
+                .unwrap_or(0);
+            leaves_travel = Some((m.line, ['X', 'Y', 'Z'][axis]));
+            break;
+        }
+    }
+    let mut tools = Vec::new();
+    for c in &canon {
+        if let Action::ToolChange { tool } = c.action {
+            if !tools.contains(&tool) {
+                tools.push(tool);
+            }
+        }
+    }
+    let e = extents(&job.moves);
+    JobSummary {
+        extents: (!e.is_empty()).then_some(e),
+        leaves_travel,
+        tools,
+        run_time_s: plan::plan(&canon, setup).ok().map(|p| p.total_time_s),
+        moves: job.moves.len(),
+    }
+}
+
+/// The table as printed.
+pub fn format_summary(s: &JobSummary, setup: &Setup) -> String {
+    let mut out = String::from("summary\n");
+    let _ = writeln!(out, "  moves       {}", s.moves);
+    match &s.extents {
+        Some(e) => {
+            for (i, axis) in ['X', 'Y', 'Z'].iter().enumerate() {
+                let a = &setup.axes[i];
+                let _ = writeln!(
+                    out,
+                    "  {axis} extents   {:>10.3} .. {:>10.3} mm   (travel {:.3} .. {:.3})",
+                    e.min[i],
+                    e.max[i],
+                    a.travel_min as f64 / 1e6,
+                    a.travel_max as f64 / 1e6
+                );
+            }
+        }
+        None => out.push_str("  extents     no motion\n"),
+    }
+    match s.leaves_travel {
+        Some((line, axis)) => {
+            let _ = writeln!(
+                out,
+                "  travel      EXCEEDED: line {line} leaves the {axis} travel (soft limit)"
+            );
+        }
+        None => out.push_str("  travel      within the machine travel\n"),
+    }
+    let tools: Vec<String> = s.tools.iter().map(|t| format!("T{t}")).collect();
+    let _ = writeln!(
+        out,
+        "  tools       {}",
+        if tools.is_empty() {
+            "none".to_owned()
+        } else {
+            tools.join(" ")
+        }
+    );
+    match s.run_time_s {
+        Some(t) => {
+            let _ = writeln!(
+                out,
+                "  run time    {t:.3} s (planner, 100 % override: {}:{:06.3})",
+                (t / 60.0).floor(),
+                t % 60.0
+            );
+        }
+        None => out.push_str("  run time    unknown (the planner refused the program)\n"),
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_example_job_is_summarised() {
+        let s = summarize(
+            include_bytes!("../../examples/bracket.ngc"),
+            &Setup::default(),
+        );
+        let e = s.extents.unwrap();
+        assert_eq!(
+            e.min.map(|v| (v * 1000.0).round()),
+            [-4000.0, -4000.0, -3500.0]
+        );
+        assert_eq!(
+            e.max.map(|v| (v * 1000.0).round()),
+            [64000.0, 44000.0, 10000.0]
+        );
+        assert_eq!(s.leaves_travel, None);
+        assert_eq!(s.tools, vec![1]);
+        // The same figure `gantry simulate` prints for this job.
+        assert_eq!(format!("{:.3}", s.run_time_s.unwrap()), "52.289");
+    }
+
+    #[test]
+    fn the_first_line_beyond_the_travel_is_named() {
+        let s = summarize(
+            b"G21 G90\nG0 X10\nG2 X20 Y0 I5 J0 F100\nG0 X350\n",
+            &Setup::default(),
+        );
+        assert_eq!(s.leaves_travel, Some((4, 'X')));
+        let text = format_summary(&s, &Setup::default());
+        assert!(text.contains("line 4 leaves the X travel"), "{text}");
+        // An arc bulging past the travel counts too: Y max is 200 by default.
+        let s = summarize(
+            b"G21 G90 G0 X0 Y190\nG2 X20 Y190 I10 J0 F100\n",
+            &Setup::default(),
+        );
+        assert_eq!(s.leaves_travel, Some((2, 'Y')));
+    }
+}
