@@ -148,7 +148,7 @@ mod tests {
         assert!(text.contains("line 4 leaves the X travel"), "{text}");
         // An arc bulging past the travel counts too: Y max is 200 by default.
         let s = summarize(
-            b"G21 G90 G0 X0 Y190\nG2 X20 Y190 I10 J0 F100\n",
+            b"G21 G90 G0 X0 Y195\nG2 X20 Y195 I10 J0 F100\n",
             &Setup::default(),
         );
         assert_eq!(s.leaves_travel, Some((2, 'Y')));
