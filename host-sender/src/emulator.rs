@@ -74,7 +74,11 @@ pub struct Gang {
 
 impl Gang {
     fn bit(&self) -> u32 {
-        1 << (if self.max { LIMIT_MAX_BIT } else { LIMIT_MIN_BIT } + self.axis as u32)
+        1 << (if self.max {
+            LIMIT_MAX_BIT
+        } else {
+            LIMIT_MIN_BIT
+        } + self.axis as u32)
     }
 
     fn on_switch(&self, m: usize) -> bool {

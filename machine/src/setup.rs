@@ -110,7 +110,7 @@ pub struct OperatorSetup {
 }
 
 /// Commands a homing list (before seek, before retract, after retract) may hold.
-pub const MAX_HOMING_COMMANDS: usize = 4;
+pub const MAX_HOMING_COMMANDS: usize = 8;
 /// User M codes that may carry a command list.
 pub const MAX_MCODE_LISTS: usize = 8;
 /// Commands one M-code list may hold.
@@ -138,6 +138,10 @@ pub enum ListCommand {
     /// Seed `#disable_limit_report`: limit switches hit while this list's sequence runs are not
     /// reported to the host (homing and squaring).
     DisableLimitReport,
+    /// In a homing list: seek the homed axis's switch again at the seek rate and continue when it
+    /// stops the motion (squaring a ganged axis: enable one side, seek, enable the other, seek).
+    /// Ignored in M-code lists.
+    Seek,
 }
 
 /// Input wiring: polarity, debounce and which switches are installed.

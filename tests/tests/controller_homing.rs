@@ -141,3 +141,52 @@ fn abort_during_homing_alarms_and_leaves_the_axis_unhomed() {
     assert!(eb.board.motion().config().soft_limits);
     let _ = LIMIT_MAX_BIT;
 }
+
+#[test]
+fn squaring_leaves_both_motors_on_their_switches_then_retracts() {
+    // Y is two motors on one step channel, enabled by outputs 0 and 1 (which also gate their
+    // switches); the gantry is racked: motor 0 meets its switch at -2 mm, motor 1 at -3 mm.
+    let mut eb = board(|s| {
+        s.inputs.limit_min = 0b010;
+        s.homing.axes[1].priority = 1;
+        s.homing.axes[1].retract = MM;
+        let c = |t: &str| match t {
+            "seek" => ListCommand::Seek,
+            "set0" => ListCommand::Set(0),
+            "set1" => ListCommand::Set(1),
+            "clear0" => ListCommand::Clear(0),
+            "clear1" => ListCommand::Clear(1),
+            "settle" => ListCommand::DwellMs(100),
+            _ => ListCommand::DisableLimitReport,
+        };
+        for t in ["report", "set0", "set1"] {
+            s.homing.before_seek.push(c(t)).unwrap();
+        }
+        // Seed sequence: each side alone onto its own switch, then both enabled again.
+        for t in ["clear1", "seek", "set1", "clear0", "seek", "set0", "settle"] {
+            s.homing.before_retract.push(c(t)).unwrap();
+        }
+    });
+    eb.add_gang(1, false, [0, 1], [-2 * MM, -3 * MM]);
+    assert!(eb.board.home(0b010));
+    // First stop: motor 0 on its switch, motor 1 dragged along to -2 mm.
+    eb.run_until(30_000, |b| b.limit_stops == 1);
+    let g = eb.gang.unwrap();
+    assert_eq!(g.motors, [-2 * STEPS_PER_MM, -2 * STEPS_PER_MM]);
+    // Motor 0 alone seeks (already on its switch: no step), then motor 1 alone.
+    eb.run_until(30_000, |b| b.limit_stops == 3);
+    eb.run_ms(50);
+    let g = eb.gang.unwrap();
+    assert_eq!(g.motors, g.at, "both motors on their switches");
+    assert_eq!(g.at, [-2 * STEPS_PER_MM, -3 * STEPS_PER_MM]);
+    assert_eq!(eb.board.output_levels().user, 0b11);
+    until_state(&mut eb, State::Idle, 30_000);
+    // Both retracted together by 1 mm: still square to their switches.
+    let g = eb.gang.unwrap();
+    assert_eq!(g.motors, [g.at[0] + STEPS_PER_MM, g.at[1] + STEPS_PER_MM]);
+    assert_eq!(eb.board.homed(), 0b010);
+    assert_eq!(eb.kernel.position()[1], 0);
+    assert_eq!(eb.board.output_levels().user, 0b11);
+    // No hard-limit alarm on the way: the seek switch stops are expected.
+    assert_eq!(eb.board.alarm(), None);
+}

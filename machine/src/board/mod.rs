@@ -513,10 +513,14 @@ impl Board {
         if let Some(h) = self.homing.as_ref() {
             let axis = h.axis();
             let bit = homing::switch_bit(axis, &self.setup.homing.axes[axis]);
-            if h.phase == Phase::Seek && tripped & (1 << bit) != 0 {
+            if h.seeking() && tripped & (1 << bit) != 0 {
                 self.rebuild_motion(false, kernel_steps);
                 if let Some(h) = self.homing.as_mut() {
-                    h.phase = Phase::BeforeRetract;
+                    if h.list_seek {
+                        h.list_seek = false;
+                    } else {
+                        h.phase = Phase::BeforeRetract;
+                    }
                 }
                 return;
             }
@@ -544,7 +548,7 @@ impl Board {
         if let Some(h) = self.homing.as_ref() {
             let axis = h.axis();
             let bit = 1 << homing::switch_bit(axis, &self.setup.homing.axes[axis]);
-            if h.phase == Phase::Seek {
+            if h.seeking() {
                 arm |= bit;
             } else {
                 arm &= !bit;
@@ -801,7 +805,8 @@ impl Board {
         }
         if let Some(list) = self.list.as_mut() {
             match list.step(self.now_ms, self.levels, &mut self.user_outputs) {
-                ListStatus::Running => {}
+                // `seek` means nothing outside homing: the next pass continues the list.
+                ListStatus::Running | ListStatus::Seek => {}
                 ListStatus::Done => {
                     self.list = None;
                     self.motion.release_sync();
@@ -1035,6 +1040,12 @@ impl Board {
             return;
         }
         let at = self.motion.queued_position();
+        if h.list_seek {
+            // A list's seek ran its whole length without meeting the switch.
+            self.homing_list = None;
+            self.enter_alarm(AlarmCode::HomingSwitchNotFound);
+            return;
+        }
         match h.phase {
             Phase::BeforeSeek | Phase::BeforeRetract | Phase::AfterRetract => {
                 let list = match h.phase {
@@ -1047,6 +1058,10 @@ impl Board {
                     .get_or_insert_with(|| ListRunner::new(list));
                 match runner.step(self.now_ms, self.levels, &mut self.user_outputs) {
                     ListStatus::Running => {}
+                    ListStatus::Seek => {
+                        self.push_seek(axis, &at);
+                        h.list_seek = true;
+                    }
                     ListStatus::Timeout => {
                         self.homing_list = None;
                         self.enter_alarm(AlarmCode::ListInputTimeout);
@@ -1056,13 +1071,7 @@ impl Board {
                         self.homing_list = None;
                         match h.phase {
                             Phase::BeforeSeek => {
-                                let mut to = at;
-                                to[axis] = homing::seek_target(&self.setup, axis, at[axis]);
-                                let feed = ha.seek_rate;
-                                let _ = self.motion.push(&Canon {
-                                    line: 0,
-                                    action: Action::Feed { to, feed },
-                                });
+                                self.push_seek(axis, &at);
                                 h.phase = Phase::Seek;
                             }
                             Phase::BeforeRetract => {
@@ -1111,6 +1120,17 @@ impl Board {
             }
         }
         self.homing = Some(h);
+    }
+
+    /// Queues a constant-rate seek of `axis` toward its homing switch, over the travel + retract.
+    fn push_seek(&mut self, axis: usize, at: &Pos) {
+        let mut to = *at;
+        to[axis] = homing::seek_target(&self.setup, axis, at[axis]);
+        let feed = self.setup.homing.axes[axis].seek_rate;
+        let _ = self.motion.push(&Canon {
+            line: 0,
+            action: Action::Feed { to, feed },
+        });
     }
 
     /// Host jog of one axis at `velocity_um_min` (sign = direction): `distance_nm` far, or

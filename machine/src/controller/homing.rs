@@ -30,6 +30,15 @@ pub struct Homing {
     pub phase: Phase,
     /// Axes homed by this cycle so far.
     pub done: u8,
+    /// A list's `seek` command is moving toward the switch.
+    pub list_seek: bool,
+}
+
+impl Homing {
+    /// True while a seek toward the axis's switch is moving (the switch is the target).
+    pub fn seeking(&self) -> bool {
+        self.phase == Phase::Seek || self.list_seek
+    }
 }
 
 impl Homing {
@@ -42,6 +51,7 @@ impl Homing {
             index: 0,
             phase: Phase::BeforeSeek,
             done: 0,
+            list_seek: false,
         })
     }
 

@@ -20,6 +20,8 @@ pub enum ListStatus {
     Done,
     /// An input wait timed out (the controller alarms).
     Timeout,
+    /// A [`ListCommand::Seek`] ran: the owner seeks, then steps the list again.
+    Seek,
 }
 
 /// Runs one command list.
@@ -50,6 +52,11 @@ impl ListRunner {
                 ListCommand::Set(n) => *user |= 1u16.checked_shl(u32::from(n)).unwrap_or(0),
                 ListCommand::Clear(n) => *user &= !1u16.checked_shl(u32::from(n)).unwrap_or(0),
                 ListCommand::DisableLimitReport => self.limit_report_disabled = true,
+                ListCommand::Seek => {
+                    self.since = None;
+                    self.next += 1;
+                    return ListStatus::Seek;
+                }
                 ListCommand::DwellMs(ms) => {
                     let since = *self.since.get_or_insert(now_ms);
                     if now_ms.wrapping_sub(since) < u32::from(ms) {
