@@ -103,3 +103,40 @@ fn with_homing_required_motion_waits_for_homing_after_a_hard_limit() {
     assert_eq!(eb.board.homed(), 0b011);
     let _ = ERROR_HOMING_REQUIRED;
 }
+
+#[test]
+fn a_switch_hit_during_a_jog_alarms_and_active_low_switches_work() {
+    // The Y max switch is wired active low (switch to ground, pull-up).
+    let mut eb = board(|s| {
+        s.inputs.limit_max = 0b010;
+        s.inputs.invert = 1 << 23;
+    });
+    eb.add_switch(1, true, 12 * MM);
+    // Idle with the switch released: the pin reads high.
+    eb.run_ms(5);
+    assert_eq!(eb.raw_pins() & (1 << 23), 1 << 23);
+    assert!(eb.board.jog(1, 1_200_000, 0));
+    until_state(&mut eb, State::Alarm, 10_000);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
+    assert_eq!(eb.kernel.position()[1], 12 * STEPS_PER_MM);
+    assert_eq!(eb.raw_pins() & (1 << 23), 0);
+}
+
+#[test]
+fn switches_do_not_stop_motion_when_hard_limits_are_off_or_not_installed() {
+    let mut eb = board(|s| {
+        s.inputs.limit_max = 0b001;
+        s.inputs.hard_limits = false;
+    });
+    eb.add_switch(0, true, 5 * MM);
+    eb.add_switch(1, true, 5 * MM); // wired but not installed in the setup
+    job(&mut eb, "G90 G21\nG1 X10 Y10 F3000\nM30\n");
+    until_state(&mut eb, State::Idle, 10_000);
+    assert_eq!(
+        eb.kernel.position()[..2],
+        [10 * STEPS_PER_MM, 10 * STEPS_PER_MM]
+    );
+    assert_eq!(eb.limit_stops, 0);
+    // The debounced levels still show them (status reports the inputs).
+    assert_eq!(eb.inputs & ((1 << 22) | (1 << 23)), (1 << 22) | (1 << 23));
+}
