@@ -57,6 +57,8 @@ fn jog_stop_stops_within_the_deceleration_distance() {
     assert!((2900.0..=3100.0).contains(&v), "at {v} mm/min");
     let at = eb.kernel.position()[0];
     let lead = eb.queued_ms();
+    // While jogging the board keeps at most JOG_LEAD_MS (+ one 2 ms segment) in the kernel queue.
+    assert!(lead <= 5.0, "kernel queue {lead} ms");
     eb.board.jog_stop();
     until_state(&mut eb, State::Idle, 5_000);
     let overrun = (eb.kernel.position()[0] - at) as f64 / STEPS_PER_MM as f64;

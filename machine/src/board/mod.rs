@@ -36,6 +36,10 @@ const EVENT_QUEUE: usize = 8;
 pub const ERROR_SOFT_LIMIT: u16 = 900;
 /// Error code reported when motion is refused: homing is required first.
 pub const ERROR_HOMING_REQUIRED: u16 = 901;
+/// Step-timer counts per millisecond.
+const COUNTS_PER_MS: u64 = crate::motion::kernel::KERNEL_TIMER_HZ as u64 / 1000;
+/// Most motion (ms) handed to the kernel ahead of time while jogging.
+pub const JOG_LEAD_MS: u64 = 3;
 /// Mark events waiting for the link.
 const MARK_QUEUE: usize = 4;
 /// Every limit-switch bit of [`InputBits`].
@@ -176,6 +180,8 @@ pub struct Board {
     last_motion_line: u32,
     /// Last poll saw the kernel drained.
     drained: bool,
+    /// Jog lead: timer counts handed out since the kernel was last drained, and when that was (ms).
+    lead: (u64, u32),
 }
 
 impl Board {
@@ -218,6 +224,7 @@ impl Board {
             single_block: false,
             last_motion_line: 0,
             drained: true,
+            lead: (0, 0),
         };
         if needs_home {
             // Power-up with homing required: locked until homed (grbl's boot alarm).
@@ -621,7 +628,22 @@ impl Board {
 
     /// The next step segment for the kernel's queue.
     pub fn next_segment(&mut self) -> Option<Segment> {
+        if self.state == State::Jog {
+            // Jogs keep the kernel's queue short, so a release or a stop starts decelerating
+            // within JOG_LEAD_MS (the segments already handed out always run in full).
+            if self.drained {
+                self.drained = false;
+                self.lead = (0, self.now_ms);
+            }
+            let elapsed = u64::from(self.now_ms.wrapping_sub(self.lead.1)) * COUNTS_PER_MS;
+            if self.lead.0 > elapsed + JOG_LEAD_MS * COUNTS_PER_MS {
+                return None;
+            }
+        }
         let seg = self.motion.next_segment();
+        if let Some(s) = &seg {
+            self.lead.0 += s.duration();
+        }
         while let Some(report) = self.motion.take_report() {
             self.line = report.line;
         }
