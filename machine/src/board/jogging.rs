@@ -1,0 +1,208 @@
+//! Jogging on the board: host jogs and the joystick (switches, modes, Mark/Release, analog
+//! stick), seed 003 §2.6. Targets and stick mapping are in [`crate::controller::jog`].
+
+use super::{Board, BoardEvent, MarkEvent, MotionState, StickMove, ERROR_SOFT_LIMIT};
+use crate::canon::{Action, Canon};
+use crate::controller::inputs::{InputBits, Signal};
+use crate::controller::jog::{self, JogMode};
+use crate::controller::{AdcReadings, State};
+use crate::units::MAX_AXES;
+
+impl Board {
+    /// Host jog of one axis at `velocity_um_min` (sign = direction): `distance_nm` far, or
+    /// (0) toward the soft limit until [`Board::jog_stop`]. From idle, or after the previous jog
+    /// has stopped; false when refused (an increment beyond the soft limits reports error 900).
+    pub fn jog(&mut self, axis: u8, velocity_um_min: i32, distance_nm: u64) -> bool {
+        let free = self.state == State::Idle
+            || (self.state == State::Jog
+                && !self.jog.joystick
+                && !self.jog.stopping
+                && self.motion.state() == MotionState::Idle);
+        if !free || axis >= self.setup.axis_count || velocity_um_min == 0 || self.refuse_unhomed() {
+            return false;
+        }
+        let mut dirs = [0i64; MAX_AXES];
+        dirs[axis as usize] = i64::from(velocity_um_min.signum());
+        let distance = (distance_nm > 0).then(|| distance_nm.min(i64::MAX as u64 / 4) as i64);
+        let from = self.motion.queued_position();
+        let Some(to) = jog::jog_target(self.motion.config(), &from, &dirs, distance) else {
+            if distance.is_some() {
+                self.emit(BoardEvent::Error {
+                    line: 0,
+                    code: ERROR_SOFT_LIMIT,
+                    column: 0,
+                });
+            }
+            return false;
+        };
+        let feed = i64::from(velocity_um_min.unsigned_abs()) * 1000;
+        if self
+            .motion
+            .push(&Canon {
+                line: 0,
+                action: Action::Feed { to, feed },
+            })
+            .is_err()
+        {
+            return false;
+        }
+        self.jog.host = true;
+        self.state = State::Jog;
+        true
+    }
+
+    /// Stops a jog within its deceleration distance and drops what was queued of it.
+    pub fn jog_stop(&mut self) {
+        if self.state != State::Jog {
+            return;
+        }
+        if self.motion.state() != MotionState::Idle {
+            self.motion.abort();
+            self.jog.stopping = true;
+        }
+        self.jog.running = None;
+    }
+
+    pub(super) fn poll_jog(&mut self, drained: bool) {
+        if self.motion.state() == MotionState::Idle {
+            self.jog.stopping = false;
+            if drained {
+                self.jog.host = false;
+            }
+        }
+        if !self.jog.joystick
+            && !self.jog.host
+            && !self.jog.stopping
+            && drained
+            && self.motion.state() == MotionState::Idle
+        {
+            self.state = State::Idle;
+            self.sync_interpreter_position();
+        }
+    }
+
+    /// Joystick handling of one input sample (seed 003 §2.6).
+    pub(super) fn joystick(&mut self, prev: InputBits, levels: InputBits, adc: AdcReadings) {
+        let both = |l: InputBits| l.get(Signal::Mark) && l.get(Signal::Release);
+        if both(levels) && !both(prev) {
+            if self.state == State::Idle && !self.refuse_unhomed() {
+                self.jog.joystick = true;
+                self.jog.nudge_dirs = [0; MAX_AXES];
+                self.state = State::Jog;
+            } else if self.state == State::Jog && self.jog.joystick {
+                self.jog.joystick = false;
+                self.jog_stop();
+            }
+            return;
+        }
+        if !(self.state == State::Jog && self.jog.joystick) {
+            return;
+        }
+        if levels.get(Signal::Mark) && !prev.get(Signal::Mark) && !levels.get(Signal::Release) {
+            self.jog.marks += 1;
+            let position = self.motion.config().to_nm(&self.motion.prepared_steps());
+            if self.marks.is_full() {
+                self.marks.pop_front();
+            }
+            let _ = self.marks.push_back(MarkEvent {
+                id: self.jog.marks,
+                position,
+            });
+        }
+        let mode = jog::mode_of(levels);
+        let dirs = jog::stick_directions(levels, &self.setup.jog);
+        let mut want = None;
+        if let Some(m) = self.analog_request(adc) {
+            want = Some(m);
+        } else if mode != JogMode::Nudge && dirs.iter().any(|&d| d != 0) {
+            want = Some(StickMove {
+                dirs: dirs.map(i64::from),
+                feed: if mode == JogMode::Accelerated {
+                    0
+                } else {
+                    self.setup.jog.instant_speed
+                },
+            });
+        }
+        if self.jog.stopping {
+            if self.motion.state() != MotionState::Idle {
+                return;
+            }
+            self.jog.stopping = false;
+        }
+        if want != self.jog.running {
+            if self.motion.state() != MotionState::Idle {
+                if self.jog.running.is_some() {
+                    self.motion.abort();
+                    self.jog.stopping = true;
+                    self.jog.running = None;
+                }
+                return;
+            }
+            self.jog.running = None;
+            if let Some(m) = want {
+                self.start_stick_move(m);
+            }
+        }
+        if mode == JogMode::Nudge && want.is_none() {
+            let any = dirs.iter().any(|&d| d != 0);
+            let due = dirs != self.jog.nudge_dirs
+                || self.now_ms.wrapping_sub(self.jog.next_nudge) < u32::MAX / 2;
+            if any && due {
+                self.nudge(&dirs);
+                self.jog.next_nudge = self
+                    .now_ms
+                    .wrapping_add(u32::from(self.setup.jog.nudge_interval_ms));
+            }
+            self.jog.nudge_dirs = dirs;
+        } else {
+            self.jog.nudge_dirs = [0; MAX_AXES];
+        }
+    }
+
+    /// The analog stick's request: proportional speeds on its two axes.
+    fn analog_request(&self, adc: AdcReadings) -> Option<StickMove> {
+        let stick = adc.stick?;
+        let j = &self.setup.jog;
+        let mut dirs = [0i64; MAX_AXES];
+        for (ch, &axis) in j.analog_axes.iter().enumerate() {
+            if axis < self.setup.axis_count {
+                dirs[axis as usize] = jog::analog_speed(stick[ch], self.setup.inputs.adc_max, j);
+            }
+        }
+        let sq: u128 = dirs.iter().map(|&v| (v as i128 * v as i128) as u128).sum();
+        (sq != 0).then(|| StickMove {
+            dirs,
+            feed: jog::isqrt(sq) as i64,
+        })
+    }
+
+    fn start_stick_move(&mut self, m: StickMove) {
+        let from = self.motion.queued_position();
+        // At the edge already: remember the request so it is not retried every millisecond.
+        self.jog.running = Some(m);
+        let Some(to) = jog::jog_target(self.motion.config(), &from, &m.dirs, None) else {
+            return;
+        };
+        let action = if m.feed == 0 {
+            Action::Rapid { to }
+        } else {
+            Action::Feed { to, feed: m.feed }
+        };
+        let _ = self.motion.push(&Canon { line: 0, action });
+    }
+
+    /// One nudge increment (skipped when it would leave the soft-limit box).
+    fn nudge(&mut self, dirs: &[i8; MAX_AXES]) {
+        let from = self.motion.queued_position();
+        let d = self.setup.jog.nudge_distance;
+        let w = dirs.map(i64::from);
+        if let Some(to) = jog::jog_target(self.motion.config(), &from, &w, Some(d)) {
+            let feed = self.setup.jog.instant_speed;
+            let _ = self.motion.push(&Canon {
+                line: 0,
+                action: Action::Feed { to, feed },
+            });
+        }
+    }
+}

@@ -1,0 +1,75 @@
+//! Operator inputs of one main-loop pass: feed hold, abort, cycle start (two-hand), the run-mode
+//! switches and the feed-override potentiometer (seed 003 §2.3-§2.5). The joystick part is in
+//! [`super::jogging`].
+
+use super::Board;
+use crate::controller::inputs::{InputBits, Signal};
+use crate::controller::{fro_from_adc, AdcReadings, State};
+
+impl Board {
+    /// Cycle start: resumes a hold or an M0/M1/single-block stop.
+    pub fn cycle_start(&mut self) {
+        if self.state == State::Hold {
+            self.resume();
+        }
+    }
+
+    /// The inputs of one main-loop pass (every millisecond): `levels` are the debounced logical
+    /// levels ([`crate::controller::inputs::Debouncer`] with the setup's polarity and debounce),
+    /// `changed` the bits that changed with this sample, `adc` the analog readings. Drives feed
+    /// hold, abort, cycle start, the switches (single block, optional stop, block delete), the
+    /// feed-override potentiometer and the joystick.
+    pub fn on_inputs(&mut self, now_ms: u32, levels: InputBits, changed: u32, adc: AdcReadings) {
+        let prev = self.levels;
+        self.now_ms = now_ms;
+        self.levels = levels;
+        // A disarmed limit switch re-arms once it has released.
+        self.disarmed &= levels.0;
+        let rose = |s: Signal| changed & (1 << s as u32) != 0 && levels.get(s);
+        let fell = |s: Signal| changed & (1 << s as u32) != 0 && !levels.get(s);
+        let inputs = self.setup.inputs;
+        if inputs.abort && rose(Signal::Abort) {
+            self.abort();
+        }
+        if inputs.feed_hold {
+            if rose(Signal::FeedHold) && self.state == State::Run {
+                self.feed_hold();
+            }
+            if fell(Signal::FeedHold) && !self.setup.operator.resume_needs_cycle_start {
+                self.release_hold();
+            }
+        }
+        let start = |l: InputBits| {
+            let (a, b) = (l.get(Signal::CycleStart1), l.get(Signal::CycleStart2));
+            if self.setup.operator.two_hand_start {
+                a && b
+            } else {
+                a || b
+            }
+        };
+        if start(levels) && !start(prev) {
+            self.cycle_start();
+        }
+        if changed & (1 << Signal::SingleBlock as u32) != 0 {
+            self.single_block = levels.get(Signal::SingleBlock);
+        }
+        if changed & (1 << Signal::OptionalStop as u32) != 0 {
+            self.interp
+                .set_optional_stop(levels.get(Signal::OptionalStop));
+        }
+        if changed & (1 << Signal::BlockDelete as u32) != 0 {
+            self.interp
+                .set_block_delete(levels.get(Signal::BlockDelete));
+        }
+        if let (true, Some(raw)) = (inputs.fro_pot, adc.fro) {
+            let op = &self.setup.operator;
+            let pct = fro_from_adc(raw, inputs.adc_max, op.fro_low, op.fro_high);
+            // Applied when the pot moves, so a host override stays until the knob is turned.
+            if self.fro_pot != Some(pct) {
+                self.fro_pot = Some(pct);
+                self.set_feed_override(pct);
+            }
+        }
+        self.joystick(prev, levels, adc);
+    }
+}
