@@ -103,7 +103,11 @@ fn abort_input_stops_runs_the_program_stop_and_remembers_the_line() {
     assert_eq!(eb.kernel.position(), at, "abort from a hold does not move");
     assert_eq!(eb.board.resume_line(), 5);
     assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
-    // The board continues from where it stopped: a new job moves from there.
+    // The board continues from where it stopped: a new job moves from there (once the hold
+    // switch is closed again; with it open the job would start held).
+    set(&mut eb, Signal::FeedHold, false);
+    eb.run_ms(2);
+    assert_eq!(eb.board.state(), State::Idle);
     job(&mut eb, "G91 G1 X1 F600\nM30\n");
     until_state(&mut eb, State::Idle, 10_000);
     assert_eq!(eb.kernel.position()[0], at[0] + STEPS_PER_MM);
@@ -168,4 +172,22 @@ fn optional_stop_switch_makes_m1_stop() {
     eb.board.cycle_start();
     until_state(&mut eb, State::Idle, 10_000);
     assert_eq!(eb.kernel.position()[0], 10 * STEPS_PER_MM);
+}
+
+#[test]
+fn a_job_started_with_the_hold_switch_open_waits_for_it() {
+    let mut eb = board(|_| {});
+    set(&mut eb, Signal::FeedHold, true);
+    eb.run_ms(2);
+    job(&mut eb, "G21 G90\nG1 X2 F600\nM30\n");
+    eb.run_ms(500);
+    assert_eq!(eb.board.state(), State::Hold);
+    assert_eq!(eb.pulses[0], 0);
+    // Cycle start cannot override the open switch.
+    eb.board.cycle_start();
+    eb.run_ms(100);
+    assert_eq!(eb.pulses[0], 0);
+    set(&mut eb, Signal::FeedHold, false);
+    until_state(&mut eb, State::Idle, 10_000);
+    assert_eq!(eb.kernel.position()[0], 2 * STEPS_PER_MM);
 }

@@ -375,6 +375,11 @@ impl Board {
         self.paused = false;
         self.held = false;
         self.state = state;
+        if state == State::Run && self.hold_input_active() {
+            // The feed-hold switch is open: the job waits, held, until it closes.
+            self.held = true;
+            self.state = State::Hold;
+        }
         true
     }
 
