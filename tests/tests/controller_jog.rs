@@ -198,3 +198,16 @@ fn the_analog_stick_drives_proportional_speed() {
     until_at_rest(&mut eb, 5_000);
     assert_eq!(eb.board.state(), State::Jog);
 }
+
+#[test]
+fn slow_nudges_do_not_queue_up_behind_the_stick() {
+    // 2 mm at 60 mm/min takes 2 s: holding the switch 1.2 s gives exactly one nudge.
+    let mut eb = board(|s| s.jog.nudge_distance = 2 * MM);
+    enter_joystick(&mut eb);
+    set(&mut eb, Signal::Nudge, true);
+    set(&mut eb, Signal::JogS3, true);
+    eb.run_ms(1200);
+    set(&mut eb, Signal::JogS3, false);
+    eb.run_ms(3000);
+    assert_eq!(eb.kernel.position()[0], 2 * STEPS_PER_MM);
+}

@@ -148,7 +148,8 @@ impl Board {
             let any = dirs.iter().any(|&d| d != 0);
             let due = dirs != self.jog.nudge_dirs
                 || self.now_ms.wrapping_sub(self.jog.next_nudge) < u32::MAX / 2;
-            if any && due {
+            // A nudge still moving delays the next one: nothing queues up behind the stick.
+            if any && due && self.motion.state() == MotionState::Idle {
                 self.nudge(&dirs);
                 self.jog.next_nudge = self
                     .now_ms
