@@ -108,7 +108,7 @@ fn block_cost() -> (u64, u64) {
         *line += 1;
         // 0.1 mm steps along a gentle zigzag (0.06° corners, like a fine CAM polyline) at F3000.
         let x = *line as i64 * 100_000;
-        let y = if *line % 2 == 0 { 0 } else { 100 };
+        let y = if (*line).is_multiple_of(2) { 0 } else { 100 };
         Canon {
             line: *line,
             action: Action::Feed {
@@ -138,7 +138,10 @@ fn block_cost() -> (u64, u64) {
         }
     }
     let total = now() - t0;
-    (total * 1000 / BLOCKS as u64, push_counts * 1000 / BLOCKS as u64)
+    (
+        total * 1000 / BLOCKS as u64,
+        push_counts * 1000 / BLOCKS as u64,
+    )
 }
 
 /// Instructions per call of a few core helpers (for finding where block time goes).
@@ -154,17 +157,31 @@ fn helper_costs() {
     let sqrt = (now() - t0) * 40 / N;
     let t0 = now();
     for i in 0..N {
-        acc = acc.wrapping_add(mul_div(black_box(50_000_000 + i), 24_000_000, black_box(200_000_000)));
+        acc = acc.wrapping_add(mul_div(
+            black_box(50_000_000 + i),
+            24_000_000,
+            black_box(200_000_000),
+        ));
     }
     let md = (now() - t0) * 40 / N;
     let t0 = now();
     for i in 0..N {
-        let p = Profile::plan(0, black_box(40_000_000 + i), 100_000, 50_000_000, 1_600_000_000_000_000, 200_000_000);
+        let p = Profile::plan(
+            0,
+            black_box(40_000_000 + i),
+            100_000,
+            50_000_000,
+            1_600_000_000_000_000,
+            200_000_000,
+        );
         acc = acc.wrapping_add(p.time_at(black_box(50_000)));
     }
     let plan = (now() - t0) * 40 / N;
     black_box(acc);
-    println!("helpers: isqrt_u64 {} instr, mul_div {} instr, Profile::plan + time_at {} instr", sqrt, md, plan);
+    println!(
+        "helpers: isqrt_u64 {} instr, mul_div {} instr, Profile::plan + time_at {} instr",
+        sqrt, md, plan
+    );
 }
 
 #[entry]
@@ -179,13 +196,20 @@ fn main() -> ! {
     while SYST::get_current() == 0 {}
 
     let ipc = calibrate(); // instructions per count × 1000
-    println!("calibration: {}.{:03} instructions per SysTick count", ipc / 1000, ipc % 1000);
+    println!(
+        "calibration: {}.{:03} instructions per SysTick count",
+        ipc / 1000,
+        ipc % 1000
+    );
     let to_instr = |milli_counts: u64| milli_counts * 40 / 1000;
     let base = to_instr(tick_cost(1, empty_body));
     let t1 = to_instr(tick_cost(1, isr_body)).saturating_sub(base);
     let t3 = to_instr(tick_cost(3, isr_body)).saturating_sub(base);
     let t6 = to_instr(tick_cost(6, isr_body)).saturating_sub(base);
-    println!("loop+call overhead: {} instructions per tick (subtracted)", base);
+    println!(
+        "loop+call overhead: {} instructions per tick (subtracted)",
+        base
+    );
     helper_costs();
     let (block, push) = block_cost();
     let (block, push) = (to_instr(block), to_instr(push));
