@@ -4,7 +4,7 @@
 //! the core's controller.
 
 use crate::board_def::Analog;
-use core::sync::atomic::{AtomicU16, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU16, Ordering};
 use embassy_stm32::adc::{Adc, SampleTime};
 use embassy_stm32::peripherals::ADC1;
 use embassy_stm32::Peri;
@@ -12,6 +12,8 @@ use embassy_time::{Duration, Ticker};
 
 /// Latest raw readings: feed-override pot, joystick X, joystick Y.
 pub static RAW: [AtomicU16; 3] = [AtomicU16::new(0), AtomicU16::new(0), AtomicU16::new(0)];
+/// Set once `RAW` holds a first reading.
+pub static SAMPLED: AtomicBool = AtomicBool::new(false);
 
 #[embassy_executor::task]
 pub async fn run(adc1: Peri<'static, ADC1>, mut analog: Analog) {
@@ -25,6 +27,7 @@ pub async fn run(adc1: Peri<'static, ADC1>, mut analog: Analog) {
                 Ordering::Relaxed,
             );
         }
+        SAMPLED.store(true, Ordering::Relaxed);
         ticker.next().await;
     }
 }

@@ -95,10 +95,30 @@ pub const fn gpio_block(port: u8) -> pac::gpio::Gpio {
     }
 }
 
+/// BSRR words (ports A-E) that put `low` pins low and `high` pins high: one register write per
+/// port reaches the safe output state from any context (the panic handler).
+pub const fn safe_bsrr(low: &[PinId], high: &[PinId]) -> [u32; 5] {
+    let mut words = [0u32; 5];
+    let mut i = 0;
+    while i < low.len() {
+        assert!(low[i].port < 5, "outputs on ports A-E");
+        words[low[i].port as usize] |= low[i].mask() << 16;
+        i += 1;
+    }
+    let mut i = 0;
+    while i < high.len() {
+        assert!(high[i].port < 5, "outputs on ports A-E");
+        words[high[i].port as usize] |= high[i].mask();
+        i += 1;
+    }
+    words
+}
+
 embassy_stm32::bind_interrupts!(
     /// Interrupts serviced by embassy drivers (priorities are lowered in `main`).
     pub struct Irqs {
         OTG_FS => embassy_stm32::usb::InterruptHandler<embassy_stm32::peripherals::USB_OTG_FS>;
+        FLASH => embassy_stm32::flash::InterruptHandler;
         EXTI0 => embassy_stm32::exti::InterruptHandler<embassy_stm32::interrupt::typelevel::EXTI0>;
         EXTI1 => embassy_stm32::exti::InterruptHandler<embassy_stm32::interrupt::typelevel::EXTI1>;
         EXTI2 => embassy_stm32::exti::InterruptHandler<embassy_stm32::interrupt::typelevel::EXTI2>;
@@ -170,7 +190,19 @@ macro_rules! gantry_board {
         pub const STEP: [PinId; AXES] = [$(PinId::parse(stringify!($step))),+];
         /// Dir pins, axis order.
         pub const DIR: [PinId; AXES] = [$(PinId::parse(stringify!($dir))),+];
-        const USER_OUTPUTS: usize = [$(stringify!($out)),+].len();
+        /// Number of user outputs.
+        pub const USER_OUTPUTS: usize = [$(stringify!($out)),+].len();
+        /// Outputs that are low in the safe state: spindle enable/dir/PWM, coolant, user outputs.
+        pub const SAFE_LOW: [PinId; 5 + USER_OUTPUTS] = [
+            PinId::parse(stringify!($sp_en)),
+            PinId::parse(stringify!($sp_dir)),
+            PinId::parse(stringify!($sp_pwm)),
+            PinId::parse(stringify!($flood)),
+            PinId::parse(stringify!($mist)),
+            $(PinId::parse(stringify!($out))),+
+        ];
+        /// Stepper enable pin (active low: high = steppers disabled, the safe state).
+        pub const STEPPER_ENABLE: PinId = PinId::parse(stringify!($en));
 
         const _: () = assert!(AXES <= 6, "the step tables cover 6 axes");
         const _: () = assert!($crate::board::same_port(&STEP), "step pins must share one port");
@@ -213,10 +245,10 @@ macro_rules! gantry_board {
         }
 
         /// Every output of the board except step/dir (which the step ISR drives by register).
+        #[cfg_attr(not(feature = "controller"), allow(dead_code))]
         pub struct Outputs {
-            /// Stepper driver enable, active low: starts high (steppers disabled). The
-            /// controller drives it once motion starts; a stop leaves it alone (holding torque).
-            #[allow(dead_code)]
+            /// Stepper driver enable, active low: starts high (steppers disabled). The main loop
+            /// enables the drivers with the first motion; a stop leaves them on (holding torque).
             pub stepper_enable: Output<'static>,
             pub spindle_enable: Output<'static>,
             pub spindle_dir: Output<'static>,
@@ -243,6 +275,8 @@ macro_rules! gantry_board {
             pub usb_dm: Peri<'static, peripherals::PA11>,
             pub tim2: Peri<'static, peripherals::TIM2>,
             pub adc1: Peri<'static, peripherals::ADC1>,
+            #[cfg_attr(not(feature = "controller"), allow(dead_code))]
+            pub flash: Peri<'static, peripherals::FLASH>,
         }
 
         /// Moves the board's pins out of `p` into drivers in their power-up state.
@@ -291,6 +325,7 @@ macro_rules! gantry_board {
                 usb_dm: p.PA11,
                 tim2: p.TIM2,
                 adc1: p.ADC1,
+                flash: p.FLASH,
             };
             (pins, rest)
         }

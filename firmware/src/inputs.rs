@@ -1,75 +1,100 @@
-//! Input task: samples the switch inputs on every EXTI edge (and every 10 ms) into one word.
+//! Input task: samples the switch inputs on every EXTI edge (and every millisecond) into one word
+//! in the core's `InputBits` layout, and stops the step kernel when an armed limit switch closes.
 //!
-//! Runs on the high-priority interrupt executor, so a limit or abort reaches the step ISR's `STOP`
-//! flag within microseconds, not after whatever the thread executor is doing. Inputs follow
-//! grbl's default wiring: pull-ups, normally-open switches to ground, asserted = low. Polarity
-//! becomes a setting once the settings model lands; the controller state machine will own what an
-//! asserted input means beyond the latched stop and the outputs' safe state.
+//! Runs on the high-priority interrupt executor, so a limit reaches the step ISR's `STOP` flag
+//! within microseconds of the edge, not after whatever the thread executor is doing. The main
+//! loop debounces [`PINS`] once per millisecond and hands it to the controller (feed hold, abort,
+//! cycle start and the joystick switches work without the host, DESIGN §6).
+//!
+//! Electrical convention of both boards: internal pull-ups, switches close to ground. A closed
+//! switch (pin low) reads as bit = 1 here; the setup's `inputs.invert` then marks normally-closed
+//! switches. Boards without separate max-limit inputs (min and max switch of an axis wired to
+//! one pin) report that pin as both the axis's min and max bit, so either kind of switch can be
+//! declared installed (and homing can seek either end).
 
 use crate::board_def::{
-    Inputs, Outputs, ABORT, AXES, CYCLE_START0, EXTI_INPUTS, FEED_HOLD, JOYSTICK_SWITCHES, LIMIT0,
+    Inputs, ABORT, AXES, CYCLE_START0, EXTI_INPUTS, FEED_HOLD, JOYSTICK_SWITCHES, LIMIT0,
     LIMIT_MAX0, LIMIT_MAX_INPUTS,
 };
 use crate::step::STOP;
 use core::sync::atomic::{AtomicU32, Ordering};
 use embassy_futures::select::{select, select_array};
 use embassy_time::{Duration, Timer};
+use gantry_machine::controller::inputs::{Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 
-/// Asserted inputs: bit i = `Inputs::exti[i]`, then the joystick switches from bit `EXTI_INPUTS`.
-pub static ASSERTED: AtomicU32 = AtomicU32::new(0);
+/// Latest sample: bit = 1 where the switch is closed (pin low), `InputBits` layout.
+pub static PINS: AtomicU32 = AtomicU32::new(0);
+/// Limit bits that stop the kernel (`Board::limit_arm`), published by the main loop every pass.
+pub static ARM: AtomicU32 = AtomicU32::new(0);
+/// Polarity (`setup.inputs.invert`), published by the main loop.
+pub static INVERT: AtomicU32 = AtomicU32::new(0);
 
-/// Bits of `ASSERTED` that stop motion at once: every limit input and abort.
-const STOP_MASK: u32 =
-    (((1 << AXES) - 1) << LIMIT0) | (((1 << LIMIT_MAX_INPUTS) - 1) << LIMIT_MAX0) | (1 << ABORT);
+const _: () = assert!(
+    JOYSTICK_SWITCHES <= (Signal::Release as usize - Signal::JogS1 as usize + 1),
+    "joystick switches map onto JogS1..Release"
+);
 
-const _: () = assert!(EXTI_INPUTS + JOYSTICK_SWITCHES <= 32, "inputs fit one word");
+/// Bit of each EXTI input in the sample word (limits may set two bits: see the module doc).
+const fn exti_bits() -> [u32; EXTI_INPUTS] {
+    let mut bits = [0u32; EXTI_INPUTS];
+    let mut axis = 0;
+    while axis < AXES {
+        bits[LIMIT0 + axis] = if LIMIT_MAX_INPUTS == 0 {
+            (1 << (LIMIT_MIN_BIT as usize + axis)) | (1 << (LIMIT_MAX_BIT as usize + axis))
+        } else {
+            1 << (LIMIT_MIN_BIT as usize + axis)
+        };
+        axis += 1;
+    }
+    let mut i = 0;
+    #[allow(clippy::absurd_extreme_comparisons)] // no max-limit inputs on some boards
+    while i < LIMIT_MAX_INPUTS {
+        bits[LIMIT_MAX0 + i] = 1 << (LIMIT_MAX_BIT as usize + i);
+        i += 1;
+    }
+    bits[FEED_HOLD] = 1 << Signal::FeedHold as u32;
+    bits[ABORT] = 1 << Signal::Abort as u32;
+    bits[CYCLE_START0] = 1 << Signal::CycleStart1 as u32;
+    bits[CYCLE_START0 + 1] = 1 << Signal::CycleStart2 as u32;
+    bits
+}
+
+const EXTI_BITS: [u32; EXTI_INPUTS] = exti_bits();
 
 fn sample(inputs: &Inputs) -> u32 {
     let mut word = 0;
-    for (i, input) in inputs.exti.iter().enumerate() {
-        word |= (input.is_low() as u32) << i;
+    for (input, bit) in inputs.exti.iter().zip(EXTI_BITS) {
+        if input.is_low() {
+            word |= bit;
+        }
     }
     for (i, input) in inputs.joystick_switches.iter().enumerate() {
-        word |= (input.is_low() as u32) << (EXTI_INPUTS + i);
+        if input.is_low() {
+            word |= 1 << (Signal::JogS1 as usize + i);
+        }
     }
     word
 }
 
-/// Turns spindle, coolant and user outputs off (the safe state after a stop).
-fn outputs_safe(outputs: &mut Outputs) {
-    outputs.spindle_enable.set_low();
-    outputs.spindle_dir.set_low();
-    outputs.spindle_pwm.set_low();
-    outputs.coolant_flood.set_low();
-    outputs.coolant_mist.set_low();
-    for o in &mut outputs.user {
-        o.set_low();
-    }
+/// True if an armed limit switch is active in `pins` (polarity applied).
+pub fn armed_limit(pins: u32) -> bool {
+    (pins ^ INVERT.load(Ordering::Relaxed)) & ARM.load(Ordering::Relaxed) != 0
 }
 
 #[embassy_executor::task]
-pub async fn run(mut inputs: Inputs, mut outputs: Outputs) {
+pub async fn run(mut inputs: Inputs) {
     let mut last = u32::MAX;
     loop {
         let word = sample(&inputs);
-        if word & STOP_MASK != 0 {
+        PINS.store(word, Ordering::Relaxed);
+        if armed_limit(word) {
             STOP.store(true, Ordering::Relaxed);
-            outputs_safe(&mut outputs);
         }
-        ASSERTED.store(word, Ordering::Relaxed);
         if word != last {
-            defmt::info!(
-                "inputs: limits {=u32:b} max {=u32:b} hold {=bool} abort {=bool} cycle start {=u32:b} joystick {=u32:b}",
-                (word >> LIMIT0) & ((1 << AXES) - 1),
-                (word >> LIMIT_MAX0) & ((1 << LIMIT_MAX_INPUTS) - 1),
-                word & (1 << FEED_HOLD) != 0,
-                word & (1 << ABORT) != 0,
-                (word >> CYCLE_START0) & 0b11,
-                word >> EXTI_INPUTS,
-            );
+            defmt::debug!("input pins {=u32:#010x}", word);
             last = word;
         }
         let edges = select_array(inputs.exti.each_mut().map(|i| i.wait_for_any_edge()));
-        select(edges, Timer::after(Duration::from_millis(10))).await;
+        select(edges, Timer::after(Duration::from_millis(1))).await;
     }
 }

@@ -1,18 +1,30 @@
 //! Gantry firmware: embassy glue around the `gantry-machine` core.
 //!
-//! Interrupt priorities (lower number = more urgent): TIM2 step ISR P0 alone; EXTI lines and the
-//! fast executor (inputs) P1; embassy's time driver (TIM4) and DMA P2; USB OTG FS P3; everything
-//! else runs in the thread-mode executor.
+//! Interrupt priorities (lower number = more urgent; reviewed table in firmware/README.md): TIM2
+//! step ISR P0 alone; EXTI lines and the fast executor (inputs) P1; embassy's time driver (TIM4)
+//! and DMA P2; USB OTG FS and FLASH P3; the main loop, USB and ADC tasks run in the thread-mode
+//! executor.
 #![no_std]
 #![no_main]
 
 #[macro_use]
 mod board;
 mod analog;
+#[cfg(not(feature = "controller"))]
+mod bringup;
 mod clocks;
+#[cfg(feature = "controller")]
+mod control;
 mod inputs;
+mod safety;
+#[cfg(feature = "controller")]
+mod settings;
+// The bring-up build leaves the controller's kernel access and watchdog modes unused.
+#[cfg_attr(not(feature = "controller"), allow(dead_code))]
 mod step;
 mod usb;
+#[cfg_attr(not(feature = "controller"), allow(dead_code))]
+mod watchdog;
 
 #[cfg(all(feature = "board-f411", feature = "board-f446"))]
 compile_error!("choose exactly one board feature");
@@ -30,7 +42,6 @@ use embassy_executor::{InterruptExecutor, Spawner};
 use embassy_stm32::gpio::Output;
 use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
-use panic_probe as _;
 use static_cell::StaticCell;
 
 /// Runs tasks that must react within microseconds (inputs), on a spare USART6 vector at P1.
@@ -45,6 +56,8 @@ unsafe fn USART6() {
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
     let p = embassy_stm32::init(clocks::config());
+    // First: a hang anywhere below (clock, USB or flash init) resets the board.
+    watchdog::start();
     defmt::info!(
         "Gantry on {} ({}), SYSCLK {} Hz",
         board_def::NAME,
@@ -77,15 +90,57 @@ async fn main(spawner: Spawner) {
     }
     interrupt::USART6.set_priority(Priority::P1);
 
+    // The setup from flash (defaults when absent or invalid) and this power-up's boot id. Flash
+    // writes here (the boot counter) stall the CPU briefly; nothing moves yet.
+    #[cfg(feature = "controller")]
+    let (store, buf, setup, boot_id) = {
+        let (mut store, buf) = settings::open(rest.flash);
+        let loaded = store.load(buf).await;
+        defmt::info!("settings: {}", loaded.describe());
+        let boots = store.next_boot_count(buf).await;
+        let uid = embassy_stm32::uid::uid();
+        let uid_hash = uid.iter().fold(0x811c_9dc5u32, |h, b| {
+            (h ^ u32::from(*b)).wrapping_mul(0x0100_0193)
+        });
+        let boot_id = boots ^ uid_hash.rotate_left(16);
+        defmt::info!("boot {} (id {=u32:#010x})", boots, boot_id);
+        watchdog::feed();
+        (store, buf, loaded.into_setup(), boot_id)
+    };
+
     let (device, class) = usb::build(rest.usb, rest.usb_dp, rest.usb_dm);
     interrupt::OTG_FS.set_priority(Priority::P3);
+    let (tx, rx, control) = class.split_with_control();
+    static RX_PIPE: StaticCell<usb::LinkPipe> = StaticCell::new();
+    static TX_PIPE: StaticCell<usb::LinkPipe> = StaticCell::new();
+    let rx_pipe: &'static usb::LinkPipe = RX_PIPE.init(usb::LinkPipe::new());
+    let tx_pipe: &'static usb::LinkPipe = TX_PIPE.init(usb::LinkPipe::new());
 
-    let _segments = step::start(rest.tim2, clocks::TIM2_PSC);
+    let segments = step::start(rest.tim2, clocks::TIM2_PSC);
 
     let fast = EXECUTOR_FAST.start(interrupt::USART6);
-    fast.spawn(defmt::unwrap!(inputs::run(inputs, outputs)));
+    fast.spawn(defmt::unwrap!(inputs::run(inputs)));
     spawner.spawn(defmt::unwrap!(usb::run_device(device)));
-    spawner.spawn(defmt::unwrap!(usb::run_link(class)));
+    spawner.spawn(defmt::unwrap!(usb::run_rx(rx, rx_pipe)));
+    spawner.spawn(defmt::unwrap!(usb::run_tx(tx, tx_pipe)));
+    spawner.spawn(defmt::unwrap!(usb::run_control(control)));
     spawner.spawn(defmt::unwrap!(analog::run(rest.adc1, analog)));
+    #[cfg(feature = "controller")]
+    spawner.spawn(defmt::unwrap!(control::run(
+        control::Io {
+            outputs,
+            segments,
+            rx: rx_pipe,
+            tx: tx_pipe,
+            store,
+            buf,
+        },
+        setup,
+        boot_id,
+    )));
+    #[cfg(not(feature = "controller"))]
+    spawner.spawn(defmt::unwrap!(bringup::run(
+        outputs, segments, rx_pipe, tx_pipe
+    )));
     defmt::info!("ready");
 }

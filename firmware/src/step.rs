@@ -16,9 +16,8 @@
 
 use crate::board::{gpio_block, PinId};
 use crate::board_def::{AXES, DIR, STEP};
-use core::cell::RefCell;
+use core::cell::UnsafeCell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use critical_section::Mutex;
 use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
 use embassy_stm32::pac;
@@ -29,6 +28,7 @@ use embassy_stm32::Peri;
 use gantry_machine::motion::kernel::{
     Segment, SegmentSource, StepKernel, TickOut, KERNEL_TIMER_HZ,
 };
+use gantry_machine::units::MAX_AXES;
 use heapless::spsc::{Consumer, Producer, Queue};
 use static_cell::StaticCell;
 
@@ -41,7 +41,9 @@ pub const IDLE_PERIOD_COUNTS: u32 = KERNEL_TIMER_HZ / 1_000;
 /// Slots in the segment queue (heapless 0.9 SPSC holds N - 1).
 pub const SEGMENT_QUEUE_LEN: usize = 32;
 
-/// Set by the input task (limit or abort asserted); the kernel latches it on its next tick.
+/// An armed limit switch is active: set by the input task (EXTI, microseconds after the edge) and
+/// the main loop, cleared only by the main loop when it re-arms the kernel. The kernel latches
+/// it on its next tick.
 pub static STOP: AtomicBool = AtomicBool::new(false);
 /// Ticks deferred because the ISR started too late to fit the step pulse (should stay 0).
 pub static LATE_TICKS: AtomicU32 = AtomicU32::new(0);
@@ -132,22 +134,96 @@ struct StepIsr {
     source: QueueSource,
     /// Output of the previous tick, emitted at the next update.
     pending: TickOut,
+    /// The last tick found no segment (period 0): the kernel waits for the queue.
+    idle: bool,
 }
 
-/// Hands the ISR state from `start` to the first interrupt, which keeps it from then on.
-static HANDOFF: Mutex<RefCell<Option<StepIsr>>> = Mutex::new(RefCell::new(None));
+/// The ISR's state, shared with the main loop.
+///
+/// Access protocol (what makes the `unsafe` below sound): the TIM2 handler is the only interrupt
+/// that touches the cell, and nothing can preempt it that touches it (TIM2 alone runs at P0;
+/// NMI and faults don't). Every other access goes through [`with_kernel`], which holds a critical
+/// section (PRIMASK: TIM2 cannot run meanwhile) and is never nested (the closures below don't
+/// call it). So at most one `&mut` to the state exists at any time.
+struct Shared(UnsafeCell<Option<StepIsr>>);
+
+// SAFETY: see the access protocol above; the cell is only reached under it.
+unsafe impl Sync for Shared {}
+
+static SHARED: Shared = Shared(UnsafeCell::new(None));
+
+/// Runs `f` on the ISR's state inside a critical section (TIM2 masked for its duration: keep
+/// `f` to a few dozen instructions, it delays the next step edge by as much). `None` before
+/// [`start`].
+fn with_kernel<R>(f: impl FnOnce(&mut StepIsr) -> R) -> Option<R> {
+    critical_section::with(|_cs| {
+        // SAFETY: interrupts are masked, so the TIM2 handler is not running and cannot start;
+        // this is the only other access path and it is not re-entered (see `Shared`).
+        let state = unsafe { &mut *SHARED.0.get() };
+        state.as_mut().map(f)
+    })
+}
+
+/// What the main loop needs to know of the kernel, read atomically.
+#[derive(Clone, Copy, Debug)]
+pub struct KernelSnapshot {
+    /// Exact step position (steps already emitted or committed to the next update).
+    pub steps: [i64; MAX_AXES],
+    /// Segment queue empty and the kernel waiting for it: the motion has run out.
+    pub drained: bool,
+    /// The kernel latched a stop (a limit) and emits nothing until [`rearm`].
+    pub stopped: bool,
+}
+
+/// Reads the kernel's position and state.
+pub fn snapshot() -> KernelSnapshot {
+    with_kernel(|s| KernelSnapshot {
+        steps: s.kernel.position(),
+        drained: s.idle && !s.kernel.is_busy() && !s.source.0.ready(),
+        stopped: s.kernel.is_stopped(),
+    })
+    .unwrap_or(KernelSnapshot {
+        steps: [0; MAX_AXES],
+        drained: true,
+        stopped: false,
+    })
+}
+
+/// After a latched stop: drops every queued segment and the running one (the position keeps the
+/// steps made). The kernel stays stopped until [`rearm`].
+pub fn flush() {
+    with_kernel(|s| {
+        while s.source.0.dequeue().is_some() {}
+        s.kernel.flush();
+    });
+}
+
+/// Re-arms a stopped kernel (after [`flush`] and the board's `limit_stop`).
+pub fn rearm() {
+    with_kernel(|s| s.kernel.clear_stop());
+}
+
+/// Loads a new step position (homing set home); the kernel is at rest then.
+pub fn set_position(steps: [i64; MAX_AXES]) {
+    with_kernel(|s| s.kernel.set_position(steps));
+}
 
 /// Configures TIM2 to tick the kernel and returns the producer end of its segment queue.
 pub fn start(tim2: Peri<'static, TIM2>, psc: u16) -> Producer<'static, Segment> {
     static QUEUE: StaticCell<Queue<Segment, SEGMENT_QUEUE_LEN>> = StaticCell::new();
     static TIMER: StaticCell<Timer<'static, TIM2>> = StaticCell::new();
     let (producer, consumer) = QUEUE.init(Queue::new()).split();
-    critical_section::with(|cs| {
-        HANDOFF.borrow_ref_mut(cs).replace(StepIsr {
-            kernel: StepKernel::new(),
-            source: QueueSource(consumer),
-            pending: TickOut::default(),
-        })
+    critical_section::with(|_cs| {
+        // SAFETY: TIM2's interrupt is not enabled yet and interrupts are masked: nothing else
+        // can hold a reference into the cell.
+        unsafe {
+            *SHARED.0.get() = Some(StepIsr {
+                kernel: StepKernel::new(),
+                source: QueueSource(consumer),
+                pending: TickOut::default(),
+                idle: true,
+            })
+        }
     });
 
     // Kept in a static: dropping the driver would gate TIM2's clock.
@@ -182,11 +258,10 @@ const CC1IF: u32 = 1 << 1;
 
 #[interrupt]
 fn TIM2() {
-    static mut ISR: Option<StepIsr> = None;
-    if ISR.is_none() {
-        *ISR = critical_section::with(|cs| HANDOFF.borrow_ref_mut(cs).take());
-    }
-    let Some(isr) = ISR.as_mut() else {
+    // SAFETY: this handler is the single interrupt-side user of `SHARED` and nothing that
+    // touches it can preempt P0 (see `Shared`); thread code only reaches it with TIM2 masked.
+    let state = unsafe { &mut *SHARED.0.get() };
+    let Some(isr) = state.as_mut() else {
         clear_flags(UIF | CC1IF);
         return;
     };
@@ -222,6 +297,7 @@ fn TIM2() {
             p => p,
         };
         TIM.arr().write_value(period - 1);
+        isr.idle = out.period == 0;
         isr.pending = out;
     }
 }

@@ -1,14 +1,18 @@
 //! USB OTG FS device: one CDC-ACM port ("Gantry CNC controller") carrying the host link.
 //!
-//! For now the link task echoes what it receives; the framed protocol (gantry-proto) replaces the
-//! echo later. The USB interrupt runs below the step timer (see `main`).
+//! Three small tasks move bytes between the CDC endpoints and two pipes; the main loop
+//! (`control.rs`) feeds received bytes to `BoardLink::on_bytes` and writes the frames of
+//! `BoardLink::poll_transmit` into the transmit pipe. DTR changes are published for the host-loss
+//! policy. The USB interrupt runs below the step timer (see `main`).
 
 use crate::board::Irqs;
+use core::sync::atomic::{AtomicBool, Ordering};
 use embassy_stm32::peripherals::{PA11, PA12, USB_OTG_FS};
 use embassy_stm32::usb::Driver;
 use embassy_stm32::Peri;
-use embassy_usb::class::cdc_acm::{CdcAcmClass, State};
-use embassy_usb::driver::EndpointError;
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
+use embassy_sync::pipe::Pipe;
+use embassy_usb::class::cdc_acm::{CdcAcmClass, ControlChanged, Receiver, Sender, State};
 use embassy_usb::{Builder, UsbDevice};
 use static_cell::StaticCell;
 
@@ -65,25 +69,63 @@ pub async fn run_device(mut device: UsbDevice<'static, UsbDriver>) -> ! {
     device.run().await
 }
 
-/// Link task: echoes packets until the protocol lands.
+/// Bytes between the USB tasks and the main loop. All of them run on the thread-mode executor,
+/// so the pipes need no lock (and no critical section that would delay the step interrupt).
+pub type LinkPipe = Pipe<NoopRawMutex, PIPE_LEN>;
+/// Room in each direction: a few frames, so a slow host throttles the board's link (which keeps
+/// unsent frames queued and retransmits) instead of stalling the main loop.
+pub const PIPE_LEN: usize = 1024;
+
+/// Data terminal ready as the host last set it (a terminal or sender has the port open).
+pub static DTR: AtomicBool = AtomicBool::new(false);
+
+/// Host → board: every packet into the receive pipe (the main loop drains it each millisecond).
+/// A full pipe stops reading, so the USB core NAKs and the host waits.
 #[embassy_executor::task]
-pub async fn run_link(mut class: CdcAcmClass<'static, UsbDriver>) -> ! {
+pub async fn run_rx(mut rx: Receiver<'static, UsbDriver>, pipe: &'static LinkPipe) -> ! {
+    // At least the packet size: a smaller buffer fails with BufferOverflow and keeps the packet.
     let mut buf = [0u8; PACKET as usize];
     loop {
-        class.wait_connection().await;
-        defmt::info!("host connected");
-        while let Ok(n) = echo(&mut class, &mut buf).await {
-            defmt::trace!("echoed {} bytes", n);
+        rx.wait_connection().await;
+        defmt::info!("usb: configured");
+        // Err: disabled (unplugged, bus reset) or BufferOverflow: wait for the next connection.
+        while let Ok(n) = rx.read_packet(&mut buf).await {
+            pipe.write_all(&buf[..n]).await;
         }
-        defmt::info!("host disconnected");
+        defmt::info!("usb: disconnected");
     }
 }
 
-async fn echo(
-    class: &mut CdcAcmClass<'static, UsbDriver>,
-    buf: &mut [u8],
-) -> Result<usize, EndpointError> {
-    let n = class.read_packet(buf).await?;
-    class.write_packet(&buf[..n]).await?;
-    Ok(n)
+/// Board → host: the transmit pipe in packets of at most 64 bytes. A transfer whose last packet
+/// is exactly 64 bytes is ended with a zero-length packet, or some hosts hold the data back until
+/// the next short packet (frames also end with the COBS delimiter, so nothing depends on it).
+/// Bytes queued while no host is configured are dropped at connection: the link repeats what
+/// matters, and a half frame would only be discarded by the host's decoder.
+#[embassy_executor::task]
+pub async fn run_tx(mut tx: Sender<'static, UsbDriver>, pipe: &'static LinkPipe) -> ! {
+    let mut buf = [0u8; PACKET as usize];
+    loop {
+        tx.wait_connection().await;
+        pipe.clear();
+        loop {
+            let n = pipe.read(&mut buf).await;
+            if tx.write_packet(&buf[..n]).await.is_err() {
+                break;
+            }
+            if n == PACKET as usize && pipe.is_empty() && tx.write_packet(&[]).await.is_err() {
+                break;
+            }
+        }
+    }
+}
+
+/// Follows the host's DTR line (line state requests on the control pipe).
+#[embassy_executor::task]
+pub async fn run_control(control: ControlChanged<'static>) -> ! {
+    loop {
+        control.control_changed().await;
+        let dtr = control.dtr();
+        DTR.store(dtr, Ordering::Relaxed);
+        defmt::info!("usb: DTR {}", dtr);
+    }
 }

@@ -65,6 +65,12 @@ impl<'a> Value<'a> for SetupValue<'_> {
     }
 }
 
+/// True if `range` suits a store on `F` (page-aligned, at least two erase pages). Use it in a
+/// const assertion, so a wrong range fails the build instead of panicking at boot.
+pub const fn range_ok<F: NorFlash>(range: Range<u32>) -> bool {
+    MapConfig::<F>::try_new(range).is_ok()
+}
+
 /// What [`SettingsStore::load`] found.
 #[allow(clippy::large_enum_variant)] // returned once at boot; no_std has no Box
 #[derive(Clone, Debug, PartialEq, Eq)]

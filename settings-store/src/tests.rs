@@ -195,6 +195,13 @@ fn variant(i: u32) -> Setup {
 }
 
 #[test]
+fn the_range_check_wants_two_whole_pages() {
+    assert!(range_ok::<RamFlash>(0..(2 * PAGE) as u32));
+    assert!(!range_ok::<RamFlash>(0..PAGE as u32), "one page");
+    assert!(!range_ok::<RamFlash>(4..(2 * PAGE + 4) as u32), "unaligned");
+}
+
+#[test]
 fn a_fresh_store_loads_nothing_and_the_defaults() {
     let mut st = store(RamFlash::new());
     let mut buf = DataBuffer::new();

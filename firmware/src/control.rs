@@ -1,0 +1,233 @@
+//! The main loop: one task that owns the `Board` (controller, interpreter, motion pipeline) and
+//! its `BoardLink`, and runs every millisecond in the shape of the emulated board's main loop
+//! (host-sender/src/emulator.rs):
+//!
+//! 1. kernel stopped by a limit → drop the queue, `Board::limit_stop`, re-arm unless in alarm;
+//! 2. debounced inputs and ADC readings → `Board::on_inputs`;
+//! 3. bytes from USB → `BoardLink::on_bytes`, `service`, `Board::poll(kernel_drained)`;
+//! 4. segments from `Board::next_segment` into the step ISR's queue;
+//! 5. `service` again, frames into the USB transmit pipe, output levels to the pins;
+//! 6. a setup the host pushed is saved to flash once the board is idle;
+//! 7. the watchdog is fed.
+//!
+//! Host loss: `BoardLink` holds a running job when the host goes silent; a DTR drop (the sender
+//! closed the port) holds it at once.
+
+use crate::board_def::{Outputs, USER_OUTPUTS};
+use crate::inputs::{armed_limit, ARM, INVERT, PINS};
+use crate::settings::Store;
+use crate::step::{self, STOP};
+use crate::usb::{LinkPipe, DTR};
+use crate::{analog, watchdog};
+use core::sync::atomic::Ordering;
+use embassy_stm32::gpio::Level;
+use embassy_time::{Duration, Instant, Ticker};
+use gantry_machine::board::link::{BoardLink, KernelView};
+use gantry_machine::board::Board;
+use gantry_machine::controller::inputs::{Debouncer, InputBits};
+use gantry_machine::controller::{AdcReadings, OutputLevels, State};
+use gantry_machine::motion::kernel::Segment;
+use gantry_machine::setup::Setup;
+use gantry_machine::units::{Pos, MAX_AXES};
+use gantry_settings::{DataBuffer, SavePolicy};
+use heapless::spsc::Producer;
+
+/// Everything the main loop drives.
+pub struct Io {
+    pub outputs: Outputs,
+    pub segments: Producer<'static, Segment>,
+    pub rx: &'static LinkPipe,
+    pub tx: &'static LinkPipe,
+    pub store: Store,
+    pub buf: &'static mut DataBuffer,
+}
+
+/// Path speed from the kernel's position, measured over about 20 ms.
+struct SpeedMeter {
+    since_ms: u32,
+    from: Pos,
+    um_min: u32,
+}
+
+impl SpeedMeter {
+    const WINDOW_MS: u32 = 20;
+
+    fn update(&mut self, now_ms: u32, at: Pos) -> u32 {
+        let dt = now_ms.wrapping_sub(self.since_ms);
+        if dt >= Self::WINDOW_MS {
+            let mut sum_sq: u64 = 0;
+            for (a, b) in at.iter().zip(&self.from) {
+                // Clamped to ±2^30 nm (1 m per window), far beyond any machine: no overflow.
+                let d = (a - b).clamp(-(1 << 30), 1 << 30).unsigned_abs();
+                sum_sq = sum_sq.saturating_add(d * d);
+            }
+            // nm per ms × 60 = µm per min.
+            self.um_min = (sum_sq.isqrt() * 60 / u64::from(dt)).min(u64::from(u32::MAX)) as u32;
+            self.since_ms = now_ms;
+            self.from = at;
+        }
+        self.um_min
+    }
+}
+
+fn level(on: bool) -> Level {
+    if on {
+        Level::High
+    } else {
+        Level::Low
+    }
+}
+
+/// Output levels to pins. The spindle PWM pin is a plain output for now: high while the duty is
+/// above zero (full speed), until the TIM1 PWM driver lands.
+fn drive(o: &mut Outputs, l: &OutputLevels, steppers_enabled: bool) {
+    o.spindle_enable.set_level(level(l.spindle_enable));
+    o.spindle_dir.set_level(level(l.spindle_ccw));
+    o.spindle_pwm.set_level(level(l.spindle_pwm > 0));
+    o.coolant_flood.set_level(level(l.flood));
+    o.coolant_mist.set_level(level(l.mist));
+    for (i, pin) in o.user.iter_mut().enumerate().take(USER_OUTPUTS) {
+        pin.set_level(level(l.user & (1 << i) != 0));
+    }
+    // Active low.
+    o.stepper_enable.set_level(level(!steppers_enabled));
+}
+
+fn debouncer(setup: &Setup) -> Debouncer {
+    INVERT.store(setup.inputs.invert, Ordering::Relaxed);
+    Debouncer::new(setup.inputs.invert, setup.inputs.debounce_ms)
+}
+
+/// Re-evaluates the stop flag with the board's current arming and re-arms the kernel: with
+/// interrupts masked, so the input task cannot set `STOP` between the check and the clear.
+fn rearm_kernel() {
+    critical_section::with(|_| {
+        STOP.store(armed_limit(PINS.load(Ordering::Relaxed)), Ordering::Relaxed);
+    });
+    step::rearm();
+}
+
+#[embassy_executor::task]
+pub async fn run(mut io: Io, setup: Setup, boot_id: u32) -> ! {
+    let mut board = Board::new(setup);
+    let mut link = BoardLink::new(boot_id);
+    let mut debounce = debouncer(board.setup());
+    let mut policy = SavePolicy::new();
+    let mut speed = SpeedMeter {
+        since_ms: 0,
+        from: [0; MAX_AXES],
+        um_min: 0,
+    };
+    // A latched kernel stop the board has been told about; the kernel stays stopped while the
+    // board is in alarm.
+    let mut stop_handled = false;
+    let mut steppers_enabled = false;
+    let mut dtr_was = false;
+    let mut rx = [0u8; 64];
+    let mut frame = [0u8; gantry_proto::MAX_FRAME_LEN];
+    let mut ticker = Ticker::every(Duration::from_millis(1));
+    loop {
+        watchdog::feed();
+        let now = Instant::now().as_millis() as u32;
+
+        // 1. A limit stopped the kernel: drop the queue, tell the board, re-arm unless alarmed.
+        let k = step::snapshot();
+        if k.stopped && !stop_handled {
+            step::flush();
+            let steps = step::snapshot().steps;
+            let levels = InputBits(PINS.load(Ordering::Relaxed) ^ board.setup().inputs.invert);
+            board.limit_stop(levels, &steps);
+            ARM.store(board.limit_arm(), Ordering::Relaxed);
+            stop_handled = true;
+            defmt::warn!("limit stop, pins {=u32:#010x}", levels.0);
+        }
+        if stop_handled && board.state() != State::Alarm {
+            rearm_kernel();
+            stop_handled = false;
+        }
+
+        // 2. Inputs (debounced here; the kernel saw the raw limit pins already).
+        let (levels, changed) = debounce.sample(PINS.load(Ordering::Relaxed));
+        let adc = if analog::SAMPLED.load(Ordering::Relaxed) {
+            let raw = |i: usize| analog::RAW[i].load(Ordering::Relaxed);
+            AdcReadings {
+                fro: Some(raw(0)),
+                stick: Some([raw(1), raw(2)]),
+            }
+        } else {
+            AdcReadings::default()
+        };
+        board.on_inputs(now, levels, changed, adc);
+
+        // 3. Host link and controller.
+        while let Ok(n) = io.rx.try_read(&mut rx) {
+            link.on_bytes(now, &rx[..n]);
+        }
+        let dtr = DTR.load(Ordering::Relaxed);
+        if dtr_was && !dtr {
+            // The sender closed the port: hold now rather than after the silence timeout.
+            defmt::info!("host closed the port: feed hold");
+            board.feed_hold();
+        }
+        dtr_was = dtr;
+        let speed_um_min = speed.update(now, board.machine_position(&k.steps));
+        let view = KernelView {
+            steps: k.steps,
+            inputs: levels.0,
+            feed_um_min: speed_um_min,
+        };
+        link.service(&mut board, now, &view);
+        let drained = step::snapshot().drained;
+        board.poll(drained);
+        if let Some(steps) = board.take_position_reset() {
+            step::set_position(steps);
+        }
+
+        // 4. Segments for the step ISR (none while it is stopped).
+        if !stop_handled {
+            while io.segments.ready() {
+                let Some(seg) = board.next_segment() else {
+                    break;
+                };
+                // Power-up: drivers stay disabled until the first motion (DESIGN §6).
+                steppers_enabled = true;
+                let _ = io.segments.enqueue(seg);
+            }
+        }
+        ARM.store(board.limit_arm(), Ordering::Relaxed);
+        if armed_limit(PINS.load(Ordering::Relaxed)) {
+            STOP.store(true, Ordering::Relaxed);
+        }
+
+        // 5. Events of this pass go out now; then the pins.
+        link.service(&mut board, now, &view);
+        while io.tx.free_capacity() >= frame.len() {
+            let Some(n) = link.poll_transmit(now, &mut frame) else {
+                break;
+            };
+            let _ = io.tx.try_write(&frame[..n]);
+        }
+        drive(&mut io.outputs, &board.output_levels(), steppers_enabled);
+
+        // 6. A new setup from the host: new input polarity now, flash once idle.
+        let changed = link.take_setup_changed();
+        if changed {
+            debounce = debouncer(board.setup());
+        }
+        policy.changed(changed);
+        if policy.due(board.state(), drained) {
+            // Stalls the CPU for up to ~2 s when a sector is erased (single-bank flash): only
+            // here, with the controller idle and nothing moving.
+            watchdog::long();
+            match io.store.save(board.setup(), io.buf).await {
+                Ok(()) => defmt::info!("setup saved to flash"),
+                Err(e) => defmt::error!("setup not saved: {}", defmt::Debug2Format(&e)),
+            }
+            watchdog::normal();
+            policy.done();
+            ticker.reset();
+        }
+
+        ticker.next().await;
+    }
+}

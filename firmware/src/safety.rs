@@ -1,0 +1,46 @@
+//! The safe output state from any context, and the panic handler that uses it.
+//!
+//! Safe state (DESIGN §6): spindle enable/direction/PWM, coolant and user outputs low, stepper
+//! drivers disabled (enable pin high, active low), step timer stopped. Reset gives the same state
+//! (pins are inputs until `board_def::split` drives them to these levels), so after a panic the
+//! watchdog's reset keeps it.
+
+use crate::board::{gpio_block, safe_bsrr};
+use crate::board_def::{SAFE_LOW, STEPPER_ENABLE};
+use core::panic::PanicInfo;
+use embassy_stm32::pac;
+
+/// One BSRR word per port A-E, computed at compile time from the board table.
+const SAFE_WORDS: [u32; 5] = safe_bsrr(&SAFE_LOW, &[STEPPER_ENABLE]);
+
+/// Stops the step timer and drives every output to its safe level with single register writes.
+///
+/// Callable from any context, including with the output drivers borrowed elsewhere: BSRR writes
+/// set or reset exactly the named pins atomically (no read-modify-write), so they cannot corrupt
+/// a driver's or an interrupted ISR's view of the port, and the `Output` drivers hold no shadow
+/// state of the level. Clearing TIM2's enable bit stops the step interrupt from emitting more
+/// edges. Register access through the PAC needs no `unsafe`; what is bypassed is only the
+/// ownership of the pins by their drivers, which is sound for the reasons above.
+pub fn force_safe() {
+    pac::TIM2.cr1().modify(|w| w.set_cen(false));
+    let mut port = 0;
+    while port < SAFE_WORDS.len() {
+        if SAFE_WORDS[port] != 0 {
+            gpio_block(port as u8)
+                .bsrr()
+                .write_value(pac::gpio::regs::Bsrr(SAFE_WORDS[port]));
+        }
+        port += 1;
+    }
+}
+
+/// Panic: outputs safe first, then the message over defmt, then a breakpoint-style halt
+/// (`udf`) that a probe reports; without a probe the HardFault loop starves the watchdog, which
+/// resets the board into the same safe state.
+#[panic_handler]
+fn panic(info: &PanicInfo) -> ! {
+    cortex_m::interrupt::disable();
+    force_safe();
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    cortex_m::asm::udf()
+}
