@@ -166,3 +166,87 @@ pub fn pull_setup_over<T: Transport>(
     }
     anyhow::bail!("the board did not send its setup within 3 s")
 }
+
+/// The emulated board for `gantry home`: a limit switch sits at the travel end each homed axis
+/// seeks, as on a real machine, so the homing cycle can be tried without hardware.
+pub fn emulated_with_switches(setup: gantry_machine::setup::Setup) -> EmulatedBoard {
+    let mut board = EmulatedBoard::new(setup.clone());
+    for axis in 0..setup.axis_count as usize {
+        let h = &setup.homing.axes[axis];
+        if h.priority == 0 {
+            continue;
+        }
+        let a = &setup.axes[axis];
+        let at = if h.seek_low {
+            a.travel_min
+        } else {
+            a.travel_max
+        };
+        board.add_switch(axis, !h.seek_low, at);
+    }
+    board
+}
+
+/// Homes the axes in `axes` (bit 0 = X; 0 = all), waits for the cycle to end and prints the status.
+pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
+    let (mut client, n) = match target {
+        Target::Emulated(setup) => {
+            let n = setup.axis_count as usize;
+            let t: Box<dyn Transport> = Box::new(emulated_with_switches(*setup));
+            (Client::connect(t, 2000)?, n)
+        }
+        t => connect(t)?,
+    };
+    client.send(HostMsg::Home { axes })?;
+    let mut status = fresh_status(&mut client)?;
+    // Up to an hour: seeks run at a slow constant rate over the whole travel.
+    for _ in 0..36_000 {
+        if status.state != gantry_proto::MachineState::Homing {
+            break;
+        }
+        client.pump(100)?;
+        status = fresh_status(&mut client)?;
+    }
+    println!("{}", format_status(&status, n));
+    if status.homed == 0 && status.state != gantry_proto::MachineState::Alarm {
+        println!("no axis was homed: give axes a priority in [homing.axis.X] (docs/settings.md)");
+    }
+    Ok(if status.state == gantry_proto::MachineState::Alarm {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+/// Jogs one axis by `distance_mm` (signed) at `feed_mm_min`, waits until it stops and prints the
+/// status.
+pub fn jog(
+    target: Target,
+    axis: u8,
+    distance_mm: f64,
+    feed_mm_min: f64,
+) -> anyhow::Result<ExitCode> {
+    let (mut client, n) = connect(target)?;
+    anyhow::ensure!(
+        (axis as usize) < n,
+        "axis {}: this machine has {n} axes",
+        AXIS_LETTERS[axis as usize]
+    );
+    anyhow::ensure!(feed_mm_min > 0.0, "--feed must be positive");
+    let speed = (feed_mm_min * 1000.0).round() as i32 * if distance_mm < 0.0 { -1 } else { 1 };
+    client.send(HostMsg::Jog(gantry_proto::Jog {
+        axis,
+        feed_um_min: speed,
+        distance_nm: (distance_mm.abs() * 1e6).round() as u64,
+    }))?;
+    let mut status = fresh_status(&mut client)?;
+    for _ in 0..36_000 {
+        if status.state != gantry_proto::MachineState::Jog {
+            break;
+        }
+        client.pump(100)?;
+        status = fresh_status(&mut client)?;
+    }
+    println!("{}", format_status(&status, n));
+    Ok(ExitCode::SUCCESS)
+}

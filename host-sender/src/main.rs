@@ -67,6 +67,26 @@ enum Command {
         #[command(flatten)]
         board: BoardArgs,
     },
+    /// Jog one axis by a distance (e.g. `gantry jog X -10 --feed 1000`); soft limits apply.
+    Jog {
+        /// Axis letter (X Y Z A B C).
+        axis: char,
+        /// Distance in mm (degrees for A/B/C), signed.
+        #[arg(allow_hyphen_values = true)]
+        distance: f64,
+        /// Speed, mm/min.
+        #[arg(long, default_value_t = 1000.0)]
+        feed: f64,
+        #[command(flatten)]
+        board: BoardArgs,
+    },
+    /// Run the homing cycle (limit-switch seek) for the given axes (default: all).
+    Home {
+        /// Axis letters, e.g. `XY`; all homed axes when omitted.
+        axes: Option<String>,
+        #[command(flatten)]
+        board: BoardArgs,
+    },
     /// Run blocks typed here (each argument one line), e.g. `gantry mdi "G0 X10 Y5"`.
     Mdi {
         #[arg(required = true)]
@@ -234,6 +254,21 @@ fn simulate(
     Ok(if r.completed { code } else { ExitCode::from(1) })
 }
 
+fn axis_index(letter: char) -> anyhow::Result<u8> {
+    gantry_machine::units::AXIS_LETTERS
+        .iter()
+        .position(|l| l.eq_ignore_ascii_case(&letter))
+        .map(|i| i as u8)
+        .ok_or_else(|| anyhow::anyhow!("{letter}: not an axis letter (X Y Z A B C)"))
+}
+
+fn axis_mask(letters: Option<&str>) -> anyhow::Result<u8> {
+    letters.map_or(Ok(0), |l| {
+        l.chars()
+            .try_fold(0u8, |mask, c| axis_index(c).map(|i| mask | 1 << i))
+    })
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -277,6 +312,18 @@ fn main() -> ExitCode {
             println!("{}", commands::format_status(&status, axes));
             Ok(ExitCode::SUCCESS)
         }),
+        Command::Jog {
+            axis,
+            distance,
+            feed,
+            board,
+        } => axis_index(axis).and_then(|a| {
+            board
+                .target()
+                .and_then(|t| commands::jog(t, a, distance, feed))
+        }),
+        Command::Home { axes, board } => axis_mask(axes.as_deref())
+            .and_then(|mask| board.target().and_then(|t| commands::home(t, mask))),
         Command::Mdi { blocks, board } => board.target().and_then(|t| commands::mdi(t, &blocks)),
         Command::Simulate {
             file,

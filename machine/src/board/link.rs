@@ -149,9 +149,15 @@ impl BoardLink {
             HostMsg::RapidOverride(p) => board.set_rapid_override(p),
             HostMsg::StatusRequest => self.status_requested = true,
             HostMsg::Unlock => board.unlock(),
-            // Jogging and homing are not implemented on the board yet: they are refused (the
-            // state does not change, which the host sees in the next status).
-            HostMsg::Jog(_) | HostMsg::JogStop | HostMsg::Home { .. } => {}
+            // A refused jog or homing request leaves the state unchanged, which the host sees in
+            // the next status (a jog beyond the travel also reports error 900).
+            HostMsg::Jog(j) => {
+                board.jog(j.axis, j.feed_um_min, j.distance_nm);
+            }
+            HostMsg::JogStop => board.jog_stop(),
+            HostMsg::Home { axes } => {
+                board.home(axes);
+            }
             _ => {}
         }
     }
@@ -259,7 +265,14 @@ impl BoardLink {
                 Some(m) => m,
                 None => match board.take_event() {
                     Some(e) => event_message(e),
-                    None => return,
+                    // Joystick Mark presses, for teach-in on the host.
+                    None => match board.take_mark() {
+                        Some(m) => BoardMsg::Mark {
+                            line: board.line(),
+                            id: m.id,
+                        },
+                        None => return,
+                    },
                 },
             };
             if let Err(gantry_proto::SendError::Full(m)) = self.endpoint.send(msg) {
