@@ -5,6 +5,7 @@
 //! the only place where a float ever touches a setting.
 
 use anyhow::{bail, Context};
+use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::setup::{
     AxisSetup, Dialect, DwellUnits, ListCommand, McodeList, Setup, Tool, MAX_TOOLS,
     MAX_USER_MCODES, USER_OUTPUTS,
@@ -114,38 +115,6 @@ pub struct McodeFile {
     #[serde(default)]
     pub commands: Vec<String>,
 }
-
-/// Names of the input bits (`InputBits`); other bits are `inN`.
-const INPUT_NAMES: [&str; 28] = [
-    "feed_hold",
-    "abort",
-    "cycle_start1",
-    "cycle_start2",
-    "jog_s1",
-    "jog_s2",
-    "jog_s3",
-    "jog_s4",
-    "mark",
-    "release",
-    "pair_select",
-    "accelerated",
-    "nudge",
-    "single_block",
-    "optional_stop",
-    "block_delete",
-    "x_min",
-    "y_min",
-    "z_min",
-    "a_min",
-    "b_min",
-    "c_min",
-    "x_max",
-    "y_max",
-    "z_max",
-    "a_max",
-    "b_max",
-    "c_max",
-];
 
 fn input_name(bit: u8) -> String {
     INPUT_NAMES

@@ -7,6 +7,7 @@ use crate::program::Program;
 use crate::stream::{stream_program, Flow};
 use crate::vcd::{counts_to_ns, VcdEvent, VcdOptions, VcdSummary, VcdWriter};
 use anyhow::Context;
+use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::setup::Setup;
 use std::cell::RefCell;
@@ -14,26 +15,6 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
 use std::rc::Rc;
-
-/// Names of the input bits in the trace, in bit order (see `gantry_machine::controller::inputs`).
-pub const INPUT_NAMES: [&str; 16] = [
-    "feed_hold",
-    "abort",
-    "cycle_start_1",
-    "cycle_start_2",
-    "jog_s1",
-    "jog_s2",
-    "jog_s3",
-    "jog_s4",
-    "mark",
-    "release",
-    "pair_select",
-    "accelerated",
-    "nudge",
-    "single_block",
-    "optional_stop",
-    "block_delete",
-];
 
 /// What a traced run produced.
 pub struct TraceResult {

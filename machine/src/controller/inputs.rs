@@ -40,6 +40,39 @@ pub enum Signal {
     BlockDelete = 15,
 }
 
+/// Names of the input bits of [`InputBits`], bit 0 first, as the setup file and traces spell
+/// them (other bits are `inN`).
+pub const INPUT_NAMES: [&str; 28] = [
+    "feed_hold",
+    "abort",
+    "cycle_start1",
+    "cycle_start2",
+    "jog_s1",
+    "jog_s2",
+    "jog_s3",
+    "jog_s4",
+    "mark",
+    "release",
+    "pair_select",
+    "accelerated",
+    "nudge",
+    "single_block",
+    "optional_stop",
+    "block_delete",
+    "x_min",
+    "y_min",
+    "z_min",
+    "a_min",
+    "b_min",
+    "c_min",
+    "x_max",
+    "y_max",
+    "z_max",
+    "a_max",
+    "b_max",
+    "c_max",
+];
+
 /// First bit of the six min-limit inputs (X..C), then six max-limit inputs.
 pub const LIMIT_MIN_BIT: u32 = 16;
 pub const LIMIT_MAX_BIT: u32 = 22;
@@ -165,6 +198,16 @@ mod tests {
         let mut d = Debouncer::new(start, 1);
         assert!(d.sample(0).0.get(Signal::CycleStart1));
         assert!(!d.sample(start).0.get(Signal::CycleStart1));
+    }
+
+    #[test]
+    fn input_names_follow_the_bit_layout() {
+        assert_eq!(INPUT_NAMES[Signal::FeedHold as usize], "feed_hold");
+        assert_eq!(INPUT_NAMES[Signal::Mark as usize], "mark");
+        assert_eq!(INPUT_NAMES[Signal::BlockDelete as usize], "block_delete");
+        assert_eq!(INPUT_NAMES[LIMIT_MIN_BIT as usize], "x_min");
+        assert_eq!(INPUT_NAMES[LIMIT_MAX_BIT as usize], "x_max");
+        assert_eq!(INPUT_NAMES.len(), LIMIT_MAX_BIT as usize + 6);
     }
 
     #[test]
