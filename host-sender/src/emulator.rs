@@ -26,13 +26,16 @@ use gantry_machine::units::MAX_AXES;
 /// Kernel timer counts per millisecond.
 pub const COUNTS_PER_MS: u64 = KERNEL_TIMER_HZ as u64 / 1000;
 
-/// One tick of the kernel that changed the step or direction outputs.
+/// A change of the board's pins: a kernel tick that stepped or changed direction, or a change
+/// of the input levels (then `step` is 0).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PinEvent {
     /// Virtual time, kernel timer counts.
     pub time: u64,
     pub step: u8,
     pub dir: u8,
+    /// Debounced input levels (`controller::inputs::InputBits`).
+    pub inputs: u32,
 }
 
 /// A limit switch at a fixed place of the machine.
@@ -360,6 +363,7 @@ impl EmulatedBoard {
                     time: self.now,
                     step: out.step,
                     dir: out.dir,
+                    inputs: self.inputs,
                 });
             }
             self.last_dir = out.dir;
@@ -407,6 +411,16 @@ impl EmulatedBoard {
         }
         let (levels, changed) = self.debouncer.sample(self.raw_pins());
         self.inputs = levels.0;
+        if changed != 0 {
+            if let Some(f) = self.observer.as_mut() {
+                f(PinEvent {
+                    time: self.now,
+                    step: 0,
+                    dir: self.last_dir,
+                    inputs: levels.0,
+                });
+            }
+        }
         self.board.on_inputs(now, levels, changed, self.adc);
         let view = self.kernel_view();
         self.link.service(&mut self.board, now, &view);

@@ -48,7 +48,8 @@ pub fn trace(
     let error: Rc<RefCell<Option<std::io::Error>>> = Rc::default();
     let mut board = EmulatedBoard::new(setup);
     let (w, e) = (writer.clone(), error.clone());
-    // Steppers are enabled by the first motion (DESIGN §6) and stay enabled for the job.
+    // Steppers are enabled by the first motion (DESIGN §6) and stay enabled for the job. Input
+    // changes come as events without steps.
     let mut enabled = false;
     board.observe(move |p: PinEvent| {
         enabled |= p.step != 0;
@@ -58,7 +59,7 @@ pub fn trace(
                 step: p.step,
                 dir: p.dir,
                 enable: enabled,
-                inputs: 0,
+                inputs: p.inputs,
             };
             if let Err(err) = wr.event(ev) {
                 e.borrow_mut().get_or_insert(err);

@@ -26,3 +26,23 @@ fn the_vcd_of_the_example_job_has_every_step_the_board_made() {
     // The steppers are enabled by the first motion.
     assert_eq!(vcd.rising.get("enable").copied(), Some(1));
 }
+
+#[test]
+fn input_changes_reach_the_pin_observer() {
+    use host_sender::emulator::EmulatedBoard;
+    use std::sync::{Arc, Mutex};
+    let mut board = EmulatedBoard::new(Setup::default());
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let s = seen.clone();
+    board.observe(move |p| s.lock().unwrap().push(p));
+    board.run_ms(10);
+    // The cycle-start pin goes high for 20 ms (debounced over 5 ms samples by default).
+    board.set_pin(2, true);
+    board.run_ms(20);
+    board.set_pin(2, false);
+    board.run_ms(20);
+    let events = seen.lock().unwrap();
+    let levels: Vec<u32> = events.iter().map(|e| e.inputs & 0b100).collect();
+    assert_eq!(levels, vec![0b100, 0]);
+    assert!(events.iter().all(|e| e.step == 0));
+}
