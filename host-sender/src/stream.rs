@@ -51,8 +51,14 @@ impl BoardError {
                 gantry_machine::board::ERROR_SOFT_LIMIT => {
                     "move exceeds the machine travel (soft limit)"
                 }
+                gantry_machine::board::ERROR_HOMING_REQUIRED => {
+                    "the machine must be homed first (gantry home)"
+                }
                 _ => "unknown error",
             });
+        if self.line == 0 {
+            return format!("resume preamble: error {}: {message}", self.code);
+        }
         let text = program.line(self.line).unwrap_or("").trim();
         format!(
             "line {}: error {}: {message}\n    {text}",
