@@ -129,6 +129,92 @@ embassy_stm32::bind_interrupts!(
     }
 );
 
+/// The timer peripheral type of a spindle PWM channel token (`TIM1_CH1` → `TIM1`).
+macro_rules! pwm_timer {
+    (TIM1_CH1) => {
+        embassy_stm32::peripherals::TIM1
+    };
+    (TIM1_CH2) => {
+        embassy_stm32::peripherals::TIM1
+    };
+    (TIM1_CH3) => {
+        embassy_stm32::peripherals::TIM1
+    };
+    (TIM1_CH4) => {
+        embassy_stm32::peripherals::TIM1
+    };
+    (TIM3_CH1) => {
+        embassy_stm32::peripherals::TIM3
+    };
+    (TIM3_CH2) => {
+        embassy_stm32::peripherals::TIM3
+    };
+    (TIM3_CH3) => {
+        embassy_stm32::peripherals::TIM3
+    };
+    (TIM3_CH4) => {
+        embassy_stm32::peripherals::TIM3
+    };
+}
+
+/// Spindle PWM at [`SPINDLE_PWM_HZ`] on the board's timer channel, duty 0, channel enabled.
+macro_rules! pwm_channel {
+    ($p:ident, $pin:ident, $tim:ident, $ch:ident, $slot:tt) => {{
+        use embassy_stm32::gpio::OutputType;
+        use embassy_stm32::timer::low_level::CountingMode;
+        use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
+        let pin = Some(PwmPin::new($p.$pin, OutputType::PushPull));
+        let pwm = pwm_channel!(@new $p, $tim, pin, $slot);
+        let mut ch = pwm.split().$ch;
+        ch.set_duty_cycle_fully_off();
+        ch.enable();
+        ch
+    }};
+    (@new $p:ident, $tim:ident, $pin:ident, 1) => {
+        SimplePwm::new($p.$tim, $pin, None, None, None, embassy_stm32::time::Hertz($crate::board::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
+    };
+    (@new $p:ident, $tim:ident, $pin:ident, 2) => {
+        SimplePwm::new($p.$tim, None, $pin, None, None, embassy_stm32::time::Hertz($crate::board::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
+    };
+    (@new $p:ident, $tim:ident, $pin:ident, 3) => {
+        SimplePwm::new($p.$tim, None, None, $pin, None, embassy_stm32::time::Hertz($crate::board::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
+    };
+    (@new $p:ident, $tim:ident, $pin:ident, 4) => {
+        SimplePwm::new($p.$tim, None, None, None, $pin, embassy_stm32::time::Hertz($crate::board::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
+    };
+}
+
+/// Builds the spindle PWM channel from the board table's channel token.
+macro_rules! spindle_pwm {
+    ($p:ident, $pin:ident, TIM1_CH1) => {
+        pwm_channel!($p, $pin, TIM1, ch1, 1)
+    };
+    ($p:ident, $pin:ident, TIM1_CH2) => {
+        pwm_channel!($p, $pin, TIM1, ch2, 2)
+    };
+    ($p:ident, $pin:ident, TIM1_CH3) => {
+        pwm_channel!($p, $pin, TIM1, ch3, 3)
+    };
+    ($p:ident, $pin:ident, TIM1_CH4) => {
+        pwm_channel!($p, $pin, TIM1, ch4, 4)
+    };
+    ($p:ident, $pin:ident, TIM3_CH1) => {
+        pwm_channel!($p, $pin, TIM3, ch1, 1)
+    };
+    ($p:ident, $pin:ident, TIM3_CH2) => {
+        pwm_channel!($p, $pin, TIM3, ch2, 2)
+    };
+    ($p:ident, $pin:ident, TIM3_CH3) => {
+        pwm_channel!($p, $pin, TIM3, ch3, 3)
+    };
+    ($p:ident, $pin:ident, TIM3_CH4) => {
+        pwm_channel!($p, $pin, TIM3, ch4, 4)
+    };
+}
+
+/// Spindle PWM frequency (VFD 0-10 V converters and laser drivers take 1 kHz).
+pub const SPINDLE_PWM_HZ: u32 = 1_000;
+
 /// Expands a board table (see boards/README.md) into constants, driver structs and `split()`.
 macro_rules! gantry_board {
     (
@@ -252,8 +338,8 @@ macro_rules! gantry_board {
             pub stepper_enable: Output<'static>,
             pub spindle_enable: Output<'static>,
             pub spindle_dir: Output<'static>,
-            /// Plain output (off) until the spindle PWM driver lands.
-            pub spindle_pwm: Output<'static>,
+            /// Spindle speed: PWM at `SPINDLE_PWM_HZ`, duty 0 at power-up.
+            pub spindle_pwm: embassy_stm32::timer::simple_pwm::SimplePwmChannel<'static, pwm_timer!($sp_pwm_ch)>,
             pub coolant_flood: Output<'static>,
             pub coolant_mist: Output<'static>,
             pub user: [Output<'static>; USER_OUTPUTS],
@@ -313,7 +399,7 @@ macro_rules! gantry_board {
                     stepper_enable: out(p.$en.into(), Level::High),
                     spindle_enable: out(p.$sp_en.into(), Level::Low),
                     spindle_dir: out(p.$sp_dir.into(), Level::Low),
-                    spindle_pwm: out(p.$sp_pwm.into(), Level::Low),
+                    spindle_pwm: spindle_pwm!(p, $sp_pwm, $sp_pwm_ch),
                     coolant_flood: out(p.$flood.into(), Level::Low),
                     coolant_mist: out(p.$mist.into(), Level::Low),
                     user: [$(out(p.$out.into(), Level::Low)),+],

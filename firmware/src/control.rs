@@ -78,12 +78,14 @@ fn level(on: bool) -> Level {
     }
 }
 
-/// Output levels to pins. The spindle PWM pin is a plain output for now: high while the duty is
-/// above zero (full speed), until the TIM1 PWM driver lands.
-fn drive(o: &mut Outputs, l: &OutputLevels, steppers_enabled: bool) {
+/// Output levels to pins. The spindle duty counts `0..=pwm_max` (setup) and maps onto the PWM
+/// timer's own period.
+fn drive(o: &mut Outputs, l: &OutputLevels, pwm_max: u16, steppers_enabled: bool) {
     o.spindle_enable.set_level(level(l.spindle_enable));
     o.spindle_dir.set_level(level(l.spindle_ccw));
-    o.spindle_pwm.set_level(level(l.spindle_pwm > 0));
+    let max = u32::from(pwm_max.max(1));
+    o.spindle_pwm
+        .set_duty_cycle_fraction(u32::from(l.spindle_pwm).min(max), max);
     o.coolant_flood.set_level(level(l.flood));
     o.coolant_mist.set_level(level(l.mist));
     for (i, pin) in o.user.iter_mut().enumerate().take(USER_OUTPUTS) {
@@ -207,7 +209,12 @@ pub async fn run(mut io: Io, setup: Setup, boot_id: u32) -> ! {
             };
             let _ = io.tx.try_write(&frame[..n]);
         }
-        drive(&mut io.outputs, &board.output_levels(), steppers_enabled);
+        drive(
+            &mut io.outputs,
+            &board.output_levels(),
+            board.setup().outputs.pwm_max,
+            steppers_enabled,
+        );
 
         // 6. A new setup from the host: new input polarity now, flash once idle.
         let changed = link.take_setup_changed();

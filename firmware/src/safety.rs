@@ -15,14 +15,22 @@ const SAFE_WORDS: [u32; 5] = safe_bsrr(&SAFE_LOW, &[STEPPER_ENABLE]);
 
 /// Stops the step timer and drives every output to its safe level with single register writes.
 ///
-/// Callable from any context, including with the output drivers borrowed elsewhere: BSRR writes
+/// Safe while the output drivers are borrowed elsewhere: BSRR writes
 /// set or reset exactly the named pins atomically (no read-modify-write), so they cannot corrupt
 /// a driver's or an interrupted ISR's view of the port, and the `Output` drivers hold no shadow
 /// state of the level. Clearing TIM2's enable bit stops the step interrupt from emitting more
 /// edges. Register access through the PAC needs no `unsafe`; what is bypassed is only the
 /// ownership of the pins by their drivers, which is sound for the reasons above.
-pub fn force_safe() {
+///
+/// The spindle PWM pin is a timer output (alternate function), which BSRR does not reach: it is
+/// switched back to a plain GPIO output first. That is a read-modify-write of MODER, so this
+/// function must run with interrupts disabled (the panic handler does).
+fn force_safe() {
     pac::TIM2.cr1().modify(|w| w.set_cen(false));
+    let pwm = SAFE_LOW[2];
+    gpio_block(pwm.port)
+        .moder()
+        .modify(|w| w.set_moder(pwm.pin as usize, pac::gpio::vals::Moder::OUTPUT));
     let mut port = 0;
     while port < SAFE_WORDS.len() {
         if SAFE_WORDS[port] != 0 {
