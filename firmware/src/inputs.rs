@@ -61,6 +61,33 @@ const fn exti_bits() -> [u32; EXTI_INPUTS] {
 
 const EXTI_BITS: [u32; EXTI_INPUTS] = exti_bits();
 
+const fn in_range(i: usize, start: usize, len: usize) -> bool {
+    i >= start && i - start < len
+}
+
+/// The mapping is checked at compile time: every input has a bit, no two inputs share one, limit
+/// inputs only set limit bits (which stop the kernel when armed) and the others never do.
+const _: () = {
+    let mut seen = 0u32;
+    let mut i = 0;
+    while i < EXTI_INPUTS {
+        let bits = EXTI_BITS[i];
+        assert!(bits != 0, "every EXTI input has a bit");
+        assert!(seen & bits == 0, "no two inputs share a bit");
+        let is_limit = in_range(i, LIMIT0, AXES) || in_range(i, LIMIT_MAX0, LIMIT_MAX_INPUTS);
+        assert!(
+            is_limit == (bits & gantry_machine::board::LIMIT_BITS == bits),
+            "limit inputs set limit bits only, other inputs none"
+        );
+        seen |= bits;
+        i += 1;
+    }
+    assert!(
+        seen & (0xf << Signal::JogS1 as u32) == 0,
+        "joystick switch bits stay free for the polled inputs"
+    );
+};
+
 fn sample(inputs: &Inputs) -> u32 {
     let mut word = 0;
     for (input, bit) in inputs.exti.iter().zip(EXTI_BITS) {
