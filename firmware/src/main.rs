@@ -95,9 +95,14 @@ async fn main(spawner: Spawner) {
     #[cfg(feature = "controller")]
     let (store, buf, setup, boot_id) = {
         let (mut store, buf) = settings::open(rest.flash);
+        // Loading may repair a store a power cut left half-written, and counting the boot may
+        // erase a sector (1-2 s of stalled CPU): the watchdog's long timeout covers both, or a
+        // reset in the middle of the erase would repeat at every boot.
+        watchdog::long();
         let loaded = store.load(buf).await;
         defmt::info!("settings: {}", loaded.describe());
         let boots = store.next_boot_count(buf).await;
+        watchdog::normal();
         let uid = embassy_stm32::uid::uid();
         let uid_hash = uid.iter().fold(0x811c_9dc5u32, |h, b| {
             (h ^ u32::from(*b)).wrapping_mul(0x0100_0193)
