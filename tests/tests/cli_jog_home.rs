@@ -52,3 +52,34 @@ fn homing_over_the_link_seeks_retracts_and_sets_home() {
     }
     assert!(!saw_alarm, "homing onto its own switch raises no alarm");
 }
+
+#[test]
+fn a_joystick_mark_reaches_the_host() {
+    use gantry_machine::controller::inputs::Signal;
+    let mut s = Setup::default();
+    s.inputs.debounce_ms = 1;
+    let mut client = Client::connect(host_sender::emulator::EmulatedBoard::new(s), 2000).unwrap();
+    let press = |c: &mut Client<host_sender::emulator::EmulatedBoard>, sig: Signal, on: bool| {
+        c.transport.set_pin(sig as u32, on)
+    };
+    // Mark + Release together enter joystick jog; Mark alone is a teach-in mark.
+    press(&mut client, Signal::Mark, true);
+    press(&mut client, Signal::Release, true);
+    client.pump(3).unwrap();
+    press(&mut client, Signal::Mark, false);
+    press(&mut client, Signal::Release, false);
+    client.pump(3).unwrap();
+    press(&mut client, Signal::Mark, true);
+    client.pump(3).unwrap();
+    press(&mut client, Signal::Mark, false);
+    let mut marks = Vec::new();
+    for _ in 0..50 {
+        client.pump(1).unwrap();
+        while let Some(m) = client.recv() {
+            if let BoardMsg::Mark { id, .. } = m {
+                marks.push(id);
+            }
+        }
+    }
+    assert_eq!(marks, vec![1]);
+}

@@ -265,7 +265,9 @@ impl BoardLink {
                 Some(m) => m,
                 None => match board.take_event() {
                     Some(e) => event_message(e),
-                    // Joystick Mark presses, for teach-in on the host.
+                    // Joystick Mark presses, for teach-in on the host (kept on the board, in
+                    // its small queue, while no host listens).
+                    None if !self.host_attached => return,
                     None => match board.take_mark() {
                         Some(m) => BoardMsg::Mark {
                             line: board.line(),
