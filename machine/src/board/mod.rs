@@ -297,17 +297,21 @@ impl Board {
             return false;
         }
         let position = self.motion.queued_position();
-        *self = Board {
-            homed: self.homed,
-            now_ms: self.now_ms,
-            levels: self.levels,
-            ..Board::new(setup)
-        };
-        if self.alarm == Some(AlarmCode::HomingRequired) && !self.homing_missing() {
-            self.alarm = None;
-            self.state = State::Idle;
+        // Rebuilt in place: a second `Board` (tens of KiB) must never sit on the MCU's stack.
+        self.setup = setup;
+        self.interp = Interpreter::new(&self.setup.interp_config());
+        let cfg = MotionConfig::from_setup(&self.setup);
+        self.motion.reconfigure(cfg, cfg.to_steps(&position));
+        self.motion.set_feed_override(self.feed_override);
+        self.source.reset();
+        self.pending = None;
+        self.ending = Ending::No;
+        self.jog = JogState::default();
+        self.outputs_safe();
+        if self.homing_missing() {
+            self.alarm = Some(AlarmCode::HomingRequired);
+            self.state = State::Alarm;
         }
-        self.motion.set_position(position);
         self.sync_interpreter_position();
         true
     }
@@ -576,9 +580,7 @@ impl Board {
     fn rebuild_motion(&mut self, soft_limits: bool, kernel_steps: &[i64; MAX_AXES]) {
         let mut cfg = MotionConfig::from_setup(&self.setup);
         cfg.soft_limits = soft_limits;
-        let position = cfg.to_nm(kernel_steps);
-        self.motion = Motion::new(cfg);
-        self.motion.set_position(position);
+        self.motion.reconfigure(cfg, *kernel_steps);
         self.motion.set_feed_override(self.feed_override);
     }
 

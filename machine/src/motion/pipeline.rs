@@ -402,6 +402,17 @@ impl<const N: usize> Motion<N> {
         self.prep.state = PrepState::Running;
     }
 
+    /// Takes a new machine model and drops everything queued, in place, at step position `steps`
+    /// (like [`Self::new`] followed by a position, but without a second `Motion` — tens of KiB —
+    /// on the MCU's stack). Overrides are kept.
+    pub fn reconfigure(&mut self, cfg: MotionConfig, steps: [i64; MAX_AXES]) {
+        self.cfg = cfg;
+        self.junction_deviation = cfg.junction_deviation.max(0) as u64;
+        self.exact_stop = false;
+        self.prep = Prep::new();
+        self.reset(steps);
+    }
+
     /// Feed override in percent (clamped to 10-200), applied at once.
     pub fn set_feed_override(&mut self, pct: u16) {
         let rapid = self.planner.rapid_override();
