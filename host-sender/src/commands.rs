@@ -69,6 +69,35 @@ pub fn realtime(target: Target, msg: Option<HostMsg>) -> anyhow::Result<ExitCode
     Ok(ExitCode::SUCCESS)
 }
 
+/// Live status readout: redraws every 200 ms (link time) until Ctrl-C or `seconds` have passed.
+pub fn watch(target: Target, seconds: Option<f64>) -> anyhow::Result<ExitCode> {
+    use std::io::{IsTerminal, Write};
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+    let stop = Arc::new(AtomicBool::new(false));
+    let s = stop.clone();
+    // Without a handler Ctrl-C simply ends the process, which is just as good here.
+    let _ = ctrlc::set_handler(move || s.store(true, Ordering::SeqCst));
+    let (mut client, axes) = connect(target)?;
+    let start = client.transport.now_ms();
+    let tty = std::io::stdout().is_terminal();
+    while !stop.load(Ordering::SeqCst) {
+        let status = fresh_status(&mut client)?;
+        let elapsed = client.transport.now_ms().wrapping_sub(start) as f64 / 1000.0;
+        if tty {
+            // Home the cursor and clear the screen, then redraw.
+            print!("\x1b[H\x1b[2J");
+        }
+        println!("{}\n", format_status(&status, axes));
+        std::io::stdout().flush()?;
+        if seconds.is_some_and(|limit| elapsed >= limit) {
+            break;
+        }
+        client.pump(200)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
 /// Runs blocks typed on the command line as a small job and prints the result.
 pub fn mdi(target: Target, blocks: &[String]) -> anyhow::Result<ExitCode> {
     let (mut client, axes) = connect(target)?;

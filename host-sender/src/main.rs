@@ -40,6 +40,12 @@ enum Command {
     },
     /// Show the board's status: state, positions, feed, overrides, line, buffers, inputs.
     Status {
+        /// Live readout: refresh every 200 ms until Ctrl-C (or for this many seconds with --for).
+        #[arg(long)]
+        watch: bool,
+        /// With --watch: stop after this many seconds.
+        #[arg(long = "for", requires = "watch")]
+        duration: Option<f64>,
         #[command(flatten)]
         board: BoardArgs,
     },
@@ -287,7 +293,16 @@ fn main() -> ExitCode {
             let target = board.target()?;
             host_sender::stream::run(&file, target, setup, from_line)
         }),
-        Command::Status { board } => board.target().and_then(|t| commands::realtime(t, None)),
+        Command::Status {
+            watch: false,
+            board,
+            ..
+        } => board.target().and_then(|t| commands::realtime(t, None)),
+        Command::Status {
+            watch: true,
+            duration,
+            board,
+        } => board.target().and_then(|t| commands::watch(t, duration)),
         Command::Hold { board } => board
             .target()
             .and_then(|t| commands::realtime(t, Some(HostMsg::FeedHold))),
