@@ -109,10 +109,10 @@ fn rearm_kernel() {
     step::rearm();
 }
 
+/// The board and its link live in statics (see `main`): built inside this task they would make
+/// every poll of it reserve their ~48 KiB on the stack.
 #[embassy_executor::task]
-pub async fn run(mut io: Io, setup: Setup, boot_id: u32) -> ! {
-    let mut board = Board::new(setup);
-    let mut link = BoardLink::new(boot_id);
+pub async fn run(mut io: Io, board: &'static mut Board, link: &'static mut BoardLink) -> ! {
     let mut debounce = debouncer(board.setup());
     let mut policy = SavePolicy::new();
     let mut speed = SpeedMeter {
@@ -178,7 +178,7 @@ pub async fn run(mut io: Io, setup: Setup, boot_id: u32) -> ! {
             inputs: levels.0,
             feed_um_min: speed_um_min,
         };
-        link.service(&mut board, now, &view);
+        link.service(board, now, &view);
         let drained = step::snapshot().drained;
         board.poll(drained);
         if let Some(steps) = board.take_position_reset() {
@@ -202,7 +202,7 @@ pub async fn run(mut io: Io, setup: Setup, boot_id: u32) -> ! {
         }
 
         // 5. Events of this pass go out now; then the pins.
-        link.service(&mut board, now, &view);
+        link.service(board, now, &view);
         while io.tx.free_capacity() >= frame.len() {
             let Some(n) = link.poll_transmit(now, &mut frame) else {
                 break;

@@ -131,21 +131,45 @@ async fn main(spawner: Spawner) {
     spawner.spawn(defmt::unwrap!(usb::run_control(control)));
     spawner.spawn(defmt::unwrap!(analog::run(rest.adc1, analog)));
     #[cfg(feature = "controller")]
-    spawner.spawn(defmt::unwrap!(control::run(
-        control::Io {
-            outputs,
-            segments,
-            rx: rx_pipe,
-            tx: tx_pipe,
-            store,
-            buf,
-        },
-        setup,
-        boot_id,
-    )));
+    {
+        let board = controller_board(setup);
+        let link = controller_link(boot_id);
+        spawner.spawn(defmt::unwrap!(control::run(
+            control::Io {
+                outputs,
+                segments,
+                rx: rx_pipe,
+                tx: tx_pipe,
+                store,
+                buf,
+            },
+            board,
+            link,
+        )));
+    }
     #[cfg(not(feature = "controller"))]
     spawner.spawn(defmt::unwrap!(bringup::run(
         outputs, segments, rx_pipe, tx_pipe
     )));
     defmt::info!("ready");
+}
+
+/// The board, built once into its static. A function of its own (never inlined) so that the
+/// temporary it may need on the stack exists only during this call, not in every poll of `main`
+/// nor together with the link's.
+#[cfg(feature = "controller")]
+#[inline(never)]
+fn controller_board(
+    setup: gantry_machine::setup::Setup,
+) -> &'static mut gantry_machine::board::Board {
+    static BOARD: StaticCell<gantry_machine::board::Board> = StaticCell::new();
+    BOARD.init_with(|| gantry_machine::board::Board::new(setup))
+}
+
+/// The link endpoint, built once into its static (see [`controller_board`]).
+#[cfg(feature = "controller")]
+#[inline(never)]
+fn controller_link(boot_id: u32) -> &'static mut gantry_machine::board::link::BoardLink {
+    static LINK: StaticCell<gantry_machine::board::link::BoardLink> = StaticCell::new();
+    LINK.init_with(|| gantry_machine::board::link::BoardLink::new(boot_id))
 }
