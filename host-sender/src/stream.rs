@@ -395,7 +395,7 @@ pub fn run(
             stream_with_progress(&mut client, &program, Some((n, pre)))?
         }
     };
-    print_report(&report, &program, axes, wall.elapsed());
+    print_report(&report, &program, file, axes, wall.elapsed());
     if let Some(s) = &report.final_status {
         let cfg = gantry_machine::motion::config::MotionConfig::from_setup(&setup);
         let steps = cfg.to_steps(&s.machine_pos);
@@ -525,7 +525,13 @@ fn stream_with_progress<T: Transport>(
     report
 }
 
-fn print_report(report: &StreamReport, program: &Program, axes: usize, wall: std::time::Duration) {
+fn print_report(
+    report: &StreamReport,
+    program: &Program,
+    file: &std::path::Path,
+    axes: usize,
+    wall: std::time::Duration,
+) {
     for e in &report.errors {
         println!("error: {}", e.describe(program));
     }
@@ -553,7 +559,8 @@ fn print_report(report: &StreamReport, program: &Program, axes: usize, wall: std
     );
     if report.aborted {
         println!(
-            "resume:   gantry stream FILE --from-line {}",
+            "resume:   gantry stream {} --from-line {}",
+            file.display(),
             report.last_line.max(1)
         );
     }
