@@ -57,38 +57,80 @@ impl Transport for EmulatedBoard {
     }
 }
 
-/// A real board on a USB serial port (CDC-ACM).
+/// How long the sender keeps trying to reopen a port that went away (USB cable pulled, board
+/// re-enumerating) before it gives up.
+pub const REOPEN_FOR: Duration = Duration::from_secs(60);
+
+/// A real board on a USB serial port (CDC-ACM). When the port fails (the cable was pulled) it is
+/// reopened by path until [`REOPEN_FOR`] has passed; the protocol then resynchronises, and the board,
+/// which held the job meanwhile, continues it without losing or repeating a block.
 pub struct SerialTransport {
-    port: Box<dyn serialport::SerialPort>,
+    path: String,
+    port: Option<Box<dyn serialport::SerialPort>>,
     start: Instant,
+}
+
+fn open_port(path: &str) -> serialport::Result<Box<dyn serialport::SerialPort>> {
+    serialport::new(path, 115_200)
+        .timeout(Duration::from_millis(1))
+        .open()
 }
 
 impl SerialTransport {
     pub fn open(path: &str) -> anyhow::Result<Self> {
-        let port = serialport::new(path, 115_200)
-            .timeout(Duration::from_millis(1))
-            .open()
-            .with_context(|| format!("cannot open serial port {path}"))?;
+        let port = open_port(path).with_context(|| format!("cannot open serial port {path}"))?;
         Ok(SerialTransport {
-            port,
+            path: path.to_owned(),
+            port: Some(port),
             start: Instant::now(),
         })
+    }
+
+    /// The open port, reopening it after a failure.
+    fn port(&mut self) -> anyhow::Result<&mut Box<dyn serialport::SerialPort>> {
+        if self.port.is_none() {
+            let since = Instant::now();
+            eprintln!("gantry: {} went away; reopening it", self.path);
+            loop {
+                match open_port(&self.path) {
+                    Ok(p) => {
+                        eprintln!("gantry: {} is back", self.path);
+                        self.port = Some(p);
+                        break;
+                    }
+                    Err(e) if since.elapsed() > REOPEN_FOR => {
+                        return Err(e).with_context(|| {
+                            format!("{} did not come back within {REOPEN_FOR:?}", self.path)
+                        })
+                    }
+                    Err(_) => std::thread::sleep(Duration::from_millis(200)),
+                }
+            }
+        }
+        Ok(self.port.as_mut().expect("opened above"))
     }
 }
 
 impl Transport for SerialTransport {
     fn write(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
-        self.port.write_all(bytes).context("writing to the board")
+        if self.port()?.write_all(bytes).is_err() {
+            // Lost frames are retransmitted by the protocol once the port is back.
+            self.port = None;
+        }
+        Ok(())
     }
 
     fn read(&mut self, into: &mut Vec<u8>) -> anyhow::Result<()> {
         let mut buf = [0u8; 512];
         loop {
-            match self.port.read(&mut buf) {
+            match self.port()?.read(&mut buf) {
                 Ok(0) => return Ok(()),
                 Ok(n) => into.extend_from_slice(&buf[..n]),
                 Err(e) if e.kind() == std::io::ErrorKind::TimedOut => return Ok(()),
-                Err(e) => return Err(e).context("reading from the board"),
+                Err(_) => {
+                    self.port = None;
+                    return Ok(());
+                }
             }
         }
     }
