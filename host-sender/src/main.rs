@@ -35,6 +35,10 @@ enum Command {
         /// a short preamble (offsets, tool, spindle, coolant, position, modes) runs first.
         #[arg(long)]
         from_line: Option<u32>,
+        /// Take over the job the board is running (after this sender was closed or crashed): the
+        /// board asks for exactly the lines it is missing and the held job resumes.
+        #[arg(long = "continue", conflicts_with = "from_line")]
+        take_over: bool,
         #[command(flatten)]
         board: BoardArgs,
     },
@@ -288,10 +292,17 @@ fn main() -> ExitCode {
         Command::Stream {
             file,
             from_line,
+            take_over,
             board,
         } => board.setup().and_then(|setup| {
+            use host_sender::stream::Start;
             let target = board.target()?;
-            host_sender::stream::run(&file, target, setup, from_line)
+            let start = match (from_line, take_over) {
+                (Some(n), _) => Start::FromLine(n),
+                (None, true) => Start::TakeOver,
+                (None, false) => Start::Beginning,
+            };
+            host_sender::stream::run(&file, target, setup, start)
         }),
         Command::Status {
             watch: false,

@@ -363,14 +363,25 @@ fn axes_line(p: &[i64], axes: usize) -> String {
         .join("  ")
 }
 
-/// Runs `gantry stream FILE [--from-line N]`: progress while it runs, a final report, exit code 1
-/// on errors. `setup` describes the machine for the run-from-line preamble (the emulated board
-/// runs with it too).
+/// Where `gantry stream` starts the job.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Start {
+    /// From line 1.
+    Beginning,
+    /// From a line, after the preamble that rebuilds the state there (`--from-line`).
+    FromLine(u32),
+    /// Take over the job the board is running (`--continue`).
+    TakeOver,
+}
+
+/// Runs `gantry stream FILE [--from-line N | --continue]`: progress while it runs, a final
+/// report, exit code 1 on errors. `setup` describes the machine for the run-from-line preamble
+/// (the emulated board runs with it too).
 pub fn run(
     file: &std::path::Path,
     target: Target,
     setup: gantry_machine::setup::Setup,
-    from_line: Option<u32>,
+    start: Start,
 ) -> anyhow::Result<std::process::ExitCode> {
     let program = Program::load(file)?;
     let text = std::fs::read_to_string(file)?;
@@ -383,16 +394,26 @@ pub fn run(
         );
     }
     let (mut client, _) = crate::commands::connect(target)?;
-    let report = match from_line {
-        None => stream_with_progress(&mut client, &program, None)?,
-        Some(n) => {
+    let report = match start {
+        Start::Beginning => stream_with_progress(&mut client, &program, Resume::No)?,
+        Start::TakeOver => {
+            let state = fresh_status(&mut client)?.state;
+            if !matches!(state, MachineState::Run | MachineState::Hold { .. }) {
+                anyhow::bail!(
+                    "--continue: the board runs no job (it is {})",
+                    state_name(state)
+                );
+            }
+            stream_with_progress(&mut client, &program, Resume::TakeOver)?
+        }
+        Start::FromLine(n) => {
             let here = fresh_status(&mut client)?.machine_pos;
             let pre = crate::resume::resume_preamble(&program, &text, n, &setup, &here)?;
             println!("resuming at line {n} after {} preamble blocks:", pre.len());
             for b in &pre {
                 println!("    {b}");
             }
-            stream_with_progress(&mut client, &program, Some((n, pre)))?
+            stream_with_progress(&mut client, &program, Resume::FromLine(n, pre))?
         }
     };
     print_report(&report, &program, file, axes, wall.elapsed());
@@ -462,10 +483,17 @@ fn ask_after_hold(bar: Option<&indicatif::ProgressBar>) -> Flow {
 }
 
 /// Streams with a live progress bar on a terminal, or a progress line every 10 % otherwise.
+/// How [`stream_with_progress`] begins.
+enum Resume {
+    No,
+    FromLine(u32, Vec<String>),
+    TakeOver,
+}
+
 fn stream_with_progress<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
-    resume: Option<(u32, Vec<String>)>,
+    resume: Resume,
 ) -> anyhow::Result<StreamReport> {
     use std::io::IsTerminal;
     let total = program.len().max(1) as u64;
@@ -516,8 +544,11 @@ fn stream_with_progress<T: Transport>(
         Flow::Continue
     };
     let report = match resume {
-        None => stream_program(client, program, &mut on_progress),
-        Some((from, pre)) => stream_from_line(client, program, from, pre, &mut on_progress),
+        Resume::No => stream_program(client, program, &mut on_progress),
+        Resume::FromLine(from, pre) => {
+            stream_from_line(client, program, from, pre, &mut on_progress)
+        }
+        Resume::TakeOver => continue_job(client, program, &mut on_progress),
     };
     if let Some(b) = bar {
         b.finish_and_clear();
