@@ -6,7 +6,7 @@
 use crate::emulator::EmulatedBoard;
 use crate::link::{Client, SerialTransport, Transport};
 use crate::program::Program;
-use crate::stream::{fresh_status, state_name, stream_program, Flow, Target};
+use crate::stream::{axes_line, fresh_status, state_name, stream_program, Flow, Target};
 use gantry_machine::units::AXIS_LETTERS;
 use gantry_proto::{HostMsg, Status};
 use std::process::ExitCode;
@@ -26,18 +26,9 @@ pub fn connect(target: Target) -> anyhow::Result<(Client<Box<dyn Transport>>, us
     })
 }
 
-fn mm(nm: i64) -> String {
-    format!("{:.3}", nm as f64 / 1e6)
-}
-
 /// The status as a short table.
 pub fn format_status(s: &Status, axes: usize) -> String {
-    let pos = |p: &[i64]| {
-        (0..axes)
-            .map(|i| format!("{} {}", AXIS_LETTERS[i], mm(p[i])))
-            .collect::<Vec<_>>()
-            .join("  ")
-    };
+    let pos = |p: &[i64]| axes_line(p, axes);
     let homed: String = (0..axes)
         .filter(|i| s.homed >> i & 1 == 1)
         .map(|i| AXIS_LETTERS[i])

@@ -6,6 +6,7 @@
 //! G28.1/G30.1 positions set before `n` are not restored, and a modal arc or canned-cycle mode is
 //! not restored (the resumed line must name its own G2/G3 or cycle).
 
+use crate::check::mm;
 use crate::program::Program;
 use anyhow::{bail, Context};
 use gantry_machine::canon::{PathMode, Plane, Spindle};
@@ -14,7 +15,7 @@ use gantry_machine::gcode::{
     InterpConfig, Interpreter, MemorySource, ModalState, MotionMode, ProgramSource,
 };
 use gantry_machine::setup::Setup;
-use gantry_machine::units::{Nm, Pos, AXIS_LETTERS};
+use gantry_machine::units::{Pos, AXIS_LETTERS};
 
 /// Serves a program but ends just before line `stop` (the resume line).
 struct UpTo<'a> {
@@ -70,14 +71,6 @@ pub fn state_before(text: &str, line: u32, config: &InterpConfig) -> anyhow::Res
         bail!("line {line} is inside a subprogram: resume from a line of the main program");
     }
     Ok(*interp.state())
-}
-
-fn mm(nm: Nm) -> String {
-    let s = format!("{:.6}", nm as f64 / 1e6);
-    let s = s.trim_end_matches('0');
-    s.strip_suffix('.')
-        .map(str::to_owned)
-        .unwrap_or_else(|| s.to_owned())
 }
 
 fn axis_words(p: &Pos, axes: usize) -> String {

@@ -355,7 +355,8 @@ fn mm(nm: i64) -> String {
     format!("{:.3}", nm as f64 / 1e6)
 }
 
-fn axes_line(p: &[i64], axes: usize) -> String {
+/// A position as `X 1.000  Y 2.000  Z 3.000` (mm, 3 decimals) for the first `axes` axes.
+pub fn axes_line(p: &[i64], axes: usize) -> String {
     let names = gantry_machine::units::AXIS_LETTERS;
     (0..axes)
         .map(|i| format!("{} {}", names[i], mm(p[i])))
