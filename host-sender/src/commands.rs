@@ -207,6 +207,23 @@ pub fn emulated_with_switches(setup: gantry_machine::setup::Setup) -> EmulatedBo
     board
 }
 
+/// Polls the status every 100 ms (link time) while the board is in `state`, for up to an hour,
+/// and returns the first status in another state (or the last one).
+fn wait_while<T: Transport>(
+    client: &mut Client<T>,
+    state: gantry_proto::MachineState,
+) -> anyhow::Result<Status> {
+    let mut status = fresh_status(client)?;
+    for _ in 0..36_000 {
+        if status.state != state {
+            break;
+        }
+        client.pump(100)?;
+        status = fresh_status(client)?;
+    }
+    Ok(status)
+}
+
 /// Homes the axes in `axes` (bit 0 = X; 0 = all), waits for the cycle to end and prints the status.
 pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
     let (mut client, n) = match target {
@@ -218,15 +235,8 @@ pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
         t => connect(t)?,
     };
     client.send(HostMsg::Home { axes })?;
-    let mut status = fresh_status(&mut client)?;
-    // Up to an hour: seeks run at a slow constant rate over the whole travel.
-    for _ in 0..36_000 {
-        if status.state != gantry_proto::MachineState::Homing {
-            break;
-        }
-        client.pump(100)?;
-        status = fresh_status(&mut client)?;
-    }
+    // Seeks run at a slow constant rate over the whole travel.
+    let status = wait_while(&mut client, gantry_proto::MachineState::Homing)?;
     println!("{}", format_status(&status, n));
     if status.homed == 0 && status.state != gantry_proto::MachineState::Alarm {
         println!("no axis was homed: give axes a priority in [homing.axis.X] (docs/settings.md)");
@@ -259,14 +269,7 @@ pub fn jog(
         feed_um_min: speed,
         distance_nm: (distance_mm.abs() * 1e6).round() as u64,
     }))?;
-    let mut status = fresh_status(&mut client)?;
-    for _ in 0..36_000 {
-        if status.state != gantry_proto::MachineState::Jog {
-            break;
-        }
-        client.pump(100)?;
-        status = fresh_status(&mut client)?;
-    }
+    let status = wait_while(&mut client, gantry_proto::MachineState::Jog)?;
     println!("{}", format_status(&status, n));
     Ok(ExitCode::SUCCESS)
 }
