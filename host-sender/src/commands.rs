@@ -6,7 +6,9 @@
 use crate::emulator::EmulatedBoard;
 use crate::link::{Client, SerialTransport, Transport};
 use crate::program::Program;
-use crate::stream::{axes_line, fresh_status, state_name, stream_program, Flow, Target};
+use crate::stream::{
+    alarm_text, axes_line, fresh_status, state_name, stream_program, Flow, Target,
+};
 use gantry_machine::units::AXIS_LETTERS;
 use gantry_proto::{HostMsg, Status};
 use std::process::ExitCode;
@@ -46,7 +48,23 @@ pub fn format_status(s: &Status, axes: usize) -> String {
         s.queue_fill,
         s.inputs,
         if homed.is_empty() { "none".into() } else { homed }
-    )
+    ) + &match s.state {
+        gantry_proto::MachineState::Alarm { code } => format!("\nalarm:     {}", alarm_text(code)),
+        _ => String::new(),
+    }
+}
+
+/// Prints the limit and alarm reports the board sent (squaring lists' switch hits, alarms).
+fn print_notices<T: Transport>(client: &mut Client<T>) {
+    for msg in client.take_notices() {
+        match msg {
+            gantry_proto::BoardMsg::Limit { axis, max } => {
+                println!("{}", crate::stream::limit_text(axis, max))
+            }
+            gantry_proto::BoardMsg::Alarm { code, .. } => println!("{}", alarm_text(code)),
+            _ => {}
+        }
+    }
 }
 
 /// Sends one realtime message (or none), waits a moment and prints the status.
@@ -96,6 +114,12 @@ pub fn mdi(target: Target, blocks: &[String]) -> anyhow::Result<ExitCode> {
     let report = stream_program(&mut client, &program, &mut |_| Flow::Continue)?;
     for e in &report.errors {
         println!("error: {}", e.describe(&program));
+    }
+    for &(axis, max) in &report.limits {
+        println!("{}", crate::stream::limit_text(axis, max));
+    }
+    for a in &report.alarms {
+        println!("{}", a.describe(&program));
     }
     if let Some(s) = &report.final_status {
         println!("{}", format_status(s, axes));
@@ -237,11 +261,13 @@ pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
     client.send(HostMsg::Home { axes })?;
     // Seeks run at a slow constant rate over the whole travel.
     let status = wait_while(&mut client, gantry_proto::MachineState::Homing)?;
+    print_notices(&mut client);
     println!("{}", format_status(&status, n));
-    if status.homed == 0 && status.state != gantry_proto::MachineState::Alarm {
+    let alarmed = matches!(status.state, gantry_proto::MachineState::Alarm { .. });
+    if status.homed == 0 && !alarmed {
         println!("no axis was homed: give axes a priority in [homing.axis.X] (docs/settings.md)");
     }
-    Ok(if status.state == gantry_proto::MachineState::Alarm {
+    Ok(if alarmed {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
@@ -270,6 +296,7 @@ pub fn jog(
         distance_nm: (distance_mm.abs() * 1e6).round() as u64,
     }))?;
     let status = wait_while(&mut client, gantry_proto::MachineState::Jog)?;
+    print_notices(&mut client);
     println!("{}", format_status(&status, n));
     Ok(ExitCode::SUCCESS)
 }

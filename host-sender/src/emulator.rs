@@ -12,10 +12,16 @@
 //! Limit switches can be modelled at fixed machine positions ([`EmulatedBoard::add_switch`]): the
 //! switch pin follows the kernel's step position after every tick, and the kernel's limit flag is
 //! set in that same tick when the switch is armed, so the next tick stops (DESIGN §6).
+//!
+//! The firmware's motion marker (a RAM word that survives a reset, see
+//! `gantry_machine::controller::power_up`) is modelled too: [`EmulatedBoard::reset`] restarts the
+//! board the way a watchdog, reset-pin or power-on reset would, with the machine standing where it
+//! stopped.
 
 use gantry_machine::board::link::{BoardLink, KernelView};
-use gantry_machine::board::{Board, LIMIT_BITS};
+use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
 use gantry_machine::controller::inputs::{Debouncer, InputBits, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
 use gantry_machine::controller::{AdcReadings, State};
 use gantry_machine::motion::kernel::{StepKernel, KERNEL_TIMER_HZ};
 use gantry_machine::motion::pipeline::MotionState;
@@ -141,7 +147,17 @@ pub struct EmulatedBoard {
     pub underruns: u64,
     /// Bytes the board has sent and the host not yet read.
     outbox: Vec<u8>,
+    /// The firmware's motion marker word (survives [`EmulatedBoard::reset`]).
+    pub motion_marker: u32,
+    /// Resets so far (each power-up gets its own boot id).
+    resets: u32,
+    /// Board events taken by the test instead of the link (see [`EmulatedBoard::capture_events`]).
+    pub events: Vec<BoardEvent>,
+    capture: bool,
 }
+
+/// Boot id of the emulated board's first power-up.
+const BOOT_ID: u32 = 0x6a17_0001;
 
 impl EmulatedBoard {
     pub fn new(setup: Setup) -> Self {
@@ -149,7 +165,7 @@ impl EmulatedBoard {
         EmulatedBoard {
             debounce_setup: (setup.inputs.invert, setup.inputs.debounce_ms),
             board: Board::new(setup),
-            link: BoardLink::new(0x6a17_0001),
+            link: BoardLink::new(BOOT_ID),
             kernel: StepKernel::new(),
             fifo: SegmentFifo::default(),
             now: 0,
@@ -174,7 +190,59 @@ impl EmulatedBoard {
             observer: None,
             underruns: 0,
             outbox: Vec::new(),
+            motion_marker: MARKER_IDLE,
+            resets: 0,
+            events: Vec::new(),
+            capture: false,
         }
+    }
+
+    /// From now on the board's events (alarms, limit reports, errors, job ends) are collected in
+    /// [`EmulatedBoard::events`], in order, instead of going out over the link: for scenario
+    /// tests that drive the board without a host.
+    pub fn capture_events(&mut self) {
+        self.capture = true;
+    }
+
+    fn take_events(&mut self) {
+        if self.capture {
+            while let Some(e) = self.board.take_event() {
+                self.events.push(e);
+            }
+        }
+    }
+
+    /// Resets the board now, as the MCU would for `cause`: the step kernel, the controller and
+    /// the link start afresh (kernel position 0, a new boot id, bytes in flight lost) with the
+    /// setup it had (flash), while the machine stays where it physically stopped. The new board
+    /// powers up as the firmware's would from the motion marker: in alarm 3 when the steppers were
+    /// moving and the cause keeps RAM. Returns what it decided.
+    pub fn reset(&mut self, cause: ResetCause) -> PowerUp {
+        // A power-on reset leaves the RAM undefined.
+        let marker = if cause == ResetCause::PowerOn {
+            0
+        } else {
+            self.motion_marker
+        };
+        let how = PowerUp::after_reset(marker, cause);
+        let setup = self.board.setup().clone();
+        let here = self.physical();
+        self.resets += 1;
+        self.board = Board::power_up(setup.clone(), how);
+        self.link = BoardLink::new(BOOT_ID.wrapping_add(self.resets));
+        self.kernel = StepKernel::new();
+        self.phys_offset = here;
+        self.fifo = SegmentFifo::default();
+        self.next_tick = None;
+        self.limit = false;
+        self.switch_stop = false;
+        self.arm = 0;
+        self.user_outputs = 0;
+        self.debounce_setup = (setup.inputs.invert, setup.inputs.debounce_ms);
+        self.debouncer = Debouncer::new(setup.inputs.invert, setup.inputs.debounce_ms);
+        self.outbox.clear();
+        self.motion_marker = MARKER_IDLE;
+        how
     }
 
     /// Models a limit switch of `axis` at machine position `at_nm` (as the machine position is
@@ -423,6 +491,7 @@ impl EmulatedBoard {
         }
         self.board.on_inputs(now, levels, changed, self.adc);
         let view = self.kernel_view();
+        self.take_events();
         self.link.service(&mut self.board, now, &view);
         let drained = self.fifo.0.is_empty() && self.next_tick.is_none();
         self.board.poll(drained);
@@ -433,13 +502,20 @@ impl EmulatedBoard {
             }
             self.kernel.set_position(steps);
         }
+        let mut handed_out = false;
         while !self.fifo.0.is_full() {
             match self.board.next_segment() {
                 Some(s) => {
+                    // As the firmware: the marker is set before the kernel can step.
+                    self.motion_marker = MARKER_MOVING;
+                    handed_out = true;
                     let _ = self.fifo.0.push_back(s);
                 }
                 None => break,
             }
+        }
+        if drained && !handed_out {
+            self.motion_marker = MARKER_IDLE;
         }
         if self.next_tick.is_none() {
             if !self.fifo.0.is_empty() {
@@ -456,6 +532,7 @@ impl EmulatedBoard {
         // An armed switch that is already active stops the kernel's next tick.
         self.switch_stop = self.logical_pins() & self.arm != 0;
         // Events raised by this poll go out in the same pass.
+        self.take_events();
         self.link.service(&mut self.board, now, &view);
         let mut frame = [0u8; gantry_proto::MAX_FRAME_LEN];
         while let Some(n) = self.link.poll_transmit(now, &mut frame) {

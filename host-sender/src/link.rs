@@ -149,6 +149,8 @@ pub struct Client<T: Transport> {
     pub transport: T,
     endpoint: HostEndpoint,
     rx: Vec<u8>,
+    /// Alarm and limit reports received so far (kept even when a caller skips messages).
+    notices: Vec<BoardMsg>,
 }
 
 impl<T: Transport> Client<T> {
@@ -159,6 +161,7 @@ impl<T: Transport> Client<T> {
             transport,
             endpoint: HostEndpoint::new_host(Config::USB_MS, nonce),
             rx: Vec::new(),
+            notices: Vec::new(),
         };
         let start = c.transport.now_ms();
         loop {
@@ -221,7 +224,16 @@ impl<T: Transport> Client<T> {
 
     /// The next message from the board.
     pub fn recv(&mut self) -> Option<BoardMsg> {
-        self.endpoint.recv()
+        let msg = self.endpoint.recv()?;
+        if matches!(msg, BoardMsg::Alarm { .. } | BoardMsg::Limit { .. }) {
+            self.notices.push(msg.clone());
+        }
+        Some(msg)
+    }
+
+    /// The alarm and limit reports received since the last call, oldest first.
+    pub fn take_notices(&mut self) -> Vec<BoardMsg> {
+        std::mem::take(&mut self.notices)
     }
 
     /// Closes the link and gives the transport back (the board keeps its state).

@@ -44,6 +44,15 @@ pub struct SetupFile {
     pub spindle: SpindleFile,
     #[serde(default)]
     pub mcode: Vec<McodeFile>,
+    #[serde(default)]
+    pub link: LinkFile,
+}
+
+#[derive(Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkFile {
+    /// Seconds a job held by host loss waits for the host before it is ended (0 = forever).
+    pub host_lost_stop_s: Option<u16>,
 }
 
 #[derive(Debug, Default, Deserialize, Serialize)]
@@ -240,7 +249,11 @@ fn commands<const N: usize>(
 ) -> anyhow::Result<heapless::Vec<ListCommand, N>> {
     let mut v = heapless::Vec::new();
     for (i, t) in texts.iter().enumerate() {
-        v.push(list_command(&format!("{key}[{i}]"), t)?)
+        let c = list_command(&format!("{key}[{i}]"), t)?;
+        if c == ListCommand::DisableLimitReport && i != 0 {
+            bail!("{key}[{i}]: \"disable_limit_report\" must be the first entry of its list");
+        }
+        v.push(c)
             .map_err(|_| anyhow::anyhow!("{key}: at most {N} commands"))?;
     }
     Ok(v)
@@ -478,6 +491,9 @@ impl SetupFile {
             s.operator.dry_run_feed = nm("operator.dry_run_feed", v, 1.0, 100_000.0)?;
         }
         self.apply_controller(&mut s)?;
+        if let Some(v) = self.link.host_lost_stop_s {
+            s.link.host_lost_stop_s = v;
+        }
         Ok(s)
     }
 
@@ -823,6 +839,12 @@ pub fn to_toml(s: &Setup) -> String {
     let _ = writeln!(t, "fro_range = [{}, {}]", o.fro_low, o.fro_high);
     let _ = writeln!(t, "dry_run_feed = {}", mm(o.dry_run_feed));
     controller_toml(s, &mut t);
+    let _ = writeln!(t, "\n[link]");
+    let _ = writeln!(
+        t,
+        "host_lost_stop_s = {}   # a job held by host loss ends (alarm 20) after this; 0 = never",
+        s.link.host_lost_stop_s
+    );
     t
 }
 
@@ -987,8 +1009,8 @@ hard_limits = true
 fro_pot = true
 [homing]
 required = true
-before_seek = ["set 1", "disable_limit_report"]
-before_retract = ["dwell 250", "seek"]
+before_seek = ["set 1"]
+before_retract = ["disable_limit_report", "dwell 250", "seek"]
 after_retract = ["wait in30 high 2000", "clear 1"]
 [homing.axis.X]
 priority = 2
@@ -1012,6 +1034,8 @@ pwm_range = [10, 999]
 code = 101
 dry_run_disabled = true
 commands = ["set 4", "wait feed_hold low 100", "clear 4"]
+[link]
+host_lost_stop_s = 0
 "#;
         let s = SetupFile::parse(text).unwrap();
         assert_eq!(s.inputs.invert, (1 << 2) | (1 << 16) | (1 << 30));
@@ -1029,7 +1053,25 @@ commands = ["set 4", "wait feed_hold low 100", "clear 4"]
                 timeout_ms: 100
             }
         );
+        assert_eq!(s.homing.before_retract[0], ListCommand::DisableLimitReport);
+        assert_eq!(s.link.host_lost_stop_s, 0);
         assert!(s.is_valid());
         assert_eq!(SetupFile::parse(&to_toml(&s)).unwrap(), s);
+    }
+
+    #[test]
+    fn the_limit_report_directive_must_come_first_and_the_host_timeout_is_bounded() {
+        let e =
+            SetupFile::parse("[homing]\nbefore_retract = [\"seek\", \"disable_limit_report\"]\n")
+                .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "homing.before_retract[1]: \"disable_limit_report\" must be the first entry of its list"
+        );
+        assert_eq!(Setup::default().link.host_lost_stop_s, 60);
+        let s = SetupFile::parse("[link]\nhost_lost_stop_s = 600\n").unwrap();
+        assert_eq!(s.link.host_lost_stop_s, 600);
+        assert!(SetupFile::parse("[link]\nhost_lost_stop_s = 70000\n").is_err());
+        assert!(SetupFile::parse("[link]\nhost_timeout = 1\n").is_err());
     }
 }

@@ -67,6 +67,50 @@ impl BoardError {
     }
 }
 
+/// An alarm the board raised, as it reported it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BoardAlarm {
+    pub code: u16,
+    /// Program line concerned (0 = none).
+    pub line: u32,
+}
+
+/// "alarm 2 (soft limit): a block would leave …" for an alarm number.
+pub fn alarm_text(code: u16) -> String {
+    match gantry_machine::controller::AlarmCode::from_number(code) {
+        Some(a) => format!("alarm {code} ({}): {}", a.name(), a.message()),
+        None => format!("alarm {code} (unknown to this gantry)"),
+    }
+}
+
+impl BoardAlarm {
+    /// The alarm's name and text, with the program line it concerns and that line's text.
+    pub fn describe(&self, program: &Program) -> String {
+        let text = alarm_text(self.code);
+        if self.line == 0 {
+            return text;
+        }
+        let source = program.line(self.line).unwrap_or("").trim();
+        format!(
+            "line {}: {text}
+    {source}",
+            self.line
+        )
+    }
+}
+
+/// "X max switch" for a limit report.
+pub fn limit_text(axis: u8, max: bool) -> String {
+    let letter = gantry_machine::units::AXIS_LETTERS
+        .get(axis as usize)
+        .copied()
+        .unwrap_or('?');
+    format!(
+        "limit switch {letter} {} stopped the motion",
+        if max { "max" } else { "min" }
+    )
+}
+
 /// Progress as the sender sees it.
 #[derive(Clone, Debug, Default)]
 pub struct Progress {
@@ -86,7 +130,9 @@ pub struct StreamReport {
     /// The job was aborted from this sender (Ctrl-C).
     pub aborted: bool,
     pub errors: Vec<BoardError>,
-    pub alarms: Vec<u16>,
+    pub alarms: Vec<BoardAlarm>,
+    /// Limit switches that stopped motion (axis, max side), in the order reported.
+    pub limits: Vec<(u8, bool)>,
     pub last_line: u32,
     /// Lines sent (main stream and subprogram serving).
     pub lines_sent: u32,
@@ -169,6 +215,7 @@ fn run_job<T: Transport>(
         aborted: false,
         errors: Vec::new(),
         alarms: Vec::new(),
+        limits: Vec::new(),
         last_line: 0,
         lines_sent: 0,
         jumps_served: 0,
@@ -199,7 +246,8 @@ fn run_job<T: Transport>(
                 BoardMsg::Error { line, code, column } => {
                     report.errors.push(BoardError { line, code, column })
                 }
-                BoardMsg::Alarm { code } => report.alarms.push(code),
+                BoardMsg::Alarm { code, line } => report.alarms.push(BoardAlarm { code, line }),
+                BoardMsg::Limit { axis, max } => report.limits.push((axis, max)),
                 BoardMsg::ProgramRequest { id, target } => {
                     report.jumps_served += 1;
                     match (program.resolve(target), &resume) {
@@ -230,8 +278,7 @@ fn run_job<T: Transport>(
                     report.last_line = line;
                     done = true;
                 }
-                BoardMsg::Limit { .. }
-                | BoardMsg::Mark { .. }
+                BoardMsg::Mark { .. }
                 | BoardMsg::SetupChunk { .. }
                 | BoardMsg::SetupEnd { .. }
                 | BoardMsg::SetupResult { .. } => {}
@@ -337,7 +384,7 @@ pub fn state_name(s: MachineState) -> &'static str {
         MachineState::Run => "Run",
         MachineState::Hold { .. } => "Hold",
         MachineState::Jog => "Jog",
-        MachineState::Alarm => "Alarm",
+        MachineState::Alarm { .. } => "Alarm",
         MachineState::Homing => "Homing",
         MachineState::Check => "Check",
     }
@@ -567,8 +614,11 @@ fn print_report(
     for e in &report.errors {
         println!("error: {}", e.describe(program));
     }
+    for &(axis, max) in &report.limits {
+        println!("{}", limit_text(axis, max));
+    }
     for a in &report.alarms {
-        println!("alarm {a}");
+        println!("{}", a.describe(program));
     }
     let verdict = if report.completed {
         "job done"
@@ -589,9 +639,19 @@ fn print_report(
         report.elapsed_ms as f64 / 1000.0,
         wall.as_secs_f64()
     );
-    if report.aborted {
+    // Abort, alarm 2 and alarm 20 stop the job on its path with the position kept.
+    let stopped_on_path = report.alarms.iter().any(|a| {
+        a.code == gantry_machine::controller::AlarmCode::SoftLimit as u16
+            || a.code == gantry_machine::controller::AlarmCode::HostLost as u16
+    });
+    if report.aborted || stopped_on_path {
         println!(
-            "resume:   gantry stream {} --from-line {}",
+            "resume:   {}gantry stream {} --from-line {}",
+            if stopped_on_path {
+                "(after gantry unlock) "
+            } else {
+                ""
+            },
             file.display(),
             report.last_line.max(1)
         );

@@ -135,8 +135,9 @@ pub enum ListCommand {
         level: bool,
         timeout_ms: u16,
     },
-    /// Seed `#disable_limit_report`: limit switches hit while this list's sequence runs are not
-    /// reported to the host (homing and squaring).
+    /// Seed `#disable_limit_report`, only as the first entry of a list: the switch hits this
+    /// list's `seek` commands cause (squaring) are not reported to the host. Unexpected switches
+    /// still stop the machine and raise alarm 1 with their report.
     DisableLimitReport,
     /// In a homing list: seek the homed axis's switch again at the seek rate and continue when it
     /// stops the motion (squaring a ganged axis: enable one side, seek, enable the other, seek).
@@ -237,6 +238,14 @@ pub struct McodeList {
     pub commands: Vec<ListCommand, MAX_MCODE_COMMANDS>,
 }
 
+/// What the board does when the host link goes quiet (docs/protocol.md §7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LinkSetup {
+    /// A job held because the host went away is ended (program-stop sequence, alarm 20) once the
+    /// host has stayed away this many seconds; 0 = hold and wait for the host forever.
+    pub host_lost_stop_s: u16,
+}
+
 /// The whole machine setup.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Setup {
@@ -250,6 +259,7 @@ pub struct Setup {
     pub homing: HomingSetup,
     pub jog: JogSetup,
     pub outputs: OutputSetup,
+    pub link: LinkSetup,
 }
 
 const fn mm(v: i64) -> Nm {
@@ -346,6 +356,9 @@ impl Default for Setup {
                 pwm_max: 1000,
                 pwm_min: 0,
                 mcode_lists: Vec::new(),
+            },
+            link: LinkSetup {
+                host_lost_stop_s: 60,
             },
         }
     }

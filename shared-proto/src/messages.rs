@@ -183,7 +183,11 @@ pub enum MachineState {
         stopped: bool,
     },
     Jog,
-    Alarm,
+    /// Motion refused until unlock (and homing where required); `code` is the alarm number
+    /// (`gantry_machine::controller::AlarmCode`, grbl's numbering where the meaning is the same).
+    Alarm {
+        code: u16,
+    },
     Homing,
     Check,
 }
@@ -231,10 +235,12 @@ pub enum BoardMsg {
     // ---- realtime ----
     /// Status report.
     Status(Status),
-    /// Alarm raised (machine locked until unlock/home).
-    Alarm { code: u16 },
-    /// Limit switch hit on `axis` (the axis is now unhomed).
-    Limit { axis: u8 },
+    /// Alarm raised (machine locked until unlock/home): `code` says why, `line` is the program
+    /// line it concerns (0 = none; for alarm 2 the block that would have left the travel).
+    Alarm { code: u16, line: u32 },
+    /// A limit switch stopped motion: `axis` (0 = X), on its max side (`max`) or min side. Sent
+    /// with alarm 1 for a hard limit, alone for a commanded switch hit inside a homing list.
+    Limit { axis: u8, max: bool },
     // ---- queued ----
     /// The block of `line` was rejected: `code` says why, `column` where (0 = unknown).
     Error { line: u32, code: u16, column: u16 },

@@ -64,6 +64,7 @@ fn random_board(r: &mut Rng) -> BoardMsg {
         }),
         1 => BoardMsg::Alarm {
             code: r.next_u32() as u16,
+            line: r.next_u32(),
         },
         2 => BoardMsg::Error {
             line: r.next_u32(),

@@ -398,7 +398,7 @@ fn version_mismatch_is_refused() {
     let mut buf = [0u8; MAX_FRAME_LEN];
     assert!(host.poll_transmit(0, &mut buf).is_some()); // Hello
     let ack = HelloAck {
-        version: 0x0200,
+        version: 0x0300,
         nonce: host.nonce(),
         boot_id: 1,
         rx_capacity: 16,
@@ -416,19 +416,19 @@ fn version_mismatch_is_refused() {
     assert_eq!(
         host.state(),
         LinkState::Incompatible {
-            peer_version: 0x0200
+            peer_version: 0x0300
         }
     );
     assert_eq!(
         host.poll_event(),
         Some(LinkEvent::VersionMismatch {
-            peer_version: 0x0200
+            peer_version: 0x0300
         })
     );
 
     let mut board = BoardEndpoint::new_board(Config::default(), 9);
     let hello = gantry_proto::Hello {
-        version: 0x0300,
+        version: 0x0100,
         nonce: 1,
         window: 8,
         rt_window: 8,

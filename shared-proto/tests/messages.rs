@@ -91,7 +91,7 @@ fn all_board() -> Vec<BoardMsg> {
         MachineState::Run,
         MachineState::Hold { stopped: false },
         MachineState::Jog,
-        MachineState::Alarm,
+        MachineState::Alarm { code: u16::MAX },
         MachineState::Homing,
         MachineState::Check,
     ];
@@ -115,8 +115,11 @@ fn all_board() -> Vec<BoardMsg> {
         .collect();
     v.extend([
         BoardMsg::Status(worst_status()),
-        BoardMsg::Alarm { code: 3 },
-        BoardMsg::Limit { axis: 1 },
+        BoardMsg::Alarm {
+            code: 3,
+            line: u32::MAX,
+        },
+        BoardMsg::Limit { axis: 1, max: true },
         BoardMsg::Error {
             line: 17,
             code: 33,
@@ -189,7 +192,7 @@ fn handshake_messages_round_trip() {
         rt_window: 8,
     });
     round_trip(&HelloAck {
-        version: 0x0100,
+        version: 0x0200,
         nonce: u32::MAX,
         boot_id: u32::MAX,
         rx_capacity: u16::MAX,
@@ -239,7 +242,7 @@ fn lanes() {
         );
         assert_eq!(m.lane() == Lane::Realtime, rt, "{m:?}");
     }
-    assert_eq!(BoardMsg::Alarm { code: 1 }.lane(), Lane::Realtime);
+    assert_eq!(BoardMsg::Alarm { code: 1, line: 0 }.lane(), Lane::Realtime);
     assert_eq!(BoardMsg::JobDone { line: 1 }.lane(), Lane::Queued);
     assert_eq!(HostMsg::Line(worst_line()).stream_token(), Some(u32::MAX));
 }

@@ -9,7 +9,7 @@ use gantry_machine::controller::AlarmCode;
 use gantry_proto::MachineState;
 use host_sender::link::Client;
 use host_sender::program::Program;
-use host_sender::stream::{stream_program, Flow};
+use host_sender::stream::{stream_program, BoardAlarm, Flow};
 
 #[test]
 fn a_streamed_job_into_a_limit_switch_ends_with_alarm_1_at_the_sender() {
@@ -19,9 +19,21 @@ fn a_streamed_job_into_a_limit_switch_ends_with_alarm_1_at_the_sender() {
     let program = Program::from_text("G21 G90\nG0 X20\nG1 X60 F2000\nG0 X0\nM30\n");
     let report = stream_program(&mut client, &program, &mut |_| Flow::Continue).unwrap();
     assert!(!report.completed);
-    assert_eq!(report.alarms, vec![AlarmCode::HardLimit as u16]);
+    // The limit report names the axis and side; alarm 1 carries the line that ran into it.
+    assert_eq!(report.limits, vec![(0, true)]);
+    assert_eq!(
+        report.alarms,
+        vec![BoardAlarm {
+            code: AlarmCode::HardLimit as u16,
+            line: 3
+        }]
+    );
+    assert_eq!(
+        report.alarms[0].describe(&program),
+        "line 3: alarm 1 (hard limit): a limit switch stopped the machine; the job ended; rehome the tripped axis\n    G1 X60 F2000"
+    );
     let status = report.final_status.unwrap();
-    assert_eq!(status.state, MachineState::Alarm);
+    assert_eq!(status.state, MachineState::Alarm { code: 1 });
     assert_eq!(status.machine_pos[0], 40 * MM);
     assert_eq!(status.homed, 0);
     // The switch is still pressed: the inputs word shows the X max bit.

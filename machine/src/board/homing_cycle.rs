@@ -46,7 +46,7 @@ impl Board {
         if h.list_seek {
             // A list's seek ran its whole length without meeting the switch.
             self.homing_list = None;
-            self.enter_alarm(AlarmCode::HomingSwitchNotFound);
+            self.enter_alarm(AlarmCode::HomingSwitchNotFound, 0);
             return;
         }
         match h.phase {
@@ -67,7 +67,7 @@ impl Board {
                     }
                     ListStatus::Timeout => {
                         self.homing_list = None;
-                        self.enter_alarm(AlarmCode::ListInputTimeout);
+                        self.enter_alarm(AlarmCode::ListInputTimeout, 0);
                         return;
                     }
                     ListStatus::Done => {
@@ -91,6 +91,10 @@ impl Board {
                                 self.homed |= 1 << axis;
                                 h.index += 1;
                                 if h.index == h.order.len() {
+                                    if !self.some_axis_unhomed() {
+                                        // Every homed axis is known again (after alarm 3).
+                                        self.position_lost = false;
+                                    }
                                     let steps = self.motion.prepared_steps();
                                     self.rebuild_motion(true, &steps);
                                     self.sync_interpreter_position();
@@ -105,12 +109,12 @@ impl Board {
             }
             Phase::Seek => {
                 // The seek ran its whole length without meeting the switch.
-                self.enter_alarm(AlarmCode::HomingSwitchNotFound);
+                self.enter_alarm(AlarmCode::HomingSwitchNotFound, 0);
                 return;
             }
             Phase::Retract => {
                 if self.levels.0 & (1 << homing::switch_bit(axis, &ha)) != 0 {
-                    self.enter_alarm(AlarmCode::HomingPullOffFailed);
+                    self.enter_alarm(AlarmCode::HomingPullOffFailed, 0);
                     return;
                 }
                 if ha.set_home {

@@ -14,7 +14,8 @@ use gantry_proto::{
 pub const STATUS_INTERVAL_MS: u32 = 100;
 
 /// Silence after which the host counts as gone (four keepalive intervals), ms: the board then
-/// holds a running job on its path (DESIGN §5) until a host reconnects and resumes it.
+/// holds a running job on its path (DESIGN §5) until a host reconnects and resumes it, or until
+/// `link.host_lost_stop_s` (setup) have passed, when it ends the job with alarm 20.
 pub const HOST_TIMEOUT_MS: u32 = 4 * Config::USB_MS.keepalive;
 
 /// What only the kernel's owner knows, for status reports.
@@ -45,6 +46,8 @@ pub struct BoardLink {
     host_attached: bool,
     /// The host went silent during this power-up.
     host_lost: bool,
+    /// Since when (ms) the job has been held with the host gone (alarm 20 timer).
+    held_unattended_since: Option<u32>,
     setup_in: SetupTransfer,
     setup_out: Option<SetupTransfer>,
     /// A new setup was applied: the firmware saves it to flash (when idle).
@@ -61,6 +64,7 @@ impl BoardLink {
             status_requested: false,
             host_attached: false,
             host_lost: false,
+            held_unattended_since: None,
             setup_in: SetupTransfer {
                 blob: heapless::Vec::new(),
                 sent: 0,
@@ -111,6 +115,7 @@ impl BoardLink {
             self.host_lost = true;
             board.feed_hold();
         }
+        self.watch_unattended_hold(board, now_ms);
         while let Some(msg) = self.endpoint.recv_realtime() {
             self.realtime(board, msg);
         }
@@ -137,6 +142,23 @@ impl BoardLink {
                 self.last_status = Some(now_ms);
                 self.status_requested = false;
             }
+        }
+    }
+
+    /// Alarm 20: a job in a feed hold while the host is gone is ended once
+    /// `link.host_lost_stop_s` have passed (counted from the later of the host loss and the start
+    /// of the hold); a returning host, or a local resume, stops the count. An M0 / M1 stop
+    /// (spindle and coolant already off) waits for its cycle start as programmed.
+    fn watch_unattended_hold(&mut self, board: &mut Board, now_ms: u32) {
+        let limit_s = board.setup().link.host_lost_stop_s;
+        if !self.host_lost || limit_s == 0 || !board.feed_held() {
+            self.held_unattended_since = None;
+            return;
+        }
+        let since = *self.held_unattended_since.get_or_insert(now_ms);
+        if now_ms.wrapping_sub(since) >= u32::from(limit_s) * 1000 {
+            self.held_unattended_since = None;
+            board.host_lost_stop();
         }
     }
 
@@ -288,7 +310,11 @@ impl BoardLink {
 fn event_message(e: BoardEvent) -> BoardMsg {
     match e {
         BoardEvent::Error { line, code, column } => BoardMsg::Error { line, code, column },
-        BoardEvent::Alarm(code) => BoardMsg::Alarm { code: code as u16 },
+        BoardEvent::Alarm { code, line } => BoardMsg::Alarm {
+            code: code as u16,
+            line,
+        },
+        BoardEvent::Limit { axis, max } => BoardMsg::Limit { axis, max },
         BoardEvent::JobDone { line } => BoardMsg::JobDone { line },
         BoardEvent::Jump(req) => BoardMsg::ProgramRequest {
             id: req.id,
@@ -311,7 +337,9 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
         State::Hold => MachineState::Hold {
             stopped: view.feed_um_min == 0,
         },
-        State::Alarm => MachineState::Alarm,
+        State::Alarm => MachineState::Alarm {
+            code: board.alarm().map_or(0, |a| a as u16),
+        },
         State::Homing => MachineState::Homing,
         State::Jog => MachineState::Jog,
         State::Check => MachineState::Check,

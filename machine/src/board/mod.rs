@@ -17,6 +17,7 @@ use crate::controller::homing::{self, Homing, Phase};
 use crate::controller::inputs::{InputBits, Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 use crate::controller::lists::{ListRunner, ListStatus};
 use crate::controller::outputs::{spindle_duty, OutputLevels};
+use crate::controller::power_up::PowerUp;
 use crate::controller::{AlarmCode, State};
 use crate::gcode::{GcodeError, Interpreter};
 use crate::motion::config::MotionConfig;
@@ -88,8 +89,14 @@ struct JogState {
 pub enum BoardEvent {
     /// A block was rejected: `code` is the documented error number, `column` the bad word (0 = none).
     Error { line: u32, code: u16, column: u16 },
-    /// The machine entered the alarm state.
-    Alarm(AlarmCode),
+    /// The machine entered the alarm state. `line`: the program line concerned (the block that
+    /// would have left the travel for alarm 2, the line running for alarms raised during a job;
+    /// 0 = none).
+    Alarm { code: AlarmCode, line: u32 },
+    /// A limit switch stopped motion (seed 003's "limit pop-up": the axis and the switch side).
+    /// Sent before alarm 1 for every tripped switch, and alone for the switch hits a homing
+    /// list's `seek` commands cause, unless that list starts with `DisableLimitReport`.
+    Limit { axis: u8, max: bool },
     /// The job ended (M2/M30, end of the program, an error, or an abort); `line` is the last line run.
     JobDone { line: u32 },
     /// The interpreter jumped: the host must serve lines from the request's target.
@@ -155,6 +162,14 @@ pub struct Board {
     /// Where an abort stopped: the line to resume from.
     resume_line: u32,
     alarm: Option<AlarmCode>,
+    /// The job has queued an action (motion, spindle, …): from then on a block beyond the travel
+    /// stops it with alarm 2 instead of error 900.
+    job_queued: bool,
+    /// A stopping job ends in this alarm (with its line) once at rest, instead of in Idle.
+    stop_alarm: Option<(AlarmCode, u32)>,
+    /// The board reset during motion (alarm 3): homing is required, where homing is set up, until
+    /// every axis with a homing priority is homed again.
+    position_lost: bool,
     homed: u8,
     /// Main-loop time from the last [`Board::on_inputs`], ms.
     now_ms: u32,
@@ -187,8 +202,16 @@ pub struct Board {
 }
 
 impl Board {
-    /// A board at machine position 0, idle, outputs safe.
+    /// A board at machine position 0, idle, outputs safe (a clean power-up).
     pub fn new(setup: Setup) -> Self {
+        Self::power_up(setup, PowerUp::Clean)
+    }
+
+    /// A board at machine position 0, outputs safe, after a power-up of the kind `how`: a
+    /// [`PowerUp::MotionInterrupted`] start is locked in alarm 3 with every axis unhomed (homing,
+    /// where homing is set up, or unlock clears it); else idle, or alarm 11 when
+    /// `homing.required`.
+    pub fn power_up(setup: Setup, how: PowerUp) -> Self {
         let interp = Interpreter::new(&setup.interp_config());
         let motion = Motion::new(MotionConfig::from_setup(&setup));
         let needs_home = setup.homing.required && !homing::order(&setup, 0).is_empty();
@@ -209,6 +232,9 @@ impl Board {
             line: 0,
             resume_line: 0,
             alarm: None,
+            job_queued: false,
+            stop_alarm: None,
+            position_lost: false,
             homed: 0,
             now_ms: 0,
             levels: InputBits(0),
@@ -228,7 +254,12 @@ impl Board {
             drained: true,
             lead: (0, 0),
         };
-        if needs_home {
+        if how == PowerUp::MotionInterrupted {
+            // grbl alarm 3: the steps in flight when the reset came are unknown.
+            board.position_lost = !homing::order(&board.setup, 0).is_empty();
+            board.alarm = Some(AlarmCode::ResetDuringMotion);
+            board.state = State::Alarm;
+        } else if needs_home {
             // Power-up with homing required: locked until homed (grbl's boot alarm).
             board.alarm = Some(AlarmCode::HomingRequired);
             board.state = State::Alarm;
@@ -316,12 +347,17 @@ impl Board {
         true
     }
 
-    /// Homing is required and some axis with a homing priority is not homed.
+    /// Homing is required (setup, or the position was lost in a reset) and some axis with a
+    /// homing priority is not homed.
     fn homing_missing(&self) -> bool {
-        self.setup.homing.required
-            && homing::order(&self.setup, 0)
-                .iter()
-                .any(|&a| self.homed & (1 << a) == 0)
+        (self.setup.homing.required || self.position_lost) && self.some_axis_unhomed()
+    }
+
+    /// Some axis with a homing priority is not homed.
+    fn some_axis_unhomed(&self) -> bool {
+        homing::order(&self.setup, 0)
+            .iter()
+            .any(|&a| self.homed & (1 << a) == 0)
     }
 
     /// Refuses motion (error 901) while homing is required and missing.
@@ -371,6 +407,8 @@ impl Board {
             return false;
         }
         self.last_motion_line = 0;
+        self.job_queued = false;
+        self.stop_alarm = None;
         self.source.reset();
         self.interp.rewind();
         self.sync_interpreter_position();
@@ -422,6 +460,13 @@ impl Board {
         }
     }
 
+    /// The job stands in a feed hold (input, host or link): motion stopped on the path with the
+    /// outputs as they were. False for an M0 / M1 / single-block stop, which switched the spindle
+    /// and coolant off.
+    pub fn feed_held(&self) -> bool {
+        self.state == State::Hold && self.held
+    }
+
     /// True while the feed-hold input is installed and open.
     fn hold_input_active(&self) -> bool {
         self.setup.inputs.feed_hold && self.levels.get(Signal::FeedHold)
@@ -468,7 +513,7 @@ impl Board {
                 self.motion.abort();
                 self.homing = None;
                 self.homing_list = None;
-                self.enter_alarm(AlarmCode::HomingAborted);
+                self.enter_alarm(AlarmCode::HomingAborted, 0);
                 return;
             }
             State::Jog => {
@@ -484,6 +529,16 @@ impl Board {
             State::Run | State::Hold => {}
             _ => return,
         }
+        self.stop_job(None);
+    }
+
+    /// Ends a running or held job like an abort — decelerate on the path, drop the rest, spindle
+    /// and coolant off, remember the resume line — and, with `alarm`, raise that alarm (with its
+    /// line) once the machine is at rest instead of returning to Idle; the alarm is what switches
+    /// the outputs off then.
+    fn stop_job(&mut self, alarm: Option<(AlarmCode, u32)>) {
+        // An abort while an alarm stop decelerates keeps the alarm.
+        self.stop_alarm = alarm.or(self.stop_alarm.take());
         self.resume_line = self.line;
         self.motion.abort();
         self.aborting = true;
@@ -491,14 +546,26 @@ impl Board {
         self.pending = None;
         self.paused = false;
         self.held = false;
-        self.outputs = Outputs {
-            tool: self.outputs.tool,
-            ..Outputs::SAFE
-        };
-        self.saved_outputs = None;
+        if self.stop_alarm.is_none() {
+            // Abort: the program-stop sequence at once. An alarm stop keeps the spindle turning
+            // while the tool decelerates along the cut; the alarm switches everything off at rest.
+            self.outputs = Outputs {
+                tool: self.outputs.tool,
+                ..Outputs::SAFE
+            };
+            self.saved_outputs = None;
+        }
         self.list = None;
         self.ending = Ending::Failed;
         self.state = State::Run;
+    }
+
+    /// The host has stayed away for `link.host_lost_stop_s` while the job was held
+    /// ([`link::BoardLink`] decides): end the job (program-stop sequence) and raise alarm 20.
+    pub fn host_lost_stop(&mut self) {
+        if matches!(self.state, State::Run | State::Hold) {
+            self.stop_job(Some((AlarmCode::HostLost, self.line)));
+        }
     }
 
     pub fn set_feed_override(&mut self, pct: u16) {
@@ -519,22 +586,52 @@ impl Board {
         self.homed &= !axes;
         self.homing = None;
         self.homing_list = None;
-        self.enter_alarm(AlarmCode::HardLimit);
+        let line = self.job_line();
+        self.enter_alarm(AlarmCode::HardLimit, line);
+    }
+
+    /// The line a job is executing, for an alarm raised now (0 outside a job).
+    fn job_line(&self) -> u32 {
+        if matches!(self.state, State::Run | State::Hold) {
+            self.line
+        } else {
+            0
+        }
+    }
+
+    /// Reports every switch of `bits` (limit input bits) to the host, X min first.
+    fn report_limits(&mut self, bits: u32) {
+        for bit in LIMIT_MIN_BIT..LIMIT_MAX_BIT + 6 {
+            if bits & (1 << bit) != 0 {
+                let max = bit >= LIMIT_MAX_BIT;
+                let base = if max { LIMIT_MAX_BIT } else { LIMIT_MIN_BIT };
+                self.emit(BoardEvent::Limit {
+                    axis: (bit - base) as u8,
+                    max,
+                });
+            }
+        }
     }
 
     /// The step kernel latched a stop (its limit flag): `levels` are the logical input levels the
     /// interrupt saw (raw pins with the polarity applied), `kernel_steps` where it stopped. The
     /// owner has dropped its segment queue and re-arms the kernel after this call. The seek of a
-    /// homing cycle ends here; anything else is a hard limit on the tripped axes.
+    /// homing cycle ends here when its switch alone tripped (a list's `seek` is reported to the
+    /// host unless the list disabled limit reports; the cycle's own seek never is); anything else
+    /// is a hard limit on the tripped axes, reported switch by switch, then alarm 1.
     pub fn limit_stop(&mut self, levels: InputBits, kernel_steps: &[i64; MAX_AXES]) {
         let tripped = levels.0 & self.limit_arm();
         if let Some(h) = self.homing.as_ref() {
             let axis = h.axis();
-            let bit = homing::switch_bit(axis, &self.setup.homing.axes[axis]);
-            if h.seeking() && tripped & (1 << bit) != 0 {
+            let bit = 1 << homing::switch_bit(axis, &self.setup.homing.axes[axis]);
+            let list_seek = h.list_seek;
+            if h.seeking() && tripped == bit {
                 self.rebuild_motion(false, kernel_steps);
+                if list_seek && self.homing_list.as_ref().is_none_or(|l| l.reports_limits()) {
+                    self.report_limits(bit);
+                }
                 if let Some(h) = self.homing.as_mut() {
-                    if h.list_seek {
+                    if list_seek {
                         h.list_seek = false;
                     } else {
                         h.phase = Phase::BeforeRetract;
@@ -543,6 +640,7 @@ impl Board {
                 return;
             }
         }
+        self.report_limits(tripped);
         let t = InputBits(tripped);
         let mut axes = t.limits_min() | t.limits_max();
         if axes == 0 {
@@ -594,7 +692,9 @@ impl Board {
         self.list = None;
     }
 
-    fn enter_alarm(&mut self, code: AlarmCode) {
+    /// Raises alarm `code` concerning program line `line` (0 = none): outputs safe, jog and job
+    /// ended (`JobDone` when a job was running).
+    fn enter_alarm(&mut self, code: AlarmCode, line: u32) {
         let was_running = matches!(self.state, State::Run | State::Hold | State::Check);
         self.outputs_safe();
         self.jog = JogState {
@@ -607,7 +707,8 @@ impl Board {
         self.paused = false;
         self.held = false;
         self.aborting = false;
-        self.emit(BoardEvent::Alarm(code));
+        self.stop_alarm = None;
+        self.emit(BoardEvent::Alarm { code, line });
         if was_running {
             self.emit(BoardEvent::JobDone { line: self.line });
         }
@@ -623,10 +724,15 @@ impl Board {
         if self.homing_missing() {
             if self.alarm != Some(AlarmCode::HomingRequired) {
                 self.alarm = Some(AlarmCode::HomingRequired);
-                self.emit(BoardEvent::Alarm(AlarmCode::HomingRequired));
+                self.emit(BoardEvent::Alarm {
+                    code: AlarmCode::HomingRequired,
+                    line: 0,
+                });
             }
             return;
         }
+        // The operator takes the position as it is (no homing set up, or every axis homed).
+        self.position_lost = false;
         if !self.motion.config().soft_limits {
             let steps = self.motion.prepared_steps();
             self.rebuild_motion(true, &steps);
@@ -704,6 +810,8 @@ impl Board {
         }
         if self.aborting && self.motion.state() == MotionState::Idle {
             self.aborting = false;
+            // The deceleration may have carried the machine into the next block.
+            self.resume_line = self.line;
         }
         if matches!(self.state, State::Run | State::Check)
             && self.ending != Ending::No
@@ -712,6 +820,10 @@ impl Board {
             && self.motion.state() == MotionState::Idle
         {
             self.ending = Ending::No;
+            if let Some((code, line)) = self.stop_alarm.take() {
+                self.enter_alarm(code, line);
+                return;
+            }
             self.state = State::Idle;
             self.sync_interpreter_position();
             self.emit(BoardEvent::JobDone { line: self.line });
@@ -768,15 +880,28 @@ impl Board {
                     return;
                 }
                 Err(PushError::Travel { .. }) => {
-                    self.emit(BoardEvent::Error {
-                        line: canon.line,
-                        code: ERROR_SOFT_LIMIT,
-                        column: 0,
-                    });
-                    self.ending = Ending::Failed;
+                    self.soft_limit(canon.line);
                     return;
                 }
             }
+            self.job_queued = true;
+        }
+    }
+
+    /// A block of line `line` would leave the travel box. Before the job has queued anything
+    /// (an MDI command, a program whose first move is out of reach) nothing has happened yet:
+    /// error 900 and the job ends. Later, the job is stopped on its path like an abort and ends
+    /// in alarm 2 (grbl's soft-limit alarm), position kept.
+    fn soft_limit(&mut self, line: u32) {
+        if self.job_queued {
+            self.stop_job(Some((AlarmCode::SoftLimit, line)));
+        } else {
+            self.emit(BoardEvent::Error {
+                line,
+                code: ERROR_SOFT_LIMIT,
+                column: 0,
+            });
+            self.ending = Ending::Failed;
         }
     }
 
@@ -847,7 +972,7 @@ impl Board {
                     self.rebuild_motion(true, &steps);
                     self.source.reset();
                     self.pending = None;
-                    self.enter_alarm(AlarmCode::ListInputTimeout);
+                    self.enter_alarm(AlarmCode::ListInputTimeout, canon.line);
                 }
             }
             return;

@@ -31,18 +31,28 @@ pub struct ListRunner {
     next: usize,
     /// The running wait started at this time (ms).
     since: Option<u32>,
-    /// A `DisableLimitReport` directive ran.
-    pub limit_report_disabled: bool,
+    /// The list starts with the `DisableLimitReport` directive (seed: "must be the first
+    /// entry"): switch hits its `seek` commands cause are not reported to the host.
+    limit_report_disabled: bool,
 }
 
 impl ListRunner {
     /// A runner for `commands` (extra commands beyond the capacity are dropped).
     pub fn new(commands: &[ListCommand]) -> Self {
-        let mut r = ListRunner::default();
+        let mut r = ListRunner {
+            limit_report_disabled: commands.first() == Some(&ListCommand::DisableLimitReport),
+            ..ListRunner::default()
+        };
         for c in commands.iter().take(RUNNER_CAPACITY) {
             let _ = r.commands.push(*c);
         }
         r
+    }
+
+    /// True when switch hits during this list's sequence are reported to the host (the list does
+    /// not start with `DisableLimitReport`).
+    pub fn reports_limits(&self) -> bool {
+        !self.limit_report_disabled
     }
 
     /// Runs commands until one has to wait or the list ends; `user` holds the user outputs.
@@ -51,7 +61,8 @@ impl ListRunner {
             match cmd {
                 ListCommand::Set(n) => *user |= 1u16.checked_shl(u32::from(n)).unwrap_or(0),
                 ListCommand::Clear(n) => *user &= !1u16.checked_shl(u32::from(n)).unwrap_or(0),
-                ListCommand::DisableLimitReport => self.limit_report_disabled = true,
+                // Acts through `reports_limits` for the whole list (it must come first).
+                ListCommand::DisableLimitReport => {}
                 ListCommand::Seek => {
                     self.since = None;
                     self.next += 1;
@@ -112,6 +123,15 @@ mod tests {
         assert_eq!(r.step(5000, InputBits(0), &mut user), ListStatus::Running);
         assert_eq!(r.step(5001, InputBits(0b100), &mut user), ListStatus::Done);
         assert_eq!(user, 1);
+    }
+
+    #[test]
+    fn the_report_directive_counts_only_as_the_first_entry() {
+        let first = [ListCommand::DisableLimitReport, ListCommand::Seek];
+        let later = [ListCommand::Seek, ListCommand::DisableLimitReport];
+        assert!(!ListRunner::new(&first).reports_limits());
+        assert!(ListRunner::new(&later).reports_limits());
+        assert!(ListRunner::new(&[]).reports_limits());
     }
 
     #[test]

@@ -8,6 +8,7 @@ pub mod inputs;
 pub mod jog;
 pub mod lists;
 pub mod outputs;
+pub mod power_up;
 
 pub use outputs::OutputLevels;
 
@@ -39,37 +40,81 @@ pub enum State {
 pub enum AlarmCode {
     /// A hard limit switch tripped during motion; position of that axis is lost (rehome it).
     HardLimit = 1,
-    /// A motion would leave the soft-limit box (only raised for jogs and MDI beyond the checked program).
+    /// A block of a running job would have left the soft-limit box: the job stopped on its
+    /// path before it (position kept).
     SoftLimit = 2,
-    /// Abort during motion: position is kept, but the job stopped mid-block.
-    AbortDuringMotion = 3,
-    /// Homing: the switch was not found within the axis travel.
-    HomingSwitchNotFound = 9,
+    /// The previous run ended in a reset (watchdog, panic, reset pin, brown-out) while the
+    /// steppers were moving: the position is unknown and the job was cut mid-block.
+    ResetDuringMotion = 3,
     /// Homing was aborted (abort input or host) before it finished; the axes stay unhomed.
     HomingAborted = 6,
     /// Homing: the switch did not release during the retract.
     HomingPullOffFailed = 8,
-    /// Homing is required (setup `homing.required`) after power-up or a hard limit.
+    /// Homing: the switch was not found within the axis travel.
+    HomingSwitchNotFound = 9,
+    /// Homing is required before motion (setup `homing.required`, or a reset during motion).
     HomingRequired = 11,
+    /// The host link was lost while the job was held, for longer than `link.host_lost_stop_s`:
+    /// the board ended the job.
+    HostLost = 20,
     /// A command list waited for an input longer than its timeout.
     ListInputTimeout = 21,
-    /// The host link was lost during a job and the board held the machine (resume on reconnect).
-    HostLost = 20,
 }
 
 impl AlarmCode {
+    /// Every alarm, by number.
+    pub const ALL: [AlarmCode; 9] = [
+        AlarmCode::HardLimit,
+        AlarmCode::SoftLimit,
+        AlarmCode::ResetDuringMotion,
+        AlarmCode::HomingAborted,
+        AlarmCode::HomingPullOffFailed,
+        AlarmCode::HomingSwitchNotFound,
+        AlarmCode::HomingRequired,
+        AlarmCode::HostLost,
+        AlarmCode::ListInputTimeout,
+    ];
+
+    /// The alarm with this number (as sent over the link).
+    pub fn from_number(n: u16) -> Option<AlarmCode> {
+        Self::ALL.iter().copied().find(|a| *a as u16 == n)
+    }
+
+    /// Short name for the host's display.
+    pub const fn name(self) -> &'static str {
+        match self {
+            AlarmCode::HardLimit => "hard limit",
+            AlarmCode::SoftLimit => "soft limit",
+            AlarmCode::ResetDuringMotion => "reset during motion",
+            AlarmCode::HomingAborted => "homing aborted",
+            AlarmCode::HomingPullOffFailed => "homing pull-off failed",
+            AlarmCode::HomingSwitchNotFound => "homing switch not found",
+            AlarmCode::HomingRequired => "homing required",
+            AlarmCode::HostLost => "host lost",
+            AlarmCode::ListInputTimeout => "list input timeout",
+        }
+    }
+
     /// One-line explanation for the host's display.
     pub const fn message(self) -> &'static str {
         match self {
-            AlarmCode::HardLimit => "hard limit tripped: step output stopped; rehome the axis",
-            AlarmCode::SoftLimit => "motion would exceed the machine travel",
-            AlarmCode::AbortDuringMotion => "aborted during motion; position kept",
-            AlarmCode::HomingSwitchNotFound => "homing: limit switch not found within the travel",
-            AlarmCode::HomingPullOffFailed => "homing: switch still active after the retract",
+            AlarmCode::HardLimit => {
+                "a limit switch stopped the machine; the job ended; rehome the tripped axis"
+            }
+            AlarmCode::SoftLimit => {
+                "a block would leave the machine travel: the job stopped on its path before it; position kept"
+            }
+            AlarmCode::ResetDuringMotion => {
+                "the board reset while the steppers were moving: position unknown, job lost; home (or unlock)"
+            }
             AlarmCode::HomingAborted => "homing aborted; axes not homed",
+            AlarmCode::HomingPullOffFailed => "homing: switch still active after the retract",
+            AlarmCode::HomingSwitchNotFound => "homing: limit switch not found within the travel",
             AlarmCode::HomingRequired => "homing required before motion",
+            AlarmCode::HostLost => {
+                "the host stayed away while the job was held: job ended, spindle and coolant off"
+            }
             AlarmCode::ListInputTimeout => "command list: input wait timed out",
-            AlarmCode::HostLost => "host link lost during a job; machine held",
         }
     }
 }
@@ -95,6 +140,15 @@ pub fn fro_from_adc(adc: u16, adc_max: u16, low: u16, high: u16) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn alarm_numbers_round_trip() {
+        for a in AlarmCode::ALL {
+            assert_eq!(AlarmCode::from_number(a as u16), Some(a));
+        }
+        assert_eq!(AlarmCode::from_number(2), Some(AlarmCode::SoftLimit));
+        assert_eq!(AlarmCode::from_number(4), None);
+    }
 
     #[test]
     fn fro_pot_maps_the_adc_range_onto_the_percent_range() {

@@ -65,9 +65,12 @@ pub fn set(eb: &mut EmulatedBoard, s: Signal, on: bool) {
     eb.set_pin(s as u32, on);
 }
 
-/// Every event the board has queued (the link takes them in each main-loop pass).
+/// The events the board raised since the last call: those the emulator captured (after
+/// `EmulatedBoard::capture_events`) and any still queued on the board.
 pub fn events(eb: &mut EmulatedBoard) -> Vec<BoardEvent> {
-    std::iter::from_fn(|| eb.board.take_event()).collect()
+    let mut v = std::mem::take(&mut eb.events);
+    v.extend(std::iter::from_fn(|| eb.board.take_event()));
+    v
 }
 
 pub fn steps(eb: &EmulatedBoard) -> [i64; 6] {

@@ -1,0 +1,229 @@
+//! Alarms 2 (soft limit in a running job), 3 (reset during motion) and 20 (host lost) on the
+//! emulated board, on its virtual clock: exact states, alarm codes and lines, positions, output
+//! levels and times.
+
+mod controller_support;
+
+use controller_support::*;
+use gantry_machine::board::{BoardEvent, ERROR_SOFT_LIMIT};
+use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
+use gantry_machine::controller::{AlarmCode, OutputLevels, State};
+use gantry_machine::motion::pipeline::MotionState;
+use host_sender::emulator::EmulatedBoard;
+
+// ---- alarm 2: a block of a running job would leave the travel ----
+
+/// M3, M8, 200 one-millimetre feeds along X at 1200 mm/min (line 4-203), then line 204.
+fn long_job(line_204: &str) -> String {
+    let mut p = String::from("G90 G21\nM3 S12000\nM8\n");
+    for i in 1..=200 {
+        p.push_str(&format!("G1 X{i} F1200\n"));
+    }
+    p.push_str(line_204);
+    p.push_str("\nG0 X0\nM30\n");
+    p
+}
+
+/// X homed on a min switch at -2 mm (retract 2 mm: home is the switch + 2 mm = physical 0).
+fn homed_x_board() -> EmulatedBoard {
+    let mut eb = board(|s| {
+        s.inputs.limit_min = 0b001;
+        s.homing.axes[0].priority = 1;
+    });
+    eb.add_switch(0, false, -2 * MM);
+    assert!(eb.board.home(0b001));
+    until_state(&mut eb, State::Idle, 20_000);
+    assert_eq!(eb.board.homed(), 0b001);
+    eb.capture_events();
+    events(&mut eb);
+    eb
+}
+
+#[test]
+fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2() {
+    let mut eb = homed_x_board();
+    job(&mut eb, &long_job("G1 X400"));
+    // The interpreter meets line 204 while line ~60 runs: the stop starts at once.
+    assert!(eb.run_until(20_000, |b| b.board.motion().state() == MotionState::Holding));
+    let stop_ms = eb.now_ms() - 1;
+    let at_stop = eb.kernel.position()[0];
+    assert_eq!(stop_ms, 5882);
+    assert_eq!(eb.kernel.position()[0], 46_566);
+    // Spindle and coolant run until the machine is at rest (a feed hold's rule) …
+    assert!(eb.board.output_levels().spindle_enable && eb.board.output_levels().flood);
+    until_state(&mut eb, State::Alarm, 5_000);
+    let x = eb.kernel.position()[0];
+    assert_eq!(x, 47_384, "74.04 mm: inside line 78 (G1 X75)");
+    // … then the program-stop sequence, alarm 2 naming line 204, the job ended at line 78.
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::SoftLimit));
+    assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
+    assert_eq!(
+        events(&mut eb),
+        vec![
+            BoardEvent::Alarm {
+                code: AlarmCode::SoftLimit,
+                line: 204
+            },
+            BoardEvent::JobDone { line: 78 }
+        ]
+    );
+    assert_eq!(eb.board.resume_line(), 78);
+    // Position kept: still homed, the board's idea of X is the kernel's.
+    assert_eq!(eb.board.homed(), 0b001);
+    assert_eq!(eb.board.motion().queued_position()[0], 74_037_500);
+    eb.run_ms(1000);
+    assert_eq!(eb.kernel.position()[0], x, "nothing moves in the alarm");
+    assert!(!eb.board.start_job());
+    assert!(!eb.board.jog(0, 600_000, MM as u64));
+    // Unlock clears it; the machine goes on from where it stands.
+    eb.board.unlock();
+    assert_eq!(eb.board.state(), State::Idle);
+    job(&mut eb, "G90 G21\nG0 X0\nM30\n");
+    until_state(&mut eb, State::Idle, 10_000);
+    assert_eq!(eb.kernel.position()[0], 0);
+
+    // The same job with a legal line 204, feed-held at that very millisecond, stops on the same
+    // step: the alarm stop is a feed hold's deceleration on the path, never an abrupt stop.
+    let mut twin = homed_x_board();
+    job(&mut twin, &long_job("G1 X200"));
+    assert!(twin.run_until(20_000, |b| b.now_ms() == stop_ms));
+    twin.board.feed_hold();
+    assert!(
+        twin.run_until(5_000, |b| b.board.motion().state() == MotionState::Held
+            && !b.kernel.is_busy())
+    );
+    assert_eq!(twin.kernel.position()[0], x);
+}
+
+#[test]
+fn before_the_job_queued_anything_a_block_beyond_the_travel_is_error_900_and_nothing_moves() {
+    // An MDI command (`gantry mdi "G0 X400"`): nothing ran, nothing to stop.
+    let mut eb = board(|_| {});
+    eb.capture_events();
+    job(&mut eb, "G90 G21\nG0 X400\n");
+    until_state(&mut eb, State::Idle, 1_000);
+    assert_eq!(
+        events(&mut eb),
+        vec![
+            BoardEvent::Error {
+                line: 2,
+                code: ERROR_SOFT_LIMIT,
+                column: 0
+            },
+            BoardEvent::JobDone { line: 0 }
+        ]
+    );
+    assert_eq!(eb.board.alarm(), None);
+    assert_eq!(eb.pulses, [0; 6]);
+    // A jog beyond the travel is refused the same way (error 900, no motion).
+    assert!(!eb.board.jog(0, 600_000, 301 * MM as u64));
+    eb.run_ms(5);
+    assert_eq!(
+        events(&mut eb),
+        vec![BoardEvent::Error {
+            line: 0,
+            code: ERROR_SOFT_LIMIT,
+            column: 0
+        }]
+    );
+    assert_eq!(eb.board.state(), State::Idle);
+    assert_eq!(eb.pulses, [0; 6]);
+}
+
+// ---- alarm 3: the board reset while the steppers were moving ----
+
+/// Runs a 50 mm feed along X for one second, so the kernel is mid-move.
+fn moving(eb: &mut EmulatedBoard) {
+    job(eb, "G90 G21\nM3 S12000\nG1 X50 F1200\nM30\n");
+    eb.run_ms(1000);
+    assert!(eb.kernel.is_busy());
+    assert_eq!(eb.motion_marker, MARKER_MOVING);
+}
+
+#[test]
+fn a_watchdog_reset_during_motion_powers_up_in_alarm_3_and_unlock_clears_it_without_homing() {
+    let mut eb = board(|_| {});
+    moving(&mut eb);
+    let here = eb.physical();
+    assert_eq!(here[0], 12_210, "19.08 mm along when the reset hits");
+    assert_eq!(eb.reset(ResetCause::Watchdog), PowerUp::MotionInterrupted);
+    // The machine stands where the reset stopped it; the new kernel counts from 0.
+    assert_eq!(eb.physical(), here);
+    assert_eq!(eb.kernel.position(), [0; 6]);
+    assert_eq!(eb.board.state(), State::Alarm);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::ResetDuringMotion));
+    assert_eq!(eb.board.homed(), 0);
+    assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
+    // Motion is refused until unlock.
+    assert!(!eb.board.start_job());
+    assert!(!eb.board.jog(0, 600_000, MM as u64));
+    eb.run_ms(100);
+    assert_eq!(eb.physical(), here);
+    // No homing set up: unlock accepts the position as it is.
+    eb.board.unlock();
+    assert_eq!(eb.board.state(), State::Idle);
+    assert_eq!(eb.board.alarm(), None);
+    assert!(eb.board.jog(0, 600_000, MM as u64));
+    until_state(&mut eb, State::Idle, 5_000);
+    assert_eq!(eb.physical()[0], here[0] + STEPS_PER_MM);
+    assert_eq!(eb.motion_marker, MARKER_IDLE);
+}
+
+#[test]
+fn with_homing_set_up_a_reset_during_motion_requires_homing() {
+    let mut eb = board(|s| {
+        s.inputs.limit_min = 0b001;
+        s.homing.axes[0].priority = 1;
+    });
+    eb.add_switch(0, false, -2 * MM);
+    assert!(eb.board.home(0b001));
+    until_state(&mut eb, State::Idle, 20_000);
+    moving(&mut eb);
+    let here = eb.physical()[0];
+    assert_eq!(eb.reset(ResetCause::Pin), PowerUp::MotionInterrupted);
+    eb.capture_events();
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::ResetDuringMotion));
+    assert_eq!(eb.board.homed(), 0);
+    // Unlock is not enough: the board asks for homing (alarm 11) and still refuses motion.
+    eb.board.unlock();
+    assert_eq!(eb.board.state(), State::Alarm);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HomingRequired));
+    assert!(!eb.board.start_job());
+    eb.run_ms(2);
+    assert_eq!(
+        events(&mut eb),
+        vec![BoardEvent::Alarm {
+            code: AlarmCode::HomingRequired,
+            line: 0
+        }]
+    );
+    assert_eq!(eb.physical()[0], here);
+    // Homing finds the switch again from wherever the machine stood.
+    assert!(eb.board.home(0));
+    until_state(&mut eb, State::Idle, 60_000);
+    assert_eq!(eb.board.homed(), 0b001);
+    assert_eq!(eb.physical()[0], 0, "switch at -2 mm + 2 mm retract");
+    assert!(eb.board.start_job());
+}
+
+#[test]
+fn a_reset_at_rest_or_a_power_on_reset_starts_clean() {
+    // At rest: the marker says idle.
+    let mut eb = board(|_| {});
+    job(&mut eb, "G90 G21\nG1 X5 F1200\nM30\n");
+    until_state(&mut eb, State::Idle, 5_000);
+    eb.run_ms(2);
+    assert_eq!(eb.motion_marker, MARKER_IDLE);
+    assert_eq!(eb.reset(ResetCause::Watchdog), PowerUp::Clean);
+    assert_eq!(eb.board.state(), State::Idle);
+    // Power-on in the middle of a move (the supply was cut): RAM is undefined, nothing is
+    // claimed; an ordinary power-up.
+    moving(&mut eb);
+    assert_eq!(eb.reset(ResetCause::PowerOn), PowerUp::Clean);
+    assert_eq!(eb.board.state(), State::Idle);
+    assert_eq!(eb.board.alarm(), None);
+    // A brown-out keeps RAM: it counts.
+    moving(&mut eb);
+    assert_eq!(eb.reset(ResetCause::BrownOut), PowerUp::MotionInterrupted);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::ResetDuringMotion));
+}
