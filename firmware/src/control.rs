@@ -5,20 +5,21 @@
 //! 1. kernel stopped by a limit → drop the queue, `Board::limit_stop`, re-arm unless in alarm;
 //! 2. debounced inputs and ADC readings → `Board::on_inputs`;
 //! 3. bytes from USB → `BoardLink::on_bytes`, `service`, `Board::poll(kernel_drained)`;
-//! 4. segments from `Board::next_segment` into the step ISR's queue;
+//! 4. segments from `Board::next_segment` into the step ISR's queue, with the motion marker set
+//!    before the ISR can run them and cleared once the kernel is drained (alarm 3 after a reset);
 //! 5. `service` again, frames into the USB transmit pipe, output levels to the pins;
 //! 6. a setup the host pushed is saved to flash once the board is idle;
 //! 7. the watchdog is fed.
 //!
-//! Host loss: `BoardLink` holds a running job when the host goes silent; a DTR drop (the sender
-//! closed the port) holds it at once.
+//! Host loss: `BoardLink` holds a running job when the host goes silent (and ends it with alarm 20
+//! after `link.host_lost_stop_s`); a DTR drop (the sender closed the port) holds it at once.
 
 use crate::board_def::{Outputs, USER_OUTPUTS};
 use crate::inputs::{armed_limit, ARM, INVERT, PINS};
 use crate::settings::Store;
 use crate::step::{self, STOP};
 use crate::usb::{LinkPipe, DTR};
-use crate::{analog, watchdog};
+use crate::{analog, reset_marker, watchdog};
 use core::sync::atomic::Ordering;
 use embassy_stm32::gpio::Level;
 use embassy_time::{Duration, Instant, Ticker};
@@ -186,6 +187,7 @@ pub async fn run(mut io: Io, board: &'static mut Board, link: &'static mut Board
         }
 
         // 4. Segments for the step ISR (none while it is stopped).
+        let mut handed_out = false;
         if !stop_handled {
             while io.segments.ready() {
                 let Some(seg) = board.next_segment() else {
@@ -193,8 +195,14 @@ pub async fn run(mut io: Io, board: &'static mut Board, link: &'static mut Board
                 };
                 // Power-up: drivers stay disabled until the first motion (DESIGN §6).
                 steppers_enabled = true;
+                // Before the ISR can step it: a reset from here on is a reset during motion.
+                reset_marker::moving();
+                handed_out = true;
                 let _ = io.segments.enqueue(seg);
             }
+        }
+        if drained && !handed_out && !board.position_lost() {
+            reset_marker::idle();
         }
         ARM.store(board.limit_arm(), Ordering::Relaxed);
         if armed_limit(PINS.load(Ordering::Relaxed)) {

@@ -16,6 +16,8 @@ mod clocks;
 #[cfg(feature = "controller")]
 mod control;
 mod inputs;
+#[cfg(feature = "controller")]
+mod reset_marker;
 mod safety;
 #[cfg(feature = "controller")]
 mod settings;
@@ -55,6 +57,9 @@ unsafe fn USART6() {
 
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
+    // Before anything else: how the previous run ended (reset flags, motion marker in RAM).
+    #[cfg(feature = "controller")]
+    let (power_up, reset_cause) = reset_marker::power_up();
     let p = embassy_stm32::init(clocks::config());
     // First: a hang anywhere below (clock, USB or flash init) resets the board.
     watchdog::start();
@@ -63,6 +68,12 @@ async fn main(spawner: Spawner) {
         board_def::NAME,
         board_def::PROBE_CHIP,
         clocks::SYSCLK_HZ
+    );
+    #[cfg(feature = "controller")]
+    defmt::info!(
+        "reset: {}, {}",
+        defmt::Debug2Format(&reset_cause),
+        defmt::Debug2Format(&power_up)
     );
     let (pins, rest) = board_def::split(p);
     let board_def::Pins {
@@ -132,7 +143,7 @@ async fn main(spawner: Spawner) {
     spawner.spawn(defmt::unwrap!(analog::run(rest.adc1, analog)));
     #[cfg(feature = "controller")]
     {
-        let board = controller_board(setup);
+        let board = controller_board(setup, power_up);
         let link = controller_link(boot_id);
         spawner.spawn(defmt::unwrap!(control::run(
             control::Io {
@@ -154,16 +165,18 @@ async fn main(spawner: Spawner) {
     defmt::info!("ready");
 }
 
-/// The board, built once into its static. A function of its own (never inlined) so that the
-/// temporary it may need on the stack exists only during this call, not in every poll of `main`
-/// nor together with the link's.
+/// The board, built once into its static, powered up as the reset left it (alarm 3 after a reset
+/// during motion). A function of its own (never inlined) so that the temporary it may need on
+/// the stack exists only during this call, not in every poll of `main` nor together with the
+/// link's.
 #[cfg(feature = "controller")]
 #[inline(never)]
 fn controller_board(
     setup: gantry_machine::setup::Setup,
+    how: gantry_machine::controller::power_up::PowerUp,
 ) -> &'static mut gantry_machine::board::Board {
     static BOARD: StaticCell<gantry_machine::board::Board> = StaticCell::new();
-    BOARD.init_with(|| gantry_machine::board::Board::new(setup))
+    BOARD.init_with(|| gantry_machine::board::Board::power_up(setup, how))
 }
 
 /// The link endpoint, built once into its static (see [`controller_board`]).

@@ -147,10 +147,14 @@ pub struct EmulatedBoard {
     pub underruns: u64,
     /// Bytes the board has sent and the host not yet read.
     outbox: Vec<u8>,
-    /// The firmware's motion marker word (survives [`EmulatedBoard::reset`]).
+    /// The firmware's motion marker word (survives [`EmulatedBoard::reset`]): set before a
+    /// segment goes to the kernel, cleared when the kernel is drained and the board's position is
+    /// not lost (`Board::position_lost`).
     pub motion_marker: u32,
     /// Resets so far (each power-up gets its own boot id).
     resets: u32,
+    /// Virtual time (ms) bytes from the host last arrived.
+    pub last_received_ms: Option<u32>,
     /// Board events taken by the test instead of the link (see [`EmulatedBoard::capture_events`]).
     pub events: Vec<BoardEvent>,
     capture: bool,
@@ -192,6 +196,7 @@ impl EmulatedBoard {
             outbox: Vec::new(),
             motion_marker: MARKER_IDLE,
             resets: 0,
+            last_received_ms: None,
             events: Vec::new(),
             capture: false,
         }
@@ -241,7 +246,6 @@ impl EmulatedBoard {
         self.debounce_setup = (setup.inputs.invert, setup.inputs.debounce_ms);
         self.debouncer = Debouncer::new(setup.inputs.invert, setup.inputs.debounce_ms);
         self.outbox.clear();
-        self.motion_marker = MARKER_IDLE;
         how
     }
 
@@ -368,6 +372,9 @@ impl EmulatedBoard {
     /// Bytes from the host.
     pub fn receive(&mut self, bytes: &[u8]) {
         let now = self.now_ms();
+        if !bytes.is_empty() {
+            self.last_received_ms = Some(now);
+        }
         self.link.on_bytes(now, bytes);
     }
 
@@ -514,7 +521,7 @@ impl EmulatedBoard {
                 None => break,
             }
         }
-        if drained && !handed_out {
+        if drained && !handed_out && !self.board.position_lost() {
             self.motion_marker = MARKER_IDLE;
         }
         if self.next_tick.is_none() {

@@ -10,6 +10,9 @@ use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MAR
 use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 use gantry_machine::motion::pipeline::MotionState;
 use host_sender::emulator::EmulatedBoard;
+use host_sender::link::Client;
+use host_sender::program::Program;
+use host_sender::stream::{continue_job, stream_program, Flow};
 
 // ---- alarm 2: a block of a running job would leave the travel ----
 
@@ -88,10 +91,8 @@ fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2(
     job(&mut twin, &long_job("G1 X200"));
     assert!(twin.run_until(20_000, |b| b.now_ms() == stop_ms));
     twin.board.feed_hold();
-    assert!(
-        twin.run_until(5_000, |b| b.board.motion().state() == MotionState::Held
-            && !b.kernel.is_busy())
-    );
+    assert!(twin.run_until(5_000, |b| b.board.motion().state() == MotionState::Held));
+    twin.run_ms(200);
     assert_eq!(twin.kernel.position()[0], x);
 }
 
@@ -159,13 +160,20 @@ fn a_watchdog_reset_during_motion_powers_up_in_alarm_3_and_unlock_clears_it_with
     assert!(!eb.board.jog(0, 600_000, MM as u64));
     eb.run_ms(100);
     assert_eq!(eb.physical(), here);
+    // Until the position is re-established the marker stays set: another reset (say the
+    // operator presses reset now) powers up in alarm 3 again.
+    assert_eq!(eb.motion_marker, MARKER_MOVING);
+    assert_eq!(eb.reset(ResetCause::Pin), PowerUp::MotionInterrupted);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::ResetDuringMotion));
     // No homing set up: unlock accepts the position as it is.
     eb.board.unlock();
     assert_eq!(eb.board.state(), State::Idle);
     assert_eq!(eb.board.alarm(), None);
     assert!(eb.board.jog(0, 600_000, MM as u64));
+    assert!(!eb.board.position_lost());
     until_state(&mut eb, State::Idle, 5_000);
     assert_eq!(eb.physical()[0], here[0] + STEPS_PER_MM);
+    eb.run_ms(2);
     assert_eq!(eb.motion_marker, MARKER_IDLE);
 }
 
@@ -203,6 +211,9 @@ fn with_homing_set_up_a_reset_during_motion_requires_homing() {
     until_state(&mut eb, State::Idle, 60_000);
     assert_eq!(eb.board.homed(), 0b001);
     assert_eq!(eb.physical()[0], 0, "switch at -2 mm + 2 mm retract");
+    assert!(!eb.board.position_lost());
+    eb.run_ms(2);
+    assert_eq!(eb.motion_marker, MARKER_IDLE);
     assert!(eb.board.start_job());
 }
 
@@ -226,4 +237,117 @@ fn a_reset_at_rest_or_a_power_on_reset_starts_clean() {
     moving(&mut eb);
     assert_eq!(eb.reset(ResetCause::BrownOut), PowerUp::MotionInterrupted);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::ResetDuringMotion));
+}
+
+// ---- alarm 20: the host stayed away while the job was held ----
+
+/// 250 mm at 300 mm/min (50 s) with spindle and flood on.
+const LONG_FEED: &str = "G21 G90\nM3 S12000\nM8\nG1 X250 F300\nM30\n";
+
+/// Streams `text` from a host that vanishes (stops sending anything) once the board runs line
+/// `line` at 2 s link time; returns the board and the time (ms) its last bytes arrived.
+fn host_vanishes(
+    edit: impl FnOnce(&mut gantry_machine::setup::Setup),
+    text: &str,
+    line: u32,
+) -> (EmulatedBoard, u32) {
+    let mut client = Client::connect(board(edit), 2000).unwrap();
+    let program = Program::from_text(text);
+    let report = stream_program(&mut client, &program, &mut |p| {
+        if p.line >= line && p.elapsed_ms >= 2000 {
+            Flow::Detach
+        } else {
+            Flow::Continue
+        }
+    })
+    .unwrap();
+    assert!(report.alarms.is_empty());
+    let eb = client.into_transport();
+    let gone = eb.last_received_ms.unwrap();
+    (eb, gone)
+}
+
+#[test]
+fn a_job_held_by_host_loss_ends_with_alarm_20_after_host_lost_stop_s() {
+    let (mut eb, gone) = host_vanishes(|_| {}, LONG_FEED, 4);
+    assert_eq!(eb.board.setup().link.host_lost_stop_s, 60);
+    // More than HOST_TIMEOUT_MS (1 s) of silence: the link holds the job on its path (spindle
+    // and coolant stay on).
+    assert!(eb.run_until(5_000, |b| b.board.state() == State::Hold));
+    let held = eb.now_ms() - 1;
+    assert_eq!(held - gone, 1_001);
+    eb.capture_events();
+    // Decelerated to a stop on the path within 200 ms (5 mm/s at 200 mm/s²: 25 ms).
+    eb.run_ms(200);
+    assert_eq!(eb.board.motion().state(), MotionState::Held);
+    let at = eb.kernel.position();
+    // Until the 60 s are up nothing changes.
+    assert!(eb.run_until(70_000, |b| b.now_ms() == held + 60_000));
+    assert_eq!(eb.board.state(), State::Hold);
+    assert!(eb.board.output_levels().spindle_enable && eb.board.output_levels().flood);
+    assert!(events(&mut eb).is_empty());
+    // Then the job ends (the main-loop pass at 60 000 ms drops it, the next one finds it at
+    // rest): spindle and coolant off, alarm 20 at the held line, position kept.
+    eb.run_ms(1);
+    assert_eq!(eb.board.state(), State::Run, "stopping");
+    eb.run_ms(1);
+    assert_eq!(eb.board.state(), State::Alarm);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HostLost));
+    assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
+    assert_eq!(
+        events(&mut eb),
+        vec![
+            BoardEvent::Alarm {
+                code: AlarmCode::HostLost,
+                line: 4
+            },
+            BoardEvent::JobDone { line: 4 }
+        ]
+    );
+    assert_eq!(eb.board.resume_line(), 4);
+    assert_eq!(eb.kernel.position(), at);
+    assert_eq!(at[0], 9_342, "14.6 mm along the 250 mm feed");
+    eb.board.unlock();
+    assert_eq!(eb.board.state(), State::Idle);
+}
+
+#[test]
+fn a_host_back_within_the_limit_continues_the_job() {
+    let (mut eb, gone) = host_vanishes(|_| {}, LONG_FEED, 4);
+    assert!(eb.run_until(5_000, |b| b.board.state() == State::Hold));
+    let held = eb.now_ms() - 1;
+    assert_eq!(held - gone, 1_001);
+    // A new host process attaches after 59 s of hold and takes the job over.
+    assert!(eb.run_until(70_000, |b| b.now_ms() == held + 59_000));
+    let mut client = Client::connect(eb, 2000).unwrap();
+    let program = Program::from_text(LONG_FEED);
+    let report = continue_job(&mut client, &program, &mut |_| Flow::Continue).unwrap();
+    assert!(report.completed, "{:?} {:?}", report.errors, report.alarms);
+    let eb = client.into_transport();
+    assert_eq!(eb.board.state(), State::Idle);
+    assert_eq!(eb.kernel.position()[0], 250 * STEPS_PER_MM);
+    assert!(eb.now_ms() > held + 60_000, "ran on past the limit");
+}
+
+#[test]
+fn with_host_lost_stop_s_0_a_held_job_waits_for_the_host_forever() {
+    let (mut eb, _) = host_vanishes(|s| s.link.host_lost_stop_s = 0, LONG_FEED, 4);
+    assert!(eb.run_until(5_000, |b| b.board.state() == State::Hold));
+    eb.run_ms(600_000);
+    assert_eq!(eb.board.state(), State::Hold);
+    assert_eq!(eb.board.alarm(), None);
+    assert!(eb.board.output_levels().spindle_enable);
+}
+
+#[test]
+fn an_m0_stop_is_not_ended_by_host_loss() {
+    // At M0 spindle and coolant are already off; the job waits for cycle start as programmed.
+    let (mut eb, _) = host_vanishes(|_| {}, "G21 G90\nM3 S12000\nG1 X1 F600\nM0\nG1 X2\nM30\n", 3);
+    assert!(eb.run_until(10_000, |b| b.board.state() == State::Hold));
+    eb.run_ms(120_000);
+    assert_eq!(eb.board.state(), State::Hold);
+    assert_eq!(eb.board.alarm(), None);
+    eb.board.cycle_start();
+    until_state(&mut eb, State::Idle, 10_000);
+    assert_eq!(eb.kernel.position()[0], 2 * STEPS_PER_MM);
 }

@@ -6,6 +6,8 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_machine::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+use gantry_machine::board::BoardEvent;
+use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::controller::{AlarmCode, State};
 use gantry_machine::setup::ListCommand;
 use host_sender::emulator::EmulatedBoard;
@@ -142,10 +144,10 @@ fn abort_during_homing_alarms_and_leaves_the_axis_unhomed() {
     let _ = LIMIT_MAX_BIT;
 }
 
-#[test]
-fn squaring_leaves_both_motors_on_their_switches_then_retracts() {
-    // Y is two motors on one step channel, enabled by outputs 0 and 1 (which also gate their
-    // switches); the gantry is racked: motor 0 meets its switch at -2 mm, motor 1 at -3 mm.
+/// Y is two motors on one step channel, enabled by outputs 0 and 1 (which also gate their
+/// switches); the gantry is racked: motor 0 meets its switch at -2 mm, motor 1 at -3 mm. The
+/// seed's squaring lists, `before_retract` led by `disable_limit_report` when `quiet`.
+fn squaring(quiet: bool, edit: impl FnOnce(&mut gantry_machine::setup::Setup)) -> EmulatedBoard {
     let mut eb = board(|s| {
         s.inputs.limit_min = 0b010;
         s.homing.axes[1].priority = 1;
@@ -159,15 +161,26 @@ fn squaring_leaves_both_motors_on_their_switches_then_retracts() {
             "settle" => ListCommand::DwellMs(100),
             _ => ListCommand::DisableLimitReport,
         };
-        for t in ["report", "set0", "set1"] {
+        for t in ["set0", "set1"] {
             s.homing.before_seek.push(c(t)).unwrap();
         }
         // Seed sequence: each side alone onto its own switch, then both enabled again.
+        if quiet {
+            s.homing.before_retract.push(c("report")).unwrap();
+        }
         for t in ["clear1", "seek", "set1", "clear0", "seek", "set0", "settle"] {
             s.homing.before_retract.push(c(t)).unwrap();
         }
+        edit(s);
     });
     eb.add_gang(1, false, [0, 1], [-2 * MM, -3 * MM]);
+    eb.capture_events();
+    eb
+}
+
+#[test]
+fn squaring_leaves_both_motors_on_their_switches_then_retracts() {
+    let mut eb = squaring(true, |_| {});
     assert!(eb.board.home(0b010));
     // First stop: motor 0 on its switch, motor 1 dragged along to -2 mm.
     eb.run_until(30_000, |b| b.limit_stops == 1);
@@ -187,6 +200,86 @@ fn squaring_leaves_both_motors_on_their_switches_then_retracts() {
     assert_eq!(eb.board.homed(), 0b010);
     assert_eq!(eb.kernel.position()[1], 0);
     assert_eq!(eb.board.output_levels().user, 0b11);
-    // No hard-limit alarm on the way: the seek switch stops are expected.
+    // No alarm on the way, and `disable_limit_report` kept the list's two commanded switch
+    // hits from the host; the cycle's own seek is never reported.
     assert_eq!(eb.board.alarm(), None);
+    assert_eq!(events(&mut eb), vec![]);
+}
+
+#[test]
+fn without_the_directive_each_commanded_switch_hit_of_a_list_is_reported() {
+    let mut eb = squaring(false, |_| {});
+    assert!(eb.board.home(0b010));
+    until_state(&mut eb, State::Idle, 30_000);
+    assert_eq!(eb.limit_stops, 3);
+    let y_min = BoardEvent::Limit {
+        axis: 1,
+        max: false,
+    };
+    // The two `seek` commands of before_retract, not the cycle's seek; no alarm.
+    assert_eq!(events(&mut eb), vec![y_min, y_min]);
+    assert_eq!(eb.board.alarm(), None);
+    assert_eq!(eb.board.homed(), 0b010);
+    let g = eb.gang.unwrap();
+    assert_eq!(g.motors, [g.at[0] + STEPS_PER_MM, g.at[1] + STEPS_PER_MM]);
+}
+
+#[test]
+fn an_unexpected_switch_during_a_quiet_list_seek_still_stops_and_alarms() {
+    // X has a max switch; it trips while motor 1 alone seeks in the quiet list.
+    let mut eb = squaring(true, |s| s.inputs.limit_max = 0b001);
+    assert!(eb.board.home(0b010));
+    eb.run_until(30_000, |b| b.limit_stops == 2);
+    eb.run_ms(300);
+    assert_eq!(eb.board.motion().state(), MotionState::Running, "motor 1 seeking");
+    let y = eb.kernel.position()[1];
+    eb.set_pin(LIMIT_MAX_BIT, true);
+    until_state(&mut eb, State::Alarm, 1_000);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
+    assert_eq!(eb.limit_stops, 3);
+    // Motor 1 steps every 1.5625 ms: the pass that saw the pin armed the stop before its next step.
+    assert_eq!(eb.kernel.position()[1], y);
+    assert_eq!(
+        events(&mut eb),
+        vec![
+            BoardEvent::Limit { axis: 0, max: true },
+            BoardEvent::Alarm {
+                code: AlarmCode::HardLimit,
+                line: 0
+            }
+        ]
+    );
+    assert_eq!(eb.board.homed(), 0);
+    assert_eq!(eb.board.output_levels().user, 0);
+}
+
+#[test]
+fn another_switch_tripping_with_the_seek_switch_is_a_hard_limit() {
+    // X seeks its min switch; the Z max switch closes in the same instant.
+    let mut eb = machine(|s| s.homing.axes[2].priority = 0);
+    eb.switches.clear();
+    eb.capture_events();
+    assert!(eb.board.home(0b001));
+    eb.run_ms(500);
+    assert_eq!(eb.board.motion().state(), MotionState::Running, "seeking");
+    eb.set_pin(LIMIT_MIN_BIT, true);
+    eb.set_pin(LIMIT_MAX_BIT + 2, true);
+    until_state(&mut eb, State::Alarm, 1_000);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
+    assert_eq!(eb.limit_stops, 1);
+    assert_eq!(
+        events(&mut eb),
+        vec![
+            BoardEvent::Limit {
+                axis: 0,
+                max: false
+            },
+            BoardEvent::Limit { axis: 2, max: true },
+            BoardEvent::Alarm {
+                code: AlarmCode::HardLimit,
+                line: 0
+            }
+        ]
+    );
+    assert_eq!(eb.board.homed(), 0);
 }

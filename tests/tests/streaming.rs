@@ -6,7 +6,8 @@ use gantry_proto::fault::Faults;
 use host_sender::emulator::EmulatedBoard;
 use host_sender::link::{Client, Transport};
 use host_sender::program::Program;
-use host_sender::stream::{continue_job, stream_program, Flow, StreamReport};
+use gantry_proto::MachineState;
+use host_sender::stream::{continue_job, stream_program, BoardAlarm, Flow, StreamReport};
 use system_tests::{cam_program, reference, FaultyBoard};
 
 fn stream_emulated(text: &str) -> (StreamReport, EmulatedBoard) {
@@ -45,15 +46,37 @@ fn a_rejected_block_stops_the_job_before_its_motion() {
 }
 
 #[test]
-fn a_soft_limit_violation_is_an_error_before_any_motion_of_that_block() {
-    let program = "G21 G90\nG0 X10\nG0 X400\nG0 X20\nM30\n";
+fn a_soft_limit_violation_before_anything_ran_is_error_900_and_nothing_moves() {
+    let program = "G21 G90\nG0 X400\nG0 X20\nM30\n";
     let (report, board) = stream_emulated(program);
     assert_eq!(report.errors.len(), 1);
     assert_eq!(
         (report.errors[0].line, report.errors[0].code),
-        (3, gantry_machine::board::ERROR_SOFT_LIMIT)
+        (2, gantry_machine::board::ERROR_SOFT_LIMIT)
     );
-    assert_eq!(board.kernel.position()[0], 6400);
+    assert!(report.alarms.is_empty());
+    assert_eq!(board.pulses, [0; 6]);
+    assert_eq!(report.final_status.unwrap().state, MachineState::Idle);
+}
+
+#[test]
+fn a_soft_limit_violation_in_a_running_job_stops_it_with_alarm_2_at_that_line() {
+    let program = Program::from_text("G21 G90\nG0 X10\nG0 X400\nG0 X20\nM30\n");
+    let mut client = Client::connect(EmulatedBoard::new(Setup::default()), 2000).unwrap();
+    let report = stream_program(&mut client, &program, &mut |_| Flow::Continue).unwrap();
+    assert!(!report.completed);
+    assert!(report.errors.is_empty(), "{:?}", report.errors);
+    assert_eq!(report.alarms, vec![BoardAlarm { code: 2, line: 3 }]);
+    assert_eq!(
+        report.alarms[0].describe(&program),
+        "line 3: alarm 2 (soft limit): a block would leave the machine travel: the job stopped on its path before it; position kept\n    G0 X400"
+    );
+    // The interpreter met line 3 in the pass that queued line 2, before its first step: the
+    // stop left X at 0 (a program: alarm 2 all the same, as a job had queued motion).
+    assert_eq!(client.transport.pulses, [0; 6]);
+    let status = report.final_status.unwrap();
+    assert_eq!(status.state, MachineState::Alarm { code: 2 });
+    assert_eq!(status.machine_pos[0], 0);
 }
 
 #[test]

@@ -167,8 +167,9 @@ pub struct Board {
     job_queued: bool,
     /// A stopping job ends in this alarm (with its line) once at rest, instead of in Idle.
     stop_alarm: Option<(AlarmCode, u32)>,
-    /// The board reset during motion (alarm 3): homing is required, where homing is set up, until
-    /// every axis with a homing priority is homed again.
+    /// The board reset during motion (alarm 3) and nothing has re-established the position yet:
+    /// homing is required, where homing is set up, until every axis with a homing priority is
+    /// homed again; else an unlock clears it.
     position_lost: bool,
     homed: u8,
     /// Main-loop time from the last [`Board::on_inputs`], ms.
@@ -256,7 +257,7 @@ impl Board {
         };
         if how == PowerUp::MotionInterrupted {
             // grbl alarm 3: the steps in flight when the reset came are unknown.
-            board.position_lost = !homing::order(&board.setup, 0).is_empty();
+            board.position_lost = true;
             board.alarm = Some(AlarmCode::ResetDuringMotion);
             board.state = State::Alarm;
         } else if needs_home {
@@ -281,6 +282,13 @@ impl Board {
 
     pub fn alarm(&self) -> Option<AlarmCode> {
         self.alarm
+    }
+
+    /// The power-up was a [`PowerUp::MotionInterrupted`] one and neither homing nor an unlock has
+    /// re-established the position yet. The firmware keeps its motion marker set meanwhile, so a
+    /// further reset still powers up in alarm 3.
+    pub fn position_lost(&self) -> bool {
+        self.position_lost
     }
 
     /// Axes whose home is known (bit 0 = X).
