@@ -300,3 +300,44 @@ pub fn jog(
     println!("{}", format_status(&status, n));
     Ok(ExitCode::SUCCESS)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gantry_proto::MachineState;
+
+    fn status(state: MachineState) -> Status {
+        Status {
+            state,
+            machine_pos: [1_500_000, 0, 0, 0, 0, 0],
+            work_pos: [1_500_000, 0, 0, 0, 0, 0],
+            feed_um_min: 0,
+            feed_override: 100,
+            rapid_override: 100,
+            planner_fill: 0,
+            queue_fill: 0,
+            line: 7,
+            inputs: 0,
+            homed: 0b001,
+        }
+    }
+
+    #[test]
+    fn the_status_names_the_alarm_and_says_what_it_means() {
+        let text = format_status(&status(MachineState::Alarm { code: 20 }), 3);
+        assert!(text.starts_with("state:     Alarm\nmachine:   X 1.500  Y 0.000  Z 0.000"));
+        assert!(
+            text.ends_with(
+                "homed:     X\nalarm:     alarm 20 (host lost): the host stayed away while the job was held: job ended, spindle and coolant off"
+            ),
+            "{text}"
+        );
+        assert!(!format_status(&status(MachineState::Idle), 3).contains("alarm"));
+        assert!(format_status(&status(MachineState::Alarm { code: 99 }), 3)
+            .ends_with("alarm:     alarm 99 (unknown to this gantry)"));
+        // Every alarm the board can raise has a name and a text.
+        for a in gantry_machine::controller::AlarmCode::ALL {
+            assert!(!alarm_text(a as u16).contains("unknown to this gantry"));
+        }
+    }
+}

@@ -68,6 +68,11 @@ enum Command {
         #[command(flatten)]
         board: BoardArgs,
     },
+    /// Clear an alarm (the machine must be at rest); with homing required it asks for homing.
+    Unlock {
+        #[command(flatten)]
+        board: BoardArgs,
+    },
     /// Set the feed (10-200 %) and/or rapid (1-100 %) override.
     Override {
         #[arg(long)]
@@ -323,6 +328,9 @@ fn main() -> ExitCode {
         Command::Abort { board } => board
             .target()
             .and_then(|t| commands::realtime(t, Some(HostMsg::Abort))),
+        Command::Unlock { board } => board
+            .target()
+            .and_then(|t| commands::realtime(t, Some(HostMsg::Unlock))),
         Command::Override { feed, rapid, board } => board.target().and_then(|t| {
             let (mut client, axes) = commands::connect(t)?;
             if let Some(f) = feed {

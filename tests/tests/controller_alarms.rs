@@ -46,12 +46,13 @@ fn homed_x_board() -> EmulatedBoard {
 fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2() {
     let mut eb = homed_x_board();
     job(&mut eb, &long_job("G1 X400"));
-    // The interpreter meets line 204 while line ~60 runs: the stop starts at once.
+    // The interpreter meets line 204 while line 77 runs (the planner holds the 128 blocks in
+    // between): the stop starts at once.
     assert!(eb.run_until(20_000, |b| b.board.motion().state() == MotionState::Holding));
     let stop_ms = eb.now_ms() - 1;
-    let at_stop = eb.kernel.position()[0];
     assert_eq!(stop_ms, 5882);
     assert_eq!(eb.kernel.position()[0], 46_566);
+    assert_eq!(eb.board.line(), 77);
     // Spindle and coolant run until the machine is at rest (a feed hold's rule) …
     assert!(eb.board.output_levels().spindle_enable && eb.board.output_levels().flood);
     until_state(&mut eb, State::Alarm, 5_000);
@@ -342,7 +343,11 @@ fn with_host_lost_stop_s_0_a_held_job_waits_for_the_host_forever() {
 #[test]
 fn an_m0_stop_is_not_ended_by_host_loss() {
     // At M0 spindle and coolant are already off; the job waits for cycle start as programmed.
-    let (mut eb, _) = host_vanishes(|_| {}, "G21 G90\nM3 S12000\nG1 X1 F600\nM0\nG1 X2\nM30\n", 3);
+    let (mut eb, _) = host_vanishes(
+        |_| {},
+        "G21 G90\nM3 S12000\nG1 X1 F600\nM0\nG1 X2\nM30\n",
+        3,
+    );
     assert!(eb.run_until(10_000, |b| b.board.state() == State::Hold));
     eb.run_ms(120_000);
     assert_eq!(eb.board.state(), State::Hold);

@@ -5,10 +5,10 @@
 mod controller_support;
 
 use controller_support::*;
-use gantry_machine::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 use gantry_machine::board::BoardEvent;
-use gantry_machine::motion::pipeline::MotionState;
+use gantry_machine::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 use gantry_machine::controller::{AlarmCode, State};
+use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::setup::ListCommand;
 use host_sender::emulator::EmulatedBoard;
 
@@ -231,7 +231,11 @@ fn an_unexpected_switch_during_a_quiet_list_seek_still_stops_and_alarms() {
     assert!(eb.board.home(0b010));
     eb.run_until(30_000, |b| b.limit_stops == 2);
     eb.run_ms(300);
-    assert_eq!(eb.board.motion().state(), MotionState::Running, "motor 1 seeking");
+    assert_eq!(
+        eb.board.motion().state(),
+        MotionState::Running,
+        "motor 1 seeking"
+    );
     let y = eb.kernel.position()[1];
     eb.set_pin(LIMIT_MAX_BIT, true);
     until_state(&mut eb, State::Alarm, 1_000);

@@ -3,10 +3,10 @@
 
 use gantry_machine::setup::Setup;
 use gantry_proto::fault::Faults;
+use gantry_proto::MachineState;
 use host_sender::emulator::EmulatedBoard;
 use host_sender::link::{Client, Transport};
 use host_sender::program::Program;
-use gantry_proto::MachineState;
 use host_sender::stream::{continue_job, stream_program, BoardAlarm, Flow, StreamReport};
 use system_tests::{cam_program, reference, FaultyBoard};
 
