@@ -177,7 +177,7 @@ pub fn canon_json(c: &Canon) -> String {
             format!("{{\"line\":{l},\"op\":\"coolant\",\"mist\":{mist},\"flood\":{flood}}}")
         }
         Action::ToolChange { tool } => format!("{{\"line\":{l},\"op\":\"tool\",\"tool\":{tool}}}"),
-        Action::UserMCode { code } => format!("{{\"line\":{l},\"op\":\"mcode\",\"code\":{code}}}"),
+        Action::UserMCode { code, .. } => format!("{{\"line\":{l},\"op\":\"mcode\",\"code\":{code}}}"),
         Action::PathMode(PathMode::ExactStop) => {
             format!("{{\"line\":{l},\"op\":\"path\",\"mode\":\"exact\"}}")
         }

@@ -17,6 +17,10 @@
 //! `gantry_machine::controller::power_up`) is modelled too: [`EmulatedBoard::reset`] restarts the
 //! board the way a watchdog, reset-pin or power-on reset would, with the machine standing where it
 //! stopped.
+//!
+//! User outputs are virtual pins too: the kernel's output word ([`StepKernel::outputs`]), switched
+//! by on-the-fly events on the tick that starts their segment, and loaded from the board when it
+//! switches outputs itself ([`Board::sync_user_outputs`], once per main-loop pass, as the firmware).
 
 use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
@@ -32,8 +36,9 @@ use gantry_machine::units::MAX_AXES;
 /// Kernel timer counts per millisecond.
 pub const COUNTS_PER_MS: u64 = KERNEL_TIMER_HZ as u64 / 1000;
 
-/// A change of the board's pins: a kernel tick that stepped or changed direction, or a change
-/// of the input levels (then `step` is 0).
+/// A change of the board's pins: a kernel tick that stepped, changed direction or switched a user
+/// output, or a change of the input levels or of the user outputs in the main loop (then `step`
+/// is 0).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PinEvent {
     /// Virtual time, kernel timer counts.
@@ -42,6 +47,10 @@ pub struct PinEvent {
     pub dir: u8,
     /// Debounced input levels (`controller::inputs::InputBits`).
     pub inputs: u32,
+    /// User output pins (bit n = output n), switched before this event's steps.
+    pub outputs: u16,
+    /// Timer counts to the kernel's next tick (0: idle, or a main-loop event).
+    pub period: u32,
 }
 
 /// A limit switch at a fixed place of the machine.
@@ -124,8 +133,8 @@ pub struct EmulatedBoard {
     pub switches: Vec<LimitSwitch>,
     /// A modelled ganged axis.
     pub gang: Option<Gang>,
-    /// User outputs as the board drove them at the last main-loop pass.
-    user_outputs: u16,
+    /// User output pins at the last pin event.
+    last_outputs: u16,
     /// Polarity and debounce the debouncer was built with.
     debounce_setup: (u32, u8),
     /// Physical position = kernel steps + offset (homing redefines the kernel's zero).
@@ -182,7 +191,7 @@ impl EmulatedBoard {
             adc: AdcReadings::default(),
             switches: Vec::new(),
             gang: None,
-            user_outputs: 0,
+            last_outputs: 0,
             phys_offset: [0; MAX_AXES],
             debouncer,
             arm: 0,
@@ -281,14 +290,20 @@ impl EmulatedBoard {
         p
     }
 
+    /// User output pins now (bit n = output n).
+    pub fn user_outputs(&self) -> u16 {
+        self.kernel.outputs()
+    }
+
     /// Logical levels of the modelled switches now, and the bits they own.
     fn switch_levels(&self) -> (u32, u32) {
         let p = self.physical();
+        let user_outputs = self.kernel.outputs();
         let (mut on, mut owned) = (0, 0);
         if let Some(g) = &self.gang {
             owned |= g.bit();
             for m in 0..2 {
-                if self.user_outputs & (1 << g.enable[m]) != 0 && g.on_switch(m) {
+                if user_outputs & (1 << g.enable[m]) != 0 && g.on_switch(m) {
                     on |= g.bit();
                 }
             }
@@ -415,11 +430,12 @@ impl EmulatedBoard {
         let out = self
             .kernel
             .tick(&mut self.fifo, self.limit || self.switch_stop);
+        let user_outputs = self.kernel.outputs();
         if let Some(g) = self.gang.as_mut() {
             if out.step & (1 << g.axis) != 0 {
                 let d = if out.dir & (1 << g.axis) != 0 { -1 } else { 1 };
                 for m in 0..2 {
-                    if self.user_outputs & (1 << g.enable[m]) != 0 {
+                    if user_outputs & (1 << g.enable[m]) != 0 {
                         g.motors[m] += d;
                     }
                 }
@@ -429,7 +445,7 @@ impl EmulatedBoard {
             // The switch pin follows this tick's step; the interrupt sees it on the next tick.
             self.switch_stop = self.logical_pins() & self.arm & LIMIT_BITS != 0;
         }
-        if out.step != 0 || out.dir != self.last_dir {
+        if out.step != 0 || out.dir != self.last_dir || user_outputs != self.last_outputs {
             for (axis, p) in self.pulses.iter_mut().enumerate() {
                 *p += u64::from(out.step >> axis & 1);
             }
@@ -439,9 +455,12 @@ impl EmulatedBoard {
                     step: out.step,
                     dir: out.dir,
                     inputs: self.inputs,
+                    outputs: user_outputs,
+                    period: out.period,
                 });
             }
             self.last_dir = out.dir;
+            self.last_outputs = user_outputs;
         }
         self.next_tick = (out.period != 0).then(|| self.now + out.period as u64);
     }
@@ -493,6 +512,8 @@ impl EmulatedBoard {
                     step: 0,
                     dir: self.last_dir,
                     inputs: levels.0,
+                    outputs: self.last_outputs,
+                    period: 0,
                 });
             }
         }
@@ -534,8 +555,24 @@ impl EmulatedBoard {
                 self.underruns += 1;
             }
         }
+        if let Some(word) = self.board.sync_user_outputs(self.kernel.outputs()) {
+            // The board switched outputs itself (a list at rest, the safe state).
+            self.kernel.set_outputs(word);
+            if word != self.last_outputs {
+                self.last_outputs = word;
+                if let Some(f) = self.observer.as_mut() {
+                    f(PinEvent {
+                        time: self.now,
+                        step: 0,
+                        dir: self.last_dir,
+                        inputs: self.inputs,
+                        outputs: word,
+                        period: 0,
+                    });
+                }
+            }
+        }
         self.arm = self.board.limit_arm();
-        self.user_outputs = self.board.output_levels().user;
         // An armed switch that is already active stops the kernel's next tick.
         self.switch_stop = self.logical_pins() & self.arm != 0;
         // Events raised by this poll go out in the same pass.

@@ -1,5 +1,5 @@
 //! `gantry simulate FILE --vcd out.vcd`: run the job on the emulated board and record its step,
-//! direction, enable and input pins as a VCD trace (GTKWave, PulseView).
+//! direction, enable, input and user output pins as a VCD trace (GTKWave, PulseView).
 
 use crate::emulator::{EmulatedBoard, PinEvent};
 use crate::link::Client;
@@ -9,7 +9,7 @@ use crate::vcd::{counts_to_ns, VcdEvent, VcdOptions, VcdSummary, VcdWriter};
 use anyhow::Context;
 use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
-use gantry_machine::setup::Setup;
+use gantry_machine::setup::{Setup, USER_OUTPUTS};
 use std::cell::RefCell;
 use std::fs::File;
 use std::io::BufWriter;
@@ -37,6 +37,7 @@ pub fn trace(
     let opts = VcdOptions {
         axes: setup.axis_count as usize,
         inputs: INPUT_NAMES.iter().map(|s| s.to_string()).collect(),
+        outputs: USER_OUTPUTS as usize,
         pulse_ns: 2_000,
         from_ns,
         to_ns,
@@ -60,6 +61,7 @@ pub fn trace(
                 dir: p.dir,
                 enable: enabled,
                 inputs: p.inputs,
+                outputs: p.outputs,
             };
             if let Err(err) = wr.event(ev) {
                 e.borrow_mut().get_or_insert(err);

@@ -1,7 +1,8 @@
 //! Value Change Dump (IEEE 1364 §18) traces of the emulated board's pins, for GTKWave or PulseView.
 //!
 //! The board (or the emulated board's kernel ticks) hands in [`VcdEvent`]s in time order: the
-//! axes that step at that instant, the direction and enable levels and the input levels. Each
+//! axes that step at that instant, the direction and enable levels, the input levels and the user
+//! output levels. Each
 //! step becomes a pulse: high at the event's time, low `pulse_ns` later. Only changes are
 //! written, with a 1 ns timescale, optionally limited to a `--from/--to` window. [`read_vcd`] is a
 //! small reader (enough for the tests and for checking a trace): it counts rising edges per signal.
@@ -25,6 +26,8 @@ pub struct VcdEvent {
     pub enable: bool,
     /// Input levels (bit i = input i).
     pub inputs: u32,
+    /// User output levels (bit n = output n).
+    pub outputs: u16,
 }
 
 /// Converts a time in step-kernel timer counts to ns, rounding to the nearest ns.
@@ -63,6 +66,8 @@ pub struct VcdOptions {
     pub axes: usize,
     /// Names of the input signals, bit 0 first (at most 32).
     pub inputs: Vec<String>,
+    /// User outputs traced as `out0`, `out1`, … (at most 16).
+    pub outputs: usize,
     /// Step pulse width, ns.
     pub pulse_ns: u64,
     /// Only changes at `from_ns..=to_ns` are written; the state at `from_ns` is the dump's start.
@@ -75,6 +80,7 @@ impl Default for VcdOptions {
         VcdOptions {
             axes: 3,
             inputs: Vec::new(),
+            outputs: 0,
             pulse_ns: 2_000,
             from_ns: None,
             to_ns: None,
@@ -120,10 +126,11 @@ fn ident(mut n: usize) -> String {
     }
 }
 
-/// The signals in order: per axis step and dir, then enable, then the inputs.
+/// The signals in order: per axis step and dir, then enable, then the inputs, then the outputs.
 struct Signals {
     axes: usize,
     inputs: usize,
+    outputs: usize,
 }
 
 impl Signals {
@@ -139,8 +146,11 @@ impl Signals {
     fn input(&self, i: usize) -> usize {
         2 * self.axes + 1 + i
     }
+    fn output(&self, n: usize) -> usize {
+        2 * self.axes + 1 + self.inputs + n
+    }
     fn count(&self) -> usize {
-        2 * self.axes + 1 + self.inputs
+        2 * self.axes + 1 + self.inputs + self.outputs
     }
 }
 
@@ -224,17 +234,19 @@ pub struct VcdWriter<W: Write> {
 
 impl<W: Write> VcdWriter<W> {
     /// Writes the header ($timescale 1 ns, one `gantry` scope with `<axis>_step`, `<axis>_dir`,
-    /// `enable`, and an `inputs` scope).
+    /// `enable`, an `inputs` scope and an `outputs` scope).
     pub fn new(mut out: W, opts: &VcdOptions) -> io::Result<Self> {
-        if opts.axes == 0 || opts.axes > AXES.len() || opts.inputs.len() > 32 {
+        if opts.axes == 0 || opts.axes > AXES.len() || opts.inputs.len() > 32 || opts.outputs > 16
+        {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidInput,
-                "a VCD trace has 1..=6 axes and at most 32 inputs",
+                "a VCD trace has 1..=6 axes, at most 32 inputs and at most 16 outputs",
             ));
         }
         let sig = Signals {
             axes: opts.axes,
             inputs: opts.inputs.len(),
+            outputs: opts.outputs,
         };
         let ids: Vec<String> = (0..sig.count()).map(ident).collect();
         writeln!(out, "$version Gantry emulated board $end")?;
@@ -253,6 +265,13 @@ impl<W: Write> VcdWriter<W> {
                     .map(|c| if c.is_ascii_graphic() { c } else { '_' })
                     .collect();
                 writeln!(out, "$var wire 1 {} {name} $end", ids[sig.input(i)])?;
+            }
+            writeln!(out, "$upscope $end")?;
+        }
+        if opts.outputs > 0 {
+            writeln!(out, "$scope module outputs $end")?;
+            for n in 0..opts.outputs {
+                writeln!(out, "$var wire 1 {} out{n} $end", ids[sig.output(n)])?;
             }
             writeln!(out, "$upscope $end")?;
         }
@@ -326,6 +345,9 @@ impl<W: Write> VcdWriter<W> {
         em.set(e.time_ns, sig.enable(), e.enable)?;
         for i in 0..sig.inputs {
             em.set(e.time_ns, sig.input(i), e.inputs >> i & 1 == 1)?;
+        }
+        for n in 0..sig.outputs {
+            em.set(e.time_ns, sig.output(n), e.outputs >> n & 1 == 1)?;
         }
         let rise = step & !high;
         for a in 0..sig.axes {
@@ -499,6 +521,7 @@ mod tests {
             dir,
             enable: true,
             inputs: 0,
+            outputs: 0,
         }
     }
 

@@ -261,11 +261,13 @@ fn vcd_rising_edges_equal_the_steps_fed_in() {
             dir: if k < 2500 { 0b101 } else { 0b010 },
             enable: true,
             inputs: u32::from(k % 1000 < 10),
+            outputs: u16::from(k % 2000 < 100) << 1,
         });
     }
     let opts = VcdOptions {
         axes: 3,
         inputs: vec!["limit_x".into(), "hold".into()],
+        outputs: 2,
         ..VcdOptions::default()
     };
     let mut out = Vec::new();
@@ -281,6 +283,9 @@ fn vcd_rising_edges_equal_the_steps_fed_in() {
     assert_eq!(trace.rising["limit_x"], 5);
     assert_eq!(trace.rising["hold"], 0);
     assert_eq!(trace.rising["y_dir"], 1);
+    assert_eq!(trace.rising["out0"], 0);
+    // Output 1 is on for the first 100 of every 2000 events.
+    assert_eq!(trace.rising["out1"], 3);
 
     // The plain entry point, 2 axes.
     let mut out = Vec::new();
@@ -323,6 +328,7 @@ fn vcd_of_the_bracket_run_on_virtual_time() {
                 dir: s.dir,
                 enable: true,
                 inputs: 0,
+                outputs: 0,
             };
             w.event(e).unwrap();
         }

@@ -87,8 +87,9 @@ pub enum Action {
     Coolant { mist: bool, flood: bool },
     /// M6 tool change to tool `tool`.
     ToolChange { tool: u32 },
-    /// A user M code from the machine setup.
-    UserMCode { code: u16 },
+    /// A user M code from the machine setup. `at_rest`: it must run with the machine stopped
+    /// even when its list could switch on the fly (the `gixa` G88 punch's M10).
+    UserMCode { code: u16, at_rest: bool },
     /// G61/G64 path mode change.
     PathMode(PathMode),
     /// Program stop or end.

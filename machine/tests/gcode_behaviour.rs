@@ -731,7 +731,10 @@ fn spindle_coolant_tools_user_codes_and_stops() {
                 mist: false,
                 flood: false
             },
-            Action::UserMCode { code: 100 },
+            Action::UserMCode {
+                code: 100,
+                at_rest: false
+            },
             Action::Spindle {
                 state: Spindle::Off,
                 rpm: 800

@@ -192,9 +192,15 @@ fn g88_punch_runs_the_m10_list_at_each_position() {
         a,
         vec![
             rapid(1.0, 1.0, 0.0),
-            Action::UserMCode { code: 10 },
+            Action::UserMCode {
+                code: 10,
+                at_rest: true
+            },
             rapid(2.0, 1.0, 0.0),
-            Action::UserMCode { code: 10 },
+            Action::UserMCode {
+                code: 10,
+                at_rest: true
+            },
             rapid(0.0, 1.0, 0.0),
         ]
     );

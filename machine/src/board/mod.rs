@@ -22,8 +22,9 @@ use crate::controller::{AlarmCode, State};
 use crate::gcode::{GcodeError, Interpreter};
 use crate::motion::config::MotionConfig;
 use crate::motion::kernel::Segment;
+use crate::motion::output_event::OutputEvent;
 use crate::motion::pipeline::{Motion, MotionState, PushError};
-use crate::setup::Setup;
+use crate::setup::{ListCommand, Setup};
 use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
 pub use source::{JumpRequest, JumpTarget, StreamSource, LINE_CAPACITY};
@@ -176,8 +177,12 @@ pub struct Board {
     now_ms: u32,
     /// Debounced input levels from the last [`Board::on_inputs`].
     levels: InputBits,
-    /// User outputs (bit n = output n) set by command lists.
+    /// User outputs (bit n = output n): set by command lists, and by the kernel's on-the-fly
+    /// events once [`Board::sync_user_outputs`] learns of them.
     user_outputs: u16,
+    /// The user output word last exchanged with the kernel (`None`: the board must load its own,
+    /// e.g. the safe state).
+    user_loaded: Option<u16>,
     /// A user M-code list running at its sync point.
     list: Option<ListRunner>,
     /// Homing cycle in progress and its running list.
@@ -240,6 +245,7 @@ impl Board {
             now_ms: 0,
             levels: InputBits(0),
             user_outputs: 0,
+            user_loaded: Some(0),
             list: None,
             homing: None,
             homing_list: None,
@@ -697,6 +703,9 @@ impl Board {
         };
         self.saved_outputs = None;
         self.user_outputs = 0;
+        // Loaded into the kernel even if the board's word was 0 already: an on-the-fly event
+        // may have switched an output since the last exchange.
+        self.user_loaded = None;
         self.list = None;
     }
 
@@ -813,6 +822,14 @@ impl Board {
         if let Some(req) = self.source.take_request() {
             self.emit(BoardEvent::Jump(req));
         }
+        if matches!(self.state, State::Run | State::Hold)
+            && self.ending != Ending::No
+            && !self.aborting
+        {
+            // No motion follows: an on-the-fly M code still waiting for a move runs once the
+            // motion before it has ended (retried while the queue is full).
+            let _ = self.motion.flush_output();
+        }
         if kernel_drained {
             self.perform_sync();
         }
@@ -881,7 +898,11 @@ impl Board {
                 }
                 self.last_motion_line = canon.line;
             }
-            match self.motion.push(&canon) {
+            let pushed = match self.on_the_fly(&canon) {
+                Some(output) => self.motion.push_output(&canon, output),
+                None => self.motion.push(&canon),
+            };
+            match pushed {
                 Ok(()) => {}
                 Err(PushError::Full) => {
                     self.pending = Some(canon);
@@ -911,6 +932,32 @@ impl Board {
             });
             self.ending = Ending::Failed;
         }
+    }
+
+    /// The output event of an on-the-fly M code (seed 003 "On the Fly" switching): a user M code
+    /// whose list is exactly one `set n` or `clear n` (n < 16) switches that output at its exact
+    /// place on the path without stopping the motion. `None` for everything else, which stays a
+    /// sync point (an M code with no list or an empty one included). In a dry run a list flagged
+    /// `dry_run_disabled` gives [`OutputEvent::NONE`]: nothing switches, the motion is the same.
+    fn on_the_fly(&self, canon: &Canon) -> Option<OutputEvent> {
+        let Action::UserMCode {
+            code,
+            at_rest: false,
+        } = canon.action
+        else {
+            return None;
+        };
+        let list = self.setup.outputs.mcode_lists.iter().find(|l| l.code == code)?;
+        let output = match list.commands.as_slice() {
+            [ListCommand::Set(n)] => OutputEvent::new(*n, true),
+            [ListCommand::Clear(n)] => OutputEvent::new(*n, false),
+            _ => None,
+        }?;
+        Some(if self.dry_run && list.dry_run_disabled {
+            OutputEvent::NONE
+        } else {
+            output
+        })
     }
 
     /// Dry run: every feed move at the setup's dry-run feed.
@@ -998,7 +1045,7 @@ impl Board {
                 self.outputs.flood = flood;
             }
             Action::ToolChange { tool } => self.outputs.tool = tool,
-            Action::UserMCode { code } => {
+            Action::UserMCode { code, .. } => {
                 self.outputs.last_user_mcode = code;
                 let list = self
                     .setup
@@ -1069,6 +1116,24 @@ impl Board {
             flood: o.flood,
             user: self.user_outputs,
         }
+    }
+
+    /// Exchanges the user output word with the owner of the step kernel, once per main-loop pass
+    /// after [`Board::poll`] and the segment fill. `kernel_word` is `StepKernel::outputs()`: the
+    /// levels on the pins, including the on-the-fly events the kernel has fired. When the board
+    /// switched outputs itself since the last exchange (a command list at rest, an alarm's safe
+    /// state) it returns the word the owner must load into the kernel (`StepKernel::set_outputs`)
+    /// and drive onto the pins; otherwise it takes the kernel's word, so the board's levels (status,
+    /// stop/restore rules) never lag the pins by more than one pass. The board only switches
+    /// outputs at rest or with the kernel stopped, so the two never change the same word at once.
+    pub fn sync_user_outputs(&mut self, kernel_word: u16) -> Option<u16> {
+        if self.user_loaded != Some(self.user_outputs) {
+            self.user_loaded = Some(self.user_outputs);
+            return Some(self.user_outputs);
+        }
+        self.user_outputs = kernel_word;
+        self.user_loaded = Some(kernel_word);
+        None
     }
 
     /// A new step position for the kernel (homing set home): the owner loads it into the kernel

@@ -186,6 +186,8 @@ impl CycleRun {
                             out,
                             Action::UserMCode {
                                 code: self.punch_m_code,
+                                // A punch needs the machine stopped at its position.
+                                at_rest: true,
                             },
                         );
                         self.first = false;

@@ -512,7 +512,13 @@ impl Interpreter {
             }
         }
         for code in user_codes {
-            self.push(line, Action::UserMCode { code })?;
+            self.push(
+                line,
+                Action::UserMCode {
+                    code,
+                    at_rest: false,
+                },
+            )?;
         }
         // 3. dwell
         if nonmodal == Some(40) {

@@ -95,7 +95,7 @@ fn digest_action(d: &mut Digest, a: &Action) {
             d.bytes(b"t");
             d.u64(tool as u64);
         }
-        Action::UserMCode { code } => {
+        Action::UserMCode { code, .. } => {
             d.bytes(b"m");
             d.u64(code as u64);
         }

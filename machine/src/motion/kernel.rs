@@ -13,7 +13,14 @@
 //! The tick does no division and no multiplication; positions are counted per axis in whole steps.
 //! `stop = true` (a limit flag) latches: from that tick on no step is emitted, the current segment
 //! is dropped and the kernel reports idle until [`StepKernel::clear_stop`] is called.
+//!
+//! A segment may carry an on-the-fly [`OutputEvent`]: the tick that starts the segment reports it
+//! in [`TickOut::output`] (so the output switches with the segment's first step) and the kernel's
+//! user output word ([`StepKernel::outputs`]) follows it. The word is what the kernel's owner has
+//! on the user output pins; the owner loads it with [`StepKernel::set_outputs`] when the board
+//! switches outputs itself (command lists at rest, safe state).
 
+use super::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 
 /// Frequency of the step timer the periods count in: 12 MHz divides both boards' TIM2 clocks
@@ -32,6 +39,8 @@ pub struct Segment {
     pub period: u32,
     /// Direction byte: bit i set = axis i moves towards negative.
     pub dir: u8,
+    /// Output switched by the tick that starts this segment (on-the-fly M code), usually none.
+    pub output: OutputEvent,
 }
 
 impl Segment {
@@ -42,6 +51,7 @@ impl Segment {
             ticks,
             period,
             dir: 0,
+            output: OutputEvent::NONE,
         }
     }
 
@@ -77,6 +87,9 @@ pub struct TickOut {
     pub dir: u8,
     /// Timer counts to the next tick; 0 = idle (no segment), stop the timer.
     pub period: u32,
+    /// User output to switch now, before this tick's steps (the first tick of a segment that
+    /// carries an on-the-fly event); [`OutputEvent::NONE`] on every other tick.
+    pub output: OutputEvent,
 }
 
 /// The per-tick Bresenham state machine.
@@ -99,6 +112,10 @@ pub struct StepKernel {
     /// Position at the start of the running segment, in steps.
     base: [i64; MAX_AXES],
     stopped: bool,
+    /// User output word (bit n = output n) as the kernel's events and its owner left it.
+    outputs: u16,
+    /// Event of the segment just loaded, reported by the next tick.
+    event: OutputEvent,
 }
 
 impl Default for StepKernel {
@@ -121,6 +138,8 @@ impl StepKernel {
             axes: 0,
             base: [0; MAX_AXES],
             stopped: false,
+            outputs: 0,
+            event: OutputEvent::NONE,
         }
     }
 
@@ -135,6 +154,7 @@ impl StepKernel {
                 step: 0,
                 dir: self.dir,
                 period: 0,
+                output: OutputEvent::NONE,
             };
         }
         let ticks = self.ticks;
@@ -159,6 +179,7 @@ impl StepKernel {
             step,
             dir: self.dir,
             period: self.period,
+            output: core::mem::take(&mut self.event),
         }
     }
 
@@ -178,6 +199,8 @@ impl StepKernel {
         self.period = seg.period.max(1);
         self.dir = seg.dir;
         self.axes = seg.axes_in_use() as u8;
+        self.event = seg.output;
+        self.outputs = seg.output.apply(self.outputs);
         true
     }
 
@@ -205,6 +228,7 @@ impl StepKernel {
             step: 0,
             dir: self.dir,
             period: 0,
+            output: OutputEvent::NONE,
         }
     }
 
@@ -216,6 +240,19 @@ impl StepKernel {
     /// Re-arms the kernel after a stop (flush the segment queue first).
     pub fn clear_stop(&mut self) {
         self.stopped = false;
+    }
+
+    /// User output word (bit n = output n): the level of every user output after the events of
+    /// the segments run so far and the last [`Self::set_outputs`].
+    pub fn outputs(&self) -> u16 {
+        self.outputs
+    }
+
+    /// Loads the user output word (the board switched outputs itself: a command list at rest, an
+    /// alarm's safe state). The owner drives the pins to it.
+    pub fn set_outputs(&mut self, word: u16) {
+        self.outputs = word;
+        self.event = OutputEvent::NONE;
     }
 
     /// True while a segment is running (ticks are still due).
@@ -271,6 +308,7 @@ mod tests {
             ticks,
             period: 100,
             dir,
+            output: OutputEvent::NONE,
         }
     }
 
@@ -336,6 +374,38 @@ mod tests {
         assert_eq!(k.position(), [10, 5, 0, 0, 0, 0]);
         k.clear_stop();
         assert_eq!(k.tick(&mut q, false).period, 0);
+    }
+
+    #[test]
+    fn an_output_event_is_reported_by_the_tick_that_starts_its_segment() {
+        let on = OutputEvent::new(1, true).unwrap();
+        let off = OutputEvent::new(1, false).unwrap();
+        let mut second = seg([5, 0, 0, 0, 0, 0], 5, 0);
+        second.output = on;
+        let mut third = seg([3, 0, 0, 0, 0, 0], 3, 0);
+        third.output = off;
+        let segs = [seg([10, 0, 0, 0, 0, 0], 10, 0), second, third];
+        let mut q = Queue(&segs, 0);
+        let mut k = StepKernel::new();
+        let mut edges = heapless::Vec::<(u32, i64, OutputEvent, u16), 4>::new();
+        for t in 0..18 {
+            // Position before this tick's step, as the output edge sees it.
+            let before = k.position()[0];
+            let out = k.tick(&mut q, false);
+            if out.output.is_some() {
+                edges.push((t, before, out.output, k.outputs())).unwrap();
+                // The output and the segment's first step come out of the same tick.
+                assert_eq!(out.step, 1);
+            }
+        }
+        // On after exactly 10 steps, off after 15, each reported once.
+        assert_eq!(
+            edges.as_slice(),
+            &[(10, 10, on, 0b10), (15, 15, off, 0)]
+        );
+        assert_eq!(k.position()[0], 18);
+        k.set_outputs(0b1001);
+        assert_eq!(k.outputs(), 0b1001);
     }
 
     #[test]

@@ -3,6 +3,8 @@
 //! Data flow: [`pipeline::Motion::push`] (canonical actions; arcs cut by [`arc`]) → [`planner`]
 //! (look-ahead ring) → [`prep`] (constant-rate [`kernel::Segment`]s, timed by [`profile`]) →
 //! [`kernel::StepKernel::tick`] (the step interrupt). [`sim`] runs all of it on virtual time.
+//! On-the-fly output changes ([`output_event`]) ride along the same path, from a planner block to
+//! its first segment to the tick that starts it.
 
 // Per-axis loops index several parallel arrays by axis number; iterator chains would hide that.
 #![allow(clippy::needless_range_loop)]
@@ -10,6 +12,7 @@
 pub mod arc;
 pub mod config;
 pub mod kernel;
+pub mod output_event;
 pub mod pipeline;
 pub mod planner;
 pub mod prep;

@@ -7,10 +7,19 @@
 //! kernel's segment queue, and `sync_point` / `release_sync` when the queue reaches an action the
 //! controller must perform at rest. Realtime requests: [`Motion::feed_hold`], [`Motion::resume`],
 //! [`Motion::abort`], [`Motion::set_feed_override`], [`Motion::set_rapid_override`].
+//!
+//! On-the-fly outputs (seed 003): [`Motion::push_output`] takes an M code that switches one output
+//! without stopping. Its [`OutputEvent`] waits for the next line block and rides on it, so it
+//! fires as that block starts: at the junction when it stands between two moves (at any speed),
+//! before the motion when it shares a block with it. Two of them between the same pair of moves
+//! break the contour (both become sync points, run at rest in order), and one followed by no
+//! motion before a sync point, a dwell or the end ([`Motion::flush_output`]) becomes a sync
+//! point itself, so it runs when the motion before it has ended.
 
 use super::arc::{plane_axes, ArcChords};
 use super::config::MotionConfig;
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
+use super::output_event::OutputEvent;
 use super::planner::{Block, BlockKind, LineRequest, Planner};
 use super::prep::{BlockReport, Prep, PrepOut, PrepState};
 use super::trig::{polar, QUARTER_TURN};
@@ -66,6 +75,8 @@ pub struct Motion<const N: usize> {
     junction_deviation: u64,
     abort_pending: bool,
     at_sync: bool,
+    /// An on-the-fly M code waiting for the next line block: its action and its event.
+    pending_output: Option<(Canon, OutputEvent)>,
 }
 
 impl<const N: usize> Motion<N> {
@@ -83,6 +94,7 @@ impl<const N: usize> Motion<N> {
             junction_deviation: cfg.junction_deviation.max(0) as u64,
             abort_pending: false,
             at_sync: false,
+            pending_output: None,
         }
     }
 
@@ -146,6 +158,11 @@ impl<const N: usize> Motion<N> {
                 Ok(())
             }
             Action::Dwell { micros } => {
+                let pending = usize::from(self.pending_output.is_some());
+                if !self.has_room(1 + pending, pending) {
+                    return Err(PushError::Full);
+                }
+                self.output_to_sync();
                 let counts = micros.saturating_mul(KERNEL_TIMER_HZ as u64 / 1_000_000);
                 self.planner
                     .push_marker(Block::marker(BlockKind::Dwell { counts }, canon.line));
@@ -170,14 +187,75 @@ impl<const N: usize> Motion<N> {
             | Action::ToolChange { .. }
             | Action::UserMCode { .. }
             | Action::Stop(_) => {
-                if self.syncs.is_full() {
+                let pending = usize::from(self.pending_output.is_some());
+                if !self.has_room(1 + pending, 1 + pending) {
                     return Err(PushError::Full);
                 }
-                let _ = self.syncs.push_back(*canon);
-                self.planner
-                    .push_marker(Block::marker(BlockKind::Sync, canon.line));
+                self.output_to_sync();
+                self.push_sync(canon);
                 Ok(())
             }
+        }
+    }
+
+    /// Queues an on-the-fly M code (`canon`, normally a user M code whose list is one output
+    /// command) that switches `output` without stopping: it fires as the next line block starts.
+    /// A second one before that block makes both sync points (seed 003: two M codes between the
+    /// same pair of motion blocks break the contour). `output` may be [`OutputEvent::NONE`] (a
+    /// dry run skips the output but keeps the motion the same).
+    pub fn push_output(&mut self, canon: &Canon, output: OutputEvent) -> Result<(), PushError> {
+        self.feed_arc();
+        if self.arc.is_some() || self.abort_pending {
+            return Err(PushError::Full);
+        }
+        if self.pending_output.is_none() {
+            self.pending_output = Some((*canon, output));
+            return Ok(());
+        }
+        if !self.has_room(2, 2) {
+            return Err(PushError::Full);
+        }
+        self.output_to_sync();
+        self.push_sync(canon);
+        Ok(())
+    }
+
+    /// No more motion follows (end of the program, or a rejected block): an on-the-fly M code
+    /// still waiting for a line block becomes a sync point, performed when the motion before it
+    /// has ended. `Full` while the queue has no room (call again).
+    pub fn flush_output(&mut self) -> Result<(), PushError> {
+        if self.pending_output.is_none() {
+            return Ok(());
+        }
+        self.feed_arc();
+        if self.arc.is_some() || self.abort_pending || !self.has_room(1, 1) {
+            return Err(PushError::Full);
+        }
+        self.output_to_sync();
+        Ok(())
+    }
+
+    /// True while an on-the-fly M code waits for the next line block.
+    pub fn output_pending(&self) -> bool {
+        self.pending_output.is_some()
+    }
+
+    /// Room for `blocks` more planner blocks and `syncs` more sync points.
+    fn has_room(&self, blocks: usize, syncs: usize) -> bool {
+        self.planner.len() + blocks <= N && self.syncs.len() + syncs <= MAX_SYNCS
+    }
+
+    /// Queues a sync point (room checked by the caller).
+    fn push_sync(&mut self, canon: &Canon) {
+        let _ = self.syncs.push_back(*canon);
+        self.planner
+            .push_marker(Block::marker(BlockKind::Sync, canon.line));
+    }
+
+    /// The waiting on-the-fly M code, if any, becomes a sync point (room checked by the caller).
+    fn output_to_sync(&mut self) {
+        if let Some((canon, _)) = self.pending_output.take() {
+            self.push_sync(&canon);
         }
     }
 
@@ -207,13 +285,20 @@ impl<const N: usize> Motion<N> {
             speed,
             exact_stop_before: self.exact_stop,
             junction_deviation: self.junction_deviation,
+            output: self.pending_output.map_or(OutputEvent::NONE, |(_, e)| e),
         };
         for i in 0..MAX_AXES {
             req.steps[i] = target[i] - self.steps[i];
             req.delta[i] = to[i] - self.position[i];
         }
+        let blocks = self.planner.len();
         let queued = self.planner.push_line(&self.cfg, &req);
         debug_assert!(queued);
+        if self.planner.len() > blocks {
+            // The waiting on-the-fly output rides on this block (a move without steps adds no
+            // block and leaves it for the next one).
+            self.pending_output = None;
+        }
         self.position = *to;
         self.steps = target;
     }
@@ -385,6 +470,7 @@ impl<const N: usize> Motion<N> {
     fn finish_abort(&mut self) {
         self.planner.clear();
         self.syncs.clear();
+        self.pending_output = None;
         self.arc = None;
         self.at_sync = false;
         self.prep.reset();

@@ -19,6 +19,7 @@
 //! (override change, resume) recomputes every limit, as grbl does.
 
 use super::config::{MotionConfig, MAX_SPEED};
+use super::output_event::OutputEvent;
 use super::trig::{div_u64, isqrt_u128, isqrt_u64, mul_div};
 use crate::units::MAX_AXES;
 use heapless::Deque;
@@ -51,6 +52,8 @@ pub struct Block {
     pub steps: [u32; MAX_AXES],
     /// Direction byte (bit i set = axis i moves towards negative).
     pub dir: u8,
+    /// On-the-fly output switched as the block starts (with its first step), usually none.
+    pub output: OutputEvent,
     /// Step events of the dominant axis.
     pub events: u32,
     /// Path length, nm.
@@ -89,6 +92,7 @@ impl Block {
         line: 0,
         steps: [0; MAX_AXES],
         dir: 0,
+        output: OutputEvent::NONE,
         events: 0,
         length: 0,
         accel: 1,
@@ -129,6 +133,8 @@ pub struct LineRequest {
     pub exact_stop_before: bool,
     /// Junction deviation for this corner, nm.
     pub junction_deviation: u64,
+    /// On-the-fly output switched as the line starts.
+    pub output: OutputEvent,
 }
 
 /// The block ring and the planning state.
@@ -346,7 +352,8 @@ impl<const N: usize> Planner<N> {
         true
     }
 
-    /// Plans a straight move; false when the ring is full. A move without steps is dropped (true).
+    /// Plans a straight move; false when the ring is full. A move without steps is dropped (true;
+    /// the ring's length tells whether a block was added).
     pub fn push_line(&mut self, cfg: &MotionConfig, req: &LineRequest) -> bool {
         if self.is_full() {
             return false;
@@ -417,6 +424,7 @@ impl<const N: usize> Planner<N> {
             line: req.line,
             steps,
             dir,
+            output: req.output,
             events,
             length,
             accel,
@@ -572,6 +580,7 @@ mod tests {
             speed: Some(feed_mm_min * NM_PER_MM as u64 / 60),
             exact_stop_before: false,
             junction_deviation: cfg.junction_deviation as u64,
+            output: OutputEvent::NONE,
         }
     }
 

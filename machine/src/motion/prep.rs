@@ -7,8 +7,12 @@
 //! closed-form [`Profile`] time at the segment's end, minus the time already emitted, so the
 //! rounding of tick periods never drifts. At low step rates the tick is over-driven 2×, 4× or 8×
 //! (AMASS) so the other axes place their steps more finely.
+//!
+//! A block's on-the-fly output event goes on the block's first segment only (a hold that stops
+//! and resumes inside the block does not repeat it).
 
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
+use super::output_event::OutputEvent;
 use super::planner::{Block, BlockKind, Planner};
 use super::profile::Profile;
 use super::trig::{div_u64, isqrt_u64, mul_div};
@@ -70,6 +74,8 @@ pub struct Prep {
     s_now: u64,
     /// Steps done per axis in the head block.
     cum: [u32; MAX_AXES],
+    /// The head block's output event, until its first segment carries it.
+    output: OutputEvent,
     profile: Profile,
     /// Counts emitted since the profile's origin.
     emitted: u64,
@@ -100,6 +106,7 @@ impl Prep {
             done: 0,
             s_now: 0,
             cum: [0; MAX_AXES],
+            output: OutputEvent::NONE,
             profile: Profile::ZERO,
             emitted: 0,
             exit_sq: 0,
@@ -250,6 +257,7 @@ impl Prep {
             self.done = 0;
             self.s_now = 0;
             self.cum = [0; MAX_AXES];
+            self.output = b.output;
             let v_in = if b.stop_before { 0 } else { self.carry };
             self.reprofile(b, planner, 0, v_in);
             self.report = BlockReport {
@@ -335,6 +343,7 @@ impl Prep {
             ticks,
             period,
             dir: b.dir,
+            output: core::mem::take(&mut self.output),
         })
     }
 }

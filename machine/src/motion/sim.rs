@@ -8,6 +8,7 @@
 
 use super::config::MotionConfig;
 use super::kernel::{Segment, SegmentSource, StepKernel, TickOut, KERNEL_TIMER_HZ};
+use super::output_event::OutputEvent;
 use super::pipeline::{Motion, MotionState, PushError};
 use super::prep::BlockReport;
 use crate::canon::Canon;
@@ -29,6 +30,13 @@ pub struct StepEvent {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SimEvent {
     Step(StepEvent),
+    /// A tick switched a user output (an on-the-fly event), before that tick's steps.
+    Output {
+        time: u64,
+        output: OutputEvent,
+        /// The kernel's user output word after it.
+        outputs: u16,
+    },
     /// Segment prep finished a block (reported when prepared, `time` is the virtual time then).
     Block {
         report: BlockReport,
@@ -110,6 +118,13 @@ impl<const N: usize> Sim<N> {
             self.fill(on);
         }
         let out = self.kernel.tick(&mut self.fifo, self.stop);
+        if out.output.is_some() {
+            on(SimEvent::Output {
+                time: self.now,
+                output: out.output,
+                outputs: self.kernel.outputs(),
+            });
+        }
         if out.step != 0 {
             on(SimEvent::Step(StepEvent {
                 time: self.now,

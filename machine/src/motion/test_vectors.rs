@@ -5,6 +5,7 @@
 
 use super::config::MotionConfig;
 use super::kernel::{Segment, SegmentSource, StepKernel};
+use super::output_event::OutputEvent;
 use super::sim::{Sim, SimEvent};
 use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, StopKind};
 use crate::units::Pos;
@@ -92,12 +93,14 @@ fn kernel_bresenham() -> u32 {
             ticks: 10,
             period: 2400,
             dir: 0b10,
+            output: OutputEvent::NONE,
         },
         Segment {
             steps: [4, 3, 1, 2, 0, 0],
             ticks: 32,
             period: 750,
             dir: 0b0101,
+            output: OutputEvent::NONE,
         },
         Segment::idle(3, 1000),
         Segment {
@@ -105,6 +108,7 @@ fn kernel_bresenham() -> u32 {
             ticks: 97,
             period: 300,
             dir: 0b11_1111,
+            output: OutputEvent::NONE,
         },
     ];
     let mut src = Fixed(&segs, 0);
