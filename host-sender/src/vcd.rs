@@ -236,8 +236,7 @@ impl<W: Write> VcdWriter<W> {
     /// Writes the header ($timescale 1 ns, one `gantry` scope with `<axis>_step`, `<axis>_dir`,
     /// `enable`, an `inputs` scope and an `outputs` scope).
     pub fn new(mut out: W, opts: &VcdOptions) -> io::Result<Self> {
-        if opts.axes == 0 || opts.axes > AXES.len() || opts.inputs.len() > 32 || opts.outputs > 16
-        {
+        if opts.axes == 0 || opts.axes > AXES.len() || opts.inputs.len() > 32 || opts.outputs > 16 {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidInput,
                 "a VCD trace has 1..=6 axes, at most 32 inputs and at most 16 outputs",

@@ -189,7 +189,10 @@ fn the_event_rides_on_the_next_line_block_and_its_first_segment_only() {
     assert_eq!(p.len(), 2);
     assert_eq!(p.get(0).unwrap().output, OutputEvent::NONE);
     let b = p.get(1).unwrap();
-    assert_eq!((b.kind, b.output, b.stop_before), (BlockKind::Line, on(1), false));
+    assert_eq!(
+        (b.kind, b.output, b.stop_before),
+        (BlockKind::Line, on(1), false)
+    );
     assert!(!m.output_pending());
     let mut x = 0i64;
     let mut carried = Vec::new();
@@ -233,7 +236,10 @@ fn two_outputs_between_the_same_moves_break_the_contour_and_run_at_rest() {
     );
     assert!(r.outputs.is_empty(), "{:?}", r.outputs);
     // Both became sync points, in order, with X at rest on the junction.
-    assert_eq!(r.syncs, vec![(10 * STEPS_PER_MM, 2), (10 * STEPS_PER_MM, 3)]);
+    assert_eq!(
+        r.syncs,
+        vec![(10 * STEPS_PER_MM, 2), (10 * STEPS_PER_MM, 3)]
+    );
     // The first move ends at the start speed (1 mm/s): it stops there.
     assert_eq!(r.blocks[0].exit, 1_000_000);
     assert_eq!(r.blocks[1].entry, 1_000_000);

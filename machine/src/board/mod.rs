@@ -947,7 +947,12 @@ impl Board {
         else {
             return None;
         };
-        let list = self.setup.outputs.mcode_lists.iter().find(|l| l.code == code)?;
+        let list = self
+            .setup
+            .outputs
+            .mcode_lists
+            .iter()
+            .find(|l| l.code == code)?;
         let output = match list.commands.as_slice() {
             [ListCommand::Set(n)] => OutputEvent::new(*n, true),
             [ListCommand::Clear(n)] => OutputEvent::new(*n, false),

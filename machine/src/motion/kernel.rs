@@ -399,10 +399,7 @@ mod tests {
             }
         }
         // On after exactly 10 steps, off after 15, each reported once.
-        assert_eq!(
-            edges.as_slice(),
-            &[(10, 10, on, 0b10), (15, 15, off, 0)]
-        );
+        assert_eq!(edges.as_slice(), &[(10, 10, on, 0b10), (15, 15, off, 0)]);
         assert_eq!(k.position()[0], 18);
         k.set_outputs(0b1001);
         assert_eq!(k.outputs(), 0b1001);
