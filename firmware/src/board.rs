@@ -278,6 +278,9 @@ macro_rules! gantry_board {
         pub const DIR: [PinId; AXES] = [$(PinId::parse(stringify!($dir))),+];
         /// Number of user outputs.
         pub const USER_OUTPUTS: usize = [$(stringify!($out)),+].len();
+        /// User output pins, output 0 first (the step ISR switches them by register for the
+        /// on-the-fly events).
+        pub const USER_PINS: [PinId; USER_OUTPUTS] = [$(PinId::parse(stringify!($out))),+];
         /// Outputs that are low in the safe state: spindle enable/dir/PWM, coolant, user outputs.
         pub const SAFE_LOW: [PinId; 5 + USER_OUTPUTS] = [
             PinId::parse(stringify!($sp_en)),
@@ -294,6 +297,7 @@ macro_rules! gantry_board {
         const _: () = assert!($crate::board::same_port(&STEP), "step pins must share one port");
         const _: () = assert!($crate::board::same_port(&DIR), "dir pins must share one port");
         const _: () = assert!(USER_OUTPUTS >= 4, "at least four user outputs");
+        const _: () = assert!(USER_OUTPUTS <= 16, "the core switches at most 16 user outputs");
         const _: () = assert!(
             LIMIT_MAX_INPUTS == 0 || LIMIT_MAX_INPUTS == AXES,
             "limit_max lists one input per axis, or is left out"
@@ -342,6 +346,10 @@ macro_rules! gantry_board {
             pub spindle_pwm: embassy_stm32::timer::simple_pwm::SimplePwmChannel<'static, pwm_timer!($sp_pwm_ch)>,
             pub coolant_flood: Output<'static>,
             pub coolant_mist: Output<'static>,
+            /// User outputs, low; kept so the pins stay configured. They are driven by register
+            /// writes only (`step`: on-the-fly events in the step ISR, and `sync_user_outputs`),
+            /// never through these drivers, so no main-loop write can undo an ISR write.
+            #[allow(dead_code)]
             pub user: [Output<'static>; USER_OUTPUTS],
         }
 

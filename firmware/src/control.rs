@@ -7,6 +7,7 @@
 //! 3. bytes from USB → `BoardLink::on_bytes`, `service`, `Board::poll(kernel_drained)`;
 //! 4. segments from `Board::next_segment` into the step ISR's queue, with the motion marker set
 //!    before the ISR can run them and cleared once the kernel is drained (alarm 3 after a reset);
+//!    the user output word exchanged with the kernel (`Board::sync_user_outputs`);
 //! 5. `service` again, frames into the USB transmit pipe, output levels to the pins;
 //! 6. a setup the host pushed is saved to flash once the board is idle;
 //! 7. the watchdog is fed.
@@ -14,7 +15,7 @@
 //! Host loss: `BoardLink` holds a running job when the host goes silent (and ends it with alarm 20
 //! after `link.host_lost_stop_s`); a DTR drop (the sender closed the port) holds it at once.
 
-use crate::board_def::{Outputs, USER_OUTPUTS};
+use crate::board_def::Outputs;
 use crate::inputs::{armed_limit, ARM, INVERT, PINS};
 use crate::settings::Store;
 use crate::step::{self, STOP};
@@ -80,7 +81,7 @@ fn level(on: bool) -> Level {
 }
 
 /// Output levels to pins. The spindle duty counts `0..=pwm_max` (setup) and maps onto the PWM
-/// timer's own period.
+/// timer's own period. User outputs are not driven here but in `step::sync_user_outputs`.
 fn drive(o: &mut Outputs, l: &OutputLevels, pwm_max: u16, steppers_enabled: bool) {
     o.spindle_enable.set_level(level(l.spindle_enable));
     o.spindle_dir.set_level(level(l.spindle_ccw));
@@ -89,9 +90,6 @@ fn drive(o: &mut Outputs, l: &OutputLevels, pwm_max: u16, steppers_enabled: bool
         .set_duty_cycle_fraction(u32::from(l.spindle_pwm).min(max), max);
     o.coolant_flood.set_level(level(l.flood));
     o.coolant_mist.set_level(level(l.mist));
-    for (i, pin) in o.user.iter_mut().enumerate().take(USER_OUTPUTS) {
-        pin.set_level(level(l.user & (1 << i) != 0));
-    }
     // Active low.
     o.stepper_enable.set_level(level(!steppers_enabled));
 }
@@ -204,6 +202,9 @@ pub async fn run(mut io: Io, board: &'static mut Board, link: &'static mut Board
         if drained && !handed_out && !board.position_lost() {
             reset_marker::idle();
         }
+        // User outputs: the board takes the levels the kernel's on-the-fly events left on the
+        // pins, or (after a list at rest, an alarm) loads its own into the kernel and the pins.
+        step::sync_user_outputs(|word| board.sync_user_outputs(word));
         ARM.store(board.limit_arm(), Ordering::Relaxed);
         if armed_limit(PINS.load(Ordering::Relaxed)) {
             STOP.store(true, Ordering::Relaxed);

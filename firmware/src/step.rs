@@ -8,6 +8,11 @@
 //! minus the pulse of dir set-up time. Pin words come from 64-entry tables built at compile time
 //! from the board's pin numbers, so the ISR does lookups, no loops.
 //!
+//! On-the-fly outputs: a segment's [`OutputEvent`] comes out of the tick that starts the segment
+//! and is emitted with that tick's steps, at the next update: one BSRR write of the user output's
+//! port (port and pin mask from a table built at compile time from the board's user output pins),
+//! just before the step pins rise. [`sync_user_outputs`] is the only other writer of those pins.
+//!
 //! If the ISR starts so late that the pulse could not end within the current period, it emits
 //! nothing and retries on the next update (counted in [`LATE_TICKS`]), so no edge is ever lost.
 //! A stop seen by the kernel takes effect at that tick; the step computed on the tick before is
@@ -15,7 +20,7 @@
 //! keeps polling the queue every millisecond.
 
 use crate::board::{gpio_block, PinId};
-use crate::board_def::{AXES, DIR, STEP};
+use crate::board_def::{AXES, DIR, STEP, USER_OUTPUTS, USER_PINS};
 use core::cell::UnsafeCell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use embassy_stm32::interrupt;
@@ -28,6 +33,7 @@ use embassy_stm32::Peri;
 use gantry_machine::motion::kernel::{
     Segment, SegmentSource, StepKernel, TickOut, KERNEL_TIMER_HZ,
 };
+use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::units::MAX_AXES;
 use heapless::spsc::{Consumer, Producer, Queue};
 use static_cell::StaticCell;
@@ -54,6 +60,10 @@ static STEP_SET: [u32; 64] = step_set_table(&STEP);
 const STEP_RESET: u32 = mask(&STEP) << 16;
 /// BSRR word setting every dir pin for each 6-bit dir mask (bit set = negative = pin high).
 static DIR_WORD: [u32; 64] = dir_table(&DIR);
+/// Port and pin mask of each user output (16 slots; outputs the board does not have have mask 0,
+/// so switching them changes no pin).
+const USER_GPIO: [pac::gpio::Gpio; 16] = output_ports(&USER_PINS);
+static USER_MASK: [u16; 16] = output_masks(&USER_PINS);
 
 const _: () = {
     assert!(
@@ -116,6 +126,37 @@ const fn dir_table(pins: &[PinId; AXES]) -> [u32; 64] {
         bits += 1;
     }
     t
+}
+
+const fn output_ports(pins: &[PinId; USER_OUTPUTS]) -> [pac::gpio::Gpio; 16] {
+    let mut t = [pac::GPIOA; 16];
+    let mut n = 0;
+    while n < USER_OUTPUTS {
+        t[n] = gpio_block(pins[n].port);
+        n += 1;
+    }
+    t
+}
+
+const fn output_masks(pins: &[PinId; USER_OUTPUTS]) -> [u16; 16] {
+    let mut t = [0u16; 16];
+    let mut n = 0;
+    while n < USER_OUTPUTS {
+        t[n] = pins[n].mask() as u16;
+        n += 1;
+    }
+    t
+}
+
+/// Switches one user output pin (one BSRR write: the set half or the reset half of the word).
+#[inline(always)]
+fn write_output(event: OutputEvent) {
+    let n = event.index();
+    let mask = u32::from(USER_MASK[n]);
+    let word = if event.level() { mask } else { mask << 16 };
+    USER_GPIO[n]
+        .bsrr()
+        .write_value(pac::gpio::regs::Bsrr(word));
 }
 
 /// The ISR's end of the segment queue, as the kernel's segment source.
@@ -203,6 +244,26 @@ pub fn rearm() {
     with_kernel(|s| s.kernel.clear_stop());
 }
 
+/// Exchanges the user output word between the board and the kernel (`Board::sync_user_outputs`):
+/// `f` gets the kernel's word (the pins, with every on-the-fly event fired so far) and returns a
+/// word to load, if the board switched outputs itself. That word goes into the kernel and onto
+/// the pins inside the same critical section, so no event can fire in between, and an event
+/// computed but not yet emitted is dropped with it.
+pub fn sync_user_outputs(f: impl FnOnce(u16) -> Option<u16>) {
+    with_kernel(|s| {
+        let Some(word) = f(s.kernel.outputs()) else {
+            return;
+        };
+        s.kernel.set_outputs(word);
+        s.pending.output = OutputEvent::NONE;
+        for n in 0..USER_OUTPUTS as u8 {
+            if let Some(e) = OutputEvent::new(n, word >> n & 1 != 0) {
+                write_output(e);
+            }
+        }
+    });
+}
+
 /// Loads a new step position (homing set home); the kernel is at rest then.
 pub fn set_position(steps: [i64; MAX_AXES]) {
     with_kernel(|s| s.kernel.set_position(steps));
@@ -240,8 +301,10 @@ pub fn start(tim2: Peri<'static, TIM2>, psc: u16) -> Producer<'static, Segment> 
     });
     TIM.sr().write_value(SrGp16(0));
     interrupt::TIM2.set_priority(Priority::P0);
-    // SAFETY: the TIM2 handler below only touches TIM2, the step/dir ports (BSRR, write-only,
-    // atomic per bit) and state it owns; nothing else uses TIM2 or those pins.
+    // SAFETY: the TIM2 handler below only touches TIM2, the step/dir ports and the user output
+    // pins (BSRR, write-only, atomic per bit) and state it owns; nothing else uses TIM2 or the
+    // step/dir pins, and the user output pins are only written by BSRR here and in
+    // `sync_user_outputs`, which holds TIM2 off.
     unsafe { interrupt::TIM2.enable() };
     timer.start();
     producer
@@ -285,6 +348,10 @@ fn TIM2() {
             return;
         }
         TIM.ccr(0).write_value(pulse_end);
+        if isr.pending.output.is_some() {
+            // On-the-fly output: switched with the first step of its block.
+            write_output(isr.pending.output);
+        }
         STEP_GPIO.bsrr().write_value(pac::gpio::regs::Bsrr(
             STEP_SET[(isr.pending.step & 63) as usize],
         ));

@@ -923,10 +923,15 @@ fn controller_toml(s: &Setup, t: &mut String) {
     for l in &o.mcode_lists {
         let _ = writeln!(
             t,
-            "\n[[mcode]]\ncode = {}\ndry_run_disabled = {}\ncommands = {}",
+            "\n[[mcode]]\ncode = {}\ndry_run_disabled = {}\ncommands = {}{}",
             l.code,
             l.dry_run_disabled,
-            list_toml(&l.commands)
+            list_toml(&l.commands),
+            if l.on_the_fly().is_some() {
+                "   # one output command: switched on the fly, the motion does not stop"
+            } else {
+                "   # runs at rest"
+            }
         );
     }
 }
@@ -1034,6 +1039,9 @@ pwm_range = [10, 999]
 code = 101
 dry_run_disabled = true
 commands = ["set 4", "wait feed_hold low 100", "clear 4"]
+[[mcode]]
+code = 100
+commands = ["clear 2"]
 [link]
 host_lost_stop_s = 0
 "#;
@@ -1056,7 +1064,13 @@ host_lost_stop_s = 0
         assert_eq!(s.homing.before_retract[0], ListCommand::DisableLimitReport);
         assert_eq!(s.link.host_lost_stop_s, 0);
         assert!(s.is_valid());
-        assert_eq!(SetupFile::parse(&to_toml(&s)).unwrap(), s);
+        let shown = to_toml(&s);
+        assert_eq!(SetupFile::parse(&shown).unwrap(), s);
+        // `setup show` says which lists switch on the fly.
+        assert!(
+            shown.contains("commands = [\"clear 2\"]   # one output command: switched on the fly")
+        );
+        assert!(shown.contains("\"clear 4\"]   # runs at rest"));
     }
 
     #[test]

@@ -246,6 +246,21 @@ pub struct LinkSetup {
     pub host_lost_stop_s: u16,
 }
 
+impl McodeList {
+    /// The output this list switches on the fly (seed 003 "On the Fly" switching): a list of
+    /// exactly one `set n` or `clear n` (n < 16) does not stop the motion, its output switches at
+    /// the M code's exact place on the path. `None` for any other list (no entry, several, a
+    /// dwell or a wait): the motion stops and the list runs at rest.
+    pub fn on_the_fly(&self) -> Option<crate::motion::output_event::OutputEvent> {
+        use crate::motion::output_event::OutputEvent;
+        match self.commands.as_slice() {
+            [ListCommand::Set(n)] => OutputEvent::new(*n, true),
+            [ListCommand::Clear(n)] => OutputEvent::new(*n, false),
+            _ => None,
+        }
+    }
+}
+
 /// The whole machine setup.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Setup {

@@ -35,16 +35,6 @@ fn feed(line: u32, to_um: i64) -> Step {
     })
 }
 
-fn mcode(line: u32, code: u16) -> Canon {
-    Canon {
-        line,
-        action: Action::UserMCode {
-            code,
-            at_rest: false,
-        },
-    }
-}
-
 fn on(n: u8) -> OutputEvent {
     OutputEvent::new(n, true).unwrap()
 }
@@ -57,7 +47,8 @@ fn off(n: u8) -> OutputEvent {
 #[derive(Clone, Copy)]
 enum Step {
     Push(Canon),
-    Output(Canon, OutputEvent),
+    /// An on-the-fly user M code: line, code, event.
+    Output(u32, u16, OutputEvent),
     /// No more motion: [`Motion::flush_output`].
     End,
 }
@@ -89,7 +80,7 @@ fn run(program: &[Step], hold_at: Option<i64>) -> Run {
         while next < program.len() {
             let ok = match program[next] {
                 Step::Push(c) => sim.motion.push(&c).is_ok(),
-                Step::Output(c, e) => sim.motion.push_output(&c, e).is_ok(),
+                Step::Output(l, c, e) => sim.motion.push_output(l, c, e).is_ok(),
                 Step::End => sim.motion.flush_output().is_ok(),
             };
             if !ok {
@@ -143,9 +134,9 @@ fn run(program: &[Step], hold_at: Option<i64>) -> Run {
 fn seed_example() -> Vec<Step> {
     vec![
         feed(1, INCH_UM),
-        Step::Output(mcode(2, 14), on(1)),
+        Step::Output(2, 14, on(1)),
         feed(3, 6 * INCH_UM),
-        Step::Output(mcode(4, 15), off(1)),
+        Step::Output(4, 15, off(1)),
         feed(5, 7 * INCH_UM),
         Step::End,
     ]
@@ -181,17 +172,22 @@ fn the_event_rides_on_the_next_line_block_and_its_first_segment_only() {
     for s in &seed_example()[..3] {
         match *s {
             Step::Push(c) => m.push(&c).unwrap(),
-            Step::Output(c, e) => m.push_output(&c, e).unwrap(),
+            Step::Output(l, c, e) => m.push_output(l, c, e).unwrap(),
             Step::End => m.flush_output().unwrap(),
         }
     }
     let p = m.planner();
     assert_eq!(p.len(), 2);
-    assert_eq!(p.get(0).unwrap().output, OutputEvent::NONE);
+    assert_eq!(
+        p.get(0).unwrap().kind,
+        BlockKind::Line {
+            output: OutputEvent::NONE
+        }
+    );
     let b = p.get(1).unwrap();
     assert_eq!(
-        (b.kind, b.output, b.stop_before),
-        (BlockKind::Line, on(1), false)
+        (b.kind, b.stop_before),
+        (BlockKind::Line { output: on(1) }, false)
     );
     assert!(!m.output_pending());
     let mut x = 0i64;
@@ -209,11 +205,7 @@ fn the_event_rides_on_the_next_line_block_and_its_first_segment_only() {
 #[test]
 fn an_output_before_the_first_move_fires_before_its_first_step() {
     let r = run(
-        &[
-            Step::Output(mcode(1, 14), on(3)),
-            feed(1, 10_000),
-            Step::End,
-        ],
+        &[Step::Output(1, 14, on(3)), feed(1, 10_000), Step::End],
         None,
     );
     assert_eq!(r.outputs.len(), 1);
@@ -227,8 +219,8 @@ fn two_outputs_between_the_same_moves_break_the_contour_and_run_at_rest() {
     let r = run(
         &[
             feed(1, 10_000),
-            Step::Output(mcode(2, 14), on(1)),
-            Step::Output(mcode(3, 15), off(1)),
+            Step::Output(2, 14, on(1)),
+            Step::Output(3, 15, off(1)),
             feed(4, 20_000),
             Step::End,
         ],
@@ -256,7 +248,7 @@ fn an_output_with_no_move_after_it_runs_once_the_motion_before_it_has_ended() {
     let r = run(
         &[
             feed(1, 10_000),
-            Step::Output(mcode(2, 14), on(1)),
+            Step::Output(2, 14, on(1)),
             dwell,
             feed(4, 20_000),
         ],
@@ -266,11 +258,7 @@ fn an_output_with_no_move_after_it_runs_once_the_motion_before_it_has_ended() {
     assert_eq!(r.syncs, vec![(10 * STEPS_PER_MM, 2)]);
     // Followed by the end of the program.
     let r = run(
-        &[
-            feed(1, 10_000),
-            Step::Output(mcode(2, 14), on(1)),
-            Step::End,
-        ],
+        &[feed(1, 10_000), Step::Output(2, 14, on(1)), Step::End],
         None,
     );
     assert!(r.outputs.is_empty());
@@ -282,7 +270,7 @@ fn a_move_without_steps_leaves_the_output_for_the_next_move() {
     let r = run(
         &[
             feed(1, 10_000),
-            Step::Output(mcode(2, 14), on(1)),
+            Step::Output(2, 14, on(1)),
             feed(2, 10_000),
             feed(3, 20_000),
             Step::End,

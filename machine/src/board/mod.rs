@@ -24,7 +24,7 @@ use crate::motion::config::MotionConfig;
 use crate::motion::kernel::Segment;
 use crate::motion::output_event::OutputEvent;
 use crate::motion::pipeline::{Motion, MotionState, PushError};
-use crate::setup::{ListCommand, Setup};
+use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
 pub use source::{JumpRequest, JumpTarget, StreamSource, LINE_CAPACITY};
@@ -899,7 +899,7 @@ impl Board {
                 self.last_motion_line = canon.line;
             }
             let pushed = match self.on_the_fly(&canon) {
-                Some(output) => self.motion.push_output(&canon, output),
+                Some((code, output)) => self.motion.push_output(canon.line, code, output),
                 None => self.motion.push(&canon),
             };
             match pushed {
@@ -934,12 +934,12 @@ impl Board {
         }
     }
 
-    /// The output event of an on-the-fly M code (seed 003 "On the Fly" switching): a user M code
+    /// The code and output event of an on-the-fly M code (seed 003 "On the Fly" switching): a user M code
     /// whose list is exactly one `set n` or `clear n` (n < 16) switches that output at its exact
     /// place on the path without stopping the motion. `None` for everything else, which stays a
     /// sync point (an M code with no list or an empty one included). In a dry run a list flagged
     /// `dry_run_disabled` gives [`OutputEvent::NONE`]: nothing switches, the motion is the same.
-    fn on_the_fly(&self, canon: &Canon) -> Option<OutputEvent> {
+    fn on_the_fly(&self, canon: &Canon) -> Option<(u16, OutputEvent)> {
         let Action::UserMCode {
             code,
             at_rest: false,
@@ -953,16 +953,9 @@ impl Board {
             .mcode_lists
             .iter()
             .find(|l| l.code == code)?;
-        let output = match list.commands.as_slice() {
-            [ListCommand::Set(n)] => OutputEvent::new(*n, true),
-            [ListCommand::Clear(n)] => OutputEvent::new(*n, false),
-            _ => None,
-        }?;
-        Some(if self.dry_run && list.dry_run_disabled {
-            OutputEvent::NONE
-        } else {
-            output
-        })
+        let output = list.on_the_fly()?;
+        let skipped = self.dry_run && list.dry_run_disabled;
+        Some((code, if skipped { OutputEvent::NONE } else { output }))
     }
 
     /// Dry run: every feed move at the setup's dry-run feed.

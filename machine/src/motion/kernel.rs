@@ -114,8 +114,6 @@ pub struct StepKernel {
     stopped: bool,
     /// User output word (bit n = output n) as the kernel's events and its owner left it.
     outputs: u16,
-    /// Event of the segment just loaded, reported by the next tick.
-    event: OutputEvent,
 }
 
 impl Default for StepKernel {
@@ -139,7 +137,6 @@ impl StepKernel {
             base: [0; MAX_AXES],
             stopped: false,
             outputs: 0,
-            event: OutputEvent::NONE,
         }
     }
 
@@ -149,13 +146,19 @@ impl StepKernel {
         if stop || self.stopped {
             return self.halt();
         }
-        if self.ticks_left == 0 && !self.load(src) {
-            return TickOut {
-                step: 0,
-                dir: self.dir,
-                period: 0,
-                output: OutputEvent::NONE,
-            };
+        let mut output = OutputEvent::NONE;
+        if self.ticks_left == 0 {
+            match self.load(src) {
+                Some(event) => output = event,
+                None => {
+                    return TickOut {
+                        step: 0,
+                        dir: self.dir,
+                        period: 0,
+                        output: OutputEvent::NONE,
+                    }
+                }
+            }
         }
         let ticks = self.ticks;
         let n = self.axes as usize;
@@ -179,17 +182,16 @@ impl StepKernel {
             step,
             dir: self.dir,
             period: self.period,
-            output: core::mem::take(&mut self.event),
+            output,
         }
     }
 
-    /// Takes the next segment from `src`; false when there is none.
+    /// Takes the next segment from `src` and returns its output event (applied to the output
+    /// word); `None` when there is no segment.
     #[inline(never)]
-    fn load(&mut self, src: &mut impl SegmentSource) -> bool {
+    fn load(&mut self, src: &mut impl SegmentSource) -> Option<OutputEvent> {
         self.fold_position();
-        let Some(seg) = src.next_segment() else {
-            return false;
-        };
+        let seg = src.next_segment()?;
         let ticks = seg.ticks.max(1);
         self.increment = seg.steps;
         // Start every accumulator half way so steps sit in the middle of their tick slots.
@@ -199,9 +201,8 @@ impl StepKernel {
         self.period = seg.period.max(1);
         self.dir = seg.dir;
         self.axes = seg.axes_in_use() as u8;
-        self.event = seg.output;
         self.outputs = seg.output.apply(self.outputs);
-        true
+        Some(seg.output)
     }
 
     /// Adds the steps of the running segment to the base position.
@@ -252,7 +253,6 @@ impl StepKernel {
     /// alarm's safe state). The owner drives the pins to it.
     pub fn set_outputs(&mut self, word: u16) {
         self.outputs = word;
-        self.event = OutputEvent::NONE;
     }
 
     /// True while a segment is running (ticks are still due).

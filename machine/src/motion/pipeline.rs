@@ -53,6 +53,27 @@ pub enum MotionState {
     Sync,
 }
 
+/// An on-the-fly user M code waiting for the next line block (its sync-point form is rebuilt
+/// from it when it cannot ride on one).
+#[derive(Clone, Copy, Debug)]
+struct PendingOutput {
+    line: u32,
+    code: u16,
+    output: OutputEvent,
+}
+
+impl PendingOutput {
+    fn canon(self) -> Canon {
+        Canon {
+            line: self.line,
+            action: Action::UserMCode {
+                code: self.code,
+                at_rest: false,
+            },
+        }
+    }
+}
+
 /// An arc being fed into the planner chord by chord.
 #[derive(Clone, Copy, Debug)]
 struct PendingArc {
@@ -75,8 +96,8 @@ pub struct Motion<const N: usize> {
     junction_deviation: u64,
     abort_pending: bool,
     at_sync: bool,
-    /// An on-the-fly M code waiting for the next line block: its action and its event.
-    pending_output: Option<(Canon, OutputEvent)>,
+    /// An on-the-fly M code waiting for the next line block.
+    pending_output: Option<PendingOutput>,
 }
 
 impl<const N: usize> Motion<N> {
@@ -198,25 +219,32 @@ impl<const N: usize> Motion<N> {
         }
     }
 
-    /// Queues an on-the-fly M code (`canon`, normally a user M code whose list is one output
+    /// Queues the on-the-fly user M code `code` of source line `line` (its list is one output
     /// command) that switches `output` without stopping: it fires as the next line block starts.
     /// A second one before that block makes both sync points (seed 003: two M codes between the
-    /// same pair of motion blocks break the contour). `output` may be [`OutputEvent::NONE`] (a
-    /// dry run skips the output but keeps the motion the same).
-    pub fn push_output(&mut self, canon: &Canon, output: OutputEvent) -> Result<(), PushError> {
+    /// same pair of motion blocks break the contour), performed as
+    /// `Action::UserMCode { code, at_rest: false }`. `output` may be [`OutputEvent::NONE`] (a dry
+    /// run skips the output but keeps the motion the same).
+    pub fn push_output(
+        &mut self,
+        line: u32,
+        code: u16,
+        output: OutputEvent,
+    ) -> Result<(), PushError> {
         self.feed_arc();
         if self.arc.is_some() || self.abort_pending {
             return Err(PushError::Full);
         }
+        let this = PendingOutput { line, code, output };
         if self.pending_output.is_none() {
-            self.pending_output = Some((*canon, output));
+            self.pending_output = Some(this);
             return Ok(());
         }
         if !self.has_room(2, 2) {
             return Err(PushError::Full);
         }
         self.output_to_sync();
-        self.push_sync(canon);
+        self.push_sync(&this.canon());
         Ok(())
     }
 
@@ -254,8 +282,8 @@ impl<const N: usize> Motion<N> {
 
     /// The waiting on-the-fly M code, if any, becomes a sync point (room checked by the caller).
     fn output_to_sync(&mut self) {
-        if let Some((canon, _)) = self.pending_output.take() {
-            self.push_sync(&canon);
+        if let Some(p) = self.pending_output.take() {
+            self.push_sync(&p.canon());
         }
     }
 
@@ -285,7 +313,7 @@ impl<const N: usize> Motion<N> {
             speed,
             exact_stop_before: self.exact_stop,
             junction_deviation: self.junction_deviation,
-            output: self.pending_output.map_or(OutputEvent::NONE, |(_, e)| e),
+            output: self.pending_output.map_or(OutputEvent::NONE, |p| p.output),
         };
         for i in 0..MAX_AXES {
             req.steps[i] = target[i] - self.steps[i];

@@ -30,12 +30,19 @@ const UNIT: i64 = 1 << 30;
 /// What a block does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BlockKind {
-    /// A straight move (G0, G1 or an arc chord).
-    Line,
+    /// A straight move (G0, G1 or an arc chord); `output` is switched as it starts, with its
+    /// first step (an on-the-fly M code; it sits in the enum's padding, so blocks do not grow).
+    Line { output: OutputEvent },
     /// A dwell of this many kernel timer counts.
     Dwell { counts: u64 },
     /// A point where motion stops and the controller acts (M codes, tool change, program stop).
     Sync,
+}
+
+impl BlockKind {
+    pub const fn is_line(self) -> bool {
+        matches!(self, BlockKind::Line { .. })
+    }
 }
 
 /// One planner block.
@@ -52,8 +59,6 @@ pub struct Block {
     pub steps: [u32; MAX_AXES],
     /// Direction byte (bit i set = axis i moves towards negative).
     pub dir: u8,
-    /// On-the-fly output switched as the block starts (with its first step), usually none.
-    pub output: OutputEvent,
     /// Step events of the dominant axis.
     pub events: u32,
     /// Path length, nm.
@@ -92,7 +97,6 @@ impl Block {
         line: 0,
         steps: [0; MAX_AXES],
         dir: 0,
-        output: OutputEvent::NONE,
         events: 0,
         length: 0,
         accel: 1,
@@ -418,13 +422,12 @@ impl<const N: usize> Planner<N> {
             self.close_contour();
         }
         let block = Block {
-            kind: BlockKind::Line,
+            kind: BlockKind::Line { output: req.output },
             seq: self.next_seq,
             prefix: 0,
             line: req.line,
             steps,
             dir,
-            output: req.output,
             events,
             length,
             accel,
@@ -460,7 +463,7 @@ impl<const N: usize> Planner<N> {
         }
         for off in 0..self.len {
             let i = self.index(off);
-            if self.ring[i].kind == BlockKind::Line {
+            if self.ring[i].kind.is_line() {
                 self.ring[i].max_entry_sq = self.max_entry_sq(off);
             }
         }
@@ -469,7 +472,7 @@ impl<const N: usize> Planner<N> {
         self.prefix_end = 0;
         for off in 0..self.len {
             let i = self.index(off);
-            if self.ring[i].seq >= self.open_from && self.ring[i].kind == BlockKind::Line {
+            if self.ring[i].seq >= self.open_from && self.ring[i].kind.is_line() {
                 self.add_candidate(i);
             }
         }
@@ -491,7 +494,7 @@ impl<const N: usize> Planner<N> {
             if b.seq < from_seq {
                 break;
             }
-            let entry = if b.kind == BlockKind::Line {
+            let entry = if b.kind.is_line() {
                 let exit = if b.stop_after {
                     let v = b.start_speed.min(b.nominal);
                     v * v
@@ -638,7 +641,7 @@ mod tests {
                 entry[off + 1]
             };
             exits[off] = exit;
-            entry[off] = if b.kind == BlockKind::Line {
+            entry[off] = if b.kind.is_line() {
                 b.max_entry_sq.min(exit.saturating_add(b.budget))
             } else {
                 0

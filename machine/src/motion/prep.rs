@@ -204,8 +204,8 @@ impl Prep {
                     self.dwell_left -= p;
                     return PrepOut::Segment(Segment::idle(1, p as u32));
                 }
-                BlockKind::Line => {
-                    if let Some(seg) = self.line_segment(&head, planner) {
+                BlockKind::Line { output } => {
+                    if let Some(seg) = self.line_segment(&head, output, planner) {
                         return PrepOut::Segment(seg);
                     }
                     if self.state == PrepState::Held {
@@ -250,6 +250,7 @@ impl Prep {
     fn line_segment<const N: usize>(
         &mut self,
         b: &Block,
+        output: OutputEvent,
         planner: &mut Planner<N>,
     ) -> Option<Segment> {
         if !self.active {
@@ -257,7 +258,7 @@ impl Prep {
             self.done = 0;
             self.s_now = 0;
             self.cum = [0; MAX_AXES];
-            self.output = b.output;
+            self.output = output;
             let v_in = if b.stop_before { 0 } else { self.carry };
             self.reprofile(b, planner, 0, v_in);
             self.report = BlockReport {
@@ -307,7 +308,11 @@ impl Prep {
         // Dominant steps for about one segment time at the current speed.
         let v = self.profile.speed_at(self.s_now);
         let nm = mul_div(v, SEGMENT_COUNTS, KERNEL_TIMER_HZ as u64);
-        let n = mul_div(nm, b.events as u64, b.length).clamp(1, (end - self.done) as u64) as u32;
+        // `max(1).min(..)`, not `clamp`: the same here (done < end), without clamp's panic path
+        // and its u64 formatting in the firmware.
+        let n = mul_div(nm, b.events as u64, b.length)
+            .max(1)
+            .min((end - self.done) as u64) as u32;
         let c = self.done + n;
         let s = Self::s_of(b, c);
         let dt = self.profile.time_at(s).saturating_sub(self.emitted).max(1);
