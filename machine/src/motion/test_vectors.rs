@@ -228,6 +228,92 @@ fn odd_ratios_dwell_exact_stop() -> u32 {
     digest_run(cfg, &ODD_JOB, None, 100)
 }
 
+/// One action of [`ONFLY_JOB`]: a canonical action, or an on-the-fly output (line, M code,
+/// output number, level).
+#[derive(Clone, Copy)]
+enum Item {
+    Canon(Canon),
+    Output(u32, u16, u8, bool),
+}
+
+const ONFLY_JOB: [Item; 8] = [
+    Item::Canon(feed(1, at(7 * MM, 0, 0), 1800)),
+    Item::Output(2, 14, 1, true),
+    Item::Canon(feed(3, at(12 * MM, 3 * MM, 0), 1800)),
+    Item::Output(4, 15, 1, false),
+    Item::Output(4, 16, 9, true),
+    Item::Canon(ARCS[1]),
+    Item::Output(6, 17, 9, false),
+    Item::Canon(rapid(7, at(0, 0, 0))),
+];
+
+/// On-the-fly outputs between feeds, two at one junction (a stop) and one before an arc, with a
+/// hold and a 70 % resume: every step and every output tick (time, event, output word).
+fn onfly_outputs() -> u32 {
+    let mut sim: Sim<48> = Sim::new(MotionConfig::default());
+    let mut d = Digest::new();
+    let mut on = |e: SimEvent| match e {
+        SimEvent::Step(s) => {
+            d.u64(s.time);
+            d.bytes(&[s.step, s.dir]);
+        }
+        SimEvent::Output {
+            time,
+            output,
+            outputs,
+        } => {
+            d.u64(time);
+            d.bytes(&[output.code() as u8, b'o']);
+            d.u64(outputs as u64);
+        }
+        SimEvent::Sync { time, canon } => {
+            d.u64(time);
+            d.u64(canon.line as u64);
+        }
+        SimEvent::Block { .. } => {}
+    };
+    let (mut next, mut idle, mut held) = (0, 0, false);
+    loop {
+        while next < ONFLY_JOB.len() {
+            let ok = match ONFLY_JOB[next] {
+                Item::Canon(c) => sim.motion.push(&c).is_ok(),
+                Item::Output(line, code, n, level) => {
+                    let e = OutputEvent::new(n, level).unwrap_or(OutputEvent::NONE);
+                    sim.motion.push_output(line, code, e).is_ok()
+                }
+            };
+            if !ok {
+                break;
+            }
+            next += 1;
+        }
+        if next == ONFLY_JOB.len() {
+            let _ = sim.motion.flush_output();
+        }
+        if !held && sim.now >= 3_000_000 {
+            sim.motion.feed_hold();
+            sim.motion.set_feed_override(70);
+            held = true;
+        }
+        if held && sim.motion.state() == super::pipeline::MotionState::Held {
+            sim.motion.resume();
+        }
+        if sim.tick(&mut on).period == 0 {
+            idle += 1;
+            if idle > 3 && next >= ONFLY_JOB.len() && !sim.motion.output_pending() {
+                break;
+            }
+        } else {
+            idle = 0;
+        }
+    }
+    for p in sim.kernel.position() {
+        d.i64(p);
+    }
+    d.u64(sim.kernel.outputs() as u64);
+    d.finish()
+}
+
 pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/kernel-bresenham",
@@ -253,6 +339,11 @@ pub const VECTORS: &[Vector] = &[
         name: "motion/odd-ratios-dwell-exact-stop",
         run: odd_ratios_dwell_exact_stop,
         expected: 0x4098_ce2f,
+    },
+    Vector {
+        name: "motion/onfly-outputs",
+        run: onfly_outputs,
+        expected: 0x642f_4d48,
     },
 ];
 

@@ -17,6 +17,7 @@ use cortex_m_rt::{entry, exception};
 use gantry_machine::canon::{Action, Canon};
 use gantry_machine::motion::config::MotionConfig;
 use gantry_machine::motion::kernel::{Segment, SegmentSource, StepKernel, TickOut};
+use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::motion::pipeline::{Motion, PushError};
 use gantry_target_tests::{exit, println};
 
@@ -61,6 +62,7 @@ fn empty_body(_k: &mut StepKernel, src: &mut Repeat) -> TickOut {
         step: src.0.dir,
         dir: 0,
         period: 1,
+        output: OutputEvent::NONE,
     }
 }
 
@@ -76,6 +78,7 @@ fn tick_cost(axes: usize, body: fn(&mut StepKernel, &mut Repeat) -> TickOut) -> 
         ticks: 1000,
         period: 240,
         dir: 0b101,
+        output: OutputEvent::NONE,
     });
     let mut k = StepKernel::new();
     let t0 = now();
