@@ -120,8 +120,8 @@ enum Command {
         /// JSON Lines instead of a table.
         #[arg(long)]
         json: bool,
-        /// Also run the job on the emulated board and write its step/dir/enable/input pins as a
-        /// VCD trace (GTKWave, PulseView).
+        /// Also run the job on the emulated board and write its step/dir/enable/input/output
+        /// pins as a VCD trace (GTKWave, PulseView).
         #[arg(long)]
         vcd: Option<PathBuf>,
         /// Start of the trace window (e.g. `1.5s`, `200ms`, `750us`, `1200ns`).
@@ -130,7 +130,7 @@ enum Command {
         /// End of the trace window.
         #[arg(long, requires = "vcd")]
         to: Option<String>,
-        /// Machine setup for the emulated board.
+        /// Machine setup (the plan and the emulated board; default: the built-in one).
         #[arg(long)]
         setup: Option<PathBuf>,
     },
@@ -244,17 +244,17 @@ fn simulate(
     to: Option<String>,
     setup: Option<PathBuf>,
 ) -> anyhow::Result<ExitCode> {
-    let code = host_sender::simulate::run(file, json)?;
+    let setup = match setup {
+        Some(f) => host_sender::setup_file::SetupFile::load(&f)?,
+        None => Default::default(),
+    };
+    let code = host_sender::simulate::run(file, json, &setup)?;
     let Some(out) = vcd else {
         return Ok(code);
     };
     let time = |t: Option<String>| -> anyhow::Result<Option<u64>> {
         t.map(|t| host_sender::vcd::parse_time_ns(&t).map_err(anyhow::Error::msg))
             .transpose()
-    };
-    let setup = match setup {
-        Some(f) => host_sender::setup_file::SetupFile::load(&f)?,
-        None => Default::default(),
     };
     let axes = setup.axis_count as usize;
     let program = host_sender::program::Program::load(file)?;

@@ -1,7 +1,8 @@
 //! `gantry simulate`: plan a program and report per-move speeds and the total time.
 //!
-//! The program is interpreted with the default setup, then run through the real motion core
-//! (planner, segment prep and step kernel) on virtual time. Each move (consecutive planner blocks
+//! The program is interpreted with the machine setup (`--setup`, else the default one), then run
+//! through the real motion core (planner, segment prep and step kernel) on virtual time; M codes
+//! that switch an output on the fly do not stop the motion, as on the board. Each move (consecutive planner blocks
 //! of one source line, so an arc is one move) prints its line, entry, cruise (highest) and exit
 //! speed in mm/min and its duration; `--json` prints the same as JSON Lines. The last line is
 //! always `total time: T s` (dwells included).
@@ -10,7 +11,7 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use gantry_machine::canon::Canon;
-use gantry_machine::gcode::{InterpConfig, Interpreter, MemorySource};
+use gantry_machine::gcode::{Interpreter, MemorySource};
 use gantry_machine::motion::config::MotionConfig;
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::motion::pipeline::PushError;
@@ -38,9 +39,9 @@ fn mm_min(v: u64) -> f64 {
     v as f64 * 60.0 / 1e6
 }
 
-/// Simulates `program` on the default machine; returns the moves and the total time in seconds.
-pub fn simulate(program: &[u8]) -> anyhow::Result<(Vec<Move>, f64)> {
-    let mut interp = Interpreter::new(&InterpConfig::default());
+/// Simulates `program` on the machine `setup`; returns the moves and the total time in seconds.
+pub fn simulate(program: &[u8], setup: &Setup) -> anyhow::Result<(Vec<Move>, f64)> {
+    let mut interp = Interpreter::new(&setup.interp_config());
     let mut src = MemorySource::new(program);
     let mut actions: Vec<Canon> = Vec::new();
     while let Some(item) = interp.next(&mut src) {
@@ -53,8 +54,13 @@ pub fn simulate(program: &[u8]) -> anyhow::Result<(Vec<Move>, f64)> {
             anyhow::bail!("more than {MAX_ACTIONS} actions, simulation stopped");
         }
     }
-    let cfg = MotionConfig::from_setup(&Setup::default());
+    let cfg = MotionConfig::from_setup(setup);
     let mut sim: Box<Sim<128>> = Box::new(Sim::new(cfg));
+    for l in &setup.outputs.mcode_lists {
+        if let Some(output) = l.on_the_fly() {
+            let _ = sim.on_the_fly.push((l.code, output));
+        }
+    }
     let mut reports: Vec<BlockReport> = Vec::new();
     sim.run(actions, &mut |e| {
         if let SimEvent::Block { report, .. } = e {
@@ -115,11 +121,11 @@ pub fn report(moves: &[Move], total: f64, json: bool) -> String {
     out
 }
 
-/// Runs `gantry simulate FILE [--json]`.
-pub fn run(file: &Path, json: bool) -> anyhow::Result<ExitCode> {
+/// Runs `gantry simulate FILE [--json] [--setup S]`.
+pub fn run(file: &Path, json: bool, setup: &Setup) -> anyhow::Result<ExitCode> {
     let text =
         std::fs::read(file).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
-    let (moves, total) = simulate(&text)?;
+    let (moves, total) = simulate(&text, setup)?;
     print!("{}", report(&moves, total, json));
     Ok(ExitCode::SUCCESS)
 }
@@ -131,7 +137,7 @@ mod tests {
     #[test]
     fn one_line_time_and_speeds() {
         // 60 mm at F1200 (20 mm/s), 200 mm/s², start speed 60 mm/min: ramps of ≈1 mm each.
-        let (moves, total) = simulate(b"G21 G90\nG1 X60 F1200\nM2\n").unwrap();
+        let (moves, total) = simulate(b"G21 G90\nG1 X60 F1200\nM2\n", &Setup::default()).unwrap();
         assert_eq!(moves.len(), 1);
         let m = moves[0];
         assert_eq!(m.line, 2);
@@ -143,5 +149,31 @@ mod tests {
         assert!(text.lines().last().unwrap().starts_with("total time: 3.0"));
         let json = report(&moves, total, true);
         assert!(json.starts_with("{\"line\":2,\"entry\":60.000,\"cruise\":1200.000"));
+    }
+
+    #[test]
+    fn on_the_fly_m_codes_do_not_stop_the_motion_and_others_do() {
+        use gantry_machine::setup::{ListCommand, McodeList};
+        let mut setup = Setup::default();
+        for (code, commands) in [
+            (14, &[ListCommand::Set(1)][..]),
+            (16, &[ListCommand::Set(1), ListCommand::DwellMs(0)][..]),
+        ] {
+            setup.program.user_mcodes.push(code).unwrap();
+            let mut l = McodeList {
+                code,
+                dry_run_disabled: false,
+                commands: Default::default(),
+            };
+            l.commands.extend_from_slice(commands).unwrap();
+            setup.outputs.mcode_lists.push(l).unwrap();
+        }
+        let prog = |m: u16| format!("G21 G91\nG1 X10 F1200\nX10 M{m}\nX10\nM2\n");
+        let (moves, _) = simulate(prog(14).as_bytes(), &setup).unwrap();
+        // Line 2 runs into line 3 at the feed: M14 switches on the fly.
+        assert!((moves[0].exit - 1200.0).abs() < 0.01, "{moves:?}");
+        let (moves, _) = simulate(prog(16).as_bytes(), &setup).unwrap();
+        // M16's list has two entries: the motion stops before line 3 (start speed 60 mm/min).
+        assert!((moves[0].exit - 60.0).abs() < 0.01, "{moves:?}");
     }
 }

@@ -11,7 +11,8 @@ use super::kernel::{Segment, SegmentSource, StepKernel, TickOut, KERNEL_TIMER_HZ
 use super::output_event::OutputEvent;
 use super::pipeline::{Motion, MotionState, PushError};
 use super::prep::BlockReport;
-use crate::canon::Canon;
+use crate::canon::{Action, Canon};
+use crate::setup::MAX_MCODE_LISTS;
 use heapless::Deque;
 
 /// Segments queued between prep and the kernel (≈ 16 ms at 2 ms per segment).
@@ -72,6 +73,9 @@ pub struct Sim<const N: usize> {
     pub underruns: u32,
     /// Limit flag handed to the kernel.
     pub stop: bool,
+    /// User M codes that switch an output on the fly (`McodeList::on_the_fly` of the setup's
+    /// lists): [`Sim::run`] queues them with [`Motion::push_output`] as the board does.
+    pub on_the_fly: heapless::Vec<(u16, OutputEvent), MAX_MCODE_LISTS>,
 }
 
 impl<const N: usize> Sim<N> {
@@ -84,7 +88,23 @@ impl<const N: usize> Sim<N> {
             auto_release: true,
             underruns: 0,
             stop: false,
+            on_the_fly: heapless::Vec::new(),
         }
+    }
+
+    /// Queues one action: an on-the-fly user M code (see [`Sim::on_the_fly`]) with
+    /// [`Motion::push_output`], anything else with [`Motion::push`].
+    pub fn push(&mut self, c: &Canon) -> Result<(), PushError> {
+        if let Action::UserMCode {
+            code,
+            at_rest: false,
+        } = c.action
+        {
+            if let Some(&(_, output)) = self.on_the_fly.iter().find(|(m, _)| *m == code) {
+                return self.motion.push_output(c.line, code, output);
+            }
+        }
+        self.motion.push(c)
     }
 
     /// Virtual time in seconds × 1000 (milliseconds, rounded down).
@@ -185,7 +205,7 @@ impl<const N: usize> Sim<N> {
                     exhausted = true;
                     break;
                 };
-                match self.motion.push(&c) {
+                match self.push(&c) {
                     Ok(()) => {}
                     Err(PushError::Full) => {
                         pending = Some(c);
@@ -194,6 +214,10 @@ impl<const N: usize> Sim<N> {
                     Err(e) => return Err((c, e)),
                 }
             }
+            if exhausted {
+                // No more motion: a waiting on-the-fly M code runs at the end (retried while full).
+                let _ = self.motion.flush_output();
+            }
             let out = self.tick(on);
             if out.period == 0 {
                 idle_ticks += 1;
@@ -201,7 +225,7 @@ impl<const N: usize> Sim<N> {
                     self.motion.state(),
                     MotionState::Held | MotionState::Sync | MotionState::Idle
                 );
-                if exhausted && stuck && idle_ticks > 2 {
+                if exhausted && stuck && idle_ticks > 2 && !self.motion.output_pending() {
                     return Ok(());
                 }
                 if idle_ticks > 1_000_000 {
