@@ -92,13 +92,12 @@ fn edges(events: &[PinEvent]) -> Vec<Edge> {
 
 /// The X steps' pin events: (steps made before it, the event).
 fn x_steps(events: &[PinEvent]) -> Vec<(i64, PinEvent)> {
-    let mut x = 0;
-    let mut out = Vec::new();
-    for e in events.iter().filter(|e| e.step & 1 != 0) {
-        out.push((x, *e));
-        x += 1;
-    }
-    out
+    events
+        .iter()
+        .filter(|e| e.step & 1 != 0)
+        .enumerate()
+        .map(|(x, e)| (x as i64, *e))
+        .collect()
 }
 
 /// Runs until idle, checking every millisecond that the board's output levels (status, stop
