@@ -154,9 +154,7 @@ fn write_output(event: OutputEvent) {
     let n = event.index();
     let mask = u32::from(USER_MASK[n]);
     let word = if event.level() { mask } else { mask << 16 };
-    USER_GPIO[n]
-        .bsrr()
-        .write_value(pac::gpio::regs::Bsrr(word));
+    USER_GPIO[n].bsrr().write_value(pac::gpio::regs::Bsrr(word));
 }
 
 /// The ISR's end of the segment queue, as the kernel's segment source.
