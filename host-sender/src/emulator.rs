@@ -251,7 +251,20 @@ impl EmulatedBoard {
         self.limit = false;
         self.switch_stop = false;
         self.arm = 0;
-        self.user_outputs = 0;
+        if self.last_outputs != 0 {
+            // The reset leaves every output pin low (the new kernel's word is 0).
+            self.last_outputs = 0;
+            if let Some(f) = self.observer.as_mut() {
+                f(PinEvent {
+                    time: self.now,
+                    step: 0,
+                    dir: self.last_dir,
+                    inputs: self.inputs,
+                    outputs: 0,
+                    period: 0,
+                });
+            }
+        }
         self.debounce_setup = (setup.inputs.invert, setup.inputs.debounce_ms);
         self.debouncer = Debouncer::new(setup.inputs.invert, setup.inputs.debounce_ms);
         self.outbox.clear();
