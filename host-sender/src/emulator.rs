@@ -27,7 +27,7 @@ use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
 use gantry_machine::controller::inputs::{Debouncer, InputBits, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
 use gantry_machine::controller::{AdcReadings, State};
-use gantry_machine::motion::kernel::{StepKernel, KERNEL_TIMER_HZ};
+use gantry_machine::motion::kernel::{Segment, StepKernel, KERNEL_TIMER_HZ};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::motion::sim::{SegmentFifo, SEGMENT_QUEUE};
 use gantry_machine::setup::Setup;
@@ -51,6 +51,18 @@ pub struct PinEvent {
     pub outputs: u16,
     /// Timer counts to the kernel's next tick (0: idle, or a main-loop event).
     pub period: u32,
+}
+
+/// Queued segments the board took back for a stop or a speed change ([`Board::drop_queued`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct QueueDrop {
+    /// Virtual time, kernel timer counts.
+    pub time: u64,
+    /// Segments removed from the kernel's queue.
+    pub dropped: usize,
+    /// Counts until the kernel's running segment ends (0: the kernel was idle): the new plan
+    /// starts then.
+    pub running_left: u64,
 }
 
 /// A limit switch at a fixed place of the machine.
@@ -167,6 +179,10 @@ pub struct EmulatedBoard {
     /// Board events taken by the test instead of the link (see [`EmulatedBoard::capture_events`]).
     pub events: Vec<BoardEvent>,
     capture: bool,
+    /// The last time the board took back queued segments.
+    pub last_drop: Option<QueueDrop>,
+    /// When `Some`, every segment the kernel starts, with the virtual time it starts.
+    pub started_segments: Option<Vec<(u64, Segment)>>,
 }
 
 /// Boot id of the emulated board's first power-up.
@@ -208,6 +224,8 @@ impl EmulatedBoard {
             last_received_ms: None,
             events: Vec::new(),
             capture: false,
+            last_drop: None,
+            started_segments: None,
         }
     }
 
@@ -366,6 +384,11 @@ impl EmulatedBoard {
         done(self)
     }
 
+    /// The kernel has run every segment it was given (queue empty, no tick due).
+    pub fn kernel_drained(&self) -> bool {
+        self.fifo.0.is_empty() && self.next_tick.is_none()
+    }
+
     /// Virtual time the kernel's segment queue holds (not counting the running segment), ms.
     pub fn queued_ms(&self) -> f64 {
         let counts: u64 = self.fifo.0.iter().map(|s| s.duration()).sum();
@@ -440,10 +463,16 @@ impl EmulatedBoard {
     }
 
     fn tick(&mut self) {
+        let (queued, front) = (self.fifo.0.len(), self.fifo.0.front().copied());
         let out = self
             .kernel
             .tick(&mut self.fifo, self.limit || self.switch_stop);
         let user_outputs = self.kernel.outputs();
+        if let (Some(log), Some(seg)) = (self.started_segments.as_mut(), front) {
+            if self.fifo.0.len() < queued {
+                log.push((self.now, seg));
+            }
+        }
         if let Some(g) = self.gang.as_mut() {
             if out.step & (1 << g.axis) != 0 {
                 let d = if out.dir & (1 << g.axis) != 0 { -1 } else { 1 };
@@ -542,6 +571,27 @@ impl EmulatedBoard {
                 self.phys_offset[i] += old[i] - steps[i];
             }
             self.kernel.set_position(steps);
+        }
+        // A stop or a speed change: the newest queued segments go, prep continues from the end
+        // of the kernel's running segment.
+        let fifo = &mut self.fifo.0;
+        let mut dropped = None;
+        self.board.drop_queued(|max| {
+            let n = max.min(fifo.len());
+            fifo.truncate(fifo.len() - n);
+            dropped = Some(n);
+            n
+        });
+        if let Some(dropped) = dropped {
+            let running_left = match self.next_tick {
+                Some(t) => t.saturating_sub(self.now) + self.kernel.remaining_counts(),
+                None => 0,
+            };
+            self.last_drop = Some(QueueDrop {
+                time: self.now,
+                dropped,
+                running_left,
+            });
         }
         let mut handed_out = false;
         while !self.fifo.0.is_full() {

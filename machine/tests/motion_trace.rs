@@ -316,6 +316,93 @@ fn hold_stops_within_computed_distance_and_resume_ends_identically() {
     );
 }
 
+/// Takes back up to `max` of the newest queued segments, as the kernel's owner does for a stop.
+fn drop_queued(sim: &mut Sim<128>, pick: &mut impl FnMut(usize) -> usize) -> usize {
+    let Some(max) = sim.motion.drop_request() else {
+        return 0;
+    };
+    let k = pick(max.min(sim.fifo.0.len()));
+    let keep = sim.fifo.0.len() - k;
+    sim.fifo.0.truncate(keep);
+    sim.motion.segments_dropped(k);
+    k
+}
+
+#[test]
+fn holds_that_take_back_queued_segments_stay_on_the_path_and_end_identically() {
+    // The mixed job (lines, arcs cut into short chords, a helix) held every 97 ms; each hold
+    // takes back a pseudo-random number of the queued segments (up to what prep allows), so the
+    // rewinds land inside blocks and on block ends. Every stop must be where prep thinks it is,
+    // the speeds and accelerations stay within the limits, and the job ends where an
+    // uninterrupted run ends, with the same number of steps.
+    let cfg = MotionConfig::default();
+    let mut reference: Sim<128> = Sim::new(cfg);
+    let ref_trace = Trace::record(&mut reference, mixed_job());
+
+    let mut sim: Sim<128> = Sim::new(cfg);
+    let mut events: Vec<StepEvent> = Vec::new();
+    let mut on = |e: SimEvent| {
+        if let SimEvent::Step(s) = e {
+            events.push(s)
+        }
+    };
+    let mut seed = 12345u64;
+    let mut pick = |n: usize| {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 33) % (n as u64 + 1)) as usize
+    };
+    let job = mixed_job();
+    let mut next = 0;
+    let mut next_hold = 0u64;
+    let (mut holds, mut dropped) = (0, 0);
+    loop {
+        while next < job.len() && sim.motion.push(&job[next]).is_ok() {
+            next += 1;
+        }
+        if sim.now >= next_hold && sim.motion.state() == MotionState::Running {
+            next_hold = sim.now + KERNEL_TIMER_HZ as u64 * 97 / 1000;
+            sim.motion.feed_hold();
+            dropped += drop_queued(&mut sim, &mut pick);
+            holds += 1;
+            sim.run_until_idle(&mut on);
+            assert_eq!(sim.motion.state(), MotionState::Held);
+            assert_eq!(sim.kernel.position(), sim.motion.prepared_steps());
+            sim.motion.resume();
+        }
+        let idle = sim.tick(&mut on).period == 0;
+        if idle
+            && next >= job.len()
+            && sim.fifo.0.is_empty()
+            && sim.motion.state() == MotionState::Idle
+        {
+            break;
+        }
+    }
+    println!("{holds} holds took back {dropped} queued segments");
+    assert!(holds > 40 && dropped > 100);
+    let trace = Trace { events };
+    assert_eq!(sim.kernel.position(), reference.kernel.position());
+    assert_eq!(trace.final_position(), ref_trace.final_position());
+    // The same path: every axis made the same number of steps (both ways).
+    let pulses = |t: &Trace| {
+        let mut n = [0usize; MAX_AXES];
+        for e in &t.events {
+            for (a, c) in n.iter_mut().enumerate() {
+                *c += usize::from(e.step >> a & 1);
+            }
+        }
+        n
+    };
+    assert_eq!(pulses(&trace), pulses(&ref_trace));
+    check_limits(
+        &cfg,
+        &trace,
+        cfg.feed_shift.max(cfg.axes[0].start_speed) as f64,
+    );
+}
+
 #[test]
 fn feed_override_changes_speed_live() {
     let cfg = MotionConfig::default();

@@ -32,7 +32,7 @@ fn held_mid_arc(
     eb.run_ms(2);
     assert_eq!(eb.board.state(), State::Hold);
     eb.run_until(5_000, |b| {
-        b.board.motion().state() == MotionState::Held && !b.kernel.is_busy()
+        b.board.motion().state() == MotionState::Held && b.kernel_drained()
     });
     let at = eb.kernel.position();
     eb.run_ms(500);
@@ -190,4 +190,39 @@ fn a_job_started_with_the_hold_switch_open_waits_for_it() {
     set(&mut eb, Signal::FeedHold, false);
     until_state(&mut eb, State::Idle, 10_000);
     assert_eq!(eb.kernel.position()[0], 2 * STEPS_PER_MM);
+}
+
+#[test]
+fn a_feed_hold_decelerates_from_the_kernels_running_segment_and_resumes_exactly() {
+    // grbl-like: the hold ramps down from the end of the segment the kernel is running; the
+    // segments queued behind it are taken back. At 3000 mm/min (50 mm/s, 200 mm/s²) the ideal
+    // stop is v²/2a = 6.25 mm.
+    let mut eb = board(|_| {});
+    job(&mut eb, "G21 G90\nG1 X100 F3000\nM30\n");
+    eb.run_until(10_000, |b| b.kernel.position()[0] >= 20 * STEPS_PER_MM);
+    eb.run_for(host_sender::emulator::COUNTS_PER_MS / 3);
+    let (t0, from, queued) = (eb.now(), eb.kernel.position()[0], eb.queued_ms());
+    set(&mut eb, Signal::FeedHold, true);
+    eb.run_until(5_000, |b| {
+        b.board.motion().state() == MotionState::Held && b.kernel_drained()
+    });
+    let drop = eb.last_drop.expect("the hold took the queue back");
+    let ms = |c: u64| c as f64 / host_sender::emulator::COUNTS_PER_MS as f64;
+    let (left, delay) = (ms(drop.running_left), ms(drop.time - t0));
+    let (v, a, step) = (50.0, 200.0, 1.0 / STEPS_PER_MM as f64);
+    let travelled = (eb.kernel.position()[0] - from) as f64 * step;
+    let ideal = v * v / (2.0 * a);
+    println!(
+        "feed hold at 3000 mm/min: stopped in {travelled:.4} mm, ideal {ideal:.4} mm, running \
+         segment left {left:.2} ms, waited {delay:.2} ms, took back {} segments of {queued:.1} ms",
+        drop.dropped
+    );
+    assert!(delay <= 1.0 && drop.dropped > 0);
+    assert!(travelled <= ideal + v * (left + delay) / 1000.0 + step);
+    assert!(travelled >= ideal - step);
+    assert_eq!(eb.board.motion().prepared_steps(), eb.kernel.position());
+    set(&mut eb, Signal::FeedHold, false);
+    until_state(&mut eb, State::Idle, 10_000);
+    assert_eq!(eb.kernel.position()[0], 100 * STEPS_PER_MM);
+    assert_eq!(eb.pulses[0], 100 * STEPS_PER_MM as u64);
 }

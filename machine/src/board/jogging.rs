@@ -132,6 +132,14 @@ impl Board {
         }
         if want != self.jog.running {
             if self.motion.state() != MotionState::Idle {
+                if let (Some(run), Some(new)) = (self.jog.running, want) {
+                    if run.feed > 0 && new.feed > 0 && jog::same_direction(&run.dirs, &new.dirs) {
+                        // Only the speed changes (analog deflection): ramp to it without stopping.
+                        self.motion.change_speed(new.feed);
+                        self.jog.running = want;
+                        return;
+                    }
+                }
                 if self.jog.running.is_some() {
                     self.motion.abort();
                     self.jog.stopping = true;

@@ -4,7 +4,9 @@
 //! Data flows one way: streamed lines → [`StreamSource`] → interpreter → motion pipeline → step
 //! segments. The step kernel itself stays outside (the timer interrupt on the board, a virtual
 //! clock in the emulator): the owner of the kernel calls [`Board::next_segment`] to fill the
-//! segment queue and tells [`Board::poll`] whether the kernel has drained it.
+//! segment queue, tells [`Board::poll`] whether the kernel has drained it, and lets
+//! [`Board::drop_queued`] take back queued segments when a stop or a speed change wants to act
+//! from the kernel's running segment.
 
 mod homing_cycle;
 mod jogging;
@@ -40,10 +42,6 @@ const EVENT_QUEUE: usize = 8;
 pub const ERROR_SOFT_LIMIT: u16 = 900;
 /// Error code reported when motion is refused: homing is required first.
 pub const ERROR_HOMING_REQUIRED: u16 = 901;
-/// Step-timer counts per millisecond.
-const COUNTS_PER_MS: u64 = crate::motion::kernel::KERNEL_TIMER_HZ as u64 / 1000;
-/// Most motion (ms) handed to the kernel ahead of time while jogging.
-pub const JOG_LEAD_MS: u64 = 3;
 /// Mark events waiting for the link.
 const MARK_QUEUE: usize = 4;
 /// Every limit-switch bit of [`InputBits`].
@@ -201,10 +199,6 @@ pub struct Board {
     single_block: bool,
     /// Line of the last motion pushed (single block pauses when it changes).
     last_motion_line: u32,
-    /// Last poll saw the kernel drained.
-    drained: bool,
-    /// Jog lead: timer counts handed out since the kernel was last drained, and when that was (ms).
-    lead: (u64, u32),
 }
 
 impl Board {
@@ -258,8 +252,6 @@ impl Board {
             dry_run: false,
             single_block: false,
             last_motion_line: 0,
-            drained: true,
-            lead: (0, 0),
         };
         if how == PowerUp::MotionInterrupted {
             // grbl alarm 3: the steps in flight when the reset came are unknown.
@@ -758,24 +750,27 @@ impl Board {
         self.state = State::Idle;
     }
 
+    /// A stop (jog stop, stick release, feed hold, abort) or a jog's speed change wants to act
+    /// from the kernel's running segment: when one is pending, `drop_newest(max)` must remove up
+    /// to `max` of the *newest* segments from the kernel's queue that the kernel has not started
+    /// and return how many it removed; segment prep then continues from the end of the last
+    /// segment kept (its exact step position and speed). Call it every main-loop pass after
+    /// [`Board::poll`] and before [`Board::next_segment`]; `drop_newest` is not called when
+    /// nothing is pending.
+    pub fn drop_queued(&mut self, drop_newest: impl FnOnce(usize) -> usize) {
+        if let Some(max) = self.motion.drop_request() {
+            let dropped = if max > 0 {
+                drop_newest(max).min(max)
+            } else {
+                0
+            };
+            self.motion.segments_dropped(dropped);
+        }
+    }
+
     /// The next step segment for the kernel's queue.
     pub fn next_segment(&mut self) -> Option<Segment> {
-        if self.state == State::Jog {
-            // Jogs keep the kernel's queue short, so a release or a stop starts decelerating
-            // within JOG_LEAD_MS (the segments already handed out always run in full).
-            if self.drained {
-                self.drained = false;
-                self.lead = (0, self.now_ms);
-            }
-            let elapsed = u64::from(self.now_ms.wrapping_sub(self.lead.1)) * COUNTS_PER_MS;
-            if self.lead.0 > elapsed + JOG_LEAD_MS * COUNTS_PER_MS {
-                return None;
-            }
-        }
         let seg = self.motion.next_segment();
-        if let Some(s) = &seg {
-            self.lead.0 += s.duration();
-        }
         while let Some(report) = self.motion.take_report() {
             self.line = report.line;
         }
@@ -792,7 +787,6 @@ impl Board {
     /// the kernel has drained (`kernel_drained`: the segment queue is empty and the kernel idle),
     /// and finish the job when everything has run.
     pub fn poll(&mut self, kernel_drained: bool) {
-        self.drained = kernel_drained;
         if !self.motion.config().soft_limits
             && self.state != State::Homing
             && kernel_drained

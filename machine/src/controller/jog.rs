@@ -4,8 +4,11 @@
 //!
 //! The board turns a jog into one planned move toward the travel edge (continuous jogs) or one
 //! increment (nudges and host distance jogs); releasing the stick stops it on its deceleration
-//! ramp and drops the rest ([`crate::motion::pipeline::Motion::abort`]), so nothing queued
-//! overruns.
+//! ramp from the end of the kernel's running segment and drops the rest
+//! ([`crate::motion::pipeline::Motion::abort`] with the queue taken back), so nothing queued
+//! overruns. A new analog deflection along the same direction only changes the move's speed
+//! ([`crate::motion::pipeline::Motion::change_speed`]), so the speed follows the stick without
+//! stopping.
 
 use super::inputs::{InputBits, Signal};
 use crate::motion::config::MotionConfig;
@@ -117,6 +120,18 @@ pub fn jog_target(
     Some(to)
 }
 
+/// True when the direction weights `a` and `b` point the same way (parallel, same sense): an
+/// analog deflection that changes only the speed.
+pub fn same_direction(a: &[i64; MAX_AXES], b: &[i64; MAX_AXES]) -> bool {
+    let wide = |v: i64| i128::from(v);
+    let dot: i128 = a.iter().zip(b).map(|(&x, &y)| wide(x) * wide(y)).sum();
+    if dot <= 0 {
+        return false;
+    }
+    (0..MAX_AXES)
+        .all(|i| (i + 1..MAX_AXES).all(|j| wide(a[i]) * wide(b[j]) == wide(a[j]) * wide(b[i])))
+}
+
 /// Integer square root (floor) of a u128, for path speeds of the analog stick.
 pub fn isqrt(v: u128) -> u128 {
     if v < 2 {
@@ -163,6 +178,15 @@ mod tests {
         assert_eq!(&to[..2], &[300 * NM_PER_MM, -5 * NM_PER_MM]);
         assert_eq!(isqrt(1_000_000_000_000), 1_000_000);
         assert_eq!(isqrt(99), 9);
+    }
+
+    #[test]
+    fn a_speed_change_keeps_the_direction_and_a_reversal_does_not() {
+        let a = [4000, -2000, 0, 0, 0, 0];
+        assert!(same_direction(&a, &[2000, -1000, 0, 0, 0, 0]));
+        assert!(!same_direction(&a, &[-2000, 1000, 0, 0, 0, 0]));
+        assert!(!same_direction(&a, &[4000, -1000, 0, 0, 0, 0]));
+        assert!(!same_direction(&a, &[0; MAX_AXES]));
     }
 
     #[test]

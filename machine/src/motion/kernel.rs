@@ -260,6 +260,12 @@ impl StepKernel {
         self.ticks_left != 0
     }
 
+    /// Timer counts the running segment's remaining ticks take (0 when idle), not counting the
+    /// wait for the next tick already scheduled.
+    pub fn remaining_counts(&self) -> u64 {
+        u64::from(self.ticks_left) * u64::from(self.period)
+    }
+
     /// Exact position in steps of every axis, counting the steps already made in the running segment.
     pub fn position(&self) -> [i64; MAX_AXES] {
         let mut p = self.base;

@@ -1,7 +1,8 @@
 //! Motion: arc linearisation, look-ahead planner, segment preparation and the step kernel.
 //!
 //! Data flow: [`pipeline::Motion::push`] (canonical actions; arcs cut by [`arc`]) → [`planner`]
-//! (look-ahead ring) → [`prep`] (constant-rate [`kernel::Segment`]s, timed by [`profile`]) →
+//! (look-ahead ring) → [`prep`] (constant-rate [`kernel::Segment`]s, timed by [`profile`], the
+//! latest remembered in [`history`] so a stop can take back what the kernel has not started) →
 //! [`kernel::StepKernel::tick`] (the step interrupt). [`sim`] runs all of it on virtual time.
 //! On-the-fly output changes ([`output_event`]) ride along the same path, from a planner block to
 //! its first segment to the tick that starts it.
@@ -11,6 +12,7 @@
 
 pub mod arc;
 pub mod config;
+pub mod history;
 pub mod kernel;
 pub mod output_event;
 pub mod pipeline;

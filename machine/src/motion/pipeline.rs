@@ -6,7 +6,14 @@
 //! Main-context use: `push` canonical actions while it accepts them, `next_segment` to fill the
 //! kernel's segment queue, and `sync_point` / `release_sync` when the queue reaches an action the
 //! controller must perform at rest. Realtime requests: [`Motion::feed_hold`], [`Motion::resume`],
-//! [`Motion::abort`], [`Motion::set_feed_override`], [`Motion::set_rapid_override`].
+//! [`Motion::abort`], [`Motion::change_speed`], [`Motion::set_feed_override`],
+//! [`Motion::set_rapid_override`].
+//!
+//! A hold, an abort and a speed change want to act from the kernel's running segment, not after
+//! the segments queued behind it: they raise [`Motion::drop_request`]; the kernel's owner then
+//! drops up to that many of the newest queued segments the kernel has not started and reports how
+//! many with [`Motion::segments_dropped`], and prep continues from the end of the last one kept
+//! ([`super::history`]). An owner that never drops keeps the old behaviour (the queue runs out).
 //!
 //! On-the-fly outputs (seed 003): [`Motion::push_output`] takes an M code that switches one output
 //! without stopping. Its [`OutputEvent`] waits for the next line block and rides on it, so it
@@ -98,6 +105,8 @@ pub struct Motion<const N: usize> {
     at_sync: bool,
     /// An on-the-fly M code waiting for the next line block.
     pending_output: Option<PendingOutput>,
+    /// A hold, abort or speed change waits for the owner to drop the queued segments.
+    drop_wanted: bool,
 }
 
 impl<const N: usize> Motion<N> {
@@ -116,6 +125,7 @@ impl<const N: usize> Motion<N> {
             abort_pending: false,
             at_sync: false,
             pending_output: None,
+            drop_wanted: false,
         }
     }
 
@@ -465,11 +475,38 @@ impl<const N: usize> Motion<N> {
         }
     }
 
-    /// Feed hold: decelerate on the path (after the segments already handed out) and stop.
+    /// Feed hold: decelerate on the path and stop, from the end of the kernel's running segment
+    /// once the owner has dropped the queued ones ([`Self::drop_request`]), else after them.
     pub fn feed_hold(&mut self) {
         if self.prep.state == PrepState::Running {
             self.prep.state = PrepState::Holding;
+            self.drop_wanted = true;
         }
+    }
+
+    /// Sets the programmed speed (nm/min) of every queued feed move — a jog's single move — and
+    /// ramps to it at the move's acceleration from the end of the kernel's running segment once
+    /// the owner has dropped the queued ones (like a feed override without the queue's lag).
+    /// Ignored while holding or stopping.
+    pub fn change_speed(&mut self, feed: i64) {
+        if self.prep.state == PrepState::Running && !self.abort_pending {
+            self.planner.set_programmed_speed(speed_of(feed));
+            self.drop_wanted = true;
+        }
+    }
+
+    /// How many of the newest segments handed out the owner should drop from the kernel's queue
+    /// now, if they have not started (`None`: no request). Answer with [`Self::segments_dropped`]
+    /// before asking for the next segment.
+    pub fn drop_request(&self) -> Option<usize> {
+        self.drop_wanted.then(|| self.prep.droppable(&self.planner))
+    }
+
+    /// The owner dropped the newest `k` segments (at most [`Self::drop_request`]) before the
+    /// kernel started them: prep continues from the end of the last one kept.
+    pub fn segments_dropped(&mut self, k: usize) {
+        self.drop_wanted = false;
+        self.prep.rewind(k, &self.planner);
     }
 
     /// Resumes after a hold, on the path, from where it stopped (or from the current speed).
@@ -503,6 +540,7 @@ impl<const N: usize> Motion<N> {
         self.at_sync = false;
         self.prep.reset();
         self.abort_pending = false;
+        self.drop_wanted = false;
         self.steps = self.prep.position();
         self.position = self.cfg.to_nm(&self.steps);
     }

@@ -252,6 +252,19 @@ impl<const N: usize> Planner<N> {
         self.replan_all();
     }
 
+    /// Sets the programmed speed (nm/s) of every queued feed block and replans (a jog's new
+    /// speed; rapids keep theirs).
+    pub fn set_programmed_speed(&mut self, speed: u64) {
+        for off in 0..self.len {
+            let i = self.index(off);
+            let b = &mut self.ring[i];
+            if b.kind.is_line() && !b.rapid {
+                b.programmed = speed.clamp(1, MAX_SPEED);
+            }
+        }
+        self.replan_all();
+    }
+
     /// Speed the block cruises at with the current overrides, nm/s.
     pub fn nominal(&self, b: &Block) -> u64 {
         b.nominal

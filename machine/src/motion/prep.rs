@@ -11,6 +11,7 @@
 //! A block's on-the-fly output event goes on the block's first segment only (a hold that stops
 //! and resumes inside the block does not repeat it).
 
+use super::history::{Handed, History, Stand};
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::output_event::OutputEvent;
 use super::planner::{Block, BlockKind, Planner};
@@ -90,6 +91,8 @@ pub struct Prep {
     position: [i64; MAX_AXES],
     report: BlockReport,
     finished: Option<BlockReport>,
+    /// The segments handed out lately, to take back the ones the kernel has not started.
+    history: History,
 }
 
 impl Default for Prep {
@@ -125,6 +128,7 @@ impl Prep {
                 counts: 0,
             },
             finished: None,
+            history: History::new(),
         }
     }
 
@@ -140,8 +144,10 @@ impl Prep {
         self.position
     }
 
+    /// Sets the step position; what was handed out before can no longer be taken back.
     pub fn set_position(&mut self, steps: [i64; MAX_AXES]) {
         self.position = steps;
+        self.history = History::new();
     }
 
     /// True while the head block is partly prepared.
@@ -202,6 +208,17 @@ impl Prep {
                     }
                     let p = self.dwell_left.min(SEGMENT_COUNTS);
                     self.dwell_left -= p;
+                    self.history.record(Handed {
+                        steps: [0; MAX_AXES],
+                        seq: head.seq,
+                        done: 0,
+                        speed: 0,
+                        stand: if self.dwell_left == 0 {
+                            Stand::BlockEnd
+                        } else {
+                            Stand::Dwelling
+                        },
+                    });
                     return PrepOut::Segment(Segment::idle(1, p as u32));
                 }
                 BlockKind::Line { output } => {
@@ -239,6 +256,52 @@ impl Prep {
         self.exit_sq = exit_sq;
         self.nominal = nominal;
         self.holding = false;
+    }
+
+    /// How many of the newest segments handed out can be taken back now ([`History::droppable`]):
+    /// segments of the line block in progress.
+    pub fn droppable<const N: usize>(&self, planner: &Planner<N>) -> usize {
+        let active = planner
+            .head()
+            .filter(|b| self.active && b.kind.is_line())
+            .map(|b| b.seq);
+        self.history.droppable(active)
+    }
+
+    /// The kernel's owner dropped the newest `k` segments handed out (at most
+    /// [`Self::droppable`]) before the kernel started them. Prep continues from its state after
+    /// the last segment kept: that exact step position, place in the block and speed, with a new
+    /// profile (so a hold decelerates from there at once, a new speed ramps from there).
+    pub fn rewind<const N: usize>(&mut self, k: usize, planner: &Planner<N>) {
+        let allowed = self.droppable(planner);
+        debug_assert!(k <= allowed, "dropped {k} segments, {allowed} allowed");
+        let k = k.min(allowed);
+        if k == 0 {
+            return;
+        }
+        let (at, steps) = self.history.take_back(k);
+        for (p, s) in self.position.iter_mut().zip(steps) {
+            *p -= s;
+        }
+        if self.state == PrepState::Held {
+            // The stop prepared so far was dropped with the segments: decelerate again.
+            self.state = PrepState::Holding;
+        }
+        match planner.head().copied() {
+            Some(b) if b.seq == at.seq && matches!(at.stand, Stand::Inside | Stand::BlockEnd) => {
+                self.done = at.done;
+                self.s_now = Self::s_of(&b, at.done);
+                for i in 0..MAX_AXES {
+                    self.cum[i] = cum_at(&b, i, at.done);
+                }
+                self.reprofile(&b, planner, self.s_now, u64::from(at.speed));
+            }
+            _ => {
+                // At the end of the block before: the head block starts again from its start.
+                self.active = false;
+                self.carry = u64::from(at.speed);
+            }
+        }
     }
 
     /// Path position (nm) of dominant step `c` of the block.
@@ -323,26 +386,38 @@ impl Prep {
         let duration = ticks as u64 * period as u64;
         self.emitted += duration;
         let mut steps = [0u32; MAX_AXES];
-        let events = b.events as u64;
+        let mut signed = [0i32; MAX_AXES];
         for i in 0..MAX_AXES {
-            let total = match b.steps[i] {
-                0 => continue,
-                s if s == b.events => c,
-                // round(steps_i · c / N): cumulative, so the block ends exactly on steps_i.
-                s => div_u64(s as u64 * c as u64 + events / 2, events) as u32,
-            };
+            if b.steps[i] == 0 {
+                continue;
+            }
+            let total = cum_at(b, i, c);
             steps[i] = total - self.cum[i];
             self.cum[i] = total;
-            if b.dir & (1 << i) != 0 {
-                self.position[i] -= steps[i] as i64;
+            // A segment lasts about 2 ms: its step counts are far below i32::MAX.
+            signed[i] = if b.dir & (1 << i) != 0 {
+                -(steps[i] as i32)
             } else {
-                self.position[i] += steps[i] as i64;
-            }
+                steps[i] as i32
+            };
+            self.position[i] += i64::from(signed[i]);
         }
         self.done = c;
         self.s_now = s;
         self.report.counts += duration;
-        self.report.peak = self.report.peak.max(self.profile.speed_at(s));
+        let speed = self.profile.speed_at(s);
+        self.report.peak = self.report.peak.max(speed);
+        self.history.record(Handed {
+            steps: signed,
+            seq: b.seq,
+            done: c,
+            speed: speed.min(u64::from(u32::MAX)) as u32,
+            stand: if c == b.events {
+                Stand::BlockEnd
+            } else {
+                Stand::Inside
+            },
+        });
         Some(Segment {
             steps,
             ticks,
@@ -350,5 +425,15 @@ impl Prep {
             dir: b.dir,
             output: core::mem::take(&mut self.output),
         })
+    }
+}
+
+/// Steps axis `i` has made after dominant step `c` of block `b`: round(steps_i · c / N), cumulative,
+/// so the block ends exactly on its step counts.
+fn cum_at(b: &Block, i: usize, c: u32) -> u32 {
+    match b.steps[i] {
+        0 => 0,
+        s if s == b.events => c,
+        s => div_u64(s as u64 * c as u64 + b.events as u64 / 2, b.events as u64) as u32,
     }
 }

@@ -55,7 +55,7 @@ pub fn until_state(eb: &mut EmulatedBoard, state: State, max_ms: u64) {
 pub fn until_at_rest(eb: &mut EmulatedBoard, max_ms: u64) {
     let ok = eb.run_until(max_ms, |b| {
         b.board.motion().state() == gantry_machine::motion::pipeline::MotionState::Idle
-            && !b.kernel.is_busy()
+            && b.kernel_drained()
     });
     assert!(ok, "still moving after {max_ms} ms");
 }
