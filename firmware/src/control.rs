@@ -5,6 +5,7 @@
 //! 1. kernel stopped by a limit → drop the queue, `Board::limit_stop`, re-arm unless in alarm;
 //! 2. debounced inputs and ADC readings → `Board::on_inputs`;
 //! 3. bytes from USB → `BoardLink::on_bytes`, `service`, `Board::poll(kernel_drained)`;
+//!    `Board::drop_queued` takes back queued segments for a stop or a jog's speed change;
 //! 4. segments from `Board::next_segment` into the step ISR's queue, with the motion marker set
 //!    before the ISR can run them and cleared once the kernel is drained (alarm 3 after a reset);
 //!    the user output word exchanged with the kernel (`Board::sync_user_outputs`);
@@ -182,6 +183,11 @@ pub async fn run(mut io: Io, board: &'static mut Board, link: &'static mut Board
         board.poll(drained);
         if let Some(steps) = board.take_position_reset() {
             step::set_position(steps);
+        }
+        // A stop or a jog's speed change: the newest queued segments go, segment prep continues
+        // from the end of the kernel's running segment.
+        if !stop_handled {
+            board.drop_queued(|max| step::drop_newest(max, &mut io.segments));
         }
 
         // 4. Segments for the step ISR (none while it is stopped).

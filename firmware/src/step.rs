@@ -44,8 +44,15 @@ pub const STEP_PULSE_COUNTS: u32 = KERNEL_TIMER_HZ / 500_000;
 pub const MIN_PERIOD_COUNTS: u32 = 2 * STEP_PULSE_COUNTS;
 /// Tick period while the kernel is idle (1 ms), i.e. how often an empty queue is polled.
 pub const IDLE_PERIOD_COUNTS: u32 = KERNEL_TIMER_HZ / 1_000;
-/// Slots in the segment queue (heapless 0.9 SPSC holds N - 1).
-pub const SEGMENT_QUEUE_LEN: usize = 32;
+/// Slots in the segment queue (heapless 0.9 SPSC holds N - 1): 15 segments of about 2 ms, 30 ms of
+/// motion ahead of the kernel. Segment prep remembers as many as it can take back for a stop
+/// ([`gantry_machine::motion::history::SEGMENT_HISTORY`]), so none of them overruns a stop.
+pub const SEGMENT_QUEUE_LEN: usize = 16;
+
+const _: () = assert!(
+    SEGMENT_QUEUE_LEN - 1 <= gantry_machine::motion::history::SEGMENT_HISTORY,
+    "every queued segment can be taken back"
+);
 
 /// An armed limit switch is active: set by the input task (EXTI, microseconds after the edge) and
 /// the main loop, cleared only by the main loop when it re-arms the kernel. The kernel latches
@@ -235,6 +242,33 @@ pub fn flush() {
         while s.source.0.dequeue().is_some() {}
         s.kernel.flush();
     });
+}
+
+/// Removes up to `max` of the *newest* queued segments the kernel has not started (a stop or a
+/// speed change re-plans from the end of the running segment, `Board::drop_queued`); returns how
+/// many it removed. The running segment and the older queued ones stay, in order.
+///
+/// Inside one critical section (TIM2 masked) so the ISR cannot take a segment between counting
+/// and removing: the SPSC consumer only pops the oldest, so the `keep` oldest are rotated to the
+/// back through the producer (both ends are ours while TIM2 is masked) and the rest popped. At
+/// most 15 moves of a 36-byte segment, a few microseconds; normally `keep` is 0 (every queued
+/// segment can be taken back) and only the pops remain.
+pub fn drop_newest(max: usize, producer: &mut Producer<'static, Segment>) -> usize {
+    with_kernel(|s| {
+        let queued = s.source.0.len();
+        let drop = max.min(queued);
+        for _ in drop..queued {
+            if let Some(seg) = s.source.0.dequeue() {
+                // Cannot fail: one slot was just freed.
+                let _ = producer.enqueue(seg);
+            }
+        }
+        for _ in 0..drop {
+            s.source.0.dequeue();
+        }
+        drop
+    })
+    .unwrap_or(0)
 }
 
 /// Re-arms a stopped kernel (after [`flush`] and the board's `limit_stop`).

@@ -414,3 +414,130 @@ fn continuous_jogs_stop_on_the_soft_limit_without_an_error() {
         assert_eq!(eb.board.state(), state);
     }
 }
+
+/// Path speed (mm/min) and per-axis speeds (mm/s, signed) of a started segment on X and Y.
+fn segment_velocity(s: &Segment) -> (f64, [f64; 2]) {
+    let secs = s.duration() as f64 / KERNEL_TIMER_HZ as f64;
+    let axis = |i: usize| {
+        let mm = s.steps[i] as f64 * STEP_MM / secs;
+        if s.dir & (1 << i) != 0 {
+            -mm
+        } else {
+            mm
+        }
+    };
+    let v = [axis(0), axis(1)];
+    ((v[0] * v[0] + v[1] * v[1]).sqrt() * 60.0, v)
+}
+
+#[test]
+fn turning_the_analog_stick_bends_the_path_without_stopping() {
+    let mut eb = board(|s| s.jog.analog_max_speed = 1200 * MM);
+    enter_joystick(&mut eb);
+    eb.started_segments = Some(Vec::new());
+    eb.adc = AdcReadings {
+        fro: None,
+        stick: Some([stick(8), 2047]),
+    };
+    eb.run_ms(600);
+    let t1 = eb.now();
+    // Up a little: X at 1200, Y at 600 mm/min (26.6° to the left).
+    eb.adc.stick = Some([stick(8), stick(4)]);
+    eb.run_ms(600);
+    let t2 = eb.now();
+    // Back to X alone.
+    eb.adc.stick = Some([stick(8), 2047]);
+    eb.run_ms(600);
+    let log: Vec<(u64, Segment)> = eb.started_segments.clone().unwrap();
+    let after: Vec<(u64, f64, [f64; 2])> = log
+        .iter()
+        .filter(|(t, _)| *t >= t1)
+        .map(|(t, s)| {
+            let (v, axes) = segment_velocity(s);
+            (*t, v, axes)
+        })
+        .collect();
+    // Never at rest: every segment moves, at a corner speed the planner allows (Feed Shift
+    // 60 mm/min over the direction jump: ≈ 130 mm/min for 26.6°).
+    let slowest = after.iter().map(|s| s.1).fold(f64::MAX, f64::min);
+    println!("bend: slowest segment {slowest:.1} mm/min");
+    assert!(slowest > 100.0, "{slowest} mm/min");
+    // X never reversed; Y moved up and stopped again.
+    assert!(after.iter().all(|s| s.2[0] > 0.0 && s.2[1] >= 0.0));
+    // Axis speeds (mm/s) over the last 20 segments before `until` (single segments of the minor
+    // axis round to whole steps).
+    let mean = |until: u64| {
+        let segs: Vec<&(u64, Segment)> = log.iter().filter(|(t, _)| *t < until).collect();
+        let tail = &segs[segs.len() - 20..];
+        let secs =
+            tail.iter().map(|(_, s)| s.duration()).sum::<u64>() as f64 / KERNEL_TIMER_HZ as f64;
+        let mm = |i: usize| tail.iter().map(|(_, s)| s.steps[i]).sum::<u32>() as f64 * STEP_MM;
+        [mm(0) / secs, mm(1) / secs]
+    };
+    let in_turn = mean(t2);
+    let end = mean(eb.now());
+    println!("bend: axis speeds {in_turn:?} mm/s after the turn, {end:?} mm/s after turning back");
+    assert!((in_turn[0] - 20.0).abs() < 0.05 && (in_turn[1] - 10.0).abs() < 0.05);
+    assert!((end[0] - 20.0).abs() < 0.05 && end[1] == 0.0);
+    // Per axis, speed changes stay within 200 mm/s² plus the Feed Shift jump (1 mm/s) at the
+    // corners, over windows of 5 segments.
+    for axis in 0..2 {
+        let peak = after
+            .windows(6)
+            .map(|w| {
+                let dv = (w[5].2[axis] - w[0].2[axis]).abs();
+                let dt = (w[5].0 - w[0].0) as f64 / KERNEL_TIMER_HZ as f64;
+                (dv - 1.0).max(0.0) / dt
+            })
+            .fold(0.0, f64::max);
+        println!("bend: axis {axis} peak acceleration beyond the feed-shift jump {peak:.1} mm/s²");
+        assert!(peak <= ACCEL * 1.05, "axis {axis}: {peak}");
+    }
+    let y = eb.kernel.position()[1];
+    assert!(y > 0);
+    eb.adc.stick = Some([2047, 2047]);
+    until_at_rest(&mut eb, 5_000);
+    assert_eq!(eb.kernel.position()[1], y);
+    assert_eq!(eb.board.motion().prepared_steps(), eb.kernel.position());
+    assert_eq!(eb.board.state(), State::Jog);
+}
+
+#[test]
+fn an_analog_bend_toward_a_near_edge_stops_and_restarts_instead() {
+    // A 7° turn would keep ≈ 480 mm/min through the corner (Feed Shift), which needs 0.16 mm to
+    // stop; Y's travel ends 0.01 mm away, so the jog stops instead and starts the new direction
+    // from rest, and still ends on the soft limit.
+    let mut eb = board(|s| {
+        s.jog.analog_max_speed = 1200 * MM;
+        s.axes[1].travel_max = MM / 100;
+    });
+    enter_joystick(&mut eb);
+    eb.started_segments = Some(Vec::new());
+    eb.adc = AdcReadings {
+        fro: None,
+        stick: Some([stick(8), 2047]),
+    };
+    eb.run_ms(600);
+    let t1 = eb.now();
+    eb.adc.stick = Some([stick(8), stick(1)]);
+    eb.run_ms(1000);
+    assert_eq!(eb.kernel.position()[1], 6); // 0.01 mm = 6.4 steps
+                                            // The slowest X segment before Y starts: at rest (a bend would pass the corner at speed).
+    let log = eb.started_segments.as_ref().unwrap();
+    let before_y: Vec<f64> = log
+        .iter()
+        .filter(|(t, _)| *t >= t1)
+        .take_while(|(_, s)| s.steps[1] == 0)
+        .map(|(_, s)| segment_velocity(s).0)
+        .collect();
+    let slowest = before_y.iter().copied().fold(f64::MAX, f64::min);
+    println!("near-edge turn: slowest segment {slowest:.1} mm/min");
+    assert!(
+        slowest <= 60.0 + ACCEL * 0.002 * 60.0,
+        "it stopped: {slowest}"
+    );
+    eb.adc.stick = Some([2047, 2047]);
+    until_at_rest(&mut eb, 5_000);
+    assert_eq!(eb.board.motion().prepared_steps(), eb.kernel.position());
+    assert_eq!(eb.board.alarm(), None);
+}

@@ -122,6 +122,7 @@ impl Board {
                 } else {
                     self.setup.jog.instant_speed
                 },
+                analog: false,
             });
         }
         if self.jog.stopping {
@@ -133,10 +134,17 @@ impl Board {
         if want != self.jog.running {
             if self.motion.state() != MotionState::Idle {
                 if let (Some(run), Some(new)) = (self.jog.running, want) {
-                    if run.feed > 0 && new.feed > 0 && jog::same_direction(&run.dirs, &new.dirs) {
-                        // Only the speed changes (analog deflection): ramp to it without stopping.
-                        self.motion.change_speed(new.feed);
-                        self.jog.running = want;
+                    if run.analog && new.analog {
+                        if jog::same_direction(&run.dirs, &new.dirs) {
+                            // Only the speed changes: ramp to it without stopping.
+                            self.motion.change_speed(new.feed);
+                            self.jog.running = want;
+                        } else {
+                            // A new direction: bend into it from the end of the kernel's
+                            // running segment ([`Board::drop_queued`]).
+                            self.motion.request_drop();
+                            self.jog.bend = want;
+                        }
                         return;
                     }
                 }
@@ -183,7 +191,30 @@ impl Board {
         (sq != 0).then(|| StickMove {
             dirs,
             feed: jog::isqrt(sq) as i64,
+            analog: true,
         })
+    }
+
+    /// Bends the analog jog into its new direction without stopping (after the queued segments
+    /// were taken back); where it cannot (too close to the travel edge, nothing in progress), it
+    /// stops and the new direction starts from rest.
+    pub(super) fn bend_stick_move(&mut self, m: StickMove) {
+        if !(self.state == State::Jog && self.jog.joystick && !self.jog.stopping) {
+            return;
+        }
+        let cfg = *self.motion.config();
+        if self
+            .motion
+            .bend(m.feed, |from| jog::jog_target(&cfg, from, &m.dirs, None))
+        {
+            self.jog.running = Some(m);
+        } else if self.motion.state() != MotionState::Idle {
+            self.motion.abort();
+            self.jog.stopping = true;
+            self.jog.running = None;
+        } else {
+            self.jog.running = None;
+        }
     }
 
     fn start_stick_move(&mut self, m: StickMove) {

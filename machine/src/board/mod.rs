@@ -64,6 +64,8 @@ struct StickMove {
     dirs: [i64; MAX_AXES],
     /// Instantaneous/analog feed (nm/min); 0 = rapid (Accelerated mode).
     feed: i64,
+    /// From the analog stick (its speed and direction change without stopping).
+    analog: bool,
 }
 
 /// Jog bookkeeping (host jogs and the joystick).
@@ -75,6 +77,8 @@ struct JogState {
     host: bool,
     /// The stick move now planned (None: none).
     running: Option<StickMove>,
+    /// An analog move to bend into once the kernel's queue has been taken back.
+    bend: Option<StickMove>,
     /// The motion is stopping (decelerating and flushing) for a stick change or jog stop.
     stopping: bool,
     /// Nudge: the switches' directions at the last nudge and when the next one is due.
@@ -765,6 +769,9 @@ impl Board {
                 0
             };
             self.motion.segments_dropped(dropped);
+        }
+        if let Some(m) = self.jog.bend.take() {
+            self.bend_stick_move(m);
         }
     }
 

@@ -127,6 +127,15 @@ impl History {
         k
     }
 
+    /// The block of the newest segment ends with it (a move cut short where prep stands).
+    pub fn end_block(&mut self) {
+        if let Some(h) = self.handed.back_mut() {
+            if h.stand == Stand::Inside {
+                h.stand = Stand::BlockEnd;
+            }
+        }
+    }
+
     /// Forgets the newest `k` segments (at most [`Self::droppable`]); returns prep's state after
     /// the last one kept and the signed steps the forgotten ones would have made.
     pub fn take_back(&mut self, k: usize) -> (Handed, [i64; MAX_AXES]) {

@@ -27,8 +27,9 @@ use super::arc::{plane_axes, ArcChords};
 use super::config::MotionConfig;
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::output_event::OutputEvent;
-use super::planner::{Block, BlockKind, LineRequest, Planner};
+use super::planner::{direction, junction_limit_sq, Block, BlockKind, LineRequest, Planner, UNIT};
 use super::prep::{BlockReport, Prep, PrepOut, PrepState};
+use super::trig::mul_div;
 use super::trig::{polar, QUARTER_TURN};
 use crate::canon::{Action, Canon};
 use crate::units::{Pos, MAX_AXES};
@@ -495,6 +496,91 @@ impl<const N: usize> Motion<N> {
         }
     }
 
+    /// Asks the owner to drop the queued segments (see [`Self::drop_request`]) without changing
+    /// anything else: after [`Self::segments_dropped`], prep stands at the end of the kernel's
+    /// running segment (for a [`Self::bend`]).
+    pub fn request_drop(&mut self) {
+        self.drop_wanted = true;
+    }
+
+    /// Bends the move in progress toward a new jog target without stopping (an analog stick
+    /// turned): from where prep stands (after [`Self::segments_dropped`]: the end of the kernel's
+    /// running segment) it keeps the old direction just as long as it needs to slow down to the
+    /// corner speed the planner allows there (junction deviation, feed shift, the new move's
+    /// speed), then runs to `target(corner)` at `feed` (nm/min). `target` gives the end of the new
+    /// move from a start point (the jog's soft-limit edge). False, with nothing changed, when it
+    /// cannot bend here: not a single line in progress (a jog), holding, or the new move too short
+    /// to stop from the corner speed.
+    pub fn bend(&mut self, feed: i64, target: impl Fn(&Pos) -> Option<Pos>) -> bool {
+        if self.prep.state != PrepState::Running
+            || self.abort_pending
+            || self.at_sync
+            || self.arc.is_some()
+            || !self.prep.is_active()
+            || self.planner.len() != 1
+            || self.pending_output.is_some()
+        {
+            return false;
+        }
+        let Some(head) = self.planner.head().copied() else {
+            return false;
+        };
+        if !head.kind.is_line() {
+            return false;
+        }
+        let cfg = self.cfg;
+        let here_steps = self.prep.position();
+        let here = cfg.to_nm(&here_steps);
+        // The old direction, from the head block's step counts.
+        let mut old_delta = [0i64; MAX_AXES];
+        for (i, d) in old_delta.iter_mut().enumerate() {
+            let nm = cfg.axes[i].steps_to_nm(i64::from(head.steps[i]));
+            *d = if head.dir & (1 << i) != 0 { -nm } else { nm };
+        }
+        let (Some(old), Some(first)) = (direction(&cfg, &old_delta), target(&here)) else {
+            return false;
+        };
+        let Some(new) = direction(&cfg, &sub(&first, &here)) else {
+            return false;
+        };
+        let v = self.prep.speed();
+        let pct = u64::from(self.planner.feed_override());
+        let new_speed = (speed_of(feed) * pct / 100).clamp(1, new.max_speed);
+        let corner_sq = junction_limit_sq(&cfg, &old.unit, &new.unit, self.junction_deviation)
+            .min(v * v)
+            .min(new_speed * new_speed);
+        // Slow down to the corner speed on the old line (never beyond its end).
+        let two_a = head.accel.saturating_mul(2);
+        let remaining = head.length.saturating_sub(self.prep.path_position());
+        let slow = (v * v - corner_sq).div_ceil(two_a).min(remaining);
+        let mut corner = here;
+        for (c, u) in corner.iter_mut().zip(old.unit) {
+            *c += (i128::from(u) * i128::from(slow) / i128::from(UNIT)) as i64;
+        }
+        let Some(to) = target(&corner) else {
+            return false;
+        };
+        let rest = length(&sub(&to, &corner));
+        if u128::from(new.accel) * 2 * u128::from(rest) < u128::from(corner_sq) {
+            // Too close to the edge to stop from the corner speed.
+            return false;
+        }
+        self.prep.cut();
+        self.planner.clear();
+        self.syncs.clear();
+        self.steps = here_steps;
+        self.position = here;
+        self.planner.continue_from(old.unit);
+        let exact_stop = core::mem::replace(&mut self.exact_stop, false);
+        if slow > 0 {
+            // At the current speed (with the feed override), slowing for the corner.
+            self.queue_line(0, &corner, Some(mul_div(v, 100, pct).max(1)));
+        }
+        self.queue_line(0, &to, Some(speed_of(feed)));
+        self.exact_stop = exact_stop;
+        true
+    }
+
     /// How many of the newest segments handed out the owner should drop from the kernel's queue
     /// now, if they have not started (`None`: no request). Answer with [`Self::segments_dropped`]
     /// before asking for the next segment.
@@ -576,6 +662,24 @@ impl<const N: usize> Motion<N> {
         let feed = self.planner.feed_override();
         self.planner.set_overrides(feed, pct.clamp(1, 100));
     }
+}
+
+/// `a - b` per axis.
+fn sub(a: &Pos, b: &Pos) -> Pos {
+    let mut d = [0; MAX_AXES];
+    for i in 0..MAX_AXES {
+        d[i] = a[i] - b[i];
+    }
+    d
+}
+
+/// Euclidean length of a displacement, nm.
+fn length(d: &Pos) -> u64 {
+    let sq: u128 = d
+        .iter()
+        .map(|v| v.unsigned_abs() as u128 * v.unsigned_abs() as u128)
+        .sum();
+    super::trig::isqrt_u128(sq) as u64
 }
 
 /// nm/min → nm/s.

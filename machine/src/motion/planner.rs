@@ -25,7 +25,7 @@ use crate::units::MAX_AXES;
 use heapless::Deque;
 
 /// Unit vectors are scaled by 2³⁰.
-const UNIT: i64 = 1 << 30;
+pub const UNIT: i64 = 1 << 30;
 
 /// What a block does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -148,6 +148,9 @@ pub struct Planner<const N: usize> {
     len: usize,
     /// Unit vector of the last line block, if the next line may blend with it.
     prev_unit: Option<[i64; MAX_AXES]>,
+    /// The next line continues a move cut short at the current speed ([`Self::continue_from`]),
+    /// although the ring is empty.
+    continuing: bool,
     feed_pct: u16,
     rapid_pct: u16,
     /// Sequence number of the next block.
@@ -173,6 +176,7 @@ impl<const N: usize> Planner<N> {
             head: 0,
             len: 0,
             prev_unit: None,
+            continuing: false,
             feed_pct: 100,
             rapid_pct: 100,
             next_seq: 0,
@@ -232,6 +236,7 @@ impl<const N: usize> Planner<N> {
     pub fn clear(&mut self) {
         self.len = 0;
         self.prev_unit = None;
+        self.continuing = false;
         self.hull.clear();
         self.prefix_end = 0;
         self.open_from = self.next_seq;
@@ -426,7 +431,9 @@ impl<const N: usize> Planner<N> {
             Some(v) => (v.clamp(1, MAX_SPEED), false),
             None => (max_speed, true),
         };
-        let stop_before = req.exact_stop_before || self.prev_unit.is_none() || self.len == 0;
+        let stop_before = req.exact_stop_before
+            || self.prev_unit.is_none()
+            || (self.len == 0 && !self.continuing);
         let junction_sq = match (stop_before, self.prev_unit) {
             (false, Some(prev)) => junction_limit_sq(cfg, &prev, &unit, req.junction_deviation),
             _ => 0,
@@ -465,7 +472,18 @@ impl<const N: usize> Planner<N> {
         self.next_seq = self.next_seq.wrapping_add(1);
         self.add_candidate(i);
         self.prev_unit = Some(unit);
+        self.continuing = false;
         true
+    }
+
+    /// The ring is empty and the machine still moves along `unit` (2³⁰ scale): the next line
+    /// blends with that direction (junction limits) instead of starting from rest. Segment prep
+    /// carries the speed.
+    pub fn continue_from(&mut self, unit: [i64; MAX_AXES]) {
+        if self.len == 0 {
+            self.prev_unit = Some(unit);
+            self.continuing = true;
+        }
     }
 
     /// Recomputes every entry limit (after an override change or a resume).
@@ -526,9 +544,51 @@ impl<const N: usize> Planner<N> {
     }
 }
 
+/// What the machine's axes allow along a straight move.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Direction {
+    /// Unit vector, 2³⁰ scale.
+    pub unit: [i64; MAX_AXES],
+    /// Path acceleration and speed with every axis within its limits, nm/s² and nm/s.
+    pub accel: u64,
+    pub max_speed: u64,
+}
+
+/// The direction of a move by `delta` (nm per axis) and what the axes allow along it; `None`
+/// for no move. (The same limits [`Planner::push_line`] applies.)
+pub fn direction(cfg: &MotionConfig, delta: &[i64; MAX_AXES]) -> Option<Direction> {
+    let axes = cfg.axis_count as usize;
+    let len_sq: u128 = delta[..axes]
+        .iter()
+        .map(|d| d.unsigned_abs() as u128 * d.unsigned_abs() as u128)
+        .sum();
+    let length = isqrt_u128(len_sq) as u64;
+    if length == 0 {
+        return None;
+    }
+    let mut dir = Direction {
+        unit: [0; MAX_AXES],
+        accel: u64::MAX,
+        max_speed: MAX_SPEED,
+    };
+    for i in 0..axes {
+        let d = delta[i].unsigned_abs();
+        if d == 0 {
+            continue;
+        }
+        let ax = &cfg.axes[i];
+        dir.max_speed = dir.max_speed.min(mul_div(ax.max_rate, length, d));
+        dir.accel = dir.accel.min(mul_div(ax.accel, length, d));
+        dir.unit[i] = (delta[i] as i128 * UNIT as i128 / length as i128) as i64;
+    }
+    dir.max_speed = dir.max_speed.max(1);
+    dir.accel = dir.accel.max(1);
+    Some(dir)
+}
+
 /// Junction speed² limit between unit vectors `prev` and `cur` (2³⁰ scale): the smaller of grbl's
 /// junction-deviation limit and the seed's Feed Shift (largest vector-speed change at the corner).
-fn junction_limit_sq(
+pub fn junction_limit_sq(
     cfg: &MotionConfig,
     prev: &[i64; MAX_AXES],
     cur: &[i64; MAX_AXES],

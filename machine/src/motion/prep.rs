@@ -155,6 +155,22 @@ impl Prep {
         self.active
     }
 
+    /// Path position (nm into the head block) at the end of what is prepared.
+    pub fn path_position(&self) -> u64 {
+        self.s_now
+    }
+
+    /// Ends the block in progress where prep stands (a jog bending to a new direction): the
+    /// caller drops it from the planner and queues the continuation, which starts at the current
+    /// speed.
+    pub fn cut(&mut self) {
+        if self.active {
+            self.carry = self.speed();
+            self.active = false;
+            self.history.end_block();
+        }
+    }
+
     /// Speed at the end of what is prepared, nm/s.
     pub fn speed(&self) -> u64 {
         if self.active {
