@@ -7,7 +7,8 @@
 //! ramp from the end of the kernel's running segment and drops the rest
 //! ([`crate::motion::pipeline::Motion::abort`] with the queue taken back), so nothing queued
 //! overruns. A new analog deflection along the same direction only changes the move's speed
-//! ([`crate::motion::pipeline::Motion::change_speed`]), so the speed follows the stick without
+//! ([`crate::motion::pipeline::Motion::change_speed`]) and a new direction bends the path
+//! ([`crate::motion::pipeline::Motion::bend`]), so the velocity follows the stick without
 //! stopping.
 
 use super::inputs::{InputBits, Signal};
