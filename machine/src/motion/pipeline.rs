@@ -9,8 +9,9 @@
 //! [`Motion::abort`], [`Motion::change_speed`], [`Motion::set_feed_override`],
 //! [`Motion::set_rapid_override`].
 //!
-//! A hold, an abort and a speed change want to act from the kernel's running segment, not after
-//! the segments queued behind it: they raise [`Motion::drop_request`]; the kernel's owner then
+//! A hold, an abort, a speed change and a bend ([`Motion::bend`]) want to act from the kernel's
+//! running segment, not after the segments queued behind it: they raise
+//! [`Motion::drop_request`]; the kernel's owner then
 //! drops up to that many of the newest queued segments the kernel has not started and reports how
 //! many with [`Motion::segments_dropped`], and prep continues from the end of the last one kept
 //! ([`super::history`]). An owner that never drops keeps the old behaviour (the queue runs out).
