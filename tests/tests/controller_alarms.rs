@@ -57,8 +57,11 @@ fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2(
     assert!(eb.board.output_levels().spindle_enable && eb.board.output_levels().flood);
     until_state(&mut eb, State::Alarm, 5_000);
     let x = eb.kernel.position()[0];
-    assert_eq!(x, 47_384, "74.04 mm: inside line 78 (G1 X75)");
-    // … then the program-stop sequence, alarm 2 naming line 204, the job ended at line 78.
+    // The stop takes back the queued segments of the block being prepared (line 77); those of
+    // line 76 still queued run first (a stop only rewinds into the block in progress), so the
+    // ramp (1 mm from 20 mm/s) starts at X 73 and ends exactly on the end of line 77.
+    assert_eq!(x, 47_360, "74.00 mm: the end of line 77 (G1 X74)");
+    // … then the program-stop sequence, alarm 2 naming line 204, the job ended at line 77.
     assert_eq!(eb.board.alarm(), Some(AlarmCode::SoftLimit));
     assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
     assert_eq!(
@@ -68,13 +71,13 @@ fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2(
                 code: AlarmCode::SoftLimit,
                 line: 204
             },
-            BoardEvent::JobDone { line: 78 }
+            BoardEvent::JobDone { line: 77 }
         ]
     );
-    assert_eq!(eb.board.resume_line(), 78);
+    assert_eq!(eb.board.resume_line(), 77);
     // Position kept: still homed, the board's idea of X is the kernel's.
     assert_eq!(eb.board.homed(), 0b001);
-    assert_eq!(eb.board.motion().queued_position()[0], 74_037_500);
+    assert_eq!(eb.board.motion().queued_position()[0], 74_000_000);
     eb.run_ms(1000);
     assert_eq!(eb.kernel.position()[0], x, "nothing moves in the alarm");
     assert!(!eb.board.start_job());
@@ -307,7 +310,8 @@ fn a_job_held_by_host_loss_ends_with_alarm_20_after_host_lost_stop_s() {
     );
     assert_eq!(eb.board.resume_line(), 4);
     assert_eq!(eb.kernel.position(), at);
-    assert_eq!(at[0], 9_342, "14.6 mm along the 250 mm feed");
+    // The hold ramps down from the kernel's running segment (the queued ones were taken back).
+    assert_eq!(at[0], 9_294, "14.52 mm along the 250 mm feed");
     eb.board.unlock();
     assert_eq!(eb.board.state(), State::Idle);
 }
