@@ -45,8 +45,9 @@ pub const MIN_PERIOD_COUNTS: u32 = 2 * STEP_PULSE_COUNTS;
 /// Tick period while the kernel is idle (1 ms), i.e. how often an empty queue is polled.
 pub const IDLE_PERIOD_COUNTS: u32 = KERNEL_TIMER_HZ / 1_000;
 /// Slots in the segment queue (heapless 0.9 SPSC holds N - 1): 15 segments of about 2 ms, 30 ms of
-/// motion ahead of the kernel. Segment prep remembers as many as it can take back for a stop
-/// ([`gantry_machine::motion::history::SEGMENT_HISTORY`]), so none of them overruns a stop.
+/// motion ahead of the kernel. Segment prep remembers at least as many
+/// ([`gantry_machine::motion::history::SEGMENT_HISTORY`]), so a stop can take every queued segment
+/// of the block in progress back ([`drop_newest`]).
 pub const SEGMENT_QUEUE_LEN: usize = 16;
 
 const _: () = assert!(
