@@ -26,7 +26,7 @@ use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
 use gantry_machine::controller::inputs::{Debouncer, InputBits, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
-use gantry_machine::controller::{AdcReadings, State};
+use gantry_machine::controller::{AdcReadings, OutputLevels, State};
 use gantry_machine::motion::kernel::{Segment, StepKernel, KERNEL_TIMER_HZ};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::motion::sim::{SegmentFifo, SEGMENT_QUEUE};
@@ -183,6 +183,18 @@ pub struct EmulatedBoard {
     pub last_drop: Option<QueueDrop>,
     /// When `Some`, every segment the kernel starts, with the virtual time it starts.
     pub started_segments: Option<Vec<(u64, Segment)>>,
+    /// When `Some`, every change of the output levels the main loop drives (spindle, coolant,
+    /// user outputs: [`Board::output_levels`], step 9 of the firmware's main loop), with the
+    /// virtual time of the pass that drove it.
+    pub output_changes: Option<Vec<(u64, OutputLevels)>>,
+    /// Output levels the last main-loop pass drove.
+    driven: OutputLevels,
+    /// Virtual time of the last kernel tick that stepped (0: none yet).
+    pub last_step_at: u64,
+    /// Virtual time of the last tick that found no segment and stopped the kernel's timer: from
+    /// then on the kernel is drained (until the main loop hands it a segment again); the first
+    /// main-loop pass after it sees the machine at rest.
+    pub kernel_idle_at: u64,
 }
 
 /// Boot id of the emulated board's first power-up.
@@ -226,6 +238,10 @@ impl EmulatedBoard {
             capture: false,
             last_drop: None,
             started_segments: None,
+            output_changes: None,
+            driven: OutputLevels::SAFE,
+            last_step_at: 0,
+            kernel_idle_at: 0,
         }
     }
 
@@ -281,6 +297,13 @@ impl EmulatedBoard {
                     outputs: 0,
                     period: 0,
                 });
+            }
+        }
+        if self.driven != OutputLevels::SAFE {
+            // Spindle and coolant pins drop with the reset too.
+            self.driven = OutputLevels::SAFE;
+            if let Some(log) = self.output_changes.as_mut() {
+                log.push((self.now, OutputLevels::SAFE));
             }
         }
         self.debounce_setup = (setup.inputs.invert, setup.inputs.debounce_ms);
@@ -483,6 +506,9 @@ impl EmulatedBoard {
                 }
             }
         }
+        if out.step != 0 {
+            self.last_step_at = self.now;
+        }
         if out.step != 0 && (!self.switches.is_empty() || self.gang.is_some()) {
             // The switch pin follows this tick's step; the interrupt sees it on the next tick.
             self.switch_stop = self.logical_pins() & self.arm & LIMIT_BITS != 0;
@@ -505,6 +531,9 @@ impl EmulatedBoard {
             self.last_outputs = user_outputs;
         }
         self.next_tick = (out.period != 0).then(|| self.now + out.period as u64);
+        if out.period == 0 {
+            self.kernel_idle_at = self.now;
+        }
     }
 
     /// Path speed over the last main-loop interval (1 ms), from the pulses the axes made.
@@ -633,6 +662,15 @@ impl EmulatedBoard {
                         period: 0,
                     });
                 }
+            }
+        }
+        let levels = self.board.output_levels();
+        if levels != self.driven {
+            // Spindle, coolant and PWM follow the board once per pass (the user outputs are
+            // the kernel's word, exchanged above).
+            self.driven = levels;
+            if let Some(log) = self.output_changes.as_mut() {
+                log.push((self.now, levels));
             }
         }
         self.arm = self.board.limit_arm();

@@ -9,10 +9,10 @@ use gantry_machine::board::{BoardEvent, ERROR_SOFT_LIMIT};
 use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
 use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 use gantry_machine::motion::pipeline::MotionState;
-use host_sender::emulator::EmulatedBoard;
+use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
 use host_sender::link::Client;
 use host_sender::program::Program;
-use host_sender::stream::{continue_job, stream_program, Flow};
+use host_sender::stream::{continue_job, Flow};
 
 // ---- alarm 2: a block of a running job would leave the travel ----
 
@@ -45,6 +45,7 @@ fn homed_x_board() -> EmulatedBoard {
 #[test]
 fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2() {
     let mut eb = homed_x_board();
+    eb.output_changes = Some(Vec::new());
     job(&mut eb, &long_job("G1 X400"));
     // The interpreter meets line 204 while line 77 runs (the planner holds the 128 blocks in
     // between): the stop starts at once.
@@ -64,6 +65,17 @@ fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2(
     // … then the program-stop sequence, alarm 2 naming line 204, the job ended at line 77.
     assert_eq!(eb.board.alarm(), Some(AlarmCode::SoftLimit));
     assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
+    // Spindle and flood ran through the last step of the ramp and went off in the first
+    // main-loop pass that found the kernel drained (the pass at that very count runs first).
+    let changes = eb.output_changes.take().unwrap();
+    let (off_at, off) = changes[changes.len() - 1];
+    assert_eq!(off, OutputLevels::SAFE);
+    assert!(changes[changes.len() - 2].1.spindle_enable && changes[changes.len() - 2].1.flood);
+    assert!(eb.last_step_at < eb.kernel_idle_at);
+    assert_eq!(
+        off_at,
+        (eb.kernel_idle_at / COUNTS_PER_MS + 1) * COUNTS_PER_MS
+    );
     assert_eq!(
         events(&mut eb),
         vec![
@@ -247,29 +259,6 @@ fn a_reset_at_rest_or_a_power_on_reset_starts_clean() {
 
 /// 250 mm at 300 mm/min (50 s) with spindle and flood on.
 const LONG_FEED: &str = "G21 G90\nM3 S12000\nM8\nG1 X250 F300\nM30\n";
-
-/// Streams `text` from a host that vanishes (stops sending anything) once the board runs line
-/// `line` at 2 s link time; returns the board and the time (ms) its last bytes arrived.
-fn host_vanishes(
-    edit: impl FnOnce(&mut gantry_machine::setup::Setup),
-    text: &str,
-    line: u32,
-) -> (EmulatedBoard, u32) {
-    let mut client = Client::connect(board(edit), 2000).unwrap();
-    let program = Program::from_text(text);
-    let report = stream_program(&mut client, &program, &mut |p| {
-        if p.line >= line && p.elapsed_ms >= 2000 {
-            Flow::Detach
-        } else {
-            Flow::Continue
-        }
-    })
-    .unwrap();
-    assert!(report.alarms.is_empty());
-    let eb = client.into_transport();
-    let gone = eb.last_received_ms.unwrap();
-    (eb, gone)
-}
 
 #[test]
 fn a_job_held_by_host_loss_ends_with_alarm_20_after_host_lost_stop_s() {

@@ -15,7 +15,8 @@ pub const STATUS_INTERVAL_MS: u32 = 100;
 
 /// Silence after which the host counts as gone (four keepalive intervals), ms: the board then
 /// holds a running job on its path (DESIGN §5) until a host reconnects and resumes it, or until
-/// `link.host_lost_stop_s` (setup) have passed, when it ends the job with alarm 20.
+/// `link.host_lost_stop_s` (setup) have passed, when it ends the job with alarm 20 (also when
+/// the operator resumed it locally and it then waits for lines the host cannot send).
 pub const HOST_TIMEOUT_MS: u32 = 4 * Config::USB_MS.keepalive;
 
 /// What only the kernel's owner knows, for status reports.
@@ -46,8 +47,9 @@ pub struct BoardLink {
     host_attached: bool,
     /// The host went silent during this power-up.
     host_lost: bool,
-    /// Since when (ms) the job has been held with the host gone (alarm 20 timer).
-    held_unattended_since: Option<u32>,
+    /// Since when (ms) the job has been held, or waited for lines, with the host gone (alarm 20
+    /// timer).
+    unattended_since: Option<u32>,
     setup_in: SetupTransfer,
     setup_out: Option<SetupTransfer>,
     /// A new setup was applied: the firmware saves it to flash (when idle).
@@ -64,7 +66,7 @@ impl BoardLink {
             status_requested: false,
             host_attached: false,
             host_lost: false,
-            held_unattended_since: None,
+            unattended_since: None,
             setup_in: SetupTransfer {
                 blob: heapless::Vec::new(),
                 sent: 0,
@@ -115,7 +117,7 @@ impl BoardLink {
             self.host_lost = true;
             board.feed_hold();
         }
-        self.watch_unattended_hold(board, now_ms);
+        self.watch_unattended_job(board, now_ms);
         while let Some(msg) = self.endpoint.recv_realtime() {
             self.realtime(board, msg);
         }
@@ -145,19 +147,23 @@ impl BoardLink {
         }
     }
 
-    /// Alarm 20: a job in a feed hold while the host is gone is ended once
-    /// `link.host_lost_stop_s` have passed (counted from the later of the host loss and the start
-    /// of the hold); a returning host, or a local resume, stops the count. An M0 / M1 stop
-    /// (spindle and coolant already off) waits for its cycle start as programmed.
-    fn watch_unattended_hold(&mut self, board: &mut Board, now_ms: u32) {
+    /// Alarm 20: a job that stands still with the host gone — in a feed hold, or in Run at rest
+    /// waiting for program lines only the host could send (the operator resumed it locally and
+    /// it ran out of lines) — is ended once `link.host_lost_stop_s` have passed (counted from the
+    /// later of the host loss and the start of the hold or wait). A returning host stops the
+    /// count (it serves the job again); so does a local resume, until the job stands still
+    /// again. An M0 / M1 stop (spindle and coolant already off) waits for its cycle start as
+    /// programmed.
+    fn watch_unattended_job(&mut self, board: &mut Board, now_ms: u32) {
         let limit_s = board.setup().link.host_lost_stop_s;
-        if !self.host_lost || limit_s == 0 || !board.feed_held() {
-            self.held_unattended_since = None;
+        let standing = board.feed_held() || board.waiting_for_lines();
+        if !self.host_lost || limit_s == 0 || !standing {
+            self.unattended_since = None;
             return;
         }
-        let since = *self.held_unattended_since.get_or_insert(now_ms);
+        let since = *self.unattended_since.get_or_insert(now_ms);
         if now_ms.wrapping_sub(since) >= u32::from(limit_s) * 1000 {
-            self.held_unattended_since = None;
+            self.unattended_since = None;
             board.host_lost_stop();
         }
     }

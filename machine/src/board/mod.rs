@@ -114,8 +114,6 @@ pub struct Outputs {
     pub mist: bool,
     pub flood: bool,
     pub tool: u32,
-    /// The last user M code run (0 = none).
-    pub last_user_mcode: u16,
 }
 
 impl Outputs {
@@ -126,18 +124,22 @@ impl Outputs {
         mist: false,
         flood: false,
         tool: 0,
-        last_user_mcode: 0,
     };
 }
 
-/// Why the job ended.
+/// Why the job ended. Every ending takes effect at rest (the kernel drained, nothing left to
+/// prepare), in one place ([`Board::poll`]); only a hard limit (alarm 1) ends a job at once.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Ending {
     /// Still running.
     No,
-    /// M2/M30 or the end of the program: finish the queued motion, then report.
+    /// M2/M30 (their sync point already ran the program-stop sequence) or the end of the
+    /// streamed lines (outputs as the program left them: an MDI `M3` keeps the spindle on):
+    /// finish the queued motion, then report.
     Finished,
-    /// A rejected block: finish the motion queued before it, then report (nothing after it runs).
+    /// A rejected block, an abort, or an alarm stop (2, 20): finish the motion queued before the
+    /// block, or decelerate on the path, then at rest the program-stop sequence (or the alarm)
+    /// and report.
     Failed,
 }
 
@@ -170,6 +172,8 @@ pub struct Board {
     job_queued: bool,
     /// A stopping job ends in this alarm (with its line) once at rest, instead of in Idle.
     stop_alarm: Option<(AlarmCode, u32)>,
+    /// The kernel was drained at the last [`Board::poll`].
+    drained: bool,
     /// The board reset during motion (alarm 3) and nothing has re-established the position yet:
     /// homing is required, where homing is set up, until every axis with a homing priority is
     /// homed again; else an unlock clears it.
@@ -238,6 +242,7 @@ impl Board {
             alarm: None,
             job_queued: false,
             stop_alarm: None,
+            drained: true,
             position_lost: false,
             homed: 0,
             now_ms: 0,
@@ -477,6 +482,21 @@ impl Board {
         self.state == State::Hold && self.held
     }
 
+    /// The job stands in Run at rest waiting for program lines the host has not sent: the
+    /// interpreter has consumed every line it was given, the end of the program has not come, and
+    /// everything queued has run (the kernel drained at the last [`Board::poll`]) — the machine
+    /// stands still with spindle and coolant as the program left them. With the host gone this
+    /// wait never ends by itself; [`link::BoardLink`] bounds it like a hold (alarm 20).
+    pub fn waiting_for_lines(&self) -> bool {
+        self.state == State::Run
+            && self.ending == Ending::No
+            && !self.aborting
+            && self.pending.is_none()
+            && self.source.is_empty()
+            && self.drained
+            && self.motion.state() == MotionState::Idle
+    }
+
     /// True while the feed-hold input is installed and open.
     fn hold_input_active(&self) -> bool {
         self.setup.inputs.feed_hold && self.levels.get(Signal::FeedHold)
@@ -514,9 +534,10 @@ impl Board {
         }
     }
 
-    /// Abort: stop on the path, run the program-stop sequence (spindle and coolant off), forget
-    /// the rest of the job, and remember the line to resume from. During homing it raises
-    /// alarm 6; during a jog it stops the jog and leaves joystick mode.
+    /// Abort: decelerate on the path, forget the rest of the job, remember the line to resume
+    /// from, and run the program-stop sequence (spindle and coolant off) once the machine is at
+    /// rest. During homing it raises alarm 6; during a jog it stops the jog and leaves joystick
+    /// mode.
     pub fn abort(&mut self) {
         match self.state {
             State::Homing => {
@@ -542,10 +563,10 @@ impl Board {
         self.stop_job(None);
     }
 
-    /// Ends a running or held job like an abort — decelerate on the path, drop the rest, spindle
-    /// and coolant off, remember the resume line — and, with `alarm`, raise that alarm (with its
-    /// line) once the machine is at rest instead of returning to Idle; the alarm is what switches
-    /// the outputs off then.
+    /// Ends a running or held job: decelerate on the path, drop the rest, remember the resume
+    /// line. Spindle and coolant keep running while the tool decelerates along the cut; once the
+    /// machine is at rest [`Board::poll`] ends the job with the program-stop sequence, or, with
+    /// `alarm`, raises that alarm (with its line) instead, which switches every output off.
     fn stop_job(&mut self, alarm: Option<(AlarmCode, u32)>) {
         // An abort while an alarm stop decelerates keeps the alarm.
         self.stop_alarm = alarm.or(self.stop_alarm.take());
@@ -556,22 +577,16 @@ impl Board {
         self.pending = None;
         self.paused = false;
         self.held = false;
-        if self.stop_alarm.is_none() {
-            // Abort: the program-stop sequence at once. An alarm stop keeps the spindle turning
-            // while the tool decelerates along the cut; the alarm switches everything off at rest.
-            self.outputs = Outputs {
-                tool: self.outputs.tool,
-                ..Outputs::SAFE
-            };
-            self.saved_outputs = None;
-        }
+        // Nothing is restored any more (an M0 stop's outputs included).
+        self.saved_outputs = None;
         self.list = None;
         self.ending = Ending::Failed;
         self.state = State::Run;
     }
 
-    /// The host has stayed away for `link.host_lost_stop_s` while the job was held
-    /// ([`link::BoardLink`] decides): end the job (program-stop sequence) and raise alarm 20.
+    /// The host has stayed away for `link.host_lost_stop_s` while the job was held or waited for
+    /// lines ([`link::BoardLink`] decides): end the job and raise alarm 20 at rest (every output
+    /// off), with the line it stopped in.
     pub fn host_lost_stop(&mut self) {
         if matches!(self.state, State::Run | State::Hold) {
             self.stop_job(Some((AlarmCode::HostLost, self.line)));
@@ -692,6 +707,17 @@ impl Board {
         self.motion.set_feed_override(self.feed_override);
     }
 
+    /// The program-stop sequence (seed 003 §4.3, M2/M30, abort, a job ended by an error): spindle
+    /// and coolant off, nothing saved to restore; the tool stays, and user outputs stay as the
+    /// program left them (alarms switch those off too, [`Board::outputs_safe`]).
+    fn program_stop(&mut self) {
+        self.outputs = Outputs {
+            tool: self.outputs.tool,
+            ..Outputs::SAFE
+        };
+        self.saved_outputs = None;
+    }
+
     fn outputs_safe(&mut self) {
         self.outputs = Outputs {
             tool: self.outputs.tool,
@@ -794,6 +820,7 @@ impl Board {
     /// the kernel has drained (`kernel_drained`: the segment queue is empty and the kernel idle),
     /// and finish the job when everything has run.
     pub fn poll(&mut self, kernel_drained: bool) {
+        self.drained = kernel_drained;
         if !self.motion.config().soft_limits
             && self.state != State::Homing
             && kernel_drained
@@ -845,10 +872,14 @@ impl Board {
             && kernel_drained
             && self.motion.state() == MotionState::Idle
         {
-            self.ending = Ending::No;
+            // At rest: the one place where a job ends (alarm 1 aside).
+            let ending = core::mem::replace(&mut self.ending, Ending::No);
             if let Some((code, line)) = self.stop_alarm.take() {
                 self.enter_alarm(code, line);
                 return;
+            }
+            if ending == Ending::Failed && self.state == State::Run {
+                self.program_stop();
             }
             self.state = State::Idle;
             self.sync_interpreter_position();
@@ -931,7 +962,17 @@ impl Board {
                 code: ERROR_SOFT_LIMIT,
                 column: 0,
             });
-            self.ending = Ending::Failed;
+            self.fail_at(line);
+        }
+    }
+
+    /// The job ends on an error at `line`: nothing from that line on runs; the motion queued
+    /// before it completes, then [`Board::poll`] runs the program-stop sequence at rest. A later
+    /// run resumes at that line.
+    fn fail_at(&mut self, line: u32) {
+        self.ending = Ending::Failed;
+        if self.state != State::Check {
+            self.resume_line = line;
         }
     }
 
@@ -1002,7 +1043,7 @@ impl Board {
             code: e.code.number(),
             column: e.columns.map_or(0, |(start, _)| start + 1),
         });
-        self.ending = Ending::Failed;
+        self.fail_at(e.line);
     }
 
     /// Performs the action the motion queue stopped at (the machine is at rest).
@@ -1045,7 +1086,6 @@ impl Board {
             }
             Action::ToolChange { tool } => self.outputs.tool = tool,
             Action::UserMCode { code, .. } => {
-                self.outputs.last_user_mcode = code;
                 let list = self
                     .setup
                     .outputs
@@ -1069,11 +1109,7 @@ impl Board {
                 return;
             }
             Action::Stop(StopKind::End | StopKind::EndRewind) => {
-                self.outputs = Outputs {
-                    tool: self.outputs.tool,
-                    ..Outputs::SAFE
-                };
-                self.saved_outputs = None;
+                self.program_stop();
                 self.ending = Ending::Finished;
             }
             _ => {}

@@ -8,6 +8,9 @@ use gantry_machine::controller::State;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::NM_PER_MM;
 use host_sender::emulator::EmulatedBoard;
+use host_sender::link::Client;
+use host_sender::program::Program;
+use host_sender::stream::{stream_program, Flow};
 
 pub const MM: i64 = NM_PER_MM;
 /// Default axes: 3200 steps per 5 mm.
@@ -75,4 +78,23 @@ pub fn events(eb: &mut EmulatedBoard) -> Vec<BoardEvent> {
 
 pub fn steps(eb: &EmulatedBoard) -> [i64; 6] {
     eb.kernel.position()
+}
+
+/// Streams `text` from a host that vanishes (stops sending anything) once the board runs line
+/// `line` at 2 s link time; returns the board and the time (ms) its last bytes arrived.
+pub fn host_vanishes(edit: impl FnOnce(&mut Setup), text: &str, line: u32) -> (EmulatedBoard, u32) {
+    let mut client = Client::connect(board(edit), 2000).unwrap();
+    let program = Program::from_text(text);
+    let report = stream_program(&mut client, &program, &mut |p| {
+        if p.line >= line && p.elapsed_ms >= 2000 {
+            Flow::Detach
+        } else {
+            Flow::Continue
+        }
+    })
+    .unwrap();
+    assert!(report.alarms.is_empty());
+    let eb = client.into_transport();
+    let gone = eb.last_received_ms.unwrap();
+    (eb, gone)
 }
