@@ -328,7 +328,7 @@ mod tests {
         assert!(text.starts_with("state:     Alarm\nmachine:   X 1.500  Y 0.000  Z 0.000"));
         assert!(
             text.ends_with(
-                "homed:     X\nalarm:     alarm 20 (host lost): the host stayed away while the job was held: job ended, spindle and coolant off"
+                "homed:     X\nalarm:     alarm 20 (host lost): the host stayed away while the job stood still: job ended, spindle and coolant off"
             ),
             "{text}"
         );

@@ -842,7 +842,7 @@ pub fn to_toml(s: &Setup) -> String {
     let _ = writeln!(t, "\n[link]");
     let _ = writeln!(
         t,
-        "host_lost_stop_s = {}   # a job held by host loss ends (alarm 20) after this; 0 = never",
+        "host_lost_stop_s = {}   # a job standing still with the host gone ends (alarm 20) after this; 0 = never",
         s.link.host_lost_stop_s
     );
     t

@@ -655,6 +655,13 @@ fn print_report(
             file.display(),
             report.last_line.max(1)
         );
+    } else if let Some(e) = report.errors.iter().find(|e| e.line != 0) {
+        // An error ended the job: everything before its line ran, nothing from it on.
+        println!(
+            "resume:   (after fixing line {0}) gantry stream {1} --from-line {0}",
+            e.line,
+            file.display()
+        );
     }
     if let Some(s) = &report.final_status {
         println!("machine:  {}", axes_line(&s.machine_pos, axes));

@@ -6,7 +6,7 @@
 mod controller_support;
 
 use controller_support::*;
-use gantry_machine::board::BoardEvent;
+use gantry_machine::board::{BoardEvent, ERROR_SOFT_LIMIT};
 use gantry_machine::controller::inputs::Signal;
 use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 use gantry_machine::motion::pipeline::MotionState;
@@ -325,4 +325,32 @@ fn a_host_back_before_the_limit_feeds_the_starving_job_again() {
     assert_eq!(eb.board.alarm(), None);
     assert_eq!(steps(&eb)[0], 150 * STEPS_PER_MM);
     assert!(eb.now_ms() > waiting + 60_000, "ran on past the limit");
+}
+
+#[test]
+fn an_error_before_the_job_queued_anything_still_ends_it_with_the_program_stop_sequence() {
+    let mut eb = recording_board(|_| {});
+    for (text, code, column) in [("G0 X400", ERROR_SOFT_LIMIT, 0), ("G0 X1 Q2", 211, 7)] {
+        // `gantry mdi "M3 S12000"`: the end of the lines (no M2/M30) keeps the outputs …
+        job(&mut eb, "M3 S12000");
+        until_state(&mut eb, State::Idle, 1_000);
+        assert_eq!(eb.board.output_levels(), SPINDLE);
+        events(&mut eb);
+        // … a next command that fails ends its job like any error: nothing moved, spindle off.
+        job(&mut eb, text);
+        until_state(&mut eb, State::Idle, 1_000);
+        let ev = events(&mut eb);
+        assert_eq!(
+            ev[0],
+            BoardEvent::Error {
+                line: 1,
+                code,
+                column
+            }
+        );
+        assert!(matches!(ev[1..], [BoardEvent::JobDone { .. }]), "{ev:?}");
+        assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
+        assert_eq!(eb.board.resume_line(), 1);
+        assert_eq!(eb.pulses, [0; 6]);
+    }
 }

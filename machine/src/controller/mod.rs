@@ -54,8 +54,9 @@ pub enum AlarmCode {
     HomingSwitchNotFound = 9,
     /// Homing is required before motion (setup `homing.required`, or a reset during motion).
     HomingRequired = 11,
-    /// The host link was lost while the job was held, for longer than `link.host_lost_stop_s`:
-    /// the board ended the job.
+    /// The host link was lost while the job stood still (a feed hold, or waiting at rest for
+    /// lines only the host could send), for longer than `link.host_lost_stop_s`: the board ended
+    /// the job.
     HostLost = 20,
     /// A command list waited for an input longer than its timeout.
     ListInputTimeout = 21,
@@ -112,7 +113,7 @@ impl AlarmCode {
             AlarmCode::HomingSwitchNotFound => "homing: limit switch not found within the travel",
             AlarmCode::HomingRequired => "homing required before motion",
             AlarmCode::HostLost => {
-                "the host stayed away while the job was held: job ended, spindle and coolant off"
+                "the host stayed away while the job stood still: job ended, spindle and coolant off"
             }
             AlarmCode::ListInputTimeout => "command list: input wait timed out",
         }
