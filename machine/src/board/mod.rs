@@ -322,7 +322,8 @@ impl Board {
         self.line
     }
 
-    /// Where the last abort stopped (0 = none).
+    /// The line a stopped job resumes from (0 = none): where an abort or an alarm stop (2, 20)
+    /// left the machine, or the line whose error ended the job.
     pub fn resume_line(&self) -> u32 {
         self.resume_line
     }
@@ -718,12 +719,9 @@ impl Board {
         self.saved_outputs = None;
     }
 
+    /// Everything off (alarms, a new setup): the program-stop sequence and the user outputs.
     fn outputs_safe(&mut self) {
-        self.outputs = Outputs {
-            tool: self.outputs.tool,
-            ..Outputs::SAFE
-        };
-        self.saved_outputs = None;
+        self.program_stop();
         self.user_outputs = 0;
         // Loaded into the kernel even if the board's word was 0 already: an on-the-fly event
         // may have switched an output since the last exchange.
