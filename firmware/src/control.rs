@@ -32,7 +32,7 @@ use gantry_machine::controller::{AdcReadings, OutputLevels, State};
 use gantry_machine::motion::kernel::Segment;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::{Pos, MAX_AXES};
-use gantry_settings::{DataBuffer, SavePolicy};
+use gantry_settings::{DataBuffer, SaveError, SavePolicy};
 use heapless::spsc::Producer;
 
 /// Everything the main loop drives.
@@ -243,7 +243,8 @@ pub async fn run(mut io: Io, board: &'static mut Board, link: &'static mut Board
             watchdog::long();
             match io.store.save(board.setup(), io.buf).await {
                 Ok(()) => defmt::info!("setup saved to flash"),
-                Err(e) => defmt::error!("setup not saved: {}", defmt::Debug2Format(&e)),
+                Err(SaveError::Encode) => defmt::error!("setup not saved: does not encode"),
+                Err(SaveError::Flash) => defmt::error!("setup not saved: flash error"),
             }
             watchdog::normal();
             policy.done();

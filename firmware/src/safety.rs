@@ -42,13 +42,19 @@ fn force_safe() {
     }
 }
 
-/// Panic: outputs safe first, then the message over defmt, then a breakpoint-style halt
-/// (`udf`) that a probe reports; without a probe the HardFault loop starves the watchdog, which
-/// resets the board into the same safe state.
+/// Panic: outputs safe first, then where it happened (file:line) over defmt, then a
+/// breakpoint-style halt (`udf`) that a probe reports; without a probe the HardFault loop starves
+/// the watchdog, which resets the board into the same safe state.
+///
+/// The message itself is not formatted: that would link `core::fmt` (several KiB of flash) for
+/// a text that file:line identifies as well.
 #[panic_handler]
 fn panic(info: &PanicInfo) -> ! {
     cortex_m::interrupt::disable();
     force_safe();
-    defmt::error!("panic: {}", defmt::Display2Format(info));
+    match info.location() {
+        Some(at) => defmt::error!("panic at {=str}:{=u32}", at.file(), at.line()),
+        None => defmt::error!("panic"),
+    }
     cortex_m::asm::udf()
 }

@@ -65,12 +65,15 @@ impl Homing {
 pub fn order(setup: &Setup, axes: u8) -> Vec<u8, MAX_AXES> {
     let n = setup.axis_count as usize;
     let mut v: Vec<u8, MAX_AXES> = Vec::new();
-    for (i, h) in setup.homing.axes[..n].iter().enumerate() {
-        if h.priority != 0 && (axes == 0 || axes & (1 << i) != 0) {
-            let _ = v.push(i as u8);
+    // Ascending priority, ties in axis order: a scan per priority level instead of a sort (the
+    // generic sort costs kilobytes of flash for at most six axes).
+    for priority in 1..=u8::MAX {
+        for (i, h) in setup.homing.axes[..n].iter().enumerate() {
+            if h.priority == priority && (axes == 0 || axes & (1 << i) != 0) {
+                let _ = v.push(i as u8);
+            }
         }
     }
-    v.sort_unstable_by_key(|&i| (setup.homing.axes[i as usize].priority, i));
     v
 }
 

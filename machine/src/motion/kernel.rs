@@ -161,21 +161,23 @@ impl StepKernel {
             }
         }
         let ticks = self.ticks;
-        let n = self.axes as usize;
+        let n = (self.axes as usize).min(MAX_AXES);
         let mut step = 0u8;
+        // A plain indexed loop (`n` ≤ MAX_AXES, so no bounds checks): it compiles to the same
+        // tight loop at every opt-level, where an iterator chain needs the inliner (opt-level z
+        // leaves it as calls and costs the tick a third more instructions).
         let mut bit = 1u8;
-        for ((acc, inc), done) in self.accumulator[..n]
-            .iter_mut()
-            .zip(&self.increment[..n])
-            .zip(&mut self.done[..n])
-        {
-            *acc += *inc;
-            if *acc >= ticks {
-                *acc -= ticks;
-                *done += 1;
+        let mut i = 0;
+        while i < n {
+            let mut acc = self.accumulator[i] + self.increment[i];
+            if acc >= ticks {
+                acc -= ticks;
+                self.done[i] += 1;
                 step |= bit;
             }
+            self.accumulator[i] = acc;
             bit <<= 1;
+            i += 1;
         }
         self.ticks_left -= 1;
         TickOut {
