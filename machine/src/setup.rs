@@ -5,9 +5,11 @@
 //! each take their part of it. All values are integers in machine units (nm, nm/min, nm/s², µs),
 //! so the same setup means bit-identical behaviour on every target.
 
+use crate::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use crate::units::{FeedNmPerMin, Nm, Pos, MAX_AXES, NM_PER_MM};
 use heapless::Vec;
-use serde::{Deserialize, Serialize};
+
+mod blob;
 
 /// Number of tool-table entries the board keeps.
 pub const MAX_TOOLS: usize = 32;
@@ -17,7 +19,7 @@ pub const MAX_USER_MCODES: usize = 16;
 pub const MAX_LIST_COMMANDS: usize = 8;
 
 /// G-code dialect profile (DESIGN §3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dialect {
     /// RS274NGC / Fanuc-style mill programs (LinuxCNC is the oracle).
     Ngc,
@@ -26,7 +28,7 @@ pub enum Dialect {
 }
 
 /// How G4's P word is read.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DwellUnits {
     /// P in seconds, decimals allowed (RS274NGC).
     Seconds,
@@ -35,7 +37,7 @@ pub enum DwellUnits {
 }
 
 /// Per-axis setup.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AxisSetup {
     /// Exact ratio: `steps` motor steps move the axis `units_nm` nanometres (seed "Ratiometric Steps per Unit").
     pub steps: u32,
@@ -54,7 +56,7 @@ pub struct AxisSetup {
 }
 
 /// One tool-table entry.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tool {
     pub number: u32,
     pub length: Nm,
@@ -62,7 +64,7 @@ pub struct Tool {
 }
 
 /// Path-planning settings shared by all axes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PathSetup {
     /// grbl junction deviation, nm.
     pub junction_deviation: Nm,
@@ -77,7 +79,7 @@ pub struct PathSetup {
 }
 
 /// Interpreter settings.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ProgramSetup {
     pub dialect: Dialect,
     pub dwell_units: DwellUnits,
@@ -96,7 +98,7 @@ pub struct ProgramSetup {
 }
 
 /// Operator-input behaviour.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct OperatorSetup {
     /// After a feed hold is released: resume at once (seed behaviour) or wait for cycle start.
     pub resume_needs_cycle_start: bool,
@@ -120,7 +122,7 @@ pub const USER_OUTPUTS: u8 = 16;
 
 /// One entry of a command list (homing lists, user M-code lists), seed 003 §2.12 reduced to
 /// output actions.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ListCommand {
     /// Switch user output `n` on.
     Set(u8),
@@ -146,7 +148,7 @@ pub enum ListCommand {
 }
 
 /// Input wiring: polarity, debounce and which switches are installed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct InputSetup {
     /// Active-low pins: bit i set = input bit i reads active when its pin is low.
     pub invert: u32,
@@ -168,7 +170,7 @@ pub struct InputSetup {
 }
 
 /// Limit-switch seek (homing) of one axis, seed 003 §2.2.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct HomingAxis {
     /// Order in the seek: lower goes first, one axis at a time; 0 = the axis is not homed.
     pub priority: u8,
@@ -185,7 +187,7 @@ pub struct HomingAxis {
 }
 
 /// Homing: per-axis seek settings and the three command lists.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct HomingSetup {
     pub axes: [HomingAxis; MAX_AXES],
     /// Motion is refused after power-up and after a hard limit until the axes are homed.
@@ -196,7 +198,7 @@ pub struct HomingSetup {
 }
 
 /// Joystick jog, seed 003 §2.6.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct JogSetup {
     /// Axis pairs by stage-pair selector position: `[down/up (S1/S4) axis, left/right (S2/S3) axis]`;
     /// 255 = no axis.
@@ -216,7 +218,7 @@ pub struct JogSetup {
 }
 
 /// Spindle output mapping and user M-code command lists.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct OutputSetup {
     /// S range mapped linearly onto the PWM duty (S ≤ min → duty at min, S ≥ max → full duty).
     pub spindle_min_rpm: u32,
@@ -230,7 +232,7 @@ pub struct OutputSetup {
 }
 
 /// The command list of one user M code.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct McodeList {
     pub code: u16,
     /// Seed "Disable these commands for Dry Run".
@@ -239,7 +241,7 @@ pub struct McodeList {
 }
 
 /// What the board does when the host link goes quiet (docs/protocol.md §7).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LinkSetup {
     /// A job held because the host went away is ended (program-stop sequence, alarm 20) once the
     /// host has stayed away this many seconds; 0 = hold and wait for the host forever.
@@ -261,8 +263,36 @@ impl McodeList {
     }
 }
 
+/// Step and direction signal timing the stepper drivers need (their datasheets give both as
+/// minimums). The step interrupt holds each step pulse for `step_pulse_ns` and changes a direction
+/// pin at least `dir_setup_ns` before the next step pulse starts; both are rounded up to whole
+/// step-timer counts (83.3 ns, [`StepTiming`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DriverSetup {
+    /// Width of every step pulse, ns ([`Self::PULSE_NS`]).
+    pub step_pulse_ns: u32,
+    /// Time from a direction change to the next step pulse, at least, ns ([`Self::DIR_SETUP_NS`]).
+    pub dir_setup_ns: u32,
+}
+
+impl DriverSetup {
+    /// Accepted step pulse widths, ns: 1-50 µs (the step interrupt cannot end a pulse much
+    /// sooner than 1 µs after starting it).
+    pub const PULSE_NS: core::ops::RangeInclusive<u32> = 1_000..=50_000;
+    /// Accepted direction set-up times, ns: 0-50 µs.
+    pub const DIR_SETUP_NS: core::ops::RangeInclusive<u32> = 0..=50_000;
+
+    /// 5 µs pulse, 5 µs direction set-up: what opto-isolated drivers such as the Leadshine DM542
+    /// (≥ 2.5 µs pulse, direction ≥ 5 µs ahead) and TB6600 modules need, and far beyond the
+    /// A4988 (1 µs) and DRV8825 (1.9 µs). It allows 100 k steps/s, more than any default axis.
+    pub const DEFAULT: DriverSetup = DriverSetup {
+        step_pulse_ns: 5_000,
+        dir_setup_ns: 5_000,
+    };
+}
+
 /// The whole machine setup.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Setup {
     /// Axes in use (X, Y, Z, A, B, C in that order), 1..=6.
     pub axis_count: u8,
@@ -275,6 +305,7 @@ pub struct Setup {
     pub jog: JogSetup,
     pub outputs: OutputSetup,
     pub link: LinkSetup,
+    pub drivers: DriverSetup,
 }
 
 const fn mm(v: i64) -> Nm {
@@ -375,6 +406,7 @@ impl Default for Setup {
             link: LinkSetup {
                 host_lost_stop_s: 60,
             },
+            drivers: DriverSetup::DEFAULT,
         }
     }
 }
@@ -419,15 +451,23 @@ impl Setup {
 pub const SETUP_BLOB_MAX: usize = 2048;
 
 impl Setup {
-    /// Encodes the setup for flash and the link (postcard); `None` if it does not fit `out`.
+    /// Encodes the setup for flash and the link ([`blob`]); `None` if it does not fit `out`.
     pub fn to_blob<'a>(&self, out: &'a mut [u8]) -> Option<&'a mut [u8]> {
-        postcard::to_slice(self, out).ok()
+        // The codec visits fields by `&mut` for both directions: encode a copy.
+        let mut copy = self.clone();
+        let mut c = blob::Codec::writer(out);
+        blob::visit_setup(&mut c, &mut copy);
+        let (ok, len) = (c.ok(false), c.len());
+        drop(c);
+        ok.then(|| &mut out[..len])
     }
 
     /// Decodes and checks a setup blob; `None` when it is not a valid setup.
     pub fn from_blob(bytes: &[u8]) -> Option<Setup> {
-        let s: Setup = postcard::from_bytes(bytes).ok()?;
-        s.is_valid().then_some(s)
+        let mut s = Setup::default();
+        let mut c = blob::Codec::reader(bytes);
+        blob::visit_setup(&mut c, &mut s);
+        (c.ok(true) && s.is_valid()).then_some(s)
     }
 
     /// The invariants every part of the core relies on (the host validates each value with a
@@ -455,6 +495,22 @@ impl Setup {
             && self.jog.instant_speed > 0
             && self.outputs.spindle_min_rpm < self.outputs.spindle_max_rpm
             && self.outputs.pwm_min <= self.outputs.pwm_max
+            && DriverSetup::PULSE_NS.contains(&self.drivers.step_pulse_ns)
+            && DriverSetup::DIR_SETUP_NS.contains(&self.drivers.dir_setup_ns)
+            && (0..n).all(|i| self.step_rate_fits(i))
+    }
+
+    /// Axis `axis` at its max rate leaves every step period long enough for the step pulse and
+    /// the direction set-up of [`Self::drivers`] ([`StepTiming::min_period`]); else the step
+    /// interrupt would stretch the periods and the machine would run slower than planned.
+    /// Exact: `max_rate · steps / (units · 60)` steps/s times the period in timer counts must not
+    /// exceed the timer's counts per second (compared multiplied out, no rounding).
+    pub fn step_rate_fits(&self, axis: usize) -> bool {
+        let a = &self.axes[axis];
+        let period = StepTiming::from_setup(&self.drivers).min_period;
+        let need = a.max_rate.max(0) as u128 * u128::from(a.steps) * u128::from(period);
+        let have = a.units_nm.max(1) as u128 * 60 * u128::from(KERNEL_TIMER_HZ);
+        need <= have
     }
 }
 
@@ -503,9 +559,89 @@ mod tests {
             }
             s.outputs.mcode_lists.push(l).unwrap();
         }
+        s.drivers = DriverSetup {
+            step_pulse_ns: 1_900,
+            dir_setup_ns: 650,
+        };
+        s.jog.pairs = [[255, 255], [255, 255]];
+        s.inputs.invert = u32::MAX;
         let mut buf = [0u8; SETUP_BLOB_MAX];
         let blob = s.to_blob(&mut buf).expect("fits");
+        // Room to spare for settings still to come.
+        assert!(blob.len() < SETUP_BLOB_MAX * 3 / 4, "{} bytes", blob.len());
+        assert_eq!(Setup::from_blob(blob), Some(s.clone()));
+        // Every list command kind survives.
+        let kinds = [
+            ListCommand::Set(15),
+            ListCommand::Clear(3),
+            ListCommand::DwellMs(65_535),
+            ListCommand::WaitInput {
+                bit: 7,
+                level: false,
+                timeout_ms: 0,
+            },
+            ListCommand::DisableLimitReport,
+            ListCommand::Seek,
+        ];
+        s.outputs.mcode_lists[0].commands = Vec::from_slice(&kinds).unwrap();
+        let blob = s.to_blob(&mut buf).expect("fits");
         assert_eq!(Setup::from_blob(blob), Some(s));
+    }
+
+    #[test]
+    fn damaged_blobs_are_refused() {
+        let mut buf = [0u8; SETUP_BLOB_MAX];
+        let len = Setup::default().to_blob(&mut buf).unwrap().len();
+        let blob = &buf[..len];
+        assert_eq!(Setup::from_blob(blob), Some(Setup::default()));
+        // Every truncation, and a trailing byte.
+        for n in 0..len {
+            assert_eq!(Setup::from_blob(&blob[..n]), None, "{n} bytes");
+        }
+        let mut longer = blob.to_vec();
+        longer.push(0);
+        assert_eq!(Setup::from_blob(&longer), None);
+        // Another format version.
+        let mut other = blob.to_vec();
+        other[0] = blob::FORMAT + 1;
+        assert_eq!(Setup::from_blob(&other), None);
+        // A value beyond its field: axis_count (a u8) as 256 = varint 0x80 0x02.
+        let mut wide = blob.to_vec();
+        wide.splice(1..2, [0x80, 0x02]);
+        assert_eq!(Setup::from_blob(&wide), None);
+        // An encoder given too little room says so.
+        assert!(Setup::default().to_blob(&mut buf[..len - 1]).is_none());
+    }
+
+    #[test]
+    fn driver_timing_is_checked_against_every_axis_max_rate() {
+        let mut s = Setup::default();
+        assert!(s.is_valid());
+        s.drivers.step_pulse_ns = 999;
+        assert!(!s.is_valid());
+        s.drivers.step_pulse_ns = 50_001;
+        assert!(!s.is_valid());
+        s.drivers = DriverSetup {
+            step_pulse_ns: 50_000,
+            dir_setup_ns: 50_001,
+        };
+        assert!(!s.is_valid());
+        // 3200 steps per 5 mm at 3000 mm/min: 32 000 steps/s, a 375-count (31.25 µs) period.
+        s.drivers = DriverSetup {
+            step_pulse_ns: 15_625,
+            dir_setup_ns: 0,
+        };
+        assert_eq!(StepTiming::from_setup(&s.drivers).min_period, 376);
+        assert!(!s.step_rate_fits(0));
+        assert!(!s.is_valid());
+        s.drivers.step_pulse_ns = 15_583; // 187 counts: a 374-count period fits
+        assert!(s.step_rate_fits(0));
+        assert!(s.is_valid());
+        // Axes beyond axis_count do not count.
+        s.axes[5].max_rate *= 10;
+        assert!(s.is_valid());
+        s.axis_count = 6;
+        assert!(!s.is_valid());
     }
 
     #[test]

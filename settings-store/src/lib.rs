@@ -7,8 +7,9 @@
 //!
 //! | key | value |
 //! |---|---|
-//! | [`SETUP_KEY`] (1) | the setup as `Setup::to_blob` (postcard), checked by `Setup::from_blob` on load |
+//! | [`SETUP_KEY`] (3) | the setup as `Setup::to_blob` (format byte 2), checked by `Setup::from_blob` on load |
 //! | [`BOOT_KEY`] (2) | boot counter, `u32` little endian (the link's boot id) |
+//! | 1 | retired: the setup in its first (serde/postcard) encoding, left unread |
 //!
 //! A new, incompatible setup encoding must take a new key: an old blob under the old key then
 //! simply reads as absent (defaults) instead of failing to decode.
@@ -30,8 +31,8 @@ use gantry_machine::setup::{Setup, SETUP_BLOB_MAX};
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage, SerializationError, Value};
 
-/// Map key of the setup blob.
-pub const SETUP_KEY: u8 = 1;
+/// Map key of the setup blob (1 held the retired postcard encoding).
+pub const SETUP_KEY: u8 = 3;
 /// Map key of the boot counter.
 pub const BOOT_KEY: u8 = 2;
 /// Working buffer: the largest item (key + setup blob) rounded up to any flash word.

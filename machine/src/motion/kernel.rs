@@ -21,12 +21,59 @@
 //! switches outputs itself (command lists at rest, safe state).
 
 use super::output_event::OutputEvent;
+use crate::setup::DriverSetup;
 use crate::units::MAX_AXES;
 
 /// Frequency of the step timer the periods count in: 12 MHz divides both boards' TIM2 clocks
 /// (F411 at 96 MHz: TIM2 96 MHz / 8; F446 at 168 MHz: APB1 42 MHz, TIM2 84 MHz / 7). One count is
 /// 83.3 ns, fine enough for step rates far beyond what drivers accept.
 pub const KERNEL_TIMER_HZ: u32 = 12_000_000;
+
+/// Timer counts (at [`KERNEL_TIMER_HZ`]) of at least `ns` nanoseconds: rounded up, so a pulse or
+/// set-up time is never shorter than asked.
+pub const fn ns_to_counts(ns: u32) -> u32 {
+    (ns as u64 * KERNEL_TIMER_HZ as u64).div_ceil(1_000_000_000) as u32
+}
+
+/// The step pulse shape in timer counts, from the setup's [`DriverSetup`]: the step interrupt
+/// holds each pulse `pulse` counts and sets the direction pins when it ends, so the next pulse
+/// (a tick period later) sees them `period − pulse` counts ahead. Hence the shortest tick period
+/// both can use, [`Self::min_period`]; the interrupt and the emulated board stretch shorter ones
+/// ([`Self::stretch`]), and [`crate::setup::Setup::is_valid`] refuses axes whose max rate would
+/// need that.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StepTiming {
+    /// Step pulse width, counts.
+    pub pulse: u32,
+    /// Direction set-up before a step pulse, counts.
+    pub dir_setup: u32,
+    /// Shortest tick period, counts: the pulse, then the pin low for at least the pulse width
+    /// and at least the direction set-up.
+    pub min_period: u32,
+}
+
+impl StepTiming {
+    pub const fn from_setup(d: &DriverSetup) -> Self {
+        let pulse = ns_to_counts(d.step_pulse_ns);
+        let dir_setup = ns_to_counts(d.dir_setup_ns);
+        let low = if dir_setup > pulse { dir_setup } else { pulse };
+        StepTiming {
+            pulse,
+            dir_setup,
+            min_period: pulse + if low > 1 { low } else { 1 },
+        }
+    }
+
+    /// The timer period for a tick the kernel timed `period` (≥ 1) counts.
+    #[inline]
+    pub const fn stretch(&self, period: u32) -> u32 {
+        if period < self.min_period {
+            self.min_period
+        } else {
+            period
+        }
+    }
+}
 
 /// A piece of motion at a constant tick rate with exact per-axis step counts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -300,6 +347,40 @@ impl StepKernel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn driver_timing_rounds_up_to_whole_timer_counts() {
+        // 12 MHz: one count is 83.3 ns.
+        assert_eq!(ns_to_counts(5_000), 60);
+        assert_eq!(ns_to_counts(2_500), 30);
+        assert_eq!(ns_to_counts(1_900), 23); // 22.8 counts: never shorter than asked
+        assert_eq!(ns_to_counts(1), 1);
+        assert_eq!(ns_to_counts(0), 0);
+        let t = StepTiming::from_setup(&DriverSetup::DEFAULT);
+        assert_eq!(
+            t,
+            StepTiming {
+                pulse: 60,
+                dir_setup: 60,
+                min_period: 120
+            }
+        );
+        // A long direction set-up sets the low time; without one the low time is the pulse's.
+        let t = StepTiming::from_setup(&DriverSetup {
+            step_pulse_ns: 2_000,
+            dir_setup_ns: 10_000,
+        });
+        assert_eq!((t.pulse, t.dir_setup, t.min_period), (24, 120, 144));
+        let t = StepTiming::from_setup(&DriverSetup {
+            step_pulse_ns: 2_000,
+            dir_setup_ns: 0,
+        });
+        assert_eq!((t.pulse, t.dir_setup, t.min_period), (24, 0, 48));
+        assert_eq!(t.stretch(1), 48);
+        assert_eq!(t.stretch(47), 48);
+        assert_eq!(t.stretch(48), 48);
+        assert_eq!(t.stretch(5000), 5000);
+    }
 
     struct Queue<'a>(&'a [Segment], usize);
     impl SegmentSource for Queue<'_> {
