@@ -458,7 +458,6 @@ impl Setup {
         let mut c = blob::Codec::writer(out);
         blob::visit_setup(&mut c, &mut copy);
         let (ok, len) = (c.ok(false), c.len());
-        drop(c);
         ok.then(|| &mut out[..len])
     }
 
