@@ -30,6 +30,7 @@ use gantry_machine::board::Board;
 use gantry_machine::controller::inputs::{Debouncer, InputBits};
 use gantry_machine::controller::{AdcReadings, OutputLevels, State};
 use gantry_machine::motion::kernel::Segment;
+use gantry_machine::motion::trig::isqrt_u64;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::{Pos, MAX_AXES};
 use gantry_settings::{DataBuffer, SaveError, SavePolicy};
@@ -65,7 +66,7 @@ impl SpeedMeter {
                 sum_sq = sum_sq.saturating_add(d * d);
             }
             // nm per ms × 60 = µm per min.
-            self.um_min = (sum_sq.isqrt() * 60 / u64::from(dt)).min(u64::from(u32::MAX)) as u32;
+            self.um_min = (isqrt_u64(sum_sq) * 60 / u64::from(dt)).min(u64::from(u32::MAX)) as u32;
             self.since_ms = now_ms;
             self.from = at;
         }

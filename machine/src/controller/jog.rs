@@ -133,18 +133,10 @@ pub fn same_direction(a: &[i64; MAX_AXES], b: &[i64; MAX_AXES]) -> bool {
         .all(|i| (i + 1..MAX_AXES).all(|j| wide(a[i]) * wide(b[j]) == wide(a[j]) * wide(b[i])))
 }
 
-/// Integer square root (floor) of a u128, for path speeds of the analog stick.
+/// Integer square root (floor) of a u128, for path speeds of the analog stick (the motion
+/// core's, one copy in flash for every caller).
 pub fn isqrt(v: u128) -> u128 {
-    if v < 2 {
-        return v;
-    }
-    let mut x = v;
-    let mut y = x.div_ceil(2);
-    while y < x {
-        x = y;
-        y = (x + v / x) / 2;
-    }
-    x
+    crate::motion::trig::isqrt_u128(v)
 }
 
 #[cfg(test)]

@@ -6,21 +6,9 @@
 use super::error::ErrorCode;
 use crate::units::Nm;
 
-/// Floor of the square root of `v`.
+/// Floor of the square root of `v` (the motion core's, one copy in flash for every caller).
 pub fn isqrt(v: u128) -> u128 {
-    if v < 2 {
-        return v;
-    }
-    // Initial guess from the bit length, then Newton iterations (monotone from above).
-    let bits = 128 - v.leading_zeros();
-    let mut x: u128 = 1u128 << bits.div_ceil(2);
-    loop {
-        let y = (x + v / x) / 2;
-        if y >= x {
-            return x;
-        }
-        x = y;
-    }
+    crate::motion::trig::isqrt_u128(v)
 }
 
 /// Square root rounded to the nearest integer.
