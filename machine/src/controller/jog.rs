@@ -13,6 +13,7 @@
 
 use super::inputs::{InputBits, Signal};
 use crate::motion::config::MotionConfig;
+use crate::motion::trig::div_i128;
 use crate::setup::JogSetup;
 use crate::units::{Nm, Pos, MAX_AXES};
 
@@ -111,7 +112,7 @@ pub fn jog_target(
             }
             let (room, weight) = best?;
             for i in 0..n {
-                to[i] += (i128::from(dirs[i]) * room / weight) as i64;
+                to[i] += div_i128(i128::from(dirs[i]) * room, weight) as i64;
             }
         }
     }

@@ -36,8 +36,8 @@ pub fn hypot3(a: Nm, b: Nm, c: Nm) -> Nm {
 
 /// Divides rounding half away from zero.
 pub fn div_round(n: i128, d: i128) -> i128 {
-    let q = n / d;
-    let r = n % d;
+    let q = crate::motion::trig::div_i128(n, d);
+    let r = n - q * d;
     if 2 * r.abs() >= d.abs() {
         if (n < 0) != (d < 0) {
             q - 1

@@ -3,6 +3,7 @@
 //! Speeds are stored in nm/s (or 1e-6 °/s) and accelerations in nm/s², integers throughout.
 //! [`MotionConfig::from_setup`] derives the model from the persistent [`crate::setup::Setup`].
 
+use super::trig::div_euclid_i128;
 use crate::setup::Setup;
 use crate::units::{Nm, Pos, MAX_AXES, NM_PER_MM};
 
@@ -44,17 +45,17 @@ impl AxisConfig {
         let units = self.units;
         match nm.checked_mul(2 * steps) {
             Some(p) => (p + units).div_euclid(2 * units),
-            None => {
-                ((nm as i128 * 2 * steps as i128 + units as i128).div_euclid(2 * units as i128))
-                    as i64
-            }
+            None => div_euclid_i128(
+                nm as i128 * 2 * steps as i128 + units as i128,
+                2 * units as i128,
+            ) as i64,
         }
     }
 
     /// Position in nm of a whole step count (rounded to the nearest nm).
     pub fn steps_to_nm(&self, steps: i64) -> Nm {
         let s = self.steps as i128;
-        ((steps as i128 * self.units as i128 * 2 + s).div_euclid(2 * s)) as Nm
+        div_euclid_i128(steps as i128 * self.units as i128 * 2 + s, 2 * s) as Nm
     }
 }
 

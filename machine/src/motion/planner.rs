@@ -20,7 +20,7 @@
 
 use super::config::{MotionConfig, MAX_SPEED};
 use super::output_event::OutputEvent;
-use super::trig::{div_u64, isqrt_u128, isqrt_u64, mul_div};
+use super::trig::{div_i128, div_u64, isqrt_u128, isqrt_u64, mul_div};
 use crate::units::MAX_AXES;
 use heapless::Deque;
 
@@ -422,7 +422,7 @@ impl<const N: usize> Planner<N> {
             start_speed = start_speed.min(mul_div(ax.start_speed, length, d));
             unit[i] = match req.delta[i].checked_mul(UNIT) {
                 Some(p) => p / length as i64,
-                None => ((req.delta[i] as i128 * UNIT as i128) / length as i128) as i64,
+                None => div_i128(req.delta[i] as i128 * UNIT as i128, length as i128) as i64,
             };
         }
         let max_speed = max_speed.max(1);

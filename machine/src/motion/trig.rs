@@ -99,6 +99,44 @@ fn isqrt_u32(v: u32) -> u32 {
     }
 }
 
+/// `n / d` and `n % d` on u128 (`d` ≠ 0), out of line.
+///
+/// Every 128-bit division in the core goes through here. Cortex-M has no 128-bit divide and
+/// LLVM uses no library call for one on 32-bit Arm: it expands each `/` or `%` on `u128`/`i128`
+/// inline into a shift-subtract loop of ~1 KiB, which a dozen call sites made ~10 KiB of the
+/// F411's flash. The results are those of the operators.
+#[inline(never)]
+pub fn divrem_u128(n: u128, d: u128) -> (u128, u128) {
+    let q = n / d;
+    (q, n - q * d)
+}
+
+/// `n / d` on i128, truncated toward zero like `/` (through [`divrem_u128`]).
+#[inline(never)]
+pub fn div_i128(n: i128, d: i128) -> i128 {
+    let q = divrem_u128(n.unsigned_abs(), d.unsigned_abs()).0 as i128;
+    if (n < 0) != (d < 0) {
+        -q
+    } else {
+        q
+    }
+}
+
+/// `n.div_euclid(d)` on i128 (the remainder is never negative), through [`divrem_u128`].
+#[inline(never)]
+pub fn div_euclid_i128(n: i128, d: i128) -> i128 {
+    let q = div_i128(n, d);
+    if n - q * d < 0 {
+        if d > 0 {
+            q - 1
+        } else {
+            q + 1
+        }
+    } else {
+        q
+    }
+}
+
 /// ⌊√v⌋ of a 128-bit value.
 pub fn isqrt_u128(v: u128) -> u128 {
     if v <= u64::MAX as u128 {
@@ -107,7 +145,7 @@ pub fn isqrt_u128(v: u128) -> u128 {
     let bits = 128 - v.leading_zeros();
     let mut x = 1u128 << bits.div_ceil(2);
     loop {
-        let y = (x + v / x) >> 1;
+        let y = (x + divrem_u128(v, x).0) >> 1;
         if y >= x {
             return x;
         }
@@ -176,7 +214,7 @@ pub fn mul_div(a: u64, b: u64, c: u64) -> u64 {
     match a.checked_mul(b) {
         Some(p) => div_u64(p, c),
         None => {
-            let q = (a as u128 * b as u128) / c as u128;
+            let q = divrem_u128(a as u128 * b as u128, c as u128).0;
             q.min(u64::MAX as u128) as u64
         }
     }
@@ -187,8 +225,8 @@ pub fn mul_div_ceil(a: u64, b: u64, c: u64) -> u64 {
     match a.checked_mul(b) {
         Some(p) => div_u64(p.saturating_add(c - 1), c),
         None => {
-            let q = (a as u128 * b as u128).div_ceil(c as u128);
-            q.min(u64::MAX as u128) as u64
+            let (q, r) = divrem_u128(a as u128 * b as u128, c as u128);
+            (q + u128::from(r != 0)).min(u64::MAX as u128) as u64
         }
     }
 }
