@@ -216,11 +216,17 @@ pub enum RxOutcome {
     Violation,
 }
 
-/// Receiving half of a lane: a delivery queue of `N` slots (its free slots
-/// are the advertised credit) and `N` parking slots for out-of-order frames.
+/// Receiving half of a lane: `N` slots holding the delivered messages the application has
+/// not popped yet (the oldest at `head`, then in order) followed by the frames parked after a
+/// gap. The free slots are the advertised credit, and a parked frame `d` places after
+/// `expected` sits `d` slots after the delivered ones, so one array serves both (a message
+/// costs its slot once, whether delivered or parked).
 pub struct RecvLane<T, const N: usize> {
-    ready: Deque<T, N>,
-    parked: [Option<(u16, T)>; N],
+    slots: [Option<T>; N],
+    /// Slot of the oldest delivered message.
+    head: usize,
+    /// Delivered messages not yet popped: slots `head .. head + ready` (wrapping).
+    ready: usize,
     expected: u16,
     delivered: u32,
     duplicates: u32,
@@ -236,13 +242,19 @@ impl<T, const N: usize> Default for RecvLane<T, N> {
 impl<T, const N: usize> RecvLane<T, N> {
     pub fn new() -> Self {
         Self {
-            ready: Deque::new(),
-            parked: core::array::from_fn(|_| None),
+            slots: core::array::from_fn(|_| None),
+            head: 0,
+            ready: 0,
             expected: 0,
             delivered: 0,
             duplicates: 0,
             violations: 0,
         }
+    }
+
+    /// Slot `offset` places after the oldest delivered message.
+    fn slot(&self, offset: usize) -> usize {
+        (self.head + offset) % N
     }
 
     /// Next sequence number to deliver (the cumulative ack).
@@ -252,17 +264,19 @@ impl<T, const N: usize> RecvLane<T, N> {
 
     /// Credit: free slots in the delivery queue (capped at 255).
     pub fn window(&self) -> u8 {
-        (N - self.ready.len()).min(255) as u8
+        (N - self.ready).min(255) as u8
     }
 
     /// Messages delivered and not yet popped.
     pub fn ready_len(&self) -> usize {
-        self.ready.len()
+        self.ready
     }
 
     /// Messages parked after a gap.
     pub fn parked_len(&self) -> usize {
-        self.parked.iter().filter(|p| p.is_some()).count()
+        (self.ready..N)
+            .filter(|&i| self.slots[self.slot(i)].is_some())
+            .count()
     }
 
     /// Counters: (delivered, duplicates, violations).
@@ -272,12 +286,22 @@ impl<T, const N: usize> RecvLane<T, N> {
 
     /// Takes the oldest delivered message.
     pub fn pop(&mut self) -> Option<T> {
-        self.ready.pop_front()
+        if self.ready == 0 {
+            return None;
+        }
+        let m = self.slots[self.head].take();
+        self.head = self.slot(1);
+        self.ready -= 1;
+        m
     }
 
     /// Looks at the oldest delivered message without taking it.
     pub fn peek(&self) -> Option<&T> {
-        self.ready.front()
+        if self.ready == 0 {
+            None
+        } else {
+            self.slots[self.head].as_ref()
+        }
     }
 
     /// Accepts frame `seq` carrying `msg`.
@@ -298,28 +322,29 @@ impl<T, const N: usize> RecvLane<T, N> {
             return RxOutcome::Violation;
         }
         if d > 0 {
-            let slot = &mut self.parked[seq as usize % N];
-            if matches!(slot, Some((s, _)) if *s == seq) {
+            // Inside the window: the slot is past the delivered ones and holds either nothing
+            // or this very frame (a parked frame keeps its place until delivered).
+            let slot = self.slot(self.ready + d as usize);
+            if self.slots[slot].is_some() {
                 self.duplicates = self.duplicates.wrapping_add(1);
                 return RxOutcome::Duplicate;
             }
-            *slot = Some((seq, msg));
+            self.slots[slot] = Some(msg);
             return RxOutcome::Parked;
         }
         // d == 0 and window >= 1, so there is room.
         let mut n = 0;
-        let mut next = Some(msg);
-        while let Some(m) = next.take() {
-            delivered(&m);
-            if self.ready.push_back(m).is_err() {
-                break; // unreachable: the window guarantees room
+        let at = self.slot(self.ready);
+        self.slots[at] = Some(msg);
+        loop {
+            let at = self.slot(self.ready);
+            match &self.slots[at] {
+                Some(m) if self.ready < N => delivered(m),
+                _ => break,
             }
+            self.ready += 1;
             self.expected = self.expected.wrapping_add(1);
             n += 1;
-            let slot = &mut self.parked[self.expected as usize % N];
-            if matches!(slot, Some((s, _)) if *s == self.expected) {
-                next = slot.take().map(|(_, m)| m);
-            }
         }
         self.delivered = self.delivered.wrapping_add(n as u32);
         RxOutcome::Delivered(n)
@@ -329,8 +354,9 @@ impl<T, const N: usize> RecvLane<T, N> {
     /// (delivered messages stay for the application).
     pub fn reset(&mut self, expected: u16) {
         self.expected = expected;
-        for p in self.parked.iter_mut() {
-            *p = None;
+        for i in self.ready..N {
+            let at = self.slot(i);
+            self.slots[at] = None;
         }
     }
 }
@@ -351,6 +377,73 @@ mod tests {
         assert_eq!(r.pop(), Some(10));
         assert_eq!(r.pop(), Some(11));
         assert_eq!(r.expected(), 2);
+    }
+
+    /// The receiver against a plain model (a delivery queue and a map of parked frames), over
+    /// random frames, pops and resets.
+    #[test]
+    fn receiver_matches_a_queue_and_map_model() {
+        extern crate std;
+        use std::collections::{BTreeMap, VecDeque};
+        const N: usize = 5;
+        let mut r: RecvLane<u32, N> = RecvLane::new();
+        let (mut expected, mut ready, mut parked) = (0u16, VecDeque::new(), BTreeMap::new());
+        let mut seed = 12345u64;
+        let mut rnd = |m: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % m
+        };
+        for step in 0..200_000u32 {
+            match rnd(10) {
+                0..=5 => {
+                    let seq = expected.wrapping_add(rnd(9) as u16).wrapping_sub(2);
+                    let msg = step;
+                    let d = seq.wrapping_sub(expected) as i16;
+                    let want = if d < 0 {
+                        RxOutcome::Duplicate
+                    } else if d as usize >= N - ready.len() {
+                        RxOutcome::Violation
+                    } else if d > 0 {
+                        if parked.contains_key(&seq) {
+                            RxOutcome::Duplicate
+                        } else {
+                            parked.insert(seq, msg);
+                            RxOutcome::Parked
+                        }
+                    } else {
+                        ready.push_back(msg);
+                        expected = expected.wrapping_add(1);
+                        let mut n = 1;
+                        while let Some(m) = parked.remove(&expected) {
+                            ready.push_back(m);
+                            expected = expected.wrapping_add(1);
+                            n += 1;
+                        }
+                        RxOutcome::Delivered(n)
+                    };
+                    let mut seen = std::vec::Vec::new();
+                    assert_eq!(r.on_frame_with(seq, msg, |m| seen.push(*m)), want, "{step}");
+                    if let RxOutcome::Delivered(n) = want {
+                        let from = ready.len() - n;
+                        assert_eq!(&seen[..], &ready.make_contiguous()[from..]);
+                    }
+                }
+                6..=8 => assert_eq!(r.pop(), ready.pop_front(), "{step}"),
+                _ => {
+                    let to = rnd(100) as u16;
+                    r.reset(to);
+                    expected = to;
+                    parked.clear();
+                }
+            }
+            assert_eq!(r.expected(), expected);
+            assert_eq!(r.ready_len(), ready.len());
+            assert_eq!(r.parked_len(), parked.len());
+            assert_eq!(r.window() as usize, N - ready.len());
+            assert_eq!(r.peek(), ready.front());
+        }
     }
 
     #[test]
