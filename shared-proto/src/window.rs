@@ -406,11 +406,12 @@ mod tests {
                     } else if d as usize >= N - ready.len() {
                         RxOutcome::Violation
                     } else if d > 0 {
-                        if parked.contains_key(&seq) {
-                            RxOutcome::Duplicate
-                        } else {
-                            parked.insert(seq, msg);
-                            RxOutcome::Parked
+                        match parked.entry(seq) {
+                            std::collections::btree_map::Entry::Occupied(_) => RxOutcome::Duplicate,
+                            std::collections::btree_map::Entry::Vacant(v) => {
+                                v.insert(msg);
+                                RxOutcome::Parked
+                            }
                         }
                     } else {
                         ready.push_back(msg);
