@@ -461,6 +461,16 @@ impl Setup {
         ok.then(|| &mut out[..len])
     }
 
+    /// Encodes bytes `from .. from + out.len()` of the blob into `out` (a chunk for the link,
+    /// without a buffer for the whole blob); returns how many it wrote (fewer at the end).
+    pub fn blob_window(&self, from: usize, out: &mut [u8]) -> usize {
+        let mut copy = self.clone();
+        let room = out.len();
+        let mut c = blob::Codec::window(out, from);
+        blob::visit_setup(&mut c, &mut copy);
+        c.len().saturating_sub(from).min(room)
+    }
+
     /// Decodes and checks a setup blob; `None` when it is not a valid setup.
     pub fn from_blob(bytes: &[u8]) -> Option<Setup> {
         let mut s = Setup::default();
@@ -515,6 +525,7 @@ impl Setup {
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
     use super::*;
 
     #[test]
@@ -585,6 +596,25 @@ mod tests {
         s.outputs.mcode_lists[0].commands = Vec::from_slice(&kinds).unwrap();
         let blob = s.to_blob(&mut buf).expect("fits");
         assert_eq!(Setup::from_blob(blob), Some(s));
+    }
+
+    #[test]
+    fn windows_of_the_blob_put_together_are_the_blob() {
+        let mut s = Setup::default();
+        s.program.user_mcodes.push(1234).unwrap();
+        let mut buf = [0u8; SETUP_BLOB_MAX];
+        let blob = s.to_blob(&mut buf).unwrap().to_vec();
+        for size in [1, 7, 64, blob.len() + 5] {
+            let mut joined = std::vec::Vec::new();
+            let mut chunk = std::vec![0u8; size];
+            while joined.len() < blob.len() {
+                let n = s.blob_window(joined.len(), &mut chunk);
+                assert!(n > 0 && n <= size);
+                joined.extend_from_slice(&chunk[..n]);
+            }
+            assert_eq!(joined, blob, "chunks of {size}");
+            assert_eq!(s.blob_window(blob.len(), &mut chunk), 0);
+        }
     }
 
     #[test]

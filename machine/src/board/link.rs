@@ -30,10 +30,14 @@ pub struct KernelView {
     pub feed_um_min: u32,
 }
 
-/// A setup blob being received from, or sent to, the host.
-struct SetupTransfer {
-    blob: heapless::Vec<u8, SETUP_BLOB_MAX>,
-    /// Bytes of `blob` already sent (outgoing transfers).
+/// The board's setup being sent to the host: each chunk is encoded from the live setup as it
+/// goes out (no copy of the blob is kept); length and CRC are those of the blob at the request,
+/// so a setup changed in the middle of the transfer fails the host's check instead of arriving
+/// as a mixture.
+struct SetupOut {
+    len: usize,
+    crc32: u32,
+    /// Bytes already sent.
     sent: usize,
 }
 
@@ -50,8 +54,9 @@ pub struct BoardLink {
     /// Since when (ms) the job has been held, or waited for lines, with the host gone (alarm 20
     /// timer).
     unattended_since: Option<u32>,
-    setup_in: SetupTransfer,
-    setup_out: Option<SetupTransfer>,
+    /// The setup blob being received from the host.
+    setup_in: heapless::Vec<u8, SETUP_BLOB_MAX>,
+    setup_out: Option<SetupOut>,
     /// A new setup was applied: the firmware saves it to flash (when idle).
     setup_changed: bool,
 }
@@ -67,10 +72,7 @@ impl BoardLink {
             host_attached: false,
             host_lost: false,
             unattended_since: None,
-            setup_in: SetupTransfer {
-                blob: heapless::Vec::new(),
-                sent: 0,
-            },
+            setup_in: heapless::Vec::new(),
             setup_out: None,
             setup_changed: false,
         }
@@ -134,7 +136,7 @@ impl BoardLink {
             self.queued(board, msg);
         }
         self.send_events(board);
-        self.send_setup();
+        self.send_setup(board);
         let due = self
             .last_status
             .is_none_or(|t| now_ms.wrapping_sub(t) >= STATUS_INTERVAL_MS);
@@ -198,7 +200,7 @@ impl BoardLink {
     fn queued(&mut self, board: &mut Board, msg: HostMsg) {
         match msg {
             HostMsg::SetupChunk { offset, bytes } => {
-                let rx = &mut self.setup_in.blob;
+                let rx = &mut self.setup_in;
                 if offset == 0 {
                     rx.clear();
                 }
@@ -208,7 +210,7 @@ impl BoardLink {
                 }
             }
             HostMsg::SetupCommit { len, crc32 } => {
-                let blob = &self.setup_in.blob;
+                let blob = &self.setup_in;
                 let code = if blob.len() != len as usize || gantry_proto::crc::crc32(blob) != crc32
                 {
                     1
@@ -225,14 +227,15 @@ impl BoardLink {
                         }
                     }
                 };
-                self.setup_in.blob.clear();
+                self.setup_in.clear();
                 self.queue_event(BoardMsg::SetupResult { code });
             }
             HostMsg::SetupRequest => {
                 let mut buf = [0u8; SETUP_BLOB_MAX];
                 if let Some(blob) = board.setup().to_blob(&mut buf) {
-                    self.setup_out = Some(SetupTransfer {
-                        blob: heapless::Vec::from_slice(blob).unwrap_or_default(),
+                    self.setup_out = Some(SetupOut {
+                        len: blob.len(),
+                        crc32: gantry_proto::crc::crc32(blob),
                         sent: 0,
                     });
                 }
@@ -259,26 +262,32 @@ impl BoardLink {
     }
 
     /// Sends the next chunks of an outgoing setup blob as the queue allows.
-    fn send_setup(&mut self) {
+    fn send_setup(&mut self, board: &Board) {
         let Some(out) = self.setup_out.as_mut() else {
             return;
         };
         while self.endpoint.send_capacity(Lane::Queued) > 0 {
-            if out.sent >= out.blob.len() {
+            if out.sent >= out.len {
                 let end = BoardMsg::SetupEnd {
-                    len: out.blob.len() as u32,
-                    crc32: gantry_proto::crc::crc32(&out.blob),
+                    len: out.len as u32,
+                    crc32: out.crc32,
                 };
                 if self.endpoint.send(end).is_ok() {
                     self.setup_out = None;
                 }
                 return;
             }
-            let n = (out.blob.len() - out.sent).min(gantry_proto::messages::SETUP_CHUNK_MAX);
+            let n = (out.len - out.sent).min(gantry_proto::messages::SETUP_CHUNK_MAX);
+            let mut bytes = heapless::Vec::new();
+            // Cannot fail: n ≤ SETUP_CHUNK_MAX, the Vec's capacity.
+            let _ = bytes.resize(n, 0);
+            // Fewer bytes only if the setup changed (shrank) meanwhile: the offsets keep counting
+            // the requested blob, so the host's length or CRC check fails.
+            let got = board.setup().blob_window(out.sent, &mut bytes);
+            bytes.truncate(got);
             let chunk = BoardMsg::SetupChunk {
                 offset: out.sent as u32,
-                bytes: heapless::Vec::from_slice(&out.blob[out.sent..out.sent + n])
-                    .unwrap_or_default(),
+                bytes,
             };
             if self.endpoint.send(chunk).is_err() {
                 return;

@@ -25,7 +25,13 @@ pub const FORMAT: u8 = 2;
 /// The buffer a [`Codec`] reads from or writes to.
 enum Buf<'a> {
     Read(&'a [u8]),
-    Write(&'a mut [u8]),
+    /// Blob bytes `skip ..` go to `out`; with `clip`, bytes beyond `out` are dropped (a window
+    /// of the blob), else they are an error.
+    Write {
+        out: &'a mut [u8],
+        skip: usize,
+        clip: bool,
+    },
 }
 
 /// Reads or writes one value at a time. Every method takes the field by `&mut`: when writing it
@@ -48,13 +54,31 @@ impl<'a> Codec<'a> {
 
     pub(super) fn writer(out: &'a mut [u8]) -> Self {
         Codec {
-            buf: Buf::Write(out),
+            buf: Buf::Write {
+                out,
+                skip: 0,
+                clip: false,
+            },
             pos: 0,
             ok: true,
         }
     }
 
-    /// Bytes read or written so far.
+    /// A writer that keeps only blob bytes `from .. from + out.len()` (in `out`) and counts the
+    /// rest.
+    pub(super) fn window(out: &'a mut [u8], from: usize) -> Self {
+        Codec {
+            buf: Buf::Write {
+                out,
+                skip: from,
+                clip: true,
+            },
+            pos: 0,
+            ok: true,
+        }
+    }
+
+    /// Bytes read, or the blob's length so far when writing.
     pub(super) fn len(&self) -> usize {
         self.pos
     }
@@ -64,7 +88,7 @@ impl<'a> Codec<'a> {
         self.ok
             && match &self.buf {
                 Buf::Read(b) => !finish || self.pos == b.len(),
-                Buf::Write(_) => true,
+                Buf::Write { .. } => true,
             }
     }
 
@@ -83,19 +107,24 @@ impl<'a> Codec<'a> {
             return 0;
         }
         match &mut self.buf {
-            Buf::Write(out) => {
+            Buf::Write { out, skip, clip } => {
                 let mut v = value;
                 loop {
-                    let Some(slot) = out.get_mut(self.pos) else {
-                        self.ok = false;
-                        return 0;
-                    };
+                    let byte = if v < 0x80 { v as u8 } else { (v as u8) | 0x80 };
+                    if self.pos >= *skip {
+                        match out.get_mut(self.pos - *skip) {
+                            Some(slot) => *slot = byte,
+                            None if *clip => {}
+                            None => {
+                                self.ok = false;
+                                return 0;
+                            }
+                        }
+                    }
                     self.pos += 1;
                     if v < 0x80 {
-                        *slot = v as u8;
                         return value;
                     }
-                    *slot = (v as u8) | 0x80;
                     v >>= 7;
                 }
             }
