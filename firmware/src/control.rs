@@ -18,7 +18,7 @@
 
 use crate::board_def::Outputs;
 use crate::inputs::{armed_limit, ARM, INVERT, PINS};
-use crate::settings::Store;
+use crate::settings::{self, Store};
 use crate::step::{self, STOP};
 use crate::usb::{LinkPipe, DTR};
 use crate::{analog, reset_marker, watchdog};
@@ -33,7 +33,7 @@ use gantry_machine::motion::kernel::Segment;
 use gantry_machine::motion::trig::isqrt_u64;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::{Pos, MAX_AXES};
-use gantry_settings::{DataBuffer, SaveError, SavePolicy};
+use gantry_settings::{SaveError, SavePolicy};
 use heapless::spsc::Producer;
 
 /// Everything the main loop drives.
@@ -43,7 +43,6 @@ pub struct Io {
     pub rx: &'static LinkPipe,
     pub tx: &'static LinkPipe,
     pub store: Store,
-    pub buf: &'static mut DataBuffer,
 }
 
 /// Path speed from the kernel's position, measured over about 20 ms.
@@ -242,7 +241,7 @@ pub async fn run(mut io: Io, board: &'static mut Board, link: &'static mut Board
             // Stalls the CPU for up to ~2 s when a sector is erased (single-bank flash): only
             // here, with the controller idle and nothing moving.
             watchdog::long();
-            match io.store.save(board.setup(), io.buf).await {
+            match settings::save(&mut io.store, board.setup()) {
                 Ok(()) => defmt::info!("setup saved to flash"),
                 Err(SaveError::Encode) => defmt::error!("setup not saved: does not encode"),
                 Err(SaveError::Flash) => defmt::error!("setup not saved: flash error"),

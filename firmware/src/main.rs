@@ -104,15 +104,14 @@ async fn main(spawner: Spawner) {
     // The setup from flash (defaults when absent or invalid) and this power-up's boot id. Flash
     // writes here (the boot counter) stall the CPU briefly; nothing moves yet.
     #[cfg(feature = "controller")]
-    let (store, buf, setup, boot_id) = {
-        let (mut store, buf) = settings::open(rest.flash);
+    let (store, setup, boot_id) = {
+        let mut store = settings::open(rest.flash);
         // Loading may repair a store a power cut left half-written, and counting the boot may
         // erase a sector (1-2 s of stalled CPU): the watchdog's long timeout covers both, or a
         // reset in the middle of the erase would repeat at every boot.
         watchdog::long();
-        let loaded = store.load(buf).await;
+        let (loaded, boots) = settings::load(&mut store);
         defmt::info!("settings: {}", loaded.describe());
-        let boots = store.next_boot_count(buf).await;
         watchdog::normal();
         let uid = embassy_stm32::uid::uid();
         let uid_hash = uid.iter().fold(0x811c_9dc5u32, |h, b| {
@@ -121,7 +120,7 @@ async fn main(spawner: Spawner) {
         let boot_id = boots ^ uid_hash.rotate_left(16);
         defmt::info!("boot {} (id {=u32:#010x})", boots, boot_id);
         watchdog::feed();
-        (store, buf, loaded.into_setup(), boot_id)
+        (store, loaded.into_setup(), boot_id)
     };
 
     let (device, class) = usb::build(rest.usb, rest.usb_dp, rest.usb_dm);
@@ -152,7 +151,6 @@ async fn main(spawner: Spawner) {
                 rx: rx_pipe,
                 tx: tx_pipe,
                 store,
-                buf,
             },
             board,
             link,

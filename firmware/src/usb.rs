@@ -72,9 +72,11 @@ pub async fn run_device(mut device: UsbDevice<'static, UsbDriver>) -> ! {
 /// Bytes between the USB tasks and the main loop. All of them run on the thread-mode executor,
 /// so the pipes need no lock (and no critical section that would delay the step interrupt).
 pub type LinkPipe = Pipe<NoopRawMutex, PIPE_LEN>;
-/// Room in each direction: a few frames, so a slow host throttles the board's link (which keeps
-/// unsent frames queued and retransmits) instead of stalling the main loop.
-pub const PIPE_LEN: usize = 1024;
+/// Room in each direction: two of the largest frames, so a slow host throttles the board's link
+/// (which keeps unsent frames queued and retransmits) instead of stalling the main loop. The main
+/// loop empties the receive pipe every millisecond, so 512 bytes a millisecond (512 KB/s) is the
+/// ceiling host → board: some 20 times what a job of 0.1 mm segments at 5 m/min needs.
+pub const PIPE_LEN: usize = 512;
 
 /// Data terminal ready as the host last set it (a terminal or sender has the port open).
 pub static DTR: AtomicBool = AtomicBool::new(false);

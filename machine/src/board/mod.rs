@@ -211,6 +211,7 @@ pub struct Board {
 
 impl Board {
     /// A board at machine position 0, idle, outputs safe (a clean power-up).
+    #[inline(always)]
     pub fn new(setup: Setup) -> Self {
         Self::power_up(setup, PowerUp::Clean)
     }
@@ -219,16 +220,34 @@ impl Board {
     /// [`PowerUp::MotionInterrupted`] start is locked in alarm 3 with every axis unhomed (homing,
     /// where homing is set up, or unlock clears it); else idle, or alarm 11 when
     /// `homing.required`.
+    ///
+    /// One struct expression, inlined with the motion pipeline's and planner's constructors into
+    /// the caller, and the planner's ring a `Deque` whose free slots are never written: that way
+    /// the firmware's `StaticCell::init_with(|| Board::power_up(..))` needs one stack frame of
+    /// about 25 KiB at boot instead of 48 KiB (the compiler cannot build a 27 KiB value directly
+    /// in a static while calls such as `Interpreter::new` run in between; firmware/README.md).
+    #[inline(always)]
     pub fn power_up(setup: Setup, how: PowerUp) -> Self {
-        let interp = Interpreter::new(&setup.interp_config());
-        let motion = Motion::new(MotionConfig::from_setup(&setup));
         let needs_home = setup.homing.required && !homing::order(&setup, 0).is_empty();
-        let mut board = Board {
+        let alarm = if how == PowerUp::MotionInterrupted {
+            // grbl alarm 3: the steps in flight when the reset came are unknown.
+            Some(AlarmCode::ResetDuringMotion)
+        } else if needs_home {
+            // Power-up with homing required: locked until homed (grbl's boot alarm).
+            Some(AlarmCode::HomingRequired)
+        } else {
+            None
+        };
+        Board {
+            interp: Interpreter::new(&setup.interp_config()),
+            motion: Motion::new(MotionConfig::from_setup(&setup)),
             setup,
-            state: State::Idle,
-            interp,
+            state: if alarm.is_some() {
+                State::Alarm
+            } else {
+                State::Idle
+            },
             source: StreamSource::new(),
-            motion,
             pending: None,
             ending: Ending::No,
             paused: false,
@@ -239,11 +258,11 @@ impl Board {
             events: Deque::new(),
             line: 0,
             resume_line: 0,
-            alarm: None,
+            alarm,
             job_queued: false,
             stop_alarm: None,
             drained: true,
-            position_lost: false,
+            position_lost: how == PowerUp::MotionInterrupted,
             homed: 0,
             now_ms: 0,
             levels: InputBits(0),
@@ -261,18 +280,7 @@ impl Board {
             dry_run: false,
             single_block: false,
             last_motion_line: 0,
-        };
-        if how == PowerUp::MotionInterrupted {
-            // grbl alarm 3: the steps in flight when the reset came are unknown.
-            board.position_lost = true;
-            board.alarm = Some(AlarmCode::ResetDuringMotion);
-            board.state = State::Alarm;
-        } else if needs_home {
-            // Power-up with homing required: locked until homed (grbl's boot alarm).
-            board.alarm = Some(AlarmCode::HomingRequired);
-            board.state = State::Alarm;
         }
-        board
     }
 
     pub fn setup(&self) -> &Setup {

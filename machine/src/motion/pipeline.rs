@@ -113,6 +113,7 @@ pub struct Motion<const N: usize> {
 
 impl<const N: usize> Motion<N> {
     /// An idle pipeline at machine position 0.
+    #[inline(always)] // see `Board::new`: no planner-sized temporary
     pub fn new(cfg: MotionConfig) -> Self {
         Motion {
             cfg,
