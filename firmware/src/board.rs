@@ -335,7 +335,6 @@ macro_rules! gantry_board {
         }
 
         /// Every output of the board except step/dir (which the step ISR drives by register).
-        #[cfg_attr(not(feature = "controller"), allow(dead_code))]
         pub struct Outputs {
             /// Stepper driver enable, active low: starts high (steppers disabled). The main loop
             /// enables the drivers with the first motion; a stop leaves them on (holding torque).
@@ -369,7 +368,6 @@ macro_rules! gantry_board {
             pub usb_dm: Peri<'static, peripherals::PA11>,
             pub tim2: Peri<'static, peripherals::TIM2>,
             pub adc1: Peri<'static, peripherals::ADC1>,
-            #[cfg_attr(not(feature = "controller"), allow(dead_code))]
             pub flash: Peri<'static, peripherals::FLASH>,
         }
 

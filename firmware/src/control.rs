@@ -29,7 +29,7 @@ use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::Board;
 use gantry_machine::controller::inputs::{Debouncer, InputBits};
 use gantry_machine::controller::{AdcReadings, OutputLevels, State};
-use gantry_machine::motion::kernel::Segment;
+use gantry_machine::motion::kernel::{Segment, StepTiming};
 use gantry_machine::motion::trig::isqrt_u64;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::{Pos, MAX_AXES};
@@ -231,10 +231,12 @@ pub async fn run(mut io: Io, board: &'static mut Board, link: &'static mut Board
             steppers_enabled,
         );
 
-        // 6. A new setup from the host: new input polarity now, flash once idle.
+        // 6. A new setup from the host: new input polarity and step pulse shape now (the board
+        // is idle: setups are only taken then), flash once idle.
         let changed = link.take_setup_changed();
         if changed {
             debounce = debouncer(board.setup());
+            step::set_timing(StepTiming::from_setup(&board.setup().drivers));
         }
         policy.changed(changed);
         if policy.due(board.state(), drained) {

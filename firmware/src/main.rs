@@ -10,22 +10,14 @@
 #[macro_use]
 mod board;
 mod analog;
-#[cfg(not(feature = "controller"))]
-mod bringup;
 mod clocks;
-#[cfg(feature = "controller")]
 mod control;
 mod inputs;
-#[cfg(feature = "controller")]
 mod reset_marker;
 mod safety;
-#[cfg(feature = "controller")]
 mod settings;
-// The bring-up build leaves the controller's kernel access and watchdog modes unused.
-#[cfg_attr(not(feature = "controller"), allow(dead_code))]
 mod step;
 mod usb;
-#[cfg_attr(not(feature = "controller"), allow(dead_code))]
 mod watchdog;
 
 #[cfg(all(feature = "board-f411", feature = "board-f446"))]
@@ -44,6 +36,7 @@ use embassy_executor::{InterruptExecutor, Spawner};
 use embassy_stm32::gpio::Output;
 use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
+use gantry_machine::motion::kernel::StepTiming;
 use static_cell::StaticCell;
 
 /// Runs tasks that must react within microseconds (inputs), on a spare USART6 vector at P1.
@@ -58,7 +51,6 @@ unsafe fn USART6() {
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
     // Before anything else: how the previous run ended (reset flags, motion marker in RAM).
-    #[cfg(feature = "controller")]
     let (power_up, reset_cause) = reset_marker::power_up();
     let p = embassy_stm32::init(clocks::config());
     // First: a hang anywhere below (clock, USB or flash init) resets the board.
@@ -69,7 +61,6 @@ async fn main(spawner: Spawner) {
         board_def::PROBE_CHIP,
         clocks::SYSCLK_HZ
     );
-    #[cfg(feature = "controller")]
     defmt::info!(
         "reset: {}, {}",
         defmt::Debug2Format(&reset_cause),
@@ -103,7 +94,6 @@ async fn main(spawner: Spawner) {
 
     // The setup from flash (defaults when absent or invalid) and this power-up's boot id. Flash
     // writes here (the boot counter) stall the CPU briefly; nothing moves yet.
-    #[cfg(feature = "controller")]
     let (store, setup, boot_id) = {
         let mut store = settings::open(rest.flash);
         // Loading may repair a store a power cut left half-written, and counting the boot may
@@ -131,7 +121,8 @@ async fn main(spawner: Spawner) {
     let rx_pipe: &'static usb::LinkPipe = RX_PIPE.init(usb::LinkPipe::new());
     let tx_pipe: &'static usb::LinkPipe = TX_PIPE.init(usb::LinkPipe::new());
 
-    let segments = step::start(rest.tim2, clocks::TIM2_PSC);
+    let timing = StepTiming::from_setup(&setup.drivers);
+    let segments = step::start(rest.tim2, clocks::TIM2_PSC, timing);
 
     let fast = EXECUTOR_FAST.start(interrupt::USART6);
     fast.spawn(defmt::unwrap!(inputs::run(inputs)));
@@ -140,25 +131,18 @@ async fn main(spawner: Spawner) {
     spawner.spawn(defmt::unwrap!(usb::run_tx(tx, tx_pipe)));
     spawner.spawn(defmt::unwrap!(usb::run_control(control)));
     spawner.spawn(defmt::unwrap!(analog::run(rest.adc1, analog)));
-    #[cfg(feature = "controller")]
-    {
-        let board = controller_board(setup, power_up);
-        let link = controller_link(boot_id);
-        spawner.spawn(defmt::unwrap!(control::run(
-            control::Io {
-                outputs,
-                segments,
-                rx: rx_pipe,
-                tx: tx_pipe,
-                store,
-            },
-            board,
-            link,
-        )));
-    }
-    #[cfg(not(feature = "controller"))]
-    spawner.spawn(defmt::unwrap!(bringup::run(
-        outputs, segments, rx_pipe, tx_pipe
+    let board = controller_board(setup, power_up);
+    let link = controller_link(boot_id);
+    spawner.spawn(defmt::unwrap!(control::run(
+        control::Io {
+            outputs,
+            segments,
+            rx: rx_pipe,
+            tx: tx_pipe,
+            store,
+        },
+        board,
+        link,
     )));
     defmt::info!("ready");
 }
@@ -167,7 +151,6 @@ async fn main(spawner: Spawner) {
 /// during motion). A function of its own (never inlined) so that the temporary it may need on
 /// the stack exists only during this call, not in every poll of `main` nor together with the
 /// link's.
-#[cfg(feature = "controller")]
 #[inline(never)]
 fn controller_board(
     setup: gantry_machine::setup::Setup,
@@ -178,7 +161,6 @@ fn controller_board(
 }
 
 /// The link endpoint, built once into its static (see [`controller_board`]).
-#[cfg(feature = "controller")]
 #[inline(never)]
 fn controller_link(boot_id: u32) -> &'static mut gantry_machine::board::link::BoardLink {
     static LINK: StaticCell<gantry_machine::board::link::BoardLink> = StaticCell::new();

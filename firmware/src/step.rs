@@ -2,19 +2,23 @@
 //!
 //! The update interrupt starts a tick: it raises the step pins computed on the previous tick (one
 //! BSRR write), runs `StepKernel::tick`, and loads the kernel's period into the preloaded ARR, so it
-//! times the period after the step just emitted. It also points compare channel 1 at
-//! `STEP_PULSE_COUNTS` after the moment the pins rose; that interrupt drops the step pins (one BSRR
-//! write) and sets the dir pins for the next step (one BSRR write), giving every step a full period
-//! minus the pulse of dir set-up time. Pin words come from 64-entry tables built at compile time
-//! from the board's pin numbers, so the ISR does lookups, no loops.
+//! times the period after the step just emitted. It also points compare channel 1 at the setup's
+//! pulse width ([`StepTiming::pulse`], from `Setup::drivers`) after the moment the pins rose; that
+//! interrupt drops the step pins (one BSRR write) and sets the dir pins for the next step (one BSRR
+//! write), so a direction changes a full period minus the pulse before the step that needs it.
+//! Periods shorter than [`StepTiming::min_period`] (pulse + the longer of pulse and dir set-up)
+//! are stretched to it, so that is at least the setup's dir set-up time; `Setup::is_valid` refuses
+//! axes whose max rate would need such periods. Pin words come from 64-entry tables built at
+//! compile time from the board's pin numbers, so the ISR does lookups, no loops.
 //!
 //! On-the-fly outputs: a segment's [`OutputEvent`] comes out of the tick that starts the segment
 //! and is emitted with that tick's steps, at the next update: one BSRR write of the user output's
 //! port (port and pin mask from a table built at compile time from the board's user output pins),
 //! just before the step pins rise. [`sync_user_outputs`] is the only other writer of those pins.
 //!
-//! If the ISR starts so late that the pulse could not end within the current period, it emits
-//! nothing and retries on the next update (counted in [`LATE_TICKS`]), so no edge is ever lost.
+//! If the ISR starts so late that the pulse and the dir set-up could not both fit before the next
+//! update, it emits nothing and retries on the next update (counted in [`LATE_TICKS`]), so no edge
+//! is ever lost and no step follows a direction change sooner than the setup allows.
 //! A stop seen by the kernel takes effect at that tick; the step computed on the tick before is
 //! still emitted, so the kernel's position count stays exact. When the kernel is idle the timer
 //! keeps polling the queue every millisecond.
@@ -31,17 +35,13 @@ use embassy_stm32::peripherals::TIM2;
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::Peri;
 use gantry_machine::motion::kernel::{
-    Segment, SegmentSource, StepKernel, TickOut, KERNEL_TIMER_HZ,
+    Segment, SegmentSource, StepKernel, StepTiming, TickOut, KERNEL_TIMER_HZ,
 };
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::units::MAX_AXES;
 use heapless::spsc::{Consumer, Producer, Queue};
 use static_cell::StaticCell;
 
-/// Step pulse width in timer counts (2 µs).
-pub const STEP_PULSE_COUNTS: u32 = KERNEL_TIMER_HZ / 500_000;
-/// Shortest tick period accepted: pulse plus 2 µs of dir set-up (250 kHz step rate at most).
-pub const MIN_PERIOD_COUNTS: u32 = 2 * STEP_PULSE_COUNTS;
 /// Tick period while the kernel is idle (1 ms), i.e. how often an empty queue is polled.
 pub const IDLE_PERIOD_COUNTS: u32 = KERNEL_TIMER_HZ / 1_000;
 /// Slots in the segment queue (heapless 0.9 SPSC holds N - 1): 15 segments of about 2 ms, 30 ms of
@@ -81,10 +81,6 @@ const _: () = {
     assert!(
         DIR_WORD[0] == mask(&DIR) << 16 && DIR_WORD[63] == mask(&DIR),
         "dir table"
-    );
-    assert!(
-        MIN_PERIOD_COUNTS > STEP_PULSE_COUNTS,
-        "the pulse must end within the tick"
     );
 };
 
@@ -183,6 +179,8 @@ struct StepIsr {
     pending: TickOut,
     /// The last tick found no segment (period 0): the kernel waits for the queue.
     idle: bool,
+    /// Pulse width, dir set-up and shortest period, from the setup.
+    timing: StepTiming,
 }
 
 /// The ISR's state, shared with the main loop.
@@ -302,8 +300,18 @@ pub fn set_position(steps: [i64; MAX_AXES]) {
     with_kernel(|s| s.kernel.set_position(steps));
 }
 
-/// Configures TIM2 to tick the kernel and returns the producer end of its segment queue.
-pub fn start(tim2: Peri<'static, TIM2>, psc: u16) -> Producer<'static, Segment> {
+/// Takes a new pulse shape (a setup change; the machine is idle then).
+pub fn set_timing(timing: StepTiming) {
+    with_kernel(|s| s.timing = timing);
+}
+
+/// Configures TIM2 to tick the kernel with pulses shaped by `timing` and returns the producer end
+/// of its segment queue.
+pub fn start(
+    tim2: Peri<'static, TIM2>,
+    psc: u16,
+    timing: StepTiming,
+) -> Producer<'static, Segment> {
     static QUEUE: StaticCell<Queue<Segment, SEGMENT_QUEUE_LEN>> = StaticCell::new();
     static TIMER: StaticCell<Timer<'static, TIM2>> = StaticCell::new();
     let (producer, consumer) = QUEUE.init(Queue::new()).split();
@@ -316,6 +324,7 @@ pub fn start(tim2: Peri<'static, TIM2>, psc: u16) -> Producer<'static, Segment> 
                 source: QueueSource(consumer),
                 pending: TickOut::default(),
                 idle: true,
+                timing,
             })
         }
     });
@@ -325,7 +334,7 @@ pub fn start(tim2: Peri<'static, TIM2>, psc: u16) -> Producer<'static, Segment> 
     timer.stop();
     TIM.psc().write_value(psc);
     TIM.arr().write_value(IDLE_PERIOD_COUNTS - 1);
-    TIM.ccr(0).write_value(STEP_PULSE_COUNTS);
+    TIM.ccr(0).write_value(timing.pulse);
     timer.set_autoreload_preload(true);
     timer.generate_update_event(); // load PSC and ARR without an interrupt
     TIM.dier().modify(|w| {
@@ -373,10 +382,14 @@ fn TIM2() {
     }
     if sr & UIF != 0 {
         clear_flags(UIF);
-        // ARR still holds the running period's reload value (the new one is written below).
-        let pulse_end = TIM.cnt().read() + STEP_PULSE_COUNTS;
-        if pulse_end > TIM.arr().read() {
-            // Too late to fit the pulse in this period: keep `pending` for the next update.
+        let t = isr.timing;
+        // ARR still holds the running period's reload value (the new one is written below): the
+        // next update comes ARR + 1 counts after this one. The pulse ends at `pulse_end`, the dir
+        // pins for the next step change then, and that step starts at the next update.
+        let pulse_end = TIM.cnt().read() + t.pulse;
+        if pulse_end + t.dir_setup > TIM.arr().read() + 1 {
+            // Too late to fit pulse and dir set-up in this period: keep `pending` for the next
+            // update.
             LATE_TICKS.store(LATE_TICKS.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
             return;
         }
@@ -393,8 +406,7 @@ fn TIM2() {
             .tick(&mut isr.source, STOP.load(Ordering::Relaxed));
         let period = match out.period {
             0 => IDLE_PERIOD_COUNTS,
-            p if p < MIN_PERIOD_COUNTS => MIN_PERIOD_COUNTS,
-            p => p,
+            p => t.stretch(p),
         };
         TIM.arr().write_value(period - 1);
         isr.idle = out.period == 0;

@@ -41,6 +41,10 @@ pub const fn ns_to_counts(ns: u32) -> u32 {
 /// both can use, [`Self::min_period`]; the interrupt and the emulated board stretch shorter ones
 /// ([`Self::stretch`]), and [`crate::setup::Setup::is_valid`] refuses axes whose max rate would
 /// need that.
+///
+/// The pulse starts when the interrupt has entered and read the timer, up to
+/// [`Self::ISR_ALLOWANCE`] after the tick: the shortest period allows for that too, or the
+/// interrupt would find the dir set-up no longer fits and defer the step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StepTiming {
     /// Step pulse width, counts.
@@ -48,11 +52,15 @@ pub struct StepTiming {
     /// Direction set-up before a step pulse, counts.
     pub dir_setup: u32,
     /// Shortest tick period, counts: the pulse, then the pin low for at least the pulse width
-    /// and at least the direction set-up.
+    /// and at least the direction set-up, plus [`Self::ISR_ALLOWANCE`].
     pub min_period: u32,
 }
 
 impl StepTiming {
+    /// Counts from a tick to the step interrupt's timer read, at most (1 µs: ~100 cycles of
+    /// exception entry and prologue at 96 MHz, where the interrupt needs ~40).
+    pub const ISR_ALLOWANCE: u32 = KERNEL_TIMER_HZ / 1_000_000;
+
     pub const fn from_setup(d: &DriverSetup) -> Self {
         let pulse = ns_to_counts(d.step_pulse_ns);
         let dir_setup = ns_to_counts(d.dir_setup_ns);
@@ -60,7 +68,7 @@ impl StepTiming {
         StepTiming {
             pulse,
             dir_setup,
-            min_period: pulse + if low > 1 { low } else { 1 },
+            min_period: pulse + low + Self::ISR_ALLOWANCE,
         }
     }
 
@@ -362,7 +370,7 @@ mod tests {
             StepTiming {
                 pulse: 60,
                 dir_setup: 60,
-                min_period: 120
+                min_period: 132
             }
         );
         // A long direction set-up sets the low time; without one the low time is the pulse's.
@@ -370,15 +378,15 @@ mod tests {
             step_pulse_ns: 2_000,
             dir_setup_ns: 10_000,
         });
-        assert_eq!((t.pulse, t.dir_setup, t.min_period), (24, 120, 144));
+        assert_eq!((t.pulse, t.dir_setup, t.min_period), (24, 120, 156));
         let t = StepTiming::from_setup(&DriverSetup {
             step_pulse_ns: 2_000,
             dir_setup_ns: 0,
         });
-        assert_eq!((t.pulse, t.dir_setup, t.min_period), (24, 0, 48));
-        assert_eq!(t.stretch(1), 48);
-        assert_eq!(t.stretch(47), 48);
-        assert_eq!(t.stretch(48), 48);
+        assert_eq!((t.pulse, t.dir_setup, t.min_period), (24, 0, 60));
+        assert_eq!(t.stretch(1), 60);
+        assert_eq!(t.stretch(59), 60);
+        assert_eq!(t.stretch(60), 60);
         assert_eq!(t.stretch(5000), 5000);
     }
 
