@@ -61,11 +61,8 @@ async fn main(spawner: Spawner) {
         board_def::PROBE_CHIP,
         clocks::SYSCLK_HZ
     );
-    defmt::info!(
-        "reset: {}, {}",
-        defmt::Debug2Format(&reset_cause),
-        defmt::Debug2Format(&power_up)
-    );
+    let (cause, how) = reset_marker::describe(power_up, reset_cause);
+    defmt::info!("reset: {=str}, {=str}", cause, how);
     let (pins, rest) = board_def::split(p);
     let board_def::Pins {
         step_dir,

@@ -79,3 +79,21 @@ pub fn moving() {
 pub fn idle() {
     write(MARKER_IDLE);
 }
+
+/// The reset cause and power-up kind for the boot log (plain strings: `Debug2Format` would link
+/// `core::fmt` code for them).
+pub fn describe(how: PowerUp, cause: ResetCause) -> (&'static str, &'static str) {
+    let cause = match cause {
+        ResetCause::PowerOn => "power-on",
+        ResetCause::BrownOut => "brown-out",
+        ResetCause::Watchdog => "watchdog",
+        ResetCause::Software => "software",
+        ResetCause::Pin => "reset pin",
+        ResetCause::Other => "other",
+    };
+    let how = match how {
+        PowerUp::Clean => "clean start",
+        PowerUp::MotionInterrupted => "motion was interrupted (alarm 3)",
+    };
+    (cause, how)
+}
