@@ -17,8 +17,8 @@
 //! frame boundaries; a receiver that starts mid-stream or sees garbage loses
 //! at most the frame in progress and resynchronises on the next 0x00.
 
+use crate::codec::{self, Visit};
 use crate::crc::{crc32, CRC_LEN};
-use serde::Serialize;
 
 /// Bytes of the fixed header.
 pub const HEADER_LEN: usize = 9;
@@ -146,7 +146,7 @@ impl std::error::Error for EncodeError {}
 
 /// Encodes `header` and the postcard form of `payload` (if any) as one
 /// complete wire frame (delimiter included) into `out`; returns its length.
-pub fn encode_frame<P: Serialize + ?Sized>(
+pub fn encode_frame<P: Visit>(
     header: &Header,
     payload: Option<&P>,
     out: &mut [u8],
@@ -154,9 +154,8 @@ pub fn encode_frame<P: Serialize + ?Sized>(
     let mut raw = [0u8; MAX_RAW];
     header.write(&mut raw[..HEADER_LEN]);
     let plen = match payload {
-        Some(p) => postcard::to_slice(p, &mut raw[HEADER_LEN..MAX_RAW - CRC_LEN])
-            .map_err(|_| EncodeError::PayloadTooLarge)?
-            .len(),
+        Some(p) => codec::encode(p, &mut raw[HEADER_LEN..MAX_RAW - CRC_LEN])
+            .ok_or(EncodeError::PayloadTooLarge)?,
         None => 0,
     };
     let body = HEADER_LEN + plen;
@@ -313,7 +312,13 @@ mod tests {
             rt_win: 3,
         };
         let mut out = [0u8; MAX_FRAME_LEN];
-        let n = encode_frame(&h, Some(&(1u32, 2u8)), &mut out).unwrap();
+        let hello = crate::Hello {
+            version: 0x0201,
+            nonce: 0xDEAD_BEEF,
+            window: 16,
+            rt_window: 8,
+        };
+        let n = encode_frame(&h, Some(&hello), &mut out).unwrap();
         assert_eq!(out[n - 1], 0);
         assert!(out[..n - 1].iter().all(|&b| b != 0));
         let mut d = FrameDecoder::new();
@@ -321,7 +326,8 @@ mod tests {
         d.feed(&out[..n], |f| got = Some((f.header, f.payload.to_vec())));
         let (gh, gp) = got.unwrap();
         assert_eq!(gh, h);
-        assert_eq!(postcard::from_bytes::<(u32, u8)>(&gp).unwrap(), (1, 2));
+        assert_eq!(gp, [0x81, 0x04, 0xEF, 0xFD, 0xB6, 0xF5, 0x0D, 16, 8]);
+        assert_eq!(crate::codec::decode::<crate::Hello>(&gp), Some(hello));
         assert_eq!(MAX_FRAME_LEN, 194);
     }
 

@@ -1,6 +1,7 @@
 //! Gantry wire protocol shared by the firmware and the host sender (no_std).
 //!
 //! * [`messages`]: what host and board say to each other ([`HostMsg`], [`BoardMsg`]).
+//! * [`codec`]: their bytes (postcard's format, written by hand).
 //! * [`frame`]: COBS frames with a fixed header and CRC-32 ([`encode_frame`], [`FrameDecoder`]).
 //! * [`crc`]: the frame check sequence.
 //! * [`window`]: per-lane sliding windows (sequence numbers, acks, credit, retransmit).
@@ -12,6 +13,7 @@
 #![forbid(unsafe_code)]
 
 pub mod channel;
+pub mod codec;
 pub mod crc;
 pub mod fault;
 pub mod frame;

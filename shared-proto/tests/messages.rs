@@ -1,6 +1,7 @@
-//! Round trip of every message through postcard and through a frame, and
-//! worst-case sizes.
+//! Round trip of every message through postcard, the hand-written codec (same bytes) and a
+//! frame, the codec against postcard on damaged and random payloads, and worst-case sizes.
 
+use gantry_proto::codec::{self, Visit};
 use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN, MAX_PAYLOAD};
 use gantry_proto::messages::SETUP_CHUNK_MAX;
 use gantry_proto::{
@@ -148,12 +149,19 @@ fn all_board() -> Vec<BoardMsg> {
     v
 }
 
-fn round_trip<M: Serialize + DeserializeOwned + PartialEq + Debug>(m: &M) -> usize {
+fn round_trip<M: Serialize + DeserializeOwned + Visit + PartialEq + Debug>(m: &M) -> usize {
     let mut buf = [0u8; 512];
     let bytes = postcard::to_slice(m, &mut buf).unwrap();
     let n = bytes.len();
     let back: M = postcard::from_bytes(bytes).unwrap();
     assert_eq!(&back, m);
+    // The hand-written codec writes exactly postcard's bytes and reads them back.
+    let mut mine = [0u8; 512];
+    let k = codec::encode(m, &mut mine).unwrap();
+    assert_eq!(&mine[..k], &*bytes, "{m:?}");
+    assert_eq!(codec::decode::<M>(bytes).as_ref(), Some(m));
+    // Too little room is refused, not truncated.
+    assert_eq!(codec::encode(m, &mut mine[..n - 1]), None);
     // And inside a frame.
     let mut out = [0u8; MAX_FRAME_LEN];
     let len = encode_frame(&Header::new(Kind::Data), Some(m), &mut out)
@@ -245,4 +253,61 @@ fn lanes() {
     assert_eq!(BoardMsg::Alarm { code: 1, line: 0 }.lane(), Lane::Realtime);
     assert_eq!(BoardMsg::JobDone { line: 1 }.lane(), Lane::Queued);
     assert_eq!(HostMsg::Line(worst_line()).stream_token(), Some(u32::MAX));
+}
+
+/// What postcard makes of `bytes` as a whole message (trailing bytes refused, as the link does).
+fn postcard_exact<M: DeserializeOwned>(bytes: &[u8]) -> Option<M> {
+    match postcard::take_from_bytes::<M>(bytes) {
+        Ok((m, [])) => Some(m),
+        _ => None,
+    }
+}
+
+/// Damaged encodings (a byte changed, cut short, one byte longer) and random bytes decode to the
+/// same message, or fail, in the codec as in postcard.
+#[test]
+fn the_codec_reads_damaged_and_random_payloads_as_postcard_does() {
+    fn check<M: Serialize + DeserializeOwned + Visit + PartialEq + Debug>(msgs: &[M], seed: u64) {
+        let mut r = seed;
+        let mut next = move || {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            r
+        };
+        let (mut agree_some, mut agree_none) = (0, 0);
+        for m in msgs {
+            let mut buf = [0u8; 512];
+            let good = postcard::to_slice(m, &mut buf).unwrap().to_vec();
+            for _ in 0..2000 {
+                let mut b = good.clone();
+                match next() % 4 {
+                    0 => {
+                        let i = next() as usize % b.len();
+                        b[i] = next() as u8;
+                    }
+                    1 => b.truncate(next() as usize % b.len()),
+                    2 => b.push(next() as u8),
+                    _ => {
+                        let len = next() as usize % 40;
+                        b = (0..len).map(|_| next() as u8).collect();
+                    }
+                }
+                let want = postcard_exact::<M>(&b);
+                assert_eq!(codec::decode::<M>(&b), want, "{b:02x?}");
+                if want.is_some() {
+                    agree_some += 1;
+                } else {
+                    agree_none += 1;
+                }
+            }
+        }
+        // Both outcomes were exercised.
+        assert!(
+            agree_some > 100 && agree_none > 100,
+            "{agree_some} {agree_none}"
+        );
+    }
+    check(&all_host(), 0x9E37_79B9_7F4A_7C15);
+    check(&all_board(), 0xD1B5_4A32_D192_ED03);
 }
