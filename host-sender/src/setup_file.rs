@@ -6,8 +6,9 @@
 
 use anyhow::{bail, Context};
 use gantry_machine::controller::inputs::INPUT_NAMES;
+use gantry_machine::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::setup::{
-    AxisSetup, Dialect, DwellUnits, ListCommand, McodeList, Setup, Tool, MAX_TOOLS,
+    AxisSetup, Dialect, DriverSetup, DwellUnits, ListCommand, McodeList, Setup, Tool, MAX_TOOLS,
     MAX_USER_MCODES, USER_OUTPUTS,
 };
 use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES, NM_PER_MM};
@@ -46,6 +47,18 @@ pub struct SetupFile {
     pub mcode: Vec<McodeFile>,
     #[serde(default)]
     pub link: LinkFile,
+    #[serde(default)]
+    pub drivers: DriversFile,
+}
+
+/// Step and direction signal timing of the stepper drivers, in µs (see their datasheets).
+#[derive(Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriversFile {
+    /// Width of every step pulse, µs (1-50).
+    pub step_pulse_us: Option<f64>,
+    /// Least time from a direction change to the next step pulse, µs (0-50).
+    pub dir_setup_us: Option<f64>,
 }
 
 #[derive(Debug, Default, Deserialize, Serialize)]
@@ -494,7 +507,47 @@ impl SetupFile {
         if let Some(v) = self.link.host_lost_stop_s {
             s.link.host_lost_stop_s = v;
         }
+        self.apply_drivers(&mut s)?;
         Ok(s)
+    }
+
+    /// The `[drivers]` section, then the check that every axis's max rate leaves each step
+    /// period room for the pulse and the dir set-up (the board refuses such a setup).
+    fn apply_drivers(&self, s: &mut Setup) -> anyhow::Result<()> {
+        let us = |key: &str, v: f64, range: &std::ops::RangeInclusive<u32>| {
+            let (lo, hi) = (*range.start() as f64 / 1000.0, *range.end() as f64 / 1000.0);
+            if !v.is_finite() || v < lo || v > hi {
+                bail!("{key} = {v}: must be between {lo} and {hi} µs");
+            }
+            Ok((v * 1000.0).round() as u32)
+        };
+        let d = &self.drivers;
+        if let Some(v) = d.step_pulse_us {
+            s.drivers.step_pulse_ns = us("drivers.step_pulse_us", v, &DriverSetup::PULSE_NS)?;
+        }
+        if let Some(v) = d.dir_setup_us {
+            s.drivers.dir_setup_ns = us("drivers.dir_setup_us", v, &DriverSetup::DIR_SETUP_NS)?;
+        }
+        let timing = StepTiming::from_setup(&s.drivers);
+        let allowed = f64::from(KERNEL_TIMER_HZ) / f64::from(timing.min_period);
+        for (i, letter) in AXIS_LETTERS.iter().enumerate().take(s.axis_count as usize) {
+            if !s.step_rate_fits(i) {
+                let a = &s.axes[i];
+                let rate = a.max_rate as f64 * f64::from(a.steps) / a.units_nm as f64 / 60.0;
+                bail!(
+                    "axis.{}.max_rate = {} mm/min is {:.0} steps/s, but the drivers' step pulse \
+                     ({} µs) and the longer of pulse and dir set-up ({} µs), plus 1 µs for the step \
+                     interrupt, allow at most {:.0} steps/s: lower max_rate or the [drivers] times",
+                    letter,
+                    mm(a.max_rate),
+                    rate,
+                    us_text(s.drivers.step_pulse_ns),
+                    us_text(s.drivers.step_pulse_ns.max(s.drivers.dir_setup_ns)),
+                    allowed.floor()
+                );
+            }
+        }
+        Ok(())
     }
 
     /// The `[inputs]`, `[homing]`, `[jog]`, `[spindle]` and `[[mcode]]` sections.
@@ -722,6 +775,17 @@ fn mm(v: Nm) -> String {
     }
 }
 
+/// Nanoseconds as µs with exact decimals.
+fn us_text(ns: u32) -> String {
+    let frac = format!("{:03}", ns % 1000);
+    let frac = frac.trim_end_matches('0');
+    if frac.is_empty() {
+        format!("{}.0", ns / 1000)
+    } else {
+        format!("{}.{frac}", ns / 1000)
+    }
+}
+
 fn mm_list(p: &[Nm]) -> String {
     let items: Vec<String> = p.iter().map(|&v| mm(v)).collect();
     format!("[{}]", items.join(", "))
@@ -844,6 +908,17 @@ pub fn to_toml(s: &Setup) -> String {
         t,
         "host_lost_stop_s = {}   # a job standing still with the host gone ends (alarm 20) after this; 0 = never",
         s.link.host_lost_stop_s
+    );
+    let _ = writeln!(t, "\n[drivers]");
+    let _ = writeln!(
+        t,
+        "step_pulse_us = {}   # step pulse width (datasheet minimum: DM542 2.5, DRV8825 1.9)",
+        us_text(s.drivers.step_pulse_ns)
+    );
+    let _ = writeln!(
+        t,
+        "dir_setup_us = {}   # direction change to next step pulse, at least (DM542 5)",
+        us_text(s.drivers.dir_setup_ns)
     );
     t
 }
@@ -1087,5 +1162,40 @@ host_lost_stop_s = 0
         assert_eq!(s.link.host_lost_stop_s, 600);
         assert!(SetupFile::parse("[link]\nhost_lost_stop_s = 70000\n").is_err());
         assert!(SetupFile::parse("[link]\nhost_timeout = 1\n").is_err());
+    }
+
+    #[test]
+    fn driver_timing_is_read_in_microseconds_and_checked_against_the_step_rates() {
+        assert_eq!(
+            (
+                Setup::default().drivers.step_pulse_ns,
+                Setup::default().drivers.dir_setup_ns
+            ),
+            (5_000, 5_000)
+        );
+        let s = SetupFile::parse("[drivers]\nstep_pulse_us = 2.5\ndir_setup_us = 0.65\n").unwrap();
+        assert_eq!(
+            (s.drivers.step_pulse_ns, s.drivers.dir_setup_ns),
+            (2_500, 650)
+        );
+        assert_eq!(SetupFile::parse(&to_toml(&s)).unwrap(), s);
+        assert!(to_toml(&s).contains("step_pulse_us = 2.5 "));
+        let e = SetupFile::parse("[drivers]\nstep_pulse_us = 0.5\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "drivers.step_pulse_us = 0.5: must be between 1 and 50 µs"
+        );
+        assert!(SetupFile::parse("[drivers]\ndir_setup_us = 51\n").is_err());
+        assert!(SetupFile::parse("[drivers]\nstep_pulse = 5\n").is_err());
+        // 3200 steps per 5 mm at 3000 mm/min is 32 000 steps/s (31.25 µs): a 15 µs pulse with
+        // as long a low time and the 1 µs allowance needs 31 µs and fits, 15.1 µs does not.
+        assert!(SetupFile::parse("[drivers]\nstep_pulse_us = 15\n").is_ok());
+        let e = SetupFile::parse("[drivers]\nstep_pulse_us = 15.1\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "axis.X.max_rate = 3000.0 mm/min is 32000 steps/s, but the drivers' step pulse \
+             (15.1 µs) and the longer of pulse and dir set-up (15.1 µs), plus 1 µs for the step \
+             interrupt, allow at most 31914 steps/s: lower max_rate or the [drivers] times"
+        );
     }
 }

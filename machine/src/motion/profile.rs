@@ -7,7 +7,7 @@
 //! Speeds are nm/s, accelerations nm/s², times kernel timer counts.
 
 use super::kernel::KERNEL_TIMER_HZ;
-use super::trig::{div_u64, isqrt_u64, mul_div};
+use super::trig::{div_u64, isqrt_u64, mul_div, sat_mul};
 
 const HZ: u64 = KERNEL_TIMER_HZ as u64;
 
@@ -59,7 +59,7 @@ impl Profile {
     pub fn plan(s0: u64, v0: u64, length: u64, vc: u64, exit_sq: u64, accel: u64) -> Self {
         let two_a = accel.saturating_mul(2);
         let rem = length.saturating_sub(s0);
-        let gain = two_a.saturating_mul(rem);
+        let gain = sat_mul(two_a, rem);
         let (v0sq, vcsq) = (v0 * v0, vc * vc);
         let vxsq = exit_sq.min(vcsq);
         let vx = isqrt_u64(vxsq);
@@ -104,7 +104,7 @@ impl Profile {
     pub fn hold(s0: u64, v0: u64, length: u64, accel: u64) -> Self {
         let two_a = accel.saturating_mul(2);
         let rem = length.saturating_sub(s0);
-        let gain = two_a.saturating_mul(rem);
+        let gain = sat_mul(two_a, rem);
         let v0sq = v0 * v0;
         let (s3, v3) = if v0sq <= gain {
             (s0 + div_u64(v0sq, two_a), 0)
@@ -145,7 +145,7 @@ impl Profile {
     pub fn speed_at(&self, s: u64) -> u64 {
         let two_a = self.accel.saturating_mul(2);
         if s <= self.s1 {
-            let d = two_a.saturating_mul(s.saturating_sub(self.s0));
+            let d = sat_mul(two_a, s.saturating_sub(self.s0));
             if self.vm >= self.v0 {
                 isqrt_u64((self.v0 * self.v0).saturating_add(d)).min(self.vm)
             } else {
@@ -154,7 +154,7 @@ impl Profile {
         } else if s <= self.s2 {
             self.vm
         } else {
-            let d = two_a.saturating_mul(s - self.s2);
+            let d = sat_mul(two_a, s - self.s2);
             isqrt_u64((self.vm * self.vm).saturating_sub(d)).max(self.v3)
         }
     }

@@ -99,6 +99,13 @@ fn isqrt_u32(v: u32) -> u32 {
     }
 }
 
+/// `a.saturating_mul(b)` on u64, out of line: a 64-bit multiply with its overflow check is
+/// ~100 bytes of Cortex-M code, and the motion core needs it in a dozen places.
+#[inline(never)]
+pub fn sat_mul(a: u64, b: u64) -> u64 {
+    a.saturating_mul(b)
+}
+
 /// `n / d` and `n % d` on u128 (`d` ≠ 0), out of line.
 ///
 /// Every 128-bit division in the core goes through here. Cortex-M has no 128-bit divide and
