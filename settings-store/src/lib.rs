@@ -40,18 +40,31 @@ pub const DATA_BUFFER_LEN: usize = SETUP_BLOB_MAX + 32;
 
 type NoCache = Cache<Uncached, Uncached, Uncached, u8>;
 
-/// The setup as a map value: stored borrowed, loaded owned (no second blob buffer needed).
+/// Every value of the map, one type for both keys: sequential-storage's map functions are
+/// generic over the value type, and a second type (the boot counter's `u32`) doubled them in the
+/// firmware's flash. The setup is stored borrowed and loaded owned (no second blob buffer).
+///
+/// A stored item says which it is by its length: the boot counter is exactly 4 bytes (little
+/// endian, as sequential-storage stores a `u32`), a setup blob is always longer.
 #[allow(clippy::large_enum_variant)] // lives on the stack for one load; no_std has no Box
-enum SetupValue<'s> {
+enum Item<'s> {
     Store(&'s Setup),
     Loaded(Setup),
+    Boots(u32),
 }
 
-impl<'a> Value<'a> for SetupValue<'_> {
+impl<'a> Value<'a> for Item<'_> {
     fn serialize_into(&self, buffer: &mut [u8]) -> Result<usize, SerializationError> {
         let setup = match self {
-            SetupValue::Store(s) => *s,
-            SetupValue::Loaded(s) => s,
+            Item::Store(s) => *s,
+            Item::Loaded(s) => s,
+            Item::Boots(n) => {
+                let out = buffer
+                    .get_mut(..4)
+                    .ok_or(SerializationError::BufferTooSmall)?;
+                out.copy_from_slice(&n.to_le_bytes());
+                return Ok(4);
+            }
         };
         setup
             .to_blob(buffer)
@@ -60,8 +73,11 @@ impl<'a> Value<'a> for SetupValue<'_> {
     }
 
     fn deserialize_from(buffer: &'a [u8]) -> Result<(Self, usize), SerializationError> {
+        if let Ok(n) = <[u8; 4]>::try_from(buffer) {
+            return Ok((Item::Boots(u32::from_le_bytes(n)), 4));
+        }
         Setup::from_blob(buffer)
-            .map(|s| (SetupValue::Loaded(s), buffer.len()))
+            .map(|s| (Item::Loaded(s), buffer.len()))
             .ok_or(SerializationError::InvalidFormat)
     }
 }
@@ -155,13 +171,9 @@ impl<F: NorFlash> SettingsStore<F> {
 
     /// Reads the stored setup.
     pub async fn load(&mut self, buf: &mut DataBuffer) -> Loaded {
-        match self
-            .map
-            .fetch_item::<SetupValue>(&mut buf.0, &SETUP_KEY)
-            .await
-        {
-            Ok(Some(SetupValue::Loaded(s))) => Loaded::Stored(s),
-            Ok(Some(SetupValue::Store(_))) => Loaded::Invalid,
+        match self.map.fetch_item::<Item>(&mut buf.0, &SETUP_KEY).await {
+            Ok(Some(Item::Loaded(s))) => Loaded::Stored(s),
+            Ok(Some(Item::Store(_) | Item::Boots(_))) => Loaded::Invalid,
             Ok(None) => Loaded::Absent,
             Err(sequential_storage::Error::SerializationError(_)) => Loaded::Invalid,
             Err(_) => {
@@ -174,25 +186,25 @@ impl<F: NorFlash> SettingsStore<F> {
     /// Stores `setup` (the newest item wins; the old one stays readable until it is complete).
     /// Stalls the CPU on single-bank flash: call only when [`SavePolicy::due`].
     pub async fn save(&mut self, setup: &Setup, buf: &mut DataBuffer) -> Result<(), SaveError> {
-        self.store(&SETUP_KEY, &SetupValue::Store(setup), buf).await
+        self.store(&SETUP_KEY, &Item::Store(setup), buf).await
     }
 
     /// Counts this power-up and returns the new count (1 on a fresh store): a boot id that differs
     /// at every power-up. A flash failure still returns a number (the count is then not kept).
     pub async fn next_boot_count(&mut self, buf: &mut DataBuffer) -> u32 {
-        let last = match self.map.fetch_item::<u32>(&mut buf.0, &BOOT_KEY).await {
-            Ok(Some(n)) => n,
+        let last = match self.map.fetch_item::<Item>(&mut buf.0, &BOOT_KEY).await {
+            Ok(Some(Item::Boots(n))) => n,
             _ => 0,
         };
         let next = last.wrapping_add(1);
-        let _ = self.store(&BOOT_KEY, &next, buf).await;
+        let _ = self.store(&BOOT_KEY, &Item::Boots(next), buf).await;
         next
     }
 
-    async fn store<'v, V: Value<'v>>(
+    async fn store(
         &mut self,
         key: &u8,
-        value: &V,
+        value: &Item<'_>,
         buf: &mut DataBuffer,
     ) -> Result<(), SaveError> {
         if self.needs_erase {

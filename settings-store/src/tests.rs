@@ -255,6 +255,13 @@ fn a_foreign_item_under_the_setup_key_loads_as_invalid_and_gives_defaults() {
     // A save replaces it.
     block_on(st.save(&variant(3), &mut buf)).unwrap();
     assert_eq!(block_on(st.load(&mut buf)), Loaded::Stored(variant(3)));
+    // Four bytes read as a boot count, which is no setup either; and a setup-sized item under
+    // the boot key is no count (counting starts again).
+    let four: &[u8] = &[1, 0, 0, 0];
+    block_on(st.map.store_item(&mut buf.0, &SETUP_KEY, &four)).unwrap();
+    assert_eq!(block_on(st.load(&mut buf)), Loaded::Invalid);
+    block_on(st.map.store_item(&mut buf.0, &BOOT_KEY, &junk)).unwrap();
+    assert_eq!(block_on(st.next_boot_count(&mut buf)), 1);
 }
 
 #[test]
