@@ -27,7 +27,7 @@ use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
 use gantry_machine::controller::inputs::{Debouncer, InputBits, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
 use gantry_machine::controller::{AdcReadings, OutputLevels, State};
-use gantry_machine::motion::kernel::{Segment, StepKernel, KERNEL_TIMER_HZ};
+use gantry_machine::motion::kernel::{Segment, StepKernel, StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::motion::sim::{SegmentFifo, SEGMENT_QUEUE};
 use gantry_machine::setup::Setup;
@@ -530,7 +530,11 @@ impl EmulatedBoard {
             self.last_dir = out.dir;
             self.last_outputs = user_outputs;
         }
-        self.next_tick = (out.period != 0).then(|| self.now + out.period as u64);
+        // As the step interrupt: a period too short for the setup's pulse and dir set-up is
+        // stretched to the shortest one that fits.
+        let timing = StepTiming::from_setup(&self.board.setup().drivers);
+        self.next_tick =
+            (out.period != 0).then(|| self.now + u64::from(timing.stretch(out.period)));
         if out.period == 0 {
             self.kernel_idle_at = self.now;
         }

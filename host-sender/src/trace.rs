@@ -8,7 +8,7 @@ use crate::stream::{stream_program, Flow};
 use crate::vcd::{counts_to_ns, VcdEvent, VcdOptions, VcdSummary, VcdWriter};
 use anyhow::Context;
 use gantry_machine::controller::inputs::INPUT_NAMES;
-use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
+use gantry_machine::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::setup::{Setup, USER_OUTPUTS};
 use std::cell::RefCell;
 use std::fs::File;
@@ -38,7 +38,11 @@ pub fn trace(
         axes: setup.axis_count as usize,
         inputs: INPUT_NAMES.iter().map(|s| s.to_string()).collect(),
         outputs: USER_OUTPUTS as usize,
-        pulse_ns: 2_000,
+        // The pulse as the step interrupt puts it out: the setup's width in whole timer counts.
+        pulse_ns: counts_to_ns(
+            u64::from(StepTiming::from_setup(&setup.drivers).pulse),
+            KERNEL_TIMER_HZ,
+        ),
         from_ns,
         to_ns,
     };

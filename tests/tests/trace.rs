@@ -46,3 +46,49 @@ fn input_changes_reach_the_pin_observer() {
     assert_eq!(levels, vec![0b100, 0]);
     assert!(events.iter().all(|e| e.step == 0));
 }
+
+/// Widths (ns) of the high pulses of signal `name` in a VCD text.
+fn pulse_widths(vcd: &str, name: &str) -> Vec<u64> {
+    let id = vcd
+        .lines()
+        .find_map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            (w.len() >= 5 && w[0] == "$var" && w[4] == name).then(|| w[3].to_string())
+        })
+        .expect("signal in the header");
+    let (mut now, mut rose, mut widths) = (0u64, None, Vec::new());
+    for l in vcd.lines() {
+        if let Some(t) = l.strip_prefix('#') {
+            now = t.parse().unwrap();
+        } else if l.len() > 1 && &l[1..] == id {
+            match &l[..1] {
+                "1" => rose = Some(now),
+                "0" => widths.extend(rose.take().map(|r| now - r)),
+                _ => {}
+            }
+        }
+    }
+    widths
+}
+
+/// The trace shows the step pulse width the setup asks for, in whole step-timer counts (1.9 µs
+/// is 23 counts of 83.3 ns: 1917 ns), on every pulse.
+#[test]
+fn the_trace_has_the_pulse_width_of_the_setup() {
+    let program = Program::from_text("G21 G90\nG1 X2 Y-1 F600\nM2\n");
+    for (pulse_ns, want) in [(5_000, 5_000), (1_900, 1_917)] {
+        let mut setup = Setup::default();
+        setup.drivers.step_pulse_ns = pulse_ns;
+        let out = std::env::temp_dir().join(format!(
+            "gantry-trace-pulse-{}-{pulse_ns}.vcd",
+            std::process::id()
+        ));
+        let r = trace(&program, setup, &out, None, None).unwrap();
+        let text = std::fs::read_to_string(&out).unwrap();
+        std::fs::remove_file(&out).ok();
+        let widths = pulse_widths(&text, "x_step");
+        assert_eq!(widths.len() as u64, r.pulses[0]);
+        assert_eq!(r.pulses[0], 1280); // 2 mm at 3200 steps per 5 mm
+        assert!(widths.iter().all(|&w| w == want), "{pulse_ns} ns");
+    }
+}
