@@ -60,7 +60,7 @@ fn pulse_widths(vcd: &str, name: &str) -> Vec<u64> {
     for l in vcd.lines() {
         if let Some(t) = l.strip_prefix('#') {
             now = t.parse().unwrap();
-        } else if l.len() > 1 && &l[1..] == id {
+        } else if l.len() > 1 && l[1..] == id {
             match &l[..1] {
                 "1" => rose = Some(now),
                 "0" => widths.extend(rose.take().map(|r| now - r)),
