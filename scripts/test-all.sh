@@ -3,21 +3,21 @@
 #
 # On a fresh Debian machine with rustup it installs what it needs (thumbv7em target, rustfmt,
 # clippy, qemu-system-arm), then: formatting, clippy (host workspace, boards, firmware per board,
-# target tests), host tests, the firmware release build for every board with its size (the F411
-# must fit 128 KiB flash and 48 KiB static RAM), a compile check of the full controller firmware
-# (`--features controller`, sizes printed, not yet within the budget), and the core's vectors on a
-# Cortex-M4 under QEMU (must pass; the `wrong-vector` build must fail). Each crate uses its default
-# target directory.
+# target tests), host tests, the firmware (the full controller) release build for every board
+# with its size (the F411 must fit 128 KiB flash and 48 KiB static RAM, else this fails), and the
+# core's vectors on a Cortex-M4 under QEMU (must pass; the `wrong-vector` build must fail). Each
+# crate uses its default target directory.
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 ROOT=$PWD
 unset CARGO_TARGET_DIR
 
-# Board features of the firmware, and the size budget of the default board (F411).
+# Board features of the firmware, and the size budget of the default board (F411, issue #7).
+# The limits can be lowered from the environment to check that an overrun fails the run.
 BOARDS=(board-f411 board-f446)
-F411_FLASH_LIMIT=$((128 * 1024))
-F411_RAM_LIMIT=$((48 * 1024))
+F411_FLASH_LIMIT=${F411_FLASH_LIMIT:-$((128 * 1024))}
+F411_RAM_LIMIT=${F411_RAM_LIMIT:-$((48 * 1024))}
 THUMB=thumbv7em-none-eabihf
 QEMU_TIMEOUT=300
 
@@ -113,19 +113,15 @@ for board in "${BOARDS[@]}"; do
     echo "$line"
     SIZES+=("$line")
     if [ "$board" = board-f411 ]; then
+        line=$(printf 'F411 budget: flash %d of %d B (%d B free), static RAM %d of %d B (%d B free)' \
+            "$flash" "$F411_FLASH_LIMIT" "$((F411_FLASH_LIMIT - flash))" \
+            "$ram" "$F411_RAM_LIMIT" "$((F411_RAM_LIMIT - ram))")
+        echo "$line"
+        SIZES+=("$line")
         [ "$flash" -le "$F411_FLASH_LIMIT" ] || fail "F411 firmware uses $flash B flash (limit $F411_FLASH_LIMIT)"
         [ "$ram" -le "$F411_RAM_LIMIT" ] || fail "F411 firmware uses $ram B static RAM (limit $F411_RAM_LIMIT)"
     fi
 done
-
-section "firmware: full controller build (compile check; not yet within the budget, see firmware/README.md)"
-(cd firmware && cargo clippy --release --features controller -- -D warnings)
-(cd firmware && cargo build --release --features controller)
-read -r text data bss < <(elf_size "firmware/target/$THUMB/release/gantry-firmware")
-line=$(printf '%-11s text %7d  data %6d  bss %6d  -> flash %7d B, static RAM %6d B (not checked against the budget yet)' \
-    "controller" "$text" "$data" "$bss" "$((text + data))" "$((data + bss))")
-echo "$line"
-SIZES+=("$line")
 
 section "target tests: core vectors on Cortex-M4 (QEMU mps2-an386)"
 cd "$ROOT/target-tests"
