@@ -1171,7 +1171,7 @@ host_lost_stop_s = 0
                 Setup::default().drivers.step_pulse_ns,
                 Setup::default().drivers.dir_setup_ns
             ),
-            (5_000, 5_000)
+            (2_500, 5_000)
         );
         let s = SetupFile::parse("[drivers]\nstep_pulse_us = 2.5\ndir_setup_us = 0.65\n").unwrap();
         assert_eq!(

@@ -76,7 +76,7 @@ fn pulse_widths(vcd: &str, name: &str) -> Vec<u64> {
 #[test]
 fn the_trace_has_the_pulse_width_of_the_setup() {
     let program = Program::from_text("G21 G90\nG1 X2 Y-1 F600\nM2\n");
-    for (pulse_ns, want) in [(5_000, 5_000), (1_900, 1_917)] {
+    for (pulse_ns, want) in [(2_500, 2_500), (1_900, 1_917)] {
         let mut setup = Setup::default();
         setup.drivers.step_pulse_ns = pulse_ns;
         let out = std::env::temp_dir().join(format!(

@@ -368,9 +368,9 @@ mod tests {
         assert_eq!(
             t,
             StepTiming {
-                pulse: 60,
+                pulse: 30,
                 dir_setup: 60,
-                min_period: 132
+                min_period: 102
             }
         );
         // A long direction set-up sets the low time; without one the low time is the pulse's.
