@@ -179,14 +179,14 @@ fn the_event_rides_on_the_next_line_block_and_its_first_segment_only() {
     let p = m.planner();
     assert_eq!(p.len(), 2);
     assert_eq!(
-        p.get(0).unwrap().kind,
+        p.get(0).unwrap().kind(),
         BlockKind::Line {
             output: OutputEvent::NONE
         }
     );
     let b = p.get(1).unwrap();
     assert_eq!(
-        (b.kind, b.stop_before),
+        (b.kind(), b.stop_before),
         (BlockKind::Line { output: on(1) }, false)
     );
     assert!(!m.output_pending());

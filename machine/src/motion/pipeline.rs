@@ -527,7 +527,7 @@ impl<const N: usize> Motion<N> {
         let Some(head) = self.planner.head().copied() else {
             return false;
         };
-        if !head.kind.is_line() {
+        if !head.is_line() {
             return false;
         }
         let cfg = self.cfg;

@@ -20,7 +20,7 @@
 
 use super::config::{MotionConfig, MAX_SPEED};
 use super::output_event::OutputEvent;
-use super::trig::{div_i128, div_u64, isqrt_u128, isqrt_u64, mul_div};
+use super::trig::{div_i128, div_u64, isqrt_u128, isqrt_u64, mul_div, sat_mul};
 use crate::units::MAX_AXES;
 use heapless::Deque;
 
@@ -45,53 +45,70 @@ impl BlockKind {
     }
 }
 
+/// What a block does, as stored (a dwell's counts live in [`Block::length`], a line's output
+/// event in [`Block::output`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Line,
+    Dwell,
+    Sync,
+}
+
 /// One planner block.
+///
+/// Laid out for the MCU's RAM (the ring holds 128 of them): speeds are `u32` (the planner caps
+/// them at [`MAX_SPEED`] = `u32::MAX` nm/s), a dwell's counts share the `length` field, and the
+/// speed² budget is recomputed from `accel` and `length` instead of stored. 120 bytes on
+/// thumbv7em instead of 152, with the same planning results. [`Block::kind`] gives the
+/// [`BlockKind`] back.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Block {
-    pub kind: BlockKind,
-    /// Sequence number (increases by one per queued block).
-    pub seq: u32,
-    /// Sum of the `budget`s of the blocks before this one in its contour.
+    /// Sum of the [`Block::budget`]s of the blocks before this one in its contour.
     pub prefix: u128,
-    /// Source line.
-    pub line: u32,
-    /// Absolute step count of each axis.
-    pub steps: [u32; MAX_AXES],
-    /// Direction byte (bit i set = axis i moves towards negative).
-    pub dir: u8,
-    /// Step events of the dominant axis.
-    pub events: u32,
-    /// Path length, nm.
+    /// Path length, nm (a dwell: its length in kernel timer counts).
     pub length: u64,
     /// Path acceleration (every axis within its limit), nm/s².
     pub accel: u64,
-    /// Path speed at which some axis reaches its max rate, nm/s.
-    pub max_speed: u64,
-    /// Programmed path speed, nm/s (rapids: `max_speed`).
-    pub programmed: u64,
-    pub rapid: bool,
-    /// Cruise speed with the current overrides, nm/s (kept up to date by the planner).
-    pub nominal: u64,
-    /// Path speed reachable instantly from rest (every axis within its start speed), nm/s.
-    pub start_speed: u64,
     /// Geometric junction limit with the previous block, nm²/s².
     pub junction_sq: u64,
-    /// The machine is at rest before this block (first after a stop, G61, dwell or sync).
-    pub stop_before: bool,
-    /// The machine comes to rest after this block.
-    pub stop_after: bool,
     /// Largest entry speed², from junction and nominal speeds.
     pub max_entry_sq: u64,
     /// Entry speed² limit from the reverse pass (settled once the block's contour is closed;
     /// use [`Planner::exit_sq`] for the live value).
     pub entry_sq: u64,
-    /// 2·a·length, saturated: the speed² the block can gain or shed.
-    pub budget: u64,
+    /// Sequence number (increases by one per queued block).
+    pub seq: u32,
+    /// Source line.
+    pub line: u32,
+    /// Absolute step count of each axis.
+    pub steps: [u32; MAX_AXES],
+    /// Step events of the dominant axis.
+    pub events: u32,
+    /// Path speed at which some axis reaches its max rate, nm/s.
+    pub max_speed: u32,
+    /// Programmed path speed, nm/s (rapids: `max_speed`).
+    pub programmed: u32,
+    /// Cruise speed with the current overrides, nm/s (kept up to date by the planner).
+    pub nominal: u32,
+    /// Path speed reachable instantly from rest (every axis within its start speed), nm/s.
+    pub start_speed: u32,
+    kind: Kind,
+    /// A line's on-the-fly output, switched as it starts.
+    output: OutputEvent,
+    /// Direction byte (bit i set = axis i moves towards negative).
+    pub dir: u8,
+    pub rapid: bool,
+    /// The machine is at rest before this block (first after a stop, G61, dwell or sync).
+    pub stop_before: bool,
+    /// The machine comes to rest after this block.
+    pub stop_after: bool,
 }
 
 impl Block {
-    const EMPTY: Block = Block {
-        kind: BlockKind::Sync,
+    /// The fields of a non-motion block: at rest before and after, unit speeds.
+    const MARKER: Block = Block {
+        kind: Kind::Sync,
+        output: OutputEvent::NONE,
         seq: 0,
         prefix: 0,
         line: 0,
@@ -110,15 +127,47 @@ impl Block {
         stop_after: true,
         max_entry_sq: 0,
         entry_sq: 0,
-        budget: 0,
     };
 
     /// A non-motion block.
     pub fn marker(kind: BlockKind, line: u32) -> Self {
+        let (kind, length, output) = match kind {
+            BlockKind::Line { output } => (Kind::Line, 0, output),
+            BlockKind::Dwell { counts } => (Kind::Dwell, counts, OutputEvent::NONE),
+            BlockKind::Sync => (Kind::Sync, 0, OutputEvent::NONE),
+        };
         Block {
             kind,
+            length,
+            output,
             line,
-            ..Self::EMPTY
+            ..Self::MARKER
+        }
+    }
+
+    /// What the block does.
+    pub fn kind(&self) -> BlockKind {
+        match self.kind {
+            Kind::Line => BlockKind::Line {
+                output: self.output,
+            },
+            Kind::Dwell => BlockKind::Dwell {
+                counts: self.length,
+            },
+            Kind::Sync => BlockKind::Sync,
+        }
+    }
+
+    pub fn is_line(&self) -> bool {
+        self.kind == Kind::Line
+    }
+
+    /// 2·a·length, saturated: the speed² a line block can gain or shed (0 for markers).
+    pub fn budget(&self) -> u64 {
+        if self.is_line() {
+            sat_mul(self.accel.saturating_mul(2), self.length)
+        } else {
+            0
         }
     }
 }
@@ -143,9 +192,11 @@ pub struct LineRequest {
 
 /// The block ring and the planning state.
 pub struct Planner<const N: usize> {
-    ring: [Block; N],
-    head: usize,
-    len: usize,
+    /// The queued blocks, oldest first. A `Deque` rather than an array: its free slots stay
+    /// uninitialised, so a new planner costs no 15 KiB of stores, and moving a new one into place
+    /// copies nothing of them (the firmware builds its board in a static with one board-sized
+    /// stack frame, not several).
+    ring: Deque<Block, N>,
     /// Unit vector of the last line block, if the next line may blend with it.
     prev_unit: Option<[i64; MAX_AXES]>,
     /// The next line continues a move cut short at the current speed ([`Self::continue_from`]),
@@ -159,8 +210,10 @@ pub struct Planner<const N: usize> {
     open_from: u32,
     /// Sum of the budgets of the open contour.
     prefix_end: u128,
-    /// Monotonic queue of (sequence, C + P) candidates of the open contour, increasing keys.
-    hull: Deque<(u32, u128), N>,
+    /// Monotonic queue of the candidates of the open contour by sequence number, increasing
+    /// keys ([`Self::key`]: C + P, read from the block, which stays in the ring as long as it
+    /// is in the queue).
+    hull: Deque<u32, N>,
 }
 
 impl<const N: usize> Default for Planner<N> {
@@ -170,11 +223,10 @@ impl<const N: usize> Default for Planner<N> {
 }
 
 impl<const N: usize> Planner<N> {
+    #[inline(always)] // see `Board::power_up`: no planner-sized temporary
     pub const fn new() -> Self {
         Planner {
-            ring: [Block::EMPTY; N],
-            head: 0,
-            len: 0,
+            ring: Deque::new(),
             prev_unit: None,
             continuing: false,
             feed_pct: 100,
@@ -187,46 +239,44 @@ impl<const N: usize> Planner<N> {
     }
 
     pub fn len(&self) -> usize {
-        self.len
+        self.ring.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.len == 0
+        self.ring.is_empty()
     }
 
     pub fn is_full(&self) -> bool {
-        self.len == N
-    }
-
-    fn index(&self, offset: usize) -> usize {
-        let i = self.head + offset;
-        if i >= N {
-            i - N
-        } else {
-            i
-        }
+        self.ring.is_full()
     }
 
     /// The block `offset` places after the head.
     pub fn get(&self, offset: usize) -> Option<&Block> {
-        (offset < self.len).then(|| &self.ring[self.index(offset)])
+        self.ring.get(offset)
+    }
+
+    /// The queued block `offset` places after the head (`offset < len`, as every caller in
+    /// this module guarantees).
+    fn at(&self, offset: usize) -> &Block {
+        self.ring.get(offset).unwrap()
+    }
+
+    fn at_mut(&mut self, offset: usize) -> &mut Block {
+        self.ring.get_mut(offset).unwrap()
     }
 
     /// The oldest block (the one segment prep works on).
     pub fn head(&self) -> Option<&Block> {
-        self.get(0)
+        self.ring.front()
     }
 
     /// Retires the head block.
     pub fn pop(&mut self) {
-        if self.len > 0 {
-            let seq = self.ring[self.head].seq;
-            while self.hull.front().is_some_and(|&(s, _)| s <= seq) {
+        if let Some(b) = self.ring.pop_front() {
+            while self.hull.front().is_some_and(|&s| s <= b.seq) {
                 self.hull.pop_front();
             }
-            self.head = self.index(1);
-            self.len -= 1;
-            if self.len == 0 {
+            if self.ring.is_empty() {
                 self.prev_unit = None;
             }
         }
@@ -234,7 +284,7 @@ impl<const N: usize> Planner<N> {
 
     /// Drops every block.
     pub fn clear(&mut self) {
-        self.len = 0;
+        self.ring.clear();
         self.prev_unit = None;
         self.continuing = false;
         self.hull.clear();
@@ -260,11 +310,10 @@ impl<const N: usize> Planner<N> {
     /// Sets the programmed speed (nm/s) of every queued feed block and replans (a jog's new
     /// speed; rapids keep theirs).
     pub fn set_programmed_speed(&mut self, speed: u64) {
-        for off in 0..self.len {
-            let i = self.index(off);
-            let b = &mut self.ring[i];
-            if b.kind.is_line() && !b.rapid {
-                b.programmed = speed.clamp(1, MAX_SPEED);
+        for b in self.ring.iter_mut() {
+            if b.is_line() && !b.rapid {
+                // MAX_SPEED is u32::MAX.
+                b.programmed = speed.clamp(1, MAX_SPEED) as u32;
             }
         }
         self.replan_all();
@@ -272,28 +321,30 @@ impl<const N: usize> Planner<N> {
 
     /// Speed the block cruises at with the current overrides, nm/s.
     pub fn nominal(&self, b: &Block) -> u64 {
-        b.nominal
+        u64::from(b.nominal)
     }
 
     /// Computes the cruise speed of a block for the current overrides.
-    fn override_speed(&self, b: &Block) -> u64 {
+    fn override_speed(&self, b: &Block) -> u32 {
+        let (max_speed, programmed) = (u64::from(b.max_speed), u64::from(b.programmed));
         let v = if b.rapid {
-            b.max_speed * self.rapid_pct as u64 / 100
+            max_speed * self.rapid_pct as u64 / 100
         } else {
-            (b.programmed * self.feed_pct as u64 / 100).min(b.max_speed)
+            (programmed * self.feed_pct as u64 / 100).min(max_speed)
         };
-        v.clamp(1, MAX_SPEED)
+        // MAX_SPEED is u32::MAX.
+        v.clamp(1, MAX_SPEED) as u32
     }
 
     /// Speed² the block `offset` must exit with at most (reverse-pass limit).
     pub fn exit_sq(&self, offset: usize) -> u64 {
-        let b = &self.ring[self.index(offset)];
+        let b = self.at(offset);
         if b.stop_after {
             self.stop_exit_sq(b)
-        } else if offset + 1 >= self.len {
+        } else if offset + 1 >= self.len() {
             0
         } else {
-            let next = &self.ring[self.index(offset + 1)];
+            let next = self.at(offset + 1);
             if next.seq < self.open_from {
                 next.entry_sq
             } else {
@@ -306,31 +357,38 @@ impl<const N: usize> Planner<N> {
     fn open_entry_sq(&self, b: &Block) -> u64 {
         // The open end exits at rest: candidate P_end.
         let mut min = self.prefix_end;
-        if let Some(&(_, key)) = self.hull.iter().find(|&&(s, _)| s >= b.seq) {
-            min = min.min(key);
+        if let Some(&s) = self.hull.iter().find(|&&s| s >= b.seq) {
+            min = min.min(self.key(s));
         }
         (min - b.prefix).min(u64::MAX as u128) as u64
     }
 
-    /// Adds a block of the open contour to the candidate queue.
-    fn add_candidate(&mut self, i: usize) {
-        let b = &mut self.ring[i];
-        b.prefix = self.prefix_end;
+    /// Candidate key C + P of the queued block numbered `seq`.
+    fn key(&self, seq: u32) -> u128 {
+        let b = self.at(seq.wrapping_sub(self.at(0).seq) as usize);
+        b.max_entry_sq as u128 + b.prefix
+    }
+
+    /// Adds the block `offset` places after the head (of the open contour) to the candidate
+    /// queue.
+    fn add_candidate(&mut self, offset: usize) {
+        let prefix = self.prefix_end;
+        let b = self.at_mut(offset);
+        b.prefix = prefix;
         let key = b.max_entry_sq as u128 + b.prefix;
-        let seq = b.seq;
-        self.prefix_end += b.budget as u128;
-        while self.hull.back().is_some_and(|&(_, k)| k >= key) {
+        let (seq, budget) = (b.seq, b.budget());
+        self.prefix_end += budget as u128;
+        while self.hull.back().is_some_and(|&s| self.key(s) >= key) {
             self.hull.pop_back();
         }
-        let _ = self.hull.push_back((seq, key));
+        let _ = self.hull.push_back(seq);
     }
 
     /// Ends the open contour: its last block now comes to rest, and one reverse pass settles the
     /// contour's entry limits. The next block opens a new contour.
     fn close_contour(&mut self) {
-        if self.len > 0 {
-            let last = self.index(self.len - 1);
-            self.ring[last].stop_after = true;
+        if let Some(last) = self.ring.back_mut() {
+            last.stop_after = true;
             self.settle(self.open_from);
         }
         self.hull.clear();
@@ -340,19 +398,19 @@ impl<const N: usize> Planner<N> {
 
     /// Speed² a block may end with when the machine stops right after it (its start speed).
     fn stop_exit_sq(&self, b: &Block) -> u64 {
-        let v = b.start_speed.min(self.nominal(b));
+        let v = u64::from(b.start_speed).min(self.nominal(b));
         v * v
     }
 
     /// Largest entry speed² of the block at `offset` given its predecessor.
     fn max_entry_sq(&self, offset: usize) -> u64 {
-        let b = &self.ring[self.index(offset)];
+        let b = self.at(offset);
         let nom = self.nominal(b);
         if b.stop_before || offset == 0 {
-            let v = b.start_speed.min(nom);
+            let v = u64::from(b.start_speed).min(nom);
             return if b.stop_before { v * v } else { nom * nom };
         }
-        let prev = &self.ring[self.index(offset - 1)];
+        let prev = self.at(offset - 1);
         let prev_nom = self.nominal(prev);
         let v = nom.min(prev_nom);
         b.junction_sq.min(v * v)
@@ -364,12 +422,12 @@ impl<const N: usize> Planner<N> {
             return false;
         }
         self.close_contour();
-        let i = self.index(self.len);
-        self.ring[i] = block;
-        self.ring[i].seq = self.next_seq;
+        let _ = self.ring.push_back(Block {
+            seq: self.next_seq,
+            ..block
+        });
         self.next_seq = self.next_seq.wrapping_add(1);
         self.open_from = self.next_seq;
-        self.len += 1;
         self.prev_unit = None;
         true
     }
@@ -433,7 +491,7 @@ impl<const N: usize> Planner<N> {
         };
         let stop_before = req.exact_stop_before
             || self.prev_unit.is_none()
-            || (self.len == 0 && !self.continuing);
+            || (self.is_empty() && !self.continuing);
         let junction_sq = match (stop_before, self.prev_unit) {
             (false, Some(prev)) => junction_limit_sq(cfg, &prev, &unit, req.junction_deviation),
             _ => 0,
@@ -441,8 +499,9 @@ impl<const N: usize> Planner<N> {
         if stop_before {
             self.close_contour();
         }
-        let block = Block {
-            kind: BlockKind::Line { output: req.output },
+        let mut block = Block {
+            kind: Kind::Line,
+            output: req.output,
             seq: self.next_seq,
             prefix: 0,
             line: req.line,
@@ -451,26 +510,24 @@ impl<const N: usize> Planner<N> {
             events,
             length,
             accel,
-            max_speed,
-            programmed,
+            // All three are capped at MAX_SPEED = u32::MAX above.
+            max_speed: max_speed as u32,
+            programmed: programmed as u32,
             rapid,
             nominal: 1,
-            start_speed,
+            start_speed: start_speed as u32,
             junction_sq,
             stop_before,
             stop_after: false,
             max_entry_sq: 0,
             entry_sq: u64::MAX,
-            budget: accel.saturating_mul(2).saturating_mul(length),
         };
-        let i = self.index(self.len);
-        self.ring[i] = block;
-        self.ring[i].nominal = self.override_speed(&block);
-        self.len += 1;
-        let off = self.len - 1;
-        self.ring[i].max_entry_sq = self.max_entry_sq(off);
+        block.nominal = self.override_speed(&block);
+        let _ = self.ring.push_back(block);
+        let off = self.len() - 1;
+        self.at_mut(off).max_entry_sq = self.max_entry_sq(off);
         self.next_seq = self.next_seq.wrapping_add(1);
-        self.add_candidate(i);
+        self.add_candidate(off);
         self.prev_unit = Some(unit);
         self.continuing = false;
         true
@@ -480,7 +537,7 @@ impl<const N: usize> Planner<N> {
     /// blends with that direction (junction limits) instead of starting from rest. Segment prep
     /// carries the speed.
     pub fn continue_from(&mut self, unit: [i64; MAX_AXES]) {
-        if self.len == 0 {
+        if self.is_empty() {
             self.prev_unit = Some(unit);
             self.continuing = true;
         }
@@ -488,23 +545,21 @@ impl<const N: usize> Planner<N> {
 
     /// Recomputes every entry limit (after an override change or a resume).
     pub fn replan_all(&mut self) {
-        for off in 0..self.len {
-            let i = self.index(off);
-            self.ring[i].nominal = self.override_speed(&self.ring[i]);
+        for off in 0..self.len() {
+            self.at_mut(off).nominal = self.override_speed(self.at(off));
         }
-        for off in 0..self.len {
-            let i = self.index(off);
-            if self.ring[i].kind.is_line() {
-                self.ring[i].max_entry_sq = self.max_entry_sq(off);
+        for off in 0..self.len() {
+            if self.at(off).is_line() {
+                self.at_mut(off).max_entry_sq = self.max_entry_sq(off);
             }
         }
         self.settle(0);
         self.hull.clear();
         self.prefix_end = 0;
-        for off in 0..self.len {
-            let i = self.index(off);
-            if self.ring[i].seq >= self.open_from && self.ring[i].kind.is_line() {
-                self.add_candidate(i);
+        for off in 0..self.len() {
+            let b = self.at(off);
+            if b.seq >= self.open_from && b.is_line() {
+                self.add_candidate(off);
             }
         }
     }
@@ -512,33 +567,32 @@ impl<const N: usize> Planner<N> {
     /// Explicit reverse pass over the blocks numbered `from_seq` or later, newest first, down to
     /// the block after the head.
     fn settle(&mut self, from_seq: u32) {
-        if self.len == 0 {
+        if self.is_empty() {
             return;
         }
         let mut next_entry = 0u64;
-        let mut off = self.len;
-        let last = self.len - 1;
+        let mut off = self.len();
+        let last = off - 1;
         while off > 1 {
             off -= 1;
-            let i = self.index(off);
-            let b = &self.ring[i];
+            let b = self.at(off);
             if b.seq < from_seq {
                 break;
             }
-            let entry = if b.kind.is_line() {
+            let entry = if b.is_line() {
                 let exit = if b.stop_after {
-                    let v = b.start_speed.min(b.nominal);
+                    let v = u64::from(b.start_speed.min(b.nominal));
                     v * v
                 } else if off == last {
                     0
                 } else {
                     next_entry
                 };
-                b.max_entry_sq.min(exit.saturating_add(b.budget))
+                b.max_entry_sq.min(exit.saturating_add(b.budget()))
             } else {
                 0
             };
-            self.ring[i].entry_sq = entry;
+            self.at_mut(off).entry_sq = entry;
             next_entry = entry;
         }
     }
@@ -579,7 +633,7 @@ pub fn direction(cfg: &MotionConfig, delta: &[i64; MAX_AXES]) -> Option<Directio
         let ax = &cfg.axes[i];
         dir.max_speed = dir.max_speed.min(mul_div(ax.max_rate, length, d));
         dir.accel = dir.accel.min(mul_div(ax.accel, length, d));
-        dir.unit[i] = (delta[i] as i128 * UNIT as i128 / length as i128) as i64;
+        dir.unit[i] = div_i128(delta[i] as i128 * UNIT as i128, length as i128) as i64;
     }
     dir.max_speed = dir.max_speed.max(1);
     dir.accel = dir.accel.max(1);
@@ -622,10 +676,10 @@ pub fn junction_limit_sq(
             }
         }
         // a·δ·sin / (1 − sin), split so every product stays within 64 bits.
-        let q = accel.saturating_mul(deviation);
+        let q = sat_mul(accel, deviation);
         let den = UNIT as u64 - sin_half;
         let q_den = div_u64(q, den);
-        let whole = q_den.saturating_mul(sin_half);
+        let whole = sat_mul(q_den, sin_half);
         limit = whole.saturating_add(div_u64((q - q_den * den) * sin_half, den));
     }
     if cfg.feed_shift > 0 {
@@ -706,7 +760,7 @@ mod tests {
         for off in (0..n).rev() {
             let b = p.get(off).unwrap();
             let exit = if b.stop_after {
-                let v = b.start_speed.min(b.nominal);
+                let v = u64::from(b.start_speed.min(b.nominal));
                 v * v
             } else if off == n - 1 {
                 0
@@ -714,8 +768,8 @@ mod tests {
                 entry[off + 1]
             };
             exits[off] = exit;
-            entry[off] = if b.kind.is_line() {
-                b.max_entry_sq.min(exit.saturating_add(b.budget))
+            entry[off] = if b.is_line() {
+                b.max_entry_sq.min(exit.saturating_add(b.budget()))
             } else {
                 0
             };

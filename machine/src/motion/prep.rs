@@ -16,7 +16,7 @@ use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::output_event::OutputEvent;
 use super::planner::{Block, BlockKind, Planner};
 use super::profile::Profile;
-use super::trig::{div_u64, isqrt_u64, mul_div};
+use super::trig::{div_u64, isqrt_u64, mul_div, sat_mul};
 use crate::units::MAX_AXES;
 
 /// Target segment duration in kernel timer counts (2 ms).
@@ -198,7 +198,7 @@ impl Prep {
                 self.carry = 0;
                 return PrepOut::Idle;
             };
-            match head.kind {
+            match head.kind() {
                 BlockKind::Sync => {
                     self.carry = 0;
                     if self.state == PrepState::Holding {
@@ -263,8 +263,10 @@ impl Prep {
             // From rest the speed may jump to the start speed, if the block can still stop.
             let reach_sq = exit_sq
                 .min(nominal * nominal)
-                .saturating_add(b.accel.saturating_mul(2).saturating_mul(b.length - s));
-            b.start_speed.min(nominal).min(isqrt_u64(reach_sq))
+                .saturating_add(sat_mul(b.accel.saturating_mul(2), b.length - s));
+            u64::from(b.start_speed)
+                .min(nominal)
+                .min(isqrt_u64(reach_sq))
         } else {
             v
         };
@@ -279,7 +281,7 @@ impl Prep {
     pub fn droppable<const N: usize>(&self, planner: &Planner<N>) -> usize {
         let active = planner
             .head()
-            .filter(|b| self.active && b.kind.is_line())
+            .filter(|b| self.active && b.is_line())
             .map(|b| b.seq);
         self.history.droppable(active)
     }
