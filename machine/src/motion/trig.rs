@@ -111,11 +111,30 @@ pub fn sat_mul(a: u64, b: u64) -> u64 {
 /// Every 128-bit division in the core goes through here. Cortex-M has no 128-bit divide and
 /// LLVM uses no library call for one on 32-bit Arm: it expands each `/` or `%` on `u128`/`i128`
 /// inline into a shift-subtract loop of ~1 KiB, which a dozen call sites made ~10 KiB of the
-/// F411's flash. The results are those of the operators.
+/// F411's flash. Here: operands that fit 64 bits (the usual case) take the 64-bit division, the
+/// rest a binary long division (one compare-and-subtract per quotient bit) written out, a
+/// quarter of the expansion's size. The results are those of the operators.
 #[inline(never)]
 pub fn divrem_u128(n: u128, d: u128) -> (u128, u128) {
-    let q = n / d;
-    (q, n - q * d)
+    if let (Ok(n), Ok(d)) = (u64::try_from(n), u64::try_from(d)) {
+        return (u128::from(n / d), u128::from(n % d));
+    }
+    if d > n {
+        return (0, n);
+    }
+    // d ≠ 0 here (n ≥ d and n > u64::MAX or d > u64::MAX). Align d's top bit with n's.
+    let shift = d.leading_zeros() - n.leading_zeros();
+    let mut d = d << shift;
+    let (mut q, mut r) = (0u128, n);
+    for _ in 0..=shift {
+        q <<= 1;
+        if r >= d {
+            r -= d;
+            q |= 1;
+        }
+        d >>= 1;
+    }
+    (q, r)
 }
 
 /// `n / d` on i128, truncated toward zero like `/` (through [`divrem_u128`]).
@@ -320,6 +339,33 @@ pub fn polar(r: i64, theta: i64) -> (i64, i64) {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_128_bit_division_is_the_operators() {
+        use super::{div_euclid_i128, div_i128, divrem_u128};
+        let mut x = 0x9E37_79B9_7F4A_7C15_F39C_C060_5CED_C834u128;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for i in 0..200_000u32 {
+            // Mixed widths: each operand cut to a random number of bits.
+            let n = next() >> (next() % 128);
+            let d = (next() >> (next() % 128)).max(1);
+            assert_eq!(divrem_u128(n, d), (n / d, n % d), "{n} / {d}");
+            let (sn, sd) = (n as i128, d as i128);
+            if sd != 0 && !(sn == i128::MIN && sd == -1) {
+                let (sn, sd) = if i % 2 == 0 { (sn, sd) } else { (-sn.max(-i128::MAX), sd) };
+                assert_eq!(div_i128(sn, sd), sn / sd, "{sn} / {sd}");
+                assert_eq!(div_euclid_i128(sn, sd), sn.div_euclid(sd), "{sn} / {sd}");
+            }
+        }
+        for (n, d) in [(u128::MAX, 1), (u128::MAX, u128::MAX), (u128::MAX - 1, u128::MAX), (1u128 << 64, 3)] {
+            assert_eq!(divrem_u128(n, d), (n / d, n % d));
+        }
+    }
+
     use super::*;
 
     #[test]
