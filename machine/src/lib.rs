@@ -4,6 +4,10 @@
 //! HAL or executor dependency, so the firmware and the host's emulated board run the very same code.
 //! There is no floating point anywhere in this crate: lengths are integer nanometres ([`units`]) and
 //! geometry uses the `fixed` crate, so the same input gives bit-identical output on every target.
+//!
+//! Integer clamping is written `.max(lo).min(hi)` (same result for `lo ≤ hi`, which every use
+//! here has): `Ord::clamp` formats its arguments into its panic message, which links `core::fmt`'s
+//! integer formatting into the firmware's flash.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![forbid(unsafe_code)]
 

@@ -603,7 +603,7 @@ impl Board {
     }
 
     pub fn set_feed_override(&mut self, pct: u16) {
-        self.feed_override = pct.clamp(10, 200);
+        self.feed_override = pct.max(10).min(200);
         self.motion.set_feed_override(pct);
     }
 

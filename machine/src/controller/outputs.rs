@@ -41,7 +41,7 @@ pub fn spindle_duty(setup: &OutputSetup, state: Spindle, rpm: u32) -> u16 {
         return 0;
     }
     let (lo, hi) = (setup.spindle_min_rpm, setup.spindle_max_rpm.max(1));
-    let r = rpm.clamp(lo, hi);
+    let r = rpm.max(lo).min(hi);
     let span = u64::from(setup.pwm_max.saturating_sub(setup.pwm_min));
     let num = u64::from(r - lo) * span;
     let den = u64::from(hi - lo).max(1);

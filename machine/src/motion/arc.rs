@@ -143,18 +143,18 @@ fn chord_count(cfg: &MotionConfig, radius: i64, sweep: u64) -> u32 {
         QUARTER_TURN
     } else {
         let h = isqrt_u128((2 * radius as i128 * tol as i128 - tol as i128 * tol as i128) as u128);
-        (2 * atan2(h as i64, radius - tol) - 1).clamp(1, QUARTER_TURN)
+        (2 * atan2(h as i64, radius - tol) - 1).max(1).min(QUARTER_TURN)
     };
     let mut n = sweep.div_ceil(by_tolerance as u64);
     if cfg.arc_segment_angle_mdeg > 0 {
         let by_angle = div_i128(cfg.arc_segment_angle_mdeg as i128 * TURN as i128, 360_000)
-            .clamp(1, HALF_TURN as i128) as u64;
+            .max(1).min(HALF_TURN as i128) as u64;
         n = n.max(sweep.div_ceil(by_angle));
     }
     if cfg.arc_max_segments > 0 {
         n = n.min(cfg.arc_max_segments as u64);
     }
-    n.clamp(1, u32::MAX as u64) as u32
+    n.max(1).min(u32::MAX as u64) as u32
 }
 
 #[cfg(test)]

@@ -114,7 +114,7 @@ impl MotionConfig {
             };
         }
         MotionConfig {
-            axis_count: setup.axis_count.clamp(1, MAX_AXES as u8),
+            axis_count: setup.axis_count.max(1).min(MAX_AXES as u8),
             axes,
             junction_deviation: setup.path.junction_deviation.max(0),
             feed_shift: per_min_to_per_s(setup.path.feed_shift),

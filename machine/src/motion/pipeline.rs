@@ -547,7 +547,7 @@ impl<const N: usize> Motion<N> {
         };
         let v = self.prep.speed();
         let pct = u64::from(self.planner.feed_override());
-        let new_speed = (speed_of(feed) * pct / 100).clamp(1, new.max_speed);
+        let new_speed = (speed_of(feed) * pct / 100).max(1).min(new.max_speed);
         let corner_sq = junction_limit_sq(&cfg, &old.unit, &new.unit, self.junction_deviation)
             .min(v * v)
             .min(new_speed * new_speed);
@@ -656,13 +656,13 @@ impl<const N: usize> Motion<N> {
     /// Feed override in percent (clamped to 10-200), applied at once.
     pub fn set_feed_override(&mut self, pct: u16) {
         let rapid = self.planner.rapid_override();
-        self.planner.set_overrides(pct.clamp(10, 200), rapid);
+        self.planner.set_overrides(pct.max(10).min(200), rapid);
     }
 
     /// Rapid override in percent (clamped to 1-100), applied at once.
     pub fn set_rapid_override(&mut self, pct: u16) {
         let feed = self.planner.feed_override();
-        self.planner.set_overrides(feed, pct.clamp(1, 100));
+        self.planner.set_overrides(feed, pct.max(1).min(100));
     }
 }
 

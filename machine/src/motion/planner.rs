@@ -313,7 +313,7 @@ impl<const N: usize> Planner<N> {
         for b in self.ring.iter_mut() {
             if b.is_line() && !b.rapid {
                 // MAX_SPEED is u32::MAX.
-                b.programmed = speed.clamp(1, MAX_SPEED) as u32;
+                b.programmed = speed.max(1).min(MAX_SPEED) as u32;
             }
         }
         self.replan_all();
@@ -333,7 +333,7 @@ impl<const N: usize> Planner<N> {
             (programmed * self.feed_pct as u64 / 100).min(max_speed)
         };
         // MAX_SPEED is u32::MAX.
-        v.clamp(1, MAX_SPEED) as u32
+        v.max(1).min(MAX_SPEED) as u32
     }
 
     /// Speed² the block `offset` must exit with at most (reverse-pass limit).
@@ -486,7 +486,7 @@ impl<const N: usize> Planner<N> {
         let max_speed = max_speed.max(1);
         let accel = accel.max(1);
         let (programmed, rapid) = match req.speed {
-            Some(v) => (v.clamp(1, MAX_SPEED), false),
+            Some(v) => (v.max(1).min(MAX_SPEED), false),
             None => (max_speed, true),
         };
         let stop_before = req.exact_stop_before

@@ -400,7 +400,7 @@ impl Prep {
         // AMASS level from the dominant step period dt / n, compared without dividing.
         let level = AMASS_PERIODS.iter().filter(|&&p| dt > p * n as u64).count() as u32;
         let ticks = n << level;
-        let period = div_u64(dt, ticks as u64).clamp(1, u32::MAX as u64) as u32;
+        let period = div_u64(dt, ticks as u64).max(1).min(u32::MAX as u64) as u32;
         let duration = ticks as u64 * period as u64;
         self.emitted += duration;
         let mut steps = [0u32; MAX_AXES];

@@ -93,7 +93,7 @@ impl Profile {
         } else {
             // Triangle: accelerate to the peak, then decelerate to the exit.
             let peak_sq = ((gain as u128 + v0sq as u128 + vxsq as u128) / 2) as u64;
-            p.vm = isqrt_u64(peak_sq).clamp(v0, vc.max(v0));
+            p.vm = isqrt_u64(peak_sq).max(v0).min(vc.max(v0));
             p.s1 = (s0 + ramp_len(peak_sq, v0sq, two_a)).min(length);
             p.s2 = p.s1;
         }
