@@ -143,12 +143,15 @@ fn chord_count(cfg: &MotionConfig, radius: i64, sweep: u64) -> u32 {
         QUARTER_TURN
     } else {
         let h = isqrt_u128((2 * radius as i128 * tol as i128 - tol as i128 * tol as i128) as u128);
-        (2 * atan2(h as i64, radius - tol) - 1).max(1).min(QUARTER_TURN)
+        (2 * atan2(h as i64, radius - tol) - 1)
+            .max(1)
+            .min(QUARTER_TURN)
     };
     let mut n = sweep.div_ceil(by_tolerance as u64);
     if cfg.arc_segment_angle_mdeg > 0 {
         let by_angle = div_i128(cfg.arc_segment_angle_mdeg as i128 * TURN as i128, 360_000)
-            .max(1).min(HALF_TURN as i128) as u64;
+            .max(1)
+            .min(HALF_TURN as i128) as u64;
         n = n.max(sweep.div_ceil(by_angle));
     }
     if cfg.arc_max_segments > 0 {
