@@ -354,7 +354,6 @@ mod tests {
             let n = next() >> (next() % 128);
             let d = (next() >> (next() % 128)).max(1);
             assert_eq!(divrem_u128(n, d), (n / d, n % d), "{n} / {d}");
-            let (sn, sd) = (n as i128, d as i128);
             // Every sign combination (the operands as i128, kept off i128::MIN).
             let (sn, sd) = ((n >> 1) as i128, ((d >> 1) as i128).max(1));
             let sn = if i % 2 == 0 { sn } else { -sn };
