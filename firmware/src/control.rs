@@ -61,6 +61,8 @@ impl SpeedMeter {
             let mut sum_sq: u64 = 0;
             for (a, b) in at.iter().zip(&self.from) {
                 // Clamped to ±2^30 nm (1 m per window), far beyond any machine: no overflow.
+                // max/min, not `clamp`: its panic message would link core::fmt (flash).
+                #[allow(clippy::manual_clamp)]
                 let d = (a - b).max(-(1 << 30)).min(1 << 30).unsigned_abs();
                 sum_sq = sum_sq.saturating_add(d * d);
             }

@@ -10,6 +10,8 @@
 //! integer formatting into the firmware's flash.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![forbid(unsafe_code)]
+// See above: integer clamping is spelled out as max/min on purpose.
+#![allow(clippy::manual_clamp)]
 
 pub mod board;
 pub mod canon;
