@@ -103,7 +103,10 @@ SIZES=()
 for board in "${BOARDS[@]}"; do
     echo "-- $board"
     (cd firmware && cargo clippy --release --no-default-features --features "$board" -- -D warnings)
-    (cd firmware && cargo build --release --no-default-features --features "$board")
+    # Panic locations keep their source paths in flash, so the size would depend on where the
+    # checkout and CARGO_HOME sit; the measured build maps both to fixed short names.
+    (cd firmware && cargo build --release --no-default-features --features "$board" \
+        --config "target.$THUMB.rustflags=[\"--remap-path-prefix=$ROOT=/gantry\",\"--remap-path-prefix=${CARGO_HOME:-$HOME/.cargo}=/cargo\"]")
     elf="firmware/target/$THUMB/release/gantry-firmware"
     read -r text data bss < <(elf_size "$elf")
     flash=$((text + data))
