@@ -17,16 +17,6 @@ fn x_speed_mm_min(eb: &mut EmulatedBoard) -> f64 {
     (eb.pulses[0] - before) as f64 / STEPS_PER_MM as f64 * 6000.0
 }
 
-fn enter_joystick(eb: &mut EmulatedBoard) {
-    set(eb, Signal::Mark, true);
-    set(eb, Signal::Release, true);
-    eb.run_ms(2);
-    set(eb, Signal::Mark, false);
-    set(eb, Signal::Release, false);
-    eb.run_ms(2);
-    assert_eq!(eb.board.state(), State::Jog);
-}
-
 #[test]
 fn a_host_jog_increment_moves_exactly_and_refuses_to_leave_the_travel() {
     let mut eb = board(|_| {});

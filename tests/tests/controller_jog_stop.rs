@@ -24,16 +24,6 @@ const ACCEL: f64 = 200.0;
 /// One step, mm.
 const STEP_MM: f64 = 1.0 / STEPS_PER_MM as f64;
 
-fn enter_joystick(eb: &mut EmulatedBoard) {
-    set(eb, Signal::Mark, true);
-    set(eb, Signal::Release, true);
-    eb.run_ms(2);
-    set(eb, Signal::Mark, false);
-    set(eb, Signal::Release, false);
-    eb.run_ms(2);
-    assert_eq!(eb.board.state(), State::Jog);
-}
-
 /// What a stop did, measured on axis X.
 struct Stop {
     /// Travel from the stop request to rest, mm.

@@ -68,6 +68,17 @@ pub fn set(eb: &mut EmulatedBoard, s: Signal, on: bool) {
     eb.set_pin(s as u32, on);
 }
 
+/// Mark and Release pressed together, then let go: the board enters joystick jog mode.
+pub fn enter_joystick(eb: &mut EmulatedBoard) {
+    set(eb, Signal::Mark, true);
+    set(eb, Signal::Release, true);
+    eb.run_ms(2);
+    set(eb, Signal::Mark, false);
+    set(eb, Signal::Release, false);
+    eb.run_ms(2);
+    assert_eq!(eb.board.state(), State::Jog);
+}
+
 /// The events the board raised since the last call: those the emulator captured (after
 /// `EmulatedBoard::capture_events`) and any still queued on the board.
 pub fn events(eb: &mut EmulatedBoard) -> Vec<BoardEvent> {
