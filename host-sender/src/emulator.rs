@@ -287,17 +287,7 @@ impl EmulatedBoard {
         self.arm = 0;
         if self.last_outputs != 0 {
             // The reset leaves every output pin low (the new kernel's word is 0).
-            self.last_outputs = 0;
-            if let Some(f) = self.observer.as_mut() {
-                f(PinEvent {
-                    time: self.now,
-                    step: 0,
-                    dir: self.last_dir,
-                    inputs: self.inputs,
-                    outputs: 0,
-                    period: 0,
-                });
-            }
+            self.drive_user_outputs(0);
         }
         if self.driven != OutputLevels::SAFE {
             // Spindle and coolant pins drop with the reset too.
@@ -556,6 +546,21 @@ impl EmulatedBoard {
     }
 
     /// One pass of the firmware's main loop: link, controller, segment preparation.
+    /// The user output pins take `word` now (the board switched them, or a reset dropped them).
+    fn drive_user_outputs(&mut self, word: u16) {
+        self.last_outputs = word;
+        if let Some(f) = self.observer.as_mut() {
+            f(PinEvent {
+                time: self.now,
+                step: 0,
+                dir: self.last_dir,
+                inputs: self.inputs,
+                outputs: word,
+                period: 0,
+            });
+        }
+    }
+
     fn main_loop(&mut self) {
         self.measure_speed();
         let now = self.now_ms();
@@ -655,17 +660,7 @@ impl EmulatedBoard {
             // The board switched outputs itself (a list at rest, the safe state).
             self.kernel.set_outputs(word);
             if word != self.last_outputs {
-                self.last_outputs = word;
-                if let Some(f) = self.observer.as_mut() {
-                    f(PinEvent {
-                        time: self.now,
-                        step: 0,
-                        dir: self.last_dir,
-                        inputs: self.inputs,
-                        outputs: word,
-                        period: 0,
-                    });
-                }
+                self.drive_user_outputs(word);
             }
         }
         let levels = self.board.output_levels();
