@@ -129,13 +129,26 @@ fn command_lists_run_before_seek_before_retract_and_after_retract() {
 }
 
 #[test]
-fn abort_during_homing_alarms_and_leaves_the_axis_unhomed() {
-    let mut eb = machine(|_| {});
+fn abort_during_homing_alarms_at_rest_and_leaves_the_axis_unhomed() {
+    // Output 1 stands for the drivers of a squared axis, enabled by the cycle's first list.
+    let mut eb = machine(|s| s.homing.before_seek.push(ListCommand::Set(1)).unwrap());
     assert!(eb.board.home(0));
     eb.run_ms(500);
     eb.board.abort();
+    // The seek decelerates with its drivers still enabled; alarm 6 comes at rest.
+    assert_eq!(eb.board.alarm(), None);
+    assert_eq!(eb.board.state(), State::Homing);
+    while eb.board.state() == State::Homing {
+        assert_eq!(eb.board.output_levels().user, 0b0010);
+        eb.run_ms(1);
+        assert!(eb.now_ms() < 10_000, "homing abort never came to rest");
+    }
+    assert!(eb.kernel_drained());
+    let stopped = eb.physical()[0];
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HomingAborted));
+    assert_eq!(eb.board.output_levels().user, 0);
     until_at_rest(&mut eb, 5_000);
+    assert_eq!(eb.physical()[0], stopped);
     assert_eq!(eb.board.homed(), 0);
     eb.board.unlock();
     assert_eq!(eb.board.state(), State::Idle);

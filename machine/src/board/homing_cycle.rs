@@ -32,12 +32,18 @@ impl Board {
     }
 
     pub(super) fn poll_homing(&mut self, drained: bool) {
+        let idle = drained && self.motion.state() == MotionState::Idle;
         let Some(mut h) = self.homing.take() else {
+            // An aborted cycle raises its alarm once the seek has decelerated to rest.
+            if idle {
+                if let Some((code, line)) = self.stop_alarm.take() {
+                    self.enter_alarm(code, line);
+                }
+            }
             return;
         };
         let axis = h.axis();
         let ha = self.setup.homing.axes[axis];
-        let idle = drained && self.motion.state() == MotionState::Idle;
         if !idle {
             self.homing = Some(h);
             return;

@@ -170,7 +170,8 @@ pub struct Board {
     /// The job has queued an action (motion, spindle, …): from then on a block beyond the travel
     /// stops it with alarm 2 instead of error 900.
     job_queued: bool,
-    /// A stopping job ends in this alarm (with its line) once at rest, instead of in Idle.
+    /// A stopping job ends in this alarm (with its line) once at rest, instead of in Idle; an
+    /// aborted homing cycle raises its alarm 6 the same way.
     stop_alarm: Option<(AlarmCode, u32)>,
     /// The kernel was drained at the last [`Board::poll`].
     drained: bool,
@@ -545,15 +546,16 @@ impl Board {
 
     /// Abort: decelerate on the path, forget the rest of the job, remember the line to resume
     /// from, and run the program-stop sequence (spindle and coolant off) once the machine is at
-    /// rest. During homing it raises alarm 6; during a jog it stops the jog and leaves joystick
-    /// mode.
+    /// rest. During homing the seek decelerates and alarm 6 follows at rest (user outputs, which
+    /// may enable a squared axis's drivers, stay as they are until then); during a jog it stops
+    /// the jog and leaves joystick mode.
     pub fn abort(&mut self) {
         match self.state {
             State::Homing => {
                 self.motion.abort();
                 self.homing = None;
                 self.homing_list = None;
-                self.enter_alarm(AlarmCode::HomingAborted, 0);
+                self.stop_alarm = Some((AlarmCode::HomingAborted, 0));
                 return;
             }
             State::Jog => {
