@@ -354,3 +354,16 @@ fn an_error_before_the_job_queued_anything_still_ends_it_with_the_program_stop_s
         assert_eq!(eb.pulses, [0; 6]);
     }
 }
+
+/// A job that runs no line reports line 0 as its last, not the previous job's.
+#[test]
+fn a_job_that_runs_nothing_ends_on_line_zero() {
+    let mut eb = recording_board(|_| {});
+    job(&mut eb, "G1 X1 F600\nG1 X2");
+    until_state(&mut eb, State::Idle, 10_000);
+    assert_eq!(events(&mut eb), vec![BoardEvent::JobDone { line: 2 }]);
+    job(&mut eb, "(only a comment)");
+    until_state(&mut eb, State::Idle, 1_000);
+    assert_eq!(events(&mut eb), vec![BoardEvent::JobDone { line: 0 }]);
+    assert_eq!(eb.board.line(), 0);
+}

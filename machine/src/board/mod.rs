@@ -432,6 +432,8 @@ impl Board {
             return false;
         }
         self.last_motion_line = 0;
+        // No line of this job has run yet (a job that runs nothing ends with `JobDone{0}`).
+        self.line = 0;
         self.job_queued = false;
         self.stop_alarm = None;
         self.source.reset();
