@@ -24,7 +24,7 @@
 
 use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
-use gantry_machine::controller::inputs::{Debouncer, InputBits, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+use gantry_machine::controller::inputs::{limit_bit, Debouncer, InputBits};
 use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
 use gantry_machine::controller::{AdcReadings, OutputLevels, State};
 use gantry_machine::motion::kernel::{Segment, StepKernel, StepTiming, KERNEL_TIMER_HZ};
@@ -78,11 +78,7 @@ pub struct LimitSwitch {
 
 impl LimitSwitch {
     fn bit(&self) -> u32 {
-        1 << (if self.max {
-            LIMIT_MAX_BIT
-        } else {
-            LIMIT_MIN_BIT
-        } + self.axis as u32)
+        1 << limit_bit(self.axis, self.max)
     }
 }
 
@@ -104,11 +100,7 @@ pub struct Gang {
 
 impl Gang {
     fn bit(&self) -> u32 {
-        1 << (if self.max {
-            LIMIT_MAX_BIT
-        } else {
-            LIMIT_MIN_BIT
-        } + self.axis as u32)
+        1 << limit_bit(self.axis, self.max)
     }
 
     fn on_switch(&self, m: usize) -> bool {

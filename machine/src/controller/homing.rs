@@ -5,7 +5,7 @@
 //! This module holds the pure parts (order, targets, switch bits, phases); the board drives the
 //! motion and the lists.
 
-use super::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+use super::inputs::limit_bit;
 use crate::setup::{HomingAxis, Setup};
 use crate::units::{Nm, MAX_AXES};
 use heapless::Vec;
@@ -79,11 +79,7 @@ pub fn order(setup: &Setup, axes: u8) -> Vec<u8, MAX_AXES> {
 
 /// The input bit of the switch an axis seeks.
 pub const fn switch_bit(axis: usize, h: &HomingAxis) -> u32 {
-    if h.seek_low {
-        LIMIT_MIN_BIT + axis as u32
-    } else {
-        LIMIT_MAX_BIT + axis as u32
-    }
+    limit_bit(axis, !h.seek_low)
 }
 
 /// The seek's end point from `from`: the whole travel span plus the retract toward the switch.
@@ -111,6 +107,7 @@ pub fn retract_target(h: &HomingAxis, at: Nm) -> Nm {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::controller::inputs::LIMIT_MIN_BIT;
     use crate::units::NM_PER_MM;
 
     #[test]

@@ -77,6 +77,11 @@ pub const INPUT_NAMES: [&str; 28] = [
 pub const LIMIT_MIN_BIT: u32 = 16;
 pub const LIMIT_MAX_BIT: u32 = 22;
 
+/// Input bit of the limit switch on `axis`'s max side (`max`) or min side.
+pub const fn limit_bit(axis: usize, max: bool) -> u32 {
+    (if max { LIMIT_MAX_BIT } else { LIMIT_MIN_BIT }) + axis as u32
+}
+
 impl InputBits {
     pub const fn get(self, s: Signal) -> bool {
         self.0 & (1 << s as u32) != 0
