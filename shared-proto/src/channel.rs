@@ -711,7 +711,7 @@ fn seq_before32(a: u32, b: u32) -> bool {
     (a.wrapping_sub(b) as i32) < 0
 }
 
-fn decode_exact<M: crate::codec::Visit>(payload: &[u8]) -> Option<M> {
+fn decode_exact<M: serde::de::DeserializeOwned>(payload: &[u8]) -> Option<M> {
     crate::codec::decode(payload)
 }
 

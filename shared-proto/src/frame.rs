@@ -17,7 +17,7 @@
 //! frame boundaries; a receiver that starts mid-stream or sees garbage loses
 //! at most the frame in progress and resynchronises on the next 0x00.
 
-use crate::codec::{self, Visit};
+use crate::codec;
 use crate::crc::{crc32, CRC_LEN};
 
 /// Bytes of the fixed header.
@@ -146,7 +146,7 @@ impl std::error::Error for EncodeError {}
 
 /// Encodes `header` and the postcard form of `payload` (if any) as one
 /// complete wire frame (delimiter included) into `out`; returns its length.
-pub fn encode_frame<P: Visit>(
+pub fn encode_frame<P: serde::Serialize>(
     header: &Header,
     payload: Option<&P>,
     out: &mut [u8],

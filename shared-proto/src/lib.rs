@@ -1,7 +1,7 @@
 //! Gantry wire protocol shared by the firmware and the host sender (no_std).
 //!
 //! * [`messages`]: what host and board say to each other ([`HostMsg`], [`BoardMsg`]).
-//! * [`codec`]: their bytes (postcard's format, written by hand).
+//! * [`codec`]: their bytes (postcard, serde derive).
 //! * [`frame`]: COBS frames with a fixed header and CRC-32 ([`encode_frame`], [`FrameDecoder`]).
 //! * [`crc`]: the frame check sequence.
 //! * [`window`]: per-lane sliding windows (sequence numbers, acks, credit, retransmit).

@@ -116,7 +116,7 @@ impl Fuzzer {
         }
     }
 
-    fn push_frame<P: gantry_proto::codec::Visit>(&mut self, h: &Header, p: Option<&P>) {
+    fn push_frame<P: serde::Serialize>(&mut self, h: &Header, p: Option<&P>) {
         let mut out = [0u8; MAX_FRAME_LEN];
         if let Ok(n) = encode_frame(h, p, &mut out) {
             self.input.extend_from_slice(&out[..n]);
