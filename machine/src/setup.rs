@@ -8,6 +8,7 @@
 use crate::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use crate::units::{FeedNmPerMin, Nm, Pos, MAX_AXES, NM_PER_MM};
 use heapless::Vec;
+use serde::{Deserialize, Serialize};
 
 mod blob;
 
@@ -19,7 +20,7 @@ pub const MAX_USER_MCODES: usize = 16;
 pub const MAX_LIST_COMMANDS: usize = 8;
 
 /// G-code dialect profile (DESIGN §3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Dialect {
     /// RS274NGC / Fanuc-style mill programs (LinuxCNC is the oracle).
     Ngc,
@@ -28,7 +29,7 @@ pub enum Dialect {
 }
 
 /// How G4's P word is read.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum DwellUnits {
     /// P in seconds, decimals allowed (RS274NGC).
     Seconds,
@@ -37,7 +38,7 @@ pub enum DwellUnits {
 }
 
 /// Per-axis setup.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct AxisSetup {
     /// Exact ratio: `steps` motor steps move the axis `units_nm` nanometres (seed "Ratiometric Steps per Unit").
     pub steps: u32,
@@ -56,7 +57,7 @@ pub struct AxisSetup {
 }
 
 /// One tool-table entry.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Tool {
     pub number: u32,
     pub length: Nm,
@@ -64,7 +65,7 @@ pub struct Tool {
 }
 
 /// Path-planning settings shared by all axes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct PathSetup {
     /// grbl junction deviation, nm.
     pub junction_deviation: Nm,
@@ -79,7 +80,7 @@ pub struct PathSetup {
 }
 
 /// Interpreter settings.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ProgramSetup {
     pub dialect: Dialect,
     pub dwell_units: DwellUnits,
@@ -98,7 +99,7 @@ pub struct ProgramSetup {
 }
 
 /// Operator-input behaviour.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct OperatorSetup {
     /// After a feed hold is released: resume at once (seed behaviour) or wait for cycle start.
     pub resume_needs_cycle_start: bool,
@@ -122,7 +123,7 @@ pub const USER_OUTPUTS: u8 = 16;
 
 /// One entry of a command list (homing lists, user M-code lists), seed 003 §2.12 reduced to
 /// output actions.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ListCommand {
     /// Switch user output `n` on.
     Set(u8),
@@ -148,7 +149,7 @@ pub enum ListCommand {
 }
 
 /// Input wiring: polarity, debounce and which switches are installed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct InputSetup {
     /// Active-low pins: bit i set = input bit i reads active when its pin is low.
     pub invert: u32,
@@ -170,7 +171,7 @@ pub struct InputSetup {
 }
 
 /// Limit-switch seek (homing) of one axis, seed 003 §2.2.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct HomingAxis {
     /// Order in the seek: lower goes first, one axis at a time; 0 = the axis is not homed.
     pub priority: u8,
@@ -187,7 +188,7 @@ pub struct HomingAxis {
 }
 
 /// Homing: per-axis seek settings and the three command lists.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct HomingSetup {
     pub axes: [HomingAxis; MAX_AXES],
     /// Motion is refused after power-up and after a hard limit until the axes are homed.
@@ -198,7 +199,7 @@ pub struct HomingSetup {
 }
 
 /// Joystick jog, seed 003 §2.6.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct JogSetup {
     /// Axis pairs by stage-pair selector position: `[down/up (S1/S4) axis, left/right (S2/S3) axis]`;
     /// 255 = no axis.
@@ -218,7 +219,7 @@ pub struct JogSetup {
 }
 
 /// Spindle output mapping and user M-code command lists.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct OutputSetup {
     /// S range mapped linearly onto the PWM duty (S ≤ min → duty at min, S ≥ max → full duty).
     pub spindle_min_rpm: u32,
@@ -232,7 +233,7 @@ pub struct OutputSetup {
 }
 
 /// The command list of one user M code.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct McodeList {
     pub code: u16,
     /// Seed "Disable these commands for Dry Run".
@@ -241,7 +242,7 @@ pub struct McodeList {
 }
 
 /// What the board does when the host link goes quiet (docs/protocol.md §7).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct LinkSetup {
     /// A job held because the host went away is ended (program-stop sequence, alarm 20) once the
     /// host has stayed away this many seconds; 0 = hold and wait for the host forever.
@@ -267,7 +268,7 @@ impl McodeList {
 /// minimums). The step interrupt holds each step pulse for `step_pulse_ns` and changes a direction
 /// pin at least `dir_setup_ns` before the next step pulse starts; both are rounded up to whole
 /// step-timer counts (83.3 ns, [`StepTiming`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct DriverSetup {
     /// Width of every step pulse, ns ([`Self::PULSE_NS`]).
     pub step_pulse_ns: u32,
@@ -293,7 +294,7 @@ impl DriverSetup {
 }
 
 /// The whole machine setup.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Setup {
     /// Axes in use (X, Y, Z, A, B, C in that order), 1..=6.
     pub axis_count: u8,
@@ -454,30 +455,24 @@ pub const SETUP_BLOB_MAX: usize = 2048;
 impl Setup {
     /// Encodes the setup for flash and the link ([`blob`]); `None` if it does not fit `out`.
     pub fn to_blob<'a>(&self, out: &'a mut [u8]) -> Option<&'a mut [u8]> {
-        // The codec visits fields by `&mut` for both directions: encode a copy.
-        let mut copy = self.clone();
-        let mut c = blob::Codec::writer(out);
-        blob::visit_setup(&mut c, &mut copy);
-        let (ok, len) = (c.ok(false), c.len());
-        ok.then(|| &mut out[..len])
+        let len = blob::encode(self, out, 0, false)?;
+        Some(&mut out[..len])
     }
 
     /// Encodes bytes `from .. from + out.len()` of the blob into `out` (a chunk for the link,
     /// without a buffer for the whole blob); returns how many it wrote (fewer at the end).
     pub fn blob_window(&self, from: usize, out: &mut [u8]) -> usize {
-        let mut copy = self.clone();
         let room = out.len();
-        let mut c = blob::Codec::window(out, from);
-        blob::visit_setup(&mut c, &mut copy);
-        c.len().saturating_sub(from).min(room)
+        blob::encode(self, out, from, true)
+            .unwrap_or(0)
+            .saturating_sub(from)
+            .min(room)
     }
 
-    /// Decodes and checks a setup blob; `None` when it is not a valid setup.
+    /// Decodes and checks a setup blob; `None` when it is not a valid setup (another format
+    /// byte included: a setup stored by older firmware).
     pub fn from_blob(bytes: &[u8]) -> Option<Setup> {
-        let mut s = Setup::default();
-        let mut c = blob::Codec::reader(bytes);
-        blob::visit_setup(&mut c, &mut s);
-        (c.ok(true) && s.is_valid()).then_some(s)
+        blob::decode(bytes).filter(Setup::is_valid)
     }
 
     /// The invariants every part of the core relies on (the host validates each value with a
@@ -635,10 +630,27 @@ mod tests {
         let mut other = blob.to_vec();
         other[0] = blob::FORMAT + 1;
         assert_eq!(Setup::from_blob(&other), None);
-        // A value beyond its field: axis_count (a u8) as 256 = varint 0x80 0x02.
+        // An unknown enum variant: the one byte where the Ngc and Gixa dialects differ.
+        let mut gixa = Setup::default();
+        gixa.program.dialect = Dialect::Gixa;
+        let mut other_buf = [0u8; SETUP_BLOB_MAX];
+        let gixa_blob = gixa.to_blob(&mut other_buf).unwrap();
+        let diff: std::vec::Vec<usize> = (0..len).filter(|&i| blob[i] != gixa_blob[i]).collect();
+        assert_eq!(diff.len(), 1);
+        let mut unknown = blob.to_vec();
+        unknown[diff[0]] = 2;
+        assert_eq!(Setup::from_blob(&unknown), None);
+        // A value beyond its field: a bool as 2 (`axes[0].invert_dir`, the byte before axis 1's
+        // `steps`, 3200 = varint 0x80 0x19; axis 0 starts with the same bytes at offset 2).
+        let axis1 = (3..len)
+            .find(|&i| blob[i..].starts_with(&[0x80, 0x19]))
+            .unwrap();
+        assert_eq!(blob[axis1 - 1], 0, "invert_dir false");
         let mut wide = blob.to_vec();
-        wide.splice(1..2, [0x80, 0x02]);
+        wide[axis1 - 1] = 2;
         assert_eq!(Setup::from_blob(&wide), None);
+        wide[axis1 - 1] = 1;
+        assert!(Setup::from_blob(&wide).unwrap().axes[0].invert_dir);
         // An encoder given too little room says so.
         assert!(Setup::default().to_blob(&mut buf[..len - 1]).is_none());
     }

@@ -7,7 +7,8 @@
 //!
 //! | key | value |
 //! |---|---|
-//! | [`SETUP_KEY`] (3) | the setup as `Setup::to_blob` (format byte 2), checked by `Setup::from_blob` on load |
+//! | [`SETUP_KEY`] (4) | the setup as `Setup::to_blob` (format byte 3: postcard through serde), checked by `Setup::from_blob` on load |
+//! | 3 | retired: the setup in the hand-written encoding (format byte 2), left unread |
 //! | [`BOOT_KEY`] (2) | boot counter, `u32` little endian (the link's boot id) |
 //! | 1 | retired: the setup in its first (serde/postcard) encoding, left unread |
 //!
@@ -31,8 +32,9 @@ use gantry_machine::setup::{Setup, SETUP_BLOB_MAX};
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage, SerializationError, Value};
 
-/// Map key of the setup blob (1 held the retired postcard encoding).
-pub const SETUP_KEY: u8 = 3;
+/// Map key of the setup blob (1 and 3 held the retired encodings: a setup saved by older
+/// firmware reads as absent, and the board starts with the defaults).
+pub const SETUP_KEY: u8 = 4;
 /// Map key of the boot counter.
 pub const BOOT_KEY: u8 = 2;
 /// Working buffer: the largest item (key + setup blob) rounded up to any flash word.

@@ -264,6 +264,27 @@ fn a_foreign_item_under_the_setup_key_loads_as_invalid_and_gives_defaults() {
     assert_eq!(block_on(st.next_boot_count(&mut buf)), 1);
 }
 
+/// A setup saved by the firmware before the serde encoding (key 3, format byte 2: the default
+/// setup as that firmware wrote it) is not read: the board starts with the defaults. Under the
+/// current key, the same bytes are refused by their format byte.
+#[test]
+fn a_setup_stored_by_older_firmware_gives_defaults() {
+    let old: &[u8] = include_bytes!("testdata/setup_format2_default.bin");
+    assert_eq!(old[0], 2, "format byte of the hand-written encoding");
+    assert_eq!(Setup::from_blob(old), None);
+    let mut st = store(RamFlash::new());
+    let mut buf = DataBuffer::new();
+    block_on(st.map.store_item(&mut buf.0, &3u8, &old)).unwrap();
+    let loaded = block_on(st.load(&mut buf));
+    assert_eq!(loaded, Loaded::Absent);
+    assert_eq!(loaded.into_setup(), Setup::default());
+    block_on(st.map.store_item(&mut buf.0, &SETUP_KEY, &old)).unwrap();
+    assert_eq!(block_on(st.load(&mut buf)), Loaded::Invalid);
+    // A save in the current format replaces it.
+    block_on(st.save(&variant(5), &mut buf)).unwrap();
+    assert_eq!(block_on(st.load(&mut buf)), Loaded::Stored(variant(5)));
+}
+
 #[test]
 fn garbage_cells_give_defaults_and_the_next_save_recovers() {
     let mut mem = vec![0u8; PAGE * PAGES];
