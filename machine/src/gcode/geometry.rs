@@ -1,7 +1,8 @@
 //! Integer geometry for the interpreter: square roots, arc centres, radius checks and sweep angles.
 //!
-//! All arithmetic is on `i64` nanometres with `i128` intermediates; the angle routine is a CORDIC
-//! over a constant table, so results are bit-identical on every target and no float is involved.
+//! All arithmetic is on `i64` nanometres with `i128` intermediates; the angle routine is the
+//! core's one CORDIC (`motion/trig.rs`), so results are bit-identical on every target and no float
+//! is involved.
 
 use super::error::ErrorCode;
 use crate::units::Nm;
@@ -139,105 +140,9 @@ pub fn r_format_center(
     Ok((cx as Nm, cy as Nm))
 }
 
-/// Angles in units of 2^-48 radian.
-pub const ANGLE_ONE: i64 = 1 << 48;
-/// π in 2^-48 rad.
-pub const PI: i64 = 884_279_719_003_555;
-
-const ATAN_TABLE: [i64; 48] = [
-    221069929750889,
-    130505199945453,
-    68955363498242,
-    35002819193903,
-    17569333089919,
-    8793231387230,
-    4397688649582,
-    2198978517948,
-    1099506035422,
-    549755114839,
-    274877819563,
-    137438942549,
-    68719475371,
-    34359738197,
-    17179869163,
-    8589934589,
-    4294967296,
-    2147483648,
-    1073741824,
-    536870912,
-    268435456,
-    134217728,
-    67108864,
-    33554432,
-    16777216,
-    8388608,
-    4194304,
-    2097152,
-    1048576,
-    524288,
-    262144,
-    131072,
-    65536,
-    32768,
-    16384,
-    8192,
-    4096,
-    2048,
-    1024,
-    512,
-    256,
-    128,
-    64,
-    32,
-    16,
-    8,
-    4,
-    2,
-];
-
-/// atan2(y, x) in 2^-48 rad, in (-π, π]; 0 for the zero vector.
-pub fn atan2(y: i128, x: i128) -> i64 {
-    if y == 0 {
-        return if x < 0 { PI } else { 0 };
-    }
-    // Scale into ±2^58 so CORDIC growth (×1.65) cannot overflow i64.
-    let m = x.unsigned_abs().max(y.unsigned_abs());
-    let bits = 128 - m.leading_zeros();
-    // Normalise into [2^57, 2^58): big enough for full precision, small enough for CORDIC growth.
-    let (mut x, mut y) = if bits > 58 {
-        let shift = bits - 58;
-        ((x >> shift) as i64, (y >> shift) as i64)
-    } else {
-        let shift = 58 - bits;
-        ((x << shift) as i64, (y << shift) as i64)
-    };
-    let mut angle: i64 = 0;
-    if x < 0 {
-        if y >= 0 {
-            (x, y) = (y, -x);
-            angle = PI / 2;
-        } else {
-            (x, y) = (-y, x);
-            angle = -PI / 2;
-        }
-    }
-    for (i, &a) in ATAN_TABLE.iter().enumerate() {
-        let (xs, ys) = (x >> i, y >> i);
-        if y > 0 {
-            x += ys;
-            y -= xs;
-            angle += a;
-        } else {
-            x -= ys;
-            y += xs;
-            angle -= a;
-        }
-    }
-    if angle <= -PI {
-        angle += 2 * PI;
-    }
-    angle
-}
+/// Angles in units of 2^-48 radian, π in them, and atan2 on them: the one CORDIC module's
+/// (`crate::motion::trig`).
+pub use crate::motion::trig::{atan2_rad as atan2, PI_RAD as PI, RAD as ANGLE_ONE};
 
 /// Swept angle (2^-48 rad, > 0) of an arc from `start` to `end` about `center`, `turns` ≥ 1.
 pub fn sweep(start: (Nm, Nm), end: (Nm, Nm), center: (Nm, Nm), ccw: bool, turns: u32) -> i128 {

@@ -1,9 +1,13 @@
-//! Integer geometry helpers: square roots, overflow-safe `a × b / c`, and a CORDIC for arcs.
+//! Integer geometry helpers: square roots, overflow-safe `a × b / c`, and the core's one CORDIC
+//! (arcs in the planner, sweep angles in the interpreter's `gcode/geometry.rs`).
 //!
-//! Angles are *binary angles*: [`TURN`] units make a full turn (2⁴⁸), so wrapping is exact integer
-//! arithmetic. The CORDIC runs 40 iterations on vectors pre-scaled by 2¹⁶, which keeps a point on a
-//! 10 m radius within a few nanometres. The arctangent table was generated offline (Python, double
-//! precision) as `round(atan(2⁻ⁱ) / 2π × 2⁴⁸)`.
+//! The planner's angles are *binary angles*: [`TURN`] units make a full turn (2⁴⁸), so wrapping is
+//! exact integer arithmetic. The CORDIC runs 40 iterations on vectors pre-scaled by 2¹⁶, which
+//! keeps a point on a 10 m radius within a few nanometres. The arctangent table was generated
+//! offline (Python, double precision) as `round(atan(2⁻ⁱ) / 2π × 2⁴⁸)`.
+//!
+//! The interpreter measures sweeps in 2⁻⁴⁸ radian ([`RAD`], [`atan2_rad`]) with its own 48-entry
+//! table `round(atan(2⁻ⁱ) × 2⁴⁸)`; both arctangents run the same vectoring loop ([`vector`]).
 
 /// Binary-angle units in one full turn.
 pub const TURN: i64 = 1 << 48;
@@ -277,7 +281,76 @@ pub fn atan2(y: i64, x: i64) -> i64 {
         x = -x;
         y = -y;
     }
-    for (i, step) in ATAN_TABLE.iter().enumerate() {
+    angle += vector(x, y, &ATAN_TABLE);
+    if angle > HALF_TURN {
+        angle -= TURN;
+    }
+    angle
+}
+
+/// One radian in the interpreter's angle unit (2⁻⁴⁸ rad).
+pub const RAD: i64 = 1 << 48;
+/// π in 2⁻⁴⁸ rad.
+pub const PI_RAD: i64 = 884_279_719_003_555;
+
+/// atan(2⁻ⁱ) in 2⁻⁴⁸ rad.
+const ATAN_TABLE_RAD: [i64; 48] = [
+    221069929750889,
+    130505199945453,
+    68955363498242,
+    35002819193903,
+    17569333089919,
+    8793231387230,
+    4397688649582,
+    2198978517948,
+    1099506035422,
+    549755114839,
+    274877819563,
+    137438942549,
+    68719475371,
+    34359738197,
+    17179869163,
+    8589934589,
+    4294967296,
+    2147483648,
+    1073741824,
+    536870912,
+    268435456,
+    134217728,
+    67108864,
+    33554432,
+    16777216,
+    8388608,
+    4194304,
+    2097152,
+    1048576,
+    524288,
+    262144,
+    131072,
+    65536,
+    32768,
+    16384,
+    8192,
+    4096,
+    2048,
+    1024,
+    512,
+    256,
+    128,
+    64,
+    32,
+    16,
+    8,
+    4,
+    2,
+];
+
+/// CORDIC vectoring: turns (x, y) (x ≥ 0) onto the positive x axis by the angles of `table`
+/// (`atan(2⁻ⁱ)` in the caller's unit) and returns the angle turned, i.e. the angle of (x, y).
+/// The vector grows by the CORDIC gain (×1.65): the callers scale it to leave room for that.
+fn vector(mut x: i128, mut y: i128, table: &[i64]) -> i64 {
+    let mut angle = 0i64;
+    for (i, step) in table.iter().enumerate() {
         let (dx, dy) = (y >> i, x >> i);
         if y > 0 {
             x += dx;
@@ -289,8 +362,37 @@ pub fn atan2(y: i64, x: i64) -> i64 {
             angle -= step;
         }
     }
-    if angle > HALF_TURN {
-        angle -= TURN;
+    angle
+}
+
+/// atan2(y, x) in 2⁻⁴⁸ rad, in (−π, π]; 0 for the zero vector.
+pub fn atan2_rad(y: i128, x: i128) -> i64 {
+    if y == 0 {
+        return if x < 0 { PI_RAD } else { 0 };
+    }
+    let m = x.unsigned_abs().max(y.unsigned_abs());
+    let bits = 128 - m.leading_zeros();
+    // Normalise into [2⁵⁷, 2⁵⁸): full precision, and room for the CORDIC gain within i64.
+    let (mut x, mut y) = if bits > 58 {
+        let shift = bits - 58;
+        ((x >> shift) as i64, (y >> shift) as i64)
+    } else {
+        let shift = 58 - bits;
+        ((x << shift) as i64, (y << shift) as i64)
+    };
+    let mut angle: i64 = 0;
+    if x < 0 {
+        if y >= 0 {
+            (x, y) = (y, -x);
+            angle = PI_RAD / 2;
+        } else {
+            (x, y) = (-y, x);
+            angle = -PI_RAD / 2;
+        }
+    }
+    angle += vector(x.into(), y.into(), &ATAN_TABLE_RAD);
+    if angle <= -PI_RAD {
+        angle += 2 * PI_RAD;
     }
     angle
 }
