@@ -422,7 +422,7 @@ impl SetupFile {
         let g = &self.program;
         if let Some(d) = &g.dialect {
             s.program.dialect = match d.as_str() {
-                "ngc" => Dialect::Ngc,
+                "ngc" => Dialect::Rs274,
                 "gixa" => Dialect::Gixa,
                 other => bail!("program.dialect = {other:?}: must be \"ngc\" or \"gixa\""),
             };
@@ -430,7 +430,7 @@ impl SetupFile {
         if let Some(d) = &g.dwell_units {
             s.program.dwell_units = match d.as_str() {
                 "seconds" => DwellUnits::Seconds,
-                "milliseconds" => DwellUnits::Milliseconds,
+                "milliseconds" => DwellUnits::FanucIntegerMillis,
                 other => {
                     bail!(
                         "program.dwell_units = {other:?}: must be \"seconds\" or \"milliseconds\""
@@ -861,7 +861,7 @@ pub fn to_toml(s: &Setup) -> String {
         t,
         "dialect = \"{}\"",
         match g.dialect {
-            Dialect::Ngc => "ngc",
+            Dialect::Rs274 => "ngc",
             Dialect::Gixa => "gixa",
         }
     );
@@ -870,7 +870,7 @@ pub fn to_toml(s: &Setup) -> String {
         "dwell_units = \"{}\"",
         match g.dwell_units {
             DwellUnits::Seconds => "seconds",
-            DwellUnits::Milliseconds => "milliseconds",
+            DwellUnits::FanucIntegerMillis => "milliseconds",
         }
     );
     let _ = writeln!(t, "peck_clearance = {}", mm(g.peck_clearance));

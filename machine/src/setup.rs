@@ -19,23 +19,9 @@ pub const MAX_USER_MCODES: usize = 16;
 /// Commands a user M-code list may hold.
 pub const MAX_LIST_COMMANDS: usize = 8;
 
-/// G-code dialect profile (DESIGN §3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Dialect {
-    /// RS274NGC / Fanuc-style mill programs (LinuxCNC is the oracle).
-    Ngc,
-    /// The seed controller's dialect (seed 003): two-digit G words, `;` comments, centre modes …
-    Gixa,
-}
-
-/// How G4's P word is read.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum DwellUnits {
-    /// P in seconds, decimals allowed (RS274NGC).
-    Seconds,
-    /// Integer P in milliseconds (classic Fanuc).
-    Milliseconds,
-}
+/// The dialect and the G4 P units are the interpreter's own types (one set for the setup, the
+/// flash blob and the interpreter).
+pub use crate::gcode::{Dialect, DwellUnits};
 
 /// Per-axis setup.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -347,7 +333,7 @@ impl Default for Setup {
                 arc_max_segments: 0,
             },
             program: ProgramSetup {
-                dialect: Dialect::Ngc,
+                dialect: Dialect::Rs274,
                 dwell_units: DwellUnits::Seconds,
                 peck_clearance: 254_000,
                 chip_break_retract: 254_000,
@@ -416,21 +402,14 @@ impl Default for Setup {
 impl Setup {
     /// The interpreter's part of the setup.
     pub fn interp_config(&self) -> crate::gcode::InterpConfig {
-        use crate::gcode::{config::ToolEntry, Dialect as GDialect, DwellUnits as GDwell};
+        use crate::gcode::config::ToolEntry;
         let p = &self.program;
         let mut c = match p.dialect {
-            Dialect::Ngc => crate::gcode::InterpConfig::default(),
+            Dialect::Rs274 => crate::gcode::InterpConfig::default(),
             Dialect::Gixa => crate::gcode::InterpConfig::gixa(),
         };
-        c.dialect = match p.dialect {
-            Dialect::Ngc => GDialect::Rs274,
-            Dialect::Gixa => GDialect::Gixa,
-        };
         c.axis_count = self.axis_count;
-        c.dwell_units = match p.dwell_units {
-            DwellUnits::Seconds => GDwell::Seconds,
-            DwellUnits::Milliseconds => GDwell::FanucIntegerMillis,
-        };
+        c.dwell_units = p.dwell_units;
         c.peck_clearance = p.peck_clearance;
         c.gixa.partial_retract = p.chip_break_retract;
         c.work_offsets = p.work_offsets;

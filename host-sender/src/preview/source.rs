@@ -1,40 +1,16 @@
 //! Program text → canonical actions with the core's interpreter, configured from the machine setup.
 
 use super::model::{Interpreted, ProgramError};
-use gantry_machine::gcode::{self, InterpConfig, Interpreter, MemorySource};
-use gantry_machine::setup::{self, Setup};
+use gantry_machine::gcode::{Interpreter, MemorySource};
+use gantry_machine::setup::Setup;
 
 /// Most actions one preview interprets (endless loops, huge repeat counts).
 const MAX_ACTIONS: usize = 2_000_000;
 
-/// The interpreter settings the setup implies (dialect, axes, offsets, homes, tools, pecks).
-pub fn interp_config(s: &Setup) -> InterpConfig {
-    let mut c = match s.program.dialect {
-        setup::Dialect::Ngc => InterpConfig::default(),
-        setup::Dialect::Gixa => InterpConfig::gixa(),
-    };
-    c.axis_count = s.axis_count;
-    c.work_offsets = s.program.work_offsets;
-    c.g28_position = s.program.g28_home;
-    c.g30_position = s.program.g30_home;
-    c.peck_clearance = s.program.peck_clearance;
-    c.dwell_units = match s.program.dwell_units {
-        setup::DwellUnits::Seconds => gcode::DwellUnits::Seconds,
-        setup::DwellUnits::Milliseconds => gcode::DwellUnits::FanucIntegerMillis,
-    };
-    for t in &s.program.tools {
-        c.set_tool(t.number, t.length);
-    }
-    for m in &s.program.user_mcodes {
-        c.add_user_m_code(*m);
-    }
-    c
-}
-
 /// Interprets a whole program. Stops at the first error (returned with its line and message),
 /// after one pass of a main program that loops with M99, or after [`MAX_ACTIONS`] actions.
 pub fn interpret(program: &[u8], setup: &Setup) -> Interpreted {
-    let mut interp = Interpreter::new(&interp_config(setup));
+    let mut interp = Interpreter::new(&setup.interp_config());
     let mut src = MemorySource::new(program);
     let mut out = Vec::new();
     while let Some(item) = interp.next(&mut src) {

@@ -5,9 +5,10 @@
 
 use crate::canon::Plane;
 use crate::units::{Nm, Pos, MAX_AXES};
+use serde::{Deserialize, Serialize};
 
-/// Which G-code dialect to interpret.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Which G-code dialect to interpret (also the setup's `program.dialect`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Dialect {
     /// RS274NGC / Fanuc mill programs as CAM posts emit them (LinuxCNC is the oracle).
     Rs274,
@@ -15,8 +16,8 @@ pub enum Dialect {
     Gixa,
 }
 
-/// How a G4 P (or canned-cycle P) number is read.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// How a G4 P (or canned-cycle P) number is read (also the setup's `program.dwell_units`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum DwellUnits {
     /// P is seconds, with or without a decimal point (LinuxCNC).
     Seconds,
