@@ -1,5 +1,6 @@
-//! Property test: arbitrary bytes and G-code-like token soup never panic the interpreter, and its
-//! memory stays bounded (it is a fixed-size value; no heap exists in the crate).
+//! Property test: arbitrary bytes and G-code-like token soup never panic the interpreter, every
+//! action and error it gives names a line of the program, the same program gives the same items
+//! twice, and its memory stays bounded (it is a fixed-size value; no heap exists in the crate).
 //!
 //! The default suite runs a few thousand executions. The long run is ignored by default:
 //! `GCODE_FUZZ_EXECUTIONS=1000000 cargo test --release -p gantry-machine --test gcode_fuzz -- --ignored --nocapture`
@@ -136,29 +137,68 @@ fn random_bytes(rng: &mut Rng, out: &mut Vec<u8>) {
     }
 }
 
-/// Runs one execution; returns the number of items pulled.
-fn execute(program: &[u8], cfg: &InterpConfig) -> usize {
+/// What one execution pulled: actions, errors, and a digest of the whole sequence.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Pulled {
+    actions: usize,
+    errors: usize,
+    digest: u64,
+}
+
+/// Runs one execution. Every action and error must carry a line number of the program (at most
+/// one past its last line break: the line an error at the end of the text is reported on).
+fn execute(program: &[u8], cfg: &InterpConfig) -> Pulled {
+    let lines = program
+        .iter()
+        .filter(|&&b| b == b'\n' || b == b'\r')
+        .count() as u32
+        + 1;
     let mut it = Interpreter::new(cfg);
     let mut src = MemorySource::new(program);
-    let mut n = 0;
-    while let Some(_item) = it.next(&mut src) {
-        n += 1;
+    let mut p = Pulled::default();
+    let mut mix = |v: u64| p.digest = (p.digest ^ v).wrapping_mul(0x100_0000_01b3);
+    let (mut actions, mut errors) = (0, 0);
+    while let Some(item) = it.next(&mut src) {
+        match item {
+            Ok(c) => {
+                assert!(
+                    c.line <= lines,
+                    "action on line {} of {lines}: {c:?}",
+                    c.line
+                );
+                mix(u64::from(c.line));
+                mix(format!("{:?}", c.action).len() as u64);
+                actions += 1;
+            }
+            Err(e) => {
+                assert!(
+                    e.line <= lines,
+                    "error on line {} of {lines}: {e:?}",
+                    e.line
+                );
+                mix(u64::from(e.code.number()) << 32 | u64::from(e.line));
+                errors += 1;
+            }
+        }
         // Endless M99 loops and huge repeat counts are legal: stop pulling, as a host would.
-        if n >= 500 {
+        if actions + errors >= 500 {
             break;
         }
     }
-    n
+    p.actions = actions;
+    p.errors = errors;
+    p
 }
 
-fn fuzz(executions: u64, seed: u64) -> (u64, usize) {
+/// Runs `executions` programs; the totals of what they pulled.
+fn fuzz(executions: u64, seed: u64) -> Pulled {
     let mut rng = Rng(seed | 1);
     let mut configs = [InterpConfig::default(), InterpConfig::gixa()];
     configs[0].add_user_m_code(100);
     configs[0].set_tool(1, 10_000_000);
     configs[0].block_delete = true;
     let mut buf = Vec::with_capacity(4096);
-    let mut items = 0;
+    let mut total = Pulled::default();
     for i in 0..executions {
         buf.clear();
         if i % 4 == 0 {
@@ -169,20 +209,25 @@ fn fuzz(executions: u64, seed: u64) -> (u64, usize) {
         if std::env::var("GCODE_FUZZ_TRACE").is_ok() {
             eprintln!("#{i} cfg{} {:?}", i % 2, String::from_utf8_lossy(&buf));
         }
-        items += execute(&buf, &configs[(i % 2) as usize]);
+        let cfg = &configs[(i % 2) as usize];
+        let p = execute(&buf, cfg);
+        if i % 16 == 0 {
+            assert_eq!(execute(&buf, cfg), p, "program #{i} ran differently twice");
+        }
+        total.actions += p.actions;
+        total.errors += p.errors;
+        total.digest ^= p.digest;
     }
-    (executions, items)
+    total
 }
 
 #[test]
 fn arbitrary_input_never_panics() {
     assert!(std::mem::size_of::<Interpreter>() <= 4096);
-    let (n, items) = fuzz(1_000, 0x5eed_0001);
-    assert_eq!(n, 1_000);
-    assert!(
-        items > 3_000,
-        "the generator should reach the interpreter's depths: {items}"
-    );
+    let p = fuzz(1_000, 0x5eed_0001);
+    // The generator reaches the interpreter's depths: many programs run actions, many fail.
+    assert!(p.actions > 10_000, "{p:?}");
+    assert!(p.errors > 10_000, "{p:?}");
 }
 
 #[test]
@@ -193,7 +238,10 @@ fn arbitrary_input_never_panics_long_run() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(1_000_000u64);
     let start = Instant::now();
-    let (n, items) = fuzz(executions, 0xfeed_beef);
+    let p = fuzz(executions, 0xfeed_beef);
     let secs = start.elapsed().as_secs_f64();
-    println!("gcode fuzz: {n} executions, {items} items pulled, {secs:.1} s");
+    println!(
+        "gcode fuzz: {executions} executions, {} actions, {} errors, {secs:.1} s",
+        p.actions, p.errors
+    );
 }

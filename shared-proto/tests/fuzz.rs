@@ -314,11 +314,13 @@ impl Fuzzer {
     }
 }
 
-/// (executions, frames emitted, messages delivered by either endpoint)
-fn run(execs: u64, seed: u64) -> (u64, u64, u64) {
+/// (frames emitted, messages delivered by either endpoint, frames of the fuzz input the reference
+/// decoder accepted, and rejected for broken COBS, a bad CRC or header, shortness or length)
+fn run(execs: u64, seed: u64) -> (u64, u64, u64, u64) {
     let mut done = 0;
     let mut frames = 0;
     let mut delivered = 0;
+    let (mut accepted, mut rejected) = (0, 0);
     let mut s = seed;
     while done < execs {
         // A fresh pair of endpoints every 2 000 executions; state carries over
@@ -331,18 +333,32 @@ fn run(execs: u64, seed: u64) -> (u64, u64, u64) {
         done += n;
         frames += f.frames_out;
         delivered += (f.board.stats().delivered + f.host.stats().delivered) as u64;
+        let d = f.dec.stats();
+        accepted += u64::from(d.frames);
+        rejected += u64::from(d.bad_cobs + d.runts + d.bad_crc + d.bad_header + d.oversize);
         s = s.wrapping_add(0x9E37_79B9);
     }
-    (done, frames, delivered)
+    (frames, delivered, accepted, rejected)
 }
 
 #[test]
 fn fuzz_decoder_and_endpoints() {
-    let (n, frames, delivered) = run(FUZZ_DEFAULT, 1);
-    assert_eq!(n, FUZZ_DEFAULT);
-    // The generator reaches the connected states, not just the decoder.
-    assert!(frames > 0 && delivered > 0, "{frames} {delivered}");
-    println!("fuzz: {n} executions, {frames} frames emitted, {delivered} messages delivered");
+    let (frames, delivered, accepted, rejected) = run(FUZZ_DEFAULT, 1);
+    println!(
+        "fuzz: {FUZZ_DEFAULT} executions, {frames} frames emitted, {delivered} messages \
+         delivered, input frames {accepted} accepted / {rejected} rejected"
+    );
+    // The endpoints kept their invariants (checked in every execution) through both kinds of
+    // input: valid frames (the generator reaches the connected states and messages are
+    // delivered) and damaged ones (every rejection path of the decoder is fed).
+    assert!(
+        frames > FUZZ_DEFAULT && delivered > 1_000,
+        "{frames} {delivered}"
+    );
+    assert!(
+        accepted > 1_000 && rejected > 1_000,
+        "{accepted} {rejected}"
+    );
 }
 
 #[test]
@@ -353,7 +369,8 @@ fn fuzz_long() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(1_000_000);
     let t = Instant::now();
-    let (n, frames, delivered) = run(execs, 0x5EED);
+    let (frames, delivered, accepted, rejected) = run(execs, 0x5EED);
+    let n = execs;
     let dt = t.elapsed();
     println!(
         "board endpoint {} B, host endpoint {} B",
@@ -361,7 +378,8 @@ fn fuzz_long() {
         std::mem::size_of::<HostEndpoint>()
     );
     println!(
-        "fuzz: {n} executions, {frames} frames emitted, {delivered} messages delivered, {:.1} s, {:.0} exec/s",
+        "fuzz: {n} executions, {frames} frames emitted, {delivered} messages delivered, \
+         input frames {accepted} accepted / {rejected} rejected, {:.1} s, {:.0} exec/s",
         dt.as_secs_f64(),
         n as f64 / dt.as_secs_f64()
     );

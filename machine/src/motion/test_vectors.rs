@@ -351,8 +351,12 @@ pub const VECTORS: &[Vector] = &[
 mod tests {
     extern crate std;
 
-    /// `cargo test -p gantry-machine --lib print_motion_digests -- --nocapture` regenerates them.
+    /// Prints every motion vector's digest, to update the table above after an intended change:
+    /// `cargo test -p gantry-machine --lib print_motion_digests -- --ignored --nocapture`. The
+    /// digests are asserted by `vectors::tests::every_vector_matches_on_the_host` (and on the
+    /// Cortex-M4 by `target-tests`).
     #[test]
+    #[ignore = "generator, not a test: prints the digests (asserted by every_vector_matches_on_the_host)"]
     fn print_motion_digests() {
         for v in super::VECTORS {
             std::println!("{} {:#010x}", v.name, (v.run)());
