@@ -1,6 +1,7 @@
 //! Table checks run by `cargo test` in boards/.
 
 use super::*;
+use crate::Pin;
 use std::collections::BTreeMap;
 
 fn pin(name: &str) -> Pin {

@@ -1,86 +1,23 @@
 //! Board glue: expands a `boards/*.rs` table into configured embassy drivers.
 //!
-//! `gantry_board!` is invoked by the board file chosen with the `board-*` feature (see `main.rs`).
-//! It produces the board's constants (name, clocks, step/dir pin numbers) and `split()`, which moves
+//! `gantry_board!` is invoked by the board file chosen with the `board-*` feature (see `main.rs`);
+//! `gantry_boards::board_table!` reads the table (the same reader as the host check in
+//! `boards/src/lib.rs`) and hands it to `expand_board!` here, which produces the board's constants (name, clocks, step/dir pin numbers) and `split()`, which moves
 //! every listed pin out of `Peripherals` into a driver in its power-up state: outputs off, steppers
 //! disabled. A pin listed twice fails to compile (use of a moved field), and a wrong EXTI channel,
 //! a non-ADC1 analog pin or a step/dir pin on a second port fail too.
 
 use embassy_stm32::pac;
 
-/// A GPIO pin by port index (A = 0) and number, parsed from its embassy name at compile time.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct PinId {
-    pub port: u8,
-    pub pin: u8,
-}
+/// Pins, clock numbers and the table reader are the boards crate's (shared with the host check).
+pub use gantry_boards::{same_port, Clocks, Pin as PinId};
 
-impl PinId {
-    /// Parses `"PB12"`; fails const evaluation on anything else.
-    pub const fn parse(name: &str) -> PinId {
-        let b = name.as_bytes();
-        assert!(b.len() == 3 || b.len() == 4, "pin name is P<port><0..15>");
-        assert!(
-            b[0] == b'P' && b[1] >= b'A' && b[1] <= b'K',
-            "pin name is P<port><0..15>"
-        );
-        let mut pin = (b[2] - b'0') as u32;
-        if b.len() == 4 {
-            pin = pin * 10 + (b[3] - b'0') as u32;
-        }
-        assert!(pin < 16, "pin number above 15");
-        PinId {
-            port: b[1] - b'A',
-            pin: pin as u8,
-        }
+/// The pin named `name` (`"PB12"`); fails const evaluation on anything else.
+pub const fn pin(name: &str) -> PinId {
+    match PinId::parse(name) {
+        Some(p) => p,
+        None => panic!("pin name is P<port><0..15>"),
     }
-
-    /// Single-bit mask of this pin in a 16-bit port.
-    pub const fn mask(self) -> u32 {
-        1 << self.pin
-    }
-}
-
-/// The board's clock tree as plain numbers (converted to embassy's RCC config in `clocks`).
-#[derive(Clone, Copy, Debug)]
-pub struct Clocks {
-    pub hse_hz: u32,
-    pub hse_bypass: bool,
-    pub pll_m: u32,
-    pub pll_n: u32,
-    pub pll_p: u32,
-    pub pll_q: u32,
-    pub apb1_div: u32,
-    pub apb2_div: u32,
-}
-
-impl Clocks {
-    /// SYSCLK = HCLK (AHB /1).
-    pub const fn sysclk_hz(&self) -> u32 {
-        self.hse_hz / self.pll_m * self.pll_n / self.pll_p
-    }
-
-    /// Clock of the timers on APB1 (TIM2): twice PCLK1 unless APB1 is undivided.
-    pub const fn tim_apb1_hz(&self) -> u32 {
-        let pclk1 = self.sysclk_hz() / self.apb1_div;
-        if self.apb1_div == 1 {
-            pclk1
-        } else {
-            2 * pclk1
-        }
-    }
-}
-
-/// True if every pin of `pins` is on the port of the first one.
-pub const fn same_port(pins: &[PinId]) -> bool {
-    let mut i = 1;
-    while i < pins.len() {
-        if pins[i].port != pins[0].port {
-            return false;
-        }
-        i += 1;
-    }
-    true
 }
 
 /// GPIO register block of a port index (ports A-E exist on every supported chip).
@@ -215,38 +152,38 @@ macro_rules! spindle_pwm {
 /// Spindle PWM frequency (VFD 0-10 V converters and laser drivers take 1 kHz).
 pub const SPINDLE_PWM_HZ: u32 = 1_000;
 
-/// Expands a board table (see boards/README.md) into constants, driver structs and `split()`.
+/// The board files call `gantry_board!`: read by `gantry_boards::board_table!`, expanded by
+/// [`expand_board!`].
 macro_rules! gantry_board {
+    ($($table:tt)*) => {
+        gantry_boards::board_table!(expand_board; $($table)*);
+    };
+}
+
+/// Expands a board table, as `board_table!` hands it over, into constants, driver structs and
+/// `split()`.
+macro_rules! expand_board {
     (
         name: $name:literal,
         probe_chip: $chip:literal,
-        clocks: {
-            hse_hz: $hse:expr,
-            hse_bypass: $bypass:expr,
-            pll_m: $m:expr,
-            pll_n: $n:expr,
-            pll_p: $p:expr,
-            pll_q: $q:expr,
-            apb1_div: $apb1:expr,
-            apb2_div: $apb2:expr $(,)?
-        },
-        step: [$($step:ident),+ $(,)?],
-        dir: [$($dir:ident),+ $(,)?],
+        clocks: $clocks:expr,
+        step: [$($step:ident),+],
+        dir: [$($dir:ident),+],
         stepper_enable: $en:ident,
-        limit: [$($lim:ident $lim_ch:ident),+ $(,)?],
-        $(limit_max: [$($limx:ident $limx_ch:ident),+ $(,)?],)?
+        limit: [$($lim:ident $lim_ch:ident),+],
+        limit_max: [$($limx:ident $limx_ch:ident),*],
         feed_hold: $hold:ident $hold_ch:ident,
         abort: $abort:ident $abort_ch:ident,
-        cycle_start: [$cs1:ident $cs1_ch:ident, $cs2:ident $cs2_ch:ident $(,)?],
+        cycle_start: [$cs1:ident $cs1_ch:ident, $cs2:ident $cs2_ch:ident],
         fro_pot: $fro:ident,
-        joystick_axes: [$jx:ident, $jy:ident $(,)?],
-        joystick_switches: [$($jsw:ident),* $(,)?],
+        joystick_axes: [$jx:ident, $jy:ident],
+        joystick_switches: [$($jsw:ident),*],
         spindle_enable: $sp_en:ident,
         spindle_dir: $sp_dir:ident,
         spindle_pwm: $sp_pwm:ident $sp_pwm_ch:ident,
         coolant_flood: $flood:ident,
         coolant_mist: $mist:ident,
-        outputs: [$($out:ident),+ $(,)?] $(,)?
+        outputs: [$($out:ident),+],
     ) => {
         use embassy_stm32::adc::{AdcChannel as _, AnyAdcChannel};
         use embassy_stm32::exti::ExtiInput;
@@ -260,38 +197,29 @@ macro_rules! gantry_board {
         /// probe-rs chip name for flashing.
         pub const PROBE_CHIP: &str = $chip;
         /// Clock tree numbers.
-        pub const CLOCKS: $crate::board::Clocks = $crate::board::Clocks {
-            hse_hz: $hse,
-            hse_bypass: $bypass,
-            pll_m: $m,
-            pll_n: $n,
-            pll_p: $p,
-            pll_q: $q,
-            apb1_div: $apb1,
-            apb2_div: $apb2,
-        };
+        pub const CLOCKS: $crate::board::Clocks = $clocks;
         /// Number of stepper axes wired (X Y Z A ... order).
         pub const AXES: usize = [$(stringify!($step)),+].len();
         /// Step pins, axis order.
-        pub const STEP: [PinId; AXES] = [$(PinId::parse(stringify!($step))),+];
+        pub const STEP: [PinId; AXES] = [$($crate::board::pin(stringify!($step))),+];
         /// Dir pins, axis order.
-        pub const DIR: [PinId; AXES] = [$(PinId::parse(stringify!($dir))),+];
+        pub const DIR: [PinId; AXES] = [$($crate::board::pin(stringify!($dir))),+];
         /// Number of user outputs.
         pub const USER_OUTPUTS: usize = [$(stringify!($out)),+].len();
         /// User output pins, output 0 first (the step ISR switches them by register for the
         /// on-the-fly events).
-        pub const USER_PINS: [PinId; USER_OUTPUTS] = [$(PinId::parse(stringify!($out))),+];
+        pub const USER_PINS: [PinId; USER_OUTPUTS] = [$($crate::board::pin(stringify!($out))),+];
         /// Outputs that are low in the safe state: spindle enable/dir/PWM, coolant, user outputs.
         pub const SAFE_LOW: [PinId; 5 + USER_OUTPUTS] = [
-            PinId::parse(stringify!($sp_en)),
-            PinId::parse(stringify!($sp_dir)),
-            PinId::parse(stringify!($sp_pwm)),
-            PinId::parse(stringify!($flood)),
-            PinId::parse(stringify!($mist)),
-            $(PinId::parse(stringify!($out))),+
+            $crate::board::pin(stringify!($sp_en)),
+            $crate::board::pin(stringify!($sp_dir)),
+            $crate::board::pin(stringify!($sp_pwm)),
+            $crate::board::pin(stringify!($flood)),
+            $crate::board::pin(stringify!($mist)),
+            $($crate::board::pin(stringify!($out))),+
         ];
         /// Stepper enable pin (active low: high = steppers disabled, the safe state).
-        pub const STEPPER_ENABLE: PinId = PinId::parse(stringify!($en));
+        pub const STEPPER_ENABLE: PinId = $crate::board::pin(stringify!($en));
 
         const _: () = assert!(AXES <= 6, "the step tables cover 6 axes");
         const _: () = assert!($crate::board::same_port(&STEP), "step pins must share one port");
@@ -315,7 +243,7 @@ macro_rules! gantry_board {
         /// Index in [`Inputs::exti`] of the first separate max-limit input (if any).
         pub const LIMIT_MAX0: usize = AXES + 4;
         /// Number of separate max-limit inputs: 0 or one per axis.
-        pub const LIMIT_MAX_INPUTS: usize = <[&str]>::len(&[$($(stringify!($limx),)+)?]);
+        pub const LIMIT_MAX_INPUTS: usize = <[&str]>::len(&[$(stringify!($limx)),*]);
         /// Number of EXTI inputs.
         pub const EXTI_INPUTS: usize = AXES + 4 + LIMIT_MAX_INPUTS;
         /// Number of joystick switches.
@@ -393,7 +321,7 @@ macro_rules! gantry_board {
                         ExtiInput::new(p.$abort, p.$abort_ch, Pull::Up, irqs),
                         ExtiInput::new(p.$cs1, p.$cs1_ch, Pull::Up, irqs),
                         ExtiInput::new(p.$cs2, p.$cs2_ch, Pull::Up, irqs),
-                        $($(ExtiInput::new(p.$limx, p.$limx_ch, Pull::Up, irqs),)+)?
+                        $(ExtiInput::new(p.$limx, p.$limx_ch, Pull::Up, irqs),)*
                     ],
                     joystick_switches: [$(Input::new(p.$jsw, Pull::Up)),*],
                 },
