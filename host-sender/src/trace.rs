@@ -53,7 +53,7 @@ pub fn trace(
     let error: Rc<RefCell<Option<std::io::Error>>> = Rc::default();
     let mut board = EmulatedBoard::new(setup);
     let (w, e) = (writer.clone(), error.clone());
-    // Steppers are enabled by the first motion (DESIGN §6) and stay enabled for the job. Input
+    // Steppers are enabled by the first motion (docs/controller.md, "Safety rules as built") and stay enabled for the job. Input
     // changes come as events without steps.
     let mut enabled = false;
     board.observe(move |p: PinEvent| {

@@ -107,7 +107,7 @@ pub const MAX_MCODE_COMMANDS: usize = 6;
 /// User outputs (bit numbers 0..16 of [`crate::controller::OutputLevels::user`]).
 pub const USER_OUTPUTS: u8 = 16;
 
-/// One entry of a command list (homing lists, user M-code lists), seed 003 §2.12 reduced to
+/// One entry of a command list (homing lists, user M-code lists), the GIXA controller's command lists reduced to
 /// output actions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ListCommand {
@@ -140,23 +140,23 @@ pub struct InputSetup {
     /// Active-low pins: bit i set = input bit i reads active when its pin is low.
     pub invert: u32,
     /// Consecutive equal 1 ms samples before an input level is accepted (1 = no debounce).
-    /// Limit switches stop the step kernel from the raw pin regardless (DESIGN §6).
+    /// Limit switches stop the step kernel from the raw pin regardless (docs/controller.md, "Safety rules as built").
     pub debounce_ms: u8,
     /// Installed limit switches: bit i = axis i (X = bit 0).
     pub limit_min: u8,
     pub limit_max: u8,
     /// Hard limits enabled: an installed switch stops motion and raises the alarm.
     pub hard_limits: bool,
-    /// Feed-hold and abort switches installed (seed 003 §2.4).
+    /// Feed-hold and abort switches installed (docs/controller.md, "Operator inputs").
     pub feed_hold: bool,
     pub abort: bool,
-    /// Feed-rate override potentiometer installed (seed 003 §2.5).
+    /// Feed-rate override potentiometer installed (docs/controller.md, "Operator inputs").
     pub fro_pot: bool,
     /// ADC full-scale reading (a 12-bit ADC: 4095).
     pub adc_max: u16,
 }
 
-/// Limit-switch seek (homing) of one axis, seed 003 §2.2.
+/// Limit-switch seek (homing) of one axis (docs/controller.md, "Homing").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct HomingAxis {
     /// Order in the seek: lower goes first, one axis at a time; 0 = the axis is not homed.
@@ -184,7 +184,7 @@ pub struct HomingSetup {
     pub after_retract: Vec<ListCommand, MAX_HOMING_COMMANDS>,
 }
 
-/// Joystick jog, seed 003 §2.6.
+/// Joystick jog (docs/controller.md, "Jogging").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct JogSetup {
     /// Axis pairs by stage-pair selector position: `[down/up (S1/S4) axis, left/right (S2/S3) axis]`;
@@ -236,7 +236,7 @@ pub struct LinkSetup {
 }
 
 impl McodeList {
-    /// The output this list switches on the fly (seed 003 "On the Fly" switching): a list of
+    /// The output this list switches on the fly (docs/controller.md, "On-the-fly outputs"): a list of
     /// exactly one `set n` or `clear n` (n < 16) does not stop the motion, its output switches at
     /// the M code's exact place on the path. `None` for any other list (no entry, several, a
     /// dwell or a wait): the motion stops and the list runs at rest.

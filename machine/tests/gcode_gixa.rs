@@ -1,4 +1,4 @@
-//! The `gixa` dialect (seed 003 §1): two-digit G words, `;` comments, I/J centre modes, J as the Z
+//! The `gixa` dialect (`gcode::Dialect::Gixa`, docs/settings.md): two-digit G words, `;` comments, I/J centre modes, J as the Z
 //! centre in G18/G19, G04 as a stored dwell, GIXA canned cycles, M98 P<N>.
 #![allow(clippy::field_reassign_with_default, clippy::type_complexity)]
 

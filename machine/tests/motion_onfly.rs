@@ -1,4 +1,4 @@
-//! On-the-fly outputs through the motion core (seed 003 "On the Fly" switching): an output event
+//! On-the-fly outputs through the motion core (docs/controller.md, "On-the-fly outputs"): an output event
 //! queued between two moves rides on the second move's first segment and is reported by the
 //! kernel tick that starts it, exactly at the junction step, at full speed.
 

@@ -232,7 +232,7 @@ impl<F: NorFlash> SettingsStore<F> {
 
 /// When to write a changed setup: only with the controller idle and the machine at rest, because
 /// a flash write or erase stalls every instruction fetch (the step interrupt included) on the
-/// single-bank STM32F4 parts (DESIGN §6).
+/// single-bank STM32F4 parts (firmware/README.md, "Settings in flash").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SavePolicy {
     pending: bool,

@@ -37,7 +37,7 @@ fn held_mid_arc(
     let at = eb.kernel.position();
     eb.run_ms(500);
     assert_eq!(eb.kernel.position(), at, "stopped while held");
-    // A hold keeps spindle and coolant running (seed 003 §4.3: no automatic outputs).
+    // A hold keeps spindle and coolant running (docs/controller.md, "Outputs": no automatic outputs).
     assert!(eb.board.output_levels().spindle_enable && eb.board.output_levels().flood);
     eb
 }

@@ -1,4 +1,4 @@
-//! Homing (limit-switch seek, seed 003 §2.2) on the emulated board: priority order one axis at a
+//! Homing (limit-switch seek, docs/controller.md "Homing") on the emulated board: priority order one axis at a
 //! time, constant seek rate, retract at rapid to the exact step, set home, command lists, and the
 //! failure alarms.
 

@@ -1,4 +1,4 @@
-//! On-the-fly outputs on the emulated board (seed 003 "On the Fly" switching): an M code whose
+//! On-the-fly outputs on the emulated board (docs/controller.md, "On-the-fly outputs"): an M code whose
 //! list is one `set`/`clear` switches its output at the exact step of the path, at full speed;
 //! anything else stops the motion as before. Measured on the virtual pins (the emulator's pin
 //! events, as `gantry simulate --vcd` records them).

@@ -209,7 +209,7 @@ fn a_hard_limit_stops_at_once_and_switches_the_outputs_off_in_the_pass_that_sees
     eb.add_switch(0, true, 10 * MM);
     job(&mut eb, "G21 G90\nM3 S12000\nM8\nG1 X50 F1200\nM30\n");
     until_state(&mut eb, State::Alarm, 10_000);
-    // No deceleration: the step that reached the switch is the last one (DESIGN §6), the
+    // No deceleration: the step that reached the switch is the last one (docs/controller.md, "Safety rules as built"), the
     // kernel halted on the next tick.
     assert_eq!(steps(&eb)[0], 10 * STEPS_PER_MM);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));

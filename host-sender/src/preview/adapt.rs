@@ -1,5 +1,5 @@
 //! Adapters into the renderer's input: canonical actions (from the interpreter or from canon JSON
-//! Lines, DESIGN §7) become [`PreviewMove`]s in millimetres, with the programmed feed as the speed
+//! Lines, tests/golden/rs274/README.md) become [`PreviewMove`]s in millimetres, with the programmed feed as the speed
 //! and a time estimate without acceleration.
 
 use super::geom::length;
@@ -15,7 +15,7 @@ fn mm3(p: &Pos) -> P3 {
     [0, 1, 2].map(|i| p[i] as f64 / NM_PER_MM as f64)
 }
 
-/// Turns canonical actions into a preview job. The machine starts at 0,0,0 (DESIGN §7); speeds are
+/// Turns canonical actions into a preview job. The machine starts at 0,0,0 (as `gantry check --canon` assumes); speeds are
 /// the programmed feeds and the total time is estimated from feeds and per-axis rapid rates
 /// without acceleration (the planner's figures replace both when available).
 pub fn from_canon(actions: &[Canon], setup: &Setup, title: &str) -> PreviewJob {
@@ -84,7 +84,7 @@ fn estimate_seconds(m: &PreviewMove, rates_mm_min: &[f64; 3]) -> f64 {
     axis_limited.max(at_feed) * 60.0
 }
 
-/// Canon JSON Lines (DESIGN §7) back into canonical actions. Records other than motion are
+/// Canon JSON Lines (tests/golden/rs274/README.md) back into canonical actions. Records other than motion are
 /// skipped; an `error` record ends the program and is returned with its line and message.
 pub fn canon_from_jsonl(text: &str) -> anyhow::Result<Interpreted> {
     let mut out = Vec::new();

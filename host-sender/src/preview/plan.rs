@@ -14,7 +14,7 @@ use gantry_machine::setup::Setup;
 use gantry_machine::units::NM_PER_MM;
 use std::collections::HashMap;
 
-/// Look-ahead ring size used for the preview (as on the board, DESIGN §4).
+/// Look-ahead ring size used for the preview (as on the board, `motion::pipeline`).
 const RING: usize = 128;
 
 /// Planned peak speed (mm/min) per source line, and the total time (s), of a program.

@@ -1,4 +1,4 @@
-//! On-the-fly output events (seed 003 "On the Fly" switching): one user output switched on or off
+//! On-the-fly output events (docs/controller.md, "On-the-fly outputs"): one user output switched on or off
 //! at an exact point of the path, carried by the motion itself.
 //!
 //! An M code whose command list is exactly one `set n` or `clear n` does not stop the motion: the

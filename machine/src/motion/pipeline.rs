@@ -16,7 +16,7 @@
 //! many with [`Motion::segments_dropped`], and prep continues from the end of the last one kept
 //! ([`super::history`]). An owner that never drops keeps the old behaviour (the queue runs out).
 //!
-//! On-the-fly outputs (seed 003): [`Motion::push_output`] takes an M code that switches one output
+//! On-the-fly outputs (docs/controller.md, "On-the-fly outputs"): [`Motion::push_output`] takes an M code that switches one output
 //! without stopping. Its [`OutputEvent`] waits for the next line block and rides on it, so it
 //! fires as that block starts: at the junction when it stands between two moves (at any speed),
 //! before the motion when it shares a block with it. Two of them between the same pair of moves
@@ -234,7 +234,7 @@ impl<const N: usize> Motion<N> {
 
     /// Queues the on-the-fly user M code `code` of source line `line` (its list is one output
     /// command) that switches `output` without stopping: it fires as the next line block starts.
-    /// A second one before that block makes both sync points (seed 003: two M codes between the
+    /// A second one before that block makes both sync points (docs/controller.md, "On-the-fly outputs": two M codes between the
     /// same pair of motion blocks break the contour), performed as
     /// `Action::UserMCode { code, at_rest: false }`. `output` may be [`OutputEvent::NONE`] (a dry
     /// run skips the output but keeps the motion the same).
