@@ -9,7 +9,7 @@ use crate::controller::{fro_from_adc, AdcReadings, State};
 impl Board {
     /// Cycle start: resumes a hold or an M0/M1/single-block stop.
     pub fn cycle_start(&mut self) {
-        if self.state == State::Hold {
+        if self.state() == State::Hold {
             self.resume();
         }
     }
@@ -32,7 +32,7 @@ impl Board {
             self.abort();
         }
         if inputs.feed_hold {
-            if rose(Signal::FeedHold) && self.state == State::Run {
+            if rose(Signal::FeedHold) && self.state() == State::Run {
                 self.feed_hold();
             }
             if fell(Signal::FeedHold) && !self.setup.operator.resume_needs_cycle_start {
