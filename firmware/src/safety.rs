@@ -1,7 +1,7 @@
 //! The safe output state from any context, and the two handlers that use it: the panic handler
 //! and the HardFault handler (a fault must not leave the spindle running until the watchdog).
 //!
-//! Safe state (DESIGN §6): spindle enable/direction/PWM, coolant and user outputs low, stepper
+//! Safe state (docs/controller.md "Safety rules as built"): spindle enable/direction/PWM, coolant and user outputs low, stepper
 //! drivers disabled (enable pin high, active low), step timer stopped. Reset gives the same state
 //! (pins are inputs until `board_def::split` drives them to these levels), so after a panic the
 //! watchdog's reset keeps it.

@@ -11,7 +11,7 @@
 //! ADC readings, sampled and debounced once per main-loop pass exactly as the firmware does.
 //! Limit switches can be modelled at fixed machine positions ([`EmulatedBoard::add_switch`]): the
 //! switch pin follows the kernel's step position after every tick, and the kernel's limit flag is
-//! set in that same tick when the switch is armed, so the next tick stops (DESIGN §6).
+//! set in that same tick when the switch is armed, so the next tick stops (docs/controller.md "Safety rules as built").
 //!
 //! The firmware's motion marker (a RAM word that survives a reset, see
 //! `gantry_machine::controller::power_up`) is modelled too: [`EmulatedBoard::reset`] restarts the
@@ -88,7 +88,7 @@ impl LimitSwitch {
     }
 }
 
-/// Two motors on one step/dir channel (a ganged axis, seed 003 "Squaring Parallel Drives"):
+/// Two motors on one step/dir channel (a ganged axis squared by homing, docs/controller.md "Homing"):
 /// each motor moves only while its enable output is on, and its limit switch is gated by the same
 /// output; both switches share the axis's limit input.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,5 +1,5 @@
-//! The homing cycle on the board: lists, seek, retract and set home, axis by axis (seed 003
-//! §2.2). The pure parts (order, targets, switch bits) are in [`crate::controller::homing`].
+//! The homing cycle on the board: lists, seek, retract and set home, axis by axis (docs/controller.md
+//! "Homing"). The pure parts (order, targets, switch bits) are in [`crate::controller::homing`].
 
 use super::mode::{HomingRun, Mode};
 use super::{Board, MotionState, Pos};

@@ -1,5 +1,5 @@
 //! Jogging on the board: host jogs and the joystick (switches, modes, Mark/Release, analog
-//! stick), seed 003 §2.6. Targets and stick mapping are in [`crate::controller::jog`].
+//! stick), docs/controller.md "Jogging". Targets and stick mapping are in [`crate::controller::jog`].
 
 use super::mode::Mode;
 use super::{Board, BoardEvent, MarkEvent, MotionState, StickMove, ERROR_SOFT_LIMIT};
@@ -82,7 +82,7 @@ impl Board {
         }
     }
 
-    /// Joystick handling of one input sample (seed 003 §2.6).
+    /// Joystick handling of one input sample (docs/controller.md "Jogging").
     pub(super) fn joystick(&mut self, prev: InputBits, levels: InputBits, adc: AdcReadings) {
         let both = |l: InputBits| l.get(Signal::Mark) && l.get(Signal::Release);
         if both(levels) && !both(prev) {

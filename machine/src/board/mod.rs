@@ -36,7 +36,7 @@ use heapless::Deque;
 use mode::{Ending, HoldWhy, HomingRun, Job, JobKind, JobPhase, Mode, Ramp};
 pub use source::{JumpRequest, JumpTarget, StreamSource, LINE_CAPACITY};
 
-/// Planner ring size on the board (DESIGN §4: at least 128 blocks).
+/// Planner ring size on the board (look-ahead over at least 128 blocks, docs/architecture.md).
 pub const PLANNER_BLOCKS: usize = 128;
 /// Streamed lines the board buffers ahead of the interpreter.
 pub const LINE_BUFFER: usize = 16;
@@ -52,7 +52,7 @@ const MARK_QUEUE: usize = 4;
 /// Every limit-switch bit of [`InputBits`].
 pub const LIMIT_BITS: u32 = (0x3f << LIMIT_MIN_BIT) | (0x3f << LIMIT_MAX_BIT);
 
-/// The joystick's Mark switch was pressed in jog mode (seed 003 teach-in): the host hears where
+/// The joystick's Mark switch was pressed in jog mode (teach-in, docs/controller.md "Jogging"): the host hears where
 /// the machine stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MarkEvent {
@@ -101,7 +101,7 @@ pub enum BoardEvent {
     /// would have left the travel for alarm 2, the line running for alarms raised during a job;
     /// 0 = none).
     Alarm { code: AlarmCode, line: u32 },
-    /// A limit switch stopped motion (seed 003's "limit pop-up": the axis and the switch side).
+    /// A limit switch stopped motion (the axis and the switch side; docs/controller.md "Limit reports").
     /// Sent before alarm 1 for every tripped switch, and alone for the switch hits a homing
     /// list's `seek` commands cause, unless that list starts with `DisableLimitReport`.
     Limit { axis: u8, max: bool },
@@ -122,7 +122,7 @@ pub struct Outputs {
 }
 
 impl Outputs {
-    /// Everything off: the power-up and program-stop state (DESIGN §6).
+    /// Everything off: the power-up and program-stop state (docs/controller.md "Safety rules as built").
     pub const SAFE: Outputs = Outputs {
         spindle: Spindle::Off,
         rpm: 0,
@@ -143,7 +143,7 @@ pub struct Board {
     /// An action the motion queue had no room for yet.
     pending: Option<Canon>,
     outputs: Outputs,
-    /// Outputs to restore when a stopped program resumes (seed 003 stop/restore rules).
+    /// Outputs to restore when a stopped program resumes (stop/restore rules, docs/controller.md "Outputs").
     saved_outputs: Option<Outputs>,
     events: Deque<BoardEvent, EVENT_QUEUE>,
     /// Last line the motion has reached (prep finished a block of it).
@@ -640,7 +640,7 @@ impl Board {
         self.motion.set_rapid_override(pct);
     }
 
-    /// A hard limit tripped: the kernel has already stopped stepping (DESIGN §6). `kernel_steps`
+    /// A hard limit tripped: the kernel has already stopped stepping (docs/controller.md "Safety rules as built"). `kernel_steps`
     /// is where it stopped; the owner flushes its segment queue. The tripped axes lose home.
     pub fn hard_limit(&mut self, axes: u8, kernel_steps: &[i64; MAX_AXES]) {
         self.rebuild_motion(true, kernel_steps);
@@ -745,7 +745,7 @@ impl Board {
         self.motion.set_feed_override(self.feed_override);
     }
 
-    /// The program-stop sequence (seed 003 §4.3, M2/M30, abort, a job ended by an error): spindle
+    /// The program-stop sequence (docs/controller.md "How a job ends": M2/M30, abort, a job ended by an error): spindle
     /// and coolant off, nothing saved to restore; the tool stays, and user outputs stay as the
     /// program left them (alarms switch those off too, [`Board::outputs_safe`]).
     fn program_stop(&mut self) {
@@ -974,7 +974,7 @@ impl Board {
                     && self.last_motion_line != 0
                     && canon.line != self.last_motion_line
                 {
-                    // Single block: a breakpoint after each block (seed 003 "Each Block"), with
+                    // Single block: a breakpoint after each block (docs/controller.md "Run modes"), with
                     // the M0 stop/restore rules.
                     let pause = Canon {
                         line: self.last_motion_line,
@@ -1033,7 +1033,7 @@ impl Board {
         }
     }
 
-    /// The code and output event of an on-the-fly M code (seed 003 "On the Fly" switching): a user M code
+    /// The code and output event of an on-the-fly M code (docs/controller.md "On-the-fly outputs"): a user M code
     /// whose list is exactly one `set n` or `clear n` (n < 16) switches that output at its exact
     /// place on the path without stopping the motion. `None` for everything else, which stays a
     /// sync point (an M code with no list or an empty one included). In a dry run a list flagged

@@ -1,5 +1,5 @@
 //! Operator inputs of one main-loop pass: feed hold, abort, cycle start (two-hand), the run-mode
-//! switches and the feed-override potentiometer (seed 003 §2.3-§2.5). The joystick part is in
+//! switches and the feed-override potentiometer (docs/controller.md "Operator inputs"). The joystick part is in
 //! [`super::jogging`].
 
 use super::Board;
