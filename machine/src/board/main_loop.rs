@@ -379,3 +379,138 @@ impl MainLoop {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    //! The pass's own rules on a port that records what it is asked (the scenario tests on the
+    //! emulated board are in tests/tests/controller_main_loop.rs).
+    use super::*;
+    use crate::controller::AlarmCode;
+    use crate::units::NM_PER_MM;
+
+    #[derive(Default)]
+    struct FakePort {
+        kernel: KernelSnapshot,
+        flushed: u32,
+        rearmed: u32,
+        queued: u32,
+        dtr: bool,
+        saved: u32,
+    }
+
+    impl BoardPort for FakePort {
+        fn kernel(&mut self) -> KernelSnapshot {
+            self.kernel
+        }
+        fn flush_kernel(&mut self) {
+            self.flushed += 1;
+        }
+        fn rearm_kernel(&mut self) {
+            self.rearmed += 1;
+            self.kernel.stopped = false;
+        }
+        fn arm_limits(&mut self, _arm: u32) {}
+        fn raw_inputs(&mut self) -> u32 {
+            0
+        }
+        fn adc(&mut self) -> AdcReadings {
+            AdcReadings::default()
+        }
+        fn queue_ready(&mut self) -> bool {
+            self.queued < SEGMENT_QUEUE_DEPTH as u32
+        }
+        fn push_segment(&mut self, _seg: Segment) {
+            self.queued += 1;
+            self.kernel.drained = false;
+        }
+        fn drop_newest(&mut self, _max: usize) -> usize {
+            0
+        }
+        fn set_position(&mut self, _steps: [i64; MAX_AXES]) {}
+        fn apply_setup(&mut self, _invert: u32, _timing: StepTiming) {}
+        fn exchange_user_outputs(&mut self, f: impl FnOnce(u16) -> Option<u16>) {
+            f(0);
+        }
+        fn drive_outputs(&mut self, _l: &OutputLevels, _pwm_max: u16, _enabled: bool) {}
+        fn receive(&mut self, _buf: &mut [u8]) -> usize {
+            0
+        }
+        fn can_transmit(&mut self, _len: usize) -> bool {
+            false
+        }
+        fn transmit(&mut self, _frame: &[u8]) {}
+        fn host_connected(&mut self) -> bool {
+            self.dtr
+        }
+        fn save_setup(&mut self, _setup: &Setup) {
+            self.saved += 1;
+        }
+        fn motion_marker(&mut self, _moving: bool) {}
+    }
+
+    fn parts() -> (MainLoop, Board, BoardLink, FakePort) {
+        let setup = Setup::default();
+        let port = FakePort {
+            kernel: KernelSnapshot {
+                drained: true,
+                ..KernelSnapshot::default()
+            },
+            ..FakePort::default()
+        };
+        (
+            MainLoop::new(&setup),
+            Board::new(setup),
+            BoardLink::new(1),
+            port,
+        )
+    }
+
+    #[test]
+    fn the_speed_meter_measures_over_20_ms_windows() {
+        let mut m = SpeedMeter::new();
+        // 1 mm in 20 ms = 3000 mm/min, reported only when the window closes.
+        assert_eq!(m.update(10, [NM_PER_MM / 2, 0, 0, 0, 0, 0]), 0);
+        assert_eq!(m.update(20, [NM_PER_MM, 0, 0, 0, 0, 0]), 3_000_000);
+        assert_eq!(m.update(39, [NM_PER_MM, 0, 0, 0, 0, 0]), 3_000_000);
+        assert_eq!(m.update(40, [NM_PER_MM, 0, 0, 0, 0, 0]), 0);
+    }
+
+    #[test]
+    fn a_latched_stop_holds_the_kernel_until_the_alarm_clears() {
+        let (mut main, mut board, mut link, mut port) = parts();
+        port.kernel.stopped = true;
+        main.pass(0, &mut board, &mut link, &mut port);
+        assert_eq!(board.alarm(), Some(AlarmCode::HardLimit));
+        assert_eq!((port.flushed, port.rearmed), (1, 0));
+        assert!(main.kernel_latched());
+        for t in 1..100 {
+            main.pass(t, &mut board, &mut link, &mut port);
+        }
+        // Flushed once, never re-armed, nothing queued while in the alarm.
+        assert_eq!((port.flushed, port.rearmed, port.queued), (1, 0, 0));
+        board.unlock();
+        main.pass(100, &mut board, &mut link, &mut port);
+        assert_eq!((port.flushed, port.rearmed), (1, 1));
+        assert!(!main.kernel_latched());
+    }
+
+    #[test]
+    fn the_host_closing_the_port_holds_a_job_and_opening_it_does_nothing() {
+        let (mut main, mut board, mut link, mut port) = parts();
+        main.pass(0, &mut board, &mut link, &mut port);
+        assert!(board.start_job());
+        assert!(board.push_line(0, 1, "G1 X10 F600"));
+        port.dtr = true;
+        main.pass(1, &mut board, &mut link, &mut port);
+        main.pass(2, &mut board, &mut link, &mut port);
+        assert_eq!(board.state(), State::Run);
+        assert!(port.queued > 0);
+        port.dtr = false;
+        main.pass(3, &mut board, &mut link, &mut port);
+        assert_eq!(board.state(), State::Hold);
+        assert!(board.feed_held());
+        port.dtr = true;
+        main.pass(4, &mut board, &mut link, &mut port);
+        assert_eq!(board.state(), State::Hold);
+    }
+}
