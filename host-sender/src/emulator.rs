@@ -368,9 +368,13 @@ impl EmulatedBoard {
         self.run_for(ms * COUNTS_PER_MS);
     }
 
-    /// What the status reports see of the kernel.
+    /// What a status report taken now sees of the kernel: its step position now, and the
+    /// debounced inputs and path speed (20 ms window) of the last main-loop pass.
     pub fn kernel_view(&self) -> KernelView {
-        self.main.kernel_view()
+        KernelView {
+            steps: self.hw.kernel.position(),
+            ..self.main.kernel_view()
+        }
     }
 
     /// Runs the board for `counts` kernel timer counts of virtual time.
