@@ -33,7 +33,7 @@ use crate::motion::pipeline::{Motion, MotionState, PushError};
 use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
-use mode::{Ending, HoldWhy, HomingRun, Job, JobKind, JobPhase, Mode, Ramp};
+use mode::{Ending, HoldWhy, HomingRun, Job, JobKind, JobPhase, Jogging, Mode, Ramp};
 pub use source::{JumpRequest, JumpTarget, StreamSource, LINE_CAPACITY};
 
 /// Planner ring size on the board (look-ahead over at least 128 blocks, docs/architecture.md).
@@ -76,10 +76,6 @@ struct StickMove {
 /// Jog bookkeeping (host jogs and the joystick).
 #[derive(Clone, Copy, Debug, Default)]
 struct JogState {
-    /// Joystick jog mode (entered and left with Mark + Release).
-    joystick: bool,
-    /// A host jog is moving.
-    host: bool,
     /// The stick move now planned (None: none).
     running: Option<StickMove>,
     /// An analog move to bend into once the kernel's queue has been taken back.
@@ -468,7 +464,7 @@ impl Board {
                     ending,
                 });
             }
-            Mode::Jog => self.jog_stop(),
+            Mode::Jog(_) => self.jog_stop(),
             _ => {}
         }
     }
@@ -580,8 +576,9 @@ impl Board {
                 self.homing_list = None;
                 self.mode = Mode::Homing(HomingRun::Aborting);
             }
-            Mode::Jog => {
-                self.jog.joystick = false;
+            Mode::Jog(_) => {
+                // Leaves joystick mode too.
+                self.mode = Mode::Jog(Jogging::Moves);
                 self.jog_stop();
             }
             Mode::Job(Job {
@@ -863,7 +860,7 @@ impl Board {
                 self.poll_homing(kernel_drained);
                 return;
             }
-            Mode::Jog => {
+            Mode::Jog(_) => {
                 self.poll_jog(kernel_drained);
                 return;
             }

@@ -21,8 +21,8 @@ pub(super) enum Mode {
     Alarm(AlarmCode),
     /// A homing cycle (its axis and phase in `Board::homing`).
     Homing(HomingRun),
-    /// A host jog or joystick jog mode (details in `Board::jog`).
-    Jog,
+    /// Jogging (the moves themselves in `Board::jog`).
+    Jog(Jogging),
 }
 
 impl Mode {
@@ -41,9 +41,19 @@ impl Mode {
             Mode::Job(_) => State::Run,
             Mode::Alarm(_) => State::Alarm,
             Mode::Homing(_) => State::Homing,
-            Mode::Jog => State::Jog,
+            Mode::Jog(_) => State::Jog,
         }
     }
+}
+
+/// Who jogs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Jogging {
+    /// Host jogs (a next one may start once the last is at rest), or joystick mode just left: back
+    /// to Idle once at rest.
+    Moves,
+    /// Joystick jog mode (entered and left with Mark + Release): the switches and the stick jog.
+    Joystick,
 }
 
 /// A homing cycle, running or aborted.
