@@ -4,7 +4,7 @@
 //! Runs on the high-priority interrupt executor, so a limit reaches the step ISR's `STOP` flag
 //! within microseconds of the edge, not after whatever the thread executor is doing. The main
 //! loop debounces [`PINS`] once per millisecond and hands it to the controller (feed hold, abort,
-//! cycle start and the joystick switches work without the host, DESIGN §6).
+//! cycle start and the joystick switches work without the host, docs/controller.md "Safety rules as built").
 //!
 //! Electrical convention of both boards: internal pull-ups, switches close to ground. A closed
 //! switch (pin low) reads as bit = 1 here; the setup's `inputs.invert` then marks normally-closed

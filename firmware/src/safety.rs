@@ -1,6 +1,7 @@
-//! The safe output state from any context, and the panic handler that uses it.
+//! The safe output state from any context, and the two handlers that use it: the panic handler
+//! and the HardFault handler (a fault must not leave the spindle running until the watchdog).
 //!
-//! Safe state (DESIGN §6): spindle enable/direction/PWM, coolant and user outputs low, stepper
+//! Safe state (docs/controller.md "Safety rules as built"): spindle enable/direction/PWM, coolant and user outputs low, stepper
 //! drivers disabled (enable pin high, active low), step timer stopped. Reset gives the same state
 //! (pins are inputs until `board_def::split` drives them to these levels), so after a panic the
 //! watchdog's reset keeps it.
@@ -8,6 +9,7 @@
 use crate::board::{gpio_block, safe_bsrr};
 use crate::board_def::{SAFE_LOW, STEPPER_ENABLE};
 use core::panic::PanicInfo;
+use cortex_m_rt::{exception, ExceptionFrame};
 use embassy_stm32::pac;
 
 /// One BSRR word per port A-E, computed at compile time from the board table.
@@ -57,4 +59,24 @@ fn panic(info: &PanicInfo) -> ! {
         None => defmt::error!("panic"),
     }
     cortex_m::asm::udf()
+}
+
+/// HardFault (a bus or usage fault escalated, an undefined instruction, the panic handler's own
+/// `udf`): the same handling as a panic. Outputs safe first, with interrupts masked so nothing
+/// can switch a pin back; then the faulting PC over defmt; then a spin that starves the
+/// watchdog, whose reset keeps the safe state.
+///
+/// `unsafe` because cortex-m-rt's `#[exception]` requires the HardFault handler to be an
+/// `unsafe fn`: it is entered with whatever state the fault left (the stacked frame may come from
+/// a corrupt stack). This handler relies on none of it for safety: `force_safe` only writes
+/// fixed peripheral registers, and the frame is read only for the log line, after the outputs
+/// are safe.
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    cortex_m::interrupt::disable();
+    force_safe();
+    defmt::error!("hard fault at pc {=u32:#010x}", frame.pc());
+    loop {
+        cortex_m::asm::nop();
+    }
 }

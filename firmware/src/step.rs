@@ -34,6 +34,7 @@ use embassy_stm32::pac::timer::regs::SrGp16;
 use embassy_stm32::peripherals::TIM2;
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::Peri;
+use gantry_machine::board::main_loop::KernelSnapshot;
 use gantry_machine::motion::kernel::{
     Segment, SegmentSource, StepKernel, StepTiming, TickOut, KERNEL_TIMER_HZ,
 };
@@ -44,16 +45,11 @@ use static_cell::StaticCell;
 
 /// Tick period while the kernel is idle (1 ms), i.e. how often an empty queue is polled.
 pub const IDLE_PERIOD_COUNTS: u32 = KERNEL_TIMER_HZ / 1_000;
-/// Slots in the segment queue (heapless 0.9 SPSC holds N - 1): 15 segments of about 2 ms, 30 ms of
-/// motion ahead of the kernel. Segment prep remembers at least as many
-/// ([`gantry_machine::motion::history::SEGMENT_HISTORY`]), so a stop can take every queued segment
-/// of the block in progress back ([`drop_newest`]).
-pub const SEGMENT_QUEUE_LEN: usize = 16;
-
-const _: () = assert!(
-    SEGMENT_QUEUE_LEN - 1 <= gantry_machine::motion::history::SEGMENT_HISTORY,
-    "every queued segment can be taken back"
-);
+/// Slots in the segment queue: the core's one figure (`gantry_machine::board::main_loop`), so the
+/// emulated board queues exactly as many segments. heapless 0.9's SPSC queue holds N - 1: 15
+/// segments of about 2 ms, 30 ms of motion ahead of the kernel, every one of which a stop can
+/// take back ([`drop_newest`]).
+pub const SEGMENT_QUEUE_LEN: usize = gantry_machine::board::main_loop::SEGMENT_QUEUE_SLOTS;
 
 /// An armed limit switch is active: set by the input task (EXTI, microseconds after the edge) and
 /// the main loop, cleared only by the main loop when it re-arms the kernel. The kernel latches
@@ -207,17 +203,6 @@ fn with_kernel<R>(f: impl FnOnce(&mut StepIsr) -> R) -> Option<R> {
         let state = unsafe { &mut *SHARED.0.get() };
         state.as_mut().map(f)
     })
-}
-
-/// What the main loop needs to know of the kernel, read atomically.
-#[derive(Clone, Copy, Debug)]
-pub struct KernelSnapshot {
-    /// Exact step position (steps already emitted or committed to the next update).
-    pub steps: [i64; MAX_AXES],
-    /// Segment queue empty and the kernel waiting for it: the motion has run out.
-    pub drained: bool,
-    /// The kernel latched a stop (a limit) and emits nothing until [`rearm`].
-    pub stopped: bool,
 }
 
 /// Reads the kernel's position and state.

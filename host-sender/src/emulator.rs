@@ -11,7 +11,7 @@
 //! ADC readings, sampled and debounced once per main-loop pass exactly as the firmware does.
 //! Limit switches can be modelled at fixed machine positions ([`EmulatedBoard::add_switch`]): the
 //! switch pin follows the kernel's step position after every tick, and the kernel's limit flag is
-//! set in that same tick when the switch is armed, so the next tick stops (DESIGN §6).
+//! set in that same tick when the switch is armed, so the next tick stops (docs/controller.md "Safety rules as built").
 //!
 //! The firmware's motion marker (a RAM word that survives a reset, see
 //! `gantry_machine::controller::power_up`) is modelled too: [`EmulatedBoard::reset`] restarts the
@@ -21,17 +21,23 @@
 //! User outputs are virtual pins too: the kernel's output word ([`StepKernel::outputs`]), switched
 //! by on-the-fly events on the tick that starts their segment, and loaded from the board when it
 //! switches outputs itself ([`Board::sync_user_outputs`], once per main-loop pass, as the firmware).
+//!
+//! The main loop itself is the core's [`MainLoop::pass`], the very function the firmware calls
+//! (`firmware/src/control.rs`): this file only models the hardware behind its [`BoardPort`]
+//! (virtual time, the kernel and its queue, switches, gangs, pins and their traces, the host's
+//! bytes and DTR, the flash).
 
 use gantry_machine::board::link::{BoardLink, KernelView};
+use gantry_machine::board::main_loop::{BoardPort, KernelSnapshot, MainLoop, SEGMENT_QUEUE_DEPTH};
 use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
-use gantry_machine::controller::inputs::{limit_bit, Debouncer, InputBits};
+use gantry_machine::controller::inputs::{limit_bit, InputBits};
 use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
-use gantry_machine::controller::{AdcReadings, OutputLevels, State};
+use gantry_machine::controller::{AdcReadings, OutputLevels};
 use gantry_machine::motion::kernel::{Segment, StepKernel, StepTiming, KERNEL_TIMER_HZ};
-use gantry_machine::motion::pipeline::MotionState;
-use gantry_machine::motion::sim::{SegmentFifo, SEGMENT_QUEUE};
+use gantry_machine::motion::sim::SegmentFifo;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::MAX_AXES;
+use std::ops::{Deref, DerefMut};
 
 /// Kernel timer counts per millisecond.
 pub const COUNTS_PER_MS: u64 = KERNEL_TIMER_HZ as u64 / 1000;
@@ -82,7 +88,7 @@ impl LimitSwitch {
     }
 }
 
-/// Two motors on one step/dir channel (a ganged axis, seed 003 "Squaring Parallel Drives"):
+/// Two motors on one step/dir channel (a ganged axis squared by homing, docs/controller.md "Homing"):
 /// each motor moves only while its enable output is on, and its limit switch is gated by the same
 /// output; both switches share the axis's limit input.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -112,12 +118,12 @@ impl Gang {
     }
 }
 
-/// A board with its kernel on a virtual clock.
-pub struct EmulatedBoard {
-    pub board: Board,
-    pub link: BoardLink,
+/// The emulated hardware: the step kernel on its virtual clock, its segment queue, pins,
+/// switches, gangs and their traces, the host's bytes and DTR, the flash and the motion marker.
+/// [`EmulatedBoard`] derefs to it, so its fields read as the board's.
+pub struct Hardware {
     pub kernel: StepKernel,
-    fifo: SegmentFifo<SEGMENT_QUEUE>,
+    fifo: SegmentFifo<SEGMENT_QUEUE_DEPTH>,
     /// Virtual time, kernel timer counts.
     now: u64,
     next_main_loop: u64,
@@ -139,11 +145,13 @@ pub struct EmulatedBoard {
     pub gang: Option<Gang>,
     /// User output pins at the last pin event.
     last_outputs: u16,
-    /// Polarity and debounce the debouncer was built with.
-    debounce_setup: (u32, u8),
+    /// Input polarity the hardware was given (the firmware's `INVERT`): from the setup at
+    /// power-up and with every setup the host pushes.
+    invert: u32,
+    /// Step pulse timing the kernel's timer was given (likewise).
+    timing: StepTiming,
     /// Physical position = kernel steps + offset (homing redefines the kernel's zero).
     phys_offset: [i64; MAX_AXES],
-    debouncer: Debouncer,
     /// Limit bits armed for the kernel (from the board, once per main-loop pass).
     arm: u32,
     /// The switch model raised the kernel's limit flag.
@@ -151,15 +159,19 @@ pub struct EmulatedBoard {
     /// Ticks that stopped the kernel on a limit, and the virtual time of the last one.
     pub limit_stops: u32,
     last_dir: u8,
-    /// Pulses at the previous main-loop pass, and the path speed measured from them.
-    pulses_at_last_loop: [u64; MAX_AXES],
-    measured_um_min: u32,
     observer: Option<Box<dyn FnMut(PinEvent)>>,
     /// Main-loop passes that found the kernel idle with motion still to run and nothing prepared
     /// (the planner starved the kernel).
     pub underruns: u64,
     /// Bytes the board has sent and the host not yet read.
     outbox: Vec<u8>,
+    /// Bytes from the host the main loop has not read yet.
+    inbox: Vec<u8>,
+    /// A host holds the port open (the USB CDC DTR line; see [`EmulatedBoard::set_dtr`]).
+    dtr: bool,
+    /// Setups written to the emulated flash so far.
+    pub setups_saved: u32,
+    on_save: Option<SetupSaved>,
     /// The firmware's motion marker word (survives [`EmulatedBoard::reset`]): set before a
     /// segment goes to the kernel, cleared when the kernel is drained and the board's position is
     /// not lost (`Board::position_lost`).
@@ -171,6 +183,8 @@ pub struct EmulatedBoard {
     /// Board events taken by the test instead of the link (see [`EmulatedBoard::capture_events`]).
     pub events: Vec<BoardEvent>,
     capture: bool,
+    /// Drivers enabled (the main loop's `steppers_enabled` at the last pass).
+    pub steppers_enabled: bool,
     /// The last time the board took back queued segments.
     pub last_drop: Option<QueueDrop>,
     /// When `Some`, every segment the kernel starts, with the virtual time it starts.
@@ -189,16 +203,40 @@ pub struct EmulatedBoard {
     pub kernel_idle_at: u64,
 }
 
+/// A board with its kernel on a virtual clock: the firmware's [`Board`], [`BoardLink`] and main
+/// loop ([`MainLoop`]) on the emulated [`Hardware`].
+pub struct EmulatedBoard {
+    pub board: Board,
+    pub link: BoardLink,
+    /// The main loop's own state (speed meter, limit latch, debouncer, host port, save rule).
+    main: MainLoop,
+    hw: Hardware,
+}
+
+impl Deref for EmulatedBoard {
+    type Target = Hardware;
+    fn deref(&self) -> &Hardware {
+        &self.hw
+    }
+}
+
+impl DerefMut for EmulatedBoard {
+    fn deref_mut(&mut self) -> &mut Hardware {
+        &mut self.hw
+    }
+}
+
+/// Called with every setup the board writes to its emulated flash.
+type SetupSaved = Box<dyn FnMut(&Setup)>;
+
 /// Boot id of the emulated board's first power-up.
 const BOOT_ID: u32 = 0x6a17_0001;
 
 impl EmulatedBoard {
     pub fn new(setup: Setup) -> Self {
-        let debouncer = Debouncer::new(setup.inputs.invert, setup.inputs.debounce_ms);
-        EmulatedBoard {
-            debounce_setup: (setup.inputs.invert, setup.inputs.debounce_ms),
-            board: Board::new(setup),
-            link: BoardLink::new(BOOT_ID),
+        let hw = Hardware {
+            invert: setup.inputs.invert,
+            timing: StepTiming::from_setup(&setup.drivers),
             kernel: StepKernel::new(),
             fifo: SegmentFifo::default(),
             now: 0,
@@ -213,16 +251,17 @@ impl EmulatedBoard {
             gang: None,
             last_outputs: 0,
             phys_offset: [0; MAX_AXES],
-            debouncer,
             arm: 0,
             switch_stop: false,
             limit_stops: 0,
             last_dir: 0,
-            pulses_at_last_loop: [0; MAX_AXES],
-            measured_um_min: 0,
             observer: None,
             underruns: 0,
             outbox: Vec::new(),
+            inbox: Vec::new(),
+            dtr: true,
+            setups_saved: 0,
+            on_save: None,
             motion_marker: MARKER_IDLE,
             resets: 0,
             last_received_ms: None,
@@ -234,21 +273,13 @@ impl EmulatedBoard {
             driven: OutputLevels::SAFE,
             last_step_at: 0,
             kernel_idle_at: 0,
-        }
-    }
-
-    /// From now on the board's events (alarms, limit reports, errors, job ends) are collected in
-    /// [`EmulatedBoard::events`], in order, instead of going out over the link: for scenario
-    /// tests that drive the board without a host.
-    pub fn capture_events(&mut self) {
-        self.capture = true;
-    }
-
-    fn take_events(&mut self) {
-        if self.capture {
-            while let Some(e) = self.board.take_event() {
-                self.events.push(e);
-            }
+            steppers_enabled: false,
+        };
+        EmulatedBoard {
+            main: MainLoop::new(&setup),
+            board: Board::new(setup),
+            link: BoardLink::new(BOOT_ID),
+            hw,
         }
     }
 
@@ -284,13 +315,16 @@ impl EmulatedBoard {
         if self.driven != OutputLevels::SAFE {
             // Spindle and coolant pins drop with the reset too.
             self.driven = OutputLevels::SAFE;
+            let now = self.now;
             if let Some(log) = self.output_changes.as_mut() {
-                log.push((self.now, OutputLevels::SAFE));
+                log.push((now, OutputLevels::SAFE));
             }
         }
-        self.debounce_setup = (setup.inputs.invert, setup.inputs.debounce_ms);
-        self.debouncer = Debouncer::new(setup.inputs.invert, setup.inputs.debounce_ms);
+        self.main = MainLoop::new(&setup);
+        self.invert = setup.inputs.invert;
+        self.timing = StepTiming::from_setup(&setup.drivers);
         self.outbox.clear();
+        self.inbox.clear();
         how
     }
 
@@ -315,6 +349,113 @@ impl EmulatedBoard {
             at: at_nm.map(|v| a.nm_to_steps(v) - k + here),
             motors: [here; 2],
         });
+    }
+
+    /// Runs until `done` holds (checked every virtual millisecond) or `max_ms` have passed;
+    /// true if `done` held.
+    pub fn run_until(&mut self, max_ms: u64, mut done: impl FnMut(&EmulatedBoard) -> bool) -> bool {
+        for _ in 0..max_ms {
+            if done(self) {
+                return true;
+            }
+            self.run_for(COUNTS_PER_MS);
+        }
+        done(self)
+    }
+
+    /// Runs `ms` virtual milliseconds.
+    pub fn run_ms(&mut self, ms: u64) {
+        self.run_for(ms * COUNTS_PER_MS);
+    }
+
+    /// What a status report taken now sees of the kernel: its step position now, and the
+    /// debounced inputs and path speed (20 ms window) of the last main-loop pass.
+    pub fn kernel_view(&self) -> KernelView {
+        KernelView {
+            steps: self.hw.kernel.position(),
+            ..self.main.kernel_view()
+        }
+    }
+
+    /// Runs the board for `counts` kernel timer counts of virtual time.
+    pub fn run_for(&mut self, counts: u64) {
+        let end = self.now + counts;
+        while self.now < end {
+            if self.now >= self.next_main_loop {
+                self.main_loop();
+                self.next_main_loop = self.now + COUNTS_PER_MS;
+            }
+            if self.next_tick.is_some_and(|t| t <= self.now) {
+                self.tick();
+            }
+            let mut next = self.next_main_loop.min(end);
+            if let Some(t) = self.next_tick {
+                next = next.min(t);
+            }
+            self.now = next.max(self.now);
+        }
+    }
+
+    // The hardware's own methods, also callable as `EmulatedBoard::…` (paths in other files).
+
+    /// See [`Hardware::capture_events`].
+    pub fn capture_events(&mut self) {
+        self.hw.capture_events();
+    }
+
+    /// See [`Hardware::now`].
+    pub fn now(&self) -> u64 {
+        self.hw.now()
+    }
+
+    /// See [`Hardware::now_ms`].
+    pub fn now_ms(&self) -> u32 {
+        self.hw.now_ms()
+    }
+
+    /// See [`Hardware::receive`].
+    pub fn receive(&mut self, bytes: &[u8]) {
+        self.hw.receive(bytes);
+    }
+
+    /// See [`Hardware::take_output`].
+    pub fn take_output(&mut self) -> Vec<u8> {
+        self.hw.take_output()
+    }
+
+    /// See [`Hardware::set_dtr`].
+    pub fn set_dtr(&mut self, connected: bool) {
+        self.hw.set_dtr(connected);
+    }
+
+    /// See [`Hardware::kernel_drained`].
+    pub fn kernel_drained(&self) -> bool {
+        self.hw.kernel_drained()
+    }
+
+    /// The main loop holds a latched kernel stop (a limit tripped; the board is in alarm): no
+    /// segment reaches the kernel until the alarm is cleared.
+    pub fn kernel_latched(&self) -> bool {
+        self.main.kernel_latched()
+    }
+
+    /// One pass of the board's main loop (the core's, as on the firmware), with this emulation
+    /// as its port.
+    fn main_loop(&mut self) {
+        let now = self.hw.now_ms();
+        self.main
+            .pass(now, &mut self.board, &mut self.link, &mut self.hw);
+        self.hw.underruns = self.main.underruns();
+        self.hw.steppers_enabled = self.main.steppers_enabled();
+    }
+}
+
+impl Hardware {
+    /// From now on the board's events (alarms, limit reports, errors, job ends) are collected in
+    /// [`Hardware::events`], in order, instead of going out over the link: for scenario tests
+    /// that drive the board without a host.
+    pub fn capture_events(&mut self) {
+        self.capture = true;
     }
 
     /// Physical step position (kernel position + the offset homing introduced).
@@ -360,14 +501,13 @@ impl EmulatedBoard {
 
     /// Raw pin levels: the test's pins with the modelled switches' pins.
     pub fn raw_pins(&self) -> u32 {
-        let invert = self.board.setup().inputs.invert;
         let (on, owned) = self.switch_levels();
-        (self.pins & !owned) | ((on ^ invert) & owned)
+        (self.pins & !owned) | ((on ^ self.invert) & owned)
     }
 
     /// Logical levels the step interrupt sees (raw pins, polarity applied, no debounce).
     fn logical_pins(&self) -> u32 {
-        self.raw_pins() ^ self.board.setup().inputs.invert
+        self.raw_pins() ^ self.invert
     }
 
     /// Sets or clears one raw pin.
@@ -375,18 +515,6 @@ impl EmulatedBoard {
         let mut b = InputBits(self.pins);
         b.set_bit(bit, on);
         self.pins = b.0;
-    }
-
-    /// Runs until `done` holds (checked every virtual millisecond) or `max_ms` have passed;
-    /// true if `done` held.
-    pub fn run_until(&mut self, max_ms: u64, mut done: impl FnMut(&EmulatedBoard) -> bool) -> bool {
-        for _ in 0..max_ms {
-            if done(self) {
-                return true;
-            }
-            self.run_for(COUNTS_PER_MS);
-        }
-        done(self)
     }
 
     /// The kernel has run every segment it was given (queue empty, no tick due).
@@ -398,11 +526,6 @@ impl EmulatedBoard {
     pub fn queued_ms(&self) -> f64 {
         let counts: u64 = self.fifo.0.iter().map(|s| s.duration()).sum();
         counts as f64 / COUNTS_PER_MS as f64
-    }
-
-    /// Runs `ms` virtual milliseconds.
-    pub fn run_ms(&mut self, ms: u64) {
-        self.run_for(ms * COUNTS_PER_MS);
     }
 
     /// Calls `f` for every kernel tick that stepped or changed direction.
@@ -425,46 +548,30 @@ impl EmulatedBoard {
         self.now as f64 / KERNEL_TIMER_HZ as f64
     }
 
-    /// Bytes from the host.
+    /// Bytes from the host (the main loop reads them in its next pass, as the firmware reads
+    /// its USB receive pipe).
     pub fn receive(&mut self, bytes: &[u8]) {
-        let now = self.now_ms();
         if !bytes.is_empty() {
-            self.last_received_ms = Some(now);
+            self.last_received_ms = Some(self.now_ms());
         }
-        self.link.on_bytes(now, bytes);
+        self.inbox.extend_from_slice(bytes);
+    }
+
+    /// A host holds the port open (`true`, the USB CDC DTR line raised) or has closed it. The
+    /// board starts with a host attached; a drop during a job holds it (as the firmware does).
+    pub fn set_dtr(&mut self, connected: bool) {
+        self.dtr = connected;
+    }
+
+    /// Calls `f` with every setup the board writes to its flash (a setup from the host, once the
+    /// board is idle).
+    pub fn on_setup_saved(&mut self, f: impl FnMut(&Setup) + 'static) {
+        self.on_save = Some(Box::new(f));
     }
 
     /// Bytes for the host (everything sent since the last call).
     pub fn take_output(&mut self) -> Vec<u8> {
         std::mem::take(&mut self.outbox)
-    }
-
-    /// What the status reports see of the kernel.
-    pub fn kernel_view(&self) -> KernelView {
-        KernelView {
-            steps: self.kernel.position(),
-            inputs: self.inputs,
-            feed_um_min: self.measured_um_min,
-        }
-    }
-
-    /// Runs the board for `counts` kernel timer counts of virtual time.
-    pub fn run_for(&mut self, counts: u64) {
-        let end = self.now + counts;
-        while self.now < end {
-            if self.now >= self.next_main_loop {
-                self.main_loop();
-                self.next_main_loop = self.now + COUNTS_PER_MS;
-            }
-            if self.next_tick.is_some_and(|t| t <= self.now) {
-                self.tick();
-            }
-            let mut next = self.next_main_loop.min(end);
-            if let Some(t) = self.next_tick {
-                next = next.min(t);
-            }
-            self.now = next.max(self.now);
-        }
     }
 
     fn tick(&mut self) {
@@ -514,30 +621,13 @@ impl EmulatedBoard {
         }
         // As the step interrupt: a period too short for the setup's pulse and dir set-up is
         // stretched to the shortest one that fits.
-        let timing = StepTiming::from_setup(&self.board.setup().drivers);
         self.next_tick =
-            (out.period != 0).then(|| self.now + u64::from(timing.stretch(out.period)));
+            (out.period != 0).then(|| self.now + u64::from(self.timing.stretch(out.period)));
         if out.period == 0 {
             self.kernel_idle_at = self.now;
         }
     }
 
-    /// Path speed over the last main-loop interval (1 ms), from the pulses the axes made.
-    fn measure_speed(&mut self) {
-        let cfg = self.board.motion_config();
-        let mut sum_sq = 0.0f64;
-        for axis in 0..cfg.axis_count as usize {
-            let n = self.pulses[axis] - self.pulses_at_last_loop[axis];
-            let a = &cfg.axes[axis];
-            let nm = n as f64 * a.units as f64 / a.steps as f64;
-            sum_sq += nm * nm;
-        }
-        self.pulses_at_last_loop = self.pulses;
-        // nm per ms → µm per min.
-        self.measured_um_min = (sum_sq.sqrt() * 60.0).round() as u32;
-    }
-
-    /// One pass of the firmware's main loop: link, controller, segment preparation.
     /// The user output pins take `word` now (the board switched them, or a reset dropped them).
     fn drive_user_outputs(&mut self, word: u16) {
         self.last_outputs = word;
@@ -552,30 +642,50 @@ impl EmulatedBoard {
             });
         }
     }
+}
 
-    fn main_loop(&mut self) {
-        self.measure_speed();
-        let now = self.now_ms();
-        if self.kernel.is_stopped() {
-            // The kernel latched a limit stop: drop the queue, tell the board, re-arm.
-            self.limit_stops += 1;
-            self.fifo.0.clear();
-            self.kernel.flush();
-            self.next_tick = None;
-            let levels = InputBits(self.logical_pins());
-            let steps = self.kernel.position();
-            self.board.limit_stop(levels, &steps);
-            self.kernel.clear_stop();
-            self.switch_stop = false;
-            self.limit = false;
+/// The emulated hardware as the main loop's port.
+impl BoardPort for Hardware {
+    fn kernel(&mut self) -> KernelSnapshot {
+        KernelSnapshot {
+            steps: self.kernel.position(),
+            stopped: self.kernel.is_stopped(),
+            drained: self.kernel_drained(),
         }
-        let inputs = self.board.setup().inputs;
-        if (inputs.invert, inputs.debounce_ms) != self.debounce_setup {
-            // A new setup arrived over the link: sample with its polarity and debounce.
-            self.debounce_setup = (inputs.invert, inputs.debounce_ms);
-            self.debouncer = Debouncer::new(inputs.invert, inputs.debounce_ms);
+    }
+
+    fn flush_kernel(&mut self) {
+        self.limit_stops += 1;
+        self.fifo.0.clear();
+        self.kernel.flush();
+        self.next_tick = None;
+    }
+
+    fn rearm_kernel(&mut self) {
+        // As the firmware: the stop flag is re-evaluated from the pins with the current arming
+        // (a forced `limit` is a one-off stop).
+        self.limit = false;
+        self.switch_stop = self.logical_pins() & self.arm & LIMIT_BITS != 0;
+        self.kernel.clear_stop();
+    }
+
+    fn arm_limits(&mut self, arm: u32) {
+        self.arm = arm;
+        // An armed switch that is already active stops the kernel's next tick.
+        if self.logical_pins() & arm != 0 {
+            self.switch_stop = true;
         }
-        let (levels, changed) = self.debouncer.sample(self.raw_pins());
+    }
+
+    fn raw_inputs(&mut self) -> u32 {
+        self.raw_pins()
+    }
+
+    fn adc(&mut self) -> AdcReadings {
+        self.adc
+    }
+
+    fn inputs_sampled(&mut self, levels: InputBits, changed: u32) {
         self.inputs = levels.0;
         if changed != 0 {
             if let Some(f) = self.observer.as_mut() {
@@ -589,90 +699,105 @@ impl EmulatedBoard {
                 });
             }
         }
-        self.board.on_inputs(now, levels, changed, self.adc);
-        let view = self.kernel_view();
-        self.take_events();
-        self.link.service(&mut self.board, now, &view);
-        let drained = self.fifo.0.is_empty() && self.next_tick.is_none();
-        self.board.poll(drained);
-        if let Some(steps) = self.board.take_position_reset() {
-            let old = self.kernel.position();
-            for i in 0..MAX_AXES {
-                self.phys_offset[i] += old[i] - steps[i];
-            }
-            self.kernel.set_position(steps);
-        }
-        // A stop or a speed change: the newest queued segments go, prep continues from the end
-        // of the kernel's running segment.
-        let fifo = &mut self.fifo.0;
-        let mut dropped = None;
-        self.board.drop_queued(|max| {
-            let n = max.min(fifo.len());
-            fifo.truncate(fifo.len() - n);
-            dropped = Some(n);
-            n
-        });
-        if let Some(dropped) = dropped {
-            let running_left = match self.next_tick {
-                Some(t) => t.saturating_sub(self.now) + self.kernel.remaining_counts(),
-                None => 0,
-            };
-            self.last_drop = Some(QueueDrop {
-                time: self.now,
-                dropped,
-                running_left,
-            });
-        }
-        let mut handed_out = false;
-        while !self.fifo.0.is_full() {
-            match self.board.next_segment() {
-                Some(s) => {
-                    // As the firmware: the marker is set before the kernel can step.
-                    self.motion_marker = MARKER_MOVING;
-                    handed_out = true;
-                    let _ = self.fifo.0.push_back(s);
-                }
-                None => break,
-            }
-        }
-        if drained && !handed_out && !self.board.position_lost() {
-            self.motion_marker = MARKER_IDLE;
-        }
+    }
+
+    fn queue_ready(&mut self) -> bool {
+        !self.fifo.0.is_full()
+    }
+
+    fn push_segment(&mut self, seg: Segment) {
+        let _ = self.fifo.0.push_back(seg);
         if self.next_tick.is_none() {
-            if !self.fifo.0.is_empty() {
-                self.next_tick = Some(self.now);
-            } else if drained
-                && self.board.motion().state() == MotionState::Running
-                && self.board.state() == State::Run
-            {
-                self.underruns += 1;
-            }
+            // The idle kernel's timer polls the queue: it starts the segment now.
+            self.next_tick = Some(self.now);
         }
-        if let Some(word) = self.board.sync_user_outputs(self.kernel.outputs()) {
+    }
+
+    fn drop_newest(&mut self, max: usize) -> usize {
+        let fifo = &mut self.fifo.0;
+        let dropped = max.min(fifo.len());
+        fifo.truncate(fifo.len() - dropped);
+        let running_left = match self.next_tick {
+            Some(t) => t.saturating_sub(self.now) + self.kernel.remaining_counts(),
+            None => 0,
+        };
+        self.last_drop = Some(QueueDrop {
+            time: self.now,
+            dropped,
+            running_left,
+        });
+        dropped
+    }
+
+    fn set_position(&mut self, steps: [i64; MAX_AXES]) {
+        let old = self.kernel.position();
+        for i in 0..MAX_AXES {
+            self.phys_offset[i] += old[i] - steps[i];
+        }
+        self.kernel.set_position(steps);
+    }
+
+    fn apply_setup(&mut self, invert: u32, timing: StepTiming) {
+        self.invert = invert;
+        self.timing = timing;
+    }
+
+    fn exchange_user_outputs(&mut self, f: impl FnOnce(u16) -> Option<u16>) {
+        if let Some(word) = f(self.kernel.outputs()) {
             // The board switched outputs itself (a list at rest, the safe state).
             self.kernel.set_outputs(word);
             if word != self.last_outputs {
                 self.drive_user_outputs(word);
             }
         }
-        let levels = self.board.output_levels();
-        if levels != self.driven {
+    }
+
+    fn drive_outputs(&mut self, levels: &OutputLevels, _pwm_max: u16, _steppers_enabled: bool) {
+        if *levels != self.driven {
             // Spindle, coolant and PWM follow the board once per pass (the user outputs are
-            // the kernel's word, exchanged above).
-            self.driven = levels;
+            // the kernel's word, exchanged before).
+            self.driven = *levels;
             if let Some(log) = self.output_changes.as_mut() {
-                log.push((self.now, levels));
+                log.push((self.now, *levels));
             }
         }
-        self.arm = self.board.limit_arm();
-        // An armed switch that is already active stops the kernel's next tick.
-        self.switch_stop = self.logical_pins() & self.arm != 0;
-        // Events raised by this poll go out in the same pass.
-        self.take_events();
-        self.link.service(&mut self.board, now, &view);
-        let mut frame = [0u8; gantry_proto::MAX_FRAME_LEN];
-        while let Some(n) = self.link.poll_transmit(now, &mut frame) {
-            self.outbox.extend_from_slice(&frame[..n]);
+    }
+
+    fn receive(&mut self, buf: &mut [u8]) -> usize {
+        let n = buf.len().min(self.inbox.len());
+        buf[..n].copy_from_slice(&self.inbox[..n]);
+        self.inbox.drain(..n);
+        n
+    }
+
+    fn can_transmit(&mut self, _len: usize) -> bool {
+        true
+    }
+
+    fn transmit(&mut self, frame: &[u8]) {
+        self.outbox.extend_from_slice(frame);
+    }
+
+    fn host_connected(&mut self) -> bool {
+        self.dtr
+    }
+
+    fn save_setup(&mut self, setup: &Setup) {
+        self.setups_saved += 1;
+        if let Some(f) = self.on_save.as_mut() {
+            f(setup);
+        }
+    }
+
+    fn motion_marker(&mut self, moving: bool) {
+        self.motion_marker = if moving { MARKER_MOVING } else { MARKER_IDLE };
+    }
+
+    fn before_link_service(&mut self, board: &mut Board) {
+        if self.capture {
+            while let Some(e) = board.take_event() {
+                self.events.push(e);
+            }
         }
     }
 }

@@ -169,8 +169,12 @@ fn the_old_queued_overrun_is_gone() {
     );
 }
 
+/// Leaving joystick mode (Mark + Release) and the abort input, each in the same instant of the
+/// same joystick jog, stop it identically: the same queue drop at the same time, the same last
+/// step, and both leave jog mode for Idle.
 #[test]
 fn leaving_jog_mode_and_abort_stop_the_same_way() {
+    let mut stops = Vec::new();
     for leave in [true, false] {
         let mut eb = board(|s| s.inputs.abort = true);
         enter_joystick(&mut eb);
@@ -186,12 +190,25 @@ fn leaving_jog_mode_and_abort_stop_the_same_way() {
         }
         let stop = measure_stop(&mut eb, t0, from, queued, 50.0);
         check_stop(&stop, if leave { "leave jog" } else { "abort" }, 50.0);
+        let drop = eb.last_drop.unwrap();
+        let rest = (eb.kernel.position(), eb.last_step_at, drop, stop.travelled);
         set(&mut eb, Signal::JogS3, false);
         set(&mut eb, Signal::Mark, false);
         set(&mut eb, Signal::Release, false);
         set(&mut eb, Signal::Abort, false);
         until_state(&mut eb, State::Idle, 100);
+        // Out of joystick mode: the switches no longer jog.
+        set(&mut eb, Signal::JogS3, true);
+        eb.run_ms(50);
+        assert_eq!(eb.board.state(), State::Idle);
+        assert_eq!(eb.kernel.position(), rest.0);
+        stops.push(rest);
     }
+    let (leave, abort) = (stops[0], stops[1]);
+    assert!(leave.3 > 0.0, "the jog moved before the stop");
+    assert_eq!(leave.2, abort.2, "the same queue drop at the same time");
+    assert_eq!(leave.1, abort.1, "the last step at the same time");
+    assert_eq!(leave.0, abort.0, "at rest on the same step");
 }
 
 #[test]

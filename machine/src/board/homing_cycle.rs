@@ -1,17 +1,18 @@
-//! The homing cycle on the board: lists, seek, retract and set home, axis by axis (seed 003
-//! §2.2). The pure parts (order, targets, switch bits) are in [`crate::controller::homing`].
+//! The homing cycle on the board: lists, seek, retract and set home, axis by axis (docs/controller.md
+//! "Homing"). The pure parts (order, targets, switch bits) are in [`crate::controller::homing`].
 
+use super::mode::{HomingRun, Mode};
 use super::{Board, MotionState, Pos};
 use crate::canon::{Action, Canon};
 use crate::controller::homing::{self, Homing, Phase};
 use crate::controller::lists::{ListRunner, ListStatus};
-use crate::controller::{AlarmCode, State};
+use crate::controller::AlarmCode;
 
 impl Board {
     /// Starts a homing cycle of `axes` (bit mask, 0 = every axis with a homing priority), from
     /// idle or alarm with the machine at rest. False when refused.
     pub fn home(&mut self, axes: u8) -> bool {
-        if !matches!(self.state, State::Idle | State::Alarm)
+        if !matches!(self.mode, Mode::Idle | Mode::Alarm(_))
             || self.motion.state() != MotionState::Idle
         {
             return false;
@@ -26,8 +27,7 @@ impl Board {
         }
         self.homing = Some(h);
         self.homing_list = None;
-        self.alarm = None;
-        self.state = State::Homing;
+        self.mode = Mode::Homing(HomingRun::Cycle);
         true
     }
 
@@ -35,10 +35,8 @@ impl Board {
         let idle = drained && self.motion.state() == MotionState::Idle;
         let Some(mut h) = self.homing.take() else {
             // An aborted cycle raises its alarm once the seek has decelerated to rest.
-            if idle {
-                if let Some((code, line)) = self.stop_alarm.take() {
-                    self.enter_alarm(code, line);
-                }
+            if idle && self.mode == Mode::Homing(HomingRun::Aborting) {
+                self.enter_alarm(AlarmCode::HomingAborted, 0);
             }
             return;
         };
@@ -104,7 +102,7 @@ impl Board {
                                     let steps = self.motion.prepared_steps();
                                     self.rebuild_motion(true, &steps);
                                     self.sync_interpreter_position();
-                                    self.state = State::Idle;
+                                    self.mode = Mode::Idle;
                                     return;
                                 }
                                 h.phase = Phase::BeforeSeek;

@@ -1,6 +1,7 @@
 //! Jogging on the board: host jogs and the joystick (switches, modes, Mark/Release, analog
-//! stick), seed 003 §2.6. Targets and stick mapping are in [`crate::controller::jog`].
+//! stick), docs/controller.md "Jogging". Targets and stick mapping are in [`crate::controller::jog`].
 
+use super::mode::{Jogging, Mode};
 use super::{Board, BoardEvent, MarkEvent, MotionState, StickMove, ERROR_SOFT_LIMIT};
 use crate::canon::{Action, Canon};
 use crate::controller::inputs::{InputBits, Signal};
@@ -13,9 +14,8 @@ impl Board {
     /// (0) toward the soft limit until [`Board::jog_stop`]. From idle, or after the previous jog
     /// has stopped; false when refused (an increment beyond the soft limits reports error 900).
     pub fn jog(&mut self, axis: u8, velocity_um_min: i32, distance_nm: u64) -> bool {
-        let free = self.state == State::Idle
-            || (self.state == State::Jog
-                && !self.jog.joystick
+        let free = self.mode == Mode::Idle
+            || (self.mode == Mode::Jog(Jogging::Moves)
                 && !self.jog.stopping
                 && self.motion.state() == MotionState::Idle);
         if !free || axis >= self.setup.axis_count || velocity_um_min == 0 || self.refuse_unhomed() {
@@ -46,14 +46,13 @@ impl Board {
         {
             return false;
         }
-        self.jog.host = true;
-        self.state = State::Jog;
+        self.mode = Mode::Jog(Jogging::Moves);
         true
     }
 
     /// Stops a jog within its deceleration distance and drops what was queued of it.
     pub fn jog_stop(&mut self) {
-        if self.state != State::Jog {
+        if self.state() != State::Jog {
             return;
         }
         if self.motion.state() != MotionState::Idle {
@@ -66,36 +65,30 @@ impl Board {
     pub(super) fn poll_jog(&mut self, drained: bool) {
         if self.motion.state() == MotionState::Idle {
             self.jog.stopping = false;
-            if drained {
-                self.jog.host = false;
-            }
         }
-        if !self.jog.joystick
-            && !self.jog.host
-            && !self.jog.stopping
+        if self.mode == Mode::Jog(Jogging::Moves)
             && drained
             && self.motion.state() == MotionState::Idle
         {
-            self.state = State::Idle;
+            self.mode = Mode::Idle;
             self.sync_interpreter_position();
         }
     }
 
-    /// Joystick handling of one input sample (seed 003 §2.6).
+    /// Joystick handling of one input sample (docs/controller.md "Jogging").
     pub(super) fn joystick(&mut self, prev: InputBits, levels: InputBits, adc: AdcReadings) {
         let both = |l: InputBits| l.get(Signal::Mark) && l.get(Signal::Release);
         if both(levels) && !both(prev) {
-            if self.state == State::Idle && !self.refuse_unhomed() {
-                self.jog.joystick = true;
+            if self.mode == Mode::Idle && !self.refuse_unhomed() {
                 self.jog.nudge_dirs = [0; MAX_AXES];
-                self.state = State::Jog;
-            } else if self.state == State::Jog && self.jog.joystick {
-                self.jog.joystick = false;
+                self.mode = Mode::Jog(Jogging::Joystick);
+            } else if self.mode == Mode::Jog(Jogging::Joystick) {
+                self.mode = Mode::Jog(Jogging::Moves);
                 self.jog_stop();
             }
             return;
         }
-        if !(self.state == State::Jog && self.jog.joystick) {
+        if self.mode != Mode::Jog(Jogging::Joystick) {
             return;
         }
         if levels.get(Signal::Mark) && !prev.get(Signal::Mark) && !levels.get(Signal::Release) {
@@ -199,7 +192,7 @@ impl Board {
     /// were taken back); where it cannot (too close to the travel edge, nothing in progress), it
     /// stops and the new direction starts from rest.
     pub(super) fn bend_stick_move(&mut self, m: StickMove) {
-        if !(self.state == State::Jog && self.jog.joystick && !self.jog.stopping) {
+        if self.mode != Mode::Jog(Jogging::Joystick) || self.jog.stopping {
             return;
         }
         let cfg = *self.motion.config();

@@ -14,7 +14,7 @@ use gantry_proto::{
 pub const STATUS_INTERVAL_MS: u32 = 100;
 
 /// Silence after which the host counts as gone (four keepalive intervals), ms: the board then
-/// holds a running job on its path (DESIGN §5) until a host reconnects and resumes it, or until
+/// holds a running job on its path (docs/controller.md "Host lost (alarm 20)") until a host reconnects and resumes it, or until
 /// `link.host_lost_stop_s` (setup) have passed, when it ends the job with alarm 20 (also when
 /// the operator resumed it locally and it then waits for lines the host cannot send).
 pub const HOST_TIMEOUT_MS: u32 = 4 * Config::USB_MS.keepalive;

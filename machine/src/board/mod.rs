@@ -10,7 +10,11 @@
 
 mod homing_cycle;
 mod jogging;
+#[cfg(feature = "link")]
 pub mod link;
+#[cfg(feature = "link")]
+pub mod main_loop;
+mod mode;
 mod operator;
 pub mod source;
 
@@ -29,9 +33,10 @@ use crate::motion::pipeline::{Motion, MotionState, PushError};
 use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
+use mode::{Ending, HoldWhy, HomingRun, Job, JobKind, JobPhase, Jogging, Mode, Ramp};
 pub use source::{JumpRequest, JumpTarget, StreamSource, LINE_CAPACITY};
 
-/// Planner ring size on the board (DESIGN §4: at least 128 blocks).
+/// Planner ring size on the board (look-ahead over at least 128 blocks, docs/architecture.md).
 pub const PLANNER_BLOCKS: usize = 128;
 /// Streamed lines the board buffers ahead of the interpreter.
 pub const LINE_BUFFER: usize = 16;
@@ -47,7 +52,7 @@ const MARK_QUEUE: usize = 4;
 /// Every limit-switch bit of [`InputBits`].
 pub const LIMIT_BITS: u32 = (0x3f << LIMIT_MIN_BIT) | (0x3f << LIMIT_MAX_BIT);
 
-/// The joystick's Mark switch was pressed in jog mode (seed 003 teach-in): the host hears where
+/// The joystick's Mark switch was pressed in jog mode (teach-in, docs/controller.md "Jogging"): the host hears where
 /// the machine stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MarkEvent {
@@ -71,10 +76,6 @@ struct StickMove {
 /// Jog bookkeeping (host jogs and the joystick).
 #[derive(Clone, Copy, Debug, Default)]
 struct JogState {
-    /// Joystick jog mode (entered and left with Mark + Release).
-    joystick: bool,
-    /// A host jog is moving.
-    host: bool,
     /// The stick move now planned (None: none).
     running: Option<StickMove>,
     /// An analog move to bend into once the kernel's queue has been taken back.
@@ -96,7 +97,7 @@ pub enum BoardEvent {
     /// would have left the travel for alarm 2, the line running for alarms raised during a job;
     /// 0 = none).
     Alarm { code: AlarmCode, line: u32 },
-    /// A limit switch stopped motion (seed 003's "limit pop-up": the axis and the switch side).
+    /// A limit switch stopped motion (the axis and the switch side; docs/controller.md "Limit reports").
     /// Sent before alarm 1 for every tripped switch, and alone for the switch hits a homing
     /// list's `seek` commands cause, unless that list starts with `DisableLimitReport`.
     Limit { axis: u8, max: bool },
@@ -117,7 +118,7 @@ pub struct Outputs {
 }
 
 impl Outputs {
-    /// Everything off: the power-up and program-stop state (DESIGN §6).
+    /// Everything off: the power-up and program-stop state (docs/controller.md "Safety rules as built").
     pub const SAFE: Outputs = Outputs {
         spindle: Spindle::Off,
         rpm: 0,
@@ -127,52 +128,27 @@ impl Outputs {
     };
 }
 
-/// Why the job ended. Every ending takes effect at rest (the kernel drained, nothing left to
-/// prepare), in one place ([`Board::poll`]); only a hard limit (alarm 1) ends a job at once.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Ending {
-    /// Still running.
-    No,
-    /// M2/M30 (their sync point already ran the program-stop sequence) or the end of the
-    /// streamed lines (outputs as the program left them: an MDI `M3` keeps the spindle on):
-    /// finish the queued motion, then report.
-    Finished,
-    /// A rejected block, an abort, or an alarm stop (2, 20): finish the motion queued before the
-    /// block, or decelerate on the path, then at rest the program-stop sequence (or the alarm)
-    /// and report.
-    Failed,
-}
-
 /// The controller with everything it drives.
 pub struct Board {
     setup: Setup,
-    state: State,
+    /// Idle, a job (running, held, stopping), an alarm, homing or jogging.
+    mode: Mode,
     interp: Interpreter,
     source: StreamSource<LINE_BUFFER>,
     motion: Motion<PLANNER_BLOCKS>,
     /// An action the motion queue had no room for yet.
     pending: Option<Canon>,
-    ending: Ending,
-    /// M0/M1 reached: held at the sync point until cycle start/resume.
-    paused: bool,
-    /// Hold requested while running (resume continues).
-    held: bool,
-    aborting: bool,
     outputs: Outputs,
-    /// Outputs to restore when a stopped program resumes (seed 003 stop/restore rules).
+    /// Outputs to restore when a stopped program resumes (stop/restore rules, docs/controller.md "Outputs").
     saved_outputs: Option<Outputs>,
     events: Deque<BoardEvent, EVENT_QUEUE>,
     /// Last line the motion has reached (prep finished a block of it).
     line: u32,
     /// Where an abort stopped: the line to resume from.
     resume_line: u32,
-    alarm: Option<AlarmCode>,
     /// The job has queued an action (motion, spindle, …): from then on a block beyond the travel
     /// stops it with alarm 2 instead of error 900.
     job_queued: bool,
-    /// A stopping job ends in this alarm (with its line) once at rest, instead of in Idle; an
-    /// aborted homing cycle raises its alarm 6 the same way.
-    stop_alarm: Option<(AlarmCode, u32)>,
     /// The kernel was drained at the last [`Board::poll`].
     drained: bool,
     /// The board reset during motion (alarm 3) and nothing has re-established the position yet:
@@ -243,25 +219,18 @@ impl Board {
             interp: Interpreter::new(&setup.interp_config()),
             motion: Motion::new(MotionConfig::from_setup(&setup)),
             setup,
-            state: if alarm.is_some() {
-                State::Alarm
-            } else {
-                State::Idle
+            mode: match alarm {
+                Some(code) => Mode::Alarm(code),
+                None => Mode::Idle,
             },
             source: StreamSource::new(),
             pending: None,
-            ending: Ending::No,
-            paused: false,
-            held: false,
-            aborting: false,
             outputs: Outputs::SAFE,
             saved_outputs: None,
             events: Deque::new(),
             line: 0,
             resume_line: 0,
-            alarm,
             job_queued: false,
-            stop_alarm: None,
             drained: true,
             position_lost: how == PowerUp::MotionInterrupted,
             homed: 0,
@@ -289,7 +258,7 @@ impl Board {
     }
 
     pub fn state(&self) -> State {
-        self.state
+        self.mode.state()
     }
 
     pub fn outputs(&self) -> Outputs {
@@ -297,7 +266,10 @@ impl Board {
     }
 
     pub fn alarm(&self) -> Option<AlarmCode> {
-        self.alarm
+        match self.mode {
+            Mode::Alarm(code) => Some(code),
+            _ => None,
+        }
     }
 
     /// The power-up was a [`PowerUp::MotionInterrupted`] one and neither homing nor an unlock has
@@ -349,7 +321,7 @@ impl Board {
 
     /// Replaces the setup (only while idle); false otherwise.
     pub fn set_setup(&mut self, setup: Setup) -> bool {
-        if self.state != State::Idle {
+        if self.mode != Mode::Idle {
             return false;
         }
         let position = self.motion.queued_position();
@@ -361,12 +333,10 @@ impl Board {
         self.motion.set_feed_override(self.feed_override);
         self.source.reset();
         self.pending = None;
-        self.ending = Ending::No;
         self.jog = JogState::default();
         self.outputs_safe();
         if self.homing_missing() {
-            self.alarm = Some(AlarmCode::HomingRequired);
-            self.state = State::Alarm;
+            self.mode = Mode::Alarm(AlarmCode::HomingRequired);
         }
         self.sync_interpreter_position();
         true
@@ -418,43 +388,43 @@ impl Board {
 
     /// Starts a streamed job at the current position (only from idle).
     pub fn start_job(&mut self) -> bool {
-        self.start(State::Run)
+        self.start(JobKind::Machine)
     }
 
     /// Starts a streamed job in check mode: interpreted and checked against the soft limits
     /// without any motion or output (grbl `$C`); ends with `JobDone` or the first error.
     pub fn start_check(&mut self) -> bool {
-        self.start(State::Check)
+        self.start(JobKind::Check)
     }
 
-    fn start(&mut self, state: State) -> bool {
-        if self.state != State::Idle || (state == State::Run && self.refuse_unhomed()) {
+    fn start(&mut self, kind: JobKind) -> bool {
+        if self.mode != Mode::Idle || (kind == JobKind::Machine && self.refuse_unhomed()) {
             return false;
         }
         self.last_motion_line = 0;
         // No line of this job has run yet (a job that runs nothing ends with `JobDone{0}`).
         self.line = 0;
         self.job_queued = false;
-        self.stop_alarm = None;
         self.source.reset();
         self.interp.rewind();
         self.sync_interpreter_position();
         self.pending = None;
-        self.ending = Ending::No;
-        self.paused = false;
-        self.held = false;
-        self.state = state;
-        if state == State::Run && self.hold_input_active() {
+        let phase = if kind == JobKind::Machine && self.hold_input_active() {
             // The feed-hold switch is open: the job waits, held, until it closes.
-            self.held = true;
-            self.state = State::Hold;
-        }
+            JobPhase::Hold {
+                why: HoldWhy::Feed,
+                ending: Ending::No,
+            }
+        } else {
+            JobPhase::Running(Ending::No)
+        };
+        self.mode = Mode::Job(Job { kind, phase });
         true
     }
 
     /// A streamed line for place `id` (0 = the main stream). False when dropped (stale or full).
     pub fn push_line(&mut self, id: u16, line_no: u32, text: &str) -> bool {
-        if !matches!(self.state, State::Run | State::Hold | State::Check) {
+        if !matches!(self.mode, Mode::Job(_)) {
             return false;
         }
         self.source.push(id, line_no, text)
@@ -463,7 +433,13 @@ impl Board {
     /// A host (re)attached: if a job is running, ask it for every line after the last one the
     /// interpreter took, so a reconnect neither loses nor repeats a block.
     pub fn resync_stream(&mut self) {
-        if matches!(self.state, State::Run | State::Hold) && self.ending == Ending::No {
+        if let Some(
+            JobPhase::Running(Ending::No)
+            | JobPhase::Hold {
+                ending: Ending::No, ..
+            },
+        ) = self.machine_job()
+        {
             self.source.resync();
         }
     }
@@ -474,16 +450,50 @@ impl Board {
     }
 
     /// Feed hold: decelerate on the path and stop there. During a jog it stops the jog (like a
-    /// jog stop); it does nothing in other states.
+    /// jog stop); it does nothing in other states, and nothing to a stopping job (an abort or an
+    /// alarm stop decelerating): stops take precedence.
     pub fn feed_hold(&mut self) {
-        match self.state {
-            State::Run => {
+        match self.mode {
+            Mode::Job(Job {
+                kind: JobKind::Machine,
+                phase: JobPhase::Running(ending),
+            }) => {
                 self.motion.feed_hold();
-                self.held = true;
-                self.state = State::Hold;
+                self.set_phase(JobPhase::Hold {
+                    why: HoldWhy::Feed,
+                    ending,
+                });
             }
-            State::Jog => self.jog_stop(),
+            Mode::Jog(_) => self.jog_stop(),
             _ => {}
+        }
+    }
+
+    /// The phase of a machine job (not a check), if one runs.
+    fn machine_job(&self) -> Option<JobPhase> {
+        match self.mode {
+            Mode::Job(Job {
+                kind: JobKind::Machine,
+                phase,
+            }) => Some(phase),
+            _ => None,
+        }
+    }
+
+    /// Moves the job to `phase` (nothing outside a job).
+    fn set_phase(&mut self, phase: JobPhase) {
+        if let Mode::Job(job) = &mut self.mode {
+            job.phase = phase;
+        }
+    }
+
+    /// Records how a running (or held) job ends; a stopping job keeps its stop.
+    fn set_ending(&mut self, e: Ending) {
+        if let Mode::Job(job) = &mut self.mode {
+            match &mut job.phase {
+                JobPhase::Running(ending) | JobPhase::Hold { ending, .. } => *ending = e,
+                JobPhase::Stopping { .. } => {}
+            }
         }
     }
 
@@ -491,7 +501,7 @@ impl Board {
     /// outputs as they were. False for an M0 / M1 / single-block stop, which switched the spindle
     /// and coolant off.
     pub fn feed_held(&self) -> bool {
-        self.state == State::Hold && self.held
+        matches!(self.machine_job(), Some(JobPhase::Hold { why, .. }) if why.feed())
     }
 
     /// The job stands in Run at rest waiting for program lines the host has not sent: the
@@ -500,9 +510,7 @@ impl Board {
     /// stands still with spindle and coolant as the program left them. With the host gone this
     /// wait never ends by itself; [`link::BoardLink`] bounds it like a hold (alarm 20).
     pub fn waiting_for_lines(&self) -> bool {
-        self.state == State::Run
-            && self.ending == Ending::No
-            && !self.aborting
+        self.machine_job() == Some(JobPhase::Running(Ending::No))
             && self.pending.is_none()
             && self.source.is_empty()
             && self.drained
@@ -517,31 +525,38 @@ impl Board {
     /// Cycle start / resume: continue after a feed hold or an M0/M1 pause (refused while the
     /// feed-hold switch is still open).
     pub fn resume(&mut self) {
-        if self.state != State::Hold || self.hold_input_active() {
+        let Some(JobPhase::Hold { why, ending }) = self.machine_job() else {
+            return;
+        };
+        if self.hold_input_active() {
             return;
         }
-        if self.paused {
-            self.paused = false;
+        if why.pause() {
             if let Some(saved) = self.saved_outputs.take() {
                 self.outputs = saved;
             }
             self.motion.release_sync();
         }
-        if self.held {
-            self.held = false;
+        if why.feed() {
             self.motion.resume();
         }
-        self.state = State::Run;
+        self.set_phase(JobPhase::Running(ending));
     }
 
     /// The feed-hold switch closed again: continue the held motion (seed behaviour), unless the
     /// setup wants a cycle start for that.
     fn release_hold(&mut self) {
-        if self.state == State::Hold && self.held {
-            self.held = false;
-            self.motion.resume();
-            if !self.paused {
-                self.state = State::Run;
+        if let Some(JobPhase::Hold { why, ending }) = self.machine_job() {
+            if why.feed() {
+                self.motion.resume();
+                self.set_phase(if why.pause() {
+                    JobPhase::Hold {
+                        why: HoldWhy::Pause,
+                        ending,
+                    }
+                } else {
+                    JobPhase::Running(ending)
+                });
             }
         }
     }
@@ -551,57 +566,64 @@ impl Board {
     /// rest. During homing the seek decelerates and alarm 6 follows at rest (user outputs, which
     /// may enable a squared axis's drivers, stay as they are until then); during a jog it stops
     /// the jog and leaves joystick mode.
+    /// A second abort while the job is stopping changes nothing (the first one, or an alarm
+    /// stop, ends it).
     pub fn abort(&mut self) {
-        match self.state {
-            State::Homing => {
+        match self.mode {
+            Mode::Homing(_) => {
                 self.motion.abort();
                 self.homing = None;
                 self.homing_list = None;
-                self.stop_alarm = Some((AlarmCode::HomingAborted, 0));
-                return;
+                self.mode = Mode::Homing(HomingRun::Aborting);
             }
-            State::Jog => {
-                self.jog.joystick = false;
+            Mode::Jog(_) => {
+                // Leaves joystick mode too.
+                self.mode = Mode::Jog(Jogging::Moves);
                 self.jog_stop();
-                return;
             }
-            State::Check => {
+            Mode::Job(Job {
+                kind: JobKind::Check,
+                ..
+            }) => {
                 self.source.reset();
-                self.ending = Ending::Failed;
-                return;
+                self.set_ending(Ending::Failed);
             }
-            State::Run | State::Hold => {}
-            _ => return,
+            Mode::Job(Job {
+                phase: JobPhase::Stopping { .. },
+                ..
+            }) => {}
+            Mode::Job(_) => self.stop_job(None),
+            Mode::Idle | Mode::Alarm(_) => {}
         }
-        self.stop_job(None);
     }
 
     /// Ends a running or held job: decelerate on the path, drop the rest, remember the resume
     /// line. Spindle and coolant keep running while the tool decelerates along the cut; once the
     /// machine is at rest [`Board::poll`] ends the job with the program-stop sequence, or, with
     /// `alarm`, raises that alarm (with its line) instead, which switches every output off.
+    /// Callers check that the job is not stopping already: the first stop wins.
     fn stop_job(&mut self, alarm: Option<(AlarmCode, u32)>) {
-        // An abort while an alarm stop decelerates keeps the alarm.
-        self.stop_alarm = alarm.or(self.stop_alarm.take());
         self.resume_line = self.line;
         self.motion.abort();
-        self.aborting = true;
         self.source.reset();
         self.pending = None;
-        self.paused = false;
-        self.held = false;
         // Nothing is restored any more (an M0 stop's outputs included).
         self.saved_outputs = None;
         self.list = None;
-        self.ending = Ending::Failed;
-        self.state = State::Run;
+        self.set_phase(JobPhase::Stopping {
+            alarm,
+            ramp: Ramp::Decelerating,
+        });
     }
 
     /// The host has stayed away for `link.host_lost_stop_s` while the job was held or waited for
     /// lines ([`link::BoardLink`] decides): end the job and raise alarm 20 at rest (every output
     /// off), with the line it stopped in.
     pub fn host_lost_stop(&mut self) {
-        if matches!(self.state, State::Run | State::Hold) {
+        if matches!(
+            self.machine_job(),
+            Some(JobPhase::Running(_) | JobPhase::Hold { .. })
+        ) {
             self.stop_job(Some((AlarmCode::HostLost, self.line)));
         }
     }
@@ -615,7 +637,7 @@ impl Board {
         self.motion.set_rapid_override(pct);
     }
 
-    /// A hard limit tripped: the kernel has already stopped stepping (DESIGN §6). `kernel_steps`
+    /// A hard limit tripped: the kernel has already stopped stepping (docs/controller.md "Safety rules as built"). `kernel_steps`
     /// is where it stopped; the owner flushes its segment queue. The tripped axes lose home.
     pub fn hard_limit(&mut self, axes: u8, kernel_steps: &[i64; MAX_AXES]) {
         self.rebuild_motion(true, kernel_steps);
@@ -630,7 +652,7 @@ impl Board {
 
     /// The line a job is executing, for an alarm raised now (0 outside a job).
     fn job_line(&self) -> u32 {
-        if matches!(self.state, State::Run | State::Hold) {
+        if self.machine_job().is_some() {
             self.line
         } else {
             0
@@ -720,7 +742,7 @@ impl Board {
         self.motion.set_feed_override(self.feed_override);
     }
 
-    /// The program-stop sequence (seed 003 §4.3, M2/M30, abort, a job ended by an error): spindle
+    /// The program-stop sequence (docs/controller.md "How a job ends": M2/M30, abort, a job ended by an error): spindle
     /// and coolant off, nothing saved to restore; the tool stays, and user outputs stay as the
     /// program left them (alarms switch those off too, [`Board::outputs_safe`]).
     fn program_stop(&mut self) {
@@ -744,19 +766,13 @@ impl Board {
     /// Raises alarm `code` concerning program line `line` (0 = none): outputs safe, jog and job
     /// ended (`JobDone` when a job was running).
     fn enter_alarm(&mut self, code: AlarmCode, line: u32) {
-        let was_running = matches!(self.state, State::Run | State::Hold | State::Check);
+        let was_running = matches!(self.mode, Mode::Job(_));
         self.outputs_safe();
         self.jog = JogState {
             marks: self.jog.marks,
             ..JogState::default()
         };
-        self.alarm = Some(code);
-        self.state = State::Alarm;
-        self.ending = Ending::No;
-        self.paused = false;
-        self.held = false;
-        self.aborting = false;
-        self.stop_alarm = None;
+        self.mode = Mode::Alarm(code);
         self.emit(BoardEvent::Alarm { code, line });
         if was_running {
             self.emit(BoardEvent::JobDone { line: self.line });
@@ -767,12 +783,12 @@ impl Board {
     /// Clears an alarm (unlock); motion is allowed again. While homing is required and an axis
     /// is unhomed the board stays in alarm 11 (only homing is allowed).
     pub fn unlock(&mut self) {
-        if self.state != State::Alarm || self.motion.state() != MotionState::Idle {
+        if !matches!(self.mode, Mode::Alarm(_)) || self.motion.state() != MotionState::Idle {
             return;
         }
         if self.homing_missing() {
-            if self.alarm != Some(AlarmCode::HomingRequired) {
-                self.alarm = Some(AlarmCode::HomingRequired);
+            if self.mode != Mode::Alarm(AlarmCode::HomingRequired) {
+                self.mode = Mode::Alarm(AlarmCode::HomingRequired);
                 self.emit(BoardEvent::Alarm {
                     code: AlarmCode::HomingRequired,
                     line: 0,
@@ -786,8 +802,7 @@ impl Board {
             let steps = self.motion.prepared_steps();
             self.rebuild_motion(true, &steps);
         }
-        self.alarm = None;
-        self.state = State::Idle;
+        self.mode = Mode::Idle;
     }
 
     /// A stop (jog stop, stick release, feed hold, abort) or a jog's speed change wants to act
@@ -832,7 +847,7 @@ impl Board {
     pub fn poll(&mut self, kernel_drained: bool) {
         self.drained = kernel_drained;
         if !self.motion.config().soft_limits
-            && self.state != State::Homing
+            && !matches!(self.mode, Mode::Homing(_))
             && kernel_drained
             && self.motion.state() == MotionState::Idle
         {
@@ -840,30 +855,37 @@ impl Board {
             let steps = self.motion.prepared_steps();
             self.rebuild_motion(true, &steps);
         }
-        match self.state {
-            State::Homing => {
+        match self.mode {
+            Mode::Homing(_) => {
                 self.poll_homing(kernel_drained);
                 return;
             }
-            State::Jog => {
+            Mode::Jog(_) => {
                 self.poll_jog(kernel_drained);
                 return;
             }
             _ => {}
         }
-        if matches!(self.state, State::Run | State::Check)
-            && self.ending == Ending::No
-            && !self.aborting
+        let job = match self.mode {
+            Mode::Job(job) => Some(job),
+            _ => None,
+        };
+        if let Some(Job {
+            phase: JobPhase::Running(Ending::No),
+            ..
+        }) = job
         {
             self.interpret();
         }
         if let Some(req) = self.source.take_request() {
             self.emit(BoardEvent::Jump(req));
         }
-        if matches!(self.state, State::Run | State::Hold)
-            && self.ending != Ending::No
-            && !self.aborting
-        {
+        let ending_machine_job = match self.machine_job() {
+            Some(JobPhase::Running(e) | JobPhase::Hold { ending: e, .. }) => e != Ending::No,
+            Some(JobPhase::Stopping { ramp, .. }) => ramp == Ramp::Done,
+            None => false,
+        };
+        if ending_machine_job {
             // No motion follows: an on-the-fly M code still waiting for a move runs once the
             // motion before it has ended (retried while the queue is full).
             let _ = self.motion.flush_output();
@@ -871,27 +893,43 @@ impl Board {
         if kernel_drained {
             self.perform_sync();
         }
-        if self.aborting && self.motion.state() == MotionState::Idle {
-            self.aborting = false;
-            // The deceleration may have carried the machine into the next block.
-            self.resume_line = self.line;
-        }
-        if matches!(self.state, State::Run | State::Check)
-            && self.ending != Ending::No
-            && !self.aborting
-            && kernel_drained
-            && self.motion.state() == MotionState::Idle
+        if let Some(JobPhase::Stopping {
+            alarm,
+            ramp: Ramp::Decelerating,
+        }) = self.machine_job()
         {
+            if self.motion.state() == MotionState::Idle {
+                // The deceleration may have carried the machine into the next block.
+                self.resume_line = self.line;
+                self.set_phase(JobPhase::Stopping {
+                    alarm,
+                    ramp: Ramp::Done,
+                });
+            }
+        }
+        let Mode::Job(job) = self.mode else {
+            return;
+        };
+        // How the job ends at rest: (the alarm it raises, the program-stop sequence).
+        let end = match job.phase {
+            JobPhase::Running(Ending::Finished) => (None, false),
+            JobPhase::Running(Ending::Failed) => (None, job.kind == JobKind::Machine),
+            JobPhase::Stopping {
+                alarm,
+                ramp: Ramp::Done,
+            } => (alarm, true),
+            _ => return,
+        };
+        if kernel_drained && self.motion.state() == MotionState::Idle {
             // At rest: the one place where a job ends (alarm 1 aside).
-            let ending = core::mem::replace(&mut self.ending, Ending::No);
-            if let Some((code, line)) = self.stop_alarm.take() {
+            if let (Some((code, line)), _) = end {
                 self.enter_alarm(code, line);
                 return;
             }
-            if ending == Ending::Failed && self.state == State::Run {
+            if end.1 {
                 self.program_stop();
             }
-            self.state = State::Idle;
+            self.mode = Mode::Idle;
             self.sync_interpreter_position();
             self.emit(BoardEvent::JobDone { line: self.line });
         }
@@ -909,14 +947,20 @@ impl Board {
                     }
                     None => {
                         if self.interp.is_finished() {
-                            self.ending = Ending::Finished;
+                            self.set_ending(Ending::Finished);
                         }
                         return;
                     }
                 },
             };
             let canon = self.dry_run_feed(canon);
-            if self.state == State::Check {
+            if matches!(
+                self.mode,
+                Mode::Job(Job {
+                    kind: JobKind::Check,
+                    ..
+                })
+            ) {
                 if !self.check_only(&canon) {
                     return;
                 }
@@ -927,7 +971,7 @@ impl Board {
                     && self.last_motion_line != 0
                     && canon.line != self.last_motion_line
                 {
-                    // Single block: a breakpoint after each block (seed 003 "Each Block"), with
+                    // Single block: a breakpoint after each block (docs/controller.md "Run modes"), with
                     // the M0 stop/restore rules.
                     let pause = Canon {
                         line: self.last_motion_line,
@@ -980,13 +1024,13 @@ impl Board {
     /// before it completes, then [`Board::poll`] runs the program-stop sequence at rest. A later
     /// run resumes at that line.
     fn fail_at(&mut self, line: u32) {
-        self.ending = Ending::Failed;
-        if self.state != State::Check {
+        self.set_ending(Ending::Failed);
+        if self.machine_job().is_some() {
             self.resume_line = line;
         }
     }
 
-    /// The code and output event of an on-the-fly M code (seed 003 "On the Fly" switching): a user M code
+    /// The code and output event of an on-the-fly M code (docs/controller.md "On-the-fly outputs"): a user M code
     /// whose list is exactly one `set n` or `clear n` (n < 16) switches that output at its exact
     /// place on the path without stopping the motion. `None` for everything else, which stays a
     /// sync point (an M code with no list or an empty one included). In a dry run a list flagged
@@ -1033,12 +1077,12 @@ impl Board {
                     code: ERROR_SOFT_LIMIT,
                     column: 0,
                 });
-                self.ending = Ending::Failed;
+                self.set_ending(Ending::Failed);
                 return false;
             }
             Action::Stop(StopKind::End | StopKind::EndRewind) => {
                 self.line = canon.line;
-                self.ending = Ending::Finished;
+                self.set_ending(Ending::Finished);
                 return false;
             }
             _ => {}
@@ -1061,7 +1105,7 @@ impl Board {
         let Some(canon) = self.motion.sync_point().copied() else {
             return;
         };
-        if self.paused {
+        if matches!(self.machine_job(), Some(JobPhase::Hold { why, .. }) if why.pause()) {
             return;
         }
         if let Some(list) = self.list.as_mut() {
@@ -1114,13 +1158,17 @@ impl Board {
                 self.outputs.spindle = Spindle::Off;
                 self.outputs.mist = false;
                 self.outputs.flood = false;
-                self.paused = true;
-                self.state = State::Hold;
+                let (why, ending) = match self.machine_job() {
+                    Some(JobPhase::Hold { ending, .. }) => (HoldWhy::FeedAndPause, ending),
+                    Some(JobPhase::Running(ending)) => (HoldWhy::Pause, ending),
+                    _ => (HoldWhy::Pause, Ending::No),
+                };
+                self.set_phase(JobPhase::Hold { why, ending });
                 return;
             }
             Action::Stop(StopKind::End | StopKind::EndRewind) => {
                 self.program_stop();
-                self.ending = Ending::Finished;
+                self.set_ending(Ending::Finished);
             }
             _ => {}
         }
@@ -1191,7 +1239,7 @@ impl Board {
     /// Dry run on or off (only while idle): feed moves at `operator.dry_run_feed`, spindle and
     /// coolant untouched, M-code lists flagged `dry_run_disabled` skipped.
     pub fn set_dry_run(&mut self, on: bool) -> bool {
-        if self.state != State::Idle {
+        if self.mode != Mode::Idle {
             return false;
         }
         self.dry_run = on;

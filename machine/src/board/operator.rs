@@ -1,5 +1,5 @@
 //! Operator inputs of one main-loop pass: feed hold, abort, cycle start (two-hand), the run-mode
-//! switches and the feed-override potentiometer (seed 003 §2.3-§2.5). The joystick part is in
+//! switches and the feed-override potentiometer (docs/controller.md "Operator inputs"). The joystick part is in
 //! [`super::jogging`].
 
 use super::Board;
@@ -9,7 +9,7 @@ use crate::controller::{fro_from_adc, AdcReadings, State};
 impl Board {
     /// Cycle start: resumes a hold or an M0/M1/single-block stop.
     pub fn cycle_start(&mut self) {
-        if self.state == State::Hold {
+        if self.state() == State::Hold {
             self.resume();
         }
     }
@@ -32,7 +32,7 @@ impl Board {
             self.abort();
         }
         if inputs.feed_hold {
-            if rose(Signal::FeedHold) && self.state == State::Run {
+            if rose(Signal::FeedHold) && self.state() == State::Run {
                 self.feed_hold();
             }
             if fell(Signal::FeedHold) && !self.setup.operator.resume_needs_cycle_start {

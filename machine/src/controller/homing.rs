@@ -1,4 +1,4 @@
-//! Limit-switch seek (homing), seed 003 §2.2: axes one at a time in priority order; for each, the
+//! Limit-switch seek (homing, docs/controller.md "Homing"): axes one at a time in priority order; for each, the
 //! before-seek list, a constant-rate seek toward the switch (given up after the axis travel), the
 //! before-retract list, a retract at the rapid rate, set home, the after-retract list.
 //!

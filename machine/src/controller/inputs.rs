@@ -3,7 +3,7 @@
 //! The firmware samples its input pins into an [`InputBits`] word once per millisecond (the emulated
 //! board does the same from its virtual pins); this module applies the polarity setting, debounces
 //! each bit and reports which signals changed. Limit switches are *also* seen raw by the step
-//! interrupt (DESIGN §6): debouncing here never delays the stop, only the alarm bookkeeping.
+//! interrupt (docs/controller.md "Safety rules as built"): debouncing here never delays the stop, only the alarm bookkeeping.
 
 use serde::{Deserialize, Serialize};
 

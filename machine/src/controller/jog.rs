@@ -1,4 +1,4 @@
-//! Jogging, seed 003 §2.6: joystick switches S1-S4 → up to four axes through the stage-pair
+//! Jogging (docs/controller.md "Jogging"): joystick switches S1-S4 → up to four axes through the stage-pair
 //! selector, an analog stick → proportional speed, and the targets a jog may reach inside the
 //! soft-limit box.
 //!

@@ -1,4 +1,4 @@
-//! Command lists (seed 003 §2.12, reduced to output actions): set or clear user outputs, dwell,
+//! Command lists (reduced to output actions; docs/controller.md "Outputs"): set or clear user outputs, dwell,
 //! wait for an input with a timeout. Homing runs three of them per axis, user M codes one each.
 //!
 //! A [`ListRunner`] is stepped from the main loop with the time and the debounced inputs; it

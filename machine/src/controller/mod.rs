@@ -1,7 +1,7 @@
 //! Controller state machine: what the operator, the host and the machine's switches do to a board.
 //!
 //! The firmware and the emulated board both drive this one implementation, so a board and its
-//! emulation behave identically (DESIGN §1).
+//! emulation behave identically (docs/architecture.md "The main loop").
 
 pub mod homing;
 pub mod inputs;

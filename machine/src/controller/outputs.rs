@@ -8,7 +8,7 @@ use crate::canon::Spindle;
 use crate::setup::OutputSetup;
 
 /// The level of every controlled output. [`OutputLevels::SAFE`] is the power-up, alarm and
-/// program-stop state (DESIGN §6).
+/// program-stop state (docs/controller.md "Safety rules as built").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct OutputLevels {
     pub spindle_enable: bool,

@@ -1,0 +1,516 @@
+//! The board's main loop, once: the firmware (`firmware/src/control.rs`, every millisecond on
+//! the board) and the emulated board (`host-sender/src/emulator.rs`, every virtual millisecond)
+//! both call [`MainLoop::pass`]. Everything that decides anything lives here; what differs
+//! between the two (the step kernel behind an interrupt or on a virtual clock, pins, USB pipes
+//! or a byte buffer, flash, the motion marker) sits behind [`BoardPort`].
+//!
+//! One pass, in this order (the order is part of the behaviour, see docs/architecture.md
+//! "The main loop"):
+//! 1. **Limit latch.** The kernel latched a stop (a limit switch): the queue and the running
+//!    segment are dropped, [`Board::limit_stop`] is told where it stopped and which pins tripped,
+//!    and the kernel stays stopped (no segment handed out, none dropped) while the board is in
+//!    alarm; it is re-armed once the alarm is cleared (or at once when the stop was a homing
+//!    seek's switch).
+//! 2. **Inputs.** Raw pins debounced with the setup's polarity and debounce, the ADC readings:
+//!    [`Board::on_inputs`].
+//! 3. **Host link and controller.** Bytes from the host; the host-loss rule (the host closed the
+//!    port, DTR dropped: feed hold); the path speed ([`SpeedMeter`], a 20 ms window);
+//!    [`BoardLink::service`]; [`Board::poll`] with the kernel's drained flag; a new home loaded
+//!    into the kernel; queued segments taken back for a stop or a jog's speed change.
+//! 4. **Segments** into the kernel's queue (the motion marker set before the kernel can step
+//!    them, cleared once drained), the user output word exchanged with the kernel, the limit bits
+//!    armed for the kernel.
+//! 5. **Out.** The link again (events of this pass go out in it), frames to the host, output
+//!    levels to the pins.
+//! 6. **Setup change.** A setup the host pushed: new debouncer and step pulse timing now, saved
+//!    once the board is idle and the kernel drained (a flash write stalls the CPU).
+
+use super::link::{BoardLink, KernelView};
+use super::Board;
+use crate::controller::inputs::{Debouncer, InputBits};
+use crate::controller::{AdcReadings, OutputLevels, State};
+use crate::motion::kernel::{Segment, StepTiming};
+use crate::motion::pipeline::MotionState;
+use crate::motion::trig::isqrt_u64;
+use crate::setup::Setup;
+use crate::units::{Pos, MAX_AXES};
+
+/// Slots of the segment queue between the main loop and the step kernel. The firmware's queue is
+/// a heapless SPSC queue of this many slots, which holds one less ([`SEGMENT_QUEUE_DEPTH`]).
+pub const SEGMENT_QUEUE_SLOTS: usize = 16;
+/// Segments the queue holds (about 2 ms each: 30 ms of motion ahead of the kernel). Segment prep
+/// remembers at least as many, so a stop can take every queued segment back.
+pub const SEGMENT_QUEUE_DEPTH: usize = SEGMENT_QUEUE_SLOTS - 1;
+
+const _: () = assert!(
+    SEGMENT_QUEUE_DEPTH <= crate::motion::history::SEGMENT_HISTORY,
+    "every queued segment can be taken back"
+);
+
+/// What the main loop reads of the step kernel at one moment.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct KernelSnapshot {
+    /// Step position the kernel has reached.
+    pub steps: [i64; MAX_AXES],
+    /// The kernel latched a stop (its limit flag) and steps no more until re-armed.
+    pub stopped: bool,
+    /// The queue is empty and the kernel has no segment running.
+    pub drained: bool,
+}
+
+/// What differs between the board and its emulation: the step kernel and its segment queue, the
+/// pins, the link's bytes, the flash and the motion marker. Each method does one thing and
+/// decides nothing; [`MainLoop::pass`] calls them in a fixed order.
+pub trait BoardPort {
+    /// The kernel now.
+    fn kernel(&mut self) -> KernelSnapshot;
+    /// After a latched stop: drop every queued segment and the running one (the position keeps
+    /// the steps made). The kernel stays stopped.
+    fn flush_kernel(&mut self);
+    /// Clears the kernel's latched stop, re-evaluating the stop flag with the limit bits armed
+    /// last ([`BoardPort::arm_limits`]): an armed switch still active stops it again.
+    fn rearm_kernel(&mut self);
+    /// The limit bits whose switch stops the kernel from now on ([`Board::limit_arm`]); an armed
+    /// switch that is active already raises the kernel's stop flag.
+    fn arm_limits(&mut self, arm: u32);
+    /// Raw input pin levels (before the polarity setting).
+    fn raw_inputs(&mut self) -> u32;
+    /// The ADC readings of this pass.
+    fn adc(&mut self) -> AdcReadings;
+    /// The debounced levels of this pass (`changed`: bits that changed). Default: nothing.
+    fn inputs_sampled(&mut self, _levels: InputBits, _changed: u32) {}
+    /// The segment queue has room for one more.
+    fn queue_ready(&mut self) -> bool;
+    /// Queues a segment for the kernel (only after [`BoardPort::queue_ready`]).
+    fn push_segment(&mut self, seg: Segment);
+    /// Removes up to `max` of the newest queued segments the kernel has not started; returns how
+    /// many it removed.
+    fn drop_newest(&mut self, max: usize) -> usize;
+    /// Loads a new step position into the kernel (at rest: homing set home).
+    fn set_position(&mut self, steps: [i64; MAX_AXES]);
+    /// New input polarity (the kernel's limit check applies it to the raw pins) and step pulse
+    /// timing, from a new setup.
+    fn apply_setup(&mut self, invert: u32, timing: StepTiming);
+    /// Exchanges the user output word with the kernel: `f` gets the kernel's word and returns the
+    /// word to load into the kernel and the pins, if any ([`Board::sync_user_outputs`]).
+    fn exchange_user_outputs(&mut self, f: impl FnOnce(u16) -> Option<u16>);
+    /// Drives spindle, coolant and stepper-enable pins.
+    fn drive_outputs(&mut self, levels: &OutputLevels, pwm_max: u16, steppers_enabled: bool);
+    /// Bytes from the host into `buf`; returns how many (0: none).
+    fn receive(&mut self, buf: &mut [u8]) -> usize;
+    /// Room to send a frame of `len` bytes now.
+    fn can_transmit(&mut self, len: usize) -> bool;
+    /// Sends a frame to the host.
+    fn transmit(&mut self, frame: &[u8]);
+    /// A host holds the port open (USB CDC DTR).
+    fn host_connected(&mut self) -> bool;
+    /// Writes the setup to flash (called only with the board idle and the kernel drained).
+    fn save_setup(&mut self, setup: &Setup);
+    /// The motion marker: set (`true`) before a segment can reach the kernel, cleared once the
+    /// kernel is drained and the position is known (`controller::power_up`).
+    fn motion_marker(&mut self, moving: bool);
+    /// Right before each link service: a test harness may take the board's events here instead of
+    /// the link. Default: nothing.
+    fn before_link_service(&mut self, _board: &mut Board) {}
+    /// A latched stop was handed to the board (`levels`: the logical pins it saw). For logs.
+    fn limit_stopped(&mut self, _levels: InputBits) {}
+    /// The host closed the port and the job was held. For logs.
+    fn host_closed(&mut self) {}
+}
+
+/// Path speed from the kernel's position, over a window of [`SpeedMeter::WINDOW_MS`]: what the
+/// status reports as the feed and what `Hold { stopped }` is built from.
+#[derive(Clone, Copy, Debug)]
+pub struct SpeedMeter {
+    since_ms: u32,
+    from: Pos,
+    um_min: u32,
+}
+
+impl SpeedMeter {
+    /// Measuring window, ms: long enough to see a few steps at the slowest feeds.
+    pub const WINDOW_MS: u32 = 20;
+
+    pub const fn new() -> Self {
+        SpeedMeter {
+            since_ms: 0,
+            from: [0; MAX_AXES],
+            um_min: 0,
+        }
+    }
+
+    /// The speed (µm/min) at `now_ms` with the machine at `at` (nm): a new figure once a window
+    /// has passed, else the last one.
+    pub fn update(&mut self, now_ms: u32, at: Pos) -> u32 {
+        let dt = now_ms.wrapping_sub(self.since_ms);
+        if dt >= Self::WINDOW_MS {
+            let mut sum_sq: u64 = 0;
+            for (a, b) in at.iter().zip(&self.from) {
+                // Clamped to ±2^30 nm (1 m per window), far beyond any machine: no overflow.
+                let d = (a - b).max(-(1 << 30)).min(1 << 30).unsigned_abs();
+                sum_sq = sum_sq.saturating_add(d * d);
+            }
+            // nm per ms × 60 = µm per min.
+            self.um_min = (isqrt_u64(sum_sq) * 60 / u64::from(dt)).min(u64::from(u32::MAX)) as u32;
+            self.since_ms = now_ms;
+            self.from = at;
+        }
+        self.um_min
+    }
+
+    /// The kernel's position was redefined (homing set home): the window restarts from `at`.
+    pub fn restart(&mut self, now_ms: u32, at: Pos) {
+        self.since_ms = now_ms;
+        self.from = at;
+    }
+}
+
+impl Default for SpeedMeter {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The kernel's limit latch as the main loop handles it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Latch {
+    /// The kernel steps (or would, given segments).
+    Armed,
+    /// A latched stop was handed to the board; the kernel stays stopped while it is in alarm.
+    Stopped,
+}
+
+/// The host's hold on the port (DTR) as last seen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum HostPort {
+    Closed,
+    Open,
+}
+
+/// A setup applied from the host and not yet in flash.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Save {
+    Done,
+    Pending,
+}
+
+/// The main loop's own state (small: the board and its link live with their owner, in statics on
+/// the firmware).
+pub struct MainLoop {
+    debouncer: Debouncer,
+    speed: SpeedMeter,
+    latch: Latch,
+    host_port: HostPort,
+    save: Save,
+    /// Drivers stay disabled from power-up until the first segment goes to the kernel.
+    steppers_enabled: bool,
+    view: KernelView,
+    underruns: u64,
+}
+
+impl MainLoop {
+    /// The main loop of a board powered up with `setup` (the port's kernel already has its step
+    /// timing and polarity).
+    pub fn new(setup: &Setup) -> Self {
+        MainLoop {
+            debouncer: Debouncer::new(setup.inputs.invert, setup.inputs.debounce_ms),
+            speed: SpeedMeter::new(),
+            latch: Latch::Armed,
+            host_port: HostPort::Closed,
+            save: Save::Done,
+            steppers_enabled: false,
+            view: KernelView::default(),
+            underruns: 0,
+        }
+    }
+
+    /// What the last pass's status reports saw of the kernel (position, inputs, speed).
+    pub fn kernel_view(&self) -> KernelView {
+        self.view
+    }
+
+    /// Passes that found the kernel drained with the job's motion running and nothing prepared
+    /// (the planner starved the kernel).
+    pub fn underruns(&self) -> u64 {
+        self.underruns
+    }
+
+    /// The stepper drivers are enabled (the first segment has gone to the kernel).
+    pub fn steppers_enabled(&self) -> bool {
+        self.steppers_enabled
+    }
+
+    /// A latched kernel stop is being held until the alarm is cleared.
+    pub fn kernel_latched(&self) -> bool {
+        self.latch == Latch::Stopped
+    }
+
+    /// A setup from the host waits to be saved.
+    pub fn save_pending(&self) -> bool {
+        self.save == Save::Pending
+    }
+
+    /// One pass of the main loop at `now_ms` (see the module documentation for the order).
+    pub fn pass(
+        &mut self,
+        now_ms: u32,
+        board: &mut Board,
+        link: &mut BoardLink,
+        port: &mut impl BoardPort,
+    ) {
+        // 1. A limit stopped the kernel: drop the queue, tell the board, re-arm unless alarmed.
+        let k = port.kernel();
+        if k.stopped && self.latch == Latch::Armed {
+            port.flush_kernel();
+            let steps = port.kernel().steps;
+            let levels = InputBits(port.raw_inputs() ^ board.setup().inputs.invert);
+            board.limit_stop(levels, &steps);
+            port.arm_limits(board.limit_arm());
+            self.latch = Latch::Stopped;
+            port.limit_stopped(levels);
+        }
+        if self.latch == Latch::Stopped && board.state() != State::Alarm {
+            port.rearm_kernel();
+            self.latch = Latch::Armed;
+        }
+
+        // 2. Inputs, debounced here (the kernel saw the raw limit pins already).
+        let (levels, changed) = self.debouncer.sample(port.raw_inputs());
+        port.inputs_sampled(levels, changed);
+        let adc = port.adc();
+        board.on_inputs(now_ms, levels, changed, adc);
+
+        // 3. Host link and controller.
+        let mut rx = [0u8; 64];
+        loop {
+            let n = port.receive(&mut rx);
+            if n == 0 {
+                break;
+            }
+            link.on_bytes(now_ms, &rx[..n]);
+        }
+        let host_port = if port.host_connected() {
+            HostPort::Open
+        } else {
+            HostPort::Closed
+        };
+        if self.host_port == HostPort::Open && host_port == HostPort::Closed {
+            // The sender closed the port: hold now rather than after the silence timeout.
+            board.feed_hold();
+            port.host_closed();
+        }
+        self.host_port = host_port;
+        let speed_um_min = self.speed.update(now_ms, board.machine_position(&k.steps));
+        self.view = KernelView {
+            steps: k.steps,
+            inputs: levels.0,
+            feed_um_min: speed_um_min,
+        };
+        port.before_link_service(board);
+        link.service(board, now_ms, &self.view);
+        let drained = port.kernel().drained;
+        board.poll(drained);
+        if let Some(steps) = board.take_position_reset() {
+            port.set_position(steps);
+            self.speed.restart(now_ms, board.machine_position(&steps));
+        }
+        // A stop or a jog's speed change: the newest queued segments go, segment prep continues
+        // from the end of the kernel's running segment. Nothing moves while latched.
+        let latched = self.latch == Latch::Stopped;
+        if !latched {
+            board.drop_queued(|max| port.drop_newest(max));
+        }
+
+        // 4. Segments for the kernel (none while it is latched).
+        let mut handed_out = false;
+        if !latched {
+            while port.queue_ready() {
+                let Some(seg) = board.next_segment() else {
+                    break;
+                };
+                self.steppers_enabled = true;
+                // Before the kernel can step it: a reset from here on is a reset during motion.
+                port.motion_marker(true);
+                handed_out = true;
+                port.push_segment(seg);
+            }
+        }
+        if drained && !handed_out {
+            if !board.position_lost() {
+                port.motion_marker(false);
+            }
+            if board.state() == State::Run && board.motion().state() == MotionState::Running {
+                self.underruns += 1;
+            }
+        }
+        // User outputs: the board takes the levels the kernel's on-the-fly events left on the
+        // pins, or (after a list at rest, an alarm) loads its own into the kernel and the pins.
+        port.exchange_user_outputs(|word| board.sync_user_outputs(word));
+        port.arm_limits(board.limit_arm());
+
+        // 5. Events of this pass go out now; then the pins.
+        port.before_link_service(board);
+        link.service(board, now_ms, &self.view);
+        let mut frame = [0u8; gantry_proto::MAX_FRAME_LEN];
+        while port.can_transmit(frame.len()) {
+            let Some(n) = link.poll_transmit(now_ms, &mut frame) else {
+                break;
+            };
+            port.transmit(&frame[..n]);
+        }
+        port.drive_outputs(
+            &board.output_levels(),
+            board.setup().outputs.pwm_max,
+            self.steppers_enabled,
+        );
+
+        // 6. A new setup from the host (taken only while idle): its input polarity, debounce and
+        // step pulse shape now; flash once idle with nothing moving.
+        if link.take_setup_changed() {
+            let s = board.setup();
+            self.debouncer = Debouncer::new(s.inputs.invert, s.inputs.debounce_ms);
+            port.apply_setup(s.inputs.invert, StepTiming::from_setup(&s.drivers));
+            self.save = Save::Pending;
+        }
+        if self.save == Save::Pending && board.state() == State::Idle && drained {
+            // A failed write is not retried every millisecond; the next setup change tries again.
+            self.save = Save::Done;
+            port.save_setup(board.setup());
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The pass's own rules on a port that records what it is asked (the scenario tests on the
+    //! emulated board are in tests/tests/controller_main_loop.rs).
+    use super::*;
+    use crate::controller::AlarmCode;
+    use crate::units::NM_PER_MM;
+
+    #[derive(Default)]
+    struct FakePort {
+        kernel: KernelSnapshot,
+        flushed: u32,
+        rearmed: u32,
+        queued: u32,
+        dtr: bool,
+        saved: u32,
+    }
+
+    impl BoardPort for FakePort {
+        fn kernel(&mut self) -> KernelSnapshot {
+            self.kernel
+        }
+        fn flush_kernel(&mut self) {
+            self.flushed += 1;
+        }
+        fn rearm_kernel(&mut self) {
+            self.rearmed += 1;
+            self.kernel.stopped = false;
+        }
+        fn arm_limits(&mut self, _arm: u32) {}
+        fn raw_inputs(&mut self) -> u32 {
+            0
+        }
+        fn adc(&mut self) -> AdcReadings {
+            AdcReadings::default()
+        }
+        fn queue_ready(&mut self) -> bool {
+            self.queued < SEGMENT_QUEUE_DEPTH as u32
+        }
+        fn push_segment(&mut self, _seg: Segment) {
+            self.queued += 1;
+            self.kernel.drained = false;
+        }
+        fn drop_newest(&mut self, _max: usize) -> usize {
+            0
+        }
+        fn set_position(&mut self, _steps: [i64; MAX_AXES]) {}
+        fn apply_setup(&mut self, _invert: u32, _timing: StepTiming) {}
+        fn exchange_user_outputs(&mut self, f: impl FnOnce(u16) -> Option<u16>) {
+            f(0);
+        }
+        fn drive_outputs(&mut self, _l: &OutputLevels, _pwm_max: u16, _enabled: bool) {}
+        fn receive(&mut self, _buf: &mut [u8]) -> usize {
+            0
+        }
+        fn can_transmit(&mut self, _len: usize) -> bool {
+            false
+        }
+        fn transmit(&mut self, _frame: &[u8]) {}
+        fn host_connected(&mut self) -> bool {
+            self.dtr
+        }
+        fn save_setup(&mut self, _setup: &Setup) {
+            self.saved += 1;
+        }
+        fn motion_marker(&mut self, _moving: bool) {}
+    }
+
+    fn parts() -> (MainLoop, Board, BoardLink, FakePort) {
+        let setup = Setup::default();
+        let port = FakePort {
+            kernel: KernelSnapshot {
+                drained: true,
+                ..KernelSnapshot::default()
+            },
+            ..FakePort::default()
+        };
+        (
+            MainLoop::new(&setup),
+            Board::new(setup),
+            BoardLink::new(1),
+            port,
+        )
+    }
+
+    #[test]
+    fn the_speed_meter_measures_over_20_ms_windows() {
+        let mut m = SpeedMeter::new();
+        // 1 mm in 20 ms = 3000 mm/min, reported only when the window closes.
+        assert_eq!(m.update(10, [NM_PER_MM / 2, 0, 0, 0, 0, 0]), 0);
+        assert_eq!(m.update(20, [NM_PER_MM, 0, 0, 0, 0, 0]), 3_000_000);
+        assert_eq!(m.update(39, [NM_PER_MM, 0, 0, 0, 0, 0]), 3_000_000);
+        assert_eq!(m.update(40, [NM_PER_MM, 0, 0, 0, 0, 0]), 0);
+    }
+
+    #[test]
+    fn a_latched_stop_holds_the_kernel_until_the_alarm_clears() {
+        let (mut main, mut board, mut link, mut port) = parts();
+        port.kernel.stopped = true;
+        main.pass(0, &mut board, &mut link, &mut port);
+        assert_eq!(board.alarm(), Some(AlarmCode::HardLimit));
+        assert_eq!((port.flushed, port.rearmed), (1, 0));
+        assert!(main.kernel_latched());
+        for t in 1..100 {
+            main.pass(t, &mut board, &mut link, &mut port);
+        }
+        // Flushed once, never re-armed, nothing queued while in the alarm.
+        assert_eq!((port.flushed, port.rearmed, port.queued), (1, 0, 0));
+        board.unlock();
+        main.pass(100, &mut board, &mut link, &mut port);
+        assert_eq!((port.flushed, port.rearmed), (1, 1));
+        assert!(!main.kernel_latched());
+    }
+
+    #[test]
+    fn the_host_closing_the_port_holds_a_job_and_opening_it_does_nothing() {
+        let (mut main, mut board, mut link, mut port) = parts();
+        main.pass(0, &mut board, &mut link, &mut port);
+        assert!(board.start_job());
+        assert!(board.push_line(0, 1, "G1 X10 F600"));
+        port.dtr = true;
+        main.pass(1, &mut board, &mut link, &mut port);
+        main.pass(2, &mut board, &mut link, &mut port);
+        assert_eq!(board.state(), State::Run);
+        assert!(port.queued > 0);
+        port.dtr = false;
+        main.pass(3, &mut board, &mut link, &mut port);
+        assert_eq!(board.state(), State::Hold);
+        assert!(board.feed_held());
+        port.dtr = true;
+        main.pass(4, &mut board, &mut link, &mut port);
+        assert_eq!(board.state(), State::Hold);
+    }
+}

@@ -1,0 +1,142 @@
+//! What the board is doing, as one value: [`Mode`] says whether it is idle, running a job (and in
+//! which phase: running, held, stopping), in an alarm, homing or jogging. The status's
+//! [`State`] is derived from it ([`Mode::state`]); the rules that move between modes are in
+//! `board/mod.rs` (jobs, alarms), `board/homing_cycle.rs` and `board/jogging.rs`.
+//!
+//! Stops take precedence: once a job is [`JobPhase::Stopping`] (an abort, or an alarm stop such
+//! as alarm 2 or 20 decelerating on the path) nothing but the rest of the machine ends it: a feed
+//! hold, a cycle start or another abort leaves it as it is, and it ends at rest with the
+//! program-stop sequence or its alarm.
+
+use crate::controller::{AlarmCode, State};
+
+/// The board's mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Mode {
+    /// Nothing running.
+    Idle,
+    /// A streamed job.
+    Job(Job),
+    /// Motion refused until the alarm is cleared.
+    Alarm(AlarmCode),
+    /// A homing cycle (its axis and phase in `Board::homing`).
+    Homing(HomingRun),
+    /// Jogging (the moves themselves in `Board::jog`).
+    Jog(Jogging),
+}
+
+impl Mode {
+    /// The state the status reports.
+    pub(super) fn state(&self) -> State {
+        match self {
+            Mode::Idle => State::Idle,
+            Mode::Job(Job {
+                kind: JobKind::Check,
+                ..
+            }) => State::Check,
+            Mode::Job(Job {
+                phase: JobPhase::Hold { .. },
+                ..
+            }) => State::Hold,
+            Mode::Job(_) => State::Run,
+            Mode::Alarm(_) => State::Alarm,
+            Mode::Homing(_) => State::Homing,
+            Mode::Jog(_) => State::Jog,
+        }
+    }
+}
+
+/// Who jogs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Jogging {
+    /// Host jogs (a next one may start once the last is at rest), or joystick mode just left: back
+    /// to Idle once at rest.
+    Moves,
+    /// Joystick jog mode (entered and left with Mark + Release): the switches and the stick jog.
+    Joystick,
+}
+
+/// A homing cycle, running or aborted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum HomingRun {
+    Cycle,
+    /// Aborted: the seek decelerates; alarm 6 at rest.
+    Aborting,
+}
+
+/// A job: what kind and where it stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Job {
+    pub kind: JobKind,
+    pub phase: JobPhase,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum JobKind {
+    /// Motion and outputs.
+    Machine,
+    /// Interpreted and checked against the soft limits only (grbl `$C`).
+    Check,
+}
+
+/// Where a job stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum JobPhase {
+    /// Interpreting and moving.
+    Running(Ending),
+    /// Standing on the path, resumable.
+    Hold { why: HoldWhy, ending: Ending },
+    /// An abort or an alarm stop: decelerating on the path, nothing more interpreted; at rest the
+    /// program-stop sequence, or `alarm` (with its line) instead. Nothing cancels it.
+    Stopping {
+        alarm: Option<(AlarmCode, u32)>,
+        ramp: Ramp,
+    },
+}
+
+/// A stopping job's deceleration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Ramp {
+    /// The motion is still decelerating.
+    Decelerating,
+    /// The motion has stopped; the kernel runs out what it has.
+    Done,
+}
+
+/// Why a job stands still.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum HoldWhy {
+    /// A feed hold (input, host or link): motion stopped on the path, outputs as they were.
+    Feed,
+    /// An M0 / M1 / single-block stop at its sync point: spindle and coolant off, restored on
+    /// cycle start.
+    Pause,
+    /// Both (a feed hold that came as the motion reached a pause).
+    FeedAndPause,
+}
+
+impl HoldWhy {
+    pub(super) fn feed(self) -> bool {
+        matches!(self, HoldWhy::Feed | HoldWhy::FeedAndPause)
+    }
+
+    pub(super) fn pause(self) -> bool {
+        matches!(self, HoldWhy::Pause | HoldWhy::FeedAndPause)
+    }
+}
+
+/// Whether, and how, a running job has reached its end. Every ending takes effect at rest (the
+/// kernel drained, nothing left to prepare), in one place (`Board::poll`); only a hard limit
+/// (alarm 1) ends a job at once.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Ending {
+    /// Still running.
+    No,
+    /// M2/M30 (their sync point already ran the program-stop sequence) or the end of the
+    /// streamed lines (outputs as the program left them: an MDI `M3` keeps the spindle on):
+    /// finish the queued motion, then report.
+    Finished,
+    /// A rejected block: finish the motion queued before it, then at rest the program-stop
+    /// sequence and report.
+    Failed,
+}

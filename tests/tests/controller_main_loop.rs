@@ -1,0 +1,136 @@
+//! The emulated board runs the firmware's main loop (`MainLoop::pass` in
+//! machine/src/board/main_loop.rs): where the emulator's own copy used to differ from
+//! firmware/src/control.rs, it now does what the board does.
+//! - the path speed, and `Hold { stopped }` built from it, come from the 20 ms integer window;
+//! - a limit stop keeps the kernel latched (stopped, no segments) while the board is in alarm;
+//! - the host closing the port (DTR drop) holds a running job;
+//! - the segment queue holds the firmware's 15 segments.
+
+mod controller_support;
+
+use controller_support::*;
+use gantry_machine::board::link::status_of;
+use gantry_machine::board::main_loop::{SpeedMeter, SEGMENT_QUEUE_DEPTH};
+use gantry_machine::controller::{AlarmCode, State};
+use gantry_machine::motion::pipeline::MotionState;
+use gantry_proto::MachineState;
+use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
+
+/// 100 mm at 3000 mm/min.
+const LONG_CUT: &str = "G21 G90\nG1 X100 F3000\nM30\n";
+
+/// `stopped` of the status the board would send now (None: not in a hold).
+fn hold_stopped(eb: &EmulatedBoard) -> Option<bool> {
+    match status_of(&eb.board, &eb.kernel_view()).state {
+        MachineState::Hold { stopped } => Some(stopped),
+        _ => None,
+    }
+}
+
+#[test]
+fn a_hold_reports_stopped_on_the_firmwares_20_ms_speed_window() {
+    let mut eb = board(|_| {});
+    job(&mut eb, LONG_CUT);
+    assert!(eb.run_until(5_000, |b| b.now_ms() == 1000));
+    // Cruising: the meter reads the programmed feed (3000 mm/min) to the rounding of a window.
+    let feed = eb.kernel_view().feed_um_min;
+    assert!((2_990_000..=3_010_000).contains(&feed), "{feed} µm/min");
+    eb.board.feed_hold();
+    // Pass by pass until the status says stopped.
+    let mut first_stopped = None;
+    for _ in 0..2_000 {
+        eb.run_ms(1);
+        let pass_ms = eb.now_ms() - 1;
+        assert!(hold_stopped(&eb).is_some());
+        if hold_stopped(&eb) == Some(true) {
+            first_stopped = Some(pass_ms);
+            break;
+        }
+    }
+    let first_stopped = first_stopped.expect("the hold stopped");
+    assert_eq!(eb.board.motion().state(), MotionState::Held);
+    // The first pass that saw the last step, then the first window boundary whose whole window
+    // came after it: windows end every 20 ms of main-loop time.
+    let saw_rest = eb.last_step_at / COUNTS_PER_MS + 1;
+    let window = u64::from(SpeedMeter::WINDOW_MS);
+    let expected = (saw_rest.div_ceil(window) + 1) * window;
+    assert_eq!(u64::from(first_stopped), expected);
+    // The emulator's old 1 ms pulse count said stopped in the first pass at rest.
+    assert!(u64::from(first_stopped) > saw_rest);
+    assert_eq!(eb.kernel_view().feed_um_min, 0);
+}
+
+/// X with a max switch at 10 mm.
+fn switch_at_10() -> EmulatedBoard {
+    let mut eb = board(|s| s.inputs.limit_max = 0b001);
+    eb.add_switch(0, true, 10 * MM);
+    eb
+}
+
+#[test]
+fn a_limit_stop_keeps_the_kernel_latched_until_unlock() {
+    let mut eb = switch_at_10();
+    job(&mut eb, "G21 G90\nG1 X50 F1200\nM30\n");
+    until_state(&mut eb, State::Alarm, 10_000);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
+    let at = eb.kernel.position();
+    assert_eq!(at[0], 10 * STEPS_PER_MM);
+    // In the alarm the kernel stays stopped and gets nothing (the firmware's latch).
+    eb.run_ms(500);
+    assert!(eb.kernel.is_stopped());
+    assert!(eb.kernel_latched());
+    assert!(eb.kernel_drained());
+    assert_eq!(eb.kernel.position(), at);
+    assert_eq!(eb.limit_stops, 1);
+    // Unlock: the next pass re-arms the kernel (the pressed switch is disarmed until it
+    // releases, so the axis can be jogged off it).
+    eb.board.unlock();
+    assert_eq!(eb.board.state(), State::Idle);
+    eb.run_ms(1);
+    assert!(!eb.kernel.is_stopped());
+    assert!(!eb.kernel_latched());
+    assert!(eb.board.jog(0, -600_000, 2 * MM as u64));
+    until_state(&mut eb, State::Idle, 5_000);
+    assert_eq!(eb.kernel.position()[0], 8 * STEPS_PER_MM);
+    assert_eq!(eb.limit_stops, 1);
+}
+
+#[test]
+fn the_host_closing_the_port_holds_a_running_job() {
+    let mut eb = board(|_| {});
+    job(&mut eb, LONG_CUT);
+    eb.run_ms(1000);
+    assert_eq!(eb.board.state(), State::Run);
+    eb.set_dtr(false);
+    eb.run_ms(1);
+    assert_eq!(eb.board.state(), State::Hold);
+    assert!(eb.board.feed_held());
+    assert!(
+        eb.run_until(1_000, |b| b.board.motion().state() == MotionState::Held
+            && b.kernel_drained())
+    );
+    let at = eb.kernel.position();
+    // Reopening the port does not resume by itself; a cycle start does.
+    eb.set_dtr(true);
+    eb.run_ms(100);
+    assert_eq!(eb.kernel.position(), at);
+    assert_eq!(eb.board.state(), State::Hold);
+    eb.board.resume();
+    until_state(&mut eb, State::Idle, 10_000);
+    assert_eq!(eb.kernel.position()[0], 100 * STEPS_PER_MM);
+    // Closing the port while idle does nothing.
+    eb.set_dtr(false);
+    eb.run_ms(5);
+    assert_eq!(eb.board.state(), State::Idle);
+}
+
+#[test]
+fn the_segment_queue_holds_the_firmwares_15_segments() {
+    assert_eq!(SEGMENT_QUEUE_DEPTH, 15);
+    let mut eb = board(|_| {});
+    job(&mut eb, LONG_CUT);
+    eb.run_ms(500);
+    // Cruising at 3000 mm/min in segments of about 2 ms: the queue is full after the pass.
+    let queued = eb.queued_ms();
+    assert!((25.0..=32.0).contains(&queued), "{queued} ms queued");
+}
