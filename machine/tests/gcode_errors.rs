@@ -55,6 +55,18 @@ const CASES: &[Case] = &[
     ),
     ("G0 X", cfg_default, ErrorCode::MissingNumber, Some((3, 4))),
     (
+        "G0 (a (b) X1",
+        cfg_default,
+        ErrorCode::NestedComment,
+        Some((6, 7)),
+    ),
+    (
+        "%\nG0 X1\n % vfd enable\nG0 X2\n%",
+        cfg_default,
+        ErrorCode::UnexpectedCharacter,
+        Some((1, 2)),
+    ),
+    (
         "G0 (abc",
         cfg_default,
         ErrorCode::UnclosedComment,

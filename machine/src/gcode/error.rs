@@ -38,6 +38,8 @@ pub enum ErrorCode {
     NumberOutOfRange,
     /// The dialect requires a different word format (gixa: two-digit G words, `M00`/`M01`).
     BadWordFormat,
+    /// A `(` inside a comment (`(a (b)`), which rs274 refuses.
+    NestedComment,
     // --- 2xx block structure ---
     /// The same letter twice in one block (`X1 X2`, `N5 N6`).
     RepeatedWord,
@@ -153,6 +155,7 @@ impl ErrorCode {
         ErrorCode::UnclosedComment,
         ErrorCode::NumberOutOfRange,
         ErrorCode::BadWordFormat,
+        ErrorCode::NestedComment,
         ErrorCode::RepeatedWord,
         ErrorCode::ModalGroupConflict,
         ErrorCode::MCodeGroupConflict,
@@ -214,6 +217,7 @@ impl ErrorCode {
             UnclosedComment => 103,
             NumberOutOfRange => 104,
             BadWordFormat => 105,
+            NestedComment => 106,
             RepeatedWord => 201,
             ModalGroupConflict => 202,
             MCodeGroupConflict => 203,
@@ -276,6 +280,7 @@ impl ErrorCode {
             UnclosedComment => "comment '(' is not closed on this line",
             NumberOutOfRange => "number too large for this word",
             BadWordFormat => "word format not allowed in this dialect (gixa: G needs two digits, M00/M01 need the leading zero)",
+            NestedComment => "nested comment: '(' inside a comment",
             RepeatedWord => "the same word appears twice in one block",
             ModalGroupConflict => "two G codes of the same modal group in one block",
             MCodeGroupConflict => "two M codes of the same group in one block",

@@ -246,6 +246,14 @@ impl Interpreter {
         let mut lexer = Lexer::new(bytes, true);
         match lexer.start() {
             LineStart::Percent => {
+                // Only the opening `%` may carry text (a program name); inside the program a
+                // `% text` line is a bad character, as in rs274, never a silent end.
+                let at = bytes.iter().position(|&c| c == b'%').unwrap_or(0);
+                let text = bytes[at + 1..].iter().any(|c| !c.is_ascii_whitespace());
+                if self.percent_lines >= 1 && text {
+                    let cols = Some((at as u16, at as u16 + 1));
+                    return Err((None, (ErrorCode::UnexpectedCharacter, cols)));
+                }
                 self.percent_lines = self.percent_lines.saturating_add(1);
                 if self.percent_lines >= 2 {
                     self.finished = true;
@@ -438,6 +446,9 @@ impl Interpreter {
             }
         }
         let f_given = b.has(b'F');
+        if b.cancels_cycle {
+            self.state.cycle = CycleMemory::default();
+        }
 
         // 1. feed mode, F, S, T
         match b.g_of(GGroup::FeedMode) {
@@ -600,6 +611,13 @@ impl Interpreter {
                     Some(w) => self.len_word(w)?,
                     None => 0,
                 };
+                // Q (LinuxCNC's naive-CAM collinearity tolerance) is accepted: the planner
+                // does not merge segments, so it has no effect here.
+                if let Some(q) = b.take(b'Q') {
+                    if q.value < 0 {
+                        return err(ErrorCode::ValueOutOfRange, Some(q));
+                    }
+                }
                 self.state.path = PathMode::Blend { tolerance };
                 self.push(line, Action::PathMode(self.state.path))?;
             }

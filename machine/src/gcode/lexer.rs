@@ -113,7 +113,17 @@ impl<'a> Lexer<'a> {
                 b'(' => {
                     let start = self.pos;
                     match self.line[start..].iter().position(|&c| c == b')') {
-                        Some(off) => self.pos = start + off + 1,
+                        Some(off) => {
+                            // rs274 stops on `(a (b)`: a comment may not hold another `(`.
+                            if let Some(inner) = self.line[start + 1..start + off]
+                                .iter()
+                                .position(|&c| c == b'(')
+                            {
+                                let at = start + 1 + inner;
+                                return Err((ErrorCode::NestedComment, (col(at), col(at + 1))));
+                            }
+                            self.pos = start + off + 1
+                        }
                         None => {
                             return Err((
                                 ErrorCode::UnclosedComment,
@@ -303,6 +313,10 @@ mod tests {
         assert_eq!(
             words("G0 (open").unwrap_err(),
             (ErrorCode::UnclosedComment, (3, 8))
+        );
+        assert_eq!(
+            words("G0 (a (b) X1").unwrap_err(),
+            (ErrorCode::NestedComment, (6, 7))
         );
         assert_eq!(
             words("G0 #1").unwrap_err(),

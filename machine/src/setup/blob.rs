@@ -16,6 +16,7 @@ use super::{
     LinkSetup, ListCommand, McodeList, OperatorSetup, OutputSetup, PathSetup, ProgramSetup, Setup,
     Tool,
 };
+use crate::gcode::RetractMode;
 use heapless::Vec;
 
 /// First byte of every blob: the encoding's version (1 was the serde/postcard encoding, which
@@ -297,6 +298,7 @@ fn program_setup(c: &mut Codec, p: &mut ProgramSetup) {
         dwell_units,
         peck_clearance,
         chip_break_retract,
+        default_retract,
         tools,
         work_offsets,
         g28_home,
@@ -331,6 +333,16 @@ fn program_setup(c: &mut Codec, p: &mut ProgramSetup) {
     };
     c.i64(peck_clearance);
     c.i64(chip_break_retract);
+    let mut r = u8::from(*default_retract == RetractMode::RPlane);
+    c.u8(&mut r);
+    *default_retract = match r {
+        0 => RetractMode::InitialLevel,
+        1 => RetractMode::RPlane,
+        _ => {
+            c.fail();
+            RetractMode::InitialLevel
+        }
+    };
     let blank = Tool {
         number: 0,
         length: 0,
