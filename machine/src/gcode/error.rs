@@ -145,6 +145,26 @@ pub enum ErrorCode {
     SourceJumpFailed,
     /// Subprogram calls/returns or M99 restarts kept looping without producing any action.
     EndlessLoop,
+    // --- 7xx parameters, expressions, O-word control flow ---
+    /// An expression, parameter reference or O-word line that does not parse.
+    ExpressionSyntax,
+    /// A result beyond ±9·10⁹ (the fixed-point range of parameters).
+    ExpressionOverflow,
+    /// Division (or MOD) by zero.
+    DivisionByZero,
+    /// A function argument outside its domain (SQRT of a negative, LN of 0, ASIN of 2...).
+    FunctionDomain,
+    /// A named parameter read before it was set.
+    UndefinedParameter,
+    /// A parameter number that does not exist or is read-only (#0, #5400 and up, fractions).
+    ParameterNumberInvalid,
+    /// More parameters or O-word blocks than the interpreter's fixed tables hold.
+    ParameterTableFull,
+    /// An O-word block that is not closed or closed by the wrong keyword (`endwhile` without
+    /// `while`, end of file inside `if`, `break` outside a loop).
+    UnbalancedBlock,
+    /// `o<label> call` of a subroutine that is not in the file.
+    UnknownSubroutine,
 }
 
 impl ErrorCode {
@@ -206,6 +226,15 @@ impl ErrorCode {
         ErrorCode::SubprogramWithoutM99,
         ErrorCode::SourceJumpFailed,
         ErrorCode::EndlessLoop,
+        ErrorCode::ExpressionSyntax,
+        ErrorCode::ExpressionOverflow,
+        ErrorCode::DivisionByZero,
+        ErrorCode::FunctionDomain,
+        ErrorCode::UndefinedParameter,
+        ErrorCode::ParameterNumberInvalid,
+        ErrorCode::ParameterTableFull,
+        ErrorCode::UnbalancedBlock,
+        ErrorCode::UnknownSubroutine,
     ];
 
     /// The stable number of the code (`E` + this number in messages).
@@ -268,6 +297,15 @@ impl ErrorCode {
             SubprogramWithoutM99 => 605,
             SourceJumpFailed => 606,
             EndlessLoop => 607,
+            ExpressionSyntax => 701,
+            ExpressionOverflow => 702,
+            DivisionByZero => 703,
+            FunctionDomain => 704,
+            UndefinedParameter => 705,
+            ParameterNumberInvalid => 706,
+            ParameterTableFull => 707,
+            UnbalancedBlock => 708,
+            UnknownSubroutine => 709,
         }
     }
 
@@ -330,6 +368,15 @@ impl ErrorCode {
             SubprogramPMissing => "M98 needs a P word (program number)",
             SubprogramWithoutM99 => "end of file inside a subprogram (missing M99)",
             SourceJumpFailed => "cannot jump to that line of the program",
+            ExpressionSyntax => "bad expression, parameter reference or O-word line",
+            ExpressionOverflow => "expression result out of range (beyond 9e9)",
+            DivisionByZero => "division by zero",
+            FunctionDomain => "function argument out of its domain (SQRT of a negative, LN of 0, ASIN/ACOS beyond 1)",
+            UndefinedParameter => "named parameter used before it was set",
+            ParameterNumberInvalid => "parameter number out of range or read-only",
+            ParameterTableFull => "too many parameters, subroutines or nested O-word blocks for the interpreter's tables",
+            UnbalancedBlock => "unbalanced O-word block (end without start, or a block left open)",
+            UnknownSubroutine => "o-word call of a subroutine that is not in the program",
             EndlessLoop => "endless loop: 10000 subprogram jumps or M99 restarts without any action",
         }
     }
