@@ -103,9 +103,10 @@ fn while_loop_runs_and_ends() {
 #[test]
 fn do_while_repeat_break_continue() {
     let m = moves(
-        "#1 = 0\no1 do\n  #1 = [#1 + 1]\n  o2 if [#1 EQ 2]\n    o1 continue\n  o2 endif\n  G0 X#1\no1 while [#1 LT 4]\no3 repeat [3]\n  G0 Y#1\n  #1 = [#1 + 1]\n  o4 if [#1 GE 6]\n    o3 break\n  o4 endif\no3 endrepeat\nG0 Z1\n",
+        "#1 = 0\no1 do\n  #1 = [#1 + 1]\n  o2 if [#1 EQ 2]\n    o1 continue\n  o2 endif\n  G0 X#1\no1 while [#1 LT 4]\no3 repeat [2]\n  G0 Y#1\n  #1 = [#1 + 1]\no3 endrepeat\no4 while [1]\n  #1 = [#1 + 1]\n  o5 if [#1 GE 8]\n    o4 break\n  o5 endif\n  G0 Z#1\no4 endwhile\nG0 Z1\n",
     );
-    // do: #1 = 1 (X1), 2 (continue), 3 (X3), 4 (X4, then the while ends); repeat: Y4, Y5, break.
+    // do: #1 = 1 (X1), 2 (continue), 3 (X3), 4 (X4, then the while ends); repeat: Y4, Y5;
+    // while: Z7, then #1 = 8 breaks.
     assert_eq!(
         m,
         [
@@ -114,9 +115,13 @@ fn do_while_repeat_break_continue() {
             (7, [4 * MM, 0, 0]),
             (10, [4 * MM, 4 * MM, 0]),
             (10, [4 * MM, 5 * MM, 0]),
-            (16, [4 * MM, 5 * MM, MM]),
+            (18, [4 * MM, 5 * MM, 7 * MM]),
+            (20, [4 * MM, 5 * MM, MM]),
         ]
     );
+    // As LinuxCNC: break belongs to while/do, not to repeat.
+    let e = error("o3 repeat [2]\no3 break\no3 endrepeat\n");
+    assert_eq!((e.line, e.code), (2, ErrorCode::UnbalancedBlock));
 }
 
 #[test]

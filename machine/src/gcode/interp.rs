@@ -670,14 +670,14 @@ impl Interpreter {
                 Ok(Parsed::Nothing)
             }
             Keyword::EndRepeat => self.end_repeat(top, o),
+            // As LinuxCNC: break and continue belong to while and do loops, not to repeat.
             Keyword::Break => {
-                let Some(l) = top else { return unbalanced };
-                self.loops.pop();
-                let to = match l.kind {
-                    LoopKind::While => SkipTo::EndWhile,
-                    LoopKind::Repeat(_) => SkipTo::EndRepeat,
-                    LoopKind::Do => SkipTo::DoWhile { consume: true },
+                let to = match top.map(|l| l.kind) {
+                    Some(LoopKind::While) => SkipTo::EndWhile,
+                    Some(LoopKind::Do) => SkipTo::DoWhile { consume: true },
+                    _ => return unbalanced,
                 };
+                self.loops.pop();
                 self.start_skip(o.label, to)
             }
             Keyword::Continue => match top {
@@ -685,8 +685,7 @@ impl Interpreter {
                 Some(l) if l.kind == LoopKind::Do => {
                     self.start_skip(o.label, SkipTo::DoWhile { consume: false })
                 }
-                Some(_) => self.end_repeat(top, o),
-                None => unbalanced,
+                _ => unbalanced,
             },
         }
     }

@@ -2,7 +2,9 @@
 //!
 //! Only parameters a program has written take room: [`MAX_NUMBERED`] numbered and [`MAX_NAMED`]
 //! named entries (a full table is error E707). The system parameters LinuxCNC defines are views of
-//! the modal state, in the length units in force: #5161-#5169 G28 and #5181-#5189 G30 positions,
+//! the modal state. As in LinuxCNC, the stored offsets and positions are in the machine's units
+//! (Gantry's are millimetres, whatever G20/G21 says) and the current position in the program's
+//! units: #5161-#5169 G28 and #5181-#5189 G30 positions,
 //! #5211-#5219 the G92 offset, #5220 the coordinate system (1-9), #5221-#5399 the G54-G59.3
 //! offsets (20 per system), #5400 the tool in the spindle, #5401-#5409 its offsets, #5420-#5428
 //! the current position in program coordinates; #5061-#5070 (probe results) read as stored
@@ -103,7 +105,7 @@ impl Params {
                     return Err(ErrorCode::ParameterNumberInvalid);
                 }
                 if let Some(sys) = system(n) {
-                    let len = |nm: Nm| nm_to_fx(nm, s.inch);
+                    let len = |nm: Nm| nm_to_fx(nm, false);
                     return Ok(match sys {
                         System::G28(i) => len(s.g28[i]),
                         System::G30(i) => len(s.g30[i]),
@@ -112,7 +114,7 @@ impl Params {
                         System::Work(w, i) => len(s.work_offsets[w][i]),
                         System::Tool => s.tool_loaded as Fx * ONE,
                         System::ToolOffset(i) => len(s.tool_offset[i]),
-                        System::Position(i) => len(s.program_position()[i]),
+                        System::Position(i) => nm_to_fx(s.program_position()[i], s.inch),
                     });
                 }
                 Ok(self.numbered.iter().find(|e| e.0 == n).map_or(0, |e| e.1))
@@ -153,7 +155,7 @@ impl Params {
                     return Err(ErrorCode::ParameterNumberInvalid);
                 }
                 if let Some(sys) = system(n) {
-                    let nm = fx_to_nm(v, s.inch);
+                    let nm = fx_to_nm(v, false);
                     match sys {
                         System::G28(i) => s.g28[i] = nm,
                         System::G30(i) => s.g30[i] = nm,
