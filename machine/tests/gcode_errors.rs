@@ -48,7 +48,7 @@ type Case = (
 
 const CASES: &[Case] = &[
     (
-        "G0 @1",
+        "G0 $1",
         cfg_default,
         ErrorCode::UnexpectedCharacter,
         Some((3, 4)),

@@ -126,7 +126,7 @@ pub enum ErrorCode {
     CutterCompNotSupported,
     /// G4 without a P (or X) time.
     DwellTimeMissing,
-    /// A feature this dialect does not support (G95, expressions, gixa O file index...).
+    /// A feature this dialect does not support (G95, gixa parameters, polar coordinates...).
     NotSupported,
     /// G28/G30 or G92 need axis words / were given invalid words.
     MissingAxisWords,

@@ -157,6 +157,11 @@ impl<'a> Lexer<'a> {
             b'a'..=b'z' => c - 32,
             b'A'..=b'Z' => c,
             b':' => b'O',
+            // Parameters and expressions (in the gixa dialect, which has none; the ngc dialect
+            // substitutes them before the lexer) and LinuxCNC's polar coordinates.
+            b'#' | b'[' | b'@' | b'^' => {
+                return Err((ErrorCode::NotSupported, (col(start), col(start + 1))))
+            }
             _ => return Err((ErrorCode::UnexpectedCharacter, (col(start), col(start + 1)))),
         };
         self.pos += 1;
@@ -319,8 +324,12 @@ mod tests {
             (ErrorCode::NestedComment, (6, 7))
         );
         assert_eq!(
-            words("G0 #1").unwrap_err(),
+            words("G0 $1").unwrap_err(),
             (ErrorCode::UnexpectedCharacter, (3, 4))
+        );
+        assert_eq!(
+            words("G0 @1.5 ^60").unwrap_err(),
+            (ErrorCode::NotSupported, (3, 4))
         );
         assert_eq!(
             words("X1234567890").unwrap_err().0,
