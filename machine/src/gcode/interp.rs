@@ -745,7 +745,15 @@ impl Interpreter {
         if w.value.abs() > MAX_WORD {
             return err(ErrorCode::NumberOutOfRange, Some(w));
         }
-        Ok(if axis < 3 { self.len(w.value) } else { w.value })
+        Ok(if axis >= 3 {
+            w.value
+        } else if self.state.inch {
+            // Nine decimals of an inch (expressions give them): 10^-9 in × 25.4 = nm / 39370.
+            let exact = w.value as i128 * 1000 + w.nano as i128;
+            geometry::div_round(exact * 254, 10_000) as Nm
+        } else {
+            w.value
+        })
     }
 
     fn len_word(&self, w: Word) -> Res<Nm> {
