@@ -174,3 +174,43 @@ fn comments_keep_their_hashes() {
         [(2, [2 * MM, 0, 0])]
     );
 }
+
+#[test]
+fn fanuc_macro_b_while_do_end_if_then_goto() {
+    // Hand-checked: the loop runs X0, X1, X2; #1 ends at 3 so THEN sets #2 = 7; IF [7 GT 5]
+    // jumps over line 9 to N20; GOTO 40 skips N30.
+    let m = moves(
+        "#1 = 0\nWHILE [#1 LT 3] DO1\n  G0 X#1\n  #1 = [#1 + 1]\nEND1\nIF [#1 EQ 3] THEN #2 = 7\nG0 Y#2\nIF [#2 GT 5] GOTO 20\nG0 Z99\nN20 G0 Z1\nGOTO 40\nN30 G0 X99\nN40 G0 X5\n",
+    );
+    assert_eq!(
+        m,
+        [
+            (3, [0, 0, 0]),
+            (3, [MM, 0, 0]),
+            (3, [2 * MM, 0, 0]),
+            (7, [2 * MM, 7 * MM, 0]),
+            (10, [2 * MM, 7 * MM, MM]),
+            (13, [5 * MM, 7 * MM, MM]),
+        ]
+    );
+    // Nested DO1/DO2 (2 × 2 turns), a false THEN that does nothing, a WHILE false from the start.
+    let m = moves(
+        "#1 = 0\nWHILE [#1 LT 2] DO1\n#2 = 0\nWHILE [#2 LT 2] DO2\nG0 X#1 Y#2\n#2 = [#2 + 1]\nEND2\n#1 = [#1 + 1]\nEND1\nIF [#1 EQ 0] THEN G0 Z9\nWHILE [0] DO3\nG0 Z8\nEND3\nG0 Z1\n",
+    );
+    assert_eq!(
+        m,
+        [
+            (5, [0, 0, 0]),
+            (5, [0, MM, 0]),
+            (5, [MM, 0, 0]),
+            (5, [MM, MM, 0]),
+            (14, [MM, MM, MM]),
+        ]
+    );
+    // GOTO to a block that does not exist.
+    let e = error("G0 X1\nGOTO 77\n");
+    assert_eq!((e.line, e.code), (2, ErrorCode::SourceJumpFailed));
+    // END without WHILE.
+    let e = error("END4\n");
+    assert_eq!((e.line, e.code), (1, ErrorCode::UnbalancedBlock));
+}

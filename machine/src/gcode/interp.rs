@@ -120,6 +120,8 @@ enum Parsed {
     Block(Block),
     /// Continue at this line (an O-word loop or return).
     Jump(u32),
+    /// Continue at the block with this N word (Fanuc `GOTO`).
+    JumpSequence(u32),
 }
 
 /// Parameter reads for expressions at one call level.
@@ -374,6 +376,25 @@ impl Interpreter {
                     }
                     continue;
                 }
+                Ok(Parsed::JumpSequence(n)) => {
+                    self.jumps_without_action += 1;
+                    let endless = self.jumps_without_action > MAX_JUMPS_WITHOUT_ACTION;
+                    if endless || src.jump_to_sequence(n).is_err() {
+                        self.finished = true;
+                        self.clear_control();
+                        return Some(Err(GcodeError {
+                            line,
+                            n_word: None,
+                            columns: None,
+                            code: if endless {
+                                ErrorCode::EndlessLoop
+                            } else {
+                                ErrorCode::SourceJumpFailed
+                            },
+                        }));
+                    }
+                    continue;
+                }
                 Err((n_word, (code, columns))) => {
                     return Some(Err(GcodeError {
                         line,
@@ -453,8 +474,17 @@ impl Interpreter {
                 Err(e) => Err((n_word(), e)),
             };
         }
+        let mut bytes = bytes;
         if let Some(o) = oword::parse(bytes) {
-            return self.control(line, bytes, o).map_err(|e| (n_word(), e));
+            if o.keyword != Keyword::IfThen {
+                return self.control(line, bytes, o).map_err(|e| (n_word(), e));
+            }
+            // Fanuc `IF [c] THEN statement`: the statement runs only when c is true.
+            if self.o_value(bytes, &o).map_err(|e| (n_word(), e))? == 0 {
+                return Ok(Parsed::Nothing);
+            }
+            bytes = &bytes[o.label as usize..];
+            self.expanded_line = true;
         }
         let mut assignments = Assignments::new();
         let mut expanded = Expanded::new();
@@ -671,6 +701,14 @@ impl Interpreter {
             }
             Keyword::EndRepeat => self.end_repeat(top, o),
             // As LinuxCNC: break and continue belong to while and do loops, not to repeat.
+            Keyword::Goto => Ok(Parsed::JumpSequence(o.label as u32)),
+            Keyword::IfGoto => Ok(if self.o_value(bytes, &o)? != 0 {
+                Parsed::JumpSequence(o.label as u32)
+            } else {
+                Parsed::Nothing
+            }),
+            // Handled by `parse_line` before it gets here.
+            Keyword::IfThen => Ok(Parsed::Nothing),
             Keyword::Break => {
                 let to = match top.map(|l| l.kind) {
                     Some(LoopKind::While) => SkipTo::EndWhile,
