@@ -14,8 +14,8 @@ use gantry_machine::units::Nm;
 /// Most actions one check produces before it gives up (endless M99 loops, huge repeat counts).
 const MAX_ACTIONS: usize = 5_000_000;
 
-/// Runs `gantry check FILE [--canon]`. `--canon` uses the default interpreter setup (DESIGN §7);
-/// plain `check` interprets with the machine `setup` and ends with the job summary
+/// Runs `gantry check FILE [--canon]`. Both interpret with the machine `setup` (tool table, work
+/// offsets, G28/G30 positions, axes, dialect); plain `check` ends with the job summary
 /// ([`crate::check_summary`]); exit code 1 on errors or when the job would exceed the travel.
 pub fn run(
     file: &Path,
@@ -25,7 +25,7 @@ pub fn run(
     let text =
         std::fs::read(file).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
     if canon {
-        let (out, failed) = canon_output(&text, &InterpConfig::default());
+        let (out, failed) = canon_for_setup(&text, setup);
         print!("{out}");
         return Ok(if failed {
             ExitCode::from(1)
@@ -45,6 +45,12 @@ pub fn run(
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// What `gantry check --canon --setup FILE` prints: the setup's tool table, offsets, G28/G30
+/// positions, axes and dialect apply, as in every other command.
+pub fn canon_for_setup(program: &[u8], setup: &gantry_machine::setup::Setup) -> (String, bool) {
+    canon_output(program, &setup.interp_config())
 }
 
 /// The whole `check --canon` output of `program` for the default setup (DESIGN §7).
@@ -277,6 +283,29 @@ mod tests {
             lines[2],
             r#"{"line":3,"op":"arc","to":[15,10,0],"center":[15,5,0],"plane":"XY","dir":"cw","turns":1,"feed":100}"#
         );
+    }
+
+    #[test]
+    fn canon_uses_the_setup_tool_table_and_axes() {
+        use gantry_machine::setup::{Setup, Tool};
+        let mut setup = Setup::default();
+        setup
+            .program
+            .tools
+            .push(Tool {
+                number: 1,
+                length: 5_000_000,
+                diameter: 0,
+            })
+            .unwrap();
+        setup.program.g28_home = [1_000_000, 0, 0, 0, 0, 0];
+        let (out, failed) = canon_for_setup(b"G43 H1\nG0 Z0\nG28\n", &setup);
+        assert!(!failed, "{out}");
+        assert!(out.contains("\"to\":[0,0,5]"), "{out}");
+        assert!(out.contains("\"to\":[1,0,0]"), "{out}");
+        // Three axes: an A word is E212, as in plain `check`.
+        let (out, failed) = canon_for_setup(b"G0 A10\n", &setup);
+        assert!(failed && out.contains("E212"), "{out}");
     }
 
     #[test]

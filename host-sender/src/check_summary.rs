@@ -1,5 +1,6 @@
 //! The summary table plain `gantry check` ends with: extents against the machine travel (and the
-//! first line that would hit a soft limit), tools used, and the run time the planner estimates —
+//! first line that would hit a soft limit), tools used, the default canned-cycle retract mode, and
+//! the run time the planner estimates —
 //! the same figure the board takes at 100 % override.
 
 use crate::preview::adapt::from_canon;
@@ -7,6 +8,7 @@ use crate::preview::geom::{extend, extents};
 use crate::preview::model::Box3;
 use crate::preview::{plan, source};
 use gantry_machine::canon::Action;
+use gantry_machine::gcode::RetractMode;
 use gantry_machine::setup::Setup;
 use std::fmt::Write as _;
 
@@ -98,6 +100,14 @@ pub fn format_summary(s: &JobSummary, setup: &Setup) -> String {
             tools.join(" ")
         }
     );
+    let _ = writeln!(
+        out,
+        "  retract     {} until the program sets G98 or G99 (setup program.default_retract)",
+        match setup.program.default_retract {
+            RetractMode::InitialLevel => "G98 (canned cycles return to the initial level)",
+            RetractMode::RPlane => "G99 (canned cycles return to the R plane)",
+        }
+    );
     match s.run_time_s {
         Some(t) => {
             let _ = writeln!(
@@ -146,6 +156,10 @@ mod tests {
         assert_eq!(s.leaves_travel, Some((4, 'X')));
         let text = format_summary(&s, &Setup::default());
         assert!(text.contains("line 4 leaves the X travel"), "{text}");
+        assert!(text.contains("retract     G98 (canned cycles return to the initial level)"));
+        let mut g99 = Setup::default();
+        g99.program.default_retract = RetractMode::RPlane;
+        assert!(format_summary(&s, &g99).contains("retract     G99"));
         // An arc bulging past the travel counts too: Y max is 200 by default.
         let s = summarize(
             b"G21 G90 G0 X0 Y195\nG2 X20 Y195 I10 J0 F100\n",

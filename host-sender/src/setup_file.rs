@@ -6,6 +6,7 @@
 
 use anyhow::{bail, Context};
 use gantry_machine::controller::inputs::INPUT_NAMES;
+use gantry_machine::gcode::RetractMode;
 use gantry_machine::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::setup::{
     AxisSetup, Dialect, DriverSetup, DwellUnits, ListCommand, McodeList, Setup, Tool, MAX_TOOLS,
@@ -302,6 +303,8 @@ pub struct ProgramFile {
     pub dwell_units: Option<String>,
     pub peck_clearance: Option<f64>,
     pub chip_break_retract: Option<f64>,
+    /// Canned-cycle retract when the program sets neither G98 nor G99: "g98" or "g99".
+    pub default_retract: Option<String>,
     pub user_mcodes: Option<Vec<u16>>,
     pub g28_home: Option<Vec<f64>>,
     pub g30_home: Option<Vec<f64>>,
@@ -443,6 +446,13 @@ impl SetupFile {
         }
         if let Some(v) = g.chip_break_retract {
             s.program.chip_break_retract = nm("program.chip_break_retract", v, 0.0, 100.0)?;
+        }
+        if let Some(r) = &g.default_retract {
+            s.program.default_retract = match r.to_ascii_lowercase().as_str() {
+                "g98" => RetractMode::InitialLevel,
+                "g99" => RetractMode::RPlane,
+                other => bail!("program.default_retract = {other:?}: must be \"g98\" or \"g99\""),
+            };
         }
         if let Some(codes) = &g.user_mcodes {
             for &c in codes {
@@ -875,6 +885,14 @@ pub fn to_toml(s: &Setup) -> String {
     );
     let _ = writeln!(t, "peck_clearance = {}", mm(g.peck_clearance));
     let _ = writeln!(t, "chip_break_retract = {}", mm(g.chip_break_retract));
+    let _ = writeln!(
+        t,
+        "default_retract = \"{}\"",
+        match g.default_retract {
+            RetractMode::InitialLevel => "g98",
+            RetractMode::RPlane => "g99",
+        }
+    );
     let codes: Vec<String> = g.user_mcodes.iter().map(|c| c.to_string()).collect();
     let _ = writeln!(t, "user_mcodes = [{}]", codes.join(", "));
     let _ = writeln!(t, "g28_home = {}", mm_list(&g.g28_home[..n]));

@@ -74,6 +74,8 @@ pub struct ProgramSetup {
     pub peck_clearance: Nm,
     /// Partial retract of the `gixa` G87 chip-break cycle, nm.
     pub chip_break_retract: Nm,
+    /// Canned-cycle retract mode when a program sets neither G98 nor G99 (default G98).
+    pub default_retract: crate::gcode::RetractMode,
     pub tools: Vec<Tool, MAX_TOOLS>,
     /// G54..G59.3 offsets (9 systems), nm.
     pub work_offsets: [Pos; 9],
@@ -337,6 +339,7 @@ impl Default for Setup {
                 dwell_units: DwellUnits::Seconds,
                 peck_clearance: 254_000,
                 chip_break_retract: 254_000,
+                default_retract: crate::gcode::RetractMode::InitialLevel,
                 tools: Vec::new(),
                 work_offsets: [[0; MAX_AXES]; 9],
                 g28_home: [0; MAX_AXES],
@@ -412,6 +415,7 @@ impl Setup {
         c.dwell_units = p.dwell_units;
         c.peck_clearance = p.peck_clearance;
         c.gixa.partial_retract = p.chip_break_retract;
+        c.default_retract = p.default_retract;
         c.work_offsets = p.work_offsets;
         c.g28_position = p.g28_home;
         c.g30_position = p.g30_home;

@@ -60,7 +60,13 @@ mod tests {
     #[test]
     fn every_vector_matches_on_the_host() {
         for v in all() {
-            assert_eq!((v.run)(), v.expected, "vector {}", v.name);
+            assert_eq!(
+                (v.run)(),
+                v.expected,
+                "vector {} = {:#x}",
+                v.name,
+                (v.run)()
+            );
         }
     }
 }

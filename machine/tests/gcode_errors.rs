@@ -48,12 +48,67 @@ type Case = (
 
 const CASES: &[Case] = &[
     (
-        "G0 #1",
+        "G0 $1",
         cfg_default,
         ErrorCode::UnexpectedCharacter,
         Some((3, 4)),
     ),
+    (
+        "G0 X[1 + ]",
+        cfg_default,
+        ErrorCode::ExpressionSyntax,
+        Some((9, 10)),
+    ),
+    (
+        "G0 X[EXP[100]]",
+        cfg_default,
+        ErrorCode::ExpressionOverflow,
+        Some((5, 6)),
+    ),
+    (
+        "G0 X[1/0]",
+        cfg_default,
+        ErrorCode::DivisionByZero,
+        Some((6, 7)),
+    ),
+    (
+        "G0 X[SQRT[-1]]",
+        cfg_default,
+        ErrorCode::FunctionDomain,
+        Some((5, 6)),
+    ),
+    (
+        "G0 X#<nope>",
+        cfg_default,
+        ErrorCode::UndefinedParameter,
+        Some((4, 5)),
+    ),
+    (
+        "#0 = 1",
+        cfg_default,
+        ErrorCode::ParameterNumberInvalid,
+        Some((0, 1)),
+    ),
+    (
+        "o7 endwhile",
+        cfg_default,
+        ErrorCode::UnbalancedBlock,
+        Some((0, 2)),
+    ),
+    ("o9 call", cfg_default, ErrorCode::UnknownSubroutine, None),
     ("G0 X", cfg_default, ErrorCode::MissingNumber, Some((3, 4))),
+    (
+        "G0 (a (b) X1",
+        cfg_default,
+        ErrorCode::NestedComment,
+        Some((6, 7)),
+    ),
+    (
+        "%\nG0 X1\n % vfd enable\nG0 X2\n%",
+        cfg_default,
+        ErrorCode::UnexpectedCharacter,
+        Some((1, 2)),
+    ),
     (
         "G0 (abc",
         cfg_default,
@@ -334,11 +389,19 @@ fn every_error_code_is_reachable_and_blames_the_right_word() {
             .find_map(|r| r.as_ref().err())
             .unwrap_or_else(|| panic!("no error for {program:?}: {out:?}"));
         assert_eq!(e.code, code, "program {program:?}");
-        if code != ErrorCode::SubprogramWithoutM99 && code != ErrorCode::DuplicateProgram {
+        if !matches!(
+            code,
+            ErrorCode::SubprogramWithoutM99
+                | ErrorCode::DuplicateProgram
+                | ErrorCode::UnknownSubroutine
+        ) {
             assert_eq!(e.columns, cols, "columns for {program:?}");
         }
         // The bad block produced no action (end of file inside a subprogram is not a block error).
-        if code != ErrorCode::SubprogramWithoutM99 {
+        if !matches!(
+            code,
+            ErrorCode::SubprogramWithoutM99 | ErrorCode::UnknownSubroutine
+        ) {
             assert!(
                 out.iter()
                     .filter_map(|r| r.as_ref().ok())
@@ -374,6 +437,12 @@ fn every_error_code_is_reachable_and_blames_the_right_word() {
         (ErrorCode::SourceJumpFailed, 2, Some((0, 3)))
     );
     seen.push(e.code);
+    // The parameter table holds 96 numbered parameters: the 97th is refused on its line.
+    let program: String = (1..=97).map(|n| format!("#{n} = 1\n")).collect();
+    let out = run_src(&mut MemorySource::new(program.as_bytes()), &cfg_default());
+    let e = out.last().unwrap().as_ref().unwrap_err();
+    assert_eq!((e.code, e.line), (ErrorCode::ParameterTableFull, 97));
+    seen.push(e.code);
     for code in ErrorCode::ALL {
         assert!(seen.contains(code), "no test case for {code:?}");
     }
@@ -398,7 +467,7 @@ fn codes_are_unique_and_documented() {
 
 #[test]
 fn n_word_is_reported_even_for_lexical_errors() {
-    let out = run_src(&mut MemorySource::new(b"N70 G0 X#\n"), &cfg_default());
+    let out = run_src(&mut MemorySource::new(b"N70 G0 X\n"), &cfg_default());
     let e = out[0].as_ref().unwrap_err();
     assert_eq!(
         (e.line, e.n_word, e.code),

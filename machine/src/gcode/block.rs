@@ -124,6 +124,9 @@ pub struct Block {
     pub m: heapless::Vec<(MGroup, Code), MAX_M_WORDS>,
     /// True if the block has no words at all (blank or comment line).
     pub empty: bool,
+    /// G80 was written next to G0-G3 (`G0 G80 X10`): the cycle is cancelled and the block's
+    /// motion code applies, as rs274 and Fanuc read the usual safe-start lines.
+    pub cancels_cycle: bool,
 }
 
 /// A block error with the columns to blame.
@@ -139,6 +142,7 @@ impl Block {
             g: [None; G_GROUPS],
             m: heapless::Vec::new(),
             empty: true,
+            cancels_cycle: false,
         }
     }
 
@@ -205,10 +209,21 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
                 let code = (w.value / (MICRO / 10)) as u16;
                 let group = g_group(code).ok_or((ErrorCode::UnknownGCode, cols))?;
                 let slot = &mut b.g[group as usize];
-                if slot.is_some() {
-                    return Err((ErrorCode::ModalGroupConflict, cols));
+                let new = Code { code, cols: w.cols };
+                match *slot {
+                    None => *slot = Some(new),
+                    // G80 beside G0-G3 cancels the cycle; the straight or arc motion applies.
+                    Some(old) if group == GGroup::Motion && !b.cancels_cycle => {
+                        let straight_or_arc = |c: u16| matches!(c, 0 | 10 | 20 | 30);
+                        if old.code == 800 && straight_or_arc(code) {
+                            *slot = Some(new);
+                        } else if !(code == 800 && straight_or_arc(old.code)) {
+                            return Err((ErrorCode::ModalGroupConflict, cols));
+                        }
+                        b.cancels_cycle = true;
+                    }
+                    Some(_) => return Err((ErrorCode::ModalGroupConflict, cols)),
                 }
-                *slot = Some(Code { code, cols: w.cols });
             }
             b'M' => {
                 let v = w.integer().ok_or((ErrorCode::NotAnInteger, cols))?;
@@ -237,8 +252,9 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
                 if b.n.is_some() {
                     return Err((ErrorCode::RepeatedWord, cols));
                 }
-                let v = w.integer().ok_or((ErrorCode::NotAnInteger, cols))?;
-                if !(0..=99_999_999).contains(&v) {
+                // RS274NGC allows a fraction (`N10.5`); only the whole part labels the block.
+                let v = w.value / MICRO;
+                if w.value < 0 || !(0..=99_999_999).contains(&v) {
                     return Err((ErrorCode::ValueOutOfRange, cols));
                 }
                 b.n = Some(v as u32);
@@ -283,6 +299,38 @@ mod tests {
     }
 
     #[test]
+    fn g80_beside_a_straight_or_arc_motion_cancels_the_cycle() {
+        for line in [
+            "G0 G80 X10",
+            "G00 G17 G40 G49 G80 G90",
+            "G0 G90 G40 G21 G17 G94 G80",
+        ] {
+            let b = parse(line).unwrap();
+            assert_eq!(b.g_of(GGroup::Motion), Some(0), "{line}");
+            assert!(b.cancels_cycle, "{line}");
+        }
+        assert_eq!(
+            parse("G80 G2 X1 R1").unwrap().g_of(GGroup::Motion),
+            Some(20)
+        );
+        assert!(!parse("G80").unwrap().cancels_cycle);
+        for line in [
+            "G0 G1 X1",
+            "G81 G0 X1",
+            "G0 G81 X1",
+            "G80 G81 X1",
+            "G0 G80 G80",
+            "G80 G0 G1",
+        ] {
+            assert_eq!(
+                parse(line).unwrap_err().0,
+                ErrorCode::ModalGroupConflict,
+                "{line}"
+            );
+        }
+    }
+
+    #[test]
     fn groups_and_conflicts() {
         let b = parse("N10 G01 G90 G28.1 M3 M8 X1").unwrap();
         assert_eq!(b.n, Some(10));
@@ -294,6 +342,7 @@ mod tests {
             (ErrorCode::ModalGroupConflict, Some((3, 5)))
         );
         assert_eq!(parse("X1 X2").unwrap_err().0, ErrorCode::RepeatedWord);
+        assert_eq!(parse("N10.5 G0").unwrap().n, Some(10));
         assert_eq!(parse("N5 N6 G0").unwrap_err().0, ErrorCode::RepeatedWord);
         assert_eq!(parse("M3 M4").unwrap_err().0, ErrorCode::MCodeGroupConflict);
         assert!(parse("M7 M8").is_ok());

@@ -25,6 +25,15 @@ pub enum DwellUnits {
     FanucIntegerMillis,
 }
 
+/// Where a canned cycle retracts between holes when the program sets neither G98 nor G99.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RetractMode {
+    /// G98: back to the initial level (the level before the first cycle block), or R if higher.
+    InitialLevel,
+    /// G99: to the R plane (LinuxCNC's power-up mode).
+    RPlane,
+}
+
 /// How gixa reads I/J arc centres (Job › Arc Translation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ArcCenterMode {
@@ -104,6 +113,8 @@ pub struct InterpConfig {
     pub user_m_codes: [u16; MAX_USER_M_CODES],
     /// Start in inch mode (G20).
     pub start_inch: bool,
+    /// Retract mode at program start and after M2/M30 (G98 unless the setup says G99).
+    pub default_retract: RetractMode,
     /// Gixa job setup (ignored by the RS274 dialect).
     pub gixa: GixaSetup,
 }
@@ -123,6 +134,7 @@ impl Default for InterpConfig {
             optional_stop: false,
             user_m_codes: [0; MAX_USER_M_CODES],
             start_inch: false,
+            default_retract: RetractMode::InitialLevel,
             gixa: GixaSetup::default(),
         }
     }

@@ -38,6 +38,8 @@ pub enum ErrorCode {
     NumberOutOfRange,
     /// The dialect requires a different word format (gixa: two-digit G words, `M00`/`M01`).
     BadWordFormat,
+    /// A `(` inside a comment (`(a (b)`), which rs274 refuses.
+    NestedComment,
     // --- 2xx block structure ---
     /// The same letter twice in one block (`X1 X2`, `N5 N6`).
     RepeatedWord,
@@ -124,7 +126,7 @@ pub enum ErrorCode {
     CutterCompNotSupported,
     /// G4 without a P (or X) time.
     DwellTimeMissing,
-    /// A feature this dialect does not support (G95, expressions, gixa O file index...).
+    /// A feature this dialect does not support (G95, gixa parameters, polar coordinates...).
     NotSupported,
     /// G28/G30 or G92 need axis words / were given invalid words.
     MissingAxisWords,
@@ -143,6 +145,26 @@ pub enum ErrorCode {
     SourceJumpFailed,
     /// Subprogram calls/returns or M99 restarts kept looping without producing any action.
     EndlessLoop,
+    // --- 7xx parameters, expressions, O-word control flow ---
+    /// An expression, parameter reference or O-word line that does not parse.
+    ExpressionSyntax,
+    /// A result beyond ±9·10⁹ (the fixed-point range of parameters).
+    ExpressionOverflow,
+    /// Division (or MOD) by zero.
+    DivisionByZero,
+    /// A function argument outside its domain (SQRT of a negative, LN of 0, ASIN of 2...).
+    FunctionDomain,
+    /// A named parameter read before it was set.
+    UndefinedParameter,
+    /// A parameter number that does not exist or is read-only (#0, #5400 and up, fractions).
+    ParameterNumberInvalid,
+    /// More parameters or O-word blocks than the interpreter's fixed tables hold.
+    ParameterTableFull,
+    /// An O-word block that is not closed or closed by the wrong keyword (`endwhile` without
+    /// `while`, end of file inside `if`, `break` outside a loop).
+    UnbalancedBlock,
+    /// `o<label> call` of a subroutine that is not in the file.
+    UnknownSubroutine,
 }
 
 impl ErrorCode {
@@ -153,6 +175,7 @@ impl ErrorCode {
         ErrorCode::UnclosedComment,
         ErrorCode::NumberOutOfRange,
         ErrorCode::BadWordFormat,
+        ErrorCode::NestedComment,
         ErrorCode::RepeatedWord,
         ErrorCode::ModalGroupConflict,
         ErrorCode::MCodeGroupConflict,
@@ -203,6 +226,15 @@ impl ErrorCode {
         ErrorCode::SubprogramWithoutM99,
         ErrorCode::SourceJumpFailed,
         ErrorCode::EndlessLoop,
+        ErrorCode::ExpressionSyntax,
+        ErrorCode::ExpressionOverflow,
+        ErrorCode::DivisionByZero,
+        ErrorCode::FunctionDomain,
+        ErrorCode::UndefinedParameter,
+        ErrorCode::ParameterNumberInvalid,
+        ErrorCode::ParameterTableFull,
+        ErrorCode::UnbalancedBlock,
+        ErrorCode::UnknownSubroutine,
     ];
 
     /// The stable number of the code (`E` + this number in messages).
@@ -214,6 +246,7 @@ impl ErrorCode {
             UnclosedComment => 103,
             NumberOutOfRange => 104,
             BadWordFormat => 105,
+            NestedComment => 106,
             RepeatedWord => 201,
             ModalGroupConflict => 202,
             MCodeGroupConflict => 203,
@@ -264,6 +297,15 @@ impl ErrorCode {
             SubprogramWithoutM99 => 605,
             SourceJumpFailed => 606,
             EndlessLoop => 607,
+            ExpressionSyntax => 701,
+            ExpressionOverflow => 702,
+            DivisionByZero => 703,
+            FunctionDomain => 704,
+            UndefinedParameter => 705,
+            ParameterNumberInvalid => 706,
+            ParameterTableFull => 707,
+            UnbalancedBlock => 708,
+            UnknownSubroutine => 709,
         }
     }
 
@@ -276,6 +318,7 @@ impl ErrorCode {
             UnclosedComment => "comment '(' is not closed on this line",
             NumberOutOfRange => "number too large for this word",
             BadWordFormat => "word format not allowed in this dialect (gixa: G needs two digits, M00/M01 need the leading zero)",
+            NestedComment => "nested comment: '(' inside a comment",
             RepeatedWord => "the same word appears twice in one block",
             ModalGroupConflict => "two G codes of the same modal group in one block",
             MCodeGroupConflict => "two M codes of the same group in one block",
@@ -325,6 +368,15 @@ impl ErrorCode {
             SubprogramPMissing => "M98 needs a P word (program number)",
             SubprogramWithoutM99 => "end of file inside a subprogram (missing M99)",
             SourceJumpFailed => "cannot jump to that line of the program",
+            ExpressionSyntax => "bad expression, parameter reference or O-word line",
+            ExpressionOverflow => "expression result out of range (beyond 9e9)",
+            DivisionByZero => "division by zero",
+            FunctionDomain => "function argument out of its domain (SQRT of a negative, LN of 0, ASIN/ACOS beyond 1)",
+            UndefinedParameter => "named parameter used before it was set",
+            ParameterNumberInvalid => "parameter number out of range or read-only",
+            ParameterTableFull => "too many parameters, subroutines or nested O-word blocks for the interpreter's tables",
+            UnbalancedBlock => "unbalanced O-word block (end without start, or a block left open)",
+            UnknownSubroutine => "o-word call of a subroutine that is not in the program",
             EndlessLoop => "endless loop: 10000 subprogram jumps or M99 restarts without any action",
         }
     }

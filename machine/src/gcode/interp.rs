@@ -12,8 +12,12 @@ use super::block::{parse_block, Block, BlockError, GGroup, MGroup};
 use super::config::{ArcCenterMode, Dialect, DwellUnits, InterpConfig};
 use super::cycles::{CycleBody, CycleRun};
 use super::error::{ErrorCode, GcodeError};
+use super::expand::{self, Assignments, Expanded};
+use super::expr::{self, Cursor, Fx, ParamRead, ParamRef, ONE};
 use super::geometry::{self, ArcTolerances};
 use super::lexer::{Lexer, LineStart, Word, MICRO};
+use super::oword::{self, Keyword, Label, OLine};
+use super::params::Params;
 use super::source::{ProgramSource, SourceError};
 use super::state::{CycleMemory, ModalState, MotionMode};
 use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
@@ -27,6 +31,9 @@ pub const MAX_NESTING: usize = 16;
 const MAX_COORD: Nm = 100_000_000_000_000 / 1000;
 /// Largest axis word value (999999.999999 units).
 const MAX_WORD: i64 = 999_999_999_999;
+/// Largest F word (99 999 999 units/min: LinuxCNC takes CAM feeds such as `F2250000`; the planner
+/// limits the speed to the axes' maximum anyway).
+const MAX_FEED_WORD: i64 = 99_999_999 * MICRO;
 
 const AXIS_LETTERS: [u8; MAX_AXES] = [b'X', b'Y', b'Z', b'A', b'B', b'C'];
 
@@ -48,6 +55,91 @@ struct Frame {
     remaining: u32,
 }
 
+/// Deepest `o.. call` nesting.
+pub const MAX_O_CALLS: usize = 8;
+/// Most O-word loops open at once.
+pub const MAX_LOOPS: usize = 16;
+/// Subroutine definitions remembered (label → line).
+pub const MAX_SUBS: usize = 24;
+
+/// What a skip over lines looks for (a false `if`, a `sub` definition, a `break`...).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum SkipTo {
+    /// The `endsub` of a definition met in the flow.
+    EndSub,
+    /// The `sub` of a call to a subroutine not met yet.
+    Sub,
+    /// The next `elseif` (evaluated), `else` or `endif` of a false branch.
+    IfBranch,
+    /// The `endif` after a branch that ran.
+    EndIf,
+    EndWhile,
+    EndRepeat,
+    /// The `while` of a `do` loop: consumed after `break`, evaluated after `continue`.
+    DoWhile {
+        consume: bool,
+    },
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Skip {
+    label: Label,
+    to: SkipTo,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum LoopKind {
+    While,
+    Do,
+    /// Repeats left, including the current one.
+    Repeat(u32),
+}
+
+/// An open O-word loop: its label, kind and the line of its `while`/`do`/`repeat`.
+#[derive(Clone, Copy, Debug)]
+struct Loop {
+    label: Label,
+    kind: LoopKind,
+    line: u32,
+}
+
+/// An `o.. call` on the stack: where to return and the caller's #1-#30.
+#[derive(Clone, Copy, Debug)]
+struct OCall {
+    label: Label,
+    return_line: u32,
+    saved_mask: u32,
+    saved: [Fx; 30],
+    loops: u8,
+}
+
+/// What a line turned into.
+#[allow(clippy::large_enum_variant)] // one value on the stack at a time, never stored
+enum Parsed {
+    Nothing,
+    Block(Block),
+    /// Continue at this line (an O-word loop or return).
+    Jump(u32),
+    /// Continue at the block with this N word (Fanuc `GOTO`).
+    JumpSequence(u32),
+}
+
+/// Parameter reads for expressions at one call level.
+struct Reader<'a> {
+    params: &'a Params,
+    level: u8,
+    state: &'a ModalState,
+}
+
+impl ParamRead for Reader<'_> {
+    fn read(&self, p: ParamRef) -> Result<Fx, ErrorCode> {
+        self.params.read(p, self.level, self.state)
+    }
+    fn exists(&self, p: ParamRef) -> bool {
+        self.params.exists(p, self.level)
+    }
+}
+
 /// The G-code interpreter (see the module documentation).
 pub struct Interpreter {
     config: InterpConfig,
@@ -63,12 +155,21 @@ pub struct Interpreter {
     jumps_without_action: u32,
     /// Line number of the last line read.
     last_line: u32,
+    /// Numbered and named parameters.
+    params: Params,
+    /// Lines being skipped up to an O-word line.
+    skip: Option<Skip>,
+    loops: heapless::Vec<Loop, MAX_LOOPS>,
+    ocalls: heapless::Vec<OCall, MAX_O_CALLS>,
+    subs: heapless::Vec<(Label, u32), MAX_SUBS>,
+    /// The current line was rewritten by parameter substitution (its columns no longer apply).
+    expanded_line: bool,
 }
 
 /// Most subprogram jumps without an action before the program is declared an endless loop.
 pub const MAX_JUMPS_WITHOUT_ACTION: u32 = 10_000;
 
-const _: () = assert!(core::mem::size_of::<Interpreter>() <= 4096);
+const _: () = assert!(core::mem::size_of::<Interpreter>() <= 10 * 1024);
 
 type Res<T> = Result<T, BlockError>;
 
@@ -91,6 +192,12 @@ impl Interpreter {
             restarts: 0,
             jumps_without_action: 0,
             last_line: 0,
+            params: Params::new(),
+            skip: None,
+            loops: heapless::Vec::new(),
+            ocalls: heapless::Vec::new(),
+            subs: heapless::Vec::new(),
+            expanded_line: false,
         }
     }
 
@@ -142,6 +249,18 @@ impl Interpreter {
         self.stack.clear();
         self.finished = false;
         self.percent_lines = 0;
+        self.clear_control();
+    }
+
+    fn clear_control(&mut self) {
+        self.skip = None;
+        self.loops.clear();
+        self.ocalls.clear();
+    }
+
+    /// The value of a parameter as a program would read it (tests, status).
+    pub fn parameter(&self, p: ParamRef) -> Result<Fx, ErrorCode> {
+        self.params.read(p, self.ocalls.len() as u8, &self.state)
     }
 
     /// The next canonical action, an error of the next bad block, or `None` at the end.
@@ -177,13 +296,48 @@ impl Interpreter {
             let (line, parsed) = match src.next_line() {
                 Some((line, bytes)) => {
                     self.last_line = line;
-                    (line, self.parse_line(bytes))
+                    self.expanded_line = false;
+                    if self.skip.is_some() {
+                        match self.skip_line(line, bytes) {
+                            Ok(true) => continue,
+                            Ok(false) => {}
+                            Err((code, columns)) => {
+                                self.skip = None;
+                                return Some(Err(GcodeError {
+                                    line,
+                                    n_word: None,
+                                    columns,
+                                    code,
+                                }));
+                            }
+                        }
+                    }
+                    (line, self.parse_line(line, bytes))
                 }
                 None => {
                     if !src.is_exhausted() {
                         return None;
                     }
                     self.finished = true;
+                    let open = match self.skip {
+                        Some(Skip {
+                            to: SkipTo::Sub, ..
+                        }) => Some(ErrorCode::UnknownSubroutine),
+                        Some(_) => Some(ErrorCode::UnbalancedBlock),
+                        None if !self.loops.is_empty() || !self.ocalls.is_empty() => {
+                            Some(ErrorCode::UnbalancedBlock)
+                        }
+                        None => None,
+                    };
+                    if let Some(code) = open {
+                        self.clear_control();
+                        return Some(Err(GcodeError {
+                            line: self.last_line,
+                            n_word: None,
+                            columns: None,
+                            code,
+                        }));
+                    }
                     if !self.stack.is_empty() {
                         self.stack.clear();
                         return Some(Err(GcodeError {
@@ -197,8 +351,50 @@ impl Interpreter {
                 }
             };
             let mut block = match parsed {
-                Ok(Some(b)) => b,
-                Ok(None) => continue,
+                Ok(Parsed::Block(b)) => b,
+                Ok(Parsed::Nothing) => continue,
+                Ok(Parsed::Jump(to)) => {
+                    self.jumps_without_action += 1;
+                    if self.jumps_without_action > MAX_JUMPS_WITHOUT_ACTION {
+                        self.finished = true;
+                        self.clear_control();
+                        return Some(Err(GcodeError {
+                            line,
+                            n_word: None,
+                            columns: None,
+                            code: ErrorCode::EndlessLoop,
+                        }));
+                    }
+                    if src.jump_to_line(to).is_err() {
+                        self.finished = true;
+                        return Some(Err(GcodeError {
+                            line,
+                            n_word: None,
+                            columns: None,
+                            code: ErrorCode::SourceJumpFailed,
+                        }));
+                    }
+                    continue;
+                }
+                Ok(Parsed::JumpSequence(n)) => {
+                    self.jumps_without_action += 1;
+                    let endless = self.jumps_without_action > MAX_JUMPS_WITHOUT_ACTION;
+                    if endless || src.jump_to_sequence(n).is_err() {
+                        self.finished = true;
+                        self.clear_control();
+                        return Some(Err(GcodeError {
+                            line,
+                            n_word: None,
+                            columns: None,
+                            code: if endless {
+                                ErrorCode::EndlessLoop
+                            } else {
+                                ErrorCode::SourceJumpFailed
+                            },
+                        }));
+                    }
+                    continue;
+                }
                 Err((n_word, (code, columns))) => {
                     return Some(Err(GcodeError {
                         line,
@@ -213,6 +409,7 @@ impl Interpreter {
             match self.execute(&mut block, line, src) {
                 Ok(()) => {}
                 Err((code, columns)) => {
+                    let columns = if self.expanded_line { None } else { columns };
                     self.state = saved;
                     // An endless loop ends the program; other errors skip the block.
                     self.finished = saved_finished || code == ErrorCode::EndlessLoop;
@@ -242,29 +439,323 @@ fn arc_axes(plane: Plane) -> (usize, usize, usize) {
 }
 
 impl Interpreter {
-    fn parse_line(&mut self, bytes: &[u8]) -> Result<Option<Block>, (Option<u32>, BlockError)> {
+    fn parse_line(&mut self, line: u32, bytes: &[u8]) -> Result<Parsed, (Option<u32>, BlockError)> {
+        let n_word = || super::source::leading_number(bytes, b"N");
         let mut lexer = Lexer::new(bytes, true);
         match lexer.start() {
             LineStart::Percent => {
+                // Only the opening `%` may carry text (a program name); inside the program a
+                // `% text` line is a bad character, as in rs274, never a silent end.
+                let at = bytes.iter().position(|&c| c == b'%').unwrap_or(0);
+                let text = bytes[at + 1..].iter().any(|c| !c.is_ascii_whitespace());
+                if self.percent_lines >= 1 && text {
+                    let cols = Some((at as u16, at as u16 + 1));
+                    return Err((None, (ErrorCode::UnexpectedCharacter, cols)));
+                }
                 self.percent_lines = self.percent_lines.saturating_add(1);
                 if self.percent_lines >= 2 {
                     self.finished = true;
                 }
-                return Ok(None);
+                return Ok(Parsed::Nothing);
             }
             LineStart::EndOfTape => {
                 self.finished = true;
-                return Ok(None);
+                return Ok(Parsed::Nothing);
             }
             LineStart::Block => {}
         }
         if lexer.block_delete && self.config.block_delete {
-            return Ok(None);
+            return Ok(Parsed::Nothing);
         }
-        match parse_block(&mut lexer, &self.config) {
-            Ok(b) if b.empty => Ok(None),
-            Ok(b) => Ok(Some(b)),
-            Err(e) => Err((super::source::leading_number(bytes, b"N"), e)),
+        if self.gixa() {
+            return match parse_block(&mut lexer, &self.config) {
+                Ok(b) if b.empty => Ok(Parsed::Nothing),
+                Ok(b) => Ok(Parsed::Block(b)),
+                Err(e) => Err((n_word(), e)),
+            };
+        }
+        let mut bytes = bytes;
+        if let Some(o) = oword::parse(bytes) {
+            if o.keyword != Keyword::IfThen {
+                return self.control(line, bytes, o).map_err(|e| (n_word(), e));
+            }
+            // Fanuc `IF [c] THEN statement`: the statement runs only when c is true.
+            if self.o_value(bytes, &o).map_err(|e| (n_word(), e))? == 0 {
+                return Ok(Parsed::Nothing);
+            }
+            bytes = &bytes[o.label as usize..];
+            self.expanded_line = true;
+        }
+        let mut assignments = Assignments::new();
+        let mut expanded = Expanded::new();
+        let text: &[u8] = if expand::needs_expansion(bytes) {
+            expand::expand(bytes, &self.reader(), &mut expanded, &mut assignments)
+                .map_err(|(code, cols)| (n_word(), (code, Some(cols))))?;
+            self.expanded_line = true;
+            &expanded
+        } else {
+            bytes
+        };
+        let mut lexer = Lexer::new(text, true);
+        lexer.start();
+        let block = match parse_block(&mut lexer, &self.config) {
+            Ok(b) => b,
+            Err((code, cols)) => {
+                let cols = if self.expanded_line { None } else { cols };
+                return Err((n_word(), (code, cols)));
+            }
+        };
+        let level = self.ocalls.len() as u8;
+        for &(p, v, at) in &assignments {
+            self.params
+                .write(p, v, level, &mut self.state)
+                .map_err(|code| (n_word(), (code, Some((at, at + 1)))))?;
+        }
+        Ok(if block.empty {
+            Parsed::Nothing
+        } else {
+            Parsed::Block(block)
+        })
+    }
+
+    fn reader(&self) -> Reader<'_> {
+        Reader {
+            params: &self.params,
+            level: self.ocalls.len() as u8,
+            state: &self.state,
+        }
+    }
+
+    /// The value of the expression after an O-word keyword (`[#1 LT 3]`).
+    fn o_value(&self, bytes: &[u8], o: &OLine) -> Res<Fx> {
+        let mut c = Cursor::new(bytes, o.rest);
+        if c.peek() != Some(b'[') {
+            return Err((ErrorCode::ExpressionSyntax, Some(o.cols)));
+        }
+        expr::real_value(&mut c, &self.reader(), 0)
+            .map_err(|(code, at)| (code, Some((at as u16, at as u16 + 1))))
+    }
+
+    fn start_skip(&mut self, label: Label, to: SkipTo) -> Res<Parsed> {
+        self.skip = Some(Skip { label, to });
+        Ok(Parsed::Nothing)
+    }
+
+    fn remember_sub(&mut self, label: Label, line: u32) -> Res<()> {
+        match self.subs.iter_mut().find(|s| s.0 == label) {
+            Some(s) => s.1 = line,
+            None => self
+                .subs
+                .push((label, line))
+                .map_err(|_| (ErrorCode::ParameterTableFull, None))?,
+        }
+        Ok(())
+    }
+
+    /// A line read while skipping: `Ok(true)` to go on skipping (or the line ended the skip and
+    /// is consumed), `Ok(false)` to interpret this line normally.
+    fn skip_line(&mut self, line: u32, bytes: &[u8]) -> Res<bool> {
+        let (Some(o), Some(skip)) = (oword::parse(bytes), self.skip) else {
+            return Ok(true);
+        };
+        if o.label != skip.label {
+            return Ok(true);
+        }
+        let done = match (skip.to, o.keyword) {
+            (SkipTo::EndSub, Keyword::EndSub)
+            | (SkipTo::EndIf, Keyword::EndIf)
+            | (SkipTo::EndWhile, Keyword::EndWhile)
+            | (SkipTo::EndRepeat, Keyword::EndRepeat)
+            | (SkipTo::IfBranch, Keyword::Else | Keyword::EndIf) => true,
+            (SkipTo::Sub, Keyword::Sub) => {
+                self.remember_sub(o.label, line)?;
+                true
+            }
+            (SkipTo::IfBranch, Keyword::ElseIf) => self.o_value(bytes, &o)? != 0,
+            (SkipTo::DoWhile { consume }, Keyword::While) => {
+                self.skip = None;
+                return Ok(consume);
+            }
+            _ => false,
+        };
+        if done {
+            self.skip = None;
+        }
+        Ok(true)
+    }
+
+    /// Executes an O-word line (RS274NGC subroutines and control flow, LinuxCNC's dialect).
+    fn control(&mut self, line: u32, bytes: &[u8], o: OLine) -> Res<Parsed> {
+        let unbalanced = Err((ErrorCode::UnbalancedBlock, Some(o.cols)));
+        let top = self.loops.last().copied().filter(|l| l.label == o.label);
+        match o.keyword {
+            Keyword::Sub => {
+                self.remember_sub(o.label, line)?;
+                self.start_skip(o.label, SkipTo::EndSub)
+            }
+            Keyword::EndSub | Keyword::Return => {
+                let Some(call) = self.ocalls.pop() else {
+                    return unbalanced;
+                };
+                if call.label != o.label {
+                    return unbalanced;
+                }
+                self.params
+                    .restore_args(call.saved_mask, &call.saved)
+                    .map_err(|c| (c, None))?;
+                self.params.drop_locals_above(self.ocalls.len() as u8);
+                self.loops.truncate(call.loops as usize);
+                Ok(Parsed::Jump(call.return_line))
+            }
+            Keyword::Call => {
+                let mut args = [0 as Fx; 30];
+                let mut count = 0usize;
+                let mut c = Cursor::new(bytes, o.rest);
+                while c.peek() == Some(b'[') {
+                    if count == 30 {
+                        return Err((ErrorCode::ExpressionSyntax, Some(o.cols)));
+                    }
+                    args[count] = expr::bracketed(&mut c, &self.reader(), 0)
+                        .map_err(|(code, at)| (code, Some((at as u16, at as u16 + 1))))?;
+                    count += 1;
+                }
+                if self.ocalls.is_full() {
+                    return Err((ErrorCode::NestingTooDeep, Some(o.cols)));
+                }
+                let (saved_mask, saved) = self.params.save_args();
+                let _ = self.ocalls.push(OCall {
+                    label: o.label,
+                    return_line: line + 1,
+                    saved_mask,
+                    saved,
+                    loops: self.loops.len() as u8,
+                });
+                let mask = if count == 30 {
+                    u32::MAX >> 2
+                } else {
+                    (1u32 << count) - 1
+                };
+                self.params
+                    .restore_args(mask, &args)
+                    .map_err(|c| (c, None))?;
+                match self.subs.iter().find(|s| s.0 == o.label) {
+                    Some(&(_, at)) => Ok(Parsed::Jump(at + 1)),
+                    None => self.start_skip(o.label, SkipTo::Sub),
+                }
+            }
+            Keyword::If => {
+                if self.o_value(bytes, &o)? != 0 {
+                    Ok(Parsed::Nothing)
+                } else {
+                    self.start_skip(o.label, SkipTo::IfBranch)
+                }
+            }
+            Keyword::ElseIf | Keyword::Else => self.start_skip(o.label, SkipTo::EndIf),
+            Keyword::EndIf => Ok(Parsed::Nothing),
+            Keyword::While => {
+                let go = self.o_value(bytes, &o)? != 0;
+                match top {
+                    Some(l) if l.kind == LoopKind::Do => {
+                        if go {
+                            Ok(Parsed::Jump(l.line + 1))
+                        } else {
+                            self.loops.pop();
+                            Ok(Parsed::Nothing)
+                        }
+                    }
+                    Some(l) if l.kind == LoopKind::While && l.line == line => {
+                        if go {
+                            Ok(Parsed::Nothing)
+                        } else {
+                            self.loops.pop();
+                            self.start_skip(o.label, SkipTo::EndWhile)
+                        }
+                    }
+                    _ if go => {
+                        self.push_loop(o, LoopKind::While, line)?;
+                        Ok(Parsed::Nothing)
+                    }
+                    _ => self.start_skip(o.label, SkipTo::EndWhile),
+                }
+            }
+            Keyword::EndWhile => match top {
+                Some(l) if l.kind == LoopKind::While => Ok(Parsed::Jump(l.line)),
+                _ => unbalanced,
+            },
+            Keyword::Do => {
+                self.push_loop(o, LoopKind::Do, line)?;
+                Ok(Parsed::Nothing)
+            }
+            Keyword::Repeat => {
+                let n = self.o_value(bytes, &o)?;
+                let times = if n <= 0 {
+                    0
+                } else {
+                    (n / ONE).min(u32::MAX as i64) as u32
+                };
+                if times == 0 {
+                    return self.start_skip(o.label, SkipTo::EndRepeat);
+                }
+                self.push_loop(o, LoopKind::Repeat(times), line)?;
+                Ok(Parsed::Nothing)
+            }
+            Keyword::EndRepeat => self.end_repeat(top, o),
+            // As LinuxCNC: break and continue belong to while and do loops, not to repeat.
+            Keyword::Goto => Ok(Parsed::JumpSequence(o.label as u32)),
+            Keyword::IfGoto => Ok(if self.o_value(bytes, &o)? != 0 {
+                Parsed::JumpSequence(o.label as u32)
+            } else {
+                Parsed::Nothing
+            }),
+            // Handled by `parse_line` before it gets here.
+            Keyword::IfThen => Ok(Parsed::Nothing),
+            Keyword::Break => {
+                let to = match top.map(|l| l.kind) {
+                    Some(LoopKind::While) => SkipTo::EndWhile,
+                    Some(LoopKind::Do) => SkipTo::DoWhile { consume: true },
+                    _ => return unbalanced,
+                };
+                self.loops.pop();
+                self.start_skip(o.label, to)
+            }
+            Keyword::Continue => match top {
+                Some(l) if l.kind == LoopKind::While => Ok(Parsed::Jump(l.line)),
+                Some(l) if l.kind == LoopKind::Do => {
+                    self.start_skip(o.label, SkipTo::DoWhile { consume: false })
+                }
+                _ => unbalanced,
+            },
+        }
+    }
+
+    fn push_loop(&mut self, o: OLine, kind: LoopKind, line: u32) -> Res<()> {
+        self.loops
+            .push(Loop {
+                label: o.label,
+                kind,
+                line,
+            })
+            .map_err(|_| (ErrorCode::ParameterTableFull, Some(o.cols)))
+    }
+
+    fn end_repeat(&mut self, top: Option<Loop>, o: OLine) -> Res<Parsed> {
+        match top {
+            Some(Loop {
+                kind: LoopKind::Repeat(left),
+                line,
+                ..
+            }) => {
+                if left > 1 {
+                    if let Some(l) = self.loops.last_mut() {
+                        l.kind = LoopKind::Repeat(left - 1);
+                    }
+                    Ok(Parsed::Jump(line + 1))
+                } else {
+                    self.loops.pop();
+                    Ok(Parsed::Nothing)
+                }
+            }
+            _ => Err((ErrorCode::UnbalancedBlock, Some(o.cols))),
         }
     }
 
@@ -292,7 +783,15 @@ impl Interpreter {
         if w.value.abs() > MAX_WORD {
             return err(ErrorCode::NumberOutOfRange, Some(w));
         }
-        Ok(if axis < 3 { self.len(w.value) } else { w.value })
+        Ok(if axis >= 3 {
+            w.value
+        } else if self.state.inch {
+            // Nine decimals of an inch (expressions give them): 10^-9 in × 25.4 = nm / 39370.
+            let exact = w.value as i128 * 1000 + w.nano as i128;
+            geometry::div_round(exact * 254, 10_000) as Nm
+        } else {
+            w.value
+        })
     }
 
     fn len_word(&self, w: Word) -> Res<Nm> {
@@ -438,6 +937,9 @@ impl Interpreter {
             }
         }
         let f_given = b.has(b'F');
+        if b.cancels_cycle {
+            self.state.cycle = CycleMemory::default();
+        }
 
         // 1. feed mode, F, S, T
         match b.g_of(GGroup::FeedMode) {
@@ -455,7 +957,7 @@ impl Interpreter {
             if w.value < 0 {
                 return err(ErrorCode::ValueOutOfRange, Some(w));
             }
-            if w.value > MAX_WORD {
+            if w.value > MAX_FEED_WORD {
                 return err(ErrorCode::NumberOutOfRange, Some(w));
             }
             self.state.feed = w.value;
@@ -600,6 +1102,13 @@ impl Interpreter {
                     Some(w) => self.len_word(w)?,
                     None => 0,
                 };
+                // Q (LinuxCNC's naive-CAM collinearity tolerance) is accepted: the planner
+                // does not merge segments, so it has no effect here.
+                if let Some(q) = b.take(b'Q') {
+                    if q.value < 0 {
+                        return err(ErrorCode::ValueOutOfRange, Some(q));
+                    }
+                }
                 self.state.path = PathMode::Blend { tolerance };
                 self.push(line, Action::PathMode(self.state.path))?;
             }
@@ -1178,6 +1687,7 @@ impl Interpreter {
                 self.post = Post::Stop(kind, line);
                 self.state.reset_at_program_end(&self.config);
                 self.stack.clear();
+                self.clear_control();
                 self.finished = true;
             }
             98 | 99 => {

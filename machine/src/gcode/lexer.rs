@@ -19,6 +19,9 @@ pub struct Word {
     pub letter: u8,
     /// The number times 10^6, rounded half away from zero at the 7th decimal.
     pub value: i64,
+    /// What the rounding of `value` dropped, in 10^-9 (−500..=500): the number is exactly
+    /// `value × 1000 + nano` to nine decimals (inch words use it: 10^-6 in = 25.4 nm).
+    pub nano: i16,
     /// A decimal point was written.
     pub has_point: bool,
     /// Number of digits written before the decimal point (leading zeros included).
@@ -113,7 +116,17 @@ impl<'a> Lexer<'a> {
                 b'(' => {
                     let start = self.pos;
                     match self.line[start..].iter().position(|&c| c == b')') {
-                        Some(off) => self.pos = start + off + 1,
+                        Some(off) => {
+                            // rs274 stops on `(a (b)`: a comment may not hold another `(`.
+                            if let Some(inner) = self.line[start + 1..start + off]
+                                .iter()
+                                .position(|&c| c == b'(')
+                            {
+                                let at = start + 1 + inner;
+                                return Err((ErrorCode::NestedComment, (col(at), col(at + 1))));
+                            }
+                            self.pos = start + off + 1
+                        }
                         None => {
                             return Err((
                                 ErrorCode::UnclosedComment,
@@ -147,6 +160,11 @@ impl<'a> Lexer<'a> {
             b'a'..=b'z' => c - 32,
             b'A'..=b'Z' => c,
             b':' => b'O',
+            // Parameters and expressions (in the gixa dialect, which has none; the ngc dialect
+            // substitutes them before the lexer) and LinuxCNC's polar coordinates.
+            b'#' | b'[' | b'@' | b'^' => {
+                return Err((ErrorCode::NotSupported, (col(start), col(start + 1))))
+            }
             _ => return Err((ErrorCode::UnexpectedCharacter, (col(start), col(start + 1)))),
         };
         self.pos += 1;
@@ -170,6 +188,7 @@ impl<'a> Lexer<'a> {
         let mut frac: i64 = 0;
         let mut frac_digits: u32 = 0;
         let mut round_up = false;
+        let mut extra: i64 = 0;
         let mut has_point = false;
         let mut any_digit = false;
         let mut end = self.pos;
@@ -187,8 +206,11 @@ impl<'a> Lexer<'a> {
                         if frac_digits < 6 {
                             frac = frac * 10 + d;
                             frac_digits += 1;
-                        } else if frac_digits == 6 {
-                            round_up = d >= 5;
+                        } else if frac_digits < 9 {
+                            if frac_digits == 6 {
+                                round_up = d >= 5;
+                            }
+                            extra = extra * 10 + d;
                             frac_digits += 1;
                         }
                     } else {
@@ -222,16 +244,24 @@ impl<'a> Lexer<'a> {
             frac *= 10;
             frac_digits += 1;
         }
+        while frac_digits < 9 {
+            extra *= 10;
+            frac_digits += 1;
+        }
         let mut value = int_part * MICRO + frac;
+        let mut nano = extra as i16;
         if round_up {
             value += 1;
+            nano -= 1000;
         }
         if negative {
             value = -value;
+            nano = -nano;
         }
         Ok(Word {
             letter: 0,
             value,
+            nano,
             has_point,
             int_digits: int_digits.min(255) as u8,
             cols: (0, 0),
@@ -289,6 +319,16 @@ mod tests {
     }
 
     #[test]
+    fn nine_decimals_are_kept_beside_the_rounded_value() {
+        let mut lx = Lexer::new(b"X1.0000005 Y-0.123456789 Z2.0000004", true);
+        lx.start();
+        let w: heapless::Vec<Word, 3> = core::iter::from_fn(|| lx.next_word().unwrap()).collect();
+        assert_eq!((w[0].value, w[0].nano), (1_000_001, -500));
+        assert_eq!((w[1].value, w[1].nano), (-123_457, 211));
+        assert_eq!((w[2].value, w[2].nano), (2_000_000, 400));
+    }
+
+    #[test]
     fn seventh_decimal_rounds() {
         assert_eq!(&words("X1.0000005").unwrap()[..], &[(b'X', 1_000_001)]);
         assert_eq!(&words("X-1.0000004").unwrap()[..], &[(b'X', -1_000_000)]);
@@ -305,8 +345,16 @@ mod tests {
             (ErrorCode::UnclosedComment, (3, 8))
         );
         assert_eq!(
-            words("G0 #1").unwrap_err(),
+            words("G0 (a (b) X1").unwrap_err(),
+            (ErrorCode::NestedComment, (6, 7))
+        );
+        assert_eq!(
+            words("G0 $1").unwrap_err(),
             (ErrorCode::UnexpectedCharacter, (3, 4))
+        );
+        assert_eq!(
+            words("G0 @1.5 ^60").unwrap_err(),
+            (ErrorCode::NotSupported, (3, 4))
         );
         assert_eq!(
             words("X1234567890").unwrap_err().0,

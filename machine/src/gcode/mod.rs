@@ -25,14 +25,20 @@ pub mod block;
 pub mod config;
 pub mod cycles;
 pub mod error;
+pub mod expand;
+pub mod expr;
 pub mod geometry;
 pub mod interp;
 pub mod lexer;
+pub mod oword;
+pub mod params;
 pub mod source;
 pub mod state;
 mod test_vectors;
 
-pub use config::{ArcCenterMode, Dialect, DwellUnits, GixaSetup, InterpConfig, ToolEntry};
+pub use config::{
+    ArcCenterMode, Dialect, DwellUnits, GixaSetup, InterpConfig, RetractMode, ToolEntry,
+};
 pub use error::{ErrorCode, GcodeError};
 pub use interp::Interpreter;
 pub use source::{MemorySource, ProgramSource, SourceError};

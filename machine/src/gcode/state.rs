@@ -101,7 +101,7 @@ impl ModalState {
             inch: config.start_inch,
             work_system: 0,
             path: PathMode::Blend { tolerance: 0 },
-            retract_to_r: false,
+            retract_to_r: config.default_retract == super::config::RetractMode::RPlane,
             feed: if gixa { config.gixa.default_feed } else { 0 },
             feed_raw: 0,
             spindle: Spindle::Off,
@@ -152,7 +152,8 @@ impl ModalState {
         p
     }
 
-    /// Resets what M2/M30 reset (Fanuc/LinuxCNC): G54, G17, G90, G94, G80 → G0, G98, M5, M9, G92
+    /// Resets what M2/M30 reset (Fanuc/LinuxCNC): G54, G17, G90, G94, G80 → G0, the setup's
+    /// retract mode (G98 by default), M5, M9, G92
     /// offsets off (saved values kept). Units, tool offset and path mode survive.
     pub fn reset_at_program_end(&mut self, config: &InterpConfig) {
         let fresh = ModalState::new(config);
@@ -163,7 +164,7 @@ impl ModalState {
         self.arc_absolute = false;
         self.inverse_time = false;
         self.work_system = 0;
-        self.retract_to_r = false;
+        self.retract_to_r = fresh.retract_to_r;
         self.spindle = Spindle::Off;
         self.mist = false;
         self.flood = false;

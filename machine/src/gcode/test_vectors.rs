@@ -145,6 +145,43 @@ const GIXA: &[u8] =
 G90 G87 X0 Y0 R0 Z-2 Q1 F50\nG80\nG18\nG02 X0 Z10 I-10 J0 F100\nG17\nG88 X1 Y1\nX2\nG80\n\
 M98 P900 L2\nM30\nN900 G91 G00 X1 ; sub\nM99\n";
 
+const PARAMETRIC: &[u8] = b"G21 G90 G17\n#1 = 0\n#<_r> = 12.5\no100 sub\n  G1 X[#<_r> * COS[#1]] Y[#<_r> * SIN[#1]] Z#2 F[#3 ** 2]\n\
+o100 endsub\no1 while [#1 LT 360]\n  o100 call [#1] [-[#1 / 360]] [ROUND[SQRT[90000]]]\n  #1 = [#1 + 37.5]\no1 endwhile\n\
+o2 do\n  #1 = [#1 - 100]\n  o3 if [#1 MOD 2 EQ 0 AND #1 GT 100]\n    o2 continue\n  o3 elseif [#1 LT 0]\n    o2 break\n\
+  o3 endif\n  G0 X[ATAN[#1]/[7]] Y[EXP[#1 / 200]] Z[LN[#1 + 1]]\no2 while [1]\no4 repeat [3]\n\
+  G2 X[#5420 + 1] Y#5421 I0.5 J0\no4 endrepeat\nG0 X[ASIN[0.3]] Y[ACOS[-0.7]] Z[TAN[-33.3]]\n\
+G0 X[FIX[-2.5] + FUP[2.1]] Y[ABS[-3] XOR 0] Z[#<_r> LE 12.5]\nG0 X[1/0]\nM30\n";
+
+/// Every expression function over a sweep of inputs, digested (errors as their code).
+fn functions() -> u32 {
+    use super::expr::{self, ONE};
+    let mut d = Digest::new();
+    let mut put = |r: Result<i64, super::error::ErrorCode>| match r {
+        Ok(v) => d.i64(v),
+        Err(e) => d.u64(e.number() as u64),
+    };
+    let mut x: i64 = -725 * ONE;
+    while x <= 725 * ONE {
+        let (c, s) = expr::sin_cos_deg(x);
+        put(Ok(c));
+        put(Ok(s));
+        put(Ok(expr::atan_deg(x, 3 * ONE)));
+        put(expr::sqrt(x));
+        put(expr::exp(x / 40));
+        put(expr::ln(x));
+        put(expr::asin_deg(x / 725));
+        put(expr::acos_deg(x / 700));
+        put(expr::pow(x / 100, 3 * ONE / 2));
+        put(expr::div(ONE, x));
+        x += 3_141_592_653;
+    }
+    d.finish()
+}
+
+fn parametric() -> u32 {
+    digest_program(PARAMETRIC, &InterpConfig::default())
+}
+
 fn arcs() -> u32 {
     digest_program(ARCS, &InterpConfig::default())
 }
@@ -213,5 +250,15 @@ pub const VECTORS: &[Vector] = &[
         name: "gcode/gixa",
         run: gixa,
         expected: 0xc2c4_e45d,
+    },
+    Vector {
+        name: "gcode/expr-functions",
+        run: functions,
+        expected: 0xf691_6103,
+    },
+    Vector {
+        name: "gcode/parametric",
+        run: parametric,
+        expected: 0xeebc_aa62,
     },
 ];

@@ -93,6 +93,7 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
         dwell_units,
         peck_clearance,
         chip_break_retract,
+        default_retract,
         tools,
         work_offsets,
         g28_home,
@@ -109,6 +110,7 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
     part(r, dwell_units)?;
     part(r, peck_clearance)?;
     part(r, chip_break_retract)?;
+    part(r, default_retract)?;
     part(r, tools)?;
     for o in work_offsets {
         part(r, o)?;

@@ -1,0 +1,212 @@
+//! Parameter substitution: one source line with `#` references, `[expressions]` and assignments
+//! becomes a plain line the word lexer reads, plus the assignments to apply.
+//!
+//! `G1 X[#1 + 2] Y#<y>` becomes `G1 X12.000000000 Y3.500000000`; `#1 = [#1 + 1]` is taken out of
+//! the line and returned, so every value on the line is read before any assignment of the line
+//! takes effect (RS274NGC). Comments are copied untouched.
+
+use super::error::ErrorCode;
+use super::expr::{self, Cursor, Fx, ParamRead, ParamRef, ONE};
+
+/// Longest line after substitution.
+pub const EXPANDED_MAX: usize = 384;
+/// Most assignments on one line.
+pub const MAX_ASSIGNMENTS: usize = 12;
+
+/// The substituted line.
+pub type Expanded = heapless::Vec<u8, EXPANDED_MAX>;
+/// The assignments of one line, in order: target, value, column of the target's `#`.
+pub type Assignments = heapless::Vec<(ParamRef, Fx, u16), MAX_ASSIGNMENTS>;
+
+/// An error and the columns in the source line.
+pub type ExpandError = (ErrorCode, (u16, u16));
+
+fn cols(at: usize) -> (u16, u16) {
+    (at as u16, at as u16 + 1)
+}
+
+/// True if the line needs substitution (a `#` or `[` outside comments).
+pub fn needs_expansion(line: &[u8]) -> bool {
+    let mut in_comment = false;
+    for &c in line {
+        match c {
+            b'(' => in_comment = true,
+            b')' => in_comment = false,
+            b';' if !in_comment => return false,
+            b'#' | b'[' if !in_comment => return true,
+            _ => {}
+        }
+    }
+    false
+}
+
+/// Writes a value as a decimal with nine places; false if the line is full.
+pub fn write_fx(out: &mut Expanded, v: Fx) -> bool {
+    let mut buf = [0u8; 24];
+    let mut n = 0;
+    let a = v.unsigned_abs();
+    let (int, frac) = (a / ONE as u64, a % ONE as u64);
+    if v < 0 {
+        buf[n] = b'-';
+        n += 1;
+    }
+    let mut digits = [0u8; 20];
+    let mut d = 0;
+    let mut i = int;
+    loop {
+        digits[d] = b'0' + (i % 10) as u8;
+        d += 1;
+        i /= 10;
+        if i == 0 {
+            break;
+        }
+    }
+    while d > 0 {
+        d -= 1;
+        buf[n] = digits[d];
+        n += 1;
+    }
+    buf[n] = b'.';
+    n += 1;
+    let mut f = frac;
+    for k in (0..9).rev() {
+        buf[n + k] = b'0' + (f % 10) as u8;
+        f /= 10;
+    }
+    n += 9;
+    out.extend_from_slice(&buf[..n]).is_ok()
+}
+
+/// True if a function name followed by `[` starts at the cursor.
+fn function_starts(c: &mut Cursor<'_>) -> bool {
+    const NAMES: [&[u8]; 14] = [
+        b"ABS", b"ACOS", b"ASIN", b"ATAN", b"COS", b"EXP", b"FIX", b"FUP", b"ROUND", b"LN", b"SIN",
+        b"SQRT", b"TAN", b"EXISTS",
+    ];
+    let save = c.pos;
+    let found = NAMES.iter().any(|w| {
+        c.pos = save;
+        c.keyword(w) && c.peek() == Some(b'[')
+    });
+    c.pos = save;
+    found
+}
+
+/// Substitutes `line` into `out` and collects its assignments.
+pub fn expand(
+    line: &[u8],
+    params: &dyn ParamRead,
+    out: &mut Expanded,
+    assignments: &mut Assignments,
+) -> Result<(), ExpandError> {
+    let too_long = (ErrorCode::ExpressionSyntax, (0, line.len() as u16));
+    let full = |_| too_long;
+    let mut i = 0;
+    while i < line.len() {
+        let ch = line[i];
+        match ch {
+            b'(' => {
+                let end = line[i..]
+                    .iter()
+                    .position(|&c| c == b')')
+                    .map_or(line.len(), |p| i + p + 1);
+                out.extend_from_slice(&line[i..end]).map_err(full)?;
+                i = end;
+            }
+            b';' => {
+                out.extend_from_slice(&line[i..]).map_err(full)?;
+                break;
+            }
+            b'#' => {
+                // An assignment `#ref = value` where a word would start.
+                let mut c = Cursor::new(line, i + 1);
+                let target = expr::read_param_ref(&mut c, params, 0)
+                    .map_err(|(code, at)| (code, cols(at)))?;
+                if c.peek() != Some(b'=') {
+                    return Err((ErrorCode::ExpressionSyntax, cols(c.pos.min(line.len()))));
+                }
+                c.pos += 1;
+                let value =
+                    expr::real_value(&mut c, params, 0).map_err(|(code, at)| (code, cols(at)))?;
+                assignments
+                    .push((target, value, i as u16))
+                    .map_err(|_| (ErrorCode::ParameterTableFull, cols(i)))?;
+                i = c.pos;
+            }
+            b'a'..=b'z' | b'A'..=b'Z' => {
+                out.push(ch).map_err(|_| too_long)?;
+                let mut c = Cursor::new(line, i + 1);
+                let computed = match c.peek() {
+                    Some(b'#' | b'[') => true,
+                    Some(b'-' | b'+') => {
+                        let save = c.pos;
+                        c.pos += 1;
+                        let next = c.peek();
+                        let f = matches!(next, Some(b'#' | b'[')) || function_starts(&mut c);
+                        c.pos = save;
+                        f
+                    }
+                    Some(b'A'..=b'Z') => function_starts(&mut c),
+                    _ => false,
+                };
+                if computed {
+                    let v = expr::real_value(&mut c, params, 0)
+                        .map_err(|(code, at)| (code, cols(at)))?;
+                    if !write_fx(out, v) {
+                        return Err(too_long);
+                    }
+                    i = c.pos;
+                } else {
+                    i += 1;
+                }
+            }
+            _ => {
+                out.push(ch).map_err(|_| too_long)?;
+                i += 1;
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct P;
+    impl ParamRead for P {
+        fn read(&self, p: ParamRef) -> Result<Fx, ErrorCode> {
+            match p {
+                ParamRef::Numbered(n) => Ok(n as Fx * ONE),
+                ParamRef::Named { .. } => Ok(-ONE / 4),
+            }
+        }
+        fn exists(&self, _: ParamRef) -> bool {
+            true
+        }
+    }
+
+    extern crate std;
+    use std::string::String;
+
+    fn run(s: &str) -> Result<(String, usize), ErrorCode> {
+        let mut out = Expanded::new();
+        let mut a = Assignments::new();
+        expand(s.as_bytes(), &P, &mut out, &mut a).map_err(|e| e.0)?;
+        Ok((String::from_utf8(out.to_vec()).unwrap(), a.len()))
+    }
+
+    #[test]
+    fn substitutes_values_and_takes_out_assignments() {
+        assert_eq!(
+            run("G1 X[#1 + 2] Y#<y> Z-#3 (#4 stays)").unwrap(),
+            (
+                "G1 X3.000000000 Y-0.250000000 Z-3.000000000(#4 stays)".into(),
+                0
+            )
+        );
+        assert_eq!(run("#1 = [2 * 3] #<a>=#2 G0").unwrap(), (" G0".into(), 2));
+        assert_eq!(run("X SIN[0] Y2").unwrap(), ("X0.000000000 Y2".into(), 0));
+        assert_eq!(run("#1 5").unwrap_err(), ErrorCode::ExpressionSyntax);
+    }
+}

@@ -1,0 +1,225 @@
+//! Parameter storage: numbered `#1`-`#5399` and named `#<local>` / `#<_global>`, in fixed tables.
+//!
+//! Only parameters a program has written take room: [`MAX_NUMBERED`] numbered and [`MAX_NAMED`]
+//! named entries (a full table is error E707). The system parameters LinuxCNC defines are views of
+//! the modal state. As in LinuxCNC, the stored offsets and positions are in the machine's units
+//! (Gantry's are millimetres, whatever G20/G21 says) and the current position in the program's
+//! units: #5161-#5169 G28 and #5181-#5189 G30 positions,
+//! #5211-#5219 the G92 offset, #5220 the coordinate system (1-9), #5221-#5399 the G54-G59.3
+//! offsets (20 per system), #5400 the tool in the spindle, #5401-#5409 its offsets, #5420-#5428
+//! the current position in program coordinates; #5061-#5070 (probe results) read as stored
+//! (0 until a probe cycle exists). Writing #5161-#5399 moves the offset or position it names.
+//! Named locals belong to the subroutine level that set them and vanish when it returns.
+
+use super::error::ErrorCode;
+use super::expr::{Fx, ParamRef, ONE};
+use super::state::ModalState;
+use crate::units::{Nm, MAX_AXES};
+
+/// Numbered parameters a program may hold at once.
+pub const MAX_NUMBERED: usize = 96;
+/// Named parameters a program may hold at once (locals of every call level and globals).
+pub const MAX_NAMED: usize = 64;
+/// Largest parameter number.
+pub const MAX_NUMBER: u16 = 5399;
+
+/// The parameter tables.
+#[derive(Clone, Debug, Default)]
+pub struct Params {
+    numbered: heapless::Vec<(u16, Fx), MAX_NUMBERED>,
+    /// (name hash, call level, value); globals have level 0xFF.
+    named: heapless::Vec<(u32, u8, Fx), MAX_NAMED>,
+}
+
+const GLOBAL: u8 = 0xFF;
+
+/// nm to the program's length units as an [`Fx`] (mm ×10⁹ or inch ×10⁹).
+pub fn nm_to_fx(nm: Nm, inch: bool) -> Fx {
+    if inch {
+        ((nm as i128 * 10_000) / 254) as i64
+    } else {
+        nm.saturating_mul(1000)
+    }
+}
+
+/// An [`Fx`] length in program units to nm, rounded.
+pub fn fx_to_nm(v: Fx, inch: bool) -> Nm {
+    let n = if inch {
+        v as i128 * 254 / 10_000
+    } else {
+        v as i128
+    };
+    let nm = if inch {
+        n
+    } else {
+        (n + n.signum() * 500) / 1000
+    };
+    nm as Nm
+}
+
+/// A system parameter's place in the modal state.
+enum System {
+    G28(usize),
+    G30(usize),
+    G92(usize),
+    ActiveWorkOffset,
+    Work(usize, usize),
+    Tool,
+    ToolOffset(usize),
+    Position(usize),
+}
+
+fn system(n: u16) -> Option<System> {
+    let axis = |base: u16| -> Option<usize> {
+        let i = (n - base) as usize;
+        (i < MAX_AXES).then_some(i)
+    };
+    match n {
+        5161..=5169 => axis(5161).map(System::G28),
+        5181..=5189 => axis(5181).map(System::G30),
+        5211..=5219 => axis(5211).map(System::G92),
+        5220 => Some(System::ActiveWorkOffset),
+        5221..=5399 => {
+            let k = n - 5221;
+            let (sys, i) = ((k / 20) as usize, (k % 20) as usize);
+            (i < MAX_AXES && sys < 9).then_some(System::Work(sys, i))
+        }
+        5400 => Some(System::Tool),
+        5401..=5409 => axis(5401).map(System::ToolOffset),
+        5420..=5428 => axis(5420).map(System::Position),
+        _ => None,
+    }
+}
+
+impl Params {
+    /// Empty tables.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Reads a parameter at call `level`, with the modal state for the system ones.
+    pub fn read(&self, p: ParamRef, level: u8, s: &ModalState) -> Result<Fx, ErrorCode> {
+        match p {
+            ParamRef::Numbered(n) => {
+                if n == 0 || (n > MAX_NUMBER && system(n).is_none()) {
+                    return Err(ErrorCode::ParameterNumberInvalid);
+                }
+                if let Some(sys) = system(n) {
+                    let len = |nm: Nm| nm_to_fx(nm, false);
+                    return Ok(match sys {
+                        System::G28(i) => len(s.g28[i]),
+                        System::G30(i) => len(s.g30[i]),
+                        System::G92(i) => len(s.g92[i]),
+                        System::ActiveWorkOffset => (s.work_system as Fx + 1) * ONE,
+                        System::Work(w, i) => len(s.work_offsets[w][i]),
+                        System::Tool => s.tool_loaded as Fx * ONE,
+                        System::ToolOffset(i) => len(s.tool_offset[i]),
+                        System::Position(i) => nm_to_fx(s.program_position()[i], s.inch),
+                    });
+                }
+                Ok(self.numbered.iter().find(|e| e.0 == n).map_or(0, |e| e.1))
+            }
+            ParamRef::Named { hash, global } => {
+                let level = if global { GLOBAL } else { level };
+                self.named
+                    .iter()
+                    .find(|e| e.0 == hash && e.1 == level)
+                    .map(|e| e.2)
+                    .ok_or(ErrorCode::UndefinedParameter)
+            }
+        }
+    }
+
+    /// True if a named parameter is set at `level` (numbered ones always exist).
+    pub fn exists(&self, p: ParamRef, level: u8) -> bool {
+        match p {
+            ParamRef::Numbered(n) => (1..=MAX_NUMBER).contains(&n),
+            ParamRef::Named { hash, global } => {
+                let level = if global { GLOBAL } else { level };
+                self.named.iter().any(|e| e.0 == hash && e.1 == level)
+            }
+        }
+    }
+
+    /// Writes a parameter (system ones change the modal state).
+    pub fn write(
+        &mut self,
+        p: ParamRef,
+        v: Fx,
+        level: u8,
+        s: &mut ModalState,
+    ) -> Result<(), ErrorCode> {
+        match p {
+            ParamRef::Numbered(n) => {
+                if n == 0 || n > MAX_NUMBER {
+                    return Err(ErrorCode::ParameterNumberInvalid);
+                }
+                if let Some(sys) = system(n) {
+                    let nm = fx_to_nm(v, false);
+                    match sys {
+                        System::G28(i) => s.g28[i] = nm,
+                        System::G30(i) => s.g30[i] = nm,
+                        System::G92(i) => s.g92[i] = nm,
+                        System::Work(w, i) => s.work_offsets[w][i] = nm,
+                        _ => return Err(ErrorCode::ParameterNumberInvalid),
+                    }
+                    return Ok(());
+                }
+                if let Some(e) = self.numbered.iter_mut().find(|e| e.0 == n) {
+                    e.1 = v;
+                    return Ok(());
+                }
+                self.numbered
+                    .push((n, v))
+                    .map_err(|_| ErrorCode::ParameterTableFull)
+            }
+            ParamRef::Named { hash, global } => {
+                let level = if global { GLOBAL } else { level };
+                if let Some(e) = self.named.iter_mut().find(|e| e.0 == hash && e.1 == level) {
+                    e.2 = v;
+                    return Ok(());
+                }
+                self.named
+                    .push((hash, level, v))
+                    .map_err(|_| ErrorCode::ParameterTableFull)
+            }
+        }
+    }
+
+    /// Forgets the named locals of every level above `level` (a subroutine returned).
+    pub fn drop_locals_above(&mut self, level: u8) {
+        self.named.retain(|e| e.1 == GLOBAL || e.1 <= level);
+    }
+
+    /// Numbered parameters #1-#30 as (bit mask of the set ones, values), for a call to save.
+    pub fn save_args(&self) -> (u32, [Fx; 30]) {
+        let mut mask = 0u32;
+        let mut v = [0; 30];
+        for &(n, x) in &self.numbered {
+            if (1..=30).contains(&n) {
+                mask |= 1 << (n - 1);
+                v[n as usize - 1] = x;
+            }
+        }
+        (mask, v)
+    }
+
+    /// Replaces #1-#30 by a saved set (a call's arguments, or the caller's on return).
+    pub fn restore_args(&mut self, mask: u32, values: &[Fx; 30]) -> Result<(), ErrorCode> {
+        self.numbered.retain(|e| !(1..=30).contains(&e.0));
+        for (i, &v) in values.iter().enumerate() {
+            if mask & (1 << i) != 0 {
+                self.numbered
+                    .push((i as u16 + 1, v))
+                    .map_err(|_| ErrorCode::ParameterTableFull)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Forgets every parameter (a new program).
+    pub fn clear(&mut self) {
+        self.numbered.clear();
+        self.named.clear();
+    }
+}
