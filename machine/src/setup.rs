@@ -12,16 +12,15 @@ use serde::{Deserialize, Serialize};
 
 mod blob;
 
-/// Number of tool-table entries the board keeps.
-pub const MAX_TOOLS: usize = 32;
 /// Number of user M-code lists.
 pub const MAX_USER_MCODES: usize = 16;
 /// Commands a user M-code list may hold.
 pub const MAX_LIST_COMMANDS: usize = 8;
 
-/// The dialect and the G4 P units are the interpreter's own types (one set for the setup, the
-/// flash blob and the interpreter).
-pub use crate::gcode::{Dialect, DwellUnits};
+/// The dialect, the G4 P units and the tool-table entry are the interpreter's own types (one set
+/// for the setup, the flash blob and the interpreter); the board keeps [`MAX_TOOLS`] tools, as
+/// many as the interpreter's table holds.
+pub use crate::gcode::{Dialect, DwellUnits, Tool, MAX_TOOLS};
 
 /// Per-axis setup.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -40,14 +39,6 @@ pub struct AxisSetup {
     pub travel_max: Nm,
     /// Reverse the direction output.
     pub invert_dir: bool,
-}
-
-/// One tool-table entry.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Tool {
-    pub number: u32,
-    pub length: Nm,
-    pub diameter: Nm,
 }
 
 /// Path-planning settings shared by all axes.
@@ -402,7 +393,6 @@ impl Default for Setup {
 impl Setup {
     /// The interpreter's part of the setup.
     pub fn interp_config(&self) -> crate::gcode::InterpConfig {
-        use crate::gcode::config::ToolEntry;
         let p = &self.program;
         let mut c = match p.dialect {
             Dialect::Rs274 => crate::gcode::InterpConfig::default(),
@@ -415,12 +405,7 @@ impl Setup {
         c.work_offsets = p.work_offsets;
         c.g28_position = p.g28_home;
         c.g30_position = p.g30_home;
-        for (slot, t) in c.tools.iter_mut().zip(p.tools.iter()) {
-            *slot = ToolEntry {
-                number: t.number,
-                length: t.length,
-            };
-        }
+        c.tools[..p.tools.len()].copy_from_slice(&p.tools);
         for &code in &p.user_mcodes {
             c.add_user_m_code(code);
         }
@@ -571,6 +556,28 @@ mod tests {
         s.outputs.mcode_lists[0].commands = Vec::from_slice(&kinds).unwrap();
         let blob = s.to_blob(&mut buf).expect("fits");
         assert_eq!(Setup::from_blob(blob), Some(s));
+    }
+
+    #[test]
+    fn the_interpreter_gets_the_setup_tools_as_stored() {
+        let mut s = Setup::default();
+        let t = Tool {
+            number: 7,
+            length: -1_500_000,
+            diameter: 6_000_000,
+        };
+        s.program.tools.push(t).unwrap();
+        let c = s.interp_config();
+        assert_eq!(c.tool(7), Some(t));
+        assert_eq!(c.tools[1], Tool::default());
+        // The blob's tool bytes: number, length, diameter as postcard varints (zigzag for the
+        // signed ones), as the setup's own `Tool` stored them before it became the interpreter's.
+        let mut buf = [0u8; 16];
+        let bytes = postcard::to_slice(&t, &mut buf).unwrap();
+        assert_eq!(
+            bytes,
+            [0x07, 0xbf, 0x8d, 0xb7, 0x01, 0x80, 0xb6, 0xdc, 0x05]
+        );
     }
 
     #[test]

@@ -32,7 +32,7 @@ pub mod source;
 pub mod state;
 mod test_vectors;
 
-pub use config::{ArcCenterMode, Dialect, DwellUnits, GixaSetup, InterpConfig, ToolEntry};
+pub use config::{ArcCenterMode, Dialect, DwellUnits, GixaSetup, InterpConfig, Tool, MAX_TOOLS};
 pub use error::{ErrorCode, GcodeError};
 pub use interp::Interpreter;
 pub use source::{MemorySource, ProgramSource, SourceError};
