@@ -5,6 +5,7 @@
 //! each take their part of it. All values are integers in machine units (nm, nm/min, nm/s², µs),
 //! so the same setup means bit-identical behaviour on every target.
 
+use crate::gcode::config::WORK_SYSTEMS;
 use crate::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use crate::units::{FeedNmPerMin, Nm, Pos, MAX_AXES, NM_PER_MM};
 use heapless::Vec;
@@ -66,8 +67,8 @@ pub struct ProgramSetup {
     /// Partial retract of the `gixa` G87 chip-break cycle, nm.
     pub chip_break_retract: Nm,
     pub tools: Vec<Tool, MAX_TOOLS>,
-    /// G54..G59.3 offsets (9 systems), nm.
-    pub work_offsets: [Pos; 9],
+    /// G54..G59.3 offsets, nm (the interpreter's [`WORK_SYSTEMS`] systems).
+    pub work_offsets: [Pos; WORK_SYSTEMS],
     /// G28 / G30 home positions in machine coordinates.
     pub g28_home: Pos,
     pub g30_home: Pos,
@@ -329,7 +330,7 @@ impl Default for Setup {
                 peck_clearance: 254_000,
                 chip_break_retract: 254_000,
                 tools: Vec::new(),
-                work_offsets: [[0; MAX_AXES]; 9],
+                work_offsets: [[0; MAX_AXES]; WORK_SYSTEMS],
                 g28_home: [0; MAX_AXES],
                 g30_home: [0; MAX_AXES],
                 user_mcodes: Vec::new(),
@@ -507,7 +508,7 @@ mod tests {
         for i in 0..MAX_USER_MCODES {
             s.program.user_mcodes.push(100 + i as u16).unwrap();
         }
-        s.program.work_offsets = [[-1_000_000_000; MAX_AXES]; 9];
+        s.program.work_offsets = [[-1_000_000_000; MAX_AXES]; WORK_SYSTEMS];
         let wait = ListCommand::WaitInput {
             bit: 31,
             level: true,
