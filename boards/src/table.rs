@@ -102,7 +102,18 @@ impl Clocks {
 /// boards/README.md) and hands it to the macro `$expand` in one fixed shape: every field in
 /// table order, the clocks as a [`Clocks`] value, `limit_max` always present (empty when the
 /// board has none). The firmware (`firmware/src/board.rs`) expands it into drivers, the host
-/// check (`boards/src/lib.rs`) into plain data; the grammar lives only here.
+/// check (`boards/src/host.rs`) into plain data; the grammar lives only here.
+///
+/// Why two expanders and not one: they share only the matcher of this normalised shape, their
+/// outputs differ in kind. The firmware needs the pin *tokens*: `p.PB12` moves a field out of
+/// embassy's `Peripherals` into a typed driver (so a pin listed twice is a compile error, a
+/// use of a moved field), `p.EXTI4` must be the channel type of that pin, and `TIM1_CH1` picks a
+/// timer type and a `SimplePwm` argument slot. The host check needs the same tokens as strings
+/// in `std` vectors. Plain data from this crate (a `Pin` constant) cannot build the drivers: no
+/// safe constructor turns a port and pin number back into a typed embassy pin (`AnyPin::steal`
+/// is `unsafe` and loses the moved-field check). An expander generic over a callback macro is
+/// what this macro already is (`$expand`), so a shared second layer would only pass the tokens
+/// on once more.
 #[macro_export]
 macro_rules! board_table {
     (

@@ -2,9 +2,10 @@
 //!
 //! `gantry_board!` is invoked by the board file chosen with the `board-*` feature (see `main.rs`);
 //! `gantry_boards::board_table!` reads the table (the same reader as the host check in
-//! `boards/src/lib.rs`) and hands it to `expand_board!` here, which produces the board's constants (name, clocks, step/dir pin numbers) and `split()`, which moves
-//! every listed pin out of `Peripherals` into a driver in its power-up state: outputs off, steppers
-//! disabled. A pin listed twice fails to compile (use of a moved field), and a wrong EXTI channel,
+//! `boards/src/host.rs`) and hands it to `expand_board!` here, which produces the board's
+//! constants (name, clocks, step/dir pin numbers) and `split()`, which moves every listed pin out
+//! of `Peripherals` into a driver in its power-up state: outputs off, steppers disabled. (Why the
+//! host check has its own expander: the doc of `board_table!` in `boards/src/table.rs`.) A pin listed twice fails to compile (use of a moved field), and a wrong EXTI channel,
 //! a non-ADC1 analog pin or a step/dir pin on a second port fail too.
 
 use embassy_stm32::pac;

@@ -5,6 +5,7 @@
 //! each take their part of it. All values are integers in machine units (nm, nm/min, nm/s², µs),
 //! so the same setup means bit-identical behaviour on every target.
 
+use crate::gcode::config::WORK_SYSTEMS;
 use crate::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use crate::units::{FeedNmPerMin, Nm, Pos, MAX_AXES, NM_PER_MM};
 use heapless::Vec;
@@ -12,16 +13,15 @@ use serde::{Deserialize, Serialize};
 
 mod blob;
 
-/// Number of tool-table entries the board keeps.
-pub const MAX_TOOLS: usize = 32;
 /// Number of user M-code lists.
 pub const MAX_USER_MCODES: usize = 16;
 /// Commands a user M-code list may hold.
 pub const MAX_LIST_COMMANDS: usize = 8;
 
-/// The dialect and the G4 P units are the interpreter's own types (one set for the setup, the
-/// flash blob and the interpreter).
-pub use crate::gcode::{Dialect, DwellUnits};
+/// The dialect, the G4 P units and the tool-table entry are the interpreter's own types (one set
+/// for the setup, the flash blob and the interpreter); the board keeps [`MAX_TOOLS`] tools, as
+/// many as the interpreter's table holds.
+pub use crate::gcode::{Dialect, DwellUnits, Tool, MAX_TOOLS};
 
 /// Per-axis setup.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -40,14 +40,6 @@ pub struct AxisSetup {
     pub travel_max: Nm,
     /// Reverse the direction output.
     pub invert_dir: bool,
-}
-
-/// One tool-table entry.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Tool {
-    pub number: u32,
-    pub length: Nm,
-    pub diameter: Nm,
 }
 
 /// Path-planning settings shared by all axes.
@@ -77,8 +69,8 @@ pub struct ProgramSetup {
     /// Canned-cycle retract mode when a program sets neither G98 nor G99 (default G98).
     pub default_retract: crate::gcode::RetractMode,
     pub tools: Vec<Tool, MAX_TOOLS>,
-    /// G54..G59.3 offsets (9 systems), nm.
-    pub work_offsets: [Pos; 9],
+    /// G54..G59.3 offsets, nm (the interpreter's [`WORK_SYSTEMS`] systems).
+    pub work_offsets: [Pos; WORK_SYSTEMS],
     /// G28 / G30 home positions in machine coordinates.
     pub g28_home: Pos,
     pub g30_home: Pos,
@@ -341,7 +333,7 @@ impl Default for Setup {
                 chip_break_retract: 254_000,
                 default_retract: crate::gcode::RetractMode::InitialLevel,
                 tools: Vec::new(),
-                work_offsets: [[0; MAX_AXES]; 9],
+                work_offsets: [[0; MAX_AXES]; WORK_SYSTEMS],
                 g28_home: [0; MAX_AXES],
                 g30_home: [0; MAX_AXES],
                 user_mcodes: Vec::new(),
@@ -405,7 +397,6 @@ impl Default for Setup {
 impl Setup {
     /// The interpreter's part of the setup.
     pub fn interp_config(&self) -> crate::gcode::InterpConfig {
-        use crate::gcode::config::ToolEntry;
         let p = &self.program;
         let mut c = match p.dialect {
             Dialect::Rs274 => crate::gcode::InterpConfig::default(),
@@ -419,12 +410,7 @@ impl Setup {
         c.work_offsets = p.work_offsets;
         c.g28_position = p.g28_home;
         c.g30_position = p.g30_home;
-        for (slot, t) in c.tools.iter_mut().zip(p.tools.iter()) {
-            *slot = ToolEntry {
-                number: t.number,
-                length: t.length,
-            };
-        }
+        c.tools[..p.tools.len()].copy_from_slice(&p.tools);
         for &code in &p.user_mcodes {
             c.add_user_m_code(code);
         }
@@ -526,7 +512,7 @@ mod tests {
         for i in 0..MAX_USER_MCODES {
             s.program.user_mcodes.push(100 + i as u16).unwrap();
         }
-        s.program.work_offsets = [[-1_000_000_000; MAX_AXES]; 9];
+        s.program.work_offsets = [[-1_000_000_000; MAX_AXES]; WORK_SYSTEMS];
         let wait = ListCommand::WaitInput {
             bit: 31,
             level: true,
@@ -575,6 +561,28 @@ mod tests {
         s.outputs.mcode_lists[0].commands = Vec::from_slice(&kinds).unwrap();
         let blob = s.to_blob(&mut buf).expect("fits");
         assert_eq!(Setup::from_blob(blob), Some(s));
+    }
+
+    #[test]
+    fn the_interpreter_gets_the_setup_tools_as_stored() {
+        let mut s = Setup::default();
+        let t = Tool {
+            number: 7,
+            length: -1_500_000,
+            diameter: 6_000_000,
+        };
+        s.program.tools.push(t).unwrap();
+        let c = s.interp_config();
+        assert_eq!(c.tool(7), Some(t));
+        assert_eq!(c.tools[1], Tool::default());
+        // The blob's tool bytes: number, length, diameter as postcard varints (zigzag for the
+        // signed ones), as the setup's own `Tool` stored them before it became the interpreter's.
+        let mut buf = [0u8; 16];
+        let bytes = postcard::to_slice(&t, &mut buf).unwrap();
+        assert_eq!(
+            bytes,
+            [0x07, 0xbf, 0x8d, 0xb7, 0x01, 0x80, 0xb6, 0xdc, 0x05]
+        );
     }
 
     #[test]

@@ -30,10 +30,29 @@ pub const MAX_PAYLOAD: usize = MAX_RAW - HEADER_LEN - CRC_LEN;
 /// passed to [`encode_frame`] and `poll_transmit` must be at least this long.
 pub const MAX_FRAME_LEN: usize = MAX_RAW + MAX_RAW.div_ceil(254) + 1;
 
-/// Frame kind (low nibble of byte 0).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u8)]
-pub enum Kind {
+/// Declares [`Kind`] and its decoder from one list of `Name = nibble` entries.
+macro_rules! frame_kinds {
+    ($( $(#[$doc:meta])* $name:ident = $value:literal, )*) => {
+        /// Frame kind (low nibble of byte 0).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        #[repr(u8)]
+        pub enum Kind {
+            $( $(#[$doc])* $name = $value, )*
+        }
+
+        impl Kind {
+            /// The kind whose nibble is `v`; `None` for a nibble no kind uses.
+            fn from_u8(v: u8) -> Option<Self> {
+                match v {
+                    $( $value => Some(Kind::$name), )*
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+
+frame_kinds! {
     /// Acknowledgement / window update / probe only; no payload.
     Ack = 0,
     /// A sequenced message of the queued lane.
@@ -46,20 +65,6 @@ pub enum Kind {
     HelloAck = 4,
     /// "I have no session with you, say Hello first" (board → host, no payload).
     Desync = 5,
-}
-
-impl Kind {
-    fn from_u8(v: u8) -> Option<Self> {
-        Some(match v {
-            0 => Kind::Ack,
-            1 => Kind::Data,
-            2 => Kind::Realtime,
-            3 => Kind::Hello,
-            4 => Kind::HelloAck,
-            5 => Kind::Desync,
-            _ => return None,
-        })
-    }
 }
 
 /// Flag: the sender of this frame saw a gap in the queued lane (fast retransmit hint).
@@ -329,6 +334,19 @@ mod tests {
         assert_eq!(gp, [0x81, 0x04, 0xEF, 0xFD, 0xB6, 0xF5, 0x0D, 16, 8]);
         assert_eq!(crate::codec::decode::<crate::Hello>(&gp), Some(hello));
         assert_eq!(MAX_FRAME_LEN, 194);
+    }
+
+    #[test]
+    fn each_kind_has_its_wire_nibble_and_no_other_nibble_decodes() {
+        use Kind::*;
+        let kinds = [Ack, Data, Realtime, Hello, HelloAck, Desync];
+        for (nibble, kind) in kinds.iter().enumerate() {
+            assert_eq!(*kind as u8, nibble as u8);
+            assert_eq!(Kind::from_u8(nibble as u8), Some(*kind));
+        }
+        for nibble in kinds.len() as u8..16 {
+            assert_eq!(Kind::from_u8(nibble), None);
+        }
     }
 
     #[test]

@@ -45,13 +45,16 @@ pub enum ArcCenterMode {
     FollowsDistanceMode,
 }
 
-/// One tool-table entry.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub struct ToolEntry {
+/// One tool-table entry: the interpreter's table and the setup's `program.tools` (stored in flash
+/// as postcard, fields in this order) are this one type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct Tool {
     /// Tool number (T and H words). 0 marks an unused slot.
     pub number: u32,
     /// Tool length offset along Z in nm (added to Z by G43).
     pub length: Nm,
+    /// Cutter diameter in nm (for cutter compensation and the tool-table parameters).
+    pub diameter: Nm,
 }
 
 /// Tool-table size.
@@ -95,7 +98,7 @@ pub struct InterpConfig {
     /// Axes present (3 = XYZ, up to 6 = XYZABC). Words for absent axes are errors.
     pub axis_count: u8,
     /// Tool table (unused slots have number 0).
-    pub tools: [ToolEntry; MAX_TOOLS],
+    pub tools: [Tool; MAX_TOOLS],
     /// Work offsets G54..G59.3 in machine nm at program start.
     pub work_offsets: [Pos; WORK_SYSTEMS],
     /// G28 and G30 positions (machine coordinates).
@@ -124,7 +127,7 @@ impl Default for InterpConfig {
         InterpConfig {
             dialect: Dialect::Rs274,
             axis_count: MAX_AXES as u8,
-            tools: [ToolEntry::default(); MAX_TOOLS],
+            tools: [Tool::default(); MAX_TOOLS],
             work_offsets: [[0; MAX_AXES]; WORK_SYSTEMS],
             g28_position: [0; MAX_AXES],
             g30_position: [0; MAX_AXES],
@@ -170,7 +173,8 @@ impl InterpConfig {
         }
     }
 
-    /// Adds or replaces a tool; false if the table is full.
+    /// Adds a tool or sets the length of one already in the table (its diameter stays; a new tool
+    /// has diameter 0); false if the table is full.
     pub fn set_tool(&mut self, number: u32, length: Nm) -> bool {
         if number == 0 {
             return false;
@@ -181,7 +185,11 @@ impl InterpConfig {
         }
         match self.tools.iter_mut().find(|t| t.number == 0) {
             Some(t) => {
-                *t = ToolEntry { number, length };
+                *t = Tool {
+                    number,
+                    length,
+                    diameter: 0,
+                };
                 true
             }
             None => false,
@@ -189,7 +197,7 @@ impl InterpConfig {
     }
 
     /// Looks a tool up.
-    pub fn tool(&self, number: u32) -> Option<ToolEntry> {
+    pub fn tool(&self, number: u32) -> Option<Tool> {
         self.tools
             .iter()
             .copied()

@@ -37,7 +37,7 @@ pub mod state;
 mod test_vectors;
 
 pub use config::{
-    ArcCenterMode, Dialect, DwellUnits, GixaSetup, InterpConfig, RetractMode, ToolEntry,
+    ArcCenterMode, Dialect, DwellUnits, GixaSetup, InterpConfig, RetractMode, Tool, MAX_TOOLS,
 };
 pub use error::{ErrorCode, GcodeError};
 pub use interp::Interpreter;
