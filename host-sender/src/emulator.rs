@@ -425,6 +425,13 @@ impl EmulatedBoard {
         self.now as f64 / KERNEL_TIMER_HZ as f64
     }
 
+    /// STUB (serial helper, issue 13; replace with the emulator rework's own): the host's DTR line, a drop holds a running job as `firmware/src/control.rs` does.
+    pub fn set_dtr(&mut self, on: bool) {
+        if !on {
+            self.board.feed_hold()
+        }
+    }
+
     /// Bytes from the host.
     pub fn receive(&mut self, bytes: &[u8]) {
         let now = self.now_ms();

@@ -3,8 +3,10 @@
 pub mod check;
 pub mod check_summary;
 pub mod commands;
+pub mod emulate;
 pub mod emulator;
 pub mod link;
+pub mod port;
 pub mod preview;
 pub mod program;
 pub mod resume;

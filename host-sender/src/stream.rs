@@ -140,7 +140,26 @@ pub struct StreamReport {
     /// Link clock at the end, ms.
     pub elapsed_ms: u32,
     pub final_status: Option<Status>,
+    /// How the link to the board ended.
+    pub link: LinkEnd,
 }
+
+/// How the link ended for a stream.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkEnd {
+    /// The board stayed with the sender to the end of the job.
+    Kept,
+    /// The board said nothing for this long (ms): the sender gave up (the board, if alive, holds
+    /// the job by itself when the host is gone).
+    Silent(u32),
+    /// The board restarted during the job (its boot id changed): the job is gone.
+    BoardReset,
+}
+
+/// Board silence (ms) after which the sender warns (the board reports its status every 100 ms).
+pub const SILENT_WARN_MS: u32 = 2_000;
+/// Board silence (ms) after which the sender gives up on the job.
+pub const SILENT_GIVE_UP_MS: u32 = 10_000;
 
 /// What the progress callback wants next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -221,6 +240,7 @@ fn run_job<T: Transport>(
         jumps_served: 0,
         elapsed_ms: 0,
         final_status: None,
+        link: LinkEnd::Kept,
     };
     let mut progress = Progress {
         total_lines: program.len(),
@@ -228,9 +248,34 @@ fn run_job<T: Transport>(
     };
     let mut last_heard = client.transport.now_ms();
     let mut done = false;
+    let mut warned_silent = false;
     while !done {
         serve(client, program, &mut serving, &mut report)?;
         client.pump(1)?;
+        if client.take_board_reset() {
+            report.link = LinkEnd::BoardReset;
+            report.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);
+            report.last_line = progress.line;
+            return Ok(report);
+        }
+        let silent = client.silent_for_ms();
+        if silent >= SILENT_GIVE_UP_MS {
+            report.link = LinkEnd::Silent(silent);
+            report.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);
+            report.last_line = progress.line;
+            return Ok(report);
+        }
+        if silent >= SILENT_WARN_MS && !warned_silent {
+            warned_silent = true;
+            eprintln!(
+                "gantry: no word from the board for {:.1} s (expected a status every 0.1 s); giving up after {} s",
+                silent as f64 / 1000.0,
+                SILENT_GIVE_UP_MS / 1000
+            );
+        } else if silent < SILENT_WARN_MS && warned_silent {
+            warned_silent = false;
+            eprintln!("gantry: the board is back");
+        }
         let now = client.transport.now_ms();
         while let Some(msg) = client.recv() {
             if now.wrapping_sub(last_heard) > gantry_machine::board::link::HOST_TIMEOUT_MS {
@@ -244,7 +289,11 @@ fn run_job<T: Transport>(
                     progress.status = Some(s);
                 }
                 BoardMsg::Error { line, code, column } => {
-                    report.errors.push(BoardError { line, code, column })
+                    report.errors.push(BoardError { line, code, column });
+                    if line == 0 && code == gantry_machine::board::ERROR_HOMING_REQUIRED {
+                        // The board refused the start: no job runs, nothing more will come.
+                        done = true;
+                    }
                 }
                 BoardMsg::Alarm { code, line } => report.alarms.push(BoardAlarm { code, line }),
                 BoardMsg::Limit { axis, max } => report.limits.push((axis, max)),
@@ -361,20 +410,31 @@ fn serve<T: Transport>(
     Ok(())
 }
 
-/// Asks for a status report and waits for it; messages still queued from before are dropped.
+/// Asks for a status report and waits for it (2 s of link time at most). Status reports already
+/// received predate the request and are dropped; every other message (errors, alarms, program
+/// requests, job ends) is kept for the next [`Client::recv`].
 pub fn fresh_status<T: Transport>(client: &mut Client<T>) -> anyhow::Result<Status> {
-    // Reports already received predate the request (and whatever was sent before it).
-    while client.recv().is_some() {}
-    client.send(HostMsg::StatusRequest)?;
-    for _ in 0..2000 {
-        client.pump(1)?;
-        while let Some(msg) = client.recv() {
-            if let BoardMsg::Status(s) = msg {
-                return Ok(s);
-            }
+    let mut kept = Vec::new();
+    while let Some(m) = client.recv() {
+        if !matches!(m, BoardMsg::Status(_)) {
+            kept.push(m);
         }
     }
-    bail!("the board sent no status within 2 s")
+    let result = (|| {
+        client.send(HostMsg::StatusRequest)?;
+        for _ in 0..2000 {
+            client.pump(1)?;
+            while let Some(msg) = client.recv() {
+                match msg {
+                    BoardMsg::Status(s) => return Ok(s),
+                    other => kept.push(other),
+                }
+            }
+        }
+        bail!("the board sent no status within 2 s (expected its answer to a status request)")
+    })();
+    client.put_back(kept);
+    result
 }
 
 /// `Idle`, `Run`, … as users read it.
@@ -434,16 +494,24 @@ pub fn run(
     let program = Program::load(file)?;
     let text = std::fs::read_to_string(file)?;
     let wall = std::time::Instant::now();
-    let axes = setup.axis_count as usize;
+    let from_board = matches!(target, Target::Port(_));
     if matches!(target, Target::Emulated(_)) {
         println!(
             "gantry: no --port given: streaming {} to the emulated board",
             file.display()
         );
     }
-    let (mut client, _) = crate::commands::connect(target)?;
+    let (mut client, board_setup) =
+        crate::commands::connect_with(target, crate::link::OnClose::DropDtr)?;
+    // The machine is what the board says it is.
+    let setup = if from_board { board_setup } else { setup };
+    let axes = setup.axis_count as usize;
+    let eta = Eta::plan(&text, &setup);
     let report = match start {
-        Start::Beginning => stream_with_progress(&mut client, &program, Resume::No)?,
+        Start::Beginning => {
+            check_can_start(&mut client)?;
+            stream_with_progress(&mut client, &program, Resume::No, &eta)?
+        }
         Start::TakeOver => {
             let state = fresh_status(&mut client)?.state;
             if !matches!(state, MachineState::Run | MachineState::Hold { .. }) {
@@ -452,16 +520,17 @@ pub fn run(
                     state_name(state)
                 );
             }
-            stream_with_progress(&mut client, &program, Resume::TakeOver)?
+            stream_with_progress(&mut client, &program, Resume::TakeOver, &eta)?
         }
         Start::FromLine(n) => {
+            check_can_start(&mut client)?;
             let here = fresh_status(&mut client)?.machine_pos;
             let pre = crate::resume::resume_preamble(&program, &text, n, &setup, &here)?;
             println!("resuming at line {n} after {} preamble blocks:", pre.len());
             for b in &pre {
                 println!("    {b}");
             }
-            stream_with_progress(&mut client, &program, Resume::FromLine(n, pre))?
+            stream_with_progress(&mut client, &program, Resume::FromLine(n, pre), &eta)?
         }
     };
     print_report(&report, &program, file, axes, wall.elapsed());
@@ -488,7 +557,7 @@ fn exit_code(report: &StreamReport) -> std::process::ExitCode {
 }
 
 /// A flag set by Ctrl-C (installed once per process).
-fn ctrl_c_flag() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
+pub fn ctrl_c_flag() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::sync::{Arc, OnceLock};
     static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
@@ -503,30 +572,117 @@ fn ctrl_c_flag() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
     .clone()
 }
 
-/// After a Ctrl-C hold: asks whether to abort (without a terminal to ask, aborts).
-fn ask_after_hold(bar: Option<&indicatif::ProgressBar>) -> Flow {
-    use std::io::{BufRead, IsTerminal, Write};
-    let question = "feed hold: abort the job? [y/N] ";
-    let answer = if std::io::stdin().is_terminal() {
-        let mut line = String::new();
-        let mut read = || {
+/// The answer to the Ctrl-C question, read on a thread so the link keeps being serviced (the
+/// board would otherwise count the host as gone) while the operator thinks.
+struct Question {
+    answer: std::sync::mpsc::Receiver<bool>,
+}
+
+impl Question {
+    /// Asks "abort the job?" on standard error and reads the answer from standard input: `y`
+    /// aborts, anything else resumes; a closed standard input (no one to ask) aborts.
+    fn ask(bar: Option<&indicatif::ProgressBar>) -> Self {
+        use std::io::{BufRead, Write};
+        let question = "feed hold: abort the job? [y/N] (Ctrl-C again aborts) ";
+        let print = || {
             eprint!("{question}");
             let _ = std::io::stderr().flush();
-            std::io::stdin().lock().read_line(&mut line)
         };
-        let _ = match bar {
-            Some(b) => b.suspend(read),
-            None => read(),
-        };
-        line.trim().eq_ignore_ascii_case("y")
-    } else {
-        eprintln!("{question}no terminal to ask: aborting");
-        true
-    };
-    if answer {
-        Flow::Abort
-    } else {
-        Flow::Resume
+        match bar {
+            Some(b) => b.suspend(print),
+            None => print(),
+        }
+        let (tx, answer) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let mut line = String::new();
+            let abort = match std::io::stdin().lock().read_line(&mut line) {
+                Ok(0) | Err(_) => {
+                    eprintln!("(no answer: standard input is closed) aborting");
+                    true
+                }
+                Ok(_) => line.trim().eq_ignore_ascii_case("y"),
+            };
+            let _ = tx.send(abort);
+        });
+        Question { answer }
+    }
+
+    /// The answer once given.
+    fn poll(&self) -> Option<Flow> {
+        self.answer
+            .try_recv()
+            .ok()
+            .map(|abort| if abort { Flow::Abort } else { Flow::Resume })
+    }
+}
+
+/// The job's remaining machine time by line, from the planner (the same motion core as the
+/// board, so the exact time, dwells included); `None` when the program cannot be planned.
+pub struct Eta {
+    /// (line, seconds of motion of the moves up to and including that line), lines ascending.
+    done_by_line: Vec<(u32, f64)>,
+    total: f64,
+}
+
+impl Eta {
+    pub fn plan(text: &str, setup: &gantry_machine::setup::Setup) -> Option<Eta> {
+        let (moves, total) = crate::simulate::simulate(text.as_bytes(), setup).ok()?;
+        let mut by_line: std::collections::BTreeMap<u32, f64> = Default::default();
+        for m in &moves {
+            *by_line.entry(m.line).or_default() += m.time;
+        }
+        let mut acc = 0.0;
+        let done_by_line = by_line
+            .into_iter()
+            .map(|(l, t)| {
+                acc += t;
+                (l, acc)
+            })
+            .collect();
+        Some(Eta {
+            done_by_line,
+            total,
+        })
+    }
+
+    /// Machine seconds left when the board executes `line` (its moves counted as still to run).
+    pub fn left_at(&self, line: u32) -> f64 {
+        let i = self.done_by_line.partition_point(|&(l, _)| l < line);
+        let done = i.checked_sub(1).map_or(0.0, |j| self.done_by_line[j].1);
+        (self.total - done).max(0.0)
+    }
+
+    /// Total machine time of the program (seconds).
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+}
+
+/// Seconds as h:mm:ss.
+pub fn hms(seconds: f64) -> String {
+    let s = seconds.max(0.0).round() as u64;
+    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+}
+
+/// Refuses a start the board would refuse, with its reason: in alarm (with what clears it), or
+/// busy with another job, jog or homing cycle.
+pub fn check_can_start<T: Transport>(client: &mut Client<T>) -> anyhow::Result<()> {
+    let status = fresh_status(client)?;
+    match status.state {
+        MachineState::Idle => Ok(()),
+        MachineState::Alarm { code } => bail!(
+            "the board is in {}\n  clear it first: gantry unlock (gantry home when homing is required)",
+            alarm_text(code)
+        ),
+        MachineState::Run | MachineState::Hold { .. } => bail!(
+            "the board is running a job (state {}, line {}): take it over with `gantry stream FILE --continue`, or `gantry abort` it",
+            state_name(status.state),
+            status.line
+        ),
+        other => bail!(
+            "the board is busy ({}): wait until it is Idle",
+            state_name(other)
+        ),
     }
 }
 
@@ -542,6 +698,7 @@ fn stream_with_progress<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
     resume: Resume,
+    eta: &Option<Eta>,
 ) -> anyhow::Result<StreamReport> {
     use std::io::IsTerminal;
     let total = program.len().max(1) as u64;
@@ -555,36 +712,51 @@ fn stream_with_progress<T: Transport>(
     });
     let mut last_decile = 0;
     let interrupted = ctrl_c_flag();
-    let mut asking = false;
+    let mut question: Option<Question> = None;
     let mut on_progress = |p: &Progress| {
-        if asking {
-            asking = false;
-            return ask_after_hold(bar.as_ref());
+        let ctrl_c = interrupted.swap(false, std::sync::atomic::Ordering::SeqCst);
+        if let Some(q) = &question {
+            // The link keeps running while the operator answers.
+            let flow = if ctrl_c { Some(Flow::Abort) } else { q.poll() };
+            if let Some(f) = flow {
+                question = None;
+                eprintln!(
+                    "{}",
+                    if f == Flow::Abort {
+                        "aborting the job"
+                    } else {
+                        "resuming the job"
+                    }
+                );
+                return f;
+            }
+            return Flow::Continue;
         }
-        if interrupted.swap(false, std::sync::atomic::Ordering::SeqCst) {
+        if ctrl_c {
             // Ctrl-C: hold first (decelerate on the path), then ask what to do.
-            asking = true;
+            question = Some(Question::ask(bar.as_ref()));
             return Flow::Hold;
         }
-        let pct = p.line as u64 * 100 / total;
+        let pct = (p.line as u64 * 100 / total).min(100);
         let machine_s = p.elapsed_ms as f64 / 1000.0;
-        let eta = if p.line > 0 {
-            machine_s * (total as f64 - p.line as f64) / p.line as f64
-        } else {
-            0.0
+        let left = match eta {
+            Some(e) => format!("ETA {}", hms(e.left_at(p.line.max(1)))),
+            None => "ETA -".to_owned(),
         };
         let state = p.status.as_ref().map_or("-", |s| state_name(s.state));
         match &bar {
             Some(b) => {
-                b.set_position(p.line as u64);
-                b.set_message(format!("{state}  {machine_s:.1} s  ETA {eta:.0} s"));
+                b.set_position((p.line as u64).min(total));
+                b.set_message(format!("{state}  {}  {left}", hms(machine_s)));
             }
             None => {
                 if pct / 10 > last_decile {
                     last_decile = pct / 10;
                     println!(
-                        "progress: line {}/{} ({pct}%)  {state}  {machine_s:.1} s  ETA {eta:.0} s",
-                        p.line, total
+                        "progress: line {}/{} ({pct}%)  {state}  {}  {left}",
+                        p.line.min(total as u32),
+                        total,
+                        hms(machine_s)
                     );
                 }
             }
@@ -619,6 +791,32 @@ fn print_report(
     }
     for a in &report.alarms {
         println!("{}", a.describe(program));
+    }
+    match report.link {
+        LinkEnd::Kept => {}
+        LinkEnd::Silent(ms) => {
+            println!(
+                "board silent: no word from the board for {:.1} s (expected a status every 0.1 s): the sender gave up",
+                ms as f64 / 1000.0
+            );
+            println!("the board, if it is alive, holds the job by itself (host lost) and ends it after link.host_lost_stop_s");
+            println!(
+                "resume:   (when the board answers again) gantry stream {} --continue",
+                file.display()
+            );
+            return;
+        }
+        LinkEnd::BoardReset => {
+            println!(
+                "board reset: the board restarted during the job (power, reset button or watchdog): the job is gone, the spindle stopped"
+            );
+            println!(
+                "resume:   (after gantry home, or gantry unlock) gantry stream {} --from-line {}",
+                file.display(),
+                report.last_line.max(1)
+            );
+            return;
+        }
     }
     let verdict = if report.completed {
         "job done"
