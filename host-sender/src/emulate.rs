@@ -113,6 +113,13 @@ pub fn run(pty: &Path, setup: Option<PathBuf>, state: Option<PathBuf>) -> anyhow
         .context("cannot install the SIGINT/SIGTERM handler")?;
     let axes = setup.axis_count as usize;
     let mut board = EmulatedBoard::new(setup);
+    // Every start of the process is a power-up with its own boot id (the firmware counts boots
+    // in flash), so a host sees a restarted board as one.
+    let boot_id = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos() ^ d.as_secs() as u32)
+        ^ std::process::id().rotate_left(16);
+    board.link = gantry_machine::board::link::BoardLink::new(boot_id);
     eprintln!(
         "emulate: board ready on {} ({name}), {axes} axes; stored setup: {}",
         pty.display(),

@@ -297,6 +297,7 @@ fn run_job<T: Transport>(
                 }
                 BoardMsg::Alarm { code, line } => report.alarms.push(BoardAlarm { code, line }),
                 BoardMsg::Limit { axis, max } => report.limits.push((axis, max)),
+                BoardMsg::ProgramRequest { .. } if report.aborted => {}
                 BoardMsg::ProgramRequest { id, target } => {
                     report.jumps_served += 1;
                     match (program.resolve(target), &resume) {
@@ -344,7 +345,11 @@ fn run_job<T: Transport>(
             Flow::Resume => client.send(HostMsg::Resume)?,
             Flow::Abort => {
                 report.aborted = true;
-                client.send(HostMsg::Abort)?
+                client.send(HostMsg::Abort)?;
+                // Nothing more goes to an ending job: a line arriving while the abort
+                // decelerates would stay in the board's line buffer after the job ended.
+                serving.ended = true;
+                serving.preamble.clear();
             }
         }
     }
