@@ -34,7 +34,11 @@ pub fn connect_with(
             (Client::connect(t, 2000)?, *setup)
         }
         Target::Port(p) => {
-            let t: Box<dyn Transport> = Box::new(SerialTransport::open_with(&p, on_close)?);
+            // A `gantry serve` that owns the port takes the command; else the port itself.
+            let t: Box<dyn Transport> = match crate::serve::SocketTransport::connect(&p) {
+                Some(s) => Box::new(s),
+                None => Box::new(SerialTransport::open_with(&p, on_close)?),
+            };
             let mut client = Client::connect(t, 3000)?;
             let setup = pull_setup_over(&mut client)
                 .map_err(|e| anyhow::anyhow!("{p}: cannot read the board's setup: {e:#}"))?;

@@ -10,6 +10,7 @@ pub mod port;
 pub mod preview;
 pub mod program;
 pub mod resume;
+pub mod serve;
 pub mod setup_file;
 pub mod simulate;
 pub mod stream;

@@ -203,6 +203,9 @@ impl Transport for SerialTransport {
     }
 }
 
+/// Makes every link of this process say hello with its own nonce.
+static NONCES: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+
 /// A connected link: endpoint + transport.
 pub struct Client<T: Transport> {
     pub transport: T,
@@ -219,9 +222,27 @@ pub struct Client<T: Transport> {
 }
 
 impl<T: Transport> Client<T> {
+    /// A link that has not said hello yet (see [`Client::connect`]).
+    pub fn unconnected(transport: T) -> Self {
+        let nonce = std::process::id()
+            ^ 0x5eed_0000
+            ^ NONCES.fetch_add(0x101, std::sync::atomic::Ordering::Relaxed);
+        Client {
+            transport,
+            endpoint: HostEndpoint::new_host(Config::USB_MS, nonce),
+            rx: Vec::new(),
+            notices: Vec::new(),
+            stash: Default::default(),
+            board_resets: 0,
+            last_heard_ms: 0,
+        }
+    }
+
     /// Opens the link and completes the version handshake (within `timeout_ms` of link time).
     pub fn connect(transport: T, timeout_ms: u32) -> anyhow::Result<Self> {
-        let nonce = std::process::id() ^ 0x5eed_0000;
+        let nonce = std::process::id()
+            ^ 0x5eed_0000
+            ^ NONCES.fetch_add(0x101, std::sync::atomic::Ordering::Relaxed);
         let mut c = Client {
             transport,
             endpoint: HostEndpoint::new_host(Config::USB_MS, nonce),
@@ -263,6 +284,12 @@ impl<T: Transport> Client<T> {
             }
         }
         Ok(())
+    }
+
+    /// Says hello again with a new nonce: the board takes it for a returning host and, when a
+    /// job runs, asks for every line after the last one it interpreted (a `ProgramRequest`).
+    pub fn reconnect(&mut self) {
+        self.endpoint.connect();
     }
 
     /// True once for every restart of the board seen since the link opened (its boot id

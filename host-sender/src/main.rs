@@ -164,6 +164,9 @@ enum Command {
         #[arg(long)]
         state: Option<PathBuf>,
     },
+    /// Own the board's port (--port) until killed, and let other `gantry` commands reach the
+    /// board through a local socket named after the port while a job runs (docs/serve.md).
+    Serve,
     /// Draw a program's tool path (top, front, side, isometric views) to a PNG or SVG file.
     Preview {
         file: PathBuf,
@@ -339,7 +342,27 @@ fn axis_mask(letters: Option<&str>) -> anyhow::Result<u8> {
     })
 }
 
+/// A closed standard output (`gantry status | head -1`) ends the command quietly, as SIGPIPE
+/// would, instead of a panic report; every other panic is reported as usual.
+fn quiet_broken_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let text = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if text.contains("Broken pipe") {
+            // 128 + SIGPIPE, what a shell shows for a writer killed by SIGPIPE.
+            std::process::exit(141);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> ExitCode {
+    quiet_broken_pipe();
     let cli = Cli::parse();
     let machine = Machine {
         port: cli.port,
@@ -435,6 +458,16 @@ fn main() -> ExitCode {
         Command::Mdi { blocks, board } => m
             .target(&board, Use::Controls)
             .and_then(|t| commands::mdi(t, &blocks)),
+        Command::Serve => match &m.port {
+            Some(p) => host_sender::serve::run(p),
+            None => match host_sender::port::discover() {
+                Ok(host_sender::port::Found::One(p)) => host_sender::serve::run(&p),
+                Ok(host_sender::port::Found::None) => Err(anyhow::anyhow!(
+                    "gantry serve: give --port PATH (or GANTRY_PORT)"
+                )),
+                Err(e) => Err(e),
+            },
+        },
         Command::Emulate { pty, setup, state } => host_sender::emulate::run(&pty, setup, state),
         Command::Simulate {
             file,

@@ -339,3 +339,39 @@ fn a_silent_board_is_reported_and_the_sender_exits_within_its_bound() {
         "{after:?}"
     );
 }
+
+#[test]
+fn under_gantry_serve_status_hold_resume_and_override_from_other_processes_act_during_a_job() {
+    let dir = Dir::new("serve");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let job = dir.file("job.nc", &zigzag(400));
+    let emu = Emulator::start(&dir, Some(&setup));
+    let port = emu.port();
+    let server = spawn(&["serve", "--port", port]);
+    assert!(wait_for(10 * S, || server
+        .stderr()
+        .contains("is served on")));
+    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    let (state, _) = status(port);
+    assert_eq!(state, "state:     Run");
+    let out = gantry(&["hold", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.starts_with("state:     Hold"), "{}", out.stdout);
+    assert!(emu.wait_log(2 * S, |l| l.contains("Hold (at rest)")));
+    let out = gantry(&["resume", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.starts_with("state:     Run"), "{}", out.stdout);
+    let out = gantry(&["override", "--feed", "50", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.contains("override feed 50 %"), "{}", out.stdout);
+    let out = sender.wait(30 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(
+        out.stdout.contains("job done: last line 402 of 402"),
+        "{}",
+        out.stdout
+    );
+    assert!(emu.wait_log(5 * S, |l| l.contains("Idle line 402")));
+    assert_eq!(emu.last_counts().1, "X 38400 Y 5120 Z 0");
+}
