@@ -9,6 +9,7 @@ pub mod link;
 pub mod port;
 pub mod preview;
 pub mod program;
+pub mod program_stops;
 pub mod resume;
 pub mod serve;
 pub mod setup_file;

@@ -59,7 +59,7 @@ impl BoardError {
         if self.line == 0 {
             return format!("resume preamble: error {}: {message}", self.code);
         }
-        let text = program.line(self.line).unwrap_or("").trim();
+        let text = printable(program.line(self.line).unwrap_or("").trim());
         format!(
             "line {}: error {}: {message}\n    {text}",
             self.line, self.code
@@ -73,6 +73,20 @@ pub struct BoardAlarm {
     pub code: u16,
     /// Program line concerned (0 = none).
     pub line: u32,
+}
+
+/// Program text made safe for a terminal: control characters (an escape sequence in a comment
+/// would otherwise reach the terminal raw) are shown as `\u{1b}`-style escapes.
+pub fn printable(text: &str) -> String {
+    text.chars()
+        .flat_map(|c| {
+            if c.is_control() {
+                c.escape_unicode().collect::<Vec<_>>()
+            } else {
+                vec![c]
+            }
+        })
+        .collect()
 }
 
 /// "alarm 2 (soft limit): a block would leave …" for an alarm number.
@@ -90,7 +104,7 @@ impl BoardAlarm {
         if self.line == 0 {
             return text;
         }
-        let source = program.line(self.line).unwrap_or("").trim();
+        let source = printable(program.line(self.line).unwrap_or("").trim());
         format!(
             "line {}: {text}
     {source}",
@@ -400,16 +414,28 @@ fn serve<T: Transport>(
             Ok(None) => continue,
             Err(e) => bail!("{e}"),
         };
-        let line = Line::new(n, &text).expect("wire_text checked the length");
-        let msg = if serving.id == 0 {
-            HostMsg::Line(line)
-        } else {
-            HostMsg::ProgramLine {
-                id: serving.id,
-                line,
-            }
-        };
-        client.send(msg)?;
+        // A manual tool change: the board stops after the M6 block (an M0 under its line
+        // number) and the sender asks the operator to change the tool.
+        let tool_change_stop = matches!(
+            crate::program_stops::stop_in(&text),
+            Some(crate::program_stops::Stop::ToolChange { .. })
+        );
+        let mut blocks = vec![text];
+        if tool_change_stop {
+            blocks.push("M0".to_owned());
+        }
+        for text in blocks {
+            let line = Line::new(n, &text).expect("wire_text checked the length");
+            let msg = if serving.id == 0 {
+                HostMsg::Line(line)
+            } else {
+                HostMsg::ProgramLine {
+                    id: serving.id,
+                    line,
+                }
+            };
+            client.send(msg)?;
+        }
         report.lines_sent += 1;
     }
     Ok(())
@@ -577,48 +603,79 @@ pub fn ctrl_c_flag() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
     .clone()
 }
 
-/// The answer to the Ctrl-C question, read on a thread so the link keeps being serviced (the
-/// board would otherwise count the host as gone) while the operator thinks.
-struct Question {
-    answer: std::sync::mpsc::Receiver<bool>,
+/// What standard input has said, read on a thread so the link keeps being serviced (the board
+/// would otherwise count the host as gone) while the operator thinks.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Typed {
+    Line(String),
+    /// Standard input is closed (nobody to ask).
+    Closed,
 }
 
-impl Question {
-    /// Asks "abort the job?" on standard error and reads the answer from standard input: `y`
-    /// aborts, anything else resumes; a closed standard input (no one to ask) aborts.
-    fn ask(bar: Option<&indicatif::ProgressBar>) -> Self {
-        use std::io::{BufRead, Write};
-        let question = "feed hold: abort the job? [y/N] (Ctrl-C again aborts) ";
-        let print = || {
-            eprint!("{question}");
-            let _ = std::io::stderr().flush();
-        };
-        match bar {
-            Some(b) => b.suspend(print),
-            None => print(),
-        }
-        let (tx, answer) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
+/// The next line typed since the last call, if any.
+fn typed() -> Option<Typed> {
+    use std::io::BufRead;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::mpsc::{channel, Receiver};
+    use std::sync::{Mutex, OnceLock};
+    static LINES: OnceLock<Mutex<Receiver<String>>> = OnceLock::new();
+    static CLOSED: AtomicBool = AtomicBool::new(false);
+    let rx = LINES.get_or_init(|| {
+        let (tx, rx) = channel();
+        std::thread::spawn(move || loop {
             let mut line = String::new();
-            let abort = match std::io::stdin().lock().read_line(&mut line) {
+            match std::io::stdin().lock().read_line(&mut line) {
                 Ok(0) | Err(_) => {
-                    eprintln!("(no answer: standard input is closed) aborting");
-                    true
+                    CLOSED.store(true, Ordering::SeqCst);
+                    break;
                 }
-                Ok(_) => line.trim().eq_ignore_ascii_case("y"),
-            };
-            let _ = tx.send(abort);
+                Ok(_) => {
+                    if tx.send(line).is_err() {
+                        break;
+                    }
+                }
+            }
         });
-        Question { answer }
+        Mutex::new(rx)
+    });
+    match rx.lock().expect("stdin lock").try_recv() {
+        Ok(l) => Some(Typed::Line(l)),
+        Err(_) if CLOSED.load(Ordering::SeqCst) => Some(Typed::Closed),
+        Err(_) => None,
     }
+}
 
-    /// The answer once given.
-    fn poll(&self) -> Option<Flow> {
-        self.answer
-            .try_recv()
-            .ok()
-            .map(|abort| if abort { Flow::Abort } else { Flow::Resume })
+/// Drops lines typed before a question was asked.
+fn forget_typed() {
+    while let Some(Typed::Line(_)) = typed() {}
+}
+
+/// Prints a question or message above the progress bar.
+fn say(bar: Option<&indicatif::ProgressBar>, text: &str, newline: bool) {
+    use std::io::Write;
+    let print = || {
+        if newline {
+            eprintln!("{text}");
+        } else {
+            eprint!("{text}");
+        }
+        let _ = std::io::stderr().flush();
+    };
+    match bar {
+        Some(b) => b.suspend(print),
+        None => print(),
     }
+}
+
+/// What the operator is being asked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Asking {
+    Nothing,
+    /// After a Ctrl-C hold: "abort the job?"; `y` aborts, anything else resumes, a closed
+    /// standard input aborts.
+    AbortAfterHold,
+    /// At an M0/M1/M6 stop on this line: Enter resumes (so does cycle start on the machine).
+    Stop(u32),
 }
 
 /// The job's remaining machine time by line, from the planner (the same motion core as the
@@ -717,30 +774,85 @@ fn stream_with_progress<T: Transport>(
     });
     let mut last_decile = 0;
     let interrupted = ctrl_c_flag();
-    let mut question: Option<Question> = None;
+    let mut asking = Asking::Nothing;
+    // A hold this sender asked for (Ctrl-C), as opposed to a program stop.
+    let mut hold_requested = false;
+    let mut last_stop_line = 0;
     let mut on_progress = |p: &Progress| {
         let ctrl_c = interrupted.swap(false, std::sync::atomic::Ordering::SeqCst);
-        if let Some(q) = &question {
-            // The link keeps running while the operator answers.
-            let flow = if ctrl_c { Some(Flow::Abort) } else { q.poll() };
-            if let Some(f) = flow {
-                question = None;
-                eprintln!(
-                    "{}",
-                    if f == Flow::Abort {
+        let state = p.status.as_ref().map(|s| s.state);
+        match asking {
+            Asking::AbortAfterHold => {
+                // The link keeps running while the operator answers.
+                let flow = match (ctrl_c, typed()) {
+                    (true, _) => Some(Flow::Abort),
+                    (false, Some(Typed::Closed)) => {
+                        say(bar.as_ref(), "(no answer: standard input is closed)", true);
+                        Some(Flow::Abort)
+                    }
+                    (false, Some(Typed::Line(l))) if l.trim().eq_ignore_ascii_case("y") => {
+                        Some(Flow::Abort)
+                    }
+                    (false, Some(Typed::Line(_))) => Some(Flow::Resume),
+                    (false, None) => None,
+                };
+                if let Some(f) = flow {
+                    asking = Asking::Nothing;
+                    hold_requested = false;
+                    let text = if f == Flow::Abort {
                         "aborting the job"
                     } else {
                         "resuming the job"
-                    }
-                );
-                return f;
+                    };
+                    say(bar.as_ref(), text, true);
+                    return f;
+                }
+                return Flow::Continue;
             }
-            return Flow::Continue;
+            Asking::Stop(_) if !matches!(state, Some(MachineState::Hold { .. })) => {
+                // Cycle start on the machine answered it.
+                asking = Asking::Nothing;
+            }
+            Asking::Stop(_) => {
+                if let Some(Typed::Line(_)) = typed() {
+                    asking = Asking::Nothing;
+                    return Flow::Resume;
+                }
+            }
+            Asking::Nothing => {}
         }
         if ctrl_c {
             // Ctrl-C: hold first (decelerate on the path), then ask what to do.
-            question = Some(Question::ask(bar.as_ref()));
+            forget_typed();
+            say(
+                bar.as_ref(),
+                "feed hold: abort the job? [y/N] (Ctrl-C again aborts) ",
+                false,
+            );
+            asking = Asking::AbortAfterHold;
+            hold_requested = true;
             return Flow::Hold;
+        }
+        if asking == Asking::Nothing
+            && !hold_requested
+            && matches!(state, Some(MachineState::Hold { stopped: true }))
+            && p.line != last_stop_line
+        {
+            let stop = program
+                .wire_text(p.line)
+                .ok()
+                .flatten()
+                .and_then(|t| crate::program_stops::stop_in(&t));
+            if let Some(stop) = stop {
+                last_stop_line = p.line;
+                forget_typed();
+                say(
+                    bar.as_ref(),
+                    &crate::program_stops::message(stop, p.line),
+                    true,
+                );
+                asking = Asking::Stop(p.line);
+            }
         }
         let pct = (p.line as u64 * 100 / total).min(100);
         let machine_s = p.elapsed_ms as f64 / 1000.0;
@@ -748,7 +860,7 @@ fn stream_with_progress<T: Transport>(
             Some(e) => format!("ETA {}", hms(e.left_at(p.line.max(1)))),
             None => "ETA -".to_owned(),
         };
-        let state = p.status.as_ref().map_or("-", |s| state_name(s.state));
+        let state = state.map_or("-", state_name);
         match &bar {
             Some(b) => {
                 b.set_position((p.line as u64).min(total));
@@ -870,5 +982,32 @@ fn print_report(
         println!("machine:  {}", axes_line(&s.machine_pos, axes));
         println!("work:     {}", axes_line(&s.work_pos, axes));
         println!("state:    {}", state_name(s.state));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn program_text_never_reaches_the_terminal_with_control_characters() {
+        let program = Program::from_text("G1 X1 (\u{1b}[2J\u{7}cleared)\n");
+        let e = BoardError {
+            line: 1,
+            code: 900,
+            column: 0,
+        };
+        let text = e.describe(&program);
+        assert!(
+            !text.chars().any(|c| c.is_control() && c != '\n'),
+            "{text:?}"
+        );
+        assert!(text.ends_with("G1 X1 (\\u{1b}[2J\\u{7}cleared)"), "{text}");
+    }
+
+    #[test]
+    fn eta_is_hours_minutes_seconds() {
+        assert_eq!(hms(0.4), "0:00:00");
+        assert_eq!(hms(3725.6), "1:02:06");
     }
 }

@@ -375,3 +375,45 @@ fn under_gantry_serve_status_hold_resume_and_override_from_other_processes_act_d
     assert!(emu.wait_log(5 * S, |l| l.contains("Idle line 402")));
     assert_eq!(emu.last_counts().1, "X 38400 Y 5120 Z 0");
 }
+
+#[test]
+fn m6_and_m0_stop_with_a_message_and_enter_continues() {
+    let dir = Dir::new("m6-m0");
+    let emu = Emulator::start(&dir, None);
+    let port = emu.port();
+    let job = dir.file(
+        "job.nc",
+        "G21 G90\nG1 X2 F3000\nT3 M6 (tool 3)\nG1 X4\nM0\nG1 X6\nM30\n",
+    );
+    let mut sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
+    assert!(wait_for(10 * S, || sender
+        .stderr()
+        .contains("line 3: tool change: put tool 3 in the spindle")));
+    // The board waits at the tool change (X 2 mm = 1280 steps) until told to go on.
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(
+        emu.log().contains("Hold (at rest) line 3 steps X 1280"),
+        "{}",
+        emu.log()
+    );
+    assert!(!emu.log().contains("Run line 4"), "{}", emu.log());
+    sender.answer("");
+    assert!(wait_for(10 * S, || sender
+        .stderr()
+        .contains("line 5: program stop (M0): press Enter")));
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(
+        emu.log().contains("Hold (at rest) line 5 steps X 2560"),
+        "{}",
+        emu.log()
+    );
+    sender.answer("");
+    let out = sender.wait(20 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(
+        out.stdout.contains("job done: last line 7 of 7"),
+        "{}",
+        out.stdout
+    );
+    assert!(emu.wait_log(2 * S, |l| l.contains("Idle line 7 steps X 3840")));
+}
