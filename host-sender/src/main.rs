@@ -152,7 +152,7 @@ enum Command {
         setup: Option<PathBuf>,
     },
     /// Run the emulated board behind a pseudo-terminal linked at PATH, in real time, until
-    /// killed: `gantry … --port PATH` talks to it as to the USB board (docs/emulate.md).
+    /// killed: `gantry … --port PATH` talks to it as to the USB board (docs/ports.md).
     Emulate {
         /// Where the pty is linked (a symlink, replaced when it exists).
         #[arg(long)]
@@ -165,7 +165,7 @@ enum Command {
         state: Option<PathBuf>,
     },
     /// Own the board's port (--port) until killed, and let other `gantry` commands reach the
-    /// board through a local socket named after the port while a job runs (docs/serve.md).
+    /// board through a local socket named after the port while a job runs (docs/ports.md).
     Serve,
     /// Draw a program's tool path (top, front, side, isometric views) to a PNG or SVG file.
     Preview {
