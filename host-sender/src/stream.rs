@@ -373,6 +373,12 @@ fn run_job<T: Transport>(
     Ok(report)
 }
 
+/// Whether the sender stops the board after each M6 block for a manual tool change (an M0 under
+/// the M6 line). Set by the interactive `gantry stream` ([`run`]), which asks the operator and
+/// resumes; library callers (tests, `mdi`) stream the program as it is.
+static MANUAL_TOOL_CHANGE: std::sync::atomic::AtomicBool =
+    std::sync::atomic::AtomicBool::new(false);
+
 /// Sends lines of the current place while the link has credit.
 fn serve<T: Transport>(
     client: &mut Client<T>,
@@ -416,10 +422,11 @@ fn serve<T: Transport>(
         };
         // A manual tool change: the board stops after the M6 block (an M0 under its line
         // number) and the sender asks the operator to change the tool.
-        let tool_change_stop = matches!(
-            crate::program_stops::stop_in(&text),
-            Some(crate::program_stops::Stop::ToolChange { .. })
-        );
+        let tool_change_stop = MANUAL_TOOL_CHANGE.load(std::sync::atomic::Ordering::Relaxed)
+            && matches!(
+                crate::program_stops::stop_in(&text),
+                Some(crate::program_stops::Stop::ToolChange { .. })
+            );
         let mut blocks = vec![text];
         if tool_change_stop {
             blocks.push("M0".to_owned());
@@ -524,6 +531,7 @@ pub fn run(
 ) -> anyhow::Result<std::process::ExitCode> {
     let program = Program::load(file)?;
     let text = std::fs::read_to_string(file)?;
+    MANUAL_TOOL_CHANGE.store(true, std::sync::atomic::Ordering::Relaxed);
     let wall = std::time::Instant::now();
     let from_board = matches!(target, Target::Port(_));
     if matches!(target, Target::Emulated(_)) {
