@@ -300,26 +300,37 @@ pub fn pull_setup_over<T: Transport>(
     let mut kept = Vec::new();
     let result = (|| {
         let mut blob = Vec::new();
+        let mut damaged = false;
         for _ in 0..3000 {
             client.pump(1)?;
             while let Some(msg) = client.recv() {
                 match msg {
+                    // Through `gantry serve` another command's request may restart the
+                    // board's transfer (offset 0 again): follow the newest one; the length and
+                    // CRC check the result.
                     BoardMsg::SetupChunk { offset, bytes } => {
-                        anyhow::ensure!(offset as usize == blob.len(), "setup chunk out of order");
-                        blob.extend_from_slice(&bytes);
+                        if offset == 0 {
+                            blob.clear();
+                        }
+                        if offset as usize == blob.len() {
+                            blob.extend_from_slice(&bytes);
+                        }
                     }
                     BoardMsg::SetupEnd { len, crc32 } => {
-                        anyhow::ensure!(
-                            len as usize == blob.len() && gantry_proto::crc::crc32(&blob) == crc32,
-                            "the board's setup arrived damaged"
-                        );
-                        return gantry_machine::setup::Setup::from_blob(&blob)
-                            .ok_or_else(|| anyhow::anyhow!("the board sent an invalid setup"));
+                        if len as usize == blob.len() && gantry_proto::crc::crc32(&blob) == crc32 {
+                            return gantry_machine::setup::Setup::from_blob(&blob)
+                                .ok_or_else(|| anyhow::anyhow!("the board sent an invalid setup"));
+                        }
+                        damaged = true;
+                        blob.clear();
                     }
                     BoardMsg::Status(_) => {}
                     other => kept.push(other),
                 }
             }
+        }
+        if damaged {
+            anyhow::bail!("the board's setup arrived damaged (length or CRC)");
         }
         anyhow::bail!("the board did not send its setup within 3 s (expected its setup chunks)")
     })();
