@@ -217,7 +217,7 @@ pub struct Client<T: Transport> {
     stash: std::collections::VecDeque<BoardMsg>,
     /// Handshakes after the first one that found a restarted board (a new boot id).
     board_resets: u32,
-    /// Link clock when bytes last arrived from the board.
+    /// Link clock when the last message arrived from the board.
     last_heard_ms: u32,
 }
 
@@ -302,7 +302,7 @@ impl<T: Transport> Client<T> {
         false
     }
 
-    /// Link time since bytes last arrived from the board, ms (it reports its status every
+    /// Link time since the last message from the board, ms (it reports its status every
     /// 100 ms, so more than a second means the board or the cable is gone).
     pub fn silent_for_ms(&self) -> u32 {
         self.transport.now_ms().wrapping_sub(self.last_heard_ms)
@@ -318,9 +318,6 @@ impl<T: Transport> Client<T> {
         self.rx.clear();
         self.transport.read(&mut self.rx)?;
         let now = self.transport.now_ms();
-        if !self.rx.is_empty() {
-            self.last_heard_ms = now;
-        }
         self.endpoint.on_bytes(now, &self.rx);
         Ok(())
     }
@@ -356,6 +353,9 @@ impl<T: Transport> Client<T> {
             return Some(m);
         }
         let msg = self.endpoint.recv()?;
+        // A message, not just bytes: through `gantry serve` the server's own endpoint keeps
+        // answering while the board behind it is silent.
+        self.last_heard_ms = self.transport.now_ms();
         if matches!(msg, BoardMsg::Alarm { .. } | BoardMsg::Limit { .. }) {
             self.notices.push(msg.clone());
         }

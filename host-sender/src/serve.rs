@@ -72,11 +72,18 @@ impl SocketTransport {
 impl Transport for SocketTransport {
     fn write(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
         let mut rest = bytes;
+        let since = Instant::now();
         while !rest.is_empty() {
             match self.stream.write(rest) {
                 Ok(0) => anyhow::bail!("gantry serve closed the link"),
                 Ok(n) => rest = &rest[n..],
+                // A server that does not read (its board is stuck) loses these bytes, as a
+                // serial line would; the protocol sends them again, and the sender's silence
+                // bound ends the wait.
                 Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                    if since.elapsed() > Duration::from_millis(50) {
+                        return Ok(());
+                    }
                     std::thread::sleep(Duration::from_millis(1))
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
@@ -200,6 +207,7 @@ pub fn run(port: &str) -> anyhow::Result<ExitCode> {
     let mut sessions: Vec<Session> = Vec::new();
     let mut next_id = 0u32;
     let mut state = MachineState::Idle;
+    let mut to_board: VecDeque<HostMsg> = VecDeque::new();
     let result = (|| -> anyhow::Result<()> {
         while !stop.load(Ordering::SeqCst) {
             let now = start.elapsed().as_millis() as u32;
@@ -225,7 +233,7 @@ pub fn run(port: &str) -> anyhow::Result<ExitCode> {
                         s.owns_job = true;
                         eprintln!("serve: a command takes over the job");
                     }
-                    board.send(msg)?;
+                    to_board.push_back(msg);
                 }
                 while board.queued_room() > 0 {
                     let Some(msg) = s.endpoint.recv_queued() else {
@@ -235,6 +243,14 @@ pub fn run(port: &str) -> anyhow::Result<ExitCode> {
                         s.owns_job = true;
                     }
                     board.send(msg)?;
+                }
+            }
+            // Realtime messages wait here while the board's lane is full (a silent board):
+            // the server keeps serving its commands meanwhile.
+            while let Some(msg) = to_board.pop_front() {
+                if let Err(m) = board.try_send(msg) {
+                    to_board.push_front(*m);
+                    break;
                 }
             }
             board.pump(1)?;
@@ -274,7 +290,9 @@ pub fn run(port: &str) -> anyhow::Result<ExitCode> {
             let gone_owner = sessions.iter().any(|s| !s.alive && s.owns_job);
             if gone_owner && matches!(state, MachineState::Run | MachineState::Hold { .. }) {
                 eprintln!("serve: the command that owned the job went away: feed hold");
-                board.send(HostMsg::FeedHold)?;
+                if board.try_send(HostMsg::FeedHold).is_err() {
+                    eprintln!("serve: the board takes no message now (its link is stuck)");
+                }
                 board.pump(1)?;
                 // Its lines still waiting here would block every later queued message (a
                 // setup request, a new start): a fresh link to the board drops them, and the
