@@ -4,26 +4,45 @@
 //! prints the resulting status and closes the link; the board keeps running whatever it runs.
 
 use crate::emulator::EmulatedBoard;
-use crate::link::{Client, SerialTransport, Transport};
+use crate::link::{Client, OnClose, SerialTransport, Transport};
 use crate::program::Program;
 use crate::stream::{
     alarm_text, axes_line, fresh_status, state_name, stream_program, Flow, Target,
 };
+use gantry_machine::setup::Setup;
 use gantry_machine::units::AXIS_LETTERS;
 use gantry_proto::{HostMsg, Status};
 use std::process::ExitCode;
 
-/// Opens the link to the target.
-pub fn connect(target: Target) -> anyhow::Result<(Client<Box<dyn Transport>>, usize)> {
+/// Opens the link to the target for a one-shot command: closing it later leaves DTR up, so the
+/// board does not take the command's exit for a sender that went away ([`OnClose::KeepDtr`]).
+/// Returns the link and the machine's setup (the board's own, read over the link: axis count,
+/// travel, units).
+pub fn connect(target: Target) -> anyhow::Result<(Client<Box<dyn Transport>>, Setup)> {
+    connect_with(target, OnClose::KeepDtr)
+}
+
+/// [`connect`] with the given close behaviour ([`OnClose::DropDtr`] for the sender that owns a
+/// job).
+pub fn connect_with(
+    target: Target,
+    on_close: OnClose,
+) -> anyhow::Result<(Client<Box<dyn Transport>>, Setup)> {
     Ok(match target {
         Target::Emulated(setup) => {
-            let axes = setup.axis_count as usize;
-            let t: Box<dyn Transport> = Box::new(EmulatedBoard::new(*setup));
-            (Client::connect(t, 2000)?, axes)
+            let t: Box<dyn Transport> = Box::new(EmulatedBoard::new((*setup).clone()));
+            (Client::connect(t, 2000)?, *setup)
         }
         Target::Port(p) => {
-            let t: Box<dyn Transport> = Box::new(SerialTransport::open(&p)?);
-            (Client::connect(t, 3000)?, 3)
+            // A `gantry serve` that owns the port takes the command; else the port itself.
+            let t: Box<dyn Transport> = match crate::serve::SocketTransport::connect(&p) {
+                Some(s) => Box::new(s),
+                None => Box::new(SerialTransport::open_with(&p, on_close)?),
+            };
+            let mut client = Client::connect(t, 3000)?;
+            let setup = pull_setup_over(&mut client)
+                .map_err(|e| anyhow::anyhow!("{p}: cannot read the board's setup: {e:#}"))?;
+            (client, setup)
         }
     })
 }
@@ -67,15 +86,102 @@ fn print_notices<T: Transport>(client: &mut Client<T>) {
     }
 }
 
-/// Sends one realtime message (or none), waits a moment and prints the status.
+/// How long a one-shot command waits for the board to confirm what it asked, ms (an abort's
+/// deceleration from full speed is well under this).
+pub const CONFIRM_MS: u32 = 10_000;
+
+/// Sends one realtime message (or none), waits until the board shows its effect (bounded by
+/// [`CONFIRM_MS`]), prints the status and closes the port without dropping DTR: a resume is not
+/// undone by the exit (the firmware takes a DTR drop as a feed hold).
 pub fn realtime(target: Target, msg: Option<HostMsg>) -> anyhow::Result<ExitCode> {
-    let (mut client, axes) = connect(target)?;
-    if let Some(m) = msg {
-        client.send(m)?;
-        client.pump(100)?;
+    let (mut client, setup) = connect(target)?;
+    let axes = setup.axis_count as usize;
+    let Some(m) = msg else {
+        println!("{}", format_status(&fresh_status(&mut client)?, axes));
+        return Ok(ExitCode::SUCCESS);
+    };
+    let before = fresh_status(&mut client)?;
+    let expected = expected_after(&m, &before);
+    client.send(m)?;
+    client.pump(20)?;
+    let mut status = fresh_status(&mut client)?;
+    let start = client.transport.now_ms();
+    if let Some((what, done)) = expected {
+        while !done(&status) {
+            if client.transport.now_ms().wrapping_sub(start) > CONFIRM_MS {
+                println!("{}", format_status(&status, axes));
+                anyhow::bail!(
+                    "the board did not confirm within {} s (expected {what})",
+                    CONFIRM_MS / 1000
+                );
+            }
+            client.pump(50)?;
+            status = fresh_status(&mut client)?;
+        }
     }
-    println!("{}", format_status(&fresh_status(&mut client)?, axes));
+    print_notices(&mut client);
+    println!("{}", format_status(&status, axes));
     Ok(ExitCode::SUCCESS)
+}
+
+/// A state test for what a realtime request leads to from `before`, with its description.
+type Expectation = (&'static str, fn(&Status) -> bool);
+
+fn expected_after(msg: &HostMsg, before: &Status) -> Option<Expectation> {
+    use gantry_proto::MachineState as S;
+    match (msg, before.state) {
+        (HostMsg::FeedHold, S::Run | S::Hold { .. } | S::Jog) => {
+            Some(("the machine held at rest", |s| {
+                matches!(
+                    s.state,
+                    S::Hold { stopped: true } | S::Idle | S::Alarm { .. }
+                )
+            }))
+        }
+        (HostMsg::Resume, S::Hold { .. }) => Some(("the job running again", |s| {
+            !matches!(s.state, S::Hold { .. })
+        })),
+        (HostMsg::Abort, S::Run | S::Hold { .. } | S::Jog | S::Homing | S::Check) => {
+            Some(("the job ended at rest", |s| {
+                matches!(s.state, S::Idle | S::Alarm { .. })
+            }))
+        }
+        _ => None,
+    }
+}
+
+/// Sets the feed and/or rapid override (already range-checked) and prints the status once the
+/// board shows them.
+pub fn set_overrides(
+    target: Target,
+    feed: Option<u16>,
+    rapid: Option<u16>,
+) -> anyhow::Result<ExitCode> {
+    let (mut client, setup) = connect(target)?;
+    if let Some(f) = feed {
+        client.send(HostMsg::FeedOverride(f))?;
+    }
+    if let Some(r) = rapid {
+        client.send(HostMsg::RapidOverride(r))?;
+    }
+    let start = client.transport.now_ms();
+    loop {
+        client.pump(20)?;
+        let s = fresh_status(&mut client)?;
+        if feed.is_none_or(|f| s.feed_override == f) && rapid.is_none_or(|r| s.rapid_override == r)
+        {
+            println!("{}", format_status(&s, setup.axis_count as usize));
+            return Ok(ExitCode::SUCCESS);
+        }
+        if client.transport.now_ms().wrapping_sub(start) > CONFIRM_MS {
+            anyhow::bail!(
+                "the board did not confirm the override within {} s (its status still shows feed {} %, rapid {} %)",
+                CONFIRM_MS / 1000,
+                s.feed_override,
+                s.rapid_override
+            );
+        }
+    }
 }
 
 /// Live status readout: redraws every 200 ms (link time) until Ctrl-C or `seconds` have passed.
@@ -87,7 +193,8 @@ pub fn watch(target: Target, seconds: Option<f64>) -> anyhow::Result<ExitCode> {
     let s = stop.clone();
     // Without a handler Ctrl-C simply ends the process, which is just as good here.
     let _ = ctrlc::set_handler(move || s.store(true, Ordering::SeqCst));
-    let (mut client, axes) = connect(target)?;
+    let (mut client, setup) = connect(target)?;
+    let axes = setup.axis_count as usize;
     let start = client.transport.now_ms();
     let tty = std::io::stdout().is_terminal();
     while !stop.load(Ordering::SeqCst) {
@@ -109,8 +216,10 @@ pub fn watch(target: Target, seconds: Option<f64>) -> anyhow::Result<ExitCode> {
 
 /// Runs blocks typed on the command line as a small job and prints the result.
 pub fn mdi(target: Target, blocks: &[String]) -> anyhow::Result<ExitCode> {
-    let (mut client, axes) = connect(target)?;
+    let (mut client, setup) = connect(target)?;
+    let axes = setup.axis_count as usize;
     let program = Program::from_text(&blocks.join("\n"));
+    crate::stream::check_can_start(&mut client)?;
     let report = stream_program(&mut client, &program, &mut |_| Flow::Continue)?;
     for e in &report.errors {
         println!("error: {}", e.describe(&program));
@@ -177,8 +286,8 @@ pub fn push_setup_over<T: Transport>(
 
 /// Reads the board's setup.
 pub fn setup_pull(target: Target) -> anyhow::Result<gantry_machine::setup::Setup> {
-    let (mut client, _) = connect(target)?;
-    pull_setup_over(&mut client)
+    let (_, setup) = connect(target)?;
+    Ok(setup)
 }
 
 /// [`setup_pull`] over an open link.
@@ -187,28 +296,46 @@ pub fn pull_setup_over<T: Transport>(
 ) -> anyhow::Result<gantry_machine::setup::Setup> {
     use gantry_proto::BoardMsg;
     client.send(HostMsg::SetupRequest)?;
-    let mut blob = Vec::new();
-    for _ in 0..3000 {
-        client.pump(1)?;
-        while let Some(msg) = client.recv() {
-            match msg {
-                BoardMsg::SetupChunk { offset, bytes } => {
-                    anyhow::ensure!(offset as usize == blob.len(), "setup chunk out of order");
-                    blob.extend_from_slice(&bytes);
+    // Other messages (a job's program requests, errors, job ends) are kept for later.
+    let mut kept = Vec::new();
+    let result = (|| {
+        let mut blob = Vec::new();
+        let mut damaged = false;
+        for _ in 0..3000 {
+            client.pump(1)?;
+            while let Some(msg) = client.recv() {
+                match msg {
+                    // Through `gantry serve` another command's request may restart the
+                    // board's transfer (offset 0 again): follow the newest one; the length and
+                    // CRC check the result.
+                    BoardMsg::SetupChunk { offset, bytes } => {
+                        if offset == 0 {
+                            blob.clear();
+                        }
+                        if offset as usize == blob.len() {
+                            blob.extend_from_slice(&bytes);
+                        }
+                    }
+                    BoardMsg::SetupEnd { len, crc32 } => {
+                        if len as usize == blob.len() && gantry_proto::crc::crc32(&blob) == crc32 {
+                            return gantry_machine::setup::Setup::from_blob(&blob)
+                                .ok_or_else(|| anyhow::anyhow!("the board sent an invalid setup"));
+                        }
+                        damaged = true;
+                        blob.clear();
+                    }
+                    BoardMsg::Status(_) => {}
+                    other => kept.push(other),
                 }
-                BoardMsg::SetupEnd { len, crc32 } => {
-                    anyhow::ensure!(
-                        len as usize == blob.len() && gantry_proto::crc::crc32(&blob) == crc32,
-                        "the board's setup arrived damaged"
-                    );
-                    return gantry_machine::setup::Setup::from_blob(&blob)
-                        .ok_or_else(|| anyhow::anyhow!("the board sent an invalid setup"));
-                }
-                _ => {}
             }
         }
-    }
-    anyhow::bail!("the board did not send its setup within 3 s")
+        if damaged {
+            anyhow::bail!("the board's setup arrived damaged (length or CRC)");
+        }
+        anyhow::bail!("the board did not send its setup within 3 s (expected its setup chunks)")
+    })();
+    client.put_back(kept);
+    result
 }
 
 /// The emulated board for `gantry home`: a limit switch sits at the travel end each homed axis
@@ -231,16 +358,24 @@ pub fn emulated_with_switches(setup: gantry_machine::setup::Setup) -> EmulatedBo
     board
 }
 
-/// Polls the status every 100 ms (link time) while the board is in `state`, for up to an hour,
-/// and returns the first status in another state (or the last one).
+/// Polls the status every 100 ms (link time) while the board is in `state`, for at most
+/// `limit_ms`, and returns the first status in another state; an error naming `what` when the
+/// board is still in `state` then.
 fn wait_while<T: Transport>(
     client: &mut Client<T>,
     state: gantry_proto::MachineState,
+    limit_ms: u32,
+    what: &str,
 ) -> anyhow::Result<Status> {
+    let start = client.transport.now_ms();
     let mut status = fresh_status(client)?;
-    for _ in 0..36_000 {
-        if status.state != state {
-            break;
+    while status.state == state {
+        if client.transport.now_ms().wrapping_sub(start) > limit_ms {
+            anyhow::bail!(
+                "the board is still in {} after {} s (expected {what})",
+                state_name(state),
+                limit_ms / 1000
+            );
         }
         client.pump(100)?;
         status = fresh_status(client)?;
@@ -248,19 +383,40 @@ fn wait_while<T: Transport>(
     Ok(status)
 }
 
+/// How long a homing cycle may take: every seek over the whole travel at its seek rate, plus
+/// the locate and retract moves, with a margin.
+fn homing_bound_ms(setup: &Setup) -> u32 {
+    let mut ms = 30_000u64;
+    for axis in 0..setup.axis_count as usize {
+        let a = &setup.axes[axis];
+        let h = &setup.homing.axes[axis];
+        let travel_nm = (a.travel_max - a.travel_min).unsigned_abs();
+        if h.priority == 0 {
+            continue;
+        }
+        ms += 2 * travel_nm * 60_000 / (h.seek_rate.max(1) as u64);
+    }
+    ms.min(u32::MAX as u64) as u32
+}
+
 /// Homes the axes in `axes` (bit 0 = X; 0 = all), waits for the cycle to end and prints the status.
 pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
-    let (mut client, n) = match target {
+    let (mut client, setup) = match target {
         Target::Emulated(setup) => {
-            let n = setup.axis_count as usize;
-            let t: Box<dyn Transport> = Box::new(emulated_with_switches(*setup));
-            (Client::connect(t, 2000)?, n)
+            let t: Box<dyn Transport> = Box::new(emulated_with_switches((*setup).clone()));
+            (Client::connect(t, 2000)?, *setup)
         }
         t => connect(t)?,
     };
+    let n = setup.axis_count as usize;
     client.send(HostMsg::Home { axes })?;
     // Seeks run at a slow constant rate over the whole travel.
-    let status = wait_while(&mut client, gantry_proto::MachineState::Homing)?;
+    let status = wait_while(
+        &mut client,
+        gantry_proto::MachineState::Homing,
+        homing_bound_ms(&setup),
+        "the homing cycle to end",
+    )?;
     print_notices(&mut client);
     println!("{}", format_status(&status, n));
     let alarmed = matches!(status.state, gantry_proto::MachineState::Alarm { .. });
@@ -274,28 +430,167 @@ pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
     })
 }
 
-/// Jogs one axis by `distance_mm` (signed) at `feed_mm_min`, waits until it stops and prints the
-/// status.
-pub fn jog(
-    target: Target,
-    axis: u8,
-    distance_mm: f64,
-    feed_mm_min: f64,
-) -> anyhow::Result<ExitCode> {
-    let (mut client, n) = connect(target)?;
+/// How far a jog goes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum JogMove {
+    /// This signed distance, mm (degrees for A/B/C).
+    By(f64),
+    /// In this direction (true = positive) until stopped (Ctrl-C, or after `seconds`), never
+    /// beyond the soft limits.
+    Continuous {
+        positive: bool,
+        seconds: Option<f64>,
+    },
+}
+
+/// A jog distance in whole nanometres (the wire unit), refused unless it is a real, non-zero
+/// distance: on the wire 0 nm means "continuous until JogStop", so a zero, NaN, infinite or
+/// sub-nanometre distance must never be sent as one.
+pub fn jog_distance_nm(distance_mm: f64) -> anyhow::Result<u64> {
+    anyhow::ensure!(
+        distance_mm.is_finite(),
+        "jog distance {distance_mm}: not a number of mm (for a continuous jog use --continuous + or -)"
+    );
+    let nm = (distance_mm.abs() * 1e6).round();
+    anyhow::ensure!(
+        nm >= 1.0,
+        "jog distance {distance_mm} mm: must be at least 0.000001 mm (1 nm) either way (for a continuous jog use --continuous + or -)"
+    );
+    anyhow::ensure!(
+        nm <= 1e13,
+        "jog distance {distance_mm} mm: beyond any machine (at most 10 000 000 mm)"
+    );
+    Ok(nm as u64)
+}
+
+/// A jog feed in µm/min (the wire unit), refused unless it is a real, positive speed the wire can
+/// carry.
+pub fn jog_feed_um_min(feed_mm_min: f64) -> anyhow::Result<i32> {
+    anyhow::ensure!(
+        feed_mm_min.is_finite() && feed_mm_min > 0.0,
+        "--feed {feed_mm_min}: must be a positive speed in mm/min"
+    );
+    let um = (feed_mm_min * 1000.0).round();
+    anyhow::ensure!(
+        um >= 1.0,
+        "--feed {feed_mm_min}: below 0.001 mm/min, the slowest speed the board takes"
+    );
+    anyhow::ensure!(
+        um <= i32::MAX as f64,
+        "--feed {feed_mm_min}: too fast (at most {} mm/min)",
+        i32::MAX / 1000
+    );
+    Ok(um as i32)
+}
+
+/// Jogs one axis, waits until it stops and prints the status. A refused jog (in alarm, beyond
+/// the travel, …) prints why and exits 1 with no motion.
+pub fn jog(target: Target, axis: u8, how: JogMove, feed_mm_min: f64) -> anyhow::Result<ExitCode> {
+    let distance_nm = match how {
+        JogMove::By(d) => jog_distance_nm(d)?,
+        JogMove::Continuous { .. } => 0,
+    };
+    let speed = jog_feed_um_min(feed_mm_min)?;
+    let negative = match how {
+        JogMove::By(d) => d < 0.0,
+        JogMove::Continuous { positive, .. } => !positive,
+    };
+    let (mut client, setup) = connect(target)?;
+    let n = setup.axis_count as usize;
     anyhow::ensure!(
         (axis as usize) < n,
-        "axis {}: this machine has {n} axes",
-        AXIS_LETTERS[axis as usize]
+        "axis {}: this machine has {n} axes ({})",
+        AXIS_LETTERS[axis as usize],
+        AXIS_LETTERS[..n].iter().collect::<String>()
     );
-    anyhow::ensure!(feed_mm_min > 0.0, "--feed must be positive");
-    let speed = (feed_mm_min * 1000.0).round() as i32 * if distance_mm < 0.0 { -1 } else { 1 };
+    let before = fresh_status(&mut client)?;
+    use gantry_proto::MachineState as S;
+    match before.state {
+        S::Idle | S::Jog => {}
+        S::Alarm { code } => {
+            println!("{}", format_status(&before, n));
+            println!("jog refused: the board is in {}", alarm_text(code));
+            println!("clear it first: gantry unlock (or gantry home when homing is required)");
+            return Ok(ExitCode::from(1));
+        }
+        other => {
+            println!("{}", format_status(&before, n));
+            println!(
+                "jog refused: the board is in {} (jogs start from Idle)",
+                state_name(other)
+            );
+            return Ok(ExitCode::from(1));
+        }
+    }
     client.send(HostMsg::Jog(gantry_proto::Jog {
         axis,
-        feed_um_min: speed,
-        distance_nm: (distance_mm.abs() * 1e6).round() as u64,
+        feed_um_min: if negative { -speed } else { speed },
+        distance_nm,
     }))?;
-    let status = wait_while(&mut client, gantry_proto::MachineState::Jog)?;
+    // The board either starts (state Jog) or refuses; a refusal beyond the travel or without
+    // homing comes as an error report.
+    let start = client.transport.now_ms();
+    let mut refused = None;
+    let mut status = before.clone();
+    let mut started = false;
+    while client.transport.now_ms().wrapping_sub(start) < 1000 {
+        client.pump(20)?;
+        while let Some(msg) = client.recv() {
+            match msg {
+                gantry_proto::BoardMsg::Error { code, line, column } => {
+                    refused = Some(crate::stream::BoardError { line, code, column })
+                }
+                gantry_proto::BoardMsg::Status(s) => {
+                    started |= s.state == S::Jog || s.machine_pos != before.machine_pos;
+                    status = s;
+                }
+                _ => {}
+            }
+        }
+        if started || refused.is_some() {
+            break;
+        }
+    }
+    if let Some(e) = refused {
+        println!("{}", format_status(&status, n));
+        println!(
+            "jog refused: {}",
+            e.describe(&Program::from_text(""))
+                .trim_start_matches("resume preamble: ")
+        );
+        return Ok(ExitCode::from(1));
+    }
+    if !started {
+        println!("{}", format_status(&status, n));
+        println!(
+            "jog refused: the board did not start it within 1 s (state {})",
+            state_name(status.state)
+        );
+        return Ok(ExitCode::from(1));
+    }
+    if let JogMove::Continuous { seconds, .. } = how {
+        let stop = crate::stream::ctrl_c_flag();
+        let limit_ms = seconds.map(|s| (s * 1000.0) as u32);
+        eprintln!("jogging: Ctrl-C stops");
+        while !stop.swap(false, std::sync::atomic::Ordering::SeqCst)
+            && limit_ms.is_none_or(|l| client.transport.now_ms().wrapping_sub(start) < l)
+        {
+            client.pump(20)?;
+            if fresh_status(&mut client)?.state != S::Jog {
+                break;
+            }
+        }
+        client.send(HostMsg::JogStop)?;
+    }
+    // The longest jog: the whole travel at the requested speed, with a margin.
+    let span = setup.axes[axis as usize].travel_max - setup.axes[axis as usize].travel_min;
+    let bound = 5000 + (span.unsigned_abs() as f64 / 1e6 / feed_mm_min * 60_000.0) as u64;
+    let status = wait_while(
+        &mut client,
+        S::Jog,
+        bound.min(u32::MAX as u64 / 2) as u32,
+        "the jog to end",
+    )?;
     print_notices(&mut client);
     println!("{}", format_status(&status, n));
     Ok(ExitCode::SUCCESS)

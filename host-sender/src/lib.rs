@@ -3,11 +3,15 @@
 pub mod check;
 pub mod check_summary;
 pub mod commands;
+pub mod emulate;
 pub mod emulator;
 pub mod link;
+pub mod port;
 pub mod preview;
 pub mod program;
+pub mod program_stops;
 pub mod resume;
+pub mod serve;
 pub mod setup_file;
 pub mod simulate;
 pub mod stream;

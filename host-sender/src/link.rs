@@ -61,38 +61,72 @@ impl Transport for EmulatedBoard {
 /// re-enumerating) before it gives up.
 pub const REOPEN_FOR: Duration = Duration::from_secs(60);
 
+/// What closing the port does to the board (the firmware takes a DTR drop as a feed hold, see
+/// `firmware/src/control.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OnClose {
+    /// Closing drops DTR (the tty's HUPCL, the default): a running job holds at once. For the
+    /// sender that owns a job (`stream`, `serve`): if it dies, the machine stops.
+    DropDtr,
+    /// Closing leaves DTR up (HUPCL cleared): for one-shot commands (`resume`, `abort`,
+    /// `override`, `status` …), whose exit must not undo what they just did.
+    KeepDtr,
+}
+
 /// A real board on a USB serial port (CDC-ACM). When the port fails (the cable was pulled) it is
 /// reopened by path until [`REOPEN_FOR`] has passed; the protocol then resynchronises, and the board,
 /// which held the job meanwhile, continues it without losing or repeating a block.
 pub struct SerialTransport {
     path: String,
-    port: Option<Box<dyn serialport::SerialPort>>,
+    port: Option<serialport::TTYPort>,
     start: Instant,
+    on_close: OnClose,
 }
 
-fn open_port(path: &str) -> serialport::Result<Box<dyn serialport::SerialPort>> {
-    serialport::new(path, 115_200)
+fn open_port(path: &str, on_close: OnClose) -> serialport::Result<serialport::TTYPort> {
+    let port = serialport::new(path, 115_200)
         .timeout(Duration::from_millis(1))
-        .open()
+        .open_native()?;
+    set_hang_up_on_close(&port, on_close == OnClose::DropDtr);
+    Ok(port)
+}
+
+/// Sets or clears HUPCL: whether closing the port drops DTR (and RTS). Set explicitly both ways:
+/// USB serial ports have it set by default, pseudo-terminals not.
+fn set_hang_up_on_close(port: &serialport::TTYPort, on: bool) {
+    use nix::sys::termios::{tcgetattr, tcsetattr, ControlFlags, SetArg};
+    use std::os::fd::AsRawFd;
+    let fd = port.as_raw_fd();
+    // Best effort: a port whose termios cannot be changed keeps its default.
+    if let Ok(mut t) = tcgetattr(fd) {
+        t.control_flags.set(ControlFlags::HUPCL, on);
+        let _ = tcsetattr(fd, SetArg::TCSANOW, &t);
+    }
 }
 
 impl SerialTransport {
+    /// Opens `path` for the sender that owns a job (closing it holds the job, [`OnClose::DropDtr`]).
     pub fn open(path: &str) -> anyhow::Result<Self> {
-        let port = open_port(path).with_context(|| format!("cannot open serial port {path}"))?;
+        Self::open_with(path, OnClose::DropDtr)
+    }
+
+    pub fn open_with(path: &str, on_close: OnClose) -> anyhow::Result<Self> {
+        let port = open_port(path, on_close).map_err(|e| port_error(path, e))?;
         Ok(SerialTransport {
             path: path.to_owned(),
             port: Some(port),
             start: Instant::now(),
+            on_close,
         })
     }
 
     /// The open port, reopening it after a failure.
-    fn port(&mut self) -> anyhow::Result<&mut Box<dyn serialport::SerialPort>> {
+    fn port(&mut self) -> anyhow::Result<&mut serialport::TTYPort> {
         if self.port.is_none() {
             let since = Instant::now();
             eprintln!("gantry: {} went away; reopening it", self.path);
             loop {
-                match open_port(&self.path) {
+                match open_port(&self.path, self.on_close) {
                     Ok(p) => {
                         eprintln!("gantry: {} is back", self.path);
                         self.port = Some(p);
@@ -111,13 +145,36 @@ impl SerialTransport {
     }
 }
 
+/// Why a port did not open, with what to do about it.
+fn port_error(path: &str, e: serialport::Error) -> anyhow::Error {
+    let hint = match e.kind() {
+        serialport::ErrorKind::NoDevice => {
+            " (in use by another program? a running `gantry serve` owns it: commands reach it through its socket)"
+        }
+        serialport::ErrorKind::Io(std::io::ErrorKind::PermissionDenied) => {
+            " (permission denied: add yourself to the `dialout` group, then log in again)"
+        }
+        serialport::ErrorKind::Io(std::io::ErrorKind::NotFound) => " (no such device)",
+        _ => "",
+    };
+    anyhow::anyhow!("cannot open serial port {path}: {e}{hint}")
+}
+
 impl Transport for SerialTransport {
     fn write(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
-        if self.port()?.write_all(bytes).is_err() {
-            // Lost frames are retransmitted by the protocol once the port is back.
-            self.port = None;
+        let port = self.port()?;
+        loop {
+            match port.write_all(bytes) {
+                Ok(()) => return Ok(()),
+                // A signal (Ctrl-C) interrupted the call: the port is fine.
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(_) => {
+                    // Lost frames are retransmitted by the protocol once the port is back.
+                    self.port = None;
+                    return Ok(());
+                }
+            }
         }
-        Ok(())
     }
 
     fn read(&mut self, into: &mut Vec<u8>) -> anyhow::Result<()> {
@@ -127,6 +184,8 @@ impl Transport for SerialTransport {
                 Ok(0) => return Ok(()),
                 Ok(n) => into.extend_from_slice(&buf[..n]),
                 Err(e) if e.kind() == std::io::ErrorKind::TimedOut => return Ok(()),
+                // A signal (Ctrl-C) interrupted the read: not a pulled cable.
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => return Ok(()),
                 Err(_) => {
                     self.port = None;
                     return Ok(());
@@ -144,6 +203,9 @@ impl Transport for SerialTransport {
     }
 }
 
+/// Makes every link of this process say hello with its own nonce.
+static NONCES: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+
 /// A connected link: endpoint + transport.
 pub struct Client<T: Transport> {
     pub transport: T,
@@ -151,21 +213,49 @@ pub struct Client<T: Transport> {
     rx: Vec<u8>,
     /// Alarm and limit reports received so far (kept even when a caller skips messages).
     notices: Vec<BoardMsg>,
+    /// Messages put back by a caller that was waiting for another one ([`Client::put_back`]).
+    stash: std::collections::VecDeque<BoardMsg>,
+    /// Handshakes after the first one that found a restarted board (a new boot id).
+    board_resets: u32,
+    /// Link clock when the last message arrived from the board.
+    last_heard_ms: u32,
 }
 
 impl<T: Transport> Client<T> {
+    /// A link that has not said hello yet (see [`Client::connect`]).
+    pub fn unconnected(transport: T) -> Self {
+        let nonce = std::process::id()
+            ^ 0x5eed_0000
+            ^ NONCES.fetch_add(0x101, std::sync::atomic::Ordering::Relaxed);
+        Client {
+            transport,
+            endpoint: HostEndpoint::new_host(Config::USB_MS, nonce),
+            rx: Vec::new(),
+            notices: Vec::new(),
+            stash: Default::default(),
+            board_resets: 0,
+            last_heard_ms: 0,
+        }
+    }
+
     /// Opens the link and completes the version handshake (within `timeout_ms` of link time).
     pub fn connect(transport: T, timeout_ms: u32) -> anyhow::Result<Self> {
-        let nonce = std::process::id() ^ 0x5eed_0000;
+        let nonce = std::process::id()
+            ^ 0x5eed_0000
+            ^ NONCES.fetch_add(0x101, std::sync::atomic::Ordering::Relaxed);
         let mut c = Client {
             transport,
             endpoint: HostEndpoint::new_host(Config::USB_MS, nonce),
             rx: Vec::new(),
             notices: Vec::new(),
+            stash: Default::default(),
+            board_resets: 0,
+            last_heard_ms: 0,
         };
         let start = c.transport.now_ms();
+        c.last_heard_ms = start;
         loop {
-            c.pump(1)?;
+            c.transport_pump(1)?;
             while let Some(ev) = c.endpoint.poll_event() {
                 match ev {
                     LinkEvent::Connected { .. } => return Ok(c),
@@ -177,13 +267,48 @@ impl<T: Transport> Client<T> {
                 }
             }
             if c.transport.now_ms().wrapping_sub(start) > timeout_ms {
-                bail!("no answer from the board within {timeout_ms} ms");
+                bail!("no answer from the board within {timeout_ms} ms (expected its handshake: is it a Gantry board, powered, and on this port?)");
             }
         }
     }
 
-    /// Exchanges bytes, then lets `ms` milliseconds pass.
+    /// Exchanges bytes, then lets `ms` milliseconds pass; link events are noted (board resets).
     pub fn pump(&mut self, ms: u32) -> anyhow::Result<()> {
+        self.transport_pump(ms)?;
+        while let Some(ev) = self.endpoint.poll_event() {
+            if let LinkEvent::Connected {
+                board_reset: true, ..
+            } = ev
+            {
+                self.board_resets += 1;
+            }
+        }
+        Ok(())
+    }
+
+    /// Says hello again with a new nonce: the board takes it for a returning host and, when a
+    /// job runs, asks for every line after the last one it interpreted (a `ProgramRequest`).
+    pub fn reconnect(&mut self) {
+        self.endpoint.connect();
+    }
+
+    /// True once for every restart of the board seen since the link opened (its boot id
+    /// changed: whatever it was running is gone).
+    pub fn take_board_reset(&mut self) -> bool {
+        if self.board_resets > 0 {
+            self.board_resets -= 1;
+            return true;
+        }
+        false
+    }
+
+    /// Link time since the last message from the board, ms (it reports its status every
+    /// 100 ms, so more than a second means the board or the cable is gone).
+    pub fn silent_for_ms(&self) -> u32 {
+        self.transport.now_ms().wrapping_sub(self.last_heard_ms)
+    }
+
+    fn transport_pump(&mut self, ms: u32) -> anyhow::Result<()> {
         let now = self.transport.now_ms();
         let mut frame = [0u8; gantry_proto::MAX_FRAME_LEN];
         while let Some(n) = self.endpoint.poll_transmit(now, &mut frame) {
@@ -222,13 +347,28 @@ impl<T: Transport> Client<T> {
         self.endpoint.send_capacity(Lane::Queued)
     }
 
-    /// The next message from the board.
+    /// The next message from the board (first those put back).
     pub fn recv(&mut self) -> Option<BoardMsg> {
+        if let Some(m) = self.stash.pop_front() {
+            return Some(m);
+        }
         let msg = self.endpoint.recv()?;
+        // A message, not just bytes: through `gantry serve` the server's own endpoint keeps
+        // answering while the board behind it is silent.
+        self.last_heard_ms = self.transport.now_ms();
         if matches!(msg, BoardMsg::Alarm { .. } | BoardMsg::Limit { .. }) {
             self.notices.push(msg.clone());
         }
         Some(msg)
+    }
+
+    /// Gives messages back to be received again, in order, before any new one (a caller waiting
+    /// for one kind of message keeps the others, e.g. a `ProgramRequest` seen while waiting for a
+    /// status).
+    pub fn put_back(&mut self, msgs: impl IntoIterator<Item = BoardMsg>) {
+        let mut msgs: Vec<_> = msgs.into_iter().collect();
+        msgs.extend(self.stash.drain(..));
+        self.stash = msgs.into();
     }
 
     /// The alarm and limit reports received since the last call, oldest first.

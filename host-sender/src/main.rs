@@ -14,6 +14,15 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Serial port of the board (e.g. /dev/ttyACM0, or the pty of `gantry emulate`), before or
+    /// after the subcommand. Without it (and without GANTRY_PORT): the one Gantry board plugged
+    /// in (by its USB id), else the emulated board (docs/ports.md).
+    #[arg(long, global = true, env = "GANTRY_PORT")]
+    port: Option<String>,
+    /// Use the built-in emulated board even for commands that control a machine (they refuse a
+    /// fresh emulated board otherwise, so that a missing --port never goes unnoticed).
+    #[arg(long, global = true)]
+    emulated: bool,
 }
 
 #[derive(Subcommand)]
@@ -82,13 +91,21 @@ enum Command {
         #[command(flatten)]
         board: BoardArgs,
     },
-    /// Jog one axis by a distance (e.g. `gantry jog X -10 --feed 1000`); soft limits apply.
+    /// Jog one axis by a distance (e.g. `gantry jog X -10 --feed 1000`), or continuously
+    /// (`gantry jog X --continuous +`, until Ctrl-C); soft limits apply.
     Jog {
         /// Axis letter (X Y Z A B C).
         axis: char,
-        /// Distance in mm (degrees for A/B/C), signed.
-        #[arg(allow_hyphen_values = true)]
-        distance: f64,
+        /// Distance in mm (degrees for A/B/C), signed, at least 0.000001 (0, nan and inf are
+        /// refused).
+        #[arg(allow_hyphen_values = true, required_unless_present = "continuous")]
+        distance: Option<f64>,
+        /// Jog in this direction (`+` or `-`) until Ctrl-C (or --for), never beyond the travel.
+        #[arg(long, value_parser = ["+", "-"], conflicts_with = "distance", allow_hyphen_values = true)]
+        continuous: Option<String>,
+        /// With --continuous: stop after this many seconds.
+        #[arg(long = "for", requires = "continuous")]
+        duration: Option<f64>,
         /// Speed, mm/min.
         #[arg(long, default_value_t = 1000.0)]
         feed: f64,
@@ -134,6 +151,22 @@ enum Command {
         #[arg(long)]
         setup: Option<PathBuf>,
     },
+    /// Run the emulated board behind a pseudo-terminal linked at PATH, in real time, until
+    /// killed: `gantry … --port PATH` talks to it as to the USB board (docs/ports.md).
+    Emulate {
+        /// Where the pty is linked (a symlink, replaced when it exists).
+        #[arg(long)]
+        pty: PathBuf,
+        /// Setup to store in the board (replaces the stored one).
+        #[arg(long)]
+        setup: Option<PathBuf>,
+        /// The board's flash: its stored setup, read at start, written when a setup is pushed.
+        #[arg(long)]
+        state: Option<PathBuf>,
+    },
+    /// Own the board's port (--port) until killed, and let other `gantry` commands reach the
+    /// board through a local socket named after the port while a job runs (docs/ports.md).
+    Serve,
     /// Draw a program's tool path (top, front, side, isometric views) to a PNG or SVG file.
     Preview {
         file: PathBuf,
@@ -146,12 +179,9 @@ enum Command {
     },
 }
 
-/// Which board a command talks to.
+/// The emulated board's setup (when a command runs without a port).
 #[derive(clap::Args)]
 struct BoardArgs {
-    /// Serial port of the board (e.g. /dev/ttyACM0); without it, the emulated board.
-    #[arg(long)]
-    port: Option<String>,
     /// Machine setup for the emulated board (default: the built-in defaults, docs/settings.md).
     #[arg(long)]
     setup: Option<PathBuf>,
@@ -165,13 +195,40 @@ impl BoardArgs {
             None => Ok(Default::default()),
         }
     }
+}
 
-    fn target(&self) -> anyhow::Result<host_sender::stream::Target> {
+/// Where the machine is: the global `--port`/`GANTRY_PORT`/`--emulated` choice.
+struct Machine {
+    port: Option<String>,
+    emulated: bool,
+}
+
+/// Does a command move or change the machine (refused on a fresh emulated board unless
+/// `--emulated` is given)?
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Use {
+    Controls,
+    Reads,
+}
+
+impl Machine {
+    fn target(&self, board: &BoardArgs, use_: Use) -> anyhow::Result<host_sender::stream::Target> {
+        use host_sender::port::{discover, Found};
         use host_sender::stream::Target;
-        Ok(match &self.port {
-            Some(p) => Target::Port(p.clone()),
-            None => Target::Emulated(Box::new(self.setup()?)),
-        })
+        if let Some(p) = &self.port {
+            return Ok(Target::Port(p.clone()));
+        }
+        if !self.emulated {
+            if let Found::One(p) = discover()? {
+                eprintln!("gantry: using the Gantry board on {p}");
+                return Ok(Target::Port(p));
+            }
+            anyhow::ensure!(
+                use_ == Use::Reads,
+                "no board: give --port PATH (or set GANTRY_PORT) for the machine; no Gantry board is plugged in.\n  This command would only act on a fresh emulated board: add --emulated to try it there."
+            );
+        }
+        Ok(Target::Emulated(Box::new(board.setup()?)))
     }
 }
 
@@ -195,7 +252,7 @@ enum SetupAction {
     },
 }
 
-fn setup(action: SetupAction) -> anyhow::Result<ExitCode> {
+fn setup(action: SetupAction, machine: &Machine) -> anyhow::Result<ExitCode> {
     use host_sender::setup_file::{to_toml, SetupFile};
     match action {
         SetupAction::Show { file } => {
@@ -211,8 +268,9 @@ fn setup(action: SetupAction) -> anyhow::Result<ExitCode> {
         }
         SetupAction::Push { file, board } => {
             let setup = SetupFile::load(&file)?;
-            let emulated = board.port.is_none();
-            commands::setup_push(board.target()?, &setup)?;
+            let target = machine.target(&board, Use::Controls)?;
+            let emulated = matches!(target, host_sender::stream::Target::Emulated(_));
+            commands::setup_push(target, &setup)?;
             if emulated {
                 println!(
                     "{}: valid, and applied by the emulated board (which forgets it when gantry exits: give --setup FILE to commands that use the emulated board)",
@@ -223,7 +281,7 @@ fn setup(action: SetupAction) -> anyhow::Result<ExitCode> {
             }
         }
         SetupAction::Pull { file, board } => {
-            let text = to_toml(&commands::setup_pull(board.target()?)?);
+            let text = to_toml(&commands::setup_pull(machine.target(&board, Use::Reads)?)?);
             match file {
                 Some(f) => {
                     std::fs::write(&f, text)?;
@@ -284,8 +342,33 @@ fn axis_mask(letters: Option<&str>) -> anyhow::Result<u8> {
     })
 }
 
+/// A closed standard output (`gantry status | head -1`) ends the command quietly, as SIGPIPE
+/// would, instead of a panic report; every other panic is reported as usual.
+fn quiet_broken_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let text = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if text.contains("Broken pipe") {
+            // 128 + SIGPIPE, what a shell shows for a writer killed by SIGPIPE.
+            std::process::exit(141);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> ExitCode {
+    quiet_broken_pipe();
     let cli = Cli::parse();
+    let machine = Machine {
+        port: cli.port,
+        emulated: cli.emulated,
+    };
+    let m = &machine;
     let result = match cli.command {
         Command::Check { file, canon, setup } => setup
             .map_or_else(
@@ -293,7 +376,7 @@ fn main() -> ExitCode {
                 |f| host_sender::setup_file::SetupFile::load(&f),
             )
             .and_then(|s| host_sender::check::run(&file, canon, &s)),
-        Command::Setup { action } => setup(action),
+        Command::Setup { action } => setup(action, m),
         Command::Stream {
             file,
             from_line,
@@ -301,7 +384,7 @@ fn main() -> ExitCode {
             board,
         } => board.setup().and_then(|setup| {
             use host_sender::stream::Start;
-            let target = board.target()?;
+            let target = m.target(&board, Use::Reads)?;
             let start = match (from_line, take_over) {
                 (Some(n), _) => Start::FromLine(n),
                 (None, true) => Start::TakeOver,
@@ -313,52 +396,79 @@ fn main() -> ExitCode {
             watch: false,
             board,
             ..
-        } => board.target().and_then(|t| commands::realtime(t, None)),
+        } => m
+            .target(&board, Use::Reads)
+            .and_then(|t| commands::realtime(t, None)),
         Command::Status {
             watch: true,
             duration,
             board,
-        } => board.target().and_then(|t| commands::watch(t, duration)),
-        Command::Hold { board } => board
-            .target()
+        } => m
+            .target(&board, Use::Reads)
+            .and_then(|t| commands::watch(t, duration)),
+        Command::Hold { board } => m
+            .target(&board, Use::Controls)
             .and_then(|t| commands::realtime(t, Some(HostMsg::FeedHold))),
-        Command::Resume { board } => board
-            .target()
+        Command::Resume { board } => m
+            .target(&board, Use::Controls)
             .and_then(|t| commands::realtime(t, Some(HostMsg::Resume))),
-        Command::Abort { board } => board
-            .target()
+        Command::Abort { board } => m
+            .target(&board, Use::Controls)
             .and_then(|t| commands::realtime(t, Some(HostMsg::Abort))),
-        Command::Unlock { board } => board
-            .target()
+        Command::Unlock { board } => m
+            .target(&board, Use::Controls)
             .and_then(|t| commands::realtime(t, Some(HostMsg::Unlock))),
-        Command::Override { feed, rapid, board } => board.target().and_then(|t| {
-            let (mut client, axes) = commands::connect(t)?;
+        Command::Override { feed, rapid, board } => m.target(&board, Use::Controls).and_then(|t| {
             if let Some(f) = feed {
                 anyhow::ensure!((10..=200).contains(&f), "--feed {f}: must be 10-200 %");
-                client.send(HostMsg::FeedOverride(f))?;
             }
             if let Some(r) = rapid {
                 anyhow::ensure!((1..=100).contains(&r), "--rapid {r}: must be 1-100 %");
-                client.send(HostMsg::RapidOverride(r))?;
             }
-            client.pump(100)?;
-            let status = host_sender::stream::fresh_status(&mut client)?;
-            println!("{}", commands::format_status(&status, axes));
-            Ok(ExitCode::SUCCESS)
+            commands::set_overrides(t, feed, rapid)
         }),
         Command::Jog {
             axis,
             distance,
+            continuous,
+            duration,
             feed,
             board,
         } => axis_index(axis).and_then(|a| {
-            board
-                .target()
-                .and_then(|t| commands::jog(t, a, distance, feed))
+            let how = match (distance, continuous) {
+                (Some(d), _) => commands::JogMove::By(d),
+                (None, Some(dir)) => commands::JogMove::Continuous {
+                    positive: dir == "+",
+                    seconds: duration,
+                },
+                (None, None) => anyhow::bail!("give a distance or --continuous + / -"),
+            };
+            // Refuse a bad distance or feed before any port is opened.
+            if let commands::JogMove::By(d) = how {
+                commands::jog_distance_nm(d)?;
+            }
+            commands::jog_feed_um_min(feed)?;
+            m.target(&board, Use::Controls)
+                .and_then(|t| commands::jog(t, a, how, feed))
         }),
-        Command::Home { axes, board } => axis_mask(axes.as_deref())
-            .and_then(|mask| board.target().and_then(|t| commands::home(t, mask))),
-        Command::Mdi { blocks, board } => board.target().and_then(|t| commands::mdi(t, &blocks)),
+        Command::Home { axes, board } => axis_mask(axes.as_deref()).and_then(|mask| {
+            m.target(&board, Use::Controls)
+                .and_then(|t| commands::home(t, mask))
+        }),
+        Command::Mdi { blocks, board } => m
+            .target(&board, Use::Controls)
+            .and_then(|t| commands::mdi(t, &blocks)),
+        Command::Serve => match &m.port {
+            Some(p) => host_sender::serve::run(p),
+            None => match host_sender::port::discover() {
+                Ok(host_sender::port::Found::One(p)) => host_sender::serve::run(&p),
+                Ok(host_sender::port::Found::None) => Err(anyhow::anyhow!(
+                    "gantry serve: give --port PATH (or GANTRY_PORT)"
+                )),
+                Err(e) => Err(e),
+            },
+        },
+        Command::Emulate { pty, setup, state } => host_sender::emulate::run(&pty, setup, state),
         Command::Simulate {
             file,
             json,

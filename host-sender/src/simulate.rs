@@ -99,16 +99,25 @@ pub fn simulate(program: &[u8], setup: &Setup) -> anyhow::Result<(Vec<Move>, f64
     Ok((moves, sim.now as f64 / hz))
 }
 
-/// The whole report text.
+/// The whole report text. With `json`, JSON Lines written by serde_json: one object per move
+/// (`line`, `entry`, `cruise`, `exit` in mm/min, `time` in s, rounded as in the table), then
+/// `{"total_time": T}`; no other line.
 pub fn report(moves: &[Move], total: f64, json: bool) -> String {
+    let round = |v: f64, digits: i32| {
+        let f = 10f64.powi(digits);
+        (v * f).round() / f
+    };
     let mut out = String::new();
     for m in moves {
         if json {
-            let _ = writeln!(
-                out,
-                "{{\"line\":{},\"entry\":{:.3},\"cruise\":{:.3},\"exit\":{:.3},\"time\":{:.6}}}",
-                m.line, m.entry, m.cruise, m.exit, m.time
-            );
+            let obj = serde_json::json!({
+                "line": m.line,
+                "entry": round(m.entry, 3),
+                "cruise": round(m.cruise, 3),
+                "exit": round(m.exit, 3),
+                "time": round(m.time, 6),
+            });
+            let _ = writeln!(out, "{obj}");
         } else {
             let _ = writeln!(
                 out,
@@ -117,7 +126,15 @@ pub fn report(moves: &[Move], total: f64, json: bool) -> String {
             );
         }
     }
-    let _ = writeln!(out, "total time: {total:.3} s");
+    if json {
+        let _ = writeln!(
+            out,
+            "{}",
+            serde_json::json!({ "total_time": round(total, 6) })
+        );
+    } else {
+        let _ = writeln!(out, "total time: {total:.3} s");
+    }
     out
 }
 
@@ -148,7 +165,15 @@ mod tests {
         let text = report(&moves, total, false);
         assert!(text.lines().last().unwrap().starts_with("total time: 3.0"));
         let json = report(&moves, total, true);
-        assert!(json.starts_with("{\"line\":2,\"entry\":60.000,\"cruise\":1200.000"));
+        // Every line is JSON (serde_json), the last one the total.
+        let values: Vec<serde_json::Value> = json
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        assert_eq!(values[0]["line"], 2);
+        assert_eq!(values[0]["entry"], 60.0);
+        assert_eq!(values[0]["cruise"], 1200.0);
+        assert!((values[1]["total_time"].as_f64().unwrap() - total).abs() < 1e-6);
     }
 
     #[test]

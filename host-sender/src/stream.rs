@@ -59,7 +59,7 @@ impl BoardError {
         if self.line == 0 {
             return format!("resume preamble: error {}: {message}", self.code);
         }
-        let text = program.line(self.line).unwrap_or("").trim();
+        let text = printable(program.line(self.line).unwrap_or("").trim());
         format!(
             "line {}: error {}: {message}\n    {text}",
             self.line, self.code
@@ -73,6 +73,20 @@ pub struct BoardAlarm {
     pub code: u16,
     /// Program line concerned (0 = none).
     pub line: u32,
+}
+
+/// Program text made safe for a terminal: control characters (an escape sequence in a comment
+/// would otherwise reach the terminal raw) are shown as `\u{1b}`-style escapes.
+pub fn printable(text: &str) -> String {
+    text.chars()
+        .flat_map(|c| {
+            if c.is_control() {
+                c.escape_unicode().collect::<Vec<_>>()
+            } else {
+                vec![c]
+            }
+        })
+        .collect()
 }
 
 /// "alarm 2 (soft limit): a block would leave …" for an alarm number.
@@ -90,7 +104,7 @@ impl BoardAlarm {
         if self.line == 0 {
             return text;
         }
-        let source = program.line(self.line).unwrap_or("").trim();
+        let source = printable(program.line(self.line).unwrap_or("").trim());
         format!(
             "line {}: {text}
     {source}",
@@ -140,7 +154,26 @@ pub struct StreamReport {
     /// Link clock at the end, ms.
     pub elapsed_ms: u32,
     pub final_status: Option<Status>,
+    /// How the link to the board ended.
+    pub link: LinkEnd,
 }
+
+/// How the link ended for a stream.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkEnd {
+    /// The board stayed with the sender to the end of the job.
+    Kept,
+    /// The board said nothing for this long (ms): the sender gave up (the board, if alive, holds
+    /// the job by itself when the host is gone).
+    Silent(u32),
+    /// The board restarted during the job (its boot id changed): the job is gone.
+    BoardReset,
+}
+
+/// Board silence (ms) after which the sender warns (the board reports its status every 100 ms).
+pub const SILENT_WARN_MS: u32 = 2_000;
+/// Board silence (ms) after which the sender gives up on the job.
+pub const SILENT_GIVE_UP_MS: u32 = 10_000;
 
 /// What the progress callback wants next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -221,6 +254,7 @@ fn run_job<T: Transport>(
         jumps_served: 0,
         elapsed_ms: 0,
         final_status: None,
+        link: LinkEnd::Kept,
     };
     let mut progress = Progress {
         total_lines: program.len(),
@@ -228,9 +262,34 @@ fn run_job<T: Transport>(
     };
     let mut last_heard = client.transport.now_ms();
     let mut done = false;
+    let mut warned_silent = false;
     while !done {
         serve(client, program, &mut serving, &mut report)?;
         client.pump(1)?;
+        if client.take_board_reset() {
+            report.link = LinkEnd::BoardReset;
+            report.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);
+            report.last_line = progress.line;
+            return Ok(report);
+        }
+        let silent = client.silent_for_ms();
+        if silent >= SILENT_GIVE_UP_MS {
+            report.link = LinkEnd::Silent(silent);
+            report.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);
+            report.last_line = progress.line;
+            return Ok(report);
+        }
+        if silent >= SILENT_WARN_MS && !warned_silent {
+            warned_silent = true;
+            eprintln!(
+                "gantry: no word from the board for {:.1} s (expected a status every 0.1 s); giving up after {} s",
+                silent as f64 / 1000.0,
+                SILENT_GIVE_UP_MS / 1000
+            );
+        } else if silent < SILENT_WARN_MS && warned_silent {
+            warned_silent = false;
+            eprintln!("gantry: the board is back");
+        }
         let now = client.transport.now_ms();
         while let Some(msg) = client.recv() {
             if now.wrapping_sub(last_heard) > gantry_machine::board::link::HOST_TIMEOUT_MS {
@@ -244,10 +303,15 @@ fn run_job<T: Transport>(
                     progress.status = Some(s);
                 }
                 BoardMsg::Error { line, code, column } => {
-                    report.errors.push(BoardError { line, code, column })
+                    report.errors.push(BoardError { line, code, column });
+                    if line == 0 && code == gantry_machine::board::ERROR_HOMING_REQUIRED {
+                        // The board refused the start: no job runs, nothing more will come.
+                        done = true;
+                    }
                 }
                 BoardMsg::Alarm { code, line } => report.alarms.push(BoardAlarm { code, line }),
                 BoardMsg::Limit { axis, max } => report.limits.push((axis, max)),
+                BoardMsg::ProgramRequest { .. } if report.aborted => {}
                 BoardMsg::ProgramRequest { id, target } => {
                     report.jumps_served += 1;
                     match (program.resolve(target), &resume) {
@@ -295,7 +359,11 @@ fn run_job<T: Transport>(
             Flow::Resume => client.send(HostMsg::Resume)?,
             Flow::Abort => {
                 report.aborted = true;
-                client.send(HostMsg::Abort)?
+                client.send(HostMsg::Abort)?;
+                // Nothing more goes to an ending job: a line arriving while the abort
+                // decelerates would stay in the board's line buffer after the job ended.
+                serving.ended = true;
+                serving.preamble.clear();
             }
         }
     }
@@ -304,6 +372,12 @@ fn run_job<T: Transport>(
     report.completed = report.errors.is_empty() && report.alarms.is_empty() && !report.aborted;
     Ok(report)
 }
+
+/// Whether the sender stops the board after each M6 block for a manual tool change (an M0 under
+/// the M6 line). Set by the interactive `gantry stream` ([`run`]), which asks the operator and
+/// resumes; library callers (tests, `mdi`) stream the program as it is.
+static MANUAL_TOOL_CHANGE: std::sync::atomic::AtomicBool =
+    std::sync::atomic::AtomicBool::new(false);
 
 /// Sends lines of the current place while the link has credit.
 fn serve<T: Transport>(
@@ -346,35 +420,59 @@ fn serve<T: Transport>(
             Ok(None) => continue,
             Err(e) => bail!("{e}"),
         };
-        let line = Line::new(n, &text).expect("wire_text checked the length");
-        let msg = if serving.id == 0 {
-            HostMsg::Line(line)
-        } else {
-            HostMsg::ProgramLine {
-                id: serving.id,
-                line,
-            }
-        };
-        client.send(msg)?;
+        // A manual tool change: the board stops after the M6 block (an M0 under its line
+        // number) and the sender asks the operator to change the tool.
+        let tool_change_stop = MANUAL_TOOL_CHANGE.load(std::sync::atomic::Ordering::Relaxed)
+            && matches!(
+                crate::program_stops::stop_in(&text),
+                Some(crate::program_stops::Stop::ToolChange { .. })
+            );
+        let mut blocks = vec![text];
+        if tool_change_stop {
+            blocks.push("M0".to_owned());
+        }
+        for text in blocks {
+            let line = Line::new(n, &text).expect("wire_text checked the length");
+            let msg = if serving.id == 0 {
+                HostMsg::Line(line)
+            } else {
+                HostMsg::ProgramLine {
+                    id: serving.id,
+                    line,
+                }
+            };
+            client.send(msg)?;
+        }
         report.lines_sent += 1;
     }
     Ok(())
 }
 
-/// Asks for a status report and waits for it; messages still queued from before are dropped.
+/// Asks for a status report and waits for it (2 s of link time at most). Status reports already
+/// received predate the request and are dropped; every other message (errors, alarms, program
+/// requests, job ends) is kept for the next [`Client::recv`].
 pub fn fresh_status<T: Transport>(client: &mut Client<T>) -> anyhow::Result<Status> {
-    // Reports already received predate the request (and whatever was sent before it).
-    while client.recv().is_some() {}
-    client.send(HostMsg::StatusRequest)?;
-    for _ in 0..2000 {
-        client.pump(1)?;
-        while let Some(msg) = client.recv() {
-            if let BoardMsg::Status(s) = msg {
-                return Ok(s);
-            }
+    let mut kept = Vec::new();
+    while let Some(m) = client.recv() {
+        if !matches!(m, BoardMsg::Status(_)) {
+            kept.push(m);
         }
     }
-    bail!("the board sent no status within 2 s")
+    let result = (|| {
+        client.send(HostMsg::StatusRequest)?;
+        for _ in 0..2000 {
+            client.pump(1)?;
+            while let Some(msg) = client.recv() {
+                match msg {
+                    BoardMsg::Status(s) => return Ok(s),
+                    other => kept.push(other),
+                }
+            }
+        }
+        bail!("the board sent no status within 2 s (expected its answer to a status request)")
+    })();
+    client.put_back(kept);
+    result
 }
 
 /// `Idle`, `Run`, … as users read it.
@@ -433,17 +531,26 @@ pub fn run(
 ) -> anyhow::Result<std::process::ExitCode> {
     let program = Program::load(file)?;
     let text = std::fs::read_to_string(file)?;
+    MANUAL_TOOL_CHANGE.store(true, std::sync::atomic::Ordering::Relaxed);
     let wall = std::time::Instant::now();
-    let axes = setup.axis_count as usize;
+    let from_board = matches!(target, Target::Port(_));
     if matches!(target, Target::Emulated(_)) {
         println!(
             "gantry: no --port given: streaming {} to the emulated board",
             file.display()
         );
     }
-    let (mut client, _) = crate::commands::connect(target)?;
+    let (mut client, board_setup) =
+        crate::commands::connect_with(target, crate::link::OnClose::DropDtr)?;
+    // The machine is what the board says it is.
+    let setup = if from_board { board_setup } else { setup };
+    let axes = setup.axis_count as usize;
+    let eta = Eta::plan(&text, &setup);
     let report = match start {
-        Start::Beginning => stream_with_progress(&mut client, &program, Resume::No)?,
+        Start::Beginning => {
+            check_can_start(&mut client)?;
+            stream_with_progress(&mut client, &program, Resume::No, &eta)?
+        }
         Start::TakeOver => {
             let state = fresh_status(&mut client)?.state;
             if !matches!(state, MachineState::Run | MachineState::Hold { .. }) {
@@ -452,16 +559,17 @@ pub fn run(
                     state_name(state)
                 );
             }
-            stream_with_progress(&mut client, &program, Resume::TakeOver)?
+            stream_with_progress(&mut client, &program, Resume::TakeOver, &eta)?
         }
         Start::FromLine(n) => {
+            check_can_start(&mut client)?;
             let here = fresh_status(&mut client)?.machine_pos;
             let pre = crate::resume::resume_preamble(&program, &text, n, &setup, &here)?;
             println!("resuming at line {n} after {} preamble blocks:", pre.len());
             for b in &pre {
                 println!("    {b}");
             }
-            stream_with_progress(&mut client, &program, Resume::FromLine(n, pre))?
+            stream_with_progress(&mut client, &program, Resume::FromLine(n, pre), &eta)?
         }
     };
     print_report(&report, &program, file, axes, wall.elapsed());
@@ -488,7 +596,7 @@ fn exit_code(report: &StreamReport) -> std::process::ExitCode {
 }
 
 /// A flag set by Ctrl-C (installed once per process).
-fn ctrl_c_flag() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
+pub fn ctrl_c_flag() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::sync::{Arc, OnceLock};
     static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
@@ -503,30 +611,148 @@ fn ctrl_c_flag() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
     .clone()
 }
 
-/// After a Ctrl-C hold: asks whether to abort (without a terminal to ask, aborts).
-fn ask_after_hold(bar: Option<&indicatif::ProgressBar>) -> Flow {
-    use std::io::{BufRead, IsTerminal, Write};
-    let question = "feed hold: abort the job? [y/N] ";
-    let answer = if std::io::stdin().is_terminal() {
-        let mut line = String::new();
-        let mut read = || {
-            eprint!("{question}");
-            let _ = std::io::stderr().flush();
-            std::io::stdin().lock().read_line(&mut line)
-        };
-        let _ = match bar {
-            Some(b) => b.suspend(read),
-            None => read(),
-        };
-        line.trim().eq_ignore_ascii_case("y")
-    } else {
-        eprintln!("{question}no terminal to ask: aborting");
-        true
+/// What standard input has said, read on a thread so the link keeps being serviced (the board
+/// would otherwise count the host as gone) while the operator thinks.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Typed {
+    Line(String),
+    /// Standard input is closed (nobody to ask).
+    Closed,
+}
+
+/// The next line typed since the last call, if any.
+fn typed() -> Option<Typed> {
+    use std::io::BufRead;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::mpsc::{channel, Receiver};
+    use std::sync::{Mutex, OnceLock};
+    static LINES: OnceLock<Mutex<Receiver<String>>> = OnceLock::new();
+    static CLOSED: AtomicBool = AtomicBool::new(false);
+    let rx = LINES.get_or_init(|| {
+        let (tx, rx) = channel();
+        std::thread::spawn(move || loop {
+            let mut line = String::new();
+            match std::io::stdin().lock().read_line(&mut line) {
+                Ok(0) | Err(_) => {
+                    CLOSED.store(true, Ordering::SeqCst);
+                    break;
+                }
+                Ok(_) => {
+                    if tx.send(line).is_err() {
+                        break;
+                    }
+                }
+            }
+        });
+        Mutex::new(rx)
+    });
+    match rx.lock().expect("stdin lock").try_recv() {
+        Ok(l) => Some(Typed::Line(l)),
+        Err(_) if CLOSED.load(Ordering::SeqCst) => Some(Typed::Closed),
+        Err(_) => None,
+    }
+}
+
+/// Drops lines typed before a question was asked.
+fn forget_typed() {
+    while let Some(Typed::Line(_)) = typed() {}
+}
+
+/// Prints a question or message above the progress bar.
+fn say(bar: Option<&indicatif::ProgressBar>, text: &str, newline: bool) {
+    use std::io::Write;
+    let print = || {
+        if newline {
+            eprintln!("{text}");
+        } else {
+            eprint!("{text}");
+        }
+        let _ = std::io::stderr().flush();
     };
-    if answer {
-        Flow::Abort
-    } else {
-        Flow::Resume
+    match bar {
+        Some(b) => b.suspend(print),
+        None => print(),
+    }
+}
+
+/// What the operator is being asked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Asking {
+    Nothing,
+    /// After a Ctrl-C hold: "abort the job?"; `y` aborts, anything else resumes, a closed
+    /// standard input aborts.
+    AbortAfterHold,
+    /// At an M0/M1/M6 stop on this line: Enter resumes (so does cycle start on the machine).
+    Stop(u32),
+}
+
+/// The job's remaining machine time by line, from the planner (the same motion core as the
+/// board, so the exact time, dwells included); `None` when the program cannot be planned.
+pub struct Eta {
+    /// (line, seconds of motion of the moves up to and including that line), lines ascending.
+    done_by_line: Vec<(u32, f64)>,
+    total: f64,
+}
+
+impl Eta {
+    pub fn plan(text: &str, setup: &gantry_machine::setup::Setup) -> Option<Eta> {
+        let (moves, total) = crate::simulate::simulate(text.as_bytes(), setup).ok()?;
+        let mut by_line: std::collections::BTreeMap<u32, f64> = Default::default();
+        for m in &moves {
+            *by_line.entry(m.line).or_default() += m.time;
+        }
+        let mut acc = 0.0;
+        let done_by_line = by_line
+            .into_iter()
+            .map(|(l, t)| {
+                acc += t;
+                (l, acc)
+            })
+            .collect();
+        Some(Eta {
+            done_by_line,
+            total,
+        })
+    }
+
+    /// Machine seconds left when the board executes `line` (its moves counted as still to run).
+    pub fn left_at(&self, line: u32) -> f64 {
+        let i = self.done_by_line.partition_point(|&(l, _)| l < line);
+        let done = i.checked_sub(1).map_or(0.0, |j| self.done_by_line[j].1);
+        (self.total - done).max(0.0)
+    }
+
+    /// Total machine time of the program (seconds).
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+}
+
+/// Seconds as h:mm:ss.
+pub fn hms(seconds: f64) -> String {
+    let s = seconds.max(0.0).round() as u64;
+    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+}
+
+/// Refuses a start the board would refuse, with its reason: in alarm (with what clears it), or
+/// busy with another job, jog or homing cycle.
+pub fn check_can_start<T: Transport>(client: &mut Client<T>) -> anyhow::Result<()> {
+    let status = fresh_status(client)?;
+    match status.state {
+        MachineState::Idle => Ok(()),
+        MachineState::Alarm { code } => bail!(
+            "the board is in {}\n  clear it first: gantry unlock (gantry home when homing is required)",
+            alarm_text(code)
+        ),
+        MachineState::Run | MachineState::Hold { .. } => bail!(
+            "the board is running a job (state {}, line {}): take it over with `gantry stream FILE --continue`, or `gantry abort` it",
+            state_name(status.state),
+            status.line
+        ),
+        other => bail!(
+            "the board is busy ({}): wait until it is Idle",
+            state_name(other)
+        ),
     }
 }
 
@@ -542,6 +768,7 @@ fn stream_with_progress<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
     resume: Resume,
+    eta: &Option<Eta>,
 ) -> anyhow::Result<StreamReport> {
     use std::io::IsTerminal;
     let total = program.len().max(1) as u64;
@@ -555,36 +782,106 @@ fn stream_with_progress<T: Transport>(
     });
     let mut last_decile = 0;
     let interrupted = ctrl_c_flag();
-    let mut asking = false;
+    let mut asking = Asking::Nothing;
+    // A hold this sender asked for (Ctrl-C), as opposed to a program stop.
+    let mut hold_requested = false;
+    let mut last_stop_line = 0;
     let mut on_progress = |p: &Progress| {
-        if asking {
-            asking = false;
-            return ask_after_hold(bar.as_ref());
+        let ctrl_c = interrupted.swap(false, std::sync::atomic::Ordering::SeqCst);
+        let state = p.status.as_ref().map(|s| s.state);
+        match asking {
+            Asking::AbortAfterHold => {
+                // The link keeps running while the operator answers.
+                let flow = match (ctrl_c, typed()) {
+                    (true, _) => Some(Flow::Abort),
+                    (false, Some(Typed::Closed)) => {
+                        say(bar.as_ref(), "(no answer: standard input is closed)", true);
+                        Some(Flow::Abort)
+                    }
+                    (false, Some(Typed::Line(l))) if l.trim().eq_ignore_ascii_case("y") => {
+                        Some(Flow::Abort)
+                    }
+                    (false, Some(Typed::Line(_))) => Some(Flow::Resume),
+                    (false, None) => None,
+                };
+                if let Some(f) = flow {
+                    asking = Asking::Nothing;
+                    hold_requested = false;
+                    let text = if f == Flow::Abort {
+                        "aborting the job"
+                    } else {
+                        "resuming the job"
+                    };
+                    say(bar.as_ref(), text, true);
+                    return f;
+                }
+                return Flow::Continue;
+            }
+            Asking::Stop(_) if !matches!(state, Some(MachineState::Hold { .. })) => {
+                // Cycle start on the machine answered it.
+                asking = Asking::Nothing;
+            }
+            Asking::Stop(_) => {
+                if let Some(Typed::Line(_)) = typed() {
+                    asking = Asking::Nothing;
+                    return Flow::Resume;
+                }
+            }
+            Asking::Nothing => {}
         }
-        if interrupted.swap(false, std::sync::atomic::Ordering::SeqCst) {
+        if ctrl_c {
             // Ctrl-C: hold first (decelerate on the path), then ask what to do.
-            asking = true;
+            forget_typed();
+            say(
+                bar.as_ref(),
+                "feed hold: abort the job? [y/N] (Ctrl-C again aborts) ",
+                false,
+            );
+            asking = Asking::AbortAfterHold;
+            hold_requested = true;
             return Flow::Hold;
         }
-        let pct = p.line as u64 * 100 / total;
+        if asking == Asking::Nothing
+            && !hold_requested
+            && matches!(state, Some(MachineState::Hold { stopped: true }))
+            && p.line != last_stop_line
+        {
+            let stop = program
+                .wire_text(p.line)
+                .ok()
+                .flatten()
+                .and_then(|t| crate::program_stops::stop_in(&t));
+            if let Some(stop) = stop {
+                last_stop_line = p.line;
+                forget_typed();
+                say(
+                    bar.as_ref(),
+                    &crate::program_stops::message(stop, p.line),
+                    true,
+                );
+                asking = Asking::Stop(p.line);
+            }
+        }
+        let pct = (p.line as u64 * 100 / total).min(100);
         let machine_s = p.elapsed_ms as f64 / 1000.0;
-        let eta = if p.line > 0 {
-            machine_s * (total as f64 - p.line as f64) / p.line as f64
-        } else {
-            0.0
+        let left = match eta {
+            Some(e) => format!("ETA {}", hms(e.left_at(p.line.max(1)))),
+            None => "ETA -".to_owned(),
         };
-        let state = p.status.as_ref().map_or("-", |s| state_name(s.state));
+        let state = state.map_or("-", state_name);
         match &bar {
             Some(b) => {
-                b.set_position(p.line as u64);
-                b.set_message(format!("{state}  {machine_s:.1} s  ETA {eta:.0} s"));
+                b.set_position((p.line as u64).min(total));
+                b.set_message(format!("{state}  {}  {left}", hms(machine_s)));
             }
             None => {
                 if pct / 10 > last_decile {
                     last_decile = pct / 10;
                     println!(
-                        "progress: line {}/{} ({pct}%)  {state}  {machine_s:.1} s  ETA {eta:.0} s",
-                        p.line, total
+                        "progress: line {}/{} ({pct}%)  {state}  {}  {left}",
+                        p.line.min(total as u32),
+                        total,
+                        hms(machine_s)
                     );
                 }
             }
@@ -619,6 +916,32 @@ fn print_report(
     }
     for a in &report.alarms {
         println!("{}", a.describe(program));
+    }
+    match report.link {
+        LinkEnd::Kept => {}
+        LinkEnd::Silent(ms) => {
+            println!(
+                "board silent: no word from the board for {:.1} s (expected a status every 0.1 s): the sender gave up",
+                ms as f64 / 1000.0
+            );
+            println!("the board, if it is alive, holds the job by itself (host lost) and ends it after link.host_lost_stop_s");
+            println!(
+                "resume:   (when the board answers again) gantry stream {} --continue",
+                file.display()
+            );
+            return;
+        }
+        LinkEnd::BoardReset => {
+            println!(
+                "board reset: the board restarted during the job (power, reset button or watchdog): the job is gone, the spindle stopped"
+            );
+            println!(
+                "resume:   (after gantry home, or gantry unlock) gantry stream {} --from-line {}",
+                file.display(),
+                report.last_line.max(1)
+            );
+            return;
+        }
     }
     let verdict = if report.completed {
         "job done"
@@ -667,5 +990,32 @@ fn print_report(
         println!("machine:  {}", axes_line(&s.machine_pos, axes));
         println!("work:     {}", axes_line(&s.work_pos, axes));
         println!("state:    {}", state_name(s.state));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn program_text_never_reaches_the_terminal_with_control_characters() {
+        let program = Program::from_text("G1 X1 (\u{1b}[2J\u{7}cleared)\n");
+        let e = BoardError {
+            line: 1,
+            code: 900,
+            column: 0,
+        };
+        let text = e.describe(&program);
+        assert!(
+            !text.chars().any(|c| c.is_control() && c != '\n'),
+            "{text:?}"
+        );
+        assert!(text.ends_with("G1 X1 (\\u{1b}[2J\\u{7}cleared)"), "{text}");
+    }
+
+    #[test]
+    fn eta_is_hours_minutes_seconds() {
+        assert_eq!(hms(0.4), "0:00:00");
+        assert_eq!(hms(3725.6), "1:02:06");
     }
 }

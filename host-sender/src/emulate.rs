@@ -1,0 +1,209 @@
+//! `gantry emulate --pty PATH`: the emulated board (the firmware's core, `crate::emulator`) as a
+//! serial device. It runs in real time behind the master side of a pseudo-terminal whose slave
+//! side is linked at PATH, so `gantry … --port PATH` (or any program that opens serial ports)
+//! talks to it exactly as to the USB board. Its stored setup (the board's flash) is kept in the
+//! `--state` file. State changes, host connections and step counts are logged on stderr.
+//!
+//! The host closing the port is seen on the master side as a hang-up. A real USB port drops DTR
+//! on close unless the host cleared HUPCL (`crate::link::OnClose`); the pty's termios carries
+//! that flag, so the emulator passes a DTR drop to the board only when HUPCL was set, exactly
+//! as the firmware sees it (`firmware/src/control.rs`).
+
+use crate::emulator::EmulatedBoard;
+use crate::setup_file::{to_toml, SetupFile};
+use anyhow::Context;
+use gantry_machine::board::link::status_of;
+use gantry_machine::setup::Setup;
+use gantry_machine::units::AXIS_LETTERS;
+use gantry_proto::MachineState;
+use nix::poll::{poll, PollFd, PollFlags};
+use nix::sys::termios::{tcgetattr, ControlFlags};
+use serialport::SerialPort;
+use std::os::fd::{AsRawFd, RawFd};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The board's flash: the stored setup, or the defaults when the file does not exist yet.
+fn load_state(state: Option<&Path>, setup: Option<PathBuf>) -> anyhow::Result<Setup> {
+    if let Some(f) = setup {
+        let s = SetupFile::load(&f)?;
+        if let Some(st) = state {
+            save_state(st, &s)?;
+        }
+        return Ok(s);
+    }
+    match state {
+        Some(st) if st.exists() => SetupFile::load(st)
+            .with_context(|| format!("{}: the emulated board's stored setup", st.display())),
+        _ => Ok(Setup::default()),
+    }
+}
+
+fn save_state(state: &Path, setup: &Setup) -> anyhow::Result<()> {
+    let tmp = state.with_extension("tmp");
+    std::fs::write(&tmp, to_toml(setup))?;
+    std::fs::rename(&tmp, state).with_context(|| format!("cannot write {}", state.display()))
+}
+
+/// Links `at` to the pty `target`, replacing an earlier link (never a regular file).
+fn link_pty(at: &Path, target: &str) -> anyhow::Result<()> {
+    if let Ok(meta) = std::fs::symlink_metadata(at) {
+        anyhow::ensure!(
+            meta.file_type().is_symlink(),
+            "{}: exists and is not a link: choose another --pty path",
+            at.display()
+        );
+        std::fs::remove_file(at)?;
+    }
+    std::os::unix::fs::symlink(target, at)
+        .with_context(|| format!("cannot create the link {}", at.display()))
+}
+
+/// Steps and pulses per axis as one log field.
+fn axes_field(values: &[i64], axes: usize) -> String {
+    (0..axes)
+        .map(|i| format!("{} {}", AXIS_LETTERS[i], values[i]))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// What the log says about a state.
+fn state_text(s: MachineState) -> String {
+    match s {
+        MachineState::Hold { stopped } => {
+            format!("Hold ({})", if stopped { "at rest" } else { "stopping" })
+        }
+        MachineState::Alarm { code } => format!("Alarm {code}"),
+        other => crate::stream::state_name(other).to_owned(),
+    }
+}
+
+/// Whether the slave side (the host's port) is open, from the master's poll flags.
+fn host_side_open(fd: RawFd, wait_ms: i32) -> (bool, bool) {
+    let mut fds = [PollFd::new(fd, PollFlags::POLLIN)];
+    let _ = poll(&mut fds, wait_ms);
+    let ev = fds[0].revents().unwrap_or(PollFlags::empty());
+    (
+        !ev.contains(PollFlags::POLLHUP),
+        ev.contains(PollFlags::POLLIN),
+    )
+}
+
+/// Runs the board until SIGINT or SIGTERM.
+pub fn run(pty: &Path, setup: Option<PathBuf>, state: Option<PathBuf>) -> anyhow::Result<ExitCode> {
+    let setup = load_state(state.as_deref(), setup)?;
+    let (master, slave) = serialport::TTYPort::pair().context("cannot open a pseudo-terminal")?;
+    let name = slave
+        .name()
+        .ok_or_else(|| anyhow::anyhow!("the pseudo-terminal has no name"))?;
+    // The host opens the slave side itself; closing ours leaves the port "unplugged" until then.
+    drop(slave);
+    let fd = master.as_raw_fd();
+    nix::fcntl::fcntl(
+        fd,
+        nix::fcntl::FcntlArg::F_SETFL(nix::fcntl::OFlag::O_NONBLOCK),
+    )?;
+    link_pty(pty, &name)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    let s = stop.clone();
+    ctrlc::set_handler(move || s.store(true, Ordering::SeqCst))
+        .context("cannot install the SIGINT/SIGTERM handler")?;
+    let axes = setup.axis_count as usize;
+    let mut board = EmulatedBoard::new(setup);
+    // Every start of the process is a power-up with its own boot id (the firmware counts boots
+    // in flash), so a host sees a restarted board as one.
+    let boot_id = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos() ^ d.as_secs() as u32)
+        ^ std::process::id().rotate_left(16);
+    board.link = gantry_machine::board::link::BoardLink::new(boot_id);
+    eprintln!(
+        "emulate: board ready on {} ({name}), {axes} axes; stored setup: {}",
+        pty.display(),
+        state
+            .as_ref()
+            .map_or("none (defaults, forgotten at exit)".into(), |p| p
+                .display()
+                .to_string())
+    );
+    let start = Instant::now();
+    let mut host_open = false;
+    // HUPCL of the host's port as last seen: whether its close drops DTR.
+    let mut hupcl = true;
+    let mut last_state: Option<MachineState> = None;
+    let mut buf = [0u8; 4096];
+    let mut last_termios_check = 0u64;
+    while !stop.load(Ordering::SeqCst) {
+        let (open, readable) = host_side_open(fd, if host_open { 1 } else { 0 });
+        if !open {
+            // Nothing to wait on while no host has the port open.
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        if open != host_open {
+            host_open = open;
+            if open {
+                eprintln!("emulate: host opened the port");
+                board.set_dtr(true);
+            } else if hupcl {
+                eprintln!("emulate: host closed the port (DTR drop: a running job holds)");
+                board.set_dtr(false);
+            } else {
+                eprintln!("emulate: host closed the port (DTR kept)");
+            }
+        }
+        if open {
+            let wall_ms = start.elapsed().as_millis() as u64;
+            if wall_ms >= last_termios_check + 5 {
+                last_termios_check = wall_ms;
+                // The master reads the slave's termios (one shared set for the pair).
+                if let Ok(t) = tcgetattr(fd) {
+                    hupcl = t.control_flags.contains(ControlFlags::HUPCL);
+                }
+            }
+        }
+        if readable {
+            if let Ok(n) = nix::unistd::read(fd, &mut buf) {
+                board.receive(&buf[..n]);
+            }
+        }
+        // Virtual time follows the wall clock (at most 50 ms at once, after a stop).
+        let behind = (start.elapsed().as_millis() as u64).saturating_sub(board.now_ms() as u64);
+        if behind > 0 {
+            board.run_ms(behind.min(50));
+        }
+        let out = board.take_output();
+        if open && !out.is_empty() {
+            // A full pty buffer (a host that does not read) loses bytes, as a USB port would;
+            // the protocol retransmits.
+            let _ = nix::unistd::write(fd, &out);
+        }
+        if board.link.take_setup_changed() {
+            if let Some(st) = &state {
+                save_state(st, board.board.setup())?;
+                eprintln!("emulate: setup saved to {}", st.display());
+            }
+        }
+        let status = status_of(&board.board, &board.kernel_view());
+        if last_state != Some(status.state) {
+            last_state = Some(status.state);
+            let pulses: Vec<i64> = board.pulses.iter().map(|&p| p as i64).collect();
+            eprintln!(
+                "emulate: {:.3} s {} line {} steps {} pulses {}",
+                board.seconds(),
+                state_text(status.state),
+                status.line,
+                axes_field(&board.kernel.position(), axes),
+                axes_field(&pulses, axes)
+            );
+        }
+    }
+    // Remove the link only when it is still ours.
+    if std::fs::read_link(pty).is_ok_and(|t| t == Path::new(&name)) {
+        let _ = std::fs::remove_file(pty);
+    }
+    eprintln!("emulate: stopped");
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,92 @@
+//! Where a program stops for the operator: M0 / M1 (program stop, optional stop) and M6 (a
+//! manual tool change), read from the text the sender sends (`Program::wire_text`: comments and
+//! blanks removed).
+
+/// A stop the sender announces and waits out with the operator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// M0 (`optional` false) or M1.
+    Program { optional: bool },
+    /// M6 with the tool named in the block (T word), if any.
+    ToolChange { tool: Option<u32> },
+}
+
+/// The words of a block: (letter, number text), e.g. `G1X-2.5` → (G, "1"), (X, "-2.5").
+fn words(text: &str) -> impl Iterator<Item = (char, &str)> {
+    let b = text.as_bytes();
+    let mut i = 0;
+    std::iter::from_fn(move || {
+        while i < b.len() {
+            let c = b[i] as char;
+            i += 1;
+            if c.is_ascii_alphabetic() {
+                let start = i;
+                while i < b.len() && (b[i].is_ascii_digit() || b"+-.".contains(&b[i])) {
+                    i += 1;
+                }
+                return Some((c.to_ascii_uppercase(), &text[start..i]));
+            }
+        }
+        None
+    })
+}
+
+/// The whole-number value of a word (`06` → 6); `None` for `6.1` or no number.
+fn whole(v: &str) -> Option<u32> {
+    v.parse().ok()
+}
+
+/// The operator stop in a block, if any (M6 first: a tool change block may also stop).
+pub fn stop_in(text: &str) -> Option<Stop> {
+    let mut stop = None;
+    let mut tool = None;
+    for (letter, value) in words(text) {
+        match (letter, whole(value)) {
+            ('M', Some(6)) => stop = Some(Stop::ToolChange { tool: None }),
+            ('M', Some(0)) if stop.is_none() => stop = Some(Stop::Program { optional: false }),
+            ('M', Some(1)) if stop.is_none() => stop = Some(Stop::Program { optional: true }),
+            ('T', Some(t)) => tool = Some(t),
+            _ => {}
+        }
+    }
+    match stop {
+        Some(Stop::ToolChange { .. }) => Some(Stop::ToolChange { tool }),
+        s => s,
+    }
+}
+
+/// What the sender tells the operator at a stop.
+pub fn message(stop: Stop, line: u32) -> String {
+    match stop {
+        Stop::Program { optional } => format!(
+            "line {line}: program stop ({}): press Enter (or cycle start) to continue",
+            if optional { "M1" } else { "M0" }
+        ),
+        Stop::ToolChange { tool } => format!(
+            "line {line}: tool change: put {} in the spindle, then press Enter (or cycle start) to continue",
+            tool.map_or("the next tool".to_owned(), |t| format!("tool {t}"))
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stops_are_found_by_their_words() {
+        assert_eq!(stop_in("G0X1M0"), Some(Stop::Program { optional: false }));
+        assert_eq!(stop_in("m01"), Some(Stop::Program { optional: true }));
+        assert_eq!(stop_in("T2M6"), Some(Stop::ToolChange { tool: Some(2) }));
+        assert_eq!(stop_in("M06T12"), Some(Stop::ToolChange { tool: Some(12) }));
+        assert_eq!(stop_in("M6"), Some(Stop::ToolChange { tool: None }));
+        assert_eq!(stop_in("G1X10M3S1000"), None);
+        assert_eq!(stop_in("M30"), None);
+        assert_eq!(stop_in("M60"), None);
+        assert_eq!(stop_in("G10L2P1X0"), None);
+        assert_eq!(
+            message(Stop::ToolChange { tool: Some(3) }, 12),
+            "line 12: tool change: put tool 3 in the spindle, then press Enter (or cycle start) to continue"
+        );
+    }
+}

@@ -1,0 +1,419 @@
+//! `gantry` run as users run it: the emulated board as its own process behind a pseudo-terminal
+//! (`gantry emulate --pty`), each command a separate `gantry` process with `--port`.
+
+mod serial_support;
+
+use nix::sys::signal::Signal;
+use serial_support::*;
+use std::time::Duration;
+
+const S: Duration = Duration::from_secs(1);
+
+/// `gantry status --port P`'s first line (`state:     Idle`) and the whole text.
+fn status(port: &str) -> (String, String) {
+    let out = gantry(&["status", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    let first = out.stdout.lines().next().unwrap_or("").to_owned();
+    (first, out.stdout)
+}
+
+#[test]
+fn zero_nan_and_sub_nanometre_jogs_are_refused_and_nothing_moves() {
+    let dir = Dir::new("jog-refused");
+    let emu = Emulator::start(&dir, None);
+    let port = emu.port();
+    for (distance, says) in [
+        ("0", "must be at least 0.000001 mm"),
+        ("nan", "not a number"),
+        ("inf", "not a number"),
+        ("-0.0000001", "must be at least 0.000001 mm"),
+    ] {
+        let out = gantry(&["jog", "X", distance, "--port", port], 10 * S);
+        assert_eq!(out.code, Some(2), "jog X {distance}: {out:?}");
+        assert!(
+            out.stderr.contains(says),
+            "jog X {distance}: {}",
+            out.stderr
+        );
+    }
+    let out = gantry(
+        &["jog", "X", "5", "--feed", "0.0001", "--port", port],
+        10 * S,
+    );
+    assert_eq!(out.code, Some(2), "{out:?}");
+    assert!(out.stderr.contains("below 0.001 mm/min"), "{}", out.stderr);
+    // Beyond the travel (X is -300..300 mm): the board's error 900, exit 1.
+    let out = gantry(&["jog", "X", "400", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(1), "{out:?}");
+    assert!(
+        out.stdout
+            .contains("jog refused: error 900: move exceeds the machine travel"),
+        "{}",
+        out.stdout
+    );
+    let (state, text) = status(port);
+    assert_eq!(state, "state:     Idle");
+    assert!(
+        text.contains("machine:   X 0.000  Y 0.000  Z 0.000"),
+        "{text}"
+    );
+    assert_eq!(emu.last_counts().1, "X 0 Y 0 Z 0", "no step pulse at all");
+    // A real jog still works: 2.5 mm = 1600 steps.
+    let out = gantry(&["jog", "X", "2.5", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.contains("machine:   X 2.500"), "{}", out.stdout);
+    assert!(emu.wait_log(2 * S, |l| l.contains("Idle line 0 steps X 1600 Y 0 Z 0")));
+}
+
+#[test]
+fn in_alarm_11_mdi_stream_and_jog_print_the_alarm_and_exit_non_zero() {
+    let dir = Dir::new("alarm-11");
+    let setup = dir.file(
+        "setup.toml",
+        "[homing]\nrequired = true\n[homing.axis.X]\npriority = 1\n",
+    );
+    let emu = Emulator::start(&dir, Some(&setup));
+    let port = emu.port();
+    let (state, _) = status(port);
+    assert_eq!(state, "state:     Alarm");
+    let out = gantry(&["mdi", "G0 X1", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(2), "{out:?}");
+    assert!(out.stderr.contains("alarm 11"), "{}", out.stderr);
+    assert!(out.stderr.contains("gantry home"), "{}", out.stderr);
+    let job = dir.file("job.nc", "G0 X1\nM30\n");
+    let out = gantry(&["stream", job.to_str().unwrap(), "--port", port], 10 * S);
+    assert_eq!(out.code, Some(2), "{out:?}");
+    assert!(out.stderr.contains("alarm 11"), "{}", out.stderr);
+    let out = gantry(&["jog", "X", "1", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(1), "{out:?}");
+    assert!(
+        out.stdout.contains("jog refused: the board is in alarm 11"),
+        "{}",
+        out.stdout
+    );
+    // --port after the subcommand or before it, or from GANTRY_PORT: the same board.
+    let out = gantry(&["--port", port, "status"], 10 * S);
+    assert!(out.stdout.starts_with("state:     Alarm"), "{out:?}");
+    assert_eq!(emu.last_counts().1, "X 0 Y 0 Z 0", "no step pulse at all");
+}
+
+#[test]
+fn machine_commands_without_a_port_refuse_the_fresh_emulated_board() {
+    for args in [
+        &["hold"][..],
+        &["resume"],
+        &["abort"],
+        &["override", "--feed", "50"],
+        &["jog", "X", "1"],
+        &["mdi", "G0 X1"],
+        &["unlock"],
+    ] {
+        let out = gantry(args, 10 * S);
+        assert_eq!(out.code, Some(2), "{args:?}: {out:?}");
+        assert!(
+            out.stderr.contains("--emulated"),
+            "{args:?}: {}",
+            out.stderr
+        );
+    }
+    let out = gantry(&["jog", "X", "1", "--emulated"], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+}
+
+/// Runs `job` to its end on a fresh board and returns the board's final (steps, pulses).
+fn uninterrupted(dir: &Dir, setup: &std::path::Path, job: &str) -> (String, String) {
+    let emu = Emulator::start(dir, Some(setup));
+    let out = gantry(&["stream", job, "--port", emu.port()], 30 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(emu.wait_log(5 * S, |l| l.contains("Idle line 402")));
+    emu.last_counts()
+}
+
+#[test]
+fn a_sender_killed_mid_job_is_continued_and_the_job_ends_like_an_uninterrupted_run() {
+    let dir = Dir::new("continue");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let job = dir.file("job.nc", &zigzag(400));
+    let job = job.to_str().unwrap();
+    let reference = uninterrupted(&dir, &setup, job);
+    assert_eq!(
+        reference.1, "X 38400 Y 5120 Z 0",
+        "400 × 0.15 mm and 400 × 0.02 mm"
+    );
+
+    let dir2 = Dir::new("continue-2");
+    let emu = Emulator::start(&dir2, Some(&setup));
+    let port = emu.port();
+    let sender = spawn(&["stream", job, "--port", port]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    std::thread::sleep(Duration::from_millis(500));
+    sender.signal(Signal::SIGKILL);
+    drop(sender);
+    // The port closed with DTR dropped: the board holds on its path.
+    assert!(emu.wait_log(5 * S, |l| l.contains("DTR drop")));
+    assert!(emu.wait_log(5 * S, |l| l.contains("Hold (at rest)")));
+    let out = gantry(&["stream", job, "--continue", "--port", port], 30 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(
+        out.stdout.contains("job done: last line 402 of 402"),
+        "{}",
+        out.stdout
+    );
+    // The lines the killed sender never sent came through the board's program request.
+    assert!(
+        out.stdout.contains("1 subprogram jumps served"),
+        "{}",
+        out.stdout
+    );
+    assert!(!out.stdout.contains(", 0 lines sent"), "{}", out.stdout);
+    assert!(emu.wait_log(5 * S, |l| l.contains("Idle line 402")));
+    assert_eq!(emu.last_counts(), reference);
+}
+
+#[test]
+fn ctrl_c_asks_while_the_link_runs_then_resumes_or_aborts() {
+    let dir = Dir::new("ctrl-c");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let job = dir.file("job.nc", &zigzag(400));
+    let job = job.to_str().unwrap();
+    let emu = Emulator::start(&dir, Some(&setup));
+    let port = emu.port();
+
+    // Ctrl-C, wait past host_lost_stop_s (1 s), answer "n": the job resumes and completes.
+    let mut sender = spawn(&["stream", job, "--port", port]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    std::thread::sleep(Duration::from_millis(300));
+    sender.signal(Signal::SIGINT);
+    assert!(wait_for(5 * S, || sender
+        .stderr()
+        .contains("abort the job? [y/N]")));
+    assert!(emu.wait_log(5 * S, |l| l.contains("Hold (at rest)")));
+    std::thread::sleep(Duration::from_millis(2000));
+    // The sender kept the link alive while asking: no alarm 20, no DTR drop.
+    assert!(!emu.log().contains("Alarm"), "{}", emu.log());
+    assert_eq!(status_via_log(&emu), "Hold (at rest)");
+    sender.answer("n");
+    let out = sender.wait(30 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(
+        out.stdout.contains("job done: last line 402 of 402"),
+        "{}",
+        out.stdout
+    );
+    assert!(!emu.log().contains("Alarm"), "{}", emu.log());
+
+    // Ctrl-C, answer "y": the job aborts on its path and ends at rest.
+    let mut sender = spawn(&["stream", job, "--port", port]);
+    std::thread::sleep(Duration::from_millis(800));
+    sender.signal(Signal::SIGINT);
+    assert!(wait_for(5 * S, || sender
+        .stderr()
+        .contains("abort the job?")));
+    sender.answer("y");
+    let out = sender.wait(30 * S);
+    assert_eq!(out.code, Some(1), "{out:?}");
+    assert!(out.stdout.contains("job aborted"), "{}", out.stdout);
+    assert!(out.stdout.contains("state:    Idle"), "{}", out.stdout);
+}
+
+/// Fails until the core stops taking lines while an abort decelerates: the lines already in the
+/// board's link queue when the abort came go into the line buffer after `stop_job` cleared it
+/// (state still Run), and stay there when the job ends, so the next queued message (a new job's
+/// Start, a setup request) waits behind them for ever. The fix is in `machine/src/board/mod.rs`
+/// (refuse `push_line` while aborting, or clear the source when the job ends), outside this
+/// branch.
+#[test]
+#[ignore = "needs the core fix: lines that arrive during an abort stay in the board's line buffer"]
+fn after_a_stream_is_aborted_the_board_takes_the_next_job_at_once() {
+    let dir = Dir::new("abort-next");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let job = dir.file("job.nc", &zigzag(400));
+    let emu = Emulator::start(&dir, Some(&setup));
+    let port = emu.port();
+    let mut sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    std::thread::sleep(Duration::from_millis(300));
+    sender.signal(Signal::SIGINT);
+    assert!(wait_for(5 * S, || sender
+        .stderr()
+        .contains("abort the job?")));
+    sender.answer("y");
+    let out = sender.wait(30 * S);
+    assert!(out.stdout.contains("job aborted"), "{}", out.stdout);
+    let out = gantry(&["mdi", "G90 G0 X1 Y1", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(
+        out.stdout.contains("machine:   X 1.000  Y 1.000"),
+        "{}",
+        out.stdout
+    );
+}
+
+/// The emulator's last logged state.
+fn status_via_log(emu: &Emulator) -> String {
+    let log = emu.log();
+    let line = log.lines().rev().find(|l| l.contains(" pulses ")).unwrap();
+    let rest = line.split(" s ").nth(1).unwrap();
+    rest.split(" line ").next().unwrap().to_owned()
+}
+
+#[test]
+fn resume_hold_and_abort_from_separate_processes_end_as_documented() {
+    let dir = Dir::new("hold-resume");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let job = dir.file("job.nc", &zigzag(400));
+    let emu = Emulator::start(&dir, Some(&setup));
+    let port = emu.port();
+    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    std::thread::sleep(Duration::from_millis(300));
+    sender.signal(Signal::SIGKILL);
+    drop(sender);
+    assert!(emu.wait_log(5 * S, |l| l.contains("Hold (at rest)")));
+    // `resume` waits for the board to run again and closes the port keeping DTR: the board does
+    // not take its exit for a hold.
+    let out = gantry(&["resume", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.starts_with("state:     Run"), "{}", out.stdout);
+    assert!(emu.wait_log(2 * S, |l| l.contains("host closed the port (DTR kept)")));
+    let (state, _) = status(port);
+    assert_eq!(state, "state:     Run", "{}", emu.log());
+    // `hold` returns once the machine is at rest.
+    let out = gantry(&["hold", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.starts_with("state:     Hold"), "{}", out.stdout);
+    // `abort` returns once the job has ended.
+    let out = gantry(&["abort", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.starts_with("state:     Idle"), "{}", out.stdout);
+    let out = gantry(&["mdi", "G90 G0 X0 Y0", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+}
+
+#[test]
+fn a_board_restarted_mid_job_stops_the_sender_with_the_resume_command() {
+    let dir = Dir::new("board-reset");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let job = dir.file("job.nc", &zigzag(400));
+    let mut emu = Emulator::start(&dir, Some(&setup));
+    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    std::thread::sleep(Duration::from_millis(500));
+    emu.kill();
+    std::thread::sleep(Duration::from_millis(300));
+    let _emu = Emulator::start(&dir, None);
+    let out = sender.wait(15 * S);
+    assert_eq!(out.code, Some(1), "{out:?}");
+    assert!(
+        out.stdout
+            .contains("board reset: the board restarted during the job"),
+        "{}",
+        out.stdout
+    );
+    assert!(out.stdout.contains("--from-line"), "{}", out.stdout);
+}
+
+#[test]
+fn a_silent_board_is_reported_and_the_sender_exits_within_its_bound() {
+    let dir = Dir::new("silent");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let job = dir.file("job.nc", &zigzag(400));
+    let emu = Emulator::start(&dir, Some(&setup));
+    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    std::thread::sleep(Duration::from_millis(300));
+    nix::sys::signal::kill(emu.pid(), Signal::SIGSTOP).unwrap();
+    let stopped = std::time::Instant::now();
+    let out = sender.wait(20 * S);
+    let after = stopped.elapsed();
+    assert_eq!(out.code, Some(1), "{out:?}");
+    assert!(
+        out.stderr.contains("no word from the board for 2.0 s"),
+        "{}",
+        out.stderr
+    );
+    assert!(out.stdout.contains("board silent"), "{}", out.stdout);
+    assert!(out.stdout.contains("--continue"), "{}", out.stdout);
+    assert!(
+        after >= Duration::from_secs(9) && after < Duration::from_secs(13),
+        "{after:?}"
+    );
+}
+
+#[test]
+fn under_gantry_serve_status_hold_resume_and_override_from_other_processes_act_during_a_job() {
+    let dir = Dir::new("serve");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let job = dir.file("job.nc", &zigzag(400));
+    let emu = Emulator::start(&dir, Some(&setup));
+    let port = emu.port();
+    let server = spawn(&["serve", "--port", port]);
+    assert!(wait_for(10 * S, || server
+        .stderr()
+        .contains("is served on")));
+    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    let (state, _) = status(port);
+    assert_eq!(state, "state:     Run");
+    let out = gantry(&["hold", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.starts_with("state:     Hold"), "{}", out.stdout);
+    assert!(emu.wait_log(2 * S, |l| l.contains("Hold (at rest)")));
+    let out = gantry(&["resume", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.starts_with("state:     Run"), "{}", out.stdout);
+    let out = gantry(&["override", "--feed", "50", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.contains("override feed 50 %"), "{}", out.stdout);
+    let out = sender.wait(30 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(
+        out.stdout.contains("job done: last line 402 of 402"),
+        "{}",
+        out.stdout
+    );
+    assert!(emu.wait_log(5 * S, |l| l.contains("Idle line 402")));
+    assert_eq!(emu.last_counts().1, "X 38400 Y 5120 Z 0");
+}
+
+#[test]
+fn m6_and_m0_stop_with_a_message_and_enter_continues() {
+    let dir = Dir::new("m6-m0");
+    let emu = Emulator::start(&dir, None);
+    let port = emu.port();
+    let job = dir.file(
+        "job.nc",
+        "G21 G90\nG1 X2 F3000\nT3 M6 (tool 3)\nG1 X4\nM0\nG1 X6\nM30\n",
+    );
+    let mut sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
+    assert!(wait_for(10 * S, || sender
+        .stderr()
+        .contains("line 3: tool change: put tool 3 in the spindle")));
+    // The board waits at the tool change (X 2 mm = 1280 steps) until told to go on.
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(
+        emu.log().contains("Hold (at rest) line 3 steps X 1280"),
+        "{}",
+        emu.log()
+    );
+    assert!(!emu.log().contains("Run line 4"), "{}", emu.log());
+    sender.answer("");
+    assert!(wait_for(10 * S, || sender
+        .stderr()
+        .contains("line 5: program stop (M0): press Enter")));
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(
+        emu.log().contains("Hold (at rest) line 5 steps X 2560"),
+        "{}",
+        emu.log()
+    );
+    sender.answer("");
+    let out = sender.wait(20 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(
+        out.stdout.contains("job done: last line 7 of 7"),
+        "{}",
+        out.stdout
+    );
+    assert!(emu.wait_log(2 * S, |l| l.contains("Idle line 7 steps X 3840")));
+}

@@ -1,0 +1,277 @@
+//! Running `gantry` as users do: the emulated board as its own process behind a pty
+//! (`gantry emulate --pty`), and `gantry` commands as separate processes talking to it. Every wait
+//! is bounded, so a failing test ends instead of hanging.
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// The `gantry` binary (built from host-sender's main.rs, see tests/Cargo.toml).
+pub const GANTRY: &str = env!("CARGO_BIN_EXE_gantry-under-test");
+
+/// A fresh directory for one test, removed at the end.
+pub struct Dir(pub PathBuf);
+
+impl Dir {
+    pub fn new(name: &str) -> Dir {
+        let d = std::env::temp_dir().join(format!("gantry-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        Dir(d)
+    }
+
+    /// Writes `text` to `name` in the directory and returns its path.
+    pub fn file(&self, name: &str, text: &str) -> PathBuf {
+        let p = self.0.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+}
+
+impl Drop for Dir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Collects a pipe's text on a thread.
+fn collect(mut r: impl Read + Send + 'static) -> Arc<Mutex<String>> {
+    let text = Arc::new(Mutex::new(String::new()));
+    let t = text.clone();
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 4096];
+        while let Ok(n) = r.read(&mut buf) {
+            if n == 0 {
+                break;
+            }
+            t.lock()
+                .unwrap()
+                .push_str(&String::from_utf8_lossy(&buf[..n]));
+        }
+    });
+    text
+}
+
+/// Polls `done` every 20 ms for at most `limit`.
+pub fn wait_for(limit: Duration, mut done: impl FnMut() -> bool) -> bool {
+    let start = Instant::now();
+    while start.elapsed() < limit {
+        if done() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    done()
+}
+
+/// A `gantry emulate --pty` process (killed at the end of the test).
+pub struct Emulator {
+    child: Child,
+    log: Arc<Mutex<String>>,
+    pub pty: PathBuf,
+}
+
+impl Emulator {
+    /// Starts the emulated board at `dir/board`, its flash in `dir/state.toml`, with `setup`
+    /// stored first when given; waits (≤ 10 s) until it is ready.
+    pub fn start(dir: &Dir, setup: Option<&Path>) -> Emulator {
+        let pty = dir.0.join("board");
+        let mut cmd = Command::new(GANTRY);
+        cmd.arg("emulate")
+            .arg("--pty")
+            .arg(&pty)
+            .arg("--state")
+            .arg(dir.0.join("state.toml"));
+        if let Some(s) = setup {
+            cmd.arg("--setup").arg(s);
+        }
+        let mut child = cmd
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let log = Arc::new(Mutex::new(String::new()));
+        let l = log.clone();
+        let err = child.stderr.take().unwrap();
+        std::thread::spawn(move || {
+            for line in BufReader::new(err).lines().map_while(Result::ok) {
+                let mut l = l.lock().unwrap();
+                l.push_str(&line);
+                l.push('\n');
+            }
+        });
+        let e = Emulator { child, log, pty };
+        assert!(
+            e.wait_log(Duration::from_secs(10), |l| l.contains("board ready")),
+            "the emulator did not start: {}",
+            e.log()
+        );
+        e
+    }
+
+    pub fn pid(&self) -> nix::unistd::Pid {
+        nix::unistd::Pid::from_raw(self.child.id() as i32)
+    }
+
+    pub fn log(&self) -> String {
+        self.log.lock().unwrap().clone()
+    }
+
+    /// Waits (bounded) until the log satisfies `pred`.
+    pub fn wait_log(&self, limit: Duration, pred: impl Fn(&str) -> bool) -> bool {
+        wait_for(limit, || pred(&self.log()))
+    }
+
+    /// The port path as a string for `--port`.
+    pub fn port(&self) -> &str {
+        self.pty.to_str().unwrap()
+    }
+
+    /// `(steps, pulses)` per axis from the last state-change line of the log.
+    pub fn last_counts(&self) -> (String, String) {
+        let log = self.log();
+        let line = log
+            .lines()
+            .rev()
+            .find(|l| l.contains(" pulses "))
+            .expect("a state line")
+            .to_owned();
+        let steps = line.split(" steps ").nth(1).unwrap();
+        let (steps, pulses) = steps.split_once(" pulses ").unwrap();
+        (steps.to_owned(), pulses.to_owned())
+    }
+
+    /// Kills the process at once (a power cut).
+    pub fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Emulator {
+    fn drop(&mut self) {
+        let _ = nix::sys::signal::kill(self.pid(), nix::sys::signal::Signal::SIGCONT);
+        self.kill();
+    }
+}
+
+/// A finished `gantry` run.
+#[derive(Debug)]
+pub struct Out {
+    /// Exit code (`None`: killed by a signal).
+    pub code: Option<i32>,
+    pub stdout: String,
+    pub stderr: String,
+    pub took: Duration,
+}
+
+/// A running `gantry` process.
+pub struct Running {
+    child: Child,
+    pub stdin: Option<ChildStdin>,
+    stdout: Arc<Mutex<String>>,
+    stderr: Arc<Mutex<String>>,
+    started: Instant,
+}
+
+impl Running {
+    pub fn pid(&self) -> nix::unistd::Pid {
+        nix::unistd::Pid::from_raw(self.child.id() as i32)
+    }
+
+    pub fn stdout(&self) -> String {
+        self.stdout.lock().unwrap().clone()
+    }
+
+    pub fn stderr(&self) -> String {
+        self.stderr.lock().unwrap().clone()
+    }
+
+    pub fn signal(&self, sig: nix::sys::signal::Signal) {
+        nix::sys::signal::kill(self.pid(), sig).unwrap();
+    }
+
+    /// Writes a line to its standard input.
+    pub fn answer(&mut self, line: &str) {
+        let s = self.stdin.as_mut().expect("stdin piped");
+        writeln!(s, "{line}").unwrap();
+        s.flush().unwrap();
+    }
+
+    /// Waits for the exit (killing it and failing after `limit`).
+    pub fn wait(mut self, limit: Duration) -> Out {
+        let exited = wait_for(limit, || self.child.try_wait().unwrap().is_some());
+        if !exited {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+            panic!(
+                "gantry did not exit within {limit:?}\nstdout:\n{}\nstderr:\n{}",
+                self.stdout(),
+                self.stderr()
+            );
+        }
+        let status = self.child.wait().unwrap();
+        // Let the reader threads take the last bytes.
+        std::thread::sleep(Duration::from_millis(50));
+        Out {
+            code: status.code(),
+            stdout: self.stdout(),
+            stderr: self.stderr(),
+            took: self.started.elapsed(),
+        }
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Starts `gantry ARGS` with standard input piped (for answers) and its output collected.
+pub fn spawn(args: &[&str]) -> Running {
+    let mut child = Command::new(GANTRY)
+        .args(args)
+        .env_remove("GANTRY_PORT")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = collect(child.stdout.take().unwrap());
+    let stderr = collect(child.stderr.take().unwrap());
+    Running {
+        stdin: child.stdin.take(),
+        child,
+        stdout,
+        stderr,
+        started: Instant::now(),
+    }
+}
+
+/// Runs `gantry ARGS` to its end (at most `limit`), standard input closed.
+pub fn gantry(args: &[&str], limit: Duration) -> Out {
+    let mut r = spawn(args);
+    drop(r.stdin.take());
+    r.wait(limit)
+}
+
+/// A setup for short real-time jobs: fast X and Y, and the host-loss stop after 1 s.
+pub const FAST_SETUP: &str = "[axis.X]\nmax_rate = 6000.0\naccel = 5000.0\n[axis.Y]\nmax_rate = 6000.0\naccel = 5000.0\n[link]\nhost_lost_stop_s = 1\n";
+
+/// A zigzag of `n` short moves (more lines than the board buffers, a few seconds long with
+/// [`FAST_SETUP`]), ending with M30.
+pub fn zigzag(n: usize) -> String {
+    let mut s = String::from("G21 G91 G64\n");
+    for i in 0..n {
+        let x = if i % 2 == 0 { "0.15" } else { "-0.15" };
+        s.push_str(&format!("G1 X{x} Y0.02 F6000\n"));
+    }
+    s.push_str("G90 M30\n");
+    s
+}
