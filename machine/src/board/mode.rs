@@ -8,10 +8,12 @@
 //! hold, a cycle start or another abort leaves it as it is, and it ends at rest with the
 //! program-stop sequence or its alarm.
 
+use crate::controller::homing::Homing;
+use crate::controller::lists::ListRunner;
 use crate::controller::{AlarmCode, State};
 
 /// The board's mode.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub(super) enum Mode {
     /// Nothing running.
     Idle,
@@ -19,8 +21,8 @@ pub(super) enum Mode {
     Job(Job),
     /// Motion refused until the alarm is cleared.
     Alarm(AlarmCode),
-    /// A homing cycle (its axis and phase in `Board::homing`).
-    Homing(HomingRun),
+    /// A homing cycle: where it stands is in `phase`, nowhere else.
+    Homing { phase: HomingPhase },
     /// Jogging (the moves themselves in `Board::jog`).
     Jog(Jogging),
 }
@@ -40,7 +42,7 @@ impl Mode {
             }) => State::Hold,
             Mode::Job(_) => State::Run,
             Mode::Alarm(_) => State::Alarm,
-            Mode::Homing(_) => State::Homing,
+            Mode::Homing { .. } => State::Homing,
             Mode::Jog(_) => State::Jog,
         }
     }
@@ -57,11 +59,20 @@ pub(super) enum Jogging {
 }
 
 /// A homing cycle, running or aborted.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum HomingRun {
-    Cycle,
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(super) enum HomingPhase {
+    /// Lists, seek, retract and set home, axis by axis (`board/homing_cycle.rs`).
+    Cycle(HomingCycle),
     /// Aborted: the seek decelerates; alarm 6 at rest.
     Aborting,
+}
+
+/// A running homing cycle: the axis and its step ([`Homing`]) and the command list of that step
+/// while one runs (before seek, before retract, after retract).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(super) struct HomingCycle {
+    pub homing: Homing,
+    pub list: Option<ListRunner>,
 }
 
 /// A job: what kind and where it stands.
