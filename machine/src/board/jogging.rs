@@ -14,8 +14,8 @@ impl Board {
     /// (0) toward the soft limit until [`Board::jog_stop`]. From idle, or after the previous jog
     /// has stopped; false when refused (an increment beyond the soft limits reports error 900).
     pub fn jog(&mut self, axis: u8, velocity_um_min: i32, distance_nm: u64) -> bool {
-        let free = self.mode == Mode::Idle
-            || (self.mode == Mode::Jog(Jogging::Moves)
+        let free = matches!(self.mode, Mode::Idle)
+            || (matches!(self.mode, Mode::Jog(Jogging::Moves))
                 && self.jog.motion != JogMotion::Stopping
                 && self.motion.state() == MotionState::Idle);
         if !free || axis >= self.setup.axis_count || velocity_um_min == 0 || self.refuse_unhomed() {
@@ -67,7 +67,7 @@ impl Board {
         if self.motion.state() == MotionState::Idle && self.jog.motion == JogMotion::Stopping {
             self.jog.motion = JogMotion::Free;
         }
-        if self.mode == Mode::Jog(Jogging::Moves)
+        if matches!(self.mode, Mode::Jog(Jogging::Moves))
             && drained
             && self.motion.state() == MotionState::Idle
         {
@@ -80,16 +80,16 @@ impl Board {
     pub(super) fn joystick(&mut self, prev: InputBits, levels: InputBits, adc: AdcReadings) {
         let both = |l: InputBits| l.get(Signal::Mark) && l.get(Signal::Release);
         if both(levels) && !both(prev) {
-            if self.mode == Mode::Idle && !self.refuse_unhomed() {
+            if matches!(self.mode, Mode::Idle) && !self.refuse_unhomed() {
                 self.jog.nudge_dirs = [0; MAX_AXES];
                 self.mode = Mode::Jog(Jogging::Joystick);
-            } else if self.mode == Mode::Jog(Jogging::Joystick) {
+            } else if matches!(self.mode, Mode::Jog(Jogging::Joystick)) {
                 self.mode = Mode::Jog(Jogging::Moves);
                 self.jog_stop();
             }
             return;
         }
-        if self.mode != Mode::Jog(Jogging::Joystick) {
+        if !matches!(self.mode, Mode::Jog(Jogging::Joystick)) {
             return;
         }
         if levels.get(Signal::Mark) && !prev.get(Signal::Mark) && !levels.get(Signal::Release) {
@@ -192,7 +192,9 @@ impl Board {
     /// were taken back); where it cannot (too close to the travel edge, nothing in progress), it
     /// stops and the new direction starts from rest.
     pub(super) fn bend_stick_move(&mut self, m: StickMove) {
-        if self.mode != Mode::Jog(Jogging::Joystick) || self.jog.motion == JogMotion::Stopping {
+        if !matches!(self.mode, Mode::Jog(Jogging::Joystick))
+            || self.jog.motion == JogMotion::Stopping
+        {
             return;
         }
         let cfg = *self.motion.config();

@@ -339,7 +339,7 @@ impl Board {
 
     /// Replaces the setup (only while idle); false otherwise.
     pub fn set_setup(&mut self, setup: Setup) -> bool {
-        if self.mode != Mode::Idle {
+        if !matches!(self.mode, Mode::Idle) {
             return false;
         }
         let position = self.motion.queued_position();
@@ -416,7 +416,7 @@ impl Board {
     }
 
     fn start(&mut self, kind: JobKind) -> bool {
-        if self.mode != Mode::Idle || (kind == JobKind::Machine && self.refuse_unhomed()) {
+        if !matches!(self.mode, Mode::Idle) || (kind == JobKind::Machine && self.refuse_unhomed()) {
             return false;
         }
         self.last_motion_line = 0;
@@ -818,7 +818,7 @@ impl Board {
             return;
         }
         if self.homing_missing() {
-            if self.mode != Mode::Alarm(AlarmCode::HomingRequired) {
+            if !matches!(self.mode, Mode::Alarm(AlarmCode::HomingRequired)) {
                 self.mode = Mode::Alarm(AlarmCode::HomingRequired);
                 self.emit(BoardEvent::Alarm {
                     code: AlarmCode::HomingRequired,
@@ -1270,7 +1270,7 @@ impl Board {
     /// Dry run on or off (only while idle): feed moves at `operator.dry_run_feed`, spindle and
     /// coolant untouched, M-code lists flagged `dry_run_disabled` skipped.
     pub fn set_dry_run(&mut self, on: bool) -> bool {
-        if self.mode != Mode::Idle {
+        if !matches!(self.mode, Mode::Idle) {
             return false;
         }
         self.switches.dry_run = on;

@@ -12,8 +12,9 @@ use crate::controller::homing::Homing;
 use crate::controller::lists::ListRunner;
 use crate::controller::{AlarmCode, State};
 
-/// The board's mode.
-#[derive(Clone, Debug, PartialEq, Eq)]
+/// The board's mode. Not `PartialEq`: a derived comparison would compare a homing cycle's lists
+/// too (hundreds of bytes of F411 flash for nothing); test a mode with `matches!`.
+#[derive(Clone, Debug)]
 pub(super) enum Mode {
     /// Nothing running.
     Idle,
@@ -59,7 +60,7 @@ pub(super) enum Jogging {
 }
 
 /// A homing cycle, running or aborted.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub(super) enum HomingPhase {
     /// Lists, seek, retract and set home, axis by axis (`board/homing_cycle.rs`).
     Cycle(HomingCycle),
@@ -69,7 +70,7 @@ pub(super) enum HomingPhase {
 
 /// A running homing cycle: the axis and its step ([`Homing`]) and the command list of that step
 /// while one runs (before seek, before retract, after retract).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub(super) struct HomingCycle {
     pub homing: Homing,
     pub list: Option<ListRunner>,

@@ -21,7 +21,7 @@ pub enum Phase {
 }
 
 /// A homing cycle in progress.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub struct Homing {
     /// Axes to home, in order.
     pub order: Vec<u8, MAX_AXES>,

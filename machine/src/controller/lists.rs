@@ -25,7 +25,7 @@ pub enum ListStatus {
 }
 
 /// Runs one command list.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default)]
 pub struct ListRunner {
     commands: Vec<ListCommand, RUNNER_CAPACITY>,
     next: usize,
