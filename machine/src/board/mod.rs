@@ -170,9 +170,6 @@ pub struct Board {
     line: u32,
     /// Where an abort stopped: the line to resume from.
     resume_line: u32,
-    /// The job has queued an action (motion, spindle, …): from then on a block beyond the travel
-    /// stops it with alarm 2 instead of error 900.
-    job_queued: bool,
     /// The kernel was drained at the last [`Board::poll`].
     drained: bool,
     /// The board reset during motion (alarm 3) and nothing has re-established the position yet:
@@ -203,8 +200,6 @@ pub struct Board {
     fro_pot: Option<u16>,
     /// Dry run and single block.
     switches: RunSwitches,
-    /// Line of the last motion pushed (single block pauses when it changes).
-    last_motion_line: u32,
 }
 
 impl Board {
@@ -251,7 +246,6 @@ impl Board {
             events: Deque::new(),
             line: 0,
             resume_line: 0,
-            job_queued: false,
             drained: true,
             position_lost: how == PowerUp::MotionInterrupted,
             homed: 0,
@@ -267,7 +261,6 @@ impl Board {
             feed_override: 100,
             fro_pot: None,
             switches: RunSwitches::default(),
-            last_motion_line: 0,
         }
     }
 
@@ -419,10 +412,8 @@ impl Board {
         if !matches!(self.mode, Mode::Idle) || (kind == JobKind::Machine && self.refuse_unhomed()) {
             return false;
         }
-        self.last_motion_line = 0;
         // No line of this job has run yet (a job that runs nothing ends with `JobDone{0}`).
         self.line = 0;
-        self.job_queued = false;
         self.source.reset();
         self.interp.rewind();
         self.sync_interpreter_position();
@@ -436,7 +427,12 @@ impl Board {
         } else {
             JobPhase::Running(Ending::No)
         };
-        self.mode = Mode::Job(Job { kind, phase });
+        self.mode = Mode::Job(Job {
+            kind,
+            phase,
+            queued: false,
+            last_motion_line: 0,
+        });
         true
     }
 
@@ -475,6 +471,7 @@ impl Board {
             Mode::Job(Job {
                 kind: JobKind::Machine,
                 phase: JobPhase::Running(ending),
+                ..
             }) => {
                 self.motion.feed_hold();
                 self.set_phase(JobPhase::Hold {
@@ -493,6 +490,7 @@ impl Board {
             Mode::Job(Job {
                 kind: JobKind::Machine,
                 phase,
+                ..
             }) => Some(phase),
             _ => None,
         }
@@ -998,14 +996,15 @@ impl Board {
                 continue;
             }
             if is_motion(&canon) {
-                if self.switches.single_block
-                    && self.last_motion_line != 0
-                    && canon.line != self.last_motion_line
-                {
+                let last = match &self.mode {
+                    Mode::Job(job) => job.last_motion_line,
+                    _ => 0,
+                };
+                if self.switches.single_block && last != 0 && canon.line != last {
                     // Single block: a breakpoint after each block (docs/controller.md "Run modes"), with
                     // the M0 stop/restore rules.
                     let pause = Canon {
-                        line: self.last_motion_line,
+                        line: last,
                         action: Action::Stop(StopKind::Pause),
                     };
                     if self.motion.push(&pause).is_err() {
@@ -1013,7 +1012,9 @@ impl Board {
                         return;
                     }
                 }
-                self.last_motion_line = canon.line;
+                if let Mode::Job(job) = &mut self.mode {
+                    job.last_motion_line = canon.line;
+                }
             }
             let pushed = match self.on_the_fly(&canon) {
                 Some((code, output)) => self.motion.push_output(canon.line, code, output),
@@ -1030,7 +1031,9 @@ impl Board {
                     return;
                 }
             }
-            self.job_queued = true;
+            if let Mode::Job(job) = &mut self.mode {
+                job.queued = true;
+            }
         }
     }
 
@@ -1039,7 +1042,7 @@ impl Board {
     /// error 900 and the job ends. Later, the job is stopped on its path like an abort and ends
     /// in alarm 2 (grbl's soft-limit alarm), position kept.
     fn soft_limit(&mut self, line: u32) {
-        if self.job_queued {
+        if matches!(self.mode, Mode::Job(Job { queued: true, .. })) {
             self.stop_job(Some((AlarmCode::SoftLimit, line)));
         } else {
             self.emit(BoardEvent::Error {

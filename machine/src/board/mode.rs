@@ -76,11 +76,16 @@ pub(super) struct HomingCycle {
     pub list: Option<ListRunner>,
 }
 
-/// A job: what kind and where it stands.
+/// A job: what kind, where it stands, and what it has queued (all of it ends with the job).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Job {
     pub kind: JobKind,
     pub phase: JobPhase,
+    /// The job has queued an action (motion, spindle, …): from then on a block beyond the travel
+    /// stops it with alarm 2 instead of error 900.
+    pub queued: bool,
+    /// Line of the last motion queued (0: none yet; single block pauses when it changes).
+    pub last_motion_line: u32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
