@@ -6,8 +6,9 @@
 //!
 //! **Writing stalls the CPU**: both chips have a single flash bank, and every instruction fetch
 //! waits while a word is programmed (~16 µs) or a sector erased (1-2 s for 128 KiB). The step
-//! interrupt, USB and the main loop all freeze meanwhile, so the main loop saves only when
-//! `SavePolicy::due` (controller idle, kernel drained) and raises the watchdog timeout around it.
+//! interrupt, USB and the main loop all freeze meanwhile, so the core main loop
+//! (`MainLoop::pass`, machine/src/board/main_loop.rs) asks for a save only with the controller
+//! idle and the kernel drained, and the port raises the watchdog timeout around it.
 //!
 //! Loading and saving run to completion here (`block_on`) rather than as awaits in the tasks:
 //! the CPU stalls during flash writes anyway, and this way the store's futures and its 2 KiB
@@ -51,7 +52,7 @@ pub fn load(store: &mut Store) -> (Loaded, u32) {
     (loaded, boots)
 }
 
-/// Writes `setup` (only when `SavePolicy::due`: stalls the CPU).
+/// Writes `setup` (only with the controller idle and the kernel drained: stalls the CPU).
 #[inline(never)]
 pub fn save(store: &mut Store, setup: &Setup) -> Result<(), SaveError> {
     let mut buf = DataBuffer::new();

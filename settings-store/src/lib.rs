@@ -21,13 +21,13 @@
 //! the old or the new setup.
 //!
 //! Flash writes stall code fetch on the single-bank F4 parts (a 128 KiB sector erase takes 1-2 s),
-//! so the firmware saves only when [`SavePolicy::due`] says so: the controller idle and the
-//! machine at rest.
+//! so a changed setup is saved only with the controller idle and the machine at rest: that rule
+//! lives once, in the core's main loop (`gantry_machine::board::main_loop`, step 6 of
+//! `MainLoop::pass`), which calls the firmware's `BoardPort::save_setup`.
 #![no_std]
 
 use core::ops::Range;
 use embedded_storage_async::nor_flash::NorFlash;
-use gantry_machine::controller::State;
 use gantry_machine::setup::{Setup, SETUP_BLOB_MAX};
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage, SerializationError, Value};
@@ -186,7 +186,8 @@ impl<F: NorFlash> SettingsStore<F> {
     }
 
     /// Stores `setup` (the newest item wins; the old one stays readable until it is complete).
-    /// Stalls the CPU on single-bank flash: call only when [`SavePolicy::due`].
+    /// Stalls the CPU on single-bank flash: call only with the controller idle and the kernel
+    /// drained (the core main loop's `BoardPort::save_setup` call).
     pub async fn save(&mut self, setup: &Setup, buf: &mut DataBuffer) -> Result<(), SaveError> {
         self.store(&SETUP_KEY, &Item::Store(setup), buf).await
     }
@@ -227,41 +228,6 @@ impl<F: NorFlash> SettingsStore<F> {
             }
             Err(_) => Err(SaveError::Flash),
         }
-    }
-}
-
-/// When to write a changed setup: only with the controller idle and the machine at rest, because
-/// a flash write or erase stalls every instruction fetch (the step interrupt included) on the
-/// single-bank STM32F4 parts (firmware/README.md, "Settings in flash").
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SavePolicy {
-    pending: bool,
-}
-
-impl SavePolicy {
-    pub const fn new() -> Self {
-        SavePolicy { pending: false }
-    }
-
-    /// Records that a new setup was applied (`BoardLink::take_setup_changed`).
-    pub fn changed(&mut self, changed: bool) {
-        self.pending |= changed;
-    }
-
-    /// True when a pending setup may be written now: the controller is idle and the step kernel
-    /// has drained its queue (nothing moves, nothing is about to).
-    pub fn due(&self, state: State, kernel_drained: bool) -> bool {
-        self.pending && state == State::Idle && kernel_drained
-    }
-
-    /// The write was attempted (saved, or failed and logged: a failing flash is not retried every
-    /// millisecond; the next setup change tries again).
-    pub fn done(&mut self) {
-        self.pending = false;
-    }
-
-    pub fn is_pending(&self) -> bool {
-        self.pending
     }
 }
 

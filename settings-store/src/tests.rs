@@ -366,28 +366,3 @@ fn a_power_cut_anywhere_in_a_save_leaves_the_old_or_the_new_setup() {
         "{saves} saves of a {len}-byte setup, {cuts} power cuts: {saw_old} kept the old setup, {saw_new} the new one"
     );
 }
-
-#[test]
-fn saving_waits_for_idle_and_a_drained_kernel() {
-    let mut p = SavePolicy::new();
-    assert!(!p.due(State::Idle, true), "nothing to save");
-    p.changed(false);
-    assert!(!p.is_pending());
-    p.changed(true);
-    for state in [
-        State::Run,
-        State::Hold,
-        State::Alarm,
-        State::Homing,
-        State::Jog,
-        State::Check,
-    ] {
-        assert!(!p.due(state, true), "{state:?}");
-    }
-    assert!(!p.due(State::Idle, false), "the kernel still runs");
-    assert!(p.due(State::Idle, true));
-    p.changed(false);
-    assert!(p.is_pending(), "a later poll without news keeps it pending");
-    p.done();
-    assert!(!p.due(State::Idle, true));
-}

@@ -4,7 +4,9 @@
 //! - the path speed, and `Hold { stopped }` built from it, come from the 20 ms integer window;
 //! - a limit stop keeps the kernel latched (stopped, no segments) while the board is in alarm;
 //! - the host closing the port (DTR drop) holds a running job;
-//! - the segment queue holds the firmware's 15 segments.
+//! - the segment queue holds the firmware's 15 segments;
+//! - a setup from the host is written to flash once, by the pass (the rule settings-store's
+//!   `SavePolicy` used to hold for the firmware alone).
 
 mod controller_support;
 
@@ -13,8 +15,11 @@ use gantry_machine::board::link::status_of;
 use gantry_machine::board::main_loop::{SpeedMeter, SEGMENT_QUEUE_DEPTH};
 use gantry_machine::controller::{AlarmCode, State};
 use gantry_machine::motion::pipeline::MotionState;
+use gantry_machine::setup::Setup;
 use gantry_proto::MachineState;
+use host_sender::commands::push_setup_over;
 use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
+use host_sender::link::Client;
 
 /// 100 mm at 3000 mm/min.
 const LONG_CUT: &str = "G21 G90\nG1 X100 F3000\nM30\n";
@@ -133,4 +138,17 @@ fn the_segment_queue_holds_the_firmwares_15_segments() {
     // Cruising at 3000 mm/min in segments of about 2 ms: the queue is full after the pass.
     let queued = eb.queued_ms();
     assert!((25.0..=32.0).contains(&queued), "{queued} ms queued");
+}
+
+#[test]
+fn a_setup_from_the_host_is_saved_to_flash_once() {
+    let mut client = Client::connect(board(|_| {}), 2000).unwrap();
+    assert_eq!(client.transport.setups_saved, 0);
+    let mut setup = Setup::default();
+    setup.inputs.debounce_ms = 3;
+    push_setup_over(&mut client, &setup).unwrap();
+    client.transport.run_ms(50);
+    assert_eq!(client.transport.board.setup(), &setup);
+    // Idle with the kernel drained: written at once, and only once.
+    assert_eq!(client.transport.setups_saved, 1);
 }

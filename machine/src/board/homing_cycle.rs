@@ -1,7 +1,7 @@
 //! The homing cycle on the board: lists, seek, retract and set home, axis by axis (docs/controller.md
 //! "Homing"). The pure parts (order, targets, switch bits) are in [`crate::controller::homing`].
 
-use super::mode::{HomingRun, Mode};
+use super::mode::{HomingCycle, HomingPhase, Mode};
 use super::{Board, MotionState, Pos};
 use crate::canon::{Action, Canon};
 use crate::controller::homing::{self, Homing, Phase};
@@ -25,31 +25,39 @@ impl Board {
         for &a in &h.order {
             self.homed &= !(1 << a);
         }
-        self.homing = Some(h);
-        self.homing_list = None;
-        self.mode = Mode::Homing(HomingRun::Cycle);
+        self.mode = Mode::Homing {
+            phase: HomingPhase::Cycle(HomingCycle {
+                homing: h,
+                list: None,
+            }),
+        };
         true
     }
 
     pub(super) fn poll_homing(&mut self, drained: bool) {
         let idle = drained && self.motion.state() == MotionState::Idle;
-        let Some(mut h) = self.homing.take() else {
+        let Mode::Homing { phase } = &mut self.mode else {
+            return;
+        };
+        if !idle {
+            return;
+        }
+        // Taken out for this step and put back at the end unless the cycle ends (the phase
+        // meanwhile reads `Aborting`; nothing below looks at it).
+        let HomingPhase::Cycle(HomingCycle {
+            homing: mut h,
+            list: mut homing_list,
+        }) = core::mem::replace(phase, HomingPhase::Aborting)
+        else {
             // An aborted cycle raises its alarm once the seek has decelerated to rest.
-            if idle && self.mode == Mode::Homing(HomingRun::Aborting) {
-                self.enter_alarm(AlarmCode::HomingAborted, 0);
-            }
+            self.enter_alarm(AlarmCode::HomingAborted, 0);
             return;
         };
         let axis = h.axis();
         let ha = self.setup.homing.axes[axis];
-        if !idle {
-            self.homing = Some(h);
-            return;
-        }
         let at = self.motion.queued_position();
         if h.list_seek {
             // A list's seek ran its whole length without meeting the switch.
-            self.homing_list = None;
             self.enter_alarm(AlarmCode::HomingSwitchNotFound, 0);
             return;
         }
@@ -60,9 +68,7 @@ impl Board {
                     Phase::BeforeRetract => &self.setup.homing.before_retract,
                     _ => &self.setup.homing.after_retract,
                 };
-                let runner = self
-                    .homing_list
-                    .get_or_insert_with(|| ListRunner::new(list));
+                let runner = homing_list.get_or_insert_with(|| ListRunner::new(list));
                 match runner.step(self.now_ms, self.levels, &mut self.user_outputs) {
                     ListStatus::Running => {}
                     ListStatus::Seek => {
@@ -70,12 +76,11 @@ impl Board {
                         h.list_seek = true;
                     }
                     ListStatus::Timeout => {
-                        self.homing_list = None;
                         self.enter_alarm(AlarmCode::ListInputTimeout, 0);
                         return;
                     }
                     ListStatus::Done => {
-                        self.homing_list = None;
+                        homing_list = None;
                         match h.phase {
                             Phase::BeforeSeek => {
                                 self.push_seek(axis, &at);
@@ -130,7 +135,12 @@ impl Board {
                 h.phase = Phase::AfterRetract;
             }
         }
-        self.homing = Some(h);
+        self.mode = Mode::Homing {
+            phase: HomingPhase::Cycle(HomingCycle {
+                homing: h,
+                list: homing_list,
+            }),
+        };
     }
 
     /// Queues a constant-rate seek of `axis` toward its homing switch, over the travel + retract.
@@ -142,5 +152,108 @@ impl Board {
             line: 0,
             action: Action::Feed { to, feed },
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The cycle's phase as the core holds it (`Mode::Homing { phase }`), on the core alone: a
+    //! stand-in kernel runs every segment the moment it is handed out. The scenarios on the
+    //! emulated board's switches and kernel are in tests/tests/controller_homing.rs.
+    use super::*;
+    use crate::controller::homing::Phase;
+    use crate::controller::inputs::{InputBits, LIMIT_MIN_BIT};
+    use crate::controller::{AdcReadings, State};
+    use crate::setup::Setup;
+    use crate::units::{MAX_AXES, NM_PER_MM};
+
+    const X_MIN: u32 = 1 << LIMIT_MIN_BIT;
+
+    /// X homes to its min switch; hard limits off, so only the cycle arms the switch.
+    fn board() -> Board {
+        let mut s = Setup::default();
+        s.inputs.limit_min = 0b001;
+        s.inputs.hard_limits = false;
+        s.inputs.debounce_ms = 1;
+        s.homing.axes[0].priority = 1;
+        s.homing.axes[0].retract = 2 * NM_PER_MM;
+        s.homing.axes[0].home_position = 0;
+        Board::new(s)
+    }
+
+    /// One pass with `levels`; the stand-in kernel runs at most one segment of it.
+    fn pass(b: &mut Board, now: u32, levels: u32, steps: &mut [i64; MAX_AXES]) {
+        b.on_inputs(now, InputBits(levels), 0, AdcReadings::default());
+        b.poll(true);
+        b.drop_queued(|_| 0);
+        if let Some(seg) = b.next_segment() {
+            for (i, s) in steps.iter_mut().enumerate() {
+                let n = i64::from(seg.steps[i]);
+                *s += if seg.dir & (1 << i) != 0 { -n } else { n };
+            }
+        }
+    }
+
+    fn phase(b: &Board) -> Option<Phase> {
+        b.homing_cycle().map(|c| c.homing.phase)
+    }
+
+    #[test]
+    fn the_cycle_steps_through_its_phases_inside_the_mode() {
+        let mut b = board();
+        let mut steps = [0i64; MAX_AXES];
+        assert_eq!(b.limit_arm() & X_MIN, 0, "nothing armed while idle");
+        assert!(b.home(0));
+        assert_eq!(phase(&b), Some(Phase::BeforeSeek));
+        let mut now = 0;
+        while phase(&b) != Some(Phase::Seek) || steps[0] > -100 {
+            now += 1;
+            pass(&mut b, now, 0, &mut steps);
+            assert!(now < 1_000, "the seek never started");
+        }
+        assert_eq!(b.limit_arm() & X_MIN, X_MIN, "the seek arms its switch");
+        let on_switch = steps[0];
+        b.limit_stop(InputBits(X_MIN), &steps);
+        assert_eq!(phase(&b), Some(Phase::BeforeRetract));
+        assert_eq!(b.limit_arm() & X_MIN, 0, "the retract ignores its switch");
+        while b.state() == State::Homing {
+            now += 1;
+            pass(&mut b, now, 0, &mut steps);
+            assert!(now < 100_000, "the cycle never ended");
+        }
+        assert_eq!(b.state(), State::Idle);
+        assert_eq!(b.homed(), 0b001);
+        // Retracted 2 mm (640 steps per mm) off the switch step.
+        assert_eq!(steps[0] - on_switch, 2 * 640);
+        assert!(b.homing_cycle().is_none());
+    }
+
+    #[test]
+    fn an_abort_drops_the_cycle_at_once_and_alarms_at_rest() {
+        let mut b = board();
+        let mut steps = [0i64; MAX_AXES];
+        assert!(b.home(0));
+        let mut now = 0;
+        while steps[0] > -100 {
+            now += 1;
+            pass(&mut b, now, 0, &mut steps);
+            assert!(now < 10_000, "the seek never moved");
+        }
+        b.abort();
+        assert!(matches!(
+            b.mode,
+            Mode::Homing {
+                phase: HomingPhase::Aborting
+            }
+        ));
+        assert_eq!(b.limit_arm() & X_MIN, 0, "no seek: its switch is not armed");
+        assert_eq!(b.alarm(), None, "alarm 6 waits for rest");
+        while b.state() == State::Homing {
+            now += 1;
+            pass(&mut b, now, 0, &mut steps);
+            assert!(now < 10_000, "the abort never came to rest");
+        }
+        assert_eq!(b.alarm(), Some(AlarmCode::HomingAborted));
+        assert_eq!(b.homed(), 0);
     }
 }

@@ -2,7 +2,7 @@
 //! stick), docs/controller.md "Jogging". Targets and stick mapping are in [`crate::controller::jog`].
 
 use super::mode::{Jogging, Mode};
-use super::{Board, BoardEvent, MarkEvent, MotionState, StickMove, ERROR_SOFT_LIMIT};
+use super::{Board, BoardEvent, JogMotion, MarkEvent, MotionState, StickMove, ERROR_SOFT_LIMIT};
 use crate::canon::{Action, Canon};
 use crate::controller::inputs::{InputBits, Signal};
 use crate::controller::jog::{self, JogMode};
@@ -14,9 +14,9 @@ impl Board {
     /// (0) toward the soft limit until [`Board::jog_stop`]. From idle, or after the previous jog
     /// has stopped; false when refused (an increment beyond the soft limits reports error 900).
     pub fn jog(&mut self, axis: u8, velocity_um_min: i32, distance_nm: u64) -> bool {
-        let free = self.mode == Mode::Idle
-            || (self.mode == Mode::Jog(Jogging::Moves)
-                && !self.jog.stopping
+        let free = matches!(self.mode, Mode::Idle)
+            || (matches!(self.mode, Mode::Jog(Jogging::Moves))
+                && self.jog.motion != JogMotion::Stopping
                 && self.motion.state() == MotionState::Idle);
         if !free || axis >= self.setup.axis_count || velocity_um_min == 0 || self.refuse_unhomed() {
             return false;
@@ -57,16 +57,17 @@ impl Board {
         }
         if self.motion.state() != MotionState::Idle {
             self.motion.abort();
-            self.jog.stopping = true;
+            self.jog.motion = JogMotion::Stopping;
+        } else if let JogMotion::Stick(_) = self.jog.motion {
+            self.jog.motion = JogMotion::Free;
         }
-        self.jog.running = None;
     }
 
     pub(super) fn poll_jog(&mut self, drained: bool) {
-        if self.motion.state() == MotionState::Idle {
-            self.jog.stopping = false;
+        if self.motion.state() == MotionState::Idle && self.jog.motion == JogMotion::Stopping {
+            self.jog.motion = JogMotion::Free;
         }
-        if self.mode == Mode::Jog(Jogging::Moves)
+        if matches!(self.mode, Mode::Jog(Jogging::Moves))
             && drained
             && self.motion.state() == MotionState::Idle
         {
@@ -79,16 +80,16 @@ impl Board {
     pub(super) fn joystick(&mut self, prev: InputBits, levels: InputBits, adc: AdcReadings) {
         let both = |l: InputBits| l.get(Signal::Mark) && l.get(Signal::Release);
         if both(levels) && !both(prev) {
-            if self.mode == Mode::Idle && !self.refuse_unhomed() {
+            if matches!(self.mode, Mode::Idle) && !self.refuse_unhomed() {
                 self.jog.nudge_dirs = [0; MAX_AXES];
                 self.mode = Mode::Jog(Jogging::Joystick);
-            } else if self.mode == Mode::Jog(Jogging::Joystick) {
+            } else if matches!(self.mode, Mode::Jog(Jogging::Joystick)) {
                 self.mode = Mode::Jog(Jogging::Moves);
                 self.jog_stop();
             }
             return;
         }
-        if self.mode != Mode::Jog(Jogging::Joystick) {
+        if !matches!(self.mode, Mode::Jog(Jogging::Joystick)) {
             return;
         }
         if levels.get(Signal::Mark) && !prev.get(Signal::Mark) && !levels.get(Signal::Release) {
@@ -118,20 +119,20 @@ impl Board {
                 analog: false,
             });
         }
-        if self.jog.stopping {
+        if self.jog.motion == JogMotion::Stopping {
             if self.motion.state() != MotionState::Idle {
                 return;
             }
-            self.jog.stopping = false;
+            self.jog.motion = JogMotion::Free;
         }
-        if want != self.jog.running {
+        if want != self.jog.motion.stick() {
             if self.motion.state() != MotionState::Idle {
-                if let (Some(run), Some(new)) = (self.jog.running, want) {
+                if let (JogMotion::Stick(run), Some(new)) = (self.jog.motion, want) {
                     if run.analog && new.analog {
                         if jog::same_direction(&run.dirs, &new.dirs) {
                             // Only the speed changes: ramp to it without stopping.
                             self.motion.change_speed(new.feed);
-                            self.jog.running = want;
+                            self.jog.motion = JogMotion::Stick(new);
                         } else {
                             // A new direction: bend into it from the end of the kernel's
                             // running segment ([`Board::drop_queued`]).
@@ -141,14 +142,13 @@ impl Board {
                         return;
                     }
                 }
-                if self.jog.running.is_some() {
+                if let JogMotion::Stick(_) = self.jog.motion {
                     self.motion.abort();
-                    self.jog.stopping = true;
-                    self.jog.running = None;
+                    self.jog.motion = JogMotion::Stopping;
                 }
                 return;
             }
-            self.jog.running = None;
+            self.jog.motion = JogMotion::Free;
             if let Some(m) = want {
                 self.start_stick_move(m);
             }
@@ -192,7 +192,9 @@ impl Board {
     /// were taken back); where it cannot (too close to the travel edge, nothing in progress), it
     /// stops and the new direction starts from rest.
     pub(super) fn bend_stick_move(&mut self, m: StickMove) {
-        if self.mode != Mode::Jog(Jogging::Joystick) || self.jog.stopping {
+        if !matches!(self.mode, Mode::Jog(Jogging::Joystick))
+            || self.jog.motion == JogMotion::Stopping
+        {
             return;
         }
         let cfg = *self.motion.config();
@@ -200,20 +202,19 @@ impl Board {
             .motion
             .bend(m.feed, |from| jog::jog_target(&cfg, from, &m.dirs, None))
         {
-            self.jog.running = Some(m);
+            self.jog.motion = JogMotion::Stick(m);
         } else if self.motion.state() != MotionState::Idle {
             self.motion.abort();
-            self.jog.stopping = true;
-            self.jog.running = None;
+            self.jog.motion = JogMotion::Stopping;
         } else {
-            self.jog.running = None;
+            self.jog.motion = JogMotion::Free;
         }
     }
 
     fn start_stick_move(&mut self, m: StickMove) {
         let from = self.motion.queued_position();
         // At the edge already: remember the request so it is not retried every millisecond.
-        self.jog.running = Some(m);
+        self.jog.motion = JogMotion::Stick(m);
         let Some(to) = jog::jog_target(self.motion.config(), &from, &m.dirs, None) else {
             return;
         };

@@ -19,7 +19,7 @@ mod operator;
 pub mod source;
 
 use crate::canon::{Action, Canon, Spindle, StopKind};
-use crate::controller::homing::{self, Homing, Phase};
+use crate::controller::homing::{self, Phase};
 use crate::controller::inputs::{InputBits, Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 use crate::controller::lists::{ListRunner, ListStatus};
 use crate::controller::outputs::{spindle_duty, OutputLevels};
@@ -33,7 +33,10 @@ use crate::motion::pipeline::{Motion, MotionState, PushError};
 use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
-use mode::{Ending, HoldWhy, HomingRun, Job, JobKind, JobPhase, Jogging, Mode, Ramp};
+use mode::{
+    Ending, HoldWhy, HomingCycle, HomingPhase, Job, JobKind, JobPhase, Jogging, Mode, Ramp,
+};
+use operator::RunSwitches;
 pub use source::{JumpRequest, JumpTarget, StreamSource, LINE_CAPACITY};
 
 /// Planner ring size on the board (look-ahead over at least 128 blocks, docs/architecture.md).
@@ -73,15 +76,36 @@ struct StickMove {
     analog: bool,
 }
 
+/// Where jog motion stands (host jogs and the joystick).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum JogMotion {
+    /// No stick move planned and no stop under way (a host jog or a nudge may be moving).
+    #[default]
+    Free,
+    /// The stick move now planned (also kept at the travel edge, so it is not retried every
+    /// millisecond).
+    Stick(StickMove),
+    /// Decelerating and flushing for a stick change, a jog stop or an abort: nothing new starts
+    /// until the motion is at rest.
+    Stopping,
+}
+
+impl JogMotion {
+    /// The stick move now planned, if any.
+    fn stick(self) -> Option<StickMove> {
+        match self {
+            JogMotion::Stick(m) => Some(m),
+            _ => None,
+        }
+    }
+}
+
 /// Jog bookkeeping (host jogs and the joystick).
 #[derive(Clone, Copy, Debug, Default)]
 struct JogState {
-    /// The stick move now planned (None: none).
-    running: Option<StickMove>,
+    motion: JogMotion,
     /// An analog move to bend into once the kernel's queue has been taken back.
     bend: Option<StickMove>,
-    /// The motion is stopping (decelerating and flushing) for a stick change or jog stop.
-    stopping: bool,
     /// Nudge: the switches' directions at the last nudge and when the next one is due.
     nudge_dirs: [i8; MAX_AXES],
     next_nudge: u32,
@@ -146,9 +170,6 @@ pub struct Board {
     line: u32,
     /// Where an abort stopped: the line to resume from.
     resume_line: u32,
-    /// The job has queued an action (motion, spindle, …): from then on a block beyond the travel
-    /// stops it with alarm 2 instead of error 900.
-    job_queued: bool,
     /// The kernel was drained at the last [`Board::poll`].
     drained: bool,
     /// The board reset during motion (alarm 3) and nothing has re-established the position yet:
@@ -168,9 +189,6 @@ pub struct Board {
     user_loaded: Option<u16>,
     /// A user M-code list running at its sync point.
     list: Option<ListRunner>,
-    /// Homing cycle in progress and its running list.
-    homing: Option<Homing>,
-    homing_list: Option<ListRunner>,
     /// Step position the kernel's owner must load (homing set a new home).
     position_reset: Option<[i64; MAX_AXES]>,
     /// Limit bits ignored until they release (a switch still pressed when the alarm was raised).
@@ -180,10 +198,8 @@ pub struct Board {
     /// Feed override in force (host or potentiometer), percent.
     feed_override: u16,
     fro_pot: Option<u16>,
-    dry_run: bool,
-    single_block: bool,
-    /// Line of the last motion pushed (single block pauses when it changes).
-    last_motion_line: u32,
+    /// Dry run and single block.
+    switches: RunSwitches,
 }
 
 impl Board {
@@ -230,7 +246,6 @@ impl Board {
             events: Deque::new(),
             line: 0,
             resume_line: 0,
-            job_queued: false,
             drained: true,
             position_lost: how == PowerUp::MotionInterrupted,
             homed: 0,
@@ -239,17 +254,13 @@ impl Board {
             user_outputs: 0,
             user_loaded: Some(0),
             list: None,
-            homing: None,
-            homing_list: None,
             position_reset: None,
             disarmed: 0,
             jog: JogState::default(),
             marks: Deque::new(),
             feed_override: 100,
             fro_pot: None,
-            dry_run: false,
-            single_block: false,
-            last_motion_line: 0,
+            switches: RunSwitches::default(),
         }
     }
 
@@ -321,7 +332,7 @@ impl Board {
 
     /// Replaces the setup (only while idle); false otherwise.
     pub fn set_setup(&mut self, setup: Setup) -> bool {
-        if self.mode != Mode::Idle {
+        if !matches!(self.mode, Mode::Idle) {
             return false;
         }
         let position = self.motion.queued_position();
@@ -398,13 +409,11 @@ impl Board {
     }
 
     fn start(&mut self, kind: JobKind) -> bool {
-        if self.mode != Mode::Idle || (kind == JobKind::Machine && self.refuse_unhomed()) {
+        if !matches!(self.mode, Mode::Idle) || (kind == JobKind::Machine && self.refuse_unhomed()) {
             return false;
         }
-        self.last_motion_line = 0;
         // No line of this job has run yet (a job that runs nothing ends with `JobDone{0}`).
         self.line = 0;
-        self.job_queued = false;
         self.source.reset();
         self.interp.rewind();
         self.sync_interpreter_position();
@@ -418,7 +427,12 @@ impl Board {
         } else {
             JobPhase::Running(Ending::No)
         };
-        self.mode = Mode::Job(Job { kind, phase });
+        self.mode = Mode::Job(Job {
+            kind,
+            phase,
+            queued: false,
+            last_motion_line: 0,
+        });
         true
     }
 
@@ -457,6 +471,7 @@ impl Board {
             Mode::Job(Job {
                 kind: JobKind::Machine,
                 phase: JobPhase::Running(ending),
+                ..
             }) => {
                 self.motion.feed_hold();
                 self.set_phase(JobPhase::Hold {
@@ -475,6 +490,7 @@ impl Board {
             Mode::Job(Job {
                 kind: JobKind::Machine,
                 phase,
+                ..
             }) => Some(phase),
             _ => None,
         }
@@ -570,11 +586,11 @@ impl Board {
     /// stop, ends it).
     pub fn abort(&mut self) {
         match self.mode {
-            Mode::Homing(_) => {
+            Mode::Homing { .. } => {
                 self.motion.abort();
-                self.homing = None;
-                self.homing_list = None;
-                self.mode = Mode::Homing(HomingRun::Aborting);
+                self.mode = Mode::Homing {
+                    phase: HomingPhase::Aborting,
+                };
             }
             Mode::Jog(_) => {
                 // Leaves joystick mode too.
@@ -644,8 +660,6 @@ impl Board {
         self.source.reset();
         self.pending = None;
         self.homed &= !axes;
-        self.homing = None;
-        self.homing_list = None;
         let line = self.job_line();
         self.enter_alarm(AlarmCode::HardLimit, line);
     }
@@ -681,16 +695,21 @@ impl Board {
     /// is a hard limit on the tripped axes, reported switch by switch, then alarm 1.
     pub fn limit_stop(&mut self, levels: InputBits, kernel_steps: &[i64; MAX_AXES]) {
         let tripped = levels.0 & self.limit_arm();
-        if let Some(h) = self.homing.as_ref() {
+        if let Some(c) = self.homing_cycle() {
+            let h = &c.homing;
             let axis = h.axis();
             let bit = 1 << homing::switch_bit(axis, &self.setup.homing.axes[axis]);
             let list_seek = h.list_seek;
             if h.seeking() && tripped == bit {
+                let reported = list_seek && c.list.as_ref().is_none_or(|l| l.reports_limits());
                 self.rebuild_motion(false, kernel_steps);
-                if list_seek && self.homing_list.as_ref().is_none_or(|l| l.reports_limits()) {
+                if reported {
                     self.report_limits(bit);
                 }
-                if let Some(h) = self.homing.as_mut() {
+                if let Mode::Homing {
+                    phase: HomingPhase::Cycle(HomingCycle { homing: h, .. }),
+                } = &mut self.mode
+                {
                     if list_seek {
                         h.list_seek = false;
                     } else {
@@ -721,7 +740,7 @@ impl Board {
         let installed =
             (u32::from(i.limit_min) << LIMIT_MIN_BIT) | (u32::from(i.limit_max) << LIMIT_MAX_BIT);
         let mut arm = if i.hard_limits { installed } else { 0 } & !self.disarmed;
-        if let Some(h) = self.homing.as_ref() {
+        if let Some(HomingCycle { homing: h, .. }) = self.homing_cycle() {
             let axis = h.axis();
             let bit = 1 << homing::switch_bit(axis, &self.setup.homing.axes[axis]);
             if h.seeking() {
@@ -731,6 +750,16 @@ impl Board {
             }
         }
         arm & LIMIT_BITS
+    }
+
+    /// The homing cycle, while one runs (not while an aborted one decelerates).
+    fn homing_cycle(&self) -> Option<&HomingCycle> {
+        match &self.mode {
+            Mode::Homing {
+                phase: HomingPhase::Cycle(c),
+            } => Some(c),
+            _ => None,
+        }
     }
 
     /// A new motion pipeline at a kernel step position (after a stop dropped the queue), with
@@ -787,7 +816,7 @@ impl Board {
             return;
         }
         if self.homing_missing() {
-            if self.mode != Mode::Alarm(AlarmCode::HomingRequired) {
+            if !matches!(self.mode, Mode::Alarm(AlarmCode::HomingRequired)) {
                 self.mode = Mode::Alarm(AlarmCode::HomingRequired);
                 self.emit(BoardEvent::Alarm {
                     code: AlarmCode::HomingRequired,
@@ -847,7 +876,7 @@ impl Board {
     pub fn poll(&mut self, kernel_drained: bool) {
         self.drained = kernel_drained;
         if !self.motion.config().soft_limits
-            && !matches!(self.mode, Mode::Homing(_))
+            && !matches!(self.mode, Mode::Homing { .. })
             && kernel_drained
             && self.motion.state() == MotionState::Idle
         {
@@ -856,7 +885,7 @@ impl Board {
             self.rebuild_motion(true, &steps);
         }
         match self.mode {
-            Mode::Homing(_) => {
+            Mode::Homing { .. } => {
                 self.poll_homing(kernel_drained);
                 return;
             }
@@ -967,14 +996,15 @@ impl Board {
                 continue;
             }
             if is_motion(&canon) {
-                if self.single_block
-                    && self.last_motion_line != 0
-                    && canon.line != self.last_motion_line
-                {
+                let last = match &self.mode {
+                    Mode::Job(job) => job.last_motion_line,
+                    _ => 0,
+                };
+                if self.switches.single_block && last != 0 && canon.line != last {
                     // Single block: a breakpoint after each block (docs/controller.md "Run modes"), with
                     // the M0 stop/restore rules.
                     let pause = Canon {
-                        line: self.last_motion_line,
+                        line: last,
                         action: Action::Stop(StopKind::Pause),
                     };
                     if self.motion.push(&pause).is_err() {
@@ -982,7 +1012,9 @@ impl Board {
                         return;
                     }
                 }
-                self.last_motion_line = canon.line;
+                if let Mode::Job(job) = &mut self.mode {
+                    job.last_motion_line = canon.line;
+                }
             }
             let pushed = match self.on_the_fly(&canon) {
                 Some((code, output)) => self.motion.push_output(canon.line, code, output),
@@ -999,7 +1031,9 @@ impl Board {
                     return;
                 }
             }
-            self.job_queued = true;
+            if let Mode::Job(job) = &mut self.mode {
+                job.queued = true;
+            }
         }
     }
 
@@ -1008,7 +1042,7 @@ impl Board {
     /// error 900 and the job ends. Later, the job is stopped on its path like an abort and ends
     /// in alarm 2 (grbl's soft-limit alarm), position kept.
     fn soft_limit(&mut self, line: u32) {
-        if self.job_queued {
+        if matches!(self.mode, Mode::Job(Job { queued: true, .. })) {
             self.stop_job(Some((AlarmCode::SoftLimit, line)));
         } else {
             self.emit(BoardEvent::Error {
@@ -1050,13 +1084,13 @@ impl Board {
             .iter()
             .find(|l| l.code == code)?;
         let output = list.on_the_fly()?;
-        let skipped = self.dry_run && list.dry_run_disabled;
+        let skipped = self.switches.dry_run && list.dry_run_disabled;
         Some((code, if skipped { OutputEvent::NONE } else { output }))
     }
 
     /// Dry run: every feed move at the setup's dry-run feed.
     fn dry_run_feed(&self, mut canon: Canon) -> Canon {
-        if self.dry_run {
+        if self.switches.dry_run {
             let dry = self.setup.operator.dry_run_feed;
             match &mut canon.action {
                 Action::Feed { feed, .. } | Action::Arc { feed, .. } => *feed = dry,
@@ -1129,7 +1163,7 @@ impl Board {
         self.line = canon.line;
         match canon.action {
             // Dry run: spindle and coolant stay as they are (seed: S has no effect).
-            Action::Spindle { .. } | Action::Coolant { .. } if self.dry_run => {}
+            Action::Spindle { .. } | Action::Coolant { .. } if self.switches.dry_run => {}
             Action::Spindle { state, rpm } => {
                 self.outputs.spindle = state;
                 self.outputs.rpm = rpm;
@@ -1146,7 +1180,7 @@ impl Board {
                     .mcode_lists
                     .iter()
                     .find(|l| l.code == code);
-                if let Some(l) = list.filter(|l| !(self.dry_run && l.dry_run_disabled)) {
+                if let Some(l) = list.filter(|l| !(self.switches.dry_run && l.dry_run_disabled)) {
                     self.list = Some(ListRunner::new(&l.commands));
                     self.perform_sync();
                     return;
@@ -1239,16 +1273,16 @@ impl Board {
     /// Dry run on or off (only while idle): feed moves at `operator.dry_run_feed`, spindle and
     /// coolant untouched, M-code lists flagged `dry_run_disabled` skipped.
     pub fn set_dry_run(&mut self, on: bool) -> bool {
-        if self.mode != Mode::Idle {
+        if !matches!(self.mode, Mode::Idle) {
             return false;
         }
-        self.dry_run = on;
+        self.switches.dry_run = on;
         true
     }
 
     /// Single block on or off (any time): the job stops after each block until cycle start.
     pub fn set_single_block(&mut self, on: bool) {
-        self.single_block = on;
+        self.switches.single_block = on;
     }
 
     /// Feed-rate override in force, percent.

@@ -8,10 +8,13 @@
 //! hold, a cycle start or another abort leaves it as it is, and it ends at rest with the
 //! program-stop sequence or its alarm.
 
+use crate::controller::homing::Homing;
+use crate::controller::lists::ListRunner;
 use crate::controller::{AlarmCode, State};
 
-/// The board's mode.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The board's mode. Not `PartialEq`: a derived comparison would compare a homing cycle's lists
+/// too (940 B of F411 flash, measured, for nothing); test a mode with `matches!`.
+#[derive(Clone, Debug)]
 pub(super) enum Mode {
     /// Nothing running.
     Idle,
@@ -19,8 +22,8 @@ pub(super) enum Mode {
     Job(Job),
     /// Motion refused until the alarm is cleared.
     Alarm(AlarmCode),
-    /// A homing cycle (its axis and phase in `Board::homing`).
-    Homing(HomingRun),
+    /// A homing cycle: where it stands is in `phase`, nowhere else.
+    Homing { phase: HomingPhase },
     /// Jogging (the moves themselves in `Board::jog`).
     Jog(Jogging),
 }
@@ -40,7 +43,7 @@ impl Mode {
             }) => State::Hold,
             Mode::Job(_) => State::Run,
             Mode::Alarm(_) => State::Alarm,
-            Mode::Homing(_) => State::Homing,
+            Mode::Homing { .. } => State::Homing,
             Mode::Jog(_) => State::Jog,
         }
     }
@@ -57,18 +60,32 @@ pub(super) enum Jogging {
 }
 
 /// A homing cycle, running or aborted.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum HomingRun {
-    Cycle,
+#[derive(Clone, Debug)]
+pub(super) enum HomingPhase {
+    /// Lists, seek, retract and set home, axis by axis (`board/homing_cycle.rs`).
+    Cycle(HomingCycle),
     /// Aborted: the seek decelerates; alarm 6 at rest.
     Aborting,
 }
 
-/// A job: what kind and where it stands.
+/// A running homing cycle: the axis and its step ([`Homing`]) and the command list of that step
+/// while one runs (before seek, before retract, after retract).
+#[derive(Clone, Debug)]
+pub(super) struct HomingCycle {
+    pub homing: Homing,
+    pub list: Option<ListRunner>,
+}
+
+/// A job: what kind, where it stands, and what it has queued (all of it ends with the job).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Job {
     pub kind: JobKind,
     pub phase: JobPhase,
+    /// The job has queued an action (motion, spindle, …): from then on a block beyond the travel
+    /// stops it with alarm 2 instead of error 900.
+    pub queued: bool,
+    /// Line of the last motion queued (0: none yet; single block pauses when it changes).
+    pub last_motion_line: u32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

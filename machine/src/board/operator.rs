@@ -6,6 +6,20 @@ use super::Board;
 use crate::controller::inputs::{InputBits, Signal};
 use crate::controller::{fro_from_adc, AdcReadings, State};
 
+/// The operator's run-mode switches (docs/controller.md "Run modes"). A struct of two switches
+/// grouped by concern rather than one four-valued enum: the two are independent (every
+/// combination is valid) and set apart (dry run from the host and only while idle, single block
+/// from the host or the switch input at any time), so an enum would only spell out their product
+/// and make each setter rebuild the other switch's half.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct RunSwitches {
+    /// Feed moves at `operator.dry_run_feed`, spindle and coolant untouched, M-code lists flagged
+    /// `dry_run_disabled` skipped.
+    pub dry_run: bool,
+    /// A breakpoint after each block (the M0 stop/restore rules) until cycle start.
+    pub single_block: bool,
+}
+
 impl Board {
     /// Cycle start: resumes a hold or an M0/M1/single-block stop.
     pub fn cycle_start(&mut self) {
@@ -51,7 +65,7 @@ impl Board {
             self.cycle_start();
         }
         if changed & (1 << Signal::SingleBlock as u32) != 0 {
-            self.single_block = levels.get(Signal::SingleBlock);
+            self.switches.single_block = levels.get(Signal::SingleBlock);
         }
         if changed & (1 << Signal::OptionalStop as u32) != 0 {
             self.interp
