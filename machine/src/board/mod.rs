@@ -327,7 +327,25 @@ impl Board {
 
     /// Free slots for streamed lines; the link takes lines only while this is non-zero.
     pub fn line_room(&self) -> usize {
-        self.source.free()
+        if self.takes_lines() {
+            self.source.free()
+        } else {
+            // Lines for a job that is stopping or over are dropped at once ([`Board::push_line`]),
+            // so they never stand in front of the next job's Start.
+            usize::MAX
+        }
+    }
+
+    /// A job that still runs its program: running or held, not stopping (an abort or an alarm
+    /// decelerating) and not over.
+    fn takes_lines(&self) -> bool {
+        matches!(
+            self.mode,
+            Mode::Job(Job {
+                phase: JobPhase::Running(_) | JobPhase::Hold { .. },
+                ..
+            })
+        )
     }
 
     /// Replaces the setup (only while idle); false otherwise.
@@ -438,7 +456,7 @@ impl Board {
 
     /// A streamed line for place `id` (0 = the main stream). False when dropped (stale or full).
     pub fn push_line(&mut self, id: u16, line_no: u32, text: &str) -> bool {
-        if !matches!(self.mode, Mode::Job(_)) {
+        if !self.takes_lines() {
             return false;
         }
         self.source.push(id, line_no, text)
@@ -950,7 +968,9 @@ impl Board {
             _ => return,
         };
         if kernel_drained && self.motion.state() == MotionState::Idle {
-            // At rest: the one place where a job ends (alarm 1 aside).
+            // At rest: the one place where a job ends (alarm 1 aside). Lines the job did not
+            // run are dropped with it.
+            self.source.reset();
             if let (Some((code, line)), _) = end {
                 self.enter_alarm(code, line);
                 return;
