@@ -1,6 +1,6 @@
 //! `gantry check`: interpret a program without motion and report errors or the canonical stream.
 //!
-//! `--canon` prints one JSON object per canonical action (DESIGN §7: mm, machine coordinates,
+//! `--canon` prints one JSON object per canonical action (tests/golden/rs274/README.md: mm, machine coordinates,
 //! 1-based lines) and stops at the first error; plain `check` lists every error with the source
 //! line and a caret under the bad word, then a one-line summary.
 use std::fmt::Write as _;
@@ -53,7 +53,7 @@ pub fn canon_for_setup(program: &[u8], setup: &gantry_machine::setup::Setup) -> 
     canon_output(program, &setup.interp_config())
 }
 
-/// The whole `check --canon` output of `program` for the default setup (DESIGN §7).
+/// The whole `check --canon` output of `program` for the default setup (format: tests/golden/rs274/README.md).
 pub fn canon_jsonl(program: &str) -> String {
     canon_output(program.as_bytes(), &InterpConfig::default()).0
 }

@@ -30,7 +30,7 @@ enum Command {
     /// Interpret a program without motion and report every error (line, N word, the bad word, why).
     Check {
         file: PathBuf,
-        /// Print the interpreted program as JSON Lines of canonical actions (DESIGN §7).
+        /// Print the interpreted program as JSON Lines of canonical actions (format: tests/golden/rs274/README.md).
         #[arg(long)]
         canon: bool,
         /// Machine setup (dialect, tools, travel) for plain `check` (default: built-in defaults).

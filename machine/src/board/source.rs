@@ -1,6 +1,6 @@
 //! The streamed program as the board's interpreter sees it: a small buffer of lines the host sent,
-//! plus the jump requests subprograms need (DESIGN §3: the board owns the call stack, the host
-//! serves "program O from line n" on request).
+//! plus the jump requests subprograms need (the board owns the call stack, the host serves
+//! "program O from line n" on request: `ProgramRequest` in docs/protocol.md).
 //!
 //! Every jump gets a new request id; lines that arrive for an older id (already in flight when the
 //! jump happened) are dropped, so a jump can never mix lines of two places. Jumps to a subprogram

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 pub enum Dialect {
     /// RS274NGC / Fanuc mill programs as CAM posts emit them (LinuxCNC is the oracle).
     Rs274,
-    /// Ability Systems "G Code Controller" (GIXA) programs (seed 003).
+    /// Ability Systems "G Code Controller" (GIXA) programs (docs/controller.md).
     Gixa,
 }
 
