@@ -2,8 +2,9 @@
 //! per short G1 block (plan + segment prep), read from SysTick on QEMU `mps2-an386`.
 //!
 //! Run with one virtual nanosecond per instruction:
-//! `qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -icount shift=0 -semihosting-config
+//! `qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -icount shift=0,sleep=off -semihosting-config
 //! enable=on,target=native -nographic -kernel target/thumbv7em-none-eabihf/release/bench_motion`.
+//! (`sleep=off`: virtual time never advances with the host clock, only with instructions.)
 //! SysTick counts the 25 MHz system clock, so one count is 40 instructions; a calibration loop of
 //! known length checks that ratio. The figures are printed on the last line.
 #![no_std]
