@@ -1474,6 +1474,8 @@ impl Interpreter {
             (true, 860) => CycleBody::DrillPause,
             (true, 870) => CycleBody::PeckChipBreak,
             (true, 880) => CycleBody::Punch,
+            (false, 870) => CycleBody::BackBore,
+            (false, 880) => CycleBody::BoreManualRetract,
             (_, 890) => CycleBody::BoreDwell,
             _ => return Err((ErrorCode::CycleNotSupported, g_cols)),
         };
@@ -1513,6 +1515,27 @@ impl Interpreter {
                 _ => return Err((ErrorCode::CycleDepthMissing, g_cols)),
             },
         };
+        // G87: offsets on the plane axes and the middle level, each on the I/J/K letter of its axis
+        // (so K is not a repeat count here). LinuxCNC keeps them for the following G87 blocks.
+        let mut back_bore = mem.back_bore;
+        if body == CycleBody::BackBore {
+            let mut raw = [0; 3];
+            for (slot, axis) in raw.iter_mut().zip([a, bx, c]) {
+                let letter = b"IJK"[axis];
+                *slot = match b.take(letter) {
+                    Some(w) => self.len_word(w)?,
+                    None => match mem.back_bore {
+                        Some(m) if same => m[axis],
+                        _ => return Err((ErrorCode::CycleBackBoreWordMissing, g_cols)),
+                    },
+                };
+            }
+            let mut kept = [0; 3];
+            for (slot, axis) in raw.into_iter().zip([a, bx, c]) {
+                kept[axis] = slot;
+            }
+            back_bore = Some(kept);
+        }
         let mut repeats = 1u32;
         if !gixa {
             if let Some(w) = b.take(b'L').or_else(|| b.take(b'K')) {
@@ -1591,6 +1614,7 @@ impl Interpreter {
             CycleBody::DrillDwell
                 | CycleBody::BoreSpindleStop
                 | CycleBody::BoreDwell
+                | CycleBody::BoreManualRetract
                 | CycleBody::Tap
         ) {
             dwell_us = match b.take(b'P') {
@@ -1602,7 +1626,9 @@ impl Interpreter {
         if !gixa {
             let ok = match body {
                 CycleBody::Tap => self.state.spindle == Spindle::Cw,
-                CycleBody::BoreSpindleStop => self.state.spindle != Spindle::Off,
+                CycleBody::BoreSpindleStop | CycleBody::BackBore | CycleBody::BoreManualRetract => {
+                    self.state.spindle != Spindle::Off
+                }
                 _ => true,
             };
             if !ok {
@@ -1615,6 +1641,7 @@ impl Interpreter {
             q: if q > 0 { Some(q) } else { mem.q },
             dwell_us: Some(dwell_us),
             initial_level: Some(initial),
+            back_bore,
         };
         if repeats == 0 {
             return Ok(());
@@ -1646,6 +1673,15 @@ impl Interpreter {
             (false, _) => self.config.peck_clearance,
         };
         run.dwell_us = dwell_us;
+        if let (CycleBody::BackBore, Some(m)) = (body, back_bore) {
+            run.back_bore_offset = (m[a], m[bx]);
+            // K (the drilling-axis letter) is absolute in G90 and relative to the bottom in G91.
+            run.middle = if self.state.absolute {
+                m[c]
+            } else {
+                bottom + m[c]
+            };
+        }
         run.feed = self.len(self.state.feed);
         run.spindle = self.state.spindle;
         run.rpm = self.state.rpm;
