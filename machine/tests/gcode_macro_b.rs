@@ -149,3 +149,62 @@ fn g65_errors() {
     let e = it.next(&mut src).unwrap().unwrap_err();
     assert_eq!(e.code, ErrorCode::UnknownGCode);
 }
+
+#[test]
+fn vacant_number_zero_follows_fanuc_rules() {
+    let p = "G21 G90\n\
+             G0 X1 Y2 Z3\n\
+             G0 X#0 Y5\n\
+             #1 = [#0 + 1]\n\
+             #3 = 7\n\
+             #3 = #0\n\
+             G0 X#1 Y#3 Z[#0 EQ 0]\n\
+             G0 Z[#0 EQ #0]\n\
+             G0 Z[[#0 GT -1] + [#0 LT 1] * 2 + [#0 NE 0] * 4]\n\
+             G0 X[ABS[#0] + #0 * 3 - 2]\n\
+             M30\n";
+    assert_eq!(
+        ends(p),
+        vec![
+            (2, [MM, 2 * MM, 3 * MM]),
+            // X#0: no X word.
+            (3, [MM, 5 * MM, 3 * MM]),
+            // #0 + 1 = 1; #3 = #0 unset it (0 outside a macro); vacant EQ 0 is false.
+            (7, [MM, 0, 0]),
+            (8, [MM, 0, MM]),
+            // GT and LT count vacant as 0 (1 + 2), NE tells it from 0 (+4).
+            (9, [MM, 0, 7 * MM]),
+            (10, [-2 * MM, 0, 7 * MM]),
+        ]
+    );
+    let e = first_error("#0 = 5\nM30\n");
+    assert_eq!((e.line, e.code), (1, ErrorCode::ParameterNumberInvalid));
+}
+
+#[test]
+fn unset_locals_are_vacant_inside_a_g65_macro_only() {
+    let p = "G21 G90\n\
+             G65 P40 A2\n\
+             G0 X[#2 EQ #0] Y[#2 EQ 0] Z9\n\
+             M30\n\
+             O40\n\
+             G0 X[#1 EQ #0] Y[#2 EQ #0] Z[#2 NE 0]\n\
+             G0 X#2 Y#1\n\
+             #5 = 6\n\
+             #5 = #0\n\
+             G0 Z[#5 + 4] X#5\n\
+             M99\n";
+    assert_eq!(
+        ends(p),
+        vec![
+            // In the macro: #1 = 2 is set, #2 (no B argument) is vacant.
+            (6, [0, MM, MM]),
+            // X#2 omitted.
+            (7, [0, 2 * MM, MM]),
+            // #5 = #0 makes it vacant again: Z4, X omitted.
+            (10, [0, 2 * MM, 4 * MM]),
+            // Main level (LinuxCNC's rule): unset #2 reads 0, which is not vacant.
+            (3, [0, MM, 9 * MM]),
+        ]
+    );
+}

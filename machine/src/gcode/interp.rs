@@ -141,11 +141,21 @@ struct Reader<'a> {
     params: &'a Params,
     level: u8,
     state: &'a ModalState,
+    /// Inside a G65 macro: an unset local #1-#33 reads as vacant (Fanuc) instead of 0.
+    in_macro: bool,
 }
 
 impl ParamRead for Reader<'_> {
     fn read(&self, p: ParamRef) -> Result<Fx, ErrorCode> {
-        self.params.read(p, self.level, self.state)
+        match p {
+            ParamRef::Numbered(0) => Ok(expr::VACANT),
+            ParamRef::Numbered(n)
+                if self.in_macro && (1..=LOCALS as u16).contains(&n) && !self.params.is_set(n) =>
+            {
+                Ok(expr::VACANT)
+            }
+            _ => self.params.read(p, self.level, self.state),
+        }
     }
     fn exists(&self, p: ParamRef) -> bool {
         self.params.exists(p, self.level)
@@ -525,9 +535,12 @@ impl Interpreter {
         };
         let level = self.ocalls.len() as u8;
         for &(p, v, at) in &assignments {
-            self.params
-                .write(p, v, level, &mut self.state)
-                .map_err(|code| (n_word(), (code, Some((at, at + 1)))))?;
+            let done = if v == expr::VACANT {
+                self.params.make_vacant(p)
+            } else {
+                self.params.write(p, v, level, &mut self.state)
+            };
+            done.map_err(|code| (n_word(), (code, Some((at, at + 1)))))?;
         }
         Ok(if block.empty {
             Parsed::Nothing
@@ -541,6 +554,7 @@ impl Interpreter {
             params: &self.params,
             level: self.ocalls.len() as u8,
             state: &self.state,
+            in_macro: !self.macros.is_empty(),
         }
     }
 

@@ -188,6 +188,23 @@ impl Params {
         }
     }
 
+    /// True if numbered parameter `n` has been written (and not made vacant).
+    pub fn is_set(&self, n: u16) -> bool {
+        self.numbered.iter().any(|e| e.0 == n)
+    }
+
+    /// Fanuc `#n = #0`: numbered parameter `n` becomes unset (vacant in a G65 macro, 0 elsewhere).
+    /// System parameters and named ones cannot be vacant (E706).
+    pub fn make_vacant(&mut self, p: ParamRef) -> Result<(), ErrorCode> {
+        match p {
+            ParamRef::Numbered(n) if (1..=MAX_NUMBER).contains(&n) && system(n).is_none() => {
+                self.numbered.retain(|e| e.0 != n);
+                Ok(())
+            }
+            _ => Err(ErrorCode::ParameterNumberInvalid),
+        }
+    }
+
     /// Forgets the named locals of every level above `level` (a subroutine returned).
     pub fn drop_locals_above(&mut self, level: u8) {
         self.named.retain(|e| e.1 == GLOBAL || e.1 <= level);
