@@ -298,10 +298,16 @@ const CASES: &[Case] = &[
         Some((14, 18)),
     ),
     (
-        "G87 X1 R1 Z-1 F1",
-        cfg_default,
+        "G73 X1 R1 Z-1 Q1 F1",
+        cfg_gixa,
         ErrorCode::CycleNotSupported,
         Some((0, 3)),
+    ),
+    (
+        "M3 S100 G87 X1 R1 Z-1 I0.1 J0 F1",
+        cfg_default,
+        ErrorCode::CycleBackBoreWordMissing,
+        Some((8, 11)),
     ),
     (
         "G10 L3 P1 X1",

@@ -44,7 +44,7 @@ pub const G_GROUPS: usize = 12;
 pub fn g_group(code: u16) -> Option<GGroup> {
     use GGroup::*;
     Some(match code {
-        40 | 100 | 280 | 281 | 300 | 301 | 520 | 530 | 920 | 921 | 922 | 923 => NonModal,
+        40 | 100 | 280 | 281 | 300 | 301 | 520 | 530 | 650 | 920 | 921 | 922 | 923 => NonModal,
         0 | 10 | 20 | 30 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => {
             Motion
         }
@@ -207,7 +207,9 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
                     return Err((ErrorCode::BadWordFormat, cols));
                 }
                 let code = (w.value / (MICRO / 10)) as u16;
-                let group = g_group(code).ok_or((ErrorCode::UnknownGCode, cols))?;
+                let group = g_group(code)
+                    .filter(|_| !(gixa && code == 650))
+                    .ok_or((ErrorCode::UnknownGCode, cols))?;
                 let slot = &mut b.g[group as usize];
                 let new = Code { code, cols: w.cols };
                 match *slot {
@@ -274,7 +276,10 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
                 // The O number itself is kept as a value word slot.
                 b.words[(b'O' - b'A') as usize] = Some(w);
             }
-            b'E' | b'U' | b'V' | b'W' => return Err((ErrorCode::UnexpectedCharacter, cols)),
+            // E, U, V and W are only Fanuc G65 arguments (#8, #21-#23), after the G65.
+            b'E' | b'U' | b'V' | b'W' if b.g_of(GGroup::NonModal) != Some(650) || gixa => {
+                return Err((ErrorCode::UnexpectedCharacter, cols))
+            }
             l => {
                 let slot = &mut b.words[(l - b'A') as usize];
                 if slot.is_some() {

@@ -4,6 +4,13 @@
 //! The motions follow LinuxCNC's `interp_cycles.cc` (RS274 dialect) and GIXA's cycle table (gixa
 //! dialect). All values are program coordinates on the plane axes `a`, `b` and the drilling axis
 //! `c`; `offset` converts them to machine coordinates when an action is emitted.
+//!
+//! RS274NGC G87 (back boring) and G88 (boring, manual retract) follow rs274's canonical output
+//! (goldens tests/golden/rs274/112-g87-back-bore and 113-g88-manual-retract). Gantry has no
+//! spindle orientation, so rs274's ORIENT_SPINDLE after each spindle stop has no action. G88, as in
+//! LinuxCNC, emits no retract after its program stop: the interpreter takes the tool to be at the
+//! clear level (the operator's job at the stop), and the next move starts from the hole's bottom
+//! if the operator did not retract it.
 
 use crate::canon::{Action, Canon, Spindle, StopKind};
 use crate::units::{Nm, Pos};
@@ -34,6 +41,12 @@ pub enum CycleBody {
     BoreDwell,
     /// gixa G88: punch: position only, then the M10 list.
     Punch,
+    /// RS274NGC G87 back boring: spindle stopped, enter the hole at the offset position, back to
+    /// the axis, spindle on, feed up to the middle level and back, stop, out at the offset.
+    BackBore,
+    /// RS274NGC G88: feed down, dwell, spindle stop, program stop (the operator retracts by hand),
+    /// spindle restart. Like LinuxCNC, no retract is emitted: the next move starts at the bottom.
+    BoreManualRetract,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,6 +54,8 @@ enum Phase {
     Position,
     Body,
     Peck,
+    /// G87's way out of the hole (second half of its body).
+    BackBoreOut,
     Finish,
 }
 
@@ -72,6 +87,9 @@ pub struct CycleRun {
     pub rpm: u32,
     /// User M code run at each punch position (gixa M10).
     pub punch_m_code: u16,
+    /// G87 offsets on the plane axes (I/J/K of the plane) and the middle level on the drilling axis.
+    pub back_bore_offset: (Nm, Nm),
+    pub middle: Nm,
     pub repeats_left: u32,
     pub first: bool,
     depth: Nm,
@@ -109,6 +127,8 @@ impl CycleRun {
             spindle: Spindle::Off,
             rpm: 0,
             punch_m_code: 10,
+            back_bore_offset: (0, 0),
+            middle: 0,
             repeats_left: repeats,
             first: true,
             depth: 0,
@@ -146,6 +166,20 @@ impl CycleRun {
 
     fn rapid_ab_c(&mut self, c: Nm, out: &mut impl FnMut(Canon)) {
         self.rapid_c(c, out)
+    }
+
+    /// Rapid to plane position (`pa`, `pb`) at drilling level `c`.
+    fn rapid_abc(&mut self, pa: Nm, pb: Nm, c: Nm, out: &mut impl FnMut(Canon)) {
+        self.program[self.axes.0] = pa;
+        self.program[self.axes.1] = pb;
+        self.rapid_c(c, out)
+    }
+
+    /// The hole's plane position and the G87 offset position.
+    fn hole_and_offset(&self) -> ((Nm, Nm), (Nm, Nm)) {
+        let hole = (self.program[self.axes.0], self.program[self.axes.1]);
+        let (oa, ob) = self.back_bore_offset;
+        (hole, (hole.0 + oa, hole.1 + ob))
     }
 
     fn dwell(&self, out: &mut impl FnMut(Canon)) {
@@ -299,8 +333,37 @@ impl CycleRun {
                             self.feed_c(clear, out);
                         }
                     }
+                    CycleBody::BackBore => {
+                        let (hole, off) = self.hole_and_offset();
+                        self.rapid_abc(off.0, off.1, r, out);
+                        self.spindle(Spindle::Off, out);
+                        self.rapid_c(bottom, out);
+                        self.rapid_abc(hole.0, hole.1, bottom, out);
+                        self.spindle(self.spindle, out);
+                        self.feed_c(self.middle, out);
+                        self.feed_c(bottom, out);
+                        self.phase = Phase::BackBoreOut;
+                        return true;
+                    }
+                    CycleBody::BoreManualRetract => {
+                        self.feed_c(bottom, out);
+                        self.dwell(out);
+                        self.spindle(Spindle::Off, out);
+                        self.push(out, Action::Stop(StopKind::Pause));
+                        self.spindle(self.spindle, out);
+                    }
                     CycleBody::PeckFull | CycleBody::PeckChipBreak | CycleBody::Punch => {}
                 }
+                self.phase = Phase::Finish;
+                true
+            }
+            Phase::BackBoreOut => {
+                let (hole, off) = self.hole_and_offset();
+                self.spindle(Spindle::Off, out);
+                self.rapid_abc(off.0, off.1, self.bottom, out);
+                self.rapid_c(self.clear, out);
+                self.rapid_abc(hole.0, hole.1, self.clear, out);
+                self.spindle(self.spindle, out);
                 self.phase = Phase::Finish;
                 true
             }

@@ -103,7 +103,7 @@ pub enum ErrorCode {
     CycleQInvalid,
     /// G82/G86/G89 without a dwell P.
     CycleDwellMissing,
-    /// G84 needs the spindle turning clockwise (M3), G86 needs it on.
+    /// G84 needs the spindle turning clockwise (M3), G86/G87/G88 need it on.
     CycleSpindleState,
     /// Canned cycle in G93 inverse-time mode.
     CycleInverseTime,
@@ -113,8 +113,10 @@ pub enum ErrorCode {
     CycleRepeatInvalid,
     /// gixa G87: Q not larger than the partial-retract distance.
     CyclePeckNotAboveRetract,
-    /// A canned cycle this dialect does not support (G74, G76, default G87/G88).
+    /// A canned cycle this dialect does not support (gixa G73).
     CycleNotSupported,
+    /// RS274NGC G87 without its I, J and K words in its first block.
+    CycleBackBoreWordMissing,
     // --- 5xx offsets, tools, settings ---
     /// G10 with a missing or unsupported L, or P out of range (or a full tool table for L1).
     G10Invalid,
@@ -212,6 +214,7 @@ impl ErrorCode {
         ErrorCode::CycleRepeatInvalid,
         ErrorCode::CyclePeckNotAboveRetract,
         ErrorCode::CycleNotSupported,
+        ErrorCode::CycleBackBoreWordMissing,
         ErrorCode::G10Invalid,
         ErrorCode::ToolNotInTable,
         ErrorCode::G53Invalid,
@@ -283,6 +286,7 @@ impl ErrorCode {
             CycleRepeatInvalid => 409,
             CyclePeckNotAboveRetract => 410,
             CycleNotSupported => 411,
+            CycleBackBoreWordMissing => 412,
             G10Invalid => 501,
             ToolNotInTable => 502,
             G53Invalid => 503,
@@ -349,12 +353,13 @@ impl ErrorCode {
             CycleRBelowBottom => "canned cycle R plane is below the bottom of the hole",
             CycleQInvalid => "peck cycle needs a positive Q (peck depth)",
             CycleDwellMissing => "canned cycle needs a dwell P in its first block",
-            CycleSpindleState => "spindle state wrong for this cycle (G84 needs M3, G86 needs the spindle on)",
+            CycleSpindleState => "spindle state wrong for this cycle (G84 needs M3, G86/G87/G88 need the spindle on)",
             CycleInverseTime => "canned cycles cannot run in G93 inverse-time mode",
             CycleRotaryAxis => "rotary axis words are not allowed in a canned-cycle block",
             CycleRepeatInvalid => "canned-cycle repeat count (K/L) must be a whole number >= 0",
             CyclePeckNotAboveRetract => "G87 peck Q must be larger than the partial-retract distance",
             CycleNotSupported => "canned cycle not supported in this dialect",
+            CycleBackBoreWordMissing => "G87 back boring needs I, J and K in its first block",
             G10Invalid => "G10 needs L1 (P tool), L2 or L20 (P0..P9)",
             ToolNotInTable => "tool not in the tool table",
             G53Invalid => "G53 needs G0 or G1 and absolute distance mode (G90)",

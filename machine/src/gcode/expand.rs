@@ -152,6 +152,12 @@ pub fn expand(
                 if computed {
                     let v = expr::real_value(&mut c, params, 0)
                         .map_err(|(code, at)| (code, cols(at)))?;
+                    if v == expr::VACANT {
+                        // Fanuc: an address with a vacant value is omitted.
+                        out.pop();
+                        i = c.pos;
+                        continue;
+                    }
                     if !write_fx(out, v) {
                         return Err(too_long);
                     }

@@ -150,7 +150,21 @@ pub fn bracketed(c: &mut Cursor<'_>, params: &dyn ParamRead, depth: u8) -> Resul
     c.expect(b'[')?;
     let v = expression(c, params, depth + 1, 0)?;
     c.expect(b']')?;
-    Ok(v)
+    Ok(or_zero(v))
+}
+
+/// Fanuc's "vacant" value (#0, and an unset local inside a G65 macro): only a bare `#n` carries
+/// it (`#2 = #0` leaves #2 vacant, `X#0` is no X word); EQ and NE tell it from 0, every other
+/// operator, function and bracket counts it as 0 (docs/gcode-parameters.md).
+pub const VACANT: Fx = i64::MIN;
+
+/// A value with vacant counted as 0.
+pub fn or_zero(v: Fx) -> Fx {
+    if v == VACANT {
+        0
+    } else {
+        v
+    }
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -288,6 +302,13 @@ fn round_div(n: i128, d: i128) -> i128 {
 }
 
 fn apply(op: Op, a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
+    // EQ/NE compare vacant as its own value; everything else counts it as 0.
+    match op {
+        Op::Eq => return Ok(truth(a == b)),
+        Op::Ne => return Ok(truth(a != b)),
+        _ => {}
+    }
+    let (a, b) = (or_zero(a), or_zero(b));
     Ok(match op {
         Op::Pow => pow(a, b)?,
         Op::Mul => mul(a, b)?,
@@ -374,11 +395,11 @@ pub fn real_value(c: &mut Cursor<'_>, params: &dyn ParamRead, depth: u8) -> Resu
         Some(b'[') => bracketed(c, params, depth),
         Some(b'-') => {
             c.pos += 1;
-            Ok(-real_value(c, params, depth + 1)?)
+            Ok(-or_zero(real_value(c, params, depth + 1)?))
         }
         Some(b'+') => {
             c.pos += 1;
-            real_value(c, params, depth + 1)
+            Ok(or_zero(real_value(c, params, depth + 1)?))
         }
         Some(b'#') => {
             c.pos += 1;
@@ -564,7 +585,7 @@ pub fn pow(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
 
 /// Evaluates a whole expression starting at the cursor (for tests and the fuzzer).
 pub fn eval(c: &mut Cursor<'_>, params: &dyn ParamRead) -> Result<Fx, ExprError> {
-    expression(c, params, 0, 0)
+    expression(c, params, 0, 0).map(or_zero)
 }
 
 #[cfg(test)]

@@ -20,6 +20,8 @@ use crate::units::{Nm, MAX_AXES};
 pub const MAX_NUMBERED: usize = 96;
 /// Named parameters a program may hold at once (locals of every call level and globals).
 pub const MAX_NAMED: usize = 64;
+/// Fanuc Macro B local variables per G65 call level (#1-#33).
+pub const LOCALS: usize = 33;
 /// Largest parameter number.
 pub const MAX_NUMBER: u16 = 5399;
 
@@ -186,6 +188,23 @@ impl Params {
         }
     }
 
+    /// True if numbered parameter `n` has been written (and not made vacant).
+    pub fn is_set(&self, n: u16) -> bool {
+        self.numbered.iter().any(|e| e.0 == n)
+    }
+
+    /// Fanuc `#n = #0`: numbered parameter `n` becomes unset (vacant in a G65 macro, 0 elsewhere).
+    /// System parameters and named ones cannot be vacant (E706).
+    pub fn make_vacant(&mut self, p: ParamRef) -> Result<(), ErrorCode> {
+        match p {
+            ParamRef::Numbered(n) if (1..=MAX_NUMBER).contains(&n) && system(n).is_none() => {
+                self.numbered.retain(|e| e.0 != n);
+                Ok(())
+            }
+            _ => Err(ErrorCode::ParameterNumberInvalid),
+        }
+    }
+
     /// Forgets the named locals of every level above `level` (a subroutine returned).
     pub fn drop_locals_above(&mut self, level: u8) {
         self.named.retain(|e| e.1 == GLOBAL || e.1 <= level);
@@ -207,6 +226,34 @@ impl Params {
     /// Replaces #1-#30 by a saved set (a call's arguments, or the caller's on return).
     pub fn restore_args(&mut self, mask: u32, values: &[Fx; 30]) -> Result<(), ErrorCode> {
         self.numbered.retain(|e| !(1..=30).contains(&e.0));
+        for (i, &v) in values.iter().enumerate() {
+            if mask & (1 << i) != 0 {
+                self.numbered
+                    .push((i as u16 + 1, v))
+                    .map_err(|_| ErrorCode::ParameterTableFull)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Fanuc's local variables #1-#[`LOCALS`] as (bit mask of the set ones, values): a G65 macro
+    /// call saves the caller's.
+    pub fn save_locals(&self) -> (u64, [Fx; LOCALS]) {
+        let mut mask = 0u64;
+        let mut v = [0; LOCALS];
+        for &(n, x) in &self.numbered {
+            if (1..=LOCALS as u16).contains(&n) {
+                mask |= 1 << (n - 1);
+                v[n as usize - 1] = x;
+            }
+        }
+        (mask, v)
+    }
+
+    /// Replaces #1-#[`LOCALS`] by a saved set (a macro's arguments, or the caller's on M99).
+    pub fn restore_locals(&mut self, mask: u64, values: &[Fx; LOCALS]) -> Result<(), ErrorCode> {
+        self.numbered
+            .retain(|e| !(1..=LOCALS as u16).contains(&e.0));
         for (i, &v) in values.iter().enumerate() {
             if mask & (1 << i) != 0 {
                 self.numbered

@@ -38,6 +38,8 @@ pub struct CycleMemory {
     pub dwell_us: Option<u64>,
     /// Initial level (program coordinate on the drilling axis), latched by the first cycle block.
     pub initial_level: Option<Nm>,
+    /// G87 I, J, K as programmed, indexed by axis (X, Y, Z), nm.
+    pub back_bore: Option<[Nm; 3]>,
 }
 
 /// The modal state of the interpreter.
