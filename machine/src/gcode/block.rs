@@ -3,6 +3,7 @@
 //! This is where "same word twice", "two G codes of one modal group" and unknown codes are caught.
 //! G codes are integers in tenths (`G28.1` = 281) so decimal codes need no floating point.
 
+use super::codes::*;
 use super::config::{Dialect, InterpConfig};
 use super::error::ErrorCode;
 use super::lexer::{Lexer, Word, MICRO};
@@ -44,20 +45,22 @@ pub const G_GROUPS: usize = 12;
 pub fn g_group(code: u16) -> Option<GGroup> {
     use GGroup::*;
     Some(match code {
-        40 | 100 | 280 | 281 | 300 | 301 | 520 | 530 | 650 | 920 | 921 | 922 | 923 => NonModal,
-        0 | 10 | 20 | 30 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 => {
+        G4 | G10 | G28 | G28_1 | G30 | G30_1 | G52 | G53 | G65 | G92 | G92_1 | G92_2 | G92_3 => {
+            NonModal
+        }
+        G0 | G1 | G2 | G3 | G73 | G80 | G81 | G82 | G83 | G84 | G85 | G86 | G87 | G88 | G89 => {
             Motion
         }
-        170 | 180 | 190 => Plane,
-        900 | 910 => Distance,
-        901 | 911 => ArcDistance,
-        930 | 940 => FeedMode,
-        200 | 210 => Units,
-        400 | 410 | 420 => CutterComp,
-        430 | 431 | 490 => ToolLength,
-        980 | 990 => Return,
-        540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => Coordinate,
-        610 | 611 | 640 => Path,
+        G17 | G18 | G19 => Plane,
+        G90 | G91 => Distance,
+        G90_1 | G91_1 => ArcDistance,
+        G93 | G94 => FeedMode,
+        G20 | G21 => Units,
+        G40 | G41 | G42 => CutterComp,
+        G43 | G43_1 | G49 => ToolLength,
+        G98 | G99 => Return,
+        G54 | G55 | G56 | G57 | G58 | G59 | G59_1 | G59_2 | G59_3 => Coordinate,
+        G61 | G61_1 | G64 => Path,
         _ => return None,
     })
 }
@@ -208,7 +211,7 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
                 }
                 let code = (w.value / (MICRO / 10)) as u16;
                 let group = g_group(code)
-                    .filter(|_| !(gixa && code == 650))
+                    .filter(|_| !(gixa && code == G65))
                     .ok_or((ErrorCode::UnknownGCode, cols))?;
                 let slot = &mut b.g[group as usize];
                 let new = Code { code, cols: w.cols };
@@ -216,10 +219,10 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
                     None => *slot = Some(new),
                     // G80 beside G0-G3 cancels the cycle; the straight or arc motion applies.
                     Some(old) if group == GGroup::Motion && !b.cancels_cycle => {
-                        let straight_or_arc = |c: u16| matches!(c, 0 | 10 | 20 | 30);
-                        if old.code == 800 && straight_or_arc(code) {
+                        let straight_or_arc = |c: u16| matches!(c, G0 | G1 | G2 | G3);
+                        if old.code == G80 && straight_or_arc(code) {
                             *slot = Some(new);
-                        } else if !(code == 800 && straight_or_arc(old.code)) {
+                        } else if !(code == G80 && straight_or_arc(old.code)) {
                             return Err((ErrorCode::ModalGroupConflict, cols));
                         }
                         b.cancels_cycle = true;
@@ -277,7 +280,7 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
                 b.words[(b'O' - b'A') as usize] = Some(w);
             }
             // E, U, V and W are only Fanuc G65 arguments (#8, #21-#23), after the G65.
-            b'E' | b'U' | b'V' | b'W' if b.g_of(GGroup::NonModal) != Some(650) || gixa => {
+            b'E' | b'U' | b'V' | b'W' if b.g_of(GGroup::NonModal) != Some(G65) || gixa => {
                 return Err((ErrorCode::UnexpectedCharacter, cols))
             }
             l => {

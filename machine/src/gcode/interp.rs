@@ -6,6 +6,7 @@
 //! bounded whatever the program does. A failing block restores the state saved before it and
 //! produces no action.
 
+use super::codes::*;
 use heapless::Deque;
 
 use super::block::{parse_block, Block, BlockError, GGroup, MGroup};
@@ -918,10 +919,28 @@ impl Interpreter {
 
     fn execute(&mut self, b: &mut Block, line: u32, src: &mut impl ProgramSource) -> Res<()> {
         let gixa = self.gixa();
-        if b.g_of(GGroup::NonModal) == Some(650) && !gixa {
+        if b.g_of(GGroup::NonModal) == Some(G65) && !gixa {
             // Every letter of a G65 block is an argument, axis letters included.
             return self.macro_call(b, line, src);
         }
+        // The RS274NGC order of execution, one phase each.
+        let pre = self.check_block(b)?;
+        let s_word = self.set_feed_speed_tool(b)?;
+        self.switch_tool_spindle_coolant(b, line, s_word)?;
+        self.dwell(b, line, &pre)?;
+        self.set_plane_units_tool_length(b)?;
+        self.set_modes(b, line)?;
+        let tool_write = self.apply_nonmodal(b, line, pre.nonmodal)?;
+        let (call_p, call_l) = self.move_block(b, line, &pre)?;
+        self.finish_block(b, tool_write)?;
+        // 9. stops and program flow
+        self.flow(b, line, src, call_p, call_l)
+    }
+
+    /// Phase 0: checks that concern the whole block (axes the machine has, cutter compensation,
+    /// axis words with and without a motion) and what the later phases need to know of it.
+    fn check_block(&mut self, b: &mut Block) -> Res<Prelude> {
+        let gixa = self.gixa();
         for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
             if i >= self.config.axis_count as usize {
                 if let Some(w) = b.word(letter) {
@@ -930,7 +949,7 @@ impl Interpreter {
             }
         }
         if let Some(c) = b.g[GGroup::CutterComp as usize] {
-            if c.code != 400 {
+            if c.code != G40 {
                 return Err((ErrorCode::CutterCompNotSupported, Some(c.cols)));
             }
         }
@@ -942,7 +961,7 @@ impl Interpreter {
         b.take(b'O');
         let nonmodal = b.g_of(GGroup::NonModal);
         // Fanuc: G4 X<time> is a dwell, not a move.
-        let dwell_word = if nonmodal == Some(40) {
+        let dwell_word = if nonmodal == Some(G4) {
             match b.take(b'P') {
                 Some(p) => Some(p),
                 None if !gixa => b.take(b'X'),
@@ -953,11 +972,11 @@ impl Interpreter {
         };
         let motion_g = b.g[GGroup::Motion as usize];
         let first_axis = AXIS_LETTERS.iter().find_map(|&l| b.word(l));
-        let nonmodal_axes = matches!(nonmodal, Some(100 | 280 | 300 | 520 | 920))
-            || b.g_of(GGroup::ToolLength) == Some(431);
+        let nonmodal_axes = matches!(nonmodal, Some(G10 | G28 | G30 | G52 | G92))
+            || b.g_of(GGroup::ToolLength) == Some(G43_1);
         if nonmodal_axes {
             if let Some(m) = motion_g {
-                if m.code != 800 {
+                if m.code != G80 {
                     return Err((ErrorCode::AxisWordsConflict, Some(m.cols)));
                 }
             }
@@ -976,11 +995,20 @@ impl Interpreter {
         if b.cancels_cycle {
             self.state.cycle = CycleMemory::default();
         }
+        Ok(Prelude {
+            nonmodal,
+            dwell_word,
+            motion_g,
+            motion,
+            f_given,
+        })
+    }
 
-        // 1. feed mode, F, S, T
+    /// Phase 1: feed mode, F, S and T. Returns the S word (phase 2 re-sends the spindle for it).
+    fn set_feed_speed_tool(&mut self, b: &mut Block) -> Res<Option<Word>> {
         match b.g_of(GGroup::FeedMode) {
-            Some(930) => self.state.inverse_time = true,
-            Some(940) => {
+            Some(G93) => self.state.inverse_time = true,
+            Some(G94) => {
                 // LinuxCNC: leaving inverse time leaves no feed rate (an F must follow).
                 if self.state.inverse_time {
                     self.state.feed = 0;
@@ -1008,7 +1036,16 @@ impl Interpreter {
         if let Some(w) = b.take(b'T') {
             self.state.tool_selected = Self::integer(w, 99_999_999)? as u32;
         }
-        // 2. M6, spindle, coolant, user M codes (in RS274NGC order)
+        Ok(s_word)
+    }
+
+    /// Phase 2: M6, spindle, coolant and user M codes, in RS274NGC order.
+    fn switch_tool_spindle_coolant(
+        &mut self,
+        b: &mut Block,
+        line: u32,
+        s_word: Option<Word>,
+    ) -> Res<()> {
         if b.has_m(6) {
             self.state.tool_loaded = self.state.tool_selected;
             let tool = self.state.tool_loaded;
@@ -1058,9 +1095,15 @@ impl Interpreter {
                 },
             )?;
         }
-        // 3. dwell
-        if nonmodal == Some(40) {
-            let w = dwell_word.ok_or((ErrorCode::DwellTimeMissing, b.g_cols(40)))?;
+        Ok(())
+    }
+
+    /// Phase 3: dwell (G4; stored for the next cycle in the gixa dialect).
+    fn dwell(&mut self, b: &Block, line: u32, pre: &Prelude) -> Res<()> {
+        let (nonmodal, dwell_word) = (pre.nonmodal, pre.dwell_word);
+        let gixa = self.gixa();
+        if nonmodal == Some(G4) {
+            let w = dwell_word.ok_or((ErrorCode::DwellTimeMissing, b.g_cols(G4)))?;
             let micros = self.dwell_us(w)?;
             if gixa {
                 self.state.stored_dwell_us = micros;
@@ -1068,15 +1111,19 @@ impl Interpreter {
                 self.push(line, Action::Dwell { micros })?;
             }
         }
-        // 4. plane, units, cutter comp (G40 only), tool length
+        Ok(())
+    }
+
+    /// Phase 4: plane, units, cutter compensation (G40 only) and tool length offset.
+    fn set_plane_units_tool_length(&mut self, b: &mut Block) -> Res<()> {
         match b.g_of(GGroup::Plane) {
-            Some(170) => self.state.plane = Plane::XY,
-            Some(180) => self.state.plane = Plane::ZX,
-            Some(190) => self.state.plane = Plane::YZ,
+            Some(G17) => self.state.plane = Plane::XY,
+            Some(G18) => self.state.plane = Plane::ZX,
+            Some(G19) => self.state.plane = Plane::YZ,
             _ => {}
         }
         if let Some(code) = b.g_of(GGroup::Units) {
-            let inch = code == 200;
+            let inch = code == G20;
             if inch != self.state.inch && !self.state.inverse_time {
                 // The feed keeps its physical value (LinuxCNC converts the feed in force).
                 let f = self.state.feed as i128;
@@ -1089,7 +1136,7 @@ impl Interpreter {
             self.state.inch = inch;
         }
         match b.g_of(GGroup::ToolLength) {
-            Some(430) => {
+            Some(G43) => {
                 let h = b.take(b'H');
                 let number = match h {
                     Some(w) => Self::integer(w, 99_999_999)? as u32,
@@ -1102,13 +1149,13 @@ impl Interpreter {
                         .tool(number)
                         .ok_or((
                             ErrorCode::ToolNotInTable,
-                            h.map(|w| w.cols).or(b.g_cols(430)),
+                            h.map(|w| w.cols).or(b.g_cols(G43)),
                         ))?
                         .length
                 };
                 self.state.tool_offset = [0, 0, length, 0, 0, 0];
             }
-            Some(431) => {
+            Some(G43_1) => {
                 let mut offset = [0; MAX_AXES];
                 for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
                     if let Some(w) = b.take(letter) {
@@ -1117,22 +1164,26 @@ impl Interpreter {
                 }
                 self.state.tool_offset = offset;
             }
-            Some(490) => self.state.tool_offset = [0; MAX_AXES],
+            Some(G49) => self.state.tool_offset = [0; MAX_AXES],
             _ => {}
         }
-        // 5. coordinate system, path mode, distance modes, retract mode
+        Ok(())
+    }
+
+    /// Phase 5: coordinate system, path mode, distance modes and retract mode.
+    fn set_modes(&mut self, b: &mut Block, line: u32) -> Res<()> {
         if let Some(code) = b.g_of(GGroup::Coordinate) {
             self.state.work_system = match code {
-                540..=590 => ((code - 540) / 10) as u8,
-                c => (c - 591 + 6) as u8,
+                G54..=G59 => ((code - G54) / 10) as u8,
+                c => (c - G59_1 + 6) as u8,
             };
         }
         match b.g_of(GGroup::Path) {
-            Some(610) | Some(611) => {
+            Some(G61) | Some(G61_1) => {
                 self.state.path = PathMode::ExactStop;
                 self.push(line, Action::PathMode(PathMode::ExactStop))?;
             }
-            Some(640) => {
+            Some(G64) => {
                 let tolerance = match b.take(b'P') {
                     Some(w) if w.value < 0 => return err(ErrorCode::ValueOutOfRange, Some(w)),
                     Some(w) => self.len_word(w)?,
@@ -1151,29 +1202,38 @@ impl Interpreter {
             _ => {}
         }
         match b.g_of(GGroup::Distance) {
-            Some(900) => self.state.absolute = true,
-            Some(910) => self.state.absolute = false,
+            Some(G90) => self.state.absolute = true,
+            Some(G91) => self.state.absolute = false,
             _ => {}
         }
         match b.g_of(GGroup::ArcDistance) {
-            Some(901) => self.state.arc_absolute = true,
-            Some(911) => self.state.arc_absolute = false,
+            Some(G90_1) => self.state.arc_absolute = true,
+            Some(G91_1) => self.state.arc_absolute = false,
             _ => {}
         }
         match b.g_of(GGroup::Return) {
-            Some(980) => self.state.retract_to_r = false,
-            Some(990) => self.state.retract_to_r = true,
+            Some(G98) => self.state.retract_to_r = false,
+            Some(G99) => self.state.retract_to_r = true,
             _ => {}
         }
-        // 6. G10 / G28 / G30 / G52 / G92 family
-        let g53 = nonmodal == Some(530);
+        Ok(())
+    }
+
+    /// Phase 6: the G10 / G28 / G30 / G52 / G92 family. Returns a G10 L1 tool length to be
+    /// written once the whole block is known to be valid (phase 8).
+    fn apply_nonmodal(
+        &mut self,
+        b: &mut Block,
+        line: u32,
+        nonmodal: Option<u16>,
+    ) -> Res<Option<(u32, Nm)>> {
         let mut tool_write = None;
         match nonmodal {
-            Some(100) => tool_write = self.set_work_offset(b)?,
-            Some(520) => {
+            Some(G10) => tool_write = self.set_work_offset(b)?,
+            Some(G52) => {
                 // LinuxCNC: G52 sets the same offset as G92, to the values given.
                 if !AXIS_LETTERS.iter().any(|&l| b.has(l)) {
-                    return Err((ErrorCode::MissingAxisWords, b.g_cols(520)));
+                    return Err((ErrorCode::MissingAxisWords, b.g_cols(G52)));
                 }
                 for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
                     if let Some(word) = b.take(letter) {
@@ -1182,8 +1242,8 @@ impl Interpreter {
                 }
                 self.state.g92_saved = self.state.g92;
             }
-            Some(280) | Some(300) => {
-                let home = if nonmodal == Some(280) {
+            Some(G28) | Some(G30) => {
+                let home = if nonmodal == Some(G28) {
                     self.state.g28
                 } else {
                     self.state.g30
@@ -1201,11 +1261,11 @@ impl Interpreter {
                 self.push(line, Action::Rapid { to })?;
                 self.state.position = to;
             }
-            Some(281) => self.state.g28 = self.state.position,
-            Some(301) => self.state.g30 = self.state.position,
-            Some(920) => {
+            Some(G28_1) => self.state.g28 = self.state.position,
+            Some(G30_1) => self.state.g30 = self.state.position,
+            Some(G92) => {
                 if !AXIS_LETTERS.iter().any(|&l| b.has(l)) {
-                    return Err((ErrorCode::MissingAxisWords, b.g_cols(920)));
+                    return Err((ErrorCode::MissingAxisWords, b.g_cols(G92)));
                 }
                 let w = self.state.work_offsets[self.state.work_system as usize];
                 for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
@@ -1219,20 +1279,31 @@ impl Interpreter {
                 }
                 self.state.g92_saved = self.state.g92;
             }
-            Some(921) => {
+            Some(G92_1) => {
                 self.state.g92 = [0; MAX_AXES];
                 self.state.g92_saved = [0; MAX_AXES];
             }
-            Some(922) => self.state.g92 = [0; MAX_AXES],
-            Some(923) => self.state.g92 = self.state.g92_saved,
+            Some(G92_2) => self.state.g92 = [0; MAX_AXES],
+            Some(G92_3) => self.state.g92 = self.state.g92_saved,
             _ => {}
         }
-        // 7. motion
+        Ok(tool_write)
+    }
+
+    /// Phase 7: the motion of the block. Returns M98's P and L words (phase 9).
+    fn move_block(
+        &mut self,
+        b: &mut Block,
+        line: u32,
+        pre: &Prelude,
+    ) -> Res<(Option<Word>, Option<Word>)> {
+        let g53 = pre.nonmodal == Some(G53);
+        let (motion, motion_g, f_given) = (pre.motion, pre.motion_g, pre.f_given);
         if let Some(mode) = motion {
             if g53
                 && (!matches!(mode, MotionMode::Rapid | MotionMode::Linear) || !self.state.absolute)
             {
-                return Err((ErrorCode::G53Invalid, b.g_cols(530)));
+                return Err((ErrorCode::G53Invalid, b.g_cols(G53)));
             }
             self.motion(b, line, mode, motion_g.is_some(), g53, f_given)?;
         }
@@ -1241,23 +1312,26 @@ impl Interpreter {
         } else {
             (None, None)
         };
-        // 8. every word must have been used
+        Ok((call_p, call_l))
+    }
+
+    /// Phase 8: every word must have been used; then a G10 L1 tool length is written.
+    fn finish_block(&mut self, b: &Block, tool_write: Option<(u32, Nm)>) -> Res<()> {
         if let Some(l) = b.letters().next() {
             return err(ErrorCode::UnusedWord, b.word(l));
         }
         if let Some((tool, length)) = tool_write {
             if !self.config.set_tool(tool, length) {
-                return Err((ErrorCode::G10Invalid, b.g_cols(100)));
+                return Err((ErrorCode::G10Invalid, b.g_cols(G10)));
             }
         }
-        // 9. stops and program flow
-        self.flow(b, line, src, call_p, call_l)
+        Ok(())
     }
 
     /// G10 L2/L20 (work offsets, applied now) and G10 L1 (tool length, returned to be written
     /// once the whole block is known to be valid).
     fn set_work_offset(&mut self, b: &mut Block) -> Res<Option<(u32, Nm)>> {
-        let g10 = b.g_cols(100);
+        let g10 = b.g_cols(G10);
         let l = b.take(b'L').ok_or((ErrorCode::G10Invalid, g10))?;
         let p = b.take(b'P').ok_or((ErrorCode::G10Invalid, g10))?;
         let l_value = l.integer().ok_or((ErrorCode::G10Invalid, Some(l.cols)))?;
@@ -1500,19 +1574,19 @@ impl Interpreter {
         let gixa = self.gixa();
         let g_cols = b.g_cols(code);
         let body = match (gixa, code) {
-            (false, 730) => CycleBody::PeckChipBreak,
-            (_, 810) => CycleBody::Drill,
-            (_, 820) => CycleBody::DrillDwell,
-            (_, 830) => CycleBody::PeckFull,
-            (_, 840) => CycleBody::Tap,
-            (_, 850) => CycleBody::Bore,
-            (false, 860) => CycleBody::BoreSpindleStop,
-            (true, 860) => CycleBody::DrillPause,
-            (true, 870) => CycleBody::PeckChipBreak,
-            (true, 880) => CycleBody::Punch,
-            (false, 870) => CycleBody::BackBore,
-            (false, 880) => CycleBody::BoreManualRetract,
-            (_, 890) => CycleBody::BoreDwell,
+            (false, G73) => CycleBody::PeckChipBreak,
+            (_, G81) => CycleBody::Drill,
+            (_, G82) => CycleBody::DrillDwell,
+            (_, G83) => CycleBody::PeckFull,
+            (_, G84) => CycleBody::Tap,
+            (_, G85) => CycleBody::Bore,
+            (false, G86) => CycleBody::BoreSpindleStop,
+            (true, G86) => CycleBody::DrillPause,
+            (true, G87) => CycleBody::PeckChipBreak,
+            (true, G88) => CycleBody::Punch,
+            (false, G87) => CycleBody::BackBore,
+            (false, G88) => CycleBody::BoreManualRetract,
+            (_, G89) => CycleBody::BoreDwell,
             _ => return Err((ErrorCode::CycleNotSupported, g_cols)),
         };
         if self.state.inverse_time {
@@ -1864,7 +1938,7 @@ impl Interpreter {
     /// way) with a new level of locals #1-#33, set from the argument words (specification I,
     /// [`G65_ARGUMENT`]) and unset otherwise; M99 gives the caller its locals back.
     fn macro_call(&mut self, b: &mut Block, line: u32, src: &mut impl ProgramSource) -> Res<()> {
-        let cols = b.g_cols(650);
+        let cols = b.g_cols(G65);
         let others = (0..super::block::G_GROUPS)
             .filter(|&g| g != GGroup::NonModal as usize)
             .any(|g| b.g[g].is_some());
@@ -1916,11 +1990,25 @@ fn bounded(v: Nm, w: Word) -> Res<Nm> {
 
 fn decode_motion(code: u16) -> MotionMode {
     match code {
-        0 => MotionMode::Rapid,
-        10 => MotionMode::Linear,
-        20 => MotionMode::ArcCw,
-        30 => MotionMode::ArcCcw,
-        800 => MotionMode::None,
+        G0 => MotionMode::Rapid,
+        G1 => MotionMode::Linear,
+        G2 => MotionMode::ArcCw,
+        G3 => MotionMode::ArcCcw,
+        G80 => MotionMode::None,
         c => MotionMode::Cycle(c),
     }
+}
+
+/// What [`Interpreter::check_block`] learned of a block for the phases after it.
+struct Prelude {
+    /// The block's non-modal G code (group 0), ×10.
+    nonmodal: Option<u16>,
+    /// G4's time word (P, or X in Fanuc style).
+    dwell_word: Option<Word>,
+    /// The motion G code written in the block.
+    motion_g: Option<super::block::Code>,
+    /// The motion the block runs (written, or the modal one for bare axis words).
+    motion: Option<MotionMode>,
+    /// The block has an F word.
+    f_given: bool,
 }

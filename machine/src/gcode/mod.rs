@@ -22,6 +22,7 @@
 //! - Tool length offsets apply to Z (G43 H from the setup's tool table; G43.1 takes any axis).
 
 pub mod block;
+pub mod codes;
 pub mod config;
 pub mod cycles;
 pub mod error;

@@ -1,0 +1,122 @@
+//! G codes by name. A block stores a G number ×10 as a `u16` (`G59.1` is 591, `G0` is 0), so
+//! `G28.1` and `G28` stay apart without floats; these constants name them where the interpreter
+//! and the block parser decide on one.
+
+/// `G0` rapid.
+pub const G0: u16 = 0;
+/// `G1` linear feed.
+pub const G1: u16 = 10;
+/// `G2` clockwise arc.
+pub const G2: u16 = 20;
+/// `G3` counter-clockwise arc.
+pub const G3: u16 = 30;
+/// `G4` dwell.
+pub const G4: u16 = 40;
+/// `G10` offsets and tool table.
+pub const G10: u16 = 100;
+/// `G17` XY plane.
+pub const G17: u16 = 170;
+/// `G18` ZX plane.
+pub const G18: u16 = 180;
+/// `G19` YZ plane.
+pub const G19: u16 = 190;
+/// `G20` inches.
+pub const G20: u16 = 200;
+/// `G21` millimetres.
+pub const G21: u16 = 210;
+/// `G28` go to the G28 position.
+pub const G28: u16 = 280;
+/// `G28.1` store the G28 position.
+pub const G28_1: u16 = 281;
+/// `G30` go to the G30 position.
+pub const G30: u16 = 300;
+/// `G30.1` store the G30 position.
+pub const G30_1: u16 = 301;
+/// `G40` cutter compensation off.
+pub const G40: u16 = 400;
+/// `G41` cutter compensation left.
+pub const G41: u16 = 410;
+/// `G42` cutter compensation right.
+pub const G42: u16 = 420;
+/// `G43` tool length offset from the table.
+pub const G43: u16 = 430;
+/// `G43.1` dynamic tool length offset.
+pub const G43_1: u16 = 431;
+/// `G49` tool length offset off.
+pub const G49: u16 = 490;
+/// `G52` local offset.
+pub const G52: u16 = 520;
+/// `G53` machine coordinates for this block.
+pub const G53: u16 = 530;
+/// `G54` first work system (`G54`..`G59` are 540..590, then `G59.1`..`G59.3`).
+pub const G54: u16 = 540;
+/// `G55` second work system.
+pub const G55: u16 = 550;
+/// `G56` third work system.
+pub const G56: u16 = 560;
+/// `G57` fourth work system.
+pub const G57: u16 = 570;
+/// `G58` fifth work system.
+pub const G58: u16 = 580;
+/// `G59` sixth work system.
+pub const G59: u16 = 590;
+/// `G59.1` seventh work system.
+pub const G59_1: u16 = 591;
+/// `G59.2` eighth work system.
+pub const G59_2: u16 = 592;
+/// `G59.3` ninth work system.
+pub const G59_3: u16 = 593;
+/// `G61` exact path.
+pub const G61: u16 = 610;
+/// `G61.1` exact stop.
+pub const G61_1: u16 = 611;
+/// `G64` blending with a tolerance.
+pub const G64: u16 = 640;
+/// `G65` Fanuc macro call.
+pub const G65: u16 = 650;
+/// `G73` peck drilling with chip break.
+pub const G73: u16 = 730;
+/// `G80` cancel the canned cycle.
+pub const G80: u16 = 800;
+/// `G81` drilling.
+pub const G81: u16 = 810;
+/// `G82` drilling with dwell.
+pub const G82: u16 = 820;
+/// `G83` peck drilling.
+pub const G83: u16 = 830;
+/// `G84` tapping.
+pub const G84: u16 = 840;
+/// `G85` boring, feed out.
+pub const G85: u16 = 850;
+/// `G86` boring, spindle stop, rapid out.
+pub const G86: u16 = 860;
+/// `G87` back boring (the gixa dialect: peck with chip break).
+pub const G87: u16 = 870;
+/// `G88` boring, manual retract (the gixa dialect: punch).
+pub const G88: u16 = 880;
+/// `G89` boring with dwell, feed out.
+pub const G89: u16 = 890;
+/// `G90` absolute distances.
+pub const G90: u16 = 900;
+/// `G90.1` absolute arc centres.
+pub const G90_1: u16 = 901;
+/// `G91` incremental distances.
+pub const G91: u16 = 910;
+/// `G91.1` incremental arc centres.
+pub const G91_1: u16 = 911;
+/// `G92` set the G92 offset.
+pub const G92: u16 = 920;
+/// `G92.1` clear the G92 offset and its stored copy.
+pub const G92_1: u16 = 921;
+/// `G92.2` clear the G92 offset, keep the stored copy.
+pub const G92_2: u16 = 922;
+/// `G92.3` restore the stored G92 offset.
+pub const G92_3: u16 = 923;
+/// `G93` inverse time feed.
+pub const G93: u16 = 930;
+/// `G94` units per minute feed.
+pub const G94: u16 = 940;
+/// `G98` retract to the initial level.
+pub const G98: u16 = 980;
+/// `G99` retract to R.
+pub const G99: u16 = 990;
