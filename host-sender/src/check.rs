@@ -10,6 +10,7 @@ use std::process::ExitCode;
 use gantry_machine::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
 use gantry_machine::gcode::{GcodeError, InterpConfig, Interpreter, MemorySource};
 use gantry_machine::units::Nm;
+use serde::Serialize;
 
 /// Most actions one check produces before it gives up (endless M99 loops, huge repeat counts).
 const MAX_ACTIONS: usize = 5_000_000;
@@ -71,12 +72,8 @@ pub fn canon_output(program: &[u8], config: &InterpConfig) -> (String, bool) {
                 out.push('\n');
             }
             Err(e) => {
-                let _ = writeln!(
-                    out,
-                    "{{\"line\":{},\"op\":\"error\",\"message\":{}}}",
-                    e.line,
-                    json_string(&error_text(&e))
-                );
+                out.push_str(&error_json(e.line, &error_text(&e)));
+                out.push('\n');
                 return (out, true);
             }
         }
@@ -86,10 +83,11 @@ pub fn canon_output(program: &[u8], config: &InterpConfig) -> (String, bool) {
             break;
         }
         if count >= MAX_ACTIONS {
-            let _ = writeln!(
-                out,
-                "{{\"line\":0,\"op\":\"error\",\"message\":\"more than {MAX_ACTIONS} actions, check stopped\"}}"
-            );
+            out.push_str(&error_json(
+                0,
+                &format!("more than {MAX_ACTIONS} actions, check stopped"),
+            ));
+            out.push('\n');
             return (out, true);
         }
     }
@@ -115,36 +113,94 @@ pub fn mm(nm: Nm) -> String {
     }
 }
 
-fn xyz(p: &[Nm]) -> String {
-    format!("[{},{},{}]", mm(p[0]), mm(p[1]), mm(p[2]))
-}
+/// A length in mm on the JSON output: an integer when whole, else the nearest `f64` (which prints
+/// the same up-to-6 decimals as [`mm`], in exponent form below 0.0001 mm).
+#[derive(Clone, Copy)]
+struct Mm(Nm);
 
-fn json_string(s: &str) -> String {
-    let mut out = String::from("\"");
-    for c in s.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if (c as u32) < 0x20 => {
-                let _ = write!(out, "\\u{:04x}", c as u32);
-            }
-            c => out.push(c),
+impl Serialize for Mm {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        if self.0 % 1_000_000 == 0 {
+            s.serialize_i64(self.0 / 1_000_000)
+        } else {
+            s.serialize_f64(self.0 as f64 / 1e6)
         }
     }
-    out.push('"');
-    out
+}
+
+fn xyz(p: &[Nm]) -> [Mm; 3] {
+    [Mm(p[0]), Mm(p[1]), Mm(p[2])]
+}
+
+/// One record of `check --canon`: the source line, then the operation and its fields.
+#[derive(Serialize)]
+struct Record<'a> {
+    line: u32,
+    #[serde(flatten)]
+    op: Op<'a>,
+}
+
+/// The operations of tests/golden/rs274/README.md, tagged by `op`.
+#[derive(Serialize)]
+#[serde(tag = "op", rename_all = "lowercase")]
+enum Op<'a> {
+    Rapid {
+        to: [Mm; 3],
+    },
+    Feed {
+        to: [Mm; 3],
+        feed: Mm,
+    },
+    Arc {
+        to: [Mm; 3],
+        center: [Mm; 3],
+        plane: &'static str,
+        dir: &'static str,
+        turns: u32,
+        feed: Mm,
+    },
+    Dwell {
+        seconds: Mm,
+    },
+    Spindle {
+        state: &'static str,
+        rpm: u32,
+    },
+    Coolant {
+        mist: bool,
+        flood: bool,
+    },
+    Tool {
+        tool: u32,
+    },
+    Mcode {
+        code: u32,
+    },
+    Path {
+        mode: &'static str,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        tolerance: Option<Mm>,
+    },
+    Stop {
+        kind: &'static str,
+    },
+    Error {
+        message: &'a str,
+    },
+}
+
+fn record_json(line: u32, op: Op<'_>) -> String {
+    serde_json::to_string(&Record { line, op }).expect("canon records always serialize")
 }
 
 /// One canonical action as a JSON object (no newline).
 pub fn canon_json(c: &Canon) -> String {
-    let l = c.line;
-    match c.action {
-        Action::Rapid { to } => format!("{{\"line\":{l},\"op\":\"rapid\",\"to\":{}}}", xyz(&to)),
-        Action::Feed { to, feed } => format!(
-            "{{\"line\":{l},\"op\":\"feed\",\"to\":{},\"feed\":{}}}",
-            xyz(&to),
-            mm(feed)
-        ),
+    let op = match c.action {
+        Action::Rapid { to } => Op::Rapid { to: xyz(&to) },
+        Action::Feed { to, feed } => Op::Feed {
+            to: xyz(&to),
+            feed: Mm(feed),
+        },
         Action::Arc {
             to,
             center,
@@ -152,55 +208,58 @@ pub fn canon_json(c: &Canon) -> String {
             dir,
             turns,
             feed,
-        } => format!(
-            "{{\"line\":{l},\"op\":\"arc\",\"to\":{},\"center\":{},\"plane\":\"{}\",\"dir\":\"{}\",\"turns\":{turns},\"feed\":{}}}",
-            xyz(&to),
-            xyz(&center),
-            match plane {
+        } => Op::Arc {
+            to: xyz(&to),
+            center: xyz(&center),
+            plane: match plane {
                 Plane::XY => "XY",
                 Plane::ZX => "ZX",
                 Plane::YZ => "YZ",
             },
-            match dir {
+            dir: match dir {
                 ArcDir::Cw => "cw",
                 ArcDir::Ccw => "ccw",
             },
-            mm(feed)
-        ),
-        Action::Dwell { micros } => format!(
-            "{{\"line\":{l},\"op\":\"dwell\",\"seconds\":{}}}",
-            mm(micros as i64)
-        ),
-        Action::Spindle { state, rpm } => format!(
-            "{{\"line\":{l},\"op\":\"spindle\",\"state\":\"{}\",\"rpm\":{rpm}}}",
-            match state {
+            turns,
+            feed: Mm(feed),
+        },
+        Action::Dwell { micros } => Op::Dwell {
+            seconds: Mm(micros as i64),
+        },
+        Action::Spindle { state, rpm } => Op::Spindle {
+            state: match state {
                 Spindle::Off => "off",
                 Spindle::Cw => "cw",
                 Spindle::Ccw => "ccw",
-            }
-        ),
-        Action::Coolant { mist, flood } => {
-            format!("{{\"line\":{l},\"op\":\"coolant\",\"mist\":{mist},\"flood\":{flood}}}")
-        }
-        Action::ToolChange { tool } => format!("{{\"line\":{l},\"op\":\"tool\",\"tool\":{tool}}}"),
-        Action::UserMCode { code, .. } => format!("{{\"line\":{l},\"op\":\"mcode\",\"code\":{code}}}"),
-        Action::PathMode(PathMode::ExactStop) => {
-            format!("{{\"line\":{l},\"op\":\"path\",\"mode\":\"exact\"}}")
-        }
-        Action::PathMode(PathMode::Blend { tolerance }) => format!(
-            "{{\"line\":{l},\"op\":\"path\",\"mode\":\"blend\",\"tolerance\":{}}}",
-            mm(tolerance)
-        ),
-        Action::Stop(kind) => format!(
-            "{{\"line\":{l},\"op\":\"stop\",\"kind\":\"{}\"}}",
-            match kind {
+            },
+            rpm,
+        },
+        Action::Coolant { mist, flood } => Op::Coolant { mist, flood },
+        Action::ToolChange { tool } => Op::Tool { tool },
+        Action::UserMCode { code, .. } => Op::Mcode { code: code.into() },
+        Action::PathMode(PathMode::ExactStop) => Op::Path {
+            mode: "exact",
+            tolerance: None,
+        },
+        Action::PathMode(PathMode::Blend { tolerance }) => Op::Path {
+            mode: "blend",
+            tolerance: Some(Mm(tolerance)),
+        },
+        Action::Stop(kind) => Op::Stop {
+            kind: match kind {
                 StopKind::Pause => "pause",
                 StopKind::OptionalPause => "optional",
                 StopKind::End => "end",
                 StopKind::EndRewind => "end_rewind",
-            }
-        ),
-    }
+            },
+        },
+    };
+    record_json(c.line, op)
+}
+
+/// The `{"line":…,"op":"error","message":…}` record that ends `check --canon` output.
+pub fn error_json(line: u32, message: &str) -> String {
+    record_json(line, Op::Error { message })
 }
 
 /// The human-readable report of plain `check` and the number of errors found.
@@ -315,6 +374,36 @@ mod tests {
             out.lines().last().unwrap(),
             r#"{"line":2,"op":"error","message":"E301: feed move with zero feed rate (program an F word)"}"#
         );
+    }
+
+    #[test]
+    fn every_canon_line_is_json_with_exact_numbers() {
+        let out = canon_jsonl("G0 X0.000001 Y-1.5 Z1234.25\nG4 P0.5\nG1 X1\n");
+        let records: Vec<serde_json::Value> = out
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{l}: {e}")))
+            .collect();
+        assert_eq!(records.len(), 3, "{out}");
+        assert_eq!(
+            records[0]["to"],
+            serde_json::json!([0.000001, -1.5, 1234.25])
+        );
+        assert_eq!(records[1]["seconds"], serde_json::json!(0.5));
+        assert_eq!(records[2]["op"], "error");
+        assert_eq!(records[2]["line"], 3);
+        // Integral lengths stay integers, as in the rs274 goldens.
+        assert_eq!(
+            canon_jsonl("G0 X10\n").trim_end(),
+            r#"{"line":1,"op":"rapid","to":[10,0,0]}"#
+        );
+    }
+
+    #[test]
+    fn error_messages_are_escaped_json_strings() {
+        let line = error_json(4, "quote \" backslash \\ bell \u{7}");
+        let v: serde_json::Value = serde_json::from_str(&line).unwrap();
+        assert_eq!(v["message"], "quote \" backslash \\ bell \u{7}");
+        assert_eq!(v["line"], 4);
     }
 
     #[test]
