@@ -65,7 +65,20 @@ pub fn canon_output(program: &[u8], config: &InterpConfig) -> (String, bool) {
     let mut src = MemorySource::new(program);
     let mut out = String::new();
     let mut count = 0usize;
+    // The first line the board would refuse: the stream ends there, as at an interpreter error.
+    let long = long_lines(program).into_iter().next();
+    let long_error = |e: &crate::program::WireTextError| {
+        format!("{}\n", error_json(e.line, &long_line_message(e)))
+    };
     while let Some(item) = interp.next(&mut src) {
+        let line = match &item {
+            Ok(c) => c.line,
+            Err(e) => e.line,
+        };
+        if let Some(e) = long.as_ref().filter(|e| line >= e.line) {
+            out.push_str(&long_error(e));
+            return (out, true);
+        }
         match item {
             Ok(c) => {
                 out.push_str(&canon_json(&c));
@@ -90,6 +103,10 @@ pub fn canon_output(program: &[u8], config: &InterpConfig) -> (String, bool) {
             out.push('\n');
             return (out, true);
         }
+    }
+    if let Some(e) = &long {
+        out.push_str(&long_error(e));
+        return (out, true);
     }
     (out, false)
 }
@@ -262,47 +279,113 @@ pub fn error_json(line: u32, message: &str) -> String {
     record_json(line, Op::Error { message })
 }
 
+/// One error as `check`, `stream` and `mdi` print it (see [`format_error`]).
+pub struct ErrorReport<'a> {
+    /// Where the program comes from: a file name, or `mdi`.
+    pub place: &'a str,
+    /// 1-based line in the program.
+    pub line: u32,
+    /// The block's N word, if it has one.
+    pub n_word: Option<u32>,
+    /// The interpreter's error number (docs/errors.md); `None` for a host-side check.
+    pub code: Option<u16>,
+    pub message: &'a str,
+    /// The line as written, when known.
+    pub source: Option<&'a str>,
+    /// 0-based columns `[start, end)` of the word to blame in `source`.
+    pub columns: Option<(u16, u16)>,
+}
+
+/// `place:line: N20 error E211: message`, then the source line and a caret under the bad word
+/// (control characters in the source are shown escaped, never sent to the terminal).
+pub fn format_error(r: &ErrorReport<'_>) -> String {
+    let n = r.n_word.map(|n| format!(" N{n}")).unwrap_or_default();
+    let code = r.code.map(|c| format!(" E{c}")).unwrap_or_default();
+    let mut out = format!("{}:{}:{n} error{code}: {}\n", r.place, r.line, r.message);
+    if let Some(text) = r.source {
+        let text = text.trim_end_matches('\r');
+        let _ = writeln!(out, "    {}", crate::stream::printable(text));
+        if let Some((start, end)) = r.columns {
+            // Columns count characters of the raw line; escaping widens what comes before.
+            let before: String = text.chars().take(start as usize).collect();
+            let pad = crate::stream::printable(&before).chars().count();
+            let width = end.saturating_sub(start).max(1) as usize;
+            let _ = writeln!(out, "    {}{}", " ".repeat(pad), "^".repeat(width));
+        }
+    }
+    out
+}
+
+/// Lines whose text, without comments and blanks, is longer than the board takes
+/// (`gantry_proto::LINE_MAX`): `stream` would refuse them, so `check` reports them as errors.
+pub fn long_lines(program: &[u8]) -> Vec<crate::program::WireTextError> {
+    let program = crate::program::Program::from_text(&String::from_utf8_lossy(program));
+    (1..=program.len())
+        .filter_map(|n| program.wire_text(n).err())
+        .collect()
+}
+
+/// The message of a [`long_lines`] error.
+fn long_line_message(e: &crate::program::WireTextError) -> String {
+    format!(
+        "line too long for the board: {} characters without comments and blanks, at most {}",
+        e.len,
+        gantry_proto::LINE_MAX
+    )
+}
+
 /// The human-readable report of plain `check` and the number of errors found.
 pub fn human_report(name: &str, program: &[u8], config: &InterpConfig) -> (String, usize) {
     let lines: Vec<&[u8]> = program.split(|&c| c == b'\n').collect();
+    let source = |line: u32| {
+        line.checked_sub(1)
+            .and_then(|i| lines.get(i as usize))
+            .map(|l| String::from_utf8_lossy(l).into_owned())
+    };
     let mut interp = Interpreter::new(config);
     let mut src = MemorySource::new(program);
-    let mut out = String::new();
-    let mut errors = 0usize;
+    // (line, report): interpreter errors and long lines, printed in line order.
+    let mut found: Vec<(u32, String)> = long_lines(program)
+        .iter()
+        .map(|e| {
+            let text = source(e.line);
+            let report = format_error(&ErrorReport {
+                place: name,
+                line: e.line,
+                n_word: None,
+                code: None,
+                message: &long_line_message(e),
+                source: text.as_deref(),
+                columns: None,
+            });
+            (e.line, report)
+        })
+        .collect();
     let mut actions = 0usize;
     while let Some(item) = interp.next(&mut src) {
         match item {
             Ok(_) => actions += 1,
             Err(e) => {
-                errors += 1;
-                let n = e.n_word.map(|n| format!(" N{n}")).unwrap_or_default();
-                let _ = writeln!(
-                    out,
-                    "{name}:{}:{n} error E{}: {}",
-                    e.line,
-                    e.code.number(),
-                    e.code.message()
-                );
-                if let Some(src_line) = e.line.checked_sub(1).and_then(|i| lines.get(i as usize)) {
-                    let text = String::from_utf8_lossy(src_line);
-                    let text = text.trim_end_matches('\r');
-                    let _ = writeln!(out, "    {text}");
-                    if let Some((start, end)) = e.columns {
-                        let width = (end.saturating_sub(start)).max(1) as usize;
-                        let _ = writeln!(
-                            out,
-                            "    {}{}",
-                            " ".repeat(start as usize),
-                            "^".repeat(width)
-                        );
-                    }
-                }
+                let text = source(e.line);
+                let report = format_error(&ErrorReport {
+                    place: name,
+                    line: e.line,
+                    n_word: e.n_word,
+                    code: Some(e.code.number()),
+                    message: e.code.message(),
+                    source: text.as_deref(),
+                    columns: e.columns,
+                });
+                found.push((e.line, report));
             }
         }
         if interp.restarts() > 0 || actions >= MAX_ACTIONS {
             break;
         }
     }
+    found.sort_by_key(|(line, _)| *line);
+    let errors = found.len();
+    let mut out: String = found.into_iter().map(|(_, r)| r).collect();
     if errors == 0 {
         let _ = writeln!(out, "{name}: ok, {actions} actions");
     } else {
@@ -404,6 +487,46 @@ mod tests {
         let v: serde_json::Value = serde_json::from_str(&line).unwrap();
         assert_eq!(v["message"], "quote \" backslash \\ bell \u{7}");
         assert_eq!(v["line"], 4);
+    }
+
+    #[test]
+    fn lines_longer_than_the_board_takes_are_errors() {
+        let long = format!("G1 F100 (comment) X{}1", "0".repeat(100)); // 108 characters sent
+        let program = format!("G0 X0\n{long}\nG0 X2\n");
+        let (report, errors) = human_report("p.nc", program.as_bytes(), &InterpConfig::default());
+        assert_eq!(errors, 1, "{report}");
+        assert!(
+            report.starts_with(
+                "p.nc:2: error: line too long for the board: 108 characters without comments and blanks, at most 104\n"
+            ),
+            "{report}"
+        );
+        let out = canon_jsonl(&program);
+        let last: serde_json::Value = serde_json::from_str(out.lines().last().unwrap()).unwrap();
+        assert_eq!(last["op"], "error");
+        assert_eq!(last["line"], 2);
+        assert_eq!(out.lines().count(), 2, "{out}");
+        // 104 characters are fine.
+        let fits = format!("G1 F100 X{}1", "0".repeat(96));
+        let (_, errors) = human_report("p.nc", fits.as_bytes(), &InterpConfig::default());
+        assert_eq!(errors, 0);
+    }
+
+    #[test]
+    fn control_characters_are_escaped_and_the_caret_follows() {
+        let report = format_error(&ErrorReport {
+            place: "p.nc",
+            line: 3,
+            n_word: Some(7),
+            code: Some(211),
+            message: "m",
+            source: Some("N7 (\u{1b}) Q2\r"),
+            columns: Some((7, 9)),
+        });
+        assert_eq!(
+            report,
+            "p.nc:3: N7 error E211: m\n    N7 (\\u{1b}) Q2\n                ^^\n"
+        );
     }
 
     #[test]
