@@ -61,6 +61,7 @@ pub fn simulate(program: &[u8], setup: &Setup) -> anyhow::Result<(Vec<Move>, f64
             let _ = sim.on_the_fly.push((l.code, output));
         }
     }
+    let (actions, dwell_counts) = crate::preview::plan::without_dwell_time(&actions);
     let mut reports: Vec<BlockReport> = Vec::new();
     sim.run(actions, &mut |e| {
         if let SimEvent::Block { report, .. } = e {
@@ -96,7 +97,7 @@ pub fn simulate(program: &[u8], setup: &Setup) -> anyhow::Result<(Vec<Move>, f64
         }
         last_line = Some(r.line);
     }
-    Ok((moves, sim.now as f64 / hz))
+    Ok((moves, (sim.now + dwell_counts) as f64 / hz))
 }
 
 /// The whole report text. With `json`, JSON Lines written by serde_json: one object per move
