@@ -47,6 +47,61 @@ pub fn without_dwell_time(canon: &[Canon]) -> (Vec<Canon>, u64) {
     (out, dwell_counts)
 }
 
+/// Runs `program` through `sim`'s planner and segment prep like [`Sim::run`], but adds each
+/// segment's duration (`ticks × period`) to `sim.now` instead of stepping the kernel through it,
+/// so the work grows with the number of segments, not with the steps (deep peck cycles).
+/// Sync points are released at once; nothing waits on a real kernel.
+pub fn run_segments<const N: usize>(
+    sim: &mut Sim<N>,
+    program: impl IntoIterator<Item = Canon>,
+    on: &mut impl FnMut(SimEvent),
+) -> Result<(), (Canon, gantry_machine::motion::pipeline::PushError)> {
+    use gantry_machine::motion::pipeline::PushError;
+    let mut program = program.into_iter();
+    let mut pending: Option<Canon> = None;
+    let mut exhausted = false;
+    loop {
+        while !exhausted {
+            let Some(c) = pending.take().or_else(|| program.next()) else {
+                exhausted = true;
+                break;
+            };
+            match sim.push(&c) {
+                Ok(()) => {}
+                Err(PushError::Full) => {
+                    pending = Some(c);
+                    break;
+                }
+                Err(e) => return Err((c, e)),
+            }
+        }
+        if exhausted {
+            let _ = sim.motion.flush_output();
+        }
+        let seg = sim.motion.next_segment();
+        if let Some(report) = sim.motion.take_report() {
+            on(SimEvent::Block {
+                report,
+                time: sim.now,
+            });
+        }
+        match seg {
+            Some(s) => sim.now += s.duration(),
+            None => {
+                if let Some(canon) = sim.motion.sync_point().copied() {
+                    on(SimEvent::Sync {
+                        canon,
+                        time: sim.now,
+                    });
+                    sim.motion.release_sync();
+                } else if exhausted && !sim.motion.output_pending() {
+                    return Ok(());
+                }
+            }
+        }
+    }
+}
+
 /// Plans `canon` with the machine `setup` on virtual time.
 pub fn plan(canon: &[Canon], setup: &Setup) -> anyhow::Result<Plan> {
     let (canon, dwell_counts) = without_dwell_time(canon);
@@ -62,7 +117,7 @@ pub fn plan(canon: &[Canon], setup: &Setup) -> anyhow::Result<Plan> {
             }
         }
     };
-    sim.run(canon.iter().copied(), &mut on)
+    run_segments(&mut sim, canon.iter().copied(), &mut on)
         .map_err(|(c, e)| anyhow::anyhow!("line {}: planner refused the move: {e:?}", c.line))?;
     Ok(Plan {
         peak_mm_min,
@@ -106,6 +161,36 @@ mod tests {
         // ...and the plan still takes the full 2,000 minutes.
         let p = plan(&canon(&program), &Setup::default()).unwrap();
         assert_eq!(p.total_time_s, 120_000.0);
+    }
+
+    #[test]
+    fn adding_segment_durations_gives_the_stepped_time_and_reports() {
+        let program = "G21 G90 F300\nG0 X5 Y5 Z5\nG1 Z-1\nG2 X15 Y5 I5 J0\nM3 S1000\n\
+                       G99 G83 X20 Y20 Z-4 R1 Q0.3\nX25\nG80\nG4 P0.2\nG0 Z5\nM0\nG1 X0 Y0\nM30\n";
+        let actions = canon(program);
+        let cfg = MotionConfig::from_setup(&Setup::default());
+        let mut stepped: Box<Sim<RING>> = Box::new(Sim::new(cfg));
+        let mut stepped_reports = Vec::new();
+        stepped
+            .run(actions.iter().copied(), &mut |e| {
+                if let SimEvent::Block { report, .. } = e {
+                    stepped_reports.push(report);
+                }
+            })
+            .unwrap();
+        let mut fast: Box<Sim<RING>> = Box::new(Sim::new(cfg));
+        let mut fast_reports = Vec::new();
+        run_segments(&mut *fast, actions.iter().copied(), &mut |e| {
+            if let SimEvent::Block { report, .. } = e {
+                fast_reports.push(report);
+            }
+        })
+        .unwrap();
+        assert!(stepped.now > 0);
+        assert_eq!(fast.now, stepped.now);
+        assert_eq!(fast_reports, stepped_reports);
+        // No step events: the kernel never ran.
+        assert_eq!(fast.kernel.position(), [0; gantry_machine::units::MAX_AXES]);
     }
 
     #[test]
