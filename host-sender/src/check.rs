@@ -10,6 +10,7 @@ use std::process::ExitCode;
 use gantry_machine::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
 use gantry_machine::gcode::{GcodeError, InterpConfig, Interpreter, MemorySource};
 use gantry_machine::units::Nm;
+use serde::Serialize;
 
 /// Most actions one check produces before it gives up (endless M99 loops, huge repeat counts).
 const MAX_ACTIONS: usize = 5_000_000;
@@ -64,19 +65,28 @@ pub fn canon_output(program: &[u8], config: &InterpConfig) -> (String, bool) {
     let mut src = MemorySource::new(program);
     let mut out = String::new();
     let mut count = 0usize;
+    // The first line the board would refuse: the stream ends there, as at an interpreter error.
+    let long = long_lines(program).into_iter().next();
+    let long_error = |e: &crate::program::WireTextError| {
+        format!("{}\n", error_json(e.line, &long_line_message(e)))
+    };
     while let Some(item) = interp.next(&mut src) {
+        let line = match &item {
+            Ok(c) => c.line,
+            Err(e) => e.line,
+        };
+        if let Some(e) = long.as_ref().filter(|e| line >= e.line) {
+            out.push_str(&long_error(e));
+            return (out, true);
+        }
         match item {
             Ok(c) => {
                 out.push_str(&canon_json(&c));
                 out.push('\n');
             }
             Err(e) => {
-                let _ = writeln!(
-                    out,
-                    "{{\"line\":{},\"op\":\"error\",\"message\":{}}}",
-                    e.line,
-                    json_string(&error_text(&e))
-                );
+                out.push_str(&error_json(e.line, &error_text(&e)));
+                out.push('\n');
                 return (out, true);
             }
         }
@@ -86,12 +96,17 @@ pub fn canon_output(program: &[u8], config: &InterpConfig) -> (String, bool) {
             break;
         }
         if count >= MAX_ACTIONS {
-            let _ = writeln!(
-                out,
-                "{{\"line\":0,\"op\":\"error\",\"message\":\"more than {MAX_ACTIONS} actions, check stopped\"}}"
-            );
+            out.push_str(&error_json(
+                0,
+                &format!("more than {MAX_ACTIONS} actions, check stopped"),
+            ));
+            out.push('\n');
             return (out, true);
         }
+    }
+    if let Some(e) = &long {
+        out.push_str(&long_error(e));
+        return (out, true);
     }
     (out, false)
 }
@@ -115,36 +130,94 @@ pub fn mm(nm: Nm) -> String {
     }
 }
 
-fn xyz(p: &[Nm]) -> String {
-    format!("[{},{},{}]", mm(p[0]), mm(p[1]), mm(p[2]))
-}
+/// A length in mm on the JSON output: an integer when whole, else the nearest `f64` (which prints
+/// the same up-to-6 decimals as [`mm`], in exponent form below 0.0001 mm).
+#[derive(Clone, Copy)]
+struct Mm(Nm);
 
-fn json_string(s: &str) -> String {
-    let mut out = String::from("\"");
-    for c in s.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if (c as u32) < 0x20 => {
-                let _ = write!(out, "\\u{:04x}", c as u32);
-            }
-            c => out.push(c),
+impl Serialize for Mm {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        if self.0 % 1_000_000 == 0 {
+            s.serialize_i64(self.0 / 1_000_000)
+        } else {
+            s.serialize_f64(self.0 as f64 / 1e6)
         }
     }
-    out.push('"');
-    out
+}
+
+fn xyz(p: &[Nm]) -> [Mm; 3] {
+    [Mm(p[0]), Mm(p[1]), Mm(p[2])]
+}
+
+/// One record of `check --canon`: the source line, then the operation and its fields.
+#[derive(Serialize)]
+struct Record<'a> {
+    line: u32,
+    #[serde(flatten)]
+    op: Op<'a>,
+}
+
+/// The operations of tests/golden/rs274/README.md, tagged by `op`.
+#[derive(Serialize)]
+#[serde(tag = "op", rename_all = "lowercase")]
+enum Op<'a> {
+    Rapid {
+        to: [Mm; 3],
+    },
+    Feed {
+        to: [Mm; 3],
+        feed: Mm,
+    },
+    Arc {
+        to: [Mm; 3],
+        center: [Mm; 3],
+        plane: &'static str,
+        dir: &'static str,
+        turns: u32,
+        feed: Mm,
+    },
+    Dwell {
+        seconds: Mm,
+    },
+    Spindle {
+        state: &'static str,
+        rpm: u32,
+    },
+    Coolant {
+        mist: bool,
+        flood: bool,
+    },
+    Tool {
+        tool: u32,
+    },
+    Mcode {
+        code: u32,
+    },
+    Path {
+        mode: &'static str,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        tolerance: Option<Mm>,
+    },
+    Stop {
+        kind: &'static str,
+    },
+    Error {
+        message: &'a str,
+    },
+}
+
+fn record_json(line: u32, op: Op<'_>) -> String {
+    serde_json::to_string(&Record { line, op }).expect("canon records always serialize")
 }
 
 /// One canonical action as a JSON object (no newline).
 pub fn canon_json(c: &Canon) -> String {
-    let l = c.line;
-    match c.action {
-        Action::Rapid { to } => format!("{{\"line\":{l},\"op\":\"rapid\",\"to\":{}}}", xyz(&to)),
-        Action::Feed { to, feed } => format!(
-            "{{\"line\":{l},\"op\":\"feed\",\"to\":{},\"feed\":{}}}",
-            xyz(&to),
-            mm(feed)
-        ),
+    let op = match c.action {
+        Action::Rapid { to } => Op::Rapid { to: xyz(&to) },
+        Action::Feed { to, feed } => Op::Feed {
+            to: xyz(&to),
+            feed: Mm(feed),
+        },
         Action::Arc {
             to,
             center,
@@ -152,98 +225,167 @@ pub fn canon_json(c: &Canon) -> String {
             dir,
             turns,
             feed,
-        } => format!(
-            "{{\"line\":{l},\"op\":\"arc\",\"to\":{},\"center\":{},\"plane\":\"{}\",\"dir\":\"{}\",\"turns\":{turns},\"feed\":{}}}",
-            xyz(&to),
-            xyz(&center),
-            match plane {
+        } => Op::Arc {
+            to: xyz(&to),
+            center: xyz(&center),
+            plane: match plane {
                 Plane::XY => "XY",
                 Plane::ZX => "ZX",
                 Plane::YZ => "YZ",
             },
-            match dir {
+            dir: match dir {
                 ArcDir::Cw => "cw",
                 ArcDir::Ccw => "ccw",
             },
-            mm(feed)
-        ),
-        Action::Dwell { micros } => format!(
-            "{{\"line\":{l},\"op\":\"dwell\",\"seconds\":{}}}",
-            mm(micros as i64)
-        ),
-        Action::Spindle { state, rpm } => format!(
-            "{{\"line\":{l},\"op\":\"spindle\",\"state\":\"{}\",\"rpm\":{rpm}}}",
-            match state {
+            turns,
+            feed: Mm(feed),
+        },
+        Action::Dwell { micros } => Op::Dwell {
+            seconds: Mm(micros as i64),
+        },
+        Action::Spindle { state, rpm } => Op::Spindle {
+            state: match state {
                 Spindle::Off => "off",
                 Spindle::Cw => "cw",
                 Spindle::Ccw => "ccw",
-            }
-        ),
-        Action::Coolant { mist, flood } => {
-            format!("{{\"line\":{l},\"op\":\"coolant\",\"mist\":{mist},\"flood\":{flood}}}")
-        }
-        Action::ToolChange { tool } => format!("{{\"line\":{l},\"op\":\"tool\",\"tool\":{tool}}}"),
-        Action::UserMCode { code, .. } => format!("{{\"line\":{l},\"op\":\"mcode\",\"code\":{code}}}"),
-        Action::PathMode(PathMode::ExactStop) => {
-            format!("{{\"line\":{l},\"op\":\"path\",\"mode\":\"exact\"}}")
-        }
-        Action::PathMode(PathMode::Blend { tolerance }) => format!(
-            "{{\"line\":{l},\"op\":\"path\",\"mode\":\"blend\",\"tolerance\":{}}}",
-            mm(tolerance)
-        ),
-        Action::Stop(kind) => format!(
-            "{{\"line\":{l},\"op\":\"stop\",\"kind\":\"{}\"}}",
-            match kind {
+            },
+            rpm,
+        },
+        Action::Coolant { mist, flood } => Op::Coolant { mist, flood },
+        Action::ToolChange { tool } => Op::Tool { tool },
+        Action::UserMCode { code, .. } => Op::Mcode { code: code.into() },
+        Action::PathMode(PathMode::ExactStop) => Op::Path {
+            mode: "exact",
+            tolerance: None,
+        },
+        Action::PathMode(PathMode::Blend { tolerance }) => Op::Path {
+            mode: "blend",
+            tolerance: Some(Mm(tolerance)),
+        },
+        Action::Stop(kind) => Op::Stop {
+            kind: match kind {
                 StopKind::Pause => "pause",
                 StopKind::OptionalPause => "optional",
                 StopKind::End => "end",
                 StopKind::EndRewind => "end_rewind",
-            }
-        ),
+            },
+        },
+    };
+    record_json(c.line, op)
+}
+
+/// The `{"line":…,"op":"error","message":…}` record that ends `check --canon` output.
+pub fn error_json(line: u32, message: &str) -> String {
+    record_json(line, Op::Error { message })
+}
+
+/// One error as `check`, `stream` and `mdi` print it (see [`format_error`]).
+pub struct ErrorReport<'a> {
+    /// Where the program comes from: a file name, or `mdi`.
+    pub place: &'a str,
+    /// 1-based line in the program.
+    pub line: u32,
+    /// The block's N word, if it has one.
+    pub n_word: Option<u32>,
+    /// The interpreter's error number (docs/errors.md); `None` for a host-side check.
+    pub code: Option<u16>,
+    pub message: &'a str,
+    /// The line as written, when known.
+    pub source: Option<&'a str>,
+    /// 0-based columns `[start, end)` of the word to blame in `source`.
+    pub columns: Option<(u16, u16)>,
+}
+
+/// `place:line: N20 error E211: message`, then the source line and a caret under the bad word
+/// (control characters in the source are shown escaped, never sent to the terminal).
+pub fn format_error(r: &ErrorReport<'_>) -> String {
+    let n = r.n_word.map(|n| format!(" N{n}")).unwrap_or_default();
+    let code = r.code.map(|c| format!(" E{c}")).unwrap_or_default();
+    let mut out = format!("{}:{}:{n} error{code}: {}\n", r.place, r.line, r.message);
+    if let Some(text) = r.source {
+        let text = text.trim_end_matches('\r');
+        let _ = writeln!(out, "    {}", crate::stream::printable(text));
+        if let Some((start, end)) = r.columns {
+            // Columns count characters of the raw line; escaping widens what comes before.
+            let before: String = text.chars().take(start as usize).collect();
+            let pad = crate::stream::printable(&before).chars().count();
+            let width = end.saturating_sub(start).max(1) as usize;
+            let _ = writeln!(out, "    {}{}", " ".repeat(pad), "^".repeat(width));
+        }
     }
+    out
+}
+
+/// Lines whose text, without comments and blanks, is longer than the board takes
+/// (`gantry_proto::LINE_MAX`): `stream` would refuse them, so `check` reports them as errors.
+pub fn long_lines(program: &[u8]) -> Vec<crate::program::WireTextError> {
+    let program = crate::program::Program::from_text(&String::from_utf8_lossy(program));
+    (1..=program.len())
+        .filter_map(|n| program.wire_text(n).err())
+        .collect()
+}
+
+/// The message of a [`long_lines`] error.
+fn long_line_message(e: &crate::program::WireTextError) -> String {
+    format!(
+        "line too long for the board: {} characters without comments and blanks, at most {}",
+        e.len,
+        gantry_proto::LINE_MAX
+    )
 }
 
 /// The human-readable report of plain `check` and the number of errors found.
 pub fn human_report(name: &str, program: &[u8], config: &InterpConfig) -> (String, usize) {
     let lines: Vec<&[u8]> = program.split(|&c| c == b'\n').collect();
+    let source = |line: u32| {
+        line.checked_sub(1)
+            .and_then(|i| lines.get(i as usize))
+            .map(|l| String::from_utf8_lossy(l).into_owned())
+    };
     let mut interp = Interpreter::new(config);
     let mut src = MemorySource::new(program);
-    let mut out = String::new();
-    let mut errors = 0usize;
+    // (line, report): interpreter errors and long lines, printed in line order.
+    let mut found: Vec<(u32, String)> = long_lines(program)
+        .iter()
+        .map(|e| {
+            let text = source(e.line);
+            let report = format_error(&ErrorReport {
+                place: name,
+                line: e.line,
+                n_word: None,
+                code: None,
+                message: &long_line_message(e),
+                source: text.as_deref(),
+                columns: None,
+            });
+            (e.line, report)
+        })
+        .collect();
     let mut actions = 0usize;
     while let Some(item) = interp.next(&mut src) {
         match item {
             Ok(_) => actions += 1,
             Err(e) => {
-                errors += 1;
-                let n = e.n_word.map(|n| format!(" N{n}")).unwrap_or_default();
-                let _ = writeln!(
-                    out,
-                    "{name}:{}:{n} error E{}: {}",
-                    e.line,
-                    e.code.number(),
-                    e.code.message()
-                );
-                if let Some(src_line) = e.line.checked_sub(1).and_then(|i| lines.get(i as usize)) {
-                    let text = String::from_utf8_lossy(src_line);
-                    let text = text.trim_end_matches('\r');
-                    let _ = writeln!(out, "    {text}");
-                    if let Some((start, end)) = e.columns {
-                        let width = (end.saturating_sub(start)).max(1) as usize;
-                        let _ = writeln!(
-                            out,
-                            "    {}{}",
-                            " ".repeat(start as usize),
-                            "^".repeat(width)
-                        );
-                    }
-                }
+                let text = source(e.line);
+                let report = format_error(&ErrorReport {
+                    place: name,
+                    line: e.line,
+                    n_word: e.n_word,
+                    code: Some(e.code.number()),
+                    message: e.code.message(),
+                    source: text.as_deref(),
+                    columns: e.columns,
+                });
+                found.push((e.line, report));
             }
         }
         if interp.restarts() > 0 || actions >= MAX_ACTIONS {
             break;
         }
     }
+    found.sort_by_key(|(line, _)| *line);
+    let errors = found.len();
+    let mut out: String = found.into_iter().map(|(_, r)| r).collect();
     if errors == 0 {
         let _ = writeln!(out, "{name}: ok, {actions} actions");
     } else {
@@ -314,6 +456,76 @@ mod tests {
         assert_eq!(
             out.lines().last().unwrap(),
             r#"{"line":2,"op":"error","message":"E301: feed move with zero feed rate (program an F word)"}"#
+        );
+    }
+
+    #[test]
+    fn every_canon_line_is_json_with_exact_numbers() {
+        let out = canon_jsonl("G0 X0.000001 Y-1.5 Z1234.25\nG4 P0.5\nG1 X1\n");
+        let records: Vec<serde_json::Value> = out
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{l}: {e}")))
+            .collect();
+        assert_eq!(records.len(), 3, "{out}");
+        assert_eq!(
+            records[0]["to"],
+            serde_json::json!([0.000001, -1.5, 1234.25])
+        );
+        assert_eq!(records[1]["seconds"], serde_json::json!(0.5));
+        assert_eq!(records[2]["op"], "error");
+        assert_eq!(records[2]["line"], 3);
+        // Integral lengths stay integers, as in the rs274 goldens.
+        assert_eq!(
+            canon_jsonl("G0 X10\n").trim_end(),
+            r#"{"line":1,"op":"rapid","to":[10,0,0]}"#
+        );
+    }
+
+    #[test]
+    fn error_messages_are_escaped_json_strings() {
+        let line = error_json(4, "quote \" backslash \\ bell \u{7}");
+        let v: serde_json::Value = serde_json::from_str(&line).unwrap();
+        assert_eq!(v["message"], "quote \" backslash \\ bell \u{7}");
+        assert_eq!(v["line"], 4);
+    }
+
+    #[test]
+    fn lines_longer_than_the_board_takes_are_errors() {
+        let long = format!("G1 F100 (comment) X{}1", "0".repeat(100)); // 108 characters sent
+        let program = format!("G0 X0\n{long}\nG0 X2\n");
+        let (report, errors) = human_report("p.nc", program.as_bytes(), &InterpConfig::default());
+        assert_eq!(errors, 1, "{report}");
+        assert!(
+            report.starts_with(
+                "p.nc:2: error: line too long for the board: 108 characters without comments and blanks, at most 104\n"
+            ),
+            "{report}"
+        );
+        let out = canon_jsonl(&program);
+        let last: serde_json::Value = serde_json::from_str(out.lines().last().unwrap()).unwrap();
+        assert_eq!(last["op"], "error");
+        assert_eq!(last["line"], 2);
+        assert_eq!(out.lines().count(), 2, "{out}");
+        // 104 characters are fine.
+        let fits = format!("G1 F100 X{}1", "0".repeat(96));
+        let (_, errors) = human_report("p.nc", fits.as_bytes(), &InterpConfig::default());
+        assert_eq!(errors, 0);
+    }
+
+    #[test]
+    fn control_characters_are_escaped_and_the_caret_follows() {
+        let report = format_error(&ErrorReport {
+            place: "p.nc",
+            line: 3,
+            n_word: Some(7),
+            code: Some(211),
+            message: "m",
+            source: Some("N7 (\u{1b}) Q2\r"),
+            columns: Some((7, 9)),
+        });
+        assert_eq!(
+            report,
+            "p.nc:3: N7 error E211: m\n    N7 (\\u{1b}) Q2\n                ^^\n"
         );
     }
 

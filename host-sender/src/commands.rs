@@ -222,7 +222,7 @@ pub fn mdi(target: Target, blocks: &[String]) -> anyhow::Result<ExitCode> {
     crate::stream::check_can_start(&mut client)?;
     let report = stream_program(&mut client, &program, &mut |_| Flow::Continue)?;
     for e in &report.errors {
-        println!("error: {}", e.describe(&program));
+        print!("{}", e.describe("mdi", &program));
     }
     for &(axis, max) in &report.limits {
         println!("{}", crate::stream::limit_text(axis, max));
@@ -555,7 +555,7 @@ pub fn jog(target: Target, axis: u8, how: JogMove, feed_mm_min: f64) -> anyhow::
         println!("{}", format_status(&status, n));
         println!(
             "jog refused: {}",
-            e.describe(&Program::from_text(""))
+            e.describe("", &Program::from_text(""))
                 .trim_start_matches("resume preamble: ")
         );
         return Ok(ExitCode::from(1));

@@ -31,6 +31,8 @@ enum Command {
     Check {
         file: PathBuf,
         /// Print the interpreted program as JSON Lines of canonical actions (format: tests/golden/rs274/README.md).
+        /// Every stdout line is JSON: a program error is an `{"op":"error"}` record (exit 1); an unreadable
+        /// file or setup goes to stderr only (exit 2). See docs/errors.md.
         #[arg(long)]
         canon: bool,
         /// Machine setup (dialect, tools, travel) for plain `check` (default: built-in defaults).

@@ -61,6 +61,27 @@ impl Program {
         }
     }
 
+    /// The columns `[start, end)` in line `n` as written of the word that starts at 1-based
+    /// column `wire_column` of its [`Program::wire_text`] (where the board reports errors).
+    pub fn source_columns(&self, n: u32, wire_column: u16) -> Option<(u16, u16)> {
+        let line = self.line(n)?;
+        let start = usize::from(wire_column.checked_sub(1)?);
+        // Byte index in `line` of every character sent, in order.
+        let kept = kept_chars(line);
+        let wire: Vec<char> = kept.iter().map(|&(_, c)| c).collect();
+        wire.get(start)?;
+        // The word: its letter and the number after it, up to the next letter.
+        let len = 1 + wire[start + 1..]
+            .iter()
+            .take_while(|c| !c.is_ascii_alphabetic() && **c != '(')
+            .count();
+        let col = |byte: usize| line[..byte].chars().count() as u16;
+        let begin = col(kept[start].0);
+        let last = kept[start + len - 1];
+        let end = col(last.0) + 1;
+        Some((begin, end))
+    }
+
     /// The first line a jump target refers to.
     pub fn resolve(&self, target: ProgramTarget) -> Option<u32> {
         match target {
@@ -112,6 +133,35 @@ fn strip(line: &str) -> String {
     out
 }
 
+/// The characters [`strip`] keeps, with their byte index in `line`.
+fn kept_chars(line: &str) -> Vec<(usize, char)> {
+    let mut out = Vec::new();
+    let mut in_comment = false;
+    for (i, c) in line.char_indices() {
+        match c {
+            '(' if !in_comment => in_comment = true,
+            ')' if in_comment => in_comment = false,
+            ';' if !in_comment => break,
+            c if in_comment || c.is_whitespace() => {}
+            c => out.push((i, c)),
+        }
+    }
+    if in_comment {
+        let lead = line.len() - line.trim_start().len();
+        return line
+            .trim()
+            .char_indices()
+            .map(|(i, c)| (i + lead, c))
+            .collect();
+    }
+    out
+}
+
+/// The N number of line `n`'s block, if it starts with one.
+pub fn n_word(program: &Program, n: u32) -> Option<u32> {
+    word_value(&strip(program.line(n)?), b'N')
+}
+
 /// The value of a leading word `letter<digits>` (after an optional `/`), e.g. `O100` → 100.
 fn word_value(text: &str, letter: u8) -> Option<u32> {
     let t = text.strip_prefix('/').unwrap_or(text).as_bytes();
@@ -142,6 +192,15 @@ mod tests {
         let long = format!("G1 X1 (c) {}", "Y1".repeat(60));
         let p = Program::from_text(&format!("G0\n{long}\n"));
         assert_eq!(p.wire_text(2), Err(WireTextError { line: 2, len: 124 }));
+    }
+
+    #[test]
+    fn board_columns_map_back_to_the_line_as_written() {
+        let p = Program::from_text("N20 G1 (feed) Q2.5 X3 F1\n");
+        // Sent as "N20G1Q2.5X3F1": the Q is at column 6 (1-based).
+        assert_eq!(p.source_columns(1, 6), Some((14, 18)));
+        assert_eq!(p.source_columns(1, 0), None);
+        assert_eq!(n_word(&p, 1), Some(20));
     }
 
     #[test]

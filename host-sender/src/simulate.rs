@@ -1,7 +1,9 @@
 //! `gantry simulate`: plan a program and report per-move speeds and the total time.
 //!
 //! The program is interpreted with the machine setup (`--setup`, else the default one), then run
-//! through the real motion core (planner, segment prep and step kernel) on virtual time; M codes
+//! through the real motion core (planner and segment prep) on virtual time, each segment counted
+//! by its duration rather than stepped (`preview::plan::run_segments`), dwells added in closed
+//! form (`preview::plan::without_dwell_time`); M codes
 //! that switch an output on the fly do not stop the motion, as on the board. Each move (consecutive planner blocks
 //! of one source line, so an arc is one move) prints its line, entry, cruise (highest) and exit
 //! speed in mm/min and its duration; `--json` prints the same as JSON Lines. The last line is
@@ -61,8 +63,9 @@ pub fn simulate(program: &[u8], setup: &Setup) -> anyhow::Result<(Vec<Move>, f64
             let _ = sim.on_the_fly.push((l.code, output));
         }
     }
+    let (actions, dwell_counts) = crate::preview::plan::without_dwell_time(&actions);
     let mut reports: Vec<BlockReport> = Vec::new();
-    sim.run(actions, &mut |e| {
+    crate::preview::plan::run_segments(&mut *sim, actions, &mut |e| {
         if let SimEvent::Block { report, .. } = e {
             reports.push(report);
         }
@@ -96,7 +99,7 @@ pub fn simulate(program: &[u8], setup: &Setup) -> anyhow::Result<(Vec<Move>, f64
         }
         last_line = Some(r.line);
     }
-    Ok((moves, sim.now as f64 / hz))
+    Ok((moves, (sim.now + dwell_counts) as f64 / hz))
 }
 
 /// The whole report text. With `json`, JSON Lines written by serde_json: one object per move

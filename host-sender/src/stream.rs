@@ -41,8 +41,9 @@ pub struct BoardError {
 }
 
 impl BoardError {
-    /// "line 12: error 231: arc radius mismatch" style text, with the source line.
-    pub fn describe(&self, program: &Program) -> String {
+    /// The error as `gantry check` prints it ([`crate::check::format_error`]: `place:line: N.. error
+    /// E231: …`, the source line, a caret under the word the board blamed).
+    pub fn describe(&self, place: &str, program: &Program) -> String {
         let message = ErrorCode::ALL
             .iter()
             .find(|c| c.number() == self.code)
@@ -59,11 +60,15 @@ impl BoardError {
         if self.line == 0 {
             return format!("resume preamble: error {}: {message}", self.code);
         }
-        let text = printable(program.line(self.line).unwrap_or("").trim());
-        format!(
-            "line {}: error {}: {message}\n    {text}",
-            self.line, self.code
-        )
+        crate::check::format_error(&crate::check::ErrorReport {
+            place,
+            line: self.line,
+            n_word: crate::program::n_word(program, self.line),
+            code: Some(self.code),
+            message,
+            source: program.line(self.line),
+            columns: program.source_columns(self.line, self.column),
+        })
     }
 }
 
@@ -909,7 +914,7 @@ fn print_report(
     wall: std::time::Duration,
 ) {
     for e in &report.errors {
-        println!("error: {}", e.describe(program));
+        print!("{}", e.describe(&file.display().to_string(), program));
     }
     for &(axis, max) in &report.limits {
         println!("{}", limit_text(axis, max));
@@ -1005,12 +1010,37 @@ mod tests {
             code: 900,
             column: 0,
         };
-        let text = e.describe(&program);
+        let text = e.describe("p.nc", &program);
         assert!(
             !text.chars().any(|c| c.is_control() && c != '\n'),
             "{text:?}"
         );
-        assert!(text.ends_with("G1 X1 (\\u{1b}[2J\\u{7}cleared)"), "{text}");
+        assert!(
+            text.trim_end().ends_with("G1 X1 (\\u{1b}[2J\\u{7}cleared)"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn board_errors_print_as_check_does() {
+        let program = Program::from_text("G0 X1\nN20 G1 (cut) Q2 X3 F1\n");
+        // The board blames column 6 of the text it got, "N20G1Q2X3F1": the Q.
+        let e = BoardError {
+            line: 2,
+            code: 211,
+            column: 6,
+        };
+        let (check, _) = crate::check::human_report(
+            "p.nc",
+            b"G0 X1\nN20 G1 (cut) Q2 X3 F1\n",
+            &Default::default(),
+        );
+        let text = e.describe("p.nc", &program);
+        assert!(check.starts_with(&text), "{check}\n{text}");
+        assert!(
+            text.ends_with("    N20 G1 (cut) Q2 X3 F1\n                 ^^\n"),
+            "{text}"
+        );
     }
 
     #[test]
