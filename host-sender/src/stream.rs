@@ -536,9 +536,13 @@ pub fn run(
 ) -> anyhow::Result<std::process::ExitCode> {
     let program = Program::load(file)?;
     let text = std::fs::read_to_string(file)?;
-    MANUAL_TOOL_CHANGE.store(true, std::sync::atomic::Ordering::Relaxed);
     let wall = std::time::Instant::now();
     let from_board = matches!(target, Target::Port(_));
+    // Someone must be able to continue a tool-change stop: the operator at a terminal (Enter) or
+    // a board's cycle-start input. The emulated board fed from a script has neither, so there
+    // the program runs through its M6 as the library streams do (no stop that nobody can end).
+    let can_continue = from_board || std::io::IsTerminal::is_terminal(&std::io::stdin());
+    MANUAL_TOOL_CHANGE.store(can_continue, std::sync::atomic::Ordering::Relaxed);
     if matches!(target, Target::Emulated(_)) {
         println!(
             "gantry: no --port given: streaming {} to the emulated board",
