@@ -9,7 +9,7 @@ use super::model::{MoveKind, PreviewJob, SpeedSource};
 use gantry_machine::canon::{Action, Canon};
 use gantry_machine::motion::config::MotionConfig;
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
-use gantry_machine::motion::sim::{Sim, SimEvent};
+use gantry_machine::motion::sim::{Feeder, Sim, SimEvent};
 use gantry_machine::setup::Setup;
 use gantry_machine::units::NM_PER_MM;
 use std::collections::HashMap;
@@ -56,28 +56,10 @@ pub fn run_segments<const N: usize>(
     program: impl IntoIterator<Item = Canon>,
     on: &mut impl FnMut(SimEvent),
 ) -> Result<(), (Canon, gantry_machine::motion::pipeline::PushError)> {
-    use gantry_machine::motion::pipeline::PushError;
-    let mut program = program.into_iter();
-    let mut pending: Option<Canon> = None;
-    let mut exhausted = false;
+    let mut feeder = Feeder::new(program.into_iter());
     loop {
-        while !exhausted {
-            let Some(c) = pending.take().or_else(|| program.next()) else {
-                exhausted = true;
-                break;
-            };
-            match sim.push(&c) {
-                Ok(()) => {}
-                Err(PushError::Full) => {
-                    pending = Some(c);
-                    break;
-                }
-                Err(e) => return Err((c, e)),
-            }
-        }
-        if exhausted {
-            let _ = sim.motion.flush_output();
-        }
+        feeder.feed(sim)?;
+        let exhausted = feeder.exhausted();
         let seg = sim.motion.next_segment();
         if let Some(report) = sim.motion.take_report() {
             on(SimEvent::Block {

@@ -198,29 +198,11 @@ impl<const N: usize> Sim<N> {
         program: impl IntoIterator<Item = Canon>,
         on: &mut impl FnMut(SimEvent),
     ) -> Result<(), (Canon, PushError)> {
-        let mut program = program.into_iter();
-        let mut pending: Option<Canon> = None;
-        let mut exhausted = false;
+        let mut feeder = Feeder::new(program.into_iter());
         let mut idle_ticks = 0;
         loop {
-            while !exhausted {
-                let Some(c) = pending.take().or_else(|| program.next()) else {
-                    exhausted = true;
-                    break;
-                };
-                match self.push(&c) {
-                    Ok(()) => {}
-                    Err(PushError::Full) => {
-                        pending = Some(c);
-                        break;
-                    }
-                    Err(e) => return Err((c, e)),
-                }
-            }
-            if exhausted {
-                // No more motion: a waiting on-the-fly M code runs at the end (retried while full).
-                let _ = self.motion.flush_output();
-            }
+            feeder.feed(self)?;
+            let exhausted = feeder.exhausted();
             let out = self.tick(on);
             if out.period == 0 {
                 idle_ticks += 1;
@@ -238,5 +220,52 @@ impl<const N: usize> Sim<N> {
                 idle_ticks = 0;
             }
         }
+    }
+}
+
+/// Hands a program's actions to a [`Sim`] whenever its queue accepts them (for [`Sim::run`] and
+/// for host tools that advance the simulation their own way).
+pub struct Feeder<I> {
+    program: I,
+    /// An action the full queue refused, pushed first next time.
+    pending: Option<Canon>,
+    exhausted: bool,
+}
+
+impl<I: Iterator<Item = Canon>> Feeder<I> {
+    pub fn new(program: I) -> Self {
+        Feeder {
+            program,
+            pending: None,
+            exhausted: false,
+        }
+    }
+
+    /// Pushes actions until the queue is full or the program has ended; once it has ended, a
+    /// waiting on-the-fly M code is flushed (retried each call while the queue is full).
+    pub fn feed<const N: usize>(&mut self, sim: &mut Sim<N>) -> Result<(), (Canon, PushError)> {
+        while !self.exhausted {
+            let Some(c) = self.pending.take().or_else(|| self.program.next()) else {
+                self.exhausted = true;
+                break;
+            };
+            match sim.push(&c) {
+                Ok(()) => {}
+                Err(PushError::Full) => {
+                    self.pending = Some(c);
+                    break;
+                }
+                Err(e) => return Err((c, e)),
+            }
+        }
+        if self.exhausted {
+            let _ = sim.motion.flush_output();
+        }
+        Ok(())
+    }
+
+    /// Every action of the program has been pushed.
+    pub fn exhausted(&self) -> bool {
+        self.exhausted
     }
 }
