@@ -55,7 +55,7 @@ pub fn format_status(s: &Status, axes: usize) -> String {
         .map(|i| AXIS_LETTERS[i])
         .collect();
     format!(
-        "state:     {}\nmachine:   {}\nwork:      {}\nfeed:      {:.1} mm/min (override feed {} %, rapid {} %)\nline:      {}\nbuffers:   {} planner blocks, {} lines\ninputs:    {:#010x}\nhomed:     {}",
+        "state:     {}\nmachine:   {}\nwork:      {}\nfeed:      {:.1} mm/min (override feed {} %, rapid {} %)\nline:      {}\nbuffers:   {} planner blocks, {} lines\ninputs:    {:#010x}\nhomed:     {}\noutputs:   {}",
         state_name(s.state),
         pos(&s.machine_pos),
         pos(&s.work_pos),
@@ -66,11 +66,33 @@ pub fn format_status(s: &Status, axes: usize) -> String {
         s.planner_fill,
         s.queue_fill,
         s.inputs,
-        if homed.is_empty() { "none".into() } else { homed }
+        if homed.is_empty() { "none".into() } else { homed },
+        outputs_text(&s.outputs)
     ) + &match s.state {
         gantry_proto::MachineState::Alarm { code } => format!("\nalarm:     {}", alarm_text(code)),
         _ => String::new(),
     }
+}
+
+/// The spindle, coolant and tool as the board drives them: `spindle CW 12000 rpm, flood, tool 3`.
+pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
+    use gantry_proto::SpindleStatus;
+    let spindle = match o.spindle {
+        SpindleStatus::Off => "spindle off".to_owned(),
+        SpindleStatus::Cw => format!("spindle CW {} rpm", o.rpm),
+        SpindleStatus::Ccw => format!("spindle CCW {} rpm", o.rpm),
+    };
+    let coolant = match (o.mist, o.flood) {
+        (false, false) => "coolant off",
+        (true, false) => "mist",
+        (false, true) => "flood",
+        (true, true) => "mist and flood",
+    };
+    let tool = match o.tool {
+        0 => "no tool".to_owned(),
+        t => format!("tool {t}"),
+    };
+    format!("{spindle}, {coolant}, {tool}")
 }
 
 /// Prints the limit and alarm reports the board sent (squaring lists' switch hits, alarms).
@@ -102,6 +124,7 @@ pub fn realtime(target: Target, msg: Option<HostMsg>) -> anyhow::Result<ExitCode
     };
     let before = fresh_status(&mut client)?;
     let expected = expected_after(&m, &before);
+    let hold = matches!(m, HostMsg::FeedHold);
     client.send(m)?;
     client.pump(20)?;
     let mut status = fresh_status(&mut client)?;
@@ -121,6 +144,15 @@ pub fn realtime(target: Target, msg: Option<HostMsg>) -> anyhow::Result<ExitCode
     }
     print_notices(&mut client);
     println!("{}", format_status(&status, axes));
+    if hold && matches!(before.state, gantry_proto::MachineState::Run) {
+        if let gantry_proto::MachineState::Idle | gantry_proto::MachineState::Alarm { .. } =
+            status.state
+        {
+            // Stops take precedence (docs/controller.md "Run (stopping...)"): an abort or alarm
+            // that was decelerating ends the job; the hold does not undo it.
+            eprintln!("gantry: no hold: the job was ending (abort or alarm) and has ended at rest");
+        }
+    }
     Ok(ExitCode::SUCCESS)
 }
 
@@ -614,6 +646,7 @@ mod tests {
             line: 7,
             inputs: 0,
             homed: 0b001,
+            outputs: Default::default(),
         }
     }
 
@@ -623,11 +656,21 @@ mod tests {
         assert!(text.starts_with("state:     Alarm\nmachine:   X 1.500  Y 0.000  Z 0.000"));
         assert!(
             text.ends_with(
-                "homed:     X\nalarm:     alarm 20 (host lost): the host stayed away while the job stood still: job ended, spindle and coolant off"
+                "homed:     X\noutputs:   spindle off, coolant off, no tool\nalarm:     alarm 20 (host lost): the host stayed away while the job stood still: job ended, spindle and coolant off"
             ),
             "{text}"
         );
         assert!(!format_status(&status(MachineState::Idle), 3).contains("alarm"));
+        let mut running = status(MachineState::Run);
+        running.outputs = gantry_proto::OutputsStatus {
+            spindle: gantry_proto::SpindleStatus::Ccw,
+            rpm: 12_000,
+            mist: true,
+            flood: true,
+            tool: 2,
+        };
+        assert!(format_status(&running, 3)
+            .ends_with("outputs:   spindle CCW 12000 rpm, mist and flood, tool 2"));
         assert!(format_status(&status(MachineState::Alarm { code: 99 }), 3)
             .ends_with("alarm:     alarm 99 (unknown to this gantry)"));
         // Every alarm the board can raise has a name and a text.

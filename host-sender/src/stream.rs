@@ -146,7 +146,7 @@ pub struct Progress {
 #[derive(Clone, Debug)]
 pub struct StreamReport {
     pub completed: bool,
-    /// The job was aborted from this sender (Ctrl-C).
+    /// The job was aborted: from this sender (Ctrl-C), another command, or the board's stop input.
     pub aborted: bool,
     pub errors: Vec<BoardError>,
     pub alarms: Vec<BoardAlarm>,
@@ -343,8 +343,10 @@ fn run_job<T: Transport>(
                         }
                     }
                 }
-                BoardMsg::JobDone { line } => {
+                BoardMsg::JobDone { line, end } => {
                     report.last_line = line;
+                    // Aborted elsewhere (another command, the board's stop input): not done.
+                    report.aborted |= end == gantry_proto::JobEnd::Aborted;
                     done = true;
                 }
                 BoardMsg::Mark { .. }

@@ -25,14 +25,14 @@ pub use channel::{
 };
 pub use frame::{encode_frame, Frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
 pub use messages::{
-    BoardMsg, Hello, HelloAck, HostMsg, Jog, Lane, Line, LineText, MachineState, ProgramTarget,
-    Status, Wire, AXES, LINE_MAX,
+    BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, Line, LineText, MachineState,
+    OutputsStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
 };
 
 /// Protocol version exchanged in the handshake: major in the high byte, minor
 /// in the low byte. Endpoints connect only when the majors are equal (see
 /// `docs/protocol.md`, version policy).
-pub const PROTOCOL_VERSION: u16 = 0x0200;
+pub const PROTOCOL_VERSION: u16 = 0x0300;
 
 /// True when two protocol versions can talk (same major).
 pub const fn versions_compatible(a: u16, b: u16) -> bool {

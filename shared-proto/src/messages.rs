@@ -203,6 +203,41 @@ pub enum MachineState {
     Check,
 }
 
+/// How a job ended, in [`BoardMsg::JobDone`].
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JobEnd {
+    /// It ran to its end (M2/M30 or the end of the program).
+    Completed,
+    /// A block was rejected (the `Error` before it says which).
+    Failed,
+    /// An abort (from any host command or the board's stop input) stopped it on its path.
+    Aborted,
+    /// An alarm ended it (the `Alarm` before it says which).
+    Alarm,
+}
+
+/// Spindle direction as the board drives it.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SpindleStatus {
+    #[default]
+    Off,
+    Cw,
+    Ccw,
+}
+
+/// The spindle and coolant outputs as the board drives them, and the tool in the spindle: what an
+/// operator checks before reaching into the machine.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OutputsStatus {
+    pub spindle: SpindleStatus,
+    /// Programmed spindle speed (S), rpm; 0 with the spindle off.
+    pub rpm: u32,
+    pub mist: bool,
+    pub flood: bool,
+    /// Tool in the spindle (after M6); 0 = none.
+    pub tool: u32,
+}
+
 /// Periodic or requested status report.
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq, Eq)]
 pub struct Status {
@@ -227,6 +262,8 @@ pub struct Status {
     pub inputs: u32,
     /// Homed axes (bit 0 = X).
     pub homed: u8,
+    /// Spindle, coolant and tool.
+    pub outputs: OutputsStatus,
 }
 
 /// Where a [`BoardMsg::ProgramRequest`] asks the host to continue serving lines.
@@ -270,8 +307,8 @@ wire_messages! {
         /// Answer to `SetupCommit`: 0 = applied (and saved), else why not (1 = bad length or
         /// CRC, 2 = not a valid setup, 3 = not idle).
         Queued SetupResult { code: u16 },
-        /// The job finished; `line` is the last executed line.
-        Queued JobDone { line: u32 },
+        /// The job ended; `line` is the last executed line, `end` says how.
+        Queued JobDone { line: u32, end: JobEnd },
     }
 }
 

@@ -61,6 +61,7 @@ fn random_board(r: &mut Rng) -> BoardMsg {
             line: r.next_u32(),
             inputs: r.next_u32(),
             homed: 1,
+            outputs: Default::default(),
         }),
         1 => BoardMsg::Alarm {
             code: r.next_u32() as u16,

@@ -24,6 +24,7 @@ fn status(line: u32) -> BoardMsg {
         line,
         inputs: 0,
         homed: 0b111,
+        outputs: Default::default(),
     })
 }
 
@@ -398,7 +399,7 @@ fn version_mismatch_is_refused() {
     let mut buf = [0u8; MAX_FRAME_LEN];
     assert!(host.poll_transmit(0, &mut buf).is_some()); // Hello
     let ack = HelloAck {
-        version: 0x0300,
+        version: 0x0400,
         nonce: host.nonce(),
         boot_id: 1,
         rx_capacity: 16,
@@ -416,13 +417,13 @@ fn version_mismatch_is_refused() {
     assert_eq!(
         host.state(),
         LinkState::Incompatible {
-            peer_version: 0x0300
+            peer_version: 0x0400
         }
     );
     assert_eq!(
         host.poll_event(),
         Some(LinkEvent::VersionMismatch {
-            peer_version: 0x0300
+            peer_version: 0x0400
         })
     );
 

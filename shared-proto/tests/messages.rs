@@ -5,8 +5,8 @@ use gantry_proto::codec;
 use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN, MAX_PAYLOAD};
 use gantry_proto::messages::SETUP_CHUNK_MAX;
 use gantry_proto::{
-    BoardMsg, Hello, HelloAck, HostMsg, Jog, Lane, Line, MachineState, ProgramTarget, Status, Wire,
-    AXES, LINE_MAX,
+    BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, Line, MachineState, OutputsStatus,
+    ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
 };
 use serde::{de::DeserializeOwned, Serialize};
 use std::fmt::Debug;
@@ -83,6 +83,13 @@ fn worst_status() -> Status {
         line: u32::MAX,
         inputs: u32::MAX,
         homed: u8::MAX,
+        outputs: OutputsStatus {
+            spindle: SpindleStatus::Ccw,
+            rpm: u32::MAX,
+            mist: true,
+            flood: true,
+            tool: u32::MAX,
+        },
     }
 }
 
@@ -111,6 +118,13 @@ fn all_board() -> Vec<BoardMsg> {
                 line: 99,
                 inputs: 0b1010,
                 homed: 0b111,
+                outputs: OutputsStatus {
+                    spindle: SpindleStatus::Cw,
+                    rpm: 12_000,
+                    mist: false,
+                    flood: true,
+                    tool: 3,
+                },
             })
         })
         .collect();
@@ -144,7 +158,10 @@ fn all_board() -> Vec<BoardMsg> {
             crc32: u32::MAX,
         },
         BoardMsg::SetupResult { code: 3 },
-        BoardMsg::JobDone { line: u32::MAX },
+        BoardMsg::JobDone {
+            line: u32::MAX,
+            end: JobEnd::Alarm,
+        },
     ]);
     v
 }
@@ -251,7 +268,14 @@ fn lanes() {
         assert_eq!(m.lane() == Lane::Realtime, rt, "{m:?}");
     }
     assert_eq!(BoardMsg::Alarm { code: 1, line: 0 }.lane(), Lane::Realtime);
-    assert_eq!(BoardMsg::JobDone { line: 1 }.lane(), Lane::Queued);
+    assert_eq!(
+        BoardMsg::JobDone {
+            line: 1,
+            end: JobEnd::Completed
+        }
+        .lane(),
+        Lane::Queued
+    );
     assert_eq!(HostMsg::Line(worst_line()).stream_token(), Some(u32::MAX));
 }
 
@@ -271,6 +295,13 @@ fn wire_bytes_of_every_message_kind_are_unchanged() {
         .map(hex)
         .chain(all_board().iter().map(hex))
         .collect();
+    // A deliberate wire change (with its protocol version bump, docs/protocol.md "Version
+    // policy") rewrites the golden file: `GANTRY_BLESS_WIRE=1 cargo test -p gantry-proto`.
+    if std::env::var_os("GANTRY_BLESS_WIRE").is_some() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/wire_bytes.txt");
+        std::fs::write(path, got.join("\n") + "\n").unwrap();
+        return;
+    }
     assert_eq!(got.len(), want.len());
     for (i, (g, w)) in got.iter().zip(&want).enumerate() {
         assert_eq!(g, w, "message {i}");

@@ -5,7 +5,7 @@
 mod controller_support;
 
 use controller_support::*;
-use gantry_machine::board::{BoardEvent, ERROR_SOFT_LIMIT};
+use gantry_machine::board::{BoardEvent, JobEnd, ERROR_SOFT_LIMIT};
 use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
 use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 use gantry_machine::motion::pipeline::MotionState;
@@ -84,7 +84,10 @@ fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2(
                 code: AlarmCode::SoftLimit,
                 line: 204
             },
-            BoardEvent::JobDone { line: 77 }
+            BoardEvent::JobDone {
+                line: 77,
+                end: JobEnd::Alarm
+            }
         ]
     );
     assert_eq!(eb.board.resume_line(), 77);
@@ -128,7 +131,10 @@ fn before_the_job_queued_anything_a_block_beyond_the_travel_is_error_900_and_not
                 code: ERROR_SOFT_LIMIT,
                 column: 0
             },
-            BoardEvent::JobDone { line: 0 }
+            BoardEvent::JobDone {
+                line: 0,
+                end: JobEnd::Failed
+            }
         ]
     );
     assert_eq!(eb.board.alarm(), None);
@@ -295,7 +301,10 @@ fn a_job_held_by_host_loss_ends_with_alarm_20_after_host_lost_stop_s() {
                 code: AlarmCode::HostLost,
                 line: 4
             },
-            BoardEvent::JobDone { line: 4 }
+            BoardEvent::JobDone {
+                line: 4,
+                end: JobEnd::Alarm
+            }
         ]
     );
     assert_eq!(eb.board.resume_line(), 4);

@@ -6,7 +6,7 @@
 mod controller_support;
 
 use controller_support::*;
-use gantry_machine::board::BoardEvent;
+use gantry_machine::board::{BoardEvent, JobEnd};
 use gantry_machine::controller::inputs::Signal;
 use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 use gantry_machine::motion::pipeline::MotionState;
@@ -103,7 +103,10 @@ fn an_abort_decelerating_ends_the_job_at_rest_with_outputs_off_whatever_arrives_
         );
         assert_eq!(
             events(&mut eb),
-            vec![BoardEvent::JobDone { line: 4 }],
+            vec![BoardEvent::JobDone {
+                line: 4,
+                end: JobEnd::Aborted
+            }],
             "{what:?}: one JobDone"
         );
         assert_eq!(eb.board.resume_line(), 4, "{what:?}");
@@ -158,7 +161,10 @@ fn an_alarm_2_stop_decelerating_ends_in_the_alarm_at_rest_with_outputs_off_whate
                     code: AlarmCode::SoftLimit,
                     line: 204
                 },
-                BoardEvent::JobDone { line }
+                BoardEvent::JobDone {
+                    line,
+                    end: JobEnd::Alarm
+                }
             ],
             "{what:?}"
         );

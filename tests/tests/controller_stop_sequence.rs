@@ -6,7 +6,7 @@
 mod controller_support;
 
 use controller_support::*;
-use gantry_machine::board::{BoardEvent, ERROR_SOFT_LIMIT};
+use gantry_machine::board::{BoardEvent, JobEnd, ERROR_SOFT_LIMIT};
 use gantry_machine::controller::inputs::Signal;
 use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 use gantry_machine::motion::pipeline::MotionState;
@@ -76,7 +76,13 @@ fn a_job_ending_on_an_error_machines_every_line_before_it_then_stops_spindle_and
     // Nothing lost: lines 4 and 5 ran to their end (X 20 mm), nothing of line 6 or after.
     assert_eq!(steps(&eb), [20 * STEPS_PER_MM, 0, 0, 0, 0, 0]);
     assert_eq!(eb.pulses[0], 20 * STEPS_PER_MM as u64);
-    assert_eq!(events(&mut eb), vec![BoardEvent::JobDone { line: 5 }]);
+    assert_eq!(
+        events(&mut eb),
+        vec![BoardEvent::JobDone {
+            line: 5,
+            end: JobEnd::Failed
+        }]
+    );
     assert_eq!(eb.board.resume_line(), 6);
     assert_eq!(eb.board.line(), 5);
     // Spindle and flood ran through the last step of line 5 and went off in the first pass
@@ -130,7 +136,13 @@ fn an_abort_decelerates_along_the_cut_with_the_spindle_on_and_stops_it_at_rest()
             (off, OutputLevels::SAFE)
         ]
     );
-    assert_eq!(events(&mut eb), vec![BoardEvent::JobDone { line: 4 }]);
+    assert_eq!(
+        events(&mut eb),
+        vec![BoardEvent::JobDone {
+            line: 4,
+            end: JobEnd::Aborted
+        }]
+    );
     assert_eq!(eb.board.resume_line(), 4);
 
     // A feed hold at that very millisecond stops on the same step: the abort is a hold's ramp.
@@ -176,7 +188,13 @@ fn an_abort_from_a_feed_hold_stops_spindle_and_coolant_in_the_next_pass() {
             (abort_at + COUNTS_PER_MS, OutputLevels::SAFE)
         ]
     );
-    assert_eq!(events(&mut eb), vec![BoardEvent::JobDone { line: 4 }]);
+    assert_eq!(
+        events(&mut eb),
+        vec![BoardEvent::JobDone {
+            line: 4,
+            end: JobEnd::Aborted
+        }]
+    );
     assert_eq!(eb.board.resume_line(), 4);
 }
 
@@ -198,7 +216,13 @@ fn m30_stops_spindle_and_coolant_in_the_first_pass_after_the_motion() {
             (off, OutputLevels::SAFE)
         ]
     );
-    assert_eq!(events(&mut eb), vec![BoardEvent::JobDone { line: 5 }]);
+    assert_eq!(
+        events(&mut eb),
+        vec![BoardEvent::JobDone {
+            line: 5,
+            end: JobEnd::Completed
+        }]
+    );
 }
 
 // ---- alarm 1: immediate ----
@@ -234,7 +258,10 @@ fn a_hard_limit_stops_at_once_and_switches_the_outputs_off_in_the_pass_that_sees
                 code: AlarmCode::HardLimit,
                 line: 4
             },
-            BoardEvent::JobDone { line: 4 }
+            BoardEvent::JobDone {
+                line: 4,
+                end: JobEnd::Alarm
+            }
         ]
     );
 }
@@ -305,7 +332,10 @@ fn a_locally_resumed_job_that_runs_out_of_lines_with_the_host_gone_ends_with_ala
                 code: AlarmCode::HostLost,
                 line
             },
-            BoardEvent::JobDone { line }
+            BoardEvent::JobDone {
+                line,
+                end: JobEnd::Alarm
+            }
         ]
     );
     assert_eq!(eb.board.resume_line(), line);
@@ -348,7 +378,16 @@ fn an_error_before_the_job_queued_anything_still_ends_it_with_the_program_stop_s
                 column
             }
         );
-        assert!(matches!(ev[1..], [BoardEvent::JobDone { .. }]), "{ev:?}");
+        assert!(
+            matches!(
+                ev[1..],
+                [BoardEvent::JobDone {
+                    end: JobEnd::Failed,
+                    ..
+                }]
+            ),
+            "{ev:?}"
+        );
         assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
         assert_eq!(eb.board.resume_line(), 1);
         assert_eq!(eb.pulses, [0; 6]);
@@ -361,9 +400,21 @@ fn a_job_that_runs_nothing_ends_on_line_zero() {
     let mut eb = recording_board(|_| {});
     job(&mut eb, "G1 X1 F600\nG1 X2");
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(events(&mut eb), vec![BoardEvent::JobDone { line: 2 }]);
+    assert_eq!(
+        events(&mut eb),
+        vec![BoardEvent::JobDone {
+            line: 2,
+            end: JobEnd::Completed
+        }]
+    );
     job(&mut eb, "(only a comment)");
     until_state(&mut eb, State::Idle, 1_000);
-    assert_eq!(events(&mut eb), vec![BoardEvent::JobDone { line: 0 }]);
+    assert_eq!(
+        events(&mut eb),
+        vec![BoardEvent::JobDone {
+            line: 0,
+            end: JobEnd::Completed
+        }]
+    );
     assert_eq!(eb.board.line(), 0);
 }

@@ -414,3 +414,154 @@ fn m6_and_m0_stop_with_a_message_and_enter_continues() {
     );
     assert!(emu.wait_log(2 * S, |l| l.contains("Idle line 7 steps X 3840")));
 }
+
+/// X reaches full speed (50 mm/s) in 5 s, so an abort's or alarm's deceleration lasts seconds.
+const SLOW_X_SETUP: &str = "[axis.X]\nmax_rate = 3000.0\naccel = 10.0\n";
+
+/// The states the emulator logged, in order (`Idle`, `Run`, `Hold (at rest)`, `Alarm 2`, ...).
+fn logged_states(emu: &Emulator) -> Vec<String> {
+    emu.log()
+        .lines()
+        .filter(|l| l.contains(" pulses "))
+        .map(|l| {
+            let rest = l.split(" s ").nth(1).unwrap();
+            rest.split(" line ").next().unwrap().to_owned()
+        })
+        .collect()
+}
+
+/// Serves `job` on a fresh emulated board with [`SLOW_X_SETUP`], starts `gantry stream` and
+/// returns once X has been moving for 3 s (30 mm/s, 3 s from rest).
+fn slow_job_under_serve(dir: &Dir, job: &str) -> (Emulator, Running, Running) {
+    let setup = dir.file("slow.toml", SLOW_X_SETUP);
+    let job = dir.file("job.nc", job);
+    let emu = Emulator::start(dir, Some(&setup));
+    let server = spawn(&["serve", "--port", emu.port()]);
+    assert!(wait_for(10 * S, || server
+        .stderr()
+        .contains("is served on")));
+    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    std::thread::sleep(3 * S);
+    (emu, server, sender)
+}
+
+#[test]
+fn a_hold_during_an_abort_from_another_process_does_not_undo_it() {
+    let dir = Dir::new("hold-in-abort");
+    let (emu, _server, sender) =
+        slow_job_under_serve(&dir, "G21 G90 M3 S1000 M8\nG1 X280 F3000\nM30\n");
+    let port = emu.port();
+    let abort = spawn(&["abort", "--port", port]);
+    std::thread::sleep(Duration::from_millis(300));
+    // The abort decelerates for about 3 s: this hold arrives in the middle of it.
+    let hold = gantry(&["hold", "--port", port], 10 * S);
+    assert_eq!(hold.code, Some(0), "{hold:?}");
+    assert!(hold.stdout.starts_with("state:     Idle"), "{hold:?}");
+    assert!(
+        hold.stderr.contains("no hold: the job was ending"),
+        "{hold:?}"
+    );
+    let abort = abort.wait(10 * S);
+    assert_eq!(abort.code, Some(0), "{abort:?}");
+    assert!(abort.stdout.starts_with("state:     Idle"), "{abort:?}");
+    assert!(
+        abort
+            .stdout
+            .contains("outputs:   spindle off, coolant off, no tool"),
+        "{abort:?}"
+    );
+    // The sender learns that the job was aborted (not done) and where it can resume.
+    let out = sender.wait(10 * S);
+    assert_eq!(out.code, Some(1), "{out:?}");
+    assert!(
+        out.stdout.contains("job aborted: last line 2 of 3"),
+        "{}",
+        out.stdout
+    );
+    assert!(out.stdout.contains("--from-line 2"), "{}", out.stdout);
+    // The board never held: it went from Run to Idle, stopped on the path short of X 280.
+    assert_eq!(
+        logged_states(&emu),
+        ["Idle", "Run", "Idle"],
+        "{}",
+        emu.log()
+    );
+    let x_steps: i64 = emu
+        .last_counts()
+        .0
+        .split(' ')
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(x_steps > 30 * 640 && x_steps < 200 * 640, "{}", emu.log());
+    let (state, text) = status(port);
+    assert_eq!(state, "state:     Idle");
+    assert!(
+        text.contains("outputs:   spindle off, coolant off"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_hold_during_an_alarm_2_stop_ends_in_the_alarm_at_rest_with_outputs_off() {
+    let dir = Dir::new("hold-in-alarm2");
+    // 200 blocks of 1 mm, then one that leaves the travel (X 300 is the edge): the board reads it
+    // once its 128-block planner has room (about 4 s into the job, at X 80 mm and 40 mm/s), and
+    // then stops on the path at once, some 80 mm before the end of the queued blocks.
+    let mut job = String::from("G21 G91 M3 S1000 M8\n");
+    job.push_str(&"G1 X1 F3000\n".repeat(200));
+    job.push_str("G90 G1 X400\nM30\n");
+    let (emu, _server, sender) = slow_job_under_serve(&dir, &job);
+    let port = emu.port();
+    // The feed rises until the alarm's deceleration begins: hold as soon as it falls.
+    let feed = |text: &str| -> f64 {
+        let line = text.lines().find(|l| l.starts_with("feed:")).unwrap();
+        line.split_whitespace().nth(1).unwrap().parse().unwrap()
+    };
+    let mut fastest = 0.0f64;
+    let falling = wait_for(20 * S, || {
+        let (_, text) = status(port);
+        let f = feed(&text);
+        fastest = fastest.max(f);
+        f < fastest * 0.9
+    });
+    assert!(falling, "{}", emu.log());
+    let hold = gantry(&["hold", "--port", port], 10 * S);
+    assert_eq!(hold.code, Some(0), "{hold:?}");
+    assert!(hold.stdout.contains("\nstate:     Alarm"), "{hold:?}");
+    assert!(
+        hold.stderr.contains("no hold: the job was ending"),
+        "{hold:?}"
+    );
+    let out = sender.wait(10 * S);
+    assert_eq!(out.code, Some(1), "{out:?}");
+    assert!(
+        out.stdout.contains("line 202: alarm 2 (soft limit)"),
+        "{}",
+        out.stdout
+    );
+    // Stopped on the path, well short of the 200 mm the queued blocks would have reached.
+    let x_steps: i64 = emu
+        .last_counts()
+        .0
+        .split(' ')
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(x_steps < 190 * 640, "{}", emu.log());
+    assert_eq!(
+        logged_states(&emu),
+        ["Idle", "Run", "Alarm 2"],
+        "{}",
+        emu.log()
+    );
+    let (state, text) = status(port);
+    assert_eq!(state, "state:     Alarm");
+    assert!(
+        text.contains("outputs:   spindle off, coolant off, no tool"),
+        "{text}"
+    );
+}

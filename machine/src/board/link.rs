@@ -2,12 +2,13 @@
 //! [`Board`], and reports status and events back. Sans-IO: the owner feeds received bytes in,
 //! drains frames out, and calls [`BoardLink::service`] from its main loop.
 
-use super::{Board, BoardEvent, JumpTarget};
+use super::{Board, BoardEvent, JobEnd, JumpTarget};
 use crate::controller::State;
 use crate::setup::{Setup, SETUP_BLOB_MAX};
 use crate::units::MAX_AXES;
 use gantry_proto::{
-    BoardEndpoint, BoardMsg, Config, HostMsg, Lane, LinkEvent, MachineState, ProgramTarget, Status,
+    BoardEndpoint, BoardMsg, Config, HostMsg, Lane, LinkEvent, MachineState, OutputsStatus,
+    ProgramTarget, SpindleStatus, Status,
 };
 
 /// Interval between unsolicited status reports, ms.
@@ -330,7 +331,15 @@ fn event_message(e: BoardEvent) -> BoardMsg {
             line,
         },
         BoardEvent::Limit { axis, max } => BoardMsg::Limit { axis, max },
-        BoardEvent::JobDone { line } => BoardMsg::JobDone { line },
+        BoardEvent::JobDone { line, end } => BoardMsg::JobDone {
+            line,
+            end: match end {
+                JobEnd::Completed => gantry_proto::JobEnd::Completed,
+                JobEnd::Failed => gantry_proto::JobEnd::Failed,
+                JobEnd::Aborted => gantry_proto::JobEnd::Aborted,
+                JobEnd::Alarm => gantry_proto::JobEnd::Alarm,
+            },
+        },
         BoardEvent::Jump(req) => BoardMsg::ProgramRequest {
             id: req.id,
             target: match req.target {
@@ -371,5 +380,22 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
         line: board.line(),
         inputs: view.inputs,
         homed: board.homed(),
+        outputs: outputs_status(board.outputs()),
+    }
+}
+
+/// The outputs part of a status report.
+fn outputs_status(o: super::Outputs) -> OutputsStatus {
+    use crate::canon::Spindle;
+    OutputsStatus {
+        spindle: match o.spindle {
+            Spindle::Off => SpindleStatus::Off,
+            Spindle::Cw => SpindleStatus::Cw,
+            Spindle::Ccw => SpindleStatus::Ccw,
+        },
+        rpm: if o.spindle == Spindle::Off { 0 } else { o.rpm },
+        mist: o.mist,
+        flood: o.flood,
+        tool: o.tool,
     }
 }

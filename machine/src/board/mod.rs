@@ -125,10 +125,24 @@ pub enum BoardEvent {
     /// Sent before alarm 1 for every tripped switch, and alone for the switch hits a homing
     /// list's `seek` commands cause, unless that list starts with `DisableLimitReport`.
     Limit { axis: u8, max: bool },
-    /// The job ended (M2/M30, end of the program, an error, or an abort); `line` is the last line run.
-    JobDone { line: u32 },
+    /// The job ended (M2/M30, end of the program, an error, an abort or an alarm); `line` is the
+    /// last line run, `end` says how.
+    JobDone { line: u32, end: JobEnd },
     /// The interpreter jumped: the host must serve lines from the request's target.
     Jump(JumpRequest),
+}
+
+/// How a job ended (in [`BoardEvent::JobDone`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JobEnd {
+    /// It ran to its end (M2/M30 or the end of the program).
+    Completed,
+    /// A block was rejected (the `Error` event before it says which).
+    Failed,
+    /// An abort stopped it on its path.
+    Aborted,
+    /// An alarm ended it (the `Alarm` event before it says which).
+    Alarm,
 }
 
 /// Output levels the controller drives (spindle, coolant, tool), as the program set them.
@@ -822,7 +836,10 @@ impl Board {
         self.mode = Mode::Alarm(code);
         self.emit(BoardEvent::Alarm { code, line });
         if was_running {
-            self.emit(BoardEvent::JobDone { line: self.line });
+            self.emit(BoardEvent::JobDone {
+                line: self.line,
+                end: JobEnd::Alarm,
+            });
         }
         self.sync_interpreter_position();
     }
@@ -958,13 +975,15 @@ impl Board {
             return;
         };
         // How the job ends at rest: (the alarm it raises, the program-stop sequence).
-        let end = match job.phase {
-            JobPhase::Running(Ending::Finished) => (None, false),
-            JobPhase::Running(Ending::Failed) => (None, job.kind == JobKind::Machine),
+        let (end, how) = match job.phase {
+            JobPhase::Running(Ending::Finished) => ((None, false), JobEnd::Completed),
+            JobPhase::Running(Ending::Failed) => {
+                ((None, job.kind == JobKind::Machine), JobEnd::Failed)
+            }
             JobPhase::Stopping {
                 alarm,
                 ramp: Ramp::Done,
-            } => (alarm, true),
+            } => ((alarm, true), JobEnd::Aborted),
             _ => return,
         };
         if kernel_drained && self.motion.state() == MotionState::Idle {
@@ -980,7 +999,10 @@ impl Board {
             }
             self.mode = Mode::Idle;
             self.sync_interpreter_position();
-            self.emit(BoardEvent::JobDone { line: self.line });
+            self.emit(BoardEvent::JobDone {
+                line: self.line,
+                end: how,
+            });
         }
     }
 
