@@ -297,8 +297,11 @@ pub fn run(port: &str) -> anyhow::Result<ExitCode> {
                 // Its lines still waiting here would block every later queued message (a
                 // setup request, a new start): a fresh link to the board drops them, and the
                 // board asks for what it misses when a command takes the job over.
+                // The handshake completes in later passes, so a board that is silent now (the
+                // reason its owner gave up) does not end the server: it answers when it is back.
                 let t = std::mem::replace(&mut board, placeholder()).into_transport();
-                board = Client::connect(t, 3000)?;
+                board = Client::unconnected(t);
+                board.reconnect();
             }
             sessions.retain(|s| s.alive);
         }

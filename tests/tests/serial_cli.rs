@@ -338,6 +338,54 @@ fn a_silent_board_is_reported_and_the_sender_exits_within_its_bound() {
 }
 
 #[test]
+fn under_gantry_serve_a_silent_board_is_reported_and_the_sender_exits_within_its_bound() {
+    let dir = Dir::new("serve-silent");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let job = dir.file("job.nc", &zigzag(400));
+    let emu = Emulator::start(&dir, Some(&setup));
+    let server = spawn(&["serve", "--port", emu.port()]);
+    assert!(wait_for(10 * S, || server
+        .stderr()
+        .contains("is served on")));
+    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    std::thread::sleep(Duration::from_millis(300));
+    nix::sys::signal::kill(emu.pid(), Signal::SIGSTOP).unwrap();
+    let stopped = std::time::Instant::now();
+    let out = sender.wait(20 * S);
+    let after = stopped.elapsed();
+    assert_eq!(out.code, Some(1), "{out:?}");
+    assert!(out.stdout.contains("board silent"), "{}", out.stdout);
+    assert!(out.stdout.contains("--continue"), "{}", out.stdout);
+    assert!(
+        after >= Duration::from_secs(9) && after < Duration::from_secs(13),
+        "{after:?}"
+    );
+    // The server outlives the silence: once the board answers again, the job is taken over
+    // and ends as an uninterrupted run would (the serve test below: pulses X 38400 Y 5120).
+    nix::sys::signal::kill(emu.pid(), Signal::SIGCONT).unwrap();
+    let out = gantry(
+        &[
+            "stream",
+            job.to_str().unwrap(),
+            "--continue",
+            "--port",
+            emu.port(),
+        ],
+        30 * S,
+    );
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(
+        out.stdout.contains("job done: last line 402 of 402"),
+        "{}",
+        out.stdout
+    );
+    assert!(emu.wait_log(5 * S, |l| l.contains("Idle line 402")));
+    assert_eq!(emu.last_counts().1, "X 38400 Y 5120 Z 0");
+    assert!(server.stderr().contains("a command takes over the job"));
+}
+
+#[test]
 fn under_gantry_serve_status_hold_resume_and_override_from_other_processes_act_during_a_job() {
     let dir = Dir::new("serve");
     let setup = dir.file("fast.toml", FAST_SETUP);
