@@ -92,6 +92,9 @@ fn host_side_open(fd: RawFd, wait_ms: i32) -> (bool, bool) {
     )
 }
 
+/// The longest lag behind the wall clock the board's clock catches up, ms (see [`run`]).
+const CATCH_UP_LIMIT_MS: u64 = 500;
+
 /// Runs the board until SIGINT or SIGTERM.
 pub fn run(pty: &Path, setup: Option<PathBuf>, state: Option<PathBuf>) -> anyhow::Result<ExitCode> {
     let setup = load_state(state.as_deref(), setup)?;
@@ -130,6 +133,8 @@ pub fn run(pty: &Path, setup: Option<PathBuf>, state: Option<PathBuf>) -> anyhow
                 .to_string())
     );
     let start = Instant::now();
+    // Wall time the board's clock skipped (see CATCH_UP_LIMIT_MS).
+    let mut skipped_ms = 0u64;
     let mut host_open = false;
     // HUPCL of the host's port as last seen: whether its close drops DTR.
     let mut hupcl = true;
@@ -169,9 +174,19 @@ pub fn run(pty: &Path, setup: Option<PathBuf>, state: Option<PathBuf>) -> anyhow
                 board.receive(&buf[..n]);
             }
         }
-        // Virtual time follows the wall clock (at most 50 ms at once, after a stop).
-        let behind = (start.elapsed().as_millis() as u64).saturating_sub(board.now_ms() as u64);
-        if behind > 0 {
+        // Virtual time follows the wall clock (at most 50 ms at once). A longer gap than
+        // CATCH_UP_LIMIT_MS means this process was stopped (SIGSTOP, a suspended machine), which
+        // a real board never is: its clock skips the gap instead of running it in a burst with
+        // no host word in it (which the board took for a lost host and held the job).
+        let wall_ms = (start.elapsed().as_millis() as u64).saturating_sub(skipped_ms);
+        let behind = wall_ms.saturating_sub(board.now_ms() as u64);
+        if behind > CATCH_UP_LIMIT_MS {
+            skipped_ms += behind;
+            eprintln!(
+                "emulate: this process was stopped for {:.1} s: the board's clock skips it",
+                behind as f64 / 1000.0
+            );
+        } else if behind > 0 {
             board.run_ms(behind.min(50));
         }
         let out = board.take_output();

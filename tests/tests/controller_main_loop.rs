@@ -1,7 +1,8 @@
 //! The emulated board runs the firmware's main loop (`MainLoop::pass` in
 //! machine/src/board/main_loop.rs): where the emulator's own copy used to differ from
 //! firmware/src/control.rs, it now does what the board does.
-//! - the path speed, and `Hold { stopped }` built from it, come from the 20 ms integer window;
+//! - the path speed, and `Hold { stopped }` built from it, come from the 20 ms integer window
+//!   (0 once a job has ended and the kernel drained);
 //! - a limit stop keeps the kernel latched (stopped, no segments) while the board is in alarm;
 //! - the host closing the port (DTR drop) holds a running job;
 //! - the segment queue holds the firmware's 15 segments;
@@ -63,6 +64,21 @@ fn a_hold_reports_stopped_on_the_firmwares_20_ms_speed_window() {
     // The emulator's old 1 ms pulse count said stopped in the first pass at rest.
     assert!(u64::from(first_stopped) > saw_rest);
     assert_eq!(eb.kernel_view().feed_um_min, 0);
+}
+
+#[test]
+fn a_job_that_ended_reports_no_feed_in_its_first_idle_status() {
+    for feed in [600, 1500, 3000] {
+        let mut eb = board(|_| {});
+        job(&mut eb, &format!("G21 G90\nG1 X5 F{feed}\nM30\n"));
+        assert!(eb.run_until(10_000, |b| b.board.state() == State::Idle));
+        // The first status the link can send: from the next pass (link.service runs after the
+        // pass has measured the speed; the job ended later in the pass before).
+        eb.run_ms(1);
+        let status = status_of(&eb.board, &eb.kernel_view());
+        assert_eq!(status.state, MachineState::Idle);
+        assert_eq!(status.feed_um_min, 0, "F{feed}: the machine is at rest");
+    }
 }
 
 /// X with a max switch at 10 mm.

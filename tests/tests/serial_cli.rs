@@ -340,7 +340,13 @@ fn a_silent_board_is_reported_and_the_sender_exits_within_its_bound() {
 #[test]
 fn under_gantry_serve_a_silent_board_is_reported_and_the_sender_exits_within_its_bound() {
     let dir = Dir::new("serve-silent");
-    let setup = dir.file("fast.toml", FAST_SETUP);
+    // The board's clock catches up the stopped 10 s at once after SIGCONT, with no host word in
+    // it: with FAST_SETUP's 1 s it would end the held job with alarm 20, as a board whose link
+    // was dead that long would; the default keeps it held for a minute.
+    let setup = dir.file(
+        "fast.toml",
+        &FAST_SETUP.replace("host_lost_stop_s = 1", "host_lost_stop_s = 60"),
+    );
     let job = dir.file("job.nc", &zigzag(400));
     let emu = Emulator::start(&dir, Some(&setup));
     let server = spawn(&["serve", "--port", emu.port()]);

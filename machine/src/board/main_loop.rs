@@ -300,7 +300,12 @@ impl MainLoop {
             port.host_closed();
         }
         self.host_port = host_port;
-        let speed_um_min = self.speed.update(now_ms, board.machine_position(&k.steps));
+        let measured = self.speed.update(now_ms, board.machine_position(&k.steps));
+        // No job or jog and the kernel drained: at rest now, whatever the last window saw (the
+        // status right after a job's end read 93.8 mm/min in Idle). A hold keeps the window:
+        // a segment queue that ran dry mid-ramp is not rest.
+        let idle = matches!(board.state(), State::Idle | State::Alarm);
+        let speed_um_min = if k.drained && idle { 0 } else { measured };
         self.view = KernelView {
             steps: k.steps,
             inputs: levels.0,
