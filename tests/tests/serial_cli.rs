@@ -310,14 +310,9 @@ fn a_board_restarted_mid_job_stops_the_sender_with_the_resume_command() {
     assert!(out.stdout.contains("--from-line"), "{}", out.stdout);
 }
 
-#[test]
-fn a_silent_board_is_reported_and_the_sender_exits_within_its_bound() {
-    let dir = Dir::new("silent");
-    let setup = dir.file("fast.toml", FAST_SETUP);
-    let job = dir.file("job.nc", &zigzag(400));
-    let emu = Emulator::start(&dir, Some(&setup));
-    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
-    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+/// Stops the board's process 0.3 s from now and checks that `sender` warns after 2 s, gives up
+/// after 10 s with the `--continue` command, and exits 1.
+fn silence_and_expect_the_sender_to_give_up(emu: &Emulator, sender: Running) {
     std::thread::sleep(Duration::from_millis(300));
     nix::sys::signal::kill(emu.pid(), Signal::SIGSTOP).unwrap();
     let stopped = std::time::Instant::now();
@@ -337,12 +332,34 @@ fn a_silent_board_is_reported_and_the_sender_exits_within_its_bound() {
     );
 }
 
+/// The stream of `zigzag(400)` ended done, with the pulses of an uninterrupted run.
+fn zigzag_400_ended_whole(emu: &Emulator, out: &Out) {
+    assert!(
+        out.stdout.contains("job done: last line 402 of 402"),
+        "{}",
+        out.stdout
+    );
+    assert!(emu.wait_log(5 * S, |l| l.contains("Idle line 402")));
+    assert_eq!(emu.last_counts().1, "X 38400 Y 5120 Z 0");
+}
+
+#[test]
+fn a_silent_board_is_reported_and_the_sender_exits_within_its_bound() {
+    let dir = Dir::new("silent");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let job = dir.file("job.nc", &zigzag(400));
+    let emu = Emulator::start(&dir, Some(&setup));
+    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    silence_and_expect_the_sender_to_give_up(&emu, sender);
+}
+
 #[test]
 fn under_gantry_serve_a_silent_board_is_reported_and_the_sender_exits_within_its_bound() {
     let dir = Dir::new("serve-silent");
-    // The board's clock catches up the stopped 10 s at once after SIGCONT, with no host word in
-    // it: with FAST_SETUP's 1 s it would end the held job with alarm 20, as a board whose link
-    // was dead that long would; the default keeps it held for a minute.
+    // The held job must outlast the silence: FAST_SETUP's 1 s would end it with alarm 20 if the
+    // board's clock ran the stopped 10 s (the emulator skips them; a board whose link was dead
+    // that long would not).
     let setup = dir.file(
         "fast.toml",
         &FAST_SETUP.replace("host_lost_stop_s = 1", "host_lost_stop_s = 60"),
@@ -355,18 +372,7 @@ fn under_gantry_serve_a_silent_board_is_reported_and_the_sender_exits_within_its
         .contains("is served on")));
     let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
     assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
-    std::thread::sleep(Duration::from_millis(300));
-    nix::sys::signal::kill(emu.pid(), Signal::SIGSTOP).unwrap();
-    let stopped = std::time::Instant::now();
-    let out = sender.wait(20 * S);
-    let after = stopped.elapsed();
-    assert_eq!(out.code, Some(1), "{out:?}");
-    assert!(out.stdout.contains("board silent"), "{}", out.stdout);
-    assert!(out.stdout.contains("--continue"), "{}", out.stdout);
-    assert!(
-        after >= Duration::from_secs(9) && after < Duration::from_secs(13),
-        "{after:?}"
-    );
+    silence_and_expect_the_sender_to_give_up(&emu, sender);
     // The server outlives the silence: once the board answers again, the job is taken over
     // and ends as an uninterrupted run would (the serve test below: pulses X 38400 Y 5120).
     nix::sys::signal::kill(emu.pid(), Signal::SIGCONT).unwrap();
@@ -381,13 +387,7 @@ fn under_gantry_serve_a_silent_board_is_reported_and_the_sender_exits_within_its
         30 * S,
     );
     assert_eq!(out.code, Some(0), "{out:?}");
-    assert!(
-        out.stdout.contains("job done: last line 402 of 402"),
-        "{}",
-        out.stdout
-    );
-    assert!(emu.wait_log(5 * S, |l| l.contains("Idle line 402")));
-    assert_eq!(emu.last_counts().1, "X 38400 Y 5120 Z 0");
+    zigzag_400_ended_whole(&emu, &out);
     assert!(server.stderr().contains("a command takes over the job"));
 }
 
@@ -418,13 +418,7 @@ fn under_gantry_serve_status_hold_resume_and_override_from_other_processes_act_d
     assert!(out.stdout.contains("override feed 50 %"), "{}", out.stdout);
     let out = sender.wait(30 * S);
     assert_eq!(out.code, Some(0), "{out:?}");
-    assert!(
-        out.stdout.contains("job done: last line 402 of 402"),
-        "{}",
-        out.stdout
-    );
-    assert!(emu.wait_log(5 * S, |l| l.contains("Idle line 402")));
-    assert_eq!(emu.last_counts().1, "X 38400 Y 5120 Z 0");
+    zigzag_400_ended_whole(&emu, &out);
 }
 
 #[test]
@@ -500,6 +494,46 @@ fn slow_job_under_serve(dir: &Dir, job: &str) -> (Emulator, Running, Running) {
     (emu, server, sender)
 }
 
+/// `gantry hold` while a stop decelerates: it returns at rest in `end` (`Idle`, `Alarm`) with
+/// the note that nothing was held.
+fn hold_changes_nothing(port: &str, end: &str) {
+    let hold = gantry(&["hold", "--port", port], 10 * S);
+    assert_eq!(hold.code, Some(0), "{hold:?}");
+    assert!(
+        hold.stdout.contains(&format!("state:     {end}\n")),
+        "{hold:?}"
+    );
+    assert!(
+        hold.stderr.contains("no hold: the job was ending"),
+        "{hold:?}"
+    );
+}
+
+/// The board went Idle → Run → `last` (it never held), its X stopped on the path below
+/// `x_below_mm`, and its status shows `state` with spindle and coolant off.
+fn ended_at_rest_with_outputs_off(emu: &Emulator, last: &str, x_below_mm: i64, state: &str) {
+    assert_eq!(logged_states(emu), ["Idle", "Run", last], "{}", emu.log());
+    let x_steps: i64 = emu
+        .last_counts()
+        .0
+        .split(' ')
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        x_steps > 30 * 640 && x_steps < x_below_mm * 640,
+        "{}",
+        emu.log()
+    );
+    let (first, text) = status(emu.port());
+    assert_eq!(first, format!("state:     {state}"));
+    assert!(
+        text.contains("outputs:   spindle off, coolant off, no tool"),
+        "{text}"
+    );
+}
+
 #[test]
 fn a_hold_during_an_abort_from_another_process_does_not_undo_it() {
     let dir = Dir::new("hold-in-abort");
@@ -509,13 +543,7 @@ fn a_hold_during_an_abort_from_another_process_does_not_undo_it() {
     let abort = spawn(&["abort", "--port", port]);
     std::thread::sleep(Duration::from_millis(300));
     // The abort decelerates for about 3 s: this hold arrives in the middle of it.
-    let hold = gantry(&["hold", "--port", port], 10 * S);
-    assert_eq!(hold.code, Some(0), "{hold:?}");
-    assert!(hold.stdout.starts_with("state:     Idle"), "{hold:?}");
-    assert!(
-        hold.stderr.contains("no hold: the job was ending"),
-        "{hold:?}"
-    );
+    hold_changes_nothing(port, "Idle");
     let abort = abort.wait(10 * S);
     assert_eq!(abort.code, Some(0), "{abort:?}");
     assert!(abort.stdout.starts_with("state:     Idle"), "{abort:?}");
@@ -534,28 +562,8 @@ fn a_hold_during_an_abort_from_another_process_does_not_undo_it() {
         out.stdout
     );
     assert!(out.stdout.contains("--from-line 2"), "{}", out.stdout);
-    // The board never held: it went from Run to Idle, stopped on the path short of X 280.
-    assert_eq!(
-        logged_states(&emu),
-        ["Idle", "Run", "Idle"],
-        "{}",
-        emu.log()
-    );
-    let x_steps: i64 = emu
-        .last_counts()
-        .0
-        .split(' ')
-        .nth(1)
-        .unwrap()
-        .parse()
-        .unwrap();
-    assert!(x_steps > 30 * 640 && x_steps < 200 * 640, "{}", emu.log());
-    let (state, text) = status(port);
-    assert_eq!(state, "state:     Idle");
-    assert!(
-        text.contains("outputs:   spindle off, coolant off"),
-        "{text}"
-    );
+    // Stopped on the path, well short of X 280.
+    ended_at_rest_with_outputs_off(&emu, "Idle", 200, "Idle");
 }
 
 #[test]
@@ -582,13 +590,7 @@ fn a_hold_during_an_alarm_2_stop_ends_in_the_alarm_at_rest_with_outputs_off() {
         f < fastest * 0.9
     });
     assert!(falling, "{}", emu.log());
-    let hold = gantry(&["hold", "--port", port], 10 * S);
-    assert_eq!(hold.code, Some(0), "{hold:?}");
-    assert!(hold.stdout.contains("\nstate:     Alarm"), "{hold:?}");
-    assert!(
-        hold.stderr.contains("no hold: the job was ending"),
-        "{hold:?}"
-    );
+    hold_changes_nothing(port, "Alarm");
     let out = sender.wait(10 * S);
     assert_eq!(out.code, Some(1), "{out:?}");
     assert!(
@@ -597,25 +599,5 @@ fn a_hold_during_an_alarm_2_stop_ends_in_the_alarm_at_rest_with_outputs_off() {
         out.stdout
     );
     // Stopped on the path, well short of the 200 mm the queued blocks would have reached.
-    let x_steps: i64 = emu
-        .last_counts()
-        .0
-        .split(' ')
-        .nth(1)
-        .unwrap()
-        .parse()
-        .unwrap();
-    assert!(x_steps < 190 * 640, "{}", emu.log());
-    assert_eq!(
-        logged_states(&emu),
-        ["Idle", "Run", "Alarm 2"],
-        "{}",
-        emu.log()
-    );
-    let (state, text) = status(port);
-    assert_eq!(state, "state:     Alarm");
-    assert!(
-        text.contains("outputs:   spindle off, coolant off, no tool"),
-        "{text}"
-    );
+    ended_at_rest_with_outputs_off(&emu, "Alarm 2", 190, "Alarm");
 }
