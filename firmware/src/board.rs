@@ -296,6 +296,9 @@ macro_rules! expand_board {
             pub usb_dp: Peri<'static, peripherals::PA12>,
             pub usb_dm: Peri<'static, peripherals::PA11>,
             pub tim2: Peri<'static, peripherals::TIM2>,
+            /// DMA1 streams 1, 5 and 6: TIM2's update, compare 1 and compare 2 requests make the
+            /// step pulses (`step_dma.rs`).
+            pub step_dma: $crate::step_dma::StepDma,
             pub adc1: Peri<'static, peripherals::ADC1>,
             pub flash: Peri<'static, peripherals::FLASH>,
         }
@@ -345,6 +348,11 @@ macro_rules! expand_board {
                 usb_dp: p.PA12,
                 usb_dm: p.PA11,
                 tim2: p.TIM2,
+                step_dma: $crate::step_dma::StepDma {
+                    update: p.DMA1_CH1,
+                    pulse_end: p.DMA1_CH5,
+                    clear: p.DMA1_CH6,
+                },
                 adc1: p.ADC1,
                 flash: p.FLASH,
             };

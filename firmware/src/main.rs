@@ -17,6 +17,8 @@ mod reset_marker;
 mod safety;
 mod settings;
 mod step;
+mod step_body;
+mod step_dma;
 mod usb;
 mod watchdog;
 
@@ -119,7 +121,7 @@ async fn main(spawner: Spawner) {
     let tx_pipe: &'static usb::LinkPipe = TX_PIPE.init(usb::LinkPipe::new());
 
     let timing = StepTiming::from_setup(&setup.drivers);
-    let segments = step::start(rest.tim2, clocks::TIM2_PSC, timing);
+    let segments = step::start(rest.tim2, rest.step_dma, clocks::TIM2_PSC, timing);
 
     let fast = EXECUTOR_FAST.start(interrupt::USART6);
     fast.spawn(defmt::unwrap!(inputs::run(inputs)));

@@ -1,30 +1,37 @@
-//! Step timer: TIM2 (32-bit) at NVIC priority P0 runs the core's step kernel once per tick.
+//! Step timer: TIM2 (32-bit) times every step edge; the edges come from DMA, one interrupt per
+//! step event does the rest.
 //!
-//! The update interrupt starts a tick: it raises the step pins computed on the previous tick (one
-//! BSRR write), runs `StepKernel::tick`, and loads the kernel's period into the preloaded ARR, so it
-//! times the period after the step just emitted. It also points compare channel 1 at the setup's
-//! pulse width ([`StepTiming::pulse`], from `Setup::drivers`) after the moment the pins rose; that
-//! interrupt drops the step pins (one BSRR write) and sets the dir pins for the next step (one BSRR
-//! write), so a direction changes a full period minus the pulse before the step that needs it.
-//! Periods shorter than [`StepTiming::min_period`] (pulse + the longer of pulse and dir set-up)
-//! are stretched to it, so that is at least the setup's dir set-up time; `Setup::is_valid` refuses
-//! axes whose max rate would need such periods. Pin words come from 64-entry tables built at
-//! compile time from the board's pin numbers, so the ISR does lookups, no loops.
+//! Each period starts with an update: DMA1 (`step_dma.rs`) copies the step word held in TIM2's
+//! CCR3 to the step port's BSRR, so the step pins rise on the timer's edge, not when an
+//! interrupt gets there. At compare 1 (`pulse` counts later, [`StepTiming::pulse`] from
+//! `Setup::drivers`) a second stream drops the step pins (the pulse end) and, at compare 2 (the
+//! same count), a third overwrites CCR3 with that reset word, so an update nobody prepared
+//! raises nothing. Compare 1 also raises the one interrupt, at P0: the body in `step_body.rs`
+//! writes the dir pins of the step computed on its run before, puts that step's word in CCR3 and
+//! its period in the preloaded ARR, then runs `StepKernel::tick` for the step after. The body
+//! writes only when the timer shows time left before the next update for its writes and, when
+//! a dir pin changes, for the dir set-up ([`StepTiming::dir_setup`]); else it leaves everything
+//! for the next period (counted in [`LATE_TICKS`]): no edge is lost or repeated and no step
+//! follows a direction change sooner than the setup allows. The dir pins change after the pulse
+//! end, so they are held a pulse width after each edge. Periods shorter than [`StepTiming::min_period`] are stretched to it;
+//! `Setup::is_valid` refuses axes whose max rate would need such periods. Pin words come from
+//! 64-entry tables built at compile time from the board's pin numbers, so the ISR does lookups,
+//! no loops.
 //!
 //! On-the-fly outputs: a segment's [`OutputEvent`] comes out of the tick that starts the segment
-//! and is emitted with that tick's steps, at the next update: one BSRR write of the user output's
-//! port (port and pin mask from a table built at compile time from the board's user output pins),
-//! just before the step pins rise. [`sync_user_outputs`] is the only other writer of those pins.
+//! and is switched (one BSRR write of the user output's port, port and pin mask from a table
+//! built at compile time from the board's user output pins) when that tick's step is scheduled,
+//! together with its dir pins: after the last step of the block before and before the first
+//! step of its own block. [`sync_user_outputs`] is the only other writer of those pins.
 //!
-//! If the ISR starts so late that the pulse and the dir set-up could not both fit before the next
-//! update, it emits nothing and retries on the next update (counted in [`LATE_TICKS`]), so no edge
-//! is ever lost and no step follows a direction change sooner than the setup allows.
 //! A stop seen by the kernel takes effect at that tick; the step computed on the tick before is
 //! still emitted, so the kernel's position count stays exact. When the kernel is idle the timer
 //! keeps polling the queue every millisecond.
 
 use crate::board::{gpio_block, PinId};
 use crate::board_def::{AXES, DIR, STEP, USER_OUTPUTS, USER_PINS};
+use crate::step_body::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS};
+use crate::step_dma::{self, StepDma};
 use core::cell::UnsafeCell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use embassy_stm32::interrupt;
@@ -35,16 +42,12 @@ use embassy_stm32::peripherals::TIM2;
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::Peri;
 use gantry_machine::board::main_loop::KernelSnapshot;
-use gantry_machine::motion::kernel::{
-    Segment, SegmentSource, StepKernel, StepTiming, TickOut, KERNEL_TIMER_HZ,
-};
+use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::units::MAX_AXES;
 use heapless::spsc::{Consumer, Producer, Queue};
 use static_cell::StaticCell;
 
-/// Tick period while the kernel is idle (1 ms), i.e. how often an empty queue is polled.
-pub const IDLE_PERIOD_COUNTS: u32 = KERNEL_TIMER_HZ / 1_000;
 /// Slots in the segment queue: the core's one figure (`gantry_machine::board::main_loop`), so the
 /// emulated board queues exactly as many segments. heapless 0.9's SPSC queue holds N - 1: 15
 /// segments of about 2 ms, 30 ms of motion ahead of the kernel, every one of which a stop can
@@ -55,15 +58,12 @@ pub const SEGMENT_QUEUE_LEN: usize = gantry_machine::board::main_loop::SEGMENT_Q
 /// the main loop, cleared only by the main loop when it re-arms the kernel. The kernel latches
 /// it on its next tick.
 pub static STOP: AtomicBool = AtomicBool::new(false);
-/// Ticks deferred because the ISR started too late to fit the step pulse (should stay 0).
+/// Periods in which the interrupt started too late to schedule the next step with its dir set-up
+/// (the step went out a period later; should stay 0).
 pub static LATE_TICKS: AtomicU32 = AtomicU32::new(0);
 
-/// BSRR word raising the step pins of each 6-bit step mask.
-static STEP_SET: [u32; 64] = step_set_table(&STEP);
-/// BSRR word dropping every step pin.
-const STEP_RESET: u32 = mask(&STEP) << 16;
-/// BSRR word setting every dir pin for each 6-bit dir mask (bit set = negative = pin high).
-static DIR_WORD: [u32; 64] = dir_table(&DIR);
+/// BSRR words of the step and dir pins for every 6-bit step and dir mask.
+static PIN_WORDS: PinWords = PinWords::new(&masks(&STEP), &masks(&DIR));
 /// Port and pin mask of each user output (16 slots; outputs the board does not have have mask 0,
 /// so switching them changes no pin).
 const USER_GPIO: [pac::gpio::Gpio; 16] = output_ports(&USER_PINS);
@@ -71,11 +71,12 @@ static USER_MASK: [u16; 16] = output_masks(&USER_PINS);
 
 const _: () = {
     assert!(
-        STEP_SET[0] == 0 && STEP_SET[63] == mask(&STEP),
+        PIN_WORDS.step_set[0] == 0 && PIN_WORDS.step_set[63] == mask(&STEP),
         "step table covers the step pins"
     );
+    assert!(PIN_WORDS.step_reset == mask(&STEP) << 16, "step reset word");
     assert!(
-        DIR_WORD[0] == mask(&DIR) << 16 && DIR_WORD[63] == mask(&DIR),
+        PIN_WORDS.dir[0] == mask(&DIR) << 16 && PIN_WORDS.dir[63] == mask(&DIR),
         "dir table"
     );
 };
@@ -94,38 +95,14 @@ const fn mask(pins: &[PinId]) -> u32 {
     m
 }
 
-const fn step_set_table(pins: &[PinId; AXES]) -> [u32; 64] {
-    let mut t = [0u32; 64];
-    let mut bits = 0;
-    while bits < 64 {
-        let mut axis = 0;
-        while axis < AXES {
-            if bits & (1 << axis) != 0 {
-                t[bits] |= pins[axis].mask();
-            }
-            axis += 1;
-        }
-        bits += 1;
+const fn masks(pins: &[PinId; AXES]) -> [u32; AXES] {
+    let mut m = [0; AXES];
+    let mut i = 0;
+    while i < AXES {
+        m[i] = pins[i].mask();
+        i += 1;
     }
-    t
-}
-
-const fn dir_table(pins: &[PinId; AXES]) -> [u32; 64] {
-    let mut t = [0u32; 64];
-    let mut bits = 0;
-    while bits < 64 {
-        let mut axis = 0;
-        while axis < AXES {
-            t[bits] |= if bits & (1 << axis) != 0 {
-                pins[axis].mask()
-            } else {
-                pins[axis].mask() << 16
-            };
-            axis += 1;
-        }
-        bits += 1;
-    }
-    t
+    m
 }
 
 const fn output_ports(pins: &[PinId; USER_OUTPUTS]) -> [pac::gpio::Gpio; 16] {
@@ -167,16 +144,35 @@ impl SegmentSource for QueueSource {
     }
 }
 
-/// Everything the ISR owns.
-struct StepIsr {
-    kernel: StepKernel,
-    source: QueueSource,
-    /// Output of the previous tick, emitted at the next update.
-    pending: TickOut,
-    /// The last tick found no segment (period 0): the kernel waits for the queue.
-    idle: bool,
-    /// Pulse width, dir set-up and shortest period, from the setup.
-    timing: StepTiming,
+/// The interrupt's hardware: TIM2's counter, reload and CCR3 (the step word the update DMA
+/// copies), the dir port and the user output pins.
+struct Tim2Dma;
+
+impl StepHardware for Tim2Dma {
+    #[inline(always)]
+    fn count(&self) -> u32 {
+        TIM.cnt().read()
+    }
+    #[inline(always)]
+    fn reload(&self) -> u32 {
+        TIM.arr().read()
+    }
+    #[inline(always)]
+    fn set_reload(&mut self, reload: u32) {
+        TIM.arr().write_value(reload);
+    }
+    #[inline(always)]
+    fn write_dir(&mut self, bsrr: u32) {
+        DIR_GPIO.bsrr().write_value(pac::gpio::regs::Bsrr(bsrr));
+    }
+    #[inline(always)]
+    fn set_step_word(&mut self, bsrr: u32) {
+        TIM.ccr(step_dma::STEP_WORD_CCR).write_value(bsrr);
+    }
+    #[inline(always)]
+    fn write_output(&mut self, event: OutputEvent) {
+        write_output(event);
+    }
 }
 
 /// The ISR's state, shared with the main loop.
@@ -186,7 +182,7 @@ struct StepIsr {
 /// NMI and faults don't). Every other access goes through [`with_kernel`], which holds a critical
 /// section (PRIMASK: TIM2 cannot run meanwhile) and is never nested (the closures below don't
 /// call it). So at most one `&mut` to the state exists at any time.
-struct Shared(UnsafeCell<Option<StepIsr>>);
+struct Shared(UnsafeCell<Option<StepIsr<QueueSource>>>);
 
 // SAFETY: see the access protocol above; the cell is only reached under it.
 unsafe impl Sync for Shared {}
@@ -194,9 +190,9 @@ unsafe impl Sync for Shared {}
 static SHARED: Shared = Shared(UnsafeCell::new(None));
 
 /// Runs `f` on the ISR's state inside a critical section (TIM2 masked for its duration: keep
-/// `f` to a few dozen instructions, it delays the next step edge by as much). `None` before
-/// [`start`].
-fn with_kernel<R>(f: impl FnOnce(&mut StepIsr) -> R) -> Option<R> {
+/// `f` to a few dozen instructions; the edges come from DMA on time, but an interrupt delayed
+/// past its deadline sends its step a period later). `None` before [`start`].
+fn with_kernel<R>(f: impl FnOnce(&mut StepIsr<QueueSource>) -> R) -> Option<R> {
     critical_section::with(|_cs| {
         // SAFETY: interrupts are masked, so the TIM2 handler is not running and cannot start;
         // this is the only other access path and it is not re-entered (see `Shared`).
@@ -287,13 +283,17 @@ pub fn set_position(steps: [i64; MAX_AXES]) {
 
 /// Takes a new pulse shape (a setup change; the machine is idle then).
 pub fn set_timing(timing: StepTiming) {
-    with_kernel(|s| s.timing = timing);
+    with_kernel(|s| {
+        s.timing = timing;
+        step_dma::set_pulse(timing.pulse);
+    });
 }
 
-/// Configures TIM2 to tick the kernel with pulses shaped by `timing` and returns the producer end
-/// of its segment queue.
+/// Configures TIM2 and its DMA streams to emit steps with pulses shaped by `timing` and returns
+/// the producer end of the segment queue.
 pub fn start(
     tim2: Peri<'static, TIM2>,
+    dma: StepDma,
     psc: u16,
     timing: StepTiming,
 ) -> Producer<'static, Segment> {
@@ -303,15 +303,7 @@ pub fn start(
     critical_section::with(|_cs| {
         // SAFETY: TIM2's interrupt is not enabled yet and interrupts are masked: nothing else
         // can hold a reference into the cell.
-        unsafe {
-            *SHARED.0.get() = Some(StepIsr {
-                kernel: StepKernel::new(),
-                source: QueueSource(consumer),
-                pending: TickOut::default(),
-                idle: true,
-                timing,
-            })
-        }
+        unsafe { *SHARED.0.get() = Some(StepIsr::new(QueueSource(consumer), timing)) }
     });
 
     // Kept in a static: dropping the driver would gate TIM2's clock.
@@ -319,17 +311,19 @@ pub fn start(
     timer.stop();
     TIM.psc().write_value(psc);
     TIM.arr().write_value(IDLE_PERIOD_COUNTS - 1);
-    TIM.ccr(0).write_value(timing.pulse);
     timer.set_autoreload_preload(true);
-    timer.generate_update_event(); // load PSC and ARR without an interrupt
-    TIM.dier().modify(|w| {
-        w.set_uie(true);
-        w.set_ccie(0, true);
-    });
+    timer.generate_update_event(); // load PSC and ARR (no DMA request yet: UDE is off)
+    step_dma::start(
+        dma,
+        PIN_WORDS.step_reset,
+        STEP_GPIO.bsrr().as_ptr() as u32,
+        timing.pulse,
+    );
+    TIM.dier().modify(|w| w.set_ccie(0, true));
     TIM.sr().write_value(SrGp16(0));
     interrupt::TIM2.set_priority(Priority::P0);
-    // SAFETY: the TIM2 handler below only touches TIM2, the step/dir ports and the user output
-    // pins (BSRR, write-only, atomic per bit) and state it owns; nothing else uses TIM2 or the
+    // SAFETY: the TIM2 handler below only touches TIM2, the dir port and the user output pins
+    // (BSRR, write-only, atomic per bit) and state it owns; nothing else uses TIM2 or the
     // step/dir pins, and the user output pins are only written by BSRR here and in
     // `sync_user_outputs`, which holds TIM2 off.
     unsafe { interrupt::TIM2.enable() };
@@ -337,64 +331,21 @@ pub fn start(
     producer
 }
 
-/// Clears the given TIM2 status bits (rc_w0: writing 1 leaves a flag alone).
-#[inline(always)]
-fn clear_flags(bits: u32) {
-    TIM.sr().write_value(SrGp16(!bits));
-}
-
-const UIF: u32 = 1 << 0;
+/// Compare 1 flag: the pulse end, the one interrupt per step event.
 const CC1IF: u32 = 1 << 1;
 
 #[interrupt]
 fn TIM2() {
+    // Cleared first, so the flag is down before the handler returns (rc_w0: writing 1 leaves
+    // the other flags alone; nothing else raises this interrupt).
+    TIM.sr().write_value(SrGp16(!CC1IF));
     // SAFETY: this handler is the single interrupt-side user of `SHARED` and nothing that
     // touches it can preempt P0 (see `Shared`); thread code only reaches it with TIM2 masked.
     let state = unsafe { &mut *SHARED.0.get() };
     let Some(isr) = state.as_mut() else {
-        clear_flags(UIF | CC1IF);
         return;
     };
-    let sr = TIM.sr().read().0;
-    if sr & CC1IF != 0 {
-        clear_flags(CC1IF);
-        STEP_GPIO
-            .bsrr()
-            .write_value(pac::gpio::regs::Bsrr(STEP_RESET));
-        DIR_GPIO.bsrr().write_value(pac::gpio::regs::Bsrr(
-            DIR_WORD[(isr.pending.dir & 63) as usize],
-        ));
-    }
-    if sr & UIF != 0 {
-        clear_flags(UIF);
-        let t = isr.timing;
-        // ARR still holds the running period's reload value (the new one is written below): the
-        // next update comes ARR + 1 counts after this one. The pulse ends at `pulse_end`, the dir
-        // pins for the next step change then, and that step starts at the next update.
-        let pulse_end = TIM.cnt().read() + t.pulse;
-        if pulse_end + t.dir_setup > TIM.arr().read() + 1 {
-            // Too late to fit pulse and dir set-up in this period: keep `pending` for the next
-            // update.
-            LATE_TICKS.store(LATE_TICKS.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
-            return;
-        }
-        TIM.ccr(0).write_value(pulse_end);
-        if isr.pending.output.is_some() {
-            // On-the-fly output: switched with the first step of its block.
-            write_output(isr.pending.output);
-        }
-        STEP_GPIO.bsrr().write_value(pac::gpio::regs::Bsrr(
-            STEP_SET[(isr.pending.step & 63) as usize],
-        ));
-        let out = isr
-            .kernel
-            .tick(&mut isr.source, STOP.load(Ordering::Relaxed));
-        let period = match out.period {
-            0 => IDLE_PERIOD_COUNTS,
-            p => t.stretch(p),
-        };
-        TIM.arr().write_value(period - 1);
-        isr.idle = out.period == 0;
-        isr.pending = out;
+    if isr.on_pulse_end(&PIN_WORDS, &mut Tim2Dma, STOP.load(Ordering::Relaxed)) == Run::Late {
+        LATE_TICKS.store(LATE_TICKS.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
     }
 }
