@@ -388,7 +388,7 @@ fn TIM2() {
         ));
         let out = isr
             .kernel
-            .tick(&mut isr.source, STOP.load(Ordering::Relaxed));
+            .tick(&mut isr.source, STOP.load(Ordering::Relaxed), false);
         let period = match out.period {
             0 => IDLE_PERIOD_COUNTS,
             p => t.stretch(p),

@@ -116,6 +116,14 @@ pub trait BoardPort {
     fn limit_stopped(&mut self, _levels: InputBits) {}
     /// The host closed the port and the job was held. For logs.
     fn host_closed(&mut self) {}
+    /// Arms the kernel's probe latch for the raw probe pin level `trips_at`, or turns it off
+    /// (`None`, which also forgets a latched position). Called every pass: an armed or tripped
+    /// latch for the same level is left as it is. Default: no probe input.
+    fn arm_probe(&mut self, _trips_at: Option<bool>) {}
+    /// The step position the kernel's probe latch recorded, if it tripped. Default: never.
+    fn probe_latched(&mut self) -> Option<[i64; MAX_AXES]> {
+        None
+    }
 }
 
 /// Path speed from the kernel's position, over a window of [`SpeedMeter::WINDOW_MS`]: what the
@@ -273,6 +281,10 @@ impl MainLoop {
             port.rearm_kernel();
             self.latch = Latch::Armed;
         }
+        // The probe latch tripped: the board stops the probe move on its path.
+        if let Some(steps) = port.probe_latched() {
+            board.probe_tripped(&steps);
+        }
 
         // 2. Inputs, debounced here (the kernel saw the raw limit pins already).
         let (levels, changed) = self.debouncer.sample(port.raw_inputs());
@@ -321,7 +333,8 @@ impl MainLoop {
             board.drop_queued(|max| port.drop_newest(max));
         }
 
-        // 4. Segments for the kernel (none while it is latched).
+        // 4. Segments for the kernel (none while it is latched), the probe latch armed first.
+        port.arm_probe(board.probe_arm());
         let mut handed_out = false;
         if !latched {
             while port.queue_ready() {
