@@ -100,6 +100,9 @@ fn sample(inputs: &Inputs) -> u32 {
             word |= 1 << (Signal::JogS1 as usize + i);
         }
     }
+    if inputs.probe.is_low() {
+        word |= 1 << Signal::Probe as u32;
+    }
     word
 }
 

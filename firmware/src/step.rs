@@ -24,7 +24,7 @@
 //! keeps polling the queue every millisecond.
 
 use crate::board::{gpio_block, PinId};
-use crate::board_def::{AXES, DIR, STEP, USER_OUTPUTS, USER_PINS};
+use crate::board_def::{AXES, DIR, PROBE, STEP, USER_OUTPUTS, USER_PINS};
 use core::cell::UnsafeCell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use embassy_stm32::interrupt;
@@ -36,7 +36,7 @@ use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::Peri;
 use gantry_machine::board::main_loop::KernelSnapshot;
 use gantry_machine::motion::kernel::{
-    Segment, SegmentSource, StepKernel, StepTiming, TickOut, KERNEL_TIMER_HZ,
+    ProbeLatch, Segment, SegmentSource, StepKernel, StepTiming, TickOut, KERNEL_TIMER_HZ,
 };
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::units::MAX_AXES;
@@ -81,6 +81,10 @@ const _: () = {
 };
 
 const STEP_GPIO: pac::gpio::Gpio = gpio_block(STEP[0].port);
+/// The touch probe's port: the kernel gets its raw level every tick (bit set = pin low = closed,
+/// as `inputs::PINS`), for its probe latch.
+const PROBE_GPIO: pac::gpio::Gpio = gpio_block(PROBE.port);
+const PROBE_MASK: u32 = PROBE.mask();
 const DIR_GPIO: pac::gpio::Gpio = gpio_block(DIR[0].port);
 const TIM: pac::timer::TimGp32 = pac::TIM2;
 
@@ -280,6 +284,27 @@ pub fn sync_user_outputs(f: impl FnOnce(u16) -> Option<u16>) {
     });
 }
 
+/// Arms the kernel's probe latch for the raw probe level `trips_at` (`None`: off, forgetting a
+/// latched position); an armed or tripped latch for the same level is left alone
+/// (`BoardPort::arm_probe`).
+pub fn arm_probe(trips_at: Option<bool>) {
+    with_kernel(|s| match (s.kernel.probe_latch(), trips_at) {
+        (ProbeLatch::Armed { trips_at: t }, Some(l)) if t == l => {}
+        (ProbeLatch::Tripped { .. }, Some(_)) | (ProbeLatch::Off, None) => {}
+        (_, Some(l)) => s.kernel.arm_probe(l),
+        (_, None) => s.kernel.disarm_probe(),
+    });
+}
+
+/// The step position the probe latch recorded, if it tripped.
+pub fn probe_latched() -> Option<[i64; MAX_AXES]> {
+    with_kernel(|s| match s.kernel.probe_latch() {
+        ProbeLatch::Tripped { steps } => Some(steps),
+        _ => None,
+    })
+    .flatten()
+}
+
 /// Loads a new step position (homing set home); the kernel is at rest then.
 pub fn set_position(steps: [i64; MAX_AXES]) {
     with_kernel(|s| s.kernel.set_position(steps));
@@ -388,7 +413,11 @@ fn TIM2() {
         ));
         let out = isr
             .kernel
-            .tick(&mut isr.source, STOP.load(Ordering::Relaxed), false);
+            .tick(
+                &mut isr.source,
+                STOP.load(Ordering::Relaxed),
+                PROBE_GPIO.idr().read().0 & PROBE_MASK == 0,
+            );
         let period = match out.period {
             0 => IDLE_PERIOD_COUNTS,
             p => t.stretch(p),

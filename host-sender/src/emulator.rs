@@ -233,6 +233,11 @@ pub struct Hardware {
     probe_frame: Option<ProbeFrame>,
     /// The probe pin's raw level, as the step interrupt reads it (follows every step).
     probe_raw: bool,
+    /// Length of each tool (number, nm): the probe targets see the tool's tip, this far below
+    /// the spindle (the machine Z), for the tool the board has in the spindle.
+    pub tool_lengths: Vec<(u32, i64)>,
+    /// The tool in the spindle (the board's, after each main-loop pass).
+    tool: u32,
     /// User output pins at the last pin event.
     last_outputs: u16,
     /// Input polarity the hardware was given (the firmware's `INVERT`): from the setup at
@@ -342,6 +347,8 @@ impl EmulatedBoard {
             probe_targets: Vec::new(),
             probe_frame: None,
             probe_raw: setup.inputs.invert >> Signal::Probe as u32 & 1 != 0,
+            tool_lengths: Vec::new(),
+            tool: 0,
             last_outputs: 0,
             phys_offset: [0; MAX_AXES],
             arm: 0,
@@ -553,6 +560,7 @@ impl EmulatedBoard {
         self.main
             .pass(now, &mut self.board, &mut self.link, &mut self.hw);
         self.hw.underruns = self.main.underruns();
+        self.hw.tool = self.board.outputs().tool;
         self.hw.steppers_enabled = self.main.steppers_enabled();
     }
 }
@@ -627,6 +635,9 @@ impl Hardware {
         let mut at = [0i64; 3];
         for i in 0..3 {
             at[i] = frame.axes[i].steps_to_nm(phys[i] - frame.origin[i]);
+        }
+        if let Some(&(_, length)) = self.tool_lengths.iter().find(|(t, _)| *t == self.tool) {
+            at[2] -= length;
         }
         let touching = self.probe_targets.iter().any(|t| t.touches(at));
         touching ^ invert

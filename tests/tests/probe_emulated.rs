@@ -198,3 +198,53 @@ fn xy_probing_of_a_boss_finds_its_centre() {
     assert!((at[1] - -7_250_000).abs() <= step, "{at:?}");
     assert_eq!(at[2], 0);
 }
+
+#[test]
+fn a_job_with_two_tools_measures_each_length_with_the_probe_and_cuts_at_the_same_depth() {
+    // A touch plate at machine Z -50 (its top is the work's Z0). Tool 1 sticks out 30 mm below
+    // the spindle, tool 2 45 mm: each touches the plate with the spindle at -20 and -5 mm.
+    // After each tool change the job probes the plate and takes the contact as the tool's length
+    // offset (G43.1 Z#5063: with G49 and zero offsets #5063 is the spindle's machine Z), so
+    // both cut 1 mm into the work: the spindle goes to -21 mm with tool 1, -6 mm with tool 2.
+    let mut eb = board(|_| {});
+    eb.capture_events();
+    eb.add_probe_target(ProbeTarget::Plane { z: -50 * MM });
+    eb.tool_lengths = vec![(1, 30 * MM), (2, 45 * MM)];
+    let program = "G21 G90 G49\n\
+        T1 M6\n\
+        G38.2 Z-90 F100\n\
+        G43.1 Z#5063\n\
+        G0 Z5\n\
+        G1 Z-1 F300\n\
+        G0 Z5\n\
+        G49\n\
+        G53 G0 Z0\n\
+        T2 M6\n\
+        G38.2 Z-90 F100\n\
+        G43.1 Z#5063\n\
+        G0 Z5\n\
+        G1 Z-1 F300\n\
+        G0 Z5\n\
+        M2";
+    job(&mut eb, program);
+    // The lowest spindle Z (steps) while each tool is in the spindle (the probe's overrun at
+    // F100 is 5 steps, far above the cut).
+    let mut lowest = [i64::MAX; 3];
+    let done = eb.run_until(200_000, |b| {
+        let t = b.board.outputs().tool as usize;
+        lowest[t] = lowest[t].min(b.kernel.position()[2]);
+        b.board.state() == State::Idle && b.kernel_drained()
+    });
+    assert!(done, "still {:?}: {:?}", eb.board.state(), events(&mut eb));
+    assert_eq!(events(&mut eb), vec![BoardEvent::JobDone { line: 16 }]);
+    // 640 steps per mm: -21 mm and -6 mm exactly.
+    assert_eq!(lowest[1], -21 * 640, "tool 1 cut depth (spindle Z, steps)");
+    assert_eq!(lowest[2], -6 * 640, "tool 2 cut depth (spindle Z, steps)");
+    // The second length stays in force, exactly the contact: -5 mm.
+    assert_eq!(eb.board.interpreter().state().tool_offset[2], -5 * MM);
+    assert_eq!(
+        eb.kernel.position()[2],
+        0,
+        "ended at Z5 over the work = spindle at 0"
+    );
+}
