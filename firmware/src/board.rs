@@ -252,7 +252,7 @@ macro_rules! expand_board {
         /// Number of EXTI inputs.
         pub const EXTI_INPUTS: usize = AXES + 4 + LIMIT_MAX_INPUTS;
         /// Number of joystick switches.
-        pub const JOYSTICK_SWITCHES: usize = [$(stringify!($jsw)),*].len();
+        pub const JOYSTICK_SWITCHES: usize = <[&str]>::len(&[$(stringify!($jsw)),*]);
 
         /// Every input of the board, configured with pull-ups (switches close to ground).
         pub struct Inputs {

@@ -77,6 +77,7 @@ fn state_text(s: MachineState) -> String {
             format!("Hold ({})", if stopped { "at rest" } else { "stopping" })
         }
         MachineState::Alarm { code } => format!("Alarm {code}"),
+        MachineState::ToolChange { tool } => format!("ToolChange T{tool}"),
         other => crate::stream::state_name(other).to_owned(),
     }
 }

@@ -228,14 +228,46 @@ fn a_job_with_two_tools_measures_each_length_with_the_probe_and_cuts_at_the_same
         M2";
     job(&mut eb, program);
     // The lowest spindle Z (steps) while each tool is in the spindle (the probe's overrun at
-    // F100 is 5 steps, far above the cut).
+    // F100 is 5 steps, far above the cut). Each M6 stops the job at rest, spindle off, until
+    // the operator presses cycle start.
     let mut lowest = [i64::MAX; 3];
-    let done = eb.run_until(200_000, |b| {
-        let t = b.board.outputs().tool as usize;
-        lowest[t] = lowest[t].min(b.kernel.position()[2]);
-        b.board.state() == State::Idle && b.kernel_drained()
-    });
-    assert!(done, "still {:?}: {:?}", eb.board.state(), events(&mut eb));
+    let mut changes = Vec::new();
+    for _ in 0..3 {
+        let done = eb.run_until(200_000, |b| {
+            let t = b.board.outputs().tool as usize;
+            lowest[t] = lowest[t].min(b.kernel.position()[2]);
+            matches!(b.board.state(), State::Idle | State::ToolChange) && b.kernel_drained()
+        });
+        assert!(done, "still {:?}: {:?}", eb.board.state(), events(&mut eb));
+        if eb.board.state() == State::Idle {
+            break;
+        }
+        let tool = eb.board.tool_change().unwrap();
+        changes.push((tool, eb.board.line(), eb.kernel.position()[2]));
+        assert_eq!(
+            eb.board.outputs().spindle,
+            gantry_machine::canon::Spindle::Off
+        );
+        eb.run_ms(100);
+        assert_eq!(
+            eb.board.state(),
+            State::ToolChange,
+            "waits for the operator"
+        );
+        set(
+            &mut eb,
+            gantry_machine::controller::inputs::Signal::CycleStart1,
+            true,
+        );
+        eb.run_ms(5);
+        set(
+            &mut eb,
+            gantry_machine::controller::inputs::Signal::CycleStart1,
+            false,
+        );
+    }
+    // Stopped at line 2 at Z0 for T1, at line 10 at the G53 Z0 for T2.
+    assert_eq!(changes, vec![(1, 2, 0), (2, 10, 0)]);
     assert_eq!(events(&mut eb), vec![BoardEvent::JobDone { line: 16 }]);
     // 640 steps per mm: -21 mm and -6 mm exactly.
     assert_eq!(lowest[1], -21 * 640, "tool 1 cut depth (spindle Z, steps)");
@@ -247,4 +279,21 @@ fn a_job_with_two_tools_measures_each_length_with_the_probe_and_cuts_at_the_same
         0,
         "ended at Z5 over the work = spindle at 0"
     );
+}
+
+#[test]
+fn work_z_from_a_touch_plate_with_g10_l20() {
+    // The plate's top at machine Z -5, the plate 10 mm thick: after the touch, G10 L20 makes the
+    // spot where the machine stopped read Z10, so G54 Z0 (the work top) is 10 mm below it.
+    let eb = run(
+        &[PLANE],
+        "G21 G90\nG38.2 Z-50 F100\nG10 L20 P1 Z10\nG0 Z15\nM2",
+    );
+    assert_eq!(eb.board.state(), State::Idle);
+    // The offset counts from where the machine stands (5 steps of deceleration below the
+    // contact), as G10 L20 does: the contact itself is the program's business (#5063).
+    let stopped = eb.board.machine_position(&[0, 0, -3205, 0, 0, 0])[2];
+    assert_eq!(param_nm(&eb, 5223), stopped - 10 * MM, "G54 Z offset");
+    // Z15 = 5 mm above where it stopped: step -3205 + 3200.
+    assert_eq!(eb.kernel.position()[2], -5);
 }

@@ -540,6 +540,17 @@ impl Board {
         }
     }
 
+    /// The tool a job waits for at its M6 (the job stands at rest, [`State::ToolChange`]).
+    pub fn tool_change(&self) -> Option<u32> {
+        match self.machine_job() {
+            Some(JobPhase::Hold {
+                why: HoldWhy::ToolChange { tool },
+                ..
+            }) => Some(tool),
+            _ => None,
+        }
+    }
+
     /// The job stands in a feed hold (input, host or link): motion stopped on the path with the
     /// outputs as they were. False for an M0 / M1 / single-block stop, which switched the spindle
     /// and coolant off.
@@ -1214,7 +1225,22 @@ impl Board {
                 self.outputs.mist = mist;
                 self.outputs.flood = flood;
             }
-            Action::ToolChange { tool } => self.outputs.tool = tool,
+            Action::ToolChange { tool } => {
+                self.outputs.tool = tool;
+                // A manual tool change (docs/probing.md "Tool change"): at rest, spindle and
+                // coolant off (not restored), until cycle start or the host resumes.
+                self.saved_outputs = None;
+                self.outputs.spindle = Spindle::Off;
+                self.outputs.mist = false;
+                self.outputs.flood = false;
+                let (why, ending) = match self.machine_job() {
+                    Some(JobPhase::Hold { ending, .. }) => (HoldWhy::FeedAndPause, ending),
+                    Some(JobPhase::Running(ending)) => (HoldWhy::ToolChange { tool }, ending),
+                    _ => (HoldWhy::ToolChange { tool }, Ending::No),
+                };
+                self.set_phase(JobPhase::Hold { why, ending });
+                return;
+            }
             Action::Probe { .. } => {
                 self.start_probe(&canon);
                 return;

@@ -31,6 +31,9 @@ pub enum State {
     Jog,
     /// Interpreting without motion (like grbl's `$C`).
     Check,
+    /// A job stands at rest at its M6 until the operator has changed the tool and presses cycle
+    /// start (or the host resumes); [`crate::board::Board::tool_change`] names the tool.
+    ToolChange,
 }
 
 /// Why the controller is in [`State::Alarm`]. Codes follow grbl's numbering where the meaning is
