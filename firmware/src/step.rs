@@ -411,13 +411,11 @@ fn TIM2() {
         STEP_GPIO.bsrr().write_value(pac::gpio::regs::Bsrr(
             STEP_SET[(isr.pending.step & 63) as usize],
         ));
-        let out = isr
-            .kernel
-            .tick(
-                &mut isr.source,
-                STOP.load(Ordering::Relaxed),
-                PROBE_GPIO.idr().read().0 & PROBE_MASK == 0,
-            );
+        let out = isr.kernel.tick(
+            &mut isr.source,
+            STOP.load(Ordering::Relaxed),
+            PROBE_GPIO.idr().read().0 & PROBE_MASK == 0,
+        );
         let period = match out.period {
             0 => IDLE_PERIOD_COUNTS,
             p => t.stretch(p),

@@ -15,9 +15,10 @@
 //!    [`Board::on_inputs`].
 //! 3. **Host link and controller.** Bytes from the host; the host-loss rule (the host closed the
 //!    port, DTR dropped: feed hold); the path speed ([`SpeedMeter`], a 20 ms window);
-//!    [`BoardLink::service`]; [`Board::poll`] with the kernel's drained flag; a new home loaded
+//!    [`BoardLink::service`]; a tripped probe latch to [`Board::probe_tripped`];
+//!    [`Board::poll`] with the kernel's drained flag; a new home loaded
 //!    into the kernel; queued segments taken back for a stop or a jog's speed change.
-//! 4. **Segments** into the kernel's queue (the motion marker set before the kernel can step
+//! 4. **Segments** into the kernel's queue (the probe latch armed first, [`Board::probe_arm`]) (the motion marker set before the kernel can step
 //!    them, cleared once drained), the user output word exchanged with the kernel, the limit bits
 //!    armed for the kernel.
 //! 5. **Out.** The link again (events of this pass go out in it), frames to the host, output
@@ -281,10 +282,6 @@ impl MainLoop {
             port.rearm_kernel();
             self.latch = Latch::Armed;
         }
-        // The probe latch tripped: the board stops the probe move on its path.
-        if let Some(steps) = port.probe_latched() {
-            board.probe_tripped(&steps);
-        }
 
         // 2. Inputs, debounced here (the kernel saw the raw limit pins already).
         let (levels, changed) = self.debouncer.sample(port.raw_inputs());
@@ -321,6 +318,11 @@ impl MainLoop {
         port.before_link_service(board);
         link.service(board, now_ms, &self.view);
         let drained = port.kernel().drained;
+        // The probe latch tripped: the board stops the probe move on its path. Read after the
+        // drained flag, so a trip on the move's last steps is never taken for no contact.
+        if let Some(steps) = port.probe_latched() {
+            board.probe_tripped(&steps);
+        }
         board.poll(drained);
         if let Some(steps) = board.take_position_reset() {
             port.set_position(steps);
