@@ -29,7 +29,10 @@ gantry_board! {
     cycle_start: [PA0 EXTI0, PC15 EXTI15],
     fro_pot: PA1,
     joystick_axes: [PA2, PA3],
-    joystick_switches: [PC14],
+    // No free pin left: PC14 (the joystick's one switch on the other boards' layout) is the
+    // touch probe here, which most machines need more than a joystick switch.
+    joystick_switches: [],
+    probe: PC14,
     spindle_enable: PB0,
     spindle_dir: PB1,
     spindle_pwm: PA8 TIM1_CH1,

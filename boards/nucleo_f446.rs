@@ -31,6 +31,7 @@ gantry_board! {
     fro_pot: PA0,
     joystick_axes: [PA1, PA4],
     joystick_switches: [PC10, PC11],
+    probe: PC12,
     spindle_enable: PB5,
     spindle_dir: PB4,
     spindle_pwm: PA8 TIM1_CH1,

@@ -20,6 +20,8 @@ pub struct Board {
     pub exti_inputs: Vec<(&'static str, &'static str, &'static str)>,
     pub analog: Vec<(&'static str, &'static str)>,
     pub joystick_switches: Vec<&'static str>,
+    /// Touch probe input (G38.x; polled, and read by the step interrupt every tick).
+    pub probe: &'static str,
     pub spindle_pwm: (&'static str, &'static str),
     /// Plain outputs as (role, pin).
     pub outputs: Vec<(&'static str, &'static str)>,
@@ -45,6 +47,7 @@ impl Board {
         for (i, p) in self.joystick_switches.iter().enumerate() {
             v.push((format!("joystick_switch{i}"), *p));
         }
+        v.push(("probe".into(), self.probe));
         v.push(("spindle_pwm".into(), self.spindle_pwm.0));
         for (role, p) in &self.outputs {
             v.push(((*role).into(), *p));
@@ -78,6 +81,7 @@ macro_rules! expand_board {
         fro_pot: $fro:ident,
         joystick_axes: [$jx:ident, $jy:ident],
         joystick_switches: [$($jsw:ident),*],
+        probe: $probe:ident,
         spindle_enable: $sp_en:ident,
         spindle_dir: $sp_dir:ident,
         spindle_pwm: $sp_pwm:ident $sp_pwm_ch:ident,
@@ -114,6 +118,7 @@ macro_rules! expand_board {
                     ("joystick_y", stringify!($jy)),
                 ],
                 joystick_switches: vec![$(stringify!($jsw)),*],
+                probe: stringify!($probe),
                 spindle_pwm: (stringify!($sp_pwm), stringify!($sp_pwm_ch)),
                 outputs,
             }

@@ -179,6 +179,7 @@ macro_rules! expand_board {
         fro_pot: $fro:ident,
         joystick_axes: [$jx:ident, $jy:ident],
         joystick_switches: [$($jsw:ident),*],
+        probe: $probe:ident,
         spindle_enable: $sp_en:ident,
         spindle_dir: $sp_dir:ident,
         spindle_pwm: $sp_pwm:ident $sp_pwm_ch:ident,
@@ -219,6 +220,9 @@ macro_rules! expand_board {
             $crate::board::pin(stringify!($mist)),
             $($crate::board::pin(stringify!($out))),+
         ];
+        /// Touch probe input (pull-up, the probe closes to ground): the step interrupt reads
+        /// its pin every tick (`step::PROBE_GPIO`), the input task samples it for the status.
+        pub const PROBE: PinId = $crate::board::pin(stringify!($probe));
         /// Stepper enable pin (active low: high = steppers disabled, the safe state).
         pub const STEPPER_ENABLE: PinId = $crate::board::pin(stringify!($en));
 
@@ -248,13 +252,14 @@ macro_rules! expand_board {
         /// Number of EXTI inputs.
         pub const EXTI_INPUTS: usize = AXES + 4 + LIMIT_MAX_INPUTS;
         /// Number of joystick switches.
-        pub const JOYSTICK_SWITCHES: usize = [$(stringify!($jsw)),*].len();
+        pub const JOYSTICK_SWITCHES: usize = <[&str]>::len(&[$(stringify!($jsw)),*]);
 
         /// Every input of the board, configured with pull-ups (switches close to ground).
         pub struct Inputs {
             /// Limits, feed hold, abort, cycle start ×2, max limits (see [`LIMIT0`] and friends).
             pub exti: [ExtiInput<'static, Async>; EXTI_INPUTS],
             pub joystick_switches: [Input<'static>; JOYSTICK_SWITCHES],
+            pub probe: Input<'static>,
         }
 
         /// Analog inputs on ADC1.
@@ -328,6 +333,7 @@ macro_rules! expand_board {
                         $(ExtiInput::new(p.$limx, p.$limx_ch, Pull::Up, irqs),)*
                     ],
                     joystick_switches: [$(Input::new(p.$jsw, Pull::Up)),*],
+                    probe: Input::new(p.$probe, Pull::Up),
                 },
                 analog: Analog {
                     fro_pot: p.$fro.degrade_adc(),

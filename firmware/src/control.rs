@@ -78,6 +78,14 @@ impl BoardPort for Port {
         PINS.load(Ordering::Relaxed)
     }
 
+    fn arm_probe(&mut self, trips_at: Option<bool>) {
+        step::arm_probe(trips_at);
+    }
+
+    fn probe_latched(&mut self) -> Option<[i64; gantry_machine::units::MAX_AXES]> {
+        step::probe_latched()
+    }
+
     fn adc(&mut self) -> AdcReadings {
         if analog::SAMPLED.load(Ordering::Relaxed) {
             let raw = |i: usize| analog::RAW[i].load(Ordering::Relaxed);

@@ -29,6 +29,7 @@ pub static ARM: AtomicU32 = AtomicU32::new(0);
 /// Polarity (`setup.inputs.invert`), published by the main loop.
 pub static INVERT: AtomicU32 = AtomicU32::new(0);
 
+#[allow(clippy::absurd_extreme_comparisons)] // no joystick switches on some boards (F411)
 const _: () = assert!(
     JOYSTICK_SWITCHES <= (Signal::Release as usize - Signal::JogS1 as usize + 1),
     "joystick switches map onto JogS1..Release"
@@ -99,6 +100,9 @@ fn sample(inputs: &Inputs) -> u32 {
         if input.is_low() {
             word |= 1 << (Signal::JogS1 as usize + i);
         }
+    }
+    if inputs.probe.is_low() {
+        word |= 1 << Signal::Probe as u32;
     }
     word
 }

@@ -29,7 +29,7 @@
 //! keeps polling the queue every millisecond.
 
 use crate::board::{gpio_block, PinId};
-use crate::board_def::{AXES, DIR, STEP, USER_OUTPUTS, USER_PINS};
+use crate::board_def::{AXES, DIR, PROBE, STEP, USER_OUTPUTS, USER_PINS};
 use crate::step_body::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS};
 use crate::step_dma::{self, StepDma};
 use core::cell::UnsafeCell;
@@ -42,7 +42,7 @@ use embassy_stm32::peripherals::TIM2;
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::Peri;
 use gantry_machine::board::main_loop::KernelSnapshot;
-use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming};
+use gantry_machine::motion::kernel::{ProbeLatch, Segment, SegmentSource, StepTiming};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::units::MAX_AXES;
 use heapless::spsc::{Consumer, Producer, Queue};
@@ -83,6 +83,10 @@ const _: () = {
 
 const STEP_GPIO: pac::gpio::Gpio = gpio_block(STEP[0].port);
 const DIR_GPIO: pac::gpio::Gpio = gpio_block(DIR[0].port);
+/// The touch probe's port: the kernel gets its raw level every tick (bit set = pin low = closed,
+/// as `inputs::PINS`), for its probe latch.
+const PROBE_GPIO: pac::gpio::Gpio = gpio_block(PROBE.port);
+const PROBE_MASK: u32 = PROBE.mask();
 const TIM: pac::timer::TimGp32 = pac::TIM2;
 
 const fn mask(pins: &[PinId]) -> u32 {
@@ -172,6 +176,10 @@ impl StepHardware for Tim2Dma {
     #[inline(always)]
     fn write_output(&mut self, event: OutputEvent) {
         write_output(event);
+    }
+    #[inline(always)]
+    fn probe_closed(&self) -> bool {
+        PROBE_GPIO.idr().read().0 & PROBE_MASK == 0
     }
 }
 
@@ -274,6 +282,27 @@ pub fn sync_user_outputs(f: impl FnOnce(u16) -> Option<u16>) {
             }
         }
     });
+}
+
+/// Arms the kernel's probe latch for the raw probe level `trips_at` (`None`: off, forgetting a
+/// latched position); an armed or tripped latch for the same level is left alone
+/// (`BoardPort::arm_probe`).
+pub fn arm_probe(trips_at: Option<bool>) {
+    with_kernel(|s| match (s.kernel.probe_latch(), trips_at) {
+        (ProbeLatch::Armed { trips_at: t }, Some(l)) if t == l => {}
+        (ProbeLatch::Tripped { .. }, Some(_)) | (ProbeLatch::Off, None) => {}
+        (_, Some(l)) => s.kernel.arm_probe(l),
+        (_, None) => s.kernel.disarm_probe(),
+    });
+}
+
+/// The step position the probe latch recorded, if it tripped.
+pub fn probe_latched() -> Option<[i64; MAX_AXES]> {
+    with_kernel(|s| match s.kernel.probe_latch() {
+        ProbeLatch::Tripped { steps } => Some(steps),
+        _ => None,
+    })
+    .flatten()
 }
 
 /// Loads a new step position (homing set home); the kernel is at rest then.

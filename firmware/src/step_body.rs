@@ -101,6 +101,8 @@ pub trait StepHardware {
     fn set_step_word(&mut self, bsrr: u32);
     /// Switches one user output (an on-the-fly M code).
     fn write_output(&mut self, event: OutputEvent);
+    /// The touch probe's raw level (true = pin low = closed), for the kernel's probe latch.
+    fn probe_closed(&self) -> bool;
 }
 
 /// What a run of the body did.
@@ -157,10 +159,11 @@ impl<S: SegmentSource> StepIsr<S> {
         hw: &mut impl StepHardware,
         stop: bool,
     ) -> Run {
+        let probe = hw.probe_closed();
         if self.pending.period == 0 {
             // Nothing was waiting at the last tick: look again now, so a segment queued since
             // starts at the next update rather than a poll later.
-            self.pending = self.kernel.tick(&mut self.source, stop);
+            self.pending = self.kernel.tick(&mut self.source, stop, probe);
         }
         let t = self.timing;
         let next = self.pending;
@@ -190,7 +193,7 @@ impl<S: SegmentSource> StepIsr<S> {
         hw.set_reload(period - 1);
         self.idle = next.period == 0;
         if !self.idle {
-            self.pending = self.kernel.tick(&mut self.source, stop);
+            self.pending = self.kernel.tick(&mut self.source, stop, probe);
         }
         Run::Scheduled
     }

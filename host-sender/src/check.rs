@@ -176,6 +176,12 @@ enum Op<'a> {
         turns: u32,
         feed: Mm,
     },
+    /// A G38.x probe move (to its programmed end).
+    Probe {
+        to: [Mm; 3],
+        feed: Mm,
+        code: &'static str,
+    },
     Dwell {
         seconds: Mm,
     },
@@ -239,6 +245,16 @@ pub fn canon_json(c: &Canon) -> String {
             },
             turns,
             feed: Mm(feed),
+        },
+        Action::Probe { to, feed, mode } => Op::Probe {
+            to: xyz(&to),
+            feed: Mm(feed),
+            code: match (mode.toward, mode.must_trip) {
+                (true, true) => "G38.2",
+                (true, false) => "G38.3",
+                (false, true) => "G38.4",
+                (false, false) => "G38.5",
+            },
         },
         Action::Dwell { micros } => Op::Dwell {
             seconds: Mm(micros as i64),

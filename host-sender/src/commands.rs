@@ -70,6 +70,9 @@ pub fn format_status(s: &Status, axes: usize) -> String {
         outputs_text(&s.outputs)
     ) + &match s.state {
         gantry_proto::MachineState::Alarm { code } => format!("\nalarm:     {}", alarm_text(code)),
+        gantry_proto::MachineState::ToolChange { tool } => format!(
+            "\ntool:      change to tool T{tool}, then cycle start or `gantry resume`"
+        ),
         _ => String::new(),
     }
 }
@@ -677,5 +680,21 @@ mod tests {
         for a in gantry_machine::controller::AlarmCode::ALL {
             assert!(!alarm_text(a as u16).contains("unknown to this gantry"));
         }
+    }
+
+    #[test]
+    fn the_status_names_the_tool_a_tool_change_waits_for() {
+        let text = format_status(&status(MachineState::ToolChange { tool: 2 }), 3);
+        assert!(
+            text.starts_with(
+                "state:     ToolChange
+"
+            ),
+            "{text}"
+        );
+        assert!(
+            text.ends_with("tool:      change to tool T2, then cycle start or `gantry resume`"),
+            "{text}"
+        );
     }
 }

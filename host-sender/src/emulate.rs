@@ -9,7 +9,7 @@
 //! that flag, so the emulator passes a DTR drop to the board only when HUPCL was set, exactly
 //! as the firmware sees it (`firmware/src/control.rs`).
 
-use crate::emulator::EmulatedBoard;
+use crate::emulator::{EmulatedBoard, ProbeTarget};
 use crate::setup_file::{to_toml, SetupFile};
 use anyhow::Context;
 use gantry_machine::board::link::status_of;
@@ -77,6 +77,7 @@ fn state_text(s: MachineState) -> String {
             format!("Hold ({})", if stopped { "at rest" } else { "stopping" })
         }
         MachineState::Alarm { code } => format!("Alarm {code}"),
+        MachineState::ToolChange { tool } => format!("ToolChange T{tool}"),
         other => crate::stream::state_name(other).to_owned(),
     }
 }
@@ -96,8 +97,18 @@ fn host_side_open(fd: RawFd, wait_ms: i32) -> (bool, bool) {
 const CATCH_UP_LIMIT_MS: u64 = 500;
 
 /// Runs the board until SIGINT or SIGTERM.
-pub fn run(pty: &Path, setup: Option<PathBuf>, state: Option<PathBuf>) -> anyhow::Result<ExitCode> {
+/// `probe_targets`: what the emulated touch probe touches ([`ProbeTarget::parse`]).
+pub fn run(
+    pty: &Path,
+    setup: Option<PathBuf>,
+    state: Option<PathBuf>,
+    probe_targets: &[String],
+) -> anyhow::Result<ExitCode> {
     let setup = load_state(state.as_deref(), setup)?;
+    let targets = probe_targets
+        .iter()
+        .map(|t| ProbeTarget::parse(t))
+        .collect::<anyhow::Result<Vec<_>>>()?;
     let (master, slave) = serialport::TTYPort::pair().context("cannot open a pseudo-terminal")?;
     let name = slave
         .name()
@@ -116,6 +127,9 @@ pub fn run(pty: &Path, setup: Option<PathBuf>, state: Option<PathBuf>) -> anyhow
         .context("cannot install the SIGINT/SIGTERM handler")?;
     let axes = setup.axis_count as usize;
     let mut board = EmulatedBoard::new(setup);
+    for t in targets {
+        board.add_probe_target(t);
+    }
     // Every start of the process is a power-up with its own boot id (the firmware counts boots
     // in flash), so a host sees a restarted board as one.
     let boot_id = std::time::SystemTime::now()

@@ -30,10 +30,12 @@
 use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::main_loop::{BoardPort, KernelSnapshot, MainLoop, SEGMENT_QUEUE_DEPTH};
 use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
-use gantry_machine::controller::inputs::{limit_bit, InputBits};
+use gantry_machine::controller::inputs::{limit_bit, InputBits, Signal};
 use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
 use gantry_machine::controller::{AdcReadings, OutputLevels};
-use gantry_machine::motion::kernel::{Segment, StepKernel, StepTiming, KERNEL_TIMER_HZ};
+use gantry_machine::motion::kernel::{
+    ProbeLatch, Segment, StepKernel, StepTiming, KERNEL_TIMER_HZ,
+};
 use gantry_machine::motion::sim::SegmentFifo;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::MAX_AXES;
@@ -69,6 +71,80 @@ pub struct QueueDrop {
     /// Counts until the kernel's running segment ends (0: the kernel was idle): the new plan
     /// starts then.
     pub running_left: u64,
+}
+
+/// What the emulated touch probe touches (docs/probing.md "The emulated board"): the probe's
+/// tip is a point at the machine position (X, Y, Z), all figures are machine nm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProbeTarget {
+    /// A surface at `z`: touching at or below it, everywhere.
+    Plane { z: i64 },
+    /// A rectangular block `x[0]..=x[1]` by `y[0]..=y[1]` with its top at `top`: touching
+    /// inside the rectangle at or below the top.
+    Boss { x: [i64; 2], y: [i64; 2], top: i64 },
+    /// A rectangular pocket `x[0]..=x[1]` by `y[0]..=y[1]` in a surface at `top`, with its floor
+    /// at `bottom`: touching at or below the top outside the open rectangle, at or below the
+    /// floor inside it.
+    Hole {
+        x: [i64; 2],
+        y: [i64; 2],
+        top: i64,
+        bottom: i64,
+    },
+}
+
+impl ProbeTarget {
+    /// The tip at `p` (X, Y, Z in nm) touches it.
+    pub fn touches(&self, p: [i64; 3]) -> bool {
+        let inside = |x: &[i64; 2], y: &[i64; 2]| {
+            (x[0]..=x[1]).contains(&p[0]) && (y[0]..=y[1]).contains(&p[1])
+        };
+        match *self {
+            ProbeTarget::Plane { z } => p[2] <= z,
+            ProbeTarget::Boss { x, y, top } => inside(&x, &y) && p[2] <= top,
+            ProbeTarget::Hole { x, y, top, bottom } => {
+                let open = x[0] < p[0] && p[0] < x[1] && y[0] < p[1] && p[1] < y[1];
+                if open {
+                    p[2] <= bottom
+                } else {
+                    p[2] <= top
+                }
+            }
+        }
+    }
+
+    /// Parses `plane:Z`, `boss:X0,Y0,X1,Y1,TOP` or `hole:X0,Y0,X1,Y1,TOP,BOTTOM` (mm).
+    pub fn parse(text: &str) -> anyhow::Result<ProbeTarget> {
+        let (kind, rest) = text.split_once(':').unwrap_or((text, ""));
+        let nums: Vec<i64> = rest
+            .split(',')
+            .map(|v| {
+                let mm: f64 = v.trim().parse().map_err(|_| {
+                    anyhow::anyhow!("probe target {text:?}: {v:?} is not a number (mm)")
+                })?;
+                anyhow::ensure!(mm.is_finite(), "probe target {text:?}: {v:?} is not finite");
+                Ok((mm * 1e6).round() as i64)
+            })
+            .collect::<anyhow::Result<_>>()?;
+        let sorted = |a: i64, b: i64| [a.min(b), a.max(b)];
+        Ok(match (kind, nums.as_slice()) {
+            ("plane", &[z]) => ProbeTarget::Plane { z },
+            ("boss", &[x0, y0, x1, y1, top]) => ProbeTarget::Boss {
+                x: sorted(x0, x1),
+                y: sorted(y0, y1),
+                top,
+            },
+            ("hole", &[x0, y0, x1, y1, top, bottom]) => ProbeTarget::Hole {
+                x: sorted(x0, x1),
+                y: sorted(y0, y1),
+                top,
+                bottom: bottom.min(top),
+            },
+            _ => anyhow::bail!(
+                "probe target {text:?}: expected plane:Z, boss:X0,Y0,X1,Y1,TOP or hole:X0,Y0,X1,Y1,TOP,BOTTOM (mm)"
+            ),
+        })
+    }
 }
 
 /// A limit switch at a fixed place of the machine.
@@ -118,6 +194,14 @@ impl Gang {
     }
 }
 
+/// Converts physical steps to machine nm on X, Y, Z for the probe model.
+#[derive(Clone, Copy, Debug)]
+struct ProbeFrame {
+    axes: [gantry_machine::motion::config::AxisConfig; 3],
+    /// Physical step position of machine step 0 (homing moves the kernel's zero, not the part).
+    origin: [i64; 3],
+}
+
 /// The emulated hardware: the step kernel on its virtual clock, its segment queue, pins,
 /// switches, gangs and their traces, the host's bytes and DTR, the flash and the motion marker.
 /// [`EmulatedBoard`] derefs to it, so its fields read as the board's.
@@ -143,6 +227,17 @@ pub struct Hardware {
     pub switches: Vec<LimitSwitch>,
     /// A modelled ganged axis.
     pub gang: Option<Gang>,
+    /// What the touch probe touches (nothing: the probe pin is the test's `pins` bit).
+    probe_targets: Vec<ProbeTarget>,
+    /// Physical steps of machine nm 0 on X, Y, Z and the step ratios, for the probe model.
+    probe_frame: Option<ProbeFrame>,
+    /// The probe pin's raw level, as the step interrupt reads it (follows every step).
+    probe_raw: bool,
+    /// Length of each tool (number, nm): the probe targets see the tool's tip, this far below
+    /// the spindle (the machine Z), for the tool the board has in the spindle.
+    pub tool_lengths: Vec<(u32, i64)>,
+    /// The tool in the spindle (the board's, after each main-loop pass).
+    tool: u32,
     /// User output pins at the last pin event.
     last_outputs: u16,
     /// Input polarity the hardware was given (the firmware's `INVERT`): from the setup at
@@ -249,6 +344,11 @@ impl EmulatedBoard {
             adc: AdcReadings::default(),
             switches: Vec::new(),
             gang: None,
+            probe_targets: Vec::new(),
+            probe_frame: None,
+            probe_raw: setup.inputs.invert >> Signal::Probe as u32 & 1 != 0,
+            tool_lengths: Vec::new(),
+            tool: 0,
             last_outputs: 0,
             phys_offset: [0; MAX_AXES],
             arm: 0,
@@ -334,6 +434,20 @@ impl EmulatedBoard {
         let steps = self.board.motion_config().axes[axis].nm_to_steps(at_nm);
         let at = steps - self.kernel.position()[axis] + self.physical()[axis];
         self.switches.push(LimitSwitch { axis, max, at });
+    }
+
+    /// Places a probe target (machine coordinates as they are now): from now on the probe pin
+    /// follows the machine position after every step.
+    pub fn add_probe_target(&mut self, target: ProbeTarget) {
+        let cfg = self.board.motion_config();
+        let k = self.kernel.position();
+        let phys = self.physical();
+        self.hw.probe_frame = Some(ProbeFrame {
+            axes: [cfg.axes[0], cfg.axes[1], cfg.axes[2]],
+            origin: [phys[0] - k[0], phys[1] - k[1], phys[2] - k[2]],
+        });
+        self.hw.probe_targets.push(target);
+        self.hw.probe_raw = self.hw.probe_level();
     }
 
     /// Models `axis` as two ganged motors, enabled by user outputs `enable`, with switches at
@@ -446,6 +560,7 @@ impl EmulatedBoard {
         self.main
             .pass(now, &mut self.board, &mut self.link, &mut self.hw);
         self.hw.underruns = self.main.underruns();
+        self.hw.tool = self.board.outputs().tool;
         self.hw.steppers_enabled = self.main.steppers_enabled();
     }
 }
@@ -499,10 +614,42 @@ impl Hardware {
         (on, owned)
     }
 
-    /// Raw pin levels: the test's pins with the modelled switches' pins.
+    /// Raw pin levels: the test's pins with the modelled switches' and probe's pins.
     pub fn raw_pins(&self) -> u32 {
         let (on, owned) = self.switch_levels();
-        (self.pins & !owned) | ((on ^ self.invert) & owned)
+        let pins = (self.pins & !owned) | ((on ^ self.invert) & owned);
+        if self.probe_targets.is_empty() {
+            return pins;
+        }
+        let bit = 1 << Signal::Probe as u32;
+        (pins & !bit) | if self.probe_raw { bit } else { 0 }
+    }
+
+    /// The probe pin's raw level from the probe targets at the machine position now.
+    fn probe_level(&self) -> bool {
+        let invert = self.invert >> Signal::Probe as u32 & 1 != 0;
+        let Some(frame) = self.probe_frame else {
+            return self.pins >> Signal::Probe as u32 & 1 != 0;
+        };
+        let phys = self.physical();
+        let mut at = [0i64; 3];
+        for i in 0..3 {
+            at[i] = frame.axes[i].steps_to_nm(phys[i] - frame.origin[i]);
+        }
+        if let Some(&(_, length)) = self.tool_lengths.iter().find(|(t, _)| *t == self.tool) {
+            at[2] -= length;
+        }
+        let touching = self.probe_targets.iter().any(|t| t.touches(at));
+        touching ^ invert
+    }
+
+    /// The probe pin as the step interrupt reads it now.
+    fn probe_pin(&self) -> bool {
+        if self.probe_targets.is_empty() {
+            self.pins >> Signal::Probe as u32 & 1 != 0
+        } else {
+            self.probe_raw
+        }
     }
 
     /// Logical levels the step interrupt sees (raw pins, polarity applied, no debounce).
@@ -576,9 +723,10 @@ impl Hardware {
 
     fn tick(&mut self) {
         let (queued, front) = (self.fifo.0.len(), self.fifo.0.front().copied());
+        let probe = self.probe_pin();
         let out = self
             .kernel
-            .tick(&mut self.fifo, self.limit || self.switch_stop);
+            .tick(&mut self.fifo, self.limit || self.switch_stop, probe);
         let user_outputs = self.kernel.outputs();
         if let (Some(log), Some(seg)) = (self.started_segments.as_mut(), front) {
             if self.fifo.0.len() < queued {
@@ -597,6 +745,10 @@ impl Hardware {
         }
         if out.step != 0 {
             self.last_step_at = self.now;
+        }
+        if out.step != 0 && !self.probe_targets.is_empty() {
+            // The probe pin follows this tick's step; the interrupt reads it on the next tick.
+            self.probe_raw = self.probe_level();
         }
         if out.step != 0 && (!self.switches.is_empty() || self.gang.is_some()) {
             // The switch pin follows this tick's step; the interrupt sees it on the next tick.
@@ -791,6 +943,23 @@ impl BoardPort for Hardware {
 
     fn motion_marker(&mut self, moving: bool) {
         self.motion_marker = if moving { MARKER_MOVING } else { MARKER_IDLE };
+    }
+
+    fn arm_probe(&mut self, trips_at: Option<bool>) {
+        match (self.kernel.probe_latch(), trips_at) {
+            (ProbeLatch::Armed { trips_at: t }, Some(l)) if t == l => {}
+            (ProbeLatch::Tripped { .. }, Some(_)) => {}
+            (ProbeLatch::Off, None) => {}
+            (_, Some(l)) => self.kernel.arm_probe(l),
+            (_, None) => self.kernel.disarm_probe(),
+        }
+    }
+
+    fn probe_latched(&mut self) -> Option<[i64; MAX_AXES]> {
+        match self.kernel.probe_latch() {
+            ProbeLatch::Tripped { steps } => Some(steps),
+            _ => None,
+        }
     }
 
     fn before_link_service(&mut self, board: &mut Board) {

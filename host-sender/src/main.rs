@@ -165,6 +165,10 @@ enum Command {
         /// The board's flash: its stored setup, read at start, written when a setup is pushed.
         #[arg(long)]
         state: Option<PathBuf>,
+        /// Something the emulated touch probe touches (repeatable; machine coordinates, mm):
+        /// `plane:Z`, `boss:X0,Y0,X1,Y1,TOP` or `hole:X0,Y0,X1,Y1,TOP,BOTTOM` (docs/probing.md).
+        #[arg(long = "probe-target", allow_hyphen_values = true)]
+        probe_targets: Vec<String>,
     },
     /// Own the board's port (--port) until killed, and let other `gantry` commands reach the
     /// board through a local socket named after the port while a job runs (docs/ports.md).
@@ -470,7 +474,12 @@ fn main() -> ExitCode {
                 Err(e) => Err(e),
             },
         },
-        Command::Emulate { pty, setup, state } => host_sender::emulate::run(&pty, setup, state),
+        Command::Emulate {
+            pty,
+            setup,
+            state,
+            probe_targets,
+        } => host_sender::emulate::run(&pty, setup, state, &probe_targets),
         Command::Simulate {
             file,
             json,

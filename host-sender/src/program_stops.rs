@@ -1,6 +1,8 @@
 //! Where a program stops for the operator: M0 / M1 (program stop, optional stop) and M6 (a
 //! manual tool change), read from the text the sender sends (`Program::wire_text`: comments and
-//! blanks removed).
+//! blanks removed), and what the sender says there. The stops themselves are the board's (the
+//! core holds the job at M0/M1 and at M6, docs/probing.md "Tool change"): the sender only words
+//! the message, with the tool the board names in its `ToolChange` state.
 
 /// A stop the sender announces and waits out with the operator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

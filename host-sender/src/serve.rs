@@ -224,7 +224,12 @@ pub fn run(port: &str) -> anyhow::Result<ExitCode> {
                 while s.endpoint.poll_event().is_some() {}
                 while let Some(msg) = s.endpoint.recv_realtime() {
                     if matches!(msg, HostMsg::Resume)
-                        && matches!(state, MachineState::Run | MachineState::Hold { .. })
+                        && matches!(
+                            state,
+                            MachineState::Run
+                                | MachineState::Hold { .. }
+                                | MachineState::ToolChange { .. }
+                        )
                         && !job_owned
                     {
                         // `stream --continue` taking over a job no command owns: a new hello
@@ -288,7 +293,12 @@ pub fn run(port: &str) -> anyhow::Result<ExitCode> {
                 s.flush(now);
             }
             let gone_owner = sessions.iter().any(|s| !s.alive && s.owns_job);
-            if gone_owner && matches!(state, MachineState::Run | MachineState::Hold { .. }) {
+            if gone_owner
+                && matches!(
+                    state,
+                    MachineState::Run | MachineState::Hold { .. } | MachineState::ToolChange { .. }
+                )
+            {
                 eprintln!("serve: the command that owned the job went away: feed hold");
                 if board.try_send(HostMsg::FeedHold).is_err() {
                     eprintln!("serve: the board takes no message now (its link is stuck)");

@@ -268,6 +268,8 @@ fn run_job<T: Transport>(
     let mut last_heard = client.transport.now_ms();
     let mut done = false;
     let mut warned_silent = false;
+    let operator = MANUAL_TOOL_CHANGE.load(std::sync::atomic::Ordering::Relaxed);
+    let mut tool_change_answered = false;
     while !done {
         serve(client, program, &mut serving, &mut report)?;
         client.pump(1)?;
@@ -305,6 +307,12 @@ fn run_job<T: Transport>(
             match msg {
                 BoardMsg::Status(s) => {
                     progress.line = s.line;
+                    let at_tool_change = matches!(s.state, MachineState::ToolChange { .. });
+                    if at_tool_change && !operator && !tool_change_answered {
+                        // Nobody to change the tool: go on with the one in the spindle.
+                        client.send(HostMsg::Resume)?;
+                    }
+                    tool_change_answered = at_tool_change && !operator;
                     progress.status = Some(s);
                 }
                 BoardMsg::Error { line, code, column } => {
@@ -380,9 +388,10 @@ fn run_job<T: Transport>(
     Ok(report)
 }
 
-/// Whether the sender stops the board after each M6 block for a manual tool change (an M0 under
-/// the M6 line). Set by the interactive `gantry stream` ([`run`]), which asks the operator and
-/// resumes; library callers (tests, `mdi`) stream the program as it is.
+/// Whether an operator answers the board's tool-change stops (its M6 holds the job at rest,
+/// [`MachineState::ToolChange`]). Set by the interactive `gantry stream` ([`run`]), which asks
+/// the operator; otherwise (library callers: tests, `mdi`; a script feeding the emulated board)
+/// the stream resumes such a stop at once, as if the tool were already in the spindle.
 static MANUAL_TOOL_CHANGE: std::sync::atomic::AtomicBool =
     std::sync::atomic::AtomicBool::new(false);
 
@@ -427,29 +436,16 @@ fn serve<T: Transport>(
             Ok(None) => continue,
             Err(e) => bail!("{e}"),
         };
-        // A manual tool change: the board stops after the M6 block (an M0 under its line
-        // number) and the sender asks the operator to change the tool.
-        let tool_change_stop = MANUAL_TOOL_CHANGE.load(std::sync::atomic::Ordering::Relaxed)
-            && matches!(
-                crate::program_stops::stop_in(&text),
-                Some(crate::program_stops::Stop::ToolChange { .. })
-            );
-        let mut blocks = vec![text];
-        if tool_change_stop {
-            blocks.push("M0".to_owned());
-        }
-        for text in blocks {
-            let line = Line::new(n, &text).expect("wire_text checked the length");
-            let msg = if serving.id == 0 {
-                HostMsg::Line(line)
-            } else {
-                HostMsg::ProgramLine {
-                    id: serving.id,
-                    line,
-                }
-            };
-            client.send(msg)?;
-        }
+        let line = Line::new(n, &text).expect("wire_text checked the length");
+        let msg = if serving.id == 0 {
+            HostMsg::Line(line)
+        } else {
+            HostMsg::ProgramLine {
+                id: serving.id,
+                line,
+            }
+        };
+        client.send(msg)?;
         report.lines_sent += 1;
     }
     Ok(())
@@ -492,6 +488,7 @@ pub fn state_name(s: MachineState) -> &'static str {
         MachineState::Alarm { .. } => "Alarm",
         MachineState::Homing => "Homing",
         MachineState::Check => "Check",
+        MachineState::ToolChange { .. } => "ToolChange",
     }
 }
 
@@ -564,7 +561,10 @@ pub fn run(
         }
         Start::TakeOver => {
             let state = fresh_status(&mut client)?.state;
-            if !matches!(state, MachineState::Run | MachineState::Hold { .. }) {
+            if !matches!(
+                state,
+                MachineState::Run | MachineState::Hold { .. } | MachineState::ToolChange { .. }
+            ) {
                 anyhow::bail!(
                     "--continue: the board runs no job (it is {})",
                     state_name(state)
@@ -755,7 +755,7 @@ pub fn check_can_start<T: Transport>(client: &mut Client<T>) -> anyhow::Result<(
             "the board is in {}\n  clear it first: gantry unlock (gantry home when homing is required)",
             alarm_text(code)
         ),
-        MachineState::Run | MachineState::Hold { .. } => bail!(
+        MachineState::Run | MachineState::Hold { .. } | MachineState::ToolChange { .. } => bail!(
             "the board is running a job (state {}, line {}): take it over with `gantry stream FILE --continue`, or `gantry abort` it",
             state_name(status.state),
             status.line
@@ -828,7 +828,12 @@ fn stream_with_progress<T: Transport>(
                 }
                 return Flow::Continue;
             }
-            Asking::Stop(_) if !matches!(state, Some(MachineState::Hold { .. })) => {
+            Asking::Stop(_)
+                if !matches!(
+                    state,
+                    Some(MachineState::Hold { .. } | MachineState::ToolChange { .. })
+                ) =>
+            {
                 // Cycle start on the machine answered it.
                 asking = Asking::Nothing;
             }
@@ -854,14 +859,24 @@ fn stream_with_progress<T: Transport>(
         }
         if asking == Asking::Nothing
             && !hold_requested
-            && matches!(state, Some(MachineState::Hold { stopped: true }))
+            && matches!(
+                state,
+                Some(MachineState::Hold { stopped: true } | MachineState::ToolChange { .. })
+            )
             && p.line != last_stop_line
         {
-            let stop = program
-                .wire_text(p.line)
-                .ok()
-                .flatten()
-                .and_then(|t| crate::program_stops::stop_in(&t));
+            let stop = match state {
+                // The board names the tool it waits for.
+                Some(MachineState::ToolChange { tool }) => {
+                    Some(crate::program_stops::Stop::ToolChange { tool: Some(tool) })
+                }
+                _ => program
+                    .wire_text(p.line)
+                    .ok()
+                    .flatten()
+                    .and_then(|t| crate::program_stops::stop_in(&t))
+                    .filter(|s| matches!(s, crate::program_stops::Stop::Program { .. })),
+            };
             if let Some(stop) = stop {
                 last_stop_line = p.line;
                 forget_typed();

@@ -62,6 +62,16 @@ pub enum PathMode {
     Blend { tolerance: Nm },
 }
 
+/// How a G38.x probe move ends (docs/probing.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ProbeMode {
+    /// G38.2/G38.3: stop when the probe touches (its input becomes active); G38.4/G38.5: when it
+    /// leaves contact (the input becomes inactive).
+    pub toward: bool,
+    /// G38.2/G38.4: reaching the end without the change is an alarm; G38.3/G38.5 just end.
+    pub must_trip: bool,
+}
+
 /// One canonical action.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Action {
@@ -78,6 +88,13 @@ pub enum Action {
         dir: ArcDir,
         turns: u32,
         feed: FeedNmPerMin,
+    },
+    /// G38.2-G38.5 probe move: a straight feed to `to` that stops (with a planned deceleration)
+    /// where the probe input changes; the interpreter waits for it (a sync point).
+    Probe {
+        to: Pos,
+        feed: FeedNmPerMin,
+        mode: ProbeMode,
     },
     /// G4 dwell.
     Dwell { micros: u64 },

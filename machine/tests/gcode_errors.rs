@@ -347,6 +347,18 @@ const CASES: &[Case] = &[
         Some((0, 3)),
     ),
     (
+        "G38.2 Z0 F100",
+        cfg_default,
+        ErrorCode::ProbeZeroLength,
+        Some((0, 5)),
+    ),
+    (
+        "G93 G38.3 Z-1 F100",
+        cfg_default,
+        ErrorCode::ProbeInverseTime,
+        Some((4, 9)),
+    ),
+    (
         "M98 P9",
         cfg_default,
         ErrorCode::UnknownProgram,

@@ -201,6 +201,11 @@ pub enum MachineState {
     },
     Homing,
     Check,
+    /// A job stands at rest at its M6 for a manual tool change: put `tool` in the spindle, then
+    /// cycle start or resume (docs/probing.md "Tool change"). Spindle and coolant are off.
+    ToolChange {
+        tool: u32,
+    },
 }
 
 /// How a job ended, in [`BoardMsg::JobDone`].

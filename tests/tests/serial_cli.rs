@@ -434,10 +434,11 @@ fn m6_and_m0_stop_with_a_message_and_enter_continues() {
     assert!(wait_for(10 * S, || sender
         .stderr()
         .contains("line 3: tool change: put tool 3 in the spindle")));
-    // The board waits at the tool change (X 2 mm = 1280 steps) until told to go on.
+    // The board waits at the tool change (X 2 mm = 1280 steps) until told to go on; it names
+    // the tool in its state (docs/probing.md "Tool change").
     std::thread::sleep(Duration::from_millis(500));
     assert!(
-        emu.log().contains("Hold (at rest) line 3 steps X 1280"),
+        emu.log().contains("ToolChange T3 line 3 steps X 1280"),
         "{}",
         emu.log()
     );

@@ -26,7 +26,9 @@ pub fn from_canon(actions: &[Canon], setup: &Setup, title: &str) -> PreviewJob {
     for c in actions {
         let (kind, to, feed) = match c.action {
             Action::Rapid { to } => (MoveKind::Rapid, mm3(&to), None),
-            Action::Feed { to, feed } => (MoveKind::Feed, mm3(&to), Some(feed)),
+            Action::Feed { to, feed } | Action::Probe { to, feed, .. } => {
+                (MoveKind::Feed, mm3(&to), Some(feed))
+            }
             Action::Arc {
                 to,
                 center,

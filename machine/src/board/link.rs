@@ -367,6 +367,9 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
         State::Homing => MachineState::Homing,
         State::Jog => MachineState::Jog,
         State::Check => MachineState::Check,
+        State::ToolChange => MachineState::ToolChange {
+            tool: board.tool_change().unwrap_or(0),
+        },
     };
     Status {
         state,

@@ -15,9 +15,10 @@
 //!    [`Board::on_inputs`].
 //! 3. **Host link and controller.** Bytes from the host; the host-loss rule (the host closed the
 //!    port, DTR dropped: feed hold); the path speed ([`SpeedMeter`], a 20 ms window);
-//!    [`BoardLink::service`]; [`Board::poll`] with the kernel's drained flag; a new home loaded
+//!    [`BoardLink::service`]; a tripped probe latch to [`Board::probe_tripped`];
+//!    [`Board::poll`] with the kernel's drained flag; a new home loaded
 //!    into the kernel; queued segments taken back for a stop or a jog's speed change.
-//! 4. **Segments** into the kernel's queue (the motion marker set before the kernel can step
+//! 4. **Segments** into the kernel's queue (the probe latch armed first, [`Board::probe_arm`]) (the motion marker set before the kernel can step
 //!    them, cleared once drained), the user output word exchanged with the kernel, the limit bits
 //!    armed for the kernel.
 //! 5. **Out.** The link again (events of this pass go out in it), frames to the host, output
@@ -116,6 +117,14 @@ pub trait BoardPort {
     fn limit_stopped(&mut self, _levels: InputBits) {}
     /// The host closed the port and the job was held. For logs.
     fn host_closed(&mut self) {}
+    /// Arms the kernel's probe latch for the raw probe pin level `trips_at`, or turns it off
+    /// (`None`, which also forgets a latched position). Called every pass: an armed or tripped
+    /// latch for the same level is left as it is. Default: no probe input.
+    fn arm_probe(&mut self, _trips_at: Option<bool>) {}
+    /// The step position the kernel's probe latch recorded, if it tripped. Default: never.
+    fn probe_latched(&mut self) -> Option<[i64; MAX_AXES]> {
+        None
+    }
 }
 
 /// Path speed from the kernel's position, over a window of [`SpeedMeter::WINDOW_MS`]: what the
@@ -314,6 +323,11 @@ impl MainLoop {
         port.before_link_service(board);
         link.service(board, now_ms, &self.view);
         let drained = port.kernel().drained;
+        // The probe latch tripped: the board stops the probe move on its path. Read after the
+        // drained flag, so a trip on the move's last steps is never taken for no contact.
+        if let Some(steps) = port.probe_latched() {
+            board.probe_tripped(&steps);
+        }
         board.poll(drained);
         if let Some(steps) = board.take_position_reset() {
             port.set_position(steps);
@@ -326,7 +340,8 @@ impl MainLoop {
             board.drop_queued(|max| port.drop_newest(max));
         }
 
-        // 4. Segments for the kernel (none while it is latched).
+        // 4. Segments for the kernel (none while it is latched), the probe latch armed first.
+        port.arm_probe(board.probe_arm());
         let mut handed_out = false;
         if !latched {
             while port.queue_ready() {

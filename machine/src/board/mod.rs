@@ -16,6 +16,7 @@ pub mod link;
 pub mod main_loop;
 mod mode;
 mod operator;
+mod probing;
 pub mod source;
 
 use crate::canon::{Action, Canon, Spindle, StopKind};
@@ -37,6 +38,8 @@ use mode::{
     Ending, HoldWhy, HomingCycle, HomingPhase, Job, JobKind, JobPhase, Jogging, Mode, Ramp,
 };
 use operator::RunSwitches;
+use probing::ProbeCycle;
+pub use probing::ProbeResult;
 pub use source::{JumpRequest, JumpTarget, StreamSource, LINE_CAPACITY};
 
 /// Planner ring size on the board (look-ahead over at least 128 blocks, docs/architecture.md).
@@ -214,6 +217,9 @@ pub struct Board {
     fro_pot: Option<u16>,
     /// Dry run and single block.
     switches: RunSwitches,
+    /// A G38 probe move of the job (`board/probing.rs`).
+    probe: ProbeCycle,
+    probe_result: Option<ProbeResult>,
 }
 
 impl Board {
@@ -275,6 +281,8 @@ impl Board {
             feed_override: 100,
             fro_pot: None,
             switches: RunSwitches::default(),
+            probe: ProbeCycle::Off,
+            probe_result: None,
         }
     }
 
@@ -450,6 +458,7 @@ impl Board {
         self.interp.rewind();
         self.sync_interpreter_position();
         self.pending = None;
+        self.probe = ProbeCycle::Off;
         let phase = if kind == JobKind::Machine && self.hold_input_active() {
             // The feed-hold switch is open: the job waits, held, until it closes.
             JobPhase::Hold {
@@ -542,6 +551,17 @@ impl Board {
                 JobPhase::Running(ending) | JobPhase::Hold { ending, .. } => *ending = e,
                 JobPhase::Stopping { .. } => {}
             }
+        }
+    }
+
+    /// The tool a job waits for at its M6 (the job stands at rest, [`State::ToolChange`]).
+    pub fn tool_change(&self) -> Option<u32> {
+        match self.machine_job() {
+            Some(JobPhase::Hold {
+                why: HoldWhy::ToolChange { tool },
+                ..
+            }) => Some(tool),
+            _ => None,
         }
     }
 
@@ -658,6 +678,7 @@ impl Board {
         // Nothing is restored any more (an M0 stop's outputs included).
         self.saved_outputs = None;
         self.list = None;
+        self.probe = ProbeCycle::Off;
         self.set_phase(JobPhase::Stopping {
             alarm,
             ramp: Ramp::Decelerating,
@@ -828,6 +849,7 @@ impl Board {
     /// ended (`JobDone` when a job was running).
     fn enter_alarm(&mut self, code: AlarmCode, line: u32) {
         let was_running = matches!(self.mode, Mode::Job(_));
+        self.probe = ProbeCycle::Off;
         self.outputs_safe();
         self.jog = JogState {
             marks: self.jog.marks,
@@ -930,6 +952,7 @@ impl Board {
             }
             _ => {}
         }
+        self.poll_probe(kernel_drained);
         let job = match self.mode {
             Mode::Job(job) => Some(job),
             _ => None,
@@ -1008,6 +1031,10 @@ impl Board {
 
     fn interpret(&mut self) {
         loop {
+            if self.probe_busy() {
+                // Nothing after a probe move is interpreted before its result is known.
+                return;
+            }
             let canon = match self.pending.take() {
                 Some(c) => c,
                 None => match self.interp.next(&mut self.source) {
@@ -1075,6 +1102,9 @@ impl Board {
             }
             if let Mode::Job(job) = &mut self.mode {
                 job.queued = true;
+            }
+            if matches!(canon.action, Action::Probe { .. }) {
+                self.probe = ProbeCycle::Queued;
             }
         }
     }
@@ -1145,7 +1175,10 @@ impl Board {
     /// Check mode: soft-limit check of the end point, no motion. False when the job ended.
     fn check_only(&mut self, canon: &Canon) -> bool {
         match canon.action {
-            Action::Rapid { to } | Action::Feed { to, .. } | Action::Arc { to, .. }
+            Action::Rapid { to }
+            | Action::Feed { to, .. }
+            | Action::Arc { to, .. }
+            | Action::Probe { to, .. }
                 if self.motion.config().travel_violation(&to).is_some() =>
             {
                 self.emit(BoardEvent::Error {
@@ -1214,7 +1247,26 @@ impl Board {
                 self.outputs.mist = mist;
                 self.outputs.flood = flood;
             }
-            Action::ToolChange { tool } => self.outputs.tool = tool,
+            Action::ToolChange { tool } => {
+                self.outputs.tool = tool;
+                // A manual tool change (docs/probing.md "Tool change"): at rest, spindle and
+                // coolant off (not restored), until cycle start or the host resumes.
+                self.saved_outputs = None;
+                self.outputs.spindle = Spindle::Off;
+                self.outputs.mist = false;
+                self.outputs.flood = false;
+                let (why, ending) = match self.machine_job() {
+                    Some(JobPhase::Hold { ending, .. }) => (HoldWhy::FeedAndPause, ending),
+                    Some(JobPhase::Running(ending)) => (HoldWhy::ToolChange { tool }, ending),
+                    _ => (HoldWhy::ToolChange { tool }, Ending::No),
+                };
+                self.set_phase(JobPhase::Hold { why, ending });
+                return;
+            }
+            Action::Probe { .. } => {
+                self.start_probe(&canon);
+                return;
+            }
             Action::UserMCode { code, .. } => {
                 let list = self
                     .setup
@@ -1342,6 +1394,10 @@ impl Board {
 fn is_motion(c: &Canon) -> bool {
     matches!(
         c.action,
-        Action::Rapid { .. } | Action::Feed { .. } | Action::Arc { .. } | Action::Dwell { .. }
+        Action::Rapid { .. }
+            | Action::Feed { .. }
+            | Action::Arc { .. }
+            | Action::Probe { .. }
+            | Action::Dwell { .. }
     )
 }

@@ -38,6 +38,14 @@ impl Mode {
                 ..
             }) => State::Check,
             Mode::Job(Job {
+                phase:
+                    JobPhase::Hold {
+                        why: HoldWhy::ToolChange { .. },
+                        ..
+                    },
+                ..
+            }) => State::ToolChange,
+            Mode::Job(Job {
                 phase: JobPhase::Hold { .. },
                 ..
             }) => State::Hold,
@@ -130,6 +138,9 @@ pub(super) enum HoldWhy {
     Pause,
     /// Both (a feed hold that came as the motion reached a pause).
     FeedAndPause,
+    /// An M6 at its sync point: a manual tool change to `tool`, spindle and coolant off (not
+    /// restored: the program starts the spindle for the new tool).
+    ToolChange { tool: u32 },
 }
 
 impl HoldWhy {
@@ -138,7 +149,10 @@ impl HoldWhy {
     }
 
     pub(super) fn pause(self) -> bool {
-        matches!(self, HoldWhy::Pause | HoldWhy::FeedAndPause)
+        matches!(
+            self,
+            HoldWhy::Pause | HoldWhy::FeedAndPause | HoldWhy::ToolChange { .. }
+        )
     }
 }
 

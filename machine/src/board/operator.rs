@@ -21,9 +21,9 @@ pub(super) struct RunSwitches {
 }
 
 impl Board {
-    /// Cycle start: resumes a hold or an M0/M1/single-block stop.
+    /// Cycle start: resumes a hold, an M0/M1/single-block stop or a tool-change stop.
     pub fn cycle_start(&mut self) {
-        if self.state() == State::Hold {
+        if matches!(self.state(), State::Hold | State::ToolChange) {
             self.resume();
         }
     }

@@ -38,11 +38,14 @@ pub enum Signal {
     SingleBlock = 13,
     OptionalStop = 14,
     BlockDelete = 15,
+    /// Touch probe (G38.x, docs/probing.md): active when touching. The step kernel sees its raw
+    /// pin too, every tick; this bit is the debounced level for status and the start check.
+    Probe = 28,
 }
 
 /// Names of the input bits of [`InputBits`], bit 0 first, as the setup file and traces spell
 /// them (other bits are `inN`).
-pub const INPUT_NAMES: [&str; 28] = [
+pub const INPUT_NAMES: [&str; 29] = [
     "feed_hold",
     "abort",
     "cycle_start1",
@@ -71,6 +74,7 @@ pub const INPUT_NAMES: [&str; 28] = [
     "a_max",
     "b_max",
     "c_max",
+    "probe",
 ];
 
 /// First bit of the six min-limit inputs (X..C), then six max-limit inputs.
@@ -212,7 +216,8 @@ mod tests {
         assert_eq!(INPUT_NAMES[Signal::BlockDelete as usize], "block_delete");
         assert_eq!(INPUT_NAMES[LIMIT_MIN_BIT as usize], "x_min");
         assert_eq!(INPUT_NAMES[LIMIT_MAX_BIT as usize], "x_max");
-        assert_eq!(INPUT_NAMES.len(), LIMIT_MAX_BIT as usize + 6);
+        assert_eq!(INPUT_NAMES[LIMIT_MAX_BIT as usize + 6], "probe");
+        assert_eq!(INPUT_NAMES[Signal::Probe as usize], "probe");
     }
 
     #[test]

@@ -31,6 +31,9 @@ pub enum State {
     Jog,
     /// Interpreting without motion (like grbl's `$C`).
     Check,
+    /// A job stands at rest at its M6 until the operator has changed the tool and presses cycle
+    /// start (or the host resumes); [`crate::board::Board::tool_change`] names the tool.
+    ToolChange,
 }
 
 /// Why the controller is in [`State::Alarm`]. Codes follow grbl's numbering where the meaning is
@@ -46,6 +49,11 @@ pub enum AlarmCode {
     /// The previous run ended in a reset (watchdog, panic, reset pin, brown-out) while the
     /// steppers were moving: the position is unknown and the job was cut mid-block.
     ResetDuringMotion = 3,
+    /// A G38 probe move found the probe already in the state it should reach (touching for
+    /// G38.2/G38.3, clear for G38.4/G38.5) before it moved (grbl's alarm 4).
+    ProbeFailInitial = 4,
+    /// G38.2/G38.4 reached the end of the move without the probe changing state (grbl's alarm 5).
+    ProbeFailContact = 5,
     /// Homing was aborted (abort input or host) before it finished; the axes stay unhomed.
     HomingAborted = 6,
     /// Homing: the switch did not release during the retract.
@@ -64,10 +72,12 @@ pub enum AlarmCode {
 
 impl AlarmCode {
     /// Every alarm, by number.
-    pub const ALL: [AlarmCode; 9] = [
+    pub const ALL: [AlarmCode; 11] = [
         AlarmCode::HardLimit,
         AlarmCode::SoftLimit,
         AlarmCode::ResetDuringMotion,
+        AlarmCode::ProbeFailInitial,
+        AlarmCode::ProbeFailContact,
         AlarmCode::HomingAborted,
         AlarmCode::HomingPullOffFailed,
         AlarmCode::HomingSwitchNotFound,
@@ -87,6 +97,8 @@ impl AlarmCode {
             AlarmCode::HardLimit => "hard limit",
             AlarmCode::SoftLimit => "soft limit",
             AlarmCode::ResetDuringMotion => "reset during motion",
+            AlarmCode::ProbeFailInitial => "probe fail (initial state)",
+            AlarmCode::ProbeFailContact => "probe fail (no contact)",
             AlarmCode::HomingAborted => "homing aborted",
             AlarmCode::HomingPullOffFailed => "homing pull-off failed",
             AlarmCode::HomingSwitchNotFound => "homing switch not found",
@@ -107,6 +119,12 @@ impl AlarmCode {
             }
             AlarmCode::ResetDuringMotion => {
                 "the board reset while the steppers were moving: position unknown, job lost; home (or unlock)"
+            }
+            AlarmCode::ProbeFailInitial => {
+                "probe move refused: the probe was already in the state the move looks for (check the probe and its wiring)"
+            }
+            AlarmCode::ProbeFailContact => {
+                "probe move ended without the probe changing state within the programmed distance"
             }
             AlarmCode::HomingAborted => "homing aborted; axes not homed",
             AlarmCode::HomingPullOffFailed => "homing: switch still active after the retract",
@@ -148,7 +166,8 @@ mod tests {
             assert_eq!(AlarmCode::from_number(a as u16), Some(a));
         }
         assert_eq!(AlarmCode::from_number(2), Some(AlarmCode::SoftLimit));
-        assert_eq!(AlarmCode::from_number(4), None);
+        assert_eq!(AlarmCode::from_number(4), Some(AlarmCode::ProbeFailInitial));
+        assert_eq!(AlarmCode::from_number(7), None);
     }
 
     #[test]

@@ -14,7 +14,7 @@ use super::lexer::{Lexer, Word, MICRO};
 pub enum GGroup {
     /// 0: G4 G10 G28 G28.1 G30 G30.1 G52 G53 G92 G92.1 G92.2 G92.3.
     NonModal = 0,
-    /// 1: G0 G1 G2 G3 G73 G80-G89.
+    /// 1: G0 G1 G2 G3 G38.2-G38.5 G73 G80-G89.
     Motion,
     /// 2: G17 G18 G19.
     Plane,
@@ -48,9 +48,8 @@ pub fn g_group(code: u16) -> Option<GGroup> {
         G4 | G10 | G28 | G28_1 | G30 | G30_1 | G52 | G53 | G65 | G92 | G92_1 | G92_2 | G92_3 => {
             NonModal
         }
-        G0 | G1 | G2 | G3 | G73 | G80 | G81 | G82 | G83 | G84 | G85 | G86 | G87 | G88 | G89 => {
-            Motion
-        }
+        G0 | G1 | G2 | G3 | G38_2 | G38_3 | G38_4 | G38_5 | G73 | G80 | G81 | G82 | G83 | G84
+        | G85 | G86 | G87 | G88 | G89 => Motion,
         G17 | G18 | G19 => Plane,
         G90 | G91 => Distance,
         G90_1 | G91_1 => ArcDistance,

@@ -32,6 +32,14 @@ pub const G28_1: u16 = 281;
 pub const G30: u16 = 300;
 /// `G30.1` store the G30 position.
 pub const G30_1: u16 = 301;
+/// `G38.2` probe toward the workpiece, alarm without contact.
+pub const G38_2: u16 = 382;
+/// `G38.3` probe toward the workpiece, no alarm without contact.
+pub const G38_3: u16 = 383;
+/// `G38.4` probe away from the workpiece, alarm without loss of contact.
+pub const G38_4: u16 = 384;
+/// `G38.5` probe away from the workpiece, no alarm without loss of contact.
+pub const G38_5: u16 = 385;
 /// `G40` cutter compensation off.
 pub const G40: u16 = 400;
 /// `G41` cutter compensation left.

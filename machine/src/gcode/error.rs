@@ -132,6 +132,10 @@ pub enum ErrorCode {
     NotSupported,
     /// G28/G30 or G92 need axis words / were given invalid words.
     MissingAxisWords,
+    /// A G38.x probe move that does not move (its end is its start).
+    ProbeZeroLength,
+    /// A G38.x probe move in G93 inverse-time mode.
+    ProbeInverseTime,
     // --- 6xx program flow ---
     /// M98 calls a program number that is not in the file.
     UnknownProgram,
@@ -222,6 +226,8 @@ impl ErrorCode {
         ErrorCode::DwellTimeMissing,
         ErrorCode::NotSupported,
         ErrorCode::MissingAxisWords,
+        ErrorCode::ProbeZeroLength,
+        ErrorCode::ProbeInverseTime,
         ErrorCode::UnknownProgram,
         ErrorCode::DuplicateProgram,
         ErrorCode::NestingTooDeep,
@@ -294,6 +300,8 @@ impl ErrorCode {
             DwellTimeMissing => 505,
             NotSupported => 506,
             MissingAxisWords => 507,
+            ProbeZeroLength => 520,
+            ProbeInverseTime => 521,
             UnknownProgram => 601,
             DuplicateProgram => 602,
             NestingTooDeep => 603,
@@ -367,6 +375,8 @@ impl ErrorCode {
             DwellTimeMissing => "G4 dwell needs a P time",
             NotSupported => "feature not supported by this interpreter or dialect",
             MissingAxisWords => "this G code needs axis words",
+            ProbeZeroLength => "G38 probe move does not move (its end point is the start point)",
+            ProbeInverseTime => "G38 probe moves cannot run in G93 inverse-time mode",
             UnknownProgram => "subprogram (O number) not found in the program",
             DuplicateProgram => "the same O number is defined twice in the program",
             NestingTooDeep => "subprogram calls nested too deeply",

@@ -21,7 +21,7 @@ use super::oword::{self, Keyword, Label, OLine};
 use super::params::{Params, LOCALS};
 use super::source::{ProgramSource, SourceError};
 use super::state::{CycleMemory, ModalState, MotionMode};
-use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
+use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, ProbeMode, Spindle, StopKind};
 use crate::units::{Nm, Pos, MAX_AXES};
 
 /// Capacity of the per-block action queue (a block expands to at most 10 actions; cycle steps to 7).
@@ -284,6 +284,27 @@ impl Interpreter {
         self.skip = None;
         self.loops.clear();
         self.ocalls.clear();
+    }
+
+    /// A G38.x probe move has ended (docs/probing.md): the machine stands at `at` (machine nm) and
+    /// the probe changed state at `tripped` (machine nm), or never did (`None`: the probe
+    /// results hold the end position). Writes #5061-#5066 (the trip position, or where the
+    /// move ended, in the program's coordinates and units as LinuxCNC does) and #5070 (1 when
+    /// the probe tripped, else 0), and continues from `at`.
+    pub fn probe_done(&mut self, at: Pos, tripped: Option<Pos>) {
+        self.state.position = at;
+        let found = tripped.unwrap_or(at);
+        let offset = self.state.offset();
+        for (i, (&m, &o)) in found.iter().zip(offset.iter()).enumerate() {
+            let v = super::params::nm_to_fx(m - o, self.state.inch);
+            let _ = self
+                .params
+                .write(ParamRef::Numbered(5061 + i as u16), v, 0, &mut self.state);
+        }
+        let ok = if tripped.is_some() { ONE } else { 0 };
+        let _ = self
+            .params
+            .write(ParamRef::Numbered(5070), ok, 0, &mut self.state);
     }
 
     /// The value of a parameter as a program would read it (tests, status).
@@ -1420,6 +1441,24 @@ impl Interpreter {
             MotionMode::ArcCw | MotionMode::ArcCcw => {
                 self.arc(b, line, mode == MotionMode::ArcCw, f_given)?;
             }
+            MotionMode::Probe(code) => {
+                let to = self.target(b, g53)?;
+                if self.state.inverse_time {
+                    return Err((ErrorCode::ProbeInverseTime, b.g_cols(code)));
+                }
+                if to == self.state.position {
+                    return Err((ErrorCode::ProbeZeroLength, b.g_cols(code)));
+                }
+                let feed = self.straight_feed(self.state.position, to, f_given)?;
+                let mode = ProbeMode {
+                    toward: matches!(code, G38_2 | G38_3),
+                    must_trip: matches!(code, G38_2 | G38_4),
+                };
+                self.push(line, Action::Probe { to, feed, mode })?;
+                // Where the probe stops is known only once it has run: the board sets the
+                // position then (`Interpreter::probe_done`).
+                self.state.position = to;
+            }
             MotionMode::None => {
                 self.state.cycle = CycleMemory::default();
                 if gixa && explicit {
@@ -1995,6 +2034,7 @@ fn decode_motion(code: u16) -> MotionMode {
         G2 => MotionMode::ArcCw,
         G3 => MotionMode::ArcCcw,
         G80 => MotionMode::None,
+        G38_2 | G38_3 | G38_4 | G38_5 => MotionMode::Probe(code),
         c => MotionMode::Cycle(c),
     }
 }

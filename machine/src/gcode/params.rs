@@ -8,7 +8,7 @@
 //! #5211-#5219 the G92 offset, #5220 the coordinate system (1-9), #5221-#5399 the G54-G59.3
 //! offsets (20 per system), #5400 the tool in the spindle, #5401-#5409 its offsets, #5420-#5428
 //! the current position in program coordinates; #5061-#5070 (probe results) read as stored
-//! (0 until a probe cycle exists). Writing #5161-#5399 moves the offset or position it names.
+//! (written by a G38 probe move: `Interpreter::probe_done`). Writing #5161-#5399 moves the offset or position it names.
 //! Named locals belong to the subroutine level that set them and vanish when it returns.
 
 use super::error::ErrorCode;

@@ -23,6 +23,8 @@ pub enum MotionMode {
     None,
     /// G73, G81..G89 (the code in tenths, e.g. 810).
     Cycle(u16),
+    /// G38.2..G38.5 (the code in tenths, e.g. 382).
+    Probe(u16),
 }
 
 /// Data a canned cycle remembers between blocks (cleared by G80 and motion codes).

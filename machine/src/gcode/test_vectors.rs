@@ -77,6 +77,13 @@ fn digest_action(d: &mut Digest, a: &Action) {
             d.u64(turns as u64);
             d.i64(feed);
         }
+        Action::Probe { to, feed, mode } => {
+            d.bytes(&[b'P', mode.toward as u8, mode.must_trip as u8]);
+            for v in to {
+                d.i64(v);
+            }
+            d.i64(feed);
+        }
         Action::Dwell { micros } => {
             d.bytes(b"d");
             d.u64(micros);

@@ -19,6 +19,12 @@
 //! user output word ([`StepKernel::outputs`]) follows it. The word is what the kernel's owner has
 //! on the user output pins; the owner loads it with [`StepKernel::set_outputs`] when the board
 //! switches outputs itself (command lists at rest, safe state).
+//!
+//! Probing (G38.x, docs/probing.md): the owner passes the probe pin's raw level to every tick.
+//! While the probe latch is armed ([`StepKernel::arm_probe`]) the first tick that sees the pin at
+//! the armed level records the position before its steps ([`StepKernel::probe_latch`]); the
+//! kernel keeps stepping (the board decelerates on the path). Unarmed, the check is one byte
+//! load and a branch per tick.
 
 use super::output_event::OutputEvent;
 use crate::setup::DriverSetup;
@@ -147,6 +153,17 @@ pub struct TickOut {
     pub output: OutputEvent,
 }
 
+/// The probe latch of the kernel (docs/probing.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProbeLatch {
+    /// Not watching the probe pin.
+    Off,
+    /// Watching: the first tick that sees the raw pin at `trips_at` latches.
+    Armed { trips_at: bool },
+    /// The pin reached the armed level with the kernel at `steps` (before that tick's steps).
+    Tripped { steps: [i64; MAX_AXES] },
+}
+
 /// The per-tick Bresenham state machine.
 #[derive(Clone, Debug)]
 pub struct StepKernel {
@@ -166,10 +183,21 @@ pub struct StepKernel {
     axes: u8,
     /// Position at the start of the running segment, in steps.
     base: [i64; MAX_AXES],
-    stopped: bool,
+    /// [`STOPPED`] (a stop latched) and the probe latch's arming ([`PROBE_LOW`] or
+    /// [`PROBE_HIGH`]): one byte, so the tick tests both with one load.
+    flags: u8,
     /// User output word (bit n = output n) as the kernel's events and its owner left it.
     outputs: u16,
+    /// The latched position (the tick that saw the pin), until disarmed.
+    probe_at: Option<[i64; MAX_AXES]>,
 }
+
+/// [`StepKernel`] flags: a stop has latched.
+const STOPPED: u8 = 1;
+/// The probe latch watches for a low pin, or a high one (both bits clear: off).
+const PROBE_LOW: u8 = 2;
+const PROBE_HIGH: u8 = 4;
+const PROBE_MASK: u8 = PROBE_LOW | PROBE_HIGH;
 
 impl Default for StepKernel {
     fn default() -> Self {
@@ -190,16 +218,22 @@ impl StepKernel {
             dir: 0,
             axes: 0,
             base: [0; MAX_AXES],
-            stopped: false,
+            flags: 0,
             outputs: 0,
+            probe_at: None,
         }
     }
 
     /// Runs one tick: load a segment if needed, step the axes whose Bresenham term overflows.
+    /// `probe` is the probe pin's raw level now (see [`Self::arm_probe`]).
     #[inline]
-    pub fn tick(&mut self, src: &mut impl SegmentSource, stop: bool) -> TickOut {
-        if stop || self.stopped {
-            return self.halt();
+    pub fn tick(&mut self, src: &mut impl SegmentSource, stop: bool, probe: bool) -> TickOut {
+        // One test for the rare cases: a stop (argument or latched) or an armed probe latch.
+        if stop || self.flags != 0 {
+            if stop || self.flags & STOPPED != 0 {
+                return self.halt();
+            }
+            self.probe_sample(probe);
         }
         let mut output = OutputEvent::NONE;
         if self.ticks_left == 0 {
@@ -274,10 +308,50 @@ impl StepKernel {
         }
     }
 
+    /// The armed latch's check (kept out of the tick's straight path: unarmed, the tick pays a
+    /// byte load and a branch).
+    #[cold]
+    #[inline(never)]
+    fn probe_sample(&mut self, probe: bool) {
+        let level = if probe { PROBE_HIGH } else { PROBE_LOW };
+        if level == self.probe_arm() {
+            self.flags &= !PROBE_MASK;
+            self.probe_at = Some(self.position());
+        }
+    }
+
+    fn probe_arm(&self) -> u8 {
+        self.flags & PROBE_MASK
+    }
+
+    /// Arms the probe latch: from the next tick, the first one that sees the probe pin's raw
+    /// level equal to `trips_at` records the position. Replaces an earlier latch.
+    pub fn arm_probe(&mut self, trips_at: bool) {
+        self.flags = (self.flags & !PROBE_MASK) | if trips_at { PROBE_HIGH } else { PROBE_LOW };
+        self.probe_at = None;
+    }
+
+    /// Stops watching the probe pin and forgets a latched position.
+    pub fn disarm_probe(&mut self) {
+        self.flags &= !PROBE_MASK;
+        self.probe_at = None;
+    }
+
+    /// The probe latch now.
+    pub fn probe_latch(&self) -> ProbeLatch {
+        match (self.probe_at, self.probe_arm()) {
+            (Some(steps), _) => ProbeLatch::Tripped { steps },
+            (None, 0) => ProbeLatch::Off,
+            (None, arm) => ProbeLatch::Armed {
+                trips_at: arm == PROBE_HIGH,
+            },
+        }
+    }
+
     #[cold]
     fn halt(&mut self) -> TickOut {
-        if !self.stopped {
-            self.stopped = true;
+        if self.flags & STOPPED == 0 {
+            self.flags |= STOPPED;
             self.fold_position();
             self.ticks_left = 0;
             self.axes = 0;
@@ -292,12 +366,12 @@ impl StepKernel {
 
     /// True once a `stop` tick has latched; no step is emitted until [`Self::clear_stop`].
     pub fn is_stopped(&self) -> bool {
-        self.stopped
+        self.flags & STOPPED != 0
     }
 
     /// Re-arms the kernel after a stop (flush the segment queue first).
     pub fn clear_stop(&mut self) {
-        self.stopped = false;
+        self.flags &= !STOPPED;
     }
 
     /// User output word (bit n = output n): the level of every user output after the events of
@@ -421,7 +495,7 @@ mod tests {
         let mut ticks = 0;
         let mut last_y = None;
         loop {
-            let out = k.tick(&mut q, false);
+            let out = k.tick(&mut q, false, false);
             if out.period == 0 {
                 break;
             }
@@ -451,7 +525,7 @@ mod tests {
     fn idle_without_segment() {
         let mut q = Queue(&[], 0);
         let mut k = StepKernel::new();
-        assert_eq!(k.tick(&mut q, false).period, 0);
+        assert_eq!(k.tick(&mut q, false, false).period, 0);
     }
 
     #[test]
@@ -460,17 +534,17 @@ mod tests {
         let mut q = Queue(&segs, 0);
         let mut k = StepKernel::new();
         for _ in 0..10 {
-            k.tick(&mut q, false);
+            k.tick(&mut q, false, false);
         }
         assert_eq!(k.position(), [10, 5, 0, 0, 0, 0]);
-        let out = k.tick(&mut q, true);
+        let out = k.tick(&mut q, true, false);
         assert_eq!((out.step, out.period), (0, 0));
-        let out = k.tick(&mut q, false);
+        let out = k.tick(&mut q, false, false);
         assert_eq!((out.step, out.period), (0, 0));
         assert!(k.is_stopped());
         assert_eq!(k.position(), [10, 5, 0, 0, 0, 0]);
         k.clear_stop();
-        assert_eq!(k.tick(&mut q, false).period, 0);
+        assert_eq!(k.tick(&mut q, false, false).period, 0);
     }
 
     #[test]
@@ -488,7 +562,7 @@ mod tests {
         for t in 0..18 {
             // Position before this tick's step, as the output edge sees it.
             let before = k.position()[0];
-            let out = k.tick(&mut q, false);
+            let out = k.tick(&mut q, false, false);
             if out.output.is_some() {
                 edges.push((t, before, out.output, k.outputs())).unwrap();
                 // The output and the segment's first step come out of the same tick.
@@ -503,6 +577,36 @@ mod tests {
     }
 
     #[test]
+    fn the_probe_latch_records_the_position_of_the_tick_that_sees_the_pin() {
+        let segs = [seg([100, 0, 40, 0, 0, 0], 100, 0b100)];
+        let mut q = Queue(&segs, 0);
+        let mut k = StepKernel::new();
+        // Unarmed, the pin is ignored.
+        for _ in 0..10 {
+            k.tick(&mut q, false, true);
+        }
+        assert_eq!(k.probe_latch(), ProbeLatch::Off);
+        // Armed for a low pin: the high pin does nothing, the first low one latches.
+        k.arm_probe(false);
+        for _ in 0..10 {
+            k.tick(&mut q, false, true);
+        }
+        assert_eq!(k.probe_latch(), ProbeLatch::Armed { trips_at: false });
+        let before = k.position();
+        assert_eq!(before, [20, 0, -8, 0, 0, 0]);
+        k.tick(&mut q, false, false);
+        assert_eq!(k.probe_latch(), ProbeLatch::Tripped { steps: before });
+        // The kernel keeps stepping; later levels change nothing.
+        for _ in 0..10 {
+            k.tick(&mut q, false, true);
+        }
+        assert_eq!(k.position()[0], 31);
+        assert_eq!(k.probe_latch(), ProbeLatch::Tripped { steps: before });
+        k.disarm_probe();
+        assert_eq!(k.probe_latch(), ProbeLatch::Off);
+    }
+
+    #[test]
     fn amass_overdrive_keeps_dominant_rate() {
         // 4 dominant steps over-driven ×8 (32 ticks): the X steps land every 8 ticks.
         let segs = [seg([4, 3, 0, 0, 0, 0], 32, 0)];
@@ -510,7 +614,7 @@ mod tests {
         let mut k = StepKernel::new();
         let mut x_ticks = heapless::Vec::<u32, 8>::new();
         for t in 0..32 {
-            if k.tick(&mut q, false).step & 1 != 0 {
+            if k.tick(&mut q, false, false).step & 1 != 0 {
                 x_ticks.push(t).unwrap();
             }
         }

@@ -220,6 +220,7 @@ impl<const N: usize> Motion<N> {
             | Action::Coolant { .. }
             | Action::ToolChange { .. }
             | Action::UserMCode { .. }
+            | Action::Probe { .. }
             | Action::Stop(_) => {
                 let pending = usize::from(self.pending_output.is_some());
                 if !self.has_room(1 + pending, 1 + pending) {

@@ -96,8 +96,16 @@ impl<const N: usize> Sim<N> {
     }
 
     /// Queues one action: an on-the-fly user M code (see [`Sim::on_the_fly`]) with
-    /// [`Motion::push_output`], anything else with [`Motion::push`].
+    /// [`Motion::push_output`], a G38 probe move as the feed move it is when nothing trips it
+    /// (its longest case), anything else with [`Motion::push`].
     pub fn push(&mut self, c: &Canon) -> Result<(), PushError> {
+        if let Action::Probe { to, feed, .. } = c.action {
+            let feed_move = Canon {
+                line: c.line,
+                action: Action::Feed { to, feed },
+            };
+            return self.motion.push(&feed_move);
+        }
         if let Action::UserMCode {
             code,
             at_rest: false,
@@ -140,7 +148,7 @@ impl<const N: usize> Sim<N> {
         if self.fifo.0.len() < SEGMENT_QUEUE / 2 {
             self.fill(on);
         }
-        let out = self.kernel.tick(&mut self.fifo, self.stop);
+        let out = self.kernel.tick(&mut self.fifo, self.stop, false);
         if out.output.is_some() {
             on(SimEvent::Output {
                 time: self.now,

@@ -115,7 +115,7 @@ fn kernel_bresenham() -> u32 {
     let mut k = StepKernel::new();
     let mut d = Digest::new();
     loop {
-        let out = k.tick(&mut src, false);
+        let out = k.tick(&mut src, false, false);
         if out.period == 0 {
             break;
         }

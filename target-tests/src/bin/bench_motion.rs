@@ -53,7 +53,7 @@ impl SegmentSource for Repeat {
 /// The step interrupt's body: one kernel tick.
 #[inline(never)]
 fn isr_body(k: &mut StepKernel, src: &mut Repeat) -> TickOut {
-    k.tick(src, false)
+    k.tick(src, false, false)
 }
 
 /// An empty body with the same call shape (loop and call overhead).

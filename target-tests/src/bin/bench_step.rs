@@ -59,12 +59,14 @@ static WORDS: PinWords = PinWords::new(
 );
 
 /// The fake registers: TIM2's counter, reload (preload register) and CCR3 (step word), the dir
-/// port's BSRR (the last word written), the last user output event.
+/// port's BSRR (the last word written), the last user output event, the probe port's input.
 static CNT: AtomicU32 = AtomicU32::new(0);
 static ARR: AtomicU32 = AtomicU32::new(0);
 static STEP_WORD: AtomicU32 = AtomicU32::new(0);
 static DIR_BSRR: AtomicU32 = AtomicU32::new(0);
 static OUTPUT: AtomicU32 = AtomicU32::new(0);
+/// The probe port's input register (IDR); the probe pin is bit 0, high = open.
+static PROBE_IDR: AtomicU32 = AtomicU32::new(1);
 
 /// Registers in RAM, reached as the firmware reaches TIM2 and the GPIO ports.
 struct FakeHardware;
@@ -93,6 +95,10 @@ impl StepHardware for FakeHardware {
     #[inline(always)]
     fn write_output(&mut self, event: OutputEvent) {
         OUTPUT.store(u32::from(event.index() as u8) | 0x100, Ordering::Relaxed);
+    }
+    #[inline(always)]
+    fn probe_closed(&self) -> bool {
+        PROBE_IDR.load(Ordering::Relaxed) & 1 == 0
     }
 }
 

@@ -78,6 +78,11 @@ impl Emulator {
     /// Starts the emulated board at `dir/board`, its flash in `dir/state.toml`, with `setup`
     /// stored first when given; waits (≤ 10 s) until it is ready.
     pub fn start(dir: &Dir, setup: Option<&Path>) -> Emulator {
+        Self::start_with(dir, setup, &[])
+    }
+
+    /// [`Emulator::start`] with more arguments for `gantry emulate` (probe targets...).
+    pub fn start_with(dir: &Dir, setup: Option<&Path>, args: &[&str]) -> Emulator {
         let pty = dir.0.join("board");
         let mut cmd = Command::new(GANTRY);
         cmd.arg("emulate")
@@ -88,6 +93,7 @@ impl Emulator {
         if let Some(s) = setup {
             cmd.arg("--setup").arg(s);
         }
+        cmd.args(args);
         let mut child = cmd
             .stdin(Stdio::null())
             .stdout(Stdio::null())

@@ -1,0 +1,159 @@
+//! G38.2-G38.5 probe moves in a job (docs/probing.md).
+//!
+//! The interpreter hands out a probe move as [`Action::Probe`]; the board queues it as a sync
+//! point and interprets nothing more (later blocks may read the result, #5061-#5070). At rest the
+//! sync point checks the probe's start state (already in the state the move looks for: alarm 4),
+//! arms the step kernel's probe latch ([`Board::probe_arm`], the raw pin level that trips it) and
+//! queues the move as a feed. The kernel latches its exact step position on the tick that sees
+//! the pin change; the main loop hands that to [`Board::probe_tripped`], which stops the move
+//! with a planned deceleration on the path (like an abort of the move alone). Once at rest the
+//! interpreter gets the stopped position and the results ([`crate::gcode::Interpreter::probe_done`])
+//! and the job continues; a G38.2/G38.4 that reached its end without a change ends the job in
+//! alarm 5.
+
+use super::mode::{Job, JobPhase};
+use super::{Board, Mode};
+use crate::canon::{Action, Canon, ProbeMode};
+use crate::controller::inputs::Signal;
+use crate::controller::AlarmCode;
+use crate::motion::pipeline::{MotionState, PushError};
+use crate::units::{Pos, MAX_AXES};
+
+/// Where a probe move of the job stands.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) enum ProbeCycle {
+    /// No probe move.
+    #[default]
+    Off,
+    /// The probe move waits at its sync point; nothing after it is interpreted.
+    Queued,
+    /// Moving with the kernel's latch armed for the raw pin level `trips_at`.
+    Moving {
+        mode: ProbeMode,
+        line: u32,
+        trips_at: bool,
+    },
+    /// The probe changed state with the machine at `at` (nm): decelerating to rest.
+    Stopping { line: u32, at: Pos },
+}
+
+/// The result of the last probe move, for status reports (grbl's `[PRB:x,y,z:ok]`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ProbeResult {
+    /// Machine position (nm) where the probe changed state, or where the move ended without.
+    pub position: Pos,
+    /// The probe changed state.
+    pub success: bool,
+}
+
+impl Board {
+    /// The result of the last probe move since power-up.
+    pub fn probe_result(&self) -> Option<ProbeResult> {
+        self.probe_result
+    }
+
+    /// The raw probe pin level that must trip the step kernel's probe latch now (`None`: the
+    /// latch stays off). The main loop arms the kernel with it before handing out segments.
+    pub fn probe_arm(&self) -> Option<bool> {
+        match self.probe {
+            ProbeCycle::Moving { trips_at, .. } => Some(trips_at),
+            _ => None,
+        }
+    }
+
+    /// The step kernel latched the probe at `kernel_steps`: stop the move with a planned
+    /// deceleration (the kernel keeps stepping what the stop needs).
+    pub fn probe_tripped(&mut self, kernel_steps: &[i64; MAX_AXES]) {
+        if let ProbeCycle::Moving { line, .. } = self.probe {
+            let at = self.motion.config().to_nm(kernel_steps);
+            self.probe = ProbeCycle::Stopping { line, at };
+            self.motion.abort();
+        }
+    }
+
+    /// The probe move's sync point, reached at rest: refuse it (alarm 4) when the probe already
+    /// reads what the move looks for, else arm and queue the move.
+    pub(super) fn start_probe(&mut self, canon: &Canon) {
+        let Action::Probe { to, feed, mode } = canon.action else {
+            return;
+        };
+        self.motion.release_sync();
+        // Logical level the move looks for: touching (active) toward, clear away.
+        if self.levels.get(Signal::Probe) == mode.toward {
+            self.probe = ProbeCycle::Off;
+            self.stop_job(Some((AlarmCode::ProbeFailInitial, canon.line)));
+            return;
+        }
+        let invert = self.setup.inputs.invert & (1 << Signal::Probe as u32) != 0;
+        let feed_move = Canon {
+            line: canon.line,
+            action: Action::Feed { to, feed },
+        };
+        match self.motion.push(&feed_move) {
+            Ok(()) => {
+                self.probe = ProbeCycle::Moving {
+                    mode,
+                    line: canon.line,
+                    trips_at: mode.toward ^ invert,
+                };
+            }
+            Err(PushError::Travel { .. }) => {
+                self.probe = ProbeCycle::Off;
+                self.soft_limit(canon.line);
+            }
+            // The queue was empty at the sync point.
+            Err(PushError::Full) => unreachable!("a probe move starts from an empty queue"),
+        }
+    }
+
+    /// Ends a probe move once the machine is at rest: results to the interpreter, then the job
+    /// continues, or alarm 5 for a G38.2/G38.4 without a change.
+    pub(super) fn poll_probe(&mut self, kernel_drained: bool) {
+        if !matches!(
+            self.probe,
+            ProbeCycle::Moving { .. } | ProbeCycle::Stopping { .. }
+        ) || !kernel_drained
+            || self.motion.state() != MotionState::Idle
+        {
+            return;
+        }
+        let here = self.motion.queued_position();
+        match self.probe {
+            ProbeCycle::Stopping { line, at } => {
+                self.line = line;
+                self.interp.probe_done(here, Some(at));
+                self.probe_result = Some(ProbeResult {
+                    position: at,
+                    success: true,
+                });
+            }
+            ProbeCycle::Moving { mode, line, .. } => {
+                self.line = line;
+                self.interp.probe_done(here, None);
+                self.probe_result = Some(ProbeResult {
+                    position: here,
+                    success: false,
+                });
+                if mode.must_trip {
+                    self.probe = ProbeCycle::Off;
+                    self.stop_job(Some((AlarmCode::ProbeFailContact, line)));
+                    return;
+                }
+            }
+            _ => {}
+        }
+        self.probe = ProbeCycle::Off;
+    }
+
+    /// The interpreter must wait: a probe move is queued or under way.
+    pub(super) fn probe_busy(&self) -> bool {
+        self.probe != ProbeCycle::Off
+            && matches!(
+                self.mode,
+                Mode::Job(Job {
+                    phase: JobPhase::Running(_) | JobPhase::Hold { .. },
+                    ..
+                })
+            )
+    }
+}
