@@ -352,7 +352,7 @@ impl Comp {
 
     /// G40: releases what waits (the last move ends where it was aimed). Returns the point the
     /// interpreter continues from in the plane (the programmed end, as LinuxCNC), if it moved.
-    pub fn turn_off(&mut self, out: &mut impl FnMut(Canon)) -> Result<Option<Pos>, ErrorCode> {
+    pub fn turn_off(&mut self, out: &mut dyn FnMut(Canon)) -> Result<Option<Pos>, ErrorCode> {
         let mut back = None;
         if self.compensating() {
             let tool = uv(&self.tool, self.plane);
@@ -365,7 +365,7 @@ impl Comp {
     }
 
     /// A program stop (M0, M1, M2, M30) releases what waits, as LinuxCNC's `convert_stop`.
-    pub fn release(&mut self, out: &mut impl FnMut(Canon)) -> Result<(), ErrorCode> {
+    pub fn release(&mut self, out: &mut dyn FnMut(Canon)) -> Result<(), ErrorCode> {
         if self.held.is_empty() {
             return Ok(());
         }
@@ -413,12 +413,13 @@ impl Comp {
     /// Compensates a programmed move (`canon`: a rapid, feed or arc from `from`, the tool
     /// position, in machine nm; for all but the entry move `from` is replaced by the
     /// programmed end of the last move). Returns the compensated tool position after it.
+    #[inline(never)]
     pub fn motion(
         &mut self,
         canon: Canon,
         from: Pos,
         inch: bool,
-        out: &mut impl FnMut(Canon),
+        out: &mut dyn FnMut(Canon),
     ) -> Result<Pos, ErrorCode> {
         let Mode::On {
             side,
@@ -494,6 +495,7 @@ impl Comp {
 
     /// A straight move after the entry move (LinuxCNC `convert_straight_comp2`).
     #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
     fn straight(
         &mut self,
         canon: Canon,
@@ -504,7 +506,7 @@ impl Comp {
         side: Side,
         r: Nm,
         rapid: bool,
-        out: &mut impl FnMut(Canon),
+        out: &mut dyn FnMut(Canon),
     ) -> Result<Pos, ErrorCode> {
         let plane = self.plane;
         let line = canon.line;
@@ -583,6 +585,7 @@ impl Comp {
 
     /// An arc after the entry move (LinuxCNC `convert_arc_comp2`).
     #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
     fn arc(
         &mut self,
         canon: Canon,
@@ -593,7 +596,7 @@ impl Comp {
         dir: ArcDir,
         side: Side,
         r: Nm,
-        out: &mut impl FnMut(Canon),
+        out: &mut dyn FnMut(Canon),
     ) -> Result<Pos, ErrorCode> {
         let plane = self.plane;
         let line = canon.line;
@@ -746,7 +749,7 @@ impl Comp {
             .map_err(|_| ErrorCode::CompLookAheadFull)
     }
 
-    fn release_as_is(&mut self, out: &mut impl FnMut(Canon)) {
+    fn release_as_is(&mut self, out: &mut dyn FnMut(Canon)) {
         while let Some(h) = self.held.pop_front() {
             out(h.canon);
         }
@@ -758,7 +761,7 @@ impl Comp {
     fn move_end_and_release(
         &mut self,
         q: (Nm, Nm),
-        out: &mut impl FnMut(Canon),
+        out: &mut dyn FnMut(Canon),
     ) -> Result<(), ErrorCode> {
         let plane = self.plane;
         let growth = if self.inch {
