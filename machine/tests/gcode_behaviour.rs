@@ -512,17 +512,13 @@ fn g10_l1_writes_the_tool_table() {
 }
 
 #[test]
-fn seed_14_14_cutter_compensation_is_refused() {
-    let e = first_error("G0 X0\nG41 D1 G1 X10 Y0 F100\n");
-    assert_eq!(
-        (e.code, e.line, e.columns),
-        (ErrorCode::CutterCompNotSupported, 2, Some((0, 3)))
-    );
-    assert_eq!(
-        first_error("G42 G0 X1\n").code,
-        ErrorCode::CutterCompNotSupported
-    );
-    assert!(run("G40 G0 X1\n").iter().all(|r| r.is_ok()));
+fn seed_14_14_cutter_compensation_must_start_with_a_straight_move() {
+    // Fanuc: compensation starts on a G0/G1 (LinuxCNC would also start on an arc).
+    let e = first_error("G0 X0\nG41.1 D2 G2 X10 Y0 R5 F100\n");
+    assert_eq!((e.code, e.line), (ErrorCode::CutterCompNotSupported, 2));
+    assert!(run("G41.1 D2 G1 X10 F100\nG40 G0 X1\n")
+        .iter()
+        .all(|r| r.is_ok()));
 }
 
 #[test]

@@ -223,7 +223,8 @@ fn fuzz(executions: u64, seed: u64) -> Pulled {
 
 #[test]
 fn arbitrary_input_never_panics() {
-    assert!(std::mem::size_of::<Interpreter>() <= 11 * 1024);
+    // 12 KiB: cutter compensation's look-ahead (machine/src/gcode/comp.rs) added 1,240 B.
+    assert!(std::mem::size_of::<Interpreter>() <= 12 * 1024);
     let p = fuzz(1_000, 0x5eed_0001);
     // The generator reaches the interpreter's depths: many programs run actions, many fail.
     assert!(p.actions > 10_000, "{p:?}");

@@ -26,7 +26,7 @@ pub enum GGroup {
     FeedMode,
     /// 6: G20 G21.
     Units,
-    /// 7: G40 G41 G42.
+    /// 7: G40 G41 G42 G41.1 G42.1.
     CutterComp,
     /// 8: G43 G43.1 G49.
     ToolLength,
@@ -55,7 +55,7 @@ pub fn g_group(code: u16) -> Option<GGroup> {
         G90_1 | G91_1 => ArcDistance,
         G93 | G94 => FeedMode,
         G20 | G21 => Units,
-        G40 | G41 | G42 => CutterComp,
+        G40 | G41 | G42 | G41_1 | G42_1 => CutterComp,
         G43 | G43_1 | G49 => ToolLength,
         G98 | G99 => Return,
         G54 | G55 | G56 | G57 | G58 | G59 | G59_1 | G59_2 | G59_3 => Coordinate,
@@ -119,7 +119,7 @@ pub struct Block {
     /// The block started with `/`.
     pub block_delete: bool,
     /// Value words by letter (`A`..`Z`, G/M/N/O unused here).
-    words: [Option<Word>; 26],
+    words: [Option<Word>; WORD_SLOTS],
     /// G codes by group.
     pub g: [Option<Code>; G_GROUPS],
     /// M codes in the order written.
@@ -131,6 +131,18 @@ pub struct Block {
     pub cancels_cycle: bool,
 }
 
+/// Value word slots: `A`..`Z`, then LinuxCNC's polar radius `@` and angle `^`.
+const WORD_SLOTS: usize = 28;
+
+/// The slot of a value word letter.
+fn slot(l: u8) -> usize {
+    match l {
+        b'@' => 26,
+        b'^' => 27,
+        l => (l - b'A') as usize,
+    }
+}
+
 /// A block error with the columns to blame.
 pub type BlockError = (ErrorCode, Option<(u16, u16)>);
 
@@ -140,7 +152,7 @@ impl Block {
             n: None,
             o: None,
             block_delete: false,
-            words: [None; 26],
+            words: [None; WORD_SLOTS],
             g: [None; G_GROUPS],
             m: heapless::Vec::new(),
             empty: true,
@@ -150,7 +162,7 @@ impl Block {
 
     /// The word with letter `l` (upper case).
     pub fn word(&self, l: u8) -> Option<Word> {
-        self.words[(l - b'A') as usize]
+        self.words[slot(l)]
     }
 
     /// True if the block has the word with letter `l`.
@@ -160,7 +172,7 @@ impl Block {
 
     /// Removes a word (once an earlier step consumed it).
     pub fn take(&mut self, l: u8) -> Option<Word> {
-        self.words[(l - b'A') as usize].take()
+        self.words[slot(l)].take()
     }
 
     /// The G code given for a group.
@@ -185,9 +197,13 @@ impl Block {
 
     /// Iterates over the letters of all value words present.
     pub fn letters(&self) -> impl Iterator<Item = u8> + '_ {
-        (0..26u8)
+        (0..WORD_SLOTS as u8)
             .filter(move |&i| self.words[i as usize].is_some())
-            .map(|i| b'A' + i)
+            .map(|i| match i {
+                26 => b'@',
+                27 => b'^',
+                i => b'A' + i,
+            })
     }
 }
 
@@ -283,7 +299,10 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
                 return Err((ErrorCode::UnexpectedCharacter, cols))
             }
             l => {
-                let slot = &mut b.words[(l - b'A') as usize];
+                if gixa && matches!(l, b'@' | b'^') {
+                    return Err((ErrorCode::NotSupported, cols));
+                }
+                let slot = &mut b.words[slot(l)];
                 if slot.is_some() {
                     return Err((ErrorCode::RepeatedWord, cols));
                 }

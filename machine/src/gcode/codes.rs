@@ -46,6 +46,10 @@ pub const G40: u16 = 400;
 pub const G41: u16 = 410;
 /// `G42` cutter compensation right.
 pub const G42: u16 = 420;
+/// `G41.1` cutter compensation left, diameter in the block.
+pub const G41_1: u16 = 411;
+/// `G42.1` cutter compensation right, diameter in the block.
+pub const G42_1: u16 = 421;
 /// `G43` tool length offset from the table.
 pub const G43: u16 = 430;
 /// `G43.1` dynamic tool length offset.

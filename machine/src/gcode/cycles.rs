@@ -74,6 +74,8 @@ pub struct CycleRun {
     pub offset: Pos,
     /// Per-repeat increments on a, b (G91).
     pub inc: (Nm, Nm),
+    /// G91 polar increments per repeat (radius nm, angle 10⁻⁶ degree about the XY origin).
+    pub polar_step: Option<(Nm, i64)>,
     pub r: Nm,
     pub bottom: Nm,
     pub clear: Nm,
@@ -116,6 +118,7 @@ impl CycleRun {
             program,
             offset,
             inc: (0, 0),
+            polar_step: None,
             r: 0,
             bottom: 0,
             clear: 0,
@@ -212,6 +215,7 @@ impl CycleRun {
                 let current_c = self.program[self.axes.2];
                 self.program[a] += self.inc.0;
                 self.program[b] += self.inc.1;
+                self.polar_move();
                 if self.gixa {
                     // Rapid in the plane at the current level, then down (or up) to R.
                     self.rapid_ab_c(current_c, out);
@@ -375,11 +379,43 @@ impl CycleRun {
         }
     }
 
+    /// One G91 polar increment of the hole position (LinuxCNC: radius, then angle).
+    fn polar_move(&mut self) {
+        let (a, b, _) = self.axes;
+        if let Some((dr, da)) = self.polar_step {
+            let at = (self.program[a], self.program[b]);
+            let step = |r: Option<Nm>, d: Option<i64>, at| {
+                super::geometry::polar_end(at, r, d, false).unwrap_or(at)
+            };
+            let mut at = at;
+            if dr != 0 {
+                at = step(Some(dr), None, at);
+            }
+            if da != 0 {
+                at = step(None, Some(da), at);
+            }
+            (self.program[a], self.program[b]) = at;
+        }
+    }
+
     /// Program position after the whole run (for the interpreter's state).
     pub fn final_program_position(&self) -> Pos {
+        let (a, b, c) = self.axes;
+        if self.polar_step.is_some() {
+            let mut run = *self;
+            for _ in 0..self.repeats_left {
+                run.program[a] += run.inc.0;
+                run.program[b] += run.inc.1;
+                run.polar_move();
+            }
+            let mut p = run.program;
+            if self.body != CycleBody::Punch {
+                p[c] = self.clear;
+            }
+            return p;
+        }
         let mut p = self.program;
         let n = self.repeats_left as i64;
-        let (a, b, c) = self.axes;
         p[a] += self.inc.0 * n;
         p[b] += self.inc.1 * n;
         if self.body == CycleBody::Punch {

@@ -124,7 +124,7 @@ pub enum ErrorCode {
     ToolNotInTable,
     /// G53 needs G0 or G1 and absolute mode.
     G53Invalid,
-    /// G41/G42 cutter radius compensation is not supported yet.
+    /// Cutter radius compensation started by an arc (Fanuc: the entry move must be straight).
     CutterCompNotSupported,
     /// G4 without a P (or X) time.
     DwellTimeMissing,
@@ -171,6 +171,26 @@ pub enum ErrorCode {
     UnbalancedBlock,
     /// `o<label> call` of a subroutine that is not in the file.
     UnknownSubroutine,
+    // --- 8xx cutter radius compensation ---
+    /// G41/G42 while compensation is already on.
+    CompAlreadyOn,
+    /// G41/G42 in the YZ plane (G19), or a plane change while compensation is on.
+    CompPlane,
+    /// Something compensation cannot be on for (offsets, G28/G30, G53, cycles, M6, G43/G49,
+    /// coordinate system, path or retract mode changes).
+    CompForbidden,
+    /// The entry move is not longer than the tool radius.
+    CompEntryTooShort,
+    /// The tool radius is not less than the radius of an arc it runs inside.
+    CompArcTooSmall,
+    /// A concave corner the compensated tool cannot reach without gouging.
+    CompGouge,
+    /// The move right after G40 is an arc (it must be straight).
+    CompArcAfterExit,
+    /// More actions between two compensated moves than the look-ahead holds.
+    CompLookAheadFull,
+    /// G41.1/G42.1 without the D word (the diameter).
+    CompDiameterMissing,
 }
 
 impl ErrorCode {
@@ -244,6 +264,15 @@ impl ErrorCode {
         ErrorCode::ParameterTableFull,
         ErrorCode::UnbalancedBlock,
         ErrorCode::UnknownSubroutine,
+        ErrorCode::CompAlreadyOn,
+        ErrorCode::CompPlane,
+        ErrorCode::CompForbidden,
+        ErrorCode::CompEntryTooShort,
+        ErrorCode::CompArcTooSmall,
+        ErrorCode::CompGouge,
+        ErrorCode::CompArcAfterExit,
+        ErrorCode::CompLookAheadFull,
+        ErrorCode::CompDiameterMissing,
     ];
 
     /// The stable number of the code (`E` + this number in messages).
@@ -318,6 +347,15 @@ impl ErrorCode {
             ParameterTableFull => 707,
             UnbalancedBlock => 708,
             UnknownSubroutine => 709,
+            CompAlreadyOn => 801,
+            CompPlane => 802,
+            CompForbidden => 803,
+            CompEntryTooShort => 804,
+            CompArcTooSmall => 805,
+            CompGouge => 806,
+            CompArcAfterExit => 807,
+            CompLookAheadFull => 808,
+            CompDiameterMissing => 809,
         }
     }
 
@@ -371,7 +409,7 @@ impl ErrorCode {
             G10Invalid => "G10 needs L1 (P tool), L2 or L20 (P0..P9)",
             ToolNotInTable => "tool not in the tool table",
             G53Invalid => "G53 needs G0 or G1 and absolute distance mode (G90)",
-            CutterCompNotSupported => "cutter radius compensation (G41/G42) is not supported yet",
+            CutterCompNotSupported => "cutter compensation must start with a straight move (G0/G1), not an arc",
             DwellTimeMissing => "G4 dwell needs a P time",
             NotSupported => "feature not supported by this interpreter or dialect",
             MissingAxisWords => "this G code needs axis words",
@@ -393,6 +431,15 @@ impl ErrorCode {
             UnbalancedBlock => "unbalanced O-word block (end without start, or a block left open)",
             UnknownSubroutine => "o-word call of a subroutine that is not in the program",
             EndlessLoop => "endless loop: 10000 subprogram jumps or M99 restarts without any action",
+            CompAlreadyOn => "cutter compensation is already on (G40 first)",
+            CompPlane => "cutter compensation works only in the XY (G17) and XZ (G18) planes, and the plane cannot change while it is on",
+            CompForbidden => "not allowed while cutter compensation is on (G40 first): offsets, G28/G30, G53, canned cycles, M6, G43/G49, G54-G59, G61/G64, G98/G99",
+            CompEntryTooShort => "cutter compensation entry move is not longer than the tool radius",
+            CompArcTooSmall => "tool radius is not less than the radius of the arc it runs inside",
+            CompGouge => "concave corner the compensated tool cannot reach without gouging",
+            CompArcAfterExit => "the move just after G40 must be straight, not an arc",
+            CompLookAheadFull => "too many actions between two compensated moves (at most 5)",
+            CompDiameterMissing => "G41.1/G42.1 need a D word (the tool diameter)",
         }
     }
 }

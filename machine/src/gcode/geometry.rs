@@ -166,6 +166,43 @@ pub fn arc_length(sweep: i128, radius: Nm, normal: Nm) -> i128 {
     isqrt_round(s as u128) as i128
 }
 
+/// LinuxCNC's polar coordinates: the XY end point (program coordinates) of a block with a
+/// radius `@` (nm) and/or an angle `^` (10⁻⁶ degree) from `current`. In G90 a missing radius or
+/// angle is the current point's; in G91 both add to the current point's.
+pub fn polar_end(
+    current: (Nm, Nm),
+    radius: Option<Nm>,
+    angle_udeg: Option<i64>,
+    absolute: bool,
+) -> Result<(Nm, Nm), ErrorCode> {
+    use crate::motion::trig::{atan2 as binary_atan2, polar, TURN};
+    let at_origin = current == (0, 0);
+    let angle = angle_udeg.map(|a| div_round(a as i128 * TURN as i128, 360_000_000) as i64);
+    let now_radius = hypot(current.0, current.1);
+    let now_angle = binary_atan2(current.1, current.0);
+    let (r, a) = if absolute {
+        match (radius, angle) {
+            (Some(r), Some(a)) => (r, a),
+            (Some(_), None) if at_origin => return Err(ErrorCode::MissingAxisWords),
+            (Some(r), None) => (r, now_angle),
+            (None, Some(a)) => (now_radius, a),
+            (None, None) => return Ok(current),
+        }
+    } else {
+        if at_origin {
+            return Err(ErrorCode::MissingAxisWords);
+        }
+        (
+            now_radius + radius.unwrap_or(0),
+            now_angle + angle.unwrap_or(0),
+        )
+    };
+    if r.unsigned_abs() >= 1 << 46 {
+        return Err(ErrorCode::CoordinateOverflow);
+    }
+    Ok(polar(r, a))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -194,6 +231,24 @@ mod tests {
         assert_eq!(
             r_format_center((0, 0), (10_000_000, 0), 4_000_000, true, tol),
             Err(ErrorCode::ArcRadiusTooSmall)
+        );
+    }
+
+    #[test]
+    fn polar_end_points() {
+        // @10 ^30 from anywhere in G90: (8.660254, 5).
+        assert_eq!(
+            polar_end((1, 1), Some(10_000_000), Some(30_000_000), true),
+            Ok((8_660_254, 5_000_000))
+        );
+        // G91 ^60 from (38.1, 0): the bolt circle of LinuxCNC's hole-circle.ngc.
+        assert_eq!(
+            polar_end((38_100_000, 0), None, Some(60_000_000), false),
+            Ok((19_050_000, 32_995_568))
+        );
+        assert_eq!(
+            polar_end((0, 0), None, Some(60_000_000), false),
+            Err(ErrorCode::MissingAxisWords)
         );
     }
 

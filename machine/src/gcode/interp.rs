@@ -7,6 +7,7 @@
 //! produces no action.
 
 use super::codes::*;
+use super::comp::{Comp, Side};
 use heapless::Deque;
 
 use super::block::{parse_block, Block, BlockError, GGroup, MGroup};
@@ -189,13 +190,17 @@ pub struct Interpreter {
     subs: heapless::Vec<(Label, u32), MAX_SUBS>,
     /// The current line was rewritten by parameter substitution (its columns no longer apply).
     expanded_line: bool,
+    /// Cutter radius compensation and the moves it holds back (`comp.rs`).
+    comp: Comp,
 }
 
 /// Most subprogram jumps without an action before the program is declared an endless loop.
 pub const MAX_JUMPS_WITHOUT_ACTION: u32 = 10_000;
 
-/// 10,360 B (measured) with the G65 locals stack of 4 levels × 33 values.
-const _: () = assert!(core::mem::size_of::<Interpreter>() <= 11 * 1024);
+/// 11,600 B (measured): 10,360 B with the G65 locals stack of 4 levels × 33 values, and
+/// 1,240 B for cutter compensation's look-ahead (`comp.rs`: up to 6 actions held back until
+/// the next move decides the corner), hence 12 KiB.
+const _: () = assert!(core::mem::size_of::<Interpreter>() <= 12 * 1024);
 
 type Res<T> = Result<T, BlockError>;
 
@@ -225,6 +230,7 @@ impl Interpreter {
             ocalls: heapless::Vec::new(),
             subs: heapless::Vec::new(),
             expanded_line: false,
+            comp: Comp::new(),
         }
     }
 
@@ -278,6 +284,7 @@ impl Interpreter {
         self.finished = false;
         self.percent_lines = 0;
         self.clear_control();
+        self.comp.reset();
     }
 
     fn clear_control(&mut self) {
@@ -339,6 +346,24 @@ impl Interpreter {
                 });
                 continue;
             }
+            if self.comp.holds() && self.finished {
+                // The program ended with compensated moves held back: they end as aimed.
+                let queue = &mut self.queue;
+                let released = self.comp.release(&mut |c| {
+                    let _ = queue.push_back(c);
+                });
+                if let Err(code) = released {
+                    self.comp.reset();
+                    self.finished = true;
+                    return Some(Err(GcodeError {
+                        line: self.last_line,
+                        n_word: None,
+                        columns: None,
+                        code,
+                    }));
+                }
+                continue;
+            }
             if self.finished {
                 return None;
             }
@@ -368,6 +393,9 @@ impl Interpreter {
                         return None;
                     }
                     self.finished = true;
+                    if self.comp.holds() {
+                        continue;
+                    }
                     let open = match self.skip {
                         Some(Skip {
                             to: SkipTo::Sub, ..
@@ -456,11 +484,13 @@ impl Interpreter {
             };
             let saved = self.state;
             let saved_finished = self.finished;
+            let saved_comp = (!self.comp.is_idle()).then(|| self.comp.clone());
             match self.execute(&mut block, line, src) {
                 Ok(()) => {}
                 Err((code, columns)) => {
                     let columns = if self.expanded_line { None } else { columns };
                     self.state = saved;
+                    self.comp = saved_comp.unwrap_or_default();
                     // An endless loop ends the program; other errors skip the block.
                     self.finished = saved_finished || code == ErrorCode::EndlessLoop;
                     self.queue.clear();
@@ -813,10 +843,96 @@ impl Interpreter {
         }
     }
 
+    // Not inlined: it is called from every phase, and its compensation routing would be copied
+    // into each (measured: flash of the F411 build).
+    #[inline(never)]
     fn push(&mut self, line: u32, action: Action) -> Res<()> {
+        let canon = Canon { line, action };
+        if self.comp.catch(canon) {
+            return Ok(());
+        }
+        if self.comp.holds() {
+            // Behind a compensated move that waits for the next one.
+            return self.comp.hold(canon).map_err(|c| (c, None));
+        }
         self.queue
-            .push_back(Canon { line, action })
+            .push_back(canon)
             .map_err(|_| (ErrorCode::NotSupported, None))
+    }
+
+    /// Refuses what cannot happen while cutter compensation is on (as LinuxCNC).
+    fn refuse_under_comp(&self, cols: Option<(u16, u16)>) -> Res<()> {
+        if self.comp.is_on() {
+            return Err((ErrorCode::CompForbidden, cols));
+        }
+        Ok(())
+    }
+
+    /// G10 L2/L20 of the active coordinate system (refused under compensation).
+    fn g10_sets_active_system(&self, b: &Block) -> bool {
+        let l = b.word(b'L').and_then(|w| w.integer());
+        let p = b.word(b'P').and_then(|w| w.integer());
+        matches!(l, Some(2 | 20))
+            && matches!(p, Some(p) if p == 0 || p == self.state.work_system as i64 + 1)
+    }
+
+    /// Phase 4's G40, G41/G42 (D: a tool of the table, else the tool in the spindle) and
+    /// G41.1/G42.1 (D: the diameter).
+    fn cutter_compensation(&mut self, b: &mut Block) -> Res<()> {
+        let Some(code) = b.g[GGroup::CutterComp as usize] else {
+            return Ok(());
+        };
+        let cols = Some(code.cols);
+        let side = match code.code {
+            G41 | G41_1 => Side::Left,
+            G42 | G42_1 => Side::Right,
+            _ => {
+                let queue = &mut self.queue;
+                let back = self
+                    .comp
+                    .turn_off(&mut |c| {
+                        let _ = queue.push_back(c);
+                    })
+                    .map_err(|c| (c, cols))?;
+                if let Some(programmed) = back {
+                    // LinuxCNC continues from the programmed point (the exit move starts there).
+                    let (first, second, _) = arc_axes(self.state.plane);
+                    self.state.position[first] = programmed[first];
+                    self.state.position[second] = programmed[second];
+                }
+                return Ok(());
+            }
+        };
+        let d = b.take(b'D');
+        let diameter = if matches!(code.code, G41_1 | G42_1) {
+            let d = d.ok_or((ErrorCode::CompDiameterMissing, cols))?;
+            if let Some(l) = b.word(b'L') {
+                return err(ErrorCode::NotSupported, Some(l));
+            }
+            self.len_word(d)?
+        } else {
+            let number = match d {
+                Some(w) => {
+                    let v = w.integer().ok_or((ErrorCode::NotAnInteger, Some(w.cols)))?;
+                    if v < 0 {
+                        return err(ErrorCode::ValueOutOfRange, Some(w));
+                    }
+                    Self::integer(w, 99_999_999)? as u32
+                }
+                None => self.state.tool_loaded,
+            };
+            if number == 0 {
+                0
+            } else {
+                self.config
+                    .tool(number)
+                    .ok_or((ErrorCode::ToolNotInTable, d.map(|w| w.cols).or(cols)))?
+                    .diameter
+            }
+        };
+        self.comp
+            .turn_on(side, diameter / 2, self.state.plane)
+            .map_err(|c| (c, cols))
     }
 
     fn gixa(&self) -> bool {
@@ -878,10 +994,22 @@ impl Interpreter {
         })
     }
 
-    /// The machine end point of a move from the block's axis words (consumed).
+    /// The machine end point of a move from the block's axis words (consumed), with LinuxCNC's
+    /// polar coordinates (`@` radius, `^` angle about the XY origin) for X and Y.
     fn target(&self, b: &mut Block, g53: bool) -> Res<Pos> {
+        let polar = self.polar_words(b)?;
         let mut to = self.state.position;
         let offset = self.state.offset();
+        if let Some((radius, angle, cols)) = polar {
+            if g53 {
+                return Err((ErrorCode::NotSupported, Some(cols)));
+            }
+            let p = self.state.program_position();
+            let (x, y) = geometry::polar_end((p[0], p[1]), radius, angle, self.state.absolute)
+                .map_err(|c| (c, Some(cols)))?;
+            to[0] = x + offset[0];
+            to[1] = y + offset[1];
+        }
         for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
             if let Some(w) = b.take(letter) {
                 let v = self.axis_value(i, w)?;
@@ -899,6 +1027,20 @@ impl Interpreter {
             }
         }
         Ok(to)
+    }
+
+    /// The block's polar words (`@` radius in nm, `^` angle in 10⁻⁶ degree, their columns),
+    /// consumed; refused beside X or Y.
+    fn polar_words(&self, b: &mut Block) -> Res<Option<PolarWords>> {
+        let (r, a) = (b.take(b'@'), b.take(b'^'));
+        let Some(first) = r.or(a) else {
+            return Ok(None);
+        };
+        if let Some(w) = b.word(b'X').or(b.word(b'Y')) {
+            return err(ErrorCode::AxisWordsConflict, Some(w));
+        }
+        let radius = r.map(|w| self.len_word(w)).transpose()?;
+        Ok(Some((radius, a.map(|w| w.value), first.cols)))
     }
 
     /// Feed (nm/min, or 1e-6 deg/min for rotary-only moves) of a straight feed move.
@@ -969,11 +1111,6 @@ impl Interpreter {
                 }
             }
         }
-        if let Some(c) = b.g[GGroup::CutterComp as usize] {
-            if c.code != G40 {
-                return Err((ErrorCode::CutterCompNotSupported, Some(c.cols)));
-            }
-        }
         if gixa && b.has_m(98) {
             if let Some(o) = b.word(b'O') {
                 return err(ErrorCode::NotSupported, Some(o));
@@ -992,7 +1129,7 @@ impl Interpreter {
             None
         };
         let motion_g = b.g[GGroup::Motion as usize];
-        let first_axis = AXIS_LETTERS.iter().find_map(|&l| b.word(l));
+        let first_axis = AXIS_LETTERS.iter().chain(b"@^").find_map(|&l| b.word(l));
         let nonmodal_axes = matches!(nonmodal, Some(G10 | G28 | G30 | G52 | G92))
             || b.g_of(GGroup::ToolLength) == Some(G43_1);
         if nonmodal_axes {
@@ -1068,6 +1205,7 @@ impl Interpreter {
         s_word: Option<Word>,
     ) -> Res<()> {
         if b.has_m(6) {
+            self.refuse_under_comp(b.m.iter().find(|(_, c)| c.code == 6).map(|(_, c)| c.cols))?;
             self.state.tool_loaded = self.state.tool_selected;
             let tool = self.state.tool_loaded;
             self.push(line, Action::ToolChange { tool })?;
@@ -1135,8 +1273,17 @@ impl Interpreter {
         Ok(())
     }
 
-    /// Phase 4: plane, units, cutter compensation (G40 only) and tool length offset.
+    /// Phase 4: plane, units, cutter compensation and tool length offset.
     fn set_plane_units_tool_length(&mut self, b: &mut Block) -> Res<()> {
+        if let Some(p) = b.g[GGroup::Plane as usize] {
+            let same = matches!(
+                (p.code, self.state.plane),
+                (G17, Plane::XY) | (G18, Plane::ZX)
+            );
+            if self.comp.is_on() && !same {
+                return Err((ErrorCode::CompPlane, Some(p.cols)));
+            }
+        }
         match b.g_of(GGroup::Plane) {
             Some(G17) => self.state.plane = Plane::XY,
             Some(G18) => self.state.plane = Plane::ZX,
@@ -1155,6 +1302,10 @@ impl Interpreter {
                 } as i64;
             }
             self.state.inch = inch;
+        }
+        self.cutter_compensation(b)?;
+        if let Some(t) = b.g[GGroup::ToolLength as usize] {
+            self.refuse_under_comp(Some(t.cols))?;
         }
         match b.g_of(GGroup::ToolLength) {
             Some(G43) => {
@@ -1193,6 +1344,11 @@ impl Interpreter {
 
     /// Phase 5: coordinate system, path mode, distance modes and retract mode.
     fn set_modes(&mut self, b: &mut Block, line: u32) -> Res<()> {
+        for group in [GGroup::Coordinate, GGroup::Path, GGroup::Return] {
+            if let Some(c) = b.g[group as usize] {
+                self.refuse_under_comp(Some(c.cols))?;
+            }
+        }
         if let Some(code) = b.g_of(GGroup::Coordinate) {
             self.state.work_system = match code {
                 G54..=G59 => ((code - G54) / 10) as u8,
@@ -1249,6 +1405,13 @@ impl Interpreter {
         nonmodal: Option<u16>,
     ) -> Res<Option<(u32, Nm)>> {
         let mut tool_write = None;
+        if matches!(
+            nonmodal,
+            Some(G28 | G30 | G28_1 | G30_1 | G52 | G92 | G92_1 | G92_2 | G92_3)
+        ) || (nonmodal == Some(G10) && self.g10_sets_active_system(b))
+        {
+            self.refuse_under_comp(nonmodal.and_then(|g| b.g_cols(g)))?;
+        }
         match nonmodal {
             Some(G10) => tool_write = self.set_work_offset(b)?,
             Some(G52) => {
@@ -1411,7 +1574,6 @@ impl Interpreter {
         g53: bool,
         f_given: bool,
     ) -> Res<()> {
-        let gixa = self.gixa();
         let straight_or_arc = matches!(
             mode,
             MotionMode::Rapid | MotionMode::Linear | MotionMode::ArcCw | MotionMode::ArcCcw
@@ -1419,10 +1581,57 @@ impl Interpreter {
         if straight_or_arc && (explicit || !matches!(self.state.motion, MotionMode::Cycle(_))) {
             self.state.cycle = CycleMemory::default();
         }
+        let compensated = straight_or_arc && self.comp.applies();
+        if compensated && g53 {
+            return Err((ErrorCode::CompForbidden, b.g_cols(G53)));
+        }
+        if matches!(mode, MotionMode::ArcCw | MotionMode::ArcCcw) {
+            self.comp.check_arc().map_err(|c| (c, None))?;
+        } else if straight_or_arc {
+            self.comp.straight_done();
+        }
+        let tool = self.state.position;
+        if compensated {
+            // The block's programmed move is computed from the programmed point and caught.
+            self.state.position = self.comp.program_base(tool);
+            self.comp.start_catching();
+        }
+        let sets_mode = self.plain_motion(b, line, mode, explicit, g53, f_given)?;
+        if compensated {
+            self.state.position = match self.comp.caught() {
+                Some(canon) => {
+                    let queue = &mut self.queue;
+                    self.comp
+                        .motion(canon, tool, self.state.inch, &mut |c| {
+                            let _ = queue.push_back(c);
+                        })
+                        .map_err(|c| (c, None))?
+                }
+                None => tool,
+            };
+        }
+        if sets_mode {
+            self.state.motion = mode;
+        }
+        Ok(())
+    }
+
+    /// The motion of a block as programmed (compensation aside); false when the block leaves
+    /// the motion mode as it is (gixa G80).
+    fn plain_motion(
+        &mut self,
+        b: &mut Block,
+        line: u32,
+        mode: MotionMode,
+        explicit: bool,
+        g53: bool,
+        f_given: bool,
+    ) -> Res<bool> {
+        let gixa = self.gixa();
         match mode {
             MotionMode::Rapid => {
                 // As LinuxCNC, an explicit G0 without axis words is a zero-length move.
-                let has_axes = AXIS_LETTERS.iter().any(|&l| b.has(l));
+                let has_axes = AXIS_LETTERS.iter().chain(b"@^").any(|&l| b.has(l));
                 let to = self.target(b, g53)?;
                 if has_axes || explicit {
                     self.push(line, Action::Rapid { to })?;
@@ -1430,7 +1639,7 @@ impl Interpreter {
                 self.state.position = to;
             }
             MotionMode::Linear => {
-                let has_axes = AXIS_LETTERS.iter().any(|&l| b.has(l));
+                let has_axes = AXIS_LETTERS.iter().chain(b"@^").any(|&l| b.has(l));
                 let to = self.target(b, g53)?;
                 if has_axes || explicit {
                     let feed = self.straight_feed(self.state.position, to, f_given)?;
@@ -1442,6 +1651,8 @@ impl Interpreter {
                 self.arc(b, line, mode == MotionMode::ArcCw, f_given)?;
             }
             MotionMode::Probe(code) => {
+                // LinuxCNC refuses probing under cutter compensation too.
+                self.refuse_under_comp(b.g_cols(code))?;
                 let to = self.target(b, g53)?;
                 if self.state.inverse_time {
                     return Err((ErrorCode::ProbeInverseTime, b.g_cols(code)));
@@ -1463,21 +1674,21 @@ impl Interpreter {
                 self.state.cycle = CycleMemory::default();
                 if gixa && explicit {
                     self.state.motion = self.state.motion_before_cycle;
-                    return Ok(());
+                    return Ok(false);
                 }
             }
             MotionMode::Cycle(code) => {
-                if explicit && !AXIS_LETTERS.iter().any(|&l| b.has(l)) {
+                if explicit && !AXIS_LETTERS.iter().chain(b"@^").any(|&l| b.has(l)) {
                     return Err((ErrorCode::MissingAxisWords, b.g_cols(code)));
                 }
+                self.refuse_under_comp(b.g_cols(code))?;
                 self.cycle(b, line, code)?;
                 if !matches!(self.state.motion, MotionMode::Cycle(_)) {
                     self.state.motion_before_cycle = self.state.motion;
                 }
             }
         }
-        self.state.motion = mode;
-        Ok(())
+        Ok(true)
     }
 
     fn arc(&mut self, b: &mut Block, line: u32, cw: bool, f_given: bool) -> Res<()> {
@@ -1644,6 +1855,11 @@ impl Interpreter {
         let prog = self.state.program_position();
         let offset = self.state.offset();
         let mem = self.state.cycle;
+        let polar = if self.state.plane == Plane::XY {
+            self.polar_words(b)?
+        } else {
+            None
+        };
         let a_w = b.take(AXIS_LETTERS[a]);
         let b_w = b.take(AXIS_LETTERS[bx]);
         let c_w = b.take(AXIS_LETTERS[c]);
@@ -1695,6 +1911,18 @@ impl Interpreter {
                     as u32;
             }
         }
+        let (mut aa, mut bb) = (0, 0);
+        let mut polar_step = None;
+        if let (Some((radius, angle, cols)), false) = (polar, gixa) {
+            let at = (prog[a], prog[bx]);
+            if self.state.absolute {
+                (aa, bb) =
+                    geometry::polar_end(at, radius, angle, true).map_err(|c| (c, Some(cols)))?;
+            } else {
+                geometry::polar_end(at, radius, angle, false).map_err(|c| (c, Some(cols)))?;
+                polar_step = Some((radius.unwrap_or(0), angle.unwrap_or(0)));
+            }
+        }
         let (aa, bb, inc, r, bottom) = if gixa {
             let (aa, bb) = if self.state.absolute {
                 (a_v.unwrap_or(prog[a]), b_v.unwrap_or(prog[bx]))
@@ -1709,8 +1937,10 @@ impl Interpreter {
             };
             (aa, bb, (0, 0), r, bottom)
         } else if self.state.absolute {
-            let aa = a_v.unwrap_or(prog[a]);
-            let bb = b_v.unwrap_or(prog[bx]);
+            if polar.is_none() {
+                aa = a_v.unwrap_or(prog[a]);
+                bb = b_v.unwrap_or(prog[bx]);
+            }
             (aa, bb, (0, 0), r_raw, depth_raw)
         } else {
             let r = r_raw + initial;
@@ -1811,6 +2041,7 @@ impl Interpreter {
         }
         let mut run = CycleRun::new(line, body, gixa, (a, bx, c), program, offset, repeats);
         run.inc = inc;
+        run.polar_step = polar_step;
         run.r = r;
         run.bottom = bottom;
         let old_c = if !gixa && initial < r { r } else { initial };
@@ -1858,6 +2089,15 @@ impl Interpreter {
         let Some(&(_, code)) = b.m.iter().find(|(g, _)| *g == MGroup::Flow) else {
             return Ok(());
         };
+        if matches!(code.code, 0 | 1 | 2 | 30) {
+            // A stop releases the compensated moves held back (LinuxCNC `convert_stop`).
+            let queue = &mut self.queue;
+            self.comp
+                .release(&mut |c| {
+                    let _ = queue.push_back(c);
+                })
+                .map_err(|c| (c, Some(code.cols)))?;
+        }
         match code.code {
             0 => self.post = Post::Stop(StopKind::Pause, line),
             1 if self.config.optional_stop => {
@@ -1871,6 +2111,7 @@ impl Interpreter {
                 };
                 self.post = Post::Stop(kind, line);
                 self.state.reset_at_program_end(&self.config);
+                self.comp.reset();
                 self.stack.clear();
                 self.macros.clear();
                 self.clear_control();
@@ -2038,6 +2279,9 @@ fn decode_motion(code: u16) -> MotionMode {
         c => MotionMode::Cycle(c),
     }
 }
+
+/// A block's polar words: `@` radius (nm), `^` angle (10⁻⁶ degree), columns of the first.
+type PolarWords = (Option<Nm>, Option<i64>, (u16, u16));
 
 /// What [`Interpreter::check_block`] learned of a block for the phases after it.
 struct Prelude {

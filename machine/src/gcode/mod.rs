@@ -13,7 +13,9 @@
 //!   bare `X5 Y5` is a rapid); `K` as well as `L` repeats canned cycles, and 0 stores the cycle
 //!   without drilling; `G4 X1.5` (no P) is a dwell; `M98 P30050` = 3 × O0050 when there is no L.
 //! - Modal-group conflicts are errors (also a cycle with G0-G3 in the same block); unused words
-//!   are errors; G41/G42 are refused, never ignored.
+//!   are errors.
+//! - Cutter radius compensation (G41/G42, G41.1/G42.1) follows LinuxCNC (`comp.rs`), except
+//!   that it must start with a straight move (Fanuc).
 //! - M2/M30 reset G54, G17, G90, G94, G80 → G0, G98, M5, M9 and clear G92 offsets (G92.3 can
 //!   restore them); units, the tool length offset and the path mode survive. The controller
 //!   switches the spindle and coolant outputs off on [`crate::canon::StopKind::End`].
@@ -23,6 +25,7 @@
 
 pub mod block;
 pub mod codes;
+pub mod comp;
 pub mod config;
 pub mod cycles;
 pub mod error;

@@ -222,6 +222,17 @@ fn errors() -> u32 {
     digest_program(ERRORS_AND_GIXA, &InterpConfig::default())
 }
 
+/// Cutter compensation: entry, convex arcs, concave trims (line-line, line-arc, arc-line,
+/// arc-arc), Z moves held back, G18, exit, and polar coordinates in a G91 bolt circle.
+const CUTTER_COMP: &[u8] = b"G21 G90 G17\nG0 X10 Y-10\nG41.1 D5.08 G1 X10 Y0 F200\nX50\n\
+G3 X50 Y30 R15\nG1 X35\nG2 X25 Y30 R5\nG1 X10\nG3 X10 Y0 R15\nG1 Z-1\nG40 G1 X10 Y-10\n\
+G42.1 D3 X0 Y0\nY40\nX40\nY0\nX0\nG40 X-10 Y-10\nG18\nG42.1 D4 G1 X10 Z0\nZ-10\n\
+G2 X15 Z-15 I5 K0\nG1 X20 Z-20\nG40 G0 X30\nG17 G0 X38.1 Y0\nG91 G81 R1 Z-3 ^60 L6\nG90 G80 G0 @10 ^45\nM2\n";
+
+fn cutter_comp() -> u32 {
+    digest_program(CUTTER_COMP, &InterpConfig::default())
+}
+
 fn gixa() -> u32 {
     digest_program(GIXA, &InterpConfig::gixa())
 }
@@ -249,9 +260,14 @@ pub const VECTORS: &[Vector] = &[
         expected: 0x7b53_7bf7,
     },
     Vector {
+        name: "gcode/cutter-comp",
+        run: cutter_comp,
+        expected: 0x2b33_6dda,
+    },
+    Vector {
         name: "gcode/errors",
         run: errors,
-        expected: 0xaa9c_fee5,
+        expected: 0x4d78_00f3,
     },
     Vector {
         name: "gcode/gixa",
