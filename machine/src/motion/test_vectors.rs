@@ -323,27 +323,27 @@ pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/planner-square",
         run: planner_square,
-        expected: 0x0d2e_600a,
+        expected: 0xda02_f0f8,
     },
     Vector {
         name: "motion/arcs-helix",
         run: arcs_and_helix,
-        expected: 0x8434_1796,
+        expected: 0x0fa1_412c,
     },
     Vector {
         name: "motion/hold-resume-override",
         run: hold_resume_override,
-        expected: 0x8a37_7d18,
+        expected: 0xfa8d_cf99,
     },
     Vector {
         name: "motion/odd-ratios-dwell-exact-stop",
         run: odd_ratios_dwell_exact_stop,
-        expected: 0x4098_ce2f,
+        expected: 0xd22a_0ed0,
     },
     Vector {
         name: "motion/onfly-outputs",
         run: onfly_outputs,
-        expected: 0x642f_4d48,
+        expected: 0x4bc5_904a,
     },
 ];
 
