@@ -144,7 +144,7 @@ mod tests {
         assert_eq!(s.leaves_travel, None);
         assert_eq!(s.tools, vec![1]);
         // The same figure `gantry simulate` prints for this job.
-        assert_eq!(format!("{:.3}", s.run_time_s.unwrap()), "52.289");
+        assert_eq!(format!("{:.3}", s.run_time_s.unwrap()), "51.874");
     }
 
     #[test]

@@ -47,7 +47,8 @@ pub struct AxisSetup {
 pub struct PathSetup {
     /// grbl junction deviation, nm.
     pub junction_deviation: Nm,
-    /// Largest speed jump allowed at a junction (seed "Feed Shift"), nm/min.
+    /// Speed jump the steppers take at any junction (seed "Feed Shift"), nm/min; it only raises
+    /// junction deviation's corner speed (docs/settings.md).
     pub feed_shift: FeedNmPerMin,
     /// Largest chord error when arcs are cut into lines, nm.
     pub chord_tolerance: Nm,

@@ -154,14 +154,25 @@ fn check_limits(cfg: &MotionConfig, trace: &Trace, jump_per_axis_nm_s: f64) {
     }
 }
 
+/// Largest instant speed change (nm/s) of one axis that the configuration allows: the start
+/// speed from rest, the feed shift at a corner, or junction deviation's corner, whose per-axis
+/// jump v·|Δu_i| is at most √(8·a_i·δ) (v² = a_j·δ·s/(1 − s) with a_j·|Δu_i|/|Δu| ≤ a_i and
+/// |Δu|² = 4·(1 − s²), s the sine of half the corner's inner angle).
+fn allowed_jump(cfg: &MotionConfig) -> f64 {
+    let deviation = (8.0 * cfg.axes[0].accel as f64 * cfg.junction_deviation as f64).sqrt();
+    (cfg.feed_shift.max(cfg.axes[0].start_speed) as f64).max(deviation)
+}
+
 #[test]
 fn rates_and_accelerations_stay_within_limits() {
-    // No instant jumps at all: start speed 0 and a negligible feed shift.
+    // No instant jumps at all: start speed 0, corners at rest (no junction deviation, no feed
+    // shift).
     let mut cfg = MotionConfig::default();
     for a in cfg.axes.iter_mut() {
         a.start_speed = 0;
     }
-    cfg.feed_shift = 1;
+    cfg.feed_shift = 0;
+    cfg.junction_deviation = 0;
     let mut sim: Sim<128> = Sim::new(cfg);
     let trace = Trace::record(&mut sim, mixed_job());
     check_limits(&cfg, &trace, 0.0);
@@ -175,9 +186,19 @@ fn default_machine_limits_allow_only_the_configured_jumps() {
     let cfg = MotionConfig::default();
     let mut sim: Sim<128> = Sim::new(cfg);
     let trace = Trace::record(&mut sim, mixed_job());
-    // Start speed (1 mm/s) from rest, feed shift (1 mm/s) at corners.
-    let jump = cfg.feed_shift.max(cfg.axes[0].start_speed) as f64;
-    check_limits(&cfg, &trace, jump);
+    // Start speed (1 mm/s) from rest, junction deviation's 4 mm/s at most at corners.
+    assert_eq!(allowed_jump(&cfg), 4e6);
+    check_limits(&cfg, &trace, allowed_jump(&cfg));
+    assert_eq!(trace.final_position(), [0; MAX_AXES]);
+    // Feed shift alone (no junction deviation): its 1 mm/s at corners.
+    let cfg = MotionConfig {
+        junction_deviation: 0,
+        ..cfg
+    };
+    let mut sim: Sim<128> = Sim::new(cfg);
+    let trace = Trace::record(&mut sim, mixed_job());
+    assert_eq!(allowed_jump(&cfg), 1e6);
+    check_limits(&cfg, &trace, allowed_jump(&cfg));
     assert_eq!(trace.final_position(), [0; MAX_AXES]);
 }
 
@@ -217,11 +238,25 @@ fn corners_respect_junction_deviation_and_feed_shift() {
     let s = (0.5f64).sqrt();
     let dev = vm * vm * (1.0 - s) / (200.0 * 2f64.sqrt() * s);
     assert!(dev <= 0.0105, "deviation {dev} mm");
-    // Feed shift 1 mm/s: the 90° corner's vector jump v·√2 ≤ 1 mm/s → 0.707 mm/s.
-    let v = corner_speed(MotionConfig::default());
+    // The default feed shift (1 mm/s) allows less than junction deviation at this corner, so it
+    // changes nothing: the same corner speed to the step.
+    assert_eq!(corner_speed(MotionConfig::default()), v);
+    // Feed shift alone, 1 mm/s: the 90° corner's vector jump v·√2 ≤ 1 mm/s → 0.707 mm/s.
+    let v = corner_speed(MotionConfig {
+        junction_deviation: 0,
+        ..Default::default()
+    });
     let limit = 0.7072e6 * k;
     println!("feed shift corner: {v:.0} steps/s (limit {limit:.0} + {quantum:.0})");
     assert!(v <= limit + quantum && v >= limit * 0.5, "{v}");
+    // A feed shift of 300 mm/min (5 mm/s) raises the corner above junction deviation's: 3.54 mm/s.
+    let v = corner_speed(MotionConfig {
+        feed_shift: 5_000_000,
+        ..Default::default()
+    });
+    let limit = 3.5356e6 * k;
+    println!("large feed shift corner: {v:.0} steps/s (limit {limit:.0} + {quantum:.0})");
+    assert!(v <= limit + quantum && v >= limit * 0.8, "{v}");
 }
 
 #[test]
@@ -309,11 +344,7 @@ fn hold_stops_within_computed_distance_and_resume_ends_identically() {
     assert_eq!(sim.kernel.position(), reference.kernel.position());
     assert_eq!(trace.final_position(), ref_trace.final_position());
     assert_eq!(sim.kernel.position(), [0; MAX_AXES]);
-    check_limits(
-        &cfg,
-        &trace,
-        cfg.feed_shift.max(cfg.axes[0].start_speed) as f64,
-    );
+    check_limits(&cfg, &trace, allowed_jump(&cfg));
 }
 
 /// Takes back up to `max` of the newest queued segments, as the kernel's owner does for a stop.
@@ -396,11 +427,7 @@ fn holds_that_take_back_queued_segments_stay_on_the_path_and_end_identically() {
         n
     };
     assert_eq!(pulses(&trace), pulses(&ref_trace));
-    check_limits(
-        &cfg,
-        &trace,
-        cfg.feed_shift.max(cfg.axes[0].start_speed) as f64,
-    );
+    check_limits(&cfg, &trace, allowed_jump(&cfg));
 }
 
 #[test]

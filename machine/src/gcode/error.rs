@@ -433,7 +433,7 @@ impl ErrorCode {
             EndlessLoop => "endless loop: 10000 subprogram jumps or M99 restarts without any action",
             CompAlreadyOn => "cutter compensation is already on (G40 first)",
             CompPlane => "cutter compensation works only in the XY (G17) and XZ (G18) planes, and the plane cannot change while it is on",
-            CompForbidden => "not allowed while cutter compensation is on (G40 first): offsets, G28/G30, G53, canned cycles, M6, G43/G49, G54-G59, G61/G64, G98/G99",
+            CompForbidden => "not allowed while cutter compensation is on (G40 first): offsets, G28/G30, G53, canned cycles, G38 probing, M6, G43/G49, G54-G59, G61/G64, G98/G99",
             CompEntryTooShort => "cutter compensation entry move is not longer than the tool radius",
             CompArcTooSmall => "tool radius is not less than the radius of the arc it runs inside",
             CompGouge => "concave corner the compensated tool cannot reach without gouging",

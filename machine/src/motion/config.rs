@@ -67,7 +67,8 @@ pub struct MotionConfig {
     pub axes: [AxisConfig; MAX_AXES],
     /// grbl junction deviation, nm (0 = stop at every corner).
     pub junction_deviation: Nm,
-    /// Largest vector-speed jump at a junction (seed "Feed Shift"), nm/s; 0 = no such limit.
+    /// Vector-speed jump the steppers take at any junction (seed "Feed Shift"), nm/s: a corner
+    /// runs at the larger of this jump's speed and junction deviation's; 0 = junction deviation alone.
     pub feed_shift: u64,
     /// Largest chord-to-arc error, nm (default 0.002 mm).
     pub chord_tolerance: Nm,

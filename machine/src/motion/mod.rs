@@ -1,6 +1,7 @@
 //! Motion: arc linearisation, look-ahead planner, segment preparation and the step kernel.
 //!
-//! Data flow: [`pipeline::Motion::push`] (canonical actions; arcs cut by [`arc`]) → [`planner`]
+//! Data flow: [`pipeline::Motion::push`] (canonical actions; arcs cut by [`arc`], chains of short
+//! moves merged within a `G64 P` tolerance by [`blend`]) → [`planner`]
 //! (look-ahead ring) → [`prep`] (constant-rate [`kernel::Segment`]s, timed by [`profile`], the
 //! latest remembered in [`history`] so a stop can take back what the kernel has not started) →
 //! [`kernel::StepKernel::tick`] (the step interrupt). [`sim`] runs all of it on virtual time.
@@ -11,6 +12,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod arc;
+pub mod blend;
 pub mod config;
 pub mod history;
 pub mod kernel;

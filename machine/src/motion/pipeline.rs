@@ -25,6 +25,7 @@
 //! point itself, so it runs when the motion before it has ended.
 
 use super::arc::{plane_axes, ArcChords};
+use super::blend::Chain;
 use super::config::MotionConfig;
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::output_event::OutputEvent;
@@ -103,6 +104,11 @@ pub struct Motion<const N: usize> {
     steps: [i64; MAX_AXES],
     exact_stop: bool,
     junction_deviation: u64,
+    /// `G64 P` tolerance, nm (0: no merging): short feed moves within it of one chord run as
+    /// one block ([`super::blend`]).
+    blend_tolerance: u64,
+    /// Short feed moves held back to run as one chord (after everything in the planner).
+    chain: Option<Chain>,
     abort_pending: bool,
     at_sync: bool,
     /// An on-the-fly M code waiting for the next line block.
@@ -125,6 +131,8 @@ impl<const N: usize> Motion<N> {
             steps: [0; MAX_AXES],
             exact_stop: false,
             junction_deviation: cfg.junction_deviation.max(0) as u64,
+            blend_tolerance: 0,
+            chain: None,
             abort_pending: false,
             at_sync: false,
             pending_output: None,
@@ -141,9 +149,9 @@ impl<const N: usize> Motion<N> {
         &self.planner
     }
 
-    /// Machine position (nm) at the end of everything queued.
+    /// Machine position (nm) at the end of everything queued (a held-back chain included).
     pub fn queued_position(&self) -> Pos {
-        self.position
+        self.chain.as_ref().map_or(self.position, Chain::end)
     }
 
     /// Step position at the end of everything prepared (handed out as segments).
@@ -168,9 +176,17 @@ impl<const N: usize> Motion<N> {
         if self.arc.is_some() || self.planner.is_full() || self.abort_pending {
             return Err(PushError::Full);
         }
+        if let Action::Feed { to, feed } = canon.action {
+            return self.push_feed(canon.line, &to, speed_of(feed));
+        }
+        // Anything else ends a held-back chain first (the planner has room for it).
+        self.flush_chain();
+        if self.planner.is_full() {
+            return Err(PushError::Full);
+        }
         match canon.action {
             Action::Rapid { to } => self.push_line(canon.line, &to, None),
-            Action::Feed { to, feed } => self.push_line(canon.line, &to, Some(speed_of(feed))),
+            Action::Feed { .. } => Ok(()),
             Action::Arc {
                 to,
                 center,
@@ -207,6 +223,7 @@ impl<const N: usize> Motion<N> {
                     crate::canon::PathMode::ExactStop => self.exact_stop = true,
                     crate::canon::PathMode::Blend { tolerance } => {
                         self.exact_stop = false;
+                        self.blend_tolerance = tolerance.max(0) as u64;
                         self.junction_deviation = if tolerance > 0 {
                             tolerance as u64
                         } else {
@@ -248,6 +265,13 @@ impl<const N: usize> Motion<N> {
         self.feed_arc();
         if self.arc.is_some() || self.abort_pending {
             return Err(PushError::Full);
+        }
+        if self.chain.is_some() {
+            // The output fires where the chain ends: queue it first.
+            if self.planner.is_full() {
+                return Err(PushError::Full);
+            }
+            self.flush_chain();
         }
         let this = PendingOutput { line, code, output };
         if self.pending_output.is_none() {
@@ -306,6 +330,41 @@ impl<const N: usize> Motion<N> {
         let mut p = self.position;
         p[..self.cfg.axis_count as usize].copy_from_slice(&to[..self.cfg.axis_count as usize]);
         p
+    }
+
+    /// A feed move: merged into the held-back chain when its chord holds (`G64 P`), else queued
+    /// (after the chain, which it ends), or held back as the start of a new chain.
+    fn push_feed(&mut self, line: u32, to: &Pos, speed: u64) -> Result<(), PushError> {
+        let to = self.masked(to);
+        if let Some(axis) = self.cfg.travel_violation(&to) {
+            return Err(PushError::Travel { axis });
+        }
+        let (tolerance, axes) = (self.blend_tolerance, self.cfg.axis_count as usize);
+        let mergeable = tolerance > 0 && !self.exact_stop && self.pending_output.is_none();
+        if let Some(chain) = self.chain.as_mut() {
+            if mergeable && chain.extend(&to, line, speed, tolerance, axes) {
+                return Ok(());
+            }
+            self.flush_chain();
+        }
+        if mergeable {
+            if let Some(chain) = Chain::new(&self.position, &to, line, speed, axes) {
+                self.chain = Some(chain);
+                return Ok(());
+            }
+        }
+        if self.planner.is_full() {
+            return Err(PushError::Full);
+        }
+        self.queue_line(line, &to, Some(speed));
+        Ok(())
+    }
+
+    /// Queues the held-back chain as one line block (the planner has room).
+    fn flush_chain(&mut self) {
+        if let Some(chain) = self.chain.take() {
+            self.queue_line(chain.line, &chain.end(), Some(chain.speed));
+        }
     }
 
     fn push_line(&mut self, line: u32, to: &Pos, speed: Option<u64>) -> Result<(), PushError> {
@@ -410,6 +469,10 @@ impl<const N: usize> Motion<N> {
 
     /// Prepares the next step segment for the kernel's queue (`None`: nothing now).
     pub fn next_segment(&mut self) -> Option<Segment> {
+        if self.chain.is_some() && self.planner.len() < 2 && !self.at_sync {
+            // The motion is about to run out: the held-back chain runs as it is.
+            self.flush_chain();
+        }
         loop {
             if self.at_sync {
                 return None;
@@ -470,7 +533,11 @@ impl<const N: usize> Motion<N> {
             PrepState::Holding => MotionState::Holding,
             PrepState::Held => MotionState::Held,
             PrepState::Running => {
-                if self.planner.is_empty() && self.arc.is_none() && !self.prep.is_active() {
+                if self.planner.is_empty()
+                    && self.arc.is_none()
+                    && self.chain.is_none()
+                    && !self.prep.is_active()
+                {
                     MotionState::Idle
                 } else {
                     MotionState::Running
@@ -522,6 +589,7 @@ impl<const N: usize> Motion<N> {
             || !self.prep.is_active()
             || self.planner.len() != 1
             || self.pending_output.is_some()
+            || self.chain.is_some()
         {
             return false;
         }
@@ -623,6 +691,7 @@ impl<const N: usize> Motion<N> {
 
     fn finish_abort(&mut self) {
         self.planner.clear();
+        self.chain = None;
         self.syncs.clear();
         self.pending_output = None;
         self.arc = None;
@@ -649,6 +718,7 @@ impl<const N: usize> Motion<N> {
     pub fn reconfigure(&mut self, cfg: MotionConfig, steps: [i64; MAX_AXES]) {
         self.cfg = cfg;
         self.junction_deviation = cfg.junction_deviation.max(0) as u64;
+        self.blend_tolerance = 0;
         self.exact_stop = false;
         self.prep = Prep::new();
         self.reset(steps);

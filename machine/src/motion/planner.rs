@@ -640,8 +640,10 @@ pub fn direction(cfg: &MotionConfig, delta: &[i64; MAX_AXES]) -> Option<Directio
     Some(dir)
 }
 
-/// Junction speed² limit between unit vectors `prev` and `cur` (2³⁰ scale): the smaller of grbl's
-/// junction-deviation limit and the seed's Feed Shift (largest vector-speed change at the corner).
+/// Junction speed² limit between unit vectors `prev` and `cur` (2³⁰ scale): the larger of grbl's
+/// junction-deviation limit and the speed whose vector change at the corner is the seed's Feed
+/// Shift (a jump the steppers take instantly), so a feed shift never slows a corner below
+/// junction deviation's speed.
 pub fn junction_limit_sq(
     cfg: &MotionConfig,
     prev: &[i64; MAX_AXES],
@@ -683,8 +685,10 @@ pub fn junction_limit_sq(
         limit = whole.saturating_add(div_u64((q - q_den * den) * sin_half, den));
     }
     if cfg.feed_shift > 0 {
+        // Feed Shift is a speed jump the machine takes at any junction: it can only raise the
+        // junction-deviation speed, never lower it (docs/settings.md, `feed_shift`).
         let v = mul_div(cfg.feed_shift, UNIT as u64, jump_len).min(MAX_SPEED);
-        limit = limit.min(v * v);
+        limit = limit.max(v * v);
     }
     limit
 }
@@ -729,10 +733,32 @@ mod tests {
         assert_eq!(junction_limit_sq(&cfg, &x, &x, 10_000), u64::MAX);
         let back = [-UNIT, 0, 0, 0, 0, 0];
         assert_eq!(junction_limit_sq(&cfg, &x, &back, 10_000), 0);
-        // Feed Shift 60 mm/min = 1 mm/s over a √2 vector jump: 0.707 mm/s.
+        // Feed Shift 60 mm/min = 1 mm/s over a √2 vector jump: 0.707 mm/s, below junction
+        // deviation's 2.61 mm/s, so the default corner is junction deviation's, to the nm/s.
         let cfg = MotionConfig::default();
-        let v = isqrt_u64(junction_limit_sq(&cfg, &x, &y, 10_000));
-        assert!((706_000..708_000).contains(&v), "{v}");
+        let jd = junction_limit_sq(&cfg, &x, &y, 10_000);
+        let shift_only = junction_limit_sq(&cfg, &x, &y, 0);
+        assert!(
+            (706_000..708_000).contains(&isqrt_u64(shift_only)),
+            "{shift_only}"
+        );
+        let no_shift = MotionConfig {
+            feed_shift: 0,
+            ..cfg
+        };
+        assert_eq!(jd, junction_limit_sq(&no_shift, &x, &y, 10_000));
+        // A feed shift of 300 mm/min (5 mm/s) raises the corner to 5/√2 = 3.54 mm/s.
+        let big = MotionConfig {
+            feed_shift: 5_000_000,
+            ..cfg
+        };
+        let v = isqrt_u64(junction_limit_sq(&big, &x, &y, 10_000));
+        assert!((3_535_000..3_537_000).contains(&v), "{v}");
+        // A reversal: junction deviation stops, the feed shift allows ±v with 2v = 1 mm/s.
+        assert_eq!(
+            isqrt_u64(junction_limit_sq(&cfg, &x, &back, 10_000)),
+            500_000
+        );
     }
 
     #[test]

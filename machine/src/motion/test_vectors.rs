@@ -314,6 +314,46 @@ fn onfly_outputs() -> u32 {
     d.finish()
 }
 
+/// `G64 P0.01` over 240 short moves (30 µm along X on a parabola with ±1 µm of CAM rounding
+/// noise, then back along Y): the blend's chord tests ([`super::blend::chord_holds`]) decide which
+/// moves merge; the digest takes every step and, first, the verdicts of a sweep of chord tests.
+fn blend_chain() -> u32 {
+    let mut d = Digest::new();
+    let start = at(0, 0, 0);
+    let mut points = [at(0, 0, 0); 8];
+    for k in 0..400i64 {
+        for (j, p) in points.iter_mut().enumerate() {
+            let j = j as i64 + 1;
+            *p = at(j * 100_000, (j * j * k * 37) % 9_001 - 4_500, (k * j) % 3);
+        }
+        let to = at(900_000, (k * 7_919) % 20_001 - 10_000, k % 5);
+        d.bytes(&[super::blend::chord_holds(&start, &points, &to, 5_000, 3) as u8]);
+    }
+    let mut program = [rapid(0, at(0, 0, 0)); 241];
+    program[0] = Canon {
+        line: 1,
+        action: Action::PathMode(PathMode::Blend { tolerance: 10_000 }),
+    };
+    for k in 1..=200i64 {
+        let noise = (k * k * 7_919) % 2_001 - 1_000;
+        program[k as usize] = feed(k as u32 + 1, at(k * 30_000, k * k * 50 + noise, 0), 3000);
+    }
+    for k in 1..=40i64 {
+        program[200 + k as usize] = feed(
+            k as u32 + 201,
+            at(6_000_000, 2_000_000 - k * 25_000, 0),
+            2400,
+        );
+    }
+    d.u64(u64::from(digest_run(
+        MotionConfig::default(),
+        &program,
+        None,
+        100,
+    )));
+    d.finish()
+}
+
 pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/kernel-bresenham",
@@ -323,27 +363,32 @@ pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/planner-square",
         run: planner_square,
-        expected: 0x0d2e_600a,
+        expected: 0xda02_f0f8,
     },
     Vector {
         name: "motion/arcs-helix",
         run: arcs_and_helix,
-        expected: 0x8434_1796,
+        expected: 0x0fa1_412c,
     },
     Vector {
         name: "motion/hold-resume-override",
         run: hold_resume_override,
-        expected: 0x8a37_7d18,
+        expected: 0xfa8d_cf99,
     },
     Vector {
         name: "motion/odd-ratios-dwell-exact-stop",
         run: odd_ratios_dwell_exact_stop,
-        expected: 0x4098_ce2f,
+        expected: 0xd22a_0ed0,
     },
     Vector {
         name: "motion/onfly-outputs",
         run: onfly_outputs,
-        expected: 0x642f_4d48,
+        expected: 0x4bc5_904a,
+    },
+    Vector {
+        name: "motion/blend-chain",
+        run: blend_chain,
+        expected: 0x5f7b_e213,
     },
 ];
 

@@ -105,8 +105,26 @@ fn calibrate() -> u64 {
 }
 
 /// Counts per short G1 block × 1000: push (plan) + prepare all its segments, streaming steady state.
-fn block_cost() -> (u64, u64) {
-    let mut motion: Motion<128> = Motion::new(MotionConfig::default());
+/// `blend`: under `G64 P0.01` (chains of these moves merge into chords, machine/src/motion/blend.rs).
+fn block_cost(blend: bool) -> (u64, u64) {
+    // Merged into chords, the ring's 128 blocks hold 4096 of these moves: past the travel box.
+    let cfg = MotionConfig {
+        soft_limits: !blend,
+        ..MotionConfig::default()
+    };
+    let mut motion: Motion<128> = Motion::new(cfg);
+    if blend {
+        let g64 = Action::PathMode(gantry_machine::canon::PathMode::Blend { tolerance: 10_000 });
+        if motion
+            .push(&Canon {
+                line: 0,
+                action: g64,
+            })
+            .is_err()
+        {
+            exit(false);
+        }
+    }
     let mut line = 0u32;
     let next_canon = |line: &mut u32| {
         *line += 1;
@@ -215,7 +233,13 @@ fn main() -> ! {
         base
     );
     helper_costs();
-    let (block, push) = block_cost();
+    let (blended, blended_push) = block_cost(true);
+    let (blended, blended_push) = (to_instr(blended), to_instr(blended_push));
+    println!(
+        "short G1 block under G64 P0.01: {} instructions (plan {})",
+        blended, blended_push
+    );
+    let (block, push) = block_cost(false);
     let (block, push) = (to_instr(block), to_instr(push));
     println!(
         "short G1 block: {} instructions (plan {}); RAM: Motion<128> {} bytes, StepKernel {} bytes",

@@ -1,0 +1,296 @@
+//! Path-tolerance blending (`G64 P`, machine/src/motion/blend.rs): chains of short moves run as
+//! chords within the tolerance, corners at the tolerance's junction speed, exact end positions,
+//! exact stop under G61, holds inside a merged chord.
+
+use gantry_machine::canon::{Action, Canon, PathMode};
+use gantry_machine::motion::config::MotionConfig;
+use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
+use gantry_machine::motion::pipeline::MotionState;
+use gantry_machine::motion::planner::{junction_limit_sq, UNIT};
+use gantry_machine::motion::prep::BlockReport;
+use gantry_machine::motion::sim::{Sim, SimEvent, StepEvent};
+use gantry_machine::motion::trig::isqrt_u64;
+use gantry_machine::units::{Pos, MAX_AXES};
+
+const MM: i64 = 1_000_000;
+
+fn feed(line: u32, to: Pos, mm_min: i64) -> Canon {
+    Canon {
+        line,
+        action: Action::Feed {
+            to,
+            feed: mm_min * MM,
+        },
+    }
+}
+
+fn path(line: u32, mode: PathMode) -> Canon {
+    Canon {
+        line,
+        action: Action::PathMode(mode),
+    }
+}
+
+fn xy(x: i64, y: i64) -> Pos {
+    [x, y, 0, 0, 0, 0]
+}
+
+/// 3000 moves of 20 µm along X (60 mm) at 3000 mm/min, every other end point 1 µm off the line
+/// (as a CAM post rounds them), from line 2 on.
+fn fine_line() -> Vec<Canon> {
+    (1..=3000)
+        .map(|k| feed(k as u32 + 1, xy(k * 20_000, (k % 2) * 1_000), 3000))
+        .collect()
+}
+
+struct Run {
+    reports: Vec<BlockReport>,
+    steps: Vec<StepEvent>,
+    sim: Sim<128>,
+}
+
+fn run(cfg: MotionConfig, program: Vec<Canon>) -> Run {
+    let mut sim: Sim<128> = Sim::new(cfg);
+    let mut reports = Vec::new();
+    let mut steps = Vec::new();
+    sim.run(program, &mut |e| match e {
+        SimEvent::Block { report, .. } => reports.push(report),
+        SimEvent::Step(s) => steps.push(s),
+        _ => {}
+    })
+    .unwrap();
+    Run {
+        reports,
+        steps,
+        sim,
+    }
+}
+
+fn blend(tolerance: i64) -> Canon {
+    path(1, PathMode::Blend { tolerance })
+}
+
+/// Largest distance (nm) of any step position of the trace from the polyline through `points`.
+fn deviation(cfg: &MotionConfig, steps: &[StepEvent], points: &[Pos]) -> f64 {
+    let nm = |a: usize| cfg.axes[a].units as f64 / cfg.axes[a].steps as f64;
+    let mut p = [0i64; 2];
+    let mut worst = 0f64;
+    let mut seg = 0;
+    for e in steps {
+        for (a, v) in p.iter_mut().enumerate() {
+            if e.step & (1 << a) != 0 {
+                *v += if e.dir & (1 << a) != 0 { -1 } else { 1 };
+            }
+        }
+        let q = [p[0] as f64 * nm(0), p[1] as f64 * nm(1)];
+        // The nearest of the segments around the last one that was nearest (the path advances).
+        let dist = |i: usize| {
+            let (a, b) = (points[i], points[i + 1]);
+            let (ax, ay, bx, by) = (a[0] as f64, a[1] as f64, b[0] as f64, b[1] as f64);
+            let (dx, dy) = (bx - ax, by - ay);
+            let t = (((q[0] - ax) * dx + (q[1] - ay) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
+            ((q[0] - ax - t * dx).powi(2) + (q[1] - ay - t * dy).powi(2)).sqrt()
+        };
+        let lo = seg.max(1) - 1;
+        let hi = (seg + 64).min(points.len() - 1);
+        let (best, d) = (lo..hi)
+            .map(|i| (i, dist(i)))
+            .fold((seg, f64::MAX), |m, x| if x.1 < m.1 { x } else { m });
+        seg = best;
+        worst = worst.max(d);
+    }
+    worst
+}
+
+#[test]
+fn a_chain_of_short_moves_runs_at_constant_feed_within_the_tolerance() {
+    let cfg = MotionConfig::default();
+    // Junction deviation alone: 128 blocks of 20 µm are 2.56 mm of look-ahead, so the machine
+    // never reaches 50 mm/s (it must be able to stop within them: √(2·200·2.56) = 32 mm/s).
+    let plain = run(cfg, fine_line());
+    let plain_peak = plain.reports.iter().map(|r| r.peak).max().unwrap();
+    let plain_time: u64 = plain.reports.iter().map(|r| r.counts).sum();
+    assert_eq!(plain.reports.len(), 3000);
+    assert!(plain_peak < 33_000_000, "{plain_peak}");
+    // G64 P0.01: 32 moves per block (0.64 mm chords), the whole chain at 50 mm/s.
+    let mut program = vec![blend(10_000)];
+    program.extend(fine_line());
+    let blended = run(cfg, program);
+    let r = &blended.reports;
+    assert_eq!(r.len(), 3000 / 32 + 1);
+    assert_eq!(r[0].line, 33);
+    assert_eq!(r[0].length, 640_000);
+    let cruise: Vec<&BlockReport> = r.iter().filter(|b| b.peak == 50_000_000).collect();
+    // Every block between the ramps cruises: entry, peak and exit all 50 mm/s.
+    let steady = r
+        .iter()
+        .filter(|b| b.entry == 50_000_000 && b.exit == 50_000_000)
+        .count();
+    let time: u64 = r.iter().map(|b| b.counts).sum();
+    println!(
+        "fine line: {} blocks, peak {plain_peak} nm/s, {:.4} s; blended {} blocks, {} at 50 mm/s ({steady} from entry to exit), {:.4} s",
+        plain.reports.len(),
+        plain_time as f64 / KERNEL_TIMER_HZ as f64,
+        r.len(),
+        cruise.len(),
+        time as f64 / KERNEL_TIMER_HZ as f64
+    );
+    assert_eq!(steady, 73);
+    // End positions stay exact: 60 mm of X and the last point's Y (0).
+    let end = cfg.to_steps(&xy(60 * MM, 0));
+    assert_eq!(blended.sim.kernel.position(), end);
+    assert_eq!(plain.sim.kernel.position(), end);
+    // The path stays within the tolerance (plus a step's quantisation, 1.5625 µm).
+    let mut points = vec![xy(0, 0)];
+    points.extend((1..=3000).map(|k| xy(k * 20_000, (k % 2) * 1_000)));
+    let dev = deviation(&cfg, &blended.steps, &points);
+    println!("fine line: largest deviation {dev:.0} nm");
+    assert!(dev <= 10_000.0 + 1_563.0, "{dev}");
+}
+
+#[test]
+fn a_blended_corner_runs_at_the_tolerance_junction_speed() {
+    let cfg = MotionConfig::default();
+    // Two chains of 50 µm moves meeting at a right angle; P0.01 rounds the corner by up to
+    // 10 µm: junction speed √(a_j·δ·sin45/(1 − sin45)) with a_j = 200·√2 mm/s², δ = 0.01 mm
+    // (no chord across the corner holds: (9.6, 0) → (10, 0.05) passes 49.6 µm from it).
+    let mut program = vec![blend(10_000)];
+    for k in 1..=200 {
+        program.push(feed(k as u32 + 1, xy(k * 50_000, 0), 3000));
+    }
+    for k in 1..=200 {
+        program.push(feed(k as u32 + 201, xy(10 * MM, k * 50_000), 3000));
+    }
+    let r = run(cfg, program);
+    let corner = r.reports.iter().find(|b| b.line == 201).unwrap();
+    let after = r
+        .reports
+        .iter()
+        .skip_while(|b| b.line != 201)
+        .nth(1)
+        .unwrap();
+    let x = [UNIT, 0, 0, 0, 0, 0];
+    let y = [0, UNIT, 0, 0, 0, 0];
+    let limit = isqrt_u64(junction_limit_sq(&cfg, &x, &y, 10_000));
+    println!(
+        "corner: exit {} entry {} nm/s, limit {limit}",
+        corner.exit, after.entry
+    );
+    assert_eq!(limit, 2_613_125);
+    // The profile's exit, from whole steps, lands within 0.01 % of the planned limit.
+    assert!(corner.exit.abs_diff(limit) < 300, "{}", corner.exit);
+    assert_eq!(after.entry, corner.exit);
+    // The chains before and after the corner run as 32-move chords (200 = 6·32 + 8).
+    assert_eq!(r.reports.len(), 14);
+    assert_eq!(r.sim.kernel.position(), cfg.to_steps(&xy(10 * MM, 10 * MM)));
+}
+
+#[test]
+fn exact_stop_under_g61_stops_at_every_programmed_point() {
+    let cfg = MotionConfig::default();
+    let mut program = vec![blend(10_000), path(1, PathMode::ExactStop)];
+    program.extend(fine_line().into_iter().take(100));
+    let r = run(cfg, program);
+    println!("exact stop: {} blocks", r.reports.len());
+    assert_eq!(r.reports.len(), 100);
+    // Every move starts and ends at rest (within the start speed, 1 mm/s; the profile from whole
+    // steps lands within 0.2 % of it).
+    let fastest = r.reports.iter().map(|b| b.entry.max(b.exit)).max().unwrap();
+    println!("exact stop: fastest entry or exit {fastest} nm/s");
+    assert!(fastest <= 1_002_000, "{fastest}");
+    assert_eq!(r.sim.kernel.position(), cfg.to_steps(&xy(2 * MM, 0)));
+}
+
+#[test]
+fn a_dwell_inside_a_chain_stands_exactly_on_its_programmed_point() {
+    let cfg = MotionConfig::default();
+    let mut program = vec![blend(10_000)];
+    let line = fine_line();
+    program.extend(line[..50].iter().copied());
+    program.push(Canon {
+        line: 60,
+        action: Action::Dwell { micros: 100_000 },
+    });
+    program.extend(line[50..100].iter().copied());
+    let mut sim: Sim<128> = Sim::new(cfg);
+    let mut at_dwell = None;
+    let mut reports = Vec::new();
+    let mut feeder = gantry_machine::motion::sim::Feeder::new(program.into_iter());
+    loop {
+        feeder.feed(&mut sim).unwrap();
+        let mut on = |e: SimEvent| {
+            if let SimEvent::Block { report, .. } = e {
+                reports.push(report)
+            }
+        };
+        sim.tick(&mut on);
+        if at_dwell.is_none() && reports.last().is_some_and(|b| b.line == 51) {
+            // The block up to line 51 is prepared: prep stands on its end.
+            at_dwell = Some(sim.motion.prepared_steps());
+        }
+        if feeder.exhausted() && sim.motion.state() == MotionState::Idle && sim.fifo.0.is_empty() {
+            break;
+        }
+    }
+    sim.run_until_idle(&mut |_| {});
+    // Line 51 ends at (1 mm, 0): 640 steps of X.
+    assert_eq!(at_dwell.unwrap(), cfg.to_steps(&xy(MM, 0)));
+    assert_eq!(at_dwell.unwrap()[..2], [640, 0]);
+    // 50 moves: one 32-move chord, then the 18 left before the dwell; after it 32 + 18 again.
+    let lines: Vec<u32> = reports.iter().map(|b| b.line).collect();
+    assert_eq!(lines, [33, 51, 83, 101]);
+    assert_eq!(sim.kernel.position(), cfg.to_steps(&xy(2 * MM, 0)));
+}
+
+#[test]
+fn a_hold_inside_a_merged_chord_stops_on_it_and_resumes_to_the_same_end() {
+    let cfg = MotionConfig::default();
+    let mut program = vec![blend(10_000)];
+    program.extend(fine_line());
+    let reference = run(cfg, program.clone());
+    let mut sim: Sim<128> = Sim::new(cfg);
+    let mut steps = Vec::new();
+    let mut feeder = gantry_machine::motion::sim::Feeder::new(program.into_iter());
+    let mut on = |e: SimEvent| {
+        if let SimEvent::Step(s) = e {
+            steps.push(s)
+        }
+    };
+    // Hold at 0.5 s (cruising through the chords), then resume once held.
+    while sim.now < KERNEL_TIMER_HZ as u64 / 2 {
+        feeder.feed(&mut sim).unwrap();
+        sim.tick(&mut on);
+    }
+    sim.motion.feed_hold();
+    while sim.motion.state() != MotionState::Held {
+        feeder.feed(&mut sim).unwrap();
+        sim.tick(&mut on);
+    }
+    sim.run_until_idle(&mut on);
+    let held = sim.kernel.position();
+    // Stopped inside a block, off its programmed points' step grid but on the chord: X moved
+    // 20 mm at most, and Y within the tolerance of the line (0 or 1 µm programmed).
+    println!("hold: stopped at {held:?}");
+    assert!(held[0] > 0 && held[0] < cfg.to_steps(&xy(60 * MM, 0))[0]);
+    assert!(held[1].abs() <= 7, "{held:?}"); // 7 steps = 10.9 µm
+    for _ in 0..1000 {
+        sim.tick(&mut on);
+    }
+    assert_eq!(sim.kernel.position(), held);
+    sim.motion.resume();
+    loop {
+        feeder.feed(&mut sim).unwrap();
+        sim.tick(&mut on);
+        if feeder.exhausted() && sim.motion.state() == MotionState::Idle && sim.fifo.0.is_empty() {
+            break;
+        }
+    }
+    sim.run_until_idle(&mut on);
+    assert_eq!(sim.kernel.position(), reference.sim.kernel.position());
+    let mut points = vec![xy(0, 0)];
+    points.extend((1..=3000).map(|k| xy(k * 20_000, (k % 2) * 1_000)));
+    let dev = deviation(&cfg, &steps, &points);
+    println!("hold: largest deviation {dev:.0} nm");
+    assert!(dev <= 10_000.0 + 1_563.0, "{dev}");
+    let _ = MAX_AXES;
+}
