@@ -50,6 +50,10 @@ enum Command {
         /// board asks for exactly the lines it is missing and the held job resumes.
         #[arg(long = "continue", conflicts_with = "from_line")]
         take_over: bool,
+        /// Emulated board only: charge each main-loop pass the instructions it costs on this MCU
+        /// (f411: the Black Pill at 96 MHz), so the report's underruns show whether it keeps up.
+        #[arg(long, value_parser = parse_cpu_model)]
+        cpu_model: Option<host_sender::cpu_model::CpuModel>,
         #[command(flatten)]
         board: BoardArgs,
     },
@@ -165,6 +169,10 @@ enum Command {
         /// The board's flash: its stored setup, read at start, written when a setup is pushed.
         #[arg(long)]
         state: Option<PathBuf>,
+        /// Charge each main-loop pass the instructions it costs on this MCU (f411) and log every
+        /// underrun (docs/ports.md).
+        #[arg(long, value_parser = parse_cpu_model)]
+        cpu_model: Option<host_sender::cpu_model::CpuModel>,
     },
     /// Own the board's port (--port) until killed, and let other `gantry` commands reach the
     /// board through a local socket named after the port while a job runs (docs/ports.md).
@@ -383,6 +391,7 @@ fn main() -> ExitCode {
             file,
             from_line,
             take_over,
+            cpu_model,
             board,
         } => board.setup().and_then(|setup| {
             use host_sender::stream::Start;
@@ -392,7 +401,7 @@ fn main() -> ExitCode {
                 (None, true) => Start::TakeOver,
                 (None, false) => Start::Beginning,
             };
-            host_sender::stream::run(&file, target, setup, start)
+            host_sender::stream::run_with_cpu(&file, target, setup, start, cpu_model)
         }),
         Command::Status {
             watch: false,
@@ -470,7 +479,12 @@ fn main() -> ExitCode {
                 Err(e) => Err(e),
             },
         },
-        Command::Emulate { pty, setup, state } => host_sender::emulate::run(&pty, setup, state),
+        Command::Emulate {
+            pty,
+            setup,
+            state,
+            cpu_model,
+        } => host_sender::emulate::run_with_cpu(&pty, setup, state, cpu_model),
         Command::Simulate {
             file,
             json,
@@ -497,4 +511,15 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// `--cpu-model NAME`.
+fn parse_cpu_model(name: &str) -> Result<host_sender::cpu_model::CpuModel, String> {
+    host_sender::cpu_model::CpuModel::named(name).ok_or_else(|| {
+        let known: Vec<&str> = host_sender::cpu_model::CpuModel::ALL
+            .iter()
+            .map(|m| m.name)
+            .collect();
+        format!("unknown CPU model {name:?} (known: {})", known.join(", "))
+    })
 }

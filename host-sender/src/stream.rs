@@ -534,6 +534,19 @@ pub fn run(
     setup: gantry_machine::setup::Setup,
     start: Start,
 ) -> anyhow::Result<std::process::ExitCode> {
+    run_with_cpu(file, target, setup, start, None)
+}
+
+/// [`run`] with a CPU model for the emulated board (`--cpu-model`, [`crate::cpu_model`]): its
+/// main loop then takes the time the MCU would, and the report's underruns show whether that
+/// MCU keeps up with the program.
+pub fn run_with_cpu(
+    file: &std::path::Path,
+    target: Target,
+    setup: gantry_machine::setup::Setup,
+    start: Start,
+    cpu: Option<crate::cpu_model::CpuModel>,
+) -> anyhow::Result<std::process::ExitCode> {
     let program = Program::load(file)?;
     let text = std::fs::read_to_string(file)?;
     let wall = std::time::Instant::now();
@@ -549,8 +562,15 @@ pub fn run(
             file.display()
         );
     }
-    let (mut client, board_setup) =
-        crate::commands::connect_with(target, crate::link::OnClose::DropDtr)?;
+    let (mut client, board_setup) = match (target, cpu) {
+        (Target::Emulated(setup), Some(model)) => {
+            let mut board = crate::emulator::EmulatedBoard::new((*setup).clone());
+            board.set_cpu_model(Some(model));
+            let t: Box<dyn crate::link::Transport> = Box::new(board);
+            (crate::link::Client::connect(t, 2000)?, *setup)
+        }
+        (target, _) => crate::commands::connect_with(target, crate::link::OnClose::DropDtr)?,
+    };
     // The machine is what the board says it is.
     let setup = if from_board { board_setup } else { setup };
     let axes = setup.axis_count as usize;
@@ -582,6 +602,9 @@ pub fn run(
         }
     };
     print_report(&report, &program, file, axes, wall.elapsed());
+    if let Some(n) = client.transport.underruns() {
+        println!("{}", underrun_line(n, cpu));
+    }
     if let Some(s) = &report.final_status {
         let cfg = gantry_machine::motion::config::MotionConfig::from_setup(&setup);
         let steps = cfg.to_steps(&s.machine_pos);
@@ -735,6 +758,15 @@ impl Eta {
     pub fn total(&self) -> f64 {
         self.total
     }
+}
+
+/// The report line on the emulated board's underruns (gaps where its step kernel ran dry mid-job).
+pub fn underrun_line(gaps: u64, cpu: Option<crate::cpu_model::CpuModel>) -> String {
+    let model = match cpu {
+        Some(m) => format!("CPU model {} at {} MHz", m.name, m.hz / 1_000_000),
+        None => "no CPU model: main loop in no time, --cpu-model f411 charges it".to_owned(),
+    };
+    format!("underruns: {gaps} (the step kernel ran dry mid-job; {model})")
 }
 
 /// Seconds as h:mm:ss.
