@@ -92,7 +92,7 @@ impl Aggregates {
 pub fn summarize_actions(actions: impl Iterator<Item = Canon>, setup: &Setup) -> JobSummary {
     let mut agg = Aggregates::new(setup);
     let mut actions = actions.inspect(|c| agg.add(c));
-    let planned = plan::plan_stream(actions.by_ref(), setup, &mut |_| {});
+    let planned = plan::plan_stream(actions.by_ref(), setup, &mut |_, _| {});
     if planned.is_err() {
         actions.for_each(drop);
     }

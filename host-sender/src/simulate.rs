@@ -74,7 +74,7 @@ pub fn simulate_stream<S: ProgramSource>(
 ) -> anyhow::Result<f64> {
     let mut actions = Actions::new(src, &setup.interp_config());
     let mut moves = Moves::default();
-    let planned = crate::preview::plan::plan_stream(actions.by_ref(), setup, &mut |r| {
+    let planned = crate::preview::plan::plan_stream(actions.by_ref(), setup, &mut |r, _| {
         if let Some(m) = moves.add(r) {
             on_move(m);
         }

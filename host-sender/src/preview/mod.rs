@@ -120,7 +120,7 @@ pub fn job_from_source<S: gantry_machine::gcode::ProgramSource>(
                 moves.push(m);
             }
         });
-        let planned = plan::plan_stream(each.by_ref(), setup, &mut |r| peaks.add(r));
+        let planned = plan::plan_stream(each.by_ref(), setup, &mut |r, _| peaks.add(r));
         if planned.is_err() {
             each.for_each(drop);
         }

@@ -40,17 +40,18 @@ pub fn machine(setup: &Setup) -> Box<Sim<RING>> {
 }
 
 /// Plans `program` (pulled one action at a time, so nothing is held) on the `setup` machine and
-/// calls `on_block` with every block the planner finished; returns the total time in kernel timer
-/// counts (dwells included), or the action the planner refused.
+/// calls `on_block` with every block the planner finished and the time it ends (kernel timer
+/// counts from the start); returns the total time in kernel timer counts (dwells included), or
+/// the action the planner refused.
 pub fn plan_stream(
     program: impl IntoIterator<Item = Canon>,
     setup: &Setup,
-    on_block: &mut impl FnMut(&BlockReport),
+    on_block: &mut impl FnMut(&BlockReport, u64),
 ) -> Result<u64, (Canon, PushError)> {
     let mut sim = machine(setup);
     sim.run_planned(program, &mut |e| {
-        if let SimEvent::Block { report, .. } = e {
-            on_block(&report);
+        if let SimEvent::Block { report, time } = e {
+            on_block(&report, time);
         }
     })?;
     Ok(sim.now)
@@ -79,7 +80,7 @@ impl Peaks {
 /// Plans `canon` with the machine `setup` on virtual time.
 pub fn plan(canon: &[Canon], setup: &Setup) -> anyhow::Result<Plan> {
     let mut peaks = Peaks::default();
-    let counts = plan_stream(canon.iter().copied(), setup, &mut |r| peaks.add(r))
+    let counts = plan_stream(canon.iter().copied(), setup, &mut |r, _| peaks.add(r))
         .map_err(|(c, e)| anyhow::anyhow!("line {}: planner refused the move: {e:?}", c.line))?;
     Ok(Plan {
         peak_mm_min: peaks.0,
@@ -139,7 +140,7 @@ mod tests {
             })
             .unwrap();
         let mut planned_reports = Vec::new();
-        let planned = plan_stream(actions.iter().copied(), &Setup::default(), &mut |r| {
+        let planned = plan_stream(actions.iter().copied(), &Setup::default(), &mut |r, _| {
             planned_reports.push(*r)
         })
         .unwrap();
