@@ -36,16 +36,17 @@ pub struct CpuModel {
 }
 
 impl CpuModel {
-    /// The Black Pill's STM32F411 at 96 MHz. `bench_motion`: 37 / 65 / 106 instructions per
-    /// kernel tick for 1 / 3 / 6 axes (fitted as 23 + 14 per axis), ~7,600 to interpret a short
-    /// G1 line, ~10,300 to plan and prepare it (one segment per block there), split by
-    /// `bench_motion`'s own push/prepare timing into plan and segment prep.
+    /// The Black Pill's STM32F411 at 96 MHz. `bench_motion` (re-measured 2026-11-25): 37 / 65 /
+    /// 106 instructions per kernel tick for 1 / 3 / 6 axes (fitted as 23 + 14 per axis); a
+    /// short G1 block (0.1 mm at F3000, one segment) 10,300 to plan and prepare, of which 5,400
+    /// in `Motion::push` (planning) and the rest, 4,900, in segment prep. Interpreting the line:
+    /// ~7,600 (issue 17's measurement; `bench_motion` does not interpret).
     pub const F411: CpuModel = CpuModel {
         name: "f411",
         hz: 96_000_000,
         line: 7_600,
-        block: 6_900,
-        segment: 3_400,
+        block: 5_400,
+        segment: 4_900,
         tick_base: 23,
         tick_axis: 14,
     };
