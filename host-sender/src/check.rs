@@ -4,44 +4,50 @@
 //! 1-based lines) and stops at the first error; plain `check` lists every error with the source
 //! line and a caret under the bad word, then a one-line summary.
 use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::Path;
 use std::process::ExitCode;
 
+use crate::check_summary::{summarize_actions, JobSummary};
+use crate::preview::source::{Actions, Ended, FileSource};
 use gantry_machine::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
-use gantry_machine::gcode::{GcodeError, InterpConfig, Interpreter, MemorySource};
+use gantry_machine::gcode::{GcodeError, InterpConfig, MemorySource, ProgramSource};
+use gantry_machine::setup::Setup;
 use gantry_machine::units::Nm;
 use serde::Serialize;
-
-/// Most actions one check produces before it gives up (endless M99 loops, huge repeat counts).
-const MAX_ACTIONS: usize = 5_000_000;
 
 /// Runs `gantry check FILE [--canon]`. Both interpret with the machine `setup` (tool table, work
 /// offsets, G28/G30 positions, axes, dialect); plain `check` ends with the job summary
 /// ([`crate::check_summary`]); exit code 1 on errors or when the job would exceed the travel.
-pub fn run(
-    file: &Path,
-    canon: bool,
-    setup: &gantry_machine::setup::Setup,
-) -> anyhow::Result<ExitCode> {
-    let text =
-        std::fs::read(file).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
-    if canon {
-        let (out, failed) = canon_for_setup(&text, setup);
-        print!("{out}");
-        return Ok(if failed {
-            ExitCode::from(1)
-        } else {
-            ExitCode::SUCCESS
-        });
-    }
-    let (report, errors) = human_report(&file.display().to_string(), &text, &setup.interp_config());
-    print!("{report}");
-    let summary = crate::check_summary::summarize(&text, setup);
-    if errors > 0 {
-        println!("(the summary covers the program up to its first error)");
-    }
-    print!("{}", crate::check_summary::format_summary(&summary, setup));
-    Ok(if errors > 0 || summary.leaves_travel.is_some() {
+/// The file is read line by line and nothing of it is kept ([`crate::preview::source`]), so
+/// memory stays the same whatever its length.
+pub fn run(file: &Path, canon: bool, setup: &Setup) -> anyhow::Result<ExitCode> {
+    let src = FileSource::open(file)
+        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::with_capacity(1 << 16, stdout.lock());
+    let failed = if canon {
+        canon_stream(src, &setup.interp_config(), &mut out)?
+    } else {
+        let name = file.display().to_string();
+        let (errors, summary) =
+            check_stream(&name, src, &setup.interp_config(), Some(setup), &mut out)?;
+        let summary = summary.expect("planned on the setup");
+        if errors > 0 {
+            writeln!(
+                out,
+                "(the summary covers the program up to its first error)"
+            )?;
+        }
+        write!(
+            out,
+            "{}",
+            crate::check_summary::format_summary(&summary, setup)
+        )?;
+        errors > 0 || summary.leaves_travel.is_some()
+    };
+    out.flush()?;
+    Ok(if failed {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
@@ -50,7 +56,7 @@ pub fn run(
 
 /// What `gantry check --canon --setup FILE` prints: the setup's tool table, offsets, G28/G30
 /// positions, axes and dialect apply, as in every other command.
-pub fn canon_for_setup(program: &[u8], setup: &gantry_machine::setup::Setup) -> (String, bool) {
+pub fn canon_for_setup(program: &[u8], setup: &Setup) -> (String, bool) {
     canon_output(program, &setup.interp_config())
 }
 
@@ -61,54 +67,60 @@ pub fn canon_jsonl(program: &str) -> String {
 
 /// JSON Lines for a program and setup; the flag tells whether an error ended it.
 pub fn canon_output(program: &[u8], config: &InterpConfig) -> (String, bool) {
-    let mut interp = Interpreter::new(config);
-    let mut src = MemorySource::new(program);
-    let mut out = String::new();
-    let mut count = 0usize;
-    // The first line the board would refuse: the stream ends there, as at an interpreter error.
-    let long = long_lines(program).into_iter().next();
-    let long_error = |e: &crate::program::WireTextError| {
-        format!("{}\n", error_json(e.line, &long_line_message(e)))
+    let mut out = Vec::new();
+    let failed = canon_stream(MemorySource::new(program), config, &mut out)
+        .expect("writing to memory does not fail");
+    (String::from_utf8(out).expect("JSON is UTF-8"), failed)
+}
+
+/// Writes the `check --canon` JSON Lines of the program in `src` as they come; true when an error
+/// (or the first line too long for the board) ended it.
+pub fn canon_stream<S: ProgramSource>(
+    src: S,
+    config: &InterpConfig,
+    out: &mut impl std::io::Write,
+) -> std::io::Result<bool> {
+    let mut actions = Actions::new(src, config);
+    while let Some(c) = actions.next() {
+        // The first line the board would refuse: the stream ends there, as at an interpreter error.
+        if let Some(e) = actions.src.peek_long_line().filter(|e| c.line >= e.line) {
+            writeln!(out, "{}", error_json(e.line, &long_line_message(e)))?;
+            return Ok(true);
+        }
+        writeln!(out, "{}", canon_json(&c))?;
+    }
+    let error = match &actions.ended {
+        Ended::No => None,
+        Ended::Error(e) => Some((e.line, error_text(e))),
+        Ended::Limit(n) => Some((0, limit_message(*n))),
     };
-    while let Some(item) = interp.next(&mut src) {
-        let line = match &item {
-            Ok(c) => c.line,
-            Err(e) => e.line,
-        };
-        if let Some(e) = long.as_ref().filter(|e| line >= e.line) {
-            out.push_str(&long_error(e));
-            return (out, true);
-        }
-        match item {
-            Ok(c) => {
-                out.push_str(&canon_json(&c));
-                out.push('\n');
-            }
-            Err(e) => {
-                out.push_str(&error_json(e.line, &error_text(&e)));
-                out.push('\n');
-                return (out, true);
-            }
-        }
-        count += 1;
-        if interp.restarts() > 0 {
-            // M99 in the main program loops forever; one pass is the program.
-            break;
-        }
-        if count >= MAX_ACTIONS {
-            out.push_str(&error_json(
-                0,
-                &format!("more than {MAX_ACTIONS} actions, check stopped"),
-            ));
-            out.push('\n');
-            return (out, true);
-        }
+    if let Some(e) = actions
+        .src
+        .peek_long_line()
+        .filter(|l| error.as_ref().is_none_or(|e| l.line <= e.0))
+    {
+        writeln!(out, "{}", error_json(e.line, &long_line_message(e)))?;
+        return Ok(true);
     }
-    if let Some(e) = &long {
-        out.push_str(&long_error(e));
-        return (out, true);
+    if let Some((line, message)) = error {
+        writeln!(out, "{}", error_json(line, &message))?;
+        return Ok(true);
     }
-    (out, false)
+    actions.src.read_rest();
+    if let Some(e) = actions.src.peek_long_line() {
+        writeln!(out, "{}", error_json(e.line, &long_line_message(e)))?;
+        return Ok(true);
+    }
+    Ok(false)
+}
+
+/// The message when a program produced more actions than its lines allow.
+fn limit_message(n: u64) -> String {
+    format!(
+        "{n} actions, more than {} plus {} per line: check stopped (an endless loop?)",
+        crate::preview::source::MIN_ACTION_LIMIT,
+        crate::preview::source::ACTIONS_PER_LINE
+    )
 }
 
 /// `E<code>: <message>`.
@@ -332,16 +344,7 @@ pub fn format_error(r: &ErrorReport<'_>) -> String {
     out
 }
 
-/// Lines whose text, without comments and blanks, is longer than the board takes
-/// (`gantry_proto::LINE_MAX`): `stream` would refuse them, so `check` reports them as errors.
-pub fn long_lines(program: &[u8]) -> Vec<crate::program::WireTextError> {
-    let program = crate::program::Program::from_text(&String::from_utf8_lossy(program));
-    (1..=program.len())
-        .filter_map(|n| program.wire_text(n).err())
-        .collect()
-}
-
-/// The message of a [`long_lines`] error.
+/// The message of a line too long for the board ([`crate::program::wire_text_of`]).
 fn long_line_message(e: &crate::program::WireTextError) -> String {
     format!(
         "line too long for the board: {} characters without comments and blanks, at most {}",
@@ -352,38 +355,65 @@ fn long_line_message(e: &crate::program::WireTextError) -> String {
 
 /// The human-readable report of plain `check` and the number of errors found.
 pub fn human_report(name: &str, program: &[u8], config: &InterpConfig) -> (String, usize) {
-    let lines: Vec<&[u8]> = program.split(|&c| c == b'\n').collect();
-    let source = |line: u32| {
-        line.checked_sub(1)
-            .and_then(|i| lines.get(i as usize))
-            .map(|l| String::from_utf8_lossy(l).into_owned())
+    let mut out = Vec::new();
+    let (errors, _) = check_stream(name, MemorySource::new(program), config, None, &mut out)
+        .expect("writing to memory does not fail");
+    (String::from_utf8_lossy(&out).into_owned(), errors)
+}
+
+/// Plain `check` of the program in `src`, in one pass: writes every error as it is found (lines
+/// too long for the board merged in line order), then `NAME: ok, N actions` or `NAME: E errors, N
+/// actions`; returns the error count and the job summary, which covers the program up to its
+/// first error (planned on `setup`; none without one).
+pub fn check_stream<S: ProgramSource>(
+    name: &str,
+    src: S,
+    config: &InterpConfig,
+    setup: Option<&Setup>,
+    out: &mut impl std::io::Write,
+) -> std::io::Result<(usize, Option<JobSummary>)> {
+    let mut actions = Actions::new(src, config);
+    let summary = match setup {
+        Some(setup) => Some(summarize_actions(actions.by_ref(), setup)),
+        None => {
+            actions.by_ref().for_each(drop);
+            None
+        }
     };
-    let mut interp = Interpreter::new(config);
-    let mut src = MemorySource::new(program);
-    // (line, report): interpreter errors and long lines, printed in line order.
-    let mut found: Vec<(u32, String)> = long_lines(program)
-        .iter()
-        .map(|e| {
-            let text = source(e.line);
-            let report = format_error(&ErrorReport {
-                place: name,
-                line: e.line,
-                n_word: None,
-                code: None,
-                message: &long_line_message(e),
-                source: text.as_deref(),
-                columns: None,
-            });
-            (e.line, report)
-        })
-        .collect();
-    let mut actions = 0usize;
-    while let Some(item) = interp.next(&mut src) {
-        match item {
-            Ok(_) => actions += 1,
-            Err(e) => {
-                let text = source(e.line);
-                let report = format_error(&ErrorReport {
+    let mut errors = 0usize;
+    let mut count = actions.count;
+    // Long lines found so far, up to `line`, in line order.
+    fn long_up_to<S: ProgramSource>(
+        a: &mut Actions<S>,
+        line: u32,
+        name: &str,
+        errors: &mut usize,
+        out: &mut impl std::io::Write,
+    ) -> std::io::Result<()> {
+        while a.src.peek_long_line().is_some_and(|e| e.line <= line) {
+            let (e, text) = a.src.take_long_line().expect("peeked");
+            *errors += 1;
+            out.write_all(
+                format_error(&ErrorReport {
+                    place: name,
+                    line: e.line,
+                    n_word: None,
+                    code: None,
+                    message: &long_line_message(&e),
+                    source: Some(&text),
+                    columns: None,
+                })
+                .as_bytes(),
+            )?;
+        }
+        Ok(())
+    }
+    let interp_error =
+        |a: &mut Actions<S>, e: &GcodeError, errors: &mut usize, out: &mut dyn std::io::Write| {
+            *errors += 1;
+            let text = a.src.recent(e.line);
+            out.write_all(
+                format_error(&ErrorReport {
                     place: name,
                     line: e.line,
                     n_word: e.n_word,
@@ -391,27 +421,54 @@ pub fn human_report(name: &str, program: &[u8], config: &InterpConfig) -> (Strin
                     message: e.code.message(),
                     source: text.as_deref(),
                     columns: e.columns,
-                });
-                found.push((e.line, report));
+                })
+                .as_bytes(),
+            )
+        };
+    match actions.ended.clone() {
+        Ended::No => {}
+        Ended::Limit(n) => {
+            long_up_to(&mut actions, u32::MAX, name, &mut errors, out)?;
+            errors += 1;
+            writeln!(out, "{name}: error: {}", limit_message(n))?;
+        }
+        Ended::Error(e) => {
+            long_up_to(&mut actions, e.line, name, &mut errors, out)?;
+            interp_error(&mut actions, &e, &mut errors, out)?;
+            // Past the first error, interpretation goes on to find the others.
+            loop {
+                let item = actions.interp.next(&mut actions.src);
+                match item {
+                    None => break,
+                    Some(Ok(_)) => count += 1,
+                    Some(Err(e)) => {
+                        long_up_to(&mut actions, e.line, name, &mut errors, out)?;
+                        interp_error(&mut actions, &e, &mut errors, out)?;
+                    }
+                }
+                if actions.interp.restarts() > 0 {
+                    break;
+                }
+                if count >= crate::preview::source::action_limit(actions.src.furthest) {
+                    errors += 1;
+                    writeln!(out, "{name}: error: {}", limit_message(count))?;
+                    break;
+                }
             }
         }
-        if interp.restarts() > 0 || actions >= MAX_ACTIONS {
-            break;
-        }
     }
-    found.sort_by_key(|(line, _)| *line);
-    let errors = found.len();
-    let mut out: String = found.into_iter().map(|(_, r)| r).collect();
+    actions.src.read_rest();
+    long_up_to(&mut actions, u32::MAX, name, &mut errors, out)?;
     if errors == 0 {
-        let _ = writeln!(out, "{name}: ok, {actions} actions");
+        writeln!(out, "{name}: ok, {count} actions")?;
     } else {
-        let _ = writeln!(
+        writeln!(
             out,
-            "{name}: {errors} error{}, {actions} actions",
+            "{name}: {errors} error{}, {count} actions",
             if errors == 1 { "" } else { "s" }
-        );
+        )?;
     }
-    (out, errors)
+    Ok((errors, summary))
 }
 
 #[cfg(test)]

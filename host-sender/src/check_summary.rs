@@ -3,12 +3,13 @@
 //! the run time the planner estimates —
 //! the same figure the board takes at 100 % override.
 
-use crate::preview::adapt::from_canon;
-use crate::preview::geom::{extend, extents};
+use crate::preview::adapt::MoveAdapter;
+use crate::preview::geom::extend;
 use crate::preview::model::Box3;
-use crate::preview::{plan, source};
-use gantry_machine::canon::Action;
-use gantry_machine::gcode::RetractMode;
+use crate::preview::plan;
+use crate::preview::source::Actions;
+use gantry_machine::canon::{Action, Canon};
+use gantry_machine::gcode::{MemorySource, RetractMode};
 use gantry_machine::setup::Setup;
 use std::fmt::Write as _;
 
@@ -26,39 +27,82 @@ pub struct JobSummary {
     pub moves: usize,
 }
 
-/// Interprets and plans `program` on `setup` (only the part before a first error, if any).
-pub fn summarize(program: &[u8], setup: &Setup) -> JobSummary {
-    let (canon, _error) = source::interpret(program, setup);
-    let job = from_canon(&canon, setup, "");
-    let travel = Box3::travel(setup);
-    let mut leaves_travel = None;
-    for m in &job.moves {
-        let mut b = Box3::EMPTY;
-        extend(&mut b, m);
-        if !travel.contains(&b) {
-            let axis = (0..3)
-                .find(|&i| b.min[i] < travel.min[i] - 1e-6 || b.max[i] > travel.max[i] + 1e-6)
-                .unwrap_or(0);
-            leaves_travel = Some((m.line, ['X', 'Y', 'Z'][axis]));
-            break;
+/// The summary's running aggregates, one action at a time (nothing of the program is kept).
+pub struct Aggregates {
+    adapter: MoveAdapter,
+    travel: Box3,
+    extents: Box3,
+    leaves_travel: Option<(u32, char)>,
+    tools: Vec<u32>,
+    moves: usize,
+}
+
+impl Aggregates {
+    pub fn new(setup: &Setup) -> Self {
+        Aggregates {
+            adapter: MoveAdapter::new(setup),
+            travel: Box3::travel(setup),
+            extents: Box3::EMPTY,
+            leaves_travel: None,
+            tools: Vec::new(),
+            moves: 0,
         }
     }
-    let mut tools = Vec::new();
-    for c in &canon {
+
+    pub fn add(&mut self, c: &Canon) {
         if let Action::ToolChange { tool } = c.action {
-            if !tools.contains(&tool) {
-                tools.push(tool);
+            if !self.tools.contains(&tool) {
+                self.tools.push(tool);
             }
         }
+        let Some(m) = self.adapter.take(c) else {
+            return;
+        };
+        self.moves += 1;
+        let mut b = Box3::EMPTY;
+        extend(&mut b, &m);
+        if self.leaves_travel.is_none() && !self.travel.contains(&b) {
+            let t = &self.travel;
+            let axis = (0..3)
+                .find(|&i| b.min[i] < t.min[i] - 1e-6 || b.max[i] > t.max[i] + 1e-6)
+                .unwrap_or(0);
+            self.leaves_travel = Some((m.line, ['X', 'Y', 'Z'][axis]));
+        }
+        if !b.is_empty() {
+            self.extents.add(b.min);
+            self.extents.add(b.max);
+        }
     }
-    let e = extents(&job.moves);
-    JobSummary {
-        extents: (!e.is_empty()).then_some(e),
-        leaves_travel,
-        tools,
-        run_time_s: plan::plan(&canon, setup).ok().map(|p| p.total_time_s),
-        moves: job.moves.len(),
+
+    pub fn finish(self, run_time_s: Option<f64>) -> JobSummary {
+        let e = self.extents;
+        JobSummary {
+            extents: (!e.is_empty()).then_some(e),
+            leaves_travel: self.leaves_travel,
+            tools: self.tools,
+            run_time_s,
+            moves: self.moves,
+        }
     }
+}
+
+/// Summarises a program's actions in one pass, pulled one at a time: the aggregates and the
+/// planned time (closed form per block, `preview::plan`). A move the planner refuses (beyond the
+/// travel) leaves the time unknown; the aggregates still cover every action.
+pub fn summarize_actions(actions: impl Iterator<Item = Canon>, setup: &Setup) -> JobSummary {
+    let mut agg = Aggregates::new(setup);
+    let mut actions = actions.inspect(|c| agg.add(c));
+    let planned = plan::plan_stream(actions.by_ref(), setup, &mut |_, _| {});
+    if planned.is_err() {
+        actions.for_each(drop);
+    }
+    agg.finish(planned.ok().map(plan::seconds))
+}
+
+/// Interprets and plans `program` on `setup` (only the part before a first error, if any).
+pub fn summarize(program: &[u8], setup: &Setup) -> JobSummary {
+    let actions = Actions::new(MemorySource::new(program), &setup.interp_config());
+    summarize_actions(actions, setup)
 }
 
 /// The table as printed.

@@ -97,12 +97,15 @@ fn host_side_open(fd: RawFd, wait_ms: i32) -> (bool, bool) {
 const CATCH_UP_LIMIT_MS: u64 = 500;
 
 /// Runs the board until SIGINT or SIGTERM.
-/// `probe_targets`: what the emulated touch probe touches ([`ProbeTarget::parse`]).
+/// `probe_targets`: what the emulated touch probe touches ([`ProbeTarget::parse`]); `cpu`: a CPU
+/// model (`--cpu-model`, [`crate::cpu_model`]): each main-loop pass takes the time the MCU would
+/// take, and every gap in the motion (the step kernel ran dry mid-job) is logged on stderr.
 pub fn run(
     pty: &Path,
     setup: Option<PathBuf>,
     state: Option<PathBuf>,
     probe_targets: &[String],
+    cpu: Option<crate::cpu_model::CpuModel>,
 ) -> anyhow::Result<ExitCode> {
     let setup = load_state(state.as_deref(), setup)?;
     let targets = probe_targets
@@ -130,6 +133,11 @@ pub fn run(
     for t in targets {
         board.add_probe_target(t);
     }
+    board.set_cpu_model(cpu);
+    if let Some(m) = cpu {
+        eprintln!("emulate: CPU model {} at {} MHz", m.name, m.hz / 1_000_000);
+    }
+    let mut gaps = 0;
     // Every start of the process is a power-up with its own boot id (the firmware counts boots
     // in flash), so a host sees a restarted board as one.
     let boot_id = std::time::SystemTime::now()
@@ -214,6 +222,13 @@ pub fn run(
                 save_state(st, board.board.setup())?;
                 eprintln!("emulate: setup saved to {}", st.display());
             }
+        }
+        if board.starved.gaps != gaps {
+            gaps = board.starved.gaps;
+            eprintln!(
+                "emulate: {:.3} s underrun: the step kernel ran dry mid-job ({gaps} so far)",
+                board.seconds()
+            );
         }
         let status = status_of(&board.board, &board.kernel_view());
         if last_state != Some(status.state) {

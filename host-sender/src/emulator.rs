@@ -27,6 +27,7 @@
 //! (virtual time, the kernel and its queue, switches, gangs, pins and their traces, the host's
 //! bytes and DTR, the flash).
 
+use crate::cpu_model::{CpuMeter, CpuModel};
 use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::main_loop::{BoardPort, KernelSnapshot, MainLoop, SEGMENT_QUEUE_DEPTH};
 use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
@@ -36,6 +37,7 @@ use gantry_machine::controller::{AdcReadings, OutputLevels};
 use gantry_machine::motion::kernel::{
     ProbeLatch, Segment, StepKernel, StepTiming, KERNEL_TIMER_HZ,
 };
+use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::motion::sim::SegmentFifo;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::MAX_AXES;
@@ -296,6 +298,36 @@ pub struct Hardware {
     /// then on the kernel is drained (until the main loop hands it a segment again); the first
     /// main-loop pass after it sees the machine at rest.
     pub kernel_idle_at: u64,
+    /// The CPU model, when one is set ([`EmulatedBoard::set_cpu_model`]), and the segments of
+    /// the pass running now, which reach the kernel's queue when it ends.
+    cpu: Option<CpuTime>,
+    /// Times the step kernel ran dry in the middle of a job's motion ([`Starved`]).
+    pub starved: Starved,
+}
+
+/// The CPU model's state on the hardware.
+struct CpuTime {
+    meter: CpuMeter,
+    pending: Vec<Segment>,
+    /// When the pass running now ends (its segments reach the queue).
+    release_at: u64,
+}
+
+/// Underruns as the machine feels them: the step kernel found its queue empty in Run after the
+/// job had moved, while the last main-loop pass left motion queued or the planner empty before
+/// the program's end (lines not interpreted or not received yet) — not at a sync point, a hold,
+/// a program stop or the job's start and end. One per time the kernel stopped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Starved {
+    /// Gaps in the motion so far.
+    pub gaps: u64,
+    /// Virtual time (kernel timer counts) the kernel stood still in them.
+    pub counts: u64,
+    /// A segment reached the kernel since the job entered Run.
+    moved: bool,
+    gap_possible: bool,
+    /// When the kernel stopped in the gap running now.
+    since: Option<u64>,
 }
 
 /// A board with its kernel on a virtual clock: the firmware's [`Board`], [`BoardLink`] and main
@@ -374,6 +406,8 @@ impl EmulatedBoard {
             last_step_at: 0,
             kernel_idle_at: 0,
             steppers_enabled: false,
+            cpu: None,
+            starved: Starved::default(),
         };
         EmulatedBoard {
             main: MainLoop::new(&setup),
@@ -495,9 +529,10 @@ impl EmulatedBoard {
     pub fn run_for(&mut self, counts: u64) {
         let end = self.now + counts;
         while self.now < end {
+            self.release_pass_segments();
             if self.now >= self.next_main_loop {
-                self.main_loop();
-                self.next_main_loop = self.now + COUNTS_PER_MS;
+                let busy = self.main_loop();
+                self.next_main_loop = self.now + busy.max(COUNTS_PER_MS);
             }
             if self.next_tick.is_some_and(|t| t <= self.now) {
                 self.tick();
@@ -505,6 +540,9 @@ impl EmulatedBoard {
             let mut next = self.next_main_loop.min(end);
             if let Some(t) = self.next_tick {
                 next = next.min(t);
+            }
+            if let Some(c) = self.cpu.as_ref().filter(|c| !c.pending.is_empty()) {
+                next = next.min(c.release_at);
             }
             self.now = next.max(self.now);
         }
@@ -554,18 +592,95 @@ impl EmulatedBoard {
     }
 
     /// One pass of the board's main loop (the core's, as on the firmware), with this emulation
-    /// as its port.
-    fn main_loop(&mut self) {
+    /// as its port. Returns how long it keeps the CPU busy (kernel timer counts): 0 without a CPU
+    /// model.
+    fn main_loop(&mut self) -> u64 {
         let now = self.hw.now_ms();
         self.main
             .pass(now, &mut self.board, &mut self.link, &mut self.hw);
         self.hw.underruns = self.main.underruns();
         self.hw.tool = self.board.outputs().tool;
         self.hw.steppers_enabled = self.main.steppers_enabled();
+        self.note_gap_possible();
+        self.cpu_pass_done()
+    }
+
+    /// Charges the CPU model (if any) for the pass that just ran; its segments reach the
+    /// kernel's queue when it ends.
+    fn cpu_pass_done(&mut self) -> u64 {
+        let start = self.hw.now;
+        let Some(cpu) = self.hw.cpu.as_mut() else {
+            return 0;
+        };
+        let busy = cpu
+            .meter
+            .pass_done(&self.board, start, u64::from(KERNEL_TIMER_HZ));
+        cpu.release_at = start + busy;
+        busy
+    }
+
+    /// After a pass: whether the kernel running dry before the next one would be a gap in the
+    /// motion ([`Starved`]).
+    fn note_gap_possible(&mut self) {
+        let running = self.board.state() == gantry_machine::controller::State::Run;
+        let s = &mut self.hw.starved;
+        if !running {
+            s.moved = false;
+        }
+        // Motion still queued, or none with the program not at its end: the planner ran dry
+        // (lines not yet interpreted, or not yet received).
+        s.gap_possible = running
+            && match self.board.motion().state() {
+                MotionState::Running => true,
+                MotionState::Idle => !self.board.interpreter().is_finished(),
+                _ => false,
+            };
+    }
+
+    /// Gives the emulated board a CPU model ([`crate::cpu_model`]): from now on each main-loop
+    /// pass costs the instructions its work takes on that MCU. `None`: passes take no time.
+    pub fn set_cpu_model(&mut self, model: Option<CpuModel>) {
+        self.hw.cpu = model.map(|m| CpuTime {
+            meter: CpuMeter::new(m),
+            pending: Vec::new(),
+            release_at: 0,
+        });
+    }
+
+    /// The CPU model's meter, when one is set.
+    pub fn cpu_meter(&self) -> Option<&CpuMeter> {
+        self.hw.cpu.as_ref().map(|c| &c.meter)
     }
 }
 
 impl Hardware {
+    /// Segments are queued: an idle kernel's timer polls the queue and starts one now (ending a
+    /// gap in the motion, if it stood in one).
+    fn kernel_restarts(&mut self) {
+        if self.next_tick.is_none() {
+            self.next_tick = Some(self.now);
+        }
+        let s = &mut self.starved;
+        s.moved = true;
+        if let Some(t) = s.since.take() {
+            s.counts += self.now - t;
+        }
+    }
+
+    /// The segments of a pass that has ended go to the kernel's queue (CPU model only).
+    fn release_pass_segments(&mut self) {
+        let Some(cpu) = self.cpu.as_mut() else {
+            return;
+        };
+        if cpu.pending.is_empty() || cpu.release_at > self.now {
+            return;
+        }
+        for seg in cpu.pending.drain(..) {
+            let _ = self.fifo.0.push_back(seg);
+        }
+        self.kernel_restarts();
+    }
+
     /// From now on the board's events (alarms, limit reports, errors, job ends) are collected in
     /// [`Hardware::events`], in order, instead of going out over the link: for scenario tests
     /// that drive the board without a host.
@@ -750,6 +865,9 @@ impl Hardware {
             // The probe pin follows this tick's step; the interrupt reads it on the next tick.
             self.probe_raw = self.probe_level();
         }
+        if let Some(cpu) = self.cpu.as_mut() {
+            cpu.meter.on_tick(out.step);
+        }
         if out.step != 0 && (!self.switches.is_empty() || self.gang.is_some()) {
             // The switch pin follows this tick's step; the interrupt sees it on the next tick.
             self.switch_stop = self.logical_pins() & self.arm & LIMIT_BITS != 0;
@@ -777,6 +895,11 @@ impl Hardware {
             (out.period != 0).then(|| self.now + u64::from(self.timing.stretch(out.period)));
         if out.period == 0 {
             self.kernel_idle_at = self.now;
+            let s = &mut self.starved;
+            if s.moved && s.gap_possible && s.since.is_none() {
+                s.gaps += 1;
+                s.since = Some(self.now);
+            }
         }
     }
 
@@ -854,15 +977,19 @@ impl BoardPort for Hardware {
     }
 
     fn queue_ready(&mut self) -> bool {
-        !self.fifo.0.is_full()
+        let pending = self.cpu.as_ref().map_or(0, |c| c.pending.len());
+        self.fifo.0.len() + pending < self.fifo.0.capacity()
     }
 
     fn push_segment(&mut self, seg: Segment) {
-        let _ = self.fifo.0.push_back(seg);
-        if self.next_tick.is_none() {
-            // The idle kernel's timer polls the queue: it starts the segment now.
-            self.next_tick = Some(self.now);
+        if let Some(cpu) = self.cpu.as_mut() {
+            // Prepared by the pass running now: in the queue when it ends.
+            cpu.meter.segments += 1;
+            cpu.pending.push(seg);
+            return;
         }
+        let _ = self.fifo.0.push_back(seg);
+        self.kernel_restarts();
     }
 
     fn drop_newest(&mut self, max: usize) -> usize {

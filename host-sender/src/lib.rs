@@ -3,6 +3,7 @@
 pub mod check;
 pub mod check_summary;
 pub mod commands;
+pub mod cpu_model;
 pub mod emulate;
 pub mod emulator;
 pub mod link;

@@ -16,6 +16,11 @@ pub trait Transport {
     fn wait(&mut self, ms: u32);
     /// The link clock, ms.
     fn now_ms(&self) -> u32;
+    /// Gaps in the motion where the step kernel ran dry mid-job: known for the emulated board
+    /// only (`EmulatedBoard::starved`).
+    fn underruns(&self) -> Option<u64> {
+        None
+    }
 }
 
 impl Transport for Box<dyn Transport> {
@@ -33,6 +38,10 @@ impl Transport for Box<dyn Transport> {
 
     fn now_ms(&self) -> u32 {
         (**self).now_ms()
+    }
+
+    fn underruns(&self) -> Option<u64> {
+        (**self).underruns()
     }
 }
 
@@ -54,6 +63,10 @@ impl Transport for EmulatedBoard {
 
     fn now_ms(&self) -> u32 {
         EmulatedBoard::now_ms(self)
+    }
+
+    fn underruns(&self) -> Option<u64> {
+        Some(self.starved.gaps)
     }
 }
 

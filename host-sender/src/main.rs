@@ -50,6 +50,10 @@ enum Command {
         /// board asks for exactly the lines it is missing and the held job resumes.
         #[arg(long = "continue", conflicts_with = "from_line")]
         take_over: bool,
+        /// Emulated board only: charge each main-loop pass the instructions it costs on this MCU
+        /// (f411: the Black Pill at 96 MHz), so the report's underruns show whether it keeps up.
+        #[arg(long, value_parser = parse_cpu_model)]
+        cpu_model: Option<host_sender::cpu_model::CpuModel>,
         #[command(flatten)]
         board: BoardArgs,
     },
@@ -169,6 +173,10 @@ enum Command {
         /// `plane:Z`, `boss:X0,Y0,X1,Y1,TOP` or `hole:X0,Y0,X1,Y1,TOP,BOTTOM` (docs/probing.md).
         #[arg(long = "probe-target", allow_hyphen_values = true)]
         probe_targets: Vec<String>,
+        /// Charge each main-loop pass the instructions it costs on this MCU (f411) and log every
+        /// underrun (docs/ports.md).
+        #[arg(long, value_parser = parse_cpu_model)]
+        cpu_model: Option<host_sender::cpu_model::CpuModel>,
     },
     /// Own the board's port (--port) until killed, and let other `gantry` commands reach the
     /// board through a local socket named after the port while a job runs (docs/ports.md).
@@ -387,6 +395,7 @@ fn main() -> ExitCode {
             file,
             from_line,
             take_over,
+            cpu_model,
             board,
         } => board.setup().and_then(|setup| {
             use host_sender::stream::Start;
@@ -396,7 +405,7 @@ fn main() -> ExitCode {
                 (None, true) => Start::TakeOver,
                 (None, false) => Start::Beginning,
             };
-            host_sender::stream::run(&file, target, setup, start)
+            host_sender::stream::run_with_cpu(&file, target, setup, start, cpu_model)
         }),
         Command::Status {
             watch: false,
@@ -479,7 +488,8 @@ fn main() -> ExitCode {
             setup,
             state,
             probe_targets,
-        } => host_sender::emulate::run(&pty, setup, state, &probe_targets),
+            cpu_model,
+        } => host_sender::emulate::run(&pty, setup, state, &probe_targets, cpu_model),
         Command::Simulate {
             file,
             json,
@@ -506,4 +516,15 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// `--cpu-model NAME`.
+fn parse_cpu_model(name: &str) -> Result<host_sender::cpu_model::CpuModel, String> {
+    host_sender::cpu_model::CpuModel::named(name).ok_or_else(|| {
+        let known: Vec<&str> = host_sender::cpu_model::CpuModel::ALL
+            .iter()
+            .map(|m| m.name)
+            .collect();
+        format!("unknown CPU model {name:?} (known: {})", known.join(", "))
+    })
 }

@@ -45,19 +45,9 @@ impl Program {
     /// The text sent for line `n`: comments and blanks removed (they never change what a block
     /// does). `Ok(None)` when nothing is left; `Err` when it is longer than the protocol's limit.
     pub fn wire_text(&self, n: u32) -> Result<Option<String>, WireTextError> {
-        let Some(line) = self.line(n) else {
-            return Ok(None);
-        };
-        let text = strip(line);
-        if text.is_empty() {
-            Ok(None)
-        } else if text.len() > LINE_MAX {
-            Err(WireTextError {
-                line: n,
-                len: text.len(),
-            })
-        } else {
-            Ok(Some(text))
+        match self.line(n) {
+            Some(line) => wire_text_of(n, line),
+            None => Ok(None),
         }
     }
 
@@ -93,6 +83,22 @@ impl Program {
 
     fn find(&self, pred: impl Fn(&str) -> bool) -> Option<u32> {
         (1..=self.len()).find(|&n| pred(&strip(&self.lines[n as usize - 1])))
+    }
+}
+
+/// [`Program::wire_text`] of one line `text` numbered `n` (for tools that read a file line by
+/// line: `preview::source::Watched`).
+pub fn wire_text_of(n: u32, text: &str) -> Result<Option<String>, WireTextError> {
+    let text = strip(text);
+    if text.is_empty() {
+        Ok(None)
+    } else if text.len() > LINE_MAX {
+        Err(WireTextError {
+            line: n,
+            len: text.len(),
+        })
+    } else {
+        Ok(Some(text))
     }
 }
 

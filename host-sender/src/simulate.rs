@@ -1,28 +1,24 @@
 //! `gantry simulate`: plan a program and report per-move speeds and the total time.
 //!
-//! The program is interpreted with the machine setup (`--setup`, else the default one), then run
-//! through the real motion core (planner and segment prep) on virtual time, each segment counted
-//! by its duration rather than stepped (`preview::plan::run_segments`), dwells added in closed
-//! form (`preview::plan::without_dwell_time`); M codes
-//! that switch an output on the fly do not stop the motion, as on the board. Each move (consecutive planner blocks
-//! of one source line, so an arc is one move) prints its line, entry, cruise (highest) and exit
-//! speed in mm/min and its duration; `--json` prints the same as JSON Lines. The last line is
-//! always `total time: T s` (dwells included).
-use std::fmt::Write as _;
+//! The program is interpreted with the machine setup (`--setup`, else the default one) and read
+//! line by line ([`crate::preview::source`]), then run through the real motion core's planner on
+//! virtual time, each planned block timed in closed form from the profile segment prep would run
+//! (`preview::plan::plan_stream`, `Sim::run_planned`); M codes that switch an output on the fly
+//! do not stop the motion, as on the board. Each move (consecutive planner blocks of one source
+//! line, so an arc is one move) prints its line, entry, cruise (highest) and exit speed in mm/min
+//! and its duration, as soon as it is planned; `--json` prints the same as JSON Lines. The last
+//! line is always `total time: T s` (dwells included). Memory stays the same whatever the
+//! program's length.
+use std::io::Write as _;
 use std::path::Path;
 use std::process::ExitCode;
 
-use gantry_machine::canon::Canon;
-use gantry_machine::gcode::{Interpreter, MemorySource};
-use gantry_machine::motion::config::MotionConfig;
+use crate::preview::source::{Actions, Ended, FileSource};
+use gantry_machine::gcode::{MemorySource, ProgramSource};
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::motion::pipeline::PushError;
 use gantry_machine::motion::prep::BlockReport;
-use gantry_machine::motion::sim::{Sim, SimEvent};
 use gantry_machine::setup::Setup;
-
-/// Most actions one simulation takes (endless loops, huge repeat counts).
-const MAX_ACTIONS: usize = 5_000_000;
 
 /// One reported move: consecutive blocks of the same source line.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,55 +37,24 @@ fn mm_min(v: u64) -> f64 {
     v as f64 * 60.0 / 1e6
 }
 
-/// Simulates `program` on the machine `setup`; returns the moves and the total time in seconds.
-pub fn simulate(program: &[u8], setup: &Setup) -> anyhow::Result<(Vec<Move>, f64)> {
-    let mut interp = Interpreter::new(&setup.interp_config());
-    let mut src = MemorySource::new(program);
-    let mut actions: Vec<Canon> = Vec::new();
-    while let Some(item) = interp.next(&mut src) {
-        let c = item.map_err(|e| anyhow::anyhow!("line {}: {:?}", e.line, e))?;
-        actions.push(c);
-        if interp.restarts() > 0 {
-            break;
-        }
-        if actions.len() >= MAX_ACTIONS {
-            anyhow::bail!("more than {MAX_ACTIONS} actions, simulation stopped");
-        }
-    }
-    let cfg = MotionConfig::from_setup(setup);
-    let mut sim: Box<Sim<128>> = Box::new(Sim::new(cfg));
-    for l in &setup.outputs.mcode_lists {
-        if let Some(output) = l.on_the_fly() {
-            let _ = sim.on_the_fly.push((l.code, output));
-        }
-    }
-    let (actions, dwell_counts) = crate::preview::plan::without_dwell_time(&actions);
-    let mut reports: Vec<BlockReport> = Vec::new();
-    crate::preview::plan::run_segments(&mut *sim, actions, &mut |e| {
-        if let SimEvent::Block { report, .. } = e {
-            reports.push(report);
-        }
-    })
-    .map_err(|(c, e)| match e {
-        PushError::Travel { axis } => anyhow::anyhow!(
-            "line {}: move leaves the travel of axis {}",
-            c.line,
-            gantry_machine::units::AXIS_LETTERS[axis]
-        ),
-        PushError::Full => anyhow::anyhow!("line {}: motion queue refused the action", c.line),
-    })?;
-    let mut moves: Vec<Move> = Vec::new();
-    let hz = KERNEL_TIMER_HZ as f64;
-    let mut last_line = None;
-    for r in &reports {
-        let time = r.counts as f64 / hz;
-        match moves.last_mut() {
-            Some(m) if last_line == Some(r.line) => {
+/// Block reports into moves: a move is finished when a block of another line follows.
+#[derive(Default)]
+struct Moves {
+    current: Option<Move>,
+}
+
+impl Moves {
+    /// Adds a block; returns the move it finished, if any.
+    fn add(&mut self, r: &BlockReport) -> Option<Move> {
+        let time = r.counts as f64 / KERNEL_TIMER_HZ as f64;
+        match self.current.as_mut() {
+            Some(m) if m.line == r.line => {
                 m.cruise = m.cruise.max(mm_min(r.peak));
                 m.exit = mm_min(r.exit);
                 m.time += time;
+                None
             }
-            _ => moves.push(Move {
+            _ => self.current.replace(Move {
                 line: r.line,
                 entry: mm_min(r.entry),
                 cruise: mm_min(r.peak),
@@ -97,56 +62,125 @@ pub fn simulate(program: &[u8], setup: &Setup) -> anyhow::Result<(Vec<Move>, f64
                 time,
             }),
         }
-        last_line = Some(r.line);
     }
-    Ok((moves, (sim.now + dwell_counts) as f64 / hz))
+}
+
+/// Simulates the program in `src` on the machine `setup`, calling `on_move` with each move as
+/// soon as it is planned; returns the total time in seconds.
+pub fn simulate_stream<S: ProgramSource>(
+    src: S,
+    setup: &Setup,
+    on_move: &mut impl FnMut(Move),
+) -> anyhow::Result<f64> {
+    let mut actions = Actions::new(src, &setup.interp_config());
+    let mut moves = Moves::default();
+    let planned = crate::preview::plan::plan_stream(actions.by_ref(), setup, &mut |r, _| {
+        if let Some(m) = moves.add(r) {
+            on_move(m);
+        }
+    });
+    if let Some(m) = moves.current.take() {
+        on_move(m);
+    }
+    match &actions.ended {
+        Ended::No => {}
+        Ended::Error(e) => anyhow::bail!("line {}: {:?}", e.line, e),
+        Ended::Limit(n) => {
+            anyhow::bail!("{n} actions, more than the program's lines allow: simulation stopped (an endless loop?)")
+        }
+    }
+    let counts = planned.map_err(|(c, e)| match e {
+        PushError::Travel { axis } => anyhow::anyhow!(
+            "line {}: move leaves the travel of axis {}",
+            c.line,
+            gantry_machine::units::AXIS_LETTERS[axis]
+        ),
+        PushError::Full => anyhow::anyhow!("line {}: motion queue refused the action", c.line),
+    })?;
+    Ok(crate::preview::plan::seconds(counts))
+}
+
+/// Simulates `program` on the machine `setup`; returns the moves and the total time in seconds.
+pub fn simulate(program: &[u8], setup: &Setup) -> anyhow::Result<(Vec<Move>, f64)> {
+    let mut moves = Vec::new();
+    let total = simulate_stream(MemorySource::new(program), setup, &mut |m| moves.push(m))?;
+    Ok((moves, total))
+}
+
+fn round(v: f64, digits: i32) -> f64 {
+    let f = 10f64.powi(digits);
+    (v * f).round() / f
+}
+
+/// One move as `simulate` prints it (JSON written by serde_json with `json`), without newline.
+pub fn move_line(m: &Move, json: bool) -> String {
+    if json {
+        serde_json::json!({
+            "line": m.line,
+            "entry": round(m.entry, 3),
+            "cruise": round(m.cruise, 3),
+            "exit": round(m.exit, 3),
+            "time": round(m.time, 6),
+        })
+        .to_string()
+    } else {
+        format!(
+            "line {:>6}  entry {:>9.3}  cruise {:>9.3}  exit {:>9.3} mm/min  time {:>9.6} s",
+            m.line, m.entry, m.cruise, m.exit, m.time
+        )
+    }
+}
+
+/// The last line: `total time: T s`, or `{"total_time": T}`.
+pub fn total_line(total: f64, json: bool) -> String {
+    if json {
+        serde_json::json!({ "total_time": round(total, 6) }).to_string()
+    } else {
+        format!("total time: {total:.3} s")
+    }
 }
 
 /// The whole report text. With `json`, JSON Lines written by serde_json: one object per move
 /// (`line`, `entry`, `cruise`, `exit` in mm/min, `time` in s, rounded as in the table), then
 /// `{"total_time": T}`; no other line.
 pub fn report(moves: &[Move], total: f64, json: bool) -> String {
-    let round = |v: f64, digits: i32| {
-        let f = 10f64.powi(digits);
-        (v * f).round() / f
-    };
     let mut out = String::new();
     for m in moves {
-        if json {
-            let obj = serde_json::json!({
-                "line": m.line,
-                "entry": round(m.entry, 3),
-                "cruise": round(m.cruise, 3),
-                "exit": round(m.exit, 3),
-                "time": round(m.time, 6),
-            });
-            let _ = writeln!(out, "{obj}");
-        } else {
-            let _ = writeln!(
-                out,
-                "line {:>6}  entry {:>9.3}  cruise {:>9.3}  exit {:>9.3} mm/min  time {:>9.6} s",
-                m.line, m.entry, m.cruise, m.exit, m.time
-            );
-        }
+        out.push_str(&move_line(m, json));
+        out.push('\n');
     }
-    if json {
-        let _ = writeln!(
-            out,
-            "{}",
-            serde_json::json!({ "total_time": round(total, 6) })
-        );
-    } else {
-        let _ = writeln!(out, "total time: {total:.3} s");
-    }
+    out.push_str(&total_line(total, json));
+    out.push('\n');
     out
 }
 
-/// Runs `gantry simulate FILE [--json] [--setup S]`.
+/// Runs `gantry simulate FILE [--json] [--setup S]`: each move is printed as soon as it is
+/// planned, so the output streams and nothing of the program is held.
 pub fn run(file: &Path, json: bool, setup: &Setup) -> anyhow::Result<ExitCode> {
-    let text =
-        std::fs::read(file).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
-    let (moves, total) = simulate(&text, setup)?;
-    print!("{}", report(&moves, total, json));
+    let src = FileSource::open(file)
+        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::with_capacity(1 << 16, stdout.lock());
+    let mut write_error = None;
+    let total = simulate_stream(src, setup, &mut |m| {
+        if write_error.is_none() {
+            if let Err(e) = writeln!(out, "{}", move_line(&m, json)) {
+                write_error = Some(e);
+            }
+        }
+    });
+    if let Some(e) = write_error {
+        return Err(e.into());
+    }
+    let total = match total {
+        Ok(t) => t,
+        Err(e) => {
+            out.flush()?;
+            return Err(e);
+        }
+    };
+    writeln!(out, "{}", total_line(total, json))?;
+    out.flush()?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -533,6 +533,19 @@ pub fn run(
     setup: gantry_machine::setup::Setup,
     start: Start,
 ) -> anyhow::Result<std::process::ExitCode> {
+    run_with_cpu(file, target, setup, start, None)
+}
+
+/// [`run`] with a CPU model for the emulated board (`--cpu-model`, [`crate::cpu_model`]): its
+/// main loop then takes the time the MCU would, and the report's underruns show whether that
+/// MCU keeps up with the program.
+pub fn run_with_cpu(
+    file: &std::path::Path,
+    target: Target,
+    setup: gantry_machine::setup::Setup,
+    start: Start,
+    cpu: Option<crate::cpu_model::CpuModel>,
+) -> anyhow::Result<std::process::ExitCode> {
     let program = Program::load(file)?;
     let text = std::fs::read_to_string(file)?;
     let wall = std::time::Instant::now();
@@ -548,8 +561,15 @@ pub fn run(
             file.display()
         );
     }
-    let (mut client, board_setup) =
-        crate::commands::connect_with(target, crate::link::OnClose::DropDtr)?;
+    let (mut client, board_setup) = match (target, cpu) {
+        (Target::Emulated(setup), Some(model)) => {
+            let mut board = crate::emulator::EmulatedBoard::new((*setup).clone());
+            board.set_cpu_model(Some(model));
+            let t: Box<dyn crate::link::Transport> = Box::new(board);
+            (crate::link::Client::connect(t, 2000)?, *setup)
+        }
+        (target, _) => crate::commands::connect_with(target, crate::link::OnClose::DropDtr)?,
+    };
     // The machine is what the board says it is.
     let setup = if from_board { board_setup } else { setup };
     let axes = setup.axis_count as usize;
@@ -584,6 +604,9 @@ pub fn run(
         }
     };
     print_report(&report, &program, file, axes, wall.elapsed());
+    if let Some(n) = client.transport.underruns() {
+        println!("{}", underrun_line(n, cpu));
+    }
     if let Some(s) = &report.final_status {
         let cfg = gantry_machine::motion::config::MotionConfig::from_setup(&setup);
         let steps = cfg.to_steps(&s.machine_pos);
@@ -697,39 +720,93 @@ enum Asking {
     Stop(u32),
 }
 
-/// The job's remaining machine time by line, from the planner (the same motion core as the
-/// board, so the exact time, dwells included); `None` when the program cannot be planned.
+/// The job's remaining machine time, from the planner (the same motion core as the board, each
+/// block's time in closed form: the exact time at 100 % override, dwells included); `None` when
+/// the program cannot be planned.
+///
+/// The plan is kept as a timeline in the order the board runs it: one span per run of blocks of
+/// one source line, so a subprogram called or repeated several times (M98 L, O-word repeat,
+/// while) has a span per pass. The board reports only the line it executes; the span is the
+/// next one of that line from the last match whose start the job's machine time has reached
+/// (each pass of a repeated line in turn), and within a span (an arc, or passes of one line
+/// back to back) the machine time places the job.
 pub struct Eta {
-    /// (line, seconds of motion of the moves up to and including that line), lines ascending.
-    done_by_line: Vec<(u32, f64)>,
+    timeline: Vec<Span>,
     total: f64,
+    /// Index of the span matched last (never goes back).
+    cursor: std::cell::Cell<usize>,
+    /// Planned time at which the streamed job starts (`--from-line`: the start of that line).
+    offset: std::cell::Cell<f64>,
+}
+
+/// Consecutive blocks of one source line in the plan, machine seconds from the program's start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Span {
+    line: u32,
+    start: f64,
+    end: f64,
 }
 
 impl Eta {
     pub fn plan(text: &str, setup: &gantry_machine::setup::Setup) -> Option<Eta> {
-        let (moves, total) = crate::simulate::simulate(text.as_bytes(), setup).ok()?;
-        let mut by_line: std::collections::BTreeMap<u32, f64> = Default::default();
-        for m in &moves {
-            *by_line.entry(m.line).or_default() += m.time;
+        let src = gantry_machine::gcode::MemorySource::new(text.as_bytes());
+        let mut actions = crate::preview::source::Actions::new(src, &setup.interp_config());
+        let mut timeline: Vec<Span> = Vec::new();
+        let seconds = crate::preview::plan::seconds;
+        let counts = crate::preview::plan::plan_stream(actions.by_ref(), setup, &mut |r, end| {
+            let (start, end) = (seconds(end.saturating_sub(r.counts)), seconds(end));
+            match timeline.last_mut() {
+                Some(s) if s.line == r.line => s.end = end,
+                _ => timeline.push(Span {
+                    line: r.line,
+                    start,
+                    end,
+                }),
+            }
+        })
+        .ok()?;
+        if actions.ended != crate::preview::source::Ended::No {
+            return None;
         }
-        let mut acc = 0.0;
-        let done_by_line = by_line
-            .into_iter()
-            .map(|(l, t)| {
-                acc += t;
-                (l, acc)
-            })
-            .collect();
         Some(Eta {
-            done_by_line,
-            total,
+            timeline,
+            total: seconds(counts),
+            cursor: std::cell::Cell::new(0),
+            offset: std::cell::Cell::new(0.0),
         })
     }
 
-    /// Machine seconds left when the board executes `line` (its moves counted as still to run).
-    pub fn left_at(&self, line: u32) -> f64 {
-        let i = self.done_by_line.partition_point(|&(l, _)| l < line);
-        let done = i.checked_sub(1).map_or(0.0, |j| self.done_by_line[j].1);
+    /// The job starts at the first pass of `line` (`--from-line`: nothing before it runs).
+    pub fn start_at(&self, line: u32) {
+        if let Some(i) = self.timeline.iter().position(|s| s.line >= line) {
+            self.cursor.set(i);
+            self.offset.set(self.timeline[i].start);
+        }
+    }
+
+    /// Machine seconds left when the board executes `line`, `elapsed_s` seconds into the job.
+    pub fn left_at(&self, line: u32, elapsed_s: f64) -> f64 {
+        let now = self.offset.get() + elapsed_s.max(0.0);
+        let from = self.cursor.get();
+        let mut pick = None;
+        for (i, s) in self.timeline.iter().enumerate().skip(from) {
+            if s.start > now && (pick.is_some() || s.start > 2.0 * now + 60.0) {
+                break;
+            }
+            if s.line == line {
+                pick = Some(i);
+                if s.start > now {
+                    break;
+                }
+            }
+        }
+        if let Some(i) = pick {
+            self.cursor.set(i);
+        }
+        let done = self
+            .timeline
+            .get(self.cursor.get())
+            .map_or(0.0, |s| now.clamp(s.start, s.end.max(s.start)));
         (self.total - done).max(0.0)
     }
 
@@ -737,6 +814,15 @@ impl Eta {
     pub fn total(&self) -> f64 {
         self.total
     }
+}
+
+/// The report line on the emulated board's underruns (gaps where its step kernel ran dry mid-job).
+pub fn underrun_line(gaps: u64, cpu: Option<crate::cpu_model::CpuModel>) -> String {
+    let model = match cpu {
+        Some(m) => format!("CPU model {} at {} MHz", m.name, m.hz / 1_000_000),
+        None => "no CPU model: main loop in no time, --cpu-model f411 charges it".to_owned(),
+    };
+    format!("underruns: {gaps} (the step kernel ran dry mid-job; {model})")
 }
 
 /// Seconds as h:mm:ss.
@@ -891,7 +977,7 @@ fn stream_with_progress<T: Transport>(
         let pct = (p.line as u64 * 100 / total).min(100);
         let machine_s = p.elapsed_ms as f64 / 1000.0;
         let left = match eta {
-            Some(e) => format!("ETA {}", hms(e.left_at(p.line.max(1)))),
+            Some(e) => format!("ETA {}", hms(e.left_at(p.line.max(1), machine_s))),
             None => "ETA -".to_owned(),
         };
         let state = state.map_or("-", state_name);
@@ -914,6 +1000,9 @@ fn stream_with_progress<T: Transport>(
         }
         Flow::Continue
     };
+    if let (Resume::FromLine(n, _), Some(e)) = (&resume, eta) {
+        e.start_at(*n);
+    }
     let report = match resume {
         Resume::No => stream_program(client, program, &mut on_progress),
         Resume::FromLine(from, pre) => {
@@ -1022,6 +1111,45 @@ fn print_report(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_eta_follows_subprogram_repeats_in_execution_order() {
+        use gantry_machine::setup::Setup;
+        // The body (lines 4-5) runs three times: 10 mm in X, then 10 mm in Y, at F600 (1 s
+        // each, plus ramps), then line 7 moves 20 mm back in X.
+        let program = "G21 G90 F600\nO101 repeat [3]\nG91\nG1 X10\nG1 Y10\nO101 endrepeat\n\
+                       G1 X-20\nM30\n";
+        let eta = Eta::plan(program, &Setup::default()).unwrap();
+        let lines: Vec<u32> = eta.timeline.iter().map(|s| s.line).collect();
+        assert_eq!(lines, [4, 5, 4, 5, 4, 5, 7]);
+        let total = eta.total();
+        assert!((8.0..8.5).contains(&total), "{total}");
+        let pass = |k: usize| eta.timeline[k].start;
+        // First pass of line 4 at the start.
+        assert_eq!(eta.left_at(4, 0.0), total);
+        // The board reports line 4 again later on: the second pass (the line-ratio or
+        // per-line lookup would still say the first).
+        let t = pass(2) + 0.1;
+        assert!((eta.left_at(4, t) - (total - t)).abs() < 1e-9);
+        // Line 7 after the three passes: only its own move is left.
+        let t = pass(6);
+        assert!((eta.left_at(7, t) - (total - pass(6))).abs() < 1e-9);
+        assert!(eta.left_at(7, t) < 2.2);
+        // Never back: line 4 reported late (a stale status) keeps the estimate.
+        assert!((eta.left_at(4, t) - (total - t)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_eta_from_a_line_counts_from_there() {
+        let program = "G21 G90 F600\nG1 X10\nG1 X20\nG1 X30\nM30\n";
+        let eta = Eta::plan(program, &gantry_machine::setup::Setup::default()).unwrap();
+        eta.start_at(4);
+        let left = eta.left_at(4, 0.0);
+        // Line 4's 10 mm at F600 (~1 s) is what is left, not the whole program.
+        assert!((0.9..1.2).contains(&left), "{left} of {}", eta.total());
+        // The preamble runs first (reported as line 0): the estimate stays.
+        assert_eq!(eta.left_at(0, 0.0), left);
+    }
 
     #[test]
     fn program_text_never_reaches_the_terminal_with_control_characters() {

@@ -19,11 +19,37 @@ fn mm3(p: &Pos) -> P3 {
 /// the programmed feeds and the total time is estimated from feeds and per-axis rapid rates
 /// without acceleration (the planner's figures replace both when available).
 pub fn from_canon(actions: &[Canon], setup: &Setup, title: &str) -> PreviewJob {
-    let rates: [f64; 3] = [0, 1, 2].map(|i| setup.axes[i].max_rate as f64 / NM_PER_MM as f64);
-    let mut at: P3 = [0.0; 3];
-    let mut moves = Vec::new();
-    let mut seconds = 0.0;
-    for c in actions {
+    let mut adapter = MoveAdapter::new(setup);
+    let moves = actions.iter().filter_map(|c| adapter.take(c)).collect();
+    PreviewJob {
+        title: title.to_string(),
+        moves,
+        total_time_s: Some(adapter.seconds),
+        speed_source: SpeedSource::Programmed,
+        travel: Some(Box3::travel(setup)),
+    }
+}
+
+/// Canonical actions to [`PreviewMove`]s one at a time (for tools that stream a program), with
+/// the running time estimate of [`from_canon`].
+pub struct MoveAdapter {
+    rates: [f64; 3],
+    at: P3,
+    /// Estimated time so far, s (programmed feeds, no acceleration, dwells included).
+    pub seconds: f64,
+}
+
+impl MoveAdapter {
+    pub fn new(setup: &Setup) -> Self {
+        MoveAdapter {
+            rates: [0, 1, 2].map(|i| setup.axes[i].max_rate as f64 / NM_PER_MM as f64),
+            at: [0.0; 3],
+            seconds: 0.0,
+        }
+    }
+
+    /// The move of `c`, if it is one.
+    pub fn take(&mut self, c: &Canon) -> Option<PreviewMove> {
         let (kind, to, feed) = match c.action {
             Action::Rapid { to } => (MoveKind::Rapid, mm3(&to), None),
             Action::Feed { to, feed } | Action::Probe { to, feed, .. } => {
@@ -46,29 +72,22 @@ pub fn from_canon(actions: &[Canon], setup: &Setup, title: &str) -> PreviewJob {
                 (MoveKind::Arc(arc), mm3(&to), Some(feed))
             }
             Action::Dwell { micros } => {
-                seconds += micros as f64 / 1e6;
-                continue;
+                self.seconds += micros as f64 / 1e6;
+                return None;
             }
-            _ => continue,
+            _ => return None,
         };
         let speed = feed.map(|f| f as f64 / NM_PER_MM as f64);
         let m = PreviewMove {
             line: c.line,
             kind,
-            from: at,
+            from: self.at,
             to,
             speed_mm_min: speed,
         };
-        seconds += estimate_seconds(&m, &rates);
-        moves.push(m);
-        at = to;
-    }
-    PreviewJob {
-        title: title.to_string(),
-        moves,
-        total_time_s: Some(seconds),
-        speed_source: SpeedSource::Programmed,
-        travel: Some(Box3::travel(setup)),
+        self.seconds += estimate_seconds(&m, &self.rates);
+        self.at = to;
+        Some(m)
     }
 }
 

@@ -78,35 +78,97 @@ pub fn job_from_program(
     setup: &Setup,
     title: &str,
 ) -> anyhow::Result<Prepared> {
-    let (canon, error) = if jsonl {
-        adapt::canon_from_jsonl(std::str::from_utf8(program).context("canon JSON Lines")?)?
-    } else {
-        source::interpret(program, setup)
-    };
+    if !jsonl {
+        return Ok(job_from_source(
+            gantry_machine::gcode::MemorySource::new(program),
+            setup,
+            title,
+        ));
+    }
+    let (canon, error) =
+        adapt::canon_from_jsonl(std::str::from_utf8(program).context("canon JSON Lines")?)?;
     let mut job = adapt::from_canon(&canon, setup, title);
     let note = match plan::plan(&canon, setup) {
         Ok(p) => {
             plan::apply(&mut job, &p);
             None
         }
-        Err(e) => Some(format!(
-            "planner: {e:#}; colouring by programmed feed, time estimated without acceleration"
-        )),
+        Err(e) => Some(planner_note(&e)),
     };
     Ok(Prepared { job, error, note })
+}
+
+fn planner_note(e: &anyhow::Error) -> String {
+    format!("planner: {e:#}; colouring by programmed feed, time estimated without acceleration")
+}
+
+/// Builds the preview job of the program in `src` in one pass: each action becomes a move as it
+/// is interpreted and goes to the planner at once (the moves are kept, for drawing; the actions
+/// and the program text are not).
+pub fn job_from_source<S: gantry_machine::gcode::ProgramSource>(
+    src: S,
+    setup: &Setup,
+    title: &str,
+) -> Prepared {
+    let mut actions = source::Actions::new(src, &setup.interp_config());
+    let mut adapter = adapt::MoveAdapter::new(setup);
+    let mut moves = Vec::new();
+    let mut peaks = plan::Peaks::default();
+    let planned = {
+        let mut each = actions.by_ref().inspect(|c| {
+            if let Some(m) = adapter.take(c) {
+                moves.push(m);
+            }
+        });
+        let planned = plan::plan_stream(each.by_ref(), setup, &mut |r, _| peaks.add(r));
+        if planned.is_err() {
+            each.for_each(drop);
+        }
+        planned
+    };
+    let error = source::ended_error(&actions.ended, "preview");
+    let mut job = PreviewJob {
+        title: title.to_string(),
+        moves,
+        total_time_s: Some(adapter.seconds),
+        speed_source: SpeedSource::Programmed,
+        travel: Some(Box3::travel(setup)),
+    };
+    let note = match planned {
+        Ok(counts) => {
+            let p = plan::Plan {
+                peak_mm_min: peaks.0,
+                total_time_s: plan::seconds(counts),
+            };
+            plan::apply(&mut job, &p);
+            None
+        }
+        Err((c, e)) => Some(planner_note(&anyhow::anyhow!(
+            "line {}: planner refused the move: {e:?}",
+            c.line
+        ))),
+    };
+    Prepared { job, error, note }
 }
 
 /// Runs `gantry preview FILE -o OUT`: exit code 0, or 1 when the program has an error (the
 /// picture then shows it up to the error).
 pub fn run(file: &Path, out: &Path, setup: &Setup) -> anyhow::Result<ExitCode> {
     let format = Format::from_path(out)?;
-    let program = std::fs::read(file).with_context(|| format!("cannot read {}", file.display()))?;
     let jsonl = file.extension().is_some_and(|e| e == "jsonl");
     let title = file
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let Prepared { job, error, note } = job_from_program(&program, jsonl, setup, &title)?;
+    let Prepared { job, error, note } = if jsonl {
+        let program =
+            std::fs::read(file).with_context(|| format!("cannot read {}", file.display()))?;
+        job_from_program(&program, jsonl, setup, &title)?
+    } else {
+        let src = source::FileSource::open(file)
+            .with_context(|| format!("cannot read {}", file.display()))?;
+        job_from_source(src, setup, &title)
+    };
     if let Some(n) = note {
         eprintln!("gantry preview: {n}");
     }

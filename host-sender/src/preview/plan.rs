@@ -1,15 +1,19 @@
-//! Planner figures for the preview: runs the core's motion pipeline on virtual time
-//! (`gantry_machine::motion::sim`) and puts each move's planned peak speed and the job's total time
-//! into a [`PreviewJob`].
+//! Planner figures for the preview, `gantry check` and `gantry simulate`: runs the core's motion
+//! pipeline on virtual time, each planned block timed in closed form
+//! ([`gantry_machine::motion::sim::Sim::run_planned`]: the profile the board runs, without cutting
+//! it into segments or stepping it), and puts each move's planned peak speed and the job's total
+//! time into a [`PreviewJob`].
 //!
 //! The planner reports per block (arcs are cut into chords), tagged with the source line; a move
 //! takes the highest peak of the feed blocks of its line.
 
 use super::model::{MoveKind, PreviewJob, SpeedSource};
-use gantry_machine::canon::{Action, Canon};
+use gantry_machine::canon::Canon;
 use gantry_machine::motion::config::MotionConfig;
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
-use gantry_machine::motion::sim::{Feeder, Sim, SimEvent};
+use gantry_machine::motion::pipeline::PushError;
+use gantry_machine::motion::prep::BlockReport;
+use gantry_machine::motion::sim::{Sim, SimEvent};
 use gantry_machine::setup::Setup;
 use gantry_machine::units::NM_PER_MM;
 use std::collections::HashMap;
@@ -23,87 +27,64 @@ pub struct Plan {
     pub total_time_s: f64,
 }
 
-/// `canon` with every dwell shortened to zero, and the dwell time taken out (kernel timer counts,
-/// exactly what the board's prep would count: `motion/pipeline.rs`). A zero dwell is still a
-/// stop for the planner, so the motion planned is unchanged; the time is added back in closed
-/// form instead of being stepped through by the simulation, whose work would otherwise grow
-/// with the dwell time (`G4 P1000`).
-pub fn without_dwell_time(canon: &[Canon]) -> (Vec<Canon>, u64) {
-    let counts_per_us = u64::from(KERNEL_TIMER_HZ / 1_000_000);
-    let mut dwell_counts = 0u64;
-    let out = canon
-        .iter()
-        .map(|c| match c.action {
-            Action::Dwell { micros } => {
-                dwell_counts = dwell_counts.saturating_add(micros.saturating_mul(counts_per_us));
-                Canon {
-                    action: Action::Dwell { micros: 0 },
-                    ..*c
-                }
-            }
-            _ => *c,
-        })
-        .collect();
-    (out, dwell_counts)
+/// The virtual machine the planned time is taken on: the setup's motion, and its on-the-fly M
+/// codes queued as the board queues them.
+pub fn machine(setup: &Setup) -> Box<Sim<RING>> {
+    let mut sim: Box<Sim<RING>> = Box::new(Sim::new(MotionConfig::from_setup(setup)));
+    for l in &setup.outputs.mcode_lists {
+        if let Some(output) = l.on_the_fly() {
+            let _ = sim.on_the_fly.push((l.code, output));
+        }
+    }
+    sim
 }
 
-/// Runs `program` through `sim`'s planner and segment prep like [`Sim::run`], but adds each
-/// segment's duration (`ticks × period`) to `sim.now` instead of stepping the kernel through it,
-/// so the work grows with the number of segments, not with the steps (deep peck cycles).
-/// Sync points are released at once; nothing waits on a real kernel.
-pub fn run_segments<const N: usize>(
-    sim: &mut Sim<N>,
+/// Plans `program` (pulled one action at a time, so nothing is held) on the `setup` machine and
+/// calls `on_block` with every block the planner finished and the time it ends (kernel timer
+/// counts from the start); returns the total time in kernel timer counts (dwells included), or
+/// the action the planner refused.
+pub fn plan_stream(
     program: impl IntoIterator<Item = Canon>,
-    on: &mut impl FnMut(SimEvent),
-) -> Result<(), (Canon, gantry_machine::motion::pipeline::PushError)> {
-    let mut feeder = Feeder::new(program.into_iter());
-    loop {
-        feeder.feed(sim)?;
-        let exhausted = feeder.exhausted();
-        let seg = sim.motion.next_segment();
-        if let Some(report) = sim.motion.take_report() {
-            on(SimEvent::Block {
-                report,
-                time: sim.now,
-            });
+    setup: &Setup,
+    on_block: &mut impl FnMut(&BlockReport, u64),
+) -> Result<u64, (Canon, PushError)> {
+    let mut sim = machine(setup);
+    sim.run_planned(program, &mut |e| {
+        if let SimEvent::Block { report, time } = e {
+            on_block(&report, time);
         }
-        match seg {
-            Some(s) => sim.now += s.duration(),
-            None => {
-                if let Some(canon) = sim.motion.sync_point().copied() {
-                    on(SimEvent::Sync {
-                        canon,
-                        time: sim.now,
-                    });
-                    sim.motion.release_sync();
-                } else if exhausted && !sim.motion.output_pending() {
-                    return Ok(());
-                }
-            }
+    })?;
+    Ok(sim.now)
+}
+
+/// Kernel timer counts → seconds.
+pub fn seconds(counts: u64) -> f64 {
+    counts as f64 / KERNEL_TIMER_HZ as f64
+}
+
+/// Peak speeds per line, collected from block reports.
+#[derive(Default)]
+pub struct Peaks(pub HashMap<u32, f64>);
+
+impl Peaks {
+    pub fn add(&mut self, report: &BlockReport) {
+        if !report.rapid && report.length > 0 {
+            // nm/s → mm/min.
+            let v = report.peak as f64 * 60.0 / NM_PER_MM as f64;
+            let e = self.0.entry(report.line).or_insert(0.0);
+            *e = e.max(v);
         }
     }
 }
 
 /// Plans `canon` with the machine `setup` on virtual time.
 pub fn plan(canon: &[Canon], setup: &Setup) -> anyhow::Result<Plan> {
-    let (canon, dwell_counts) = without_dwell_time(canon);
-    let mut sim: Sim<RING> = Sim::new(MotionConfig::from_setup(setup));
-    let mut peak_mm_min: HashMap<u32, f64> = HashMap::new();
-    let mut on = |e: SimEvent| {
-        if let SimEvent::Block { report, .. } = e {
-            if !report.rapid && report.length > 0 {
-                // nm/s → mm/min.
-                let v = report.peak as f64 * 60.0 / NM_PER_MM as f64;
-                let e = peak_mm_min.entry(report.line).or_insert(0.0);
-                *e = e.max(v);
-            }
-        }
-    };
-    run_segments(&mut sim, canon.iter().copied(), &mut on)
+    let mut peaks = Peaks::default();
+    let counts = plan_stream(canon.iter().copied(), setup, &mut |r, _| peaks.add(r))
         .map_err(|(c, e)| anyhow::anyhow!("line {}: planner refused the move: {e:?}", c.line))?;
     Ok(Plan {
-        peak_mm_min,
-        total_time_s: (sim.now + dwell_counts) as f64 / KERNEL_TIMER_HZ as f64,
+        peak_mm_min: peaks.0,
+        total_time_s: seconds(counts),
     })
 }
 
@@ -121,6 +102,7 @@ pub fn apply(job: &mut PreviewJob, plan: &Plan) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use gantry_machine::canon::Action;
 
     fn canon(program: &str) -> Vec<Canon> {
         let setup = Setup::default();
@@ -134,19 +116,16 @@ mod tests {
     #[test]
     fn dwell_time_is_counted_in_closed_form_not_simulated() {
         let program = "G4 P60\n".repeat(2000);
-        let (simulated, counts) = without_dwell_time(&canon(&program));
-        // Nothing left for the simulation to step through...
-        assert!(simulated
+        assert!(canon(&program)
             .iter()
-            .all(|c| matches!(c.action, Action::Dwell { micros: 0 })));
-        assert_eq!(counts, 2000 * 60 * u64::from(KERNEL_TIMER_HZ));
-        // ...and the plan still takes the full 2,000 minutes.
+            .all(|c| matches!(c.action, Action::Dwell { .. })));
+        // 2,000 minutes, planned in one step per dwell.
         let p = plan(&canon(&program), &Setup::default()).unwrap();
         assert_eq!(p.total_time_s, 120_000.0);
     }
 
     #[test]
-    fn adding_segment_durations_gives_the_stepped_time_and_reports() {
+    fn planned_time_agrees_with_the_stepped_run_and_reports() {
         let program = "G21 G90 F300\nG0 X5 Y5 Z5\nG1 Z-1\nG2 X15 Y5 I5 J0\nM3 S1000\n\
                        G99 G83 X20 Y20 Z-4 R1 Q0.3\nX25\nG80\nG4 P0.2\nG0 Z5\nM0\nG1 X0 Y0\nM30\n";
         let actions = canon(program);
@@ -160,19 +139,22 @@ mod tests {
                 }
             })
             .unwrap();
-        let mut fast: Box<Sim<RING>> = Box::new(Sim::new(cfg));
-        let mut fast_reports = Vec::new();
-        run_segments(&mut *fast, actions.iter().copied(), &mut |e| {
-            if let SimEvent::Block { report, .. } = e {
-                fast_reports.push(report);
-            }
+        let mut planned_reports = Vec::new();
+        let planned = plan_stream(actions.iter().copied(), &Setup::default(), &mut |r, _| {
+            planned_reports.push(*r)
         })
         .unwrap();
         assert!(stepped.now > 0);
-        assert_eq!(fast.now, stepped.now);
-        assert_eq!(fast_reports, stepped_reports);
-        // No step events: the kernel never ran.
-        assert_eq!(fast.kernel.position(), [0; gantry_machine::units::MAX_AXES]);
+        // Within 0.01 % (the closed form does not lose each segment's period rounding).
+        assert!(
+            planned.abs_diff(stepped.now) * 10_000 <= stepped.now,
+            "{planned} {}",
+            stepped.now
+        );
+        assert_eq!(planned_reports.len(), stepped_reports.len());
+        for (p, s) in planned_reports.iter().zip(&stepped_reports) {
+            assert_eq!((p.line, p.length, p.entry), (s.line, s.length, s.entry));
+        }
     }
 
     #[test]

@@ -30,7 +30,7 @@ use super::config::MotionConfig;
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::output_event::OutputEvent;
 use super::planner::{direction, junction_limit_sq, Block, BlockKind, LineRequest, Planner, UNIT};
-use super::prep::{BlockReport, Prep, PrepOut, PrepState};
+use super::prep::{BlockOut, BlockReport, Prep, PrepOut, PrepState};
 use super::trig::mul_div;
 use super::trig::{polar, QUARTER_TURN};
 use crate::canon::{Action, Canon};
@@ -498,6 +498,25 @@ impl<const N: usize> Motion<N> {
                     return None;
                 }
             }
+        }
+    }
+
+    /// Host planning tools: like [`Self::next_segment`], but the head block whole, timed in
+    /// closed form ([`Prep::next_block`]): `Some(counts)` for a finished line or dwell block,
+    /// `None` at a sync point or with nothing queued. Not for a board: nothing is stepped.
+    pub fn next_block(&mut self) -> Option<u64> {
+        if self.at_sync {
+            return None;
+        }
+        let out = self.prep.next_block(&mut self.planner);
+        self.feed_arc();
+        match out {
+            BlockOut::Time(counts) => Some(counts),
+            BlockOut::Sync => {
+                self.at_sync = true;
+                None
+            }
+            BlockOut::Idle => None,
         }
     }
 

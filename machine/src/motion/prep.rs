@@ -64,6 +64,17 @@ pub enum PrepOut {
     Idle,
 }
 
+/// Result of [`Prep::next_block`]: one whole block in closed form.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlockOut {
+    /// A line or dwell block finished; its duration in kernel timer counts.
+    Time(u64),
+    /// The head block is a sync point (as [`PrepOut::Sync`]).
+    Sync,
+    /// Nothing to prepare (empty, or not running).
+    Idle,
+}
+
 /// Segment preparation state for the head block.
 #[derive(Clone, Debug)]
 pub struct Prep {
@@ -245,6 +256,84 @@ impl Prep {
                         return PrepOut::Idle;
                     }
                 }
+            }
+        }
+    }
+
+    /// Host planning tools (`gantry check`, `simulate`, `preview`): finishes the head block at
+    /// once instead of cutting it into segments, and returns what [`Self::next`] would have
+    /// returned for it with the duration in closed form: a line block's rest from the profile prep
+    /// builds for it ([`Profile::duration`], the profile the board runs), a dwell's counts whole.
+    /// The step position, the carried speed and the block report end as after its last segment.
+    /// Only while running (a hold is never planned this way); segments handed out before can no
+    /// longer be taken back.
+    pub fn next_block<const N: usize>(&mut self, planner: &mut Planner<N>) -> BlockOut {
+        if self.state != PrepState::Running {
+            return BlockOut::Idle;
+        }
+        let Some(head) = planner.head().copied() else {
+            self.carry = 0;
+            return BlockOut::Idle;
+        };
+        self.history = History::new();
+        match head.kind() {
+            BlockKind::Sync => {
+                self.carry = 0;
+                BlockOut::Sync
+            }
+            BlockKind::Dwell { counts } => {
+                let left = if self.active { self.dwell_left } else { counts };
+                self.carry = 0;
+                self.active = false;
+                self.dwell_left = 0;
+                planner.pop();
+                BlockOut::Time(left)
+            }
+            BlockKind::Line { output } => {
+                if !self.active {
+                    // Starts the block exactly as `line_segment` does.
+                    self.active = true;
+                    self.done = 0;
+                    self.s_now = 0;
+                    self.cum = [0; MAX_AXES];
+                    self.output = output;
+                    let v_in = if head.stop_before { 0 } else { self.carry };
+                    self.reprofile(&head, planner, 0, v_in);
+                    self.report = BlockReport {
+                        line: head.line,
+                        rapid: head.rapid,
+                        length: head.length,
+                        entry: self.profile.v0,
+                        peak: self.profile.v0,
+                        exit: 0,
+                        counts: 0,
+                    };
+                } else if planner.exit_sq(0) != self.exit_sq
+                    || planner.nominal(&head) != self.nominal
+                {
+                    let v = self.profile.speed_at(self.s_now);
+                    self.reprofile(&head, planner, self.s_now, v);
+                }
+                let counts = self.profile.duration().saturating_sub(self.emitted);
+                for i in 0..MAX_AXES {
+                    let left = i64::from(head.steps[i] - self.cum[i]);
+                    self.position[i] += if head.dir & (1 << i) != 0 {
+                        -left
+                    } else {
+                        left
+                    };
+                }
+                self.output = OutputEvent::NONE;
+                self.done = head.events;
+                self.s_now = head.length;
+                self.carry = self.profile.speed_at(head.length);
+                self.report.counts += counts;
+                self.report.peak = self.report.peak.max(self.profile.peak());
+                self.report.exit = self.carry;
+                self.finished = Some(self.report);
+                self.active = false;
+                planner.pop();
+                BlockOut::Time(counts)
             }
         }
     }

@@ -170,6 +170,13 @@ impl Profile {
         }
     }
 
+    /// Time from `s0` to the end of the profile (`s3`), kernel timer counts: the closed-form
+    /// duration of a block, which segment prep (`motion/prep.rs`) emits in ~2 ms pieces and host
+    /// tools take whole (`Prep::next_block`).
+    pub fn duration(&self) -> u64 {
+        self.time_at(self.s3)
+    }
+
     /// Highest speed of the profile.
     pub fn peak(&self) -> u64 {
         self.v0.max(self.vm)

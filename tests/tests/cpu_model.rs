@@ -1,0 +1,75 @@
+//! The emulated board's CPU model (host-sender/src/cpu_model.rs): a fine-segment 3D program
+//! streamed to the emulated board with the F411 model on shows underruns at a feed the F411
+//! cannot keep up with, and none at a feed it can; without the model the same fast job has none.
+
+use gantry_machine::setup::Setup;
+use host_sender::cpu_model::CpuModel;
+use host_sender::emulator::EmulatedBoard;
+use host_sender::link::Client;
+use host_sender::program::Program;
+use host_sender::stream::{stream_program, Flow};
+
+/// A machine fast enough that the planner, not the axes, bounds the speed: 500 mm/s, 10 m/s²,
+/// 160 steps/mm (64 kHz at 400 mm/s, well within the default pulse timing).
+fn fast_machine() -> Setup {
+    let mut setup = Setup::default();
+    for a in setup.axes.iter_mut() {
+        a.steps = 800;
+        a.units_nm = 5_000_000;
+        a.max_rate = 30_000_000_000;
+        a.accel = 10_000_000_000;
+    }
+    setup
+}
+
+/// 10,000 lines of 0.05 mm along a straight 3D line (X, with Y and Z drifting): 20 lines per mm.
+fn fine_program(feed_mm_min: u32) -> String {
+    let mut p = format!("G21 G90\nG0 X-250 Y0 Z0\nG1 F{feed_mm_min}\n");
+    for i in 1..=10_000i64 {
+        // µm: X 50 per line, Y and Z 0.02 (written to 5 decimals of a mm).
+        let (x, yz) = (-250_000 + i * 50, i * 2);
+        let sign = if x < 0 { "-" } else { "" };
+        p.push_str(&format!(
+            "X{sign}{}.{:03} Y0.{yz:05} Z-0.{yz:05}\n",
+            x.abs() / 1000,
+            x.abs() % 1000
+        ));
+    }
+    p.push_str("M30\n");
+    p
+}
+
+/// Streams `program` to the emulated fast machine; returns the gaps and the machine seconds.
+fn stream(program: &str, cpu: Option<CpuModel>) -> (u64, f64) {
+    let mut board = EmulatedBoard::new(fast_machine());
+    board.set_cpu_model(cpu);
+    let mut client = Client::connect(board, 2000).unwrap();
+    let report = stream_program(&mut client, &Program::from_text(program), &mut |_| {
+        Flow::Continue
+    })
+    .unwrap();
+    assert!(report.completed, "{:?}", report.errors);
+    // Every step arrived, whatever the model did to the timing: X ends at 250 mm, 160 steps/mm.
+    assert_eq!(client.transport.kernel.position()[0], 40_000);
+    (
+        client.transport.starved.gaps,
+        report.elapsed_ms as f64 / 1000.0,
+    )
+}
+
+#[test]
+fn the_f411_model_starves_the_kernel_only_where_the_f411_would() {
+    // 20 lines per mm at up to 358 mm/s (the 128-block look-ahead over 6.4 mm at 10 m/s²) is
+    // ~7,000 lines/s, more than the ~5,000 a 96 MHz F411 interprets and plans
+    // (7,600 + 5,400 + 4,900 instructions each, plus the step interrupt).
+    let fast = fine_program(30_000);
+    let (gaps, with_model) = stream(&fast, Some(CpuModel::F411));
+    assert!(gaps > 0, "no underrun at 30,000 mm/min");
+    let (gaps, without) = stream(&fast, None);
+    assert_eq!(gaps, 0, "underruns without the CPU model");
+    // The starved job takes longer than the one whose main loop costs nothing.
+    assert!(with_model > without * 1.05, "{with_model} {without}");
+    // 100 mm/s: 2,000 lines/s, well within the F411's budget.
+    let (gaps, _) = stream(&fine_program(6_000), Some(CpuModel::F411));
+    assert_eq!(gaps, 0, "underruns at 6,000 mm/min");
+}
