@@ -10,6 +10,33 @@ use gantry_proto::{
     BoardEndpoint, BoardMsg, Config, HostMsg, Lane, LinkEvent, MachineState, ProgramTarget, Status,
 };
 
+/// The protocol a connection speaks, told from its first byte and forgotten when the host
+/// disconnects (DTR drop, port closed): Gantry's framed protocol or grbl 1.1's text
+/// (`machine/src/grbl/`, docs/grbl.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkProtocol {
+    /// Nothing received yet on this connection (the framed link runs meanwhile).
+    Undecided,
+    /// COBS frames (docs/protocol.md).
+    Framed,
+    /// grbl 1.1 text.
+    Grbl,
+}
+
+impl LinkProtocol {
+    /// The protocol a connection's first byte belongs to. A framed host's first byte is a frame
+    /// delimiter (0x00) or a COBS code byte: the distance to the frame's first zero, at most 3
+    /// for a new endpoint (its sequence and ack numbers start at 0, so the header has zero
+    /// bytes at once). grbl senders start with text, CR/LF, `?`, `$`, Ctrl-X or a realtime byte.
+    pub fn of_first_byte(b: u8) -> LinkProtocol {
+        match b {
+            b'\n' | b'\r' | 0x18 => LinkProtocol::Grbl,
+            0x00..=0x1F | 0x7F => LinkProtocol::Framed,
+            _ => LinkProtocol::Grbl,
+        }
+    }
+}
+
 /// Interval between unsolicited status reports, ms.
 pub const STATUS_INTERVAL_MS: u32 = 100;
 
@@ -59,6 +86,10 @@ pub struct BoardLink {
     setup_out: Option<SetupOut>,
     /// A new setup was applied: the firmware saves it to flash (when idle).
     setup_changed: bool,
+    /// The protocol of the current connection.
+    protocol: LinkProtocol,
+    /// The grbl front end (used while `protocol` is [`LinkProtocol::Grbl`]).
+    grbl: crate::grbl::Grbl,
 }
 
 impl BoardLink {
@@ -75,17 +106,46 @@ impl BoardLink {
             setup_in: heapless::Vec::new(),
             setup_out: None,
             setup_changed: false,
+            protocol: LinkProtocol::Undecided,
+            grbl: crate::grbl::Grbl::new(),
         }
     }
 
-    /// Bytes received from the host.
-    pub fn on_bytes(&mut self, now_ms: u32, bytes: &[u8]) {
-        self.endpoint.on_bytes(now_ms, bytes);
+    /// The protocol of the current connection.
+    pub fn protocol(&self) -> LinkProtocol {
+        self.protocol
     }
 
-    /// The next frame to send (call until `None`); `out` must hold `gantry_proto::MAX_FRAME_LEN`.
+    /// Bytes received from the host. The first byte of a connection chooses its protocol.
+    pub fn on_bytes(&mut self, now_ms: u32, bytes: &[u8]) {
+        if let (LinkProtocol::Undecided, Some(&first)) = (self.protocol, bytes.first()) {
+            self.protocol = LinkProtocol::of_first_byte(first);
+            if self.protocol == LinkProtocol::Grbl {
+                self.grbl.connect();
+            }
+        }
+        match self.protocol {
+            LinkProtocol::Grbl => self.grbl.on_bytes(bytes),
+            _ => self.endpoint.on_bytes(now_ms, bytes),
+        }
+    }
+
+    /// The host disconnected (DTR dropped): the next connection chooses its protocol again. A
+    /// grbl connection's job is stopped (grbl mode cannot resume it, docs/grbl.md); a framed
+    /// host's job holds as before (`board/main_loop.rs`).
+    pub fn host_disconnected(&mut self, board: &mut Board) {
+        if self.protocol == LinkProtocol::Grbl {
+            self.grbl.disconnect(board);
+        }
+        self.protocol = LinkProtocol::Undecided;
+    }
+
+    /// The next bytes to send (call until `None`); `out` must hold `gantry_proto::MAX_FRAME_LEN`.
     pub fn poll_transmit(&mut self, now_ms: u32, out: &mut [u8]) -> Option<usize> {
-        self.endpoint.poll_transmit(now_ms, out)
+        match self.protocol {
+            LinkProtocol::Grbl => self.grbl.poll_transmit(out),
+            _ => self.endpoint.poll_transmit(now_ms, out),
+        }
     }
 
     /// True while a host is attached and has been heard from recently.
@@ -102,6 +162,10 @@ impl BoardLink {
 
     /// Delivers what the host sent to the board and sends what the board has to say.
     pub fn service(&mut self, board: &mut Board, now_ms: u32, view: &KernelView) {
+        if self.protocol == LinkProtocol::Grbl {
+            self.grbl.service(board, view);
+            return;
+        }
         while let Some(ev) = self.endpoint.poll_event() {
             if let LinkEvent::HostAttached { .. } = ev {
                 if self.host_attached || self.host_lost {
@@ -194,7 +258,7 @@ impl BoardLink {
 
     /// True once after a setup from the host was applied: the owner persists `board.setup()`.
     pub fn take_setup_changed(&mut self) -> bool {
-        core::mem::take(&mut self.setup_changed)
+        core::mem::take(&mut self.setup_changed) | self.grbl.take_setup_changed()
     }
 
     fn queued(&mut self, board: &mut Board, msg: HostMsg) {
