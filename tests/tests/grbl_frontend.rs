@@ -287,7 +287,7 @@ fn the_status_mask_chooses_work_or_machine_position_and_buffer_state() {
     );
     s.send(b"$13=1\n");
     s.until("ok\r\n", 100);
-    s.send(b"G0 X25.4\n");
+    s.send(b"G53 G0 X25.4\n");
     s.until("ok\r\n", 100);
     until_state(&mut s.eb, State::Idle, 10_000);
     s.run(5);
