@@ -27,7 +27,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// The board's flash: the stored setup, or the defaults when the file does not exist yet.
-fn load_state(state: Option<&Path>, setup: Option<PathBuf>) -> anyhow::Result<Setup> {
+pub(crate) fn load_state(state: Option<&Path>, setup: Option<PathBuf>) -> anyhow::Result<Setup> {
     if let Some(f) = setup {
         let s = SetupFile::load(&f)?;
         if let Some(st) = state {
@@ -42,7 +42,7 @@ fn load_state(state: Option<&Path>, setup: Option<PathBuf>) -> anyhow::Result<Se
     }
 }
 
-fn save_state(state: &Path, setup: &Setup) -> anyhow::Result<()> {
+pub(crate) fn save_state(state: &Path, setup: &Setup) -> anyhow::Result<()> {
     let tmp = state.with_extension("tmp");
     std::fs::write(&tmp, to_toml(setup))?;
     std::fs::rename(&tmp, state).with_context(|| format!("cannot write {}", state.display()))
@@ -191,12 +191,13 @@ pub fn run(pty: &Path, setup: Option<PathBuf>, state: Option<PathBuf>) -> anyhow
             last_state = Some(status.state);
             let pulses: Vec<i64> = board.pulses.iter().map(|&p| p as i64).collect();
             eprintln!(
-                "emulate: {:.3} s {} line {} steps {} pulses {}",
+                "emulate: {:.3} s {} line {} steps {} pulses {} underruns {}",
                 board.seconds(),
                 state_text(status.state),
                 status.line,
                 axes_field(&board.kernel.position(), axes),
-                axes_field(&pulses, axes)
+                axes_field(&pulses, axes),
+                board.underruns
             );
         }
     }
