@@ -191,14 +191,15 @@ pub fn run(pty: &Path, setup: Option<PathBuf>, state: Option<PathBuf>) -> anyhow
             last_state = Some(status.state);
             let pulses: Vec<i64> = board.pulses.iter().map(|&p| p as i64).collect();
             eprintln!(
-                "emulate: {:.3} s {} line {} steps {} pulses {} underruns {}",
+                "emulate: {:.3} s {} line {} steps {} pulses {}",
                 board.seconds(),
                 state_text(status.state),
                 status.line,
                 axes_field(&board.kernel.position(), axes),
-                axes_field(&pulses, axes),
-                board.underruns
+                axes_field(&pulses, axes)
             );
+            // Planner starvation so far (grbl streaming is judged by it, docs/grbl.md).
+            eprintln!("emulate: underruns {}", board.underruns);
         }
     }
     // Remove the link only when it is still ours.

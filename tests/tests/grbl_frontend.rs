@@ -79,12 +79,27 @@ impl Sender {
 }
 
 #[test]
-fn the_first_byte_chooses_the_protocol() {
-    assert_eq!(LinkProtocol::of_first_byte(0x00), LinkProtocol::Framed);
-    assert_eq!(LinkProtocol::of_first_byte(0x02), LinkProtocol::Framed);
-    for b in [b'?', b'$', b'G', b'\n', b'\r', 0x18, 0x85, b'!'] {
-        assert_eq!(LinkProtocol::of_first_byte(b), LinkProtocol::Grbl, "{b:#x}");
-    }
+fn the_first_bytes_choose_the_protocol() {
+    use LinkProtocol::{Framed, Grbl};
+    let d = LinkProtocol::decide;
+    assert_eq!(d(&[0x00]), Some(Framed));
+    assert_eq!(
+        d(&[0x02, 0x41]),
+        Some(Framed),
+        "a new endpoint's first COBS code"
+    );
+    assert_eq!(d(b"G0 X1"), None, "no line end yet");
+    assert_eq!(d(b"G0 X1\n"), Some(Grbl));
+    assert_eq!(d(b"$I\r"), Some(Grbl));
+    assert_eq!(d(&[0x18]), Some(Grbl));
+    assert_eq!(d(b"?"), None);
+    assert_eq!(LinkProtocol::decide_after_wait(b"?"), Some(Grbl));
+    assert_eq!(LinkProtocol::decide_after_wait(b"G0"), None);
+    // A framed host whose endpoint ran on: any first byte, then header control bytes or the
+    // frame's 0x00 before any line end.
+    assert_eq!(d(&[b'?', 0x21, 0x05, b'\n']), Some(Framed));
+    assert_eq!(d(&[b'A', b'B', 0x00]), Some(Framed));
+    assert_eq!(d(&[b'X'; 300][..]), Some(Grbl));
 }
 
 #[test]
@@ -92,7 +107,8 @@ fn a_status_request_gets_the_banner_then_an_idle_report() {
     let mut s = Sender::new();
     assert_eq!(s.eb.link.protocol(), LinkProtocol::Undecided);
     s.send(b"?");
-    let seen = s.until(">\r\n", 20);
+    // A lone realtime byte waits UNDECIDED_MS for more, then counts as grbl.
+    let seen = s.until(">\r\n", 100);
     assert!(
         seen.starts_with("\r\nGrbl 1.1h ['$' for help]\r\n"),
         "{seen:?}"
@@ -399,4 +415,55 @@ fn alarm_locks_gcode_out_until_unlocked() {
     s.send(b"G0 X1\n");
     s.until("error:9\r\n", 50);
     assert!(s.status().starts_with("<Alarm|"));
+}
+
+#[test]
+fn a_soft_reset_returns_the_modal_state_to_its_defaults() {
+    let mut s = Sender::connected();
+    s.send(b"G91 G20 G18 G92 X1\n");
+    s.until("ok\r\n", 100);
+    s.send(b"$G\n");
+    let seen = s.until("ok\r\n", 100);
+    assert!(seen.contains("G18 G20 G91"), "{seen:?}");
+    s.send(b"\x18");
+    s.until(BANNER, 100);
+    s.send(b"$G\n");
+    let seen = s.until("ok\r\n", 100);
+    assert!(
+        seen.contains("[GC:G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0]"),
+        "{seen:?}"
+    );
+    assert_eq!(s.eb.board.interpreter().state().g92[0], 0);
+}
+
+#[test]
+fn homing_is_answered_when_it_ends_and_unlocks_the_boot_alarm() {
+    let mut eb = board(|s| {
+        s.inputs.limit_min = 0b001;
+        s.homing.required = true;
+        s.homing.axes[0].priority = 1;
+        s.homing.axes[0].retract = 2 * MM;
+        s.homing.axes[0].home_position = -10 * MM;
+    });
+    eb.add_switch(0, false, -3 * MM);
+    let mut s = Sender {
+        eb,
+        seen: String::new(),
+    };
+    s.send(b"\x18");
+    s.until("unlock]", 100);
+    s.send(b"$$\n$22=0\n$HX\n");
+    // Settings change only while idle: in the boot alarm, error 8.
+    let seen = s.until("error:8\r\n", 200);
+    assert!(seen.contains("$22=1\r\n"), "{seen:?}");
+    s.run(50);
+    assert_eq!(s.eb.board.state(), State::Homing);
+    assert!(s.status().starts_with("<Home|"));
+    assert!(!s.seen.contains("ok"), "answered only when homing ends");
+    let seen = s.until("ok\r\n", 30_000);
+    assert_eq!(s.eb.board.state(), State::Idle);
+    assert!(!seen.contains("ALARM"), "{seen:?}");
+    assert_eq!(s.steps()[0], -10 * STEPS_PER_MM);
+    s.send(b"G0 X0\n");
+    s.until("ok\r\n", 100);
 }

@@ -24,18 +24,42 @@ pub enum LinkProtocol {
 }
 
 impl LinkProtocol {
-    /// The protocol a connection's first byte belongs to. A framed host's first byte is a frame
-    /// delimiter (0x00) or a COBS code byte: the distance to the frame's first zero, at most 3
-    /// for a new endpoint (its sequence and ack numbers start at 0, so the header has zero
-    /// bytes at once). grbl senders start with text, CR/LF, `?`, `$`, Ctrl-X or a realtime byte.
-    pub fn of_first_byte(b: u8) -> LinkProtocol {
-        match b {
-            b'\n' | b'\r' | 0x18 => LinkProtocol::Grbl,
-            0x00..=0x1F | 0x7F => LinkProtocol::Framed,
-            _ => LinkProtocol::Grbl,
+    /// The protocol the first bytes of a connection belong to, or `None` while they do not tell
+    /// yet. A grbl sender sends printable text, TAB, CR/LF and realtime bytes (`?`, `!`, `~`,
+    /// Ctrl-X, 0x80 and up), nothing else; a framed host sends COBS frames ending in 0x00. So:
+    /// framed when the first byte is 0x00-0x09 (the delimiter, or the COBS code of a new
+    /// endpoint's first frame, whose header has a zero byte among its first three), at a 0x00, or
+    /// at any other control byte; grbl at a line end (CR/LF) or Ctrl-X after text only, or when
+    /// more bytes than a frame holds came without a decision. A host that reconnects with its
+    /// endpoint running on (any first byte) is told apart by its header's control bytes or its
+    /// frame's 0x00.
+    pub fn decide(bytes: &[u8]) -> Option<LinkProtocol> {
+        if *bytes.first()? < 0x0A {
+            return Some(LinkProtocol::Framed);
         }
+        for &b in bytes {
+            match b {
+                b'\n' | b'\r' | 0x18 => return Some(LinkProtocol::Grbl),
+                b'\t' | 0x20..=0x7E | 0x80..=0xFF => {}
+                _ => return Some(LinkProtocol::Framed),
+            }
+        }
+        (bytes.len() >= gantry_proto::MAX_FRAME_LEN).then_some(LinkProtocol::Grbl)
+    }
+
+    /// Undecided bytes that waited [`UNDECIDED_MS`]: a sender polling with realtime bytes alone
+    /// (`?`, `!`, `~`, 0x80 and up) speaks grbl (a frame arrives whole, in one USB transfer).
+    pub fn decide_after_wait(bytes: &[u8]) -> Option<LinkProtocol> {
+        (!bytes.is_empty()
+            && bytes
+                .iter()
+                .all(|&b| matches!(b, b'?' | b'!' | b'~' | 0x80..)))
+        .then_some(LinkProtocol::Grbl)
     }
 }
+
+/// How long undecided realtime bytes wait for more before they count as grbl, ms.
+pub const UNDECIDED_MS: u32 = 50;
 
 /// Interval between unsolicited status reports, ms.
 pub const STATUS_INTERVAL_MS: u32 = 100;
@@ -90,6 +114,9 @@ pub struct BoardLink {
     protocol: LinkProtocol,
     /// The grbl front end (used while `protocol` is [`LinkProtocol::Grbl`]).
     grbl: crate::grbl::Grbl,
+    /// The first bytes of a connection while they do not tell its protocol, and since when.
+    undecided: heapless::Vec<u8, { gantry_proto::MAX_FRAME_LEN }>,
+    undecided_since: u32,
 }
 
 impl BoardLink {
@@ -108,6 +135,8 @@ impl BoardLink {
             setup_changed: false,
             protocol: LinkProtocol::Undecided,
             grbl: crate::grbl::Grbl::new(),
+            undecided: heapless::Vec::new(),
+            undecided_since: 0,
         }
     }
 
@@ -116,14 +145,37 @@ impl BoardLink {
         self.protocol
     }
 
-    /// Bytes received from the host. The first byte of a connection chooses its protocol.
+    /// Bytes received from the host. The first bytes of a connection choose its protocol
+    /// ([`LinkProtocol::decide`]); until they do, they wait here.
     pub fn on_bytes(&mut self, now_ms: u32, bytes: &[u8]) {
-        if let (LinkProtocol::Undecided, Some(&first)) = (self.protocol, bytes.first()) {
-            self.protocol = LinkProtocol::of_first_byte(first);
-            if self.protocol == LinkProtocol::Grbl {
-                self.grbl.connect();
+        if self.protocol == LinkProtocol::Undecided {
+            if self.undecided.is_empty() {
+                self.undecided_since = now_ms;
             }
+            for (i, &b) in bytes.iter().enumerate() {
+                let _ = self.undecided.push(b);
+                if let Some(p) = LinkProtocol::decide(&self.undecided) {
+                    self.choose(now_ms, p);
+                    self.deliver(now_ms, &bytes[i + 1..]);
+                    return;
+                }
+            }
+            return;
         }
+        self.deliver(now_ms, bytes);
+    }
+
+    /// The connection speaks `p`: the bytes that waited go to it.
+    fn choose(&mut self, now_ms: u32, p: LinkProtocol) {
+        self.protocol = p;
+        if p == LinkProtocol::Grbl {
+            self.grbl.connect();
+        }
+        let held = core::mem::take(&mut self.undecided);
+        self.deliver(now_ms, &held);
+    }
+
+    fn deliver(&mut self, now_ms: u32, bytes: &[u8]) {
         match self.protocol {
             LinkProtocol::Grbl => self.grbl.on_bytes(bytes),
             _ => self.endpoint.on_bytes(now_ms, bytes),
@@ -138,6 +190,7 @@ impl BoardLink {
             self.grbl.disconnect(board);
         }
         self.protocol = LinkProtocol::Undecided;
+        self.undecided.clear();
     }
 
     /// The next bytes to send (call until `None`); `out` must hold `gantry_proto::MAX_FRAME_LEN`.
@@ -162,6 +215,13 @@ impl BoardLink {
 
     /// Delivers what the host sent to the board and sends what the board has to say.
     pub fn service(&mut self, board: &mut Board, now_ms: u32, view: &KernelView) {
+        if self.protocol == LinkProtocol::Undecided
+            && now_ms.wrapping_sub(self.undecided_since) >= UNDECIDED_MS
+        {
+            if let Some(p) = LinkProtocol::decide_after_wait(&self.undecided) {
+                self.choose(now_ms, p);
+            }
+        }
         if self.protocol == LinkProtocol::Grbl {
             self.grbl.service(board, view);
             return;

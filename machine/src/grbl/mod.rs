@@ -210,6 +210,13 @@ impl Grbl {
                 return;
             }
             self.session = Session::Ready;
+            if board.state() == State::Idle {
+                // grbl's reset puts the parser back to its defaults (G0 G54 G17 G21 G90 G94 M5
+                // M9, G92 cleared); rebuilding the board's setup in place does that, position and
+                // homing kept.
+                let setup = board.setup().clone();
+                board.set_setup(setup);
+            }
             self.banner();
             if board.state() == State::Alarm {
                 self.out.line("[MSG:'$H'|'$X' to unlock]");
@@ -427,6 +434,14 @@ impl Grbl {
                     continue;
                 }
                 State::Idle => {
+                    if self
+                        .flights
+                        .iter()
+                        .any(|f| matches!(f.fate, Fate::OnBoard { .. }))
+                    {
+                        // Lines of the job that ended are not settled yet: never mix two jobs.
+                        return;
+                    }
                     let started = if self.check_mode {
                         board.start_check()
                     } else {

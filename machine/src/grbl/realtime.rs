@@ -68,3 +68,31 @@ pub fn feed_after(pct: u16, step: FeedStep) -> u16 {
         FeedStep::Add(d) => (i32::from(pct) + i32::from(d)).max(10).min(200) as u16,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_realtime_byte_has_its_meaning() {
+        assert_eq!(Realtime::of(b'?'), Some(Realtime::Status));
+        assert_eq!(Realtime::of(b'!'), Some(Realtime::FeedHold));
+        assert_eq!(Realtime::of(b'~'), Some(Realtime::CycleStart));
+        assert_eq!(Realtime::of(0x18), Some(Realtime::Reset));
+        assert_eq!(Realtime::of(0x84), Some(Realtime::SafetyDoor));
+        assert_eq!(Realtime::of(0x85), Some(Realtime::JogCancel));
+        assert_eq!(Realtime::of(0x97), Some(Realtime::Rapid(25)));
+        assert_eq!(Realtime::of(0x9E), Some(Realtime::Spindle));
+        assert_eq!(Realtime::of(0xA1), Some(Realtime::Coolant));
+        assert_eq!(Realtime::of(0xFF), Some(Realtime::Unknown));
+        assert_eq!(Realtime::of(b'G'), None);
+        assert_eq!(Realtime::of(b'\n'), None);
+        let steps = [0x90u8, 0x91, 0x92, 0x93, 0x94].map(|b| match Realtime::of(b) {
+            Some(Realtime::Feed(s)) => feed_after(150, s),
+            other => panic!("{other:?}"),
+        });
+        assert_eq!(steps, [100, 160, 140, 151, 149]);
+        assert_eq!(feed_after(195, FeedStep::Add(10)), 200);
+        assert_eq!(feed_after(15, FeedStep::Add(-10)), 10);
+    }
+}

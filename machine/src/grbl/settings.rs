@@ -59,8 +59,13 @@ fn mm(nm: i64) -> Value {
 }
 
 fn div_round(a: i64, b: i64) -> i64 {
-    let q = (i128::from(a).abs() * 2 + i128::from(b)) / (2 * i128::from(b));
-    (if a < 0 { -q } else { q }) as i64
+    let (q, r) = (a.unsigned_abs() / b as u64, a.unsigned_abs() % b as u64);
+    let q = (q + u64::from(2 * r >= b as u64)) as i64;
+    if a < 0 {
+        -q
+    } else {
+        q
+    }
 }
 
 /// The setting's axis and group for `$100`-`$13x`.
@@ -230,7 +235,7 @@ mod tests {
         let mut s = Setup::default();
         let mut p = Prefs::default();
         write(100, 80_000, &mut s, &mut p).unwrap();
-        assert_eq!((s.axes[0].steps, s.axes[0].units_nm), (80, 1_000_000));
+        assert_eq!((s.axes[0].steps, s.axes[0].units_nm), (1, 12_500));
         write(101, 314_159, &mut s, &mut p).unwrap();
         assert_eq!(read(101, &s, &p), Some(dec(314_159)));
         assert_eq!(

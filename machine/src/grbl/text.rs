@@ -52,6 +52,7 @@ impl Out {
         n
     }
 
+    #[inline(never)]
     pub fn byte(&mut self, b: u8) {
         // Callers reserve room for whole answers; a byte that still does not fit is dropped.
         let _ = self.bytes.push_back(b);
@@ -98,55 +99,58 @@ impl Out {
         self.uint(v.unsigned_abs());
     }
 
-    /// `value / per_unit` with `decimals` decimals, rounded half away from zero (e.g. nm as mm:
-    /// `fixed(nm, 1_000_000, 3)`).
+    /// `value / per_unit` with `decimals` decimals (at most 9), rounded half away from zero
+    /// (e.g. nm as mm: `fixed(nm, 1_000_000, 3)`). 64-bit arithmetic only (`per_unit` up to
+    /// 2^31): 128-bit division costs the firmware flash.
+    #[inline(never)]
     pub fn fixed(&mut self, value: i64, per_unit: i64, decimals: u32) {
-        let scale = 10i128.pow(decimals);
-        let num = i128::from(value) * scale;
-        let den = i128::from(per_unit);
-        let q = (num.abs() + den / 2) / den;
-        if value < 0 && q != 0 {
+        let scale = 10u64.pow(decimals);
+        let den = per_unit.unsigned_abs().max(1);
+        let abs = value.unsigned_abs();
+        let mut whole = abs / den;
+        let mut frac = ((abs % den) * scale + den / 2) / den;
+        if frac >= scale {
+            whole += 1;
+            frac -= scale;
+        }
+        if value < 0 && (whole != 0 || frac != 0) {
             self.byte(b'-');
         }
-        let whole = q / scale;
-        let frac = q % scale;
-        self.uint(whole as u64);
+        self.uint(whole);
         if decimals > 0 {
             self.byte(b'.');
             let mut div = scale / 10;
             while div > 0 {
-                self.byte(b'0' + ((frac / div) % 10) as u8);
+                self.byte(b'0' + (frac / div % 10) as u8);
                 div /= 10;
             }
         }
     }
 }
 
-/// Parses a decimal number (`-12.5`, `+3`, `.25`) and returns it times `scale`, rounded to the
-/// nearest integer; `None` for anything else or a result beyond ±2^62.
+/// Parses a decimal number (`-12.5`, `+3`, `.25`) and returns it times `scale` (at most 2^31),
+/// rounded to the nearest integer; `None` for anything else or a result beyond ±2^62. Digits past
+/// the ninth decimal are ignored.
 pub fn parse_scaled(s: &[u8], scale: i64) -> Option<i64> {
     let (neg, digits) = match s.first() {
         Some(b'-') => (true, &s[1..]),
         Some(b'+') => (false, &s[1..]),
         _ => (false, s),
     };
-    let mut num: i128 = 0;
-    let mut den: i128 = 1;
+    let mut num: u64 = 0;
+    let mut den: u64 = 1;
     let mut seen_digit = false;
     let mut seen_point = false;
     for &c in digits {
         match c {
             b'0'..=b'9' => {
                 seen_digit = true;
-                if num > 1_000_000_000_000_000_000 {
-                    return None;
+                if seen_point && den >= 1_000_000_000 {
+                    continue;
                 }
-                num = num * 10 + i128::from(c - b'0');
+                num = num.checked_mul(10)?.checked_add(u64::from(c - b'0'))?;
                 if seen_point {
                     den *= 10;
-                    if den > 1_000_000_000_000 {
-                        return None;
-                    }
                 }
             }
             b'.' if !seen_point => seen_point = true,
@@ -156,7 +160,10 @@ pub fn parse_scaled(s: &[u8], scale: i64) -> Option<i64> {
     if !seen_digit {
         return None;
     }
-    let v = (num * i128::from(scale) + den / 2) / den;
+    let scale = scale.unsigned_abs();
+    let v = (num / den)
+        .checked_mul(scale)?
+        .checked_add((num % den * scale + den / 2) / den)?;
     if v > 1 << 62 {
         return None;
     }
