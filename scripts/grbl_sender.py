@@ -30,6 +30,7 @@ class Counting(GrblStreamer):
 
 g = Counting(port, rx_buffer_size=rx)
 g.connect(reset=True)
+time.sleep(0.5)  # callbacks run on their own thread: let connect()'s $X answer arrive first
 with lock:
     acks = 0  # the $X of connect() is not part of the program
     errors.clear()
