@@ -99,6 +99,9 @@ elf_size() {
     echo "$text $data $bss"
 }
 
+section "grbl sender (pygrbl-streamer from PyPI) against gantry emulate --pty"
+bash scripts/grbl-sender-test.sh
+
 section "firmware: clippy and release build per board"
 SIZES=()
 for board in "${BOARDS[@]}"; do

@@ -27,7 +27,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// The board's flash: the stored setup, or the defaults when the file does not exist yet.
-fn load_state(state: Option<&Path>, setup: Option<PathBuf>) -> anyhow::Result<Setup> {
+pub(crate) fn load_state(state: Option<&Path>, setup: Option<PathBuf>) -> anyhow::Result<Setup> {
     if let Some(f) = setup {
         let s = SetupFile::load(&f)?;
         if let Some(st) = state {
@@ -42,7 +42,7 @@ fn load_state(state: Option<&Path>, setup: Option<PathBuf>) -> anyhow::Result<Se
     }
 }
 
-fn save_state(state: &Path, setup: &Setup) -> anyhow::Result<()> {
+pub(crate) fn save_state(state: &Path, setup: &Setup) -> anyhow::Result<()> {
     let tmp = state.with_extension("tmp");
     std::fs::write(&tmp, to_toml(setup))?;
     std::fs::rename(&tmp, state).with_context(|| format!("cannot write {}", state.display()))
@@ -93,6 +93,28 @@ fn host_side_open(fd: RawFd, wait_ms: i32) -> (bool, bool) {
     )
 }
 
+/// The emulated board of `gantry emulate` (behind a pty or TCP): `setup`, the probe targets
+/// (`--probe-target`, [`ProbeTarget::parse`]) and the CPU model (`--cpu-model`).
+pub(crate) fn new_board(
+    setup: Setup,
+    probe_targets: &[String],
+    cpu: Option<crate::cpu_model::CpuModel>,
+) -> anyhow::Result<EmulatedBoard> {
+    let targets = probe_targets
+        .iter()
+        .map(|t| ProbeTarget::parse(t))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let mut board = EmulatedBoard::new(setup);
+    for t in targets {
+        board.add_probe_target(t);
+    }
+    board.set_cpu_model(cpu);
+    if let Some(m) = cpu {
+        eprintln!("emulate: CPU model {} at {} MHz", m.name, m.hz / 1_000_000);
+    }
+    Ok(board)
+}
+
 /// The longest lag behind the wall clock the board's clock catches up, ms (see [`run`]).
 const CATCH_UP_LIMIT_MS: u64 = 500;
 
@@ -108,10 +130,8 @@ pub fn run(
     cpu: Option<crate::cpu_model::CpuModel>,
 ) -> anyhow::Result<ExitCode> {
     let setup = load_state(state.as_deref(), setup)?;
-    let targets = probe_targets
-        .iter()
-        .map(|t| ProbeTarget::parse(t))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let axes = setup.axis_count as usize;
+    let mut board = new_board(setup, probe_targets, cpu)?;
     let (master, slave) = serialport::TTYPort::pair().context("cannot open a pseudo-terminal")?;
     let name = slave
         .name()
@@ -128,15 +148,6 @@ pub fn run(
     let s = stop.clone();
     ctrlc::set_handler(move || s.store(true, Ordering::SeqCst))
         .context("cannot install the SIGINT/SIGTERM handler")?;
-    let axes = setup.axis_count as usize;
-    let mut board = EmulatedBoard::new(setup);
-    for t in targets {
-        board.add_probe_target(t);
-    }
-    board.set_cpu_model(cpu);
-    if let Some(m) = cpu {
-        eprintln!("emulate: CPU model {} at {} MHz", m.name, m.hz / 1_000_000);
-    }
     let mut gaps = 0;
     // Every start of the process is a power-up with its own boot id (the firmware counts boots
     // in flash), so a host sees a restarted board as one.
@@ -242,6 +253,8 @@ pub fn run(
                 axes_field(&board.kernel.position(), axes),
                 axes_field(&pulses, axes)
             );
+            // Planner starvation so far (grbl streaming is judged by it, docs/grbl.md).
+            eprintln!("emulate: underruns {}", board.underruns);
         }
     }
     // Remove the link only when it is still ours.

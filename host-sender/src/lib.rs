@@ -16,5 +16,6 @@ pub mod serve;
 pub mod setup_file;
 pub mod simulate;
 pub mod stream;
+pub mod tcp;
 pub mod trace;
 pub mod vcd;

@@ -161,8 +161,15 @@ enum Command {
     /// killed: `gantry … --port PATH` talks to it as to the USB board (docs/ports.md).
     Emulate {
         /// Where the pty is linked (a symlink, replaced when it exists).
+        #[arg(long, required_unless_present = "tcp", conflicts_with = "tcp")]
+        pty: Option<PathBuf>,
+        /// Listen on this TCP address instead (e.g. 127.0.0.1:2323; grbl senders that connect
+        /// by address). Loopback only unless --allow-remote.
         #[arg(long)]
-        pty: PathBuf,
+        tcp: Option<std::net::SocketAddr>,
+        /// Allow a --tcp address other hosts can reach (anyone reaching it can move the machine).
+        #[arg(long, requires = "tcp")]
+        allow_remote: bool,
         /// Setup to store in the board (replaces the stored one).
         #[arg(long)]
         setup: Option<PathBuf>,
@@ -485,11 +492,21 @@ fn main() -> ExitCode {
         },
         Command::Emulate {
             pty,
+            tcp,
+            allow_remote,
             setup,
             state,
             probe_targets,
             cpu_model,
-        } => host_sender::emulate::run(&pty, setup, state, &probe_targets, cpu_model),
+        } => match (pty, tcp) {
+            (Some(pty), _) => {
+                host_sender::emulate::run(&pty, setup, state, &probe_targets, cpu_model)
+            }
+            (None, Some(addr)) => {
+                host_sender::tcp::run(addr, allow_remote, setup, state, &probe_targets, cpu_model)
+            }
+            (None, None) => unreachable!("clap requires --pty or --tcp"),
+        },
         Command::Simulate {
             file,
             json,

@@ -17,6 +17,8 @@ pub mod board;
 pub mod canon;
 pub mod controller;
 pub mod gcode;
+#[cfg(feature = "link")]
+pub mod grbl;
 pub mod motion;
 pub mod setup;
 pub mod units;

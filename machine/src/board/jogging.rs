@@ -7,7 +7,21 @@ use crate::canon::{Action, Canon};
 use crate::controller::inputs::{InputBits, Signal};
 use crate::controller::jog::{self, JogMode};
 use crate::controller::{AdcReadings, State};
-use crate::units::MAX_AXES;
+use crate::motion::pipeline::PushError;
+use crate::units::{Pos, MAX_AXES};
+
+/// Why [`Board::jog_to`] refused a jog.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JogRefused {
+    /// Another motion (a job, homing, a jog not yet at rest) runs: try again later.
+    Busy,
+    /// Homing is required first.
+    HomingRequired,
+    /// The target leaves the soft-limit box.
+    Travel,
+    /// No feed.
+    Invalid,
+}
 
 impl Board {
     /// Host jog of one axis at `velocity_um_min` (sign = direction): `distance_nm` far, or
@@ -48,6 +62,39 @@ impl Board {
         }
         self.mode = Mode::Jog(Jogging::Moves);
         true
+    }
+
+    /// Host jog of several axes to the machine position `to` at `feed` nm/min (grbl's `$J=`,
+    /// `machine/src/grbl/jog.rs`): from idle, or after the previous jog has stopped. A target
+    /// beyond the soft limits is refused as a whole (grbl error 15), never clipped.
+    pub fn jog_to(&mut self, to: Pos, feed: i64) -> Result<(), JogRefused> {
+        let free = matches!(self.mode, Mode::Idle)
+            || (matches!(self.mode, Mode::Jog(Jogging::Moves))
+                && self.jog.motion != JogMotion::Stopping
+                && self.motion.state() == MotionState::Idle);
+        if !free {
+            return Err(JogRefused::Busy);
+        }
+        if self.homing_missing() {
+            return Err(JogRefused::HomingRequired);
+        }
+        if feed <= 0 {
+            return Err(JogRefused::Invalid);
+        }
+        if self.motion.config().travel_violation(&to).is_some() {
+            return Err(JogRefused::Travel);
+        }
+        match self.motion.push(&Canon {
+            line: 0,
+            action: Action::Feed { to, feed },
+        }) {
+            Ok(()) => {
+                self.mode = Mode::Jog(Jogging::Moves);
+                Ok(())
+            }
+            Err(PushError::Travel { .. }) => Err(JogRefused::Travel),
+            Err(PushError::Full) => Err(JogRefused::Busy),
+        }
     }
 
     /// Stops a jog within its deceleration distance and drops what was queued of it.

@@ -11,6 +11,57 @@ use gantry_proto::{
     ProgramTarget, SpindleStatus, Status,
 };
 
+/// The protocol a connection speaks, told from its first byte and forgotten when the host
+/// disconnects (DTR drop, port closed): Gantry's framed protocol or grbl 1.1's text
+/// (`machine/src/grbl/`, docs/grbl.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkProtocol {
+    /// Nothing received yet on this connection (the framed link runs meanwhile).
+    Undecided,
+    /// COBS frames (docs/protocol.md).
+    Framed,
+    /// grbl 1.1 text.
+    Grbl,
+}
+
+impl LinkProtocol {
+    /// The protocol the first bytes of a connection belong to, or `None` while they do not tell
+    /// yet. A grbl sender sends printable text, TAB, CR/LF and realtime bytes (`?`, `!`, `~`,
+    /// Ctrl-X, 0x80 and up), nothing else; a framed host sends COBS frames ending in 0x00. So:
+    /// framed when the first byte is 0x00-0x09 (the delimiter, or the COBS code of a new
+    /// endpoint's first frame, whose header has a zero byte among its first three), at a 0x00, or
+    /// at any other control byte; grbl at a line end (CR/LF) or Ctrl-X after text only, or when
+    /// more bytes than a frame holds came without a decision. A host that reconnects with its
+    /// endpoint running on (any first byte) is told apart by its header's control bytes or its
+    /// frame's 0x00.
+    pub fn decide(bytes: &[u8]) -> Option<LinkProtocol> {
+        if *bytes.first()? < 0x0A {
+            return Some(LinkProtocol::Framed);
+        }
+        for &b in bytes {
+            match b {
+                b'\n' | b'\r' | 0x18 => return Some(LinkProtocol::Grbl),
+                b'\t' | 0x20..=0x7E | 0x80..=0xFF => {}
+                _ => return Some(LinkProtocol::Framed),
+            }
+        }
+        (bytes.len() >= gantry_proto::MAX_FRAME_LEN).then_some(LinkProtocol::Grbl)
+    }
+
+    /// Undecided bytes that waited [`UNDECIDED_MS`]: a sender polling with realtime bytes alone
+    /// (`?`, `!`, `~`, 0x80 and up) speaks grbl (a frame arrives whole, in one USB transfer).
+    pub fn decide_after_wait(bytes: &[u8]) -> Option<LinkProtocol> {
+        (!bytes.is_empty()
+            && bytes
+                .iter()
+                .all(|&b| matches!(b, b'?' | b'!' | b'~' | 0x80..)))
+        .then_some(LinkProtocol::Grbl)
+    }
+}
+
+/// How long undecided realtime bytes wait for more before they count as grbl, ms.
+pub const UNDECIDED_MS: u32 = 50;
+
 /// Interval between unsolicited status reports, ms.
 pub const STATUS_INTERVAL_MS: u32 = 100;
 
@@ -60,6 +111,13 @@ pub struct BoardLink {
     setup_out: Option<SetupOut>,
     /// A new setup was applied: the firmware saves it to flash (when idle).
     setup_changed: bool,
+    /// The protocol of the current connection.
+    protocol: LinkProtocol,
+    /// The grbl front end (used while `protocol` is [`LinkProtocol::Grbl`]).
+    grbl: crate::grbl::Grbl,
+    /// The first bytes of a connection while they do not tell its protocol, and since when.
+    undecided: heapless::Vec<u8, { gantry_proto::MAX_FRAME_LEN }>,
+    undecided_since: u32,
 }
 
 impl BoardLink {
@@ -76,17 +134,72 @@ impl BoardLink {
             setup_in: heapless::Vec::new(),
             setup_out: None,
             setup_changed: false,
+            protocol: LinkProtocol::Undecided,
+            grbl: crate::grbl::Grbl::new(),
+            undecided: heapless::Vec::new(),
+            undecided_since: 0,
         }
     }
 
-    /// Bytes received from the host.
-    pub fn on_bytes(&mut self, now_ms: u32, bytes: &[u8]) {
-        self.endpoint.on_bytes(now_ms, bytes);
+    /// The protocol of the current connection.
+    pub fn protocol(&self) -> LinkProtocol {
+        self.protocol
     }
 
-    /// The next frame to send (call until `None`); `out` must hold `gantry_proto::MAX_FRAME_LEN`.
+    /// Bytes received from the host. The first bytes of a connection choose its protocol
+    /// ([`LinkProtocol::decide`]); until they do, they wait here.
+    pub fn on_bytes(&mut self, now_ms: u32, bytes: &[u8]) {
+        if self.protocol == LinkProtocol::Undecided {
+            if self.undecided.is_empty() {
+                self.undecided_since = now_ms;
+            }
+            for (i, &b) in bytes.iter().enumerate() {
+                let _ = self.undecided.push(b);
+                if let Some(p) = LinkProtocol::decide(&self.undecided) {
+                    self.choose(now_ms, p);
+                    self.deliver(now_ms, &bytes[i + 1..]);
+                    return;
+                }
+            }
+            return;
+        }
+        self.deliver(now_ms, bytes);
+    }
+
+    /// The connection speaks `p`: the bytes that waited go to it.
+    fn choose(&mut self, now_ms: u32, p: LinkProtocol) {
+        self.protocol = p;
+        if p == LinkProtocol::Grbl {
+            self.grbl.connect();
+        }
+        let held = core::mem::take(&mut self.undecided);
+        self.deliver(now_ms, &held);
+    }
+
+    fn deliver(&mut self, now_ms: u32, bytes: &[u8]) {
+        match self.protocol {
+            LinkProtocol::Grbl => self.grbl.on_bytes(bytes),
+            _ => self.endpoint.on_bytes(now_ms, bytes),
+        }
+    }
+
+    /// The host disconnected (DTR dropped): the next connection chooses its protocol again. A
+    /// grbl connection's job is stopped (grbl mode cannot resume it, docs/grbl.md); a framed
+    /// host's job holds as before (`board/main_loop.rs`).
+    pub fn host_disconnected(&mut self, board: &mut Board) {
+        if self.protocol == LinkProtocol::Grbl {
+            self.grbl.disconnect(board);
+        }
+        self.protocol = LinkProtocol::Undecided;
+        self.undecided.clear();
+    }
+
+    /// The next bytes to send (call until `None`); `out` must hold `gantry_proto::MAX_FRAME_LEN`.
     pub fn poll_transmit(&mut self, now_ms: u32, out: &mut [u8]) -> Option<usize> {
-        self.endpoint.poll_transmit(now_ms, out)
+        match self.protocol {
+            LinkProtocol::Grbl => self.grbl.poll_transmit(out),
+            _ => self.endpoint.poll_transmit(now_ms, out),
+        }
     }
 
     /// True while a host is attached and has been heard from recently.
@@ -103,6 +216,17 @@ impl BoardLink {
 
     /// Delivers what the host sent to the board and sends what the board has to say.
     pub fn service(&mut self, board: &mut Board, now_ms: u32, view: &KernelView) {
+        if self.protocol == LinkProtocol::Undecided
+            && now_ms.wrapping_sub(self.undecided_since) >= UNDECIDED_MS
+        {
+            if let Some(p) = LinkProtocol::decide_after_wait(&self.undecided) {
+                self.choose(now_ms, p);
+            }
+        }
+        if self.protocol == LinkProtocol::Grbl {
+            self.grbl.service(board, view);
+            return;
+        }
         while let Some(ev) = self.endpoint.poll_event() {
             if let LinkEvent::HostAttached { .. } = ev {
                 if self.host_attached || self.host_lost {
@@ -195,7 +319,7 @@ impl BoardLink {
 
     /// True once after a setup from the host was applied: the owner persists `board.setup()`.
     pub fn take_setup_changed(&mut self) -> bool {
-        core::mem::take(&mut self.setup_changed)
+        core::mem::take(&mut self.setup_changed) | self.grbl.take_setup_changed()
     }
 
     fn queued(&mut self, board: &mut Board, msg: HostMsg) {

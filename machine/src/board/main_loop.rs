@@ -306,6 +306,7 @@ impl MainLoop {
         if self.host_port == HostPort::Open && host_port == HostPort::Closed {
             // The sender closed the port: hold now rather than after the silence timeout.
             board.feed_hold();
+            link.host_disconnected(board);
             port.host_closed();
         }
         self.host_port = host_port;

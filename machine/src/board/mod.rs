@@ -34,6 +34,7 @@ use crate::motion::pipeline::{Motion, MotionState, PushError};
 use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
+pub use jogging::JogRefused;
 use mode::{
     Ending, HoldWhy, HomingCycle, HomingPhase, Job, JobKind, JobPhase, Jogging, Mode, Ramp,
 };

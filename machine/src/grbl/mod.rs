@@ -1,0 +1,736 @@
+//! grbl 1.1 on the board's own port (docs/grbl.md): the text front end a grbl sender (UGS, CNCjs,
+//! bCNC, Candle…) talks to when the first bytes of a connection are text rather than a framed
+//! message (`board::link::LinkProtocol`). It feeds the same [`Board`] the framed link feeds: lines
+//! go to the board's line buffer as the program source of a job, realtime bytes act as the
+//! framed protocol's realtime messages do, and the answers come back as grbl's text.
+//!
+//! The pieces, one job each: [`rx`] line assembly and RX accounting, [`realtime`] the realtime
+//! bytes, [`command`] and [`jog`] the `$` commands, [`settings`] the numbered settings over the
+//! setup keys, [`report`] status and the other reports, [`codes`] the error numbers, [`text`]
+//! the output bytes and number formats.
+//!
+//! Jobs: a line arriving with the board idle starts a job (a check job under `$C`); the job takes
+//! the lines that follow; once every line is answered, none waits and the machine stands at rest
+//! waiting for more, the front end ends the job (nothing is lost: the machine is at rest and the
+//! modal state stays). A job the board ended early (an error, M2/M30) leaves the lines it did
+//! not read unanswered; they are read again into a new job, as grbl runs the line after a bad
+//! one. Each line is answered once the interpreter has taken it: `ok`, or `error:N` for its
+//! error.
+
+pub mod codes;
+pub mod command;
+pub mod jog;
+pub mod realtime;
+pub mod report;
+pub mod rx;
+pub mod settings;
+pub mod text;
+
+use crate::board::link::KernelView;
+use crate::board::{Board, BoardEvent, JogRefused, LINE_CAPACITY};
+use crate::controller::State;
+use command::{Command, Restore};
+use heapless::Deque;
+use realtime::Realtime;
+use report::Sparse;
+use rx::Rx;
+pub use rx::RX_SIZE;
+use settings::Prefs;
+use text::Out;
+
+/// The welcome line, on connect and after a soft reset (senders look for "Grbl 1.1").
+pub const BANNER: &str = "Grbl 1.1h ['$' for help]";
+
+/// Lines in flight (on the board's line buffer or answered out of turn), at most.
+const FLIGHTS: usize = 24;
+
+/// Room the output must have before one more answer line is written.
+const ANSWER_ROOM: usize = 48;
+
+/// A line's answer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Reply {
+    Ok,
+    Error(u16),
+}
+
+/// Where an unanswered line stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Fate {
+    /// In the board's line buffer or taken by its interpreter (`error`: the one it reported).
+    OnBoard { error: Option<u16> },
+    /// Answered as soon as the lines before it are.
+    Decided(Reply),
+}
+
+/// A line read out of the RX ring and not yet answered.
+#[derive(Clone, Copy, Debug)]
+struct Flight {
+    line: u32,
+    raw: usize,
+    fate: Fate,
+}
+
+/// The front end's session.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Session {
+    /// Lines are read and answered.
+    Ready,
+    /// A soft reset: the board is brought to rest, then the banner, then lines again.
+    Resetting,
+}
+
+/// A `$` command that runs across passes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Busy {
+    None,
+    /// `$H` (its line's raw length): answered when homing ends.
+    Homing {
+        raw: usize,
+    },
+}
+
+/// What a command did.
+enum Step {
+    Reply(Reply),
+    /// Not now (the board must come to rest, or the output has no room): asked again next pass.
+    Wait,
+    Homing,
+}
+
+/// The grbl front end of one connection.
+pub struct Grbl {
+    rx: Rx,
+    out: Out,
+    realtime: Deque<Realtime, 16>,
+    flights: Deque<Flight, FLIGHTS>,
+    session: Session,
+    busy: Busy,
+    check_mode: bool,
+    prefs: Prefs,
+    sparse: Sparse,
+    status_due: bool,
+    /// Line number of the next line given to the board.
+    next_line: u32,
+    /// The highest line the interpreter is known to have taken.
+    taken_hint: u32,
+    setup_changed: bool,
+}
+
+impl Default for Grbl {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Grbl {
+    pub const fn new() -> Self {
+        Grbl {
+            rx: Rx::new(),
+            out: Out::new(),
+            realtime: Deque::new(),
+            flights: Deque::new(),
+            session: Session::Ready,
+            busy: Busy::None,
+            check_mode: false,
+            prefs: Prefs {
+                status_mask: 1,
+                inches: false,
+            },
+            sparse: Sparse::new(),
+            status_due: false,
+            next_line: 1,
+            taken_hint: 0,
+            setup_changed: false,
+        }
+    }
+
+    /// A new connection chose grbl: a fresh session and the banner.
+    pub fn connect(&mut self) {
+        *self = Self::new();
+        self.banner();
+    }
+
+    /// The connection ended (DTR drop, port closed): grbl mode cannot resume a job later, so a
+    /// running one is stopped on its path (it ends at rest with the program-stop sequence).
+    pub fn disconnect(&mut self, board: &mut Board) {
+        if matches!(
+            board.state(),
+            State::Run | State::Hold | State::Check | State::Jog | State::Homing
+        ) {
+            board.abort();
+        }
+        *self = Self::new();
+    }
+
+    fn banner(&mut self) {
+        self.out.eol();
+        self.out.line(BANNER);
+    }
+
+    /// Bytes from the host: realtime bytes are picked out, the rest is line text.
+    pub fn on_bytes(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            match Realtime::of(b) {
+                Some(Realtime::Reset) => {
+                    // Everything received before the reset is gone at once.
+                    self.rx.clear();
+                    self.flights.clear();
+                    self.realtime.clear();
+                    let _ = self.realtime.push_back(Realtime::Reset);
+                }
+                Some(rt) => {
+                    let _ = self.realtime.push_back(rt);
+                }
+                None => self.rx.push(b),
+            }
+        }
+    }
+
+    /// The next bytes for the host; returns how many were written to `out`.
+    pub fn poll_transmit(&mut self, out: &mut [u8]) -> Option<usize> {
+        match self.out.drain_into(out) {
+            0 => None,
+            n => Some(n),
+        }
+    }
+
+    /// True once after `$x=` changed the setup: the owner persists `board.setup()`.
+    pub fn take_setup_changed(&mut self) -> bool {
+        core::mem::take(&mut self.setup_changed)
+    }
+
+    /// One service of the link (twice per main-loop pass, `board/main_loop.rs`).
+    pub fn service(&mut self, board: &mut Board, view: &KernelView) {
+        self.realtime_commands(board);
+        self.board_events(board);
+        if self.session == Session::Resetting {
+            if !matches!(board.state(), State::Idle | State::Alarm) || self.out.room() < 128 {
+                self.status(board, view);
+                return;
+            }
+            self.session = Session::Ready;
+            if board.state() == State::Idle {
+                // grbl's reset puts the parser back to its defaults (G0 G54 G17 G21 G90 G94 M5
+                // M9, G92 cleared); rebuilding the board's setup in place does that, position and
+                // homing kept.
+                let setup = board.setup().clone();
+                board.set_setup(setup);
+            }
+            self.banner();
+            if board.state() == State::Alarm {
+                self.out.line("[MSG:'$H'|'$X' to unlock]");
+            }
+        }
+        self.settle(board);
+        if let Busy::Homing { raw } = self.busy {
+            if board.state() != State::Homing && self.out.room() >= ANSWER_ROOM {
+                self.busy = Busy::None;
+                self.rx.answered(raw);
+                self.emit(Reply::Ok);
+            }
+        }
+        if self.busy == Busy::None {
+            self.read_lines(board);
+            self.end_idle_job(board);
+        }
+        self.status(board, view);
+    }
+
+    fn status(&mut self, board: &Board, view: &KernelView) {
+        if self.status_due && self.out.room() >= report::STATUS_MAX {
+            self.status_due = false;
+            let rx_free = self.rx.free();
+            report::status(
+                &mut self.out,
+                board,
+                view,
+                &self.prefs,
+                self.check_mode,
+                rx_free,
+                &mut self.sparse,
+            );
+        }
+    }
+
+    fn realtime_commands(&mut self, board: &mut Board) {
+        while let Some(rt) = self.realtime.pop_front() {
+            match rt {
+                Realtime::Status => self.status_due = true,
+                Realtime::FeedHold => board.feed_hold(),
+                Realtime::CycleStart => board.cycle_start(),
+                Realtime::Reset => {
+                    // Gantry's abort: decelerate on the path, the job ends at rest with the
+                    // program-stop sequence (grbl cuts the steps and loses the position).
+                    board.abort();
+                    self.busy = Busy::None;
+                    self.check_mode = false;
+                    self.session = Session::Resetting;
+                }
+                Realtime::JogCancel => board.jog_stop(),
+                Realtime::Feed(step) => {
+                    board.set_feed_override(realtime::feed_after(board.feed_override(), step))
+                }
+                Realtime::Rapid(pct) => board.set_rapid_override(pct),
+                Realtime::SafetyDoor
+                | Realtime::Spindle
+                | Realtime::Coolant
+                | Realtime::Unknown => {}
+            }
+        }
+    }
+
+    fn board_events(&mut self, board: &mut Board) {
+        while self.out.room() >= ANSWER_ROOM {
+            let Some(e) = board.take_event() else {
+                return;
+            };
+            match e {
+                BoardEvent::Error { line, code, .. } if line != 0 => {
+                    self.taken_hint = self.taken_hint.max(line);
+                    for f in self.flights.iter_mut() {
+                        if f.line == line {
+                            if let Fate::OnBoard { error } = &mut f.fate {
+                                error.get_or_insert(code);
+                            }
+                        }
+                    }
+                }
+                BoardEvent::Error { .. } | BoardEvent::Limit { .. } => {}
+                BoardEvent::Alarm { code, .. } => {
+                    self.out.str("ALARM:");
+                    self.out.uint(code as u64);
+                    self.out.eol();
+                }
+                BoardEvent::JobDone { line, .. } => self.taken_hint = self.taken_hint.max(line),
+                BoardEvent::Jump(_) => {
+                    // Subprograms are served by `gantry stream`'s program server only.
+                    self.out.line("[MSG:M98 needs gantry stream: job stopped]");
+                    board.abort();
+                }
+            }
+        }
+    }
+
+    fn emit(&mut self, r: Reply) {
+        match r {
+            Reply::Ok => self.out.line("ok"),
+            Reply::Error(n) => {
+                self.out.str("error:");
+                self.out.uint(u64::from(n));
+                self.out.eol();
+            }
+        }
+    }
+
+    /// Answers the lines the board has decided, oldest first.
+    fn settle(&mut self, board: &Board) {
+        let takes = board.line_room() != usize::MAX;
+        let in_job = matches!(board.state(), State::Run | State::Hold | State::Check);
+        let on_board = self
+            .flights
+            .iter()
+            .filter(|f| matches!(f.fate, Fate::OnBoard { .. }))
+            .count();
+        let in_source = if takes {
+            board.lines_buffered().min(on_board)
+        } else {
+            0
+        };
+        let mut taken = on_board - in_source;
+        while self.out.room() >= ANSWER_ROOM {
+            let Some(f) = self.flights.front().copied() else {
+                return;
+            };
+            let reply = match f.fate {
+                Fate::Decided(r) => r,
+                Fate::OnBoard { error } => {
+                    let read = if takes {
+                        taken > 0
+                    } else if in_job {
+                        // A stopping job: decided once it has ended.
+                        return;
+                    } else {
+                        error.is_some() || f.line <= self.taken_hint
+                    };
+                    if read {
+                        taken = taken.saturating_sub(1);
+                        self.taken_hint = self.taken_hint.max(f.line);
+                        error.map_or(Reply::Ok, |e| Reply::Error(codes::error_number(e)))
+                    } else if takes {
+                        return;
+                    } else if board.state() == State::Alarm {
+                        Reply::Error(codes::LOCKED)
+                    } else {
+                        // The job ended without reading it: read again into the next job.
+                        self.flights.clear();
+                        self.rx.rewind();
+                        return;
+                    }
+                }
+            };
+            self.flights.pop_front();
+            self.rx.answered(f.raw);
+            self.emit(reply);
+        }
+    }
+
+    /// Reads complete lines while the board and the output can take them.
+    fn read_lines(&mut self, board: &mut Board) {
+        while !self.flights.is_full() && self.out.room() >= 2 * ANSWER_ROOM {
+            if self.rx.take_overflow() {
+                self.decided(0, Reply::Error(codes::LINE_TOO_LONG));
+                continue;
+            }
+            let mut buf = [0u8; LINE_CAPACITY];
+            let Some((n, raw)) = self.rx.peek_line(&mut buf) else {
+                return;
+            };
+            let text = trim(&buf[..n]);
+            if raw - 1 > LINE_CAPACITY {
+                self.rx.consume(raw);
+                self.decided(raw, Reply::Error(codes::LINE_TOO_LONG));
+                continue;
+            }
+            if text.is_empty() {
+                self.rx.consume(raw);
+                self.decided(raw, Reply::Ok);
+                continue;
+            }
+            if text[0] == b'$' {
+                if !self.flights.is_empty() {
+                    return;
+                }
+                let mut up = [0u8; LINE_CAPACITY];
+                let mut len = 0;
+                for &c in text.iter().filter(|c| !c.is_ascii_whitespace()) {
+                    up[len] = c.to_ascii_uppercase();
+                    len += 1;
+                }
+                match self.command(board, &up[..len]) {
+                    Step::Reply(r) => {
+                        self.rx.consume(raw);
+                        self.rx.answered(raw);
+                        self.emit(r);
+                    }
+                    Step::Wait => return,
+                    Step::Homing => {
+                        self.rx.consume(raw);
+                        self.busy = Busy::Homing { raw };
+                        return;
+                    }
+                }
+                continue;
+            }
+            let Ok(text) = core::str::from_utf8(text) else {
+                self.rx.consume(raw);
+                self.decided(raw, Reply::Error(codes::EXPECTED_LETTER));
+                continue;
+            };
+            match board.state() {
+                State::Alarm => {
+                    self.rx.consume(raw);
+                    self.decided(raw, Reply::Error(codes::LOCKED));
+                    continue;
+                }
+                State::Idle => {
+                    if self
+                        .flights
+                        .iter()
+                        .any(|f| matches!(f.fate, Fate::OnBoard { .. }))
+                    {
+                        // Lines of the job that ended are not settled yet: never mix two jobs.
+                        return;
+                    }
+                    let started = if self.check_mode {
+                        board.start_check()
+                    } else {
+                        board.start_job()
+                    };
+                    if !started {
+                        self.rx.consume(raw);
+                        self.decided(raw, Reply::Error(codes::LOCKED));
+                        continue;
+                    }
+                }
+                State::Homing | State::Jog => return,
+                State::Run | State::Hold | State::ToolChange | State::Check => {}
+            }
+            let room = board.line_room();
+            if room == 0 || room == usize::MAX || !board.push_line(0, self.next_line, text) {
+                return;
+            }
+            self.rx.consume(raw);
+            let _ = self.flights.push_back(Flight {
+                line: self.next_line,
+                raw,
+                fate: Fate::OnBoard { error: None },
+            });
+            self.next_line = self.next_line.wrapping_add(1).max(1);
+        }
+    }
+
+    /// A line answered without the board, in its turn.
+    fn decided(&mut self, raw: usize, r: Reply) {
+        let _ = self.flights.push_back(Flight {
+            line: 0,
+            raw,
+            fate: Fate::Decided(r),
+        });
+        self.settle_decided();
+    }
+
+    /// Answers decided lines at the front at once (nothing of the board's before them).
+    fn settle_decided(&mut self) {
+        while let Some(f) = self.flights.front().copied() {
+            let Fate::Decided(r) = f.fate else {
+                return;
+            };
+            self.flights.pop_front();
+            self.rx.answered(f.raw);
+            self.emit(r);
+        }
+    }
+
+    /// Everything answered, nothing waiting, the machine at rest waiting for lines: the job ends
+    /// (a new line starts the next one; the modal state stays).
+    fn end_idle_job(&mut self, board: &mut Board) {
+        if !self.flights.is_empty() || self.rx.has_line() || self.session != Session::Ready {
+            return;
+        }
+        let idle = match board.state() {
+            State::Run => board.waiting_for_lines(),
+            State::Check => board.lines_buffered() == 0,
+            _ => false,
+        };
+        if idle {
+            board.end_of_lines(0);
+        }
+    }
+
+    /// Commands that need the machine idle: `None` to go on, or the step to return (wait while
+    /// a job that stands at rest ends; error 8 while something moves).
+    fn idle_gate(&mut self, board: &mut Board, alarm_ok: bool) -> Option<Step> {
+        match board.state() {
+            State::Idle => None,
+            State::Alarm if alarm_ok => None,
+            State::Run if board.waiting_for_lines() => {
+                board.end_of_lines(0);
+                Some(Step::Wait)
+            }
+            State::Check if board.lines_buffered() == 0 => {
+                board.end_of_lines(0);
+                Some(Step::Wait)
+            }
+            _ => Some(Step::Reply(Reply::Error(codes::IDLE_ONLY))),
+        }
+    }
+
+    fn command(&mut self, board: &mut Board, line: &[u8]) -> Step {
+        let cmd = match command::parse(line) {
+            Ok(c) => c,
+            Err(e) => return Step::Reply(Reply::Error(e)),
+        };
+        // The longest answers ($$, $#) need this much output room.
+        if self.out.room() < 700 {
+            return Step::Wait;
+        }
+        let ok = Step::Reply(Reply::Ok);
+        match cmd {
+            Command::Help => {
+                self.out.line(
+                    "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]",
+                );
+                ok
+            }
+            Command::Modes => {
+                report::gcode_modes(&mut self.out, board, &self.prefs);
+                ok
+            }
+            Command::Info => {
+                report::build_info(&mut self.out);
+                ok
+            }
+            Command::StartupLines => {
+                self.out.line("$N0=");
+                self.out.line("$N1=");
+                ok
+            }
+            Command::SetStartupLine => Step::Reply(Reply::Error(codes::INVALID_STATEMENT)),
+            Command::Settings => {
+                if let Some(s) = self.idle_gate(board, true) {
+                    return s;
+                }
+                self.settings(board);
+                ok
+            }
+            Command::Params => {
+                if let Some(s) = self.idle_gate(board, true) {
+                    return s;
+                }
+                report::parameters(&mut self.out, board, &self.prefs);
+                ok
+            }
+            Command::Set { number, value } => {
+                if let Some(s) = self.idle_gate(board, number == 10 || number == 13) {
+                    return s;
+                }
+                Step::Reply(self.set(board, number, value))
+            }
+            Command::Check => {
+                if self.check_mode {
+                    self.check_mode = false;
+                    if board.state() == State::Check {
+                        board.abort();
+                    }
+                    self.out.line("[MSG:Disabled]");
+                    return ok;
+                }
+                if let Some(s) = self.idle_gate(board, false) {
+                    return s;
+                }
+                self.check_mode = true;
+                self.out.line("[MSG:Enabled]");
+                ok
+            }
+            Command::Unlock => {
+                if board.state() == State::Alarm {
+                    board.unlock();
+                    if board.state() != State::Alarm {
+                        self.out.line("[MSG:Caution: Unlocked]");
+                    }
+                }
+                ok
+            }
+            Command::Home(axes) => {
+                if let Some(s) = self.idle_gate(board, true) {
+                    return s;
+                }
+                if board.home(axes) {
+                    Step::Homing
+                } else {
+                    Step::Reply(Reply::Error(codes::HOMING_DISABLED))
+                }
+            }
+            Command::Jog(words) => {
+                if board.state() != State::Jog {
+                    if let Some(s) = self.idle_gate(board, false) {
+                        return s;
+                    }
+                }
+                let modal = board.interpreter().state();
+                let from = board.motion().queued_position();
+                let axes = usize::from(board.setup().axis_count);
+                let j = match jog::parse(words, modal, &from, axes) {
+                    Ok(j) => j,
+                    Err(e) => return Step::Reply(Reply::Error(e)),
+                };
+                match board.jog_to(j.to, j.feed) {
+                    Ok(()) => ok,
+                    Err(JogRefused::Busy) => Step::Wait,
+                    Err(JogRefused::Travel) => Step::Reply(Reply::Error(codes::JOG_TRAVEL)),
+                    Err(JogRefused::HomingRequired) => Step::Reply(Reply::Error(codes::LOCKED)),
+                    Err(JogRefused::Invalid) => Step::Reply(Reply::Error(codes::JOG_INVALID)),
+                }
+            }
+            Command::Restore(what) => {
+                if let Some(s) = self.idle_gate(board, false) {
+                    return s;
+                }
+                Step::Reply(self.restore(board, what))
+            }
+            Command::Sleep => {
+                board.abort();
+                self.out.line("[MSG:Sleeping]");
+                ok
+            }
+        }
+    }
+
+    fn settings(&mut self, board: &Board) {
+        let setup = board.setup();
+        let mut numbers: heapless::Vec<u16, 48> = heapless::Vec::new();
+        for n in settings::GLOBAL.iter().copied() {
+            let _ = numbers.push(n);
+        }
+        for g in settings::AXIS_GROUPS {
+            for a in 0..u16::from(setup.axis_count) {
+                let _ = numbers.push(g + a);
+            }
+        }
+        for n in numbers {
+            if let Some(v) = settings::read(n, setup, &self.prefs) {
+                self.out.byte(b'$');
+                self.out.uint(u64::from(n));
+                self.out.byte(b'=');
+                if v.decimals {
+                    self.out.fixed(v.milli, 1000, 3);
+                } else {
+                    self.out.int(v.milli / 1000);
+                }
+                self.out.eol();
+            }
+        }
+    }
+
+    fn set(&mut self, board: &mut Board, number: u16, value: &[u8]) -> Reply {
+        let Some(milli) = text::parse_scaled(value, 1000) else {
+            return Reply::Error(codes::BAD_NUMBER);
+        };
+        let mut setup = board.setup().clone();
+        let mut prefs = self.prefs;
+        if let Err(e) = settings::write(number, milli, &mut setup, &mut prefs) {
+            return Reply::Error(e);
+        }
+        self.prefs = prefs;
+        // $10 and $13 are the front end's own; the rest are setup keys. (No comparison of the
+        // whole setup: its derived equality costs the firmware about 1 KiB of flash.)
+        if number != 10 && number != 13 {
+            if !board.set_setup(setup) {
+                return Reply::Error(codes::IDLE_ONLY);
+            }
+            self.setup_changed = true;
+        }
+        Reply::Ok
+    }
+
+    fn restore(&mut self, board: &mut Board, what: Restore) -> Reply {
+        let mut setup = board.setup().clone();
+        if matches!(what, Restore::Settings | Restore::All) {
+            let defaults = crate::setup::Setup::default();
+            let prefs = Prefs::default();
+            let axes = u16::from(setup.axis_count);
+            let numbers = settings::GLOBAL.iter().copied().chain(
+                settings::AXIS_GROUPS
+                    .iter()
+                    .flat_map(move |g| (0..axes).map(move |a| g + a)),
+            );
+            for n in numbers {
+                if let Some(v) = settings::read(n, &defaults, &prefs) {
+                    let _ = settings::write(n, v.milli, &mut setup, &mut self.prefs);
+                }
+            }
+        }
+        if matches!(what, Restore::Offsets | Restore::All) {
+            setup.program.work_offsets = Default::default();
+            setup.program.g28_home = Default::default();
+            setup.program.g30_home = Default::default();
+        }
+        if !board.set_setup(setup) {
+            return Reply::Error(codes::IDLE_ONLY);
+        }
+        self.setup_changed = true;
+        Reply::Ok
+    }
+}
+
+/// The line without leading and trailing blanks.
+fn trim(mut s: &[u8]) -> &[u8] {
+    while let [b' ' | b'\t', rest @ ..] = s {
+        s = rest;
+    }
+    while let [rest @ .., b' ' | b'\t'] = s {
+        s = rest;
+    }
+    s
+}

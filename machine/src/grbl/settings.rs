@@ -1,0 +1,260 @@
+//! grbl's numbered settings (`$$`, `$n=value`) as views of the Gantry setup keys that mean the
+//! same thing (table in docs/grbl.md). `$10` (status report mask) and `$13` (report in inches)
+//! belong to the grbl front end itself ([`Prefs`]); settings Gantry has no key for are shown with
+//! the value Gantry behaves as and accept only that value.
+
+use super::codes;
+use crate::board::LIMIT_BITS;
+use crate::setup::Setup;
+
+/// The front end's own settings (kept for the connection's board session, not in flash).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Prefs {
+    /// `$10`: bit 0 machine position (else work position), bit 1 buffer state.
+    pub status_mask: u8,
+    /// `$13`: report positions and feeds in inches.
+    pub inches: bool,
+}
+
+impl Default for Prefs {
+    fn default() -> Self {
+        Prefs {
+            status_mask: 1,
+            inches: false,
+        }
+    }
+}
+
+/// The non-axis settings, in `$$` order; `$100`… follow per axis.
+pub const GLOBAL: [u16; 22] = [
+    0, 1, 2, 3, 4, 5, 6, 10, 11, 12, 13, 20, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32,
+];
+/// Axis setting groups: steps/mm, max rate, acceleration, travel.
+pub const AXIS_GROUPS: [u16; 4] = [100, 110, 120, 130];
+
+/// A setting's value: `milli` thousandths, shown with 3 decimals or as an integer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Value {
+    pub milli: i64,
+    pub decimals: bool,
+}
+
+const fn int(v: i64) -> Value {
+    Value {
+        milli: v * 1000,
+        decimals: false,
+    }
+}
+
+const fn dec(milli: i64) -> Value {
+    Value {
+        milli,
+        decimals: true,
+    }
+}
+
+/// nm as a 3-decimal mm value.
+fn mm(nm: i64) -> Value {
+    dec(div_round(nm, 1000))
+}
+
+fn div_round(a: i64, b: i64) -> i64 {
+    let (q, r) = (a.unsigned_abs() / b as u64, a.unsigned_abs() % b as u64);
+    let q = (q + u64::from(2 * r >= b as u64)) as i64;
+    if a < 0 {
+        -q
+    } else {
+        q
+    }
+}
+
+/// The setting's axis and group for `$100`-`$13x`.
+fn axis_of(n: u16, setup: &Setup) -> Option<(usize, u16)> {
+    let group = n / 10 * 10;
+    let axis = usize::from(n % 10);
+    (AXIS_GROUPS.contains(&group) && axis < usize::from(setup.axis_count)).then_some((axis, group))
+}
+
+fn bits(setup: &Setup, f: impl Fn(usize) -> bool) -> i64 {
+    (0..usize::from(setup.axis_count))
+        .filter(|&i| f(i))
+        .fold(0, |m, i| m | 1 << i)
+}
+
+/// The value of setting `n`, `None` when there is no such setting.
+pub fn read(n: u16, setup: &Setup, prefs: &Prefs) -> Option<Value> {
+    if let Some((a, group)) = axis_of(n, setup) {
+        let ax = &setup.axes[a];
+        return Some(match group {
+            // steps per mm = steps / (units_nm / 1e6), in thousandths.
+            100 => dec(div_round(i64::from(ax.steps) * 1_000_000_000, ax.units_nm)),
+            110 => mm(ax.max_rate),
+            120 => mm(ax.accel),
+            _ => mm(ax.travel_max - ax.travel_min),
+        });
+    }
+    let h = &setup.homing.axes[0];
+    Some(match n {
+        0 => int(i64::from(setup.drivers.step_pulse_ns / 1000)),
+        1 => int(255),
+        2 | 4 | 6 => int(0),
+        3 => int(bits(setup, |i| setup.axes[i].invert_dir)),
+        5 => int(i64::from(setup.inputs.invert & LIMIT_BITS != 0)),
+        10 => int(i64::from(prefs.status_mask)),
+        11 => mm(setup.path.junction_deviation),
+        12 => mm(setup.path.chord_tolerance),
+        13 => int(i64::from(prefs.inches)),
+        20 => int(1),
+        21 => int(i64::from(setup.inputs.hard_limits)),
+        22 => int(i64::from(
+            setup.homing.axes[..usize::from(setup.axis_count)]
+                .iter()
+                .any(|h| h.priority > 0),
+        )),
+        23 => int(bits(setup, |i| setup.homing.axes[i].seek_low)),
+        24 | 25 => mm(h.seek_rate),
+        26 => int(i64::from(setup.inputs.debounce_ms)),
+        27 => mm(h.retract),
+        30 => int(i64::from(setup.outputs.spindle_max_rpm)),
+        31 => int(i64::from(setup.outputs.spindle_min_rpm)),
+        32 => int(0),
+        _ => return None,
+    })
+}
+
+/// Writes `milli` (thousandths) to setting `n` of `setup`; `Err` is the grbl error number.
+pub fn write(n: u16, milli: i64, setup: &mut Setup, prefs: &mut Prefs) -> Result<(), u16> {
+    let nm = milli * 1000;
+    let whole = milli / 1000;
+    let flag = match whole {
+        0 => Some(false),
+        1 => Some(true),
+        _ => None,
+    };
+    let positive = |v: i64| {
+        if v > 0 {
+            Ok(v)
+        } else {
+            Err(codes::NEGATIVE_VALUE)
+        }
+    };
+    if let Some((a, group)) = axis_of(n, setup) {
+        let ax = &mut setup.axes[a];
+        match group {
+            100 => {
+                // steps per metre over 1 m of nm, reduced.
+                let steps = positive(milli)?;
+                let (s, u) = reduce(steps, 1_000_000_000);
+                ax.steps = u32::try_from(s).map_err(|_| codes::BAD_NUMBER)?;
+                ax.units_nm = u;
+            }
+            110 => ax.max_rate = positive(nm)?,
+            120 => ax.accel = positive(nm)?,
+            _ => ax.travel_max = ax.travel_min + positive(nm)?,
+        }
+        return Ok(());
+    }
+    if milli < 0 {
+        return Err(codes::NEGATIVE_VALUE);
+    }
+    let axes = usize::from(setup.axis_count);
+    match n {
+        0 => {
+            if whole < 1 {
+                return Err(6);
+            }
+            setup.drivers.step_pulse_ns =
+                u32::try_from(whole * 1000).map_err(|_| codes::BAD_NUMBER)?;
+        }
+        3 => {
+            for i in 0..axes {
+                setup.axes[i].invert_dir = whole & 1 << i != 0;
+            }
+        }
+        5 => match flag {
+            Some(true) => setup.inputs.invert |= LIMIT_BITS,
+            Some(false) => setup.inputs.invert &= !LIMIT_BITS,
+            None => return Err(codes::INVALID_STATEMENT),
+        },
+        10 => prefs.status_mask = u8::try_from(whole & 3).unwrap_or(1),
+        11 => setup.path.junction_deviation = positive(nm)?,
+        12 => setup.path.chord_tolerance = positive(nm)?,
+        13 => prefs.inches = flag.ok_or(codes::INVALID_STATEMENT)?,
+        21 => setup.inputs.hard_limits = flag.ok_or(codes::INVALID_STATEMENT)?,
+        23 => {
+            for i in 0..axes {
+                setup.homing.axes[i].seek_low = whole & 1 << i != 0;
+            }
+        }
+        24 | 25 => {
+            let rate = positive(nm)?;
+            for h in &mut setup.homing.axes[..axes] {
+                h.seek_rate = rate;
+            }
+        }
+        26 => setup.inputs.debounce_ms = u8::try_from(whole).map_err(|_| codes::BAD_NUMBER)?,
+        27 => {
+            for h in &mut setup.homing.axes[..axes] {
+                h.retract = nm;
+            }
+        }
+        30 => {
+            setup.outputs.spindle_max_rpm = u32::try_from(whole).map_err(|_| codes::BAD_NUMBER)?
+        }
+        31 => {
+            setup.outputs.spindle_min_rpm = u32::try_from(whole).map_err(|_| codes::BAD_NUMBER)?
+        }
+        32 if whole != 0 => return Err(codes::LASER_MODE),
+        // Settings Gantry has no key for: only the value it behaves as.
+        1 | 2 | 4 | 6 | 20 | 22 | 32 => {
+            let shown = read(n, setup, prefs).ok_or(codes::INVALID_STATEMENT)?;
+            if shown.milli != whole * 1000 {
+                return Err(codes::INVALID_STATEMENT);
+            }
+        }
+        _ => return Err(codes::INVALID_STATEMENT),
+    }
+    Ok(())
+}
+
+/// `a / b` in lowest terms.
+fn reduce(a: i64, b: i64) -> (i64, i64) {
+    let (mut x, mut y) = (a, b);
+    while y != 0 {
+        (x, y) = (y, x % y);
+    }
+    (a / x, b / x)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn steps_per_mm_round_trip_through_the_exact_ratio() {
+        let mut s = Setup::default();
+        let mut p = Prefs::default();
+        write(100, 80_000, &mut s, &mut p).unwrap();
+        assert_eq!((s.axes[0].steps, s.axes[0].units_nm), (1, 12_500));
+        write(101, 314_159, &mut s, &mut p).unwrap();
+        assert_eq!(read(101, &s, &p), Some(dec(314_159)));
+        assert_eq!(
+            write(102, -5_000, &mut s, &mut p),
+            Err(codes::NEGATIVE_VALUE)
+        );
+        assert_eq!(write(32, 1000, &mut s, &mut p), Err(codes::LASER_MODE));
+        assert_eq!(
+            write(1, 25_000, &mut s, &mut p),
+            Err(codes::INVALID_STATEMENT)
+        );
+        assert_eq!(write(1, 255_000, &mut s, &mut p), Ok(()));
+        write(110, 5_000_000, &mut s, &mut p).unwrap();
+        assert_eq!(s.axes[0].max_rate, 5_000 * crate::units::NM_PER_MM);
+        write(130, 250_000, &mut s, &mut p).unwrap();
+        assert_eq!(
+            s.axes[0].travel_max - s.axes[0].travel_min,
+            250 * crate::units::NM_PER_MM
+        );
+        assert_eq!(read(199, &s, &p), None);
+    }
+}

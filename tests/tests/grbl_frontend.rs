@@ -1,0 +1,503 @@
+//! The grbl 1.1 front end (`machine/src/grbl/`) on the emulated board, byte for byte as a grbl
+//! sender sees it: detection, banner, `ok`/`error:N`, realtime bytes, status reports and the
+//! `$10` mask, `$` commands and settings, `$J=` jogs, check mode, soft reset mid-job and
+//! character counting against the advertised RX buffer.
+
+mod controller_support;
+
+use controller_support::*;
+use gantry_machine::board::link::LinkProtocol;
+use gantry_machine::controller::State;
+use gantry_machine::grbl::{BANNER, RX_SIZE};
+use host_sender::emulator::EmulatedBoard;
+
+/// A grbl sender on the emulated board's port.
+struct Sender {
+    eb: EmulatedBoard,
+    seen: String,
+}
+
+impl Sender {
+    fn new() -> Self {
+        Self::with(|_| {})
+    }
+
+    fn with(edit: impl FnOnce(&mut gantry_machine::setup::Setup)) -> Self {
+        Sender {
+            eb: board(edit),
+            seen: String::new(),
+        }
+    }
+
+    fn send(&mut self, bytes: &[u8]) {
+        self.eb.receive(bytes);
+    }
+
+    fn run(&mut self, ms: u64) {
+        for _ in 0..ms {
+            self.eb.run_ms(1);
+            let out = self.eb.take_output();
+            self.seen.push_str(&String::from_utf8_lossy(&out));
+        }
+    }
+
+    /// Runs until the text seen contains `what` (panics after `ms`), and returns what was seen,
+    /// taking it.
+    fn until(&mut self, what: &str, ms: u64) -> String {
+        for _ in 0..ms {
+            if self.seen.contains(what) {
+                return std::mem::take(&mut self.seen);
+            }
+            self.run(1);
+        }
+        panic!("no {what:?} within {ms} ms; saw {:?}", self.seen);
+    }
+
+    fn oks(&self) -> usize {
+        self.seen.matches("ok\r\n").count()
+    }
+
+    fn status(&mut self) -> String {
+        self.seen.clear();
+        self.send(b"?");
+        let s = self.until(">\r\n", 50);
+        let start = s.rfind('<').unwrap();
+        s[start..].trim_end().to_owned()
+    }
+
+    fn steps(&self) -> [i64; 3] {
+        let p = self.eb.kernel.position();
+        [p[0], p[1], p[2]]
+    }
+
+    fn connected() -> Self {
+        let mut s = Self::new();
+        s.send(b"\x18");
+        s.until(BANNER, 20);
+        s
+    }
+}
+
+#[test]
+fn the_first_bytes_choose_the_protocol() {
+    use LinkProtocol::{Framed, Grbl};
+    let d = LinkProtocol::decide;
+    assert_eq!(d(&[0x00]), Some(Framed));
+    assert_eq!(
+        d(&[0x02, 0x41]),
+        Some(Framed),
+        "a new endpoint's first COBS code"
+    );
+    assert_eq!(d(b"G0 X1"), None, "no line end yet");
+    assert_eq!(d(b"G0 X1\n"), Some(Grbl));
+    assert_eq!(d(b"$I\r"), Some(Grbl));
+    assert_eq!(d(&[0x18]), Some(Grbl));
+    assert_eq!(d(b"?"), None);
+    assert_eq!(LinkProtocol::decide_after_wait(b"?"), Some(Grbl));
+    assert_eq!(LinkProtocol::decide_after_wait(b"G0"), None);
+    // A framed host whose endpoint ran on: any first byte, then header control bytes or the
+    // frame's 0x00 before any line end.
+    assert_eq!(d(&[b'?', 0x21, 0x05, b'\n']), Some(Framed));
+    assert_eq!(d(&[b'A', b'B', 0x00]), Some(Framed));
+    assert_eq!(d(&[b'X'; 300][..]), Some(Grbl));
+}
+
+#[test]
+fn a_status_request_gets_the_banner_then_an_idle_report() {
+    let mut s = Sender::new();
+    assert_eq!(s.eb.link.protocol(), LinkProtocol::Undecided);
+    s.send(b"?");
+    // A lone realtime byte waits UNDECIDED_MS for more, then counts as grbl.
+    let seen = s.until(">\r\n", 100);
+    assert!(
+        seen.starts_with("\r\nGrbl 1.1h ['$' for help]\r\n"),
+        "{seen:?}"
+    );
+    assert!(
+        seen.contains("<Idle|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000|Ov:100,100,100>"),
+        "{seen:?}"
+    );
+    assert_eq!(s.eb.link.protocol(), LinkProtocol::Grbl);
+    // DTR drop: the next connection chooses again.
+    s.eb.set_dtr(false);
+    s.run(2);
+    assert_eq!(s.eb.link.protocol(), LinkProtocol::Undecided);
+}
+
+#[test]
+fn send_response_streaming_answers_every_line_and_ends_idle_at_the_exact_steps() {
+    let mut s = Sender::connected();
+    let program = [
+        "G21 G90",
+        "G1 X10 Y5 F600",
+        "g0 z-2",
+        "",
+        "(comment)",
+        "G1 X0.5 F1200",
+    ];
+    for line in program {
+        let before = s.oks();
+        s.send(format!("{line}\n").as_bytes());
+        for _ in 0..5000 {
+            if s.oks() > before {
+                break;
+            }
+            s.run(1);
+        }
+        assert_eq!(s.oks(), before + 1, "line {line:?}: {:?}", s.seen);
+    }
+    assert!(!s.seen.contains("error"), "{:?}", s.seen);
+    until_state(&mut s.eb, State::Idle, 20_000);
+    s.run(5);
+    assert_eq!(s.steps(), [320, 5 * STEPS_PER_MM, -2 * STEPS_PER_MM]);
+    assert!(s.status().starts_with("<Idle|MPos:0.500,5.000,-2.000|"));
+}
+
+#[test]
+fn character_counting_keeps_the_rx_buffer_full_and_loses_no_line() {
+    let mut s = Sender::connected();
+    // 400 short moves, 0.1 mm each, streamed by grbl's character-counting rule.
+    let lines: Vec<String> = (1..=400)
+        .map(|i| format!("G1 X{:.1} F3000", i as f64 * 0.1))
+        .collect();
+    let mut sent = 0;
+    let mut in_flight: std::collections::VecDeque<usize> = Default::default();
+    let mut answered = 0;
+    let mut max_in_flight = 0;
+    let mut ms = 0;
+    while answered < lines.len() {
+        while sent < lines.len() {
+            let len = lines[sent].len() + 1;
+            if in_flight.iter().sum::<usize>() + len > RX_SIZE {
+                break;
+            }
+            s.send(format!("{}\n", lines[sent]).as_bytes());
+            in_flight.push_back(len);
+            sent += 1;
+        }
+        max_in_flight = max_in_flight.max(in_flight.iter().sum::<usize>());
+        s.run(1);
+        ms += 1;
+        assert!(ms < 60_000, "stalled at {answered}");
+        let oks = s.oks();
+        assert!(!s.seen.contains("error"), "{:?}", s.seen);
+        for _ in answered..oks {
+            in_flight.pop_front();
+        }
+        answered = oks;
+    }
+    assert_eq!(answered, 400);
+    assert!(
+        max_in_flight > RX_SIZE - 20,
+        "buffer kept full: {max_in_flight}"
+    );
+    until_state(&mut s.eb, State::Idle, 20_000);
+    assert_eq!(s.steps()[0], 40 * STEPS_PER_MM);
+    // Bytes beyond the advertised size are dropped, never stored: the ring is honest.
+    s.seen.clear();
+    let flood = "G4 P0\n".repeat(40);
+    s.send(flood.as_bytes());
+    s.run(200);
+    let answers = s.seen.matches("ok\r\n").count() + s.seen.matches("error:").count();
+    assert!(
+        answers <= RX_SIZE / 6 + 1,
+        "{answers} answers: {:?}",
+        s.seen
+    );
+}
+
+#[test]
+fn a_bad_line_gets_its_grbl_error_and_the_next_lines_still_run() {
+    let mut s = Sender::connected();
+    s.send(b"G1 X1 F600\nG5 X1\nG1 X1 X2\nG0 X2\n");
+    s.run(3000);
+    let answers: Vec<&str> = s
+        .seen
+        .lines()
+        .filter(|l| *l == "ok" || l.starts_with("error:"))
+        .collect();
+    assert_eq!(
+        answers,
+        ["ok", "error:20", "error:25", "ok"],
+        "{:?}",
+        s.seen
+    );
+    until_state(&mut s.eb, State::Idle, 10_000);
+    assert_eq!(s.steps()[0], 2 * STEPS_PER_MM);
+}
+
+#[test]
+fn feed_hold_resume_and_overrides_act_like_the_framed_messages() {
+    let mut s = Sender::connected();
+    s.send(b"G1 X20 F600\n");
+    s.run(300);
+    s.send(b"!");
+    s.run(400);
+    let st = s.status();
+    assert!(st.starts_with("<Hold:0|"), "{st}");
+    let held = s.steps()[0];
+    s.run(200);
+    assert_eq!(s.steps()[0], held, "stands still in the hold");
+    s.send(b"~\x91\x91\x94\x96");
+    s.run(50);
+    assert_eq!(s.eb.board.feed_override(), 119);
+    assert_eq!(s.eb.board.motion().planner().rapid_override(), 50);
+    let mut saw_ov = false;
+    for _ in 0..10 {
+        let st = s.status();
+        assert!(st.starts_with("<Run|"), "{st}");
+        saw_ov |= st.contains("|Ov:119,50,100");
+    }
+    assert!(saw_ov);
+    s.send(b"\x90");
+    s.run(5);
+    assert_eq!(s.eb.board.feed_override(), 100);
+    until_state(&mut s.eb, State::Idle, 20_000);
+    assert_eq!(s.steps()[0], 20 * STEPS_PER_MM);
+}
+
+#[test]
+fn a_soft_reset_mid_job_ends_it_at_rest_and_sends_the_banner_again() {
+    let mut s = Sender::connected();
+    s.send(b"M3 S1000\nG1 X50 F3000\nG1 X0\n");
+    s.run(500);
+    assert_eq!(s.eb.board.state(), State::Run);
+    let moving = s.steps()[0];
+    assert!(moving > 0);
+    s.seen.clear();
+    s.send(b"\x18");
+    let seen = s.until(BANNER, 2000);
+    // Decelerated on its path, at rest, spindle off, position kept (no alarm).
+    assert_eq!(s.eb.board.state(), State::Idle);
+    assert!(s.eb.kernel_drained());
+    assert!(!s.eb.board.output_levels().spindle_enable);
+    assert!(!seen.contains("ALARM"), "{seen:?}");
+    let stopped = s.steps()[0];
+    assert!(stopped > moving && stopped < 50 * STEPS_PER_MM);
+    s.run(200);
+    assert_eq!(s.steps()[0], stopped, "the rest of the job is gone");
+    s.send(b"G0 X0\n");
+    s.until("ok\r\n", 100);
+    until_state(&mut s.eb, State::Idle, 10_000);
+    assert_eq!(s.steps()[0], 0);
+}
+
+#[test]
+fn the_status_mask_chooses_work_or_machine_position_and_buffer_state() {
+    let mut s = Sender::connected();
+    s.send(b"G10 L20 P1 X-5\n$10=0\n");
+    s.until("ok\r\nok\r\n", 500);
+    let st = s.status();
+    assert!(
+        st.starts_with("<Idle|WPos:-5.000,0.000,0.000|FS:0,0|WCO:5.000,0.000,0.000"),
+        "{st}"
+    );
+    s.send(b"$10=3\n");
+    s.until("ok\r\n", 100);
+    let st = s.status();
+    assert!(
+        st.starts_with(&format!(
+            "<Idle|MPos:0.000,0.000,0.000|Bf:128,{RX_SIZE}|FS:0,0"
+        )),
+        "{st}"
+    );
+    s.send(b"$13=1\n");
+    s.until("ok\r\n", 100);
+    s.send(b"G53 G0 X25.4\n");
+    s.until("ok\r\n", 100);
+    until_state(&mut s.eb, State::Idle, 10_000);
+    s.run(5);
+    let st = s.status();
+    assert!(st.starts_with("<Idle|MPos:1.0000,0.0000,0.0000|"), "{st}");
+}
+
+#[test]
+fn dollar_commands_report_and_write_the_setup() {
+    let mut s = Sender::connected();
+    s.send(b"$I\n");
+    let seen = s.until("ok\r\n", 100);
+    assert!(seen.contains("[OPT:V,128,128]"), "{seen:?}");
+    s.send(b"$G\n");
+    let seen = s.until("ok\r\n", 100);
+    assert!(
+        seen.contains("[GC:G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0]"),
+        "{seen:?}"
+    );
+    s.send(b"$$\n");
+    let seen = s.until("ok\r\n", 100);
+    for line in ["$0=2", "$100=640.000", "$101=640.000", "$32=0", "$10=1"] {
+        assert!(seen.contains(&format!("{line}\r\n")), "{line}: {seen:?}");
+    }
+    s.send(b"$100=800\n");
+    s.until("ok\r\n", 100);
+    let a = &s.eb.board.setup().axes[0];
+    assert_eq!(a.steps as i64 * MM / a.units_nm, 800);
+    s.send(b"$32=1\n$999=1\n$100=abc\n");
+    s.run(50);
+    assert!(
+        s.seen.contains("error:17\r\nerror:3\r\nerror:2\r\n"),
+        "{:?}",
+        s.seen
+    );
+    s.seen.clear();
+    s.send(b"G10 L2 P1 X3 Y4\n$#\n");
+    let seen = s.until("[PRB:", 500);
+    assert!(seen.contains("[G54:3.000,4.000,0.000]"), "{seen:?}");
+    s.send(b"$RST=#\n");
+    s.until("ok\r\n", 100);
+    assert_eq!(s.eb.board.interpreter().state().work_offsets[0][0], 0);
+    s.send(b"$N\n");
+    let seen = s.until("ok\r\n", 100);
+    assert!(seen.contains("$N0=\r\n$N1=\r\n"));
+    s.send(b"$H\n");
+    let seen = s.until("\r\n", 100);
+    assert!(seen.contains("error:5"), "no homing set up: {seen:?}");
+}
+
+#[test]
+fn jogs_move_exactly_refuse_the_travel_and_cancel() {
+    let mut s = Sender::connected();
+    s.send(b"$J=G91 X10 Y-2 F1000\n");
+    s.until("ok\r\n", 50);
+    assert_eq!(s.eb.board.state(), State::Jog);
+    assert!(s.status().starts_with("<Jog|"));
+    until_state(&mut s.eb, State::Idle, 10_000);
+    assert_eq!(s.steps()[..2], [10 * STEPS_PER_MM, -2 * STEPS_PER_MM]);
+    // X travels ±300 mm: 400 is beyond it. No F: undefined feed. Unknown word: invalid jog.
+    s.send(b"$J=G90 X400 F1000\n$J=X1\n$J=G91 X1 M3 F100\n");
+    s.run(50);
+    assert!(
+        s.seen.contains("error:15\r\nerror:22\r\nerror:16\r\n"),
+        "{:?}",
+        s.seen
+    );
+    // A long jog cancelled by 0x85 stops short, and the modal state is untouched (G90).
+    s.send(b"$J=G53 X100 F3000\n");
+    s.until("ok\r\n", 50);
+    s.run(300);
+    s.send(&[0x85]);
+    until_state(&mut s.eb, State::Idle, 5_000);
+    let x = s.steps()[0];
+    assert!(x > 10 * STEPS_PER_MM && x < 100 * STEPS_PER_MM, "{x}");
+    assert!(s.eb.board.interpreter().state().absolute);
+}
+
+#[test]
+fn check_mode_interprets_without_moving_and_reports_each_error() {
+    let mut s = Sender::connected();
+    s.send(b"$C\n");
+    let seen = s.until("ok\r\n", 50);
+    assert!(seen.contains("[MSG:Enabled]"));
+    s.send(b"G1 X10 F100\nG1 X1 X2\nG0 Y3\n");
+    s.run(200);
+    let answers: Vec<&str> = s
+        .seen
+        .lines()
+        .filter(|l| *l == "ok" || l.starts_with("error:"))
+        .collect();
+    assert_eq!(answers, ["ok", "error:25", "ok"]);
+    assert!(s.status().starts_with("<Check|"));
+    assert_eq!(s.steps(), [0, 0, 0]);
+    s.send(b"$C\n");
+    let seen = s.until("ok\r\n", 50);
+    assert!(seen.contains("[MSG:Disabled]"));
+}
+
+#[test]
+fn alarm_locks_gcode_out_until_unlocked() {
+    let mut s = Sender::with(|st| {
+        st.homing.required = true;
+        st.homing.axes[0].priority = 1;
+    });
+    s.send(b"\x18");
+    let seen = s.until("unlock]", 50);
+    assert!(seen.contains("[MSG:'$H'|'$X' to unlock]"), "{seen:?}");
+    s.send(b"G0 X1\n");
+    s.until("error:9\r\n", 50);
+    assert!(s.status().starts_with("<Alarm|"));
+}
+
+#[test]
+fn a_soft_reset_returns_the_modal_state_to_its_defaults() {
+    let mut s = Sender::connected();
+    s.send(b"G91 G20 G18 G92 X1\n");
+    s.until("ok\r\n", 100);
+    s.send(b"$G\n");
+    let seen = s.until("ok\r\n", 100);
+    assert!(seen.contains("G18 G20 G91"), "{seen:?}");
+    s.send(b"\x18");
+    s.until(BANNER, 100);
+    s.send(b"$G\n");
+    let seen = s.until("ok\r\n", 100);
+    assert!(
+        seen.contains("[GC:G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0]"),
+        "{seen:?}"
+    );
+    assert_eq!(s.eb.board.interpreter().state().g92[0], 0);
+}
+
+#[test]
+fn homing_is_answered_when_it_ends_and_unlocks_the_boot_alarm() {
+    let mut eb = board(|s| {
+        s.inputs.limit_min = 0b001;
+        s.homing.required = true;
+        s.homing.axes[0].priority = 1;
+        s.homing.axes[0].retract = 2 * MM;
+        s.homing.axes[0].home_position = -10 * MM;
+    });
+    eb.add_switch(0, false, -3 * MM);
+    let mut s = Sender {
+        eb,
+        seen: String::new(),
+    };
+    s.send(b"\x18");
+    s.until("unlock]", 100);
+    s.send(b"$$\n$22=0\n$HX\n");
+    // Settings change only while idle: in the boot alarm, error 8.
+    let seen = s.until("error:8\r\n", 200);
+    assert!(seen.contains("$22=1\r\n"), "{seen:?}");
+    s.run(50);
+    assert_eq!(s.eb.board.state(), State::Homing);
+    assert!(s.status().starts_with("<Home|"));
+    assert!(!s.seen.contains("ok"), "answered only when homing ends");
+    let seen = s.until("ok\r\n", 30_000);
+    assert_eq!(s.eb.board.state(), State::Idle);
+    assert!(!seen.contains("ALARM"), "{seen:?}");
+    assert_eq!(s.steps()[0], -10 * STEPS_PER_MM);
+    s.send(b"G0 X0\n");
+    s.until("ok\r\n", 100);
+}
+
+#[test]
+fn a_probe_move_reports_its_trip_in_prb_and_the_tool_change_stop_is_hold() {
+    let mut s = Sender::connected();
+    s.eb.add_probe_target(host_sender::emulator::ProbeTarget::Plane { z: -5_000_000 });
+    s.send(b"$#\n");
+    assert!(
+        s.until("ok\r\n", 50).contains("[PRB:0.000,0.000,0.000:0]"),
+        "no probe yet"
+    );
+    s.send(b"G21 G90 G38.2 Z-20 F100\n");
+    s.until("ok\r\n", 50);
+    until_state(&mut s.eb, State::Idle, 30_000);
+    s.run(5);
+    s.seen.clear();
+    s.send(b"$#\n");
+    let params = s.until("ok\r\n", 50);
+    assert!(params.contains("[PRB:0.000,0.000,-5.000:1]"), "{params}");
+    // M6 stops the job at rest for the tool change: grbl senders see Hold:0 and resume with ~.
+    s.send(b"T2 M6\nG0 Z0\n");
+    let mut held = false;
+    for _ in 0..2_000 {
+        s.run(1);
+        if s.eb.board.state() == State::ToolChange {
+            held = true;
+            break;
+        }
+    }
+    assert!(held, "{}", s.seen);
+    assert!(s.status().starts_with("<Hold:0|"), "{}", s.seen);
+    s.send(b"~");
+    until_state(&mut s.eb, State::Idle, 30_000);
+    assert_eq!(s.steps()[2], 0);
+}
