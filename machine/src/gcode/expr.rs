@@ -459,7 +459,8 @@ fn function(c: &mut Cursor<'_>, params: &dyn ParamRead, depth: u8) -> Result<Fx,
 
 /// 360° in binary-angle units per ONE degree: degrees × TURN / 360 / ONE.
 fn deg_to_binary(deg: Fx) -> i64 {
-    let turns = deg as i128 % (360 * ONE as i128);
+    let full = 360 * ONE as i128;
+    let turns = deg as i128 - trig::div_i128(deg as i128, full) * full;
     trig::div_i128(turns * trig::TURN as i128, 360 * ONE as i128) as i64
 }
 
@@ -528,13 +529,14 @@ pub fn ln(v: Fx) -> Result<Fx, ErrorCode> {
         k -= 1;
     }
     let z = trig::div_i128((m - E18) * E18, m + E18);
-    let z2 = z * z / E18;
+    // i128 `/` is expanded inline on the Cortex-M4 (~1 KiB each): the shared division instead.
+    let z2 = trig::div_i128(z * z, E18);
     let mut term = z;
     let mut sum = 0i128;
     let mut n = 1i128;
     while term != 0 {
-        sum += term / n;
-        term = term * z2 / E18;
+        sum += trig::div_i128(term, n);
+        term = trig::div_i128(term * z2, E18);
         n += 2;
     }
     let r = 2 * sum + k * LN2_E18;
@@ -557,7 +559,7 @@ pub fn exp(v: Fx) -> Result<Fx, ErrorCode> {
     let mut n = 1i128;
     while term != 0 {
         sum += term;
-        term = trig::div_i128(term * r / E18, n);
+        term = trig::div_i128(trig::div_i128(term * r, E18), n);
         n += 1;
     }
     let scaled = if k >= 0 { sum << k } else { sum >> (-k) };

@@ -38,7 +38,7 @@ const GLOBAL: u8 = 0xFF;
 /// nm to the program's length units as an [`Fx`] (mm ×10⁹ or inch ×10⁹).
 pub fn nm_to_fx(nm: Nm, inch: bool) -> Fx {
     if inch {
-        ((nm as i128 * 10_000) / 254) as i64
+        crate::motion::trig::div_i128(nm as i128 * 10_000, 254) as i64
     } else {
         nm.saturating_mul(1000)
     }
@@ -47,7 +47,7 @@ pub fn nm_to_fx(nm: Nm, inch: bool) -> Fx {
 /// An [`Fx`] length in program units to nm, rounded.
 pub fn fx_to_nm(v: Fx, inch: bool) -> Nm {
     let n = if inch {
-        v as i128 * 254 / 10_000
+        crate::motion::trig::div_i128(v as i128 * 254, 10_000)
     } else {
         v as i128
     };

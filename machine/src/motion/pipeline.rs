@@ -31,7 +31,7 @@ use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::output_event::OutputEvent;
 use super::planner::{direction, junction_limit_sq, Block, BlockKind, LineRequest, Planner, UNIT};
 use super::prep::{BlockOut, BlockReport, Prep, PrepOut, PrepState};
-use super::trig::mul_div;
+use super::trig::{self, mul_div};
 use super::trig::{polar, QUARTER_TURN};
 use crate::canon::{Action, Canon};
 use crate::units::{Pos, MAX_AXES};
@@ -645,7 +645,7 @@ impl<const N: usize> Motion<N> {
         let slow = (v * v - corner_sq).div_ceil(two_a).min(remaining);
         let mut corner = here;
         for (c, u) in corner.iter_mut().zip(old.unit) {
-            *c += (i128::from(u) * i128::from(slow) / i128::from(UNIT)) as i64;
+            *c += trig::div_i128(i128::from(u) * i128::from(slow), i128::from(UNIT)) as i64;
         }
         let Some(to) = target(&corner) else {
             return false;
