@@ -123,10 +123,14 @@ fn add(a: (Nm, Nm), d: (i128, i128)) -> (Nm, Nm) {
     ((a.0 as i128 + d.0) as Nm, (a.1 as i128 + d.1) as Nm)
 }
 
+// Out of line: i128 products are long on the Cortex-M4 and these have many callers.
+#[inline(never)]
 fn cross(a: (i128, i128), b: (i128, i128)) -> i128 {
     a.0 * b.1 - a.1 * b.0
 }
 
+// Out of line: i128 products are long on the Cortex-M4 and these have many callers.
+#[inline(never)]
 fn dot(a: (i128, i128), b: (i128, i128)) -> i128 {
     a.0 * b.0 + a.1 * b.1
 }
@@ -154,6 +158,8 @@ fn scale_to(v: (i128, i128), len: i128) -> (i128, i128) {
 }
 
 /// Length of a vector, rounded to nm.
+// Out of line: i128 products are long on the Cortex-M4 and these have many callers.
+#[inline(never)]
 fn length(v: (i128, i128)) -> i128 {
     geometry::isqrt_round((v.0 * v.0 + v.1 * v.1) as u128) as i128
 }
