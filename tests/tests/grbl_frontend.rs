@@ -501,3 +501,139 @@ fn a_probe_move_reports_its_trip_in_prb_and_the_tool_change_stop_is_hold() {
     until_state(&mut s.eb, State::Idle, 30_000);
     assert_eq!(s.steps()[2], 0);
 }
+
+/// A sender whose spindle maps 0-10,000 rpm onto PWM counts 0-1000 (duty = rpm / 10).
+fn pwm_sender() -> Sender {
+    let mut s = Sender::with(|st| {
+        st.outputs.spindle_min_rpm = 0;
+        st.outputs.spindle_max_rpm = 10_000;
+        st.outputs.pwm_min = 0;
+        st.outputs.pwm_max = 1000;
+    });
+    s.send(b"\x18");
+    s.until(BANNER, 20);
+    s
+}
+
+#[test]
+fn spindle_override_bytes_scale_the_pwm_not_the_programmed_speed() {
+    let mut s = pwm_sender();
+    s.send(b"M3 S5000\n");
+    s.until("ok\r\n", 200);
+    until_state(&mut s.eb, State::Idle, 1000);
+    let duty = |s: &Sender| s.eb.board.output_levels().spindle_pwm;
+    assert_eq!(duty(&s), 500);
+    // +10, +1, -10, -1: 110, 111, 101, 100 %.
+    let mut seen = Vec::new();
+    for b in [0x9Au8, 0x9C, 0x9B, 0x9D] {
+        s.send(&[b]);
+        s.run(2);
+        seen.push((s.eb.board.spindle_override(), duty(&s)));
+    }
+    assert_eq!(seen, [(110, 550), (111, 555), (101, 505), (100, 500)]);
+    s.send(&[0x9A; 12]);
+    s.run(2);
+    assert_eq!((s.eb.board.spindle_override(), duty(&s)), (200, 1000));
+    let st = s.status();
+    assert!(
+        st.contains("|FS:0,5000|") && st.ends_with("|Ov:100,100,200|A:S>"),
+        "{st}"
+    );
+    s.send(&[0x99]);
+    s.run(2);
+    assert_eq!((s.eb.board.spindle_override(), duty(&s)), (100, 500));
+    s.send(&[0x9B; 10]);
+    s.run(2);
+    assert_eq!((s.eb.board.spindle_override(), duty(&s)), (10, 50));
+    assert_eq!(s.eb.board.outputs().rpm, 5000, "the programmed speed stays");
+    let st = s.status();
+    assert!(
+        st.contains("|FS:0,5000|") && st.ends_with("|Ov:100,100,10|A:S>"),
+        "{st}"
+    );
+}
+
+#[test]
+fn coolant_toggles_flip_flood_and_mist_but_not_in_alarm() {
+    let mut s = pwm_sender();
+    let coolant = |s: &Sender| {
+        let l = s.eb.board.output_levels();
+        (l.flood, l.mist)
+    };
+    s.send(&[0xA0]);
+    s.run(2);
+    assert_eq!(coolant(&s), (true, false));
+    assert!(s.status().ends_with("|A:F>"));
+    s.send(&[0xA1]);
+    s.run(2);
+    assert_eq!(coolant(&s), (true, true));
+    assert!(s.status().ends_with("|A:FM>"));
+    // While a job runs.
+    s.send(b"G1 X5 F600\n");
+    s.run(100);
+    s.send(&[0xA0]);
+    s.run(2);
+    assert_eq!(s.eb.board.state(), State::Run);
+    assert_eq!(coolant(&s), (false, true));
+    let st = s.status();
+    assert!(st.starts_with("<Run|") && st.ends_with("|A:M>"), "{st}");
+    until_state(&mut s.eb, State::Idle, 5000);
+    s.send(&[0xA1]);
+    s.run(2);
+    assert_eq!(coolant(&s), (false, false));
+    assert!(!s.status().contains("|A:"));
+
+    let mut s = Sender::with(|st| {
+        st.homing.required = true;
+        st.homing.axes[0].priority = 1;
+    });
+    s.send(b"\x18");
+    s.until("unlock]", 50);
+    s.send(&[0xA0, 0xA1]);
+    s.run(5);
+    assert_eq!(coolant(&s), (false, false), "no toggle in alarm");
+}
+
+#[test]
+fn spindle_stop_acts_only_in_a_feed_hold_and_cycle_start_restores_it() {
+    let mut s = pwm_sender();
+    s.send(b"M4 S3000\nG1 X20 F600\n");
+    s.run(300);
+    let spindle = |s: &Sender| {
+        let l = s.eb.board.output_levels();
+        (l.spindle_enable, l.spindle_ccw, l.spindle_pwm)
+    };
+    assert_eq!(spindle(&s), (true, true, 300));
+    s.send(&[0x9E]);
+    s.run(2);
+    assert_eq!(
+        spindle(&s),
+        (true, true, 300),
+        "no spindle stop while running"
+    );
+    s.send(b"!");
+    s.run(400);
+    assert!(s.status().starts_with("<Hold:0|"));
+    s.send(&[0x9E]);
+    s.run(2);
+    assert_eq!(spindle(&s), (false, false, 0));
+    let st = s.status();
+    assert!(!st.contains("|A:"), "{st}");
+    // A second spindle stop switches it back on, a third off again.
+    s.send(&[0x9E]);
+    s.run(2);
+    assert_eq!(spindle(&s), (true, true, 300));
+    s.send(&[0x9E]);
+    s.run(2);
+    assert_eq!(spindle(&s), (false, false, 0));
+    let held = s.steps()[0];
+    s.send(b"~");
+    s.run(2);
+    assert_eq!(spindle(&s), (true, true, 300), "cycle start restores it");
+    let st = s.status();
+    assert!(st.starts_with("<Run|"), "{st}");
+    until_state(&mut s.eb, State::Idle, 20_000);
+    assert!(held < 20 * STEPS_PER_MM);
+    assert_eq!(s.steps()[0], 20 * STEPS_PER_MM);
+    assert_eq!(spindle(&s), (true, true, 300));
+}

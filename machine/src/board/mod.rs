@@ -16,6 +16,7 @@ pub mod link;
 pub mod main_loop;
 mod mode;
 mod operator;
+mod overrides;
 mod probing;
 pub mod source;
 
@@ -216,6 +217,11 @@ pub struct Board {
     /// Feed override in force (host or potentiometer), percent.
     feed_override: u16,
     fro_pot: Option<u16>,
+    /// Spindle speed override, percent (`board/overrides.rs`).
+    spindle_override: u16,
+    /// The spindle a spindle stop switched off in a feed hold, restored by cycle start
+    /// (`board/overrides.rs`).
+    stopped_spindle: Option<Spindle>,
     /// Dry run and single block.
     switches: RunSwitches,
     /// A G38 probe move of the job (`board/probing.rs`).
@@ -281,6 +287,8 @@ impl Board {
             marks: Deque::new(),
             feed_override: 100,
             fro_pot: None,
+            spindle_override: 100,
+            stopped_spindle: None,
             switches: RunSwitches::default(),
             probe: ProbeCycle::Off,
             probe_result: None,
@@ -600,6 +608,7 @@ impl Board {
         if self.hold_input_active() {
             return;
         }
+        self.restore_stopped_spindle();
         if why.pause() {
             if let Some(saved) = self.saved_outputs.take() {
                 self.outputs = saved;
@@ -617,6 +626,7 @@ impl Board {
     fn release_hold(&mut self) {
         if let Some(JobPhase::Hold { why, ending }) = self.machine_job() {
             if why.feed() {
+                self.restore_stopped_spindle();
                 self.motion.resume();
                 self.set_phase(if why.pause() {
                     JobPhase::Hold {
@@ -676,8 +686,9 @@ impl Board {
         self.motion.abort();
         self.source.reset();
         self.pending = None;
-        // Nothing is restored any more (an M0 stop's outputs included).
+        // Nothing is restored any more (an M0 stop's outputs included, a stopped spindle too).
         self.saved_outputs = None;
+        self.stopped_spindle = None;
         self.list = None;
         self.probe = ProbeCycle::Off;
         self.set_phase(JobPhase::Stopping {
@@ -834,6 +845,7 @@ impl Board {
             ..Outputs::SAFE
         };
         self.saved_outputs = None;
+        self.stopped_spindle = None;
     }
 
     /// Everything off (alarms, a new setup): the program-stop sequence and the user outputs.
@@ -1241,6 +1253,7 @@ impl Board {
             // Dry run: spindle and coolant stay as they are (seed: S has no effect).
             Action::Spindle { .. } | Action::Coolant { .. } if self.switches.dry_run => {}
             Action::Spindle { state, rpm } => {
+                self.stopped_spindle = None;
                 self.outputs.spindle = state;
                 self.outputs.rpm = rpm;
             }
@@ -1333,7 +1346,7 @@ impl Board {
         OutputLevels {
             spindle_enable: o.spindle != Spindle::Off,
             spindle_ccw: o.spindle == Spindle::Ccw,
-            spindle_pwm: spindle_duty(&self.setup.outputs, o.spindle, o.rpm),
+            spindle_pwm: spindle_duty(&self.setup.outputs, o.spindle, self.overridden_rpm()),
             mist: o.mist,
             flood: o.flood,
             user: self.user_outputs,

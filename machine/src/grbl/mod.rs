@@ -272,10 +272,12 @@ impl Grbl {
                     board.set_feed_override(realtime::feed_after(board.feed_override(), step))
                 }
                 Realtime::Rapid(pct) => board.set_rapid_override(pct),
-                Realtime::SafetyDoor
-                | Realtime::Spindle
-                | Realtime::Coolant
-                | Realtime::Unknown => {}
+                Realtime::SpindleSpeed(step) => {
+                    board.set_spindle_override(realtime::feed_after(board.spindle_override(), step))
+                }
+                Realtime::SpindleStop => board.toggle_spindle_stop(),
+                Realtime::Coolant { flood } => board.toggle_coolant(flood),
+                Realtime::SafetyDoor | Realtime::Unknown => {}
             }
         }
     }

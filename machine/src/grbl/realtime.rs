@@ -20,15 +20,17 @@ pub enum Realtime {
     Feed(FeedStep),
     /// 0x95-0x97: rapid override 100, 50, 25 %.
     Rapid(u16),
-    /// 0x99-0x9E: spindle override and spindle stop (no spindle override on Gantry: ignored).
-    Spindle,
-    /// 0xA0 flood, 0xA1 mist toggle (the board switches coolant only from the program: ignored).
-    Coolant,
+    /// 0x99-0x9D: spindle speed override to 100 %, +10, -10, +1, -1.
+    SpindleSpeed(FeedStep),
+    /// 0x9E: spindle stop (in a feed hold at rest).
+    SpindleStop,
+    /// 0xA0 flood (`true`), 0xA1 mist (`false`) toggle.
+    Coolant { flood: bool },
     /// A byte of 0x80-0xFF grbl does not define: dropped.
     Unknown,
 }
 
-/// A feed override step.
+/// A feed or spindle override step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FeedStep {
     Reset,
@@ -53,15 +55,21 @@ impl Realtime {
             0x95 => Realtime::Rapid(100),
             0x96 => Realtime::Rapid(50),
             0x97 => Realtime::Rapid(25),
-            0x99..=0x9E => Realtime::Spindle,
-            0xA0 | 0xA1 => Realtime::Coolant,
+            0x99 => Realtime::SpindleSpeed(FeedStep::Reset),
+            0x9A => Realtime::SpindleSpeed(FeedStep::Add(10)),
+            0x9B => Realtime::SpindleSpeed(FeedStep::Add(-10)),
+            0x9C => Realtime::SpindleSpeed(FeedStep::Add(1)),
+            0x9D => Realtime::SpindleSpeed(FeedStep::Add(-1)),
+            0x9E => Realtime::SpindleStop,
+            0xA0 => Realtime::Coolant { flood: true },
+            0xA1 => Realtime::Coolant { flood: false },
             0x80..=0xFF => Realtime::Unknown,
             _ => return None,
         })
     }
 }
 
-/// The feed override after `step` from `pct` (grbl's range, 10-200 %).
+/// The feed or spindle override after `step` from `pct` (grbl's range, 10-200 %).
 pub fn feed_after(pct: u16, step: FeedStep) -> u16 {
     match step {
         FeedStep::Reset => 100,
@@ -82,8 +90,13 @@ mod tests {
         assert_eq!(Realtime::of(0x84), Some(Realtime::SafetyDoor));
         assert_eq!(Realtime::of(0x85), Some(Realtime::JogCancel));
         assert_eq!(Realtime::of(0x97), Some(Realtime::Rapid(25)));
-        assert_eq!(Realtime::of(0x9E), Some(Realtime::Spindle));
-        assert_eq!(Realtime::of(0xA1), Some(Realtime::Coolant));
+        assert_eq!(
+            Realtime::of(0x9A),
+            Some(Realtime::SpindleSpeed(FeedStep::Add(10)))
+        );
+        assert_eq!(Realtime::of(0x9E), Some(Realtime::SpindleStop));
+        assert_eq!(Realtime::of(0xA0), Some(Realtime::Coolant { flood: true }));
+        assert_eq!(Realtime::of(0xA1), Some(Realtime::Coolant { flood: false }));
         assert_eq!(Realtime::of(0xFF), Some(Realtime::Unknown));
         assert_eq!(Realtime::of(b'G'), None);
         assert_eq!(Realtime::of(b'\n'), None);

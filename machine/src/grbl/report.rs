@@ -66,7 +66,8 @@ pub fn state_name(board: &Board, view: &KernelView, check_mode: bool) -> &'stati
 pub struct Sparse {
     count: u8,
     wco: Option<Pos>,
-    ov: Option<(u16, u16)>,
+    /// Feed, rapid and spindle overrides and the `A:` letters (a toggle shows at once, as in grbl).
+    ov: Option<(u16, u16, u16, [bool; 4])>,
 }
 
 impl Sparse {
@@ -122,9 +123,18 @@ pub fn status(
     // WCO and Ov: when they change, and every 10th report.
     sparse.count = (sparse.count + 1) % 10;
     let wco = board.interpreter().state().offset();
+    let o = board.outputs();
+    let acc = [
+        (o.spindle == Spindle::Cw, 'S'),
+        (o.spindle == Spindle::Ccw, 'C'),
+        (o.flood, 'F'),
+        (o.mist, 'M'),
+    ];
     let ov = (
         board.feed_override(),
         board.motion().planner().rapid_override(),
+        board.spindle_override(),
+        acc.map(|(on, _)| on),
     );
     if sparse.count == 0 || sparse.wco != Some(wco) {
         sparse.wco = Some(wco);
@@ -137,14 +147,8 @@ pub fn status(
         out.uint(u64::from(ov.0));
         out.byte(b',');
         out.uint(u64::from(ov.1));
-        out.str(",100");
-        let o = board.outputs();
-        let acc = [
-            (o.spindle == Spindle::Cw, 'S'),
-            (o.spindle == Spindle::Ccw, 'C'),
-            (o.flood, 'F'),
-            (o.mist, 'M'),
-        ];
+        out.byte(b',');
+        out.uint(u64::from(ov.2));
         if acc.iter().any(|(on, _)| *on) {
             out.str("|A:");
             for (on, c) in acc {
