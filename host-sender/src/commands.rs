@@ -68,7 +68,10 @@ pub fn format_status(s: &Status, axes: usize) -> String {
         s.inputs,
         if homed.is_empty() { "none".into() } else { homed },
         outputs_text(&s.outputs)
-    ) + &match s.state {
+    ) + &s.probe.map_or(String::new(), |p| {
+        let contact = if p.success { "contact" } else { "no contact" };
+        format!("\nprobe:     {} ({contact})", pos(&p.machine_pos))
+    }) + &match s.state {
         gantry_proto::MachineState::Alarm { code } => format!("\nalarm:     {}", alarm_text(code)),
         gantry_proto::MachineState::ToolChange { tool } => format!(
             "\ntool:      change to tool T{tool}, then cycle start or `gantry resume`"
@@ -650,6 +653,7 @@ mod tests {
             inputs: 0,
             homed: 0b001,
             outputs: Default::default(),
+            probe: None,
         }
     }
 
@@ -664,6 +668,23 @@ mod tests {
             "{text}"
         );
         assert!(!format_status(&status(MachineState::Idle), 3).contains("alarm"));
+        assert!(!format_status(&status(MachineState::Idle), 3).contains("probe"));
+        let mut probed = status(MachineState::Idle);
+        probed.probe = Some(gantry_proto::ProbeStatus {
+            machine_pos: [0, 0, -5_000_000, 0, 0, 0],
+            success: true,
+        });
+        let text = format_status(&probed, 3);
+        assert!(
+            text.ends_with("no tool\nprobe:     X 0.000  Y 0.000  Z -5.000 (contact)"),
+            "{text}"
+        );
+        probed.probe = Some(gantry_proto::ProbeStatus {
+            machine_pos: [0, 0, -4_000_000, 0, 0, 0],
+            success: false,
+        });
+        let text = format_status(&probed, 3);
+        assert!(text.ends_with("Z -4.000 (no contact)"), "{text}");
         let mut running = status(MachineState::Run);
         running.outputs = gantry_proto::OutputsStatus {
             spindle: gantry_proto::SpindleStatus::Ccw,

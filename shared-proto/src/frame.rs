@@ -23,7 +23,7 @@ use crate::crc::{crc32, CRC_LEN};
 /// Bytes of the fixed header.
 pub const HEADER_LEN: usize = 9;
 /// Largest raw frame (header + payload + CRC) before COBS.
-pub const MAX_RAW: usize = 192;
+pub const MAX_RAW: usize = 256;
 /// Largest payload.
 pub const MAX_PAYLOAD: usize = MAX_RAW - HEADER_LEN - CRC_LEN;
 /// Largest frame on the wire, COBS overhead and delimiter included. Buffers
@@ -333,7 +333,7 @@ mod tests {
         assert_eq!(gh, h);
         assert_eq!(gp, [0x81, 0x04, 0xEF, 0xFD, 0xB6, 0xF5, 0x0D, 16, 8]);
         assert_eq!(crate::codec::decode::<crate::Hello>(&gp), Some(hello));
-        assert_eq!(MAX_FRAME_LEN, 194);
+        assert_eq!(MAX_FRAME_LEN, 259);
     }
 
     #[test]

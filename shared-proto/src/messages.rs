@@ -269,6 +269,17 @@ pub struct Status {
     pub homed: u8,
     /// Spindle, coolant and tool.
     pub outputs: OutputsStatus,
+    /// The last probe move's result since power-up (`None` before the first).
+    pub probe: Option<ProbeStatus>,
+}
+
+/// The result of a G38 probe move (docs/probing.md).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ProbeStatus {
+    /// Machine position (nm) where the probe changed state, or where the move ended without.
+    pub machine_pos: [i64; AXES],
+    /// The probe changed state (contact for G38.2/G38.3, release for G38.4/G38.5).
+    pub success: bool,
 }
 
 /// Where a [`BoardMsg::ProgramRequest`] asks the host to continue serving lines.

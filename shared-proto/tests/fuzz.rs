@@ -62,6 +62,7 @@ fn random_board(r: &mut Rng) -> BoardMsg {
             inputs: r.next_u32(),
             homed: 1,
             outputs: Default::default(),
+            probe: None,
         }),
         1 => BoardMsg::Alarm {
             code: r.next_u32() as u16,

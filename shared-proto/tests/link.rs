@@ -25,6 +25,7 @@ fn status(line: u32) -> BoardMsg {
         inputs: 0,
         homed: 0b111,
         outputs: Default::default(),
+        probe: None,
     })
 }
 

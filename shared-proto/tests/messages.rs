@@ -6,7 +6,7 @@ use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LE
 use gantry_proto::messages::SETUP_CHUNK_MAX;
 use gantry_proto::{
     BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, Line, MachineState, OutputsStatus,
-    ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
+    ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
 };
 use serde::{de::DeserializeOwned, Serialize};
 use std::fmt::Debug;
@@ -90,6 +90,10 @@ fn worst_status() -> Status {
             flood: true,
             tool: u32::MAX,
         },
+        probe: Some(ProbeStatus {
+            machine_pos: [i64::MIN; AXES],
+            success: true,
+        }),
     }
 }
 
@@ -125,6 +129,10 @@ fn all_board() -> Vec<BoardMsg> {
                     flood: true,
                     tool: 3,
                 },
+                probe: (state == MachineState::Check).then_some(ProbeStatus {
+                    machine_pos: [0, 0, -5_000_000, 0, 0, 0],
+                    success: true,
+                }),
             })
         })
         .collect();

@@ -5,9 +5,12 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_machine::board::link::status_of;
 use gantry_machine::board::{BoardEvent, JobEnd};
 use gantry_machine::controller::{AlarmCode, State};
 use gantry_machine::gcode::expr::ParamRef;
+use gantry_proto::ProbeStatus;
+use host_sender::commands::format_status;
 use host_sender::emulator::{EmulatedBoard, ProbeTarget};
 
 /// A parameter's value in µm (program units are mm: values are mm × 10⁹).
@@ -93,6 +96,32 @@ fn g38_3_without_contact_ends_the_move_without_error() {
     assert_eq!(param_um(&eb, 5063), -4000);
     assert_eq!(eb.kernel.position()[2], 0, "the G0 after it ran");
     assert!(!eb.board.probe_result().unwrap().success);
+}
+
+#[test]
+fn the_framed_status_carries_the_last_probe_result() {
+    let eb = board(|_| {});
+    assert_eq!(status_of(&eb.board, &eb.kernel_view()).probe, None);
+    let eb = run(&[PLANE], "G38.2 Z-20 F100\nG0 Z0\nM2");
+    let status = status_of(&eb.board, &eb.kernel_view());
+    assert_eq!(
+        status.probe,
+        Some(ProbeStatus {
+            machine_pos: [0, 0, -5_000_000, 0, 0, 0],
+            success: true
+        })
+    );
+    let text = format_status(&status, 3);
+    assert!(
+        text.contains("\nprobe:     X 0.000  Y 0.000  Z -5.000 (contact)"),
+        "{text}"
+    );
+    let eb = run(&[PLANE], "G38.3 Z-4 F300\nM2");
+    let status = status_of(&eb.board, &eb.kernel_view());
+    assert!(
+        format_status(&status, 3).contains("Z -4.000 (no contact)"),
+        "{status:?}"
+    );
 }
 
 #[test]

@@ -8,7 +8,7 @@ use crate::setup::{Setup, SETUP_BLOB_MAX};
 use crate::units::MAX_AXES;
 use gantry_proto::{
     BoardEndpoint, BoardMsg, Config, HostMsg, Lane, LinkEvent, MachineState, OutputsStatus,
-    ProgramTarget, SpindleStatus, Status,
+    ProbeStatus, ProgramTarget, SpindleStatus, Status,
 };
 
 /// The protocol a connection speaks, told from its first byte and forgotten when the host
@@ -508,6 +508,10 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
         inputs: view.inputs,
         homed: board.homed(),
         outputs: outputs_status(board.outputs()),
+        probe: board.probe_result().map(|p| ProbeStatus {
+            machine_pos: p.position,
+            success: p.success,
+        }),
     }
 }
 

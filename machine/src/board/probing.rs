@@ -44,6 +44,8 @@ pub struct ProbeResult {
     pub position: Pos,
     /// The probe changed state.
     pub success: bool,
+    /// Counts probe moves since power-up (wrapping): tells a new result from an equal old one.
+    pub number: u16,
 }
 
 impl Board {
@@ -118,6 +120,7 @@ impl Board {
             return;
         }
         let here = self.motion.queued_position();
+        let number = self.probe_result.map_or(1, |p| p.number.wrapping_add(1));
         match self.probe {
             ProbeCycle::Stopping { line, at } => {
                 self.line = line;
@@ -125,6 +128,7 @@ impl Board {
                 self.probe_result = Some(ProbeResult {
                     position: at,
                     success: true,
+                    number,
                 });
             }
             ProbeCycle::Moving { mode, line, .. } => {
@@ -133,6 +137,7 @@ impl Board {
                 self.probe_result = Some(ProbeResult {
                     position: here,
                     success: false,
+                    number,
                 });
                 if mode.must_trip {
                     self.probe = ProbeCycle::Off;

@@ -27,7 +27,7 @@ pub mod settings;
 pub mod text;
 
 use crate::board::link::KernelView;
-use crate::board::{Board, BoardEvent, JogRefused, LINE_CAPACITY};
+use crate::board::{Board, BoardEvent, JogRefused, ProbeResult, LINE_CAPACITY};
 use crate::controller::State;
 use command::{Command, Restore};
 use heapless::Deque;
@@ -115,6 +115,9 @@ pub struct Grbl {
     /// The highest line the interpreter is known to have taken.
     taken_hint: u32,
     setup_changed: bool,
+    /// The board's probe result last seen (`None` until the first service pass: a result from
+    /// before the connection is not announced).
+    probe_seen: Option<Option<ProbeResult>>,
 }
 
 impl Default for Grbl {
@@ -142,6 +145,7 @@ impl Grbl {
             next_line: 1,
             taken_hint: 0,
             setup_changed: false,
+            probe_seen: None,
         }
     }
 
@@ -203,6 +207,7 @@ impl Grbl {
     /// One service of the link (twice per main-loop pass, `board/main_loop.rs`).
     pub fn service(&mut self, board: &mut Board, view: &KernelView) {
         self.realtime_commands(board);
+        self.probe_message(board);
         self.board_events(board);
         if self.session == Session::Resetting {
             if !matches!(board.state(), State::Idle | State::Alarm) || self.out.room() < 128 {
@@ -251,6 +256,18 @@ impl Grbl {
                 &mut self.sparse,
             );
         }
+    }
+
+    /// grbl's `[PRB:...]` once a probe move ends (before its alarm 5, if any, as grbl does).
+    fn probe_message(&mut self, board: &Board) {
+        let result = board.probe_result();
+        if self.probe_seen == Some(result) || self.out.room() < report::STATUS_MAX {
+            return;
+        }
+        if self.probe_seen.is_some() {
+            report::probe(&mut self.out, board, &self.prefs);
+        }
+        self.probe_seen = Some(result);
     }
 
     fn realtime_commands(&mut self, board: &mut Board) {

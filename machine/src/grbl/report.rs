@@ -276,8 +276,14 @@ pub fn parameters(out: &mut Out, board: &Board, prefs: &Prefs) {
     length(out, s.tool_offset[2], prefs);
     out.byte(b']');
     out.eol();
-    // The last probe move's trip (or end) position in machine coordinates, and whether it
-    // tripped (docs/probing.md); zeros and 0 before the first probe move.
+    probe(out, board, prefs);
+}
+
+/// `[PRB:x,y,z:1]`: the last probe move's trip (or end) position in machine coordinates, and
+/// whether it tripped (docs/probing.md); zeros and 0 before the first probe move. In `$#` and
+/// sent by itself when a probe move ends.
+pub fn probe(out: &mut Out, board: &Board, prefs: &Prefs) {
+    let axes = usize::from(board.setup().axis_count);
     let probe = board.probe_result();
     out.str("[PRB:");
     position(
