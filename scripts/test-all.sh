@@ -102,6 +102,9 @@ elf_size() {
 section "grbl sender (pygrbl-streamer from PyPI) against gantry emulate --pty"
 bash scripts/grbl-sender-test.sh
 
+section "grbl sender (CNCjs from npm) against gantry emulate --pty"
+bash scripts/cncjs-sender-test.sh
+
 section "firmware: clippy and release build per board"
 SIZES=()
 for board in "${BOARDS[@]}"; do
