@@ -1270,24 +1270,31 @@ impl Interpreter {
         if !(0..MAX_AXES).any(named) {
             return Ok(());
         }
-        self.state.spindle = Spindle::Off;
-        let rpm = self.state.rpm;
-        self.push(
-            line,
-            Action::Spindle {
-                state: Spindle::Off,
-                rpm,
-            },
-        )?;
-        self.state.mist = false;
-        self.state.flood = false;
-        self.push(
-            line,
-            Action::Coolant {
-                mist: false,
-                flood: false,
-            },
-        )?;
+        // Only what is on is switched off: a first `T1 M6` with nothing on queues nothing before
+        // its rapids, so a change position beyond the travel ends the job with error 900 at the
+        // M6 before anything moves (board/mod.rs `soft_limit`).
+        if self.state.spindle != Spindle::Off {
+            self.state.spindle = Spindle::Off;
+            let rpm = self.state.rpm;
+            self.push(
+                line,
+                Action::Spindle {
+                    state: Spindle::Off,
+                    rpm,
+                },
+            )?;
+        }
+        if self.state.mist || self.state.flood {
+            self.state.mist = false;
+            self.state.flood = false;
+            self.push(
+                line,
+                Action::Coolant {
+                    mist: false,
+                    flood: false,
+                },
+            )?;
+        }
         const TOOL_AXIS: usize = 2;
         let mut to = self.state.position;
         for only_z in [true, false] {
