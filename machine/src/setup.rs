@@ -519,6 +519,10 @@ mod tests {
             s.program.user_mcodes.push(100 + i as u16).unwrap();
         }
         s.program.work_offsets = [[-1_000_000_000; MAX_AXES]; WORK_SYSTEMS];
+        s.program.tool_change_position = ToolChangePosition {
+            axes: 0b11_1111,
+            at: [-1_000_000_000, 2, -3, 4, i64::MAX, i64::MIN],
+        };
         let wait = ListCommand::WaitInput {
             bit: 31,
             level: true,

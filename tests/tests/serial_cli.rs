@@ -432,7 +432,7 @@ fn stopped_until_enter(sender: &mut Running, emu: &Emulator, prompt: &str, stopp
     );
     std::thread::sleep(Duration::from_millis(400));
     let log = emu.log();
-    let last = log.lines().filter(|l| l.contains(" pulses ")).last();
+    let last = log.lines().rfind(|l| l.contains(" pulses "));
     assert!(
         last.is_some_and(|l| l.contains(stopped)),
         "wanted {stopped:?} last:\n{log}"

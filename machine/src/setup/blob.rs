@@ -119,7 +119,10 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
     part(r, g28_home)?;
     part(r, g30_home)?;
     part(r, user_mcodes)?;
-    part(r, tool_change_position)?;
+    // Field by field (postcard writes a struct as its fields): the u8 and Pos readers exist
+    // already, a reader of the whole struct would be new flash.
+    part(r, &mut tool_change_position.axes)?;
+    part(r, &mut tool_change_position.at)?;
     part(r, operator)?;
     part(r, inputs)?;
     part(r, homing)?;
