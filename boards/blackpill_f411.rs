@@ -30,7 +30,8 @@ gantry_board! {
     fro_pot: PA1,
     joystick_axes: [PA2, PA3],
     // No free pin left: PC14 (the joystick's one switch on the other boards' layout) is the
-    // touch probe here, which most machines need more than a joystick switch.
+    // touch probe here, which most machines need more than a joystick switch. The other ways
+    // to free a pin, and what each costs: boards/README.md "Probe or joystick switch".
     joystick_switches: [],
     probe: PC14,
     spindle_enable: PB0,

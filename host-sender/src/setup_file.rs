@@ -9,8 +9,8 @@ use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::gcode::RetractMode;
 use gantry_machine::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::setup::{
-    AxisSetup, Dialect, DriverSetup, DwellUnits, ListCommand, McodeList, Setup, Tool, MAX_TOOLS,
-    MAX_USER_MCODES, USER_OUTPUTS,
+    AxisSetup, Dialect, DriverSetup, DwellUnits, ListCommand, McodeList, Setup, Tool,
+    ToolChangePosition, MAX_TOOLS, MAX_USER_MCODES, USER_OUTPUTS,
 };
 use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES, NM_PER_MM};
 use serde::{Deserialize, Serialize};
@@ -308,6 +308,8 @@ pub struct ProgramFile {
     pub user_mcodes: Option<Vec<u16>>,
     pub g28_home: Option<Vec<f64>>,
     pub g30_home: Option<Vec<f64>>,
+    /// Where M6 moves before the tool change: axis letter → machine position, mm (Z first).
+    pub tool_change_position: Option<BTreeMap<String, f64>>,
 }
 
 #[derive(Debug, Default, Deserialize, Serialize)]
@@ -357,6 +359,42 @@ fn position(key: &str, values: &[f64], axis_count: usize) -> anyhow::Result<[Nm;
         pos[i] = nm(&format!("{key}[{i}]"), v, -MAX_LENGTH_MM, MAX_LENGTH_MM)?;
     }
     Ok(pos)
+}
+
+/// `program.tool_change_position`: each axis named must be in use and its position inside that
+/// axis's travel (the moves of every M6 would otherwise hit the soft limit).
+fn tool_change_position(
+    place: &BTreeMap<String, f64>,
+    s: &Setup,
+) -> anyhow::Result<ToolChangePosition> {
+    let count = s.axis_count as usize;
+    let mut out = ToolChangePosition::default();
+    for (name, &v) in place {
+        let key = format!("program.tool_change_position.{name}");
+        let Some(i) = AXIS_LETTERS[..count]
+            .iter()
+            .position(|l| name.eq_ignore_ascii_case(&l.to_string()))
+        else {
+            bail!(
+                "{key}: not an axis in use (axes in use: {:?})",
+                &AXIS_LETTERS[..count]
+            );
+        };
+        let a = &s.axes[i];
+        let (lo, hi) = (a.travel_min, a.travel_max);
+        let at = nm(&key, v, -MAX_LENGTH_MM, MAX_LENGTH_MM)?;
+        if at < lo || at > hi {
+            bail!(
+                "{key} = {v}: outside the {} travel [{}, {}] (soft limits)",
+                AXIS_LETTERS[i],
+                mm(lo),
+                mm(hi)
+            );
+        }
+        out.axes |= 1 << i;
+        out.at[i] = at;
+    }
+    Ok(out)
 }
 
 impl SetupFile {
@@ -469,6 +507,9 @@ impl SetupFile {
         }
         if let Some(v) = &g.g30_home {
             s.program.g30_home = position("program.g30_home", v, count)?;
+        }
+        if let Some(place) = &g.tool_change_position {
+            s.program.tool_change_position = tool_change_position(place, &s)?;
         }
         for (i, t) in self.tool.iter().enumerate() {
             if t.number == 0 {
@@ -897,6 +938,23 @@ pub fn to_toml(s: &Setup) -> String {
     let _ = writeln!(t, "user_mcodes = [{}]", codes.join(", "));
     let _ = writeln!(t, "g28_home = {}", mm_list(&g.g28_home[..n]));
     let _ = writeln!(t, "g30_home = {}", mm_list(&g.g30_home[..n]));
+    let place = &g.tool_change_position;
+    let set: Vec<String> = (0..n)
+        .filter(|&i| place.axes & (1 << i) != 0)
+        .map(|i| format!("{} = {}", AXIS_LETTERS[i], mm(place.at[i])))
+        .collect();
+    if set.is_empty() {
+        let _ = writeln!(
+            t,
+            "# tool_change_position = {{ Z = 0.0 }}  # M6 moves there first (machine coordinates, Z first)"
+        );
+    } else {
+        let _ = writeln!(
+            t,
+            "tool_change_position = {{ {} }}  # M6 moves there first (machine coordinates, Z first)",
+            set.join(", ")
+        );
+    }
     for tool in &g.tools {
         let _ = writeln!(
             t,
@@ -1050,6 +1108,36 @@ mod tests {
         assert_eq!(s.path.chord_tolerance, 2_000);
         assert_eq!(s.program.tools[0].length, 25_400_100);
         assert_eq!(SetupFile::parse(&to_toml(&s)).unwrap(), s);
+    }
+
+    #[test]
+    fn the_tool_change_position_reads_writes_and_stays_inside_the_travel() {
+        let s = SetupFile::parse(
+            "[axis.Z]\ntravel = [-80.0, 20.0]\n[program]\ntool_change_position = { x = -12.5, Z = 20.0 }\n",
+        )
+        .unwrap();
+        let place = s.program.tool_change_position;
+        assert_eq!(place.axes, 0b101);
+        assert_eq!(place.at, [-12_500_000, 0, 20_000_000, 0, 0, 0]);
+        let text = to_toml(&s);
+        assert!(
+            text.contains("tool_change_position = { X = -12.5, Z = 20.0 }"),
+            "{text}"
+        );
+        assert_eq!(SetupFile::parse(&text).unwrap(), s);
+        let e = SetupFile::parse(
+            "[axis.Z]\ntravel = [-80.0, 20.0]\n[program]\ntool_change_position = { Z = 25.0 }\n",
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "program.tool_change_position.Z = 25: outside the Z travel [-80.0, 20.0] (soft limits)"
+        );
+        let e = SetupFile::parse("[program]\ntool_change_position = { A = 1.0 }\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "program.tool_change_position.A: not an axis in use (axes in use: ['X', 'Y', 'Z'])"
+        );
     }
 
     #[test]

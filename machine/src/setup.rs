@@ -21,7 +21,7 @@ pub const MAX_LIST_COMMANDS: usize = 8;
 /// The dialect, the G4 P units and the tool-table entry are the interpreter's own types (one set
 /// for the setup, the flash blob and the interpreter); the board keeps [`MAX_TOOLS`] tools, as
 /// many as the interpreter's table holds.
-pub use crate::gcode::{Dialect, DwellUnits, Tool, MAX_TOOLS};
+pub use crate::gcode::{Dialect, DwellUnits, Tool, ToolChangePosition, MAX_TOOLS};
 
 /// Per-axis setup.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -77,6 +77,9 @@ pub struct ProgramSetup {
     pub g30_home: Pos,
     /// M codes the user has defined; each reaches the controller as a user M-code action.
     pub user_mcodes: Vec<u16, MAX_USER_MCODES>,
+    /// Where `M6` moves (machine coordinates, Z first) before it stops for the tool change;
+    /// no axis set by default (docs/probing.md "Tool change").
+    pub tool_change_position: ToolChangePosition,
 }
 
 /// Operator-input behaviour.
@@ -338,6 +341,7 @@ impl Default for Setup {
                 g28_home: [0; MAX_AXES],
                 g30_home: [0; MAX_AXES],
                 user_mcodes: Vec::new(),
+                tool_change_position: ToolChangePosition::default(),
             },
             operator: OperatorSetup {
                 resume_needs_cycle_start: false,
@@ -411,6 +415,7 @@ impl Setup {
         c.work_offsets = p.work_offsets;
         c.g28_position = p.g28_home;
         c.g30_position = p.g30_home;
+        c.tool_change_position = p.tool_change_position;
         c.tools[..p.tools.len()].copy_from_slice(&p.tools);
         for &code in &p.user_mcodes {
             c.add_user_m_code(code);
@@ -514,6 +519,10 @@ mod tests {
             s.program.user_mcodes.push(100 + i as u16).unwrap();
         }
         s.program.work_offsets = [[-1_000_000_000; MAX_AXES]; WORK_SYSTEMS];
+        s.program.tool_change_position = ToolChangePosition {
+            axes: 0b11_1111,
+            at: [-1_000_000_000, 2, -3, 4, i64::MAX, i64::MIN],
+        };
         let wait = ListCommand::WaitInput {
             bit: 31,
             level: true,

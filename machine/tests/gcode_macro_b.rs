@@ -1,46 +1,10 @@
 //! Fanuc Macro B G65 macro calls (ngc dialect): argument specification I, a new level of locals
 //! #1-#33 per call, M99 return, L repeats and nesting, with hand-checked positions.
 #![allow(clippy::field_reassign_with_default)]
-use gantry_machine::canon::{Action, Canon};
-use gantry_machine::gcode::{
-    Dialect, ErrorCode, GcodeError, InterpConfig, Interpreter, MemorySource,
-};
+mod gcode_support;
 
-const MM: i64 = 1_000_000;
-
-fn run(program: &str) -> Vec<Result<Canon, GcodeError>> {
-    let mut it = Interpreter::new(&InterpConfig::default());
-    let mut src = MemorySource::new(program.as_bytes());
-    let mut out = Vec::new();
-    while let Some(x) = it.next(&mut src) {
-        let stop = x.is_err();
-        out.push(x);
-        assert!(out.len() < 10_000, "runaway");
-        if stop {
-            break;
-        }
-    }
-    out
-}
-
-/// (line, x, y, z) of every rapid/feed end point, mm×10^6.
-fn ends(program: &str) -> Vec<(u32, [i64; 3])> {
-    run(program)
-        .into_iter()
-        .map(|r| r.unwrap_or_else(|e| panic!("unexpected error {e:?} in\n{program}")))
-        .filter_map(|c| match c.action {
-            Action::Rapid { to } | Action::Feed { to, .. } => Some((c.line, [to[0], to[1], to[2]])),
-            _ => None,
-        })
-        .collect()
-}
-
-fn first_error(program: &str) -> GcodeError {
-    run(program)
-        .into_iter()
-        .find_map(|r| r.err())
-        .unwrap_or_else(|| panic!("no error in\n{program}"))
-}
+use gantry_machine::gcode::{Dialect, ErrorCode, InterpConfig, Interpreter, MemorySource};
+use gcode_support::{first_error, moves, MM};
 
 #[test]
 fn g65_arguments_follow_fanuc_specification_one() {
@@ -58,7 +22,7 @@ fn g65_arguments_follow_fanuc_specification_one() {
              G0 X#22 Y#23 Z#24\n\
              G0 X#25 Y#26 Z[#10 + #12]\n\
              M99\n";
-    let e = ends(p);
+    let e = moves(p);
     let want: Vec<(u32, [i64; 3])> = vec![
         (5, [MM, 2 * MM, 3 * MM]),
         (6, [4 * MM, 5 * MM, 6 * MM]),
@@ -87,7 +51,7 @@ fn g65_gives_the_caller_its_locals_back_and_leaves_globals() {
              #2 = 99\n\
              M99\n";
     assert_eq!(
-        ends(p),
+        moves(p),
         vec![
             // In the macro: A1.5, X-2.25, #2 unset (0).
             (9, [1_500_000, -2_250_000, 0]),
@@ -119,7 +83,7 @@ fn g65_repeats_with_l_and_nests() {
         want.push((8, [i * MM, 10 * i * MM, i * MM]));
     }
     want.push((3, [3 * MM, 30 * MM, 5 * MM]));
-    assert_eq!(ends(p), want);
+    assert_eq!(moves(p), want);
 }
 
 #[test]
@@ -164,7 +128,7 @@ fn vacant_number_zero_follows_fanuc_rules() {
              G0 X[ABS[#0] + #0 * 3 - 2]\n\
              M30\n";
     assert_eq!(
-        ends(p),
+        moves(p),
         vec![
             (2, [MM, 2 * MM, 3 * MM]),
             // X#0: no X word.
@@ -195,7 +159,7 @@ fn unset_locals_are_vacant_inside_a_g65_macro_only() {
              G0 Z[#5 + 4] X#5\n\
              M99\n";
     assert_eq!(
-        ends(p),
+        moves(p),
         vec![
             // In the macro: #1 = 2 is set, #2 (no B argument) is vacant.
             (6, [0, MM, MM]),

@@ -1,47 +1,11 @@
 //! RS274NGC parameters, expressions and O-word control flow (LinuxCNC's dialect), with exact
 //! positions: every expectation below is worked out by hand from the program.
 
-use gantry_machine::canon::{Action, Canon};
+mod gcode_support;
+
 use gantry_machine::gcode::expr::{ParamRef, ONE};
-use gantry_machine::gcode::{ErrorCode, GcodeError, InterpConfig, Interpreter, MemorySource};
-
-const MM: i64 = 1_000_000;
-
-fn run(program: &str) -> (Vec<Result<Canon, GcodeError>>, Interpreter) {
-    let mut it = Interpreter::new(&InterpConfig::default());
-    let mut src = MemorySource::new(program.as_bytes());
-    let mut out = Vec::new();
-    while let Some(x) = it.next(&mut src) {
-        let stop = x.is_err();
-        out.push(x);
-        assert!(out.len() < 100_000, "runaway");
-        if stop {
-            break;
-        }
-    }
-    (out, it)
-}
-
-/// (line, x, y, z) of every straight move.
-fn moves(program: &str) -> Vec<(u32, [i64; 3])> {
-    run(program)
-        .0
-        .into_iter()
-        .map(|r| r.unwrap_or_else(|e| panic!("unexpected error {e:?} in\n{program}")))
-        .filter_map(|c| match c.action {
-            Action::Rapid { to } | Action::Feed { to, .. } => Some((c.line, [to[0], to[1], to[2]])),
-            _ => None,
-        })
-        .collect()
-}
-
-fn error(program: &str) -> GcodeError {
-    run(program)
-        .0
-        .into_iter()
-        .find_map(|r| r.err())
-        .unwrap_or_else(|| panic!("no error in\n{program}"))
-}
+use gantry_machine::gcode::ErrorCode;
+use gcode_support::{first_error, moves, run, MM};
 
 #[test]
 fn numbered_and_named_parameters_and_expressions() {
@@ -77,12 +41,18 @@ fn indirect_parameters_and_system_parameters() {
     // Writing #5221 moves the G54 X offset.
     assert_eq!(moves("#5221 = 3\nG0 X1\n"), [(2, [4 * MM, 0, 0])]);
     assert_eq!(
-        error("#<nope> = #<missing>\n").code,
+        first_error("#<nope> = #<missing>\n").code,
         ErrorCode::UndefinedParameter
     );
-    assert_eq!(error("G0 X[1/0]\n").code, ErrorCode::DivisionByZero);
-    assert_eq!(error("#0 = 1\n").code, ErrorCode::ParameterNumberInvalid);
-    assert_eq!(error("G0 X[1 + ]\n").code, ErrorCode::ExpressionSyntax);
+    assert_eq!(first_error("G0 X[1/0]\n").code, ErrorCode::DivisionByZero);
+    assert_eq!(
+        first_error("#0 = 1\n").code,
+        ErrorCode::ParameterNumberInvalid
+    );
+    assert_eq!(
+        first_error("G0 X[1 + ]\n").code,
+        ErrorCode::ExpressionSyntax
+    );
 }
 
 #[test]
@@ -120,7 +90,7 @@ fn do_while_repeat_break_continue() {
         ]
     );
     // As LinuxCNC: break belongs to while/do, not to repeat.
-    let e = error("o3 repeat [2]\no3 break\no3 endrepeat\n");
+    let e = first_error("o3 repeat [2]\no3 break\no3 endrepeat\n");
     assert_eq!((e.line, e.code), (2, ErrorCode::UnbalancedBlock));
 }
 
@@ -151,19 +121,19 @@ fn subroutines_with_arguments_locals_and_forward_definitions() {
         ]
     );
     // A local of the subroutine is not visible after it returns.
-    let e = error("o1 sub\n#<v> = 1\no1 endsub\no1 call\nG0 X#<v>\n");
+    let e = first_error("o1 sub\n#<v> = 1\no1 endsub\no1 call\nG0 X#<v>\n");
     assert_eq!((e.line, e.code), (5, ErrorCode::UndefinedParameter));
 }
 
 #[test]
 fn unbalanced_blocks_and_unknown_labels_are_errors() {
-    let e = error("G0 X1\no7 endwhile\n");
+    let e = first_error("G0 X1\no7 endwhile\n");
     assert_eq!((e.line, e.code), (2, ErrorCode::UnbalancedBlock));
-    let e = error("o7 if [0]\nG0 X1\n");
+    let e = first_error("o7 if [0]\nG0 X1\n");
     assert_eq!((e.line, e.code), (2, ErrorCode::UnbalancedBlock));
-    let e = error("o9 call\nG0 X1\n");
+    let e = first_error("o9 call\nG0 X1\n");
     assert_eq!(e.code, ErrorCode::UnknownSubroutine);
-    let e = error("o1 while [1]\no1 endwhile\n");
+    let e = first_error("o1 while [1]\no1 endwhile\n");
     assert_eq!(e.code, ErrorCode::EndlessLoop);
 }
 
@@ -208,9 +178,9 @@ fn fanuc_macro_b_while_do_end_if_then_goto() {
         ]
     );
     // GOTO to a block that does not exist.
-    let e = error("G0 X1\nGOTO 77\n");
+    let e = first_error("G0 X1\nGOTO 77\n");
     assert_eq!((e.line, e.code), (2, ErrorCode::SourceJumpFailed));
     // END without WHILE.
-    let e = error("END4\n");
+    let e = first_error("END4\n");
     assert_eq!((e.line, e.code), (1, ErrorCode::UnbalancedBlock));
 }

@@ -421,6 +421,25 @@ fn under_gantry_serve_status_hold_resume_and_override_from_other_processes_act_d
     zigzag_400_ended_whole(&emu, &out);
 }
 
+/// A job stop as the sender shows it: waits for `prompt` on its stderr, checks that the board
+/// stands in the state and at the steps it logs as `stopped` (e.g. `ToolChange T3 line 3 steps
+/// X 1280`) and has not gone on since (no state logged after it), then presses Enter.
+fn stopped_until_enter(sender: &mut Running, emu: &Emulator, prompt: &str, stopped: &str) {
+    assert!(
+        wait_for(10 * S, || sender.stderr().contains(prompt)),
+        "{}",
+        sender.stderr()
+    );
+    std::thread::sleep(Duration::from_millis(400));
+    let log = emu.log();
+    let last = log.lines().rfind(|l| l.contains(" pulses "));
+    assert!(
+        last.is_some_and(|l| l.contains(stopped)),
+        "wanted {stopped:?} last:\n{log}"
+    );
+    sender.answer("");
+}
+
 #[test]
 fn m6_and_m0_stop_with_a_message_and_enter_continues() {
     let dir = Dir::new("m6-m0");
@@ -431,29 +450,20 @@ fn m6_and_m0_stop_with_a_message_and_enter_continues() {
         "G21 G90\nG1 X2 F3000\nT3 M6 (tool 3)\nG1 X4\nM0\nG1 X6\nM30\n",
     );
     let mut sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
-    assert!(wait_for(10 * S, || sender
-        .stderr()
-        .contains("line 3: tool change: put tool 3 in the spindle")));
     // The board waits at the tool change (X 2 mm = 1280 steps) until told to go on; it names
     // the tool in its state (docs/probing.md "Tool change").
-    std::thread::sleep(Duration::from_millis(500));
-    assert!(
-        emu.log().contains("ToolChange T3 line 3 steps X 1280"),
-        "{}",
-        emu.log()
+    stopped_until_enter(
+        &mut sender,
+        &emu,
+        "line 3: tool change: put tool 3 in the spindle",
+        "ToolChange T3 line 3 steps X 1280 ",
     );
-    assert!(!emu.log().contains("Run line 4"), "{}", emu.log());
-    sender.answer("");
-    assert!(wait_for(10 * S, || sender
-        .stderr()
-        .contains("line 5: program stop (M0): press Enter")));
-    std::thread::sleep(Duration::from_millis(300));
-    assert!(
-        emu.log().contains("Hold (at rest) line 5 steps X 2560"),
-        "{}",
-        emu.log()
+    stopped_until_enter(
+        &mut sender,
+        &emu,
+        "line 5: program stop (M0): press Enter",
+        "Hold (at rest) line 5 steps X 2560 ",
     );
-    sender.answer("");
     let out = sender.wait(20 * S);
     assert_eq!(out.code, Some(0), "{out:?}");
     assert!(
@@ -463,6 +473,53 @@ fn m6_and_m0_stop_with_a_message_and_enter_continues() {
     );
     assert!(emu.wait_log(2 * S, |l| l.contains("Idle line 7 steps X 3840")));
 }
+
+#[test]
+fn m6_moves_to_the_setup_s_tool_change_position_z_first_and_the_job_goes_on_from_there() {
+    // docs/probing.md "Tool change": with program.tool_change_position set, each M6 switches the
+    // spindle and coolant off, lifts Z to 10 mm, then moves X/Y to (-20, 30) in machine
+    // coordinates, and waits there; the next move starts from the change position.
+    let dir = Dir::new("m6-position");
+    let setup = dir.file(
+        "setup.toml",
+        "[program]\ntool_change_position = { X = -20.0, Y = 30.0, Z = 10.0 }\n",
+    );
+    let emu = Emulator::start(&dir, Some(&setup));
+    let port = emu.port();
+    let job = dir.file("job.nc", TWO_TOOL_JOB);
+    let mut sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
+    // 640 steps per mm: X -20, Y 30, Z 10 mm.
+    stopped_until_enter(
+        &mut sender,
+        &emu,
+        "line 5: tool change: put tool 2 in the spindle",
+        "ToolChange T2 line 5 steps X -12800 Y 19200 Z 6400 ",
+    );
+    stopped_until_enter(
+        &mut sender,
+        &emu,
+        "line 8: tool change: put tool 3 in the spindle",
+        "ToolChange T3 line 8 steps X -12800 Y 19200 Z 6400 ",
+    );
+    let out = sender.wait(20 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(
+        out.stdout.contains("job done: last line 10 of 10"),
+        "{}",
+        out.stdout
+    );
+    // G91 G0 X5 after the second change: 5 mm on from the change position's X -20.
+    assert!(
+        emu.wait_log(2 * S, |l| l
+            .contains("Idle line 10 steps X -9600 Y 19200 Z 6400 ")),
+        "{}",
+        emu.log()
+    );
+}
+
+/// Two tools, each M6 after a cut with spindle and flood on (the same job as
+/// tests/tests/tool_change.rs runs in process).
+const TWO_TOOL_JOB: &str = "G21 G90\nG0 X10 Y5 Z-2\nM3 S1000 M8\nG1 X20 F600\nT2 M6\nG0 X30\nG1 Z-1 F300\nT3 M6\nG91 G0 X5\nM2\n";
 
 /// X reaches full speed (50 mm/s) in 5 s, so an abort's or alarm's deceleration lasts seconds.
 const SLOW_X_SETUP: &str = "[axis.X]\nmax_rate = 3000.0\naccel = 10.0\n";

@@ -245,6 +245,20 @@ fn inside(side: Side, dir: ArcDir) -> bool {
 /// A waiting arc in the plane: (centre, end, direction).
 type HeldArc = ((Nm, Nm), (Nm, Nm), ArcDir);
 
+/// A compensated move after the entry move, as [`Comp::straight`] and [`Comp::arc`] take it: the
+/// block, its programmed end `to` (`p` in the plane), the programmed start `op` and the tool's
+/// place `c` in the plane, the side and the tool radius `r`.
+#[derive(Clone, Copy)]
+struct Next {
+    canon: Canon,
+    to: Pos,
+    p: (Nm, Nm),
+    op: (Nm, Nm),
+    c: (Nm, Nm),
+    side: Side,
+    r: Nm,
+}
+
 /// The programmed move the interpreter computed, in the plane.
 enum Programmed {
     Straight { rapid: bool },
@@ -486,13 +500,18 @@ impl Comp {
         }
         let op = uv(&self.programmed, plane);
         let c = uv(&self.tool, plane);
+        let next = Next {
+            canon,
+            to,
+            p,
+            op,
+            c,
+            side,
+            r,
+        };
         let result = match programmed {
-            Programmed::Straight { rapid } => {
-                self.straight(canon, to, op, c, p, side, r, rapid, out)?
-            }
-            Programmed::Arc { center, dir } => {
-                self.arc(canon, to, op, c, center, dir, side, r, out)?
-            }
+            Programmed::Straight { rapid } => self.straight(next, rapid, out)?,
+            Programmed::Arc { center, dir } => self.arc(next, center, dir, out)?,
         };
         self.programmed = to;
         self.tool = result;
@@ -500,21 +519,15 @@ impl Comp {
     }
 
     /// A straight move after the entry move (LinuxCNC `convert_straight_comp2`).
-    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn straight(
         &mut self,
-        canon: Canon,
-        to: Pos,
-        op: (Nm, Nm),
-        c: (Nm, Nm),
-        p: (Nm, Nm),
-        side: Side,
-        r: Nm,
+        next: Next,
         rapid: bool,
         out: &mut dyn FnMut(Canon),
     ) -> Result<Pos, ErrorCode> {
-        let plane = self.plane;
+        let (canon, to, p, op) = (next.canon, next.to, next.p, next.op);
+        let (c, side, r, plane) = (next.c, next.side, next.r, self.plane);
         let line = canon.line;
         if p == op {
             // No motion in the plane: the tool stays beside the programmed point.
@@ -590,23 +603,17 @@ impl Comp {
     }
 
     /// An arc after the entry move (LinuxCNC `convert_arc_comp2`).
-    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn arc(
         &mut self,
-        canon: Canon,
-        to: Pos,
-        op: (Nm, Nm),
-        c: (Nm, Nm),
+        next: Next,
         center: (Nm, Nm),
         dir: ArcDir,
-        side: Side,
-        r: Nm,
         out: &mut dyn FnMut(Canon),
     ) -> Result<Pos, ErrorCode> {
-        let plane = self.plane;
+        let (canon, to, p, op) = (next.canon, next.to, next.p, next.op);
+        let (c, side, r, plane) = (next.c, next.side, next.r, self.plane);
         let line = canon.line;
-        let p = uv(&to, plane);
         let arc_radius = length(sub(p, center));
         let to_center = sub(center, op);
         // Tangent at the start of the programmed arc.

@@ -57,6 +57,15 @@ pub struct Tool {
     pub diameter: Nm,
 }
 
+/// Where `M6` takes the tool before it stops for the change (docs/probing.md "Tool change"):
+/// the axes whose bit is set in `axes` (bit i = axis i, X = bit 0) go to `at` in machine
+/// coordinates at rapid, Z first. `axes == 0` (the default): `M6` stops where it is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct ToolChangePosition {
+    pub axes: u8,
+    pub at: Pos,
+}
+
 /// Tool-table size.
 pub const MAX_TOOLS: usize = 32;
 /// User M-code list size.
@@ -104,6 +113,8 @@ pub struct InterpConfig {
     /// G28 and G30 positions (machine coordinates).
     pub g28_position: Pos,
     pub g30_position: Pos,
+    /// Where `M6` moves before the tool change (none by default).
+    pub tool_change_position: ToolChangePosition,
     /// Reading of G4 P.
     pub dwell_units: DwellUnits,
     /// G73/G83 retract clearance in nm (LinuxCNC's G83 "rapid delta"); default 0.254 mm.
@@ -131,6 +142,7 @@ impl Default for InterpConfig {
             work_offsets: [[0; MAX_AXES]; WORK_SYSTEMS],
             g28_position: [0; MAX_AXES],
             g30_position: [0; MAX_AXES],
+            tool_change_position: ToolChangePosition::default(),
             dwell_units: DwellUnits::Seconds,
             peck_clearance: 254_000,
             block_delete: false,

@@ -1208,6 +1208,7 @@ impl Interpreter {
             self.refuse_under_comp(b.m.iter().find(|(_, c)| c.code == 6).map(|(_, c)| c.cols))?;
             self.state.tool_loaded = self.state.tool_selected;
             let tool = self.state.tool_loaded;
+            self.move_to_tool_change(line)?;
             self.push(line, Action::ToolChange { tool })?;
         }
         let spindle_m =
@@ -1253,6 +1254,57 @@ impl Interpreter {
                     at_rest: false,
                 },
             )?;
+        }
+        Ok(())
+    }
+
+    /// M6 with a tool-change position in the setup: spindle and coolant off, then rapids in
+    /// machine coordinates, Z (the tool axis) alone first, then the other axes named. The next
+    /// programmed move starts from there (LinuxCNC's `CHANGE_TOOL` makes one straight move to
+    /// its `TOOL_CHANGE_POSITION` and continues from it; Gantry lifts Z first so the tool leaves
+    /// the work before anything moves sideways). docs/probing.md "Tool change".
+    fn move_to_tool_change(&mut self, line: u32) -> Res<()> {
+        let place = self.config.tool_change_position;
+        let axis_count = self.config.axis_count as usize;
+        let named = |i: usize| i < axis_count && place.axes & (1 << i) != 0;
+        if !(0..MAX_AXES).any(named) {
+            return Ok(());
+        }
+        // Only what is on is switched off: a first `T1 M6` with nothing on queues nothing before
+        // its rapids, so a change position beyond the travel ends the job with error 900 at the
+        // M6 before anything moves (board/mod.rs `soft_limit`).
+        if self.state.spindle != Spindle::Off {
+            self.state.spindle = Spindle::Off;
+            let rpm = self.state.rpm;
+            self.push(
+                line,
+                Action::Spindle {
+                    state: Spindle::Off,
+                    rpm,
+                },
+            )?;
+        }
+        if self.state.mist || self.state.flood {
+            self.state.mist = false;
+            self.state.flood = false;
+            self.push(
+                line,
+                Action::Coolant {
+                    mist: false,
+                    flood: false,
+                },
+            )?;
+        }
+        const TOOL_AXIS: usize = 2;
+        let mut to = self.state.position;
+        for only_z in [true, false] {
+            for i in (0..MAX_AXES).filter(|&i| named(i) && (i == TOOL_AXIS) == only_z) {
+                to[i] = place.at[i];
+            }
+            if to != self.state.position {
+                self.push(line, Action::Rapid { to })?;
+                self.state.position = to;
+            }
         }
         Ok(())
     }

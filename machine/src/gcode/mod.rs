@@ -41,7 +41,8 @@ pub mod state;
 mod test_vectors;
 
 pub use config::{
-    ArcCenterMode, Dialect, DwellUnits, GixaSetup, InterpConfig, RetractMode, Tool, MAX_TOOLS,
+    ArcCenterMode, Dialect, DwellUnits, GixaSetup, InterpConfig, RetractMode, Tool,
+    ToolChangePosition, MAX_TOOLS,
 };
 pub use error::{ErrorCode, GcodeError};
 pub use interp::Interpreter;

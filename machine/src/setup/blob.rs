@@ -15,9 +15,9 @@ use postcard::ser_flavors::Flavor;
 use serde::de::DeserializeOwned;
 
 /// First byte of every blob: the encoding's version. 1 was the first serde/postcard encoding
-/// (without this byte), 2 the hand-written one; 3 is postcard through serde again. Change it
-/// whenever the layout changes.
-pub const FORMAT: u8 = 3;
+/// (without this byte), 2 the hand-written one; 3 is postcard through serde again; 4 adds
+/// fields (`program.tool_change_position` among them). Change it whenever the layout changes.
+pub const FORMAT: u8 = 4;
 
 /// Writes blob bytes `skip ..` into `out`. With `clip`, bytes beyond `out` are counted and
 /// dropped (a window of the blob); without, they are an error.
@@ -99,6 +99,7 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
         g28_home,
         g30_home,
         user_mcodes,
+        tool_change_position,
     } = program;
     let r = &mut rest;
     part(r, axis_count)?;
@@ -118,6 +119,10 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
     part(r, g28_home)?;
     part(r, g30_home)?;
     part(r, user_mcodes)?;
+    // Field by field (postcard writes a struct as its fields): the u8 and Pos readers exist
+    // already, a reader of the whole struct would be new flash.
+    part(r, &mut tool_change_position.axes)?;
+    part(r, &mut tool_change_position.at)?;
     part(r, operator)?;
     part(r, inputs)?;
     part(r, homing)?;
