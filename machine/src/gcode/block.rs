@@ -146,8 +146,15 @@ fn slot(l: u8) -> usize {
 /// A block error with the columns to blame.
 pub type BlockError = (ErrorCode, Option<(u16, u16)>);
 
+impl Default for Block {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl Block {
-    fn new() -> Self {
+    /// A block with no words (what [`parse_block_into`] fills).
+    pub fn new() -> Self {
         Block {
             n: None,
             o: None,
@@ -211,6 +218,18 @@ impl Block {
 /// the caller through [`Lexer::start`].
 pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block, BlockError> {
     let mut b = Block::new();
+    parse_block_into(lexer, config, &mut b)?;
+    Ok(b)
+}
+
+/// [`parse_block`] into a new block the caller owns (`Block::new()`): the interpreter's per-line
+/// path fills its block in place, since moving an 830-byte `Block` through return values costs
+/// ~700 Cortex-M4 instructions a copy (target-tests/src/bin/bench_motion.rs, per-line figures).
+pub fn parse_block_into(
+    lexer: &mut Lexer<'_>,
+    config: &InterpConfig,
+    b: &mut Block,
+) -> Result<(), BlockError> {
     b.block_delete = lexer.block_delete;
     let gixa = config.dialect == Dialect::Gixa;
     while let Some(w) = lexer.next_word().map_err(|(c, cols)| (c, Some(cols)))? {
@@ -310,7 +329,7 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
             }
         }
     }
-    Ok(b)
+    Ok(())
 }
 
 #[cfg(test)]

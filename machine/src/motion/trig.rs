@@ -73,17 +73,19 @@ pub fn isqrt_u64(v: u64) -> u64 {
     if v <= u32::MAX as u64 {
         return isqrt_u32(v as u32) as u64;
     }
-    // Tangent-line start from 2^k (k = ⌊log₂v / 2⌋) is above the root, then Newton steps
-    // decrease monotonically to ⌊√v⌋.
-    let k = (63 - v.leading_zeros()) / 2;
-    let mut x = (v >> (k + 1)) + (1u64 << (k - 1)) + 1;
-    loop {
-        let y = (x + div_u64(v, x)) >> 1;
-        if y >= x {
-            return x;
-        }
-        x = y;
+    // Start from the square root of the top 32 bits (hardware division in `isqrt_u32`): with
+    // `v << s` normalized to bits 62-63, `(⌊√hi⌋ + 1)·2^16` is above `√(v << s)` by at most
+    // 2^-15 relative, so one Newton step lands within 3 above ⌊√v⌋ (and never below it: integer
+    // Newton steps stay ≥ ⌊√v⌋), and a few multiplies finish. One 64-bit division instead of
+    // four or five from a power-of-two start.
+    let s = v.leading_zeros() & !1;
+    let hi = ((v << s) >> 32) as u32;
+    let x0 = (isqrt_u32(hi) as u64 + 1) << (16 - s / 2);
+    let mut x = (x0 + div_u64(v, x0)) >> 1;
+    while x.checked_mul(x).is_none_or(|sq| sq > v) {
+        x -= 1;
     }
+    x
 }
 
 /// ⌊√v⌋ of a 32-bit value (hardware 32-bit division on Cortex-M4).
@@ -441,6 +443,40 @@ pub fn polar(r: i64, theta: i64) -> (i64, i64) {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn isqrt_u64_is_the_floor_square_root() {
+        use super::isqrt_u64;
+        let is_floor = |v: u64| {
+            let x = isqrt_u64(v) as u128;
+            x * x <= v as u128 && (x + 1) * (x + 1) > v as u128
+        };
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for i in 0..200_000u64 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            // Every magnitude, squares and their neighbours.
+            let v = x >> (i % 64);
+            let r = (v >> 32).max(1);
+            for v in [v, r * r, r * r - 1, r * r + 1] {
+                assert!(is_floor(v), "isqrt_u64({v}) = {}", isqrt_u64(v));
+            }
+        }
+        for v in [
+            u64::MAX,
+            u64::MAX - 1,
+            (u32::MAX as u64) * (u32::MAX as u64),
+            (u32::MAX as u64) * (u32::MAX as u64) - 1,
+            1 << 32,
+            (1 << 32) + 1,
+            u32::MAX as u64,
+            1 << 62,
+            (1 << 62) - 1,
+        ] {
+            assert!(is_floor(v), "isqrt_u64({v}) = {}", isqrt_u64(v));
+        }
+    }
+
     #[test]
     fn the_128_bit_division_is_the_operators() {
         use super::{div_euclid_i128, div_i128, divrem_u128};

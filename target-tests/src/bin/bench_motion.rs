@@ -390,6 +390,11 @@ fn main() -> ! {
         ipc % 1000
     );
     let to_instr = |milli_counts: u64| milli_counts * 40 / 1000;
+    if cfg!(feature = "profile-lines") {
+        let [parse, interpret, plan, prepare] = line_cost().map(to_instr);
+        println!("lines: parse {parse} interpret {interpret} plan {plan} prepare {prepare}");
+        exit(true);
+    }
     let base = to_instr(tick_cost(1, empty_body));
     let t1 = to_instr(tick_cost(1, isr_body)).saturating_sub(base);
     let t3 = to_instr(tick_cost(3, isr_body)).saturating_sub(base);
