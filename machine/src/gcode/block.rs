@@ -120,6 +120,9 @@ pub struct Block {
     pub block_delete: bool,
     /// Value words by letter (`A`..`Z`, G/M/N/O unused here).
     words: [Option<Word>; WORD_SLOTS],
+    /// Bit `slot` set while `words[slot]` holds a word (the unused-word check of every block
+    /// reads it instead of scanning the 28 slots).
+    present: u32,
     /// G codes by group.
     pub g: [Option<Code>; G_GROUPS],
     /// M codes in the order written.
@@ -160,6 +163,7 @@ impl Block {
             o: None,
             block_delete: false,
             words: [None; WORD_SLOTS],
+            present: 0,
             g: [None; G_GROUPS],
             m: heapless::Vec::new(),
             empty: true,
@@ -174,11 +178,12 @@ impl Block {
 
     /// True if the block has the word with letter `l`.
     pub fn has(&self, l: u8) -> bool {
-        self.word(l).is_some()
+        self.present & (1 << slot(l)) != 0
     }
 
     /// Removes a word (once an earlier step consumed it).
     pub fn take(&mut self, l: u8) -> Option<Word> {
+        self.present &= !(1 << slot(l));
         self.words[slot(l)].take()
     }
 
@@ -202,15 +207,21 @@ impl Block {
         g_group(code).and_then(|grp| self.g[grp as usize].map(|c| c.cols))
     }
 
-    /// Iterates over the letters of all value words present.
-    pub fn letters(&self) -> impl Iterator<Item = u8> + '_ {
-        (0..WORD_SLOTS as u8)
-            .filter(move |&i| self.words[i as usize].is_some())
-            .map(|i| match i {
+    /// Iterates over the letters of all value words present, in slot order (`A`..`Z`, `@`, `^`).
+    pub fn letters(&self) -> impl Iterator<Item = u8> {
+        let mut left = self.present;
+        core::iter::from_fn(move || {
+            if left == 0 {
+                return None;
+            }
+            let i = left.trailing_zeros() as u8;
+            left &= left - 1;
+            Some(match i {
                 26 => b'@',
                 27 => b'^',
                 i => b'A' + i,
             })
+        })
     }
 }
 
@@ -311,7 +322,8 @@ pub fn parse_block_into(
                     cols: w.cols,
                 });
                 // The O number itself is kept as a value word slot.
-                b.words[(b'O' - b'A') as usize] = Some(w);
+                b.words[slot(b'O')] = Some(w);
+                b.present |= 1 << slot(b'O');
             }
             // E, U, V and W are only Fanuc G65 arguments (#8, #21-#23), after the G65.
             b'E' | b'U' | b'V' | b'W' if b.g_of(GGroup::NonModal) != Some(G65) || gixa => {
@@ -321,11 +333,12 @@ pub fn parse_block_into(
                 if gixa && matches!(l, b'@' | b'^') {
                     return Err((ErrorCode::NotSupported, cols));
                 }
-                let slot = &mut b.words[slot(l)];
-                if slot.is_some() {
+                let at = slot(l);
+                if b.present & (1 << at) != 0 {
                     return Err((ErrorCode::RepeatedWord, cols));
                 }
-                *slot = Some(w);
+                b.words[at] = Some(w);
+                b.present |= 1 << at;
             }
         }
     }
