@@ -205,6 +205,20 @@ pub fn div_u64(n: u64, d: u64) -> u64 {
     ((q_hi as u64) << 32) | divlu(r, n as u32, d) as u64
 }
 
+/// `n.div_euclid(d)` for `d > 1` through [`div_u64`] (the signed 64-bit library division is a
+/// ~150-instruction call on ARMv7-M).
+#[inline]
+pub fn div_floor_i64(n: i64, d: i64) -> i64 {
+    debug_assert!(d > 1);
+    let d = d as u64;
+    if n >= 0 {
+        div_u64(n as u64, d) as i64
+    } else {
+        // ⌊n/d⌋ = −⌈|n|/d⌉; |n| ≤ 2⁶³ and d < 2⁶³, so the sum fits, and the quotient ≤ 2⁶² does too.
+        -(div_u64(n.unsigned_abs() + (d - 1), d) as i64)
+    }
+}
+
 /// Quotient of `(u1·2³² + u0) / v` when `u1 < v` (so it fits 32 bits).
 fn divlu(u1: u32, u0: u32, v: u32) -> u32 {
     const B: u32 = 1 << 16;
@@ -443,6 +457,31 @@ pub fn polar(r: i64, theta: i64) -> (i64, i64) {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn div_floor_i64_is_div_euclid() {
+        use super::div_floor_i64;
+        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        for i in 0..200_000u32 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let n = (x as i64) >> (i % 64);
+            let d = ((x.rotate_left(17) >> (i % 63 + 1)) as i64).max(2);
+            for (n, d) in [(n, d), (n, 3), (-n, 2 * 781_250), (n.saturating_sub(1), d)] {
+                assert_eq!(div_floor_i64(n, d), n.div_euclid(d), "{n} / {d}");
+            }
+        }
+        for (n, d) in [
+            (i64::MIN, 2),
+            (i64::MIN + 1, 3),
+            (i64::MAX, 2),
+            (-1, 2),
+            (-2, 2),
+        ] {
+            assert_eq!(div_floor_i64(n, d), n.div_euclid(d), "{n} / {d}");
+        }
+    }
+
     #[test]
     fn isqrt_u64_is_the_floor_square_root() {
         use super::isqrt_u64;
