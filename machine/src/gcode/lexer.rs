@@ -193,10 +193,7 @@ impl<'a> Lexer<'a> {
         let mut has_point = false;
         let mut any_digit = false;
         let mut end = self.pos;
-        loop {
-            let Some(&next) = self.line.get(self.pos) else {
-                break;
-            };
+        while let Some(&next) = self.line.get(self.pos) {
             // Blanks between digits are rare: look for them only when one is there.
             let ch = if matches!(next, b' ' | b'\t' | b'\r') {
                 self.skip_blanks();
