@@ -38,15 +38,15 @@ pub struct CpuModel {
 impl CpuModel {
     /// The Black Pill's STM32F411 at 96 MHz. `bench_motion` (re-measured 2026-11-25): 37 / 65 /
     /// 106 instructions per kernel tick for 1 / 3 / 6 axes (fitted as 23 + 14 per axis); a
-    /// short G1 block (0.1 mm at F3000, one segment) 10,300 to plan and prepare, of which 5,400
-    /// in `Motion::push` (planning) and the rest, 4,900, in segment prep. Interpreting the line:
-    /// ~7,600 (issue 17's measurement; `bench_motion` does not interpret).
+    /// short G1 line streamed the board's way (`G1 Y-6.789 F3000`, 0.1 mm, one
+    /// segment): 8,300 to interpret (`Interpreter::next` from a `StreamSource`: 3,640 lex +
+    /// parse, 4,680 execute), 4,800 to plan (`Motion::push`) and 4,850 to prepare its segment.
     pub const F411: CpuModel = CpuModel {
         name: "f411",
         hz: 96_000_000,
-        line: 7_600,
-        block: 5_400,
-        segment: 4_900,
+        line: 8_300,
+        block: 4_800,
+        segment: 4_850,
         tick_base: 23,
         tick_axis: 14,
     };
@@ -183,15 +183,15 @@ mod tests {
             [m.tick(0b1), m.tick(0b111), m.tick(0b11_1111)],
             [37, 65, 107]
         );
-        // One short G1 line, planned and prepared as one segment: 7,600 + 10,300.
+        // One short G1 line, planned and prepared as one segment: 8,300 + 4,800 + 4,850.
         let line = PassWork {
             lines: 1,
             blocks: 1,
             segments: 1,
         };
-        assert_eq!(m.pass(&line), 17_900);
-        // ≈ 5,360 such lines per second at 100 % of the CPU.
-        assert_eq!(m.hz / m.pass(&line), 5_363);
+        assert_eq!(m.pass(&line), 17_950);
+        // ≈ 5,350 such lines per second at 100 % of the CPU.
+        assert_eq!(m.hz / m.pass(&line), 5_348);
         assert!(CpuModel::named("f446").is_none());
     }
 }

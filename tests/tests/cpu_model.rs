@@ -61,7 +61,7 @@ fn stream(program: &str, cpu: Option<CpuModel>) -> (u64, f64) {
 fn the_f411_model_starves_the_kernel_only_where_the_f411_would() {
     // 20 lines per mm at up to 358 mm/s (the 128-block look-ahead over 6.4 mm at 10 m/s²) is
     // ~7,000 lines/s, more than the ~5,000 a 96 MHz F411 interprets and plans
-    // (7,600 + 5,400 + 4,900 instructions each, plus the step interrupt).
+    // (8,300 + 4,800 + 4,850 instructions each, plus the step interrupt).
     let fast = fine_program(30_000);
     let (gaps, with_model) = stream(&fast, Some(CpuModel::F411));
     assert!(gaps > 0, "no underrun at 30,000 mm/min");

@@ -120,6 +120,9 @@ pub struct Block {
     pub block_delete: bool,
     /// Value words by letter (`A`..`Z`, G/M/N/O unused here).
     words: [Option<Word>; WORD_SLOTS],
+    /// Bit `slot` set while `words[slot]` holds a word (the unused-word check of every block
+    /// reads it instead of scanning the 28 slots).
+    present: u32,
     /// G codes by group.
     pub g: [Option<Code>; G_GROUPS],
     /// M codes in the order written.
@@ -146,13 +149,21 @@ fn slot(l: u8) -> usize {
 /// A block error with the columns to blame.
 pub type BlockError = (ErrorCode, Option<(u16, u16)>);
 
+impl Default for Block {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl Block {
-    fn new() -> Self {
+    /// A block with no words (what [`parse_block_into`] fills).
+    pub fn new() -> Self {
         Block {
             n: None,
             o: None,
             block_delete: false,
             words: [None; WORD_SLOTS],
+            present: 0,
             g: [None; G_GROUPS],
             m: heapless::Vec::new(),
             empty: true,
@@ -167,11 +178,12 @@ impl Block {
 
     /// True if the block has the word with letter `l`.
     pub fn has(&self, l: u8) -> bool {
-        self.word(l).is_some()
+        self.present & (1 << slot(l)) != 0
     }
 
     /// Removes a word (once an earlier step consumed it).
     pub fn take(&mut self, l: u8) -> Option<Word> {
+        self.present &= !(1 << slot(l));
         self.words[slot(l)].take()
     }
 
@@ -195,15 +207,21 @@ impl Block {
         g_group(code).and_then(|grp| self.g[grp as usize].map(|c| c.cols))
     }
 
-    /// Iterates over the letters of all value words present.
-    pub fn letters(&self) -> impl Iterator<Item = u8> + '_ {
-        (0..WORD_SLOTS as u8)
-            .filter(move |&i| self.words[i as usize].is_some())
-            .map(|i| match i {
+    /// Iterates over the letters of all value words present, in slot order (`A`..`Z`, `@`, `^`).
+    pub fn letters(&self) -> impl Iterator<Item = u8> {
+        let mut left = self.present;
+        core::iter::from_fn(move || {
+            if left == 0 {
+                return None;
+            }
+            let i = left.trailing_zeros() as u8;
+            left &= left - 1;
+            Some(match i {
                 26 => b'@',
                 27 => b'^',
                 i => b'A' + i,
             })
+        })
     }
 }
 
@@ -211,6 +229,18 @@ impl Block {
 /// the caller through [`Lexer::start`].
 pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block, BlockError> {
     let mut b = Block::new();
+    parse_block_into(lexer, config, &mut b)?;
+    Ok(b)
+}
+
+/// [`parse_block`] into a new block the caller owns (`Block::new()`): the interpreter's per-line
+/// path fills its block in place, since moving an 830-byte `Block` through return values costs
+/// ~700 Cortex-M4 instructions a copy (target-tests/src/bin/bench_motion.rs, per-line figures).
+pub fn parse_block_into(
+    lexer: &mut Lexer<'_>,
+    config: &InterpConfig,
+    b: &mut Block,
+) -> Result<(), BlockError> {
     b.block_delete = lexer.block_delete;
     let gixa = config.dialect == Dialect::Gixa;
     while let Some(w) = lexer.next_word().map_err(|(c, cols)| (c, Some(cols)))? {
@@ -292,7 +322,8 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
                     cols: w.cols,
                 });
                 // The O number itself is kept as a value word slot.
-                b.words[(b'O' - b'A') as usize] = Some(w);
+                b.words[slot(b'O')] = Some(w);
+                b.present |= 1 << slot(b'O');
             }
             // E, U, V and W are only Fanuc G65 arguments (#8, #21-#23), after the G65.
             b'E' | b'U' | b'V' | b'W' if b.g_of(GGroup::NonModal) != Some(G65) || gixa => {
@@ -302,15 +333,16 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
                 if gixa && matches!(l, b'@' | b'^') {
                     return Err((ErrorCode::NotSupported, cols));
                 }
-                let slot = &mut b.words[slot(l)];
-                if slot.is_some() {
+                let at = slot(l);
+                if b.present & (1 << at) != 0 {
                     return Err((ErrorCode::RepeatedWord, cols));
                 }
-                *slot = Some(w);
+                b.words[at] = Some(w);
+                b.present |= 1 << at;
             }
         }
     }
-    Ok(b)
+    Ok(())
 }
 
 #[cfg(test)]

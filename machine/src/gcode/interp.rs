@@ -10,7 +10,7 @@ use super::codes::*;
 use super::comp::{Comp, Side};
 use heapless::Deque;
 
-use super::block::{parse_block, Block, BlockError, GGroup, MGroup};
+use super::block::{parse_block_into, Block, BlockError, GGroup, MGroup};
 use super::config::{ArcCenterMode, Dialect, DwellUnits, InterpConfig};
 use super::cycles::{CycleBody, CycleRun};
 use super::error::{ErrorCode, GcodeError};
@@ -128,10 +128,10 @@ struct OCall {
 }
 
 /// What a line turned into.
-#[allow(clippy::large_enum_variant)] // one value on the stack at a time, never stored
 enum Parsed {
     Nothing,
-    Block(Block),
+    /// A block to execute (filled into the caller's [`Block`]).
+    Block,
     /// Continue at this line (an O-word loop or return).
     Jump(u32),
     /// Continue at the block with this N word (Fanuc `GOTO`).
@@ -367,6 +367,7 @@ impl Interpreter {
             if self.finished {
                 return None;
             }
+            let mut block = Block::new();
             let (line, parsed) = match src.next_line() {
                 Some((line, bytes)) => {
                     self.last_line = line;
@@ -386,7 +387,7 @@ impl Interpreter {
                             }
                         }
                     }
-                    (line, self.parse_line(line, bytes))
+                    (line, self.parse_line(line, bytes, &mut block))
                 }
                 None => {
                     if !src.is_exhausted() {
@@ -428,8 +429,8 @@ impl Interpreter {
                     return None;
                 }
             };
-            let mut block = match parsed {
-                Ok(Parsed::Block(b)) => b,
+            match parsed {
+                Ok(Parsed::Block) => {}
                 Ok(Parsed::Nothing) => continue,
                 Ok(Parsed::Jump(to)) => {
                     self.jumps_without_action += 1;
@@ -519,7 +520,13 @@ fn arc_axes(plane: Plane) -> (usize, usize, usize) {
 }
 
 impl Interpreter {
-    fn parse_line(&mut self, line: u32, bytes: &[u8]) -> Result<Parsed, (Option<u32>, BlockError)> {
+    /// Reads one line: a block (into `block`, a new one), a control-flow jump or nothing.
+    fn parse_line(
+        &mut self,
+        line: u32,
+        bytes: &[u8],
+        block: &mut Block,
+    ) -> Result<Parsed, (Option<u32>, BlockError)> {
         let n_word = || super::source::leading_number(bytes, b"N");
         let mut lexer = Lexer::new(bytes, true);
         match lexer.start() {
@@ -548,9 +555,9 @@ impl Interpreter {
             return Ok(Parsed::Nothing);
         }
         if self.gixa() {
-            return match parse_block(&mut lexer, &self.config) {
-                Ok(b) if b.empty => Ok(Parsed::Nothing),
-                Ok(b) => Ok(Parsed::Block(b)),
+            return match parse_block_into(&mut lexer, &self.config, block) {
+                Ok(()) if block.empty => Ok(Parsed::Nothing),
+                Ok(()) => Ok(Parsed::Block),
                 Err(e) => Err((n_word(), e)),
             };
         }
@@ -578,13 +585,13 @@ impl Interpreter {
         };
         let mut lexer = Lexer::new(text, true);
         lexer.start();
-        let block = match parse_block(&mut lexer, &self.config) {
-            Ok(b) => b,
+        match parse_block_into(&mut lexer, &self.config, block) {
+            Ok(()) => {}
             Err((code, cols)) => {
                 let cols = if self.expanded_line { None } else { cols };
                 return Err((n_word(), (code, cols)));
             }
-        };
+        }
         let level = self.ocalls.len() as u8;
         for &(p, v, at) in &assignments {
             let done = if v == expr::VACANT {
@@ -597,7 +604,7 @@ impl Interpreter {
         Ok(if block.empty {
             Parsed::Nothing
         } else {
-            Parsed::Block(block)
+            Parsed::Block
         })
     }
 

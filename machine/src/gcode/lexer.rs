@@ -193,12 +193,17 @@ impl<'a> Lexer<'a> {
         let mut has_point = false;
         let mut any_digit = false;
         let mut end = self.pos;
-        loop {
-            self.skip_blanks();
-            if self.pos >= self.line.len() {
-                break;
-            }
-            let ch = self.line[self.pos];
+        while let Some(&next) = self.line.get(self.pos) {
+            // Blanks between digits are rare: look for them only when one is there.
+            let ch = if matches!(next, b' ' | b'\t' | b'\r') {
+                self.skip_blanks();
+                match self.line.get(self.pos) {
+                    Some(&c) => c,
+                    None => break,
+                }
+            } else {
+                next
+            };
             match ch {
                 b'0'..=b'9' => {
                     let d = (ch - b'0') as i64;

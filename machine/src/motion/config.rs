@@ -3,7 +3,7 @@
 //! Speeds are stored in nm/s (or 1e-6 °/s) and accelerations in nm/s², integers throughout.
 //! [`MotionConfig::from_setup`] derives the model from the persistent [`crate::setup::Setup`].
 
-use super::trig::div_euclid_i128;
+use super::trig::{div_euclid_i128, div_floor_i64};
 use crate::setup::Setup;
 use crate::units::{Nm, Pos, MAX_AXES, NM_PER_MM};
 
@@ -44,6 +44,7 @@ impl AxisConfig {
         let steps = self.steps as i64;
         let units = self.units;
         match nm.checked_mul(2 * steps) {
+            Some(p) if units > 0 => div_floor_i64(p + units, 2 * units),
             Some(p) => (p + units).div_euclid(2 * units),
             None => div_euclid_i128(
                 nm as i128 * 2 * steps as i128 + units as i128,

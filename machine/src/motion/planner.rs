@@ -479,7 +479,16 @@ impl<const N: usize> Planner<N> {
             accel = accel.min(mul_div(ax.accel, length, d));
             start_speed = start_speed.min(mul_div(ax.start_speed, length, d));
             unit[i] = match req.delta[i].checked_mul(UNIT) {
-                Some(p) => p / length as i64,
+                // `p / length` truncated toward zero, on the magnitudes: a hardware-assisted
+                // `div_u64` instead of the signed 64-bit library division.
+                Some(p) => {
+                    let q = div_u64(p.unsigned_abs(), length) as i64;
+                    if p < 0 {
+                        -q
+                    } else {
+                        q
+                    }
+                }
                 None => div_i128(req.delta[i] as i128 * UNIT as i128, length as i128) as i64,
             };
         }

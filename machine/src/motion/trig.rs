@@ -73,17 +73,19 @@ pub fn isqrt_u64(v: u64) -> u64 {
     if v <= u32::MAX as u64 {
         return isqrt_u32(v as u32) as u64;
     }
-    // Tangent-line start from 2^k (k = ⌊log₂v / 2⌋) is above the root, then Newton steps
-    // decrease monotonically to ⌊√v⌋.
-    let k = (63 - v.leading_zeros()) / 2;
-    let mut x = (v >> (k + 1)) + (1u64 << (k - 1)) + 1;
-    loop {
-        let y = (x + div_u64(v, x)) >> 1;
-        if y >= x {
-            return x;
-        }
-        x = y;
+    // Start from the square root of the top 32 bits (hardware division in `isqrt_u32`): with
+    // `v << s` normalized to bits 62-63, `(⌊√hi⌋ + 1)·2^16` is above `√(v << s)` by at most
+    // 2^-15 relative, so one Newton step lands within 3 above ⌊√v⌋ (and never below it: integer
+    // Newton steps stay ≥ ⌊√v⌋), and a few multiplies finish. One 64-bit division instead of
+    // four or five from a power-of-two start.
+    let s = v.leading_zeros() & !1;
+    let hi = ((v << s) >> 32) as u32;
+    let x0 = (isqrt_u32(hi) as u64 + 1) << (16 - s / 2);
+    let mut x = (x0 + div_u64(v, x0)) >> 1;
+    while x.checked_mul(x).is_none_or(|sq| sq > v) {
+        x -= 1;
     }
+    x
 }
 
 /// ⌊√v⌋ of a 32-bit value (hardware 32-bit division on Cortex-M4).
@@ -201,6 +203,20 @@ pub fn div_u64(n: u64, d: u64) -> u64 {
     let q_hi = hi / d;
     let r = hi % d;
     ((q_hi as u64) << 32) | divlu(r, n as u32, d) as u64
+}
+
+/// `n.div_euclid(d)` for `d > 1` through [`div_u64`] (the signed 64-bit library division is a
+/// ~150-instruction call on ARMv7-M).
+#[inline]
+pub fn div_floor_i64(n: i64, d: i64) -> i64 {
+    debug_assert!(d > 1);
+    let d = d as u64;
+    if n >= 0 {
+        div_u64(n as u64, d) as i64
+    } else {
+        // ⌊n/d⌋ = −⌈|n|/d⌉; |n| ≤ 2⁶³ and d < 2⁶³, so the sum fits, and the quotient ≤ 2⁶² does too.
+        -(div_u64(n.unsigned_abs() + (d - 1), d) as i64)
+    }
 }
 
 /// Quotient of `(u1·2³² + u0) / v` when `u1 < v` (so it fits 32 bits).
@@ -441,6 +457,65 @@ pub fn polar(r: i64, theta: i64) -> (i64, i64) {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn div_floor_i64_is_div_euclid() {
+        use super::div_floor_i64;
+        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        for i in 0..200_000u32 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let n = (x as i64) >> (i % 64);
+            let d = ((x.rotate_left(17) >> (i % 63 + 1)) as i64).max(2);
+            for (n, d) in [(n, d), (n, 3), (-n, 2 * 781_250), (n.saturating_sub(1), d)] {
+                assert_eq!(div_floor_i64(n, d), n.div_euclid(d), "{n} / {d}");
+            }
+        }
+        for (n, d) in [
+            (i64::MIN, 2),
+            (i64::MIN + 1, 3),
+            (i64::MAX, 2),
+            (-1, 2),
+            (-2, 2),
+        ] {
+            assert_eq!(div_floor_i64(n, d), n.div_euclid(d), "{n} / {d}");
+        }
+    }
+
+    #[test]
+    fn isqrt_u64_is_the_floor_square_root() {
+        use super::isqrt_u64;
+        let is_floor = |v: u64| {
+            let x = isqrt_u64(v) as u128;
+            x * x <= v as u128 && (x + 1) * (x + 1) > v as u128
+        };
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for i in 0..200_000u64 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            // Every magnitude, squares and their neighbours.
+            let v = x >> (i % 64);
+            let r = (v >> 32).max(1);
+            for v in [v, r * r, r * r - 1, r * r + 1] {
+                assert!(is_floor(v), "isqrt_u64({v}) = {}", isqrt_u64(v));
+            }
+        }
+        for v in [
+            u64::MAX,
+            u64::MAX - 1,
+            (u32::MAX as u64) * (u32::MAX as u64),
+            (u32::MAX as u64) * (u32::MAX as u64) - 1,
+            1 << 32,
+            (1 << 32) + 1,
+            u32::MAX as u64,
+            1 << 62,
+            (1 << 62) - 1,
+        ] {
+            assert!(is_floor(v), "isqrt_u64({v}) = {}", isqrt_u64(v));
+        }
+    }
+
     #[test]
     fn the_128_bit_division_is_the_operators() {
         use super::{div_euclid_i128, div_i128, divrem_u128};

@@ -1,5 +1,6 @@
-//! MCU cost of the motion core: instructions per step-kernel tick (1, 3 and 6 axes stepping) and
-//! per short G1 block (plan + segment prep), read from SysTick on QEMU `mps2-an386`.
+//! MCU cost of the motion core: instructions per step-kernel tick (1, 3 and 6 axes stepping), per
+//! short G1 block (plan + segment prep) and per short G1 line streamed through the interpreter
+//! (lex + parse, execute, plan, prepare), read from SysTick on QEMU `mps2-an386`.
 //!
 //! Run with one virtual nanosecond per instruction:
 //! `qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -icount shift=0,sleep=off -semihosting-config
@@ -15,7 +16,11 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::{entry, exception};
+use gantry_machine::board::StreamSource;
 use gantry_machine::canon::{Action, Canon};
+use gantry_machine::gcode::block::parse_block;
+use gantry_machine::gcode::lexer::Lexer;
+use gantry_machine::gcode::{InterpConfig, Interpreter};
 use gantry_machine::motion::config::MotionConfig;
 use gantry_machine::motion::kernel::{Segment, SegmentSource, StepKernel, TickOut};
 use gantry_machine::motion::output_event::OutputEvent;
@@ -166,6 +171,167 @@ fn block_cost(blend: bool) -> (u64, u64) {
     )
 }
 
+/// Writes `value` thousandths as a decimal with three places (`-6.789`) at the end of `out`.
+fn push_milli(out: &mut heapless_line::Line, value: i64) {
+    if value < 0 {
+        out.push(b'-');
+    }
+    let v = value.unsigned_abs();
+    out.push_int(v / 1000);
+    out.push(b'.');
+    let frac = v % 1000;
+    out.push(b'0' + (frac / 100) as u8);
+    out.push(b'0' + (frac / 10 % 10) as u8);
+    out.push(b'0' + (frac % 10) as u8);
+}
+
+/// A line buffer without `core::fmt` (its cost would blur nothing, but keeps the setup short).
+mod heapless_line {
+    pub struct Line {
+        pub bytes: [u8; 48],
+        pub len: usize,
+    }
+    impl Line {
+        pub fn new() -> Self {
+            Line {
+                bytes: [0; 48],
+                len: 0,
+            }
+        }
+        pub fn push(&mut self, b: u8) {
+            self.bytes[self.len] = b;
+            self.len += 1;
+        }
+        pub fn push_str(&mut self, s: &[u8]) {
+            for &b in s {
+                self.push(b);
+            }
+        }
+        pub fn push_int(&mut self, v: u64) {
+            let mut digits = [0u8; 20];
+            let mut n = 0;
+            let mut v = v;
+            loop {
+                digits[n] = b'0' + (v % 10) as u8;
+                n += 1;
+                v /= 10;
+                if v == 0 {
+                    break;
+                }
+            }
+            while n > 0 {
+                n -= 1;
+                self.push(digits[n]);
+            }
+        }
+        pub fn as_str(&self) -> &str {
+            core::str::from_utf8(&self.bytes[..self.len]).unwrap_or("")
+        }
+    }
+}
+
+/// Line `i` of the streamed program: `G1 Y-6.789 F3000`, 0.1 mm steps along X (the
+/// last digit wandering) on a gentle zigzag in Y, every number changing from line to line.
+fn program_line(i: u32) -> heapless_line::Line {
+    let mut l = heapless_line::Line::new();
+    let x = -100_000 + i as i64 * 100 + (i % 7) as i64;
+    let y = if i.is_multiple_of(2) { -6_789 } else { -6_788 };
+    l.push_str(b"G1 X");
+    push_milli(&mut l, x);
+    l.push_str(b" Y");
+    push_milli(&mut l, y);
+    l.push_str(b" F3000");
+    l
+}
+
+/// Counts × 1000 of an empty `now()` pair (subtracted from the per-stage figures).
+fn timer_overhead() -> u64 {
+    const N: u64 = 1000;
+    let mut acc = 0u64;
+    for _ in 0..N {
+        let p0 = now();
+        acc += black_box(now()) - p0;
+    }
+    acc * 1000 / N
+}
+
+/// Per short G1 line streamed through the board's path (`StreamSource` → `Interpreter::next` →
+/// `Motion::push`, segments taken when the ring is full), counts × 1000 per line for: lex +
+/// parse alone (`Lexer` + `parse_block` on the same text), the whole `Interpreter::next` (lex,
+/// parse and execute), `Motion::push` (plan) and `Motion::next_segment` (prepare).
+fn line_cost() -> [u64; 4] {
+    const LINES: u32 = 2000;
+    let overhead = timer_overhead();
+    let config = InterpConfig::default();
+    // Lex + parse on their own.
+    let mut parse = 0u64;
+    for i in 0..LINES {
+        let l = program_line(i);
+        let p0 = now();
+        let mut lexer = Lexer::new(black_box(&l.bytes[..l.len]), true);
+        lexer.start();
+        let b = parse_block(&mut lexer, &config);
+        black_box(&b);
+        parse += now() - p0;
+        if b.is_err() {
+            exit(false);
+        }
+    }
+    let mut interp = Interpreter::new(&config);
+    let mut source: StreamSource<16> = StreamSource::new();
+    let mut motion: Motion<128> = Motion::new(MotionConfig::default());
+    // Counts and timed calls per stage: interpret, plan, prepare.
+    let mut sums = [(0u64, 0u64); 3];
+    let mut line = 0u32;
+    let mut run = |line: &mut u32, sums: &mut [(u64, u64); 3]| {
+        *line += 1;
+        let text = program_line(*line);
+        if !source.push(0, *line, text.as_str()) {
+            exit(false);
+        }
+        let p0 = now();
+        let next = interp.next(&mut source);
+        sums[0].0 += now() - p0;
+        sums[0].1 += 1;
+        let Some(Ok(canon)) = next else {
+            exit(false);
+        };
+        loop {
+            let p0 = now();
+            let r = motion.push(&canon);
+            sums[1].0 += now() - p0;
+            sums[1].1 += 1;
+            match r {
+                Ok(()) => return,
+                Err(PushError::Full) => {
+                    let p0 = now();
+                    black_box(motion.next_segment());
+                    sums[2].0 += now() - p0;
+                    sums[2].1 += 1;
+                }
+                Err(_) => exit(false),
+            }
+        }
+    };
+    // Fill the ring first.
+    for _ in 0..200 {
+        run(&mut line, &mut sums);
+    }
+    let mut sums = [(0u64, 0u64); 3];
+    for _ in 0..LINES {
+        run(&mut line, &mut sums);
+    }
+    let per_line = |(counts, calls): (u64, u64)| {
+        (counts * 1000).saturating_sub(calls * overhead) / LINES as u64
+    };
+    [
+        per_line((parse, LINES as u64)),
+        per_line(sums[0]),
+        per_line(sums[1]),
+        per_line(sums[2]),
+    ]
+}
+
 /// Instructions per call of a few core helpers (for finding where block time goes).
 fn helper_costs() {
     use gantry_machine::motion::profile::Profile;
@@ -224,6 +390,11 @@ fn main() -> ! {
         ipc % 1000
     );
     let to_instr = |milli_counts: u64| milli_counts * 40 / 1000;
+    if cfg!(feature = "profile-lines") {
+        let [parse, interpret, plan, prepare] = line_cost().map(to_instr);
+        println!("lines: parse {parse} interpret {interpret} plan {plan} prepare {prepare}");
+        exit(true);
+    }
     let base = to_instr(tick_cost(1, empty_body));
     let t1 = to_instr(tick_cost(1, isr_body)).saturating_sub(base);
     let t3 = to_instr(tick_cost(3, isr_body)).saturating_sub(base);
@@ -238,6 +409,16 @@ fn main() -> ! {
     println!(
         "short G1 block under G64 P0.01: {} instructions (plan {})",
         blended, blended_push
+    );
+    let [parse, interpret, plan, prepare] = line_cost().map(to_instr);
+    println!(
+        "short G1 line (G1 X-99.893 Y-6.789 F3000 style): lex+parse {}, execute {}, interpret total {}, plan {}, prepare {}; line total {} instructions",
+        parse,
+        interpret.saturating_sub(parse),
+        interpret,
+        plan,
+        prepare,
+        interpret + plan + prepare
     );
     let (block, push) = block_cost(false);
     let (block, push) = (to_instr(block), to_instr(push));
