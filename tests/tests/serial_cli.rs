@@ -554,7 +554,7 @@ fn slow_job_under_serve(dir: &Dir, job: &str) -> (Emulator, Running, Running) {
 
 /// Polls `gantry status` until the feed has fallen below 90 % of the fastest seen in two
 /// readings in a row (a stop is decelerating; one low reading under load is not enough); false
-/// after 20 s.
+/// after 20 s or when the board has left Run.
 fn feed_falls(port: &str, emu: &Emulator) -> bool {
     let feed = |text: &str| -> f64 {
         let line = text.lines().find(|l| l.starts_with("feed:")).unwrap();
@@ -567,7 +567,8 @@ fn feed_falls(port: &str, emu: &Emulator) -> bool {
         let f = feed(&text);
         fastest = fastest.max(f);
         low_readings = if f < fastest * 0.9 { low_readings + 1 } else { 0 };
-        low_readings >= 2 || emu.log().contains(" Idle line")
+        // Past Run: the stop has ended (too late to hold during it).
+        low_readings >= 2 || logged_states(emu).len() > 2
     }) && low_readings >= 2
 }
 
