@@ -379,6 +379,12 @@ impl Board {
         )
     }
 
+    /// Replaces the grbl front end's section of the setup (`machine/src/grbl/`), in any state:
+    /// nothing else of the core reads it, so nothing is rebuilt.
+    pub fn set_grbl_setup(&mut self, grbl: crate::setup::GrblSetup) {
+        self.setup.grbl = grbl;
+    }
+
     /// Replaces the setup (only while idle); false otherwise.
     pub fn set_setup(&mut self, setup: Setup) -> bool {
         if !matches!(self.mode, Mode::Idle) {
