@@ -780,3 +780,82 @@ fn a_probe_line_is_answered_after_its_prb_message() {
     until_state(&mut s.eb, State::Idle, 10_000);
     assert_eq!(s.steps()[2], 0);
 }
+
+#[test]
+fn the_safety_door_stops_parks_the_outputs_and_resumes_to_the_exact_end() {
+    let mut s = pwm_sender();
+    let outputs = |s: &Sender| {
+        let l = s.eb.board.output_levels();
+        (l.spindle_enable, l.spindle_pwm, l.flood)
+    };
+    s.send(b"M3 S5000 M8\nG1 X20 F600\n");
+    s.run(300);
+    assert_eq!(s.eb.board.state(), State::Run);
+    s.send(&[0x84]);
+    s.run(2);
+    // Decelerating: spindle and coolant still on.
+    let st = s.status();
+    assert!(st.starts_with("<Door:2|"), "{st}");
+    assert_eq!(outputs(&s), (true, 500, true));
+    // `~` while stopping is ignored.
+    s.send(b"~");
+    let mut parked = false;
+    for _ in 0..500 {
+        s.run(1);
+        if s.status().starts_with("<Door:0|") {
+            parked = true;
+            break;
+        }
+    }
+    assert!(parked);
+    assert!(s.eb.kernel_drained());
+    assert_eq!(outputs(&s), (false, 0, false), "off at rest");
+    let held = s.steps()[0];
+    s.run(300);
+    assert_eq!(s.steps()[0], held, "the door keeps it at rest");
+    assert!(s.status().starts_with("<Door:0|"));
+    s.send(b"~");
+    s.run(2);
+    assert_eq!(outputs(&s), (true, 500, true), "restored before the motion");
+    assert!(s.status().starts_with("<Run|"));
+    until_state(&mut s.eb, State::Idle, 20_000);
+    assert!(held > 0 && held < 20 * STEPS_PER_MM);
+    assert_eq!(s.steps(), [20 * STEPS_PER_MM, 0, 0]);
+
+    // In idle: outputs off at once and no line starts before `~`.
+    s.seen.clear();
+    s.send(&[0x84]);
+    s.run(2);
+    assert!(s.status().starts_with("<Door:0|"));
+    assert_eq!(outputs(&s), (false, 0, false));
+    s.send(b"G0 X0\n");
+    s.run(300);
+    assert_eq!(s.steps()[0], 20 * STEPS_PER_MM);
+    assert_eq!(s.oks(), 0, "{:?}", s.seen);
+    s.send(b"~");
+    s.until("ok\r\n", 100);
+    until_state(&mut s.eb, State::Idle, 20_000);
+    assert_eq!(s.steps()[0], 0);
+    assert_eq!(outputs(&s), (true, 500, true));
+
+    // A jog: cancelled, then parked; a soft reset forgets the door.
+    s.send(b"$J=G91 X10 F1000\n");
+    s.until("ok\r\n", 100);
+    s.run(100);
+    s.send(&[0x84]);
+    let mut parked = false;
+    for _ in 0..500 {
+        s.run(1);
+        if s.status().starts_with("<Door:0|") {
+            parked = true;
+            break;
+        }
+    }
+    assert!(parked);
+    let stopped = s.steps()[0];
+    assert!(stopped > 0 && stopped < 10 * STEPS_PER_MM);
+    s.send(b"\x18");
+    s.until(BANNER, 200);
+    assert!(s.status().starts_with("<Idle|"));
+    assert_eq!(outputs(&s), (false, 0, false));
+}

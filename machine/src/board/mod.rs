@@ -40,6 +40,7 @@ use mode::{
     Ending, HoldWhy, HomingCycle, HomingPhase, Job, JobKind, JobPhase, Jogging, Mode, Ramp,
 };
 use operator::RunSwitches;
+pub use overrides::DoorOutputs;
 use probing::ProbeCycle;
 pub use probing::ProbeResult;
 pub use source::{JumpRequest, JumpTarget, StreamSource, LINE_CAPACITY};

@@ -19,6 +19,7 @@
 
 pub mod codes;
 pub mod command;
+pub mod door;
 pub mod jog;
 pub mod realtime;
 pub mod report;
@@ -31,6 +32,7 @@ use crate::board::{Board, BoardEvent, JogRefused, ProbeResult, LINE_CAPACITY};
 use crate::controller::State;
 use crate::setup::STARTUP_LINE_LEN;
 use command::{Command, Restore};
+use door::Door;
 use heapless::Deque;
 use realtime::Realtime;
 use report::Sparse;
@@ -110,6 +112,7 @@ pub struct Grbl {
     session: Session,
     busy: Busy,
     check_mode: bool,
+    door: Door,
     /// Startup lines still to run (bit i: `$Ni`), set with the banner.
     startup_due: u8,
     sparse: Sparse,
@@ -140,6 +143,7 @@ impl Grbl {
             session: Session::Ready,
             busy: Busy::None,
             check_mode: false,
+            door: Door::Closed,
             startup_due: 0,
             sparse: Sparse::new(),
             status_due: false,
@@ -210,6 +214,7 @@ impl Grbl {
     /// One service of the link (twice per main-loop pass, `board/main_loop.rs`).
     pub fn service(&mut self, board: &mut Board, view: &KernelView) {
         self.realtime_commands(board);
+        self.door.poll(board, view);
         self.probe_message(board);
         self.board_events(board);
         if self.session == Session::Resetting {
@@ -263,7 +268,7 @@ impl Grbl {
                 board,
                 view,
                 &Prefs::of(board.setup()),
-                self.check_mode,
+                self.door.state_name(board, view, self.check_mode),
                 rx_free,
                 &mut self.sparse,
             );
@@ -287,13 +292,18 @@ impl Grbl {
             match rt {
                 Realtime::Status => self.status_due = true,
                 Realtime::FeedHold => board.feed_hold(),
-                Realtime::CycleStart => board.cycle_start(),
+                Realtime::CycleStart => {
+                    if self.door.resume(board) {
+                        board.cycle_start();
+                    }
+                }
                 Realtime::Reset => {
                     // Gantry's abort: decelerate on the path, the job ends at rest with the
                     // program-stop sequence (grbl cuts the steps and loses the position).
                     board.abort();
                     self.busy = Busy::None;
                     self.check_mode = false;
+                    self.door = Door::Closed;
                     self.session = Session::Resetting;
                 }
                 Realtime::JogCancel => board.jog_stop(),
@@ -306,7 +316,8 @@ impl Grbl {
                 }
                 Realtime::SpindleStop => board.toggle_spindle_stop(),
                 Realtime::Coolant { flood } => board.toggle_coolant(flood),
-                Realtime::SafetyDoor | Realtime::Unknown => {}
+                Realtime::SafetyDoor => self.door.open(board),
+                Realtime::Unknown => {}
             }
         }
     }
@@ -428,7 +439,7 @@ impl Grbl {
         match board.state() {
             _ if self.startup_due == 0 => return,
             State::Alarm => self.startup_due = 0,
-            State::Idle if self.flights.is_empty() => {}
+            State::Idle if self.flights.is_empty() && !self.door.blocks_start() => {}
             _ => return,
         }
         for i in 0..2u8 {
@@ -523,10 +534,11 @@ impl Grbl {
                     continue;
                 }
                 State::Idle => {
-                    if self
-                        .flights
-                        .iter()
-                        .any(|f| matches!(f.fate, Fate::OnBoard { .. }))
+                    if self.door.blocks_start()
+                        || self
+                            .flights
+                            .iter()
+                            .any(|f| matches!(f.fate, Fate::OnBoard { .. }))
                     {
                         // Lines of the job that ended are not settled yet: never mix two jobs.
                         return;
