@@ -859,3 +859,48 @@ fn the_safety_door_stops_parks_the_outputs_and_resumes_to_the_exact_end() {
     assert!(s.status().starts_with("<Idle|"));
     assert_eq!(outputs(&s), (false, 0, false));
 }
+
+#[test]
+fn a_soft_reset_during_a_jog_stops_it_at_rest_and_check_mode_toggles_mid_stream() {
+    let mut s = Sender::connected();
+    s.send(b"$J=G91 X20 F1000\n");
+    s.until("ok\r\n", 100);
+    s.run(200);
+    assert_eq!(s.eb.board.state(), State::Jog);
+    s.send(b"\x18");
+    let seen = s.until(BANNER, 2000);
+    assert!(!seen.contains("ALARM"), "{seen:?}");
+    assert_eq!(s.eb.board.state(), State::Idle);
+    assert!(s.eb.kernel_drained());
+    let stopped = s.steps()[0];
+    assert!(stopped > 0 && stopped < 20 * STEPS_PER_MM, "{stopped}");
+    s.run(200);
+    assert_eq!(s.steps()[0], stopped, "the jog's rest is gone");
+
+    // `$C` while the machine moves: error 8, as grbl (its state is not idle).
+    s.send(b"G90 G0 X1\n$C\n");
+    let seen = s.until("error:8\r\n", 100);
+    assert!(seen.starts_with("ok\r\n"), "{seen:?}");
+    until_state(&mut s.eb, State::Idle, 10_000);
+    assert_eq!(s.steps()[0], STEPS_PER_MM);
+    // `$C` between streamed lines at rest: the lines after it are only checked (an error is
+    // reported, nothing moves), the second `$C` ends check mode, the last line moves.
+    s.seen.clear();
+    s.send(b"$C\nG0 X5\nG5\nG0 X9\n$C\nG0 X2\n");
+    let mut seen = String::new();
+    for _ in 0..10_000 {
+        s.run(1);
+        if s.seen.contains("[MSG:Disabled]") && s.oks() == 5 {
+            seen = std::mem::take(&mut s.seen);
+            break;
+        }
+    }
+    assert_eq!(seen.matches("ok\r\n").count(), 5, "{seen:?} {:?}", s.seen);
+    assert!(
+        seen.contains("[MSG:Enabled]\r\nok\r\nok\r\nerror:20\r\nok\r\n[MSG:Disabled]\r\nok\r\n"),
+        "{seen:?}"
+    );
+    until_state(&mut s.eb, State::Idle, 10_000);
+    s.run(5);
+    assert_eq!(s.steps()[0], 2 * STEPS_PER_MM);
+}
