@@ -828,6 +828,8 @@ fn the_safety_door_stops_parks_the_outputs_and_resumes_to_the_exact_end() {
     s.run(2);
     assert!(s.status().starts_with("<Door:0|"));
     assert_eq!(outputs(&s), (false, 0, false));
+    s.send(b"$J=G91 X1 F100\n");
+    s.until("error:8\r\n", 100);
     s.send(b"G0 X0\n");
     s.run(300);
     assert_eq!(s.steps()[0], 20 * STEPS_PER_MM);

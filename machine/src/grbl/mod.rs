@@ -715,6 +715,10 @@ impl Grbl {
                 }
                 ok
             }
+            // Nothing moves behind an open door (grbl: error 8).
+            Command::Home(_) | Command::Jog(_) if self.door.blocks_start() => {
+                Step::Reply(Reply::Error(codes::IDLE_ONLY))
+            }
             Command::Home(axes) => {
                 if let Some(s) = self.idle_gate(board, true) {
                     return s;
