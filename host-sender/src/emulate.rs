@@ -115,8 +115,64 @@ pub(crate) fn new_board(
     Ok(board)
 }
 
-/// The longest lag behind the wall clock the board's clock catches up, ms (see [`run`]).
+/// The longest lag behind the wall clock the board's clock catches up, ms (see [`serve`]).
 const CATCH_UP_LIMIT_MS: u64 = 500;
+
+/// One pass's news from the host side of the emulated board's port.
+pub(crate) struct Polled {
+    /// A host has the port open (pty) or is connected (TCP).
+    pub open: bool,
+    /// Bytes read into the buffer.
+    pub read: usize,
+}
+
+/// The host side of the emulated board: a pty (`--pty`) or a TCP listener (`--tcp`). One
+/// [`serve`] loop runs the board behind either.
+pub(crate) trait HostSide {
+    /// Waits at most `wait_ms` for bytes; whether a host is there, and the bytes it sent.
+    fn poll(&mut self, wait_ms: i32, buf: &mut [u8]) -> anyhow::Result<Polled>;
+    /// Whether the host's leaving drops DTR (a pty: its HUPCL flag; TCP: always).
+    fn close_drops_dtr(&self) -> bool;
+    /// Sends the board's bytes; a full buffer loses them, as a USB port would (the framed
+    /// protocol retransmits).
+    fn send(&mut self, bytes: &[u8]);
+}
+
+/// The pty of `--pty`: its master side; the host opens the slave side linked at the path.
+struct PtyHost {
+    fd: RawFd,
+    /// HUPCL of the host's port as last seen: whether its close drops DTR.
+    hupcl: bool,
+    last_termios_check: Instant,
+}
+
+impl HostSide for PtyHost {
+    fn poll(&mut self, wait_ms: i32, buf: &mut [u8]) -> anyhow::Result<Polled> {
+        let (open, readable) = host_side_open(self.fd, wait_ms);
+        if open && self.last_termios_check.elapsed().as_millis() >= 5 {
+            self.last_termios_check = Instant::now();
+            // The master reads the slave's termios (one shared set for the pair).
+            if let Ok(t) = tcgetattr(self.fd) {
+                self.hupcl = t.control_flags.contains(ControlFlags::HUPCL);
+            }
+        }
+        let mut read = 0;
+        if readable {
+            if let Ok(n) = nix::unistd::read(self.fd, buf) {
+                read = n;
+            }
+        }
+        Ok(Polled { open, read })
+    }
+
+    fn close_drops_dtr(&self) -> bool {
+        self.hupcl
+    }
+
+    fn send(&mut self, bytes: &[u8]) {
+        let _ = nix::unistd::write(self.fd, bytes);
+    }
+}
 
 /// Runs the board until SIGINT or SIGTERM.
 /// `probe_targets`: what the emulated touch probe touches ([`ProbeTarget::parse`]); `cpu`: a CPU
@@ -131,7 +187,7 @@ pub fn run(
 ) -> anyhow::Result<ExitCode> {
     let setup = load_state(state.as_deref(), setup)?;
     let axes = setup.axis_count as usize;
-    let mut board = new_board(setup, probe_targets, cpu)?;
+    let board = new_board(setup, probe_targets, cpu)?;
     let (master, slave) = serialport::TTYPort::pair().context("cannot open a pseudo-terminal")?;
     let name = slave
         .name()
@@ -144,6 +200,38 @@ pub fn run(
         nix::fcntl::FcntlArg::F_SETFL(nix::fcntl::OFlag::O_NONBLOCK),
     )?;
     link_pty(pty, &name)?;
+    let mut host = PtyHost {
+        fd,
+        hupcl: true,
+        last_termios_check: Instant::now(),
+    };
+    let ready = format!(
+        "emulate: board ready on {} ({name}), {axes} axes; stored setup: {}",
+        pty.display(),
+        state
+            .as_ref()
+            .map_or("none (defaults, forgotten at exit)".into(), |p| p
+                .display()
+                .to_string())
+    );
+    let result = serve(board, &mut host, state.as_deref(), &ready);
+    // Remove the link only when it is still ours.
+    if std::fs::read_link(pty).is_ok_and(|t| t == Path::new(&name)) {
+        let _ = std::fs::remove_file(pty);
+    }
+    result
+}
+
+/// The run loop of `gantry emulate`, behind either host side, until SIGINT or SIGTERM: bytes in
+/// and out, the board's clock following the wall clock, the stored setup saved when the board
+/// writes its flash, and every state change logged on stderr with the step counts.
+pub(crate) fn serve(
+    mut board: EmulatedBoard,
+    host: &mut dyn HostSide,
+    state: Option<&Path>,
+    ready: &str,
+) -> anyhow::Result<ExitCode> {
+    let axes = board.board.setup().axis_count as usize;
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
     ctrlc::set_handler(move || s.store(true, Ordering::SeqCst))
@@ -156,26 +244,16 @@ pub fn run(
         .map_or(0, |d| d.subsec_nanos() ^ d.as_secs() as u32)
         ^ std::process::id().rotate_left(16);
     board.link = gantry_machine::board::link::BoardLink::new(boot_id);
-    eprintln!(
-        "emulate: board ready on {} ({name}), {axes} axes; stored setup: {}",
-        pty.display(),
-        state
-            .as_ref()
-            .map_or("none (defaults, forgotten at exit)".into(), |p| p
-                .display()
-                .to_string())
-    );
+    eprintln!("{ready}");
     let start = Instant::now();
     // Wall time the board's clock skipped (see CATCH_UP_LIMIT_MS).
     let mut skipped_ms = 0u64;
     let mut host_open = false;
-    // HUPCL of the host's port as last seen: whether its close drops DTR.
-    let mut hupcl = true;
     let mut last_state: Option<MachineState> = None;
     let mut buf = [0u8; 4096];
-    let mut last_termios_check = 0u64;
     while !stop.load(Ordering::SeqCst) {
-        let (open, readable) = host_side_open(fd, if host_open { 1 } else { 0 });
+        let polled = host.poll(if host_open { 1 } else { 0 }, &mut buf)?;
+        let open = polled.open;
         if !open {
             // Nothing to wait on while no host has the port open.
             std::thread::sleep(std::time::Duration::from_millis(1));
@@ -185,27 +263,15 @@ pub fn run(
             if open {
                 eprintln!("emulate: host opened the port");
                 board.set_dtr(true);
-            } else if hupcl {
+            } else if host.close_drops_dtr() {
                 eprintln!("emulate: host closed the port (DTR drop: a running job holds)");
                 board.set_dtr(false);
             } else {
                 eprintln!("emulate: host closed the port (DTR kept)");
             }
         }
-        if open {
-            let wall_ms = start.elapsed().as_millis() as u64;
-            if wall_ms >= last_termios_check + 5 {
-                last_termios_check = wall_ms;
-                // The master reads the slave's termios (one shared set for the pair).
-                if let Ok(t) = tcgetattr(fd) {
-                    hupcl = t.control_flags.contains(ControlFlags::HUPCL);
-                }
-            }
-        }
-        if readable {
-            if let Ok(n) = nix::unistd::read(fd, &mut buf) {
-                board.receive(&buf[..n]);
-            }
+        if polled.read > 0 {
+            board.receive(&buf[..polled.read]);
         }
         // Virtual time follows the wall clock (at most 50 ms at once). A longer gap than
         // CATCH_UP_LIMIT_MS means this process was stopped (SIGSTOP, a suspended machine), which
@@ -224,12 +290,10 @@ pub fn run(
         }
         let out = board.take_output();
         if open && !out.is_empty() {
-            // A full pty buffer (a host that does not read) loses bytes, as a USB port would;
-            // the protocol retransmits.
-            let _ = nix::unistd::write(fd, &out);
+            host.send(&out);
         }
         if board.link.take_setup_changed() {
-            if let Some(st) = &state {
+            if let Some(st) = state {
                 save_state(st, board.board.setup())?;
                 eprintln!("emulate: setup saved to {}", st.display());
             }
@@ -256,10 +320,6 @@ pub fn run(
             // Planner starvation so far (grbl streaming is judged by it, docs/grbl.md).
             eprintln!("emulate: underruns {}", board.underruns);
         }
-    }
-    // Remove the link only when it is still ours.
-    if std::fs::read_link(pty).is_ok_and(|t| t == Path::new(&name)) {
-        let _ = std::fs::remove_file(pty);
     }
     eprintln!("emulate: stopped");
     Ok(ExitCode::SUCCESS)

@@ -10,7 +10,7 @@ use gantry_machine::gcode::RetractMode;
 use gantry_machine::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::setup::{
     AxisSetup, Dialect, DriverSetup, DwellUnits, ListCommand, McodeList, Setup, Tool,
-    ToolChangePosition, MAX_TOOLS, MAX_USER_MCODES, USER_OUTPUTS,
+    ToolChangePosition, MAX_TOOLS, MAX_USER_MCODES, STARTUP_LINE_LEN, USER_OUTPUTS,
 };
 use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES, NM_PER_MM};
 use serde::{Deserialize, Serialize};
@@ -50,6 +50,20 @@ pub struct SetupFile {
     pub link: LinkFile,
     #[serde(default)]
     pub drivers: DriversFile,
+    #[serde(default)]
+    pub grbl: GrblFile,
+}
+
+/// The grbl front end's stored settings (docs/grbl.md): `$10`, `$13`, `$N0`/`$N1`.
+#[derive(Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct GrblFile {
+    /// `$10`: bit 0 machine position (else work position), bit 1 buffer state (0-3).
+    pub status_mask: Option<u8>,
+    /// `$13`: positions and feeds in inches.
+    pub report_inches: Option<bool>,
+    /// `$N0`, `$N1`: at most two G-code lines run after the banner.
+    pub startup_lines: Option<Vec<String>>,
 }
 
 /// Step and direction signal timing of the stepper drivers, in µs (see their datasheets).
@@ -559,7 +573,55 @@ impl SetupFile {
             s.link.host_lost_stop_s = v;
         }
         self.apply_drivers(&mut s)?;
+        self.apply_grbl(&mut s)?;
         Ok(s)
+    }
+
+    /// The `[grbl]` section: startup lines are stored as grbl stores them (upper case, no
+    /// blanks) and checked as the board checks `$N0=` (parsed as a block, no `$` command).
+    fn apply_grbl(&self, s: &mut Setup) -> anyhow::Result<()> {
+        let g = &self.grbl;
+        if let Some(v) = g.status_mask {
+            if v > 3 {
+                bail!("grbl.status_mask = {v}: 0-3 (bit 0 machine position, bit 1 buffer state)");
+            }
+            s.grbl.status_mask = v;
+        }
+        if let Some(v) = g.report_inches {
+            s.grbl.inches = v;
+        }
+        if let Some(lines) = &g.startup_lines {
+            if lines.len() > 2 {
+                bail!("grbl.startup_lines: at most 2 lines ($N0, $N1)");
+            }
+            for (i, line) in lines.iter().enumerate() {
+                let text: String = line
+                    .chars()
+                    .filter(|c| !c.is_ascii_whitespace())
+                    .map(|c| c.to_ascii_uppercase())
+                    .collect();
+                if !text.bytes().all(|c| (b' '..=b'~').contains(&c)) || text.starts_with('$') {
+                    bail!(
+                        "grbl.startup_lines[{i}] = {line:?}: printable ASCII G-code, no $ command"
+                    );
+                }
+                let mut lexer = gantry_machine::gcode::lexer::Lexer::new(text.as_bytes(), true);
+                lexer.start();
+                let cfg = s.interp_config();
+                if let Err((e, _)) = gantry_machine::gcode::block::parse_block(&mut lexer, &cfg) {
+                    bail!(
+                        "grbl.startup_lines[{i}] = {line:?}: error {}: {e:?}",
+                        e.number()
+                    );
+                }
+                s.grbl.startup[i] = heapless::String::try_from(text.as_str()).map_err(|_| {
+                    anyhow::anyhow!(
+                        "grbl.startup_lines[{i}]: at most {STARTUP_LINE_LEN} characters without blanks"
+                    )
+                })?;
+            }
+        }
+        Ok(())
     }
 
     /// The `[drivers]` section, then the check that every axis's max rate leaves each step
@@ -995,6 +1057,20 @@ pub fn to_toml(s: &Setup) -> String {
         t,
         "dir_setup_us = {}   # direction change to next step pulse, at least (DM542 5)",
         us_text(s.drivers.dir_setup_ns)
+    );
+    let g = &s.grbl;
+    let _ = writeln!(t, "\n[grbl]");
+    let _ = writeln!(
+        t,
+        "status_mask = {}   # $10: 1 machine position (0 work position), +2 buffer state",
+        g.status_mask
+    );
+    let _ = writeln!(t, "report_inches = {}   # $13", g.inches);
+    let _ = writeln!(
+        t,
+        "startup_lines = [{:?}, {:?}]   # $N0, $N1: run after the banner unless in alarm",
+        g.startup[0].as_str(),
+        g.startup[1].as_str()
     );
     t
 }

@@ -1,18 +1,19 @@
 //! `gantry emulate --tcp ADDR`: the emulated board behind a TCP listener, as grblHAL's network
 //! builds offer, for senders that connect by address (docs/grbl.md). One client at a time; a
 //! client connecting is the port opening (DTR up), its disconnect is the port closing (DTR
-//! drop: the next connection chooses its protocol again). Bytes go to and from the same board
-//! the pty serves (`crate::emulate`), so grbl and the framed protocol both work.
+//! drop: the next connection chooses its protocol again). The board runs in the same loop as
+//! behind the pty (`crate::emulate::serve`), so grbl and the framed protocol both work, and the
+//! log is the same.
 
-use crate::emulate::{load_state, new_board, save_state};
+use crate::emulate::{load_state, new_board, serve, HostSide, Polled};
 use anyhow::Context;
+use nix::poll::{poll, PollFd, PollFlags};
 use std::io::{ErrorKind, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::os::fd::AsRawFd;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Refuses an address other hosts can reach unless `allow_remote` (a CNC machine must not take
 /// commands from the network by accident); warns when allowed.
@@ -29,6 +30,74 @@ pub fn check_address(addr: &SocketAddr, allow_remote: bool) -> anyhow::Result<()
     Ok(())
 }
 
+/// The listener and its one client.
+struct TcpHost {
+    listener: TcpListener,
+    client: Option<TcpStream>,
+}
+
+impl HostSide for TcpHost {
+    fn poll(&mut self, wait_ms: i32, buf: &mut [u8]) -> anyhow::Result<Polled> {
+        if self.client.is_none() {
+            match self.listener.accept() {
+                Ok((c, peer)) => {
+                    // Blocking, read only when poll says so; a stuck client cannot stall the
+                    // board for longer than the write timeout.
+                    c.set_nonblocking(false)?;
+                    c.set_write_timeout(Some(Duration::from_millis(100)))?;
+                    let _ = c.set_nodelay(true);
+                    eprintln!("emulate: {peer} connected");
+                    self.client = Some(c);
+                }
+                Err(e) if e.kind() == ErrorKind::WouldBlock => {}
+                Err(e) => return Err(e.into()),
+            }
+        }
+        let Some(c) = self.client.as_mut() else {
+            return Ok(Polled {
+                open: false,
+                read: 0,
+            });
+        };
+        let mut fds = [PollFd::new(c.as_raw_fd(), PollFlags::POLLIN)];
+        let _ = poll(&mut fds, wait_ms);
+        let ev = fds[0].revents().unwrap_or(PollFlags::empty());
+        if !ev.intersects(PollFlags::POLLIN | PollFlags::POLLHUP | PollFlags::POLLERR) {
+            return Ok(Polled {
+                open: true,
+                read: 0,
+            });
+        }
+        match c.read(buf) {
+            Ok(n) if n > 0 => Ok(Polled {
+                open: true,
+                read: n,
+            }),
+            _ => {
+                eprintln!("emulate: client disconnected");
+                self.client = None;
+                Ok(Polled {
+                    open: false,
+                    read: 0,
+                })
+            }
+        }
+    }
+
+    fn close_drops_dtr(&self) -> bool {
+        true
+    }
+
+    fn send(&mut self, bytes: &[u8]) {
+        if let Some(c) = self.client.as_mut() {
+            if c.write_all(bytes).is_err() {
+                // Seen as closed at the next poll.
+                let _ = c.shutdown(std::net::Shutdown::Both);
+            }
+        }
+    }
+}
+
 /// Runs the board behind `addr` until SIGINT or SIGTERM.
 pub fn run(
     addr: SocketAddr,
@@ -40,69 +109,21 @@ pub fn run(
 ) -> anyhow::Result<ExitCode> {
     check_address(&addr, allow_remote)?;
     let setup = load_state(state.as_deref(), setup)?;
+    let axes = setup.axis_count;
     let mut board = new_board(setup, probe_targets, cpu)?;
     let listener = TcpListener::bind(addr).with_context(|| format!("cannot listen on {addr}"))?;
     listener.set_nonblocking(true)?;
-    let stop = Arc::new(AtomicBool::new(false));
-    let s = stop.clone();
-    ctrlc::set_handler(move || s.store(true, Ordering::SeqCst))
-        .context("cannot install the SIGINT/SIGTERM handler")?;
+    // No host until a client connects.
     board.set_dtr(false);
-    eprintln!(
-        "emulate: board ready on tcp {}",
+    let ready = format!(
+        "emulate: board ready on tcp {}, {axes} axes",
         listener.local_addr().map_or(addr, |a| a)
     );
-    let start = Instant::now();
-    let mut client: Option<TcpStream> = None;
-    let mut buf = [0u8; 4096];
-    while !stop.load(Ordering::SeqCst) {
-        if client.is_none() {
-            match listener.accept() {
-                Ok((c, peer)) => {
-                    c.set_nonblocking(true)?;
-                    let _ = c.set_nodelay(true);
-                    eprintln!("emulate: {peer} connected");
-                    board.set_dtr(true);
-                    client = Some(c);
-                }
-                Err(e) if e.kind() == ErrorKind::WouldBlock => {}
-                Err(e) => return Err(e.into()),
-            }
-        }
-        let mut closed = false;
-        if let Some(c) = client.as_mut() {
-            match c.read(&mut buf) {
-                Ok(0) => closed = true,
-                Ok(n) => board.receive(&buf[..n]),
-                Err(e) if e.kind() == ErrorKind::WouldBlock => {}
-                Err(_) => closed = true,
-            }
-        }
-        let behind = (start.elapsed().as_millis() as u64).saturating_sub(board.now_ms() as u64);
-        if behind > 0 {
-            board.run_ms(behind.min(50));
-        }
-        let out = board.take_output();
-        if let (Some(c), false) = (client.as_mut(), out.is_empty()) {
-            if c.write_all(&out).is_err() {
-                closed = true;
-            }
-        }
-        if closed {
-            eprintln!("emulate: client disconnected (DTR drop)");
-            client = None;
-            board.set_dtr(false);
-        }
-        if board.link.take_setup_changed() {
-            if let Some(st) = &state {
-                save_state(st, board.board.setup())?;
-                eprintln!("emulate: setup saved to {}", st.display());
-            }
-        }
-        std::thread::sleep(Duration::from_millis(1));
-    }
-    eprintln!("emulate: stopped");
-    Ok(ExitCode::SUCCESS)
+    let mut host = TcpHost {
+        listener,
+        client: None,
+    };
+    serve(board, &mut host, state.as_deref(), &ready)
 }
 
 #[cfg(test)]

@@ -277,6 +277,31 @@ impl DriverSetup {
     };
 }
 
+/// Characters a grbl startup line (`$N0=`, `$N1=`) holds, at most (grbl stores 79; docs/grbl.md).
+pub const STARTUP_LINE_LEN: usize = 64;
+
+/// The grbl front end's own stored settings (`machine/src/grbl/`, docs/grbl.md): the status
+/// report mask `$10`, inch reports `$13` and the two startup lines `$N0`/`$N1`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct GrblSetup {
+    /// `$10`: bit 0 machine position (else work position), bit 1 buffer state.
+    pub status_mask: u8,
+    /// `$13`: report positions and feeds in inches.
+    pub inches: bool,
+    /// `$N0`, `$N1`: G-code lines run after the banner (power-up, connect, soft reset) when the
+    /// machine is not in alarm; empty = none.
+    pub startup: [heapless::String<STARTUP_LINE_LEN>; 2],
+}
+
+impl GrblSetup {
+    /// grbl's defaults: machine position in reports, mm, no startup lines.
+    pub const DEFAULT: GrblSetup = GrblSetup {
+        status_mask: 1,
+        inches: false,
+        startup: [heapless::String::new(), heapless::String::new()],
+    };
+}
+
 /// The whole machine setup.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Setup {
@@ -292,6 +317,7 @@ pub struct Setup {
     pub outputs: OutputSetup,
     pub link: LinkSetup,
     pub drivers: DriverSetup,
+    pub grbl: GrblSetup,
 }
 
 const fn mm(v: i64) -> Nm {
@@ -395,6 +421,7 @@ impl Default for Setup {
                 host_lost_stop_s: 60,
             },
             drivers: DriverSetup::DEFAULT,
+            grbl: GrblSetup::DEFAULT,
         }
     }
 }
@@ -478,6 +505,12 @@ impl Setup {
             && DriverSetup::PULSE_NS.contains(&self.drivers.step_pulse_ns)
             && DriverSetup::DIR_SETUP_NS.contains(&self.drivers.dir_setup_ns)
             && (0..n).all(|i| self.step_rate_fits(i))
+            && self.grbl.status_mask <= 3
+            && self
+                .grbl
+                .startup
+                .iter()
+                .all(|l| l.bytes().all(|c| (b' '..=b'~').contains(&c) && c != b'$'))
     }
 
     /// Axis `axis` at its max rate leaves every step period long enough for the step pulse and
@@ -550,10 +583,15 @@ mod tests {
         };
         s.jog.pairs = [[255, 255], [255, 255]];
         s.inputs.invert = u32::MAX;
+        s.grbl.status_mask = 3;
+        s.grbl.inches = true;
+        for line in &mut s.grbl.startup {
+            while line.push('G').is_ok() {}
+        }
         let mut buf = [0u8; SETUP_BLOB_MAX];
         let blob = s.to_blob(&mut buf).expect("fits");
-        // Room to spare for settings still to come.
-        assert!(blob.len() < SETUP_BLOB_MAX * 3 / 4, "{} bytes", blob.len());
+        // Room to spare for settings still to come (1,548 B with both grbl startup lines full).
+        assert!(blob.len() < SETUP_BLOB_MAX * 4 / 5, "{} bytes", blob.len());
         assert_eq!(Setup::from_blob(blob), Some(s.clone()));
         // Every list command kind survives.
         let kinds = [

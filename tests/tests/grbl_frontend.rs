@@ -478,7 +478,8 @@ fn a_probe_move_reports_its_trip_in_prb_and_the_tool_change_stop_is_hold() {
         "no probe yet"
     );
     s.send(b"G21 G90 G38.2 Z-20 F100\n");
-    let mut log = s.until("ok\r\n", 50);
+    // Answered once the probe cycle has ended, as grbl does.
+    let mut log = s.until("ok\r\n", 30_000);
     until_state(&mut s.eb, State::Idle, 30_000);
     s.run(5);
     // grbl sends the result by itself, once, when the probe move ends.
@@ -643,4 +644,265 @@ fn spindle_stop_acts_only_in_a_feed_hold_and_cycle_start_restores_it() {
     assert!(held < 20 * STEPS_PER_MM);
     assert_eq!(s.steps()[0], 20 * STEPS_PER_MM);
     assert_eq!(spindle(&s), (true, true, 300));
+}
+
+#[test]
+fn startup_lines_and_report_settings_are_stored_checked_and_run_after_the_banner() {
+    use std::cell::RefCell;
+    use std::rc::Rc;
+    let mut s = Sender::connected();
+    let saved: Rc<RefCell<Option<gantry_machine::setup::Setup>>> = Rc::default();
+    let keep = saved.clone();
+    s.eb.on_setup_saved(move |st| *keep.borrow_mut() = Some(st.clone()));
+    // Checked by parsing, as grbl does: an unknown G code, a modal group violation, a `$`
+    // command, a line too long.
+    s.send(b"$N1=G5\n$N1=G0 G1 X1\n$N1=$X\n");
+    s.send(format!("$N1=G0X{}\n", "1".repeat(70)).as_bytes());
+    s.run(20);
+    assert_eq!(
+        s.seen, "error:20\r\nerror:21\r\nerror:3\r\nerror:11\r\n",
+        "{:?}",
+        s.seen
+    );
+    s.seen.clear();
+    s.send(b"$N0=g20 G91\n$N1=G0 X2\n$10=3\n$13=1\n$N\n");
+    let seen = s.until("$N1=G0X2\r\nok\r\n", 100);
+    assert!(seen.contains("$N0=G20G91\r\n"), "{seen:?}");
+    assert_eq!(seen.matches("ok\r\n").count(), 5, "{seen:?}");
+    s.run(5);
+    let stored = saved.borrow().clone().expect("saved to flash");
+    assert_eq!(stored.grbl.startup[0].as_str(), "G20G91");
+    assert_eq!((stored.grbl.status_mask, stored.grbl.inches), (3, true));
+
+    // A soft reset: the banner, then each line echoed with its answer; they ran.
+    s.send(b"\x18");
+    let seen = s.until(">G0X2:ok\r\n", 2000);
+    assert!(
+        seen.ends_with(&format!("{BANNER}\r\n>G20G91:ok\r\n>G0X2:ok\r\n")),
+        "{seen:?}"
+    );
+    until_state(&mut s.eb, State::Idle, 10_000);
+    // G20 G91 X2: 2 inches = 50.8 mm.
+    assert_eq!(s.steps()[0], 508 * STEPS_PER_MM / 10);
+    s.send(b"$G\n");
+    let seen = s.until("ok\r\n", 100);
+    assert!(seen.contains(" G20 G91 "), "{seen:?}");
+
+    // A restart of the board from its stored setup (the flash blob, and the TOML file the
+    // emulator keeps as its flash): the settings and the lines are still there.
+    let mut buf = [0u8; gantry_machine::setup::SETUP_BLOB_MAX];
+    let blob = stored.to_blob(&mut buf).unwrap();
+    let from_flash = gantry_machine::setup::Setup::from_blob(blob).expect("valid blob");
+    let toml = host_sender::setup_file::to_toml(&from_flash);
+    let reloaded = host_sender::setup_file::SetupFile::parse(&toml).unwrap();
+    assert_eq!(reloaded, stored, "{toml}");
+    let mut s = Sender {
+        eb: EmulatedBoard::new(reloaded),
+        seen: String::new(),
+    };
+    s.send(b"\x18");
+    s.until(">G0X2:ok\r\n", 2000);
+    until_state(&mut s.eb, State::Idle, 10_000);
+    assert_eq!(s.steps()[0], 508 * STEPS_PER_MM / 10);
+    assert!(s
+        .status()
+        .starts_with("<Idle|MPos:2.0000,0.0000,0.0000|Bf:"));
+    // `$RST=*` forgets them.
+    s.send(b"$RST=*\n$N\n");
+    let seen = s.until("$N1=\r\nok\r\n", 200);
+    assert!(seen.contains("ok\r\n$N0=\r\n"), "{seen:?}");
+
+    // In alarm no startup line runs.
+    let mut s = Sender::with(|st| {
+        st.homing.required = true;
+        st.homing.axes[0].priority = 1;
+        st.grbl.startup[0] = "G0X1".try_into().unwrap();
+    });
+    s.send(b"\x18");
+    let seen = s.until("unlock]\r\n", 50);
+    s.run(50);
+    assert!(!s.seen.contains('>') && !seen.contains(">G0"), "{seen:?}");
+    assert_eq!(s.steps()[0], 0);
+}
+
+#[test]
+fn a_soft_reset_puts_the_overrides_back_to_100_and_the_coolant_off() {
+    let mut s = pwm_sender();
+    s.send(b"M3 S5000\n");
+    s.until("ok\r\n", 200);
+    until_state(&mut s.eb, State::Idle, 1000);
+    s.send(&[0x91, 0x91, 0x96, 0x9B, 0xA0, 0xA1]);
+    s.run(2);
+    let st = s.status();
+    assert!(st.contains("|Ov:120,50,90|A:SFM>"), "{st}");
+    assert_eq!(s.eb.board.output_levels().spindle_pwm, 450);
+    s.send(b"\x18");
+    s.until(BANNER, 200);
+    s.run(2);
+    let l = s.eb.board.output_levels();
+    assert_eq!((l.spindle_enable, l.flood, l.mist), (false, false, false));
+    assert_eq!(
+        (
+            s.eb.board.feed_override(),
+            s.eb.board.spindle_override(),
+            s.eb.board.motion().planner().rapid_override()
+        ),
+        (100, 100, 100)
+    );
+    let st = s.status();
+    assert!(st.ends_with("|Ov:100,100,100>"), "{st}");
+    // The spindle at 5000 rpm again: duty 500 (no 90 % left over).
+    s.send(b"M3 S5000\n");
+    s.until("ok\r\n", 200);
+    until_state(&mut s.eb, State::Idle, 1000);
+    assert_eq!(s.eb.board.output_levels().spindle_pwm, 500);
+}
+
+#[test]
+fn a_probe_line_is_answered_after_its_prb_message() {
+    let mut s = Sender::connected();
+    s.eb.add_probe_target(host_sender::emulator::ProbeTarget::Plane { z: -2_000_000 });
+    s.send(b"G21 G90\nG38.2 Z-10 F200\nG0 Z0\n");
+    for _ in 0..30_000 {
+        if s.oks() == 3 {
+            break;
+        }
+        s.run(1);
+    }
+    let seen = std::mem::take(&mut s.seen);
+    assert_eq!(seen.matches("ok\r\n").count(), 3, "{seen:?}");
+    let prb = seen.find("[PRB:0.000,0.000,-2.000:1]").expect(&seen);
+    let second_ok = seen.match_indices("ok\r\n").nth(1).unwrap().0;
+    assert!(
+        prb < second_ok,
+        "[PRB] before the probe line's ok: {seen:?}"
+    );
+    until_state(&mut s.eb, State::Idle, 10_000);
+    assert_eq!(s.steps()[2], 0);
+}
+
+#[test]
+fn the_safety_door_stops_parks_the_outputs_and_resumes_to_the_exact_end() {
+    let mut s = pwm_sender();
+    let outputs = |s: &Sender| {
+        let l = s.eb.board.output_levels();
+        (l.spindle_enable, l.spindle_pwm, l.flood)
+    };
+    s.send(b"M3 S5000 M8\nG1 X20 F600\n");
+    s.run(300);
+    assert_eq!(s.eb.board.state(), State::Run);
+    s.send(&[0x84]);
+    s.run(2);
+    // Decelerating: spindle and coolant still on.
+    let st = s.status();
+    assert!(st.starts_with("<Door:2|"), "{st}");
+    assert_eq!(outputs(&s), (true, 500, true));
+    // `~` while stopping is ignored.
+    s.send(b"~");
+    let mut parked = false;
+    for _ in 0..500 {
+        s.run(1);
+        if s.status().starts_with("<Door:0|") {
+            parked = true;
+            break;
+        }
+    }
+    assert!(parked);
+    assert!(s.eb.kernel_drained());
+    assert_eq!(outputs(&s), (false, 0, false), "off at rest");
+    let held = s.steps()[0];
+    s.run(300);
+    assert_eq!(s.steps()[0], held, "the door keeps it at rest");
+    assert!(s.status().starts_with("<Door:0|"));
+    s.send(b"~");
+    s.run(2);
+    assert_eq!(outputs(&s), (true, 500, true), "restored before the motion");
+    assert!(s.status().starts_with("<Run|"));
+    until_state(&mut s.eb, State::Idle, 20_000);
+    assert!(held > 0 && held < 20 * STEPS_PER_MM);
+    assert_eq!(s.steps(), [20 * STEPS_PER_MM, 0, 0]);
+
+    // In idle: outputs off at once and no line starts before `~`.
+    s.seen.clear();
+    s.send(&[0x84]);
+    s.run(2);
+    assert!(s.status().starts_with("<Door:0|"));
+    assert_eq!(outputs(&s), (false, 0, false));
+    s.send(b"$J=G91 X1 F100\n");
+    s.until("error:8\r\n", 100);
+    s.send(b"G0 X0\n");
+    s.run(300);
+    assert_eq!(s.steps()[0], 20 * STEPS_PER_MM);
+    assert_eq!(s.oks(), 0, "{:?}", s.seen);
+    s.send(b"~");
+    s.until("ok\r\n", 100);
+    until_state(&mut s.eb, State::Idle, 20_000);
+    assert_eq!(s.steps()[0], 0);
+    assert_eq!(outputs(&s), (true, 500, true));
+
+    // A jog: cancelled, then parked; a soft reset forgets the door.
+    s.send(b"$J=G91 X10 F1000\n");
+    s.until("ok\r\n", 100);
+    s.run(100);
+    s.send(&[0x84]);
+    let mut parked = false;
+    for _ in 0..500 {
+        s.run(1);
+        if s.status().starts_with("<Door:0|") {
+            parked = true;
+            break;
+        }
+    }
+    assert!(parked);
+    let stopped = s.steps()[0];
+    assert!(stopped > 0 && stopped < 10 * STEPS_PER_MM);
+    s.send(b"\x18");
+    s.until(BANNER, 200);
+    assert!(s.status().starts_with("<Idle|"));
+    assert_eq!(outputs(&s), (false, 0, false));
+}
+
+#[test]
+fn a_soft_reset_during_a_jog_stops_it_at_rest_and_check_mode_toggles_mid_stream() {
+    let mut s = Sender::connected();
+    s.send(b"$J=G91 X20 F1000\n");
+    s.until("ok\r\n", 100);
+    s.run(200);
+    assert_eq!(s.eb.board.state(), State::Jog);
+    s.send(b"\x18");
+    let seen = s.until(BANNER, 2000);
+    assert!(!seen.contains("ALARM"), "{seen:?}");
+    assert_eq!(s.eb.board.state(), State::Idle);
+    assert!(s.eb.kernel_drained());
+    let stopped = s.steps()[0];
+    assert!(stopped > 0 && stopped < 20 * STEPS_PER_MM, "{stopped}");
+    s.run(200);
+    assert_eq!(s.steps()[0], stopped, "the jog's rest is gone");
+
+    // `$C` while the machine moves: error 8, as grbl (its state is not idle).
+    s.send(b"G90 G0 X1\n$C\n");
+    let seen = s.until("error:8\r\n", 100);
+    assert!(seen.starts_with("ok\r\n"), "{seen:?}");
+    until_state(&mut s.eb, State::Idle, 10_000);
+    assert_eq!(s.steps()[0], STEPS_PER_MM);
+    // `$C` between streamed lines at rest: the lines after it are only checked (an error is
+    // reported, nothing moves), the second `$C` ends check mode, the last line moves.
+    s.seen.clear();
+    s.send(b"$C\nG0 X5\nG5\nG0 X9\n$C\nG0 X2\n");
+    let mut seen = String::new();
+    for _ in 0..10_000 {
+        s.run(1);
+        if s.seen.contains("[MSG:Disabled]") && s.oks() == 5 {
+            seen = std::mem::take(&mut s.seen);
+            break;
+        }
+    }
+    assert_eq!(seen.matches("ok\r\n").count(), 5, "{seen:?} {:?}", s.seen);
+    assert!(
+        seen.contains("[MSG:Enabled]\r\nok\r\nok\r\nerror:20\r\nok\r\n[MSG:Disabled]\r\nok\r\n"),
+        "{seen:?}"
+    );
+    until_state(&mut s.eb, State::Idle, 10_000);
+    s.run(5);
+    assert_eq!(s.steps()[0], 2 * STEPS_PER_MM);
 }

@@ -40,6 +40,7 @@ use mode::{
     Ending, HoldWhy, HomingCycle, HomingPhase, Job, JobKind, JobPhase, Jogging, Mode, Ramp,
 };
 use operator::RunSwitches;
+pub use overrides::DoorOutputs;
 use probing::ProbeCycle;
 pub use probing::ProbeResult;
 pub use source::{JumpRequest, JumpTarget, StreamSource, LINE_CAPACITY};
@@ -377,6 +378,12 @@ impl Board {
                 ..
             })
         )
+    }
+
+    /// Replaces the grbl front end's section of the setup (`machine/src/grbl/`), in any state:
+    /// nothing else of the core reads it, so nothing is rebuilt.
+    pub fn set_grbl_setup(&mut self, grbl: crate::setup::GrblSetup) {
+        self.setup.grbl = grbl;
     }
 
     /// Replaces the setup (only while idle); false otherwise.

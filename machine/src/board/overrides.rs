@@ -68,3 +68,51 @@ impl Board {
         }
     }
 }
+
+/// Spindle and coolant as the grbl safety door found them (`machine/src/grbl/door.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DoorOutputs {
+    spindle: Spindle,
+    flood: bool,
+    mist: bool,
+}
+
+impl Board {
+    /// The machine stands still where the door may switch spindle and coolant: idle, or a feed
+    /// hold at rest.
+    pub fn door_may_switch(&self) -> bool {
+        match self.mode {
+            Mode::Idle => self.motion.state() == MotionState::Idle,
+            _ => self.feed_held() && self.motion.state() == MotionState::Held,
+        }
+    }
+
+    /// The safety door at rest: spindle and coolant off; returns them for
+    /// [`Board::door_restore`]. `None` (nothing switched) unless [`Board::door_may_switch`].
+    pub fn door_outputs_off(&mut self) -> Option<DoorOutputs> {
+        if !self.door_may_switch() {
+            return None;
+        }
+        let o = &mut self.outputs;
+        let was = DoorOutputs {
+            spindle: o.spindle,
+            flood: o.flood,
+            mist: o.mist,
+        };
+        o.spindle = Spindle::Off;
+        o.flood = false;
+        o.mist = false;
+        Some(was)
+    }
+
+    /// Cycle start after the door: spindle and coolant as the door found them (only where
+    /// [`Board::door_may_switch`]; the caller then resumes a held job).
+    pub fn door_restore(&mut self, was: DoorOutputs) {
+        if self.door_may_switch() {
+            let o = &mut self.outputs;
+            o.spindle = was.spindle;
+            o.flood = was.flood;
+            o.mist = was.mist;
+        }
+    }
+}

@@ -54,6 +54,12 @@ impl Board {
         self.probe_result
     }
 
+    /// A probe move of the job waits at its sync point, moves or decelerates: its result is not
+    /// known yet (the grbl front end holds the probe line's `ok` until then).
+    pub fn probing(&self) -> bool {
+        self.probe != ProbeCycle::Off
+    }
+
     /// The raw probe pin level that must trip the step kernel's probe latch now (`None`: the
     /// latch stays off). The main loop arms the kernel with it before handing out segments.
     pub fn probe_arm(&self) -> Option<bool> {

@@ -30,8 +30,8 @@ pub enum Command<'a> {
     Info,
     /// `$N`: startup lines.
     StartupLines,
-    /// `$Nn=line`: store a startup line (not supported).
-    SetStartupLine,
+    /// `$Nn=line`: store startup line `index` (0 or 1).
+    SetStartupLine { index: u8, line: &'a [u8] },
     /// `$C`: check mode on or off.
     Check,
     /// `$X`: unlock.
@@ -71,7 +71,10 @@ pub fn parse(line: &[u8]) -> Result<Command<'_>, u16> {
             Command::Home(1 << i)
         }
         [b'J', b'=', words @ ..] => Command::Jog(words),
-        [b'N', b'0' | b'1', b'=', ..] => Command::SetStartupLine,
+        [b'N', n @ (b'0' | b'1'), b'=', line @ ..] => Command::SetStartupLine {
+            index: n - b'0',
+            line,
+        },
         _ => {
             let eq = rest
                 .iter()
@@ -107,5 +110,12 @@ mod tests {
         assert_eq!(parse(b"$Q"), Err(codes::INVALID_STATEMENT));
         assert_eq!(parse(b"$1234=1"), Err(codes::INVALID_STATEMENT));
         assert_eq!(parse(b"$RST=*"), Ok(Command::Restore(Restore::All)));
+        assert_eq!(
+            parse(b"$N1=G21G90"),
+            Ok(Command::SetStartupLine {
+                index: 1,
+                line: b"G21G90"
+            })
+        );
     }
 }

@@ -19,6 +19,7 @@
 
 pub mod codes;
 pub mod command;
+pub mod door;
 pub mod jog;
 pub mod realtime;
 pub mod report;
@@ -29,7 +30,9 @@ pub mod text;
 use crate::board::link::KernelView;
 use crate::board::{Board, BoardEvent, JogRefused, ProbeResult, LINE_CAPACITY};
 use crate::controller::State;
+use crate::setup::STARTUP_LINE_LEN;
 use command::{Command, Restore};
+use door::Door;
 use heapless::Deque;
 use realtime::Realtime;
 use report::Sparse;
@@ -63,12 +66,14 @@ enum Fate {
     Decided(Reply),
 }
 
-/// A line read out of the RX ring and not yet answered.
+/// A line read out of the RX ring (or a startup line) and not yet answered.
 #[derive(Clone, Copy, Debug)]
 struct Flight {
     line: u32,
     raw: usize,
     fate: Fate,
+    /// A startup line (`$N0`/`$N1`, its index): answered as `>line:ok`.
+    startup: Option<u8>,
 }
 
 /// The front end's session.
@@ -107,7 +112,9 @@ pub struct Grbl {
     session: Session,
     busy: Busy,
     check_mode: bool,
-    prefs: Prefs,
+    door: Door,
+    /// Startup lines still to run (bit i: `$Ni`), set with the banner.
+    startup_due: u8,
     sparse: Sparse,
     status_due: bool,
     /// Line number of the next line given to the board.
@@ -136,10 +143,8 @@ impl Grbl {
             session: Session::Ready,
             busy: Busy::None,
             check_mode: false,
-            prefs: Prefs {
-                status_mask: 1,
-                inches: false,
-            },
+            door: Door::Closed,
+            startup_due: 0,
             sparse: Sparse::new(),
             status_due: false,
             next_line: 1,
@@ -167,9 +172,11 @@ impl Grbl {
         *self = Self::new();
     }
 
+    /// The banner; the startup lines run next unless the machine is in alarm (as grbl's reset).
     fn banner(&mut self) {
         self.out.eol();
         self.out.line(BANNER);
+        self.startup_due = 0b11;
     }
 
     /// Bytes from the host: realtime bytes are picked out, the rest is line text.
@@ -207,6 +214,7 @@ impl Grbl {
     /// One service of the link (twice per main-loop pass, `board/main_loop.rs`).
     pub fn service(&mut self, board: &mut Board, view: &KernelView) {
         self.realtime_commands(board);
+        self.door.poll(board, view);
         self.probe_message(board);
         self.board_events(board);
         if self.session == Session::Resetting {
@@ -215,6 +223,10 @@ impl Grbl {
                 return;
             }
             self.session = Session::Ready;
+            // grbl's reset puts the overrides back to 100 %.
+            board.set_feed_override(100);
+            board.set_rapid_override(100);
+            board.set_spindle_override(100);
             if board.state() == State::Idle {
                 // grbl's reset puts the parser back to its defaults (G0 G54 G17 G21 G90 G94 M5
                 // M9, G92 cleared); rebuilding the board's setup in place does that, position and
@@ -233,7 +245,12 @@ impl Grbl {
                 self.busy = Busy::None;
                 self.rx.answered(raw);
                 self.emit(Reply::Ok);
+                // grbl runs the startup lines after a homing cycle too.
+                self.startup_due = 0b11;
             }
+        }
+        if self.busy == Busy::None && self.session == Session::Ready {
+            self.run_startup_lines(board);
         }
         if self.busy == Busy::None {
             self.read_lines(board);
@@ -250,8 +267,8 @@ impl Grbl {
                 &mut self.out,
                 board,
                 view,
-                &self.prefs,
-                self.check_mode,
+                &Prefs::of(board.setup()),
+                self.door.state_name(board, view, self.check_mode),
                 rx_free,
                 &mut self.sparse,
             );
@@ -265,7 +282,7 @@ impl Grbl {
             return;
         }
         if self.probe_seen.is_some() {
-            report::probe(&mut self.out, board, &self.prefs);
+            report::probe(&mut self.out, board, &Prefs::of(board.setup()));
         }
         self.probe_seen = Some(result);
     }
@@ -275,13 +292,18 @@ impl Grbl {
             match rt {
                 Realtime::Status => self.status_due = true,
                 Realtime::FeedHold => board.feed_hold(),
-                Realtime::CycleStart => board.cycle_start(),
+                Realtime::CycleStart => {
+                    if self.door.resume(board) {
+                        board.cycle_start();
+                    }
+                }
                 Realtime::Reset => {
                     // Gantry's abort: decelerate on the path, the job ends at rest with the
                     // program-stop sequence (grbl cuts the steps and loses the position).
                     board.abort();
                     self.busy = Busy::None;
                     self.check_mode = false;
+                    self.door = Door::Closed;
                     self.session = Session::Resetting;
                 }
                 Realtime::JogCancel => board.jog_stop(),
@@ -294,7 +316,8 @@ impl Grbl {
                 }
                 Realtime::SpindleStop => board.toggle_spindle_stop(),
                 Realtime::Coolant { flood } => board.toggle_coolant(flood),
-                Realtime::SafetyDoor | Realtime::Unknown => {}
+                Realtime::SafetyDoor => self.door.open(board),
+                Realtime::Unknown => {}
             }
         }
     }
@@ -331,6 +354,16 @@ impl Grbl {
         }
     }
 
+    /// The answer of `f`: a startup line's is echoed with it (`>G21G90:ok`).
+    fn answer(&mut self, board: &Board, f: &Flight, r: Reply) {
+        if let Some(i) = f.startup {
+            self.out.byte(b'>');
+            self.out.str(&board.setup().grbl.startup[usize::from(i)]);
+            self.out.byte(b':');
+        }
+        self.emit(r);
+    }
+
     fn emit(&mut self, r: Reply) {
         match r {
             Reply::Ok => self.out.line("ok"),
@@ -357,7 +390,13 @@ impl Grbl {
             0
         };
         let mut taken = on_board - in_source;
-        while self.out.room() >= ANSWER_ROOM {
+        // grbl answers a probe line once the probe cycle has ended and its `[PRB:…]` is out:
+        // while a probe move waits, runs or its result is not yet reported, the line the
+        // interpreter took last (the probe's) waits.
+        if board.probing() || self.probe_seen.is_some_and(|r| r != board.probe_result()) {
+            taken = taken.saturating_sub(1);
+        }
+        while self.out.room() >= ANSWER_ROOM + STARTUP_LINE_LEN {
             let Some(f) = self.flights.front().copied() else {
                 return;
             };
@@ -390,7 +429,49 @@ impl Grbl {
             };
             self.flights.pop_front();
             self.rx.answered(f.raw);
-            self.emit(reply);
+            self.answer(board, &f, reply);
+        }
+    }
+
+    /// Runs the due startup lines (`$N0`, `$N1`) as a job of their own once the machine is idle
+    /// with nothing in flight; in alarm they are dropped (grbl runs none then).
+    fn run_startup_lines(&mut self, board: &mut Board) {
+        match board.state() {
+            _ if self.startup_due == 0 => return,
+            State::Alarm => self.startup_due = 0,
+            State::Idle if self.flights.is_empty() && !self.door.blocks_start() => {}
+            _ => return,
+        }
+        for i in 0..2u8 {
+            if self.startup_due & 1 << i == 0 {
+                continue;
+            }
+            let mut buf = [0u8; STARTUP_LINE_LEN];
+            let line = &board.setup().grbl.startup[usize::from(i)];
+            let n = line.len();
+            buf[..n].copy_from_slice(line.as_bytes());
+            if n == 0 {
+                self.startup_due &= !(1 << i);
+                continue;
+            }
+            let Ok(text) = core::str::from_utf8(&buf[..n]) else {
+                return;
+            };
+            if board.state() == State::Idle && !board.start_job() {
+                self.startup_due = 0;
+                return;
+            }
+            if board.line_room() == 0 || !board.push_line(0, self.next_line, text) {
+                return;
+            }
+            self.startup_due &= !(1 << i);
+            let _ = self.flights.push_back(Flight {
+                line: self.next_line,
+                raw: 0,
+                fate: Fate::OnBoard { error: None },
+                startup: Some(i),
+            });
+            self.next_line = self.next_line.wrapping_add(1).max(1);
         }
     }
 
@@ -453,10 +534,11 @@ impl Grbl {
                     continue;
                 }
                 State::Idle => {
-                    if self
-                        .flights
-                        .iter()
-                        .any(|f| matches!(f.fate, Fate::OnBoard { .. }))
+                    if self.door.blocks_start()
+                        || self
+                            .flights
+                            .iter()
+                            .any(|f| matches!(f.fate, Fate::OnBoard { .. }))
                     {
                         // Lines of the job that ended are not settled yet: never mix two jobs.
                         return;
@@ -484,6 +566,7 @@ impl Grbl {
                 line: self.next_line,
                 raw,
                 fate: Fate::OnBoard { error: None },
+                startup: None,
             });
             self.next_line = self.next_line.wrapping_add(1).max(1);
         }
@@ -495,6 +578,7 @@ impl Grbl {
             line: 0,
             raw,
             fate: Fate::Decided(r),
+            startup: None,
         });
         self.settle_decided();
     }
@@ -563,7 +647,7 @@ impl Grbl {
                 ok
             }
             Command::Modes => {
-                report::gcode_modes(&mut self.out, board, &self.prefs);
+                report::gcode_modes(&mut self.out, board, &Prefs::of(board.setup()));
                 ok
             }
             Command::Info => {
@@ -571,11 +655,21 @@ impl Grbl {
                 ok
             }
             Command::StartupLines => {
-                self.out.line("$N0=");
-                self.out.line("$N1=");
+                for (i, line) in board.setup().grbl.startup.iter().enumerate() {
+                    self.out.str("$N");
+                    self.out.uint(i as u64);
+                    self.out.byte(b'=');
+                    self.out.str(line);
+                    self.out.eol();
+                }
                 ok
             }
-            Command::SetStartupLine => Step::Reply(Reply::Error(codes::INVALID_STATEMENT)),
+            Command::SetStartupLine { index, line } => {
+                if let Some(s) = self.idle_gate(board, false) {
+                    return s;
+                }
+                Step::Reply(self.set_startup_line(board, index, line))
+            }
             Command::Settings => {
                 if let Some(s) = self.idle_gate(board, true) {
                     return s;
@@ -587,7 +681,7 @@ impl Grbl {
                 if let Some(s) = self.idle_gate(board, true) {
                     return s;
                 }
-                report::parameters(&mut self.out, board, &self.prefs);
+                report::parameters(&mut self.out, board, &Prefs::of(board.setup()));
                 ok
             }
             Command::Set { number, value } => {
@@ -620,6 +714,10 @@ impl Grbl {
                     }
                 }
                 ok
+            }
+            // Nothing moves behind an open door (grbl: error 8).
+            Command::Home(_) | Command::Jog(_) if self.door.blocks_start() => {
+                Step::Reply(Reply::Error(codes::IDLE_ONLY))
             }
             Command::Home(axes) => {
                 if let Some(s) = self.idle_gate(board, true) {
@@ -678,7 +776,7 @@ impl Grbl {
             }
         }
         for n in numbers {
-            if let Some(v) = settings::read(n, setup, &self.prefs) {
+            if let Some(v) = settings::read(n, setup) {
                 self.out.byte(b'$');
                 self.out.uint(u64::from(n));
                 self.out.byte(b'=');
@@ -697,19 +795,47 @@ impl Grbl {
             return Reply::Error(codes::BAD_NUMBER);
         };
         let mut setup = board.setup().clone();
-        let mut prefs = self.prefs;
-        if let Err(e) = settings::write(number, milli, &mut setup, &mut prefs) {
+        if let Err(e) = settings::write(number, milli, &mut setup) {
             return Reply::Error(e);
         }
-        self.prefs = prefs;
-        // $10 and $13 are the front end's own; the rest are setup keys. (No comparison of the
-        // whole setup: its derived equality costs the firmware about 1 KiB of flash.)
-        if number != 10 && number != 13 {
-            if !board.set_setup(setup) {
-                return Reply::Error(codes::IDLE_ONLY);
-            }
-            self.setup_changed = true;
+        // $10 and $13 are the front end's own section (stored, nothing rebuilt); the rest are
+        // setup keys. (No comparison of the whole setup: its derived equality costs the
+        // firmware about 1 KiB of flash.)
+        if number == 10 || number == 13 {
+            board.set_grbl_setup(setup.grbl);
+        } else if !board.set_setup(setup) {
+            return Reply::Error(codes::IDLE_ONLY);
         }
+        self.setup_changed = true;
+        Reply::Ok
+    }
+
+    /// `$Nn=line`: checked as grbl does by parsing it as a block (its error answers; a `$`
+    /// command is refused), then stored.
+    fn set_startup_line(&mut self, board: &mut Board, index: u8, line: &[u8]) -> Reply {
+        if line.first() == Some(&b'$') {
+            return Reply::Error(codes::INVALID_STATEMENT);
+        }
+        let Ok(text) = core::str::from_utf8(line) else {
+            return Reply::Error(codes::EXPECTED_LETTER);
+        };
+        let mut stored = heapless::String::new();
+        if stored.push_str(text).is_err() {
+            return Reply::Error(codes::LINE_TOO_LONG);
+        }
+        let mut lexer = crate::gcode::lexer::Lexer::new(line, true);
+        if lexer.start() != crate::gcode::lexer::LineStart::Block {
+            return Reply::Error(codes::INVALID_STATEMENT);
+        }
+        if let Err((e, _)) =
+            crate::gcode::block::parse_block(&mut lexer, board.interpreter().config())
+        {
+            return Reply::Error(codes::error_number(e.number()));
+        }
+        let mut grbl = board.setup().grbl.clone();
+        grbl.startup[usize::from(index)] = stored;
+        board.set_grbl_setup(grbl);
+        self.setup_changed = true;
         Reply::Ok
     }
 
@@ -717,7 +843,6 @@ impl Grbl {
         let mut setup = board.setup().clone();
         if matches!(what, Restore::Settings | Restore::All) {
             let defaults = crate::setup::Setup::default();
-            let prefs = Prefs::default();
             let axes = u16::from(setup.axis_count);
             let numbers = settings::GLOBAL.iter().copied().chain(
                 settings::AXIS_GROUPS
@@ -725,10 +850,13 @@ impl Grbl {
                     .flat_map(move |g| (0..axes).map(move |a| g + a)),
             );
             for n in numbers {
-                if let Some(v) = settings::read(n, &defaults, &prefs) {
-                    let _ = settings::write(n, v.milli, &mut setup, &mut self.prefs);
+                if let Some(v) = settings::read(n, &defaults) {
+                    let _ = settings::write(n, v.milli, &mut setup);
                 }
             }
+        }
+        if what == Restore::All {
+            setup.grbl.startup = Default::default();
         }
         if matches!(what, Restore::Offsets | Restore::All) {
             setup.program.work_offsets = Default::default();

@@ -12,7 +12,7 @@ pub enum Realtime {
     CycleStart,
     /// 0x18 (Ctrl-X): soft reset.
     Reset,
-    /// 0x84: safety door (no door input on Gantry: ignored).
+    /// 0x84: safety door (`grbl/door.rs`).
     SafetyDoor,
     /// 0x85: jog cancel.
     JogCancel,

@@ -89,14 +89,14 @@ pub fn status(
     board: &Board,
     view: &KernelView,
     prefs: &Prefs,
-    check_mode: bool,
+    state: &str,
     rx_free: usize,
     sparse: &mut Sparse,
 ) {
     let axes = usize::from(board.setup().axis_count);
     let machine = board.machine_position(&view.steps);
     out.byte(b'<');
-    out.str(state_name(board, view, check_mode));
+    out.str(state);
     if prefs.status_mask & 1 != 0 {
         out.str("|MPos:");
         position(out, &machine, axes, prefs);

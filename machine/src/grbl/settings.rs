@@ -1,13 +1,13 @@
 //! grbl's numbered settings (`$$`, `$n=value`) as views of the Gantry setup keys that mean the
 //! same thing (table in docs/grbl.md). `$10` (status report mask) and `$13` (report in inches)
-//! belong to the grbl front end itself ([`Prefs`]); settings Gantry has no key for are shown with
+//! belong to the grbl front end itself (the setup's `grbl` section, [`Prefs`]); settings Gantry has no key for are shown with
 //! the value Gantry behaves as and accept only that value.
 
 use super::codes;
 use crate::board::LIMIT_BITS;
 use crate::setup::Setup;
 
-/// The front end's own settings (kept for the connection's board session, not in flash).
+/// The front end's report preferences (`$10`, `$13`), read from the setup's grbl section.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Prefs {
     /// `$10`: bit 0 machine position (else work position), bit 1 buffer state.
@@ -16,11 +16,11 @@ pub struct Prefs {
     pub inches: bool,
 }
 
-impl Default for Prefs {
-    fn default() -> Self {
+impl Prefs {
+    pub fn of(setup: &Setup) -> Prefs {
         Prefs {
-            status_mask: 1,
-            inches: false,
+            status_mask: setup.grbl.status_mask,
+            inches: setup.grbl.inches,
         }
     }
 }
@@ -82,7 +82,7 @@ fn bits(setup: &Setup, f: impl Fn(usize) -> bool) -> i64 {
 }
 
 /// The value of setting `n`, `None` when there is no such setting.
-pub fn read(n: u16, setup: &Setup, prefs: &Prefs) -> Option<Value> {
+pub fn read(n: u16, setup: &Setup) -> Option<Value> {
     if let Some((a, group)) = axis_of(n, setup) {
         let ax = &setup.axes[a];
         return Some(match group {
@@ -100,10 +100,10 @@ pub fn read(n: u16, setup: &Setup, prefs: &Prefs) -> Option<Value> {
         2 | 4 | 6 => int(0),
         3 => int(bits(setup, |i| setup.axes[i].invert_dir)),
         5 => int(i64::from(setup.inputs.invert & LIMIT_BITS != 0)),
-        10 => int(i64::from(prefs.status_mask)),
+        10 => int(i64::from(setup.grbl.status_mask)),
         11 => mm(setup.path.junction_deviation),
         12 => mm(setup.path.chord_tolerance),
-        13 => int(i64::from(prefs.inches)),
+        13 => int(i64::from(setup.grbl.inches)),
         20 => int(1),
         21 => int(i64::from(setup.inputs.hard_limits)),
         22 => int(i64::from(
@@ -123,7 +123,7 @@ pub fn read(n: u16, setup: &Setup, prefs: &Prefs) -> Option<Value> {
 }
 
 /// Writes `milli` (thousandths) to setting `n` of `setup`; `Err` is the grbl error number.
-pub fn write(n: u16, milli: i64, setup: &mut Setup, prefs: &mut Prefs) -> Result<(), u16> {
+pub fn write(n: u16, milli: i64, setup: &mut Setup) -> Result<(), u16> {
     let nm = milli * 1000;
     let whole = milli / 1000;
     let flag = match whole {
@@ -176,10 +176,10 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup, prefs: &mut Prefs) -> Result
             Some(false) => setup.inputs.invert &= !LIMIT_BITS,
             None => return Err(codes::INVALID_STATEMENT),
         },
-        10 => prefs.status_mask = u8::try_from(whole & 3).unwrap_or(1),
+        10 => setup.grbl.status_mask = u8::try_from(whole & 3).unwrap_or(1),
         11 => setup.path.junction_deviation = positive(nm)?,
         12 => setup.path.chord_tolerance = positive(nm)?,
-        13 => prefs.inches = flag.ok_or(codes::INVALID_STATEMENT)?,
+        13 => setup.grbl.inches = flag.ok_or(codes::INVALID_STATEMENT)?,
         21 => setup.inputs.hard_limits = flag.ok_or(codes::INVALID_STATEMENT)?,
         23 => {
             for i in 0..axes {
@@ -207,7 +207,7 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup, prefs: &mut Prefs) -> Result
         32 if whole != 0 => return Err(codes::LASER_MODE),
         // Settings Gantry has no key for: only the value it behaves as.
         1 | 2 | 4 | 6 | 20 | 22 | 32 => {
-            let shown = read(n, setup, prefs).ok_or(codes::INVALID_STATEMENT)?;
+            let shown = read(n, setup).ok_or(codes::INVALID_STATEMENT)?;
             if shown.milli != whole * 1000 {
                 return Err(codes::INVALID_STATEMENT);
             }
@@ -233,28 +233,21 @@ mod tests {
     #[test]
     fn steps_per_mm_round_trip_through_the_exact_ratio() {
         let mut s = Setup::default();
-        let mut p = Prefs::default();
-        write(100, 80_000, &mut s, &mut p).unwrap();
+        write(100, 80_000, &mut s).unwrap();
         assert_eq!((s.axes[0].steps, s.axes[0].units_nm), (1, 12_500));
-        write(101, 314_159, &mut s, &mut p).unwrap();
-        assert_eq!(read(101, &s, &p), Some(dec(314_159)));
-        assert_eq!(
-            write(102, -5_000, &mut s, &mut p),
-            Err(codes::NEGATIVE_VALUE)
-        );
-        assert_eq!(write(32, 1000, &mut s, &mut p), Err(codes::LASER_MODE));
-        assert_eq!(
-            write(1, 25_000, &mut s, &mut p),
-            Err(codes::INVALID_STATEMENT)
-        );
-        assert_eq!(write(1, 255_000, &mut s, &mut p), Ok(()));
-        write(110, 5_000_000, &mut s, &mut p).unwrap();
+        write(101, 314_159, &mut s).unwrap();
+        assert_eq!(read(101, &s), Some(dec(314_159)));
+        assert_eq!(write(102, -5_000, &mut s), Err(codes::NEGATIVE_VALUE));
+        assert_eq!(write(32, 1000, &mut s), Err(codes::LASER_MODE));
+        assert_eq!(write(1, 25_000, &mut s), Err(codes::INVALID_STATEMENT));
+        assert_eq!(write(1, 255_000, &mut s), Ok(()));
+        write(110, 5_000_000, &mut s).unwrap();
         assert_eq!(s.axes[0].max_rate, 5_000 * crate::units::NM_PER_MM);
-        write(130, 250_000, &mut s, &mut p).unwrap();
+        write(130, 250_000, &mut s).unwrap();
         assert_eq!(
             s.axes[0].travel_max - s.axes[0].travel_min,
             250 * crate::units::NM_PER_MM
         );
-        assert_eq!(read(199, &s, &p), None);
+        assert_eq!(read(199, &s), None);
     }
 }

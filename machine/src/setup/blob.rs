@@ -16,7 +16,8 @@ use serde::de::DeserializeOwned;
 
 /// First byte of every blob: the encoding's version. 1 was the first serde/postcard encoding
 /// (without this byte), 2 the hand-written one; 3 is postcard through serde again; 4 adds
-/// fields (`program.tool_change_position` among them). Change it whenever the layout changes.
+/// `program.tool_change_position`, `path.blend_tolerance` and the grbl front end's section.
+/// Change it whenever the layout changes.
 pub const FORMAT: u8 = 4;
 
 /// Writes blob bytes `skip ..` into `out`. With `clip`, bytes beyond `out` are counted and
@@ -87,6 +88,7 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
         outputs,
         link,
         drivers,
+        grbl,
     } = &mut setup;
     let ProgramSetup {
         dialect,
@@ -130,6 +132,7 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
     part(r, outputs)?;
     part(r, link)?;
     part(r, drivers)?;
+    part(r, grbl)?;
     rest.is_empty().then_some(setup)
 }
 
