@@ -10,7 +10,7 @@
 //! bytes `from .. from + out.len()` of it (a chunk for the link, with no buffer for the whole
 //! blob).
 
-use super::{ProgramSetup, Setup};
+use super::{HomingSetup, ProgramSetup, Setup};
 use postcard::ser_flavors::Flavor;
 use serde::de::DeserializeOwned;
 
@@ -70,6 +70,10 @@ pub(super) fn encode(setup: &Setup, out: &mut [u8], skip: usize, clip: bool) -> 
 /// 13.6 KiB stack frame on the F411 (firmware/README.md, "Stack"); one part at a time, each
 /// frame holds only that part. The destructuring has no `..`: a new field does not compile
 /// until it is read here.
+///
+/// Fixed-size arrays (positions, the homing axes) are read element by element: postcard writes
+/// an array as its elements in order with no length, and serde's array decoder repeats the
+/// element's whole decoder once per element (the homing part alone was 1.9 KiB of F411 flash).
 pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
     let (&FORMAT, mut rest) = bytes.split_first()? else {
         return None;
@@ -112,15 +116,28 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
     part(r, chip_break_retract)?;
     part(r, default_retract)?;
     part(r, tools)?;
-    for o in work_offsets {
-        part(r, o)?;
+    for o in work_offsets.iter_mut().chain([g28_home, g30_home]) {
+        for v in o {
+            part(r, v)?;
+        }
     }
-    part(r, g28_home)?;
-    part(r, g30_home)?;
     part(r, user_mcodes)?;
     part(r, operator)?;
     part(r, inputs)?;
-    part(r, homing)?;
+    let HomingSetup {
+        axes: homing_axes,
+        required,
+        before_seek,
+        before_retract,
+        after_retract,
+    } = homing;
+    for h in homing_axes {
+        part(r, h)?;
+    }
+    part(r, required)?;
+    for list in [before_seek, before_retract, after_retract] {
+        part(r, list)?;
+    }
     part(r, jog)?;
     part(r, outputs)?;
     part(r, link)?;
