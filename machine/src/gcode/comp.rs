@@ -21,6 +21,8 @@ use heapless::Deque;
 use super::error::ErrorCode;
 use super::geometry::{self, div_round, isqrt};
 use crate::canon::{Action, ArcDir, Canon, Plane};
+// i128 products out of line (a dozen here; each is a long inline expansion on the Cortex-M4).
+use crate::motion::trig::mul_i128 as mul;
 use crate::units::{Nm, Pos};
 
 /// Actions that can wait for the next compensated move (the move itself and what follows it).
@@ -121,13 +123,6 @@ fn sub(a: (Nm, Nm), b: (Nm, Nm)) -> (i128, i128) {
 
 fn add(a: (Nm, Nm), d: (i128, i128)) -> (Nm, Nm) {
     ((a.0 as i128 + d.0) as Nm, (a.1 as i128 + d.1) as Nm)
-}
-
-/// `a * b`. Out of line: an i128 product is a ~90-byte inline expansion on the Cortex-M4 (a
-/// call is ~20), and compensation has a dozen of them.
-#[inline(never)]
-fn mul(a: i128, b: i128) -> i128 {
-    a * b
 }
 
 // Out of line: i128 products are long on the Cortex-M4 and these have many callers.
