@@ -153,3 +153,57 @@ fn part<T: DeserializeOwned>(rest: &mut &[u8], into: &mut T) -> Option<()> {
     *rest = tail;
     Some(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::{HomingAxis, ListCommand, MAX_HOMING_COMMANDS};
+    use super::*;
+    use crate::units::MAX_AXES;
+
+    /// A setup whose arrays hold a different value in every element: a part read out of order
+    /// or an element read into the wrong slot shows.
+    fn distinct() -> Setup {
+        let mut s = Setup::default();
+        for (i, h) in s.homing.axes.iter_mut().enumerate() {
+            let i = i as i64;
+            *h = HomingAxis {
+                priority: i as u8 + 1,
+                seek_low: i % 2 == 0,
+                seek_rate: 1_000 + i,
+                retract: 2_000 + i,
+                set_home: i % 3 == 0,
+                home_position: -3_000 - i,
+            };
+        }
+        s.homing.required = true;
+        for n in 0..MAX_HOMING_COMMANDS as u8 {
+            s.homing.before_seek.push(ListCommand::Set(n)).unwrap();
+            s.homing.after_retract.push(ListCommand::Clear(n)).unwrap();
+        }
+        for (w, o) in s.program.work_offsets.iter_mut().enumerate() {
+            for (a, v) in o.iter_mut().enumerate() {
+                *v = (w * MAX_AXES + a) as i64 * -1_000_003;
+            }
+        }
+        for a in 0..MAX_AXES {
+            s.program.g28_home[a] = 7_000 + a as i64;
+            s.program.g30_home[a] = -9_000 - a as i64;
+        }
+        s
+    }
+
+    #[test]
+    fn part_by_part_decoding_equals_decoding_the_whole_setup() {
+        let s = distinct();
+        let mut buf = [0u8; crate::setup::SETUP_BLOB_MAX];
+        let len = encode(&s, &mut buf, 0, false).unwrap();
+        let (format, whole): (u8, Setup) = postcard::from_bytes(&buf[..len]).unwrap();
+        assert_eq!(format, FORMAT);
+        assert_eq!(whole, s);
+        assert_eq!(decode(&buf[..len]), Some(whole));
+        // A blob cut inside the homing axes or the positions is refused.
+        for cut in 1..len {
+            assert_eq!(decode(&buf[..cut]), None, "{cut} bytes");
+        }
+    }
+}
