@@ -150,8 +150,8 @@ pub use crate::motion::trig::{atan2_rad as atan2, PI_RAD as PI, RAD as ANGLE_ONE
 pub fn sweep(start: (Nm, Nm), end: (Nm, Nm), center: (Nm, Nm), ccw: bool, turns: u32) -> i128 {
     let (sx, sy) = ((start.0 - center.0) as i128, (start.1 - center.1) as i128);
     let (ex, ey) = ((end.0 - center.0) as i128, (end.1 - center.1) as i128);
-    let cross = sx * ey - sy * ex;
-    let dot = sx * ex + sy * ey;
+    let cross = mul(sx, ey) - mul(sy, ex);
+    let dot = mul(sx, ex) + mul(sy, ey);
     let a = atan2(cross, dot) as i128;
     let two_pi = 2 * PI as i128;
     let mut s = if ccw { a } else { -a };
