@@ -21,6 +21,8 @@ use heapless::Deque;
 use super::error::ErrorCode;
 use super::geometry::{self, div_round, isqrt};
 use crate::canon::{Action, ArcDir, Canon, Plane};
+// i128 products out of line (a dozen here; each is a long inline expansion on the Cortex-M4).
+use crate::motion::trig::mul_i128 as mul;
 use crate::units::{Nm, Pos};
 
 /// Actions that can wait for the next compensated move (the move itself and what follows it).
@@ -142,7 +144,7 @@ fn bits(v: u128) -> u32 {
 /// `v` scaled to length `len` (rounded to nm), with extra bits so short vectors keep their
 /// direction exactly enough.
 fn scale_to(v: (i128, i128), len: i128) -> (i128, i128) {
-    let s = (v.0 * v.0 + v.1 * v.1) as u128;
+    let s = dot(v, v) as u128;
     if s == 0 {
         return (0, 0);
     }
@@ -152,8 +154,8 @@ fn scale_to(v: (i128, i128), len: i128) -> (i128, i128) {
         .max(0) as u32;
     let norm = isqrt(s << (2 * k)) as i128;
     (
-        div_round((len * v.0) << k, norm),
-        div_round((len * v.1) << k, norm),
+        div_round(mul(len, v.0) << k, norm),
+        div_round(mul(len, v.1) << k, norm),
     )
 }
 
@@ -161,7 +163,7 @@ fn scale_to(v: (i128, i128), len: i128) -> (i128, i128) {
 // Out of line: i128 products are long on the Cortex-M4 and these have many callers.
 #[inline(never)]
 fn length(v: (i128, i128)) -> i128 {
-    geometry::isqrt_round((v.0 * v.0 + v.1 * v.1) as u128) as i128
+    geometry::isqrt_round(dot(v, v) as u128) as i128
 }
 
 /// The unit normal towards `side` of direction `d`, times `r`.
@@ -183,7 +185,7 @@ fn line_circle(a: (Nm, Nm), dir: (i128, i128), center: (Nm, Nm), radius: i128) -
     // Signed distance of the centre's foot along the line, and the line's distance from it.
     let along = div_round(dot(w, dir), len);
     let off = div_round(cross(w, dir), len);
-    let h2 = radius * radius - off * off;
+    let h2 = mul(radius, radius) - mul(off, off);
     if h2 < 0 {
         return None;
     }
@@ -210,8 +212,9 @@ fn circle_circle(
         return None;
     }
     let dl = length(d);
-    let a = div_round(r1 * r1 - r2 * r2 + d2, 2 * dl);
-    let h2 = r1 * r1 - a * a;
+    let r1_sq = mul(r1, r1);
+    let a = div_round(r1_sq - mul(r2, r2) + d2, 2 * dl);
+    let h2 = r1_sq - mul(a, a);
     if h2 < 0 {
         return None;
     }
@@ -572,12 +575,12 @@ impl Comp {
                 None => {
                     // Line to line: back along the last move to where the offset lines cross.
                     let dl = length(d);
-                    let denom = dl * length(b) + dot(d, b);
+                    let denom = mul(dl, length(b)) + dot(d, b);
                     if denom <= 0 {
                         return Err(ErrorCode::CompGouge);
                     }
                     let s = if side == Side::Left { 1 } else { -1 };
-                    let retreat = div_round(s * r as i128 * cross(d, b), denom);
+                    let retreat = div_round(mul(s * r as i128, cross(d, b)), denom);
                     add(c, scale_to(d, -retreat))
                 }
                 Some((center, end, _)) => {

@@ -5,6 +5,8 @@
 //! is involved.
 
 use super::error::ErrorCode;
+// Wide i128 products out of line (each is a long inline expansion on the Cortex-M4).
+use crate::motion::trig::mul_i128 as mul;
 use crate::units::Nm;
 
 /// Floor of the square root of `v` (the motion core's, one copy in flash for every caller).
@@ -121,7 +123,7 @@ pub fn r_format_center(
     }
     // Distance from the chord midpoint to the centre: sqrt(R^2 - (chord/2)^2), computed in
     // doubled units: 2*offset = sqrt(4R^2 - chord^2).
-    let four_r_sq = 4 * abs_r * abs_r;
+    let four_r_sq = mul(4 * abs_r, abs_r);
     let offset2 = if chord_sq >= four_r_sq {
         0
     } else {
@@ -133,8 +135,8 @@ pub fn r_format_center(
     // centre = mid + (offset2/2) * p / chord, everything doubled then halved once.
     let mid2x = (start.0 as i128) + (end.0 as i128);
     let mid2y = (start.1 as i128) + (end.1 as i128);
-    let cx2 = mid2x * chord + offset2 * px;
-    let cy2 = mid2y * chord + offset2 * py;
+    let cx2 = mul(mid2x, chord) + mul(offset2, px);
+    let cy2 = mul(mid2y, chord) + mul(offset2, py);
     let cx = div_round(cx2, 2 * chord);
     let cy = div_round(cy2, 2 * chord);
     Ok((cx as Nm, cy as Nm))
@@ -148,8 +150,8 @@ pub use crate::motion::trig::{atan2_rad as atan2, PI_RAD as PI, RAD as ANGLE_ONE
 pub fn sweep(start: (Nm, Nm), end: (Nm, Nm), center: (Nm, Nm), ccw: bool, turns: u32) -> i128 {
     let (sx, sy) = ((start.0 - center.0) as i128, (start.1 - center.1) as i128);
     let (ex, ey) = ((end.0 - center.0) as i128, (end.1 - center.1) as i128);
-    let cross = sx * ey - sy * ex;
-    let dot = sx * ex + sy * ey;
+    let cross = mul(sx, ey) - mul(sy, ex);
+    let dot = mul(sx, ex) + mul(sy, ey);
     let a = atan2(cross, dot) as i128;
     let two_pi = 2 * PI as i128;
     let mut s = if ccw { a } else { -a };
@@ -161,8 +163,8 @@ pub fn sweep(start: (Nm, Nm), end: (Nm, Nm), center: (Nm, Nm), ccw: bool, turns:
 
 /// Path length of a helical arc: sqrt((sweep·r)^2 + normal^2), in nm.
 pub fn arc_length(sweep: i128, radius: Nm, normal: Nm) -> i128 {
-    let planar = (sweep * radius as i128) >> 48;
-    let s = planar * planar + (normal as i128) * (normal as i128);
+    let planar = mul(sweep, radius as i128) >> 48;
+    let s = mul(planar, planar) + (normal as i128) * (normal as i128);
     isqrt_round(s as u128) as i128
 }
 

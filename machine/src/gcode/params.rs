@@ -54,7 +54,9 @@ pub fn fx_to_nm(v: Fx, inch: bool) -> Nm {
     let nm = if inch {
         n
     } else {
-        (n + n.signum() * 500) / 1000
+        // Through `div_i128` (same truncation as `/`): an i128 `/` is a ~0.7 KiB inline
+        // expansion on the Cortex-M4.
+        crate::motion::trig::div_i128(n + n.signum() * 500, 1000)
     };
     nm as Nm
 }

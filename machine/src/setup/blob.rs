@@ -10,7 +10,7 @@
 //! bytes `from .. from + out.len()` of it (a chunk for the link, with no buffer for the whole
 //! blob).
 
-use super::{ProgramSetup, Setup};
+use super::{HomingSetup, ProgramSetup, Setup};
 use postcard::ser_flavors::Flavor;
 use serde::de::DeserializeOwned;
 
@@ -71,6 +71,10 @@ pub(super) fn encode(setup: &Setup, out: &mut [u8], skip: usize, clip: bool) -> 
 /// 13.6 KiB stack frame on the F411 (firmware/README.md, "Stack"); one part at a time, each
 /// frame holds only that part. The destructuring has no `..`: a new field does not compile
 /// until it is read here.
+///
+/// Fixed-size arrays (positions, the homing axes) are read element by element: postcard writes
+/// an array as its elements in order with no length, and serde's array decoder repeats the
+/// element's whole decoder once per element (the homing part alone was 1.9 KiB of F411 flash).
 pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
     let (&FORMAT, mut rest) = bytes.split_first()? else {
         return None;
@@ -115,11 +119,11 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
     part(r, chip_break_retract)?;
     part(r, default_retract)?;
     part(r, tools)?;
-    for o in work_offsets {
-        part(r, o)?;
+    for o in work_offsets.iter_mut().chain([g28_home, g30_home]) {
+        for v in o {
+            part(r, v)?;
+        }
     }
-    part(r, g28_home)?;
-    part(r, g30_home)?;
     part(r, user_mcodes)?;
     // Field by field (postcard writes a struct as its fields): the u8 and Pos readers exist
     // already, a reader of the whole struct would be new flash.
@@ -127,7 +131,20 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
     part(r, &mut tool_change_position.at)?;
     part(r, operator)?;
     part(r, inputs)?;
-    part(r, homing)?;
+    let HomingSetup {
+        axes: homing_axes,
+        required,
+        before_seek,
+        before_retract,
+        after_retract,
+    } = homing;
+    for h in homing_axes {
+        part(r, h)?;
+    }
+    part(r, required)?;
+    for list in [before_seek, before_retract, after_retract] {
+        part(r, list)?;
+    }
     part(r, jog)?;
     part(r, outputs)?;
     part(r, link)?;
@@ -143,4 +160,58 @@ fn part<T: DeserializeOwned>(rest: &mut &[u8], into: &mut T) -> Option<()> {
     *into = value;
     *rest = tail;
     Some(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{HomingAxis, ListCommand, MAX_HOMING_COMMANDS};
+    use super::*;
+    use crate::units::MAX_AXES;
+
+    /// A setup whose arrays hold a different value in every element: a part read out of order
+    /// or an element read into the wrong slot shows.
+    fn distinct() -> Setup {
+        let mut s = Setup::default();
+        for (i, h) in s.homing.axes.iter_mut().enumerate() {
+            let i = i as i64;
+            *h = HomingAxis {
+                priority: i as u8 + 1,
+                seek_low: i % 2 == 0,
+                seek_rate: 1_000 + i,
+                retract: 2_000 + i,
+                set_home: i % 3 == 0,
+                home_position: -3_000 - i,
+            };
+        }
+        s.homing.required = true;
+        for n in 0..MAX_HOMING_COMMANDS as u8 {
+            s.homing.before_seek.push(ListCommand::Set(n)).unwrap();
+            s.homing.after_retract.push(ListCommand::Clear(n)).unwrap();
+        }
+        for (w, o) in s.program.work_offsets.iter_mut().enumerate() {
+            for (a, v) in o.iter_mut().enumerate() {
+                *v = (w * MAX_AXES + a) as i64 * -1_000_003;
+            }
+        }
+        for a in 0..MAX_AXES {
+            s.program.g28_home[a] = 7_000 + a as i64;
+            s.program.g30_home[a] = -9_000 - a as i64;
+        }
+        s
+    }
+
+    #[test]
+    fn part_by_part_decoding_equals_decoding_the_whole_setup() {
+        let s = distinct();
+        let mut buf = [0u8; crate::setup::SETUP_BLOB_MAX];
+        let len = encode(&s, &mut buf, 0, false).unwrap();
+        let (format, whole): (u8, Setup) = postcard::from_bytes(&buf[..len]).unwrap();
+        assert_eq!(format, FORMAT);
+        assert_eq!(whole, s);
+        assert_eq!(decode(&buf[..len]), Some(whole));
+        // A blob cut inside the homing axes or the positions is refused.
+        for cut in 1..len {
+            assert_eq!(decode(&buf[..cut]), None, "{cut} bytes");
+        }
+    }
 }
