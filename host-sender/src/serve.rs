@@ -266,11 +266,7 @@ pub fn run(port: &str) -> anyhow::Result<ExitCode> {
             while let Some(msg) = board.recv() {
                 if let BoardMsg::Status(st) = &msg {
                     if st.state != state {
-                        eprintln!(
-                            "serve: board {} line {}",
-                            crate::stream::state_name(st.state),
-                            st.line
-                        );
+                        eprintln!("serve: board {} line {}", state_words(st.state), st.line);
                         let job_ended =
                             matches!(st.state, MachineState::Idle | MachineState::Alarm { .. });
                         if job_ended {
@@ -343,4 +339,47 @@ fn placeholder() -> Client<Box<dyn Transport>> {
 /// True when a server for `port` answers on its socket.
 pub fn running(port: &str) -> bool {
     Path::new(&socket_path(port)).exists() && UnixStream::connect(socket_path(port)).is_ok()
+}
+
+/// The board's state as the server's log names it: each state the status tells apart has its own
+/// words, so a change is logged once and reads as one (a hold coming to rest goes from "holding"
+/// to "held"; an alarm and a tool change name their code and tool).
+fn state_words(s: MachineState) -> String {
+    match s {
+        MachineState::Hold { stopped: false } => "holding (stopping)".into(),
+        MachineState::Hold { stopped: true } => "held".into(),
+        MachineState::Alarm { code } => format!("Alarm {code}"),
+        MachineState::ToolChange { tool } => format!("ToolChange T{tool}"),
+        other => crate::stream::state_name(other).into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_state_change_has_its_own_words() {
+        let states = [
+            MachineState::Idle,
+            MachineState::Run,
+            MachineState::Hold { stopped: false },
+            MachineState::Hold { stopped: true },
+            MachineState::Jog,
+            MachineState::Alarm { code: 1 },
+            MachineState::Alarm { code: 9 },
+            MachineState::Homing,
+            MachineState::Check,
+            MachineState::ToolChange { tool: 2 },
+            MachineState::ToolChange { tool: 3 },
+        ];
+        let words: Vec<String> = states.iter().map(|&s| state_words(s)).collect();
+        for (i, w) in words.iter().enumerate() {
+            assert_eq!(words.iter().filter(|o| *o == w).count(), 1, "{w}");
+            assert_eq!(state_words(states[i]), *w);
+        }
+        assert_eq!(words[2], "holding (stopping)");
+        assert_eq!(words[3], "held");
+        assert_eq!(words[1], "Run");
+    }
 }

@@ -46,3 +46,32 @@ unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
     println!("HARD FAULT at pc {:#010x}", frame.pc());
     exit(false)
 }
+
+/// The benchmarks' time base: SysTick counting the core clock down from [`clock::RELOAD`], its
+/// wraps counted by the exception, read as one 64-bit count (`src/bin/bench_step.rs`,
+/// `src/bin/bench_motion.rs`).
+pub mod clock {
+    use core::sync::atomic::{AtomicU32, Ordering};
+    use cortex_m::peripheral::SYST;
+    use cortex_m_rt::exception;
+
+    /// The SysTick reload value the benchmarks set (the counter's full 24 bits).
+    pub const RELOAD: u32 = 0x00FF_FFFF;
+    static WRAPS: AtomicU32 = AtomicU32::new(0);
+
+    #[exception]
+    fn SysTick() {
+        WRAPS.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// SysTick counts since start (wraps counted by the exception).
+    pub fn now() -> u64 {
+        loop {
+            let w = WRAPS.load(Ordering::Relaxed);
+            let c = SYST::get_current();
+            if WRAPS.load(Ordering::Relaxed) == w {
+                return w as u64 * (RELOAD as u64 + 1) + (RELOAD - c) as u64;
+            }
+        }
+    }
+}

@@ -108,68 +108,139 @@ fn estimate_seconds(m: &PreviewMove, rates_mm_min: &[f64; 3]) -> f64 {
 /// Canon JSON Lines (tests/golden/rs274/README.md) back into canonical actions. Records other than motion are
 /// skipped; an `error` record ends the program and is returned with its line and message.
 pub fn canon_from_jsonl(text: &str) -> anyhow::Result<Interpreted> {
-    let mut out = Vec::new();
-    for (n, raw) in text.lines().enumerate() {
-        let raw = raw.trim();
-        if raw.is_empty() {
-            continue;
-        }
-        let v: serde_json::Value =
-            serde_json::from_str(raw).with_context(|| format!("canon record {}", n + 1))?;
-        let line = v["line"].as_u64().unwrap_or(0) as u32;
-        let nm3 = |key: &str| -> anyhow::Result<[Nm; 3]> {
-            let a = v[key]
-                .as_array()
-                .with_context(|| format!("canon record {}: no {key}", n + 1))?;
-            let mut p = [0; 3];
-            for (i, slot) in p.iter_mut().enumerate() {
-                let mm = a.get(i).and_then(|x| x.as_f64()).unwrap_or(0.0);
-                *slot = (mm * NM_PER_MM as f64).round() as Nm;
-            }
-            Ok(p)
-        };
-        let pos = |p: [Nm; 3]| -> Pos { [p[0], p[1], p[2], 0, 0, 0] };
-        let feed = || (v["feed"].as_f64().unwrap_or(0.0) * NM_PER_MM as f64).round() as i64;
-        let action = match v["op"].as_str().unwrap_or("") {
-            "rapid" => Action::Rapid {
-                to: pos(nm3("to")?),
-            },
-            "feed" => Action::Feed {
-                to: pos(nm3("to")?),
-                feed: feed(),
-            },
-            "arc" => Action::Arc {
-                to: pos(nm3("to")?),
-                center: nm3("center")?,
-                plane: match v["plane"].as_str() {
-                    Some("XY") => Plane::XY,
-                    Some("ZX") => Plane::ZX,
-                    Some("YZ") => Plane::YZ,
-                    other => bail!("canon record {}: unknown plane {other:?}", n + 1),
-                },
-                dir: match v["dir"].as_str() {
-                    Some("cw") => ArcDir::Cw,
-                    Some("ccw") => ArcDir::Ccw,
-                    other => bail!("canon record {}: unknown arc direction {other:?}", n + 1),
-                },
-                turns: v["turns"].as_u64().unwrap_or(1) as u32,
-                feed: feed(),
-            },
-            "dwell" => match v["seconds"].as_f64() {
-                Some(s) => Action::Dwell {
-                    micros: (s * 1e6).round() as u64,
-                },
-                None => continue,
-            },
-            "error" => {
-                let message = v["message"].as_str().unwrap_or("error").to_string();
-                return Ok((out, Some(ProgramError { line, message })));
-            }
-            _ => continue,
-        };
-        out.push(Canon { line, action });
+    let mut actions = JsonlActions::new(text.as_bytes());
+    let out: Vec<Canon> = actions.by_ref().collect();
+    match actions.failure {
+        Some(e) => Err(e),
+        None => Ok((out, actions.ended)),
     }
-    Ok((out, None))
+}
+
+/// Canonical actions read from canon JSON Lines one record at a time (nothing is kept), up to an
+/// `error` record ([`JsonlActions::ended`]) or a record that does not parse
+/// ([`JsonlActions::failure`]).
+pub struct JsonlActions<R> {
+    lines: std::io::Lines<R>,
+    /// Records read.
+    n: usize,
+    done: bool,
+    /// The `error` record that ended the program.
+    pub ended: Option<ProgramError>,
+    /// Why the text could not be read.
+    pub failure: Option<anyhow::Error>,
+}
+
+impl<R: std::io::BufRead> JsonlActions<R> {
+    pub fn new(reader: R) -> Self {
+        JsonlActions {
+            lines: reader.lines(),
+            n: 0,
+            done: false,
+            ended: None,
+            failure: None,
+        }
+    }
+}
+
+impl<R: std::io::BufRead> Iterator for JsonlActions<R> {
+    type Item = Canon;
+
+    fn next(&mut self) -> Option<Canon> {
+        while !self.done {
+            let raw = match self.lines.next() {
+                None => break,
+                Some(Err(e)) => {
+                    self.failure = Some(anyhow::Error::new(e).context("canon JSON Lines"));
+                    break;
+                }
+                Some(Ok(raw)) => raw,
+            };
+            self.n += 1;
+            match record(self.n, &raw) {
+                Ok(Record::Skip) => {}
+                Ok(Record::Action(c)) => return Some(c),
+                Ok(Record::Error(e)) => {
+                    self.ended = Some(e);
+                    break;
+                }
+                Err(e) => {
+                    self.failure = Some(e);
+                    break;
+                }
+            }
+        }
+        self.done = true;
+        None
+    }
+}
+
+/// What one canon record holds.
+enum Record {
+    Action(Canon),
+    Error(ProgramError),
+    Skip,
+}
+
+/// Parses record `n` (1-based).
+fn record(n: usize, raw: &str) -> anyhow::Result<Record> {
+    let raw = raw.trim();
+    if raw.is_empty() {
+        return Ok(Record::Skip);
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(raw).with_context(|| format!("canon record {n}"))?;
+    let line = v["line"].as_u64().unwrap_or(0) as u32;
+    let nm3 = |key: &str| -> anyhow::Result<[Nm; 3]> {
+        let a = v[key]
+            .as_array()
+            .with_context(|| format!("canon record {n}: no {key}"))?;
+        let mut p = [0; 3];
+        for (i, slot) in p.iter_mut().enumerate() {
+            let mm = a.get(i).and_then(|x| x.as_f64()).unwrap_or(0.0);
+            *slot = (mm * NM_PER_MM as f64).round() as Nm;
+        }
+        Ok(p)
+    };
+    let pos = |p: [Nm; 3]| -> Pos { [p[0], p[1], p[2], 0, 0, 0] };
+    let feed = || (v["feed"].as_f64().unwrap_or(0.0) * NM_PER_MM as f64).round() as i64;
+    let action = match v["op"].as_str().unwrap_or("") {
+        "rapid" => Action::Rapid {
+            to: pos(nm3("to")?),
+        },
+        "feed" => Action::Feed {
+            to: pos(nm3("to")?),
+            feed: feed(),
+        },
+        "arc" => Action::Arc {
+            to: pos(nm3("to")?),
+            center: nm3("center")?,
+            plane: match v["plane"].as_str() {
+                Some("XY") => Plane::XY,
+                Some("ZX") => Plane::ZX,
+                Some("YZ") => Plane::YZ,
+                other => bail!("canon record {n}: unknown plane {other:?}"),
+            },
+            dir: match v["dir"].as_str() {
+                Some("cw") => ArcDir::Cw,
+                Some("ccw") => ArcDir::Ccw,
+                other => bail!("canon record {n}: unknown arc direction {other:?}"),
+            },
+            turns: v["turns"].as_u64().unwrap_or(1) as u32,
+            feed: feed(),
+        },
+        "dwell" => match v["seconds"].as_f64() {
+            Some(s) => Action::Dwell {
+                micros: (s * 1e6).round() as u64,
+            },
+            None => return Ok(Record::Skip),
+        },
+        "error" => {
+            let message = v["message"].as_str().unwrap_or("error").to_string();
+            return Ok(Record::Error(ProgramError { line, message }));
+        }
+        _ => return Ok(Record::Skip),
+    };
+    Ok(Record::Action(Canon { line, action }))
 }
 
 #[cfg(test)]

@@ -6,13 +6,22 @@
 //! ([`raster`]), with an embedded font, so it looks the same everywhere.
 //!
 //! Pipeline: program → canonical actions (the core's interpreter, or canon JSON Lines for
-//! `.jsonl` files) → [`adapt`] → [`PreviewJob`] → [`plan`] (planned speeds and time, when the
-//! planner accepts the program) → [`render`].
+//! `.jsonl` files) → [`adapt`] → moves → [`pass`] (each move's planned speed and the job's time,
+//! when the planner accepts the program) → [`svg`] / [`lanes`] / [`raster`].
+//!
+//! `gantry preview` ([`run`]) reads the file twice and keeps no moves: the first pass sums the job
+//! up ([`svg::StatsBuilder`]: extents, speed range, lengths, time), which fixes the picture's frame
+//! ([`svg::Frame`]); the second draws each move into its view's lane as it comes ([`lanes`]).
+//! Memory stays bounded whatever the program's length: the planner's look-ahead, one chunk of
+//! SVG text per lane and, for PNG, one pixmap per view and lane. [`PreviewJob`] (every move in
+//! memory) remains for callers that build a job themselves and for tests.
 
 pub mod adapt;
 pub mod colour;
 pub mod geom;
+pub mod lanes;
 pub mod model;
+pub mod pass;
 pub mod plan;
 pub mod raster;
 pub mod source;
@@ -25,6 +34,7 @@ pub use view::View;
 
 use anyhow::{bail, Context};
 use gantry_machine::setup::Setup;
+use std::io::Write as _;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -53,10 +63,21 @@ impl Format {
 
 /// Renders a job into the bytes of an SVG or PNG file. Pure: no files, no interpreter.
 pub fn render(job: &PreviewJob, format: Format, opts: &RenderOptions) -> anyhow::Result<Vec<u8>> {
-    let (text, _) = svg::render_svg(job, opts);
     match format {
-        Format::Svg => Ok(text.into_bytes()),
-        Format::Png => raster::svg_to_png(&text),
+        Format::Svg => Ok(svg::render_svg(job, opts).0.into_bytes()),
+        Format::Png => {
+            let frame = svg::Frame::new(job, &svg::Stats::of(job), opts);
+            let mut lanes = lanes::PngLanes::new(&frame)?;
+            for m in &job.moves {
+                for k in lanes::lanes_of(&frame, svg::Lane::of(m)) {
+                    lanes.put(k, &frame.element(frame.lanes[k].panel, m))?;
+                }
+            }
+            lanes
+                .finish()?
+                .encode_png()
+                .context("encoding the preview PNG")
+        }
     }
 }
 
@@ -87,14 +108,7 @@ pub fn job_from_program(
     }
     let (canon, error) =
         adapt::canon_from_jsonl(std::str::from_utf8(program).context("canon JSON Lines")?)?;
-    let mut job = adapt::from_canon(&canon, setup, title);
-    let note = match plan::plan(&canon, setup) {
-        Ok(p) => {
-            plan::apply(&mut job, &p);
-            None
-        }
-        Err(e) => Some(planner_note(&e)),
-    };
+    let (job, note) = job_from_actions(canon.into_iter(), setup, title);
     Ok(Prepared { job, error, note })
 }
 
@@ -104,71 +118,119 @@ fn planner_note(e: &anyhow::Error) -> String {
 
 /// Builds the preview job of the program in `src` in one pass: each action becomes a move as it
 /// is interpreted and goes to the planner at once (the moves are kept, for drawing; the actions
-/// and the program text are not).
+/// and the program text are not). `gantry preview` itself keeps no moves ([`run`]).
 pub fn job_from_source<S: gantry_machine::gcode::ProgramSource>(
     src: S,
     setup: &Setup,
     title: &str,
 ) -> Prepared {
     let mut actions = source::Actions::new(src, &setup.interp_config());
-    let mut adapter = adapt::MoveAdapter::new(setup);
-    let mut moves = Vec::new();
-    let mut peaks = plan::Peaks::default();
-    let planned = {
-        let mut each = actions.by_ref().inspect(|c| {
-            if let Some(m) = adapter.take(c) {
-                moves.push(m);
-            }
-        });
-        let planned = plan::plan_stream(each.by_ref(), setup, &mut |r, _| peaks.add(r));
-        if planned.is_err() {
-            each.for_each(drop);
-        }
-        planned
-    };
+    let (job, note) = job_from_actions(actions.by_ref(), setup, title);
     let error = source::ended_error(&actions.ended, "preview");
-    let mut job = PreviewJob {
+    Prepared { job, error, note }
+}
+
+/// The job of `actions`, with every move, and the planner's note.
+fn job_from_actions(
+    actions: impl Iterator<Item = gantry_machine::canon::Canon>,
+    setup: &Setup,
+    title: &str,
+) -> (PreviewJob, Option<String>) {
+    let mut moves = Vec::new();
+    let end = pass::each_move(actions, setup, true, &mut |m, peak| moves.push((*m, peak)));
+    let (mut job, note) = heading(title, setup, &end);
+    let planned = job.speed_source == SpeedSource::Planned;
+    job.moves = moves
+        .into_iter()
+        .map(|(m, peak)| if planned { with_peak(&m, peak) } else { m })
+        .collect();
+    (job, note)
+}
+
+/// A move coloured by its planned peak speed, when it has one.
+fn with_peak(m: &PreviewMove, peak: Option<f64>) -> PreviewMove {
+    PreviewMove {
+        speed_mm_min: peak.or(m.speed_mm_min),
+        ..*m
+    }
+}
+
+/// Everything of a job but its moves, after a pass over it (planned figures when the planner
+/// accepted the whole program), and the planner's note.
+fn heading(title: &str, setup: &Setup, end: &pass::PassEnd) -> (PreviewJob, Option<String>) {
+    let (total, source, note) = match &end.planned {
+        Some(Ok(counts)) => (plan::seconds(*counts), SpeedSource::Planned, None),
+        Some(Err(note)) => (end.estimate_s, SpeedSource::Programmed, Some(note.clone())),
+        None => (end.estimate_s, SpeedSource::Programmed, None),
+    };
+    let job = PreviewJob {
         title: title.to_string(),
-        moves,
-        total_time_s: Some(adapter.seconds),
-        speed_source: SpeedSource::Programmed,
+        moves: Vec::new(),
+        total_time_s: Some(total),
+        speed_source: source,
         travel: Some(Box3::travel(setup)),
     };
-    let note = match planned {
-        Ok(counts) => {
-            let p = plan::Plan {
-                peak_mm_min: peaks.0,
-                total_time_s: plan::seconds(counts),
-            };
-            plan::apply(&mut job, &p);
-            None
+    (job, note)
+}
+
+/// A program file, read once per pass (G-code, or canon JSON Lines for `.jsonl` files).
+struct ProgramFile<'a> {
+    path: &'a Path,
+    jsonl: bool,
+    setup: &'a Setup,
+}
+
+impl ProgramFile<'_> {
+    /// One pass over the program (see [`pass::each_move`]); also returns the error that ended
+    /// it early.
+    fn pass(
+        &self,
+        planning: bool,
+        each: &mut dyn FnMut(&PreviewMove, Option<f64>),
+    ) -> anyhow::Result<(pass::PassEnd, Option<ProgramError>)> {
+        let cannot = || format!("cannot read {}", self.path.display());
+        if self.jsonl {
+            let file = std::fs::File::open(self.path).with_context(cannot)?;
+            let mut actions = adapt::JsonlActions::new(std::io::BufReader::new(file));
+            let end = pass::each_move(actions.by_ref(), self.setup, planning, each);
+            if let Some(e) = actions.failure.take() {
+                return Err(e);
+            }
+            return Ok((end, actions.ended.take()));
         }
-        Err((c, e)) => Some(planner_note(&anyhow::anyhow!(
-            "line {}: planner refused the move: {e:?}",
-            c.line
-        ))),
-    };
-    Prepared { job, error, note }
+        let src = source::FileSource::open(self.path).with_context(cannot)?;
+        let mut actions = source::Actions::new(src, &self.setup.interp_config());
+        let end = pass::each_move(actions.by_ref(), self.setup, planning, each);
+        Ok((end, source::ended_error(&actions.ended, "preview")))
+    }
 }
 
 /// Runs `gantry preview FILE -o OUT`: exit code 0, or 1 when the program has an error (the
 /// picture then shows it up to the error).
+///
+/// Two passes over the file, each in constant memory: the first sums the job up (extents, speed
+/// range, lengths, time: [`svg::StatsBuilder`]), the second draws each move as it comes into its
+/// view's lane ([`lanes`]); no move is kept beyond the planner's look-ahead.
 pub fn run(file: &Path, out: &Path, setup: &Setup) -> anyhow::Result<ExitCode> {
     let format = Format::from_path(out)?;
-    let jsonl = file.extension().is_some_and(|e| e == "jsonl");
+    let program = ProgramFile {
+        path: file,
+        jsonl: file.extension().is_some_and(|e| e == "jsonl"),
+        setup,
+    };
     let title = file
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let Prepared { job, error, note } = if jsonl {
-        let program =
-            std::fs::read(file).with_context(|| format!("cannot read {}", file.display()))?;
-        job_from_program(&program, jsonl, setup, &title)?
-    } else {
-        let src = source::FileSource::open(file)
-            .with_context(|| format!("cannot read {}", file.display()))?;
-        job_from_source(src, setup, &title)
-    };
+    let mut planned = svg::StatsBuilder::default();
+    let mut programmed = svg::StatsBuilder::default();
+    let (end, error) = program.pass(true, &mut |m, peak| {
+        programmed.add(m);
+        planned.add(&with_peak(m, peak));
+    })?;
+    let (job, note) = heading(&title, setup, &end);
+    let planning = job.speed_source == SpeedSource::Planned;
+    let stats = if planning { planned } else { programmed }.finish();
     if let Some(n) = note {
         eprintln!("gantry preview: {n}");
     }
@@ -180,17 +242,58 @@ pub fn run(file: &Path, out: &Path, setup: &Setup) -> anyhow::Result<ExitCode> {
             e.message
         );
     }
-    let bytes = render(&job, format, &RenderOptions::default())?;
-    std::fs::write(out, &bytes).with_context(|| format!("cannot write {}", out.display()))?;
+    let frame = svg::Frame::new(&job, &stats, &RenderOptions::default());
+    let mut failed = None;
+    let mut draw = |put: &mut dyn FnMut(usize, &str) -> anyhow::Result<()>| {
+        program.pass(planning, &mut |m, peak| {
+            let m = if planning { with_peak(m, peak) } else { *m };
+            for k in lanes::lanes_of(&frame, svg::Lane::of(&m)) {
+                if failed.is_none() {
+                    failed = put(k, &frame.element(frame.lanes[k].panel, &m)).err();
+                }
+            }
+        })
+    };
+    let write = |bytes: &[u8]| {
+        std::fs::write(out, bytes).with_context(|| format!("cannot write {}", out.display()))
+    };
+    match format {
+        Format::Svg => {
+            let mut parts = lanes::SvgLanes::new(frame.lanes.len())?;
+            draw(&mut |k, e| parts.put(k, e))?;
+            if let Some(e) = failed {
+                return Err(e);
+            }
+            let file = std::fs::File::create(out)
+                .with_context(|| format!("cannot write {}", out.display()))?;
+            let mut w = std::io::BufWriter::new(file);
+            parts.write_document(&frame, &mut w)?;
+            w.flush()
+                .with_context(|| format!("cannot write {}", out.display()))?;
+        }
+        Format::Png => {
+            let mut pixmaps = lanes::PngLanes::new(&frame)?;
+            draw(&mut |k, e| pixmaps.put(k, e))?;
+            if let Some(e) = failed {
+                return Err(e);
+            }
+            let png = pixmaps
+                .finish()?
+                .encode_png()
+                .context("encoding the preview PNG")?;
+            write(&png)?;
+        }
+    }
+    let size = std::fs::metadata(out).map(|m| m.len()).unwrap_or(0);
     println!(
         "{}: {} moves, total time {} → {} ({} bytes)",
         file.display(),
-        job.moves.len(),
+        stats.rapids + stats.feeds + stats.arcs,
         job.total_time_s
             .map(svg::fmt_duration)
             .unwrap_or_else(|| "unknown".into()),
         out.display(),
-        bytes.len()
+        size
     );
     Ok(if error.is_some() {
         ExitCode::from(1)

@@ -16,13 +16,19 @@ fn fonts() -> fontdb::Database {
     db
 }
 
-/// Rasterises an SVG document at its own size and returns the pixmap.
-pub fn rasterise(svg: &str) -> anyhow::Result<Pixmap> {
+/// Parsing options: DejaVu Sans as the default and only font.
+pub fn options() -> usvg::Options<'static> {
     let mut opt = usvg::Options {
         font_family: "DejaVu Sans".into(),
         ..Default::default()
     };
     *opt.fontdb_mut() = fonts();
+    opt
+}
+
+/// Rasterises an SVG document at its own size and returns the pixmap.
+pub fn rasterise(svg: &str) -> anyhow::Result<Pixmap> {
+    let opt = options();
     let tree = usvg::Tree::from_str(svg, &opt).context("parsing the preview SVG")?;
     let size = tree.size().to_int_size();
     let mut pixmap =

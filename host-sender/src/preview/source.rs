@@ -7,6 +7,7 @@
 use super::model::{Interpreted, ProgramError};
 use crate::program::WireTextError;
 use gantry_machine::canon::Canon;
+use gantry_machine::gcode::source::{find_target, leading_number};
 use gantry_machine::gcode::{
     GcodeError, InterpConfig, Interpreter, MemorySource, ProgramSource, SourceError,
 };
@@ -79,23 +80,18 @@ impl FileSource {
     }
 
     /// The first line (number, offset) from the start matching `matches`, and whether a second
-    /// one does too. Leaves the reader at the end of the file (callers seek afterwards).
+    /// one does too (the core's scan, [`find_target`]). Leaves the reader past the lines read
+    /// (callers seek afterwards).
     fn find(&mut self, matches: impl Fn(&[u8]) -> bool) -> (Option<(u32, u64)>, bool) {
         self.seek_back(1, 0);
-        let mut found = None;
-        loop {
+        find_target(|| {
             let (line, offset) = (self.line, self.offset);
             if !self.read_line() {
-                return (found, false);
+                return None;
             }
             self.line += 1;
-            if matches(&self.buf) {
-                if found.is_some() {
-                    return (found, true);
-                }
-                found = Some((line, offset));
-            }
-        }
+            Some((line, offset, matches(&self.buf)))
+        })
     }
 }
 
@@ -192,35 +188,6 @@ impl FileSource {
         self.line = line;
         self.offset = offset;
     }
-}
-
-/// The number after a leading letter (`O`/`:` or `N`) at the start of a line, blanks and a
-/// block-delete slash skipped: the rule of the core's `MemorySource`
-/// (machine/src/gcode/source.rs), which does not export it.
-fn leading_number(line: &[u8], letters: &[u8]) -> Option<u32> {
-    let mut rest = line
-        .iter()
-        .skip_while(|&&c| c == b' ' || c == b'\t' || c == b'/');
-    let first = rest.next()?;
-    if !letters.contains(&first.to_ascii_uppercase()) {
-        return None;
-    }
-    let mut v: u64 = 0;
-    let mut digits = 0;
-    for &c in rest {
-        match c {
-            b'0'..=b'9' => {
-                v = v * 10 + u64::from(c - b'0');
-                digits += 1;
-                if digits > 9 {
-                    return None;
-                }
-            }
-            b' ' | b'\t' => {}
-            _ => break,
-        }
-    }
-    (digits > 0).then_some(v as u32)
 }
 
 /// Recent lines kept for error reports.

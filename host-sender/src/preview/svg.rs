@@ -1,4 +1,6 @@
 //! Renders a [`PreviewJob`] as an SVG document: the four views in a 2×2 grid and a legend panel.
+//! Everything but the moves ([`Frame`]) depends only on the job's figures ([`Stats`], which
+//! [`StatsBuilder`] sums up one move at a time), so the moves can be streamed into it.
 //!
 //! Every move becomes one `<path>` per view (`class="rapid"` with a dash pattern, or `class="feed"`
 //! / `class="arc"` stroked in its speed colour, `data-line` holding the source line); arcs are
@@ -6,10 +8,11 @@
 //! formats always show the same picture.
 
 use super::colour::{colour_at, hex, nice_step, SpeedScale, STOPS};
-use super::geom::{arc_cubics, extents, length};
-use super::model::{Box3, MoveKind, PreviewJob, PreviewMove, SpeedSource};
+use super::geom::{arc_cubics, extend, length};
+use super::model::{Box3, MoveKind, PreviewJob, PreviewMove, SpeedSource, P3};
 use super::view::{Fit, View};
 use std::fmt::Write;
+use std::io::Write as _;
 
 /// Picture size in pixels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -55,41 +58,85 @@ pub struct Stats {
     pub rapid_len_mm: f64,
     pub feed_len_mm: f64,
     pub scale: Option<SpeedScale>,
+    /// Where the first move starts and the last one ends.
+    pub ends: Option<(P3, P3)>,
 }
 
 impl Stats {
     pub fn of(job: &PreviewJob) -> Stats {
-        let mut s = Stats {
-            extents: extents(&job.moves),
-            rapids: 0,
-            feeds: 0,
-            arcs: 0,
-            rapid_len_mm: 0.0,
-            feed_len_mm: 0.0,
-            scale: SpeedScale::from_speeds(
-                job.moves
-                    .iter()
-                    .filter(|m| m.kind != MoveKind::Rapid)
-                    .filter_map(|m| m.speed_mm_min),
-            ),
-        };
+        let mut b = StatsBuilder::default();
         for m in &job.moves {
-            match m.kind {
-                MoveKind::Rapid => {
-                    s.rapids += 1;
-                    s.rapid_len_mm += length(m);
-                }
-                MoveKind::Feed => {
-                    s.feeds += 1;
-                    s.feed_len_mm += length(m);
-                }
-                MoveKind::Arc(_) => {
-                    s.arcs += 1;
-                    s.feed_len_mm += length(m);
-                }
+            b.add(m);
+        }
+        b.finish()
+    }
+}
+
+/// Accumulates [`Stats`] one move at a time, in program order (the sums come out as
+/// [`Stats::of`]'s), so a program can be summed up without keeping its moves.
+#[derive(Clone, Debug)]
+pub struct StatsBuilder {
+    stats: Stats,
+    /// Lowest and highest speed of the feeds and arcs so far, mm/min.
+    speeds: Option<(f64, f64)>,
+}
+
+impl Default for StatsBuilder {
+    fn default() -> Self {
+        StatsBuilder {
+            stats: Stats {
+                extents: Box3::EMPTY,
+                rapids: 0,
+                feeds: 0,
+                arcs: 0,
+                rapid_len_mm: 0.0,
+                feed_len_mm: 0.0,
+                scale: None,
+                ends: None,
+            },
+            speeds: None,
+        }
+    }
+}
+
+impl StatsBuilder {
+    pub fn add(&mut self, m: &PreviewMove) {
+        let s = &mut self.stats;
+        extend(&mut s.extents, m);
+        s.ends = Some((s.ends.map_or(m.from, |e| e.0), m.to));
+        match m.kind {
+            MoveKind::Rapid => {
+                s.rapids += 1;
+                s.rapid_len_mm += length(m);
+            }
+            MoveKind::Feed => {
+                s.feeds += 1;
+                s.feed_len_mm += length(m);
+            }
+            MoveKind::Arc(_) => {
+                s.arcs += 1;
+                s.feed_len_mm += length(m);
             }
         }
-        s
+        if let Some(v) = m
+            .speed_mm_min
+            .filter(|v| v.is_finite() && m.kind != MoveKind::Rapid)
+        {
+            self.speeds = Some(
+                self.speeds
+                    .map_or((v, v), |(lo, hi)| (lo.min(v), hi.max(v))),
+            );
+        }
+    }
+
+    pub fn finish(self) -> Stats {
+        let scale = self
+            .speeds
+            .and_then(|(lo, hi)| SpeedScale::from_speeds([lo, hi]));
+        Stats {
+            scale,
+            ..self.stats
+        }
     }
 }
 
@@ -105,39 +152,158 @@ const MUTED: &str = "#6c757d";
 
 /// Renders the job; returns the SVG text and where each view went.
 pub fn render_svg(job: &PreviewJob, opts: &RenderOptions) -> (String, Layout) {
-    let stats = Stats::of(job);
-    let (w, h) = (opts.width as f64, opts.height as f64);
-    let legend_w = (w * 0.25).clamp(240.0, 340.0);
-    let layout = layout(job, &stats, w - legend_w, h, opts);
+    let frame = Frame::new(job, &Stats::of(job), opts);
+    let mut s = Vec::with_capacity(frame.body.len() + 4096 + job.moves.len() * 4 * 96);
+    let _ = frame.write(&mut s, &mut |s, mark| {
+        for m in job.moves.iter().filter(|m| Lane::of(m) == mark.lane) {
+            s.write_all(frame.element(mark.panel, m).as_bytes())?;
+        }
+        Ok(())
+    });
+    let text = String::from_utf8(s).expect("the SVG is text");
+    (text, frame.layout)
+}
 
-    let mut s = String::with_capacity(4096 + job.moves.len() * 4 * 96);
-    let _ = write!(
-        s,
-        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="{FONT}">
-<rect width="{w}" height="{h}" fill="#ffffff"/>
-<defs>
-<linearGradient id="speed" x1="0" y1="0" x2="1" y2="0">
-"##
-    );
-    for (f, c) in STOPS {
-        let _ = writeln!(s, r#"<stop offset="{f}" stop-color="{}"/>"#, hex(c));
+/// The two groups each view draws its moves in: rapids first (dashed, underneath), then feeds and
+/// arcs in their speed colours.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lane {
+    Rapids,
+    Feeds,
+}
+
+impl Lane {
+    pub fn of(m: &PreviewMove) -> Lane {
+        if m.kind == MoveKind::Rapid {
+            Lane::Rapids
+        } else {
+            Lane::Feeds
+        }
     }
-    s.push_str("</linearGradient>\n");
-    for (i, p) in layout.panels.iter().enumerate() {
-        let [x, y, pw, ph] = p.plot;
-        let _ = writeln!(
-            s,
-            r#"<clipPath id="clip{i}"><rect x="{x:.1}" y="{y:.1}" width="{pw:.1}" height="{ph:.1}"/></clipPath>"#
+
+    /// The index of a view's lane in [`Frame::lanes`].
+    pub fn index(self, panel: usize) -> usize {
+        panel * 2 + self as usize
+    }
+}
+
+/// Where one view's moves of one lane go in the [`Frame`]'s body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LaneMark {
+    /// Byte offset in the body.
+    pub at: usize,
+    pub panel: usize,
+    pub lane: Lane,
+    /// The `<g …>` tags open at that point, outermost first.
+    pub groups: Vec<String>,
+}
+
+impl LaneMark {
+    /// Its index in [`Frame::lanes`].
+    pub fn index(&self) -> usize {
+        self.lane.index(self.panel)
+    }
+}
+
+/// The whole picture but the moves: what the document holds, and where each lane of moves goes.
+/// Built from a job's figures ([`Stats`], the title, time and travel box) alone, so the moves can
+/// be streamed into it afterwards ([`Frame::write`], [`super::raster`]).
+#[derive(Clone, Debug)]
+pub struct Frame {
+    pub layout: Layout,
+    /// The `<svg …>` tag.
+    pub open: String,
+    /// The white background.
+    pub background: String,
+    /// `<defs>…</defs>`: the speed gradient and the views' clip paths.
+    pub defs: String,
+    /// The rest of the document, without the closing `</svg>`.
+    pub body: String,
+    /// Lane positions in the body, in order: view 0 rapids, view 0 feeds, view 1 rapids, …
+    pub lanes: Vec<LaneMark>,
+    scale: Option<SpeedScale>,
+}
+
+impl Frame {
+    /// The frame of `job` (its moves are not looked at: `stats` sums them up).
+    pub fn new(job: &PreviewJob, stats: &Stats, opts: &RenderOptions) -> Frame {
+        let (w, h) = (opts.width as f64, opts.height as f64);
+        let legend_w = (w * 0.25).clamp(240.0, 340.0);
+        let layout = layout(job, stats, w - legend_w, h, opts);
+
+        let open = format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="{FONT}">
+"#
         );
-    }
-    s.push_str("</defs>\n");
+        let background = format!(
+            r##"<rect width="{w}" height="{h}" fill="#ffffff"/>
+"##
+        );
+        let mut defs = String::from(
+            r#"<defs>
+<linearGradient id="speed" x1="0" y1="0" x2="1" y2="0">
+"#,
+        );
+        for (f, c) in STOPS {
+            let _ = writeln!(defs, r#"<stop offset="{f}" stop-color="{}"/>"#, hex(c));
+        }
+        defs.push_str("</linearGradient>\n");
+        for (i, p) in layout.panels.iter().enumerate() {
+            let [x, y, pw, ph] = p.plot;
+            let _ = writeln!(
+                defs,
+                r#"<clipPath id="clip{i}"><rect x="{x:.1}" y="{y:.1}" width="{pw:.1}" height="{ph:.1}"/></clipPath>"#
+            );
+        }
+        defs.push_str("</defs>\n");
 
-    for (i, p) in layout.panels.iter().enumerate() {
-        draw_panel(&mut s, job, &stats, p, i);
+        let mut body = String::new();
+        let mut lanes = Vec::new();
+        for (i, p) in layout.panels.iter().enumerate() {
+            draw_panel(&mut body, &mut lanes, job, stats, p, i);
+        }
+        draw_legend(
+            &mut body,
+            job,
+            stats,
+            w - legend_w + 4.0,
+            legend_w - 16.0,
+            h,
+        );
+        Frame {
+            layout,
+            open,
+            background,
+            defs,
+            body,
+            lanes,
+            scale: stats.scale,
+        }
     }
-    draw_legend(&mut s, job, &stats, w - legend_w + 4.0, legend_w - 16.0, h);
-    s.push_str("</svg>\n");
-    (s, layout)
+
+    /// The SVG element of move `m` in view `panel` (one line).
+    pub fn element(&self, panel: usize, m: &PreviewMove) -> String {
+        move_element(&self.layout.panels[panel].fit, self.scale, m)
+    }
+
+    /// Writes the document, calling `lane` where each lane's moves go.
+    pub fn write<W: std::io::Write>(
+        &self,
+        out: &mut W,
+        lane: &mut dyn FnMut(&mut W, &LaneMark) -> std::io::Result<()>,
+    ) -> std::io::Result<()> {
+        out.write_all(self.open.as_bytes())?;
+        out.write_all(self.background.as_bytes())?;
+        out.write_all(self.defs.as_bytes())?;
+        let mut from = 0;
+        for mark in &self.lanes {
+            out.write_all(&self.body.as_bytes()[from..mark.at])?;
+            lane(out, mark)?;
+            from = mark.at;
+        }
+        out.write_all(&self.body.as_bytes()[from..])?;
+        out.write_all(b"</svg>\n")
+    }
 }
 
 /// Places the four views: top and isometric above, front and side below (front under top, so X
@@ -222,7 +388,14 @@ fn padded(b: Box3) -> Box3 {
     }
 }
 
-fn draw_panel(s: &mut String, job: &PreviewJob, stats: &Stats, p: &Panel, index: usize) {
+fn draw_panel(
+    s: &mut String,
+    lanes: &mut Vec<LaneMark>,
+    job: &PreviewJob,
+    stats: &Stats,
+    p: &Panel,
+    index: usize,
+) {
     let [x, y, w, h] = p.plot;
     let fit = &p.fit;
     let box_ = if p.view == View::Iso {
@@ -230,9 +403,10 @@ fn draw_panel(s: &mut String, job: &PreviewJob, stats: &Stats, p: &Panel, index:
     } else {
         [x - 52.0, y - 26.0, w + 66.0, h + 54.0]
     };
+    let view_group = format!(r#"<g class="view" id="view-{index}">"#);
     let _ = writeln!(
         s,
-        r##"<g class="view" id="view-{index}"><rect x="{:.1}" y="{:.1}" width="{:.1}" height="{:.1}" rx="4" fill="#ffffff" stroke="#dee2e6"/>"##,
+        r##"{view_group}<rect x="{:.1}" y="{:.1}" width="{:.1}" height="{:.1}" rx="4" fill="#ffffff" stroke="#dee2e6"/>"##,
         box_[0], box_[1], box_[2], box_[3]
     );
     text(
@@ -271,7 +445,8 @@ fn draw_panel(s: &mut String, job: &PreviewJob, stats: &Stats, p: &Panel, index:
     } else {
         draw_triad(s, p);
     }
-    let _ = writeln!(s, r#"<g clip-path="url(#clip{index})">"#);
+    let clip_group = format!(r#"<g clip-path="url(#clip{index})">"#);
+    let _ = writeln!(s, "{clip_group}");
     let travel = job.travel.filter(|t| !t.is_empty());
     if let Some(t) = &travel {
         draw_outside_travel(s, p, t);
@@ -289,12 +464,22 @@ fn draw_panel(s: &mut String, job: &PreviewJob, stats: &Stats, p: &Panel, index:
         );
         s.push('\n');
     }
-    draw_moves(s, job, stats, fit);
+    for (lane, group) in [(Lane::Rapids, RAPIDS_GROUP), (Lane::Feeds, FEEDS_GROUP)] {
+        s.push_str(group);
+        s.push('\n');
+        lanes.push(LaneMark {
+            at: s.len(),
+            panel: index,
+            lane,
+            groups: vec![view_group.clone(), clip_group.clone(), group.to_string()],
+        });
+        s.push_str("</g>\n");
+    }
     // In the flat views the outline goes on top, so a job that covers it cannot hide it.
     if let Some(t) = travel.filter(|_| p.view != View::Iso) {
         draw_travel(s, p, &t, &stats.extents);
     }
-    draw_markers(s, job, fit);
+    draw_markers(s, stats, fit);
     s.push_str("</g></g>\n");
 }
 
@@ -444,48 +629,42 @@ fn box_edges(fit: &Fit, b: &Box3) -> String {
     d
 }
 
-/// Rapids first (dashed, underneath), then feeds and arcs in their speed colours.
-fn draw_moves(s: &mut String, job: &PreviewJob, stats: &Stats, fit: &Fit) {
-    s.push_str(r#"<g class="rapids" fill="none" stroke-width="1" stroke-linecap="butt">"#);
-    s.push('\n');
-    for m in job.moves.iter().filter(|m| m.kind == MoveKind::Rapid) {
-        let _ = writeln!(
-            s,
-            r#"<path class="rapid" data-line="{}" stroke="{RAPID_COLOUR}" stroke-dasharray="{RAPID_DASH}" d="{}"/>"#,
+const RAPIDS_GROUP: &str =
+    r#"<g class="rapids" fill="none" stroke-width="1" stroke-linecap="butt">"#;
+const FEEDS_GROUP: &str = r#"<g class="feeds" fill="none" stroke-width="1.8" stroke-linecap="round" stroke-linejoin="round">"#;
+
+/// The `<path>` line of one move in one view: rapids dashed, feeds and arcs in their speed colour.
+fn move_element(fit: &Fit, scale: Option<SpeedScale>, m: &PreviewMove) -> String {
+    if m.kind == MoveKind::Rapid {
+        return format!(
+            r#"<path class="rapid" data-line="{}" stroke="{RAPID_COLOUR}" stroke-dasharray="{RAPID_DASH}" d="{}"/>
+"#,
             m.line,
             path_data(fit, m)
         );
     }
-    s.push_str("</g>\n");
-    s.push_str(
-        r#"<g class="feeds" fill="none" stroke-width="1.8" stroke-linecap="round" stroke-linejoin="round">"#,
-    );
-    s.push('\n');
-    for m in job.moves.iter().filter(|m| m.kind != MoveKind::Rapid) {
-        let class = if matches!(m.kind, MoveKind::Arc(_)) {
-            "arc"
-        } else {
-            "feed"
-        };
-        let colour = match (m.speed_mm_min, stats.scale) {
-            (Some(v), Some(sc)) => hex(sc.colour(v)),
-            _ => NO_SPEED_COLOUR.to_string(),
-        };
-        let _ = writeln!(
-            s,
-            r#"<path class="{class}" data-line="{}" stroke="{colour}" d="{}"/>"#,
-            m.line,
-            path_data(fit, m)
-        );
-    }
-    s.push_str("</g>\n");
+    let class = if matches!(m.kind, MoveKind::Arc(_)) {
+        "arc"
+    } else {
+        "feed"
+    };
+    let colour = match (m.speed_mm_min, scale) {
+        (Some(v), Some(sc)) => hex(sc.colour(v)),
+        _ => NO_SPEED_COLOUR.to_string(),
+    };
+    format!(
+        r#"<path class="{class}" data-line="{}" stroke="{colour}" d="{}"/>
+"#,
+        m.line,
+        path_data(fit, m)
+    )
 }
 
 /// Program start (green dot) and end (black square).
-fn draw_markers(s: &mut String, job: &PreviewJob, fit: &Fit) {
-    if let (Some(first), Some(last)) = (job.moves.first(), job.moves.last()) {
-        let (ax, ay) = fit.px(first.from);
-        let (bx, by) = fit.px(last.to);
+fn draw_markers(s: &mut String, stats: &Stats, fit: &Fit) {
+    if let Some((first, last)) = stats.ends {
+        let (ax, ay) = fit.px(first);
+        let (bx, by) = fit.px(last);
         let _ = writeln!(
             s,
             r##"<circle class="start" cx="{ax:.1}" cy="{ay:.1}" r="4" fill="#2f9e44" stroke="#ffffff"/>"##

@@ -112,21 +112,35 @@ impl<'a> MemorySource<'a> {
     }
 
     fn find<F: Fn(&[u8]) -> bool>(&self, matches: F) -> (Option<(u32, usize)>, bool) {
-        let mut found = None;
-        for (line, offset, bytes) in self.lines() {
-            if matches(bytes) {
-                if found.is_some() {
-                    return (found, true);
-                }
-                found = Some((line, offset));
-            }
-        }
-        (found, false)
+        let mut lines = self.lines();
+        find_target(|| lines.next().map(|(l, o, bytes)| (l, o, matches(bytes))))
     }
 }
 
-/// The number after a leading letter (`O`/`:` or `N`) at the start of a line, spaces skipped.
-pub(crate) fn leading_number(line: &[u8], letters: &[u8]) -> Option<u32> {
+/// The scan behind a jump: pulls (line number, position, whether the line is the target) from
+/// `next_line` until the end, and returns the first target's line and position, and whether a
+/// second target follows (the scan stops there). Shared by [`MemorySource`] and the host's file
+/// source (host-sender/src/preview/source.rs), which read their lines differently.
+pub fn find_target<P>(
+    mut next_line: impl FnMut() -> Option<(u32, P, bool)>,
+) -> (Option<(u32, P)>, bool) {
+    let mut found = None;
+    while let Some((line, position, is_target)) = next_line() {
+        if is_target {
+            if found.is_some() {
+                return (found, true);
+            }
+            found = Some((line, position));
+        }
+    }
+    (found, false)
+}
+
+/// The number after a leading letter (`O`/`:` or `N`) at the start of a line, blanks and a
+/// block-delete slash skipped: how a jump finds its target line. Public so that every
+/// [`ProgramSource`] (the host's file source, host-sender/src/preview/source.rs) finds the same
+/// lines as [`MemorySource`].
+pub fn leading_number(line: &[u8], letters: &[u8]) -> Option<u32> {
     let mut i = 0;
     while i < line.len() && (line[i] == b' ' || line[i] == b'\t' || line[i] == b'/') {
         i += 1;

@@ -12,10 +12,9 @@
 #![no_main]
 
 use core::hint::black_box;
-use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
-use cortex_m_rt::{entry, exception};
+use cortex_m_rt::entry;
 use gantry_machine::board::StreamSource;
 use gantry_machine::canon::{Action, Canon};
 use gantry_machine::gcode::block::parse_block;
@@ -25,26 +24,8 @@ use gantry_machine::motion::config::MotionConfig;
 use gantry_machine::motion::kernel::{Segment, SegmentSource, StepKernel, TickOut};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::motion::pipeline::{Motion, PushError};
+use gantry_target_tests::clock::{now, RELOAD};
 use gantry_target_tests::{exit, println};
-
-const RELOAD: u32 = 0x00FF_FFFF;
-static WRAPS: AtomicU32 = AtomicU32::new(0);
-
-#[exception]
-fn SysTick() {
-    WRAPS.fetch_add(1, Ordering::Relaxed);
-}
-
-/// SysTick counts since start (wraps counted by the exception).
-fn now() -> u64 {
-    loop {
-        let w = WRAPS.load(Ordering::Relaxed);
-        let c = SYST::get_current();
-        if WRAPS.load(Ordering::Relaxed) == w {
-            return w as u64 * (RELOAD as u64 + 1) + (RELOAD - c) as u64;
-        }
-    }
-}
 
 /// A segment source that hands out the same segment for ever.
 struct Repeat(Segment);

@@ -26,31 +26,13 @@ use core::hint::black_box;
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
-use cortex_m_rt::{entry, exception};
+use cortex_m_rt::entry;
 use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::setup::DriverSetup;
+use gantry_target_tests::clock::{now, RELOAD};
 use gantry_target_tests::{exit, println};
 use step_body::{PinWords, Run, StepHardware, StepIsr};
-
-const RELOAD: u32 = 0x00FF_FFFF;
-static WRAPS: AtomicU32 = AtomicU32::new(0);
-
-#[exception]
-fn SysTick() {
-    WRAPS.fetch_add(1, Ordering::Relaxed);
-}
-
-/// SysTick counts since start (wraps counted by the exception).
-fn now() -> u64 {
-    loop {
-        let w = WRAPS.load(Ordering::Relaxed);
-        let c = SYST::get_current();
-        if WRAPS.load(Ordering::Relaxed) == w {
-            return w as u64 * (RELOAD as u64 + 1) + (RELOAD - c) as u64;
-        }
-    }
-}
 
 /// Step pins on bits 10..16 and dir pins on bits 0..6 of their ports, as on a board.
 static WORDS: PinWords = PinWords::new(
