@@ -566,7 +566,11 @@ fn feed_falls(port: &str, emu: &Emulator) -> bool {
         let (_, text) = status(port);
         let f = feed(&text);
         fastest = fastest.max(f);
-        low_readings = if f < fastest * 0.9 { low_readings + 1 } else { 0 };
+        low_readings = if f < fastest * 0.9 {
+            low_readings + 1
+        } else {
+            0
+        };
         // Past Run: the stop has ended (too late to hold during it).
         low_readings >= 2 || logged_states(emu).len() > 2
     }) && low_readings >= 2
