@@ -41,19 +41,8 @@ PORT=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); pr
 SERVER=$!
 for _ in $(seq 100); do grep -q '"secret"' "$TMP/cncrc" 2>/dev/null && grep -q 'Starting the server' "$TMP/server.log" && break; sleep 0.2; done
 
-cat > "$TMP/small.nc" <<'NC'
-G21 G90 G17
-G0 X5 Y5
-G1 Z-1 F300
-G1 X25 Y5 F900
-G2 X35 Y15 I0 J10
-G3 X25 Y25 I-10 J0
-G91 G1 X-5 Y-5
-G1 X-5
-G90 G4 P0.1
-G0 Z2
-G0 X12.5 Y7.25
-NC
+# A small program of our own (moves, arcs, relative moves, a dwell), shared by the sender tests.
+cp scripts/grbl-small.nc "$TMP/small.nc"
 ref_steps=$("$GANTRY" stream "$TMP/small.nc" | grep '^steps:' | sed 's/steps: *//; s/  */ /g')
 passed=0
 declare -A pulses

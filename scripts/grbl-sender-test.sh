@@ -25,20 +25,8 @@ GANTRY=target/debug/gantry
 TMP=$(mktemp -d)
 trap 'kill $EMU 2>/dev/null || true; rm -rf "$TMP"' EXIT
 
-# A small program of our own: moves, arcs, relative moves, a dwell.
-cat > "$TMP/small.nc" <<'NC'
-G21 G90 G17
-G0 X5 Y5
-G1 Z-1 F300
-G1 X25 Y5 F900
-G2 X35 Y15 I0 J10
-G3 X25 Y25 I-10 J0
-G91 G1 X-5 Y-5
-G1 X-5
-G90 G4 P0.1
-G0 Z2
-G0 X0 Y0
-NC
+# A small program of our own (moves, arcs, relative moves, a dwell), shared by the sender tests.
+cp scripts/grbl-small.nc "$TMP/small.nc"
 # 10,000 segments of 0.1 mm (a zig-zag of 50 mm rows).
 python3 - "$TMP/long.nc" <<'PY'
 import sys

@@ -8,10 +8,9 @@ mod serial_support;
 use gantry_machine::grbl::{BANNER, RX_SIZE};
 use serial_support::*;
 use std::collections::VecDeque;
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::net::TcpStream;
-use std::process::{Command, Stdio};
-use std::sync::{Arc, Mutex};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 const S: Duration = Duration::from_secs(1);
@@ -81,24 +80,11 @@ fn a_grbl_sender_streams_over_tcp_by_character_counting_like_gantry_stream() {
         emu.last_counts()
     };
 
-    let mut child = Command::new(GANTRY)
-        .args(["emulate", "--tcp", "127.0.0.1:0", "--setup"])
-        .arg(&setup)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let log = Arc::new(Mutex::new(String::new()));
-    let l = log.clone();
-    let err = child.stderr.take().unwrap();
-    std::thread::spawn(move || {
-        for line in BufReader::new(err).lines().map_while(Result::ok) {
-            let mut l = l.lock().unwrap();
-            l.push_str(&line);
-            l.push('\n');
-        }
-    });
+    let (mut child, log) = spawn_logged(
+        Command::new(GANTRY)
+            .args(["emulate", "--tcp", "127.0.0.1:0", "--setup"])
+            .arg(&setup),
+    );
     let log_text = || log.lock().unwrap().clone();
     assert!(wait_for(10 * S, || log_text().contains("board ready on tcp")));
     let port: u16 = {

@@ -67,6 +67,28 @@ pub fn wait_for(limit: Duration, mut done: impl FnMut() -> bool) -> bool {
     done()
 }
 
+/// Starts `cmd` with no stdin or stdout, its stderr collected line by line into the returned
+/// log (the emulator's state lines and messages).
+pub fn spawn_logged(cmd: &mut Command) -> (Child, Arc<Mutex<String>>) {
+    let mut child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let log = Arc::new(Mutex::new(String::new()));
+    let l = log.clone();
+    let err = child.stderr.take().unwrap();
+    std::thread::spawn(move || {
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            let mut l = l.lock().unwrap();
+            l.push_str(&line);
+            l.push('\n');
+        }
+    });
+    (child, log)
+}
+
 /// A `gantry emulate --pty` process (killed at the end of the test).
 pub struct Emulator {
     child: Child,
@@ -94,22 +116,7 @@ impl Emulator {
             cmd.arg("--setup").arg(s);
         }
         cmd.args(args);
-        let mut child = cmd
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let log = Arc::new(Mutex::new(String::new()));
-        let l = log.clone();
-        let err = child.stderr.take().unwrap();
-        std::thread::spawn(move || {
-            for line in BufReader::new(err).lines().map_while(Result::ok) {
-                let mut l = l.lock().unwrap();
-                l.push_str(&line);
-                l.push('\n');
-            }
-        });
+        let (child, log) = spawn_logged(&mut cmd);
         let e = Emulator { child, log, pty };
         assert!(
             e.wait_log(Duration::from_secs(10), |l| l.contains("board ready")),
