@@ -52,6 +52,11 @@ impl Chain {
         })
     }
 
+    /// Where the chain starts.
+    pub fn start(&self) -> Pos {
+        self.start
+    }
+
     /// The programmed end point of the last merged move.
     pub fn end(&self) -> Pos {
         // A chain always holds at least its first move.
