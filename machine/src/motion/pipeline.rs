@@ -406,8 +406,11 @@ impl<const N: usize> Motion<N> {
 
     /// Ends the held-back chain: it becomes the held-back leg ([`Self::finish_leg`]).
     fn end_chain(&mut self) {
-        if let Some(chain) = self.chain.take() {
-            self.finish_leg(chain.start(), chain.end(), chain.line, chain.speed);
+        // Read the chain in place: `take()` would move all its points (1.5 KiB) on every move.
+        if let Some(chain) = self.chain.as_ref() {
+            let (start, end, line, speed) = (chain.start(), chain.end(), chain.line, chain.speed);
+            self.chain = None;
+            self.finish_leg(start, end, line, speed);
         }
     }
 
@@ -415,7 +418,8 @@ impl<const N: usize> Motion<N> {
     /// the corner between them, rounded within the tolerance when [`corner::round`] finds one
     /// (the corner's polygon follows it, reported with the leg's line), and this move becomes
     /// the held-back leg, joined at the corner's last vertex (the planner has room for
-    /// [`BLEND_RESERVE`] blocks).
+    /// [`BLEND_RESERVE`] blocks). Not inlined: it stays out of the plain `G64` path's `push`.
+    #[inline(never)]
     fn finish_leg(&mut self, start: Pos, to: Pos, line: u32, speed: u64) {
         let mut next = Leg {
             start,
@@ -454,6 +458,9 @@ impl<const N: usize> Motion<N> {
     /// Queues the held-back chain and leg as they are (the planner has room for
     /// [`BLEND_RESERVE`] blocks).
     fn flush_blend(&mut self) {
+        if self.chain.is_none() && self.leg.is_none() {
+            return;
+        }
         self.end_chain();
         if let Some(l) = self.leg.take() {
             self.queue_line_at(l.line, &l.to, Some(l.speed), l.entry_sq);
