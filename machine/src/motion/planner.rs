@@ -186,6 +186,9 @@ pub struct LineRequest {
     pub exact_stop_before: bool,
     /// Junction deviation for this corner, nm.
     pub junction_deviation: u64,
+    /// Junction speed² limit to use instead of junction deviation's (the line starts or
+    /// continues a rounded corner, machine/src/motion/corner.rs).
+    pub corner_sq: Option<u64>,
     /// On-the-fly output switched as the line starts.
     pub output: OutputEvent,
 }
@@ -502,7 +505,10 @@ impl<const N: usize> Planner<N> {
             || self.prev_unit.is_none()
             || (self.is_empty() && !self.continuing);
         let junction_sq = match (stop_before, self.prev_unit) {
-            (false, Some(prev)) => junction_limit_sq(cfg, &prev, &unit, req.junction_deviation),
+            (false, Some(prev)) => match req.corner_sq {
+                Some(limit) => limit,
+                None => junction_limit_sq(cfg, &prev, &unit, req.junction_deviation),
+            },
             _ => 0,
         };
         if stop_before {
@@ -723,6 +729,7 @@ mod tests {
             speed: Some(feed_mm_min * NM_PER_MM as u64 / 60),
             exact_stop_before: false,
             junction_deviation: cfg.junction_deviation as u64,
+            corner_sq: None,
             output: OutputEvent::NONE,
         }
     }

@@ -16,7 +16,7 @@ use serde::de::DeserializeOwned;
 
 /// First byte of every blob: the encoding's version. 1 was the first serde/postcard encoding
 /// (without this byte), 2 the hand-written one; 3 is postcard through serde again; 4 adds
-/// `program.tool_change_position` and the grbl front end's section.
+/// `program.tool_change_position`, `path.blend_tolerance` and the grbl front end's section.
 /// Change it whenever the layout changes.
 pub const FORMAT: u8 = 4;
 
