@@ -543,7 +543,12 @@ impl<const N: usize> Planner<N> {
         self.at_mut(off).max_entry_sq = self.max_entry_sq(off);
         self.next_seq = self.next_seq.wrapping_add(1);
         self.add_candidate(off);
-        self.prev_unit = Some(unit);
+        // Written axis by axis rather than as `= Some(unit)`: that assignment compiled to a
+        // `memmove` call on the Cortex-M4.
+        let prev = self.prev_unit.get_or_insert([0; MAX_AXES]);
+        for (p, u) in prev.iter_mut().zip(unit) {
+            *p = u;
+        }
         self.continuing = false;
         true
     }
