@@ -22,7 +22,7 @@
 
 use super::config::MotionConfig;
 use super::planner::{direction, UNIT};
-use super::trig::{atan2, div_i128, isqrt_u128, mul_div, polar, sat_mul};
+use super::trig::{atan2, div_i128, isqrt_u128, mul_div, mul_i128, polar, sat_mul};
 use crate::units::{Pos, MAX_AXES};
 use heapless::Vec;
 
@@ -85,8 +85,8 @@ pub fn round(
     // w: the unit normal of the first move toward the second (2³⁰), (u2 − cos α·u1)/sin α.
     let mut w = [0i64; MAX_AXES];
     for i in 0..axes {
-        let num = i128::from(u2[i]) * one - dot * i128::from(u1[i]);
-        w[i] = div_i128(num, sin_a * unit) as i64;
+        let num = i128::from(u2[i]) * one - mul_i128(dot, i128::from(u1[i]));
+        w[i] = div_i128(num, mul_i128(sin_a, unit)) as i64;
     }
     // Fewest vertices that keep each within the chord tolerance of the arc.
     let chord_tolerance = cfg.chord_tolerance.max(1) as u64;
@@ -103,7 +103,7 @@ pub fn round(
     // Centre: p − t·u1 + r·w.
     let mut center = *p;
     for i in 0..axes {
-        let off = i128::from(r) * i128::from(w[i]) - t * i128::from(u1[i]);
+        let off = i128::from(r) * i128::from(w[i]) - mul_i128(t, i128::from(u1[i]));
         center[i] += div_i128(off, unit) as i64;
     }
     let mut vertices = Vec::new();
@@ -115,14 +115,9 @@ pub fn round(
         let (rc, rs) = polar(big_r, theta);
         let mut v = center;
         for i in 0..axes {
-            let off = i128::from(u1[i]) * i128::from(rs) - i128::from(w[i]) * i128::from(rc);
-            v[i] += div_i128(off, unit) as i64;
+            v[i] += cross_unit(u1[i], rs, w[i], rc) as i64;
             // The vertex's normal (toward the centre): w·cos θ − u1·sin θ.
-            let normal = div_i128(
-                i128::from(w[i]) * i128::from(c) - i128::from(u1[i]) * i128::from(s),
-                unit,
-            )
-            .unsigned_abs() as u64;
+            let normal = cross_unit(w[i], c, u1[i], s).unsigned_abs() as u64;
             if normal > 0 {
                 accel = accel.min(mul_div(cfg.axes[i].accel, UNIT as u64, normal));
             }
@@ -137,6 +132,14 @@ pub fn round(
 }
 
 /// `a − b` per axis.
+/// `(a·b − c·d) / 2³⁰`, truncated toward zero: one copy of the wide products for the vertex
+/// loop's two projections.
+#[inline(never)]
+fn cross_unit(a: i64, b: i64, c: i64, d: i64) -> i128 {
+    let wide = |x: i64, y: i64| i128::from(x) * i128::from(y);
+    div_i128(wide(a, b) - wide(c, d), i128::from(UNIT))
+}
+
 fn sub(a: &Pos, b: &Pos) -> Pos {
     let mut d = [0; MAX_AXES];
     for i in 0..MAX_AXES {
