@@ -294,3 +294,37 @@ impl Params {
         self.named.clear();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keep_compacts_the_kept_entries_in_their_order() {
+        let mut v: heapless::Vec<(u16, Fx), 8> = heapless::Vec::new();
+        for n in [5, 1, 7, 2, 9, 3] {
+            v.push((n, Fx::from(n) * 10)).unwrap();
+        }
+        keep(&mut v, |e| e.0 > 3);
+        assert_eq!(v.as_slice(), &[(5, 50), (7, 70), (9, 90)]);
+        keep(&mut v, |e| e.0 != 5);
+        assert_eq!(v.as_slice(), &[(7, 70), (9, 90)]);
+        keep(&mut v, |_| false);
+        assert!(v.is_empty());
+    }
+
+    #[test]
+    fn a_vacant_parameter_leaves_the_others_in_place() {
+        let mut p = Params::new();
+        let mut s = ModalState::new(&crate::gcode::config::InterpConfig::default());
+        for n in 1..=4u16 {
+            p.write(ParamRef::Numbered(n), Fx::from(n) * ONE, 0, &mut s)
+                .unwrap();
+        }
+        p.make_vacant(ParamRef::Numbered(2)).unwrap();
+        assert!(!p.is_set(2));
+        for n in [1u16, 3, 4] {
+            assert_eq!(p.read(ParamRef::Numbered(n), 0, &s), Ok(Fx::from(n) * ONE));
+        }
+    }
+}
