@@ -454,10 +454,7 @@ impl<const N: usize> Planner<N> {
             }
             events = events.max(steps[i]);
             let d = req.delta[i].unsigned_abs();
-            len_sq += match d.checked_mul(d) {
-                Some(sq) => sq as u128,
-                None => d as u128 * d as u128,
-            };
+            len_sq += u128::from(d) * u128::from(d);
         }
         if events == 0 {
             return true;
