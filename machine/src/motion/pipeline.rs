@@ -754,7 +754,10 @@ impl<const N: usize> Motion<N> {
         let slow = (v * v - corner_sq).div_ceil(two_a).min(remaining);
         let mut corner = here;
         for (c, u) in corner.iter_mut().zip(old.unit) {
-            *c += trig::div_i128(i128::from(u) * i128::from(slow), i128::from(UNIT)) as i64;
+            *c += trig::div_i128(
+                trig::mul_i128(i128::from(u), i128::from(slow)),
+                i128::from(UNIT),
+            ) as i64;
         }
         let Some(to) = target(&corner) else {
             return false;
