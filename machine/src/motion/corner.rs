@@ -63,7 +63,7 @@ pub fn round(
     let unit = i128::from(UNIT);
     let one = unit * unit;
     let dot: i128 = (0..axes)
-        .map(|i| i128::from(u1[i]) * i128::from(u2[i]))
+        .map(|i| mul_i128(i128::from(u1[i]), i128::from(u2[i])))
         .sum();
     // cos(α/2), sin(α/2) in 2³⁰ units.
     let half_cos = isqrt_u128(((one + dot).max(0) >> 1) as u128) as u64;
@@ -103,14 +103,17 @@ pub fn round(
     // Centre: p − t·u1 + r·w.
     let mut center = *p;
     for i in 0..axes {
-        let off = i128::from(r) * i128::from(w[i]) - mul_i128(t, i128::from(u1[i]));
+        let off = mul_i128(i128::from(r), i128::from(w[i])) - mul_i128(t, i128::from(u1[i]));
         center[i] += div_i128(off, unit) as i64;
     }
     let mut vertices = Vec::new();
     let mut accel = u64::MAX;
     for k in 0..n {
         // Vertex k at turning angle (k + ½)·α/n, radius R = r/cos(α/2n) from the centre.
-        let theta = div_i128(i128::from(alpha) * i128::from(2 * k + 1), i128::from(2 * n)) as i64;
+        let theta = div_i128(
+            mul_i128(i128::from(alpha), i128::from(2 * k + 1)),
+            i128::from(2 * n),
+        ) as i64;
         let (c, s) = polar(UNIT, theta);
         let (rc, rs) = polar(big_r, theta);
         let mut v = center;
@@ -136,7 +139,7 @@ pub fn round(
 /// loop's two projections.
 #[inline(never)]
 fn cross_unit(a: i64, b: i64, c: i64, d: i64) -> i128 {
-    let wide = |x: i64, y: i64| i128::from(x) * i128::from(y);
+    let wide = |x: i64, y: i64| mul_i128(i128::from(x), i128::from(y));
     div_i128(wide(a, b) - wide(c, d), i128::from(UNIT))
 }
 
