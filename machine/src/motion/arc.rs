@@ -38,7 +38,8 @@ pub fn plane_axes(plane: Plane) -> (usize, usize, usize) {
 }
 
 fn radius(dx: i64, dy: i64) -> i64 {
-    isqrt_u128((dx as i128 * dx as i128 + dy as i128 * dy as i128) as u128) as i64
+    let sq = |v: i64| mul_i128(v as i128, v as i128);
+    isqrt_u128((sq(dx) + sq(dy)) as u128) as i64
 }
 
 impl ArcChords {

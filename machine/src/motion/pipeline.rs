@@ -548,7 +548,8 @@ impl<const N: usize> Motion<N> {
         let sweep = chords.sweep();
         let r = {
             let (ex, ey) = (to[a0] - center[a0], to[a1] - center[a1]);
-            let r2 = |x: i64, y: i64| (x as i128 * x as i128 + y as i128 * y as i128) as u128;
+            let sq = |v: i64| trig::mul_i128(v as i128, v as i128);
+            let r2 = |x: i64, y: i64| (sq(x) + sq(y)) as u128;
             super::trig::isqrt_u128(r2(sx, sy).max(r2(ex, ey))) as i64
         };
         for k in 0..4i64 {
