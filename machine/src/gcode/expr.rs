@@ -280,7 +280,7 @@ fn checked(v: i128) -> Result<Fx, ErrorCode> {
 
 /// `a × b / ONE` rounded half away from zero.
 pub fn mul(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
-    checked(round_div(a as i128 * b as i128, ONE as i128))
+    checked(round_div(trig::mul_i128(a as i128, b as i128), ONE as i128))
 }
 
 /// `a × ONE / b` rounded half away from zero.

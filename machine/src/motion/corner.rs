@@ -79,7 +79,7 @@ pub fn round(
     }
     // Tangent length r·tan(α/2), sin α and cos α in 2³⁰ units, and α as a binary angle.
     let t = mul_div(r, half_sin, half_cos) as i128;
-    let sin_a = (i128::from(half_sin) * i128::from(half_cos)) >> 29;
+    let sin_a = mul_i128(i128::from(half_sin), i128::from(half_cos)) >> 29;
     let cos_a = dot >> 30;
     let alpha = atan2(sin_a as i64, cos_a as i64);
     // w: the unit normal of the first move toward the second (2³⁰), (u2 − cos α·u1)/sin α.
