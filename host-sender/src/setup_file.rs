@@ -308,6 +308,7 @@ pub struct PathFile {
     pub chord_tolerance: Option<f64>,
     pub arc_segment_angle: Option<f64>,
     pub arc_max_segments: Option<u32>,
+    pub blend_tolerance: Option<f64>,
 }
 
 #[derive(Debug, Default, Deserialize, Serialize)]
@@ -473,6 +474,9 @@ impl SetupFile {
         }
         if let Some(v) = p.arc_max_segments {
             s.path.arc_max_segments = v;
+        }
+        if let Some(v) = p.blend_tolerance {
+            s.path.blend_tolerance = nm("path.blend_tolerance", v, 0.0, 10.0)?;
         }
         let g = &self.program;
         if let Some(d) = &g.dialect {
@@ -967,6 +971,11 @@ pub fn to_toml(s: &Setup) -> String {
         t,
         "arc_max_segments = {}    # 0 = no limit",
         p.arc_max_segments
+    );
+    let _ = writeln!(
+        t,
+        "blend_tolerance = {}   # G64 without P: path tolerance, 0 = off",
+        mm(p.blend_tolerance)
     );
     let g = &s.program;
     let _ = writeln!(t, "\n[program]");

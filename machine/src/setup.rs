@@ -56,6 +56,8 @@ pub struct PathSetup {
     pub arc_segment_angle_mdeg: u32,
     /// Most segments one arc may be cut into (0 = no limit).
     pub arc_max_segments: u32,
+    /// Path tolerance `G64` without P blends with (chords and rounded corners), nm; 0 = off.
+    pub blend_tolerance: Nm,
 }
 
 /// Interpreter settings.
@@ -355,6 +357,7 @@ impl Default for Setup {
                 chord_tolerance: 2_000,
                 arc_segment_angle_mdeg: 0,
                 arc_max_segments: 0,
+                blend_tolerance: 0,
             },
             program: ProgramSetup {
                 dialect: Dialect::Rs274,

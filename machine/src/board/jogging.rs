@@ -227,7 +227,10 @@ impl Board {
                 dirs[axis as usize] = jog::analog_speed(stick[ch], self.setup.inputs.adc_max, j);
             }
         }
-        let sq: u128 = dirs.iter().map(|&v| (v as i128 * v as i128) as u128).sum();
+        let sq: u128 = dirs
+            .iter()
+            .map(|&v| crate::motion::trig::mul_i128(v as i128, v as i128) as u128)
+            .sum();
         (sq != 0).then(|| StickMove {
             dirs,
             feed: jog::isqrt(sq) as i64,

@@ -153,8 +153,13 @@ impl<const N: usize> StreamSource<N> {
 
 impl<const N: usize> ProgramSource for StreamSource<N> {
     fn next_line(&mut self) -> Option<(u32, &[u8])> {
-        let (n, text) = self.lines.pop_front()?;
-        self.current = text;
+        // Copied from the front in place, then popped: moving the popped `String` into
+        // `current` compiled to a `memmove` (the firmware's only other user of it).
+        let (n, text) = self.lines.front()?;
+        let n = *n;
+        self.current.clear();
+        let _ = self.current.push_str(text); // same capacity: always fits
+        self.lines.pop_front();
         self.last_out = Some(n);
         Some((n, self.current.as_bytes()))
     }

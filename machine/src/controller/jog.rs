@@ -13,7 +13,7 @@
 
 use super::inputs::{InputBits, Signal};
 use crate::motion::config::MotionConfig;
-use crate::motion::trig::div_i128;
+use crate::motion::trig::{div_i128, mul_i128};
 use crate::setup::JogSetup;
 use crate::units::{Nm, Pos, MAX_AXES};
 
@@ -106,13 +106,13 @@ pub fn jog_target(
                     _ => a.travel_max - a.travel_min,
                 };
                 let (r, w) = (i128::from(room.max(0)), i128::from(dirs[i].abs()));
-                if best.is_none_or(|(br, bw)| r * bw < br * w) {
+                if best.is_none_or(|(br, bw)| mul_i128(r, bw) < mul_i128(br, w)) {
                     best = Some((r, w));
                 }
             }
             let (room, weight) = best?;
             for i in 0..n {
-                to[i] += div_i128(i128::from(dirs[i]) * room, weight) as i64;
+                to[i] += div_i128(mul_i128(i128::from(dirs[i]), room), weight) as i64;
             }
         }
     }
@@ -125,13 +125,12 @@ pub fn jog_target(
 /// True when the direction weights `a` and `b` point the same way (parallel, same sense): an
 /// analog deflection that changes only the speed.
 pub fn same_direction(a: &[i64; MAX_AXES], b: &[i64; MAX_AXES]) -> bool {
-    let wide = |v: i64| i128::from(v);
-    let dot: i128 = a.iter().zip(b).map(|(&x, &y)| wide(x) * wide(y)).sum();
+    let wide = |x: i64, y: i64| mul_i128(i128::from(x), i128::from(y));
+    let dot: i128 = a.iter().zip(b).map(|(&x, &y)| wide(x, y)).sum();
     if dot <= 0 {
         return false;
     }
-    (0..MAX_AXES)
-        .all(|i| (i + 1..MAX_AXES).all(|j| wide(a[i]) * wide(b[j]) == wide(a[j]) * wide(b[i])))
+    (0..MAX_AXES).all(|i| (i + 1..MAX_AXES).all(|j| wide(a[i], b[j]) == wide(a[j], b[i])))
 }
 
 /// Integer square root (floor) of a u128, for path speeds of the analog stick (the motion

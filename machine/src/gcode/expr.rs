@@ -280,7 +280,7 @@ fn checked(v: i128) -> Result<Fx, ErrorCode> {
 
 /// `a × b / ONE` rounded half away from zero.
 pub fn mul(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
-    checked(round_div(a as i128 * b as i128, ONE as i128))
+    checked(round_div(trig::mul_i128(a as i128, b as i128), ONE as i128))
 }
 
 /// `a × ONE / b` rounded half away from zero.
@@ -530,13 +530,13 @@ pub fn ln(v: Fx) -> Result<Fx, ErrorCode> {
     }
     let z = trig::div_i128((m - E18) * E18, m + E18);
     // i128 `/` is expanded inline on the Cortex-M4 (~1 KiB each): the shared division instead.
-    let z2 = trig::div_i128(z * z, E18);
+    let z2 = trig::div_i128(trig::mul_i128(z, z), E18);
     let mut term = z;
     let mut sum = 0i128;
     let mut n = 1i128;
     while term != 0 {
         sum += trig::div_i128(term, n);
-        term = trig::div_i128(term * z2, E18);
+        term = trig::div_i128(trig::mul_i128(term, z2), E18);
         n += 2;
     }
     let r = 2 * sum + k * LN2_E18;
@@ -559,7 +559,7 @@ pub fn exp(v: Fx) -> Result<Fx, ErrorCode> {
     let mut n = 1i128;
     while term != 0 {
         sum += term;
-        term = trig::div_i128(trig::div_i128(term * r, E18), n);
+        term = trig::div_i128(trig::div_i128(trig::mul_i128(term, r), E18), n);
         n += 1;
     }
     let scaled = if k >= 0 { sum << k } else { sum >> (-k) };

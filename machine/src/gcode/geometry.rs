@@ -27,13 +27,13 @@ pub fn isqrt_round(v: u128) -> u128 {
 
 /// Length of a 2-D vector, rounded to the nearest nm.
 pub fn hypot(a: Nm, b: Nm) -> Nm {
-    let s = (a as i128) * (a as i128) + (b as i128) * (b as i128);
+    let s = mul(a as i128, a as i128) + mul(b as i128, b as i128);
     isqrt_round(s as u128) as Nm
 }
 
 /// Length of a 3-D vector, rounded.
 pub fn hypot3(a: Nm, b: Nm, c: Nm) -> Nm {
-    let s = (a as i128) * (a as i128) + (b as i128) * (b as i128) + (c as i128) * (c as i128);
+    let s = mul(a as i128, a as i128) + mul(b as i128, b as i128) + mul(c as i128, c as i128);
     isqrt_round(s as u128) as Nm
 }
 
@@ -164,7 +164,7 @@ pub fn sweep(start: (Nm, Nm), end: (Nm, Nm), center: (Nm, Nm), ccw: bool, turns:
 /// Path length of a helical arc: sqrt((sweep·r)^2 + normal^2), in nm.
 pub fn arc_length(sweep: i128, radius: Nm, normal: Nm) -> i128 {
     let planar = mul(sweep, radius as i128) >> 48;
-    let s = mul(planar, planar) + (normal as i128) * (normal as i128);
+    let s = mul(planar, planar) + mul(normal as i128, normal as i128);
     isqrt_round(s as u128) as i128
 }
 

@@ -7,7 +7,7 @@
 //! linearly (helix), and the last chord ends exactly on the programmed end point.
 
 use super::config::MotionConfig;
-use super::trig::{atan2, div_i128, isqrt_u128, polar, HALF_TURN, QUARTER_TURN, TURN};
+use super::trig::{atan2, div_i128, isqrt_u128, mul_i128, polar, HALF_TURN, QUARTER_TURN, TURN};
 use crate::canon::{ArcDir, Plane};
 use crate::units::{Nm, Pos, MAX_AXES};
 
@@ -38,7 +38,8 @@ pub fn plane_axes(plane: Plane) -> (usize, usize, usize) {
 }
 
 fn radius(dx: i64, dy: i64) -> i64 {
-    isqrt_u128((dx as i128 * dx as i128 + dy as i128 * dy as i128) as u128) as i64
+    let sq = |v: i64| mul_i128(v as i128, v as i128);
+    isqrt_u128((sq(dx) + sq(dy)) as u128) as i64
 }
 
 impl ArcChords {
@@ -121,12 +122,12 @@ impl ArcChords {
             return Some(self.to);
         }
         let (i, n) = (self.done as i128, self.count as i128);
-        let lerp = |a: i64, b: i64| a + div_i128((b as i128 - a as i128) * i, n) as i64;
+        let lerp = |a: i64, b: i64| a + div_i128(mul_i128(b as i128 - a as i128, i), n) as i64;
         let mut p = [0; MAX_AXES];
         for (k, v) in p.iter_mut().enumerate() {
             *v = lerp(self.start[k], self.to[k]);
         }
-        let theta = self.theta_start + div_i128(self.sweep as i128 * i, n) as i64;
+        let theta = self.theta_start + div_i128(mul_i128(self.sweep as i128, i), n) as i64;
         let r = lerp(self.r_start, self.r_end);
         let (dx, dy) = polar(r, theta);
         p[self.axes.0] = self.center.0 + dx;
@@ -142,7 +143,9 @@ fn chord_count(cfg: &MotionConfig, radius: i64, sweep: u64) -> u32 {
     let by_tolerance = if radius <= tol {
         QUARTER_TURN
     } else {
-        let h = isqrt_u128((2 * radius as i128 * tol as i128 - tol as i128 * tol as i128) as u128);
+        let h = isqrt_u128(
+            (mul_i128(2 * radius as i128, tol as i128) - tol as i128 * tol as i128) as u128,
+        );
         (2 * atan2(h as i64, radius - tol) - 1)
             .max(1)
             .min(QUARTER_TURN)

@@ -8,8 +8,8 @@
 //! chain lies within the tolerance of one straight chord, in order along it. The chain then
 //! becomes a single planner block from its start to the end point of its last move: its step
 //! counts are exact, the points inside it are passed within the tolerance instead of exactly,
-//! and its junctions with the blocks around it are planned with the same tolerance as junction
-//! deviation (docs/settings.md, "Path blending (`G61`, `G64`, `G64 P`)").
+//! and its corners with the moves around it are rounded within the same tolerance
+//! ([`super::corner`]; docs/settings.md, "Path blending (`G61`, `G64`, `G64 P`)").
 //!
 //! Integer arithmetic only: the distance test is exact in 128-bit products.
 
@@ -50,6 +50,11 @@ impl Chain {
             line,
             speed,
         })
+    }
+
+    /// Where the chain starts.
+    pub fn start(&self) -> Pos {
+        self.start
     }
 
     /// The programmed end point of the last merged move.

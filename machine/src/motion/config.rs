@@ -77,6 +77,8 @@ pub struct MotionConfig {
     pub arc_segment_angle_mdeg: u32,
     /// Most chords per arc (0 = no limit); overrides both tolerances (`gixa` "Max Segments").
     pub arc_max_segments: u32,
+    /// Path tolerance `G64` without P blends with, nm (0 = off: junction deviation alone).
+    pub blend_tolerance: Nm,
     /// Reject moves that leave the travel box.
     pub soft_limits: bool,
 }
@@ -91,6 +93,7 @@ impl Default for MotionConfig {
             chord_tolerance: 2_000,
             arc_segment_angle_mdeg: 0,
             arc_max_segments: 0,
+            blend_tolerance: 0,
             soft_limits: true,
         }
     }
@@ -123,6 +126,7 @@ impl MotionConfig {
             chord_tolerance: setup.path.chord_tolerance.max(1),
             arc_segment_angle_mdeg: setup.path.arc_segment_angle_mdeg,
             arc_max_segments: setup.path.arc_max_segments,
+            blend_tolerance: setup.path.blend_tolerance.max(0),
             soft_limits: true,
         }
     }

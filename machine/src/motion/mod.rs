@@ -14,6 +14,7 @@
 pub mod arc;
 pub mod blend;
 pub mod config;
+pub mod corner;
 pub mod history;
 pub mod kernel;
 pub mod output_event;

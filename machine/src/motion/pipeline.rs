@@ -27,6 +27,7 @@
 use super::arc::{plane_axes, ArcChords};
 use super::blend::Chain;
 use super::config::MotionConfig;
+use super::corner::{self, MAX_VERTICES};
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::output_event::OutputEvent;
 use super::planner::{direction, junction_limit_sq, Block, BlockKind, LineRequest, Planner, UNIT};
@@ -92,6 +93,26 @@ struct PendingArc {
     speed: u64,
 }
 
+/// A finished feed move (a single move or a merged chain) held back under `G64 P` until the
+/// next one, so the corner between them can be rounded ([`super::corner`]).
+#[derive(Clone, Copy, Debug)]
+struct Leg {
+    /// Programmed start (the move's direction runs from here to `to`).
+    start: Pos,
+    /// Programmed end.
+    to: Pos,
+    /// Programmed length, nm (a rounded corner takes at most half of it from either end).
+    length: u64,
+    line: u32,
+    speed: u64,
+    /// Junction speed² limit at its start when it leaves a rounded corner.
+    entry_sq: Option<u64>,
+}
+
+/// Planner blocks a push may queue when it ends a held-back chain and leg: the leg up to a
+/// rounded corner, the corner's polygon, the chain's leg itself, and the action.
+const BLEND_RESERVE: usize = MAX_VERTICES + 2;
+
 /// Planner + arc cutter + segment prep.
 pub struct Motion<const N: usize> {
     cfg: MotionConfig,
@@ -107,8 +128,11 @@ pub struct Motion<const N: usize> {
     /// `G64 P` tolerance, nm (0: no merging): short feed moves within it of one chord run as
     /// one block ([`super::blend`]).
     blend_tolerance: u64,
-    /// Short feed moves held back to run as one chord (after everything in the planner).
+    /// Short feed moves held back to run as one chord (after everything in the planner and
+    /// after `leg`).
     chain: Option<Chain>,
+    /// The last finished feed move, held back until the corner after it is known.
+    leg: Option<Leg>,
     abort_pending: bool,
     at_sync: bool,
     /// An on-the-fly M code waiting for the next line block.
@@ -130,9 +154,10 @@ impl<const N: usize> Motion<N> {
             position: [0; MAX_AXES],
             steps: [0; MAX_AXES],
             exact_stop: false,
-            junction_deviation: cfg.junction_deviation.max(0) as u64,
-            blend_tolerance: 0,
+            junction_deviation: blend_deviation(&cfg, cfg.blend_tolerance),
+            blend_tolerance: cfg.blend_tolerance.max(0) as u64,
             chain: None,
+            leg: None,
             abort_pending: false,
             at_sync: false,
             pending_output: None,
@@ -151,7 +176,21 @@ impl<const N: usize> Motion<N> {
 
     /// Machine position (nm) at the end of everything queued (a held-back chain included).
     pub fn queued_position(&self) -> Pos {
-        self.chain.as_ref().map_or(self.position, Chain::end)
+        self.chain.as_ref().map_or(self.blend_end(), Chain::end)
+    }
+
+    /// End of everything queued in the planner and the held-back leg (where a new chain starts).
+    fn blend_end(&self) -> Pos {
+        self.leg.map_or(self.position, |l| l.to)
+    }
+
+    /// Planner blocks a push needs room for.
+    fn reserve(&self) -> usize {
+        if self.chain.is_some() || self.leg.is_some() {
+            BLEND_RESERVE
+        } else {
+            1
+        }
     }
 
     /// Step position at the end of everything prepared (handed out as segments).
@@ -173,14 +212,14 @@ impl<const N: usize> Motion<N> {
     /// Queues one canonical action. Non-motion actions that must happen at rest become sync points.
     pub fn push(&mut self, canon: &Canon) -> Result<(), PushError> {
         self.feed_arc();
-        if self.arc.is_some() || self.planner.is_full() || self.abort_pending {
+        if self.arc.is_some() || !self.has_room(self.reserve(), 0) || self.abort_pending {
             return Err(PushError::Full);
         }
         if let Action::Feed { to, feed } = canon.action {
             return self.push_feed(canon.line, &to, speed_of(feed));
         }
-        // Anything else ends a held-back chain first (the planner has room for it).
-        self.flush_chain();
+        // Anything else ends a held-back chain and leg first (the planner has room for them).
+        self.flush_blend();
         if self.planner.is_full() {
             return Err(PushError::Full);
         }
@@ -222,13 +261,15 @@ impl<const N: usize> Motion<N> {
                 match mode {
                     crate::canon::PathMode::ExactStop => self.exact_stop = true,
                     crate::canon::PathMode::Blend { tolerance } => {
+                        // `G64` without P (or P0) blends with the setup's default tolerance.
+                        let tolerance = if tolerance > 0 {
+                            tolerance
+                        } else {
+                            self.cfg.blend_tolerance
+                        };
                         self.exact_stop = false;
                         self.blend_tolerance = tolerance.max(0) as u64;
-                        self.junction_deviation = if tolerance > 0 {
-                            tolerance as u64
-                        } else {
-                            self.cfg.junction_deviation.max(0) as u64
-                        };
+                        self.junction_deviation = blend_deviation(&self.cfg, tolerance);
                     }
                 }
                 Ok(())
@@ -266,12 +307,12 @@ impl<const N: usize> Motion<N> {
         if self.arc.is_some() || self.abort_pending {
             return Err(PushError::Full);
         }
-        if self.chain.is_some() {
+        if self.chain.is_some() || self.leg.is_some() {
             // The output fires where the chain ends: queue it first.
-            if self.planner.is_full() {
+            if !self.has_room(BLEND_RESERVE, 0) {
                 return Err(PushError::Full);
             }
-            self.flush_chain();
+            self.flush_blend();
         }
         let this = PendingOutput { line, code, output };
         if self.pending_output.is_none() {
@@ -345,14 +386,17 @@ impl<const N: usize> Motion<N> {
             if mergeable && chain.extend(&to, line, speed, tolerance, axes) {
                 return Ok(());
             }
-            self.flush_chain();
+            self.end_chain();
         }
         if mergeable {
-            if let Some(chain) = Chain::new(&self.position, &to, line, speed, axes) {
-                self.chain = Some(chain);
-                return Ok(());
+            let start = self.blend_end();
+            match Chain::new(&start, &to, line, speed, axes) {
+                Some(chain) => self.chain = Some(chain),
+                None => self.finish_leg(start, to, line, speed),
             }
+            return Ok(());
         }
+        self.flush_blend();
         if self.planner.is_full() {
             return Err(PushError::Full);
         }
@@ -360,10 +404,66 @@ impl<const N: usize> Motion<N> {
         Ok(())
     }
 
-    /// Queues the held-back chain as one line block (the planner has room).
-    fn flush_chain(&mut self) {
-        if let Some(chain) = self.chain.take() {
-            self.queue_line(chain.line, &chain.end(), Some(chain.speed));
+    /// Ends the held-back chain: it becomes the held-back leg ([`Self::finish_leg`]).
+    fn end_chain(&mut self) {
+        // Read the chain in place: `take()` would move all its points (1.5 KiB) on every move.
+        if let Some(chain) = self.chain.as_ref() {
+            let (start, end, line, speed) = (chain.start(), chain.end(), chain.line, chain.speed);
+            self.chain = None;
+            self.finish_leg(start, end, line, speed);
+        }
+    }
+
+    /// A finished feed move from `start` to `to`: the held-back leg before it is queued up to
+    /// the corner between them, rounded within the tolerance when [`corner::round`] finds one
+    /// (the corner's polygon follows it, reported with the leg's line), and this move becomes
+    /// the held-back leg, joined at the corner's last vertex (the planner has room for
+    /// [`BLEND_RESERVE`] blocks). Not inlined: it stays out of the plain `G64` path's `push`.
+    #[inline(never)]
+    fn finish_leg(&mut self, start: Pos, to: Pos, line: u32, speed: u64) {
+        let mut next = Leg {
+            start,
+            to,
+            length: length(&sub(&to, &start)),
+            line,
+            speed,
+            entry_sq: None,
+        };
+        if let Some(prev) = self.leg.take() {
+            let lengths = (prev.length, next.length);
+            let rounded = corner::round(
+                &self.cfg,
+                &prev.start,
+                &prev.to,
+                &to,
+                lengths,
+                self.blend_tolerance,
+            );
+            match rounded {
+                Some(c) => {
+                    let arc_speed = trig::isqrt_u64(c.speed_sq).max(1);
+                    let corner_speed = Some(prev.speed.min(arc_speed));
+                    self.queue_line_at(prev.line, &c.vertices[0], Some(prev.speed), prev.entry_sq);
+                    for v in c.vertices.iter().skip(1) {
+                        self.queue_line_at(prev.line, v, corner_speed, Some(c.speed_sq));
+                    }
+                    next.entry_sq = Some(c.speed_sq);
+                }
+                None => self.queue_line_at(prev.line, &prev.to, Some(prev.speed), prev.entry_sq),
+            }
+        }
+        self.leg = Some(next);
+    }
+
+    /// Queues the held-back chain and leg as they are (the planner has room for
+    /// [`BLEND_RESERVE`] blocks).
+    fn flush_blend(&mut self) {
+        if self.chain.is_none() && self.leg.is_none() {
+            return;
+        }
+        self.end_chain();
+        if let Some(l) = self.leg.take() {
+            self.queue_line_at(l.line, &l.to, Some(l.speed), l.entry_sq);
         }
     }
 
@@ -378,6 +478,12 @@ impl<const N: usize> Motion<N> {
 
     /// Plans a line to `to` (the ring has room).
     fn queue_line(&mut self, line: u32, to: &Pos, speed: Option<u64>) {
+        self.queue_line_at(line, to, speed, None);
+    }
+
+    /// Plans a line to `to` entering with at most `corner_sq` (nm²/s²) when given, instead of
+    /// the junction deviation's limit (the ring has room).
+    fn queue_line_at(&mut self, line: u32, to: &Pos, speed: Option<u64>, corner_sq: Option<u64>) {
         let target = self.cfg.to_steps(to);
         let mut req = LineRequest {
             line,
@@ -386,6 +492,7 @@ impl<const N: usize> Motion<N> {
             speed,
             exact_stop_before: self.exact_stop,
             junction_deviation: self.junction_deviation,
+            corner_sq,
             output: self.pending_output.map_or(OutputEvent::NONE, |p| p.output),
         };
         for i in 0..MAX_AXES {
@@ -441,7 +548,8 @@ impl<const N: usize> Motion<N> {
         let sweep = chords.sweep();
         let r = {
             let (ex, ey) = (to[a0] - center[a0], to[a1] - center[a1]);
-            let r2 = |x: i64, y: i64| (x as i128 * x as i128 + y as i128 * y as i128) as u128;
+            let sq = |v: i64| trig::mul_i128(v as i128, v as i128);
+            let r2 = |x: i64, y: i64| (sq(x) + sq(y)) as u128;
             super::trig::isqrt_u128(r2(sx, sy).max(r2(ex, ey))) as i64
         };
         for k in 0..4i64 {
@@ -469,9 +577,9 @@ impl<const N: usize> Motion<N> {
 
     /// Prepares the next step segment for the kernel's queue (`None`: nothing now).
     pub fn next_segment(&mut self) -> Option<Segment> {
-        if self.chain.is_some() && self.planner.len() < 2 && !self.at_sync {
-            // The motion is about to run out: the held-back chain runs as it is.
-            self.flush_chain();
+        if (self.chain.is_some() || self.leg.is_some()) && self.planner.len() < 2 && !self.at_sync {
+            // The motion is about to run out: the held-back chain and leg run as they are.
+            self.flush_blend();
         }
         loop {
             if self.at_sync {
@@ -555,6 +663,7 @@ impl<const N: usize> Motion<N> {
                 if self.planner.is_empty()
                     && self.arc.is_none()
                     && self.chain.is_none()
+                    && self.leg.is_none()
                     && !self.prep.is_active()
                 {
                     MotionState::Idle
@@ -609,6 +718,7 @@ impl<const N: usize> Motion<N> {
             || self.planner.len() != 1
             || self.pending_output.is_some()
             || self.chain.is_some()
+            || self.leg.is_some()
         {
             return false;
         }
@@ -645,7 +755,10 @@ impl<const N: usize> Motion<N> {
         let slow = (v * v - corner_sq).div_ceil(two_a).min(remaining);
         let mut corner = here;
         for (c, u) in corner.iter_mut().zip(old.unit) {
-            *c += trig::div_i128(i128::from(u) * i128::from(slow), i128::from(UNIT)) as i64;
+            *c += trig::div_i128(
+                trig::mul_i128(i128::from(u), i128::from(slow)),
+                i128::from(UNIT),
+            ) as i64;
         }
         let Some(to) = target(&corner) else {
             return false;
@@ -711,6 +824,7 @@ impl<const N: usize> Motion<N> {
     fn finish_abort(&mut self) {
         self.planner.clear();
         self.chain = None;
+        self.leg = None;
         self.syncs.clear();
         self.pending_output = None;
         self.arc = None;
@@ -736,8 +850,8 @@ impl<const N: usize> Motion<N> {
     /// on the MCU's stack). Overrides are kept.
     pub fn reconfigure(&mut self, cfg: MotionConfig, steps: [i64; MAX_AXES]) {
         self.cfg = cfg;
-        self.junction_deviation = cfg.junction_deviation.max(0) as u64;
-        self.blend_tolerance = 0;
+        self.junction_deviation = blend_deviation(&cfg, cfg.blend_tolerance);
+        self.blend_tolerance = cfg.blend_tolerance.max(0) as u64;
         self.exact_stop = false;
         self.prep = Prep::new();
         self.reset(steps);
@@ -753,6 +867,16 @@ impl<const N: usize> Motion<N> {
     pub fn set_rapid_override(&mut self, pct: u16) {
         let feed = self.planner.feed_override();
         self.planner.set_overrides(feed, pct.max(1).min(100));
+    }
+}
+
+/// Junction deviation while blending with `tolerance` (nm): the tolerance itself, or the
+/// machine's junction deviation when blending is off (0).
+fn blend_deviation(cfg: &MotionConfig, tolerance: i64) -> u64 {
+    if tolerance > 0 {
+        tolerance as u64
+    } else {
+        cfg.junction_deviation.max(0) as u64
     }
 }
 

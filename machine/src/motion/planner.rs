@@ -186,6 +186,9 @@ pub struct LineRequest {
     pub exact_stop_before: bool,
     /// Junction deviation for this corner, nm.
     pub junction_deviation: u64,
+    /// Junction speed² limit to use instead of junction deviation's (the line starts or
+    /// continues a rounded corner, machine/src/motion/corner.rs).
+    pub corner_sq: Option<u64>,
     /// On-the-fly output switched as the line starts.
     pub output: OutputEvent,
 }
@@ -451,10 +454,7 @@ impl<const N: usize> Planner<N> {
             }
             events = events.max(steps[i]);
             let d = req.delta[i].unsigned_abs();
-            len_sq += match d.checked_mul(d) {
-                Some(sq) => sq as u128,
-                None => d as u128 * d as u128,
-            };
+            len_sq += u128::from(d) * u128::from(d);
         }
         if events == 0 {
             return true;
@@ -502,7 +502,10 @@ impl<const N: usize> Planner<N> {
             || self.prev_unit.is_none()
             || (self.is_empty() && !self.continuing);
         let junction_sq = match (stop_before, self.prev_unit) {
-            (false, Some(prev)) => junction_limit_sq(cfg, &prev, &unit, req.junction_deviation),
+            (false, Some(prev)) => match req.corner_sq {
+                Some(limit) => limit,
+                None => junction_limit_sq(cfg, &prev, &unit, req.junction_deviation),
+            },
             _ => 0,
         };
         if stop_before {
@@ -537,7 +540,12 @@ impl<const N: usize> Planner<N> {
         self.at_mut(off).max_entry_sq = self.max_entry_sq(off);
         self.next_seq = self.next_seq.wrapping_add(1);
         self.add_candidate(off);
-        self.prev_unit = Some(unit);
+        // Written axis by axis rather than as `= Some(unit)`: that assignment compiled to a
+        // `memmove` call on the Cortex-M4.
+        let prev = self.prev_unit.get_or_insert([0; MAX_AXES]);
+        for (p, u) in prev.iter_mut().zip(unit) {
+            *p = u;
+        }
         self.continuing = false;
         true
     }
@@ -723,6 +731,7 @@ mod tests {
             speed: Some(feed_mm_min * NM_PER_MM as u64 / 60),
             exact_stop_before: false,
             junction_deviation: cfg.junction_deviation as u64,
+            corner_sq: None,
             output: OutputEvent::NONE,
         }
     }

@@ -354,6 +354,66 @@ fn blend_chain() -> u32 {
     d.finish()
 }
 
+const CORNER_JOB: [Canon; 9] = [
+    Canon {
+        line: 1,
+        action: Action::PathMode(PathMode::Blend { tolerance: 50_000 }),
+    },
+    feed(2, at(12 * MM, 0, 0), 2400),
+    feed(3, at(12 * MM, 9 * MM, 1_500_000), 2400),
+    feed(4, at(3 * MM, 10 * MM, 0), 2400),
+    feed(5, at(3_000_123, 11 * MM, 0), 2400),
+    feed(6, at(-4 * MM, -2 * MM, -700_001), 1800),
+    feed(7, at(-4_000_500, -7 * MM, 0), 1800),
+    feed(8, at(0, 0, 0), 3000),
+    Canon {
+        line: 9,
+        action: Action::Stop(StopKind::End),
+    },
+];
+
+/// Rounded corners (machine/src/motion/corner.rs): the geometry of corners at many angles,
+/// tolerances and lengths in 3D, then a job whose corners are rounded, held inside one and
+/// resumed at 120 %.
+fn corner_round() -> u32 {
+    let cfg = MotionConfig::default();
+    let mut d = Digest::new();
+    for k in 1..=60i64 {
+        let a = at(
+            -(k * 97_531) % 7_000_000,
+            (k * k * 4_321) % 900_000,
+            k * 1_111,
+        );
+        let p = at(0, 0, 0);
+        let b = at(
+            (k * 7_919 * 13) % 5_000_000 - 2_500_000,
+            (k * 3_571) % 4_000_000 + 10_000,
+            -(k * 2_003) % 800_000,
+        );
+        let tol = (k as u64 * 3_733) % 200_000 + 1_000;
+        let lengths = ((k as u64 * 999_983) % 9_000_000, 4_000_000);
+        match super::corner::round(&cfg, &a, &p, &b, lengths, tol) {
+            Some(c) => {
+                d.u64(c.radius);
+                d.u64(c.speed_sq);
+                for v in &c.vertices {
+                    for x in v {
+                        d.i64(*x);
+                    }
+                }
+            }
+            None => d.bytes(&[0xee]),
+        }
+    }
+    d.u64(u64::from(digest_run(
+        cfg,
+        &CORNER_JOB,
+        Some(12_000_000),
+        120,
+    )));
+    d.finish()
+}
+
 pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/kernel-bresenham",
@@ -378,7 +438,7 @@ pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/odd-ratios-dwell-exact-stop",
         run: odd_ratios_dwell_exact_stop,
-        expected: 0xd22a_0ed0,
+        expected: 0xe73c_126b,
     },
     Vector {
         name: "motion/onfly-outputs",
@@ -388,7 +448,12 @@ pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/blend-chain",
         run: blend_chain,
-        expected: 0x5f7b_e213,
+        expected: 0x26e4_c7d7,
+    },
+    Vector {
+        name: "motion/corner-round",
+        run: corner_round,
+        expected: 0xde40_bcb1,
     },
 ];
 

@@ -14,9 +14,12 @@ use super::{HomingSetup, ProgramSetup, Setup};
 use postcard::ser_flavors::Flavor;
 use serde::de::DeserializeOwned;
 
+/// postcard's reader over the blob's bytes.
+type Reader<'a> = postcard::Deserializer<'a, postcard::de_flavors::Slice<'a>>;
+
 /// First byte of every blob: the encoding's version. 1 was the first serde/postcard encoding
 /// (without this byte), 2 the hand-written one; 3 is postcard through serde again; 4 adds
-/// `program.tool_change_position` and the grbl front end's section.
+/// `program.tool_change_position`, `path.blend_tolerance` and the grbl front end's section.
 /// Change it whenever the layout changes.
 pub const FORMAT: u8 = 4;
 
@@ -76,9 +79,10 @@ pub(super) fn encode(setup: &Setup, out: &mut [u8], skip: usize, clip: bool) -> 
 /// an array as its elements in order with no length, and serde's array decoder repeats the
 /// element's whole decoder once per element (the homing part alone was 1.9 KiB of F411 flash).
 pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
-    let (&FORMAT, mut rest) = bytes.split_first()? else {
+    let (&FORMAT, rest) = bytes.split_first()? else {
         return None;
     };
+    let mut reader = postcard::Deserializer::from_bytes(rest);
     let mut setup = Setup::default();
     let Setup {
         axis_count,
@@ -107,7 +111,7 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
         user_mcodes,
         tool_change_position,
     } = program;
-    let r = &mut rest;
+    let r = &mut reader;
     part(r, axis_count)?;
     for a in axes {
         part(r, a)?;
@@ -150,15 +154,15 @@ pub(super) fn decode(bytes: &[u8]) -> Option<Setup> {
     part(r, link)?;
     part(r, drivers)?;
     part(r, grbl)?;
-    rest.is_empty().then_some(setup)
+    reader.finalize().ok()?.is_empty().then_some(setup)
 }
 
-/// Reads one value from the front of `rest` into `into`.
+/// Reads the next value of the blob into `into`. One reader for all parts: a
+/// `take_from_bytes` per part repeated its set-up and remainder code in each of the ~18
+/// instances of this function.
 #[inline(never)]
-fn part<T: DeserializeOwned>(rest: &mut &[u8], into: &mut T) -> Option<()> {
-    let (value, tail) = postcard::take_from_bytes(rest).ok()?;
-    *into = value;
-    *rest = tail;
+fn part<T: DeserializeOwned>(reader: &mut Reader<'_>, into: &mut T) -> Option<()> {
+    *into = T::deserialize(reader).ok()?;
     Some(())
 }
 
