@@ -27,7 +27,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::entry;
-use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming};
+use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::setup::DriverSetup;
 use gantry_target_tests::clock::{now, RELOAD};
@@ -311,6 +311,135 @@ fn check_against_timer_model() {
     }
 }
 
+/// Pulse shape of the goal: 1 µs pulses, 1 µs dir set-up (A4988-class drivers).
+const FAST_DRIVERS: DriverSetup = DriverSetup {
+    step_pulse_ns: 1_000,
+    dir_setup_ns: 1_000,
+};
+
+/// The goal rates on the same timer model, with every interrupt on time: its timer read comes
+/// [`StepTiming::ENTRY_COUNTS`] after the pulse end (the entry figure the shortest periods are
+/// built on) and its dir write [`StepTiming::WRITE_GUARD`] later. Segments of `ticks` ticks at
+/// `period` counts step the first `axes` axes on every tick, reversing them every third segment.
+/// Fails unless no run is late, every step reaches the pins once on its dir, every dir change
+/// leads its step by the set-up, and only the periods before a reversal are stretched, each to
+/// exactly as [`StepTiming::period`] says. Returns the steps and the reversals seen.
+fn check_goal_rate(axes: usize, period: u32) -> (u32, u32) {
+    let timing = StepTiming::from_setup(&FAST_DRIVERS);
+    const SEGS: usize = 40;
+    const TICKS: u32 = 50;
+    let mut segs = [Segment::idle(1, 1); SEGS];
+    let mut expected = [0i64; 6];
+    let mut reversals = 0;
+    let mut last_dir = 0u8;
+    for (n, s) in segs.iter_mut().enumerate() {
+        let mut steps = [0u32; 6];
+        steps[..axes].fill(TICKS);
+        let dir = if (n / 3) % 2 == 1 { 0b0011_1111 } else { 0 };
+        if dir != last_dir {
+            reversals += 1;
+        }
+        last_dir = dir;
+        *s = seg(steps, TICKS, period, dir, OutputEvent::NONE);
+        for (axis, e) in expected.iter_mut().enumerate() {
+            let n = i64::from(s.steps[axis]);
+            *e += if dir & (1 << axis) != 0 { -n } else { n };
+        }
+    }
+    let mut state = Some(StepIsr::new(Segments(&segs, 0), timing));
+    let isr = state.as_mut().unwrap();
+    ARR.store(step_body::IDLE_PERIOD_COUNTS - 1, Ordering::Relaxed);
+    STEP_WORD.store(WORDS.step_reset, Ordering::Relaxed);
+    let mut dir_pins = 0u32;
+    let mut pins = [0i64; 6];
+    let mut t_update = 0u64;
+    let mut dir_changed_at = 0u64;
+    let mut last_step_at: Option<u64> = None;
+    let (mut late, mut steps, mut stretched, mut seen_reversals) = (0u32, 0u32, 0u32, 0u32);
+    let mut step_dir = 0u32;
+    let total_ticks = SEGS as u32 * TICKS;
+    for _period in 0..total_ticks + 10 {
+        let arr = ARR.load(Ordering::Relaxed);
+        let word = STEP_WORD.load(Ordering::Relaxed);
+        let mut stepped = false;
+        for (axis, p) in pins.iter_mut().enumerate() {
+            if word & (1 << (10 + axis)) != 0 {
+                steps += 1;
+                stepped = true;
+                if t_update - dir_changed_at < u64::from(timing.dir_setup) {
+                    println!(
+                        "FAIL dir changed {} counts before a step",
+                        t_update - dir_changed_at
+                    );
+                    exit(false);
+                }
+                *p += if dir_pins & (1 << axis) != 0 { -1 } else { 1 };
+            }
+        }
+        if stepped {
+            // The period since the last step: the kernel's, or the turn period before a
+            // reversal, nothing else.
+            if let Some(t) = last_step_at {
+                let gap = t_update - t;
+                let turned = dir_pins != step_dir;
+                let want = timing.period(period, turned);
+                if gap != u64::from(want) {
+                    println!(
+                        "FAIL {} counts between steps, want {} (reversal: {})",
+                        gap, want, turned
+                    );
+                    exit(false);
+                }
+                if turned {
+                    seen_reversals += 1;
+                }
+                if gap > u64::from(period) {
+                    stretched += 1;
+                }
+            }
+            last_step_at = Some(t_update);
+            step_dir = dir_pins;
+        }
+        // The pulse end, then the interrupt's timer read on time.
+        STEP_WORD.store(WORDS.step_reset, Ordering::Relaxed);
+        let read = u64::from(timing.pulse + StepTiming::ENTRY_COUNTS);
+        CNT.store(read as u32, Ordering::Relaxed);
+        DIR_BSRR.store(0, Ordering::Relaxed);
+        if isr.on_pulse_end(&WORDS, &mut FakeHardware, false) == Run::Late {
+            late += 1;
+        }
+        let bsrr = DIR_BSRR.load(Ordering::Relaxed);
+        let before = dir_pins;
+        dir_pins = (before | (bsrr & 0xFFFF)) & !(bsrr >> 16);
+        if dir_pins != before {
+            // The latest the dir write lands.
+            dir_changed_at = t_update + read + u64::from(StepTiming::WRITE_GUARD);
+        }
+        t_update += u64::from(arr) + 1;
+    }
+    let kernel = isr.kernel.position();
+    // A reversal's period is stretched only where the turn period is the longer.
+    let expect_stretched = if timing.turn_period > period {
+        reversals
+    } else {
+        0
+    };
+    if late != 0
+        || pins != expected
+        || kernel != expected
+        || steps != total_ticks * axes as u32
+        || seen_reversals != reversals
+        || stretched != expect_stretched
+    {
+        println!(
+            "FAIL goal rate {} axes: {} late, {} steps, pins {:?}, kernel {:?}, want {:?}, {} reversals ({} stretched)",
+            axes, late, steps, pins, kernel, expected, seen_reversals, stretched
+        );
+        exit(false);
+    }
+    (steps, seen_reversals)
+}
+
 fn seg(steps: [u32; 6], ticks: u32, period: u32, dir: u8, output: OutputEvent) -> Segment {
     Segment {
         steps,
@@ -333,6 +462,15 @@ fn main() -> ! {
     while SYST::get_current() == 0 {}
 
     check_against_timer_model();
+    let fast = StepTiming::from_setup(&FAST_DRIVERS);
+    for (axes, khz) in [(1, 500), (3, 300)] {
+        let period = KERNEL_TIMER_HZ / 1000 / khz;
+        let (steps, reversals) = check_goal_rate(axes, period);
+        println!(
+            "goal rate: {} axes at {} kHz ({} counts, 1 us pulse and dir set-up): {} steps, {} reversals ({} counts before each), 0 late",
+            axes, khz, period, steps, reversals, fast.turn_period
+        );
+    }
 
     let ipc = calibrate(); // instructions per count × 1000
     println!(
