@@ -163,6 +163,112 @@ fn calibrate() -> u64 {
     5 * N as u64 * 1000 / counts.max(1)
 }
 
+#[cfg(feature = "step-window")]
+/// SysTick's value when the body read the timer's counter, and when it wrote the reload (its
+/// last write before the update): the write-window measurement.
+static READ_AT: AtomicU32 = AtomicU32::new(0);
+#[cfg(feature = "step-window")]
+static WRITE_AT: AtomicU32 = AtomicU32::new(0);
+
+#[cfg(feature = "step-window")]
+/// [`FakeHardware`] that also notes SysTick at the counter read and at the reload write.
+struct StampHardware;
+
+#[cfg(feature = "step-window")]
+impl StepHardware for StampHardware {
+    #[inline(always)]
+    fn count(&self) -> u32 {
+        READ_AT.store(SYST::get_current(), Ordering::Relaxed);
+        CNT.load(Ordering::Relaxed)
+    }
+    #[inline(always)]
+    fn reload(&self) -> u32 {
+        ARR.load(Ordering::Relaxed)
+    }
+    #[inline(always)]
+    fn set_reload(&mut self, reload: u32) {
+        ARR.store(reload, Ordering::Relaxed);
+        WRITE_AT.store(SYST::get_current(), Ordering::Relaxed);
+    }
+    #[inline(always)]
+    fn write_dir(&mut self, bsrr: u32) {
+        DIR_BSRR.store(bsrr, Ordering::Relaxed);
+    }
+    #[inline(always)]
+    fn set_step_word(&mut self, bsrr: u32) {
+        STEP_WORD.store(bsrr, Ordering::Relaxed);
+    }
+    #[inline(always)]
+    fn write_output(&mut self, event: OutputEvent) {
+        OUTPUT.store(u32::from(event.index() as u8) | 0x100, Ordering::Relaxed);
+    }
+    #[inline(always)]
+    fn probe_closed(&self) -> bool {
+        PROBE_IDR.load(Ordering::Relaxed) & 1 == 0
+    }
+}
+
+#[cfg(feature = "step-window")]
+/// [`handler`] over [`StampHardware`].
+#[inline(never)]
+fn stamped_handler(state: &mut Option<StepIsr<Repeat>>) {
+    SR.store(!2, Ordering::Relaxed);
+    let Some(isr) = state.as_mut() else {
+        return;
+    };
+    if isr.on_pulse_end(&WORDS, &mut StampHardware, black_box(false)) == Run::Late {
+        LATE.store(LATE.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
+    }
+}
+
+#[cfg(feature = "step-window")]
+/// The reference: the same call, noting SysTick first thing.
+#[inline(never)]
+fn stamp_at_entry(state: &mut Option<StepIsr<Repeat>>) {
+    READ_AT.store(SYST::get_current(), Ordering::Relaxed);
+    WRITE_AT.store(READ_AT.load(Ordering::Relaxed), Ordering::Relaxed);
+    black_box(state);
+}
+
+#[cfg(feature = "step-window")]
+/// Instructions × 10 from the handler's first instruction to the counter read and to the
+/// reload write (one-axis segment, no dir change, no output), averaged over many runs: SysTick
+/// ticks every 40 instructions, and the runs fall at every phase of it. The stamps add 2-3
+/// instructions each to the body.
+fn write_window() -> (u64, u64) {
+    let timing = StepTiming::from_setup(&DriverSetup::DEFAULT);
+    let mut steps = [0u32; 6];
+    steps[0] = 1000;
+    let mut state = Some(StepIsr::new(
+        Repeat(seg(steps, 1000, 240, 0, OutputEvent::NONE)),
+        timing,
+    ));
+    CNT.store(timing.pulse + 3, Ordering::Relaxed);
+    ARR.store(239, Ordering::Relaxed);
+    let mut sums = [[0u64; 2]; 2];
+    for (n, body) in [stamp_at_entry as fn(&mut _), stamped_handler]
+        .into_iter()
+        .enumerate()
+    {
+        for _ in 0..RUNS {
+            let t0 = SYST::get_current();
+            body(black_box(&mut state));
+            // SysTick counts down from RELOAD.
+            let ticks = |at: u32| {
+                u64::from(if at <= t0 {
+                    t0 - at
+                } else {
+                    t0 + RELOAD + 1 - at
+                })
+            };
+            sums[n][0] += ticks(READ_AT.load(Ordering::Relaxed));
+            sums[n][1] += ticks(WRITE_AT.load(Ordering::Relaxed));
+        }
+    }
+    let instr_x10 = |i: usize| (sums[1][i] - sums[0][i]) * 40 * 10 / u64::from(RUNS);
+    (instr_x10(0), instr_x10(1))
+}
+
 /// A queue of segments for the check.
 struct Segments<'a>(&'a [Segment], usize);
 
@@ -487,6 +593,20 @@ fn main() -> ! {
         "loop+call overhead: {} instructions per run (subtracted)",
         base
     );
+    #[cfg(feature = "step-window")]
+    {
+        let (to_read, to_write) = write_window();
+        println!(
+        "write window: {}.{} instructions from the handler's entry to the counter read, {}.{} to the reload write (F411 TIM2: 22 and 35; StepTiming::ENTRY_COUNTS {} + WRITE_GUARD {} counts = {} cycles at 96 MHz with the 12-cycle entry)",
+        to_read / 10,
+        to_read % 10,
+        to_write / 10,
+        to_write % 10,
+        StepTiming::ENTRY_COUNTS,
+        StepTiming::WRITE_GUARD,
+        8 * StepTiming::WRITE_WINDOW
+    );
+    }
     // Exception entry 12 cycles and return 10 (Cortex-M4 with zero-wait-state memory and lazy FP
     // stacking: ARM Cortex-M4 Technical Reference Manual, "Exception model" / interrupt latency),
     // at one instruction per cycle. One run per step event: every axis can step on each.
