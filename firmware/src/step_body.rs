@@ -12,15 +12,18 @@
 //!   the other overwrites the step word with that same reset word, so an update the body did not
 //!   prepare raises nothing; and this interrupt starts;
 //! - the body ([`StepIsr::on_pulse_end`]): writes the dir pins of the step the next update
-//!   emits (the kernel computed it two runs before), the step word for that update and the timer
-//!   period that follows it, then runs the kernel's tick for the step after that. The period
-//!   comes from [`StepTiming::period`]: the kernel's period, at least the shortest one the pulse
-//!   and this body's writes allow, and at least the dir set-up more when the step after it (the
-//!   tick computed on the run before, [`StepIsr::ticks`]) has another dir byte. So the period in
-//!   which the dir pins change is already long enough for the set-up when it starts, and no
-//!   other period is stretched for it. The body still checks the timer before writing: a dir pin
-//!   that changes does so at least `dir_setup` counts before the next update, and every write
-//!   lands before it, or the body writes nothing ([`Run::Late`]) and the next period retries.
+//!   emits, the step word for that update and the timer period that follows it, all prepared
+//!   on the run before ([`Prepared`]), so between its timer read and the update it only
+//!   compares and stores; then it runs the kernel's tick and prepares the writes of the update
+//!   after. The kernel is so two ticks ahead: the period a step starts comes from
+//!   [`StepTiming::period`] with the dir byte of the step after it ([`StepIsr::after`]): the
+//!   kernel's period, at least the shortest one the pulse and this body's writes allow, and at
+//!   least the dir set-up more when that next step has another dir byte. So the period in which
+//!   the dir pins change is already long enough for the set-up when it starts, and no other
+//!   period is stretched for it. The body still checks the timer before writing: a dir pin that
+//!   changes does so at least `dir_setup` counts before the next update, and every write lands
+//!   before it, or the body writes nothing ([`Run::Late`]) and the next period retries (with the
+//!   same period, which was chosen for that set-up).
 //!
 //! A late run never loses or repeats a step: the step word it would have written is kept for the
 //! next period, and the word the hardware copies at an unprepared update is the reset word.
@@ -109,11 +112,11 @@ pub trait StepHardware {
 /// What a run of the body did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Run {
-    /// The next update emits the pending step (or nothing, when the kernel is idle).
+    /// The next update emits the prepared step (or nothing, when the kernel is idle).
     Scheduled,
     /// Too early (the period's compare DMA may not have cleared the step word yet) or too late
-    /// (less than the dir set-up left before the next update): nothing written, the pending
-    /// step waits for the next period.
+    /// (less than the writes and the dir set-up need before the next update): nothing
+    /// written, the prepared step waits for the next period.
     Late,
 }
 

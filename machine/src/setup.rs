@@ -272,7 +272,8 @@ impl DriverSetup {
     /// 2.5 µs pulse, 5 µs direction set-up: the minimums of the most demanding common driver,
     /// the opto-isolated Leadshine DM542 (pulse ≥ 2.5 µs, direction ≥ 5 µs ahead of the pulse);
     /// more than TB6600 modules (≥ 2.2 µs), the DRV8825 (1.9 µs, 650 ns set-up) and the A4988
-    /// (1 µs, 200 ns). It allows 117 k steps/s (an 8.5 µs period with the interrupt allowance).
+    /// (1 µs, 200 ns). It allows 200 k steps/s (a 5 µs period: the pulse and as long low), with
+    /// 8.5 µs before a direction change ([`StepTiming`]).
     pub const DEFAULT: DriverSetup = DriverSetup {
         step_pulse_ns: 2_500,
         dir_setup_ns: 5_000,
