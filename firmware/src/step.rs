@@ -7,16 +7,19 @@
 //! `Setup::drivers`) a second stream drops the step pins (the pulse end) and, at compare 2 (the
 //! same count), a third overwrites CCR3 with that reset word, so an update nobody prepared
 //! raises nothing. Compare 1 also raises the one interrupt, at P0: the body in `step_body.rs`
-//! writes the dir pins of the step computed on its run before, puts that step's word in CCR3 and
-//! its period in the preloaded ARR, then runs `StepKernel::tick` for the step after. The body
-//! writes only when the timer shows time left before the next update for its writes and, when
-//! a dir pin changes, for the dir set-up ([`StepTiming::dir_setup`]); else it leaves everything
-//! for the next period (counted in [`LATE_TICKS`]): no edge is lost or repeated and no step
-//! follows a direction change sooner than the setup allows. The dir pins change after the pulse
-//! end, so they are held a pulse width after each edge. Periods shorter than [`StepTiming::min_period`] are stretched to it;
-//! `Setup::is_valid` refuses axes whose max rate would need such periods. Pin words come from
-//! 64-entry tables built at compile time from the board's pin numbers, so the ISR does lookups,
-//! no loops.
+//! writes the dir pins of the step the next update emits, puts that step's word in CCR3 and the
+//! period after it in the preloaded ARR, then runs `StepKernel::tick`; it keeps two computed
+//! ticks, so it knows whether the step after the next one changes direction and gives the period
+//! before that step the dir set-up ([`StepTiming::period`]); every other period is at least
+//! [`StepTiming::min_period`] (the pulse, then the pin low as long again or as long as the
+//! body's writes take). The body writes only when the timer shows time left before the next
+//! update for its writes and, when a dir pin changes, for the dir set-up
+//! ([`StepTiming::dir_setup`]); else it leaves everything for the next period (counted in
+//! [`LATE_TICKS`]): no edge is lost or repeated and no step follows a direction change sooner
+//! than the setup allows. The dir pins change after the pulse end, so they are held a pulse
+//! width after each edge. `Setup::is_valid` refuses axes whose max rate would need periods
+//! shorter than [`StepTiming::min_period`]. Pin words come from 64-entry tables built at compile
+//! time from the board's pin numbers, so the ISR does lookups, no loops.
 //!
 //! On-the-fly outputs: a segment's [`OutputEvent`] comes out of the tick that starts the segment
 //! and is switched (one BSRR write of the user output's port, port and pin mask from a table
@@ -24,9 +27,9 @@
 //! together with its dir pins: after the last step of the block before and before the first
 //! step of its own block. [`sync_user_outputs`] is the only other writer of those pins.
 //!
-//! A stop seen by the kernel takes effect at that tick; the step computed on the tick before is
-//! still emitted, so the kernel's position count stays exact. When the kernel is idle the timer
-//! keeps polling the queue every millisecond.
+//! A stop seen by the kernel takes effect at that tick; the two steps computed on the ticks
+//! before are still emitted, so the kernel's position count stays exact. When the kernel is
+//! idle the timer keeps polling the queue every millisecond.
 
 use crate::board::{gpio_block, PinId};
 use crate::board_def::{AXES, DIR, PROBE, STEP, USER_OUTPUTS, USER_PINS};
@@ -275,7 +278,8 @@ pub fn sync_user_outputs(f: impl FnOnce(u16) -> Option<u16>) {
             return;
         };
         s.kernel.set_outputs(word);
-        s.pending.output = OutputEvent::NONE;
+        s.next.output = OutputEvent::NONE;
+        s.after.output = OutputEvent::NONE;
         for n in 0..USER_OUTPUTS as u8 {
             if let Some(e) = OutputEvent::new(n, word >> n & 1 != 0) {
                 write_output(e);

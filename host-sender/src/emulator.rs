@@ -256,6 +256,8 @@ pub struct Hardware {
     /// Ticks that stopped the kernel on a limit, and the virtual time of the last one.
     pub limit_stops: u32,
     last_dir: u8,
+    /// Virtual time and kernel period of the last tick, for the dir set-up of the next one.
+    last_tick: Option<(u64, u32)>,
     observer: Option<Box<dyn FnMut(PinEvent)>>,
     /// Main-loop passes that found the kernel idle with motion still to run and nothing prepared
     /// (the planner starved the kernel).
@@ -387,6 +389,7 @@ impl EmulatedBoard {
             switch_stop: false,
             limit_stops: 0,
             last_dir: 0,
+            last_tick: None,
             observer: None,
             underruns: 0,
             outbox: Vec::new(),
@@ -836,12 +839,31 @@ impl Hardware {
         std::mem::take(&mut self.outbox)
     }
 
+    /// The kernel's next tick has another dir byte than the last: it starts a segment with
+    /// another direction (a stopping or busy kernel keeps its dir byte).
+    fn next_tick_turns(&self) -> bool {
+        let stopping = self.limit || self.switch_stop || self.kernel.is_stopped();
+        !stopping
+            && !self.kernel.is_busy()
+            && self.fifo.0.front().is_some_and(|s| s.dir != self.last_dir)
+    }
+
     fn tick(&mut self) {
+        // As the step interrupt: the period before a tick that changes direction holds the dir
+        // set-up ([`StepTiming::period`]); the others were timed when their tick ran.
+        if let Some((at, period)) = self.last_tick.filter(|_| self.next_tick_turns()) {
+            let due = at + u64::from(self.timing.period(period.max(1), true));
+            if self.now < due {
+                self.next_tick = Some(due);
+                return;
+            }
+        }
         let (queued, front) = (self.fifo.0.len(), self.fifo.0.front().copied());
         let probe = self.probe_pin();
         let out = self
             .kernel
             .tick(&mut self.fifo, self.limit || self.switch_stop, probe);
+        self.last_tick = Some((self.now, out.period));
         let user_outputs = self.kernel.outputs();
         if let (Some(log), Some(seg)) = (self.started_segments.as_mut(), front) {
             if self.fifo.0.len() < queued {
@@ -889,10 +911,10 @@ impl Hardware {
             self.last_dir = out.dir;
             self.last_outputs = user_outputs;
         }
-        // As the step interrupt: a period too short for the setup's pulse and dir set-up is
-        // stretched to the shortest one that fits.
+        // As the step interrupt: a period too short for the setup's pulse (and the interrupt's
+        // writes) is stretched to the shortest one that fits.
         self.next_tick =
-            (out.period != 0).then(|| self.now + u64::from(self.timing.stretch(out.period)));
+            (out.period != 0).then(|| self.now + u64::from(self.timing.period(out.period, false)));
         if out.period == 0 {
             self.kernel_idle_at = self.now;
             let s = &mut self.starved;

@@ -653,13 +653,12 @@ impl SetupFile {
                 let rate = a.max_rate as f64 * f64::from(a.steps) / a.units_nm as f64 / 60.0;
                 bail!(
                     "axis.{}.max_rate = {} mm/min is {:.0} steps/s, but the drivers' step pulse \
-                     ({} µs) and the longer of pulse and dir set-up ({} µs), plus 1 µs for the step \
-                     interrupt, allow at most {:.0} steps/s: lower max_rate or the [drivers] times",
+                     ({} µs, then low as long again) allows at most {:.0} steps/s: lower max_rate \
+                     or drivers.step_pulse_us",
                     letter,
                     mm(a.max_rate),
                     rate,
                     us_text(s.drivers.step_pulse_ns),
-                    us_text(s.drivers.step_pulse_ns.max(s.drivers.dir_setup_ns)),
                     allowed.floor()
                 );
             }
@@ -1378,15 +1377,16 @@ host_lost_stop_s = 0
         );
         assert!(SetupFile::parse("[drivers]\ndir_setup_us = 51\n").is_err());
         assert!(SetupFile::parse("[drivers]\nstep_pulse = 5\n").is_err());
-        // 3200 steps per 5 mm at 3000 mm/min is 32 000 steps/s (31.25 µs): a 15 µs pulse with
-        // as long a low time and the 1 µs allowance needs 31 µs and fits, 15.1 µs does not.
-        assert!(SetupFile::parse("[drivers]\nstep_pulse_us = 15\n").is_ok());
-        let e = SetupFile::parse("[drivers]\nstep_pulse_us = 15.1\n").unwrap_err();
+        // 3200 steps per 5 mm at 3000 mm/min is 32 000 steps/s (31.25 µs, 375 counts): a 15.5
+        // µs pulse (186 counts) with as long a low time needs 31 µs and fits, whatever the dir
+        // set-up (only a reversal waits for it); 15.6 µs (188 counts, 376) does not.
+        assert!(SetupFile::parse("[drivers]\nstep_pulse_us = 15.5\ndir_setup_us = 50\n").is_ok());
+        let e = SetupFile::parse("[drivers]\nstep_pulse_us = 15.6\n").unwrap_err();
         assert_eq!(
             e.to_string(),
             "axis.X.max_rate = 3000.0 mm/min is 32000 steps/s, but the drivers' step pulse \
-             (15.1 µs) and the longer of pulse and dir set-up (15.1 µs), plus 1 µs for the step \
-             interrupt, allow at most 31914 steps/s: lower max_rate or the [drivers] times"
+             (15.6 µs, then low as long again) allows at most 31914 steps/s: lower max_rate or \
+             drivers.step_pulse_us"
         );
     }
 }

@@ -272,7 +272,8 @@ impl DriverSetup {
     /// 2.5 µs pulse, 5 µs direction set-up: the minimums of the most demanding common driver,
     /// the opto-isolated Leadshine DM542 (pulse ≥ 2.5 µs, direction ≥ 5 µs ahead of the pulse);
     /// more than TB6600 modules (≥ 2.2 µs), the DRV8825 (1.9 µs, 650 ns set-up) and the A4988
-    /// (1 µs, 200 ns). It allows 117 k steps/s (an 8.5 µs period with the interrupt allowance).
+    /// (1 µs, 200 ns). It allows 200 k steps/s (a 5 µs period: the pulse and as long low), with
+    /// 8.5 µs before a direction change ([`StepTiming`]).
     pub const DEFAULT: DriverSetup = DriverSetup {
         step_pulse_ns: 2_500,
         dir_setup_ns: 5_000,
@@ -516,9 +517,11 @@ impl Setup {
                 .all(|l| l.bytes().all(|c| (b' '..=b'~').contains(&c) && c != b'$'))
     }
 
-    /// Axis `axis` at its max rate leaves every step period long enough for the step pulse and
-    /// the direction set-up of [`Self::drivers`] ([`StepTiming::min_period`]); else the step
-    /// interrupt would stretch the periods and the machine would run slower than planned.
+    /// Axis `axis` at its max rate leaves every step period long enough for the step pulse of
+    /// [`Self::drivers`], the pin low as long again and the step interrupt's writes
+    /// ([`StepTiming::min_period`]); else the step interrupt would stretch the periods and the
+    /// machine would run slower than planned. The dir set-up is not part of it: only the period
+    /// before a direction change holds it ([`StepTiming::period`]), a few µs per reversal.
     /// Exact: `max_rate · steps / (units · 60)` steps/s times the period in timer counts must not
     /// exceed the timer's counts per second (compared multiplied out, no rounding).
     pub fn step_rate_fits(&self, axis: usize) -> bool {
@@ -711,15 +714,15 @@ mod tests {
         };
         assert!(!s.is_valid());
         // 3200 steps per 5 mm at 3000 mm/min: 32 000 steps/s, a 375-count (31.25 µs) period.
-        // Pulse and low time of 182 counts plus the 12-count interrupt allowance: 376.
+        // Pulse and low time of 188 counts each: 376; the dir set-up does not count.
         s.drivers = DriverSetup {
-            step_pulse_ns: 15_084,
-            dir_setup_ns: 0,
+            step_pulse_ns: 15_584,
+            dir_setup_ns: 50_000,
         };
         assert_eq!(StepTiming::from_setup(&s.drivers).min_period, 376);
         assert!(!s.step_rate_fits(0));
         assert!(!s.is_valid());
-        s.drivers.step_pulse_ns = 15_083; // 181 counts: a 374-count period fits
+        s.drivers.step_pulse_ns = 15_583; // 187 counts: a 374-count period fits
         assert!(s.step_rate_fits(0));
         assert!(s.is_valid());
         // Axes beyond axis_count do not count.

@@ -10,10 +10,16 @@
 //!    period late. Every step the kernel counted must reach the step pins exactly once, on the
 //!    dir level it was computed with, with the dir pins unchanged for at least the set-up time
 //!    before the edge; the run fails otherwise.
+//!    Then the goal rates with 1 µs pulses and dir set-up (1 axis at 500 kHz, 3 axes at 300 kHz,
+//!    reversals every third segment, every interrupt on time): no late run, the exact steps, and
+//!    every gap between steps exactly `StepTiming::period` ([`check_goal_rate`]).
 //! 2. Measure: instructions per step event (one run of the handler) for 1, 3 and 6 axes stepping,
 //!    from SysTick under `-icount shift=0,sleep=off` (one instruction per virtual nanosecond;
 //!    run it as `bench_motion`, target-tests/README.md), minus the loop and call overhead; then
 //!    the step rates at 96 MHz with the interrupt's entry and exit added.
+//!
+//! With `--features step-window` it also measures the instructions from the handler's entry to
+//! its counter read and to its reload write (`StepTiming::ENTRY_COUNTS` / `WRITE_GUARD`).
 //!
 //! The figures are printed on the last line.
 #![no_std]
@@ -27,7 +33,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::entry;
-use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming};
+use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::setup::DriverSetup;
 use gantry_target_tests::clock::{now, RELOAD};
@@ -161,6 +167,112 @@ fn calibrate() -> u64 {
     let counts = now() - t0;
     // The loop body: black_box store and load, `subs`, `cmp`, `bne` (as in bench_motion).
     5 * N as u64 * 1000 / counts.max(1)
+}
+
+#[cfg(feature = "step-window")]
+/// SysTick's value when the body read the timer's counter, and when it wrote the reload (its
+/// last write before the update): the write-window measurement.
+static READ_AT: AtomicU32 = AtomicU32::new(0);
+#[cfg(feature = "step-window")]
+static WRITE_AT: AtomicU32 = AtomicU32::new(0);
+
+#[cfg(feature = "step-window")]
+/// [`FakeHardware`] that also notes SysTick at the counter read and at the reload write.
+struct StampHardware;
+
+#[cfg(feature = "step-window")]
+impl StepHardware for StampHardware {
+    #[inline(always)]
+    fn count(&self) -> u32 {
+        READ_AT.store(SYST::get_current(), Ordering::Relaxed);
+        CNT.load(Ordering::Relaxed)
+    }
+    #[inline(always)]
+    fn reload(&self) -> u32 {
+        ARR.load(Ordering::Relaxed)
+    }
+    #[inline(always)]
+    fn set_reload(&mut self, reload: u32) {
+        ARR.store(reload, Ordering::Relaxed);
+        WRITE_AT.store(SYST::get_current(), Ordering::Relaxed);
+    }
+    #[inline(always)]
+    fn write_dir(&mut self, bsrr: u32) {
+        DIR_BSRR.store(bsrr, Ordering::Relaxed);
+    }
+    #[inline(always)]
+    fn set_step_word(&mut self, bsrr: u32) {
+        STEP_WORD.store(bsrr, Ordering::Relaxed);
+    }
+    #[inline(always)]
+    fn write_output(&mut self, event: OutputEvent) {
+        OUTPUT.store(u32::from(event.index() as u8) | 0x100, Ordering::Relaxed);
+    }
+    #[inline(always)]
+    fn probe_closed(&self) -> bool {
+        PROBE_IDR.load(Ordering::Relaxed) & 1 == 0
+    }
+}
+
+#[cfg(feature = "step-window")]
+/// [`handler`] over [`StampHardware`].
+#[inline(never)]
+fn stamped_handler(state: &mut Option<StepIsr<Repeat>>) {
+    SR.store(!2, Ordering::Relaxed);
+    let Some(isr) = state.as_mut() else {
+        return;
+    };
+    if isr.on_pulse_end(&WORDS, &mut StampHardware, black_box(false)) == Run::Late {
+        LATE.store(LATE.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
+    }
+}
+
+#[cfg(feature = "step-window")]
+/// The reference: the same call, noting SysTick first thing.
+#[inline(never)]
+fn stamp_at_entry(state: &mut Option<StepIsr<Repeat>>) {
+    READ_AT.store(SYST::get_current(), Ordering::Relaxed);
+    WRITE_AT.store(READ_AT.load(Ordering::Relaxed), Ordering::Relaxed);
+    black_box(state);
+}
+
+#[cfg(feature = "step-window")]
+/// Instructions × 10 from the handler's first instruction to the counter read and to the
+/// reload write (one-axis segment, no dir change, no output), averaged over many runs: SysTick
+/// ticks every 40 instructions, and the runs fall at every phase of it. The stamps add 2-3
+/// instructions each to the body.
+fn write_window() -> (u64, u64) {
+    let timing = StepTiming::from_setup(&DriverSetup::DEFAULT);
+    let mut steps = [0u32; 6];
+    steps[0] = 1000;
+    let mut state = Some(StepIsr::new(
+        Repeat(seg(steps, 1000, 240, 0, OutputEvent::NONE)),
+        timing,
+    ));
+    CNT.store(timing.pulse + 3, Ordering::Relaxed);
+    ARR.store(239, Ordering::Relaxed);
+    let mut sums = [[0u64; 2]; 2];
+    for (n, body) in [stamp_at_entry as fn(&mut _), stamped_handler]
+        .into_iter()
+        .enumerate()
+    {
+        for _ in 0..RUNS {
+            let t0 = SYST::get_current();
+            body(black_box(&mut state));
+            // SysTick counts down from RELOAD.
+            let ticks = |at: u32| {
+                u64::from(if at <= t0 {
+                    t0 - at
+                } else {
+                    t0 + RELOAD + 1 - at
+                })
+            };
+            sums[n][0] += ticks(READ_AT.load(Ordering::Relaxed));
+            sums[n][1] += ticks(WRITE_AT.load(Ordering::Relaxed));
+        }
+    }
+    let instr_x10 = |i: usize| (sums[1][i] - sums[0][i]) * 40 * 10 / u64::from(RUNS);
+    (instr_x10(0), instr_x10(1))
 }
 
 /// A queue of segments for the check.
@@ -311,6 +423,135 @@ fn check_against_timer_model() {
     }
 }
 
+/// Pulse shape of the goal: 1 µs pulses, 1 µs dir set-up (A4988-class drivers).
+const FAST_DRIVERS: DriverSetup = DriverSetup {
+    step_pulse_ns: 1_000,
+    dir_setup_ns: 1_000,
+};
+
+/// The goal rates on the same timer model, with every interrupt on time: its timer read comes
+/// [`StepTiming::ENTRY_COUNTS`] after the pulse end (the entry figure the shortest periods are
+/// built on) and its dir write [`StepTiming::WRITE_GUARD`] later. Segments of `ticks` ticks at
+/// `period` counts step the first `axes` axes on every tick, reversing them every third segment.
+/// Fails unless no run is late, every step reaches the pins once on its dir, every dir change
+/// leads its step by the set-up, and only the periods before a reversal are stretched, each to
+/// exactly as [`StepTiming::period`] says. Returns the steps and the reversals seen.
+fn check_goal_rate(axes: usize, period: u32) -> (u32, u32) {
+    let timing = StepTiming::from_setup(&FAST_DRIVERS);
+    const SEGS: usize = 40;
+    const TICKS: u32 = 50;
+    let mut segs = [Segment::idle(1, 1); SEGS];
+    let mut expected = [0i64; 6];
+    let mut reversals = 0;
+    let mut last_dir = 0u8;
+    for (n, s) in segs.iter_mut().enumerate() {
+        let mut steps = [0u32; 6];
+        steps[..axes].fill(TICKS);
+        let dir = if (n / 3) % 2 == 1 { 0b0011_1111 } else { 0 };
+        if dir != last_dir {
+            reversals += 1;
+        }
+        last_dir = dir;
+        *s = seg(steps, TICKS, period, dir, OutputEvent::NONE);
+        for (axis, e) in expected.iter_mut().enumerate() {
+            let n = i64::from(s.steps[axis]);
+            *e += if dir & (1 << axis) != 0 { -n } else { n };
+        }
+    }
+    let mut state = Some(StepIsr::new(Segments(&segs, 0), timing));
+    let isr = state.as_mut().unwrap();
+    ARR.store(step_body::IDLE_PERIOD_COUNTS - 1, Ordering::Relaxed);
+    STEP_WORD.store(WORDS.step_reset, Ordering::Relaxed);
+    let mut dir_pins = 0u32;
+    let mut pins = [0i64; 6];
+    let mut t_update = 0u64;
+    let mut dir_changed_at = 0u64;
+    let mut last_step_at: Option<u64> = None;
+    let (mut late, mut steps, mut stretched, mut seen_reversals) = (0u32, 0u32, 0u32, 0u32);
+    let mut step_dir = 0u32;
+    let total_ticks = SEGS as u32 * TICKS;
+    for _period in 0..total_ticks + 10 {
+        let arr = ARR.load(Ordering::Relaxed);
+        let word = STEP_WORD.load(Ordering::Relaxed);
+        let mut stepped = false;
+        for (axis, p) in pins.iter_mut().enumerate() {
+            if word & (1 << (10 + axis)) != 0 {
+                steps += 1;
+                stepped = true;
+                if t_update - dir_changed_at < u64::from(timing.dir_setup) {
+                    println!(
+                        "FAIL dir changed {} counts before a step",
+                        t_update - dir_changed_at
+                    );
+                    exit(false);
+                }
+                *p += if dir_pins & (1 << axis) != 0 { -1 } else { 1 };
+            }
+        }
+        if stepped {
+            // The period since the last step: the kernel's, or the turn period before a
+            // reversal, nothing else.
+            if let Some(t) = last_step_at {
+                let gap = t_update - t;
+                let turned = dir_pins != step_dir;
+                let want = timing.period(period, turned);
+                if gap != u64::from(want) {
+                    println!(
+                        "FAIL {} counts between steps, want {} (reversal: {})",
+                        gap, want, turned
+                    );
+                    exit(false);
+                }
+                if turned {
+                    seen_reversals += 1;
+                }
+                if gap > u64::from(period) {
+                    stretched += 1;
+                }
+            }
+            last_step_at = Some(t_update);
+            step_dir = dir_pins;
+        }
+        // The pulse end, then the interrupt's timer read on time.
+        STEP_WORD.store(WORDS.step_reset, Ordering::Relaxed);
+        let read = u64::from(timing.pulse + StepTiming::ENTRY_COUNTS);
+        CNT.store(read as u32, Ordering::Relaxed);
+        DIR_BSRR.store(0, Ordering::Relaxed);
+        if isr.on_pulse_end(&WORDS, &mut FakeHardware, false) == Run::Late {
+            late += 1;
+        }
+        let bsrr = DIR_BSRR.load(Ordering::Relaxed);
+        let before = dir_pins;
+        dir_pins = (before | (bsrr & 0xFFFF)) & !(bsrr >> 16);
+        if dir_pins != before {
+            // The latest the dir write lands.
+            dir_changed_at = t_update + read + u64::from(StepTiming::WRITE_GUARD);
+        }
+        t_update += u64::from(arr) + 1;
+    }
+    let kernel = isr.kernel.position();
+    // A reversal's period is stretched only where the turn period is the longer.
+    let expect_stretched = if timing.turn_period > period {
+        reversals
+    } else {
+        0
+    };
+    if late != 0
+        || pins != expected
+        || kernel != expected
+        || steps != total_ticks * axes as u32
+        || seen_reversals != reversals
+        || stretched != expect_stretched
+    {
+        println!(
+            "FAIL goal rate {} axes: {} late, {} steps, pins {:?}, kernel {:?}, want {:?}, {} reversals ({} stretched)",
+            axes, late, steps, pins, kernel, expected, seen_reversals, stretched
+        );
+        exit(false);
+    }
+    (steps, seen_reversals)
+}
+
 fn seg(steps: [u32; 6], ticks: u32, period: u32, dir: u8, output: OutputEvent) -> Segment {
     Segment {
         steps,
@@ -333,6 +574,15 @@ fn main() -> ! {
     while SYST::get_current() == 0 {}
 
     check_against_timer_model();
+    let fast = StepTiming::from_setup(&FAST_DRIVERS);
+    for (axes, khz) in [(1, 500), (3, 300)] {
+        let period = KERNEL_TIMER_HZ / 1000 / khz;
+        let (steps, reversals) = check_goal_rate(axes, period);
+        println!(
+            "goal rate: {} axes at {} kHz ({} counts, 1 us pulse and dir set-up): {} steps, {} reversals ({} counts before each), 0 late",
+            axes, khz, period, steps, reversals, fast.turn_period
+        );
+    }
 
     let ipc = calibrate(); // instructions per count × 1000
     println!(
@@ -349,6 +599,20 @@ fn main() -> ! {
         "loop+call overhead: {} instructions per run (subtracted)",
         base
     );
+    #[cfg(feature = "step-window")]
+    {
+        let (to_read, to_write) = write_window();
+        println!(
+        "write window: {}.{} instructions from the handler's entry to the counter read, {}.{} to the reload write (F411 TIM2: 22 and 35; StepTiming::ENTRY_COUNTS {} + WRITE_GUARD {} counts = {} cycles at 96 MHz with the 12-cycle entry)",
+        to_read / 10,
+        to_read % 10,
+        to_write / 10,
+        to_write % 10,
+        StepTiming::ENTRY_COUNTS,
+        StepTiming::WRITE_GUARD,
+        8 * StepTiming::WRITE_WINDOW
+    );
+    }
     // Exception entry 12 cycles and return 10 (Cortex-M4 with zero-wait-state memory and lazy FP
     // stacking: ARM Cortex-M4 Technical Reference Manual, "Exception model" / interrupt latency),
     // at one instruction per cycle. One run per step event: every axis can step on each.
