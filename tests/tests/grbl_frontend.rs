@@ -512,11 +512,17 @@ fn a_probe_move_reports_its_trip_in_prb_and_the_tool_change_stop_is_hold() {
 
 /// A sender whose spindle maps 0-10,000 rpm onto PWM counts 0-1000 (duty = rpm / 10).
 fn pwm_sender() -> Sender {
+    pwm_sender_with(|_| {})
+}
+
+/// [`pwm_sender`] with more setup changes.
+fn pwm_sender_with(edit: impl FnOnce(&mut gantry_machine::setup::Setup)) -> Sender {
     let mut s = Sender::with(|st| {
         st.outputs.spindle_min_rpm = 0;
         st.outputs.spindle_max_rpm = 10_000;
         st.outputs.pwm_min = 0;
         st.outputs.pwm_max = 1000;
+        edit(st);
     });
     s.send(b"\x18");
     s.until(BANNER, 20);
@@ -783,7 +789,8 @@ fn a_probe_line_is_answered_after_its_prb_message() {
 
 #[test]
 fn the_safety_door_stops_parks_the_outputs_and_resumes_to_the_exact_end() {
-    let mut s = pwm_sender();
+    // No spindle spin-up wait here (`door_spin_up_ms = 0`); the wait has its own tests below.
+    let mut s = pwm_sender_with(|st| st.grbl.door_spin_up_ms = 0);
     let outputs = |s: &Sender| {
         let l = s.eb.board.output_levels();
         (l.spindle_enable, l.spindle_pwm, l.flood)
@@ -860,6 +867,143 @@ fn the_safety_door_stops_parks_the_outputs_and_resumes_to_the_exact_end() {
     s.until(BANNER, 200);
     assert!(s.status().starts_with("<Idle|"));
     assert_eq!(outputs(&s), (false, 0, false));
+}
+
+/// Spindle enable, PWM duty and flood coolant as driven.
+fn door_outputs(s: &Sender) -> (bool, u16, bool) {
+    let l = s.eb.board.output_levels();
+    (l.spindle_enable, l.spindle_pwm, l.flood)
+}
+
+/// A job with spindle and flood on (`G1 X20 F600`) on a sender with the given spin-up wait,
+/// stopped by the door after 300 ms and parked (`Door:0`); the times (kernel timer counts) of
+/// every X step from then on are collected.
+fn door_parked(spin_up_ms: u16) -> (Sender, std::rc::Rc<std::cell::RefCell<Vec<u64>>>) {
+    let mut s = pwm_sender_with(|st| st.grbl.door_spin_up_ms = spin_up_ms);
+    let steps = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+    let sink = steps.clone();
+    s.eb.observe(move |p| {
+        if p.step & 1 != 0 {
+            sink.borrow_mut().push(p.time);
+        }
+    });
+    s.send(b"M3 S5000 M8\nG1 X20 F600\n");
+    s.run(300);
+    s.send(&[0x84]);
+    s.run(500);
+    assert!(s.status().starts_with("<Door:0|"), "{}", s.seen);
+    assert_eq!(door_outputs(&s), (false, 0, false));
+    assert!(s.eb.kernel_drained());
+    steps.borrow_mut().clear();
+    (s, steps)
+}
+
+/// `~` to a parked door: spindle and coolant are back on after one millisecond (the next
+/// main-loop pass); returns the virtual time the byte was sent, kernel timer counts.
+fn close_the_door(s: &mut Sender) -> u64 {
+    let sent = s.eb.now();
+    s.send(b"~");
+    s.run(1);
+    assert_eq!(door_outputs(s), (true, 500, true), "restored first");
+    sent
+}
+
+const COUNTS_PER_MS: u64 = host_sender::emulator::COUNTS_PER_MS;
+
+#[test]
+fn after_the_door_the_spindle_spins_up_for_the_set_time_before_the_job_resumes() {
+    // The reference: no wait (`door_spin_up_ms = 0`): the job resumes at once.
+    let (mut s, steps) = door_parked(0);
+    let t0 = close_the_door(&mut s);
+    assert!(s.status().starts_with("<Run|"));
+    until_state(&mut s.eb, State::Idle, 20_000);
+    let first_at_once = steps.borrow()[0] - t0;
+    let steps_at_once = steps.borrow().len();
+    assert!(first_at_once < 10 * COUNTS_PER_MS, "{first_at_once}");
+    assert_eq!(s.steps(), [20 * STEPS_PER_MM, 0, 0]);
+
+    // The default 4 s: `Door:3` with spindle and coolant on and nothing moving, then the job
+    // resumes exactly 4.000 s later than without the wait and ends on the same steps.
+    assert_eq!(
+        gantry_machine::setup::Setup::default().grbl.door_spin_up_ms,
+        4_000
+    );
+    let (mut s, steps) = door_parked(4_000);
+    let held = s.steps();
+    let t = close_the_door(&mut s);
+    let st = s.status();
+    assert!(st.starts_with("<Door:3|") && st.ends_with("|A:SF>"), "{st}");
+    s.send(b"~");
+    s.run(3_980);
+    assert!(
+        s.status().starts_with("<Door:3|"),
+        "`~` while spinning up is ignored"
+    );
+    assert_eq!(s.steps(), held, "nothing moves while the spindle spins up");
+    assert!(steps.borrow().is_empty());
+    assert_eq!(door_outputs(&s), (true, 500, true));
+    until_state(&mut s.eb, State::Idle, 20_000);
+    let first = steps.borrow()[0] - t;
+    assert_eq!(first, first_at_once + 4_000 * COUNTS_PER_MS);
+    assert_eq!(steps.borrow().len(), steps_at_once);
+    assert_eq!(s.steps(), [20 * STEPS_PER_MM, 0, 0]);
+    assert_eq!(door_outputs(&s), (true, 500, true));
+
+    // With the spindle off there is nothing to wait for.
+    let mut s = Sender::connected();
+    s.send(b"G1 X5 F600\n");
+    s.run(200);
+    s.send(&[0x84]);
+    s.run(500);
+    assert!(s.status().starts_with("<Door:0|"));
+    s.send(b"~");
+    s.run(2);
+    assert!(s.status().starts_with("<Run|"));
+    until_state(&mut s.eb, State::Idle, 20_000);
+    assert_eq!(s.steps(), [5 * STEPS_PER_MM, 0, 0]);
+}
+
+#[test]
+fn a_door_opened_again_or_a_reset_during_the_spin_up_acts_as_in_grbl() {
+    // Opened again 1 s into the spin-up: outputs off again (`Door:0`); the next `~` waits the
+    // whole 4 s again.
+    let (mut s, steps) = door_parked(4_000);
+    let held = s.steps();
+    close_the_door(&mut s);
+    s.run(1_000);
+    s.send(&[0x84]);
+    s.run(2);
+    assert!(s.status().starts_with("<Door:0|"), "{}", s.seen);
+    assert_eq!(door_outputs(&s), (false, 0, false));
+    s.run(5_000);
+    assert_eq!(s.steps(), held);
+    let t = close_the_door(&mut s);
+    assert!(s.status().starts_with("<Door:3|"));
+    until_state(&mut s.eb, State::Idle, 20_000);
+    let first = steps.borrow()[0] - t;
+    assert!(
+        (4_000 * COUNTS_PER_MS..4_010 * COUNTS_PER_MS).contains(&first),
+        "{first}"
+    );
+    assert_eq!(s.steps(), [20 * STEPS_PER_MM, 0, 0]);
+
+    // A soft reset during the spin-up: the job ends where it stood, outputs off, the door
+    // forgotten.
+    let (mut s, steps) = door_parked(4_000);
+    let held = s.steps();
+    close_the_door(&mut s);
+    s.run(1_000);
+    s.send(b"\x18");
+    s.until(BANNER, 200);
+    assert!(s.status().starts_with("<Idle|"));
+    assert_eq!(door_outputs(&s), (false, 0, false));
+    s.run(5_000);
+    assert_eq!(s.steps(), held);
+    assert!(steps.borrow().is_empty());
+    s.send(b"G0 X0\n");
+    s.until("ok\r\n", 100);
+    until_state(&mut s.eb, State::Idle, 20_000);
+    assert_eq!(s.steps(), [0, 0, 0]);
 }
 
 #[test]

@@ -19,9 +19,10 @@ type Reader<'a> = postcard::Deserializer<'a, postcard::de_flavors::Slice<'a>>;
 
 /// First byte of every blob: the encoding's version. 1 was the first serde/postcard encoding
 /// (without this byte), 2 the hand-written one; 3 is postcard through serde again; 4 adds
-/// `program.tool_change_position`, `path.blend_tolerance` and the grbl front end's section.
+/// `program.tool_change_position`, `path.blend_tolerance` and the grbl front end's section; 5
+/// adds `grbl.door_spin_up_ms` (read with the rest of the grbl section in [`decode`]).
 /// Change it whenever the layout changes.
-pub const FORMAT: u8 = 4;
+pub const FORMAT: u8 = 5;
 
 /// Writes blob bytes `skip ..` into `out`. With `clip`, bytes beyond `out` are counted and
 /// dropped (a window of the blob); without, they are an error.
