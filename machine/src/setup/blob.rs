@@ -219,4 +219,26 @@ mod tests {
             assert_eq!(decode(&buf[..cut]), None, "{cut} bytes");
         }
     }
+
+    #[test]
+    fn the_door_spin_up_round_trips_and_is_range_checked_and_format_4_is_refused() {
+        let mut s = Setup::default();
+        let mut buf = [0u8; crate::setup::SETUP_BLOB_MAX];
+        let default_len = encode(&s, &mut buf, 0, false).unwrap();
+        s.grbl.door_spin_up_ms = 60_000;
+        let len = encode(&s, &mut buf, 0, false).unwrap();
+        assert_eq!(
+            len,
+            default_len + 1,
+            "the field is a varint: 4000 in 2 bytes, 60000 in 3"
+        );
+        assert_eq!(Setup::from_blob(&buf[..len]), Some(s.clone()));
+        s.grbl.door_spin_up_ms = 60_001;
+        let len = encode(&s, &mut buf, 0, false).unwrap();
+        assert_eq!(decode(&buf[..len]), Some(s.clone()));
+        assert_eq!(Setup::from_blob(&buf[..len]), None, "beyond 60 s");
+        // A blob stored by the firmware before the field (format 4) gives the defaults.
+        buf[0] = 4;
+        assert_eq!(Setup::from_blob(&buf[..len]), None);
+    }
 }
