@@ -9,7 +9,7 @@ use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::gcode::RetractMode;
 use gantry_machine::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::setup::{
-    AxisSetup, Dialect, DriverSetup, DwellUnits, ListCommand, McodeList, Setup, Tool,
+    AxisSetup, Dialect, DriverSetup, DwellUnits, GrblSetup, ListCommand, McodeList, Setup, Tool,
     ToolChangePosition, MAX_TOOLS, MAX_USER_MCODES, STARTUP_LINE_LEN, USER_OUTPUTS,
 };
 use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES, NM_PER_MM};
@@ -54,7 +54,8 @@ pub struct SetupFile {
     pub grbl: GrblFile,
 }
 
-/// The grbl front end's stored settings (docs/grbl.md): `$10`, `$13`, `$N0`/`$N1`.
+/// The grbl front end's stored settings (docs/grbl.md): `$10`, `$13`, `$N0`/`$N1`, the safety
+/// door's spindle spin-up wait.
 #[derive(Debug, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct GrblFile {
@@ -64,6 +65,9 @@ pub struct GrblFile {
     pub report_inches: Option<bool>,
     /// `$N0`, `$N1`: at most two G-code lines run after the banner.
     pub startup_lines: Option<Vec<String>>,
+    /// Seconds motion waits for the spindle to spin up after `~` closes the safety door (0-60,
+    /// ms resolution; 0 = no wait).
+    pub door_spin_up_s: Option<f64>,
 }
 
 /// Step and direction signal timing of the stepper drivers, in µs (see their datasheets).
@@ -594,6 +598,13 @@ impl SetupFile {
         if let Some(v) = g.report_inches {
             s.grbl.inches = v;
         }
+        if let Some(v) = g.door_spin_up_s {
+            let max = f64::from(*GrblSetup::DOOR_SPIN_UP_MS.end()) / 1000.0;
+            if !v.is_finite() || !(0.0..=max).contains(&v) {
+                bail!("grbl.door_spin_up_s = {v}: must be between 0 and {max} s");
+            }
+            s.grbl.door_spin_up_ms = (v * 1000.0).round() as u16;
+        }
         if let Some(lines) = &g.startup_lines {
             if lines.len() > 2 {
                 bail!("grbl.startup_lines: at most 2 lines ($N0, $N1)");
@@ -1080,6 +1091,11 @@ pub fn to_toml(s: &Setup) -> String {
         g.startup[0].as_str(),
         g.startup[1].as_str()
     );
+    let _ = writeln!(
+        t,
+        "door_spin_up_s = {}   # after ~ closes the safety door, the spindle spins up this long before motion; 0 = no wait",
+        us_text(u32::from(g.door_spin_up_ms)) // thousandths, as for µs
+    );
     t
 }
 
@@ -1388,5 +1404,23 @@ host_lost_stop_s = 0
              (15.6 µs, then low as long again) allows at most 31914 steps/s: lower max_rate or \
              drivers.step_pulse_us"
         );
+    }
+
+    #[test]
+    fn the_door_spin_up_is_read_in_seconds_and_bounded() {
+        assert_eq!(Setup::default().grbl.door_spin_up_ms, 4_000);
+        assert!(to_toml(&Setup::default()).contains("door_spin_up_s = 4.0 "));
+        let s = SetupFile::parse("[grbl]\ndoor_spin_up_s = 2.5\n").unwrap();
+        assert_eq!(s.grbl.door_spin_up_ms, 2_500);
+        assert_eq!(SetupFile::parse(&to_toml(&s)).unwrap(), s);
+        let s = SetupFile::parse("[grbl]\ndoor_spin_up_s = 0\n").unwrap();
+        assert_eq!(s.grbl.door_spin_up_ms, 0);
+        assert!(s.is_valid());
+        let e = SetupFile::parse("[grbl]\ndoor_spin_up_s = 60.5\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "grbl.door_spin_up_s = 60.5: must be between 0 and 60 s"
+        );
+        assert!(SetupFile::parse("[grbl]\ndoor_spin_up_s = -1\n").is_err());
     }
 }

@@ -294,15 +294,24 @@ pub struct GrblSetup {
     /// `$N0`, `$N1`: G-code lines run after the banner (power-up, connect, soft reset) when the
     /// machine is not in alarm; empty = none.
     pub startup: [heapless::String<STARTUP_LINE_LEN>; 2],
+    /// After `~` closes the safety door with the spindle on, motion waits this long for the
+    /// spindle to spin up (`Door:3`, machine/src/grbl/door.rs), ms; 0 = no wait
+    /// ([`Self::DOOR_SPIN_UP_MS`]).
+    pub door_spin_up_ms: u16,
 }
 
 impl GrblSetup {
-    /// grbl's defaults: machine position in reports, mm, no startup lines.
+    /// grbl's defaults: machine position in reports, mm, no startup lines, a 4 s spindle spin-up
+    /// after the safety door.
     pub const DEFAULT: GrblSetup = GrblSetup {
         status_mask: 1,
         inches: false,
         startup: [heapless::String::new(), heapless::String::new()],
+        door_spin_up_ms: 4_000,
     };
+
+    /// Accepted spin-up waits after the safety door, ms: up to a minute (grbl waits 4 s).
+    pub const DOOR_SPIN_UP_MS: core::ops::RangeInclusive<u16> = 0..=60_000;
 }
 
 /// The whole machine setup.
@@ -510,6 +519,7 @@ impl Setup {
             && DriverSetup::DIR_SETUP_NS.contains(&self.drivers.dir_setup_ns)
             && (0..n).all(|i| self.step_rate_fits(i))
             && self.grbl.status_mask <= 3
+            && GrblSetup::DOOR_SPIN_UP_MS.contains(&self.grbl.door_spin_up_ms)
             && self
                 .grbl
                 .startup

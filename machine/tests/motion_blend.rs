@@ -66,6 +66,54 @@ fn run(cfg: MotionConfig, program: Vec<Canon>) -> Run {
     }
 }
 
+/// `program` with a feed hold once `hold_when` holds (checked before every tick); once held and
+/// at rest the machine must stand still for 1000 ticks; then it resumes and runs to its end.
+/// The run's step trace and simulator (no block reports), and where it held.
+fn hold_and_resume(
+    cfg: MotionConfig,
+    program: Vec<Canon>,
+    hold_when: impl Fn(&Sim<128>) -> bool,
+) -> (Run, [i64; MAX_AXES]) {
+    let mut sim: Sim<128> = Sim::new(cfg);
+    let mut steps = Vec::new();
+    let mut feeder = gantry_machine::motion::sim::Feeder::new(program.into_iter());
+    let mut on = |e: SimEvent| {
+        if let SimEvent::Step(s) = e {
+            steps.push(s)
+        }
+    };
+    while !hold_when(&sim) {
+        feeder.feed(&mut sim).unwrap();
+        sim.tick(&mut on);
+    }
+    sim.motion.feed_hold();
+    while sim.motion.state() != MotionState::Held {
+        feeder.feed(&mut sim).unwrap();
+        sim.tick(&mut on);
+    }
+    sim.run_until_idle(&mut on);
+    let held = sim.kernel.position();
+    for _ in 0..1000 {
+        sim.tick(&mut on);
+    }
+    assert_eq!(sim.kernel.position(), held, "stands still while held");
+    sim.motion.resume();
+    loop {
+        feeder.feed(&mut sim).unwrap();
+        sim.tick(&mut on);
+        if feeder.exhausted() && sim.motion.state() == MotionState::Idle && sim.fifo.0.is_empty() {
+            break;
+        }
+    }
+    sim.run_until_idle(&mut on);
+    let run = Run {
+        reports: Vec::new(),
+        steps,
+        sim,
+    };
+    (run, held)
+}
+
 fn blend(tolerance: i64) -> Canon {
     path(1, PathMode::Blend { tolerance })
 }
@@ -305,43 +353,13 @@ fn a_hold_inside_a_rounded_corner_stops_on_the_arc_and_resumes_exactly() {
     let reference = run(cfg, program.clone());
     let corner_blocks = reference.reports.iter().filter(|b| b.line == 2).count();
     assert_eq!(corner_blocks, 6);
-    let mut sim: Sim<128> = Sim::new(cfg);
-    let mut steps = Vec::new();
-    let mut feeder = gantry_machine::motion::sim::Feeder::new(program.into_iter());
-    let mut on = |e: SimEvent| {
-        if let SimEvent::Step(s) = e {
-            steps.push(s)
-        }
-    };
     // Hold as soon as Y moves (the first vertex-to-vertex segment), then resume once held.
-    while sim.kernel.position()[1] == 0 {
-        feeder.feed(&mut sim).unwrap();
-        sim.tick(&mut on);
-    }
-    sim.motion.feed_hold();
-    while sim.motion.state() != MotionState::Held {
-        feeder.feed(&mut sim).unwrap();
-        sim.tick(&mut on);
-    }
-    sim.run_until_idle(&mut on);
-    let held = sim.kernel.position();
+    let (Run { steps, sim, .. }, held) =
+        hold_and_resume(cfg, program, |sim| sim.kernel.position()[1] != 0);
     println!("corner hold: stopped at {held:?} steps");
     // At rest inside the corner: off both programmed moves.
     let corner = cfg.to_steps(&xy(10 * MM, 0));
     assert!(held[0] < corner[0] && held[1] > 0, "{held:?}");
-    for _ in 0..1000 {
-        sim.tick(&mut on);
-    }
-    assert_eq!(sim.kernel.position(), held);
-    sim.motion.resume();
-    loop {
-        feeder.feed(&mut sim).unwrap();
-        sim.tick(&mut on);
-        if feeder.exhausted() && sim.motion.state() == MotionState::Idle && sim.fifo.0.is_empty() {
-            break;
-        }
-    }
-    sim.run_until_idle(&mut on);
     assert_eq!(sim.kernel.position(), reference.sim.kernel.position());
     assert_eq!(sim.kernel.position(), cfg.to_steps(&xy(10 * MM, 10 * MM)));
     let dev = deviation(
@@ -418,44 +436,14 @@ fn a_hold_inside_a_merged_chord_stops_on_it_and_resumes_to_the_same_end() {
     let mut program = vec![blend(10_000)];
     program.extend(fine_line());
     let reference = run(cfg, program.clone());
-    let mut sim: Sim<128> = Sim::new(cfg);
-    let mut steps = Vec::new();
-    let mut feeder = gantry_machine::motion::sim::Feeder::new(program.into_iter());
-    let mut on = |e: SimEvent| {
-        if let SimEvent::Step(s) = e {
-            steps.push(s)
-        }
-    };
     // Hold at 0.5 s (cruising through the chords), then resume once held.
-    while sim.now < KERNEL_TIMER_HZ as u64 / 2 {
-        feeder.feed(&mut sim).unwrap();
-        sim.tick(&mut on);
-    }
-    sim.motion.feed_hold();
-    while sim.motion.state() != MotionState::Held {
-        feeder.feed(&mut sim).unwrap();
-        sim.tick(&mut on);
-    }
-    sim.run_until_idle(&mut on);
-    let held = sim.kernel.position();
+    let (Run { steps, sim, .. }, held) =
+        hold_and_resume(cfg, program, |sim| sim.now >= KERNEL_TIMER_HZ as u64 / 2);
     // Stopped inside a block, off its programmed points' step grid but on the chord: X moved
     // 20 mm at most, and Y within the tolerance of the line (0 or 1 µm programmed).
     println!("hold: stopped at {held:?}");
     assert!(held[0] > 0 && held[0] < cfg.to_steps(&xy(60 * MM, 0))[0]);
     assert!(held[1].abs() <= 7, "{held:?}"); // 7 steps = 10.9 µm
-    for _ in 0..1000 {
-        sim.tick(&mut on);
-    }
-    assert_eq!(sim.kernel.position(), held);
-    sim.motion.resume();
-    loop {
-        feeder.feed(&mut sim).unwrap();
-        sim.tick(&mut on);
-        if feeder.exhausted() && sim.motion.state() == MotionState::Idle && sim.fifo.0.is_empty() {
-            break;
-        }
-    }
-    sim.run_until_idle(&mut on);
     assert_eq!(sim.kernel.position(), reference.sim.kernel.position());
     let mut points = vec![xy(0, 0)];
     points.extend((1..=3000).map(|k| xy(k * 20_000, (k % 2) * 1_000)));

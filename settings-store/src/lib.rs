@@ -7,7 +7,7 @@
 //!
 //! | key | value |
 //! |---|---|
-//! | [`SETUP_KEY`] (4) | the setup as `Setup::to_blob` (format byte 4: postcard through serde), checked by `Setup::from_blob` on load |
+//! | [`SETUP_KEY`] (4) | the setup as `Setup::to_blob` (format byte 5, `machine/src/setup/blob.rs` `FORMAT`: postcard through serde), checked by `Setup::from_blob` on load |
 //! | 3 | retired: the setup in the hand-written encoding (format byte 2), left unread |
 //! | [`BOOT_KEY`] (2) | boot counter, `u32` little endian (the link's boot id) |
 //! | 1 | retired: the setup in its first (serde/postcard) encoding, left unread |

@@ -53,6 +53,42 @@ impl Sender {
         panic!("no {what:?} within {ms} ms; saw {:?}", self.seen);
     }
 
+    /// Sends `line` and runs until its `ok` (panics after `ms`); what was seen, taken.
+    fn answer(&mut self, line: &[u8], ms: u64) -> String {
+        self.send(line);
+        self.until("ok\r\n", ms)
+    }
+
+    /// The `ok` and `error:N` answers seen, in order.
+    fn answers(&self) -> Vec<&str> {
+        self.seen
+            .lines()
+            .filter(|l| *l == "ok" || l.starts_with("error:"))
+            .collect()
+    }
+
+    /// Asserts that the text seen contains `text`.
+    fn assert_seen(&self, text: &str) {
+        assert!(self.seen.contains(text), "{:?}", self.seen);
+    }
+
+    /// Runs until the board is idle (panics after `ms`): the steps it ends on.
+    fn ends_idle(&mut self, ms: u64) -> [i64; 3] {
+        until_state(&mut self.eb, State::Idle, ms);
+        self.steps()
+    }
+
+    /// Runs until a status report starts with `state` (panics after `ms`).
+    fn until_state_name(&mut self, state: &str, ms: u64) {
+        for _ in 0..ms {
+            self.run(1);
+            if self.status().starts_with(state) {
+                return;
+            }
+        }
+        panic!("no {state:?} within {ms} ms; saw {:?}", self.seen);
+    }
+
     fn oks(&self) -> usize {
         self.seen.matches("ok\r\n").count()
     }
@@ -191,8 +227,7 @@ fn character_counting_keeps_the_rx_buffer_full_and_loses_no_line() {
         max_in_flight > RX_SIZE - 20,
         "buffer kept full: {max_in_flight}"
     );
-    until_state(&mut s.eb, State::Idle, 20_000);
-    assert_eq!(s.steps()[0], 40 * STEPS_PER_MM);
+    assert_eq!(s.ends_idle(20_000)[0], 40 * STEPS_PER_MM);
     // Bytes beyond the advertised size are dropped, never stored: the ring is honest.
     s.seen.clear();
     let flood = "G4 P0\n".repeat(40);
@@ -211,19 +246,14 @@ fn a_bad_line_gets_its_grbl_error_and_the_next_lines_still_run() {
     let mut s = Sender::connected();
     s.send(b"G1 X1 F600\nG5 X1\nG1 X1 X2\nG0 X2\n");
     s.run(3000);
-    let answers: Vec<&str> = s
-        .seen
-        .lines()
-        .filter(|l| *l == "ok" || l.starts_with("error:"))
-        .collect();
+    let answers = s.answers();
     assert_eq!(
         answers,
         ["ok", "error:20", "error:25", "ok"],
         "{:?}",
         s.seen
     );
-    until_state(&mut s.eb, State::Idle, 10_000);
-    assert_eq!(s.steps()[0], 2 * STEPS_PER_MM);
+    assert_eq!(s.ends_idle(10_000)[0], 2 * STEPS_PER_MM);
 }
 
 #[test]
@@ -252,8 +282,7 @@ fn feed_hold_resume_and_overrides_act_like_the_framed_messages() {
     s.send(b"\x90");
     s.run(5);
     assert_eq!(s.eb.board.feed_override(), 100);
-    until_state(&mut s.eb, State::Idle, 20_000);
-    assert_eq!(s.steps()[0], 20 * STEPS_PER_MM);
+    assert_eq!(s.ends_idle(20_000)[0], 20 * STEPS_PER_MM);
 }
 
 #[test]
@@ -276,10 +305,8 @@ fn a_soft_reset_mid_job_ends_it_at_rest_and_sends_the_banner_again() {
     assert!(stopped > moving && stopped < 50 * STEPS_PER_MM);
     s.run(200);
     assert_eq!(s.steps()[0], stopped, "the rest of the job is gone");
-    s.send(b"G0 X0\n");
-    s.until("ok\r\n", 100);
-    until_state(&mut s.eb, State::Idle, 10_000);
-    assert_eq!(s.steps()[0], 0);
+    s.answer(b"G0 X0\n", 100);
+    assert_eq!(s.ends_idle(10_000)[0], 0);
 }
 
 #[test]
@@ -292,8 +319,7 @@ fn the_status_mask_chooses_work_or_machine_position_and_buffer_state() {
         st.starts_with("<Idle|WPos:-5.000,0.000,0.000|FS:0,0|WCO:5.000,0.000,0.000"),
         "{st}"
     );
-    s.send(b"$10=3\n");
-    s.until("ok\r\n", 100);
+    s.answer(b"$10=3\n", 100);
     let st = s.status();
     assert!(
         st.starts_with(&format!(
@@ -301,10 +327,8 @@ fn the_status_mask_chooses_work_or_machine_position_and_buffer_state() {
         )),
         "{st}"
     );
-    s.send(b"$13=1\n");
-    s.until("ok\r\n", 100);
-    s.send(b"G53 G0 X25.4\n");
-    s.until("ok\r\n", 100);
+    s.answer(b"$13=1\n", 100);
+    s.answer(b"G53 G0 X25.4\n", 100);
     until_state(&mut s.eb, State::Idle, 10_000);
     s.run(5);
     let st = s.status();
@@ -314,40 +338,30 @@ fn the_status_mask_chooses_work_or_machine_position_and_buffer_state() {
 #[test]
 fn dollar_commands_report_and_write_the_setup() {
     let mut s = Sender::connected();
-    s.send(b"$I\n");
-    let seen = s.until("ok\r\n", 100);
+    let seen = s.answer(b"$I\n", 100);
     assert!(seen.contains("[OPT:V,128,128]"), "{seen:?}");
-    s.send(b"$G\n");
-    let seen = s.until("ok\r\n", 100);
+    let seen = s.answer(b"$G\n", 100);
     assert!(
         seen.contains("[GC:G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0]"),
         "{seen:?}"
     );
-    s.send(b"$$\n");
-    let seen = s.until("ok\r\n", 100);
+    let seen = s.answer(b"$$\n", 100);
     for line in ["$0=2", "$100=640.000", "$101=640.000", "$32=0", "$10=1"] {
         assert!(seen.contains(&format!("{line}\r\n")), "{line}: {seen:?}");
     }
-    s.send(b"$100=800\n");
-    s.until("ok\r\n", 100);
+    s.answer(b"$100=800\n", 100);
     let a = &s.eb.board.setup().axes[0];
     assert_eq!(a.steps as i64 * MM / a.units_nm, 800);
     s.send(b"$32=1\n$999=1\n$100=abc\n");
     s.run(50);
-    assert!(
-        s.seen.contains("error:17\r\nerror:3\r\nerror:2\r\n"),
-        "{:?}",
-        s.seen
-    );
+    s.assert_seen("error:17\r\nerror:3\r\nerror:2\r\n");
     s.seen.clear();
     s.send(b"G10 L2 P1 X3 Y4\n$#\n");
     let seen = s.until("[PRB:", 500);
     assert!(seen.contains("[G54:3.000,4.000,0.000]"), "{seen:?}");
-    s.send(b"$RST=#\n");
-    s.until("ok\r\n", 100);
+    s.answer(b"$RST=#\n", 100);
     assert_eq!(s.eb.board.interpreter().state().work_offsets[0][0], 0);
-    s.send(b"$N\n");
-    let seen = s.until("ok\r\n", 100);
+    let seen = s.answer(b"$N\n", 100);
     assert!(seen.contains("$N0=\r\n$N1=\r\n"));
     s.send(b"$H\n");
     let seen = s.until("\r\n", 100);
@@ -357,23 +371,19 @@ fn dollar_commands_report_and_write_the_setup() {
 #[test]
 fn jogs_move_exactly_refuse_the_travel_and_cancel() {
     let mut s = Sender::connected();
-    s.send(b"$J=G91 X10 Y-2 F1000\n");
-    s.until("ok\r\n", 50);
+    s.answer(b"$J=G91 X10 Y-2 F1000\n", 50);
     assert_eq!(s.eb.board.state(), State::Jog);
     assert!(s.status().starts_with("<Jog|"));
-    until_state(&mut s.eb, State::Idle, 10_000);
-    assert_eq!(s.steps()[..2], [10 * STEPS_PER_MM, -2 * STEPS_PER_MM]);
+    assert_eq!(
+        s.ends_idle(10_000)[..2],
+        [10 * STEPS_PER_MM, -2 * STEPS_PER_MM]
+    );
     // X travels ±300 mm: 400 is beyond it. No F: undefined feed. Unknown word: invalid jog.
     s.send(b"$J=G90 X400 F1000\n$J=X1\n$J=G91 X1 M3 F100\n");
     s.run(50);
-    assert!(
-        s.seen.contains("error:15\r\nerror:22\r\nerror:16\r\n"),
-        "{:?}",
-        s.seen
-    );
+    s.assert_seen("error:15\r\nerror:22\r\nerror:16\r\n");
     // A long jog cancelled by 0x85 stops short, and the modal state is untouched (G90).
-    s.send(b"$J=G53 X100 F3000\n");
-    s.until("ok\r\n", 50);
+    s.answer(b"$J=G53 X100 F3000\n", 50);
     s.run(300);
     s.send(&[0x85]);
     until_state(&mut s.eb, State::Idle, 5_000);
@@ -385,21 +395,15 @@ fn jogs_move_exactly_refuse_the_travel_and_cancel() {
 #[test]
 fn check_mode_interprets_without_moving_and_reports_each_error() {
     let mut s = Sender::connected();
-    s.send(b"$C\n");
-    let seen = s.until("ok\r\n", 50);
+    let seen = s.answer(b"$C\n", 50);
     assert!(seen.contains("[MSG:Enabled]"));
     s.send(b"G1 X10 F100\nG1 X1 X2\nG0 Y3\n");
     s.run(200);
-    let answers: Vec<&str> = s
-        .seen
-        .lines()
-        .filter(|l| *l == "ok" || l.starts_with("error:"))
-        .collect();
+    let answers = s.answers();
     assert_eq!(answers, ["ok", "error:25", "ok"]);
     assert!(s.status().starts_with("<Check|"));
     assert_eq!(s.steps(), [0, 0, 0]);
-    s.send(b"$C\n");
-    let seen = s.until("ok\r\n", 50);
+    let seen = s.answer(b"$C\n", 50);
     assert!(seen.contains("[MSG:Disabled]"));
 }
 
@@ -420,15 +424,12 @@ fn alarm_locks_gcode_out_until_unlocked() {
 #[test]
 fn a_soft_reset_returns_the_modal_state_to_its_defaults() {
     let mut s = Sender::connected();
-    s.send(b"G91 G20 G18 G92 X1\n");
-    s.until("ok\r\n", 100);
-    s.send(b"$G\n");
-    let seen = s.until("ok\r\n", 100);
+    s.answer(b"G91 G20 G18 G92 X1\n", 100);
+    let seen = s.answer(b"$G\n", 100);
     assert!(seen.contains("G18 G20 G91"), "{seen:?}");
     s.send(b"\x18");
     s.until(BANNER, 100);
-    s.send(b"$G\n");
-    let seen = s.until("ok\r\n", 100);
+    let seen = s.answer(b"$G\n", 100);
     assert!(
         seen.contains("[GC:G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0]"),
         "{seen:?}"
@@ -464,8 +465,7 @@ fn homing_is_answered_when_it_ends_and_unlocks_the_boot_alarm() {
     assert_eq!(s.eb.board.state(), State::Idle);
     assert!(!seen.contains("ALARM"), "{seen:?}");
     assert_eq!(s.steps()[0], -10 * STEPS_PER_MM);
-    s.send(b"G0 X0\n");
-    s.until("ok\r\n", 100);
+    s.answer(b"G0 X0\n", 100);
 }
 
 #[test]
@@ -506,17 +506,22 @@ fn a_probe_move_reports_its_trip_in_prb_and_the_tool_change_stop_is_hold() {
     assert!(held, "{}", s.seen);
     assert!(s.status().starts_with("<Hold:0|"), "{}", s.seen);
     s.send(b"~");
-    until_state(&mut s.eb, State::Idle, 30_000);
-    assert_eq!(s.steps()[2], 0);
+    assert_eq!(s.ends_idle(30_000)[2], 0);
 }
 
 /// A sender whose spindle maps 0-10,000 rpm onto PWM counts 0-1000 (duty = rpm / 10).
 fn pwm_sender() -> Sender {
+    pwm_sender_with(|_| {})
+}
+
+/// [`pwm_sender`] with more setup changes.
+fn pwm_sender_with(edit: impl FnOnce(&mut gantry_machine::setup::Setup)) -> Sender {
     let mut s = Sender::with(|st| {
         st.outputs.spindle_min_rpm = 0;
         st.outputs.spindle_max_rpm = 10_000;
         st.outputs.pwm_min = 0;
         st.outputs.pwm_max = 1000;
+        edit(st);
     });
     s.send(b"\x18");
     s.until(BANNER, 20);
@@ -526,8 +531,7 @@ fn pwm_sender() -> Sender {
 #[test]
 fn spindle_override_bytes_scale_the_pwm_not_the_programmed_speed() {
     let mut s = pwm_sender();
-    s.send(b"M3 S5000\n");
-    s.until("ok\r\n", 200);
+    s.answer(b"M3 S5000\n", 200);
     until_state(&mut s.eb, State::Idle, 1000);
     let duty = |s: &Sender| s.eb.board.output_levels().spindle_pwm;
     assert_eq!(duty(&s), 500);
@@ -684,8 +688,7 @@ fn startup_lines_and_report_settings_are_stored_checked_and_run_after_the_banner
     until_state(&mut s.eb, State::Idle, 10_000);
     // G20 G91 X2: 2 inches = 50.8 mm.
     assert_eq!(s.steps()[0], 508 * STEPS_PER_MM / 10);
-    s.send(b"$G\n");
-    let seen = s.until("ok\r\n", 100);
+    let seen = s.answer(b"$G\n", 100);
     assert!(seen.contains(" G20 G91 "), "{seen:?}");
 
     // A restart of the board from its stored setup (the flash blob, and the TOML file the
@@ -702,8 +705,7 @@ fn startup_lines_and_report_settings_are_stored_checked_and_run_after_the_banner
     };
     s.send(b"\x18");
     s.until(">G0X2:ok\r\n", 2000);
-    until_state(&mut s.eb, State::Idle, 10_000);
-    assert_eq!(s.steps()[0], 508 * STEPS_PER_MM / 10);
+    assert_eq!(s.ends_idle(10_000)[0], 508 * STEPS_PER_MM / 10);
     assert!(s
         .status()
         .starts_with("<Idle|MPos:2.0000,0.0000,0.0000|Bf:"));
@@ -728,8 +730,7 @@ fn startup_lines_and_report_settings_are_stored_checked_and_run_after_the_banner
 #[test]
 fn a_soft_reset_puts_the_overrides_back_to_100_and_the_coolant_off() {
     let mut s = pwm_sender();
-    s.send(b"M3 S5000\n");
-    s.until("ok\r\n", 200);
+    s.answer(b"M3 S5000\n", 200);
     until_state(&mut s.eb, State::Idle, 1000);
     s.send(&[0x91, 0x91, 0x96, 0x9B, 0xA0, 0xA1]);
     s.run(2);
@@ -752,8 +753,7 @@ fn a_soft_reset_puts_the_overrides_back_to_100_and_the_coolant_off() {
     let st = s.status();
     assert!(st.ends_with("|Ov:100,100,100>"), "{st}");
     // The spindle at 5000 rpm again: duty 500 (no 90 % left over).
-    s.send(b"M3 S5000\n");
-    s.until("ok\r\n", 200);
+    s.answer(b"M3 S5000\n", 200);
     until_state(&mut s.eb, State::Idle, 1000);
     assert_eq!(s.eb.board.output_levels().spindle_pwm, 500);
 }
@@ -777,13 +777,13 @@ fn a_probe_line_is_answered_after_its_prb_message() {
         prb < second_ok,
         "[PRB] before the probe line's ok: {seen:?}"
     );
-    until_state(&mut s.eb, State::Idle, 10_000);
-    assert_eq!(s.steps()[2], 0);
+    assert_eq!(s.ends_idle(10_000)[2], 0);
 }
 
 #[test]
 fn the_safety_door_stops_parks_the_outputs_and_resumes_to_the_exact_end() {
-    let mut s = pwm_sender();
+    // No spindle spin-up wait here (`door_spin_up_ms = 0`); the wait has its own tests below.
+    let mut s = pwm_sender_with(|st| st.grbl.door_spin_up_ms = 0);
     let outputs = |s: &Sender| {
         let l = s.eb.board.output_levels();
         (l.spindle_enable, l.spindle_pwm, l.flood)
@@ -799,15 +799,7 @@ fn the_safety_door_stops_parks_the_outputs_and_resumes_to_the_exact_end() {
     assert_eq!(outputs(&s), (true, 500, true));
     // `~` while stopping is ignored.
     s.send(b"~");
-    let mut parked = false;
-    for _ in 0..500 {
-        s.run(1);
-        if s.status().starts_with("<Door:0|") {
-            parked = true;
-            break;
-        }
-    }
-    assert!(parked);
+    s.until_state_name("<Door:0|", 500);
     assert!(s.eb.kernel_drained());
     assert_eq!(outputs(&s), (false, 0, false), "off at rest");
     let held = s.steps()[0];
@@ -834,26 +826,15 @@ fn the_safety_door_stops_parks_the_outputs_and_resumes_to_the_exact_end() {
     s.run(300);
     assert_eq!(s.steps()[0], 20 * STEPS_PER_MM);
     assert_eq!(s.oks(), 0, "{:?}", s.seen);
-    s.send(b"~");
-    s.until("ok\r\n", 100);
-    until_state(&mut s.eb, State::Idle, 20_000);
-    assert_eq!(s.steps()[0], 0);
+    s.answer(b"~", 100);
+    assert_eq!(s.ends_idle(20_000)[0], 0);
     assert_eq!(outputs(&s), (true, 500, true));
 
     // A jog: cancelled, then parked; a soft reset forgets the door.
-    s.send(b"$J=G91 X10 F1000\n");
-    s.until("ok\r\n", 100);
+    s.answer(b"$J=G91 X10 F1000\n", 100);
     s.run(100);
     s.send(&[0x84]);
-    let mut parked = false;
-    for _ in 0..500 {
-        s.run(1);
-        if s.status().starts_with("<Door:0|") {
-            parked = true;
-            break;
-        }
-    }
-    assert!(parked);
+    s.until_state_name("<Door:0|", 500);
     let stopped = s.steps()[0];
     assert!(stopped > 0 && stopped < 10 * STEPS_PER_MM);
     s.send(b"\x18");
@@ -862,11 +843,144 @@ fn the_safety_door_stops_parks_the_outputs_and_resumes_to_the_exact_end() {
     assert_eq!(outputs(&s), (false, 0, false));
 }
 
+/// Spindle enable, PWM duty and flood coolant as driven.
+fn door_outputs(s: &Sender) -> (bool, u16, bool) {
+    let l = s.eb.board.output_levels();
+    (l.spindle_enable, l.spindle_pwm, l.flood)
+}
+
+/// A job with spindle and flood on (`G1 X20 F600`) on a sender with the given spin-up wait,
+/// stopped by the door after 300 ms and parked (`Door:0`); the times (kernel timer counts) of
+/// every X step from then on are collected.
+fn door_parked(spin_up_ms: u16) -> (Sender, std::rc::Rc<std::cell::RefCell<Vec<u64>>>) {
+    let mut s = pwm_sender_with(|st| st.grbl.door_spin_up_ms = spin_up_ms);
+    let steps = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+    let sink = steps.clone();
+    s.eb.observe(move |p| {
+        if p.step & 1 != 0 {
+            sink.borrow_mut().push(p.time);
+        }
+    });
+    s.send(b"M3 S5000 M8\nG1 X20 F600\n");
+    s.run(300);
+    s.send(&[0x84]);
+    s.run(500);
+    assert!(s.status().starts_with("<Door:0|"), "{}", s.seen);
+    assert_eq!(door_outputs(&s), (false, 0, false));
+    assert!(s.eb.kernel_drained());
+    steps.borrow_mut().clear();
+    (s, steps)
+}
+
+/// `~` to a parked door: spindle and coolant are back on after one millisecond (the next
+/// main-loop pass); returns the virtual time the byte was sent, kernel timer counts.
+fn close_the_door(s: &mut Sender) -> u64 {
+    let sent = s.eb.now();
+    s.send(b"~");
+    s.run(1);
+    assert_eq!(door_outputs(s), (true, 500, true), "restored first");
+    sent
+}
+
+const COUNTS_PER_MS: u64 = host_sender::emulator::COUNTS_PER_MS;
+
+#[test]
+fn after_the_door_the_spindle_spins_up_for_the_set_time_before_the_job_resumes() {
+    // The reference: no wait (`door_spin_up_ms = 0`): the job resumes at once.
+    let (mut s, steps) = door_parked(0);
+    let t0 = close_the_door(&mut s);
+    assert!(s.status().starts_with("<Run|"));
+    until_state(&mut s.eb, State::Idle, 20_000);
+    let first_at_once = steps.borrow()[0] - t0;
+    let steps_at_once = steps.borrow().len();
+    assert!(first_at_once < 10 * COUNTS_PER_MS, "{first_at_once}");
+    assert_eq!(s.steps(), [20 * STEPS_PER_MM, 0, 0]);
+
+    // The default 4 s: `Door:3` with spindle and coolant on and nothing moving, then the job
+    // resumes exactly 4.000 s later than without the wait and ends on the same steps.
+    assert_eq!(
+        gantry_machine::setup::Setup::default().grbl.door_spin_up_ms,
+        4_000
+    );
+    let (mut s, steps) = door_parked(4_000);
+    let held = s.steps();
+    let t = close_the_door(&mut s);
+    let st = s.status();
+    assert!(st.starts_with("<Door:3|") && st.ends_with("|A:SF>"), "{st}");
+    s.send(b"~");
+    s.run(3_980);
+    assert!(
+        s.status().starts_with("<Door:3|"),
+        "`~` while spinning up is ignored"
+    );
+    assert_eq!(s.steps(), held, "nothing moves while the spindle spins up");
+    assert!(steps.borrow().is_empty());
+    assert_eq!(door_outputs(&s), (true, 500, true));
+    until_state(&mut s.eb, State::Idle, 20_000);
+    let first = steps.borrow()[0] - t;
+    assert_eq!(first, first_at_once + 4_000 * COUNTS_PER_MS);
+    assert_eq!(steps.borrow().len(), steps_at_once);
+    assert_eq!(s.steps(), [20 * STEPS_PER_MM, 0, 0]);
+    assert_eq!(door_outputs(&s), (true, 500, true));
+
+    // With the spindle off there is nothing to wait for.
+    let mut s = Sender::connected();
+    s.send(b"G1 X5 F600\n");
+    s.run(200);
+    s.send(&[0x84]);
+    s.run(500);
+    assert!(s.status().starts_with("<Door:0|"));
+    s.send(b"~");
+    s.run(2);
+    assert!(s.status().starts_with("<Run|"));
+    assert_eq!(s.ends_idle(20_000), [5 * STEPS_PER_MM, 0, 0]);
+}
+
+#[test]
+fn a_door_opened_again_or_a_reset_during_the_spin_up_acts_as_in_grbl() {
+    // Opened again 1 s into the spin-up: outputs off again (`Door:0`); the next `~` waits the
+    // whole 4 s again.
+    let (mut s, steps) = door_parked(4_000);
+    let held = s.steps();
+    close_the_door(&mut s);
+    s.run(1_000);
+    s.send(&[0x84]);
+    s.run(2);
+    assert!(s.status().starts_with("<Door:0|"), "{}", s.seen);
+    assert_eq!(door_outputs(&s), (false, 0, false));
+    s.run(5_000);
+    assert_eq!(s.steps(), held);
+    let t = close_the_door(&mut s);
+    assert!(s.status().starts_with("<Door:3|"));
+    until_state(&mut s.eb, State::Idle, 20_000);
+    let first = steps.borrow()[0] - t;
+    assert!(
+        (4_000 * COUNTS_PER_MS..4_010 * COUNTS_PER_MS).contains(&first),
+        "{first}"
+    );
+    assert_eq!(s.steps(), [20 * STEPS_PER_MM, 0, 0]);
+
+    // A soft reset during the spin-up: the job ends where it stood, outputs off, the door
+    // forgotten.
+    let (mut s, steps) = door_parked(4_000);
+    let held = s.steps();
+    close_the_door(&mut s);
+    s.run(1_000);
+    s.send(b"\x18");
+    s.until(BANNER, 200);
+    assert!(s.status().starts_with("<Idle|"));
+    assert_eq!(door_outputs(&s), (false, 0, false));
+    s.run(5_000);
+    assert_eq!(s.steps(), held);
+    assert!(steps.borrow().is_empty());
+    s.answer(b"G0 X0\n", 100);
+    assert_eq!(s.ends_idle(20_000), [0, 0, 0]);
+}
+
 #[test]
 fn a_soft_reset_during_a_jog_stops_it_at_rest_and_check_mode_toggles_mid_stream() {
     let mut s = Sender::connected();
-    s.send(b"$J=G91 X20 F1000\n");
-    s.until("ok\r\n", 100);
+    s.answer(b"$J=G91 X20 F1000\n", 100);
     s.run(200);
     assert_eq!(s.eb.board.state(), State::Jog);
     s.send(b"\x18");
@@ -883,8 +997,7 @@ fn a_soft_reset_during_a_jog_stops_it_at_rest_and_check_mode_toggles_mid_stream(
     s.send(b"G90 G0 X1\n$C\n");
     let seen = s.until("error:8\r\n", 100);
     assert!(seen.starts_with("ok\r\n"), "{seen:?}");
-    until_state(&mut s.eb, State::Idle, 10_000);
-    assert_eq!(s.steps()[0], STEPS_PER_MM);
+    assert_eq!(s.ends_idle(10_000)[0], STEPS_PER_MM);
     // `$C` between streamed lines at rest: the lines after it are only checked (an error is
     // reported, nothing moves), the second `$C` ends check mode, the last line moves.
     s.seen.clear();

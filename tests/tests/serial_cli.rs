@@ -9,10 +9,42 @@ use std::time::Duration;
 
 const S: Duration = Duration::from_secs(1);
 
+/// Checks a finished `gantry` process: its exit code, and texts its stdout and its stderr must
+/// contain; returns it for further checks.
+fn check(out: Out, code: i32, stdout_has: &[&str], stderr_has: &[&str]) -> Out {
+    assert_eq!(out.code, Some(code), "{out:?}");
+    for text in stdout_has {
+        assert!(out.stdout.contains(text), "{text:?} in {}", out.stdout);
+    }
+    for text in stderr_has {
+        assert!(out.stderr.contains(text), "{text:?} in {}", out.stderr);
+    }
+    out
+}
+
+/// `gantry args` (10 s at most), checked as [`check`] does.
+fn run(args: &[&str], code: i32, stdout_has: &[&str], stderr_has: &[&str]) -> Out {
+    check(gantry(args, 10 * S), code, stdout_has, stderr_has)
+}
+
+/// A fresh emulated board with the setup `setup_text` and [`zigzag`]`(400)` as `job.nc`, both
+/// in `dir`: the board and the job's path.
+fn zigzag_board(dir: &Dir, setup_text: &str) -> (Emulator, std::path::PathBuf) {
+    let setup = dir.file("setup.toml", setup_text);
+    let job = dir.file("job.nc", &zigzag(400));
+    (Emulator::start(dir, Some(&setup)), job)
+}
+
+/// Starts `gantry stream job` on `emu` and returns once the board runs it (10 s at most).
+fn stream_running(emu: &Emulator, job: &std::path::Path) -> Running {
+    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
+    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    sender
+}
+
 /// `gantry status --port P`'s first line (`state:     Idle`) and the whole text.
 fn status(port: &str) -> (String, String) {
-    let out = gantry(&["status", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
+    let out = run(&["status", "--port", port], 0, &[], &[]);
     let first = out.stdout.lines().next().unwrap_or("").to_owned();
     (first, out.stdout)
 }
@@ -36,20 +68,21 @@ fn zero_nan_and_sub_nanometre_jogs_are_refused_and_nothing_moves() {
             out.stderr
         );
     }
-    let out = gantry(
-        &["jog", "X", "5", "--feed", "0.0001", "--port", port],
-        10 * S,
+    check(
+        gantry(
+            &["jog", "X", "5", "--feed", "0.0001", "--port", port],
+            10 * S,
+        ),
+        2,
+        &[],
+        &["below 0.001 mm/min"],
     );
-    assert_eq!(out.code, Some(2), "{out:?}");
-    assert!(out.stderr.contains("below 0.001 mm/min"), "{}", out.stderr);
     // Beyond the travel (X is -300..300 mm): the board's error 900, exit 1.
-    let out = gantry(&["jog", "X", "400", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(1), "{out:?}");
-    assert!(
-        out.stdout
-            .contains("jog refused: error 900: move exceeds the machine travel"),
-        "{}",
-        out.stdout
+    run(
+        &["jog", "X", "400", "--port", port],
+        1,
+        &["jog refused: error 900: move exceeds the machine travel"],
+        &[],
     );
     let (state, text) = status(port);
     assert_eq!(state, "state:     Idle");
@@ -59,9 +92,12 @@ fn zero_nan_and_sub_nanometre_jogs_are_refused_and_nothing_moves() {
     );
     assert_eq!(emu.last_counts().1, "X 0 Y 0 Z 0", "no step pulse at all");
     // A real jog still works: 2.5 mm = 1600 steps.
-    let out = gantry(&["jog", "X", "2.5", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
-    assert!(out.stdout.contains("machine:   X 2.500"), "{}", out.stdout);
+    run(
+        &["jog", "X", "2.5", "--port", port],
+        0,
+        &["machine:   X 2.500"],
+        &[],
+    );
     assert!(emu.wait_log(2 * S, |l| l.contains("Idle line 0 steps X 1600 Y 0 Z 0")));
 }
 
@@ -76,20 +112,24 @@ fn in_alarm_11_mdi_stream_and_jog_print_the_alarm_and_exit_non_zero() {
     let port = emu.port();
     let (state, _) = status(port);
     assert_eq!(state, "state:     Alarm");
-    let out = gantry(&["mdi", "G0 X1", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(2), "{out:?}");
-    assert!(out.stderr.contains("alarm 11"), "{}", out.stderr);
-    assert!(out.stderr.contains("gantry home"), "{}", out.stderr);
+    run(
+        &["mdi", "G0 X1", "--port", port],
+        2,
+        &[],
+        &["alarm 11", "gantry home"],
+    );
     let job = dir.file("job.nc", "G0 X1\nM30\n");
-    let out = gantry(&["stream", job.to_str().unwrap(), "--port", port], 10 * S);
-    assert_eq!(out.code, Some(2), "{out:?}");
-    assert!(out.stderr.contains("alarm 11"), "{}", out.stderr);
-    let out = gantry(&["jog", "X", "1", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(1), "{out:?}");
-    assert!(
-        out.stdout.contains("jog refused: the board is in alarm 11"),
-        "{}",
-        out.stdout
+    run(
+        &["stream", job.to_str().unwrap(), "--port", port],
+        2,
+        &[],
+        &["alarm 11"],
+    );
+    run(
+        &["jog", "X", "1", "--port", port],
+        1,
+        &["jog refused: the board is in alarm 11"],
+        &[],
     );
     // --port after the subcommand or before it, or from GANTRY_PORT: the same board.
     let out = gantry(&["--port", port, "status"], 10 * S);
@@ -116,15 +156,18 @@ fn machine_commands_without_a_port_refuse_the_fresh_emulated_board() {
             out.stderr
         );
     }
-    let out = gantry(&["jog", "X", "1", "--emulated"], 10 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
+    run(&["jog", "X", "1", "--emulated"], 0, &[], &[]);
 }
 
 /// Runs `job` to its end on a fresh board and returns the board's final (steps, pulses).
 fn uninterrupted(dir: &Dir, setup: &std::path::Path, job: &str) -> (String, String) {
     let emu = Emulator::start(dir, Some(setup));
-    let out = gantry(&["stream", job, "--port", emu.port()], 30 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
+    check(
+        gantry(&["stream", job, "--port", emu.port()], 30 * S),
+        0,
+        &[],
+        &[],
+    );
     assert!(emu.wait_log(5 * S, |l| l.contains("Idle line 402")));
     emu.last_counts()
 }
@@ -152,12 +195,11 @@ fn a_sender_killed_mid_job_is_continued_and_the_job_ends_like_an_uninterrupted_r
     // The port closed with DTR dropped: the board holds on its path.
     assert!(emu.wait_log(5 * S, |l| l.contains("DTR drop")));
     assert!(emu.wait_log(5 * S, |l| l.contains("Hold (at rest)")));
-    let out = gantry(&["stream", job, "--continue", "--port", port], 30 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
-    assert!(
-        out.stdout.contains("job done: last line 402 of 402"),
-        "{}",
-        out.stdout
+    let out = check(
+        gantry(&["stream", job, "--continue", "--port", port], 30 * S),
+        0,
+        &["job done: last line 402 of 402"],
+        &[],
     );
     // The lines the killed sender never sent came through the board's program request.
     assert!(
@@ -193,12 +235,11 @@ fn ctrl_c_asks_while_the_link_runs_then_resumes_or_aborts() {
     assert!(!emu.log().contains("Alarm"), "{}", emu.log());
     assert_eq!(status_via_log(&emu), "Hold (at rest)");
     sender.answer("n");
-    let out = sender.wait(30 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
-    assert!(
-        out.stdout.contains("job done: last line 402 of 402"),
-        "{}",
-        out.stdout
+    check(
+        sender.wait(30 * S),
+        0,
+        &["job done: last line 402 of 402"],
+        &[],
     );
     assert!(!emu.log().contains("Alarm"), "{}", emu.log());
 
@@ -210,10 +251,12 @@ fn ctrl_c_asks_while_the_link_runs_then_resumes_or_aborts() {
         .stderr()
         .contains("abort the job?")));
     sender.answer("y");
-    let out = sender.wait(30 * S);
-    assert_eq!(out.code, Some(1), "{out:?}");
-    assert!(out.stdout.contains("job aborted"), "{}", out.stdout);
-    assert!(out.stdout.contains("state:    Idle"), "{}", out.stdout);
+    check(
+        sender.wait(30 * S),
+        1,
+        &["job aborted", "state:    Idle"],
+        &[],
+    );
 }
 
 /// Lines still in the board's link queue when an abort comes are dropped while the job stops
@@ -223,12 +266,9 @@ fn ctrl_c_asks_while_the_link_runs_then_resumes_or_aborts() {
 #[test]
 fn after_a_stream_is_aborted_the_board_takes_the_next_job_at_once() {
     let dir = Dir::new("abort-next");
-    let setup = dir.file("fast.toml", FAST_SETUP);
-    let job = dir.file("job.nc", &zigzag(400));
-    let emu = Emulator::start(&dir, Some(&setup));
+    let (emu, job) = zigzag_board(&dir, FAST_SETUP);
     let port = emu.port();
-    let mut sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
-    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    let mut sender = stream_running(&emu, &job);
     std::thread::sleep(Duration::from_millis(300));
     sender.signal(Signal::SIGINT);
     assert!(wait_for(5 * S, || sender
@@ -237,12 +277,11 @@ fn after_a_stream_is_aborted_the_board_takes_the_next_job_at_once() {
     sender.answer("y");
     let out = sender.wait(30 * S);
     assert!(out.stdout.contains("job aborted"), "{}", out.stdout);
-    let out = gantry(&["mdi", "G90 G0 X1 Y1", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
-    assert!(
-        out.stdout.contains("machine:   X 1.000  Y 1.000"),
-        "{}",
-        out.stdout
+    run(
+        &["mdi", "G90 G0 X1 Y1", "--port", port],
+        0,
+        &["machine:   X 1.000  Y 1.000"],
+        &[],
     );
 }
 
@@ -257,57 +296,47 @@ fn status_via_log(emu: &Emulator) -> String {
 #[test]
 fn resume_hold_and_abort_from_separate_processes_end_as_documented() {
     let dir = Dir::new("hold-resume");
-    let setup = dir.file("fast.toml", FAST_SETUP);
-    let job = dir.file("job.nc", &zigzag(400));
-    let emu = Emulator::start(&dir, Some(&setup));
+    let (emu, job) = zigzag_board(&dir, FAST_SETUP);
     let port = emu.port();
-    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
-    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    let sender = stream_running(&emu, &job);
     std::thread::sleep(Duration::from_millis(300));
     sender.signal(Signal::SIGKILL);
     drop(sender);
     assert!(emu.wait_log(5 * S, |l| l.contains("Hold (at rest)")));
     // `resume` waits for the board to run again and closes the port keeping DTR: the board does
     // not take its exit for a hold.
-    let out = gantry(&["resume", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
+    let out = run(&["resume", "--port", port], 0, &[], &[]);
     assert!(out.stdout.starts_with("state:     Run"), "{}", out.stdout);
     assert!(emu.wait_log(2 * S, |l| l.contains("host closed the port (DTR kept)")));
     let (state, _) = status(port);
     assert_eq!(state, "state:     Run", "{}", emu.log());
     // `hold` returns once the machine is at rest.
-    let out = gantry(&["hold", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
+    let out = run(&["hold", "--port", port], 0, &[], &[]);
     assert!(out.stdout.starts_with("state:     Hold"), "{}", out.stdout);
     // `abort` returns once the job has ended.
-    let out = gantry(&["abort", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
+    let out = run(&["abort", "--port", port], 0, &[], &[]);
     assert!(out.stdout.starts_with("state:     Idle"), "{}", out.stdout);
-    let out = gantry(&["mdi", "G90 G0 X0 Y0", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
+    run(&["mdi", "G90 G0 X0 Y0", "--port", port], 0, &[], &[]);
 }
 
 #[test]
 fn a_board_restarted_mid_job_stops_the_sender_with_the_resume_command() {
     let dir = Dir::new("board-reset");
-    let setup = dir.file("fast.toml", FAST_SETUP);
-    let job = dir.file("job.nc", &zigzag(400));
-    let mut emu = Emulator::start(&dir, Some(&setup));
-    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
-    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    let (mut emu, job) = zigzag_board(&dir, FAST_SETUP);
+    let sender = stream_running(&emu, &job);
     std::thread::sleep(Duration::from_millis(500));
     emu.kill();
     std::thread::sleep(Duration::from_millis(300));
     let _emu = Emulator::start(&dir, None);
-    let out = sender.wait(15 * S);
-    assert_eq!(out.code, Some(1), "{out:?}");
-    assert!(
-        out.stdout
-            .contains("board reset: the board restarted during the job"),
-        "{}",
-        out.stdout
+    check(
+        sender.wait(15 * S),
+        1,
+        &[
+            "board reset: the board restarted during the job",
+            "--from-line",
+        ],
+        &[],
     );
-    assert!(out.stdout.contains("--from-line"), "{}", out.stdout);
 }
 
 /// Stops the board's process 0.3 s from now and checks that `sender` warns after 2 s, gives up
@@ -346,11 +375,8 @@ fn zigzag_400_ended_whole(emu: &Emulator, out: &Out) {
 #[test]
 fn a_silent_board_is_reported_and_the_sender_exits_within_its_bound() {
     let dir = Dir::new("silent");
-    let setup = dir.file("fast.toml", FAST_SETUP);
-    let job = dir.file("job.nc", &zigzag(400));
-    let emu = Emulator::start(&dir, Some(&setup));
-    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
-    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    let (emu, job) = zigzag_board(&dir, FAST_SETUP);
+    let sender = stream_running(&emu, &job);
     silence_and_expect_the_sender_to_give_up(&emu, sender);
 }
 
@@ -370,23 +396,26 @@ fn under_gantry_serve_a_silent_board_is_reported_and_the_sender_exits_within_its
     assert!(wait_for(10 * S, || server
         .stderr()
         .contains("is served on")));
-    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
-    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    let sender = stream_running(&emu, &job);
     silence_and_expect_the_sender_to_give_up(&emu, sender);
     // The server outlives the silence: once the board answers again, the job is taken over
     // and ends as an uninterrupted run would (the serve test below: pulses X 38400 Y 5120).
     nix::sys::signal::kill(emu.pid(), Signal::SIGCONT).unwrap();
-    let out = gantry(
-        &[
-            "stream",
-            job.to_str().unwrap(),
-            "--continue",
-            "--port",
-            emu.port(),
-        ],
-        30 * S,
+    let out = check(
+        gantry(
+            &[
+                "stream",
+                job.to_str().unwrap(),
+                "--continue",
+                "--port",
+                emu.port(),
+            ],
+            30 * S,
+        ),
+        0,
+        &[],
+        &[],
     );
-    assert_eq!(out.code, Some(0), "{out:?}");
     zigzag_400_ended_whole(&emu, &out);
     assert!(server.stderr().contains("a command takes over the job"));
 }
@@ -394,30 +423,27 @@ fn under_gantry_serve_a_silent_board_is_reported_and_the_sender_exits_within_its
 #[test]
 fn under_gantry_serve_status_hold_resume_and_override_from_other_processes_act_during_a_job() {
     let dir = Dir::new("serve");
-    let setup = dir.file("fast.toml", FAST_SETUP);
-    let job = dir.file("job.nc", &zigzag(400));
-    let emu = Emulator::start(&dir, Some(&setup));
+    let (emu, job) = zigzag_board(&dir, FAST_SETUP);
     let port = emu.port();
     let server = spawn(&["serve", "--port", port]);
     assert!(wait_for(10 * S, || server
         .stderr()
         .contains("is served on")));
-    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
-    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    let sender = stream_running(&emu, &job);
     let (state, _) = status(port);
     assert_eq!(state, "state:     Run");
-    let out = gantry(&["hold", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
+    let out = run(&["hold", "--port", port], 0, &[], &[]);
     assert!(out.stdout.starts_with("state:     Hold"), "{}", out.stdout);
     assert!(emu.wait_log(2 * S, |l| l.contains("Hold (at rest)")));
-    let out = gantry(&["resume", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
+    let out = run(&["resume", "--port", port], 0, &[], &[]);
     assert!(out.stdout.starts_with("state:     Run"), "{}", out.stdout);
-    let out = gantry(&["override", "--feed", "50", "--port", port], 10 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
-    assert!(out.stdout.contains("override feed 50 %"), "{}", out.stdout);
-    let out = sender.wait(30 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
+    run(
+        &["override", "--feed", "50", "--port", port],
+        0,
+        &["override feed 50 %"],
+        &[],
+    );
+    let out = check(sender.wait(30 * S), 0, &[], &[]);
     zigzag_400_ended_whole(&emu, &out);
 }
 
@@ -464,13 +490,7 @@ fn m6_and_m0_stop_with_a_message_and_enter_continues() {
         "line 5: program stop (M0): press Enter",
         "Hold (at rest) line 5 steps X 2560 ",
     );
-    let out = sender.wait(20 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
-    assert!(
-        out.stdout.contains("job done: last line 7 of 7"),
-        "{}",
-        out.stdout
-    );
+    check(sender.wait(20 * S), 0, &["job done: last line 7 of 7"], &[]);
     assert!(emu.wait_log(2 * S, |l| l.contains("Idle line 7 steps X 3840")));
 }
 
@@ -501,12 +521,11 @@ fn m6_moves_to_the_setup_s_tool_change_position_z_first_and_the_job_goes_on_from
         "line 8: tool change: put tool 3 in the spindle",
         "ToolChange T3 line 8 steps X -12800 Y 19200 Z 6400 ",
     );
-    let out = sender.wait(20 * S);
-    assert_eq!(out.code, Some(0), "{out:?}");
-    assert!(
-        out.stdout.contains("job done: last line 10 of 10"),
-        "{}",
-        out.stdout
+    check(
+        sender.wait(20 * S),
+        0,
+        &["job done: last line 10 of 10"],
+        &[],
     );
     // G91 G0 X5 after the second change: 5 mm on from the change position's X -20.
     assert!(
@@ -546,8 +565,7 @@ fn slow_job_under_serve(dir: &Dir, job: &str) -> (Emulator, Running, Running) {
     assert!(wait_for(10 * S, || server
         .stderr()
         .contains("is served on")));
-    let sender = spawn(&["stream", job.to_str().unwrap(), "--port", emu.port()]);
-    assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
+    let sender = stream_running(&emu, &job);
     std::thread::sleep(3 * S);
     (emu, server, sender)
 }
@@ -637,14 +655,12 @@ fn a_hold_during_an_abort_from_another_process_does_not_undo_it() {
         "{abort:?}"
     );
     // The sender learns that the job was aborted (not done) and where it can resume.
-    let out = sender.wait(10 * S);
-    assert_eq!(out.code, Some(1), "{out:?}");
-    assert!(
-        out.stdout.contains("job aborted: last line 2 of 3"),
-        "{}",
-        out.stdout
+    check(
+        sender.wait(10 * S),
+        1,
+        &["job aborted: last line 2 of 3", "--from-line 2"],
+        &[],
     );
-    assert!(out.stdout.contains("--from-line 2"), "{}", out.stdout);
     // Stopped on the path, well short of X 280.
     ended_at_rest_with_outputs_off(&emu, "Idle", 200, "Idle");
 }
@@ -663,12 +679,11 @@ fn a_hold_during_an_alarm_2_stop_ends_in_the_alarm_at_rest_with_outputs_off() {
     // The feed rises until the alarm's deceleration begins: hold as soon as it falls.
     assert!(feed_falls(port, &emu), "{}", emu.log());
     hold_changes_nothing(port, "Alarm");
-    let out = sender.wait(10 * S);
-    assert_eq!(out.code, Some(1), "{out:?}");
-    assert!(
-        out.stdout.contains("line 202: alarm 2 (soft limit)"),
-        "{}",
-        out.stdout
+    check(
+        sender.wait(10 * S),
+        1,
+        &["line 202: alarm 2 (soft limit)"],
+        &[],
     );
     // Stopped on the path, well short of the 200 mm the queued blocks would have reached.
     ended_at_rest_with_outputs_off(&emu, "Alarm 2", 190, "Alarm");

@@ -7,7 +7,7 @@
 use super::model::{Interpreted, ProgramError};
 use crate::program::WireTextError;
 use gantry_machine::canon::Canon;
-use gantry_machine::gcode::source::{find_target, leading_number};
+use gantry_machine::gcode::source::{find_target, seek_program, seek_sequence, Seekable};
 use gantry_machine::gcode::{
     GcodeError, InterpConfig, Interpreter, MemorySource, ProgramSource, SourceError,
 };
@@ -78,11 +78,19 @@ impl FileSource {
             }
         }
     }
+}
 
-    /// The first line (number, offset) from the start matching `matches`, and whether a second
-    /// one does too (the core's scan, [`find_target`]). Leaves the reader past the lines read
-    /// (callers seek afterwards).
-    fn find(&mut self, matches: impl Fn(&[u8]) -> bool) -> (Option<(u32, u64)>, bool) {
+/// The core's jumps ([`seek_program`], [`seek_sequence`]) over a file: a scan reads it from the
+/// start, a move seeks.
+impl Seekable for FileSource {
+    type Position = u64;
+
+    fn position(&self) -> (u32, u64) {
+        (self.line, self.offset)
+    }
+
+    /// Leaves the reader past the lines read (the jump seeks afterwards).
+    fn scan<F: Fn(&[u8]) -> bool>(&mut self, is_target: F) -> (Option<(u32, u64)>, bool) {
         self.seek_back(1, 0);
         find_target(|| {
             let (line, offset) = (self.line, self.offset);
@@ -90,8 +98,30 @@ impl FileSource {
                 return None;
             }
             self.line += 1;
-            Some((line, offset, matches(&self.buf)))
+            Some((line, offset, is_target(&self.buf)))
         })
+    }
+
+    fn move_to(&mut self, line: u32, offset: u64) {
+        self.seek_back(line, offset);
+    }
+
+    fn remember_line(&mut self, line: u32, offset: u64) {
+        self.remember(line, offset);
+    }
+
+    fn known_program(&self, program: u32) -> Option<(u32, u64)> {
+        self.programs
+            .iter()
+            .find(|&&(p, _, _)| p == program)
+            .map(|&(_, l, o)| (l, o))
+    }
+
+    fn remember_program(&mut self, program: u32, line: u32, offset: u64) {
+        if self.programs.len() == PROGRAM_CACHE {
+            self.programs.pop_front();
+        }
+        self.programs.push_back((program, line, offset));
     }
 }
 
@@ -106,49 +136,11 @@ impl ProgramSource for FileSource {
     }
 
     fn jump_to_program(&mut self, program: u32) -> Result<u32, SourceError> {
-        let (back_line, back_offset) = (self.line, self.offset);
-        let known = self
-            .programs
-            .iter()
-            .find(|&&(p, _, _)| p == program)
-            .map(|&(_, l, o)| (l, o));
-        let (line, offset) = match known {
-            Some(found) => found,
-            None => {
-                let (found, duplicate) =
-                    self.find(|bytes| leading_number(bytes, b"O:") == Some(program));
-                if duplicate {
-                    self.seek_back(back_line, back_offset);
-                    return Err(SourceError::DuplicateProgram);
-                }
-                let Some(found) = found else {
-                    self.seek_back(back_line, back_offset);
-                    return Err(SourceError::UnknownProgram);
-                };
-                if self.programs.len() == PROGRAM_CACHE {
-                    self.programs.pop_front();
-                }
-                self.programs.push_back((program, found.0, found.1));
-                found
-            }
-        };
-        self.remember(back_line, back_offset);
-        self.remember(line, offset);
-        self.seek_back(line, offset);
-        Ok(line)
+        seek_program(self, program)
     }
 
     fn jump_to_sequence(&mut self, n: u32) -> Result<u32, SourceError> {
-        let (back_line, back_offset) = (self.line, self.offset);
-        let (found, _) = self.find(|bytes| leading_number(bytes, b"N") == Some(n));
-        let Some((line, offset)) = found else {
-            self.seek_back(back_line, back_offset);
-            return Err(SourceError::UnknownSequence);
-        };
-        self.remember(back_line, back_offset);
-        self.remember(line, offset);
-        self.seek_back(line, offset);
-        Ok(line)
+        seek_sequence(self, n)
     }
 
     fn jump_to_line(&mut self, line: u32) -> Result<(), SourceError> {

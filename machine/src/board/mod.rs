@@ -308,6 +308,12 @@ impl Board {
         self.outputs
     }
 
+    /// Main-loop time from the last [`Board::on_inputs`], ms (the grbl door's spin-up wait,
+    /// `machine/src/grbl/door.rs`).
+    pub fn now_ms(&self) -> u32 {
+        self.now_ms
+    }
+
     pub fn alarm(&self) -> Option<AlarmCode> {
         match self.mode {
             Mode::Alarm(code) => Some(code),

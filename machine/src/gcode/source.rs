@@ -110,11 +110,124 @@ impl<'a> MemorySource<'a> {
             Some((line, start, &text[start..end]))
         })
     }
+}
 
-    fn find<F: Fn(&[u8]) -> bool>(&self, matches: F) -> (Option<(u32, usize)>, bool) {
-        let mut lines = self.lines();
-        find_target(|| lines.next().map(|(l, o, bytes)| (l, o, matches(bytes))))
+impl Seekable for MemorySource<'_> {
+    type Position = usize;
+
+    fn position(&self) -> (u32, usize) {
+        (self.line, self.offset)
     }
+
+    fn scan<F: Fn(&[u8]) -> bool>(&mut self, is_target: F) -> (Option<(u32, usize)>, bool) {
+        let mut lines = self.lines();
+        find_target(|| lines.next().map(|(l, o, bytes)| (l, o, is_target(bytes))))
+    }
+
+    fn move_to(&mut self, line: u32, offset: usize) {
+        self.line = line;
+        self.offset = offset;
+    }
+
+    fn remember_line(&mut self, line: u32, offset: usize) {
+        self.remember(line, offset);
+    }
+
+    fn known_program(&self, program: u32) -> Option<(u32, usize)> {
+        self.programs
+            .iter()
+            .find(|&&(p, _, _)| p == program)
+            .map(|&(_, l, o)| (l, o))
+    }
+
+    fn remember_program(&mut self, program: u32, line: u32, offset: usize) {
+        let entry = (program, line, offset);
+        if self.programs.push(entry).is_err() {
+            self.programs[self.programs_next] = entry;
+            self.programs_next = (self.programs_next + 1) % PROGRAM_CACHE;
+        }
+    }
+}
+
+/// What a jump to a program or a sequence number needs of a source: where it stands, a scan of
+/// its lines from the start, a move, and its caches. [`seek_program`] and [`seek_sequence`] do
+/// the jumps over it for [`MemorySource`] (byte offsets in a slice) and the host's file source
+/// (host-sender/src/preview/source.rs, offsets it seeks to in a file), which differ only here.
+pub trait Seekable {
+    /// Where a line starts (a byte offset).
+    type Position: Copy;
+
+    /// The next line's number and position.
+    fn position(&self) -> (u32, Self::Position);
+
+    /// Every line from the start through `is_target` ([`find_target`]): the first target's line
+    /// and position, and whether a second target follows. May leave the source anywhere (the
+    /// jump moves it afterwards).
+    fn scan<F: Fn(&[u8]) -> bool>(&mut self, is_target: F)
+        -> (Option<(u32, Self::Position)>, bool);
+
+    /// Repositions so that the next line read is `line`, which starts at `position`.
+    fn move_to(&mut self, line: u32, position: Self::Position);
+
+    /// Remembers where `line` starts (for [`ProgramSource::jump_to_line`]).
+    fn remember_line(&mut self, line: u32, position: Self::Position);
+
+    /// Where `O<program>` was found before, if it is still remembered.
+    fn known_program(&self, program: u32) -> Option<(u32, Self::Position)>;
+
+    /// Remembers where `O<program>` starts.
+    fn remember_program(&mut self, program: u32, line: u32, position: Self::Position);
+}
+
+/// [`ProgramSource::jump_to_program`] for a [`Seekable`] source: the remembered place, else a
+/// scan for the one `O<program>`/`:<program>` line (two are an error); on an error the source
+/// stays where it was.
+pub fn seek_program<S: Seekable>(source: &mut S, program: u32) -> Result<u32, SourceError> {
+    let here = source.position();
+    let target = match source.known_program(program) {
+        Some(found) => found,
+        None => {
+            let (found, duplicate) =
+                source.scan(|bytes| leading_number(bytes, b"O:") == Some(program));
+            let found = match (found, duplicate) {
+                (_, true) => Err(SourceError::DuplicateProgram),
+                (found, false) => found.ok_or(SourceError::UnknownProgram),
+            };
+            let found = stay_on_error(source, here, found)?;
+            source.remember_program(program, found.0, found.1);
+            found
+        }
+    };
+    Ok(jump(source, here, target))
+}
+
+/// [`ProgramSource::jump_to_sequence`] for a [`Seekable`] source: the first block whose N word
+/// is `n`; on an error the source stays where it was.
+pub fn seek_sequence<S: Seekable>(source: &mut S, n: u32) -> Result<u32, SourceError> {
+    let here = source.position();
+    let (found, _) = source.scan(|bytes| leading_number(bytes, b"N") == Some(n));
+    let target = stay_on_error(source, here, found.ok_or(SourceError::UnknownSequence))?;
+    Ok(jump(source, here, target))
+}
+
+/// Back to `here` when the scan found no target.
+fn stay_on_error<S: Seekable>(
+    source: &mut S,
+    here: (u32, S::Position),
+    found: Result<(u32, S::Position), SourceError>,
+) -> Result<(u32, S::Position), SourceError> {
+    if found.is_err() {
+        source.move_to(here.0, here.1);
+    }
+    found
+}
+
+/// Moves to `target`, remembering both ends: the caller comes back to `here` after M99.
+fn jump<S: Seekable>(source: &mut S, here: (u32, S::Position), target: (u32, S::Position)) -> u32 {
+    source.remember_line(here.0, here.1);
+    source.remember_line(target.0, target.1);
+    source.move_to(target.0, target.1);
+    target.0
 }
 
 /// The scan behind a jump: pulls (line number, position, whether the line is the target) from
@@ -185,44 +298,11 @@ impl ProgramSource for MemorySource<'_> {
     }
 
     fn jump_to_program(&mut self, program: u32) -> Result<u32, SourceError> {
-        let known = self
-            .programs
-            .iter()
-            .find(|&&(p, _, _)| p == program)
-            .map(|&(_, l, o)| (l, o));
-        let (line, offset) = match known {
-            Some(found) => found,
-            None => {
-                let (found, duplicate) =
-                    self.find(|bytes| leading_number(bytes, b"O:") == Some(program));
-                if duplicate {
-                    return Err(SourceError::DuplicateProgram);
-                }
-                let (line, offset) = found.ok_or(SourceError::UnknownProgram)?;
-                let entry = (program, line, offset);
-                if self.programs.push(entry).is_err() {
-                    self.programs[self.programs_next] = entry;
-                    self.programs_next = (self.programs_next + 1) % PROGRAM_CACHE;
-                }
-                (line, offset)
-            }
-        };
-        // Remember where we are: the caller will come back here after M99.
-        self.remember(self.line, self.offset);
-        self.remember(line, offset);
-        self.line = line;
-        self.offset = offset;
-        Ok(line)
+        seek_program(self, program)
     }
 
     fn jump_to_sequence(&mut self, n: u32) -> Result<u32, SourceError> {
-        let (found, _) = self.find(|bytes| leading_number(bytes, b"N") == Some(n));
-        let (line, offset) = found.ok_or(SourceError::UnknownSequence)?;
-        self.remember(self.line, self.offset);
-        self.remember(line, offset);
-        self.line = line;
-        self.offset = offset;
-        Ok(line)
+        seek_sequence(self, n)
     }
 
     fn jump_to_line(&mut self, line: u32) -> Result<(), SourceError> {

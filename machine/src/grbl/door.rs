@@ -3,12 +3,14 @@
 //! as closed once the machine has stopped: a running job decelerates to a feed hold (`Door:2`),
 //! then spindle and coolant switch off at rest (`Door:0`); a jog is cancelled; in idle the
 //! outputs switch off at once and no job starts. `~` switches spindle and coolant back on as the
-//! door found them and resumes the job. A soft reset, an abort or an alarm forget the door
-//! (the outputs stay off).
+//! door found them; with the spindle on, motion waits the setup's spin-up time (`Door:3`,
+//! `grbl.door_spin_up_ms`) as grbl does, then the job resumes. A soft reset, an abort or an
+//! alarm forget the door (the outputs stay off).
 
 use super::report;
 use crate::board::link::KernelView;
 use crate::board::{Board, DoorOutputs};
+use crate::canon::Spindle;
 use crate::controller::State;
 
 /// Where the door stands.
@@ -21,13 +23,23 @@ pub enum Door {
     /// At rest with spindle and coolant off (`Door:0`), waiting for `~`; `held` when a job's
     /// feed hold waits to resume.
     Parked { outputs: DoorOutputs, held: bool },
+    /// `~` switched spindle and coolant back on at `since_ms` (board time); the spindle spins up
+    /// before anything moves (`Door:3`).
+    SpinningUp { since_ms: u32, held: bool },
 }
 
 impl Door {
     /// The byte 0x84.
     pub fn open(&mut self, board: &mut Board) {
-        if *self != Door::Closed {
-            return;
+        match *self {
+            Door::Closed => {}
+            // Opened again while the spindle spins up: at rest already, so the outputs go off
+            // again at the next poll (`Door:0`), as grbl does.
+            Door::SpinningUp { .. } => {
+                *self = Door::Stopping;
+                return;
+            }
+            Door::Stopping | Door::Parked { .. } => return,
         }
         match board.state() {
             State::Run => board.feed_hold(),
@@ -42,7 +54,8 @@ impl Door {
     }
 
     /// Once per service: at rest, spindle and coolant off; forgets the door when the job ended
-    /// some other way; holds a job a cycle-start input resumed behind the door's back.
+    /// some other way; holds a job a cycle-start input resumed behind the door's back; once the
+    /// spindle has spun up, resumes the job.
     pub fn poll(&mut self, board: &mut Board, view: &KernelView) {
         match *self {
             Door::Closed => {}
@@ -60,23 +73,44 @@ impl Door {
                 }
                 _ => *self = Door::Closed,
             },
-            Door::Parked { held, .. } => match board.state() {
-                State::Hold if held => {}
-                State::Idle if !held => {}
+            Door::Parked { held, .. } | Door::SpinningUp { held, .. } => match board.state() {
+                State::Hold if held => self.spun_up(board),
+                State::Idle if !held => self.spun_up(board),
                 State::Run if held => board.feed_hold(),
                 _ => *self = Door::Closed,
             },
         }
     }
 
-    /// `~`: spindle and coolant back on, the held job resumes. `false` while the door has not
-    /// parked yet (the byte is ignored, as grbl ignores it then).
+    /// The spin-up wait over: the door closes and the held job resumes.
+    fn spun_up(&mut self, board: &mut Board) {
+        if let Door::SpinningUp { since_ms, .. } = *self {
+            let wait = u32::from(board.setup().grbl.door_spin_up_ms);
+            if board.now_ms().wrapping_sub(since_ms) >= wait {
+                *self = Door::Closed;
+                board.cycle_start();
+            }
+        }
+    }
+
+    /// `~`: spindle and coolant back on, the held job resumes (`true`: the caller starts the
+    /// cycle now), or waits for the spindle to spin up first ([`Door::SpinningUp`], resumed by
+    /// [`Door::poll`]). `false` too while the door has not parked yet or the spindle spins up
+    /// (the byte is ignored, as grbl ignores it then).
     pub fn resume(&mut self, board: &mut Board) -> bool {
         match *self {
             Door::Closed => true,
-            Door::Stopping => false,
-            Door::Parked { outputs, .. } => {
+            Door::Stopping | Door::SpinningUp { .. } => false,
+            Door::Parked { outputs, held } => {
                 board.door_restore(outputs);
+                if board.setup().grbl.door_spin_up_ms > 0 && board.outputs().spindle != Spindle::Off
+                {
+                    *self = Door::SpinningUp {
+                        since_ms: board.now_ms(),
+                        held,
+                    };
+                    return false;
+                }
                 *self = Door::Closed;
                 true
             }
@@ -94,6 +128,7 @@ impl Door {
             Door::Closed => report::state_name(board, view, check_mode),
             Door::Stopping => "Door:2",
             Door::Parked { .. } => "Door:0",
+            Door::SpinningUp { .. } => "Door:3",
         }
     }
 }

@@ -19,9 +19,10 @@ type Reader<'a> = postcard::Deserializer<'a, postcard::de_flavors::Slice<'a>>;
 
 /// First byte of every blob: the encoding's version. 1 was the first serde/postcard encoding
 /// (without this byte), 2 the hand-written one; 3 is postcard through serde again; 4 adds
-/// `program.tool_change_position`, `path.blend_tolerance` and the grbl front end's section.
+/// `program.tool_change_position`, `path.blend_tolerance` and the grbl front end's section; 5
+/// adds `grbl.door_spin_up_ms` (read with the rest of the grbl section in [`decode`]).
 /// Change it whenever the layout changes.
-pub const FORMAT: u8 = 4;
+pub const FORMAT: u8 = 5;
 
 /// Writes blob bytes `skip ..` into `out`. With `clip`, bytes beyond `out` are counted and
 /// dropped (a window of the blob); without, they are an error.
@@ -217,5 +218,27 @@ mod tests {
         for cut in 1..len {
             assert_eq!(decode(&buf[..cut]), None, "{cut} bytes");
         }
+    }
+
+    #[test]
+    fn the_door_spin_up_round_trips_and_is_range_checked_and_format_4_is_refused() {
+        let mut s = Setup::default();
+        let mut buf = [0u8; crate::setup::SETUP_BLOB_MAX];
+        let default_len = encode(&s, &mut buf, 0, false).unwrap();
+        s.grbl.door_spin_up_ms = 60_000;
+        let len = encode(&s, &mut buf, 0, false).unwrap();
+        assert_eq!(
+            len,
+            default_len + 1,
+            "the field is a varint: 4000 in 2 bytes, 60000 in 3"
+        );
+        assert_eq!(Setup::from_blob(&buf[..len]), Some(s.clone()));
+        s.grbl.door_spin_up_ms = 60_001;
+        let len = encode(&s, &mut buf, 0, false).unwrap();
+        assert_eq!(decode(&buf[..len]), Some(s.clone()));
+        assert_eq!(Setup::from_blob(&buf[..len]), None, "beyond 60 s");
+        // A blob stored by the firmware before the field (format 4) gives the defaults.
+        buf[0] = 4;
+        assert_eq!(Setup::from_blob(&buf[..len]), None);
     }
 }
