@@ -330,10 +330,11 @@ impl<const N: usize> Planner<N> {
     /// Computes the cruise speed of a block for the current overrides.
     fn override_speed(&self, b: &Block) -> u32 {
         let (max_speed, programmed) = (u64::from(b.max_speed), u64::from(b.programmed));
+        // `div_u64`: the hardware-assisted division, not the 64-bit library call.
         let v = if b.rapid {
-            max_speed * self.rapid_pct as u64 / 100
+            div_u64(max_speed * self.rapid_pct as u64, 100)
         } else {
-            (programmed * self.feed_pct as u64 / 100).min(max_speed)
+            div_u64(programmed * self.feed_pct as u64, 100).min(max_speed)
         };
         // MAX_SPEED is u32::MAX.
         v.max(1).min(MAX_SPEED) as u32
