@@ -99,32 +99,34 @@ impl Chain {
 /// chord's line times |d|², exact in integers).
 pub fn chord_holds(start: &Pos, points: &[Pos], to: &Pos, tolerance: u64, axes: usize) -> bool {
     let axes = axes.min(MAX_AXES);
-    let mut d = [0i128; MAX_AXES];
-    let mut dd: i128 = 0;
+    // The sums fit 64 bits (|dᵢ| ≤ 2²⁵, |vᵢ| ≤ 2²⁶: |d|² < 6·2⁵⁰, |v|² < 6·2⁵², |v·d| < 6·2⁵¹);
+    // only the distance test's products need 128 bits. Summed in i64, not i128: a 128-bit
+    // multiply-add per axis and point was most of a merged move's cost on the Cortex-M4.
+    let mut d = [0i64; MAX_AXES];
+    let mut dd: i64 = 0;
     for i in 0..axes {
         let di = to[i] - start[i];
         if di.abs() > MAX_CHORD {
             return false;
         }
-        d[i] = i128::from(di);
-        dd += d[i] * d[i];
+        d[i] = di;
+        dd += di * di;
     }
     if dd == 0 {
         return false;
     }
     // |d|² < 6·2⁵⁰ and tolerance ≤ 2²⁵ (coarser ones are the same as 2²⁵ here): < 2¹⁰⁴.
     let tol = i128::from(tolerance.min(MAX_CHORD as u64));
-    let limit = tol * tol * dd;
-    let mut along_before: i128 = 0;
+    let limit = tol * tol * i128::from(dd);
+    let mut along_before: i64 = 0;
     for p in points {
-        let mut vv: i128 = 0;
-        let mut vd: i128 = 0;
+        let mut vv: i64 = 0;
+        let mut vd: i64 = 0;
         for i in 0..axes {
             let vi = p[i] - start[i];
             if vi.abs() > 2 * MAX_CHORD {
                 return false;
             }
-            let vi = i128::from(vi);
             vv += vi * vi;
             vd += vi * d[i];
         }
@@ -133,7 +135,7 @@ pub fn chord_holds(start: &Pos, points: &[Pos], to: &Pos, tolerance: u64, axes: 
         }
         along_before = vd;
         // Cauchy-Schwarz: vv·dd ≥ vd²; both products < 2¹¹⁰.
-        if vv * dd - vd * vd > limit {
+        if i128::from(vv) * i128::from(dd) - i128::from(vd) * i128::from(vd) > limit {
             return false;
         }
     }

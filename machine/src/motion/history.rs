@@ -59,9 +59,11 @@ impl Handed {
 /// The last [`SEGMENT_HISTORY`] segments handed out, and prep's state before the oldest of them.
 #[derive(Clone, Debug)]
 pub struct History {
-    handed: Deque<Handed, SEGMENT_HISTORY>,
-    /// State before the oldest remembered segment.
-    base: Handed,
+    /// Prep's state before the oldest remembered segment (the base), then the state after each
+    /// remembered segment, oldest first; empty at rest with nothing remembered. The base is the
+    /// front entry rather than a field of its own, so recording a segment once the history is
+    /// full drops the old base and writes the new segment, one copy instead of three.
+    states: Deque<Handed, { SEGMENT_HISTORY + 1 }>,
 }
 
 impl Default for History {
@@ -74,29 +76,33 @@ impl History {
     /// Empty, at rest.
     pub const fn new() -> Self {
         History {
-            handed: Deque::new(),
-            base: Handed::REST,
+            states: Deque::new(),
         }
     }
 
     /// Remembers a segment just handed out (forgetting the oldest when full).
     pub fn record(&mut self, h: Handed) {
-        if self.handed.is_full() {
-            if let Some(old) = self.handed.pop_front() {
-                self.base = old;
-            }
+        if self.states.is_empty() {
+            let _ = self.states.push_back(Handed::REST);
+        } else if self.states.is_full() {
+            // The oldest segment's state becomes the base.
+            self.states.pop_front();
         }
-        let _ = self.handed.push_back(h);
+        let _ = self.states.push_back(h);
+    }
+
+    /// How many segments are remembered.
+    fn segments(&self) -> usize {
+        self.states.len().saturating_sub(1)
     }
 
     /// Prep's state after the segment `k` places before the newest (`k` = count: the base).
     fn kept(&self, k: usize) -> Handed {
-        let n = self.handed.len();
-        if k < n {
-            self.handed.get(n - 1 - k).copied().unwrap_or(self.base)
-        } else {
-            self.base
-        }
+        let n = self.segments();
+        self.states
+            .get(n - k.min(n))
+            .copied()
+            .unwrap_or(Handed::REST)
     }
 
     /// How many of the newest segments prep can take back while it works on the block numbered
@@ -106,7 +112,7 @@ impl History {
         let Some(seq) = active else {
             return 0;
         };
-        let n = self.handed.len();
+        let n = self.segments();
         let mut k = 0;
         while k < n {
             let dropped = self.kept(k);
@@ -129,7 +135,10 @@ impl History {
 
     /// The block of the newest segment ends with it (a move cut short where prep stands).
     pub fn end_block(&mut self) {
-        if let Some(h) = self.handed.back_mut() {
+        if self.segments() == 0 {
+            return;
+        }
+        if let Some(h) = self.states.back_mut() {
             if h.stand == Stand::Inside {
                 h.stand = Stand::BlockEnd;
             }
@@ -140,8 +149,8 @@ impl History {
     /// the last one kept and the signed steps the forgotten ones would have made.
     pub fn take_back(&mut self, k: usize) -> (Handed, [i64; MAX_AXES]) {
         let mut steps = [0i64; MAX_AXES];
-        for _ in 0..k {
-            let Some(h) = self.handed.pop_back() else {
+        for _ in 0..k.min(self.segments()) {
+            let Some(h) = self.states.pop_back() else {
                 break;
             };
             for (s, d) in steps.iter_mut().zip(h.steps) {

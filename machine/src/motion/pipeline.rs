@@ -495,9 +495,13 @@ impl<const N: usize> Motion<N> {
             corner_sq,
             output: self.pending_output.map_or(OutputEvent::NONE, |p| p.output),
         };
+        // The new end is stored in the same pass (not as two array copies afterwards, which were
+        // two `memcpy` calls on the Cortex-M4).
         for i in 0..MAX_AXES {
             req.steps[i] = target[i] - self.steps[i];
             req.delta[i] = to[i] - self.position[i];
+            self.steps[i] = target[i];
+            self.position[i] = to[i];
         }
         let blocks = self.planner.len();
         let queued = self.planner.push_line(&self.cfg, &req);
@@ -507,8 +511,6 @@ impl<const N: usize> Motion<N> {
             // block and leaves it for the next one).
             self.pending_output = None;
         }
-        self.position = *to;
-        self.steps = target;
     }
 
     /// Moves chords of the pending arc into the ring while it has room.

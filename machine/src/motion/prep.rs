@@ -20,7 +20,12 @@ use super::trig::{div_u64, isqrt_u64, mul_div, sat_mul};
 use crate::units::MAX_AXES;
 
 /// Target segment duration in kernel timer counts (2 ms).
-pub const SEGMENT_COUNTS: u64 = KERNEL_TIMER_HZ as u64 / 500;
+pub const SEGMENT_COUNTS: u64 = KERNEL_TIMER_HZ as u64 / SEGMENTS_PER_SECOND;
+
+/// Segments per second at the target duration (a whole divisor of the timer rate, so a speed's
+/// nm per segment is one division).
+const SEGMENTS_PER_SECOND: u64 = 500;
+const _: () = assert!((KERNEL_TIMER_HZ as u64).is_multiple_of(SEGMENTS_PER_SECOND));
 
 /// Dominant step periods above which AMASS over-drives the tick ×2, ×4, ×8 (8, 4, 2 kHz).
 const AMASS_PERIODS: [u64; 3] = [
@@ -202,14 +207,16 @@ impl Prep {
             if self.state == PrepState::Held {
                 return PrepOut::Idle;
             }
-            let Some(head) = planner.head().copied() else {
+            // Only the head's kind and number here: the block itself stays in the ring (a copy
+            // of it cost a 120-byte `memcpy` per call on the MCU).
+            let Some((kind, seq)) = planner.head().map(|b| (b.kind(), b.seq)) else {
                 if self.state == PrepState::Holding {
                     self.state = PrepState::Held;
                 }
                 self.carry = 0;
                 return PrepOut::Idle;
             };
-            match head.kind() {
+            match kind {
                 BlockKind::Sync => {
                     self.carry = 0;
                     if self.state == PrepState::Holding {
@@ -237,7 +244,7 @@ impl Prep {
                     self.dwell_left -= p;
                     self.history.record(Handed {
                         steps: [0; MAX_AXES],
-                        seq: head.seq,
+                        seq,
                         done: 0,
                         speed: 0,
                         stand: if self.dwell_left == 0 {
@@ -249,7 +256,7 @@ impl Prep {
                     return PrepOut::Segment(Segment::idle(1, p as u32));
                 }
                 BlockKind::Line { output } => {
-                    if let Some(seg) = self.line_segment(&head, output, planner) {
+                    if let Some(seg) = self.line_segment(output, planner) {
                         return PrepOut::Segment(seg);
                     }
                     if self.state == PrepState::Held {
@@ -419,10 +426,11 @@ impl Prep {
     /// Next segment of a line block, or `None` when the block finished or a hold stopped.
     fn line_segment<const N: usize>(
         &mut self,
-        b: &Block,
         output: OutputEvent,
         planner: &mut Planner<N>,
     ) -> Option<Segment> {
+        // The caller found a line block at the head.
+        let b = planner.head()?;
         if !self.active {
             self.active = true;
             self.done = 0;
@@ -477,7 +485,8 @@ impl Prep {
         }
         // Dominant steps for about one segment time at the current speed.
         let v = self.profile.speed_at(self.s_now);
-        let nm = mul_div(v, SEGMENT_COUNTS, KERNEL_TIMER_HZ as u64);
+        // v · SEGMENT_COUNTS / HZ, exactly: HZ is a whole multiple of SEGMENT_COUNTS.
+        let nm = div_u64(v, SEGMENTS_PER_SECOND);
         // `max(1).min(..)`, not `clamp`: the same here (done < end), without clamp's panic path
         // and its u64 formatting in the firmware.
         let n = mul_div(nm, b.events as u64, b.length)
@@ -485,7 +494,8 @@ impl Prep {
             .min((end - self.done) as u64) as u32;
         let c = self.done + n;
         let s = Self::s_of(b, c);
-        let dt = self.profile.time_at(s).saturating_sub(self.emitted).max(1);
+        let (t, speed) = self.profile.time_speed_at(s);
+        let dt = t.saturating_sub(self.emitted).max(1);
         // AMASS level from the dominant step period dt / n, compared without dividing.
         let level = AMASS_PERIODS.iter().filter(|&&p| dt > p * n as u64).count() as u32;
         let ticks = n << level;
@@ -512,7 +522,6 @@ impl Prep {
         self.done = c;
         self.s_now = s;
         self.report.counts += duration;
-        let speed = self.profile.speed_at(s);
         self.report.peak = self.report.peak.max(speed);
         self.history.record(Handed {
             steps: signed,

@@ -62,7 +62,8 @@ impl Profile {
         let gain = sat_mul(two_a, rem);
         let (v0sq, vcsq) = (v0 * v0, vc * vc);
         let vxsq = exit_sq.min(vcsq);
-        let vx = isqrt_u64(vxsq);
+        // √(vc²) is vc: the square root only when the exit limit is below the cruise speed.
+        let vx = if exit_sq >= vcsq { vc } else { isqrt_u64(vxsq) };
         let mut p = Profile {
             s0,
             v0,
@@ -138,14 +139,21 @@ impl Profile {
     }
 
     fn ramp_time(&self, a: u64, b: u64) -> u64 {
-        mul_div(a.abs_diff(b), HZ, self.accel)
+        match a.abs_diff(b) {
+            0 => 0,
+            dv => mul_div(dv, HZ, self.accel),
+        }
     }
 
     /// Speed at path position `s` (nm/s).
     pub fn speed_at(&self, s: u64) -> u64 {
         let two_a = self.accel.saturating_mul(2);
         if s <= self.s1 {
-            let d = sat_mul(two_a, s.saturating_sub(self.s0));
+            if s <= self.s0 {
+                // √(v0²) is v0, within [vm, v0] or [v0, vm] either way: no square root.
+                return self.v0;
+            }
+            let d = sat_mul(two_a, s - self.s0);
             if self.vm >= self.v0 {
                 isqrt_u64((self.v0 * self.v0).saturating_add(d)).min(self.vm)
             } else {
@@ -161,12 +169,20 @@ impl Profile {
 
     /// Time from `s0` to `s`, kernel timer counts.
     pub fn time_at(&self, s: u64) -> u64 {
+        self.time_speed_at(s).0
+    }
+
+    /// Time from `s0` to `s` (kernel timer counts) and the speed there (nm/s): [`Self::time_at`]
+    /// and [`Self::speed_at`] with one square root instead of two in the ramps.
+    pub fn time_speed_at(&self, s: u64) -> (u64, u64) {
         if s <= self.s1 {
-            self.ramp_time(self.v0, self.speed_at(s))
+            let v = self.speed_at(s);
+            (self.ramp_time(self.v0, v), v)
         } else if s <= self.s2 {
-            self.t1 + mul_div(s - self.s1, HZ, self.vm.max(1))
+            (self.t1 + mul_div(s - self.s1, HZ, self.vm.max(1)), self.vm)
         } else {
-            self.t2 + self.ramp_time(self.vm, self.speed_at(s))
+            let v = self.speed_at(s);
+            (self.t2 + self.ramp_time(self.vm, v), v)
         }
     }
 
