@@ -296,7 +296,8 @@ impl MainLoop {
             if n == 0 {
                 break;
             }
-            link.on_bytes(now_ms, &rx[..n]);
+            // (`min`: a port never reports more than it was given; no panic path for it.)
+            link.on_bytes(now_ms, &rx[..n.min(rx.len())]);
         }
         let host_port = if port.host_connected() {
             HostPort::Open
@@ -377,7 +378,7 @@ impl MainLoop {
             let Some(n) = link.poll_transmit(now_ms, &mut frame) else {
                 break;
             };
-            port.transmit(&frame[..n]);
+            port.transmit(&frame[..n.min(frame.len())]);
         }
         port.drive_outputs(
             &board.output_levels(),

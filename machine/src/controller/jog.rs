@@ -82,7 +82,8 @@ pub fn jog_target(
     dirs: &[i64; MAX_AXES],
     distance: Option<Nm>,
 ) -> Option<Pos> {
-    let n = cfg.axis_count as usize;
+    // (`min`: the config never has more; it lets the compiler drop the bounds checks below.)
+    let n = (cfg.axis_count as usize).min(MAX_AXES);
     if dirs[..n].iter().all(|&d| d == 0) {
         return None;
     }
