@@ -170,7 +170,8 @@ pub fn encode_frame<P: serde::Serialize>(
     let crc = crc32(msg);
     tail[..CRC_LEN].copy_from_slice(&crc.to_le_bytes());
     let raw_len = body + CRC_LEN;
-    let n = cobs::try_encode(&raw[..raw_len], out).map_err(|_| EncodeError::OutputTooSmall)?;
+    let n = cobs::try_encode(raw.get(..raw_len).unwrap_or_default(), out)
+        .map_err(|_| EncodeError::OutputTooSmall)?;
     if n >= out.len() {
         return Err(EncodeError::OutputTooSmall);
     }

@@ -84,7 +84,7 @@ pub fn jog_target(
 ) -> Option<Pos> {
     // (`min`: the config never has more; it lets the compiler drop the bounds checks below.)
     let n = (cfg.axis_count as usize).min(MAX_AXES);
-    if dirs[..n].iter().all(|&d| d == 0) {
+    if dirs.iter().take(n).all(|&d| d == 0) {
         return None;
     }
     let mut to = *from;

@@ -450,14 +450,16 @@ impl Grbl {
             }
             let mut buf = [0u8; STARTUP_LINE_LEN];
             let line = board.setup().grbl.startup[usize::from(i)].as_bytes();
-            // (`min`: the string's capacity; it lets the compiler drop the bounds checks.)
+            // (`min`: the string's capacity; copied byte by byte, no bounds-check panic paths.)
             let n = line.len().min(STARTUP_LINE_LEN);
-            buf[..n].copy_from_slice(&line[..n]);
+            for (b, &c) in buf.iter_mut().zip(line) {
+                *b = c;
+            }
             if n == 0 {
                 self.startup_due &= !(1 << i);
                 continue;
             }
-            let Ok(text) = core::str::from_utf8(&buf[..n]) else {
+            let Ok(text) = core::str::from_utf8(buf.get(..n).unwrap_or_default()) else {
                 return;
             };
             if board.state() == State::Idle && !board.start_job() {
@@ -489,7 +491,7 @@ impl Grbl {
             let Some((n, raw)) = self.rx.peek_line(&mut buf) else {
                 return;
             };
-            let text = trim(&buf[..n.min(LINE_CAPACITY)]);
+            let text = trim(buf.get(..n).unwrap_or_default());
             if raw - 1 > LINE_CAPACITY {
                 self.rx.consume(raw);
                 self.decided(raw, Reply::Error(codes::LINE_TOO_LONG));
@@ -513,7 +515,7 @@ impl Grbl {
                     *u = c.to_ascii_uppercase();
                     len += 1;
                 }
-                match self.command(board, &up[..len.min(LINE_CAPACITY)]) {
+                match self.command(board, up.get(..len).unwrap_or_default()) {
                     Step::Reply(r) => {
                         self.rx.consume(raw);
                         self.rx.answered(raw);

@@ -94,7 +94,7 @@ fn bits(setup: &Setup, f: impl Fn(usize) -> bool) -> i64 {
 /// The value of setting `n`, `None` when there is no such setting.
 pub fn read(n: u16, setup: &Setup) -> Option<Value> {
     if let Some((a, group)) = axis_of(n, setup) {
-        let ax = &setup.axes[a];
+        let ax = setup.axes.get(a)?;
         return Some(match group {
             // steps per mm = steps / (units_nm / 1e6), in thousandths.
             100 => dec(div_round(i64::from(ax.steps) * 1_000_000_000, ax.units_nm)),
@@ -117,8 +117,11 @@ pub fn read(n: u16, setup: &Setup) -> Option<Value> {
         20 => int(1),
         21 => int(i64::from(setup.inputs.hard_limits)),
         22 => int(i64::from(
-            setup.homing.axes[..axis_count(setup)]
+            setup
+                .homing
+                .axes
                 .iter()
+                .take(axis_count(setup))
                 .any(|h| h.priority > 0),
         )),
         23 => int(bits(setup, |i| setup.homing.axes[i].seek_low)),
@@ -149,7 +152,7 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup) -> Result<(), u16> {
         }
     };
     if let Some((a, group)) = axis_of(n, setup) {
-        let ax = &mut setup.axes[a];
+        let ax = setup.axes.get_mut(a).ok_or(codes::INVALID_STATEMENT)?;
         match group {
             100 => {
                 // steps per metre over 1 m of nm, reduced.
