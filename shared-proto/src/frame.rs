@@ -267,11 +267,7 @@ impl FrameDecoder {
             return None; // back-to-back delimiters: idle fill, not an error
         }
         // `len` never exceeds the buffer (checked as the bytes came in).
-        let n = match self
-            .buf
-            .get_mut(..len)
-            .map(|raw| cobs::decode_in_place(raw))
-        {
+        let n = match self.buf.get_mut(..len).map(cobs::decode_in_place) {
             Some(Ok(n)) => n,
             _ => {
                 self.stats.bad_cobs = self.stats.bad_cobs.wrapping_add(1);
