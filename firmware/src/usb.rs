@@ -92,7 +92,8 @@ pub async fn run_rx(mut rx: Receiver<'static, UsbDriver>, pipe: &'static LinkPip
         defmt::info!("usb: configured");
         // Err: disabled (unplugged, bus reset) or BufferOverflow: wait for the next connection.
         while let Ok(n) = rx.read_packet(&mut buf).await {
-            pipe.write_all(&buf[..n]).await;
+            // (`get`: the driver never reports more than the buffer; no panic path for it.)
+            pipe.write_all(buf.get(..n).unwrap_or_default()).await;
         }
         defmt::info!("usb: disconnected");
     }
@@ -111,7 +112,11 @@ pub async fn run_tx(mut tx: Sender<'static, UsbDriver>, pipe: &'static LinkPipe)
         pipe.clear();
         loop {
             let n = pipe.read(&mut buf).await;
-            if tx.write_packet(&buf[..n]).await.is_err() {
+            if tx
+                .write_packet(buf.get(..n).unwrap_or_default())
+                .await
+                .is_err()
+            {
                 break;
             }
             if n == PACKET as usize && pipe.is_empty() && tx.write_packet(&[]).await.is_err() {

@@ -399,7 +399,9 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
             };
             let header = frame.header;
             let n = frame.payload.len().min(MAX_PAYLOAD);
-            payload[..n].copy_from_slice(&frame.payload[..n]);
+            if let (Some(to), Some(from)) = (payload.get_mut(..n), frame.payload.get(..n)) {
+                to.copy_from_slice(from);
+            }
             self.on_frame(now, header, &payload[..n]);
         }
     }

@@ -110,7 +110,7 @@ impl Header {
         b[8] = self.rt_win;
     }
 
-    fn read(b: &[u8]) -> Option<Self> {
+    fn read(b: &[u8; HEADER_LEN]) -> Option<Self> {
         let kind = Kind::from_u8(b[0] & 0x0F)?;
         let flags = b[0] & 0xF0;
         if flags & !FLAGS_KNOWN != 0 {
@@ -163,11 +163,15 @@ pub fn encode_frame<P: serde::Serialize>(
             .ok_or(EncodeError::PayloadTooLarge)?,
         None => 0,
     };
-    let body = HEADER_LEN + plen;
-    let crc = crc32(&raw[..body]);
-    raw[body..body + CRC_LEN].copy_from_slice(&crc.to_le_bytes());
+    // `plen` never exceeds the room it was given; the `min` lets the compiler see that the slices
+    // below are in range (no bounds-check panic paths).
+    let body = (HEADER_LEN + plen).min(MAX_RAW - CRC_LEN);
+    let (msg, tail) = raw.split_at_mut(body);
+    let crc = crc32(msg);
+    tail[..CRC_LEN].copy_from_slice(&crc.to_le_bytes());
     let raw_len = body + CRC_LEN;
-    let n = cobs::try_encode(&raw[..raw_len], out).map_err(|_| EncodeError::OutputTooSmall)?;
+    let n = cobs::try_encode(raw.get(..raw_len).unwrap_or_default(), out)
+        .map_err(|_| EncodeError::OutputTooSmall)?;
     if n >= out.len() {
         return Err(EncodeError::OutputTooSmall);
     }
@@ -262,33 +266,34 @@ impl FrameDecoder {
         if len == 0 {
             return None; // back-to-back delimiters: idle fill, not an error
         }
-        let n = match cobs::decode_in_place(&mut self.buf[..len]) {
-            Ok(n) => n,
-            Err(_) => {
+        // `len` never exceeds the buffer (checked as the bytes came in).
+        let n = match self.buf.get_mut(..len).map(cobs::decode_in_place) {
+            Some(Ok(n)) => n,
+            _ => {
                 self.stats.bad_cobs = self.stats.bad_cobs.wrapping_add(1);
                 return None;
             }
         };
-        if n < HEADER_LEN + CRC_LEN {
+        // Header, payload, CRC (decoding never grows the frame: `n <= len`); shorter is a runt.
+        let split = self
+            .buf
+            .get(..n)
+            .and_then(|f| f.split_last_chunk::<CRC_LEN>())
+            .and_then(|(body, crc)| Some((body, body.split_first_chunk::<HEADER_LEN>()?, crc)));
+        let Some((body, (head, payload), crc)) = split else {
             self.stats.runts = self.stats.runts.wrapping_add(1);
             return None;
-        }
-        let body = n - CRC_LEN;
-        let mut crc = [0u8; CRC_LEN];
-        crc.copy_from_slice(&self.buf[body..n]);
-        if crc32(&self.buf[..body]) != u32::from_le_bytes(crc) {
+        };
+        if crc32(body) != u32::from_le_bytes(*crc) {
             self.stats.bad_crc = self.stats.bad_crc.wrapping_add(1);
             return None;
         }
-        let Some(header) = Header::read(&self.buf[..HEADER_LEN]) else {
+        let Some(header) = Header::read(head) else {
             self.stats.bad_header = self.stats.bad_header.wrapping_add(1);
             return None;
         };
         self.stats.frames = self.stats.frames.wrapping_add(1);
-        Some(Frame {
-            header,
-            payload: &self.buf[HEADER_LEN..body],
-        })
+        Some(Frame { header, payload })
     }
 
     /// Feeds a chunk and calls `f` for every valid frame it completes.

@@ -289,7 +289,8 @@ impl<T, const N: usize> RecvLane<T, N> {
         if self.ready == 0 {
             return None;
         }
-        let m = self.slots[self.head].take();
+        // `head` is always a slot index (`slot`); `get` leaves no bounds-check panic path.
+        let m = self.slots.get_mut(self.head).and_then(Option::take);
         self.head = self.slot(1);
         self.ready -= 1;
         m
@@ -300,7 +301,7 @@ impl<T, const N: usize> RecvLane<T, N> {
         if self.ready == 0 {
             None
         } else {
-            self.slots[self.head].as_ref()
+            self.slots.get(self.head).and_then(Option::as_ref)
         }
     }
 

@@ -36,7 +36,10 @@ impl Board {
             return false;
         }
         let mut dirs = [0i64; MAX_AXES];
-        dirs[axis as usize] = i64::from(velocity_um_min.signum());
+        // In range: `axis < axis_count <= MAX_AXES` (checked above, and by the setup).
+        if let Some(d) = dirs.get_mut(usize::from(axis)) {
+            *d = i64::from(velocity_um_min.signum());
+        }
         let distance = (distance_nm > 0).then(|| distance_nm.min(i64::MAX as u64 / 4) as i64);
         let from = self.motion.queued_position();
         let Some(to) = jog::jog_target(self.motion.config(), &from, &dirs, distance) else {
@@ -224,7 +227,9 @@ impl Board {
         let mut dirs = [0i64; MAX_AXES];
         for (ch, &axis) in j.analog_axes.iter().enumerate() {
             if axis < self.setup.axis_count {
-                dirs[axis as usize] = jog::analog_speed(stick[ch], self.setup.inputs.adc_max, j);
+                if let (Some(d), Some(&s)) = (dirs.get_mut(usize::from(axis)), stick.get(ch)) {
+                    *d = jog::analog_speed(s, self.setup.inputs.adc_max, j);
+                }
             }
         }
         let sq: u128 = dirs

@@ -153,11 +153,13 @@ impl BoardLink {
             if self.undecided.is_empty() {
                 self.undecided_since = now_ms;
             }
-            for (i, &b) in bytes.iter().enumerate() {
+            let mut rest = bytes;
+            while let Some((&b, after)) = rest.split_first() {
+                rest = after;
                 let _ = self.undecided.push(b);
                 if let Some(p) = LinkProtocol::decide(&self.undecided) {
                     self.choose(now_ms, p);
-                    self.deliver(now_ms, &bytes[i + 1..]);
+                    self.deliver(now_ms, rest);
                     return;
                 }
             }

@@ -296,7 +296,8 @@ impl MainLoop {
             if n == 0 {
                 break;
             }
-            link.on_bytes(now_ms, &rx[..n]);
+            // (`get`: a port never reports more than it was given; no panic path for it.)
+            link.on_bytes(now_ms, rx.get(..n).unwrap_or_default());
         }
         let host_port = if port.host_connected() {
             HostPort::Open
@@ -377,7 +378,7 @@ impl MainLoop {
             let Some(n) = link.poll_transmit(now_ms, &mut frame) else {
                 break;
             };
-            port.transmit(&frame[..n]);
+            port.transmit(frame.get(..n).unwrap_or_default());
         }
         port.drive_outputs(
             &board.output_levels(),

@@ -105,12 +105,12 @@ impl Board {
                     trips_at: mode.toward ^ invert,
                 };
             }
-            Err(PushError::Travel { .. }) => {
+            // Only a travel error can happen: the queue was empty at the sync point, so it is
+            // never full here (handled the same way, without a panic path for it).
+            Err(PushError::Travel { .. } | PushError::Full) => {
                 self.probe = ProbeCycle::Off;
                 self.soft_limit(canon.line);
             }
-            // The queue was empty at the sync point.
-            Err(PushError::Full) => unreachable!("a probe move starts from an empty queue"),
         }
     }
 

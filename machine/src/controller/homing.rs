@@ -57,7 +57,12 @@ impl Homing {
 
     /// The axis being homed.
     pub fn axis(&self) -> usize {
-        self.order[self.index] as usize
+        // `index` stays below the order's length while the cycle runs and every entry is below
+        // `MAX_AXES` (`order`); written with `get` and a clamp, each caller indexes the setup's
+        // per-axis arrays without a bounds-check panic path.
+        self.order
+            .get(self.index)
+            .map_or(0, |&a| usize::from(a).min(MAX_AXES - 1))
     }
 }
 
@@ -68,7 +73,7 @@ pub fn order(setup: &Setup, axes: u8) -> Vec<u8, MAX_AXES> {
     // Ascending priority, ties in axis order: a scan per priority level instead of a sort (the
     // generic sort costs kilobytes of flash for at most six axes).
     for priority in 1..=u8::MAX {
-        for (i, h) in setup.homing.axes[..n].iter().enumerate() {
+        for (i, h) in setup.homing.axes.iter().take(n).enumerate() {
             if h.priority == priority && (axes == 0 || axes & (1 << i) != 0) {
                 let _ = v.push(i as u8);
             }

@@ -82,8 +82,9 @@ pub fn jog_target(
     dirs: &[i64; MAX_AXES],
     distance: Option<Nm>,
 ) -> Option<Pos> {
-    let n = cfg.axis_count as usize;
-    if dirs[..n].iter().all(|&d| d == 0) {
+    // (`min`: the config never has more; it lets the compiler drop the bounds checks below.)
+    let n = (cfg.axis_count as usize).min(MAX_AXES);
+    if dirs.iter().take(n).all(|&d| d == 0) {
         return None;
     }
     let mut to = *from;

@@ -48,7 +48,7 @@ pub enum Command<'a> {
 
 /// Parses a `$` line (upper case, no spaces, starting with `$`).
 pub fn parse(line: &[u8]) -> Result<Command<'_>, u16> {
-    let rest = &line[1..];
+    let rest = line.split_first().map_or(&[][..], |(_, rest)| rest);
     Ok(match rest {
         b"" => Command::Help,
         b"$" => Command::Settings,
@@ -80,7 +80,9 @@ pub fn parse(line: &[u8]) -> Result<Command<'_>, u16> {
                 .iter()
                 .position(|&c| c == b'=')
                 .ok_or(codes::INVALID_STATEMENT)?;
-            let (num, value) = (&rest[..eq], &rest[eq + 1..]);
+            let (Some(num), Some(value)) = (rest.get(..eq), rest.get(eq + 1..)) else {
+                return Err(codes::INVALID_STATEMENT);
+            };
             if num.is_empty() || num.len() > 3 || !num.iter().all(u8::is_ascii_digit) {
                 return Err(codes::INVALID_STATEMENT);
             }

@@ -30,7 +30,7 @@ pub fn parse(words: &[u8], modal: &ModalState, from: &Pos, axes: usize) -> Resul
         while end < words.len() && matches!(words[end], b'0'..=b'9' | b'.' | b'-' | b'+') {
             end += 1;
         }
-        let num = &words[start..end];
+        let num = words.get(start..end).unwrap_or_default();
         if num.is_empty() {
             return Err(codes::JOG_INVALID);
         }
@@ -70,17 +70,16 @@ pub fn parse(words: &[u8], modal: &ModalState, from: &Pos, axes: usize) -> Resul
     if machine && !absolute {
         return Err(codes::JOG_INVALID);
     }
-    let offset = modal.offset();
     let mut to = *from;
-    for (a, v) in values.iter().enumerate() {
+    for ((to, v), offset) in to.iter_mut().zip(values).zip(modal.offset()) {
         let Some(v) = v else { continue };
         let v = parse_scaled(v, per_unit).ok_or(codes::BAD_NUMBER)?;
-        to[a] = if machine {
+        *to = if machine {
             v
         } else if absolute {
-            v + offset[a]
+            v + offset
         } else {
-            from[a] + v
+            *to + v
         };
     }
     Ok(Jog { to, feed })

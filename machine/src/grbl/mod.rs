@@ -358,7 +358,9 @@ impl Grbl {
     fn answer(&mut self, board: &Board, f: &Flight, r: Reply) {
         if let Some(i) = f.startup {
             self.out.byte(b'>');
-            self.out.str(&board.setup().grbl.startup[usize::from(i)]);
+            if let Some(line) = board.setup().grbl.startup.get(usize::from(i)) {
+                self.out.str(line);
+            }
             self.out.byte(b':');
         }
         self.emit(r);
@@ -447,14 +449,17 @@ impl Grbl {
                 continue;
             }
             let mut buf = [0u8; STARTUP_LINE_LEN];
-            let line = &board.setup().grbl.startup[usize::from(i)];
-            let n = line.len();
-            buf[..n].copy_from_slice(line.as_bytes());
+            let line = board.setup().grbl.startup[usize::from(i)].as_bytes();
+            // (`min`: the string's capacity; copied byte by byte, no bounds-check panic paths.)
+            let n = line.len().min(STARTUP_LINE_LEN);
+            for (b, &c) in buf.iter_mut().zip(line) {
+                *b = c;
+            }
             if n == 0 {
                 self.startup_due &= !(1 << i);
                 continue;
             }
-            let Ok(text) = core::str::from_utf8(&buf[..n]) else {
+            let Ok(text) = core::str::from_utf8(buf.get(..n).unwrap_or_default()) else {
                 return;
             };
             if board.state() == State::Idle && !board.start_job() {
@@ -486,7 +491,7 @@ impl Grbl {
             let Some((n, raw)) = self.rx.peek_line(&mut buf) else {
                 return;
             };
-            let text = trim(&buf[..n]);
+            let text = trim(buf.get(..n).unwrap_or_default());
             if raw - 1 > LINE_CAPACITY {
                 self.rx.consume(raw);
                 self.decided(raw, Reply::Error(codes::LINE_TOO_LONG));
@@ -503,11 +508,14 @@ impl Grbl {
                 }
                 let mut up = [0u8; LINE_CAPACITY];
                 let mut len = 0;
-                for &c in text.iter().filter(|c| !c.is_ascii_whitespace()) {
-                    up[len] = c.to_ascii_uppercase();
+                for (u, &c) in up
+                    .iter_mut()
+                    .zip(text.iter().filter(|c| !c.is_ascii_whitespace()))
+                {
+                    *u = c.to_ascii_uppercase();
                     len += 1;
                 }
-                match self.command(board, &up[..len]) {
+                match self.command(board, up.get(..len).unwrap_or_default()) {
                     Step::Reply(r) => {
                         self.rx.consume(raw);
                         self.rx.answered(raw);
@@ -833,7 +841,9 @@ impl Grbl {
             return Reply::Error(codes::error_number(e.number()));
         }
         let mut grbl = board.setup().grbl.clone();
-        grbl.startup[usize::from(index)] = stored;
+        if let Some(line) = grbl.startup.get_mut(usize::from(index)) {
+            *line = stored;
+        }
         board.set_grbl_setup(grbl);
         self.setup_changed = true;
         Reply::Ok

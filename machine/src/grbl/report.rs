@@ -17,7 +17,7 @@ const NM_PER_INCH: i64 = 25_400_000;
 
 /// Writes a position (mm with 3 decimals, or inches with 4).
 fn position(out: &mut Out, p: &Pos, axes: usize, prefs: &Prefs) {
-    for (i, v) in p[..axes].iter().enumerate() {
+    for (i, v) in p.iter().take(axes).enumerate() {
         if i > 0 {
             out.byte(b',');
         }

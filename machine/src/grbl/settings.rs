@@ -6,6 +6,7 @@
 use super::codes;
 use crate::board::LIMIT_BITS;
 use crate::setup::Setup;
+use crate::units::MAX_AXES;
 
 /// The front end's report preferences (`$10`, `$13`), read from the setup's grbl section.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -59,8 +60,11 @@ fn mm(nm: i64) -> Value {
 }
 
 fn div_round(a: i64, b: i64) -> i64 {
-    let (q, r) = (a.unsigned_abs() / b as u64, a.unsigned_abs() % b as u64);
-    let q = (q + u64::from(2 * r >= b as u64)) as i64;
+    // `b` is positive (1000, or a valid setup's `units_nm`); `max(1)` leaves no division-by-zero
+    // panic path.
+    let b = (b as u64).max(1);
+    let (q, r) = (a.unsigned_abs() / b, a.unsigned_abs() % b);
+    let q = (q + u64::from(2 * r >= b)) as i64;
     if a < 0 {
         -q
     } else {
@@ -68,15 +72,21 @@ fn div_round(a: i64, b: i64) -> i64 {
     }
 }
 
+/// The setup's axis count (`min`: a valid setup never has more than `MAX_AXES`; it lets the
+/// compiler drop the bounds checks of the per-axis indexing below).
+fn axis_count(setup: &Setup) -> usize {
+    usize::from(setup.axis_count).min(MAX_AXES)
+}
+
 /// The setting's axis and group for `$100`-`$13x`.
 fn axis_of(n: u16, setup: &Setup) -> Option<(usize, u16)> {
     let group = n / 10 * 10;
     let axis = usize::from(n % 10);
-    (AXIS_GROUPS.contains(&group) && axis < usize::from(setup.axis_count)).then_some((axis, group))
+    (AXIS_GROUPS.contains(&group) && axis < axis_count(setup)).then_some((axis, group))
 }
 
 fn bits(setup: &Setup, f: impl Fn(usize) -> bool) -> i64 {
-    (0..usize::from(setup.axis_count))
+    (0..axis_count(setup))
         .filter(|&i| f(i))
         .fold(0, |m, i| m | 1 << i)
 }
@@ -84,7 +94,7 @@ fn bits(setup: &Setup, f: impl Fn(usize) -> bool) -> i64 {
 /// The value of setting `n`, `None` when there is no such setting.
 pub fn read(n: u16, setup: &Setup) -> Option<Value> {
     if let Some((a, group)) = axis_of(n, setup) {
-        let ax = &setup.axes[a];
+        let ax = setup.axes.get(a)?;
         return Some(match group {
             // steps per mm = steps / (units_nm / 1e6), in thousandths.
             100 => dec(div_round(i64::from(ax.steps) * 1_000_000_000, ax.units_nm)),
@@ -107,8 +117,11 @@ pub fn read(n: u16, setup: &Setup) -> Option<Value> {
         20 => int(1),
         21 => int(i64::from(setup.inputs.hard_limits)),
         22 => int(i64::from(
-            setup.homing.axes[..usize::from(setup.axis_count)]
+            setup
+                .homing
+                .axes
                 .iter()
+                .take(axis_count(setup))
                 .any(|h| h.priority > 0),
         )),
         23 => int(bits(setup, |i| setup.homing.axes[i].seek_low)),
@@ -139,7 +152,7 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup) -> Result<(), u16> {
         }
     };
     if let Some((a, group)) = axis_of(n, setup) {
-        let ax = &mut setup.axes[a];
+        let ax = setup.axes.get_mut(a).ok_or(codes::INVALID_STATEMENT)?;
         match group {
             100 => {
                 // steps per metre over 1 m of nm, reduced.
@@ -157,7 +170,7 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup) -> Result<(), u16> {
     if milli < 0 {
         return Err(codes::NEGATIVE_VALUE);
     }
-    let axes = usize::from(setup.axis_count);
+    let axes = axis_count(setup);
     match n {
         0 => {
             if whole < 1 {

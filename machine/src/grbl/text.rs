@@ -75,20 +75,20 @@ impl Out {
     }
 
     pub fn uint(&mut self, v: u64) {
+        // Digits from the last one (a u64 has at most 20), written out from the first.
         let mut digits = [0u8; 20];
-        let mut n = 0;
+        let mut first = digits.len();
         let mut v = v;
-        loop {
-            digits[n] = b'0' + (v % 10) as u8;
-            n += 1;
+        for d in digits.iter_mut().rev() {
+            *d = b'0' + (v % 10) as u8;
+            first -= 1;
             v /= 10;
             if v == 0 {
                 break;
             }
         }
-        while n > 0 {
-            n -= 1;
-            self.byte(digits[n]);
+        for &d in digits.get(first..).unwrap_or_default() {
+            self.byte(d);
         }
     }
 
@@ -132,9 +132,9 @@ impl Out {
 /// rounded to the nearest integer; `None` for anything else or a result beyond ±2^62. Digits past
 /// the ninth decimal are ignored.
 pub fn parse_scaled(s: &[u8], scale: i64) -> Option<i64> {
-    let (neg, digits) = match s.first() {
-        Some(b'-') => (true, &s[1..]),
-        Some(b'+') => (false, &s[1..]),
+    let (neg, digits) = match s.split_first() {
+        Some((b'-', rest)) => (true, rest),
+        Some((b'+', rest)) => (false, rest),
         _ => (false, s),
     };
     let mut num: u64 = 0;
@@ -161,6 +161,8 @@ pub fn parse_scaled(s: &[u8], scale: i64) -> Option<i64> {
         return None;
     }
     let scale = scale.unsigned_abs();
+    // `den` is a power of ten from 1; `max(1)` leaves no division-by-zero panic path.
+    let den = den.max(1);
     let v = (num / den)
         .checked_mul(scale)?
         .checked_add((num % den * scale + den / 2) / den)?;
