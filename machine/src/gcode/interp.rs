@@ -21,7 +21,7 @@ use super::lexer::{Lexer, LineStart, Word, MICRO};
 use super::oword::{self, Keyword, Label, OLine};
 use super::params::{Params, LOCALS};
 use super::source::{ProgramSource, SourceError};
-use super::state::{CycleMemory, ModalState, MotionMode};
+use super::state::{CycleMemory, ModalState, MotionMode, Rollback};
 use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, ProbeMode, Spindle, StopKind};
 use crate::units::{Nm, Pos, MAX_AXES};
 
@@ -483,14 +483,17 @@ impl Interpreter {
                     }))
                 }
             };
-            let saved = self.state;
+            let tables = block.g_of(GGroup::NonModal).is_some()
+                || block.g_of(GGroup::ToolLength).is_some()
+                || !block.m.is_empty();
+            let saved = Rollback::of(&self.state, tables);
             let saved_finished = self.finished;
             let saved_comp = (!self.comp.is_idle()).then(|| self.comp.clone());
             match self.execute(&mut block, line, src) {
                 Ok(()) => {}
                 Err((code, columns)) => {
                     let columns = if self.expanded_line { None } else { columns };
-                    self.state = saved;
+                    saved.restore(&mut self.state);
                     self.comp = saved_comp.unwrap_or_default();
                     // An endless loop ends the program; other errors skip the block.
                     self.finished = saved_finished || code == ErrorCode::EndlessLoop;
@@ -2354,4 +2357,52 @@ struct Prelude {
     motion: Option<MotionMode>,
     /// The block has an F word.
     f_given: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gcode::MemorySource;
+
+    /// The state once `program` ran to its end or to its first error, and that error.
+    fn state_after(program: &str) -> (Option<ErrorCode>, ModalState) {
+        let mut it = Interpreter::new(&InterpConfig::default());
+        let mut src = MemorySource::new(program.as_bytes());
+        while let Some(x) = it.next(&mut src) {
+            if let Err(e) = x {
+                return (Some(e.code), *it.state());
+            }
+        }
+        (None, *it.state())
+    }
+
+    /// A failing block leaves the state as before it, whether it changed only modes and
+    /// position or the offset tables too (`Rollback` in machine/src/gcode/state.rs).
+    #[test]
+    fn a_failing_block_leaves_the_state_as_before() {
+        let before = "G92 X1\nG1 X2 F200\n";
+        let (error, state) = state_after(before);
+        assert_eq!(error, None);
+        for (program, code) in [
+            (
+                "G92 X1\nG1 X2 F200\nG20 G91 G1 X1 Y2 F100 G55 Q7\n",
+                ErrorCode::UnusedWord,
+            ),
+            ("G92 X1\nG1 X2 F200\nG92 X5 Q7\n", ErrorCode::UnusedWord),
+            (
+                "G92 X1\nG1 X2 F200\nG10 L2 P1 X5 Q7\n",
+                ErrorCode::UnusedWord,
+            ),
+            ("G92 X1\nG1 X2 F200\nG28.1 X1 Q7\n", ErrorCode::UnusedWord),
+            ("G92 X1\nG1 X2 F200\nG43.1 Z3 Q7\n", ErrorCode::UnusedWord),
+            ("G92 X1\nG1 X2 F200\nM3 S100 Q7\n", ErrorCode::UnusedWord),
+            ("G92 X1\nG1 X2 F200\nM2 Q7\n", ErrorCode::UnusedWord),
+            (
+                "G92 X1\nG1 X2 F200\nG0 X3 @1\n",
+                ErrorCode::AxisWordsConflict,
+            ),
+        ] {
+            assert_eq!(state_after(program), (Some(code), state), "{program}");
+        }
+    }
 }
