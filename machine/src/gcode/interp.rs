@@ -1005,10 +1005,11 @@ impl Interpreter {
     }
 
     /// The machine end point of a move from the block's axis words (consumed), with LinuxCNC's
-    /// polar coordinates (`@` radius, `^` angle about the XY origin) for X and Y.
-    fn target(&self, b: &mut Block, g53: bool) -> Res<Pos> {
+    /// polar coordinates (`@` radius, `^` angle about the XY origin) for X and Y, written over
+    /// `to` (the current position on entry). Written through a reference: returned in a
+    /// `Res<Pos>` it was copied byte by byte several times per line on the Cortex-M4.
+    fn target(&self, b: &mut Block, g53: bool, to: &mut Pos) -> Res<()> {
         let polar = self.polar_words(b)?;
-        let mut to = self.state.position;
         let offset = self.state.offset();
         if let Some((radius, angle, cols)) = polar {
             if g53 {
@@ -1036,7 +1037,7 @@ impl Interpreter {
                 to[i] = m;
             }
         }
-        Ok(to)
+        Ok(())
     }
 
     /// The block's polar words (`@` radius in nm, `^` angle in 10⁻⁶ degree, their columns),
@@ -1054,7 +1055,7 @@ impl Interpreter {
     }
 
     /// Feed (nm/min, or 1e-6 deg/min for rotary-only moves) of a straight feed move.
-    fn straight_feed(&self, from: Pos, to: Pos, f_given: bool) -> Res<i64> {
+    fn straight_feed(&self, from: &Pos, to: &Pos, f_given: bool) -> Res<i64> {
         let d = |i: usize| to[i] - from[i];
         let linear = (0..3).any(|i| d(i) != 0);
         let rotary = (3..MAX_AXES).any(|i| d(i) != 0);
@@ -1495,7 +1496,8 @@ impl Interpreter {
                     self.state.g30
                 };
                 let named: [bool; MAX_AXES] = core::array::from_fn(|i| b.has(AXIS_LETTERS[i]));
-                let via = self.target(b, false)?;
+                let mut via = self.state.position;
+                self.target(b, false, &mut via)?;
                 self.push(line, Action::Rapid { to: via })?;
                 let mut to = via;
                 let any = named.iter().any(|&n| n);
@@ -1694,7 +1696,8 @@ impl Interpreter {
             MotionMode::Rapid => {
                 // As LinuxCNC, an explicit G0 without axis words is a zero-length move.
                 let has_axes = AXIS_LETTERS.iter().chain(b"@^").any(|&l| b.has(l));
-                let to = self.target(b, g53)?;
+                let mut to = self.state.position;
+                self.target(b, g53, &mut to)?;
                 if has_axes || explicit {
                     self.push(line, Action::Rapid { to })?;
                 }
@@ -1702,9 +1705,10 @@ impl Interpreter {
             }
             MotionMode::Linear => {
                 let has_axes = AXIS_LETTERS.iter().chain(b"@^").any(|&l| b.has(l));
-                let to = self.target(b, g53)?;
+                let mut to = self.state.position;
+                self.target(b, g53, &mut to)?;
                 if has_axes || explicit {
-                    let feed = self.straight_feed(self.state.position, to, f_given)?;
+                    let feed = self.straight_feed(&self.state.position, &to, f_given)?;
                     self.push(line, Action::Feed { to, feed })?;
                 }
                 self.state.position = to;
@@ -1715,14 +1719,15 @@ impl Interpreter {
             MotionMode::Probe(code) => {
                 // LinuxCNC refuses probing under cutter compensation too.
                 self.refuse_under_comp(b.g_cols(code))?;
-                let to = self.target(b, g53)?;
+                let mut to = self.state.position;
+                self.target(b, g53, &mut to)?;
                 if self.state.inverse_time {
                     return Err((ErrorCode::ProbeInverseTime, b.g_cols(code)));
                 }
                 if to == self.state.position {
                     return Err((ErrorCode::ProbeZeroLength, b.g_cols(code)));
                 }
-                let feed = self.straight_feed(self.state.position, to, f_given)?;
+                let feed = self.straight_feed(&self.state.position, &to, f_given)?;
                 let mode = ProbeMode {
                     toward: matches!(code, G38_2 | G38_3),
                     must_trip: matches!(code, G38_2 | G38_4),
@@ -1824,7 +1829,8 @@ impl Interpreter {
             return Err((ErrorCode::ArcEndPointMissing, r_word.map(|w| w.cols)));
         }
         let start = self.state.position;
-        let to = self.target(b, false)?;
+        let mut to = self.state.position;
+        self.target(b, false, &mut to)?;
         let offset = self.state.offset();
         let tol = ArcTolerances::for_units(self.state.inch);
         let s2 = (start[first], start[second]);
