@@ -118,10 +118,14 @@ pub struct Block {
     pub o: Option<Code>,
     /// The block started with `/`.
     pub block_delete: bool,
-    /// Value words by letter (`A`..`Z`, G/M/N/O unused here).
-    words: [Option<Word>; WORD_SLOTS],
-    /// Bit `slot` set while `words[slot]` holds a word (the unused-word check of every block
-    /// reads it instead of scanning the 28 slots).
+    /// Value words in the order written (each letter once; G, M and N are kept elsewhere).
+    words: heapless::Vec<Word, WORD_SLOTS>,
+    /// Where in `words` the word of each letter slot (`A`..`Z`, `@`, `^`) is, while its
+    /// `present` bit is set. A new block only clears this and the mask, not 28 optional words
+    /// (machine/src/gcode/interp.rs makes one per line).
+    index: [u8; WORD_SLOTS],
+    /// Bit `slot` set while the block has the word of that slot (the unused-word check of every
+    /// block reads it instead of scanning the 28 slots).
     present: u32,
     /// G codes by group.
     pub g: [Option<Code>; G_GROUPS],
@@ -162,7 +166,8 @@ impl Block {
             n: None,
             o: None,
             block_delete: false,
-            words: [None; WORD_SLOTS],
+            words: heapless::Vec::new(),
+            index: [0; WORD_SLOTS],
             present: 0,
             g: [None; G_GROUPS],
             m: heapless::Vec::new(),
@@ -173,7 +178,11 @@ impl Block {
 
     /// The word with letter `l` (upper case).
     pub fn word(&self, l: u8) -> Option<Word> {
-        self.words[slot(l)]
+        let at = slot(l);
+        if self.present & (1 << at) == 0 {
+            return None;
+        }
+        self.words.get(self.index[at] as usize).copied()
     }
 
     /// True if the block has the word with letter `l`.
@@ -183,8 +192,17 @@ impl Block {
 
     /// Removes a word (once an earlier step consumed it).
     pub fn take(&mut self, l: u8) -> Option<Word> {
+        let w = self.word(l);
         self.present &= !(1 << slot(l));
-        self.words[slot(l)].take()
+        w
+    }
+
+    /// Adds the word of a letter slot not set yet.
+    fn insert(&mut self, at: usize, w: Word) {
+        self.index[at] = self.words.len() as u8;
+        // Cannot overflow: one word per slot at most.
+        let _ = self.words.push(w);
+        self.present |= 1 << at;
     }
 
     /// The G code given for a group.
@@ -322,8 +340,7 @@ pub fn parse_block_into(
                     cols: w.cols,
                 });
                 // The O number itself is kept as a value word slot.
-                b.words[slot(b'O')] = Some(w);
-                b.present |= 1 << slot(b'O');
+                b.insert(slot(b'O'), w);
             }
             // E, U, V and W are only Fanuc G65 arguments (#8, #21-#23), after the G65.
             b'E' | b'U' | b'V' | b'W' if b.g_of(GGroup::NonModal) != Some(G65) || gixa => {
@@ -337,8 +354,7 @@ pub fn parse_block_into(
                 if b.present & (1 << at) != 0 {
                     return Err((ErrorCode::RepeatedWord, cols));
                 }
-                b.words[at] = Some(w);
-                b.present |= 1 << at;
+                b.insert(at, w);
             }
         }
     }

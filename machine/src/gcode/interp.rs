@@ -1022,6 +1022,9 @@ impl Interpreter {
             to[1] = y + offset[1];
         }
         for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
+            if !b.has(letter) {
+                continue;
+            }
             if let Some(w) = b.take(letter) {
                 let v = self.axis_value(i, w)?;
                 let m = if g53 {
@@ -1043,6 +1046,9 @@ impl Interpreter {
     /// The block's polar words (`@` radius in nm, `^` angle in 10⁻⁶ degree, their columns),
     /// consumed; refused beside X or Y.
     fn polar_words(&self, b: &mut Block) -> Res<Option<PolarWords>> {
+        if !b.has(b'@') && !b.has(b'^') {
+            return Ok(None);
+        }
         let (r, a) = (b.take(b'@'), b.take(b'^'));
         let Some(first) = r.or(a) else {
             return Ok(None);
@@ -1105,7 +1111,14 @@ impl Interpreter {
         self.set_plane_units_tool_length(b)?;
         self.set_modes(b, line)?;
         let tool_write = self.apply_nonmodal(b, line, pre.nonmodal)?;
-        let (call_p, call_l) = self.move_block(b, line, &pre)?;
+        self.move_block(b, line, &pre)?;
+        // M98's P and L words, taken before the unused-word check (a pair of words returned
+        // through `Res` was copied byte by byte on the Cortex-M4).
+        let (call_p, call_l) = if b.has_m(98) {
+            (b.take(b'P'), b.take(b'L'))
+        } else {
+            (None, None)
+        };
         self.finish_block(b, tool_write)?;
         // 9. stops and program flow
         self.flow(b, line, src, call_p, call_l)
@@ -1538,13 +1551,8 @@ impl Interpreter {
         Ok(tool_write)
     }
 
-    /// Phase 7: the motion of the block. Returns M98's P and L words (phase 9).
-    fn move_block(
-        &mut self,
-        b: &mut Block,
-        line: u32,
-        pre: &Prelude,
-    ) -> Res<(Option<Word>, Option<Word>)> {
+    /// Phase 7: the motion of the block.
+    fn move_block(&mut self, b: &mut Block, line: u32, pre: &Prelude) -> Res<()> {
         let g53 = pre.nonmodal == Some(G53);
         let (motion, motion_g, f_given) = (pre.motion, pre.motion_g, pre.f_given);
         if let Some(mode) = motion {
@@ -1555,12 +1563,7 @@ impl Interpreter {
             }
             self.motion(b, line, mode, motion_g.is_some(), g53, f_given)?;
         }
-        let (call_p, call_l) = if b.has_m(98) {
-            (b.take(b'P'), b.take(b'L'))
-        } else {
-            (None, None)
-        };
-        Ok((call_p, call_l))
+        Ok(())
     }
 
     /// Phase 8: every word must have been used; then a G10 L1 tool length is written.
