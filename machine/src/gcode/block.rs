@@ -266,13 +266,17 @@ pub fn parse_block_into(
         let cols = Some(w.cols);
         match w.letter {
             b'G' => {
-                if w.value < 0 || w.value % (MICRO / 10) != 0 || w.value >= 1000 * MICRO {
+                if w.value < 0
+                    || w.value >= 1000 * MICRO
+                    || !(w.value as u32).is_multiple_of((MICRO / 10) as u32)
+                {
                     return Err((ErrorCode::UnknownGCode, cols));
                 }
                 if gixa && w.int_digits < 2 {
                     return Err((ErrorCode::BadWordFormat, cols));
                 }
-                let code = (w.value / (MICRO / 10)) as u16;
+                // 0 ≤ value < 10^9: a 32-bit division (no 64-bit divide on the Cortex-M4).
+                let code = (w.value as u32 / (MICRO / 10) as u32) as u16;
                 let group = g_group(code)
                     .filter(|_| !(gixa && code == G65))
                     .ok_or((ErrorCode::UnknownGCode, cols))?;
