@@ -565,7 +565,13 @@ impl Interpreter {
             };
         }
         let mut bytes = bytes;
-        if let Some(o) = oword::parse(bytes) {
+        // Every O-word line has an `O`, and every Fanuc `GOTO`, `END`, `WHILE [` and `IF [` an
+        // `O`, an `E` or a `[` (machine/src/gcode/oword.rs): most lines need not be parsed as one.
+        let control = bytes
+            .iter()
+            .any(|&c| matches!(c, b'O' | b'o' | b'E' | b'e' | b'['));
+        let o_line = if control { oword::parse(bytes) } else { None };
+        if let Some(o) = o_line {
             if o.keyword != Keyword::IfThen {
                 return self.control(line, bytes, o).map_err(|e| (n_word(), e));
             }
