@@ -142,6 +142,7 @@ pub struct Block {
 const WORD_SLOTS: usize = 28;
 
 /// The slot of a value word letter.
+#[inline(always)]
 fn slot(l: u8) -> usize {
     match l {
         b'@' => 26,
@@ -186,6 +187,7 @@ impl Block {
     }
 
     /// True if the block has the word with letter `l`.
+    #[inline(always)]
     pub fn has(&self, l: u8) -> bool {
         self.present & (1 << slot(l)) != 0
     }

@@ -1135,7 +1135,7 @@ impl Interpreter {
     fn check_block(&mut self, b: &mut Block) -> Res<Prelude> {
         let gixa = self.gixa();
         for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
-            if i >= self.config.axis_count as usize {
+            if i >= self.config.axis_count as usize && b.has(letter) {
                 if let Some(w) = b.word(letter) {
                     return err(ErrorCode::AxisNotConfigured, Some(w));
                 }
@@ -1146,7 +1146,9 @@ impl Interpreter {
                 return err(ErrorCode::NotSupported, Some(o));
             }
         }
-        b.take(b'O');
+        if b.has(b'O') {
+            b.take(b'O');
+        }
         let nonmodal = b.g_of(GGroup::NonModal);
         // Fanuc: G4 X<time> is a dwell, not a move.
         let dwell_word = if nonmodal == Some(G4) {
@@ -1159,7 +1161,11 @@ impl Interpreter {
             None
         };
         let motion_g = b.g[GGroup::Motion as usize];
-        let first_axis = AXIS_LETTERS.iter().chain(b"@^").find_map(|&l| b.word(l));
+        let first_axis = AXIS_LETTERS
+            .iter()
+            .chain(b"@^")
+            .find(|&&l| b.has(l))
+            .and_then(|&l| b.word(l));
         let nonmodal_axes = matches!(nonmodal, Some(G10 | G28 | G30 | G52 | G92))
             || b.g_of(GGroup::ToolLength) == Some(G43_1);
         if nonmodal_axes {
