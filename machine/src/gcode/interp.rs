@@ -321,6 +321,7 @@ impl Interpreter {
 
     /// The next canonical action, an error of the next bad block, or `None` at the end.
     /// After an error the next call continues with the following line.
+    #[inline(never)]
     pub fn next(&mut self, src: &mut impl ProgramSource) -> Option<Result<Canon, GcodeError>> {
         loop {
             if let Some(c) = self.queue.pop_front() {
@@ -1669,14 +1670,18 @@ impl Interpreter {
         } else if straight_or_arc {
             self.comp.straight_done();
         }
-        let tool = self.state.position;
-        if compensated {
+        // Where the tool stands (copied only under compensation).
+        let tool = if compensated {
+            let tool = self.state.position;
             // The block's programmed move is computed from the programmed point and caught.
             self.state.position = self.comp.program_base(tool);
             self.comp.start_catching();
-        }
+            Some(tool)
+        } else {
+            None
+        };
         let sets_mode = self.plain_motion(b, line, mode, explicit, g53, f_given)?;
-        if compensated {
+        if let Some(tool) = tool {
             self.state.position = match self.comp.caught() {
                 Some(canon) => {
                     let queue = &mut self.queue;
