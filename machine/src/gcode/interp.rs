@@ -593,8 +593,14 @@ impl Interpreter {
         } else {
             bytes
         };
-        let mut lexer = Lexer::new(text, true);
-        lexer.start();
+        // The line as read is lexed by the lexer that classified it (already past its start).
+        let mut lexer = if self.expanded_line {
+            let mut lexer = Lexer::new(text, true);
+            lexer.start();
+            lexer
+        } else {
+            lexer
+        };
         match parse_block_into(&mut lexer, &self.config, block) {
             Ok(()) => {}
             Err((code, cols)) => {
