@@ -360,6 +360,23 @@ mod tests {
     }
 
     #[test]
+    fn seven_to_nine_decimals_and_long_integers() {
+        let mut lx = Lexer::new(
+            b"X123456789.123456789 Y-0.12345678 Z000000000012.5 A.1234567",
+            true,
+        );
+        lx.start();
+        let w: heapless::Vec<Word, 4> = core::iter::from_fn(|| lx.next_word().unwrap()).collect();
+        assert_eq!((w[0].value, w[0].nano), (123_456_789_123_457, -211));
+        assert_eq!((w[1].value, w[1].nano), (-123_457, 220));
+        assert_eq!(
+            (w[2].value, w[2].nano, w[2].int_digits),
+            (12_500_000, 0, 12)
+        );
+        assert_eq!((w[3].value, w[3].nano), (123_457, -300));
+    }
+
+    #[test]
     fn seventh_decimal_rounds() {
         assert_eq!(&words("X1.0000005").unwrap()[..], &[(b'X', 1_000_001)]);
         assert_eq!(&words("X-1.0000004").unwrap()[..], &[(b'X', -1_000_000)]);
