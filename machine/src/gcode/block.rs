@@ -118,10 +118,14 @@ pub struct Block {
     pub o: Option<Code>,
     /// The block started with `/`.
     pub block_delete: bool,
-    /// Value words by letter (`A`..`Z`, G/M/N/O unused here).
-    words: [Option<Word>; WORD_SLOTS],
-    /// Bit `slot` set while `words[slot]` holds a word (the unused-word check of every block
-    /// reads it instead of scanning the 28 slots).
+    /// Value words in the order written (each letter once; G, M and N are kept elsewhere).
+    words: heapless::Vec<Word, WORD_SLOTS>,
+    /// Where in `words` the word of each letter slot (`A`..`Z`, `@`, `^`) is, while its
+    /// `present` bit is set. A new block only clears this and the mask, not 28 optional words
+    /// (machine/src/gcode/interp.rs makes one per line).
+    index: [u8; WORD_SLOTS],
+    /// Bit `slot` set while the block has the word of that slot (the unused-word check of every
+    /// block reads it instead of scanning the 28 slots).
     present: u32,
     /// G codes by group.
     pub g: [Option<Code>; G_GROUPS],
@@ -138,6 +142,7 @@ pub struct Block {
 const WORD_SLOTS: usize = 28;
 
 /// The slot of a value word letter.
+#[inline(always)]
 fn slot(l: u8) -> usize {
     match l {
         b'@' => 26,
@@ -162,7 +167,8 @@ impl Block {
             n: None,
             o: None,
             block_delete: false,
-            words: [None; WORD_SLOTS],
+            words: heapless::Vec::new(),
+            index: [0; WORD_SLOTS],
             present: 0,
             g: [None; G_GROUPS],
             m: heapless::Vec::new(),
@@ -173,18 +179,32 @@ impl Block {
 
     /// The word with letter `l` (upper case).
     pub fn word(&self, l: u8) -> Option<Word> {
-        self.words[slot(l)]
+        let at = slot(l);
+        if self.present & (1 << at) == 0 {
+            return None;
+        }
+        self.words.get(self.index[at] as usize).copied()
     }
 
     /// True if the block has the word with letter `l`.
+    #[inline(always)]
     pub fn has(&self, l: u8) -> bool {
         self.present & (1 << slot(l)) != 0
     }
 
     /// Removes a word (once an earlier step consumed it).
     pub fn take(&mut self, l: u8) -> Option<Word> {
+        let w = self.word(l);
         self.present &= !(1 << slot(l));
-        self.words[slot(l)].take()
+        w
+    }
+
+    /// Adds the word of a letter slot not set yet.
+    fn insert(&mut self, at: usize, w: Word) {
+        self.index[at] = self.words.len() as u8;
+        // Cannot overflow: one word per slot at most.
+        let _ = self.words.push(w);
+        self.present |= 1 << at;
     }
 
     /// The G code given for a group.
@@ -248,13 +268,17 @@ pub fn parse_block_into(
         let cols = Some(w.cols);
         match w.letter {
             b'G' => {
-                if w.value < 0 || w.value % (MICRO / 10) != 0 || w.value >= 1000 * MICRO {
+                if w.value < 0
+                    || w.value >= 1000 * MICRO
+                    || !(w.value as u32).is_multiple_of((MICRO / 10) as u32)
+                {
                     return Err((ErrorCode::UnknownGCode, cols));
                 }
                 if gixa && w.int_digits < 2 {
                     return Err((ErrorCode::BadWordFormat, cols));
                 }
-                let code = (w.value / (MICRO / 10)) as u16;
+                // 0 ≤ value < 10^9: a 32-bit division (no 64-bit divide on the Cortex-M4).
+                let code = (w.value as u32 / (MICRO / 10) as u32) as u16;
                 let group = g_group(code)
                     .filter(|_| !(gixa && code == G65))
                     .ok_or((ErrorCode::UnknownGCode, cols))?;
@@ -322,8 +346,7 @@ pub fn parse_block_into(
                     cols: w.cols,
                 });
                 // The O number itself is kept as a value word slot.
-                b.words[slot(b'O')] = Some(w);
-                b.present |= 1 << slot(b'O');
+                b.insert(slot(b'O'), w);
             }
             // E, U, V and W are only Fanuc G65 arguments (#8, #21-#23), after the G65.
             b'E' | b'U' | b'V' | b'W' if b.g_of(GGroup::NonModal) != Some(G65) || gixa => {
@@ -337,8 +360,7 @@ pub fn parse_block_into(
                 if b.present & (1 << at) != 0 {
                     return Err((ErrorCode::RepeatedWord, cols));
                 }
-                b.words[at] = Some(w);
-                b.present |= 1 << at;
+                b.insert(at, w);
             }
         }
     }

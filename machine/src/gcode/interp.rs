@@ -21,7 +21,7 @@ use super::lexer::{Lexer, LineStart, Word, MICRO};
 use super::oword::{self, Keyword, Label, OLine};
 use super::params::{Params, LOCALS};
 use super::source::{ProgramSource, SourceError};
-use super::state::{CycleMemory, ModalState, MotionMode};
+use super::state::{CycleMemory, ModalState, MotionMode, Rollback};
 use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, ProbeMode, Spindle, StopKind};
 use crate::units::{Nm, Pos, MAX_AXES};
 
@@ -321,6 +321,7 @@ impl Interpreter {
 
     /// The next canonical action, an error of the next bad block, or `None` at the end.
     /// After an error the next call continues with the following line.
+    #[inline(never)]
     pub fn next(&mut self, src: &mut impl ProgramSource) -> Option<Result<Canon, GcodeError>> {
         loop {
             if let Some(c) = self.queue.pop_front() {
@@ -483,14 +484,17 @@ impl Interpreter {
                     }))
                 }
             };
-            let saved = self.state;
+            let tables = block.g_of(GGroup::NonModal).is_some()
+                || block.g_of(GGroup::ToolLength).is_some()
+                || !block.m.is_empty();
+            let saved = Rollback::of(&self.state, tables);
             let saved_finished = self.finished;
             let saved_comp = (!self.comp.is_idle()).then(|| self.comp.clone());
             match self.execute(&mut block, line, src) {
                 Ok(()) => {}
                 Err((code, columns)) => {
                     let columns = if self.expanded_line { None } else { columns };
-                    self.state = saved;
+                    saved.restore(&mut self.state);
                     self.comp = saved_comp.unwrap_or_default();
                     // An endless loop ends the program; other errors skip the block.
                     self.finished = saved_finished || code == ErrorCode::EndlessLoop;
@@ -562,7 +566,13 @@ impl Interpreter {
             };
         }
         let mut bytes = bytes;
-        if let Some(o) = oword::parse(bytes) {
+        // Every O-word line has an `O`, and every Fanuc `GOTO`, `END`, `WHILE [` and `IF [` an
+        // `O`, an `E` or a `[` (machine/src/gcode/oword.rs): most lines need not be parsed as one.
+        let control = bytes
+            .iter()
+            .any(|&c| matches!(c, b'O' | b'o' | b'E' | b'e' | b'['));
+        let o_line = if control { oword::parse(bytes) } else { None };
+        if let Some(o) = o_line {
             if o.keyword != Keyword::IfThen {
                 return self.control(line, bytes, o).map_err(|e| (n_word(), e));
             }
@@ -583,8 +593,14 @@ impl Interpreter {
         } else {
             bytes
         };
-        let mut lexer = Lexer::new(text, true);
-        lexer.start();
+        // The line as read is lexed by the lexer that classified it (already past its start).
+        let mut lexer = if self.expanded_line {
+            let mut lexer = Lexer::new(text, true);
+            lexer.start();
+            lexer
+        } else {
+            lexer
+        };
         match parse_block_into(&mut lexer, &self.config, block) {
             Ok(()) => {}
             Err((code, cols)) => {
@@ -1002,10 +1018,11 @@ impl Interpreter {
     }
 
     /// The machine end point of a move from the block's axis words (consumed), with LinuxCNC's
-    /// polar coordinates (`@` radius, `^` angle about the XY origin) for X and Y.
-    fn target(&self, b: &mut Block, g53: bool) -> Res<Pos> {
+    /// polar coordinates (`@` radius, `^` angle about the XY origin) for X and Y, written over
+    /// `to` (the current position on entry). Written through a reference: returned in a
+    /// `Res<Pos>` it was copied byte by byte several times per line on the Cortex-M4.
+    fn target(&self, b: &mut Block, g53: bool, to: &mut Pos) -> Res<()> {
         let polar = self.polar_words(b)?;
-        let mut to = self.state.position;
         let offset = self.state.offset();
         if let Some((radius, angle, cols)) = polar {
             if g53 {
@@ -1018,6 +1035,9 @@ impl Interpreter {
             to[1] = y + offset[1];
         }
         for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
+            if !b.has(letter) {
+                continue;
+            }
             if let Some(w) = b.take(letter) {
                 let v = self.axis_value(i, w)?;
                 let m = if g53 {
@@ -1033,12 +1053,15 @@ impl Interpreter {
                 to[i] = m;
             }
         }
-        Ok(to)
+        Ok(())
     }
 
     /// The block's polar words (`@` radius in nm, `^` angle in 10⁻⁶ degree, their columns),
     /// consumed; refused beside X or Y.
     fn polar_words(&self, b: &mut Block) -> Res<Option<PolarWords>> {
+        if !b.has(b'@') && !b.has(b'^') {
+            return Ok(None);
+        }
         let (r, a) = (b.take(b'@'), b.take(b'^'));
         let Some(first) = r.or(a) else {
             return Ok(None);
@@ -1051,7 +1074,7 @@ impl Interpreter {
     }
 
     /// Feed (nm/min, or 1e-6 deg/min for rotary-only moves) of a straight feed move.
-    fn straight_feed(&self, from: Pos, to: Pos, f_given: bool) -> Res<i64> {
+    fn straight_feed(&self, from: &Pos, to: &Pos, f_given: bool) -> Res<i64> {
         let d = |i: usize| to[i] - from[i];
         let linear = (0..3).any(|i| d(i) != 0);
         let rotary = (3..MAX_AXES).any(|i| d(i) != 0);
@@ -1101,7 +1124,14 @@ impl Interpreter {
         self.set_plane_units_tool_length(b)?;
         self.set_modes(b, line)?;
         let tool_write = self.apply_nonmodal(b, line, pre.nonmodal)?;
-        let (call_p, call_l) = self.move_block(b, line, &pre)?;
+        self.move_block(b, line, &pre)?;
+        // M98's P and L words, taken before the unused-word check (a pair of words returned
+        // through `Res` was copied byte by byte on the Cortex-M4).
+        let (call_p, call_l) = if b.has_m(98) {
+            (b.take(b'P'), b.take(b'L'))
+        } else {
+            (None, None)
+        };
         self.finish_block(b, tool_write)?;
         // 9. stops and program flow
         self.flow(b, line, src, call_p, call_l)
@@ -1112,7 +1142,7 @@ impl Interpreter {
     fn check_block(&mut self, b: &mut Block) -> Res<Prelude> {
         let gixa = self.gixa();
         for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
-            if i >= self.config.axis_count as usize {
+            if i >= self.config.axis_count as usize && b.has(letter) {
                 if let Some(w) = b.word(letter) {
                     return err(ErrorCode::AxisNotConfigured, Some(w));
                 }
@@ -1123,7 +1153,9 @@ impl Interpreter {
                 return err(ErrorCode::NotSupported, Some(o));
             }
         }
-        b.take(b'O');
+        if b.has(b'O') {
+            b.take(b'O');
+        }
         let nonmodal = b.g_of(GGroup::NonModal);
         // Fanuc: G4 X<time> is a dwell, not a move.
         let dwell_word = if nonmodal == Some(G4) {
@@ -1136,7 +1168,11 @@ impl Interpreter {
             None
         };
         let motion_g = b.g[GGroup::Motion as usize];
-        let first_axis = AXIS_LETTERS.iter().chain(b"@^").find_map(|&l| b.word(l));
+        let first_axis = AXIS_LETTERS
+            .iter()
+            .chain(b"@^")
+            .find(|&&l| b.has(l))
+            .and_then(|&l| b.word(l));
         let nonmodal_axes = matches!(nonmodal, Some(G10 | G28 | G30 | G52 | G92))
             || b.g_of(GGroup::ToolLength) == Some(G43_1);
         if nonmodal_axes {
@@ -1492,7 +1528,8 @@ impl Interpreter {
                     self.state.g30
                 };
                 let named: [bool; MAX_AXES] = core::array::from_fn(|i| b.has(AXIS_LETTERS[i]));
-                let via = self.target(b, false)?;
+                let mut via = self.state.position;
+                self.target(b, false, &mut via)?;
                 self.push(line, Action::Rapid { to: via })?;
                 let mut to = via;
                 let any = named.iter().any(|&n| n);
@@ -1533,13 +1570,8 @@ impl Interpreter {
         Ok(tool_write)
     }
 
-    /// Phase 7: the motion of the block. Returns M98's P and L words (phase 9).
-    fn move_block(
-        &mut self,
-        b: &mut Block,
-        line: u32,
-        pre: &Prelude,
-    ) -> Res<(Option<Word>, Option<Word>)> {
+    /// Phase 7: the motion of the block.
+    fn move_block(&mut self, b: &mut Block, line: u32, pre: &Prelude) -> Res<()> {
         let g53 = pre.nonmodal == Some(G53);
         let (motion, motion_g, f_given) = (pre.motion, pre.motion_g, pre.f_given);
         if let Some(mode) = motion {
@@ -1550,12 +1582,7 @@ impl Interpreter {
             }
             self.motion(b, line, mode, motion_g.is_some(), g53, f_given)?;
         }
-        let (call_p, call_l) = if b.has_m(98) {
-            (b.take(b'P'), b.take(b'L'))
-        } else {
-            (None, None)
-        };
-        Ok((call_p, call_l))
+        Ok(())
     }
 
     /// Phase 8: every word must have been used; then a G10 L1 tool length is written.
@@ -1649,14 +1676,18 @@ impl Interpreter {
         } else if straight_or_arc {
             self.comp.straight_done();
         }
-        let tool = self.state.position;
-        if compensated {
+        // Where the tool stands (copied only under compensation).
+        let tool = if compensated {
+            let tool = self.state.position;
             // The block's programmed move is computed from the programmed point and caught.
             self.state.position = self.comp.program_base(tool);
             self.comp.start_catching();
-        }
+            Some(tool)
+        } else {
+            None
+        };
         let sets_mode = self.plain_motion(b, line, mode, explicit, g53, f_given)?;
-        if compensated {
+        if let Some(tool) = tool {
             self.state.position = match self.comp.caught() {
                 Some(canon) => {
                     let queue = &mut self.queue;
@@ -1691,7 +1722,8 @@ impl Interpreter {
             MotionMode::Rapid => {
                 // As LinuxCNC, an explicit G0 without axis words is a zero-length move.
                 let has_axes = AXIS_LETTERS.iter().chain(b"@^").any(|&l| b.has(l));
-                let to = self.target(b, g53)?;
+                let mut to = self.state.position;
+                self.target(b, g53, &mut to)?;
                 if has_axes || explicit {
                     self.push(line, Action::Rapid { to })?;
                 }
@@ -1699,9 +1731,10 @@ impl Interpreter {
             }
             MotionMode::Linear => {
                 let has_axes = AXIS_LETTERS.iter().chain(b"@^").any(|&l| b.has(l));
-                let to = self.target(b, g53)?;
+                let mut to = self.state.position;
+                self.target(b, g53, &mut to)?;
                 if has_axes || explicit {
-                    let feed = self.straight_feed(self.state.position, to, f_given)?;
+                    let feed = self.straight_feed(&self.state.position, &to, f_given)?;
                     self.push(line, Action::Feed { to, feed })?;
                 }
                 self.state.position = to;
@@ -1712,14 +1745,15 @@ impl Interpreter {
             MotionMode::Probe(code) => {
                 // LinuxCNC refuses probing under cutter compensation too.
                 self.refuse_under_comp(b.g_cols(code))?;
-                let to = self.target(b, g53)?;
+                let mut to = self.state.position;
+                self.target(b, g53, &mut to)?;
                 if self.state.inverse_time {
                     return Err((ErrorCode::ProbeInverseTime, b.g_cols(code)));
                 }
                 if to == self.state.position {
                     return Err((ErrorCode::ProbeZeroLength, b.g_cols(code)));
                 }
-                let feed = self.straight_feed(self.state.position, to, f_given)?;
+                let feed = self.straight_feed(&self.state.position, &to, f_given)?;
                 let mode = ProbeMode {
                     toward: matches!(code, G38_2 | G38_3),
                     must_trip: matches!(code, G38_2 | G38_4),
@@ -1821,7 +1855,8 @@ impl Interpreter {
             return Err((ErrorCode::ArcEndPointMissing, r_word.map(|w| w.cols)));
         }
         let start = self.state.position;
-        let to = self.target(b, false)?;
+        let mut to = self.state.position;
+        self.target(b, false, &mut to)?;
         let offset = self.state.offset();
         let tol = ArcTolerances::for_units(self.state.inch);
         let s2 = (start[first], start[second]);
@@ -2354,4 +2389,52 @@ struct Prelude {
     motion: Option<MotionMode>,
     /// The block has an F word.
     f_given: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gcode::MemorySource;
+
+    /// The state once `program` ran to its end or to its first error, and that error.
+    fn state_after(program: &str) -> (Option<ErrorCode>, ModalState) {
+        let mut it = Interpreter::new(&InterpConfig::default());
+        let mut src = MemorySource::new(program.as_bytes());
+        while let Some(x) = it.next(&mut src) {
+            if let Err(e) = x {
+                return (Some(e.code), *it.state());
+            }
+        }
+        (None, *it.state())
+    }
+
+    /// A failing block leaves the state as before it, whether it changed only modes and
+    /// position or the offset tables too (`Rollback` in machine/src/gcode/state.rs).
+    #[test]
+    fn a_failing_block_leaves_the_state_as_before() {
+        let before = "G92 X1\nG1 X2 F200\n";
+        let (error, state) = state_after(before);
+        assert_eq!(error, None);
+        for (program, code) in [
+            (
+                "G92 X1\nG1 X2 F200\nG20 G91 G1 X1 Y2 F100 G55 Q7\n",
+                ErrorCode::UnusedWord,
+            ),
+            ("G92 X1\nG1 X2 F200\nG92 X5 Q7\n", ErrorCode::UnusedWord),
+            (
+                "G92 X1\nG1 X2 F200\nG10 L2 P1 X5 Q7\n",
+                ErrorCode::UnusedWord,
+            ),
+            ("G92 X1\nG1 X2 F200\nG28.1 X1 Q7\n", ErrorCode::UnusedWord),
+            ("G92 X1\nG1 X2 F200\nG43.1 Z3 Q7\n", ErrorCode::UnusedWord),
+            ("G92 X1\nG1 X2 F200\nM3 S100 Q7\n", ErrorCode::UnusedWord),
+            ("G92 X1\nG1 X2 F200\nM2 Q7\n", ErrorCode::UnusedWord),
+            (
+                "G92 X1\nG1 X2 F200\nG0 X3 @1\n",
+                ErrorCode::AxisWordsConflict,
+            ),
+        ] {
+            assert_eq!(state_after(program), (Some(code), state), "{program}");
+        }
+    }
 }

@@ -33,6 +33,11 @@ pub struct Word {
 impl Word {
     /// The value as a whole number, if it has no fraction.
     pub fn integer(&self) -> Option<i64> {
+        // A 32-bit division when the value fits (the Cortex-M4 has no 64-bit divide).
+        if let Ok(v) = i32::try_from(self.value) {
+            const M: i32 = MICRO as i32;
+            return (v % M == 0).then_some((v / M) as i64);
+        }
         if self.value % MICRO == 0 {
             Some(self.value / MICRO)
         } else {
@@ -176,85 +181,105 @@ impl<'a> Lexer<'a> {
     }
 
     /// Parses an optionally signed decimal number (spaces allowed between its characters).
+    /// Digits accumulate in 32-bit integers on a local cursor: at most 9 significant integer
+    /// digits, 6 + 3 decimals (a 64-bit multiply per digit was a large part of a short line's
+    /// cost on the Cortex-M4, target-tests/src/bin/bench_motion.rs).
     fn number(&mut self, word_start: usize) -> Result<Word, LexError> {
-        let mut negative = false;
-        self.skip_blanks();
-        if self.pos < self.line.len() && matches!(self.line[self.pos], b'+' | b'-') {
-            negative = self.line[self.pos] == b'-';
-            self.pos += 1;
+        let line = self.line;
+        let blank = |c: u8| matches!(c, b' ' | b'\t' | b'\r');
+        let mut pos = self.pos;
+        while pos < line.len() && blank(line[pos]) {
+            pos += 1;
         }
-        let mut int_part: i64 = 0;
+        let mut negative = false;
+        if pos < line.len() && matches!(line[pos], b'+' | b'-') {
+            negative = line[pos] == b'-';
+            pos += 1;
+        }
+        let mut int_part: u32 = 0;
         let mut int_digits: u32 = 0;
         let mut significant: u32 = 0;
-        let mut frac: i64 = 0;
-        let mut frac_digits: u32 = 0;
+        let mut frac: u32 = 0;
+        let mut frac_digits: usize = 0;
         let mut round_up = false;
-        let mut extra: i64 = 0;
+        let mut extra: u32 = 0;
         let mut has_point = false;
         let mut any_digit = false;
-        let mut end = self.pos;
-        while let Some(&next) = self.line.get(self.pos) {
+        let mut end = pos;
+        while let Some(&next) = line.get(pos) {
             // Blanks between digits are rare: look for them only when one is there.
-            let ch = if matches!(next, b' ' | b'\t' | b'\r') {
-                self.skip_blanks();
-                match self.line.get(self.pos) {
+            let ch = if blank(next) {
+                while pos < line.len() && blank(line[pos]) {
+                    pos += 1;
+                }
+                match line.get(pos) {
                     Some(&c) => c,
                     None => break,
                 }
             } else {
                 next
             };
-            match ch {
-                b'0'..=b'9' => {
-                    let d = (ch - b'0') as i64;
-                    any_digit = true;
-                    if has_point {
-                        if frac_digits < 6 {
-                            frac = frac * 10 + d;
-                            frac_digits += 1;
-                        } else if frac_digits < 9 {
-                            if frac_digits == 6 {
-                                round_up = d >= 5;
-                            }
-                            extra = extra * 10 + d;
-                            frac_digits += 1;
+            let d = ch.wrapping_sub(b'0');
+            if d <= 9 {
+                let d = d as u32;
+                any_digit = true;
+                if has_point {
+                    if frac_digits < 6 {
+                        frac = frac * 10 + d;
+                        frac_digits += 1;
+                    } else if frac_digits < 9 {
+                        if frac_digits == 6 {
+                            round_up = d >= 5;
                         }
-                    } else {
-                        int_digits = int_digits.saturating_add(1);
-                        if significant > 0 || d != 0 {
-                            significant += 1;
-                        }
-                        if significant > MAX_INTEGER_DIGITS {
-                            return Err((
-                                ErrorCode::NumberOutOfRange,
-                                (col(word_start), col(self.pos + 1)),
-                            ));
-                        }
-                        int_part = int_part * 10 + d;
+                        extra = extra * 10 + d;
+                        frac_digits += 1;
                     }
+                } else {
+                    int_digits = int_digits.saturating_add(1);
+                    if significant > 0 || d != 0 {
+                        significant += 1;
+                    }
+                    if significant > MAX_INTEGER_DIGITS {
+                        self.pos = pos;
+                        return Err((ErrorCode::NumberOutOfRange, (col(word_start), col(pos + 1))));
+                    }
+                    int_part = int_part * 10 + d;
                 }
-                b'.' if !has_point => has_point = true,
-                _ => break,
+            } else if ch == b'.' && !has_point {
+                has_point = true;
+            } else {
+                break;
             }
-            self.pos += 1;
-            end = self.pos;
+            pos += 1;
+            end = pos;
         }
+        self.pos = pos;
         self.word_end = end;
         if !any_digit {
             return Err((
                 ErrorCode::MissingNumber,
-                (col(word_start), col(self.pos.max(word_start + 1))),
+                (col(word_start), col(pos.max(word_start + 1))),
             ));
         }
-        while frac_digits < 6 {
-            frac *= 10;
-            frac_digits += 1;
-        }
-        while frac_digits < 9 {
-            extra *= 10;
-            frac_digits += 1;
-        }
-        let mut value = int_part * MICRO + frac;
+        // Scale the decimals to 6 and 3 places (frac_digits ≤ 9).
+        const SCALE: [u32; 10] = [
+            1_000_000_000,
+            100_000_000,
+            10_000_000,
+            1_000_000,
+            100_000,
+            10_000,
+            1_000,
+            100,
+            10,
+            1,
+        ];
+        let (frac, extra) = if frac_digits <= 6 {
+            (frac * SCALE[frac_digits + 3], 0)
+        } else {
+            (frac, extra * SCALE[frac_digits])
+        };
+        let mut value = int_part as i64 * MICRO + frac as i64;
         let mut nano = extra as i16;
         if round_up {
             value += 1;
@@ -332,6 +357,23 @@ mod tests {
         assert_eq!((w[0].value, w[0].nano), (1_000_001, -500));
         assert_eq!((w[1].value, w[1].nano), (-123_457, 211));
         assert_eq!((w[2].value, w[2].nano), (2_000_000, 400));
+    }
+
+    #[test]
+    fn seven_to_nine_decimals_and_long_integers() {
+        let mut lx = Lexer::new(
+            b"X123456789.123456789 Y-0.12345678 Z000000000012.5 A.1234567",
+            true,
+        );
+        lx.start();
+        let w: heapless::Vec<Word, 4> = core::iter::from_fn(|| lx.next_word().unwrap()).collect();
+        assert_eq!((w[0].value, w[0].nano), (123_456_789_123_457, -211));
+        assert_eq!((w[1].value, w[1].nano), (-123_457, 220));
+        assert_eq!(
+            (w[2].value, w[2].nano, w[2].int_digits),
+            (12_500_000, 0, 12)
+        );
+        assert_eq!((w[3].value, w[3].nano), (123_457, -300));
     }
 
     #[test]

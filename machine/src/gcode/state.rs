@@ -91,6 +91,173 @@ pub struct ModalState {
     pub stored_dwell_us: u64,
 }
 
+/// What a failing block must give back (machine/src/gcode/interp.rs, `Interpreter::next`): the
+/// whole state, or only its modes and position when the block cannot touch the offset tables.
+/// Copying the 904-byte state before every line was the largest single cost of a short line
+/// (target-tests/src/bin/bench_motion.rs). It lives on the stack for one block (no heap to box
+/// the large variant into; only the variant in use is written).
+#[allow(clippy::large_enum_variant)]
+pub enum Rollback {
+    Whole(ModalState),
+    Modes(Modes),
+}
+
+impl Rollback {
+    /// The undo record for a block: `tables` is true when the block has a code that can write
+    /// the work offsets, G92, G28/G30 positions or the tool offset (a non-modal G code such as
+    /// G10, G28.1, G30.1, G92.x or G65; G43/G49; or an M code, M2/M30 clearing G92).
+    pub fn of(state: &ModalState, tables: bool) -> Self {
+        if tables {
+            Rollback::Whole(*state)
+        } else {
+            Rollback::Modes(Modes::of(state))
+        }
+    }
+
+    /// Puts the saved fields back.
+    pub fn restore(&self, state: &mut ModalState) {
+        match self {
+            Rollback::Whole(saved) => *state = *saved,
+            Rollback::Modes(modes) => modes.restore(state),
+        }
+    }
+}
+
+/// Every field of [`ModalState`] but the offset tables (work offsets, G92 and its saved value,
+/// tool offset, G28/G30 positions).
+#[derive(Clone, Copy)]
+pub struct Modes {
+    motion: MotionMode,
+    motion_before_cycle: MotionMode,
+    plane: Plane,
+    absolute: bool,
+    arc_absolute: bool,
+    inverse_time: bool,
+    inch: bool,
+    work_system: u8,
+    path: PathMode,
+    retract_to_r: bool,
+    feed: i64,
+    feed_raw: i64,
+    spindle: Spindle,
+    rpm: u32,
+    mist: bool,
+    flood: bool,
+    tool_selected: u32,
+    tool_loaded: u32,
+    position: Pos,
+    cycle: CycleMemory,
+    stored_dwell_us: u64,
+}
+
+impl Modes {
+    fn of(state: &ModalState) -> Self {
+        // Names every field: a new one must be sorted into the modes or the tables here.
+        let &ModalState {
+            motion,
+            motion_before_cycle,
+            plane,
+            absolute,
+            arc_absolute,
+            inverse_time,
+            inch,
+            work_system,
+            path,
+            retract_to_r,
+            feed,
+            feed_raw,
+            spindle,
+            rpm,
+            mist,
+            flood,
+            tool_selected,
+            tool_loaded,
+            position,
+            work_offsets: _,
+            g92: _,
+            g92_saved: _,
+            tool_offset: _,
+            g28: _,
+            g30: _,
+            cycle,
+            stored_dwell_us,
+        } = state;
+        Modes {
+            motion,
+            motion_before_cycle,
+            plane,
+            absolute,
+            arc_absolute,
+            inverse_time,
+            inch,
+            work_system,
+            path,
+            retract_to_r,
+            feed,
+            feed_raw,
+            spindle,
+            rpm,
+            mist,
+            flood,
+            tool_selected,
+            tool_loaded,
+            position,
+            cycle,
+            stored_dwell_us,
+        }
+    }
+
+    fn restore(&self, state: &mut ModalState) {
+        let Modes {
+            motion,
+            motion_before_cycle,
+            plane,
+            absolute,
+            arc_absolute,
+            inverse_time,
+            inch,
+            work_system,
+            path,
+            retract_to_r,
+            feed,
+            feed_raw,
+            spindle,
+            rpm,
+            mist,
+            flood,
+            tool_selected,
+            tool_loaded,
+            position,
+            cycle,
+            stored_dwell_us,
+        } = *self;
+        *state = ModalState {
+            motion,
+            motion_before_cycle,
+            plane,
+            absolute,
+            arc_absolute,
+            inverse_time,
+            inch,
+            work_system,
+            path,
+            retract_to_r,
+            feed,
+            feed_raw,
+            spindle,
+            rpm,
+            mist,
+            flood,
+            tool_selected,
+            tool_loaded,
+            position,
+            cycle,
+            stored_dwell_us,
+            ..*state
+        };
+    }
+}
+
 impl ModalState {
     /// The power-up state for a setup.
     pub fn new(config: &InterpConfig) -> Self {

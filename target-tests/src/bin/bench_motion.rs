@@ -241,7 +241,12 @@ fn timer_overhead() -> u64 {
 /// parse alone (`Lexer` + `parse_block` on the same text), the whole `Interpreter::next` (lex,
 /// parse and execute), `Motion::push` (plan) and `Motion::next_segment` (prepare).
 fn line_cost() -> [u64; 4] {
-    const LINES: u32 = 2000;
+    // Fewer lines when profiling: every instruction is logged then.
+    const LINES: u32 = if cfg!(feature = "profile-lines") {
+        200
+    } else {
+        2000
+    };
     let overhead = timer_overhead();
     let config = InterpConfig::default();
     // Lex + parse on their own.
