@@ -36,17 +36,18 @@ pub struct CpuModel {
 }
 
 impl CpuModel {
-    /// The Black Pill's STM32F411 at 96 MHz. `bench_motion` (re-measured 2026-11-25): 37 / 65 /
-    /// 106 instructions per kernel tick for 1 / 3 / 6 axes (fitted as 23 + 14 per axis); a
-    /// short G1 line streamed the board's way (`G1 Y-6.789 F3000`, 0.1 mm, one
-    /// segment): 8,300 to interpret (`Interpreter::next` from a `StreamSource`: 3,640 lex +
-    /// parse, 4,680 execute), 4,800 to plan (`Motion::push`) and 4,850 to prepare its segment.
+    /// The Black Pill's STM32F411 at 96 MHz. `bench_motion` (re-measured 2026-11-25, round 2
+    /// session 4): 39 / 67 / 108 instructions per kernel tick for 1 / 3 / 6 axes (fitted as
+    /// 23 + 14 per axis, plus the loop's own); a short G1 line streamed the board's way
+    /// (`G1 Y-6.789 F3000`, 0.1 mm, one segment): 5,400 to interpret
+    /// (`Interpreter::next` from a `StreamSource`: 2,475 lex + parse, 2,929 execute), 4,870 to
+    /// plan (`Motion::push`) and 3,510 to prepare its segment.
     pub const F411: CpuModel = CpuModel {
         name: "f411",
         hz: 96_000_000,
-        line: 8_300,
-        block: 4_800,
-        segment: 4_850,
+        line: 5_400,
+        block: 4_870,
+        segment: 3_510,
         tick_base: 23,
         tick_axis: 14,
     };

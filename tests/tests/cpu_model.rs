@@ -22,12 +22,13 @@ fn fast_machine() -> Setup {
     setup
 }
 
-/// 10,000 lines of 0.05 mm along a straight 3D line (X, with Y and Z drifting): 20 lines per mm.
-fn fine_program(feed_mm_min: u32) -> String {
+/// 10,000 lines of `step_um` µm along a straight 3D line (X, with Y and Z drifting), from
+/// X −250 mm.
+fn fine_program(feed_mm_min: u32, step_um: i64) -> String {
     let mut p = format!("G21 G90\nG0 X-250 Y0 Z0\nG1 F{feed_mm_min}\n");
     for i in 1..=10_000i64 {
-        // µm: X 50 per line, Y and Z 0.02 (written to 5 decimals of a mm).
-        let (x, yz) = (-250_000 + i * 50, i * 2);
+        // µm: X `step_um` per line, Y and Z 0.02 (written to 5 decimals of a mm).
+        let (x, yz) = (-250_000 + i * step_um, i * 2);
         let sign = if x < 0 { "-" } else { "" };
         p.push_str(&format!(
             "X{sign}{}.{:03} Y0.{yz:05} Z-0.{yz:05}\n",
@@ -40,7 +41,9 @@ fn fine_program(feed_mm_min: u32) -> String {
 }
 
 /// Streams `program` to the emulated fast machine; returns the gaps and the machine seconds.
-fn stream(program: &str, cpu: Option<CpuModel>) -> (u64, f64) {
+/// Every step must arrive, whatever the model does to the timing: X ends at `x_end_steps`
+/// (160 steps/mm).
+fn stream(program: &str, cpu: Option<CpuModel>, x_end_steps: i64) -> (u64, f64) {
     let mut board = EmulatedBoard::new(fast_machine());
     board.set_cpu_model(cpu);
     let mut client = Client::connect(board, 2000).unwrap();
@@ -49,8 +52,7 @@ fn stream(program: &str, cpu: Option<CpuModel>) -> (u64, f64) {
     })
     .unwrap();
     assert!(report.completed, "{:?}", report.errors);
-    // Every step arrived, whatever the model did to the timing: X ends at 250 mm, 160 steps/mm.
-    assert_eq!(client.transport.kernel.position()[0], 40_000);
+    assert_eq!(client.transport.kernel.position()[0], x_end_steps);
     (
         client.transport.starved.gaps,
         report.elapsed_ms as f64 / 1000.0,
@@ -59,17 +61,20 @@ fn stream(program: &str, cpu: Option<CpuModel>) -> (u64, f64) {
 
 #[test]
 fn the_f411_model_starves_the_kernel_only_where_the_f411_would() {
-    // 20 lines per mm at up to 358 mm/s (the 128-block look-ahead over 6.4 mm at 10 m/s²) is
-    // ~7,000 lines/s, more than the ~5,000 a 96 MHz F411 interprets and plans
-    // (8,300 + 4,800 + 4,850 instructions each, plus the step interrupt).
-    let fast = fine_program(30_000);
-    let (gaps, with_model) = stream(&fast, Some(CpuModel::F411));
+    // 0.02 mm lines at up to 226 mm/s (the 128-block look-ahead over 2.56 mm at 10 m/s²) is
+    // ~11,000 lines/s, more than the ~7,000 a 96 MHz F411 interprets and plans
+    // (5,400 + 4,870 + 3,510 instructions each, plus the step interrupt): X ends at −50 mm.
+    let fast = fine_program(30_000, 20);
+    let (gaps, with_model) = stream(&fast, Some(CpuModel::F411), -8_000);
+    eprintln!("0.02 mm lines at F30000, F411 model: {gaps} underruns, {with_model:.3} s");
     assert!(gaps > 0, "no underrun at 30,000 mm/min");
-    let (gaps, without) = stream(&fast, None);
+    let (gaps, without) = stream(&fast, None, -8_000);
+    eprintln!("0.02 mm lines at F30000, no model: {gaps} underruns, {without:.3} s");
     assert_eq!(gaps, 0, "underruns without the CPU model");
     // The starved job takes longer than the one whose main loop costs nothing.
     assert!(with_model > without * 1.05, "{with_model} {without}");
-    // 100 mm/s: 2,000 lines/s, well within the F411's budget.
-    let (gaps, _) = stream(&fine_program(6_000), Some(CpuModel::F411));
+    // 0.05 mm lines at 100 mm/s: 2,000 lines/s, well within the F411's budget; X ends at 250 mm.
+    let (gaps, t) = stream(&fine_program(6_000, 50), Some(CpuModel::F411), 40_000);
+    eprintln!("0.05 mm lines at F6000, F411 model: {gaps} underruns, {t:.3} s");
     assert_eq!(gaps, 0, "underruns at 6,000 mm/min");
 }
