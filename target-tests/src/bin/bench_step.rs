@@ -56,12 +56,17 @@ static OUTPUT: AtomicU32 = AtomicU32::new(0);
 /// The probe port's input register (IDR); the probe pin is bit 0, high = open.
 static PROBE_IDR: AtomicU32 = AtomicU32::new(1);
 
-/// Registers in RAM, reached as the firmware reaches TIM2 and the GPIO ports.
-struct FakeHardware;
+/// Registers in RAM, reached as the firmware reaches TIM2 and the GPIO ports. With `STAMP`, it
+/// also notes SysTick at the counter read and at the reload write (the write-window
+/// measurement); without, the notes compile away.
+struct FakeHardware<const STAMP: bool = false>;
 
-impl StepHardware for FakeHardware {
+impl<const STAMP: bool> StepHardware for FakeHardware<STAMP> {
     #[inline(always)]
     fn count(&self) -> u32 {
+        if STAMP {
+            READ_AT.store(SYST::get_current(), Ordering::Relaxed);
+        }
         CNT.load(Ordering::Relaxed)
     }
     #[inline(always)]
@@ -71,6 +76,9 @@ impl StepHardware for FakeHardware {
     #[inline(always)]
     fn set_reload(&mut self, reload: u32) {
         ARR.store(reload, Ordering::Relaxed);
+        if STAMP {
+            WRITE_AT.store(SYST::get_current(), Ordering::Relaxed);
+        }
     }
     #[inline(always)]
     fn write_dir(&mut self, bsrr: u32) {
@@ -107,7 +115,7 @@ fn handler(state: &mut Option<StepIsr<Repeat>>) {
     let Some(isr) = state.as_mut() else {
         return;
     };
-    if isr.on_pulse_end(&WORDS, &mut FakeHardware, black_box(false)) == Run::Late {
+    if isr.on_pulse_end(&WORDS, &mut FakeHardware::<false>, black_box(false)) == Run::Late {
         LATE.store(LATE.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
     }
 }
@@ -169,60 +177,20 @@ fn calibrate() -> u64 {
     5 * N as u64 * 1000 / counts.max(1)
 }
 
-#[cfg(feature = "step-window")]
 /// SysTick's value when the body read the timer's counter, and when it wrote the reload (its
-/// last write before the update): the write-window measurement.
+/// last write before the update): the write-window measurement (`FakeHardware<true>`).
 static READ_AT: AtomicU32 = AtomicU32::new(0);
-#[cfg(feature = "step-window")]
 static WRITE_AT: AtomicU32 = AtomicU32::new(0);
 
 #[cfg(feature = "step-window")]
-/// [`FakeHardware`] that also notes SysTick at the counter read and at the reload write.
-struct StampHardware;
-
-#[cfg(feature = "step-window")]
-impl StepHardware for StampHardware {
-    #[inline(always)]
-    fn count(&self) -> u32 {
-        READ_AT.store(SYST::get_current(), Ordering::Relaxed);
-        CNT.load(Ordering::Relaxed)
-    }
-    #[inline(always)]
-    fn reload(&self) -> u32 {
-        ARR.load(Ordering::Relaxed)
-    }
-    #[inline(always)]
-    fn set_reload(&mut self, reload: u32) {
-        ARR.store(reload, Ordering::Relaxed);
-        WRITE_AT.store(SYST::get_current(), Ordering::Relaxed);
-    }
-    #[inline(always)]
-    fn write_dir(&mut self, bsrr: u32) {
-        DIR_BSRR.store(bsrr, Ordering::Relaxed);
-    }
-    #[inline(always)]
-    fn set_step_word(&mut self, bsrr: u32) {
-        STEP_WORD.store(bsrr, Ordering::Relaxed);
-    }
-    #[inline(always)]
-    fn write_output(&mut self, event: OutputEvent) {
-        OUTPUT.store(u32::from(event.index() as u8) | 0x100, Ordering::Relaxed);
-    }
-    #[inline(always)]
-    fn probe_closed(&self) -> bool {
-        PROBE_IDR.load(Ordering::Relaxed) & 1 == 0
-    }
-}
-
-#[cfg(feature = "step-window")]
-/// [`handler`] over [`StampHardware`].
+/// [`handler`] over `FakeHardware<true>`.
 #[inline(never)]
 fn stamped_handler(state: &mut Option<StepIsr<Repeat>>) {
     SR.store(!2, Ordering::Relaxed);
     let Some(isr) = state.as_mut() else {
         return;
     };
-    if isr.on_pulse_end(&WORDS, &mut StampHardware, black_box(false)) == Run::Late {
+    if isr.on_pulse_end(&WORDS, &mut FakeHardware::<true>, black_box(false)) == Run::Late {
         LATE.store(LATE.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
     }
 }
@@ -349,7 +317,7 @@ fn check_against_timer_model() {
         CNT.store((t - t_update) as u32, Ordering::Relaxed);
         DIR_BSRR.store(0, Ordering::Relaxed);
         OUTPUT.store(0, Ordering::Relaxed);
-        match isr.on_pulse_end(&WORDS, &mut FakeHardware, false) {
+        match isr.on_pulse_end(&WORDS, &mut FakeHardware::<false>, false) {
             Run::Late => late += 1,
             Run::Scheduled => scheduled += 1,
         }
@@ -517,7 +485,7 @@ fn check_goal_rate(axes: usize, period: u32) -> (u32, u32) {
         let read = u64::from(timing.pulse + StepTiming::ENTRY_COUNTS);
         CNT.store(read as u32, Ordering::Relaxed);
         DIR_BSRR.store(0, Ordering::Relaxed);
-        if isr.on_pulse_end(&WORDS, &mut FakeHardware, false) == Run::Late {
+        if isr.on_pulse_end(&WORDS, &mut FakeHardware::<false>, false) == Run::Late {
             late += 1;
         }
         let bsrr = DIR_BSRR.load(Ordering::Relaxed);
