@@ -184,15 +184,15 @@ mod tests {
             [m.tick(0b1), m.tick(0b111), m.tick(0b11_1111)],
             [37, 65, 107]
         );
-        // One short G1 line, planned and prepared as one segment: 8,300 + 4,800 + 4,850.
+        // One short G1 line, planned and prepared as one segment: 5,400 + 4,870 + 3,510.
         let line = PassWork {
             lines: 1,
             blocks: 1,
             segments: 1,
         };
-        assert_eq!(m.pass(&line), 17_950);
-        // ≈ 5,350 such lines per second at 100 % of the CPU.
-        assert_eq!(m.hz / m.pass(&line), 5_348);
+        assert_eq!(m.pass(&line), 13_780);
+        // ≈ 6,970 such lines per second at 100 % of the CPU.
+        assert_eq!(m.hz / m.pass(&line), 6_966);
         assert!(CpuModel::named("f446").is_none());
     }
 }
