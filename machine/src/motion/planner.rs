@@ -344,25 +344,30 @@ impl<const N: usize> Planner<N> {
     pub fn exit_sq(&self, offset: usize) -> u64 {
         let b = self.at(offset);
         if b.stop_after {
-            self.stop_exit_sq(b)
-        } else if offset + 1 >= self.len() {
-            0
-        } else {
-            let next = self.at(offset + 1);
-            if next.seq < self.open_from {
-                next.entry_sq
-            } else {
-                self.open_entry_sq(next)
-            }
+            return self.stop_exit_sq(b);
+        }
+        match self.ring.get(offset + 1) {
+            None => 0,
+            Some(next) if next.seq < self.open_from => next.entry_sq,
+            // The ring's blocks are numbered consecutively: the head's number is `b`'s less
+            // `offset` (no second lookup of the head for the candidate's place).
+            Some(next) => self.open_entry_sq(next, b.seq.wrapping_sub(offset as u32)),
         }
     }
 
-    /// Reverse-pass entry limit of a block of the open contour, from the candidate queue.
-    fn open_entry_sq(&self, b: &Block) -> u64 {
+    /// Reverse-pass entry limit of a block of the open contour, from the candidate queue
+    /// (`head_seq`: the number of the head block).
+    fn open_entry_sq(&self, b: &Block, head_seq: u32) -> u64 {
         // The open end exits at rest: candidate P_end.
         let mut min = self.prefix_end;
         if let Some(&s) = self.hull.iter().find(|&&s| s >= b.seq) {
-            min = min.min(self.key(s));
+            // Most often the candidate is `b` itself: its key without a ring lookup.
+            let c = if s == b.seq {
+                b
+            } else {
+                self.at(s.wrapping_sub(head_seq) as usize)
+            };
+            min = min.min(c.max_entry_sq as u128 + c.prefix);
         }
         (min - b.prefix).min(u64::MAX as u128) as u64
     }
