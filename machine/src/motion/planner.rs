@@ -509,10 +509,11 @@ impl<const N: usize> Planner<N> {
         let stop_before = req.exact_stop_before
             || self.prev_unit.is_none()
             || (self.is_empty() && !self.continuing);
-        let junction_sq = match (stop_before, self.prev_unit) {
+        // `as_ref`: matching on the `Option` itself copied its 48-byte array (a `memcpy` call).
+        let junction_sq = match (stop_before, self.prev_unit.as_ref()) {
             (false, Some(prev)) => match req.corner_sq {
                 Some(limit) => limit,
-                None => junction_limit_sq(cfg, &prev, &unit, req.junction_deviation),
+                None => junction_limit_sq(cfg, prev, &unit, req.junction_deviation),
             },
             _ => 0,
         };
@@ -550,9 +551,12 @@ impl<const N: usize> Planner<N> {
         self.add_candidate(off);
         // Not `= Some(unit)` nor `*prev = unit`: those compiled to a `memmove` call on the
         // Cortex-M4 (1.5 KiB of flash for the routine), and a zipped loop to a `Zip::next` call
-        // per axis; `copy_from_slice` is one `memcpy` (non-overlapping by its contract).
+        // per axis; `copy_from_slice` is one `memcpy` (non-overlapping by its contract). The zero
+        // array only when there is none yet (`get_or_insert` cleared one on every line, which
+        // clippy's lazy-evaluation lint does not weigh).
+        #[allow(clippy::unnecessary_lazy_evaluations)]
         self.prev_unit
-            .get_or_insert([0; MAX_AXES])
+            .get_or_insert_with(|| [0; MAX_AXES])
             .copy_from_slice(&unit);
         self.continuing = false;
         true
@@ -699,14 +703,14 @@ pub fn junction_limit_sq(
     cur: &[i64; MAX_AXES],
     deviation: u64,
 ) -> u64 {
+    let axes = cfg.axis_count as usize;
     let mut dot: i64 = 0;
     let mut jump_sq: u64 = 0;
-    let mut jump = [0i64; MAX_AXES];
-    for i in 0..cfg.axis_count as usize {
+    for i in 0..axes {
         dot += prev[i] * cur[i];
-        jump[i] = cur[i] - prev[i];
+        let jump = cur[i] - prev[i];
         // |jump| ≤ 2·2³⁰, so the sum of squares stays below 2⁶².
-        jump_sq += (jump[i] * jump[i]) as u64;
+        jump_sq += (jump * jump) as u64;
     }
     // |û_cur − û_prev| in 2³⁰ units; 0 means a straight continuation.
     let jump_len = isqrt_u64(jump_sq);
@@ -720,9 +724,11 @@ pub fn junction_limit_sq(
     let mut limit = u64::MAX;
     if sin_half < UNIT as u64 {
         // Acceleration along the junction direction, every axis within its own limit.
+        // The jump is recomputed per axis (no array of it: clearing one cost a `memset` call).
         let mut accel = u64::MAX;
-        for (i, j) in jump.iter().enumerate() {
-            if *j != 0 && i < cfg.axis_count as usize {
+        for i in 0..axes {
+            let j = cur[i] - prev[i];
+            if j != 0 {
                 accel = accel.min(mul_div(cfg.axes[i].accel, jump_len, j.unsigned_abs()));
             }
         }
