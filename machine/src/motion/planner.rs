@@ -372,25 +372,24 @@ impl<const N: usize> Planner<N> {
         (min - b.prefix).min(u64::MAX as u128) as u64
     }
 
-    /// Candidate key C + P of the queued block numbered `seq`.
-    fn key(&self, seq: u32) -> u128 {
-        let b = self.at(seq.wrapping_sub(self.at(0).seq) as usize);
-        b.max_entry_sq as u128 + b.prefix
-    }
-
-    /// Adds the block `offset` places after the head (of the open contour) to the candidate
-    /// queue.
-    fn add_candidate(&mut self, offset: usize) {
+    /// Makes the newest block of the open contour, numbered `seq`, a candidate: returns its
+    /// prefix (the open contour's budget before it) and adds its own `budget`. Its key is
+    /// `max_entry_sq` + prefix; the queued candidates with keys not below it leave the queue (they
+    /// are older blocks, all in the ring; the new block itself need not be there yet).
+    fn add_candidate(&mut self, seq: u32, max_entry_sq: u64, budget: u64) -> u128 {
         let prefix = self.prefix_end;
-        let b = self.at_mut(offset);
-        b.prefix = prefix;
-        let key = b.max_entry_sq as u128 + b.prefix;
-        let (seq, budget) = (b.seq, b.budget());
+        let key = max_entry_sq as u128 + prefix;
         self.prefix_end += budget as u128;
-        while self.hull.back().is_some_and(|&s| self.key(s) >= key) {
+        // The ring's blocks are numbered consecutively from the head's.
+        let head_seq = self.ring.front().map_or(0, |h| h.seq);
+        while self.hull.back().is_some_and(|&s| {
+            let c = self.at(s.wrapping_sub(head_seq) as usize);
+            c.max_entry_sq as u128 + c.prefix >= key
+        }) {
             self.hull.pop_back();
         }
         let _ = self.hull.push_back(seq);
+        prefix
     }
 
     /// Ends the open contour: its last block now comes to rest, and one reverse pass settles the
@@ -411,15 +410,17 @@ impl<const N: usize> Planner<N> {
         v * v
     }
 
-    /// Largest entry speed² of the block at `offset` given its predecessor.
-    fn max_entry_sq(&self, offset: usize) -> u64 {
-        let b = self.at(offset);
+    /// Largest entry speed² of the line block `b` given the block before it in the ring (none:
+    /// `b` is the head).
+    fn max_entry_sq(&self, b: &Block, prev: Option<&Block>) -> u64 {
         let nom = self.nominal(b);
-        if b.stop_before || offset == 0 {
-            let v = u64::from(b.start_speed).min(nom);
-            return if b.stop_before { v * v } else { nom * nom };
-        }
-        let prev = self.at(offset - 1);
+        let prev = match prev {
+            Some(prev) if !b.stop_before => prev,
+            _ => {
+                let v = u64::from(b.start_speed).min(nom);
+                return if b.stop_before { v * v } else { nom * nom };
+            }
+        };
         let prev_nom = self.nominal(prev);
         let v = nom.min(prev_nom);
         b.junction_sq.min(v * v)
@@ -544,11 +545,12 @@ impl<const N: usize> Planner<N> {
             entry_sq: u64::MAX,
         };
         block.nominal = self.override_speed(&block);
+        // Planned before it joins the ring (its predecessor is the ring's last block): no
+        // lookups of it in the ring afterwards.
+        block.max_entry_sq = self.max_entry_sq(&block, self.ring.back());
+        block.prefix = self.add_candidate(block.seq, block.max_entry_sq, block.budget());
         let _ = self.ring.push_back(block);
-        let off = self.len() - 1;
-        self.at_mut(off).max_entry_sq = self.max_entry_sq(off);
         self.next_seq = self.next_seq.wrapping_add(1);
-        self.add_candidate(off);
         // Not `= Some(unit)` nor `*prev = unit`: those compiled to a `memmove` call on the
         // Cortex-M4 (1.5 KiB of flash for the routine), and a zipped loop to a `Zip::next` call
         // per axis; `copy_from_slice` is one `memcpy` (non-overlapping by its contract). The zero
@@ -578,8 +580,10 @@ impl<const N: usize> Planner<N> {
             self.at_mut(off).nominal = self.override_speed(self.at(off));
         }
         for off in 0..self.len() {
-            if self.at(off).is_line() {
-                self.at_mut(off).max_entry_sq = self.max_entry_sq(off);
+            let b = self.at(off);
+            if b.is_line() {
+                let prev = off.checked_sub(1).map(|p| self.at(p));
+                self.at_mut(off).max_entry_sq = self.max_entry_sq(b, prev);
             }
         }
         self.settle(0);
@@ -588,7 +592,8 @@ impl<const N: usize> Planner<N> {
         for off in 0..self.len() {
             let b = self.at(off);
             if b.seq >= self.open_from && b.is_line() {
-                self.add_candidate(off);
+                let (seq, max_entry_sq, budget) = (b.seq, b.max_entry_sq, b.budget());
+                self.at_mut(off).prefix = self.add_candidate(seq, max_entry_sq, budget);
             }
         }
     }
