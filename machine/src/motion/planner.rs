@@ -214,9 +214,11 @@ pub struct Planner<const N: usize> {
     /// Sum of the budgets of the open contour.
     prefix_end: u128,
     /// Monotonic queue of the candidates of the open contour by sequence number, increasing
-    /// keys ([`Self::key`]: C + P, read from the block, which stays in the ring as long as it
-    /// is in the queue).
+    /// keys (C + P, read from the block, which stays in the ring as long as it is in the
+    /// queue).
     hull: Deque<u32, N>,
+    /// Changes with every change of the planning state ([`Self::revision`]).
+    revision: u32,
 }
 
 impl<const N: usize> Default for Planner<N> {
@@ -238,7 +240,20 @@ impl<const N: usize> Planner<N> {
             open_from: 0,
             prefix_end: 0,
             hull: Deque::new(),
+            revision: 0,
         }
+    }
+
+    /// A number that changes whenever the planner does (a block added or retired, a replan):
+    /// while it stays the same, so do [`Self::exit_sq`] and [`Self::nominal`] of every block.
+    /// Segment prep checks its head block's plan only when it changed (it wraps after 2³²
+    /// changes; prep checks it every segment).
+    pub fn revision(&self) -> u32 {
+        self.revision
+    }
+
+    fn changed(&mut self) {
+        self.revision = self.revision.wrapping_add(1);
     }
 
     pub fn len(&self) -> usize {
@@ -275,6 +290,7 @@ impl<const N: usize> Planner<N> {
 
     /// Retires the head block.
     pub fn pop(&mut self) {
+        self.changed();
         if let Some(b) = self.ring.pop_front() {
             while self.hull.front().is_some_and(|&s| s <= b.seq) {
                 self.hull.pop_front();
@@ -287,6 +303,7 @@ impl<const N: usize> Planner<N> {
 
     /// Drops every block.
     pub fn clear(&mut self) {
+        self.changed();
         self.ring.clear();
         self.prev_unit = None;
         self.continuing = false;
@@ -428,6 +445,7 @@ impl<const N: usize> Planner<N> {
 
     /// Adds a non-motion block (dwell or sync); the machine stops before it.
     pub fn push_marker(&mut self, block: Block) -> bool {
+        self.changed();
         if self.is_full() {
             return false;
         }
@@ -445,6 +463,7 @@ impl<const N: usize> Planner<N> {
     /// Plans a straight move; false when the ring is full. A move without steps is dropped (true;
     /// the ring's length tells whether a block was added).
     pub fn push_line(&mut self, cfg: &MotionConfig, req: &LineRequest) -> bool {
+        self.changed();
         if self.is_full() {
             return false;
         }
@@ -568,6 +587,7 @@ impl<const N: usize> Planner<N> {
     /// blends with that direction (junction limits) instead of starting from rest. Segment prep
     /// carries the speed.
     pub fn continue_from(&mut self, unit: [i64; MAX_AXES]) {
+        self.changed();
         if self.is_empty() {
             self.prev_unit = Some(unit);
             self.continuing = true;
@@ -576,6 +596,7 @@ impl<const N: usize> Planner<N> {
 
     /// Recomputes every entry limit (after an override change or a resume).
     pub fn replan_all(&mut self) {
+        self.changed();
         for off in 0..self.len() {
             self.at_mut(off).nominal = self.override_speed(self.at(off));
         }
@@ -837,6 +858,33 @@ mod tests {
         // Block 1 (0.5 mm) can only gain 2e14 before block 2 must stop: 4e14 vs 2e14 + 2e14.
         assert_eq!(p.exit_sq(1), 200_000_000_000_000);
         assert_eq!(p.exit_sq(2), 0);
+    }
+
+    #[test]
+    fn revision_changes_with_every_planning_change() {
+        let cfg = MotionConfig::default();
+        let mut p: Planner<8> = Planner::new();
+        let mut seen = vec![p.revision()];
+        let mut check = |p: &Planner<8>| {
+            assert!(!seen.contains(&p.revision()), "{seen:?}");
+            seen.push(p.revision());
+        };
+        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
+        check(&p);
+        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
+        check(&p);
+        let exit = p.exit_sq(0);
+        p.set_overrides(50, 100);
+        check(&p);
+        assert_ne!(p.exit_sq(0), exit);
+        p.set_programmed_speed(1_000_000);
+        check(&p);
+        assert!(p.push_marker(Block::marker(BlockKind::Sync, 0)));
+        check(&p);
+        p.pop();
+        check(&p);
+        p.clear();
+        check(&p);
     }
 
     /// Exit limits recomputed naively (full grbl recurrence) for comparison.
