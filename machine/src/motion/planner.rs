@@ -491,10 +491,9 @@ impl<const N: usize> Planner<N> {
             isqrt_u128(len_sq) as u64
         }
         .max(1);
-        // The axes' limits along the move, `min_i ⌊limit_i · length / d_i⌋`: the tightest axis of
-        // each is picked first ([`Tightest`]), so one division per limit instead of one per axis.
-        let (mut max_speed, mut accel, mut start_speed) =
-            (Tightest::NONE, Tightest::NONE, Tightest::NONE);
+        let mut max_speed = MAX_SPEED;
+        let mut accel = u64::MAX;
+        let mut start_speed = MAX_SPEED;
         let mut unit = [0i64; MAX_AXES];
         for i in 0..axes {
             let d = req.delta[i].unsigned_abs();
@@ -502,9 +501,9 @@ impl<const N: usize> Planner<N> {
                 continue;
             }
             let ax = &cfg.axes[i];
-            max_speed.offer(ax.max_rate, d);
-            accel.offer(ax.accel, d);
-            start_speed.offer(ax.start_speed, d);
+            max_speed = max_speed.min(mul_div(ax.max_rate, length, d));
+            accel = accel.min(mul_div(ax.accel, length, d));
+            start_speed = start_speed.min(mul_div(ax.start_speed, length, d));
             unit[i] = match req.delta[i].checked_mul(UNIT) {
                 // `p / length` truncated toward zero, on the magnitudes: a hardware-assisted
                 // `div_u64` instead of the signed 64-bit library division.
@@ -519,9 +518,8 @@ impl<const N: usize> Planner<N> {
                 None => div_i128(req.delta[i] as i128 * UNIT as i128, length as i128) as i64,
             };
         }
-        let max_speed = max_speed.limit(length, MAX_SPEED).max(1);
-        let accel = accel.limit(length, u64::MAX).max(1);
-        let start_speed = start_speed.limit(length, MAX_SPEED);
+        let max_speed = max_speed.max(1);
+        let accel = accel.max(1);
         let (programmed, rapid) = match req.speed {
             Some(v) => (v.max(1).min(MAX_SPEED), false),
             None => (max_speed, true),
@@ -650,30 +648,6 @@ impl<const N: usize> Planner<N> {
             self.at_mut(off).entry_sq = entry;
             next_entry = entry;
         }
-    }
-}
-
-/// The axis with the smallest `limit / d` seen so far (an axis limit over its share `d` of a
-/// move), as `(limit, d)`. `⌊limit · length / d⌋` grows with `limit / d`, so the smallest of the
-/// per-axis quotients is the tightest axis's: compared exactly by cross-multiplying (u128
-/// products), it takes one [`mul_div`] per move instead of one per axis, with the same result.
-#[derive(Clone, Copy)]
-struct Tightest(Option<(u64, u64)>);
-
-impl Tightest {
-    const NONE: Tightest = Tightest(None);
-
-    /// Considers an axis with limit `limit` and share `d` > 0.
-    fn offer(&mut self, limit: u64, d: u64) {
-        match self.0 {
-            Some((l, e)) if u128::from(l) * u128::from(d) <= u128::from(limit) * u128::from(e) => {}
-            _ => self.0 = Some((limit, d)),
-        }
-    }
-
-    /// `min(cap, min_i ⌊limit_i · length / d_i⌋)` over the axes offered (`cap` when none).
-    fn limit(self, length: u64, cap: u64) -> u64 {
-        self.0.map_or(cap, |(l, d)| mul_div(l, length, d).min(cap))
     }
 }
 
