@@ -214,9 +214,11 @@ pub struct Planner<const N: usize> {
     /// Sum of the budgets of the open contour.
     prefix_end: u128,
     /// Monotonic queue of the candidates of the open contour by sequence number, increasing
-    /// keys ([`Self::key`]: C + P, read from the block, which stays in the ring as long as it
-    /// is in the queue).
+    /// keys (C + P, read from the block, which stays in the ring as long as it is in the
+    /// queue).
     hull: Deque<u32, N>,
+    /// Changes with every change of the planning state ([`Self::revision`]).
+    revision: u32,
 }
 
 impl<const N: usize> Default for Planner<N> {
@@ -238,7 +240,20 @@ impl<const N: usize> Planner<N> {
             open_from: 0,
             prefix_end: 0,
             hull: Deque::new(),
+            revision: 0,
         }
+    }
+
+    /// A number that changes whenever the planner does (a block added or retired, a replan):
+    /// while it stays the same, so do [`Self::exit_sq`] and [`Self::nominal`] of every block.
+    /// Segment prep checks its head block's plan only when it changed (it wraps after 2³²
+    /// changes; prep checks it every segment).
+    pub fn revision(&self) -> u32 {
+        self.revision
+    }
+
+    fn changed(&mut self) {
+        self.revision = self.revision.wrapping_add(1);
     }
 
     pub fn len(&self) -> usize {
@@ -275,6 +290,7 @@ impl<const N: usize> Planner<N> {
 
     /// Retires the head block.
     pub fn pop(&mut self) {
+        self.changed();
         if let Some(b) = self.ring.pop_front() {
             while self.hull.front().is_some_and(|&s| s <= b.seq) {
                 self.hull.pop_front();
@@ -287,6 +303,7 @@ impl<const N: usize> Planner<N> {
 
     /// Drops every block.
     pub fn clear(&mut self) {
+        self.changed();
         self.ring.clear();
         self.prev_unit = None;
         self.continuing = false;
@@ -344,48 +361,52 @@ impl<const N: usize> Planner<N> {
     pub fn exit_sq(&self, offset: usize) -> u64 {
         let b = self.at(offset);
         if b.stop_after {
-            self.stop_exit_sq(b)
-        } else if offset + 1 >= self.len() {
-            0
-        } else {
-            let next = self.at(offset + 1);
-            if next.seq < self.open_from {
-                next.entry_sq
-            } else {
-                self.open_entry_sq(next)
-            }
+            return self.stop_exit_sq(b);
+        }
+        match self.ring.get(offset + 1) {
+            None => 0,
+            Some(next) if next.seq < self.open_from => next.entry_sq,
+            // The ring's blocks are numbered consecutively: the head's number is `b`'s less
+            // `offset` (no second lookup of the head for the candidate's place).
+            Some(next) => self.open_entry_sq(next, b.seq.wrapping_sub(offset as u32)),
         }
     }
 
-    /// Reverse-pass entry limit of a block of the open contour, from the candidate queue.
-    fn open_entry_sq(&self, b: &Block) -> u64 {
+    /// Reverse-pass entry limit of a block of the open contour, from the candidate queue
+    /// (`head_seq`: the number of the head block).
+    fn open_entry_sq(&self, b: &Block, head_seq: u32) -> u64 {
         // The open end exits at rest: candidate P_end.
         let mut min = self.prefix_end;
         if let Some(&s) = self.hull.iter().find(|&&s| s >= b.seq) {
-            min = min.min(self.key(s));
+            // Most often the candidate is `b` itself: its key without a ring lookup.
+            let c = if s == b.seq {
+                b
+            } else {
+                self.at(s.wrapping_sub(head_seq) as usize)
+            };
+            min = min.min(c.max_entry_sq as u128 + c.prefix);
         }
         (min - b.prefix).min(u64::MAX as u128) as u64
     }
 
-    /// Candidate key C + P of the queued block numbered `seq`.
-    fn key(&self, seq: u32) -> u128 {
-        let b = self.at(seq.wrapping_sub(self.at(0).seq) as usize);
-        b.max_entry_sq as u128 + b.prefix
-    }
-
-    /// Adds the block `offset` places after the head (of the open contour) to the candidate
-    /// queue.
-    fn add_candidate(&mut self, offset: usize) {
+    /// Makes the newest block of the open contour, numbered `seq`, a candidate: returns its
+    /// prefix (the open contour's budget before it) and adds its own `budget`. Its key is
+    /// `max_entry_sq` + prefix; the queued candidates with keys not below it leave the queue (they
+    /// are older blocks, all in the ring; the new block itself need not be there yet).
+    fn add_candidate(&mut self, seq: u32, max_entry_sq: u64, budget: u64) -> u128 {
         let prefix = self.prefix_end;
-        let b = self.at_mut(offset);
-        b.prefix = prefix;
-        let key = b.max_entry_sq as u128 + b.prefix;
-        let (seq, budget) = (b.seq, b.budget());
+        let key = max_entry_sq as u128 + prefix;
         self.prefix_end += budget as u128;
-        while self.hull.back().is_some_and(|&s| self.key(s) >= key) {
+        // The ring's blocks are numbered consecutively from the head's.
+        let head_seq = self.ring.front().map_or(0, |h| h.seq);
+        while self.hull.back().is_some_and(|&s| {
+            let c = self.at(s.wrapping_sub(head_seq) as usize);
+            c.max_entry_sq as u128 + c.prefix >= key
+        }) {
             self.hull.pop_back();
         }
         let _ = self.hull.push_back(seq);
+        prefix
     }
 
     /// Ends the open contour: its last block now comes to rest, and one reverse pass settles the
@@ -406,15 +427,17 @@ impl<const N: usize> Planner<N> {
         v * v
     }
 
-    /// Largest entry speed² of the block at `offset` given its predecessor.
-    fn max_entry_sq(&self, offset: usize) -> u64 {
-        let b = self.at(offset);
+    /// Largest entry speed² of the line block `b` given the block before it in the ring (none:
+    /// `b` is the head).
+    fn max_entry_sq(&self, b: &Block, prev: Option<&Block>) -> u64 {
         let nom = self.nominal(b);
-        if b.stop_before || offset == 0 {
-            let v = u64::from(b.start_speed).min(nom);
-            return if b.stop_before { v * v } else { nom * nom };
-        }
-        let prev = self.at(offset - 1);
+        let prev = match prev {
+            Some(prev) if !b.stop_before => prev,
+            _ => {
+                let v = u64::from(b.start_speed).min(nom);
+                return if b.stop_before { v * v } else { nom * nom };
+            }
+        };
         let prev_nom = self.nominal(prev);
         let v = nom.min(prev_nom);
         b.junction_sq.min(v * v)
@@ -422,6 +445,7 @@ impl<const N: usize> Planner<N> {
 
     /// Adds a non-motion block (dwell or sync); the machine stops before it.
     pub fn push_marker(&mut self, block: Block) -> bool {
+        self.changed();
         if self.is_full() {
             return false;
         }
@@ -439,6 +463,7 @@ impl<const N: usize> Planner<N> {
     /// Plans a straight move; false when the ring is full. A move without steps is dropped (true;
     /// the ring's length tells whether a block was added).
     pub fn push_line(&mut self, cfg: &MotionConfig, req: &LineRequest) -> bool {
+        self.changed();
         if self.is_full() {
             return false;
         }
@@ -502,10 +527,11 @@ impl<const N: usize> Planner<N> {
         let stop_before = req.exact_stop_before
             || self.prev_unit.is_none()
             || (self.is_empty() && !self.continuing);
-        let junction_sq = match (stop_before, self.prev_unit) {
+        // `as_ref`: matching on the `Option` itself copied its 48-byte array (a `memcpy` call).
+        let junction_sq = match (stop_before, self.prev_unit.as_ref()) {
             (false, Some(prev)) => match req.corner_sq {
                 Some(limit) => limit,
-                None => junction_limit_sq(cfg, &prev, &unit, req.junction_deviation),
+                None => junction_limit_sq(cfg, prev, &unit, req.junction_deviation),
             },
             _ => 0,
         };
@@ -536,16 +562,20 @@ impl<const N: usize> Planner<N> {
             entry_sq: u64::MAX,
         };
         block.nominal = self.override_speed(&block);
+        // Planned before it joins the ring (its predecessor is the ring's last block): no
+        // lookups of it in the ring afterwards.
+        block.max_entry_sq = self.max_entry_sq(&block, self.ring.back());
+        block.prefix = self.add_candidate(block.seq, block.max_entry_sq, block.budget());
         let _ = self.ring.push_back(block);
-        let off = self.len() - 1;
-        self.at_mut(off).max_entry_sq = self.max_entry_sq(off);
         self.next_seq = self.next_seq.wrapping_add(1);
-        self.add_candidate(off);
         // Not `= Some(unit)` nor `*prev = unit`: those compiled to a `memmove` call on the
         // Cortex-M4 (1.5 KiB of flash for the routine), and a zipped loop to a `Zip::next` call
-        // per axis; `copy_from_slice` is one `memcpy` (non-overlapping by its contract).
+        // per axis; `copy_from_slice` is one `memcpy` (non-overlapping by its contract). The zero
+        // array only when there is none yet (`get_or_insert` cleared one on every line, which
+        // clippy's lazy-evaluation lint does not weigh).
+        #[allow(clippy::unnecessary_lazy_evaluations)]
         self.prev_unit
-            .get_or_insert([0; MAX_AXES])
+            .get_or_insert_with(|| [0; MAX_AXES])
             .copy_from_slice(&unit);
         self.continuing = false;
         true
@@ -555,6 +585,7 @@ impl<const N: usize> Planner<N> {
     /// blends with that direction (junction limits) instead of starting from rest. Segment prep
     /// carries the speed.
     pub fn continue_from(&mut self, unit: [i64; MAX_AXES]) {
+        self.changed();
         if self.is_empty() {
             self.prev_unit = Some(unit);
             self.continuing = true;
@@ -563,12 +594,15 @@ impl<const N: usize> Planner<N> {
 
     /// Recomputes every entry limit (after an override change or a resume).
     pub fn replan_all(&mut self) {
+        self.changed();
         for off in 0..self.len() {
             self.at_mut(off).nominal = self.override_speed(self.at(off));
         }
         for off in 0..self.len() {
-            if self.at(off).is_line() {
-                self.at_mut(off).max_entry_sq = self.max_entry_sq(off);
+            let b = self.at(off);
+            if b.is_line() {
+                let prev = off.checked_sub(1).map(|p| self.at(p));
+                self.at_mut(off).max_entry_sq = self.max_entry_sq(b, prev);
             }
         }
         self.settle(0);
@@ -577,7 +611,8 @@ impl<const N: usize> Planner<N> {
         for off in 0..self.len() {
             let b = self.at(off);
             if b.seq >= self.open_from && b.is_line() {
-                self.add_candidate(off);
+                let (seq, max_entry_sq, budget) = (b.seq, b.max_entry_sq, b.budget());
+                self.at_mut(off).prefix = self.add_candidate(seq, max_entry_sq, budget);
             }
         }
     }
@@ -668,14 +703,14 @@ pub fn junction_limit_sq(
     cur: &[i64; MAX_AXES],
     deviation: u64,
 ) -> u64 {
+    let axes = cfg.axis_count as usize;
     let mut dot: i64 = 0;
     let mut jump_sq: u64 = 0;
-    let mut jump = [0i64; MAX_AXES];
-    for i in 0..cfg.axis_count as usize {
+    for i in 0..axes {
         dot += prev[i] * cur[i];
-        jump[i] = cur[i] - prev[i];
+        let jump = cur[i] - prev[i];
         // |jump| ≤ 2·2³⁰, so the sum of squares stays below 2⁶².
-        jump_sq += (jump[i] * jump[i]) as u64;
+        jump_sq += (jump * jump) as u64;
     }
     // |û_cur − û_prev| in 2³⁰ units; 0 means a straight continuation.
     let jump_len = isqrt_u64(jump_sq);
@@ -689,9 +724,11 @@ pub fn junction_limit_sq(
     let mut limit = u64::MAX;
     if sin_half < UNIT as u64 {
         // Acceleration along the junction direction, every axis within its own limit.
+        // The jump is recomputed per axis (no array of it: clearing one cost a `memset` call).
         let mut accel = u64::MAX;
-        for (i, j) in jump.iter().enumerate() {
-            if *j != 0 && i < cfg.axis_count as usize {
+        for i in 0..axes {
+            let j = cur[i] - prev[i];
+            if j != 0 {
                 accel = accel.min(mul_div(cfg.axes[i].accel, jump_len, j.unsigned_abs()));
             }
         }
@@ -795,6 +832,33 @@ mod tests {
         // Block 1 (0.5 mm) can only gain 2e14 before block 2 must stop: 4e14 vs 2e14 + 2e14.
         assert_eq!(p.exit_sq(1), 200_000_000_000_000);
         assert_eq!(p.exit_sq(2), 0);
+    }
+
+    #[test]
+    fn revision_changes_with_every_planning_change() {
+        let cfg = MotionConfig::default();
+        let mut p: Planner<8> = Planner::new();
+        let mut seen = vec![p.revision()];
+        let mut check = |p: &Planner<8>| {
+            assert!(!seen.contains(&p.revision()), "{seen:?}");
+            seen.push(p.revision());
+        };
+        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
+        check(&p);
+        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
+        check(&p);
+        let exit = p.exit_sq(0);
+        p.set_overrides(50, 100);
+        check(&p);
+        assert_ne!(p.exit_sq(0), exit);
+        p.set_programmed_speed(1_000_000);
+        check(&p);
+        assert!(p.push_marker(Block::marker(BlockKind::Sync, 0)));
+        check(&p);
+        p.pop();
+        check(&p);
+        p.clear();
+        check(&p);
     }
 
     /// Exit limits recomputed naively (full grbl recurrence) for comparison.

@@ -99,6 +99,8 @@ pub struct Prep {
     /// Exit target and cruise speed the profile was built with.
     exit_sq: u64,
     nominal: u64,
+    /// The planner's [`Planner::revision`] when `exit_sq` and `nominal` were last checked.
+    revision: u32,
     holding: bool,
     /// Speed carried into the next block, nm/s.
     carry: u64,
@@ -130,6 +132,7 @@ impl Prep {
             emitted: 0,
             exit_sq: 0,
             nominal: 0,
+            revision: 0,
             holding: false,
             carry: 0,
             dwell_left: 0,
@@ -369,6 +372,7 @@ impl Prep {
         self.profile = Profile::plan(s, v0, b.length, nominal, exit_sq, b.accel);
         self.exit_sq = exit_sq;
         self.nominal = nominal;
+        self.revision = planner.revision();
         self.holding = false;
     }
 
@@ -452,10 +456,14 @@ impl Prep {
             let hold = self.state == PrepState::Holding;
             let stale = if hold {
                 !self.holding
+            } else if self.holding {
+                true
+            } else if planner.revision() == self.revision {
+                // Nothing changed in the planner since the last check: the same exit and speed.
+                false
             } else {
-                self.holding
-                    || planner.exit_sq(0) != self.exit_sq
-                    || planner.nominal(b) != self.nominal
+                self.revision = planner.revision();
+                planner.exit_sq(0) != self.exit_sq || planner.nominal(b) != self.nominal
             };
             if stale {
                 let v = self.profile.speed_at(self.s_now);
