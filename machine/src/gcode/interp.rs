@@ -1058,7 +1058,6 @@ impl Interpreter {
     /// `Res<Pos>` it was copied byte by byte several times per line on the Cortex-M4.
     fn target(&self, b: &mut Block, g53: bool, to: &mut Pos) -> Res<()> {
         let polar = self.polar_words(b)?;
-        let offset = self.state.offset();
         if let Some((radius, angle, cols)) = polar {
             if g53 {
                 return Err((ErrorCode::NotSupported, Some(cols)));
@@ -1066,8 +1065,8 @@ impl Interpreter {
             let p = self.state.program_position();
             let (x, y) = geometry::polar_end((p[0], p[1]), radius, angle, self.state.absolute)
                 .map_err(|c| (c, Some(cols)))?;
-            to[0] = x + offset[0];
-            to[1] = y + offset[1];
+            to[0] = x + self.state.axis_offset(0);
+            to[1] = y + self.state.axis_offset(1);
         }
         for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
             if !b.has(letter) {
@@ -1078,7 +1077,7 @@ impl Interpreter {
                 let m = if g53 {
                     v
                 } else if self.state.absolute {
-                    v + offset[i]
+                    v + self.state.axis_offset(i)
                 } else {
                     to[i] + v
                 };
