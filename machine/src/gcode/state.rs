@@ -146,9 +146,7 @@ pub struct Modes {
     tool_selected: u32,
     tool_loaded: u32,
     position: Pos,
-    /// `None` when the cycle memory was empty, the common case outside canned cycles (copying
-    /// it cost every line ~200 instructions on the Cortex-M4, target-tests/src/bin/bench_motion.rs).
-    cycle: Option<CycleMemory>,
+    cycle: CycleMemory,
     stored_dwell_us: u64,
 }
 
@@ -204,7 +202,7 @@ impl Modes {
             tool_selected,
             tool_loaded,
             position,
-            cycle: (cycle != CycleMemory::default()).then_some(cycle),
+            cycle,
             stored_dwell_us,
         }
     }
@@ -253,7 +251,7 @@ impl Modes {
             tool_selected,
             tool_loaded,
             position,
-            cycle: cycle.unwrap_or_default(),
+            cycle,
             stored_dwell_us,
             ..*state
         };
