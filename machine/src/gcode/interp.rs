@@ -8,7 +8,6 @@
 
 use super::codes::*;
 use super::comp::{Comp, Side};
-use heapless::Deque;
 
 use super::block::{parse_block_into, Block, BlockError, GGroup, MGroup};
 use super::config::{ArcCenterMode, Dialect, DwellUnits, InterpConfig};
@@ -164,11 +163,83 @@ impl ParamRead for Reader<'_> {
     }
 }
 
+/// The actions of the current block (or cycle step) not handed out yet, oldest first: a ring
+/// of fixed slots. Unlike a `heapless::Deque` it hands the oldest out by reference and takes
+/// an action in place, so a short line's move is copied once in and once out (three copies of
+/// ~100 bytes and the deque's bookkeeping cost ~500 Cortex-M4 instructions a line,
+/// target-tests/src/bin/bench_motion.rs).
+struct ActionQueue {
+    slots: [Canon; QUEUE_CAPACITY],
+    /// Slot of the oldest action.
+    head: u8,
+    len: u8,
+}
+
+impl ActionQueue {
+    const fn new() -> Self {
+        const FREE: Canon = Canon {
+            line: 0,
+            action: Action::Stop(StopKind::End),
+        };
+        ActionQueue {
+            slots: [FREE; QUEUE_CAPACITY],
+            head: 0,
+            len: 0,
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    fn clear(&mut self) {
+        self.head = 0;
+        self.len = 0;
+    }
+
+    /// Appends `action` of `line`; `Err` when all slots are taken.
+    #[inline]
+    fn push_action(&mut self, line: u32, action: Action) -> Result<(), ()> {
+        let len = self.len as usize;
+        if len == QUEUE_CAPACITY {
+            return Err(());
+        }
+        let mut at = self.head as usize + len;
+        if at >= QUEUE_CAPACITY {
+            at -= QUEUE_CAPACITY;
+        }
+        self.slots[at] = Canon { line, action };
+        self.len += 1;
+        Ok(())
+    }
+
+    /// Appends `canon`; `Err` when all slots are taken.
+    fn push_back(&mut self, canon: Canon) -> Result<(), ()> {
+        self.push_action(canon.line, canon.action)
+    }
+
+    /// Takes the oldest action out (its slot is free again once the reference is dropped).
+    #[inline]
+    fn pop_front(&mut self) -> Option<&Canon> {
+        if self.len == 0 {
+            return None;
+        }
+        let at = self.head as usize;
+        self.head = if at + 1 == QUEUE_CAPACITY {
+            0
+        } else {
+            at as u8 + 1
+        };
+        self.len -= 1;
+        Some(&self.slots[at])
+    }
+}
+
 /// The G-code interpreter (see the module documentation).
 pub struct Interpreter {
     config: InterpConfig,
     state: ModalState,
-    queue: Deque<Canon, QUEUE_CAPACITY>,
+    queue: ActionQueue,
     cycle: Option<CycleRun>,
     post: Post,
     stack: heapless::Vec<Frame, MAX_NESTING>,
@@ -214,7 +285,7 @@ impl Interpreter {
         Interpreter {
             config: config.clone(),
             state: ModalState::new(config),
-            queue: Deque::new(),
+            queue: ActionQueue::new(),
             cycle: None,
             post: Post::None,
             stack: heapless::Vec::new(),
@@ -324,7 +395,7 @@ impl Interpreter {
     #[inline(never)]
     pub fn next(&mut self, src: &mut impl ProgramSource) -> Option<Result<Canon, GcodeError>> {
         loop {
-            if let Some(c) = self.queue.pop_front() {
+            if let Some(&c) = self.queue.pop_front() {
                 self.jumps_without_action = 0;
                 return Some(Ok(c));
             }
@@ -513,6 +584,37 @@ impl Interpreter {
     }
 }
 
+/// True if `bytes` may hold an O-word, a Fanuc keyword or a parameter: an `O`, `E`, `[` or `#`
+/// (either case). Most lines have none, and then neither [`oword::parse`] nor the expansion
+/// scan needs to look at them. Four bytes at a time: two byte-wise scans cost ~20 Cortex-M4
+/// instructions a character (target-tests/src/bin/bench_motion.rs, `line_cost`).
+fn may_be_control_or_expanded(bytes: &[u8]) -> bool {
+    /// Nonzero if a byte of `v` is zero.
+    fn zero_byte(v: u32) -> u32 {
+        v.wrapping_sub(0x0101_0101) & !v & 0x8080_8080
+    }
+    const fn each(c: u8) -> u32 {
+        c as u32 * 0x0101_0101
+    }
+    let special = |v: u32| {
+        let folded = v | each(0x20);
+        zero_byte(folded ^ each(b'o'))
+            | zero_byte(folded ^ each(b'e'))
+            | zero_byte(v ^ each(b'['))
+            | zero_byte(v ^ each(b'#'))
+    };
+    let mut chunks = bytes.chunks_exact(4);
+    for c in &mut chunks {
+        if special(u32::from_le_bytes([c[0], c[1], c[2], c[3]])) != 0 {
+            return true;
+        }
+    }
+    chunks
+        .remainder()
+        .iter()
+        .any(|&c| matches!(c | 0x20, b'o' | b'e') || matches!(c, b'[' | b'#'))
+}
+
 /// Plane axes for arcs: (first, second, normal), so that G2 turns first → second clockwise seen
 /// from the positive normal axis.
 fn arc_axes(plane: Plane) -> (usize, usize, usize) {
@@ -568,9 +670,11 @@ impl Interpreter {
         let mut bytes = bytes;
         // Every O-word line has an `O`, and every Fanuc `GOTO`, `END`, `WHILE [` and `IF [` an
         // `O`, an `E` or a `[` (machine/src/gcode/oword.rs): most lines need not be parsed as one.
-        let control = bytes
-            .iter()
-            .any(|&c| matches!(c, b'O' | b'o' | b'E' | b'e' | b'['));
+        let special = may_be_control_or_expanded(bytes);
+        let control = special
+            && bytes
+                .iter()
+                .any(|&c| matches!(c, b'O' | b'o' | b'E' | b'e' | b'['));
         let o_line = if control { oword::parse(bytes) } else { None };
         if let Some(o) = o_line {
             if o.keyword != Keyword::IfThen {
@@ -585,7 +689,9 @@ impl Interpreter {
         }
         let mut assignments = Assignments::new();
         let mut expanded = Expanded::new();
-        let text: &[u8] = if expand::needs_expansion(bytes) {
+        // No `#` or `[` anywhere: nothing to expand (an `IF` line's statement is part of a line
+        // that was `special`).
+        let text: &[u8] = if special && expand::needs_expansion(bytes) {
             expand::expand(bytes, &self.reader(), &mut expanded, &mut assignments)
                 .map_err(|(code, cols)| (n_word(), (code, Some(cols))))?;
             self.expanded_line = true;
@@ -870,16 +976,18 @@ impl Interpreter {
     // into each (measured: flash of the F411 build).
     #[inline(never)]
     fn push(&mut self, line: u32, action: Action) -> Res<()> {
-        let canon = Canon { line, action };
-        if self.comp.catch(canon) {
+        if self.comp.catch(Canon { line, action }) {
             return Ok(());
         }
         if self.comp.holds() {
             // Behind a compensated move that waits for the next one.
-            return self.comp.hold(canon).map_err(|c| (c, None));
+            return self
+                .comp
+                .hold(Canon { line, action })
+                .map_err(|c| (c, None));
         }
         self.queue
-            .push_back(canon)
+            .push_action(line, action)
             .map_err(|_| (ErrorCode::NotSupported, None))
     }
 
@@ -1023,7 +1131,6 @@ impl Interpreter {
     /// `Res<Pos>` it was copied byte by byte several times per line on the Cortex-M4.
     fn target(&self, b: &mut Block, g53: bool, to: &mut Pos) -> Res<()> {
         let polar = self.polar_words(b)?;
-        let offset = self.state.offset();
         if let Some((radius, angle, cols)) = polar {
             if g53 {
                 return Err((ErrorCode::NotSupported, Some(cols)));
@@ -1031,8 +1138,8 @@ impl Interpreter {
             let p = self.state.program_position();
             let (x, y) = geometry::polar_end((p[0], p[1]), radius, angle, self.state.absolute)
                 .map_err(|c| (c, Some(cols)))?;
-            to[0] = x + offset[0];
-            to[1] = y + offset[1];
+            to[0] = x + self.state.axis_offset(0);
+            to[1] = y + self.state.axis_offset(1);
         }
         for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
             if !b.has(letter) {
@@ -1043,7 +1150,7 @@ impl Interpreter {
                 let m = if g53 {
                     v
                 } else if self.state.absolute {
-                    v + offset[i]
+                    v + self.state.axis_offset(i)
                 } else {
                     to[i] + v
                 };
@@ -2406,6 +2513,26 @@ mod tests {
             }
         }
         (None, *it.state())
+    }
+
+    /// The four-bytes-at-a-time scan finds every `O`, `E` (either case), `[` and `#` at every
+    /// position, and nothing in a plain line.
+    #[test]
+    fn the_control_scan_finds_each_special_character_anywhere() {
+        let plain = *b"G1 X-99.893 Y-6.789 F3000 (nd) ;\t\r\n";
+        assert!(!may_be_control_or_expanded(&plain));
+        for &c in b"OoEe[#" {
+            for at in 0..plain.len() {
+                let mut line = plain;
+                line[at] = c;
+                for len in at + 1..=plain.len() {
+                    assert!(may_be_control_or_expanded(&line[..len]), "{c} at {at}");
+                }
+                assert!(!may_be_control_or_expanded(&line[..at]));
+            }
+        }
+        // Bytes one bit away from the special ones.
+        assert!(!may_be_control_or_expanded(b"MmDdFfNn{{\"\"\x0f\x05\x03"));
     }
 
     /// A failing block leaves the state as before it, whether it changed only modes and

@@ -295,12 +295,15 @@ impl ModalState {
 
     /// Total offset from program to machine coordinates on every axis.
     pub fn offset(&self) -> Pos {
-        let w = &self.work_offsets[self.work_system as usize];
-        let mut o = [0; MAX_AXES];
-        for (i, v) in o.iter_mut().enumerate() {
-            *v = w[i] + self.g92[i] + self.tool_offset[i];
-        }
-        o
+        core::array::from_fn(|i| self.axis_offset(i))
+    }
+
+    /// Total offset from program to machine coordinates on axis `axis` (a line's move needs
+    /// only its written axes: building the whole [`ModalState::offset`] cost ~250 Cortex-M4
+    /// instructions a line, target-tests/src/bin/bench_motion.rs).
+    #[inline]
+    pub fn axis_offset(&self, axis: usize) -> Nm {
+        self.work_offsets[self.work_system as usize][axis] + self.g92[axis] + self.tool_offset[axis]
     }
 
     /// The current position in program (work) coordinates.
