@@ -39,15 +39,15 @@ impl CpuModel {
     /// The Black Pill's STM32F411 at 96 MHz. `bench_motion` (re-measured 2026-11-25, round 2
     /// session 4): 39 / 67 / 108 instructions per kernel tick for 1 / 3 / 6 axes (fitted as
     /// 23 + 14 per axis, plus the loop's own); a short G1 line streamed the board's way
-    /// (`G1 Y-6.789 F3000`, 0.1 mm, one segment): 5,400 to interpret
-    /// (`Interpreter::next` from a `StreamSource`: 2,475 lex + parse, 2,929 execute), 4,870 to
-    /// plan (`Motion::push`) and 3,510 to prepare its segment.
+    /// (`G1 Y-6.789 F3000`, 0.1 mm, one segment): 4,500 to interpret
+    /// (`Interpreter::next` from a `StreamSource`: 2,472 lex + parse, 2,035 execute), 4,600 to
+    /// plan (`Motion::push`) and 3,080 to prepare its segment.
     pub const F411: CpuModel = CpuModel {
         name: "f411",
         hz: 96_000_000,
-        line: 5_400,
-        block: 4_870,
-        segment: 3_510,
+        line: 4_500,
+        block: 4_600,
+        segment: 3_080,
         tick_base: 23,
         tick_axis: 14,
     };
@@ -184,15 +184,15 @@ mod tests {
             [m.tick(0b1), m.tick(0b111), m.tick(0b11_1111)],
             [37, 65, 107]
         );
-        // One short G1 line, planned and prepared as one segment: 5,400 + 4,870 + 3,510.
+        // One short G1 line, planned and prepared as one segment: 4,500 + 4,600 + 3,080.
         let line = PassWork {
             lines: 1,
             blocks: 1,
             segments: 1,
         };
-        assert_eq!(m.pass(&line), 13_780);
-        // ≈ 6,970 such lines per second at 100 % of the CPU.
-        assert_eq!(m.hz / m.pass(&line), 6_966);
+        assert_eq!(m.pass(&line), 12_180);
+        // ≈ 7,880 such lines per second at 100 % of the CPU.
+        assert_eq!(m.hz / m.pass(&line), 7_881);
         assert!(CpuModel::named("f446").is_none());
     }
 }
