@@ -254,6 +254,26 @@ impl SegmentSource for Segments<'_> {
     }
 }
 
+/// Where the axes end after `segs`, in steps (the kernel's count, signed by each dir bit).
+fn end_position(segs: &[Segment]) -> [i64; 6] {
+    let mut end = [0i64; 6];
+    for s in segs {
+        for (axis, e) in end.iter_mut().enumerate() {
+            let n = i64::from(s.steps[axis]);
+            *e += if s.dir & (1 << axis) != 0 { -n } else { n };
+        }
+    }
+    end
+}
+
+/// The registers at power-up: the idle period, the reset word in CCR3, dir and output pins low.
+fn power_up() {
+    ARR.store(step_body::IDLE_PERIOD_COUNTS - 1, Ordering::Relaxed);
+    STEP_WORD.store(WORDS.step_reset, Ordering::Relaxed);
+    DIR_BSRR.store(0, Ordering::Relaxed);
+    OUTPUT.store(0, Ordering::Relaxed);
+}
+
 /// A small deterministic generator for interrupt delays.
 struct Lcg(u32);
 
@@ -291,20 +311,10 @@ fn check_against_timer_model() {
     segs[0].steps[0] = segs[0].ticks;
     segs[0].dir &= !1;
     segs[1].output = on;
-    let mut expected = [0i64; 6];
-    for s in &segs {
-        for (axis, e) in expected.iter_mut().enumerate() {
-            let n = i64::from(s.steps[axis]);
-            *e += if s.dir & (1 << axis) != 0 { -n } else { n };
-        }
-    }
+    let expected = end_position(&segs);
     let mut state = Some(StepIsr::new(Segments(&segs, 0), timing));
     let isr = state.as_mut().unwrap();
-    // Power-up: the idle period, the reset word in CCR3, dir pins low.
-    ARR.store(step_body::IDLE_PERIOD_COUNTS - 1, Ordering::Relaxed);
-    STEP_WORD.store(WORDS.step_reset, Ordering::Relaxed);
-    DIR_BSRR.store(0, Ordering::Relaxed);
-    OUTPUT.store(0, Ordering::Relaxed);
+    power_up();
     let mut dir_pins = 0u32; // the dir port's levels
     let mut pins = [0i64; 6];
     let mut t_update = 0u64; // absolute counts of the running period's update
@@ -409,7 +419,6 @@ fn check_goal_rate(axes: usize, period: u32) -> (u32, u32) {
     const SEGS: usize = 40;
     const TICKS: u32 = 50;
     let mut segs = [Segment::idle(1, 1); SEGS];
-    let mut expected = [0i64; 6];
     let mut reversals = 0;
     let mut last_dir = 0u8;
     for (n, s) in segs.iter_mut().enumerate() {
@@ -421,15 +430,11 @@ fn check_goal_rate(axes: usize, period: u32) -> (u32, u32) {
         }
         last_dir = dir;
         *s = seg(steps, TICKS, period, dir, OutputEvent::NONE);
-        for (axis, e) in expected.iter_mut().enumerate() {
-            let n = i64::from(s.steps[axis]);
-            *e += if dir & (1 << axis) != 0 { -n } else { n };
-        }
     }
+    let expected = end_position(&segs);
     let mut state = Some(StepIsr::new(Segments(&segs, 0), timing));
     let isr = state.as_mut().unwrap();
-    ARR.store(step_body::IDLE_PERIOD_COUNTS - 1, Ordering::Relaxed);
-    STEP_WORD.store(WORDS.step_reset, Ordering::Relaxed);
+    power_up();
     let mut dir_pins = 0u32;
     let mut pins = [0i64; 6];
     let mut t_update = 0u64;
