@@ -123,10 +123,34 @@ impl Rollback {
     }
 }
 
-/// Every field of [`ModalState`] but the offset tables (work offsets, G92 and its saved value,
-/// tool offset, G28/G30 positions).
-#[derive(Clone, Copy)]
-pub struct Modes {
+/// Declares [`Modes`] with the given fields of [`ModalState`] (each named once) and its copy in
+/// and out; the `tables` are the fields it leaves out. Every field of [`ModalState`] must be in
+/// one list or the other, or `Modes::of` does not compile.
+macro_rules! modes_of_modal_state {
+    ($(#[$attr:meta])* $($field:ident: $ty:ty,)* ; tables: $($table:ident),* $(,)?) => {
+        $(#[$attr])*
+        #[derive(Clone, Copy)]
+        pub struct Modes {
+            $($field: $ty,)*
+        }
+
+        impl Modes {
+            fn of(state: &ModalState) -> Self {
+                let &ModalState { $($field,)* $($table: _,)* } = state;
+                Modes { $($field,)* }
+            }
+
+            fn restore(&self, state: &mut ModalState) {
+                let Modes { $($field,)* } = *self;
+                *state = ModalState { $($field,)* ..*state };
+            }
+        }
+    };
+}
+
+modes_of_modal_state! {
+    /// Every field of [`ModalState`] but the offset tables (work offsets, G92 and its saved value,
+    /// tool offset, G28/G30 positions).
     motion: MotionMode,
     motion_before_cycle: MotionMode,
     plane: Plane,
@@ -148,114 +172,7 @@ pub struct Modes {
     position: Pos,
     cycle: CycleMemory,
     stored_dwell_us: u64,
-}
-
-impl Modes {
-    fn of(state: &ModalState) -> Self {
-        // Names every field: a new one must be sorted into the modes or the tables here.
-        let &ModalState {
-            motion,
-            motion_before_cycle,
-            plane,
-            absolute,
-            arc_absolute,
-            inverse_time,
-            inch,
-            work_system,
-            path,
-            retract_to_r,
-            feed,
-            feed_raw,
-            spindle,
-            rpm,
-            mist,
-            flood,
-            tool_selected,
-            tool_loaded,
-            position,
-            work_offsets: _,
-            g92: _,
-            g92_saved: _,
-            tool_offset: _,
-            g28: _,
-            g30: _,
-            cycle,
-            stored_dwell_us,
-        } = state;
-        Modes {
-            motion,
-            motion_before_cycle,
-            plane,
-            absolute,
-            arc_absolute,
-            inverse_time,
-            inch,
-            work_system,
-            path,
-            retract_to_r,
-            feed,
-            feed_raw,
-            spindle,
-            rpm,
-            mist,
-            flood,
-            tool_selected,
-            tool_loaded,
-            position,
-            cycle,
-            stored_dwell_us,
-        }
-    }
-
-    fn restore(&self, state: &mut ModalState) {
-        let Modes {
-            motion,
-            motion_before_cycle,
-            plane,
-            absolute,
-            arc_absolute,
-            inverse_time,
-            inch,
-            work_system,
-            path,
-            retract_to_r,
-            feed,
-            feed_raw,
-            spindle,
-            rpm,
-            mist,
-            flood,
-            tool_selected,
-            tool_loaded,
-            position,
-            cycle,
-            stored_dwell_us,
-        } = *self;
-        *state = ModalState {
-            motion,
-            motion_before_cycle,
-            plane,
-            absolute,
-            arc_absolute,
-            inverse_time,
-            inch,
-            work_system,
-            path,
-            retract_to_r,
-            feed,
-            feed_raw,
-            spindle,
-            rpm,
-            mist,
-            flood,
-            tool_selected,
-            tool_loaded,
-            position,
-            cycle,
-            stored_dwell_us,
-            ..*state
-        };
-    }
+    ; tables: work_offsets, g92, g92_saved, tool_offset, g28, g30
 }
 
 impl ModalState {
