@@ -368,8 +368,14 @@ impl<const N: usize> Motion<N> {
 
     /// Axes beyond the configured count stay where they are.
     fn masked(&self, to: &Pos) -> Pos {
-        let mut p = self.position;
-        p[..self.cfg.axis_count as usize].copy_from_slice(&to[..self.cfg.axis_count as usize]);
+        // One fixed-size copy of the target and the few unused axes from the position (copying
+        // the position and then a slice of the target called the byte-wise `memcpy` twice; the
+        // loop is the few stores clippy's `copy_from_slice` would turn back into a call).
+        let mut p = *to;
+        #[allow(clippy::manual_memcpy)]
+        for i in self.cfg.axis_count as usize..MAX_AXES {
+            p[i] = self.position[i];
+        }
         p
     }
 
@@ -484,7 +490,6 @@ impl<const N: usize> Motion<N> {
     /// Plans a line to `to` entering with at most `corner_sq` (nm²/s²) when given, instead of
     /// the junction deviation's limit (the ring has room).
     fn queue_line_at(&mut self, line: u32, to: &Pos, speed: Option<u64>, corner_sq: Option<u64>) {
-        let target = self.cfg.to_steps(to);
         let mut req = LineRequest {
             line,
             steps: [0; MAX_AXES],
@@ -495,12 +500,20 @@ impl<const N: usize> Motion<N> {
             corner_sq,
             output: self.pending_output.map_or(OutputEvent::NONE, |p| p.output),
         };
-        // The new end is stored in the same pass (not as two array copies afterwards, which were
-        // two `memcpy` calls on the Cortex-M4).
-        for i in 0..MAX_AXES {
-            req.steps[i] = target[i] - self.steps[i];
+        // The step targets are converted and the new end is stored in the same pass as the
+        // displacements (no array of targets, no array copies afterwards, which were `memcpy`
+        // calls on the Cortex-M4). The planner reads the configured axes only; the others keep
+        // what `MotionConfig::to_steps` gives them (0) and their position.
+        let axes = self.cfg.axis_count as usize;
+        for i in 0..axes {
+            let target = self.cfg.axes[i].nm_to_steps(to[i]);
+            req.steps[i] = target - self.steps[i];
             req.delta[i] = to[i] - self.position[i];
-            self.steps[i] = target[i];
+            self.steps[i] = target;
+            self.position[i] = to[i];
+        }
+        for i in axes..MAX_AXES {
+            self.steps[i] = 0;
             self.position[i] = to[i];
         }
         let blocks = self.planner.len();

@@ -348,10 +348,18 @@ impl<const N: usize> Planner<N> {
     fn override_speed(&self, b: &Block) -> u32 {
         let (max_speed, programmed) = (u64::from(b.max_speed), u64::from(b.programmed));
         // `div_u64`: the hardware-assisted division, not the 64-bit library call.
+        // At 100 % (the usual override) the speed itself, without the division.
+        let scale = |v: u64, pct: u16| {
+            if pct == 100 {
+                v
+            } else {
+                div_u64(v * pct as u64, 100)
+            }
+        };
         let v = if b.rapid {
-            div_u64(max_speed * self.rapid_pct as u64, 100)
+            scale(max_speed, self.rapid_pct)
         } else {
-            div_u64(programmed * self.feed_pct as u64, 100).min(max_speed)
+            scale(programmed, self.feed_pct).min(max_speed)
         };
         // MAX_SPEED is u32::MAX.
         v.max(1).min(MAX_SPEED) as u32
@@ -491,9 +499,9 @@ impl<const N: usize> Planner<N> {
             isqrt_u128(len_sq) as u64
         }
         .max(1);
-        let mut max_speed = MAX_SPEED;
-        let mut accel = u64::MAX;
-        let mut start_speed = MAX_SPEED;
+        let mut max_speed = LeastRatio::NONE;
+        let mut accel = LeastRatio::NONE;
+        let mut start_speed = LeastRatio::NONE;
         let mut unit = [0i64; MAX_AXES];
         for i in 0..axes {
             let d = req.delta[i].unsigned_abs();
@@ -501,9 +509,9 @@ impl<const N: usize> Planner<N> {
                 continue;
             }
             let ax = &cfg.axes[i];
-            max_speed = max_speed.min(mul_div(ax.max_rate, length, d));
-            accel = accel.min(mul_div(ax.accel, length, d));
-            start_speed = start_speed.min(mul_div(ax.start_speed, length, d));
+            max_speed.add(ax.max_rate, d, length);
+            accel.add(ax.accel, d, length);
+            start_speed.add(ax.start_speed, d, length);
             unit[i] = match req.delta[i].checked_mul(UNIT) {
                 // `p / length` truncated toward zero, on the magnitudes: a hardware-assisted
                 // `div_u64` instead of the signed 64-bit library division.
@@ -518,8 +526,9 @@ impl<const N: usize> Planner<N> {
                 None => div_i128(req.delta[i] as i128 * UNIT as i128, length as i128) as i64,
             };
         }
-        let max_speed = max_speed.max(1);
-        let accel = accel.max(1);
+        let max_speed = max_speed.least(length).min(MAX_SPEED).max(1);
+        let accel = accel.least(length).max(1);
+        let start_speed = start_speed.least(length).min(MAX_SPEED);
         let (programmed, rapid) = match req.speed {
             Some(v) => (v.max(1).min(MAX_SPEED), false),
             None => (max_speed, true),
@@ -693,6 +702,52 @@ pub fn direction(cfg: &MotionConfig, delta: &[i64; MAX_AXES]) -> Option<Directio
     Some(dir)
 }
 
+/// The least `⌊r·length / d⌋` (saturated, as [`mul_div`]) over a move's axes, each given as its
+/// limit `r` and its share `d > 0` of the move: `u64::MAX` for none.
+///
+/// An axis whose ratio `r/d` is known to be no smaller than another's, because its limit is no
+/// lower and its share no larger, cannot give the least value, and `⌊·⌋` keeps that order: it is
+/// dropped without a division. Axes with the same limits (the usual machine) thus cost one
+/// `mul_div` per move instead of one per moving axis; only axes that neither dominates are each
+/// divided. The result is the minimum over every axis's own `mul_div`
+/// (`least_ratio_is_the_minimum_over_the_axes` in this file).
+#[derive(Clone, Copy)]
+struct LeastRatio {
+    /// Least value of the axes already dropped because neither dominated.
+    settled: u64,
+    /// The axis with the least ratio so far (`d` = 0: none yet).
+    r: u64,
+    d: u64,
+}
+
+impl LeastRatio {
+    const NONE: LeastRatio = LeastRatio {
+        settled: u64::MAX,
+        r: 0,
+        d: 0,
+    };
+
+    #[inline(always)]
+    fn add(&mut self, r: u64, d: u64, length: u64) {
+        if self.d == 0 || (r <= self.r && d >= self.d) {
+            (self.r, self.d) = (r, d);
+        } else if r < self.r || d > self.d {
+            // Neither dominates: the one so far is divided now.
+            self.settled = self.settled.min(mul_div(self.r, length, self.d));
+            (self.r, self.d) = (r, d);
+        }
+    }
+
+    #[inline(always)]
+    fn least(&self, length: u64) -> u64 {
+        if self.d == 0 {
+            self.settled
+        } else {
+            self.settled.min(mul_div(self.r, length, self.d))
+        }
+    }
+}
+
 /// Junction speed² limit between unit vectors `prev` and `cur` (2³⁰ scale): the larger of grbl's
 /// junction-deviation limit and the speed whose vector change at the corner is the seed's Feed
 /// Shift (a jump the steppers take instantly), so a feed shift never slows a corner below
@@ -725,13 +780,14 @@ pub fn junction_limit_sq(
     if sin_half < UNIT as u64 {
         // Acceleration along the junction direction, every axis within its own limit.
         // The jump is recomputed per axis (no array of it: clearing one cost a `memset` call).
-        let mut accel = u64::MAX;
+        let mut accel = LeastRatio::NONE;
         for i in 0..axes {
             let j = cur[i] - prev[i];
             if j != 0 {
-                accel = accel.min(mul_div(cfg.axes[i].accel, jump_len, j.unsigned_abs()));
+                accel.add(cfg.axes[i].accel, j.unsigned_abs(), jump_len);
             }
         }
+        let accel = accel.least(jump_len);
         // a·δ·sin / (1 − sin), split so every product stays within 64 bits.
         let q = sat_mul(accel, deviation);
         let den = UNIT as u64 - sin_half;
@@ -815,6 +871,49 @@ mod tests {
             isqrt_u64(junction_limit_sq(&cfg, &x, &back, 10_000)),
             500_000
         );
+    }
+
+    #[test]
+    fn least_ratio_is_the_minimum_over_the_axes() {
+        // Limits and shares from tiny to huge (saturating products included), equal and mixed
+        // per axis, against one `mul_div` per axis (the formula it replaces).
+        let values = [
+            0,
+            1,
+            2,
+            3,
+            781,
+            1_000_000,
+            50_000_000,
+            200_000_000,
+            u32::MAX as u64,
+            u32::MAX as u64 + 1,
+            1 << 40,
+            u64::MAX / 3,
+            u64::MAX,
+        ];
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut pick = |n: usize| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            values[(seed % n as u64) as usize].saturating_add((seed >> 60) * ((seed >> 59) & 1))
+        };
+        for case in 0..200_000 {
+            let axes = 1 + case % MAX_AXES;
+            let length = pick(values.len()).max(1);
+            let mut least = LeastRatio::NONE;
+            let mut want = u64::MAX;
+            let mut seen = Vec::new();
+            for _ in 0..axes {
+                let (r, d) = (pick(values.len()), pick(values.len()).max(1));
+                seen.push((r, d));
+                least.add(r, d, length);
+                want = want.min(mul_div(r, length, d));
+            }
+            assert_eq!(least.least(length), want, "{seen:?} length {length}");
+        }
+        assert_eq!(LeastRatio::NONE.least(5), u64::MAX);
     }
 
     #[test]
