@@ -131,7 +131,9 @@ impl MotionConfig {
         }
     }
 
-    /// Step position of a machine position (exact rational conversion per axis).
+    /// Step position of a machine position (exact rational conversion per axis). Out of line:
+    /// its few callers (position changes, not the per-line path) share one copy.
+    #[inline(never)]
     pub fn to_steps(&self, p: &Pos) -> [i64; MAX_AXES] {
         let mut s = [0; MAX_AXES];
         for i in 0..self.axis_count as usize {

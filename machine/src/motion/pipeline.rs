@@ -348,6 +348,7 @@ impl<const N: usize> Motion<N> {
     }
 
     /// Room for `blocks` more planner blocks and `syncs` more sync points.
+    #[inline(always)]
     fn has_room(&self, blocks: usize, syncs: usize) -> bool {
         self.planner.len() + blocks <= N && self.syncs.len() + syncs <= MAX_SYNCS
     }
@@ -368,15 +369,10 @@ impl<const N: usize> Motion<N> {
 
     /// Axes beyond the configured count stay where they are.
     fn masked(&self, to: &Pos) -> Pos {
-        // One fixed-size copy of the target and the few unused axes from the position (copying
-        // the position and then a slice of the target called the byte-wise `memcpy` twice; the
-        // loop is the few stores clippy's `copy_from_slice` would turn back into a call).
-        let mut p = *to;
-        #[allow(clippy::manual_memcpy)]
-        for i in self.cfg.axis_count as usize..MAX_AXES {
-            p[i] = self.position[i];
-        }
-        p
+        // Built element by element (copying the position and then a slice of the target called
+        // the byte-wise `memcpy` twice, and a copy of the whole target once).
+        let axes = self.cfg.axis_count as usize;
+        core::array::from_fn(|i| if i < axes { to[i] } else { self.position[i] })
     }
 
     /// A feed move: merged into the held-back chain when its chord holds (`G64 P`), else queued
@@ -526,8 +522,18 @@ impl<const N: usize> Motion<N> {
         }
     }
 
-    /// Moves chords of the pending arc into the ring while it has room.
+    /// Moves chords of the pending arc into the ring while it has room. Inlined, the check
+    /// alone: `push` and `next_segment` call it every time, and the out-of-line loop's prologue
+    /// cost ~25 instructions per call without an arc.
+    #[inline(always)]
     fn feed_arc(&mut self) {
+        if self.arc.is_some() {
+            self.feed_arc_chords();
+        }
+    }
+
+    #[inline(never)]
+    fn feed_arc_chords(&mut self) {
         while let Some(arc) = self.arc.as_mut() {
             if self.planner.is_full() || self.abort_pending {
                 return;

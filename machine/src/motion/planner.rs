@@ -349,18 +349,17 @@ impl<const N: usize> Planner<N> {
         let (max_speed, programmed) = (u64::from(b.max_speed), u64::from(b.programmed));
         // `div_u64`: the hardware-assisted division, not the 64-bit library call.
         // At 100 % (the usual override) the speed itself, without the division.
-        let scale = |v: u64, pct: u16| {
-            if pct == 100 {
-                v
-            } else {
-                div_u64(v * pct as u64, 100)
-            }
-        };
-        let v = if b.rapid {
-            scale(max_speed, self.rapid_pct)
+        let (v, pct) = if b.rapid {
+            (max_speed, self.rapid_pct)
         } else {
-            scale(programmed, self.feed_pct).min(max_speed)
+            (programmed, self.feed_pct)
         };
+        let v = if pct == 100 {
+            v
+        } else {
+            div_u64(v * pct as u64, 100)
+        };
+        let v = if b.rapid { v } else { v.min(max_speed) };
         // MAX_SPEED is u32::MAX.
         v.max(1).min(MAX_SPEED) as u32
     }
@@ -499,9 +498,8 @@ impl<const N: usize> Planner<N> {
             isqrt_u128(len_sq) as u64
         }
         .max(1);
-        let mut max_speed = LeastRatio::NONE;
-        let mut accel = LeastRatio::NONE;
-        let mut start_speed = LeastRatio::NONE;
+        // Max rate, acceleration and start speed.
+        let mut limits = [LeastRatio::NONE; 3];
         let mut unit = [0i64; MAX_AXES];
         for i in 0..axes {
             let d = req.delta[i].unsigned_abs();
@@ -509,26 +507,29 @@ impl<const N: usize> Planner<N> {
                 continue;
             }
             let ax = &cfg.axes[i];
-            max_speed.add(ax.max_rate, d, length);
-            accel.add(ax.accel, d, length);
-            start_speed.add(ax.start_speed, d, length);
-            unit[i] = match req.delta[i].checked_mul(UNIT) {
-                // `p / length` truncated toward zero, on the magnitudes: a hardware-assisted
-                // `div_u64` instead of the signed 64-bit library division.
-                Some(p) => {
-                    let q = div_u64(p.unsigned_abs(), length) as i64;
-                    if p < 0 {
-                        -q
-                    } else {
-                        q
-                    }
+            LeastRatio::add_each(
+                &mut limits,
+                [ax.max_rate, ax.accel, ax.start_speed],
+                d,
+                length,
+            );
+            // `delta · 2³⁰ / length` truncated toward zero, on the magnitude: a hardware-assisted
+            // `div_u64` instead of the signed 64-bit library division, whenever `d · 2³⁰` fits
+            // 64 bits (no signed overflow check of the product; |q| ≤ 2³⁰ as d ≤ length).
+            unit[i] = if d >> 34 == 0 {
+                let q = div_u64(d << 30, length) as i64;
+                if req.delta[i] < 0 {
+                    -q
+                } else {
+                    q
                 }
-                None => div_i128(req.delta[i] as i128 * UNIT as i128, length as i128) as i64,
+            } else {
+                div_i128(req.delta[i] as i128 * UNIT as i128, length as i128) as i64
             };
         }
-        let max_speed = max_speed.least(length).min(MAX_SPEED).max(1);
-        let accel = accel.least(length).max(1);
-        let start_speed = start_speed.least(length).min(MAX_SPEED);
+        let max_speed = limits[0].least(length).min(MAX_SPEED).max(1);
+        let accel = limits[1].least(length).max(1);
+        let start_speed = limits[2].least(length).min(MAX_SPEED);
         let (programmed, rapid) = match req.speed {
             Some(v) => (v.max(1).min(MAX_SPEED), false),
             None => (max_speed, true),
@@ -735,6 +736,14 @@ impl LeastRatio {
             // Neither dominates: the one so far is divided now.
             self.settled = self.settled.min(mul_div(self.r, length, self.d));
             (self.r, self.d) = (r, d);
+        }
+    }
+
+    /// [`Self::add`] for several limits of one axis (out of line: one copy of the code).
+    #[inline(never)]
+    fn add_each<const K: usize>(all: &mut [LeastRatio; K], r: [u64; K], d: u64, length: u64) {
+        for k in 0..K {
+            all[k].add(r[k], d, length);
         }
     }
 

@@ -82,7 +82,7 @@ pub fn isqrt_u64(v: u64) -> u64 {
     let hi = ((v << s) >> 32) as u32;
     let x0 = (isqrt_u32(hi) as u64 + 1) << (16 - s / 2);
     let mut x = (x0 + div_u64(v, x0)) >> 1;
-    while x.checked_mul(x).is_none_or(|sq| sq > v) {
+    while checked_mul_u64(x, x).is_none_or(|sq| sq > v) {
         x -= 1;
     }
     x
@@ -109,7 +109,19 @@ fn isqrt_u32(v: u32) -> u32 {
 /// ~100 bytes of Cortex-M code, and the motion core needs it in a dozen places.
 #[inline(never)]
 pub fn sat_mul(a: u64, b: u64) -> u64 {
-    a.saturating_mul(b)
+    checked_mul_u64(a, b).unwrap_or(u64::MAX)
+}
+
+/// `a.checked_mul(b)` on u64 with a fast path for two 32-bit factors: one 32×32→64-bit
+/// multiply (`umull`) on the Cortex-M4 instead of three multiplies and the overflow check
+/// (the usual case of the planner's speeds, lengths and accelerations).
+#[inline(always)]
+fn checked_mul_u64(a: u64, b: u64) -> Option<u64> {
+    if (a | b) >> 32 == 0 {
+        Some(u64::from(a as u32) * u64::from(b as u32))
+    } else {
+        a.checked_mul(b)
+    }
 }
 
 /// `n / d` and `n % d` on u128 (`d` ≠ 0), out of line.
@@ -265,7 +277,7 @@ fn divlu(u1: u32, u0: u32, v: u32) -> u32 {
 /// ⌊a × b / c⌋ without overflow (64-bit fast path); saturates at `u64::MAX`.
 pub fn mul_div(a: u64, b: u64, c: u64) -> u64 {
     debug_assert!(c != 0);
-    match a.checked_mul(b) {
+    match checked_mul_u64(a, b) {
         Some(p) => div_u64(p, c),
         None => {
             let q = divrem_u128(a as u128 * b as u128, c as u128).0;
