@@ -369,21 +369,36 @@ impl<const N: usize> Motion<N> {
 
     /// Axes beyond the configured count stay where they are.
     fn masked(&self, to: &Pos) -> Pos {
-        // Built element by element (copying the position and then a slice of the target called
-        // the byte-wise `memcpy` twice, and a copy of the whole target once).
-        let axes = self.cfg.axis_count as usize;
-        core::array::from_fn(|i| if i < axes { to[i] } else { self.position[i] })
+        // One fixed-size copy of the target and the few unused axes from the position (copying
+        // the position and then a slice of the target called the byte-wise `memcpy` twice; the
+        // loop is the few stores clippy's `copy_from_slice` would turn back into a call).
+        let mut p = *to;
+        #[allow(clippy::manual_memcpy)]
+        for i in self.cfg.axis_count as usize..MAX_AXES {
+            p[i] = self.position[i];
+        }
+        p
     }
 
     /// A feed move: merged into the held-back chain when its chord holds (`G64 P`), else queued
     /// (after the chain, which it ends), or held back as the start of a new chain.
     fn push_feed(&mut self, line: u32, to: &Pos, speed: u64) -> Result<(), PushError> {
-        let to = self.masked(to);
-        if let Some(axis) = self.cfg.travel_violation(&to) {
+        // The travel check and `queue_line` read the configured axes only: the target is masked
+        // only for the held-back chain and leg, which keep it.
+        if let Some(axis) = self.cfg.travel_violation(to) {
             return Err(PushError::Travel { axis });
         }
         let (tolerance, axes) = (self.blend_tolerance, self.cfg.axis_count as usize);
         let mergeable = tolerance > 0 && !self.exact_stop && self.pending_output.is_none();
+        if self.chain.is_none() && !mergeable {
+            self.flush_blend();
+            if self.planner.is_full() {
+                return Err(PushError::Full);
+            }
+            self.queue_line(line, to, Some(speed));
+            return Ok(());
+        }
+        let to = self.masked(to);
         if let Some(chain) = self.chain.as_mut() {
             if mergeable && chain.extend(&to, line, speed, tolerance, axes) {
                 return Ok(());
@@ -470,11 +485,11 @@ impl<const N: usize> Motion<N> {
     }
 
     fn push_line(&mut self, line: u32, to: &Pos, speed: Option<u64>) -> Result<(), PushError> {
-        let to = self.masked(to);
-        if let Some(axis) = self.cfg.travel_violation(&to) {
+        // Both read the configured axes only (no masked copy of the target).
+        if let Some(axis) = self.cfg.travel_violation(to) {
             return Err(PushError::Travel { axis });
         }
-        self.queue_line(line, &to, speed);
+        self.queue_line(line, to, speed);
         Ok(())
     }
 
@@ -484,7 +499,8 @@ impl<const N: usize> Motion<N> {
     }
 
     /// Plans a line to `to` entering with at most `corner_sq` (nm²/s²) when given, instead of
-    /// the junction deviation's limit (the ring has room).
+    /// the junction deviation's limit (the ring has room). Axes beyond the configured count
+    /// stay where they are, whatever `to` says of them.
     fn queue_line_at(&mut self, line: u32, to: &Pos, speed: Option<u64>, corner_sq: Option<u64>) {
         let mut req = LineRequest {
             line,
@@ -499,7 +515,8 @@ impl<const N: usize> Motion<N> {
         // The step targets are converted and the new end is stored in the same pass as the
         // displacements (no array of targets, no array copies afterwards, which were `memcpy`
         // calls on the Cortex-M4). The planner reads the configured axes only; the others keep
-        // what `MotionConfig::to_steps` gives them (0) and their position.
+        // their position (`to` need not be masked) and the step count `MotionConfig::to_steps`
+        // gives them (0).
         let axes = self.cfg.axis_count as usize;
         for i in 0..axes {
             let target = self.cfg.axes[i].nm_to_steps(to[i]);
@@ -510,7 +527,6 @@ impl<const N: usize> Motion<N> {
         }
         for i in axes..MAX_AXES {
             self.steps[i] = 0;
-            self.position[i] = to[i];
         }
         let blocks = self.planner.len();
         let queued = self.planner.push_line(&self.cfg, &req);

@@ -728,7 +728,9 @@ impl LeastRatio {
         d: 0,
     };
 
-    #[inline(always)]
+    /// Takes an axis with limit `r` and share `d` (out of line: one copy for the planner's
+    /// limits and the junction's acceleration).
+    #[inline(never)]
     fn add(&mut self, r: u64, d: u64, length: u64) {
         if self.d == 0 || (r <= self.r && d >= self.d) {
             (self.r, self.d) = (r, d);
@@ -739,8 +741,8 @@ impl LeastRatio {
         }
     }
 
-    /// [`Self::add`] for several limits of one axis (out of line: one copy of the code).
-    #[inline(never)]
+    /// [`Self::add`] for several limits of one axis.
+    #[inline(always)]
     fn add_each<const K: usize>(all: &mut [LeastRatio; K], r: [u64; K], d: u64, length: u64) {
         for k in 0..K {
             all[k].add(r[k], d, length);
