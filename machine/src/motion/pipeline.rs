@@ -502,34 +502,32 @@ impl<const N: usize> Motion<N> {
     /// the junction deviation's limit (the ring has room). Axes beyond the configured count
     /// stay where they are, whatever `to` says of them.
     fn queue_line_at(&mut self, line: u32, to: &Pos, speed: Option<u64>, corner_sq: Option<u64>) {
-        let mut req = LineRequest {
+        let req = LineRequest {
             line,
-            steps: [0; MAX_AXES],
-            delta: [0; MAX_AXES],
             speed,
             exact_stop_before: self.exact_stop,
             junction_deviation: self.junction_deviation,
             corner_sq,
             output: self.pending_output.map_or(OutputEvent::NONE, |p| p.output),
         };
-        // The step targets are converted and the new end is stored in the same pass as the
-        // displacements (no array of targets, no array copies afterwards, which were `memcpy`
-        // calls on the Cortex-M4). The planner reads the configured axes only; the others keep
-        // their position (`to` need not be masked) and the step count `MotionConfig::to_steps`
-        // gives them (0).
+        // The planner asks for each configured axis's displacement once, in order: the step
+        // target is converted and the new end stored as it is read (no displacement arrays
+        // built, zero-filled and copied per line, which were `memclr`/`memcpy` calls on the
+        // Cortex-M4). The other axes keep their position (`to` need not be masked) and the step
+        // count `MotionConfig::to_steps` gives them (0).
         let axes = self.cfg.axis_count as usize;
-        for i in 0..axes {
-            let target = self.cfg.axes[i].nm_to_steps(to[i]);
-            req.steps[i] = target - self.steps[i];
-            req.delta[i] = to[i] - self.position[i];
-            self.steps[i] = target;
-            self.position[i] = to[i];
-        }
         for i in axes..MAX_AXES {
             self.steps[i] = 0;
         }
         let blocks = self.planner.len();
-        let queued = self.planner.push_line(&self.cfg, &req);
+        let (cfg, steps, position) = (&self.cfg, &mut self.steps, &mut self.position);
+        let queued = self.planner.push_line(cfg, &req, |i| {
+            let target = cfg.axes[i].nm_to_steps(to[i]);
+            let moved = (target - steps[i], to[i] - position[i]);
+            steps[i] = target;
+            position[i] = to[i];
+            moved
+        });
         debug_assert!(queued);
         if self.planner.len() > blocks {
             // The waiting on-the-fly output rides on this block (a move without steps adds no

@@ -172,14 +172,11 @@ impl Block {
     }
 }
 
-/// A line to plan, in machine terms.
+/// A line to plan, in machine terms (its displacement per axis comes from the function given to
+/// [`Planner::push_line`]).
 #[derive(Clone, Copy, Debug)]
 pub struct LineRequest {
     pub line: u32,
-    /// Displacement in steps per axis.
-    pub steps: [i64; MAX_AXES],
-    /// Displacement in nm per axis.
-    pub delta: [i64; MAX_AXES],
     /// Programmed speed, nm/s; `None` = rapid.
     pub speed: Option<u64>,
     /// The block before must end at rest (G61 exact stop).
@@ -467,26 +464,37 @@ impl<const N: usize> Planner<N> {
         true
     }
 
-    /// Plans a straight move; false when the ring is full. A move without steps is dropped (true;
-    /// the ring's length tells whether a block was added).
-    pub fn push_line(&mut self, cfg: &MotionConfig, req: &LineRequest) -> bool {
+    /// Plans a straight move; false when the ring is full (then `axis_move` is not called). A
+    /// move without steps is dropped (true; the ring's length tells whether a block was added).
+    ///
+    /// `axis_move(i)` gives the displacement of configured axis `i` as (steps, nm); it is called
+    /// once per configured axis, in order (the pipeline converts and books its new end there: no
+    /// zero-filled displacement arrays built and copied per line).
+    pub fn push_line(
+        &mut self,
+        cfg: &MotionConfig,
+        req: &LineRequest,
+        mut axis_move: impl FnMut(usize) -> (i64, i64),
+    ) -> bool {
         self.changed();
         if self.is_full() {
             return false;
         }
         let axes = cfg.axis_count as usize;
         let mut steps = [0u32; MAX_AXES];
+        let mut delta = [0i64; MAX_AXES];
         let mut dir = 0u8;
         let mut events = 0u32;
         let mut len_sq: u128 = 0;
         for i in 0..axes {
-            let s = req.steps[i];
+            let (s, d) = axis_move(i);
             steps[i] = s.unsigned_abs().min(u32::MAX as u64) as u32;
             if s < 0 {
                 dir |= 1 << i;
             }
             events = events.max(steps[i]);
-            let d = req.delta[i].unsigned_abs();
+            delta[i] = d;
+            let d = d.unsigned_abs();
             len_sq += u128::from(d) * u128::from(d);
         }
         if events == 0 {
@@ -502,7 +510,7 @@ impl<const N: usize> Planner<N> {
         let mut limits = [LeastRatio::NONE; 3];
         let mut unit = [0i64; MAX_AXES];
         for i in 0..axes {
-            let d = req.delta[i].unsigned_abs();
+            let d = delta[i].unsigned_abs();
             if d == 0 {
                 continue;
             }
@@ -518,13 +526,13 @@ impl<const N: usize> Planner<N> {
             // 64 bits (no signed overflow check of the product; |q| ≤ 2³⁰ as d ≤ length).
             unit[i] = if d >> 34 == 0 {
                 let q = div_u64(d << 30, length) as i64;
-                if req.delta[i] < 0 {
+                if delta[i] < 0 {
                     -q
                 } else {
                     q
                 }
             } else {
-                div_i128(req.delta[i] as i128 * UNIT as i128, length as i128) as i64
+                div_i128(delta[i] as i128 * UNIT as i128, length as i128) as i64
             };
         }
         let max_speed = limits[0].least(length).min(MAX_SPEED).max(1);
@@ -823,22 +831,32 @@ mod tests {
     use std::vec;
     use std::vec::Vec;
 
-    fn line(cfg: &MotionConfig, dx: i64, dy: i64, feed_mm_min: u64) -> LineRequest {
+    /// A test line: the request and its displacement per axis (steps, nm).
+    struct TestLine {
+        req: LineRequest,
+        steps: [i64; MAX_AXES],
+        delta: [i64; MAX_AXES],
+    }
+
+    fn line(cfg: &MotionConfig, dx: i64, dy: i64, feed_mm_min: u64) -> TestLine {
         let delta = [dx, dy, 0, 0, 0, 0];
         let mut steps = [0; MAX_AXES];
         for i in 0..2 {
             steps[i] = cfg.axes[i].nm_to_steps(delta[i]);
         }
-        LineRequest {
+        let req = LineRequest {
             line: 1,
-            steps,
-            delta,
             speed: Some(feed_mm_min * NM_PER_MM as u64 / 60),
             exact_stop_before: false,
             junction_deviation: cfg.junction_deviation as u64,
             corner_sq: None,
             output: OutputEvent::NONE,
-        }
+        };
+        TestLine { req, steps, delta }
+    }
+
+    fn push<const N: usize>(p: &mut Planner<N>, cfg: &MotionConfig, l: &TestLine) -> bool {
+        p.push_line(cfg, &l.req, |i| (l.steps[i], l.delta[i]))
     }
 
     #[test]
@@ -931,13 +949,13 @@ mod tests {
     fn buffer_end_always_stops_and_entries_only_grow() {
         let cfg = MotionConfig::default();
         let mut p: Planner<8> = Planner::new();
-        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
-        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
+        assert!(push(&mut p, &cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
+        assert!(push(&mut p, &cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
         assert_eq!(p.exit_sq(1), 0);
         let e1 = p.exit_sq(0);
         // 1 mm at 200 mm/s²: entry² ≤ 2·a·L = 4e14, i.e. exactly the nominal 20 mm/s.
         assert_eq!(e1, 400_000_000_000_000);
-        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM / 2, 0, 1200)));
+        assert!(push(&mut p, &cfg, &line(&cfg, NM_PER_MM / 2, 0, 1200)));
         assert_eq!(p.exit_sq(0), e1);
         // Block 1 (0.5 mm) can only gain 2e14 before block 2 must stop: 4e14 vs 2e14 + 2e14.
         assert_eq!(p.exit_sq(1), 200_000_000_000_000);
@@ -953,9 +971,9 @@ mod tests {
             assert!(!seen.contains(&p.revision()), "{seen:?}");
             seen.push(p.revision());
         };
-        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
+        assert!(push(&mut p, &cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
         check(&p);
-        assert!(p.push_line(&cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
+        assert!(push(&mut p, &cfg, &line(&cfg, NM_PER_MM, 0, 1200)));
         check(&p);
         let exit = p.exit_sq(0);
         p.set_overrides(50, 100);
@@ -1015,11 +1033,11 @@ mod tests {
                     let dx = rnd(4_000_000) as i64 - 2_000_000;
                     let dy = rnd(400_000) as i64 - 200_000;
                     let mut req = line(&cfg, dx, dy, 100 + rnd(5000));
-                    req.exact_stop_before = rnd(25) == 0;
+                    req.req.exact_stop_before = rnd(25) == 0;
                     if rnd(10) == 0 {
-                        req.speed = None;
+                        req.req.speed = None;
                     }
-                    assert!(p.push_line(&cfg, &req));
+                    assert!(push(&mut p, &cfg, &req));
                 }
                 11 if !p.is_full() => {
                     assert!(p.push_marker(Block::marker(BlockKind::Sync, 0)));
