@@ -1,7 +1,9 @@
 //! Segment preparation (main context): cuts the head block into short constant-rate segments.
 //!
 //! Each segment covers a whole number of dominant-axis steps chosen to last about
-//! [`SEGMENT_COUNTS`] (2 ms). Step counts are *cumulative*: after dominant step `c` of `N`, axis
+//! [`SEGMENT_COUNTS`] (2 ms); the last one before the block's end (or a hold's stopping point)
+//! takes what remains when less than half a segment would be left, so it lasts up to ~3 ms
+//! ([`segment_steps`]). Step counts are *cumulative*: after dominant step `c` of `N`, axis
 //! `i` has made `round(steps_i · c / N)` steps, so a block always ends with exactly its step counts
 //! and a job with the rational conversion of its end point. The segment's duration comes from the
 //! closed-form [`Profile`] time at the segment's end, minus the time already emitted, so the
@@ -495,11 +497,7 @@ impl Prep {
         let v = self.profile.speed_at(self.s_now);
         // v · SEGMENT_COUNTS / HZ, exactly: HZ is a whole multiple of SEGMENT_COUNTS.
         let nm = div_u64(v, SEGMENTS_PER_SECOND);
-        // `max(1).min(..)`, not `clamp`: the same here (done < end), without clamp's panic path
-        // and its u64 formatting in the firmware.
-        let n = mul_div(nm, b.events as u64, b.length)
-            .max(1)
-            .min((end - self.done) as u64) as u32;
+        let n = segment_steps(mul_div(nm, b.events as u64, b.length), end - self.done);
         let c = self.done + n;
         let s = Self::s_of(b, c);
         let (t, speed) = self.profile.time_speed_at(s);
@@ -552,6 +550,24 @@ impl Prep {
     }
 }
 
+/// Dominant steps of the next segment: `nominal` (about [`SEGMENT_COUNTS`] at the current speed,
+/// at least 1), or all `left` steps up to `end` (the block's end or a hold's stopping point) when
+/// fewer would remain than half a segment. So a segment lasts at most about 1.5× its nominal
+/// 2 ms, and a block is never split into a long segment and a tiny remainder (a 64-step line
+/// used to end with a 1-step segment of its own: a whole preparation and a kernel segment load
+/// for one step). The duration stays exact: it comes from the profile at the segment's end.
+fn segment_steps(nominal: u64, left: u32) -> u32 {
+    let nominal = nominal.max(1);
+    let left64 = u64::from(left);
+    // `left - nominal < nominal / 2`, without dividing; true whenever `nominal >= left`.
+    if left64.saturating_sub(nominal) * 2 < nominal {
+        left
+    } else {
+        // nominal < left here: it fits in u32.
+        nominal as u32
+    }
+}
+
 /// Steps axis `i` has made after dominant step `c` of block `b`: round(steps_i · c / N), cumulative,
 /// so the block ends exactly on its step counts.
 fn cum_at(b: &Block, i: usize, c: u32) -> u32 {
@@ -559,5 +575,82 @@ fn cum_at(b: &Block, i: usize, c: u32) -> u32 {
         0 => 0,
         s if s == b.events => c,
         s => div_u64(s as u64 * c as u64 + b.events as u64 / 2, b.events as u64) as u32,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use crate::canon::{Action, Canon};
+    use crate::motion::config::MotionConfig;
+    use crate::motion::pipeline::Motion;
+    use std::vec::Vec;
+
+    const MM: i64 = 1_000_000;
+
+    fn feed(line: u32, x: i64) -> Canon {
+        Canon {
+            line,
+            action: Action::Feed {
+                to: [x, 0, 0, 0, 0, 0],
+                feed: 3000 * MM,
+            },
+        }
+    }
+
+    #[test]
+    fn the_rule_takes_short_remainders_only() {
+        assert_eq!(segment_steps(64, 65), 65);
+        assert_eq!(segment_steps(64, 95), 95);
+        assert_eq!(segment_steps(64, 96), 64);
+        assert_eq!(segment_steps(64, 30), 30);
+        assert_eq!(segment_steps(0, 5), 1);
+        assert_eq!(segment_steps(1, 2), 1);
+        assert_eq!(segment_steps(3, 4), 4);
+    }
+
+    /// X 10 mm, then 0.1015 mm (65 steps at 640 steps/mm), then 10 mm more, all at F3000
+    /// (50 mm/s, the default highest rate): the middle block runs at 50 mm/s throughout, where a
+    /// segment's nominal 2 ms is 100 µm = mul_div(100_000, 65, 101_500) = 64 steps. Its one step
+    /// left over is not a segment of its own: the block is one 65-step segment lasting the
+    /// profile's 101.5 µm / 50 mm/s = 2.03 ms = 24,360 counts at 12 MHz, as 65 ticks of
+    /// 24,360 / 65 = 374 counts (the 50 counts of rounding go to the next block's first segment).
+    #[test]
+    fn a_one_step_remainder_stays_in_the_segment() {
+        let mut motion: Motion<16> = Motion::new(MotionConfig::default());
+        for c in [feed(1, 10 * MM), feed(2, 10_101_500), feed(3, 20_101_500)] {
+            motion.push(&c).unwrap();
+        }
+        let mut segments = Vec::new();
+        while let Some(s) = motion.next_segment() {
+            segments.push(s);
+        }
+        let mut x = 0;
+        let middle: Vec<&Segment> = segments
+            .iter()
+            .filter(|s| {
+                x += s.steps[0];
+                x > 6400 && x <= 6465
+            })
+            .collect();
+        assert_eq!(middle.len(), 1, "{middle:?}");
+        let s = middle[0];
+        assert_eq!(s.steps, [65, 0, 0, 0, 0, 0]);
+        assert_eq!((s.ticks, s.period), (65, 374));
+        let profile = Profile::plan(
+            0,
+            50 * MM as u64,
+            101_500,
+            50 * MM as u64,
+            u64::MAX,
+            200 * MM as u64,
+        );
+        assert_eq!(profile.duration(), 24_360);
+        assert_eq!(
+            u64::from(s.ticks) * u64::from(s.period),
+            profile.duration() - profile.duration() % 65
+        );
+        assert_eq!(x, 12_865, "every step of the job");
     }
 }

@@ -423,17 +423,17 @@ pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/planner-square",
         run: planner_square,
-        expected: 0xda02_f0f8,
+        expected: 0x0d53_0904,
     },
     Vector {
         name: "motion/arcs-helix",
         run: arcs_and_helix,
-        expected: 0x0fa1_412c,
+        expected: 0xa890_53a7,
     },
     Vector {
         name: "motion/hold-resume-override",
         run: hold_resume_override,
-        expected: 0xfa8d_cf99,
+        expected: 0xdac0_76da,
     },
     Vector {
         name: "motion/odd-ratios-dwell-exact-stop",
@@ -443,17 +443,17 @@ pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/onfly-outputs",
         run: onfly_outputs,
-        expected: 0x4bc5_904a,
+        expected: 0xe8d5_ec2c,
     },
     Vector {
         name: "motion/blend-chain",
         run: blend_chain,
-        expected: 0x26e4_c7d7,
+        expected: 0x9d9d_5588,
     },
     Vector {
         name: "motion/corner-round",
         run: corner_round,
-        expected: 0xde40_bcb1,
+        expected: 0x8fca_2b3d,
     },
 ];
 
