@@ -7,8 +7,10 @@
 //! `i` has made `round(steps_i · c / N)` steps, so a block always ends with exactly its step counts
 //! and a job with the rational conversion of its end point. The segment's duration comes from the
 //! closed-form [`Profile`] time at the segment's end, minus the time already emitted, so the
-//! rounding of tick periods never drifts. At low step rates the tick is over-driven 2×, 4× or 8×
-//! (AMASS) so the other axes place their steps more finely.
+//! rounding of tick periods never drifts; what a block's last segment leaves out is paid in the
+//! next block's first segment (`owed`), so it does not drift across blocks either. At low step
+//! rates the tick is over-driven 2×, 4× or 8× (AMASS) so the other axes place their steps more
+//! finely.
 //!
 //! A block's on-the-fly output event goes on the block's first segment only (a hold that stops
 //! and resumes inside the block does not repeat it).
@@ -98,6 +100,12 @@ pub struct Prep {
     profile: Profile,
     /// Counts emitted since the profile's origin.
     emitted: u64,
+    /// Profile time of the block before that its last segment's whole tick period left out
+    /// (under one tick period), paid in this block's first segment so block ends do not drift;
+    /// 0 after a stop, a sync point or a dwell, and from a re-profile inside a block.
+    owed: u64,
+    /// The same for the block just finished, until the next one starts.
+    owed_next: u64,
     /// Exit target and cruise speed the profile was built with.
     exit_sq: u64,
     nominal: u64,
@@ -132,6 +140,8 @@ impl Prep {
             output: OutputEvent::NONE,
             profile: Profile::ZERO,
             emitted: 0,
+            owed: 0,
+            owed_next: 0,
             exit_sq: 0,
             nominal: 0,
             revision: 0,
@@ -288,6 +298,7 @@ impl Prep {
             return BlockOut::Idle;
         };
         self.history = History::new();
+        self.owed_next = 0;
         match head.kind() {
             BlockKind::Sync => {
                 self.carry = 0;
@@ -353,6 +364,7 @@ impl Prep {
     /// Builds the head block's profile from path position `s` at speed `v`.
     fn reprofile<const N: usize>(&mut self, b: &Block, planner: &Planner<N>, s: u64, v: u64) {
         self.emitted = 0;
+        self.owed = 0;
         if self.state == PrepState::Holding {
             self.profile = Profile::hold(s, v, b.length, b.accel);
             self.holding = true;
@@ -420,6 +432,7 @@ impl Prep {
                 // At the end of the block before: the head block starts again from its start.
                 self.active = false;
                 self.carry = u64::from(at.speed);
+                self.owed_next = 0;
             }
         }
     }
@@ -445,6 +458,11 @@ impl Prep {
             self.output = output;
             let v_in = if b.stop_before { 0 } else { self.carry };
             self.reprofile(b, planner, 0, v_in);
+            self.owed = if v_in == 0 {
+                0
+            } else {
+                core::mem::take(&mut self.owed_next)
+            };
             self.report = BlockReport {
                 line: b.line,
                 rapid: b.rapid,
@@ -501,13 +519,18 @@ impl Prep {
         let c = self.done + n;
         let s = Self::s_of(b, c);
         let (t, speed) = self.profile.time_speed_at(s);
-        let dt = t.saturating_sub(self.emitted).max(1);
+        let dt = (t + self.owed).saturating_sub(self.emitted).max(1);
         // AMASS level from the dominant step period dt / n, compared without dividing.
         let level = AMASS_PERIODS.iter().filter(|&&p| dt > p * n as u64).count() as u32;
         let ticks = n << level;
         let period = div_u64(dt, ticks as u64).max(1).min(u32::MAX as u64) as u32;
         let duration = ticks as u64 * period as u64;
         self.emitted += duration;
+        self.owed_next = if c == b.events {
+            (t + self.owed).saturating_sub(self.emitted)
+        } else {
+            0
+        };
         let mut steps = [0u32; MAX_AXES];
         let mut signed = [0i32; MAX_AXES];
         for i in 0..MAX_AXES {
@@ -615,7 +638,7 @@ mod tests {
     /// segment's nominal 2 ms is 100 µm = mul_div(100_000, 65, 101_500) = 64 steps. Its one step
     /// left over is not a segment of its own: the block is one 65-step segment lasting the
     /// profile's 101.5 µm / 50 mm/s = 2.03 ms = 24,360 counts at 12 MHz, as 65 ticks of
-    /// 24,360 / 65 = 374 counts (the 50 counts of rounding go to the next block's first segment).
+    /// 24,360 / 65 = 374 counts (the 50 counts of rounding are paid in the next block's first segment).
     #[test]
     fn a_one_step_remainder_stays_in_the_segment() {
         let mut motion: Motion<16> = Motion::new(MotionConfig::default());
