@@ -437,9 +437,13 @@ impl Prep {
         }
     }
 
-    /// Path position (nm) of dominant step `c` of the block.
+    /// Path position (nm) of dominant step `c` of the block (the block's end without dividing).
     fn s_of(b: &Block, c: u32) -> u64 {
-        mul_div(c as u64, b.length, b.events as u64)
+        if c == b.events {
+            b.length
+        } else {
+            mul_div(c as u64, b.length, b.events as u64)
+        }
     }
 
     /// Next segment of a line block, or `None` when the block finished or a hold stopped.
@@ -597,6 +601,7 @@ fn cum_at(b: &Block, i: usize, c: u32) -> u32 {
     match b.steps[i] {
         0 => 0,
         s if s == b.events => c,
+        s if c == b.events => s,
         s => div_u64(s as u64 * c as u64 + b.events as u64 / 2, b.events as u64) as u32,
     }
 }

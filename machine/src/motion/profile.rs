@@ -178,8 +178,11 @@ impl Profile {
         if s <= self.s1 {
             let v = self.speed_at(s);
             (self.ramp_time(self.v0, v), v)
-        } else if s <= self.s2 {
+        } else if s < self.s2 {
             (self.t1 + mul_div(s - self.s1, HZ, self.vm.max(1)), self.vm)
+        } else if s == self.s2 {
+            // The cruise's end (s1 < s2 here): its time is `t2`, without dividing again.
+            (self.t2, self.vm)
         } else {
             let v = self.speed_at(s);
             (self.t2 + self.ramp_time(self.vm, v), v)
