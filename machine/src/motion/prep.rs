@@ -383,7 +383,8 @@ impl Prep {
         } else {
             v
         };
-        self.profile = Profile::plan(s, v0, b.length, nominal, exit_sq, b.accel);
+        self.profile
+            .replan(s, v0, b.length, nominal, exit_sq, b.accel);
         self.exit_sq = exit_sq;
         self.nominal = nominal;
         self.revision = planner.revision();
