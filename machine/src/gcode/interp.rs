@@ -1010,7 +1010,7 @@ impl Interpreter {
     /// Phase 4's G40, G41/G42 (D: a tool of the table, else the tool in the spindle) and
     /// G41.1/G42.1 (D: the diameter).
     fn cutter_compensation(&mut self, b: &mut Block) -> Res<()> {
-        let Some(code) = b.g[GGroup::CutterComp as usize] else {
+        let Some(code) = b.g(GGroup::CutterComp) else {
             return Ok(());
         };
         let cols = Some(code.cols);
@@ -1274,7 +1274,7 @@ impl Interpreter {
         } else {
             None
         };
-        let motion_g = b.g[GGroup::Motion as usize];
+        let motion_g = b.g(GGroup::Motion);
         let first_axis = AXIS_LETTERS
             .iter()
             .chain(b"@^")
@@ -1477,7 +1477,7 @@ impl Interpreter {
 
     /// Phase 4: plane, units, cutter compensation and tool length offset.
     fn set_plane_units_tool_length(&mut self, b: &mut Block) -> Res<()> {
-        if let Some(p) = b.g[GGroup::Plane as usize] {
+        if let Some(p) = b.g(GGroup::Plane) {
             let same = matches!(
                 (p.code, self.state.plane),
                 (G17, Plane::XY) | (G18, Plane::ZX)
@@ -1506,7 +1506,7 @@ impl Interpreter {
             self.state.inch = inch;
         }
         self.cutter_compensation(b)?;
-        if let Some(t) = b.g[GGroup::ToolLength as usize] {
+        if let Some(t) = b.g(GGroup::ToolLength) {
             self.refuse_under_comp(Some(t.cols))?;
         }
         match b.g_of(GGroup::ToolLength) {
@@ -1547,7 +1547,7 @@ impl Interpreter {
     /// Phase 5: coordinate system, path mode, distance modes and retract mode.
     fn set_modes(&mut self, b: &mut Block, line: u32) -> Res<()> {
         for group in [GGroup::Coordinate, GGroup::Path, GGroup::Return] {
-            if let Some(c) = b.g[group as usize] {
+            if let Some(c) = b.g(group) {
                 self.refuse_under_comp(Some(c.cols))?;
             }
         }
@@ -2420,9 +2420,7 @@ impl Interpreter {
     /// [`G65_ARGUMENT`]) and unset otherwise; M99 gives the caller its locals back.
     fn macro_call(&mut self, b: &mut Block, line: u32, src: &mut impl ProgramSource) -> Res<()> {
         let cols = b.g_cols(G65);
-        let others = (0..super::block::G_GROUPS)
-            .filter(|&g| g != GGroup::NonModal as usize)
-            .any(|g| b.g[g].is_some());
+        let others = b.has_g_besides(GGroup::NonModal);
         if others || !b.m.is_empty() {
             return Err((ErrorCode::NotSupported, cols));
         }
