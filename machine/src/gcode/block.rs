@@ -219,7 +219,10 @@ impl Block {
     #[inline(always)]
     pub fn g(&self, group: GGroup) -> Option<Code> {
         let at = group as usize;
-        (self.g_set & (1 << at) != 0).then(|| Code {
+        if self.g_set & (1 << at) == 0 {
+            return None;
+        }
+        Some(Code {
             code: self.g[at],
             cols: ((self.g_cols[at] >> 16) as u16, self.g_cols[at] as u16),
         })

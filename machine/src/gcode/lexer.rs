@@ -104,6 +104,7 @@ impl<'a> Lexer<'a> {
         LineStart::Block
     }
 
+    #[inline(always)]
     fn skip_blanks(&mut self) {
         while self.pos < self.line.len() && matches!(self.line[self.pos], b' ' | b'\t' | b'\r') {
             self.pos += 1;
