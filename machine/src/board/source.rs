@@ -37,7 +37,8 @@ pub struct JumpRequest {
 /// Buffer of `N` streamed lines with jump bookkeeping.
 pub struct StreamSource<const N: usize> {
     lines: Deque<(u32, String<LINE_CAPACITY>), N>,
-    current: String<LINE_CAPACITY>,
+    /// The line handed to the interpreter (its first bytes, as long as the line).
+    current: [u8; LINE_CAPACITY],
     /// Id of the place lines are accepted for: 0 = the linear main stream.
     id: u16,
     /// The host said no line follows for the current id.
@@ -60,7 +61,7 @@ impl<const N: usize> StreamSource<N> {
     pub const fn new() -> Self {
         StreamSource {
             lines: Deque::new(),
-            current: String::new(),
+            current: [0; LINE_CAPACITY],
             id: 0,
             ended: false,
             pending: None,
@@ -154,14 +155,21 @@ impl<const N: usize> StreamSource<N> {
 impl<const N: usize> ProgramSource for StreamSource<N> {
     fn next_line(&mut self) -> Option<(u32, &[u8])> {
         // Copied from the front in place, then popped: moving the popped `String` into
-        // `current` compiled to a `memmove` (the firmware's only other user of it).
+        // `current` compiled to a `memmove` (the firmware's only other user of it). One
+        // `memcpy`: `String::push_str` copied byte by byte, ~170 Cortex-M4 instructions a short
+        // line (target-tests/src/bin/bench_motion.rs).
         let (n, text) = self.lines.front()?;
         let n = *n;
-        self.current.clear();
-        let _ = self.current.push_str(text); // same capacity: always fits
+        // Same capacity: every byte fits. No slice index that could fail (its panic would link
+        // the formatting code).
+        let src = text.as_bytes();
+        for (to, &from) in self.current.iter_mut().zip(src) {
+            *to = from;
+        }
+        let len = src.len();
         self.lines.pop_front();
         self.last_out = Some(n);
-        Some((n, self.current.as_bytes()))
+        Some((n, self.current.get(..len).unwrap_or(&[])))
     }
 
     fn is_exhausted(&self) -> bool {

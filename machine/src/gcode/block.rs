@@ -127,8 +127,14 @@ pub struct Block {
     /// Bit `slot` set while the block has the word of that slot (the unused-word check of every
     /// block reads it instead of scanning the 28 slots).
     present: u32,
-    /// G codes by group.
-    pub g: [Option<Code>; G_GROUPS],
+    /// G codes by group (tenths), valid while the group's bit of `g_set` is set: a new block
+    /// clears arrays of integers and a mask instead of writing twelve `Option<Code>`s through a
+    /// copy (~250 Cortex-M4 instructions a line, target-tests/src/bin/bench_motion.rs).
+    g: [u16; G_GROUPS],
+    /// The columns of each group's G code (as `g`): start in the high half, end in the low.
+    g_cols: [u32; G_GROUPS],
+    /// Bit `group` set while the block has a G code of that group.
+    g_set: u16,
     /// M codes in the order written.
     pub m: heapless::Vec<(MGroup, Code), MAX_M_WORDS>,
     /// True if the block has no words at all (blank or comment line).
@@ -170,7 +176,9 @@ impl Block {
             words: heapless::Vec::new(),
             index: [0; WORD_SLOTS],
             present: 0,
-            g: [None; G_GROUPS],
+            g: [0; G_GROUPS],
+            g_cols: [0; G_GROUPS],
+            g_set: 0,
             m: heapless::Vec::new(),
             empty: true,
             cancels_cycle: false,
@@ -207,9 +215,35 @@ impl Block {
         self.present |= 1 << at;
     }
 
+    /// The G code (with its columns) given for a group.
+    #[inline(always)]
+    pub fn g(&self, group: GGroup) -> Option<Code> {
+        let at = group as usize;
+        if self.g_set & (1 << at) == 0 {
+            return None;
+        }
+        Some(Code {
+            code: self.g[at],
+            cols: ((self.g_cols[at] >> 16) as u16, self.g_cols[at] as u16),
+        })
+    }
+
+    /// Writes the G code of a group (its bit of `g_set` is the caller's).
+    #[inline(always)]
+    fn set_g(&mut self, group: GGroup, c: Code) {
+        self.g[group as usize] = c.code;
+        self.g_cols[group as usize] = (c.cols.0 as u32) << 16 | c.cols.1 as u32;
+    }
+
+    /// True if the block has a G code of any group other than `group`.
+    pub fn has_g_besides(&self, group: GGroup) -> bool {
+        self.g_set & !(1 << group as u16) != 0
+    }
+
     /// The G code given for a group.
+    #[inline(always)]
     pub fn g_of(&self, group: GGroup) -> Option<u16> {
-        self.g[group as usize].map(|c| c.code)
+        self.g(group).map(|c| c.code)
     }
 
     /// True if the block has this G code (tenths).
@@ -224,7 +258,7 @@ impl Block {
 
     /// The columns of a G code in the block.
     pub fn g_cols(&self, code: u16) -> Option<(u16, u16)> {
-        g_group(code).and_then(|grp| self.g[grp as usize].map(|c| c.cols))
+        g_group(code).and_then(|grp| self.g(grp).map(|c| c.cols))
     }
 
     /// Iterates over the letters of all value words present, in slot order (`A`..`Z`, `@`, `^`).
@@ -282,15 +316,17 @@ pub fn parse_block_into(
                 let group = g_group(code)
                     .filter(|_| !(gixa && code == G65))
                     .ok_or((ErrorCode::UnknownGCode, cols))?;
-                let slot = &mut b.g[group as usize];
                 let new = Code { code, cols: w.cols };
-                match *slot {
-                    None => *slot = Some(new),
+                match b.g(group) {
+                    None => {
+                        b.set_g(group, new);
+                        b.g_set |= 1 << group as u16;
+                    }
                     // G80 beside G0-G3 cancels the cycle; the straight or arc motion applies.
                     Some(old) if group == GGroup::Motion && !b.cancels_cycle => {
                         let straight_or_arc = |c: u16| matches!(c, G0 | G1 | G2 | G3);
                         if old.code == G80 && straight_or_arc(code) {
-                            *slot = Some(new);
+                            b.set_g(group, new);
                         } else if !(code == G80 && straight_or_arc(old.code)) {
                             return Err((ErrorCode::ModalGroupConflict, cols));
                         }

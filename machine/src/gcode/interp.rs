@@ -8,6 +8,7 @@
 
 use super::codes::*;
 use super::comp::{Comp, Side};
+use core::ops::ControlFlow;
 
 use super::block::{parse_block_into, Block, BlockError, GGroup, MGroup};
 use super::config::{ArcCenterMode, Dialect, DwellUnits, InterpConfig};
@@ -399,188 +400,203 @@ impl Interpreter {
                 self.jumps_without_action = 0;
                 return Some(Ok(c));
             }
-            if let Some(run) = self.cycle.as_mut() {
-                let queue = &mut self.queue;
-                let more = run.step(&mut |c| {
-                    // Capacity is guaranteed: the queue is empty when a step starts.
-                    let _ = queue.push_back(c);
-                });
-                if !more {
-                    self.cycle = None;
+            if let ControlFlow::Break(done) = self.refill(src) {
+                return done;
+            }
+        }
+    }
+
+    /// One step of [`Interpreter::next`] while no action waits: a cycle step, a stop, the
+    /// compensated moves held back at the end, or one line read and executed. `Break` hands
+    /// `next` its answer. Not inlined: in `next`'s loop its ~90 pointers into `self` were
+    /// computed again on every call (target-tests/src/bin/bench_motion.rs, per-line profile).
+    #[inline(never)]
+    fn refill(
+        &mut self,
+        src: &mut impl ProgramSource,
+    ) -> ControlFlow<Option<Result<Canon, GcodeError>>> {
+        if let Some(run) = self.cycle.as_mut() {
+            let queue = &mut self.queue;
+            let more = run.step(&mut |c| {
+                // Capacity is guaranteed: the queue is empty when a step starts.
+                let _ = queue.push_back(c);
+            });
+            if !more {
+                self.cycle = None;
+            }
+            return ControlFlow::Continue(());
+        }
+        if let Post::Stop(kind, line) = self.post {
+            self.post = Post::None;
+            let _ = self.queue.push_back(Canon {
+                line,
+                action: Action::Stop(kind),
+            });
+            return ControlFlow::Continue(());
+        }
+        if self.comp.holds() && self.finished {
+            // The program ended with compensated moves held back: they end as aimed.
+            let queue = &mut self.queue;
+            let released = self.comp.release(&mut |c| {
+                let _ = queue.push_back(c);
+            });
+            if let Err(code) = released {
+                self.comp.reset();
+                self.finished = true;
+                return ControlFlow::Break(Some(Err(GcodeError {
+                    line: self.last_line,
+                    n_word: None,
+                    columns: None,
+                    code,
+                })));
+            }
+            return ControlFlow::Continue(());
+        }
+        if self.finished {
+            return ControlFlow::Break(None);
+        }
+        let mut block = Block::new();
+        let (line, parsed) = match src.next_line() {
+            Some((line, bytes)) => {
+                self.last_line = line;
+                self.expanded_line = false;
+                if self.skip.is_some() {
+                    match self.skip_line(line, bytes) {
+                        Ok(true) => return ControlFlow::Continue(()),
+                        Ok(false) => {}
+                        Err((code, columns)) => {
+                            self.skip = None;
+                            return ControlFlow::Break(Some(Err(GcodeError {
+                                line,
+                                n_word: None,
+                                columns,
+                                code,
+                            })));
+                        }
+                    }
                 }
-                continue;
+                (line, self.parse_line(line, bytes, &mut block))
             }
-            if let Post::Stop(kind, line) = self.post {
-                self.post = Post::None;
-                let _ = self.queue.push_back(Canon {
-                    line,
-                    action: Action::Stop(kind),
-                });
-                continue;
-            }
-            if self.comp.holds() && self.finished {
-                // The program ended with compensated moves held back: they end as aimed.
-                let queue = &mut self.queue;
-                let released = self.comp.release(&mut |c| {
-                    let _ = queue.push_back(c);
-                });
-                if let Err(code) = released {
-                    self.comp.reset();
-                    self.finished = true;
-                    return Some(Err(GcodeError {
+            None => {
+                if !src.is_exhausted() {
+                    return ControlFlow::Break(None);
+                }
+                self.finished = true;
+                if self.comp.holds() {
+                    return ControlFlow::Continue(());
+                }
+                let open = match self.skip {
+                    Some(Skip {
+                        to: SkipTo::Sub, ..
+                    }) => Some(ErrorCode::UnknownSubroutine),
+                    Some(_) => Some(ErrorCode::UnbalancedBlock),
+                    None if !self.loops.is_empty() || !self.ocalls.is_empty() => {
+                        Some(ErrorCode::UnbalancedBlock)
+                    }
+                    None => None,
+                };
+                if let Some(code) = open {
+                    self.clear_control();
+                    return ControlFlow::Break(Some(Err(GcodeError {
                         line: self.last_line,
                         n_word: None,
                         columns: None,
                         code,
-                    }));
+                    })));
                 }
-                continue;
-            }
-            if self.finished {
-                return None;
-            }
-            let mut block = Block::new();
-            let (line, parsed) = match src.next_line() {
-                Some((line, bytes)) => {
-                    self.last_line = line;
-                    self.expanded_line = false;
-                    if self.skip.is_some() {
-                        match self.skip_line(line, bytes) {
-                            Ok(true) => continue,
-                            Ok(false) => {}
-                            Err((code, columns)) => {
-                                self.skip = None;
-                                return Some(Err(GcodeError {
-                                    line,
-                                    n_word: None,
-                                    columns,
-                                    code,
-                                }));
-                            }
-                        }
-                    }
-                    (line, self.parse_line(line, bytes, &mut block))
+                if !self.stack.is_empty() {
+                    self.stack.clear();
+                    self.macros.clear();
+                    return ControlFlow::Break(Some(Err(GcodeError {
+                        line: self.last_line,
+                        n_word: None,
+                        columns: None,
+                        code: ErrorCode::SubprogramWithoutM99,
+                    })));
                 }
-                None => {
-                    if !src.is_exhausted() {
-                        return None;
-                    }
+                return ControlFlow::Break(None);
+            }
+        };
+        match parsed {
+            Ok(Parsed::Block) => {}
+            Ok(Parsed::Nothing) => return ControlFlow::Continue(()),
+            Ok(Parsed::Jump(to)) => {
+                self.jumps_without_action += 1;
+                if self.jumps_without_action > MAX_JUMPS_WITHOUT_ACTION {
                     self.finished = true;
-                    if self.comp.holds() {
-                        continue;
-                    }
-                    let open = match self.skip {
-                        Some(Skip {
-                            to: SkipTo::Sub, ..
-                        }) => Some(ErrorCode::UnknownSubroutine),
-                        Some(_) => Some(ErrorCode::UnbalancedBlock),
-                        None if !self.loops.is_empty() || !self.ocalls.is_empty() => {
-                            Some(ErrorCode::UnbalancedBlock)
-                        }
-                        None => None,
-                    };
-                    if let Some(code) = open {
-                        self.clear_control();
-                        return Some(Err(GcodeError {
-                            line: self.last_line,
-                            n_word: None,
-                            columns: None,
-                            code,
-                        }));
-                    }
-                    if !self.stack.is_empty() {
-                        self.stack.clear();
-                        self.macros.clear();
-                        return Some(Err(GcodeError {
-                            line: self.last_line,
-                            n_word: None,
-                            columns: None,
-                            code: ErrorCode::SubprogramWithoutM99,
-                        }));
-                    }
-                    return None;
-                }
-            };
-            match parsed {
-                Ok(Parsed::Block) => {}
-                Ok(Parsed::Nothing) => continue,
-                Ok(Parsed::Jump(to)) => {
-                    self.jumps_without_action += 1;
-                    if self.jumps_without_action > MAX_JUMPS_WITHOUT_ACTION {
-                        self.finished = true;
-                        self.clear_control();
-                        return Some(Err(GcodeError {
-                            line,
-                            n_word: None,
-                            columns: None,
-                            code: ErrorCode::EndlessLoop,
-                        }));
-                    }
-                    if src.jump_to_line(to).is_err() {
-                        self.finished = true;
-                        return Some(Err(GcodeError {
-                            line,
-                            n_word: None,
-                            columns: None,
-                            code: ErrorCode::SourceJumpFailed,
-                        }));
-                    }
-                    continue;
-                }
-                Ok(Parsed::JumpSequence(n)) => {
-                    self.jumps_without_action += 1;
-                    let endless = self.jumps_without_action > MAX_JUMPS_WITHOUT_ACTION;
-                    if endless || src.jump_to_sequence(n).is_err() {
-                        self.finished = true;
-                        self.clear_control();
-                        return Some(Err(GcodeError {
-                            line,
-                            n_word: None,
-                            columns: None,
-                            code: if endless {
-                                ErrorCode::EndlessLoop
-                            } else {
-                                ErrorCode::SourceJumpFailed
-                            },
-                        }));
-                    }
-                    continue;
-                }
-                Err((n_word, (code, columns))) => {
-                    return Some(Err(GcodeError {
+                    self.clear_control();
+                    return ControlFlow::Break(Some(Err(GcodeError {
                         line,
-                        n_word,
-                        columns,
-                        code,
-                    }))
+                        n_word: None,
+                        columns: None,
+                        code: ErrorCode::EndlessLoop,
+                    })));
                 }
-            };
-            let tables = block.g_of(GGroup::NonModal).is_some()
-                || block.g_of(GGroup::ToolLength).is_some()
-                || !block.m.is_empty();
-            let saved = Rollback::of(&self.state, tables);
-            let saved_finished = self.finished;
-            let saved_comp = (!self.comp.is_idle()).then(|| self.comp.clone());
-            match self.execute(&mut block, line, src) {
-                Ok(()) => {}
-                Err((code, columns)) => {
-                    let columns = if self.expanded_line { None } else { columns };
-                    saved.restore(&mut self.state);
-                    self.comp = saved_comp.unwrap_or_default();
-                    // An endless loop ends the program; other errors skip the block.
-                    self.finished = saved_finished || code == ErrorCode::EndlessLoop;
-                    self.queue.clear();
-                    self.cycle = None;
-                    self.post = Post::None;
-                    return Some(Err(GcodeError {
+                if src.jump_to_line(to).is_err() {
+                    self.finished = true;
+                    return ControlFlow::Break(Some(Err(GcodeError {
                         line,
-                        n_word: block.n,
-                        columns,
-                        code,
-                    }));
+                        n_word: None,
+                        columns: None,
+                        code: ErrorCode::SourceJumpFailed,
+                    })));
                 }
+                return ControlFlow::Continue(());
+            }
+            Ok(Parsed::JumpSequence(n)) => {
+                self.jumps_without_action += 1;
+                let endless = self.jumps_without_action > MAX_JUMPS_WITHOUT_ACTION;
+                if endless || src.jump_to_sequence(n).is_err() {
+                    self.finished = true;
+                    self.clear_control();
+                    return ControlFlow::Break(Some(Err(GcodeError {
+                        line,
+                        n_word: None,
+                        columns: None,
+                        code: if endless {
+                            ErrorCode::EndlessLoop
+                        } else {
+                            ErrorCode::SourceJumpFailed
+                        },
+                    })));
+                }
+                return ControlFlow::Continue(());
+            }
+            Err((n_word, (code, columns))) => {
+                return ControlFlow::Break(Some(Err(GcodeError {
+                    line,
+                    n_word,
+                    columns,
+                    code,
+                })))
+            }
+        };
+        let tables = block.g_of(GGroup::NonModal).is_some()
+            || block.g_of(GGroup::ToolLength).is_some()
+            || !block.m.is_empty();
+        let saved = Rollback::of(&self.state, tables);
+        let saved_finished = self.finished;
+        let saved_comp = (!self.comp.is_idle()).then(|| self.comp.clone());
+        match self.execute(&mut block, line, src) {
+            Ok(()) => {}
+            Err((code, columns)) => {
+                let columns = if self.expanded_line { None } else { columns };
+                saved.restore(&mut self.state);
+                self.comp = saved_comp.unwrap_or_default();
+                // An endless loop ends the program; other errors skip the block.
+                self.finished = saved_finished || code == ErrorCode::EndlessLoop;
+                self.queue.clear();
+                self.cycle = None;
+                self.post = Post::None;
+                return ControlFlow::Break(Some(Err(GcodeError {
+                    line,
+                    n_word: block.n,
+                    columns,
+                    code,
+                })));
             }
         }
+        ControlFlow::Continue(())
     }
 }
 
@@ -1010,7 +1026,7 @@ impl Interpreter {
     /// Phase 4's G40, G41/G42 (D: a tool of the table, else the tool in the spindle) and
     /// G41.1/G42.1 (D: the diameter).
     fn cutter_compensation(&mut self, b: &mut Block) -> Res<()> {
-        let Some(code) = b.g[GGroup::CutterComp as usize] else {
+        let Some(code) = b.g(GGroup::CutterComp) else {
             return Ok(());
         };
         let cols = Some(code.cols);
@@ -1274,7 +1290,7 @@ impl Interpreter {
         } else {
             None
         };
-        let motion_g = b.g[GGroup::Motion as usize];
+        let motion_g = b.g(GGroup::Motion);
         let first_axis = AXIS_LETTERS
             .iter()
             .chain(b"@^")
@@ -1477,7 +1493,7 @@ impl Interpreter {
 
     /// Phase 4: plane, units, cutter compensation and tool length offset.
     fn set_plane_units_tool_length(&mut self, b: &mut Block) -> Res<()> {
-        if let Some(p) = b.g[GGroup::Plane as usize] {
+        if let Some(p) = b.g(GGroup::Plane) {
             let same = matches!(
                 (p.code, self.state.plane),
                 (G17, Plane::XY) | (G18, Plane::ZX)
@@ -1506,7 +1522,7 @@ impl Interpreter {
             self.state.inch = inch;
         }
         self.cutter_compensation(b)?;
-        if let Some(t) = b.g[GGroup::ToolLength as usize] {
+        if let Some(t) = b.g(GGroup::ToolLength) {
             self.refuse_under_comp(Some(t.cols))?;
         }
         match b.g_of(GGroup::ToolLength) {
@@ -1547,7 +1563,7 @@ impl Interpreter {
     /// Phase 5: coordinate system, path mode, distance modes and retract mode.
     fn set_modes(&mut self, b: &mut Block, line: u32) -> Res<()> {
         for group in [GGroup::Coordinate, GGroup::Path, GGroup::Return] {
-            if let Some(c) = b.g[group as usize] {
+            if let Some(c) = b.g(group) {
                 self.refuse_under_comp(Some(c.cols))?;
             }
         }
@@ -2420,9 +2436,7 @@ impl Interpreter {
     /// [`G65_ARGUMENT`]) and unset otherwise; M99 gives the caller its locals back.
     fn macro_call(&mut self, b: &mut Block, line: u32, src: &mut impl ProgramSource) -> Res<()> {
         let cols = b.g_cols(G65);
-        let others = (0..super::block::G_GROUPS)
-            .filter(|&g| g != GGroup::NonModal as usize)
-            .any(|g| b.g[g].is_some());
+        let others = b.has_g_besides(GGroup::NonModal);
         if others || !b.m.is_empty() {
             return Err((ErrorCode::NotSupported, cols));
         }

@@ -44,9 +44,29 @@ pub struct CycleMemory {
     pub back_bore: Option<[Nm; 3]>,
 }
 
-/// The modal state of the interpreter.
+/// The modal state of the interpreter: its [`Modes`] (read and written through `Deref`, so
+/// `state.feed` names `state.modes.feed`) and the offset tables.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ModalState {
+    /// Every field but the offset tables, in one struct so that a block's undo record
+    /// ([`Rollback::Modes`]) is one copy (field-by-field it cost ~165 Cortex-M4 instructions a
+    /// line, target-tests/src/bin/bench_motion.rs).
+    pub modes: Modes,
+    /// Work offsets G54..G59.3, machine nm.
+    pub work_offsets: [Pos; WORK_SYSTEMS],
+    /// G92 offset in force, and the saved value G92.3 restores.
+    pub g92: Pos,
+    pub g92_saved: Pos,
+    /// Tool length offset (G43 H / G43.1).
+    pub tool_offset: Pos,
+    pub g28: Pos,
+    pub g30: Pos,
+}
+
+/// Every field of [`ModalState`] but the offset tables (work offsets, G92 and its saved value,
+/// tool offset, G28/G30 positions).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Modes {
     pub motion: MotionMode,
     /// Motion mode before the current cycle (gixa G80 restores it).
     pub motion_before_cycle: MotionMode,
@@ -77,18 +97,24 @@ pub struct ModalState {
     pub tool_loaded: u32,
     /// Current machine position, nm.
     pub position: Pos,
-    /// Work offsets G54..G59.3, machine nm.
-    pub work_offsets: [Pos; WORK_SYSTEMS],
-    /// G92 offset in force, and the saved value G92.3 restores.
-    pub g92: Pos,
-    pub g92_saved: Pos,
-    /// Tool length offset (G43 H / G43.1).
-    pub tool_offset: Pos,
-    pub g28: Pos,
-    pub g30: Pos,
     pub cycle: CycleMemory,
     /// gixa: dwell stored by G04 P, microseconds.
     pub stored_dwell_us: u64,
+}
+
+impl core::ops::Deref for ModalState {
+    type Target = Modes;
+    #[inline(always)]
+    fn deref(&self) -> &Modes {
+        &self.modes
+    }
+}
+
+impl core::ops::DerefMut for ModalState {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut Modes {
+        &mut self.modes
+    }
 }
 
 /// What a failing block must give back (machine/src/gcode/interp.rs, `Interpreter::next`): the
@@ -110,7 +136,7 @@ impl Rollback {
         if tables {
             Rollback::Whole(*state)
         } else {
-            Rollback::Modes(Modes::of(state))
+            Rollback::Modes(state.modes)
         }
     }
 
@@ -118,61 +144,9 @@ impl Rollback {
     pub fn restore(&self, state: &mut ModalState) {
         match self {
             Rollback::Whole(saved) => *state = *saved,
-            Rollback::Modes(modes) => modes.restore(state),
+            Rollback::Modes(modes) => state.modes = *modes,
         }
     }
-}
-
-/// Declares [`Modes`] with the given fields of [`ModalState`] (each named once) and its copy in
-/// and out; the `tables` are the fields it leaves out. Every field of [`ModalState`] must be in
-/// one list or the other, or `Modes::of` does not compile.
-macro_rules! modes_of_modal_state {
-    ($(#[$attr:meta])* $($field:ident: $ty:ty,)* ; tables: $($table:ident),* $(,)?) => {
-        $(#[$attr])*
-        #[derive(Clone, Copy)]
-        pub struct Modes {
-            $($field: $ty,)*
-        }
-
-        impl Modes {
-            fn of(state: &ModalState) -> Self {
-                let &ModalState { $($field,)* $($table: _,)* } = state;
-                Modes { $($field,)* }
-            }
-
-            fn restore(&self, state: &mut ModalState) {
-                let Modes { $($field,)* } = *self;
-                *state = ModalState { $($field,)* ..*state };
-            }
-        }
-    };
-}
-
-modes_of_modal_state! {
-    /// Every field of [`ModalState`] but the offset tables (work offsets, G92 and its saved value,
-    /// tool offset, G28/G30 positions).
-    motion: MotionMode,
-    motion_before_cycle: MotionMode,
-    plane: Plane,
-    absolute: bool,
-    arc_absolute: bool,
-    inverse_time: bool,
-    inch: bool,
-    work_system: u8,
-    path: PathMode,
-    retract_to_r: bool,
-    feed: i64,
-    feed_raw: i64,
-    spindle: Spindle,
-    rpm: u32,
-    mist: bool,
-    flood: bool,
-    tool_selected: u32,
-    tool_loaded: u32,
-    position: Pos,
-    cycle: CycleMemory,
-    stored_dwell_us: u64,
-    ; tables: work_offsets, g92, g92_saved, tool_offset, g28, g30
 }
 
 impl ModalState {
@@ -180,33 +154,35 @@ impl ModalState {
     pub fn new(config: &InterpConfig) -> Self {
         let gixa = config.dialect == super::config::Dialect::Gixa;
         ModalState {
-            motion: MotionMode::Rapid,
-            motion_before_cycle: MotionMode::Rapid,
-            plane: if gixa { config.gixa.plane } else { Plane::XY },
-            absolute: if gixa { config.gixa.absolute } else { true },
-            arc_absolute: false,
-            inverse_time: false,
-            inch: config.start_inch,
-            work_system: 0,
-            path: PathMode::Blend { tolerance: 0 },
-            retract_to_r: config.default_retract == super::config::RetractMode::RPlane,
-            feed: if gixa { config.gixa.default_feed } else { 0 },
-            feed_raw: 0,
-            spindle: Spindle::Off,
-            rpm: 0,
-            mist: false,
-            flood: false,
-            tool_selected: 0,
-            tool_loaded: 0,
-            position: [0; MAX_AXES],
+            modes: Modes {
+                motion: MotionMode::Rapid,
+                motion_before_cycle: MotionMode::Rapid,
+                plane: if gixa { config.gixa.plane } else { Plane::XY },
+                absolute: if gixa { config.gixa.absolute } else { true },
+                arc_absolute: false,
+                inverse_time: false,
+                inch: config.start_inch,
+                work_system: 0,
+                path: PathMode::Blend { tolerance: 0 },
+                retract_to_r: config.default_retract == super::config::RetractMode::RPlane,
+                feed: if gixa { config.gixa.default_feed } else { 0 },
+                feed_raw: 0,
+                spindle: Spindle::Off,
+                rpm: 0,
+                mist: false,
+                flood: false,
+                tool_selected: 0,
+                tool_loaded: 0,
+                position: [0; MAX_AXES],
+                cycle: CycleMemory::default(),
+                stored_dwell_us: 0,
+            },
             work_offsets: config.work_offsets,
             g92: [0; MAX_AXES],
             g92_saved: [0; MAX_AXES],
             tool_offset: [0; MAX_AXES],
             g28: config.g28_position,
             g30: config.g30_position,
-            cycle: CycleMemory::default(),
-            stored_dwell_us: 0,
         }
     }
 

@@ -1,12 +1,16 @@
 //! Segment preparation (main context): cuts the head block into short constant-rate segments.
 //!
 //! Each segment covers a whole number of dominant-axis steps chosen to last about
-//! [`SEGMENT_COUNTS`] (2 ms). Step counts are *cumulative*: after dominant step `c` of `N`, axis
+//! [`SEGMENT_COUNTS`] (2 ms); the last one before the block's end (or a hold's stopping point)
+//! takes what remains when less than half a segment would be left, so it lasts up to ~3 ms
+//! ([`segment_steps`]). Step counts are *cumulative*: after dominant step `c` of `N`, axis
 //! `i` has made `round(steps_i · c / N)` steps, so a block always ends with exactly its step counts
 //! and a job with the rational conversion of its end point. The segment's duration comes from the
 //! closed-form [`Profile`] time at the segment's end, minus the time already emitted, so the
-//! rounding of tick periods never drifts. At low step rates the tick is over-driven 2×, 4× or 8×
-//! (AMASS) so the other axes place their steps more finely.
+//! rounding of tick periods never drifts; what a block's last segment leaves out is paid in the
+//! next block's first segment (`owed`), so it does not drift across blocks either. At low step
+//! rates the tick is over-driven 2×, 4× or 8× (AMASS) so the other axes place their steps more
+//! finely.
 //!
 //! A block's on-the-fly output event goes on the block's first segment only (a hold that stops
 //! and resumes inside the block does not repeat it).
@@ -96,6 +100,12 @@ pub struct Prep {
     profile: Profile,
     /// Counts emitted since the profile's origin.
     emitted: u64,
+    /// Profile time of the block before that its last segment's whole tick period left out
+    /// (under one tick period), paid in this block's first segment so block ends do not drift;
+    /// 0 after a stop, a sync point or a dwell, and from a re-profile inside a block.
+    owed: u64,
+    /// The same for the block just finished, until the next one starts.
+    owed_next: u64,
     /// Exit target and cruise speed the profile was built with.
     exit_sq: u64,
     nominal: u64,
@@ -130,6 +140,8 @@ impl Prep {
             output: OutputEvent::NONE,
             profile: Profile::ZERO,
             emitted: 0,
+            owed: 0,
+            owed_next: 0,
             exit_sq: 0,
             nominal: 0,
             revision: 0,
@@ -286,6 +298,7 @@ impl Prep {
             return BlockOut::Idle;
         };
         self.history = History::new();
+        self.owed_next = 0;
         match head.kind() {
             BlockKind::Sync => {
                 self.carry = 0;
@@ -351,6 +364,7 @@ impl Prep {
     /// Builds the head block's profile from path position `s` at speed `v`.
     fn reprofile<const N: usize>(&mut self, b: &Block, planner: &Planner<N>, s: u64, v: u64) {
         self.emitted = 0;
+        self.owed = 0;
         if self.state == PrepState::Holding {
             self.profile = Profile::hold(s, v, b.length, b.accel);
             self.holding = true;
@@ -369,7 +383,8 @@ impl Prep {
         } else {
             v
         };
-        self.profile = Profile::plan(s, v0, b.length, nominal, exit_sq, b.accel);
+        self.profile
+            .replan(s, v0, b.length, nominal, exit_sq, b.accel);
         self.exit_sq = exit_sq;
         self.nominal = nominal;
         self.revision = planner.revision();
@@ -418,13 +433,18 @@ impl Prep {
                 // At the end of the block before: the head block starts again from its start.
                 self.active = false;
                 self.carry = u64::from(at.speed);
+                self.owed_next = 0;
             }
         }
     }
 
-    /// Path position (nm) of dominant step `c` of the block.
+    /// Path position (nm) of dominant step `c` of the block (the block's end without dividing).
     fn s_of(b: &Block, c: u32) -> u64 {
-        mul_div(c as u64, b.length, b.events as u64)
+        if c == b.events {
+            b.length
+        } else {
+            mul_div(c as u64, b.length, b.events as u64)
+        }
     }
 
     /// Next segment of a line block, or `None` when the block finished or a hold stopped.
@@ -443,6 +463,11 @@ impl Prep {
             self.output = output;
             let v_in = if b.stop_before { 0 } else { self.carry };
             self.reprofile(b, planner, 0, v_in);
+            self.owed = if v_in == 0 {
+                0
+            } else {
+                core::mem::take(&mut self.owed_next)
+            };
             self.report = BlockReport {
                 line: b.line,
                 rapid: b.rapid,
@@ -495,21 +520,22 @@ impl Prep {
         let v = self.profile.speed_at(self.s_now);
         // v · SEGMENT_COUNTS / HZ, exactly: HZ is a whole multiple of SEGMENT_COUNTS.
         let nm = div_u64(v, SEGMENTS_PER_SECOND);
-        // `max(1).min(..)`, not `clamp`: the same here (done < end), without clamp's panic path
-        // and its u64 formatting in the firmware.
-        let n = mul_div(nm, b.events as u64, b.length)
-            .max(1)
-            .min((end - self.done) as u64) as u32;
+        let n = segment_steps(mul_div(nm, b.events as u64, b.length), end - self.done);
         let c = self.done + n;
         let s = Self::s_of(b, c);
         let (t, speed) = self.profile.time_speed_at(s);
-        let dt = t.saturating_sub(self.emitted).max(1);
+        let dt = (t + self.owed).saturating_sub(self.emitted).max(1);
         // AMASS level from the dominant step period dt / n, compared without dividing.
         let level = AMASS_PERIODS.iter().filter(|&&p| dt > p * n as u64).count() as u32;
         let ticks = n << level;
         let period = div_u64(dt, ticks as u64).max(1).min(u32::MAX as u64) as u32;
         let duration = ticks as u64 * period as u64;
         self.emitted += duration;
+        self.owed_next = if c == b.events {
+            (t + self.owed).saturating_sub(self.emitted)
+        } else {
+            0
+        };
         let mut steps = [0u32; MAX_AXES];
         let mut signed = [0i32; MAX_AXES];
         for i in 0..MAX_AXES {
@@ -552,12 +578,108 @@ impl Prep {
     }
 }
 
+/// Dominant steps of the next segment: `nominal` (about [`SEGMENT_COUNTS`] at the current speed,
+/// at least 1), or all `left` steps up to `end` (the block's end or a hold's stopping point) when
+/// fewer would remain than half a segment. So a segment lasts at most about 1.5× its nominal
+/// 2 ms, and a block is never split into a long segment and a tiny remainder (a 64-step line
+/// used to end with a 1-step segment of its own: a whole preparation and a kernel segment load
+/// for one step). The duration stays exact: it comes from the profile at the segment's end.
+fn segment_steps(nominal: u64, left: u32) -> u32 {
+    let nominal = nominal.max(1);
+    let left64 = u64::from(left);
+    // `left - nominal < nominal / 2`, without dividing; true whenever `nominal >= left`.
+    if left64.saturating_sub(nominal) * 2 < nominal {
+        left
+    } else {
+        // nominal < left here: it fits in u32.
+        nominal as u32
+    }
+}
+
 /// Steps axis `i` has made after dominant step `c` of block `b`: round(steps_i · c / N), cumulative,
 /// so the block ends exactly on its step counts.
 fn cum_at(b: &Block, i: usize, c: u32) -> u32 {
     match b.steps[i] {
         0 => 0,
         s if s == b.events => c,
+        s if c == b.events => s,
         s => div_u64(s as u64 * c as u64 + b.events as u64 / 2, b.events as u64) as u32,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use crate::canon::{Action, Canon};
+    use crate::motion::config::MotionConfig;
+    use crate::motion::pipeline::Motion;
+    use std::vec::Vec;
+
+    const MM: i64 = 1_000_000;
+
+    fn feed(line: u32, x: i64) -> Canon {
+        Canon {
+            line,
+            action: Action::Feed {
+                to: [x, 0, 0, 0, 0, 0],
+                feed: 3000 * MM,
+            },
+        }
+    }
+
+    #[test]
+    fn the_rule_takes_short_remainders_only() {
+        assert_eq!(segment_steps(64, 65), 65);
+        assert_eq!(segment_steps(64, 95), 95);
+        assert_eq!(segment_steps(64, 96), 64);
+        assert_eq!(segment_steps(64, 30), 30);
+        assert_eq!(segment_steps(0, 5), 1);
+        assert_eq!(segment_steps(1, 2), 1);
+        assert_eq!(segment_steps(3, 4), 4);
+    }
+
+    /// X 10 mm, then 0.1015 mm (65 steps at 640 steps/mm), then 10 mm more, all at F3000
+    /// (50 mm/s, the default highest rate): the middle block runs at 50 mm/s throughout, where a
+    /// segment's nominal 2 ms is 100 µm = mul_div(100_000, 65, 101_500) = 64 steps. Its one step
+    /// left over is not a segment of its own: the block is one 65-step segment lasting the
+    /// profile's 101.5 µm / 50 mm/s = 2.03 ms = 24,360 counts at 12 MHz, as 65 ticks of
+    /// 24,360 / 65 = 374 counts (the 50 counts of rounding are paid in the next block's first segment).
+    #[test]
+    fn a_one_step_remainder_stays_in_the_segment() {
+        let mut motion: Motion<16> = Motion::new(MotionConfig::default());
+        for c in [feed(1, 10 * MM), feed(2, 10_101_500), feed(3, 20_101_500)] {
+            motion.push(&c).unwrap();
+        }
+        let mut segments = Vec::new();
+        while let Some(s) = motion.next_segment() {
+            segments.push(s);
+        }
+        let mut x = 0;
+        let middle: Vec<&Segment> = segments
+            .iter()
+            .filter(|s| {
+                x += s.steps[0];
+                x > 6400 && x <= 6465
+            })
+            .collect();
+        assert_eq!(middle.len(), 1, "{middle:?}");
+        let s = middle[0];
+        assert_eq!(s.steps, [65, 0, 0, 0, 0, 0]);
+        assert_eq!((s.ticks, s.period), (65, 374));
+        let profile = Profile::plan(
+            0,
+            50 * MM as u64,
+            101_500,
+            50 * MM as u64,
+            u64::MAX,
+            200 * MM as u64,
+        );
+        assert_eq!(profile.duration(), 24_360);
+        assert_eq!(
+            u64::from(s.ticks) * u64::from(s.period),
+            profile.duration() - profile.duration() % 65
+        );
+        assert_eq!(x, 12_865, "every step of the job");
     }
 }

@@ -57,6 +57,14 @@ impl Profile {
     /// `exit_sq` at most. Exits are lowered when the block is too short to reach them and raised
     /// only when it is too short to shed `v0` (after an override cut).
     pub fn plan(s0: u64, v0: u64, length: u64, vc: u64, exit_sq: u64, accel: u64) -> Self {
+        let mut p = Profile::ZERO;
+        p.replan(s0, v0, length, vc, exit_sq, accel);
+        p
+    }
+
+    /// [`Self::plan`] in place: segment prep (`motion/prep.rs`) re-plans its profile at every
+    /// block start, and building it where it lives saves two 80-byte copies on the MCU.
+    pub fn replan(&mut self, s0: u64, v0: u64, length: u64, vc: u64, exit_sq: u64, accel: u64) {
         let two_a = accel.saturating_mul(2);
         let rem = length.saturating_sub(s0);
         let gain = sat_mul(two_a, rem);
@@ -64,7 +72,7 @@ impl Profile {
         let vxsq = exit_sq.min(vcsq);
         // √(vc²) is vc: the square root only when the exit limit is below the cruise speed.
         let vx = if exit_sq >= vcsq { vc } else { isqrt_u64(vxsq) };
-        let mut p = Profile {
+        *self = Profile {
             s0,
             v0,
             accel,
@@ -76,6 +84,7 @@ impl Profile {
             t1: 0,
             t2: 0,
         };
+        let p = self;
         let d1 = ramp_len(v0sq.max(vcsq), v0sq.min(vcsq), two_a);
         let d3 = ramp_len(vcsq, vxsq, two_a);
         if d1.saturating_add(d3) <= rem {
@@ -98,7 +107,7 @@ impl Profile {
             p.s1 = (s0 + ramp_len(peak_sq, v0sq, two_a)).min(length);
             p.s2 = p.s1;
         }
-        p.finish()
+        p.finish();
     }
 
     /// Feed-hold profile: decelerate from `(s0, v0)` at once; stops inside the block if it can.
@@ -112,7 +121,7 @@ impl Profile {
         } else {
             (length, isqrt_u64(v0sq - gain))
         };
-        Profile {
+        let mut p = Profile {
             s0,
             v0,
             accel,
@@ -123,11 +132,13 @@ impl Profile {
             v3,
             t1: 0,
             t2: 0,
-        }
-        .finish()
+        };
+        p.finish();
+        p
     }
 
-    fn finish(mut self) -> Self {
+    /// Fills in the times at the first ramp's end and at the cruise's end.
+    fn finish(&mut self) {
         self.t1 = self.ramp_time(self.v0, self.vm);
         self.t2 = self.t1
             + if self.s2 > self.s1 {
@@ -135,7 +146,6 @@ impl Profile {
             } else {
                 0
             };
-        self
     }
 
     fn ramp_time(&self, a: u64, b: u64) -> u64 {
@@ -178,8 +188,11 @@ impl Profile {
         if s <= self.s1 {
             let v = self.speed_at(s);
             (self.ramp_time(self.v0, v), v)
-        } else if s <= self.s2 {
+        } else if s < self.s2 {
             (self.t1 + mul_div(s - self.s1, HZ, self.vm.max(1)), self.vm)
+        } else if s == self.s2 {
+            // The cruise's end (s1 < s2 here): its time is `t2`, without dividing again.
+            (self.t2, self.vm)
         } else {
             let v = self.speed_at(s);
             (self.t2 + self.ramp_time(self.vm, v), v)

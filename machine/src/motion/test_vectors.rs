@@ -423,37 +423,37 @@ pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/planner-square",
         run: planner_square,
-        expected: 0xda02_f0f8,
+        expected: 0xc402_0d3e,
     },
     Vector {
         name: "motion/arcs-helix",
         run: arcs_and_helix,
-        expected: 0x0fa1_412c,
+        expected: 0xad98_cce4,
     },
     Vector {
         name: "motion/hold-resume-override",
         run: hold_resume_override,
-        expected: 0xfa8d_cf99,
+        expected: 0x62fd_771f,
     },
     Vector {
         name: "motion/odd-ratios-dwell-exact-stop",
         run: odd_ratios_dwell_exact_stop,
-        expected: 0xe73c_126b,
+        expected: 0xf82e_69d2,
     },
     Vector {
         name: "motion/onfly-outputs",
         run: onfly_outputs,
-        expected: 0x4bc5_904a,
+        expected: 0x56f6_e9de,
     },
     Vector {
         name: "motion/blend-chain",
         run: blend_chain,
-        expected: 0x26e4_c7d7,
+        expected: 0x5cf0_2482,
     },
     Vector {
         name: "motion/corner-round",
         run: corner_round,
-        expected: 0xde40_bcb1,
+        expected: 0x8287_09c2,
     },
 ];
 
