@@ -37,17 +37,18 @@ pub struct CpuModel {
 
 impl CpuModel {
     /// The Black Pill's STM32F411 at 96 MHz. `bench_motion` (re-measured 2026-11-25, round 2
-    /// session 4): 39 / 67 / 108 instructions per kernel tick for 1 / 3 / 6 axes (fitted as
+    /// session 5): 39 / 67 / 108 instructions per kernel tick for 1 / 3 / 6 axes (fitted as
     /// 23 + 14 per axis, plus the loop's own); a short G1 line streamed the board's way
-    /// (`G1 Y-6.789 F3000`, 0.1 mm, one segment): 4,500 to interpret
-    /// (`Interpreter::next` from a `StreamSource`: 2,472 lex + parse, 2,035 execute), 4,600 to
-    /// plan (`Motion::push`) and 3,080 to prepare its segment.
+    /// (`G1 Y-6.789 F3000`, 0.1 mm, one segment): 3,820 to interpret
+    /// (`Interpreter::next` from a `StreamSource`: 2,014 lex + parse, 1,803 execute), 3,420 to
+    /// plan (`Motion::push`) and 1,760 to prepare its segment (a short block is one segment: a
+    /// remainder of less than half a segment joins the one before, machine/src/motion/prep.rs).
     pub const F411: CpuModel = CpuModel {
         name: "f411",
         hz: 96_000_000,
-        line: 4_500,
-        block: 4_600,
-        segment: 3_080,
+        line: 3_820,
+        block: 3_420,
+        segment: 1_760,
         tick_base: 23,
         tick_axis: 14,
     };
@@ -184,15 +185,15 @@ mod tests {
             [m.tick(0b1), m.tick(0b111), m.tick(0b11_1111)],
             [37, 65, 107]
         );
-        // One short G1 line, planned and prepared as one segment: 4,500 + 4,600 + 3,080.
+        // One short G1 line, planned and prepared as one segment: 3,820 + 3,420 + 1,760.
         let line = PassWork {
             lines: 1,
             blocks: 1,
             segments: 1,
         };
-        assert_eq!(m.pass(&line), 12_180);
-        // ≈ 7,880 such lines per second at 100 % of the CPU.
-        assert_eq!(m.hz / m.pass(&line), 7_881);
+        assert_eq!(m.pass(&line), 9_000);
+        // ≈ 10,670 such lines per second at 100 % of the CPU.
+        assert_eq!(m.hz / m.pass(&line), 10_666);
         assert!(CpuModel::named("f446").is_none());
     }
 }

@@ -10,7 +10,7 @@ use super::codes::*;
 use super::comp::{Comp, Side};
 use core::ops::ControlFlow;
 
-use super::block::{parse_block_into, Block, BlockError, GGroup, MGroup};
+use super::block::{letter_mask, parse_block_into, Block, BlockError, GGroup, MGroup};
 use super::config::{ArcCenterMode, Dialect, DwellUnits, InterpConfig};
 use super::cycles::{CycleBody, CycleRun};
 use super::error::{ErrorCode, GcodeError};
@@ -45,6 +45,8 @@ const MAX_WORD: i64 = 999_999_999_999;
 const MAX_FEED_WORD: i64 = 99_999_999 * MICRO;
 
 const AXIS_LETTERS: [u8; MAX_AXES] = [b'X', b'Y', b'Z', b'A', b'B', b'C'];
+/// The axis words' mask ([`AXIS_LETTERS`] and the `@`/`^` polar words) for [`Block::has_any`].
+const AXIS_WORDS: u32 = letter_mask(&AXIS_LETTERS) | letter_mask(b"@^");
 
 /// What runs after the block's motion (and its canned cycle) is out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -1844,7 +1846,7 @@ impl Interpreter {
         match mode {
             MotionMode::Rapid => {
                 // As LinuxCNC, an explicit G0 without axis words is a zero-length move.
-                let has_axes = AXIS_LETTERS.iter().chain(b"@^").any(|&l| b.has(l));
+                let has_axes = b.has_any(AXIS_WORDS);
                 let mut to = self.state.position;
                 self.target(b, g53, &mut to)?;
                 if has_axes || explicit {
@@ -1853,7 +1855,7 @@ impl Interpreter {
                 self.state.position = to;
             }
             MotionMode::Linear => {
-                let has_axes = AXIS_LETTERS.iter().chain(b"@^").any(|&l| b.has(l));
+                let has_axes = b.has_any(AXIS_WORDS);
                 let mut to = self.state.position;
                 self.target(b, g53, &mut to)?;
                 if has_axes || explicit {
@@ -1894,7 +1896,7 @@ impl Interpreter {
                 }
             }
             MotionMode::Cycle(code) => {
-                if explicit && !AXIS_LETTERS.iter().chain(b"@^").any(|&l| b.has(l)) {
+                if explicit && !b.has_any(AXIS_WORDS) {
                     return Err((ErrorCode::MissingAxisWords, b.g_cols(code)));
                 }
                 self.refuse_under_comp(b.g_cols(code))?;

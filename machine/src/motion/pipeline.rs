@@ -522,6 +522,11 @@ impl<const N: usize> Motion<N> {
         let blocks = self.planner.len();
         let (cfg, steps, position) = (&self.cfg, &mut self.steps, &mut self.position);
         let queued = self.planner.push_line(cfg, &req, |i| {
+            if to[i] == position[i] {
+                // An axis the line does not move makes no step (and costs no conversion: a
+                // 64-bit division per axis on the Cortex-M4).
+                return (0, 0);
+            }
             let target = cfg.axes[i].nm_to_steps(to[i]);
             let moved = (target - steps[i], to[i] - position[i]);
             steps[i] = target;

@@ -93,6 +93,9 @@ pub struct Prep {
     /// Dominant steps done in the head block, and the path position (nm) they reach.
     done: u32,
     s_now: u64,
+    /// Speed at `s_now` under `profile` (`profile.speed_at(s_now)`, kept instead of recomputed:
+    /// a square root in the ramps), nm/s.
+    v_now: u64,
     /// Steps done per axis in the head block.
     cum: [u32; MAX_AXES],
     /// The head block's output event, until its first segment carries it.
@@ -136,6 +139,7 @@ impl Prep {
             active: false,
             done: 0,
             s_now: 0,
+            v_now: 0,
             cum: [0; MAX_AXES],
             output: OutputEvent::NONE,
             profile: Profile::ZERO,
@@ -205,7 +209,7 @@ impl Prep {
     /// Speed at the end of what is prepared, nm/s.
     pub fn speed(&self) -> u64 {
         if self.active {
-            self.profile.speed_at(self.s_now)
+            self.v_now
         } else {
             self.carry
         }
@@ -334,8 +338,7 @@ impl Prep {
                 } else if planner.exit_sq(0) != self.exit_sq
                     || planner.nominal(&head) != self.nominal
                 {
-                    let v = self.profile.speed_at(self.s_now);
-                    self.reprofile(&head, planner, self.s_now, v);
+                    self.reprofile(&head, planner, self.s_now, self.v_now);
                 }
                 let counts = self.profile.duration().saturating_sub(self.emitted);
                 for i in 0..MAX_AXES {
@@ -350,6 +353,7 @@ impl Prep {
                 self.done = head.events;
                 self.s_now = head.length;
                 self.carry = self.profile.speed_at(head.length);
+                self.v_now = self.carry;
                 self.report.counts += counts;
                 self.report.peak = self.report.peak.max(self.profile.peak());
                 self.report.exit = self.carry;
@@ -367,6 +371,7 @@ impl Prep {
         self.owed = 0;
         if self.state == PrepState::Holding {
             self.profile = Profile::hold(s, v, b.length, b.accel);
+            self.v_now = self.profile.v0;
             self.holding = true;
             return;
         }
@@ -385,6 +390,8 @@ impl Prep {
         };
         self.profile
             .replan(s, v0, b.length, nominal, exit_sq, b.accel);
+        // At its origin a profile's speed is `v0` (`Profile::speed_at`).
+        self.v_now = v0;
         self.exit_sq = exit_sq;
         self.nominal = nominal;
         self.revision = planner.revision();
@@ -491,8 +498,7 @@ impl Prep {
                 planner.exit_sq(0) != self.exit_sq || planner.nominal(b) != self.nominal
             };
             if stale {
-                let v = self.profile.speed_at(self.s_now);
-                self.reprofile(b, planner, self.s_now, v);
+                self.reprofile(b, planner, self.s_now, self.v_now);
             }
         }
         let end = if self.holding && self.profile.s3 < b.length {
@@ -506,7 +512,11 @@ impl Prep {
                 self.state = PrepState::Held;
                 return None;
             }
-            self.carry = self.profile.speed_at(b.length);
+            self.carry = if self.s_now == b.length {
+                self.v_now
+            } else {
+                self.profile.speed_at(b.length)
+            };
             self.report.exit = self.carry;
             self.finished = Some(self.report);
             self.active = false;
@@ -517,7 +527,7 @@ impl Prep {
             return None;
         }
         // Dominant steps for about one segment time at the current speed.
-        let v = self.profile.speed_at(self.s_now);
+        let v = self.v_now;
         // v · SEGMENT_COUNTS / HZ, exactly: HZ is a whole multiple of SEGMENT_COUNTS.
         let nm = div_u64(v, SEGMENTS_PER_SECOND);
         let n = segment_steps(mul_div(nm, b.events as u64, b.length), end - self.done);
@@ -555,6 +565,8 @@ impl Prep {
         }
         self.done = c;
         self.s_now = s;
+        // `time_speed_at`'s speed is `speed_at(s)`.
+        self.v_now = speed;
         self.report.counts += duration;
         self.report.peak = self.report.peak.max(speed);
         self.history.record(Handed {
