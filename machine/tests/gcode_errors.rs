@@ -162,6 +162,19 @@ const CASES: &[Case] = &[
         ErrorCode::AxisWordsWithoutMotion,
         Some((4, 6)),
     ),
+    // The first axis word in X Y Z A B C @ ^ order is blamed, wherever it is written.
+    (
+        "G80 B1 Y2 A3",
+        cfg_default,
+        ErrorCode::AxisWordsWithoutMotion,
+        Some((7, 9)),
+    ),
+    (
+        "G80 ^1 C2 B3",
+        cfg_default,
+        ErrorCode::AxisWordsWithoutMotion,
+        Some((10, 12)),
+    ),
     ("G0 X1 Q2", cfg_default, ErrorCode::UnusedWord, Some((6, 8))),
     (
         "G0 A1",

@@ -205,6 +205,20 @@ impl Block {
         self.words.get(self.index[at] as usize).copied()
     }
 
+    /// The word of the first letter of `mask` ([`letter_mask`]) the block has, in the order of
+    /// the letters' slots (`A`..`Z`, `@`, `^`).
+    pub fn first_word(&self, mask: u32) -> Option<Word> {
+        let bits = self.present & mask;
+        if bits == 0 {
+            return None;
+        }
+        let at = bits.trailing_zeros() as usize;
+        self.index
+            .get(at)
+            .and_then(|&i| self.words.get(usize::from(i)))
+            .copied()
+    }
+
     /// True if the block has the word with letter `l`.
     #[inline(always)]
     pub fn has(&self, l: u8) -> bool {

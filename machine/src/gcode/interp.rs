@@ -47,6 +47,10 @@ const MAX_FEED_WORD: i64 = 99_999_999 * MICRO;
 const AXIS_LETTERS: [u8; MAX_AXES] = [b'X', b'Y', b'Z', b'A', b'B', b'C'];
 /// The axis words' mask ([`AXIS_LETTERS`] and the `@`/`^` polar words) for [`Block::has_any`].
 const AXIS_WORDS: u32 = letter_mask(&AXIS_LETTERS) | letter_mask(b"@^");
+/// [`AXIS_WORDS`] in three groups whose letters' slots are in the order X Y Z A B C @ ^, so the
+/// first word of the first group the block has is the block's first axis word in that order.
+const AXIS_WORDS_IN_ORDER: [u32; 3] =
+    [letter_mask(b"XYZ"), letter_mask(b"ABC"), letter_mask(b"@^")];
 
 /// What runs after the block's motion (and its canned cycle) is out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -1293,11 +1297,9 @@ impl Interpreter {
             None
         };
         let motion_g = b.g(GGroup::Motion);
-        let first_axis = AXIS_LETTERS
+        let first_axis = AXIS_WORDS_IN_ORDER
             .iter()
-            .chain(b"@^")
-            .find(|&&l| b.has(l))
-            .and_then(|&l| b.word(l));
+            .find_map(|&mask| b.first_word(mask));
         let nonmodal_axes = matches!(nonmodal, Some(G10 | G28 | G30 | G52 | G92))
             || b.g_of(GGroup::ToolLength) == Some(G43_1);
         if nonmodal_axes {

@@ -106,7 +106,7 @@ impl<'a> Lexer<'a> {
 
     #[inline(always)]
     fn skip_blanks(&mut self) {
-        while self.pos < self.line.len() && matches!(self.line[self.pos], b' ' | b'\t' | b'\r') {
+        while self.pos < self.line.len() && blank(self.line[self.pos]) {
             self.pos += 1;
         }
     }
@@ -189,7 +189,6 @@ impl<'a> Lexer<'a> {
     /// single loop that asks at every digit which side of the point it is on).
     fn number(&mut self, word_start: usize) -> Result<Word, LexError> {
         let line = self.line;
-        let blank = |c: u8| matches!(c, b' ' | b'\t' | b'\r');
         let mut pos = self.pos;
         while pos < line.len() && blank(line[pos]) {
             pos += 1;
@@ -204,25 +203,17 @@ impl<'a> Lexer<'a> {
         let mut significant: u32 = 0;
         let mut end = pos;
         // Integer digits (a blank between them is skipped; `end` stays after the last digit).
-        while let Some(&c) = line.get(pos) {
-            let d = c.wrapping_sub(b'0');
-            if d <= 9 {
-                int_digits += 1;
-                if significant > 0 || d != 0 {
-                    significant += 1;
-                    if significant > MAX_INTEGER_DIGITS {
-                        self.pos = pos;
-                        return Err((ErrorCode::NumberOutOfRange, (col(word_start), col(pos + 1))));
-                    }
+        while let Some(d) = next_digit(line, &mut pos) {
+            int_digits += 1;
+            if significant > 0 || d != 0 {
+                significant += 1;
+                if significant > MAX_INTEGER_DIGITS {
+                    self.pos = pos - 1;
+                    return Err((ErrorCode::NumberOutOfRange, (col(word_start), col(pos))));
                 }
-                int_part = int_part * 10 + d as u32;
-                pos += 1;
-                end = pos;
-            } else if blank(c) {
-                pos += 1;
-            } else {
-                break;
             }
+            int_part = int_part * 10 + d;
+            end = pos;
         }
         let mut frac: u32 = 0;
         let mut frac_digits: usize = 0;
@@ -233,27 +224,18 @@ impl<'a> Lexer<'a> {
             pos += 1;
             end = pos;
             // Decimals: six into `frac`, the 7th to 9th into `extra`, any further ones dropped.
-            while let Some(&c) = line.get(pos) {
-                let d = c.wrapping_sub(b'0');
-                if d <= 9 {
-                    let d = d as u32;
-                    if frac_digits < 6 {
-                        frac = frac * 10 + d;
-                        frac_digits += 1;
-                    } else if frac_digits < 9 {
-                        if frac_digits == 6 {
-                            round_up = d >= 5;
-                        }
-                        extra = extra * 10 + d;
-                        frac_digits += 1;
+            while let Some(d) = next_digit(line, &mut pos) {
+                if frac_digits < 6 {
+                    frac = frac * 10 + d;
+                    frac_digits += 1;
+                } else if frac_digits < 9 {
+                    if frac_digits == 6 {
+                        round_up = d >= 5;
                     }
-                    pos += 1;
-                    end = pos;
-                } else if blank(c) {
-                    pos += 1;
-                } else {
-                    break;
+                    extra = extra * 10 + d;
+                    frac_digits += 1;
                 }
+                end = pos;
             }
         }
         let any_digit = int_digits > 0 || frac_digits > 0;
@@ -302,6 +284,30 @@ impl<'a> Lexer<'a> {
             cols: (0, 0),
         })
     }
+}
+
+/// A blank inside a line (space, tab, a stray carriage return): skipped between and inside words.
+#[inline(always)]
+fn blank(c: u8) -> bool {
+    matches!(c, b' ' | b'\t' | b'\r')
+}
+
+/// The digit at `pos` or after the blanks there (`pos` moves past it), or `None` at anything
+/// else (`pos` stops on it, after the blanks). Numbers may have blanks between their digits.
+#[inline(always)]
+fn next_digit(line: &[u8], pos: &mut usize) -> Option<u32> {
+    while let Some(&c) = line.get(*pos) {
+        let d = c.wrapping_sub(b'0');
+        if d <= 9 {
+            *pos += 1;
+            return Some(u32::from(d));
+        }
+        if !blank(c) {
+            return None;
+        }
+        *pos += 1;
+    }
+    None
 }
 
 fn trim(line: &[u8]) -> &[u8] {
