@@ -45,6 +45,19 @@ const MAX_WORD: i64 = 999_999_999_999;
 const MAX_FEED_WORD: i64 = 99_999_999 * MICRO;
 
 const AXIS_LETTERS: [u8; MAX_AXES] = [b'X', b'Y', b'Z', b'A', b'B', b'C'];
+/// Per axis `i`: the mask of the axis letters from `AXIS_LETTERS[i]` on, so a loop over the axes
+/// stops after the block's last axis word (`target`: the usual XY line skips Z, A, B and C).
+const AXIS_LETTERS_FROM: [u32; MAX_AXES] = {
+    let mut masks = [0; MAX_AXES];
+    let mut i = MAX_AXES;
+    let mut mask = 0;
+    while i > 0 {
+        i -= 1;
+        mask |= letter_mask(&[AXIS_LETTERS[i]]);
+        masks[i] = mask;
+    }
+    masks
+};
 /// The axis words' mask ([`AXIS_LETTERS`] and the `@`/`^` polar words) for [`Block::has_any`].
 const AXIS_WORDS: u32 = letter_mask(&AXIS_LETTERS) | letter_mask(b"@^");
 /// [`AXIS_WORDS`] in three groups whose letters' slots are in the order X Y Z A B C @ ^, so the
@@ -1164,6 +1177,9 @@ impl Interpreter {
             to[1] = y + self.state.axis_offset(1);
         }
         for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
+            if !b.has_any(AXIS_LETTERS_FROM[i]) {
+                break;
+            }
             if !b.has(letter) {
                 continue;
             }
