@@ -794,7 +794,7 @@ pub fn junction_limit_sq(
     // sin(θ/2) = √((1 + û_prev·û_cur) / 2), θ the angle between −û_prev and û_cur (grbl).
     let unit_sq = (UNIT as i128) * (UNIT as i128);
     let half = ((unit_sq + dot as i128).max(0) / 2) as u64;
-    let sin_half = isqrt_u64(half).min(UNIT as u64);
+    let sin_half = sin_half_of(half).min(UNIT as u64);
     let mut limit = u64::MAX;
     if sin_half < UNIT as u64 {
         // Acceleration along the junction direction, every axis within its own limit.
@@ -823,6 +823,35 @@ pub fn junction_limit_sq(
     limit
 }
 
+/// ⌊√half⌋ for [`junction_limit_sq`], exactly [`isqrt_u64`]`(half)`, mostly without its division:
+/// with `half = UNIT² − e` near `UNIT²` (a gentle corner), `√half ≈ UNIT − t − t²/2·UNIT` for
+/// `t = e/2·UNIT` (the first two terms of √(1 − z), every further one negative, so the guess is
+/// at or just above the root). It is stepped to the floor root by exact squares; a guess more than
+/// a few steps off (a sharper corner) falls back to the full root.
+fn sin_half_of(half: u64) -> u64 {
+    const STEPS: u32 = 4;
+    let unit = UNIT as u64;
+    // t ≤ 2²⁹, so t² fits 64 bits; x ≤ 2³⁰, so x² and (x + 1)² do too.
+    let t = (unit * unit).saturating_sub(half) >> 31;
+    let mut x = unit - t - ((t * t) >> 31);
+    let mut steps = 0;
+    while x * x > half {
+        x -= 1;
+        steps += 1;
+        if steps > STEPS {
+            return isqrt_u64(half);
+        }
+    }
+    while (x + 1) * (x + 1) <= half {
+        x += 1;
+        steps += 1;
+        if steps > STEPS {
+            return isqrt_u64(half);
+        }
+    }
+    x
+}
+
 #[cfg(test)]
 mod tests {
     extern crate std;
@@ -830,6 +859,34 @@ mod tests {
     use crate::units::NM_PER_MM;
     use std::vec;
     use std::vec::Vec;
+
+    #[test]
+    fn sin_half_of_is_the_floor_root_for_any_guess() {
+        let mut r = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = || {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            r
+        };
+        let unit_sq = (UNIT as u64) * (UNIT as u64);
+        for _ in 0..200_000 {
+            // Near UNIT² (gentle corners, the fast path) and anywhere (the fallback).
+            let near = unit_sq - (next() >> (4 + next() % 60));
+            let above = unit_sq + (next() >> (4 + next() % 60));
+            for half in [
+                near,
+                above,
+                next() >> 3,
+                next() % 1000,
+                0,
+                unit_sq,
+                unit_sq - 1,
+            ] {
+                assert_eq!(sin_half_of(half), isqrt_u64(half), "half {half}");
+            }
+        }
+    }
 
     /// A test line: the request and its displacement per axis (steps, nm).
     struct TestLine {
