@@ -39,15 +39,15 @@ impl CpuModel {
     /// The Black Pill's STM32F411 at 96 MHz. `bench_motion` (re-measured 2026-11-25, round 2
     /// session 5): 39 / 67 / 108 instructions per kernel tick for 1 / 3 / 6 axes (fitted as
     /// 23 + 14 per axis, plus the loop's own); a short G1 line streamed the board's way
-    /// (`G1 Y-6.789 F3000`, 0.1 mm, one segment): 3,820 to interpret
-    /// (`Interpreter::next` from a `StreamSource`: 2,014 lex + parse, 1,803 execute), 3,420 to
+    /// (`G1 Y-6.789 F3000`, 0.1 mm, one segment): 3,740 to interpret
+    /// (`Interpreter::next` from a `StreamSource`: 2,028 lex + parse, 1,714 execute), 3,300 to
     /// plan (`Motion::push`) and 1,760 to prepare its segment (a short block is one segment: a
     /// remainder of less than half a segment joins the one before, machine/src/motion/prep.rs).
     pub const F411: CpuModel = CpuModel {
         name: "f411",
         hz: 96_000_000,
-        line: 3_820,
-        block: 3_420,
+        line: 3_740,
+        block: 3_300,
         segment: 1_760,
         tick_base: 23,
         tick_axis: 14,
@@ -185,15 +185,15 @@ mod tests {
             [m.tick(0b1), m.tick(0b111), m.tick(0b11_1111)],
             [37, 65, 107]
         );
-        // One short G1 line, planned and prepared as one segment: 3,820 + 3,420 + 1,760.
+        // One short G1 line, planned and prepared as one segment: 3,740 + 3,300 + 1,760.
         let line = PassWork {
             lines: 1,
             blocks: 1,
             segments: 1,
         };
-        assert_eq!(m.pass(&line), 9_000);
-        // ≈ 10,670 such lines per second at 100 % of the CPU.
-        assert_eq!(m.hz / m.pass(&line), 10_666);
+        assert_eq!(m.pass(&line), 8_800);
+        // ≈ 10,900 such lines per second at 100 % of the CPU.
+        assert_eq!(m.hz / m.pass(&line), 10_909);
         assert!(CpuModel::named("f446").is_none());
     }
 }
