@@ -170,6 +170,12 @@ impl Block {
             0
         }
     }
+
+    /// Its key in the open contour's candidate queue: C + P (`max_entry_sq` + `prefix`).
+    #[inline(always)]
+    fn candidate_key(&self) -> u128 {
+        self.max_entry_sq as u128 + self.prefix
+    }
 }
 
 /// A line to plan, in machine terms (its displacement per axis comes from the function given to
@@ -388,7 +394,7 @@ impl<const N: usize> Planner<N> {
             } else {
                 self.at(s.wrapping_sub(head_seq) as usize)
             };
-            min = min.min(c.max_entry_sq as u128 + c.prefix);
+            min = min.min(c.candidate_key());
         }
         (min - b.prefix).min(u64::MAX as u128) as u64
     }
@@ -405,7 +411,7 @@ impl<const N: usize> Planner<N> {
         let head_seq = self.ring.front().map_or(0, |h| h.seq);
         while self.hull.back().is_some_and(|&s| {
             let c = self.at(s.wrapping_sub(head_seq) as usize);
-            c.max_entry_sq as u128 + c.prefix >= key
+            c.candidate_key() >= key
         }) {
             self.hull.pop_back();
         }
@@ -856,19 +862,15 @@ fn sin_half_of(half: u64) -> u64 {
 mod tests {
     extern crate std;
     use super::*;
+    use crate::motion::trig::XorShift;
     use crate::units::NM_PER_MM;
     use std::vec;
     use std::vec::Vec;
 
     #[test]
     fn sin_half_of_is_the_floor_root_for_any_guess() {
-        let mut r = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = || {
-            r ^= r << 13;
-            r ^= r >> 7;
-            r ^= r << 17;
-            r
-        };
+        let mut rng = XorShift(0x2545_F491_4F6C_DD1D);
+        let mut next = || rng.next();
         let unit_sq = (UNIT as u64) * (UNIT as u64);
         for _ in 0..200_000 {
             // Near UNIT² (gentle corners, the fast path) and anywhere (the fallback).
@@ -978,11 +980,9 @@ mod tests {
             u64::MAX / 3,
             u64::MAX,
         ];
-        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut rng = XorShift(0x9E37_79B9_7F4A_7C15);
         let mut pick = |n: usize| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
+            let seed = rng.next();
             values[(seed % n as u64) as usize].saturating_add((seed >> 60) * ((seed >> 59) & 1))
         };
         for case in 0..200_000 {

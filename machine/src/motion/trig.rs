@@ -288,7 +288,7 @@ pub fn mul_div(a: u64, b: u64, c: u64) -> u64 {
 
 /// ⌈a × b / c⌉ without overflow; saturates at `u64::MAX`.
 pub fn mul_div_ceil(a: u64, b: u64, c: u64) -> u64 {
-    match a.checked_mul(b) {
+    match checked_mul_u64(a, b) {
         Some(p) => div_u64(p.saturating_add(c - 1), c),
         None => {
             let (q, r) = divrem_u128(a as u128 * b as u128, c as u128);
@@ -475,16 +475,30 @@ pub fn polar(r: i64, theta: i64) -> (i64, i64) {
     (cx, sy)
 }
 
+/// Xorshift64 random numbers for the core's exhaustive-comparison tests (each test its own seed).
+#[cfg(test)]
+pub(crate) struct XorShift(pub u64);
+
+#[cfg(test)]
+impl XorShift {
+    pub fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    use super::XorShift;
+
     #[test]
     fn div_floor_i64_is_div_euclid() {
         use super::div_floor_i64;
-        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        let mut rng = XorShift(0x2545_F491_4F6C_DD1D);
         for i in 0..200_000u32 {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
+            let x = rng.next();
             let n = (x as i64) >> (i % 64);
             let d = ((x.rotate_left(17) >> (i % 63 + 1)) as i64).max(2);
             for (n, d) in [(n, d), (n, 3), (-n, 2 * 781_250), (n.saturating_sub(1), d)] {
@@ -509,11 +523,9 @@ mod tests {
             let x = isqrt_u64(v) as u128;
             x * x <= v as u128 && (x + 1) * (x + 1) > v as u128
         };
-        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut rng = XorShift(0x9E37_79B9_7F4A_7C15);
         for i in 0..200_000u64 {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
+            let x = rng.next();
             // Every magnitude, squares and their neighbours.
             let v = x >> (i % 64);
             let r = (v >> 32).max(1);
@@ -606,13 +618,8 @@ mod tests {
 
     #[test]
     fn fast_division_matches_native() {
-        let mut seed = 0x1234_5678_9abc_def0u64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = XorShift(0x1234_5678_9abc_def0);
+        let mut next = || rng.next();
         for i in 0..200_000 {
             let n = next() >> (i % 64);
             let d = (next() >> (32 + i % 32)).max(1);
@@ -632,12 +639,9 @@ mod tests {
 
     #[test]
     fn square_roots_of_random_values() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rng = XorShift(0x9e37_79b9_7f4a_7c15);
         for i in 0..100_000 {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            let v = seed >> (i % 64);
+            let v = rng.next() >> (i % 64);
             let r = isqrt_u64(v) as u128;
             assert!(
                 r * r <= v as u128 && (r + 1) * (r + 1) > v as u128,
