@@ -40,7 +40,7 @@ impl CpuModel {
     /// session 5): 39 / 67 / 108 instructions per kernel tick for 1 / 3 / 6 axes (fitted as
     /// 23 + 14 per axis, plus the loop's own); a short G1 line streamed the board's way
     /// (`G1 Y-6.789 F3000`, 0.1 mm, one segment): 3,740 to interpret
-    /// (`Interpreter::next` from a `StreamSource`: 2,028 lex + parse, 1,714 execute), 3,300 to
+    /// (`Interpreter::next` from a `StreamSource`: 2,026 lex + parse, 1,716 execute), 3,300 to
     /// plan (`Motion::push`) and 1,760 to prepare its segment (a short block is one segment: a
     /// remainder of less than half a segment joins the one before, machine/src/motion/prep.rs).
     pub const F411: CpuModel = CpuModel {

@@ -390,22 +390,14 @@ impl<const N: usize> Motion<N> {
         }
         let (tolerance, axes) = (self.blend_tolerance, self.cfg.axis_count as usize);
         let mergeable = tolerance > 0 && !self.exact_stop && self.pending_output.is_none();
-        if self.chain.is_none() && !mergeable {
-            self.flush_blend();
-            if self.planner.is_full() {
-                return Err(PushError::Full);
-            }
-            self.queue_line(line, to, Some(speed));
-            return Ok(());
-        }
-        let to = self.masked(to);
-        if let Some(chain) = self.chain.as_mut() {
-            if mergeable && chain.extend(&to, line, speed, tolerance, axes) {
-                return Ok(());
-            }
-            self.end_chain();
-        }
         if mergeable {
+            let to = self.masked(to);
+            if let Some(chain) = self.chain.as_mut() {
+                if chain.extend(&to, line, speed, tolerance, axes) {
+                    return Ok(());
+                }
+                self.end_chain();
+            }
             let start = self.blend_end();
             match Chain::new(&start, &to, line, speed, axes) {
                 Some(chain) => self.chain = Some(chain),
@@ -413,11 +405,15 @@ impl<const N: usize> Motion<N> {
             }
             return Ok(());
         }
+        // Not merged: a held-back chain ends, then the move is queued after it.
+        if self.chain.is_some() {
+            self.end_chain();
+        }
         self.flush_blend();
         if self.planner.is_full() {
             return Err(PushError::Full);
         }
-        self.queue_line(line, &to, Some(speed));
+        self.queue_line(line, to, Some(speed));
         Ok(())
     }
 
