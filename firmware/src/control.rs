@@ -15,7 +15,7 @@ use core::sync::atomic::Ordering;
 use embassy_stm32::gpio::Level;
 use embassy_time::{Duration, Instant, Ticker};
 use gantry_machine::board::link::BoardLink;
-use gantry_machine::board::main_loop::{BoardPort, KernelSnapshot, MainLoop};
+use gantry_machine::board::main_loop::{BoardPort, HostPort, KernelSnapshot, MainLoop};
 use gantry_machine::board::Board;
 use gantry_machine::controller::inputs::InputBits;
 use gantry_machine::controller::{AdcReadings, OutputLevels};
@@ -150,8 +150,13 @@ impl BoardPort for Port {
         let _ = self.io.tx.try_write(frame);
     }
 
-    fn host_connected(&mut self) -> bool {
-        DTR.load(Ordering::Relaxed)
+    fn host_port(&mut self) -> HostPort {
+        // A USB host that closes the port without dropping DTR is not visible here.
+        if DTR.load(Ordering::Relaxed) {
+            HostPort::Open
+        } else {
+            HostPort::Closed
+        }
     }
 
     /// Stalls the CPU for up to ~2 s when a sector is erased (single-bank flash): the core calls
@@ -180,7 +185,7 @@ impl BoardPort for Port {
     }
 
     fn host_closed(&mut self) {
-        defmt::info!("host closed the port: feed hold");
+        defmt::info!("host closed the port: host-loss policy");
     }
 }
 

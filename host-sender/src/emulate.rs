@@ -6,8 +6,11 @@
 //!
 //! The host closing the port is seen on the master side as a hang-up. A real USB port drops DTR
 //! on close unless the host cleared HUPCL (`crate::link::OnClose`); the pty's termios carries
-//! that flag, so the emulator passes a DTR drop to the board only when HUPCL was set, exactly
-//! as the firmware sees it (`firmware/src/control.rs`).
+//! that flag, so the emulator passes a DTR drop to the board when HUPCL was set, as the firmware
+//! sees it (`firmware/src/control.rs`), and a close that kept DTR up otherwise
+//! (`HostPort::ClosedDtrKept` in machine/src/board/main_loop.rs): a grbl sender that closes
+//! without HUPCL (pyserial, bCNC) or is killed is gone all the same, and the next client chooses
+//! its protocol again.
 
 use crate::emulator::{EmulatedBoard, ProbeTarget};
 use crate::setup_file::{to_toml, SetupFile};
@@ -264,10 +267,11 @@ pub(crate) fn serve(
                 eprintln!("emulate: host opened the port");
                 board.set_dtr(true);
             } else if host.close_drops_dtr() {
-                eprintln!("emulate: host closed the port (DTR drop: a running job holds)");
+                eprintln!("emulate: host closed the port (DTR drop: the host is lost)");
                 board.set_dtr(false);
             } else {
                 eprintln!("emulate: host closed the port (DTR kept)");
+                board.close_keeping_dtr();
             }
         }
         if polled.read > 0 {

@@ -29,7 +29,9 @@
 
 use crate::cpu_model::{CpuMeter, CpuModel};
 use gantry_machine::board::link::{BoardLink, KernelView};
-use gantry_machine::board::main_loop::{BoardPort, KernelSnapshot, MainLoop, SEGMENT_QUEUE_DEPTH};
+use gantry_machine::board::main_loop::{
+    BoardPort, HostPort, KernelSnapshot, MainLoop, SEGMENT_QUEUE_DEPTH,
+};
 use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
 use gantry_machine::controller::inputs::{limit_bit, InputBits, Signal};
 use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
@@ -266,8 +268,8 @@ pub struct Hardware {
     outbox: Vec<u8>,
     /// Bytes from the host the main loop has not read yet.
     inbox: Vec<u8>,
-    /// A host holds the port open (the USB CDC DTR line; see [`EmulatedBoard::set_dtr`]).
-    dtr: bool,
+    /// The host's hold on the port (the USB CDC DTR line; see [`EmulatedBoard::set_dtr`]).
+    host_port: HostPort,
     /// Setups written to the emulated flash so far.
     pub setups_saved: u32,
     on_save: Option<SetupSaved>,
@@ -394,7 +396,7 @@ impl EmulatedBoard {
             underruns: 0,
             outbox: Vec::new(),
             inbox: Vec::new(),
-            dtr: true,
+            host_port: HostPort::Open,
             setups_saved: 0,
             on_save: None,
             motion_marker: MARKER_IDLE,
@@ -581,6 +583,11 @@ impl EmulatedBoard {
     /// See [`Hardware::set_dtr`].
     pub fn set_dtr(&mut self, connected: bool) {
         self.hw.set_dtr(connected);
+    }
+
+    /// See [`Hardware::close_keeping_dtr`].
+    pub fn close_keeping_dtr(&mut self) {
+        self.hw.close_keeping_dtr();
     }
 
     /// See [`Hardware::kernel_drained`].
@@ -825,7 +832,17 @@ impl Hardware {
     /// A host holds the port open (`true`, the USB CDC DTR line raised) or has closed it. The
     /// board starts with a host attached; a drop during a job holds it (as the firmware does).
     pub fn set_dtr(&mut self, connected: bool) {
-        self.dtr = connected;
+        self.host_port = if connected {
+            HostPort::Open
+        } else {
+            HostPort::Closed
+        };
+    }
+
+    /// The host closed the port and left DTR up (it cleared HUPCL): a pty shows this close, a
+    /// USB port would not ([`HostPort::ClosedDtrKept`]).
+    pub fn close_keeping_dtr(&mut self) {
+        self.host_port = HostPort::ClosedDtrKept;
     }
 
     /// Calls `f` with every setup the board writes to its flash (a setup from the host, once the
@@ -1079,8 +1096,8 @@ impl BoardPort for Hardware {
         self.outbox.extend_from_slice(frame);
     }
 
-    fn host_connected(&mut self) -> bool {
-        self.dtr
+    fn host_port(&mut self) -> HostPort {
+        self.host_port
     }
 
     fn save_setup(&mut self, setup: &Setup) {

@@ -272,7 +272,7 @@ fn a_job_held_by_host_loss_ends_with_alarm_20_after_host_lost_stop_s() {
     let (mut eb, gone) = host_vanishes(|_| {}, LONG_FEED, 4);
     assert_eq!(eb.board.setup().link.host_lost_stop_s, 60);
     // More than HOST_TIMEOUT_MS (1 s) of silence: the link holds the job on its path (spindle
-    // and coolant stay on).
+    // and coolant run while it decelerates, then go off at rest: docs/controller.md "Host lost").
     assert!(eb.run_until(5_000, |b| b.board.state() == State::Hold));
     let held = eb.now_ms() - 1;
     assert_eq!(held - gone, 1_001);
@@ -284,7 +284,7 @@ fn a_job_held_by_host_loss_ends_with_alarm_20_after_host_lost_stop_s() {
     // Until the 60 s are up nothing changes.
     assert!(eb.run_until(70_000, |b| b.now_ms() == held + 60_000));
     assert_eq!(eb.board.state(), State::Hold);
-    assert!(eb.board.output_levels().spindle_enable && eb.board.output_levels().flood);
+    assert!(!eb.board.output_levels().spindle_enable && !eb.board.output_levels().flood);
     assert!(events(&mut eb).is_empty());
     // Then the job ends (the main-loop pass at 60 000 ms drops it, the next one finds it at
     // rest): spindle and coolant off, alarm 20 at the held line, position kept.
@@ -340,7 +340,8 @@ fn with_host_lost_stop_s_0_a_held_job_waits_for_the_host_forever() {
     eb.run_ms(600_000);
     assert_eq!(eb.board.state(), State::Hold);
     assert_eq!(eb.board.alarm(), None);
-    assert!(eb.board.output_levels().spindle_enable);
+    // At rest with the host gone: spindle and coolant off while it waits.
+    assert!(!eb.board.output_levels().spindle_enable && !eb.board.output_levels().flood);
 }
 
 #[test]

@@ -145,6 +145,67 @@ fn the_host_closing_the_port_holds_a_running_job() {
     assert_eq!(eb.board.state(), State::Idle);
 }
 
+/// Issue 24 (safety): losing the host holds the job on its path with spindle and coolant
+/// running while the tool decelerates along the cut, switches them off once at rest, and a host
+/// that resumes the job gets them back before the motion goes on.
+#[test]
+fn a_lost_host_holds_then_switches_spindle_and_coolant_off_at_rest_and_resume_restores_them() {
+    let mut eb = board(|_| {});
+    job(&mut eb, "G21 G90\nM3 S1000 M8\nG1 X100 F3000\nM30\n");
+    eb.run_ms(1000);
+    assert_eq!(eb.board.state(), State::Run);
+    let on = |eb: &EmulatedBoard| {
+        let o = eb.board.outputs();
+        (o.spindle != gantry_machine::canon::Spindle::Off, o.flood)
+    };
+    assert_eq!(on(&eb), (true, true));
+    eb.set_dtr(false);
+    eb.run_ms(1);
+    assert_eq!(eb.board.state(), State::Hold);
+    // Decelerating along the cut: the spindle and coolant keep running.
+    let mut moved_with_outputs_off = 0;
+    let mut last = eb.kernel.position();
+    for _ in 0..1000 {
+        eb.run_ms(1);
+        let p = eb.kernel.position();
+        if p != last && on(&eb) != (true, true) {
+            moved_with_outputs_off += 1;
+        }
+        last = p;
+        if eb.board.motion().state() == MotionState::Held && eb.kernel_drained() {
+            break;
+        }
+    }
+    assert_eq!(moved_with_outputs_off, 0);
+    eb.run_ms(2);
+    assert_eq!(on(&eb), (false, false), "at rest: spindle and coolant off");
+    let at = eb.kernel.position();
+    // The host comes back and resumes: outputs first, then the rest of the cut.
+    eb.set_dtr(true);
+    eb.run_ms(50);
+    assert_eq!(eb.kernel.position(), at);
+    eb.board.resume();
+    eb.run_ms(1);
+    assert_eq!(on(&eb), (true, true), "restored on resume");
+    until_state(&mut eb, State::Idle, 10_000);
+    assert_eq!(eb.kernel.position()[0], 100 * STEPS_PER_MM);
+}
+
+/// A `gantry` one-shot command closes the port with DTR kept up: a job owned by another sender
+/// runs on, outputs untouched.
+#[test]
+fn a_close_that_keeps_dtr_leaves_a_framed_job_running() {
+    let mut eb = board(|_| {});
+    job(&mut eb, "G21 G90\nM3 S1000 M8\nG1 X100 F3000\nM30\n");
+    eb.run_ms(500);
+    eb.close_keeping_dtr();
+    eb.run_ms(200);
+    assert_eq!(eb.board.state(), State::Run);
+    assert!(eb.board.outputs().flood);
+    until_state(&mut eb, State::Idle, 10_000);
+    assert_eq!(eb.kernel.position()[0], 100 * STEPS_PER_MM);
+}
+
 #[test]
 fn the_segment_queue_holds_the_firmwares_15_segments() {
     assert_eq!(SEGMENT_QUEUE_DEPTH, 15);

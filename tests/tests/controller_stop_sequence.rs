@@ -286,8 +286,13 @@ fn resumed_locally_then_starving() -> (EmulatedBoard, u32) {
     assert!(eb.run_until(5_000, |b| b.board.state() == State::Hold));
     assert_eq!(eb.now_ms() - 1 - gone, 1_001);
     eb.run_ms(5_000);
+    // Held at rest for the lost host: spindle and coolant off; the local cycle start restores
+    // them (docs/controller.md "Host lost").
+    assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
     eb.board.cycle_start();
     assert_eq!(eb.board.state(), State::Run);
+    eb.run_ms(1);
+    assert_eq!(eb.board.output_levels(), CUTTING);
     eb.output_changes = Some(Vec::new());
     assert!(eb.run_until(10_000, |b| b.board.waiting_for_lines()));
     let waiting = eb.now_ms() - 1;

@@ -1019,3 +1019,121 @@ fn a_soft_reset_during_a_jog_stops_it_at_rest_and_check_mode_toggles_mid_stream(
     s.run(5);
     assert_eq!(s.steps()[0], 2 * STEPS_PER_MM);
 }
+
+/// Issue 24 (safety): an error line mid-job executes nothing and changes nothing else (grbl's
+/// interface.md): the job goes on, the lines after it run with the spindle and coolant the
+/// program switched on, and `$G` agrees with the outputs.
+#[test]
+fn an_error_mid_job_changes_nothing_and_the_next_lines_cut_with_the_spindle_on() {
+    let mut s = pwm_sender();
+    s.send(b"M3 S5000 M8\nG1 X1 F600\nG1 X11 Q1\nG1 X2\nG1 X3\n");
+    let mut cut_with_spindle_off = 0;
+    for _ in 0..5000 {
+        s.run(1);
+        let moving = s.eb.board.state() == State::Run && !s.eb.kernel_drained();
+        let o = s.eb.board.outputs();
+        if moving && s.steps()[0] > STEPS_PER_MM && (!o.flood || o.rpm != 5000) {
+            cut_with_spindle_off += 1;
+        }
+        if s.answers().len() == 5 && s.eb.board.state() == State::Idle {
+            break;
+        }
+    }
+    assert_eq!(
+        s.answers(),
+        ["ok", "ok", "error:36", "ok", "ok"],
+        "{:?}",
+        s.seen
+    );
+    assert_eq!(
+        cut_with_spindle_off, 0,
+        "moves after the error ran with the spindle or flood off"
+    );
+    assert_eq!(s.ends_idle(10_000)[0], 3 * STEPS_PER_MM);
+    let o = s.eb.board.outputs();
+    assert_eq!(
+        (o.spindle, o.rpm, o.flood),
+        (gantry_machine::canon::Spindle::Cw, 5000, true),
+        "outputs after the job"
+    );
+    s.seen.clear();
+    let modes = s.answer(b"$G\n", 100);
+    assert!(
+        modes.contains(" M3 ") && modes.contains(" M8 "),
+        "{modes:?}"
+    );
+    let st = s.status();
+    assert!(st.contains("|A:SF"), "{st}");
+}
+
+/// Issue 24 (safety): a grbl sender that goes away mid-job (killed, or closing the port without
+/// dropping DTR as pyserial does) is a lost host: the job stops on its path, the lines it left
+/// in the buffers never run, spindle and coolant go off at rest, and the next connection is
+/// greeted with the banner as a fresh grbl session.
+#[test]
+fn a_lost_grbl_sender_stops_the_job_switches_the_outputs_off_and_the_next_client_is_greeted() {
+    for dtr_dropped in [false, true] {
+        let mut s = pwm_sender();
+        s.send(b"M3 S5000 M8\nG1 X20 F600\nG1 X40\nG1 X60\n");
+        s.until_state_name("<Run", 2000);
+        s.run(500);
+        if dtr_dropped {
+            s.eb.set_dtr(false);
+        } else {
+            s.eb.close_keeping_dtr();
+        }
+        let at_close = s.steps()[0];
+        s.run(1);
+        assert_eq!(s.eb.link.protocol(), LinkProtocol::Undecided);
+        until_state(&mut s.eb, State::Idle, 5_000);
+        let stopped = s.steps()[0];
+        // Decelerated on the path (a few mm at most at 600 mm/min), nothing after.
+        assert!(
+            stopped >= at_close && stopped < at_close + STEPS_PER_MM,
+            "{at_close} -> {stopped}"
+        );
+        s.run(3000);
+        assert_eq!(
+            s.steps()[0],
+            stopped,
+            "buffered lines ran after the sender left"
+        );
+        let o = s.eb.board.outputs();
+        assert_eq!(
+            (o.spindle, o.flood),
+            (gantry_machine::canon::Spindle::Off, false)
+        );
+        // The next client: its first bytes choose grbl again and get one banner.
+        s.eb.set_dtr(true);
+        s.seen.clear();
+        s.send(b"\x18");
+        s.run(50);
+        assert_eq!(s.seen.matches("Grbl 1.1h").count(), 1, "{:?}", s.seen);
+        let modes = s.answer(b"$G\n", 100);
+        assert!(modes.contains(" M5 ") && modes.contains(" M9"), "{modes:?}");
+    }
+}
+
+/// A grbl sender that leaves an idle machine with spindle and flood on (an MDI `M3 M8`) switches
+/// them off by leaving; `$G` on the next connection says M5 M9.
+#[test]
+fn a_grbl_sender_leaving_an_idle_machine_switches_spindle_and_coolant_off() {
+    let mut s = pwm_sender();
+    s.answer(b"M3 S5000 M8\n", 200);
+    until_state(&mut s.eb, State::Idle, 1000);
+    s.run(10);
+    assert!(s.eb.board.outputs().flood);
+    s.eb.close_keeping_dtr();
+    s.run(2);
+    let o = s.eb.board.outputs();
+    assert_eq!(
+        (o.spindle, o.flood),
+        (gantry_machine::canon::Spindle::Off, false)
+    );
+    s.eb.set_dtr(true);
+    s.seen.clear();
+    s.send(b"?");
+    let seen = s.until(">\r\n", 200);
+    assert_eq!(seen.matches("Grbl 1.1h").count(), 1, "{seen:?}");
+    assert!(seen.contains("<Idle") && !seen.contains("|A:"), "{seen:?}");
+}

@@ -185,12 +185,22 @@ impl BoardLink {
         }
     }
 
-    /// The host disconnected (DTR dropped): the next connection chooses its protocol again. A
-    /// grbl connection's job is stopped (grbl mode cannot resume it, docs/grbl.md); a framed
-    /// host's job holds as before (`board/main_loop.rs`).
-    pub fn host_disconnected(&mut self, board: &mut Board) {
-        if self.protocol == LinkProtocol::Grbl {
-            self.grbl.disconnect(board);
+    /// The host closed the port (`dtr_dropped`: and dropped DTR; docs/controller.md "Host
+    /// lost"). The next connection chooses its protocol again (a grbl client is greeted with the
+    /// banner, a `gantry` command gets its handshake). A grbl sender is gone whichever way it
+    /// closed (grbl has no job to take over): its job stops on its path and ends at rest with
+    /// spindle and coolant off, an idle machine's spindle and coolant go off at once. A framed
+    /// host that dropped DTR is lost: [`Board::host_lost`] (hold, outputs off at rest, the job
+    /// kept for `gantry stream --continue`); one that kept DTR up (a one-shot command) leaves
+    /// the machine as it is.
+    pub fn port_closed(&mut self, board: &mut Board, dtr_dropped: bool) {
+        match self.protocol {
+            LinkProtocol::Grbl => {
+                board.host_lost();
+                self.grbl.disconnect(board);
+            }
+            _ if dtr_dropped => board.host_lost(),
+            _ => {}
         }
         self.protocol = LinkProtocol::Undecided;
         self.undecided.clear();
@@ -244,7 +254,7 @@ impl BoardLink {
         if self.host_attached && !self.endpoint.peer_alive(now_ms, HOST_TIMEOUT_MS) {
             self.host_attached = false;
             self.host_lost = true;
-            board.feed_hold();
+            board.host_lost();
         }
         self.watch_unattended_job(board, now_ms);
         while let Some(msg) = self.endpoint.recv_realtime() {

@@ -103,8 +103,8 @@ pub trait BoardPort {
     fn can_transmit(&mut self, len: usize) -> bool;
     /// Sends a frame to the host.
     fn transmit(&mut self, frame: &[u8]);
-    /// A host holds the port open (USB CDC DTR).
-    fn host_connected(&mut self) -> bool;
+    /// Whether a host holds the port open (USB CDC: DTR), and how it left it.
+    fn host_port(&mut self) -> HostPort;
     /// Writes the setup to flash (called only with the board idle and the kernel drained).
     fn save_setup(&mut self, setup: &Setup);
     /// The motion marker: set (`true`) before a segment can reach the kernel, cleared once the
@@ -115,7 +115,7 @@ pub trait BoardPort {
     fn before_link_service(&mut self, _board: &mut Board) {}
     /// A latched stop was handed to the board (`levels`: the logical pins it saw). For logs.
     fn limit_stopped(&mut self, _levels: InputBits) {}
-    /// The host closed the port and the job was held. For logs.
+    /// The host closed the port and the host-loss policy ran. For logs.
     fn host_closed(&mut self) {}
     /// Arms the kernel's probe latch for the raw probe pin level `trips_at`, or turns it off
     /// (`None`, which also forgets a latched position). Called every pass: an armed or tripped
@@ -189,11 +189,18 @@ enum Latch {
     Stopped,
 }
 
-/// The host's hold on the port (DTR) as last seen.
+/// The host's hold on the port, as the port sees it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum HostPort {
+pub enum HostPort {
+    /// No host has the port open (USB CDC: DTR low; a host that closes the port drops DTR
+    /// unless it cleared HUPCL).
     Closed,
+    /// A host has the port open (USB CDC: DTR high).
     Open,
+    /// The host closed the port and left DTR up (it cleared HUPCL, as `gantry`'s one-shot
+    /// commands do: `host-sender/src/link.rs` `OnClose`). The USB board cannot tell this from
+    /// [`HostPort::Open`]; the emulated board's pty can.
+    ClosedDtrKept,
 }
 
 /// A setup applied from the host and not yet in flash.
@@ -299,15 +306,11 @@ impl MainLoop {
             // (`get`: a port never reports more than it was given; no panic path for it.)
             link.on_bytes(now_ms, rx.get(..n).unwrap_or_default());
         }
-        let host_port = if port.host_connected() {
-            HostPort::Open
-        } else {
-            HostPort::Closed
-        };
-        if self.host_port == HostPort::Open && host_port == HostPort::Closed {
-            // The sender closed the port: hold now rather than after the silence timeout.
-            board.feed_hold();
-            link.host_disconnected(board);
+        let host_port = port.host_port();
+        if self.host_port == HostPort::Open && host_port != HostPort::Open {
+            // The sender closed the port: the host-loss policy now rather than after the
+            // silence timeout (`BoardLink::port_closed`).
+            link.port_closed(board, host_port == HostPort::Closed);
             port.host_closed();
         }
         self.host_port = host_port;
@@ -461,8 +464,12 @@ mod tests {
             false
         }
         fn transmit(&mut self, _frame: &[u8]) {}
-        fn host_connected(&mut self) -> bool {
-            self.dtr
+        fn host_port(&mut self) -> HostPort {
+            if self.dtr {
+                HostPort::Open
+            } else {
+                HostPort::Closed
+            }
         }
         fn save_setup(&mut self, _setup: &Setup) {
             self.saved += 1;

@@ -36,6 +36,7 @@ use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
 pub use jogging::JogRefused;
+pub use mode::OnError;
 use mode::{
     Ending, HoldWhy, HomingCycle, HomingPhase, Job, JobKind, JobPhase, Jogging, Mode, Ramp,
 };
@@ -459,18 +460,23 @@ impl Board {
         }
     }
 
-    /// Starts a streamed job at the current position (only from idle).
+    /// Starts a streamed job at the current position (only from idle); a rejected block ends it.
     pub fn start_job(&mut self) -> bool {
-        self.start(JobKind::Machine)
+        self.start(JobKind::Machine, OnError::EndJob)
+    }
+
+    /// Starts a streamed job whose rejected blocks are dropped alone, `on_error` (grbl's rule).
+    pub fn start_job_with(&mut self, on_error: OnError) -> bool {
+        self.start(JobKind::Machine, on_error)
     }
 
     /// Starts a streamed job in check mode: interpreted and checked against the soft limits
-    /// without any motion or output (grbl `$C`); ends with `JobDone` or the first error.
+    /// without any motion or output (grbl `$C`); each error is reported and the check reads on.
     pub fn start_check(&mut self) -> bool {
-        self.start(JobKind::Check)
+        self.start(JobKind::Check, OnError::SkipBlock)
     }
 
-    fn start(&mut self, kind: JobKind) -> bool {
+    fn start(&mut self, kind: JobKind, on_error: OnError) -> bool {
         if !matches!(self.mode, Mode::Idle) || (kind == JobKind::Machine && self.refuse_unhomed()) {
             return false;
         }
@@ -495,6 +501,7 @@ impl Board {
             phase,
             queued: false,
             last_motion_line: 0,
+            on_error,
         });
         true
     }
@@ -544,6 +551,61 @@ impl Board {
             }
             Mode::Jog(_) => self.jog_stop(),
             _ => {}
+        }
+    }
+
+    /// The host is gone (port closed, DTR dropped, or silent; docs/controller.md "Host lost"):
+    /// a running job holds on its path, and once at rest its spindle and coolant go off (restored
+    /// when a host resumes it); a job already in a feed hold switches them off the same way; a
+    /// jog stops. M0/M1 and tool-change stops have them off already.
+    pub fn host_lost(&mut self) {
+        match self.machine_job() {
+            Some(JobPhase::Running(ending)) => {
+                self.motion.feed_hold();
+                self.set_phase(JobPhase::Hold {
+                    why: HoldWhy::HostLost,
+                    ending,
+                });
+            }
+            Some(JobPhase::Hold {
+                why: HoldWhy::Feed,
+                ending,
+            }) => self.set_phase(JobPhase::Hold {
+                why: HoldWhy::HostLost,
+                ending,
+            }),
+            _ => {
+                if matches!(self.mode, Mode::Jog(_)) {
+                    self.jog_stop();
+                }
+            }
+        }
+    }
+
+    /// Spindle and coolant off if the machine stands idle (a grbl sender left, `grbl/mod.rs`
+    /// `Grbl::disconnect`); a job's outputs go off when it stops.
+    pub fn stop_outputs_at_rest(&mut self) {
+        if matches!(self.mode, Mode::Idle) {
+            self.program_stop();
+        }
+    }
+
+    /// A job held for a lost host, at rest: spindle and coolant off, kept to restore on resume.
+    fn host_lost_outputs_off(&mut self) {
+        let held_at_rest = matches!(
+            self.machine_job(),
+            Some(JobPhase::Hold {
+                why: HoldWhy::HostLost,
+                ..
+            })
+        ) && self.drained
+            && self.motion.state() == MotionState::Held;
+        if held_at_rest && self.saved_outputs.is_none() {
+            self.restore_stopped_spindle();
+            self.saved_outputs = Some(self.outputs);
+            self.outputs.spindle = Spindle::Off;
+            self.outputs.mist = false;
+            self.outputs.flood = false;
         }
     }
 
@@ -624,10 +686,12 @@ impl Board {
             return;
         }
         self.restore_stopped_spindle();
-        if why.pause() {
+        if why.pause() || why == HoldWhy::HostLost {
             if let Some(saved) = self.saved_outputs.take() {
                 self.outputs = saved;
             }
+        }
+        if why.pause() {
             self.motion.release_sync();
         }
         if why.feed() {
@@ -640,7 +704,8 @@ impl Board {
     /// setup wants a cycle start for that.
     fn release_hold(&mut self) {
         if let Some(JobPhase::Hold { why, ending }) = self.machine_job() {
-            if why.feed() {
+            // (A hold for a lost host waits for a host or a cycle start, not for the switch.)
+            if why.feed() && why != HoldWhy::HostLost {
                 self.restore_stopped_spindle();
                 self.motion.resume();
                 self.set_phase(if why.pause() {
@@ -981,6 +1046,7 @@ impl Board {
             _ => {}
         }
         self.poll_probe(kernel_drained);
+        self.host_lost_outputs_off();
         let job = match self.mode {
             Mode::Job(job) => Some(job),
             _ => None,
@@ -1068,8 +1134,10 @@ impl Board {
                 None => match self.interp.next(&mut self.source) {
                     Some(Ok(c)) => c,
                     Some(Err(e)) => {
-                        self.reject(e);
-                        return;
+                        if self.reject(e) == OnError::EndJob {
+                            return;
+                        }
+                        continue;
                     }
                     None => {
                         if self.interp.is_finished() {
@@ -1228,13 +1296,22 @@ impl Board {
         true
     }
 
-    fn reject(&mut self, e: GcodeError) {
+    /// Reports a rejected block (the interpreter has undone it) and applies the job's
+    /// [`OnError`]; returns it.
+    fn reject(&mut self, e: GcodeError) -> OnError {
         self.emit(BoardEvent::Error {
             line: e.line,
             code: e.code.number(),
             column: e.columns.map_or(0, |(start, _)| start + 1),
         });
-        self.fail_at(e.line);
+        let on_error = match self.mode {
+            Mode::Job(job) => job.on_error,
+            _ => OnError::EndJob,
+        };
+        if on_error == OnError::EndJob {
+            self.fail_at(e.line);
+        }
+        on_error
     }
 
     /// Performs the action the motion queue stopped at (the machine is at rest).

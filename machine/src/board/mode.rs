@@ -94,6 +94,20 @@ pub(super) struct Job {
     pub queued: bool,
     /// Line of the last motion queued (0: none yet; single block pauses when it changes).
     pub last_motion_line: u32,
+    /// What a rejected block does to the job.
+    pub on_error: OnError,
+}
+
+/// What a rejected block does to the job that streams it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OnError {
+    /// The job ends (Gantry's own link: the host stops streaming and can restart from the
+    /// line): the motion queued before the block completes, then the program-stop sequence.
+    EndJob,
+    /// Only the block is dropped: it executes nothing and changes nothing, the job reads on with
+    /// its modal state and outputs unchanged, and the sender decides whether to stop (grbl's
+    /// rule, docs/grbl.md "Errors").
+    SkipBlock,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -141,11 +155,18 @@ pub(super) enum HoldWhy {
     /// An M6 at its sync point: a manual tool change to `tool`, spindle and coolant off (not
     /// restored: the program starts the spindle for the new tool).
     ToolChange { tool: u32 },
+    /// The host was lost (port closed, DTR dropped, silence): a feed hold whose spindle and
+    /// coolant go off once the machine is at rest (`Board::poll`), restored on resume
+    /// (docs/controller.md "Host lost").
+    HostLost,
 }
 
 impl HoldWhy {
     pub(super) fn feed(self) -> bool {
-        matches!(self, HoldWhy::Feed | HoldWhy::FeedAndPause)
+        matches!(
+            self,
+            HoldWhy::Feed | HoldWhy::FeedAndPause | HoldWhy::HostLost
+        )
     }
 
     pub(super) fn pause(self) -> bool {

@@ -28,7 +28,7 @@ pub mod settings;
 pub mod text;
 
 use crate::board::link::KernelView;
-use crate::board::{Board, BoardEvent, JogRefused, ProbeResult, LINE_CAPACITY};
+use crate::board::{Board, BoardEvent, JogRefused, OnError, ProbeResult, LINE_CAPACITY};
 use crate::controller::State;
 use crate::setup::STARTUP_LINE_LEN;
 use command::{Command, Restore};
@@ -154,21 +154,30 @@ impl Grbl {
         }
     }
 
-    /// A new connection chose grbl: a fresh session and the banner.
+    /// A new connection chose grbl: a fresh session that starts as grbl's power-up does, with
+    /// the reset (overrides 100 %, the parser's defaults) and then one banner once the machine is
+    /// at rest (a `0x18` among the first bytes joins this reset: no second banner).
     pub fn connect(&mut self) {
         *self = Self::new();
-        self.banner();
+        self.session = Session::Resetting;
     }
 
     /// The connection ended (DTR drop, port closed): grbl mode cannot resume a job later, so a
-    /// running one is stopped on its path (it ends at rest with the program-stop sequence).
+    /// running one is stopped on its path (it ends at rest with the program-stop sequence), and
+    /// an idle machine's spindle and coolant go off at once (`Board::stop_outputs_at_rest`).
     pub fn disconnect(&mut self, board: &mut Board) {
         if matches!(
             board.state(),
-            State::Run | State::Hold | State::Check | State::Jog | State::Homing
+            State::Run
+                | State::Hold
+                | State::ToolChange
+                | State::Check
+                | State::Jog
+                | State::Homing
         ) {
             board.abort();
         }
+        board.stop_outputs_at_rest();
         *self = Self::new();
     }
 
@@ -462,7 +471,7 @@ impl Grbl {
             let Ok(text) = core::str::from_utf8(buf.get(..n).unwrap_or_default()) else {
                 return;
             };
-            if board.state() == State::Idle && !board.start_job() {
+            if board.state() == State::Idle && !board.start_job_with(OnError::SkipBlock) {
                 self.startup_due = 0;
                 return;
             }
@@ -554,7 +563,7 @@ impl Grbl {
                     let started = if self.check_mode {
                         board.start_check()
                     } else {
-                        board.start_job()
+                        board.start_job_with(OnError::SkipBlock)
                     };
                     if !started {
                         self.rx.consume(raw);
