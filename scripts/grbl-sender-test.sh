@@ -4,7 +4,8 @@
 # method. Checks: every line gets its ok and no error; the final steps equal those of
 # `gantry stream` on the same program and setup; a 10,000-line program of 0.1 mm segments
 # streams at real time with no lost or repeated line (the step counts) and reports the
-# emulated board's underruns. Installs the sender itself; skips (saying why) only when PyPI
+# emulated board's underruns; then the seams of issue 24 (scripts/grbl_seams.py): an error
+# mid-job with the spindle on, a sender killed mid-job and the next client. Installs the sender itself; skips (saying why) only when PyPI
 # cannot be reached.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -58,4 +59,19 @@ for prog in small long; do
   echo "grbl sender $prog: steps via grbl [$grbl_steps], via gantry stream [$ref_steps], $underruns"
   [ "$grbl_steps" = "$ref_steps" ] || { echo "FAIL grbl sender $prog: step counts differ"; exit 1; }
 done
-echo "grbl sender test: 2 passed, 0 failed"
+# The seams (issue 24): an error line mid-job with the spindle on, then a sender killed mid-job
+# (SIGKILL: it closes nothing itself) and the next client (scripts/grbl_seams.py).
+"$GANTRY" emulate --pty "$TMP/pty" 2> "$TMP/emu-seams.log" &
+EMU=$!
+for _ in $(seq 50); do [ -e "$TMP/pty" ] && break; sleep 0.1; done
+seams_fail() { echo "FAIL grbl seams: $1"; cat "$TMP/emu-seams.log"; exit 1; }
+"$VENV/bin/python" scripts/grbl_seams.py error "$TMP/pty" || seams_fail "an error mid-job"
+"$VENV/bin/python" scripts/grbl_seams.py stream "$TMP/pty" > "$TMP/killed.log" &
+KILLED=$!
+for _ in $(seq 100); do grep -q streaming "$TMP/killed.log" && break; sleep 0.1; done
+sleep 2
+kill -9 $KILLED; wait $KILLED 2>/dev/null || true
+sleep 1.5
+"$VENV/bin/python" scripts/grbl_seams.py after-kill "$TMP/pty" || seams_fail "a killed sender"
+kill -INT $EMU; wait $EMU || true
+echo "grbl sender test: 4 passed, 0 failed"

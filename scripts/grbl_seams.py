@@ -1,0 +1,121 @@
+"""Issue 24's grbl seams, driven by pygrbl-streamer (a grbl client from PyPI, used as-is) against
+`gantry emulate --pty` (scripts/grbl-sender-test.sh runs it). Modes:
+  error PORT      an error line mid-job with spindle and flood on: the error line gets its
+                  error, the moves after it run with the spindle and flood on (every status
+                  polled while they run says A:SF), the job ends at X10 Y1, and $G says M3 M8.
+  stream PORT     streams a long cut with spindle and flood on and never returns (the caller
+                  kills this process with SIGKILL mid-job).
+  after-kill PORT the next client after a killed sender: it is greeted with the banner, the
+                  machine stands Idle with spindle and coolant off (no A:) and does not move.
+Prints one line per check; exit status 0 when every check passed.
+"""
+import re
+import sys
+import threading
+import time
+
+from pygrbl_streamer import GrblStreamer
+
+mode, port = sys.argv[1], sys.argv[2]
+seen = []
+lock = threading.Lock()
+
+
+class Recording(GrblStreamer):
+    def receive_callback(self, data):
+        with lock:
+            seen.append(data)
+
+
+def mpos(status):
+    m = re.search(r"MPos:([-\d.]+),([-\d.]+),([-\d.]+)", status)
+    return tuple(float(v) for v in m.groups()) if m else None
+
+
+def poll_status(g, wait=0.3):
+    g.realtime(b"?")
+    time.sleep(wait)
+    return g.last_status.get("raw", "")
+
+
+failures = []
+
+
+def check(ok, what):
+    print(("ok   " if ok else "FAIL ") + what)
+    if not ok:
+        failures.append(what)
+
+
+if mode == "error":
+    g = Recording(port, rx_buffer_size=128)
+    g.connect(reset=True)
+    time.sleep(0.3)
+    statuses = []
+    done = threading.Event()
+
+    def poller():
+        while not done.is_set():
+            g.realtime(b"?")
+            time.sleep(0.05)
+            s = g.last_status.get("raw", "")
+            if s:
+                statuses.append(s)
+
+    t = threading.Thread(target=poller, daemon=True)
+    t.start()
+    lines = ["G21 G90", "M3 S5000 M8", "G1 X1 F300", "G1 X11 Q1", "G1 X4", "G1 X7 Y1", "G1 X10"]
+    ok = g.stream(lines, stop_on_error=False, wait_for_idle=True, ack_timeout=30)
+    done.set()
+    t.join()
+    with lock:
+        answers = [l for l in seen if l == "ok" or l.startswith("error")]
+    check(answers[-7:] == ["ok", "ok", "ok", "error:36", "ok", "ok", "ok"], f"answers {answers[-7:]}")
+    # grbl reports the accessories (A:) with the overrides (Ov:), in every few reports.
+    moving_after = [s for s in statuses if s.startswith("<Run") and (mpos(s) or (0,))[0] > 1.05]
+    with_accessories = [s for s in moving_after if "|Ov:" in s]
+    check(len(with_accessories) >= 2,
+          f"{len(moving_after)} statuses while cutting after the error, {len(with_accessories)} with Ov/A")
+    bad = [s for s in with_accessories if "|A:SF" not in s]
+    check(not bad, f"spindle and flood on in every one of them {bad[:2]}")
+    with lock:
+        seen.clear()
+    g.command("$G")
+    time.sleep(0.2)
+    with lock:
+        modes = next((l for l in seen if l.startswith("[GC:")), "")
+    check(" M3 " in modes and " M8" in modes, f"$G agrees: {modes}")
+    for _ in range(30):
+        final = poll_status(g, 0.05)
+        if "|Ov:" in final:
+            break
+    check(mpos(final) == (10.0, 1.0, 0.0) and "|A:SF" in final, f"ends at X10 Y1 with A:SF: {final}")
+    g.command("M5 M9")
+    g.disconnect()
+elif mode == "stream":
+    g = Recording(port, rx_buffer_size=128)
+    g.connect(reset=True)
+    lines = ["G21 G90", "M3 S5000 M8"] + [f"G1 X{i} F300" for i in range(1, 101)]
+    print("streaming", flush=True)
+    g.stream(lines, stop_on_error=False, wait_for_idle=True, ack_timeout=300)
+    time.sleep(600)
+elif mode == "after-kill":
+    g = Recording(port, rx_buffer_size=128)
+    t0 = time.time()
+    g.connect(reset=False)
+    greeted = time.time() - t0
+    with lock:
+        banner = [l for l in seen if l.startswith("Grbl 1.1")]
+    check(len(banner) == 1, f"greeted once with the banner in {greeted:.2f} s: {banner}")
+    for _ in range(30):
+        first = poll_status(g, 0.05)
+        if "|Ov:" in first:
+            break
+    time.sleep(2.0)
+    second = poll_status(g)
+    check(first.startswith("<Idle") and "|A:" not in first, f"Idle, spindle and coolant off: {first}")
+    p = mpos(first)
+    check(p is not None and 0.0 < p[0] < 100.0, f"stopped on the path, not at the end: {p}")
+    check(mpos(second) == p, f"no motion after the sender left: {p} -> {mpos(second)}")
+    g.disconnect()
+sys.exit(1 if failures else 0)
