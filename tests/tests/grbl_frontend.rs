@@ -1137,3 +1137,22 @@ fn a_grbl_sender_leaving_an_idle_machine_switches_spindle_and_coolant_off() {
     assert_eq!(seen.matches("Grbl 1.1h").count(), 1, "{seen:?}");
     assert!(seen.contains("<Idle") && !seen.contains("|A:"), "{seen:?}");
 }
+
+/// Issue 24: `M98`/`M99` from a grbl sender are answered once with grbl's unsupported-command
+/// error; nothing else changes, the lines after them run and the front end stays usable.
+#[test]
+fn m98_and_m99_answer_error_20_once_and_the_job_reads_on() {
+    let mut s = Sender::connected();
+    s.send(b"G1 X1 F600\nM98 P100\nG1 X2\nM99\nG1 X3\n");
+    s.run(3000);
+    assert_eq!(
+        s.answers(),
+        ["ok", "error:20", "ok", "error:20", "ok"],
+        "{:?}",
+        s.seen
+    );
+    assert!(!s.seen.contains("[MSG:"), "{:?}", s.seen);
+    assert_eq!(s.ends_idle(10_000)[0], 3 * STEPS_PER_MM);
+    let st = s.status();
+    assert!(st.starts_with("<Idle|MPos:3.000,"), "{st}");
+}

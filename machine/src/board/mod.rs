@@ -36,7 +36,7 @@ use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
 pub use jogging::JogRefused;
-pub use mode::OnError;
+pub use mode::Streamer;
 use mode::{
     Ending, HoldWhy, HomingCycle, HomingPhase, Job, JobKind, JobPhase, Jogging, Mode, Ramp,
 };
@@ -460,29 +460,31 @@ impl Board {
         }
     }
 
-    /// Starts a streamed job at the current position (only from idle); a rejected block ends it.
+    /// Starts a streamed job at the current position (only from idle), its lines served by the
+    /// host's program server ([`Streamer::ProgramServer`]).
     pub fn start_job(&mut self) -> bool {
-        self.start(JobKind::Machine, OnError::EndJob)
+        self.start(JobKind::Machine, Streamer::ProgramServer)
     }
 
-    /// Starts a streamed job whose rejected blocks are dropped alone, `on_error` (grbl's rule).
-    pub fn start_job_with(&mut self, on_error: OnError) -> bool {
-        self.start(JobKind::Machine, on_error)
+    /// Starts a streamed job whose lines come from `streamer`.
+    pub fn start_job_from(&mut self, streamer: Streamer) -> bool {
+        self.start(JobKind::Machine, streamer)
     }
 
     /// Starts a streamed job in check mode: interpreted and checked against the soft limits
     /// without any motion or output (grbl `$C`); each error is reported and the check reads on.
     pub fn start_check(&mut self) -> bool {
-        self.start(JobKind::Check, OnError::SkipBlock)
+        self.start(JobKind::Check, Streamer::LineSender)
     }
 
-    fn start(&mut self, kind: JobKind, on_error: OnError) -> bool {
+    fn start(&mut self, kind: JobKind, streamer: Streamer) -> bool {
         if !matches!(self.mode, Mode::Idle) || (kind == JobKind::Machine && self.refuse_unhomed()) {
             return false;
         }
         // No line of this job has run yet (a job that runs nothing ends with `JobDone{0}`).
         self.line = 0;
         self.source.reset();
+        self.source.serve_jumps(streamer == Streamer::ProgramServer);
         self.interp.rewind();
         self.sync_interpreter_position();
         self.pending = None;
@@ -501,7 +503,7 @@ impl Board {
             phase,
             queued: false,
             last_motion_line: 0,
-            on_error,
+            streamer,
         });
         true
     }
@@ -1134,7 +1136,7 @@ impl Board {
                 None => match self.interp.next(&mut self.source) {
                     Some(Ok(c)) => c,
                     Some(Err(e)) => {
-                        if self.reject(e) == OnError::EndJob {
+                        if self.reject(e) == Streamer::ProgramServer {
                             return;
                         }
                         continue;
@@ -1296,22 +1298,22 @@ impl Board {
         true
     }
 
-    /// Reports a rejected block (the interpreter has undone it) and applies the job's
-    /// [`OnError`]; returns it.
-    fn reject(&mut self, e: GcodeError) -> OnError {
+    /// Reports a rejected block (the interpreter has undone it): a program server's job ends
+    /// there, a line sender's reads on ([`Streamer`]); returns which.
+    fn reject(&mut self, e: GcodeError) -> Streamer {
         self.emit(BoardEvent::Error {
             line: e.line,
             code: e.code.number(),
             column: e.columns.map_or(0, |(start, _)| start + 1),
         });
-        let on_error = match self.mode {
-            Mode::Job(job) => job.on_error,
-            _ => OnError::EndJob,
+        let streamer = match self.mode {
+            Mode::Job(job) => job.streamer,
+            _ => Streamer::ProgramServer,
         };
-        if on_error == OnError::EndJob {
+        if streamer == Streamer::ProgramServer {
             self.fail_at(e.line);
         }
-        on_error
+        streamer
     }
 
     /// Performs the action the motion queue stopped at (the machine is at rest).

@@ -94,20 +94,23 @@ pub(super) struct Job {
     pub queued: bool,
     /// Line of the last motion queued (0: none yet; single block pauses when it changes).
     pub last_motion_line: u32,
-    /// What a rejected block does to the job.
-    pub on_error: OnError,
+    /// Who streams the job's lines.
+    pub streamer: Streamer,
 }
 
-/// What a rejected block does to the job that streams it.
+/// Who streams a job's lines, which decides what a rejected block and a jump do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OnError {
-    /// The job ends (Gantry's own link: the host stops streaming and can restart from the
-    /// line): the motion queued before the block completes, then the program-stop sequence.
-    EndJob,
-    /// Only the block is dropped: it executes nothing and changes nothing, the job reads on with
-    /// its modal state and outputs unchanged, and the sender decides whether to stop (grbl's
-    /// rule, docs/grbl.md "Errors").
-    SkipBlock,
+pub enum Streamer {
+    /// Gantry's own link (`gantry stream`): the host serves program lines on request
+    /// (subprograms, O-word loops: `board/source.rs`), and a rejected block ends the job (the
+    /// motion queued before it completes, then the program-stop sequence; the host offers
+    /// `--from-line`).
+    ProgramServer,
+    /// A line sender (grbl): lines in order only, so a jump is an error of its block; a
+    /// rejected block is dropped alone: it executes nothing and changes nothing, the job reads on
+    /// with its modal state and outputs unchanged, and the sender decides whether to stop
+    /// (grbl's rule, docs/grbl.md "Errors").
+    LineSender,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

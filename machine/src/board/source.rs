@@ -49,6 +49,9 @@ pub struct StreamSource<const N: usize> {
     /// the interpreter from it: enough to ask a reconnected host for exactly what is missing.
     origin: JumpTarget,
     last_out: Option<u32>,
+    /// The host serves jumps (Gantry's program server); a line sender cannot, and a jump is
+    /// then [`SourceError::NotServed`].
+    jumps_served: bool,
 }
 
 impl<const N: usize> Default for StreamSource<N> {
@@ -67,7 +70,13 @@ impl<const N: usize> StreamSource<N> {
             pending: None,
             origin: JumpTarget::Line(1),
             last_out: None,
+            jumps_served: true,
         }
+    }
+
+    /// Whether the host serves jumps (subprograms, O-word loops); set for each job.
+    pub fn serve_jumps(&mut self, served: bool) {
+        self.jumps_served = served;
     }
 
     /// Forgets everything (new job).
@@ -128,7 +137,10 @@ impl<const N: usize> StreamSource<N> {
         self.lines.front().map(|(n, _)| *n)
     }
 
-    fn jump(&mut self, target: JumpTarget) {
+    fn jump(&mut self, target: JumpTarget) -> Result<(), SourceError> {
+        if !self.jumps_served {
+            return Err(SourceError::NotServed);
+        }
         self.id = self.id.wrapping_add(1).max(1);
         self.lines.clear();
         self.ended = false;
@@ -138,6 +150,7 @@ impl<const N: usize> StreamSource<N> {
             id: self.id,
             target,
         });
+        Ok(())
     }
 
     /// A (re)connected host knows nothing of what was in flight: drop the buffered lines and ask
@@ -148,7 +161,9 @@ impl<const N: usize> StreamSource<N> {
             Some(n) => JumpTarget::Line(n + 1),
             None => self.origin,
         };
-        self.jump(target);
+        // (A line sender's job is never resynchronised: `Board::resync_stream` is the program
+        // server's.)
+        let _ = self.jump(target);
     }
 }
 
@@ -180,12 +195,12 @@ impl<const N: usize> ProgramSource for StreamSource<N> {
         if program >= u32::MAX - PROGRAM_TOKEN_BASE {
             return Err(SourceError::UnknownProgram);
         }
-        self.jump(JumpTarget::Program(program));
+        self.jump(JumpTarget::Program(program))?;
         Ok(u32::MAX - program)
     }
 
     fn jump_to_sequence(&mut self, n: u32) -> Result<u32, SourceError> {
-        self.jump(JumpTarget::Sequence(n));
+        self.jump(JumpTarget::Sequence(n))?;
         // The host answers from the N block's line; a repeat asks for the same sequence again.
         Ok(u32::MAX - n.min(u32::MAX - PROGRAM_TOKEN_BASE - 1))
     }
@@ -196,8 +211,7 @@ impl<const N: usize> ProgramSource for StreamSource<N> {
         } else {
             JumpTarget::Line(line)
         };
-        self.jump(target);
-        Ok(())
+        self.jump(target)
     }
 }
 

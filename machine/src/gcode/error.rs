@@ -151,6 +151,9 @@ pub enum ErrorCode {
     SourceJumpFailed,
     /// Subprogram calls/returns or M99 restarts kept looping without producing any action.
     EndlessLoop,
+    /// A subprogram call, return or O-word jump in a job whose sender streams lines in order
+    /// only (grbl mode): only `gantry stream` serves the program's lines on request.
+    JumpNotServed,
     // --- 7xx parameters, expressions, O-word control flow ---
     /// An expression, parameter reference or O-word line that does not parse.
     ExpressionSyntax,
@@ -338,6 +341,7 @@ impl ErrorCode {
             SubprogramWithoutM99 => 605,
             SourceJumpFailed => 606,
             EndlessLoop => 607,
+            JumpNotServed => 608,
             ExpressionSyntax => 701,
             ExpressionOverflow => 702,
             DivisionByZero => 703,
@@ -421,6 +425,7 @@ impl ErrorCode {
             SubprogramPMissing => "M98 needs a P word (program number)",
             SubprogramWithoutM99 => "end of file inside a subprogram (missing M99)",
             SourceJumpFailed => "cannot jump to that line of the program",
+            JumpNotServed => "subprograms and O-word jumps need a program server (gantry stream): this sender streams lines in order only",
             ExpressionSyntax => "bad expression, parameter reference or O-word line",
             ExpressionOverflow => "expression result out of range (beyond 9e9)",
             DivisionByZero => "division by zero",

@@ -551,13 +551,16 @@ impl Interpreter {
                         code: ErrorCode::EndlessLoop,
                     })));
                 }
-                if src.jump_to_line(to).is_err() {
+                if let Err(e) = src.jump_to_line(to) {
                     self.finished = true;
                     return ControlFlow::Break(Some(Err(GcodeError {
                         line,
                         n_word: None,
                         columns: None,
-                        code: ErrorCode::SourceJumpFailed,
+                        code: match e {
+                            SourceError::NotServed => ErrorCode::JumpNotServed,
+                            _ => ErrorCode::SourceJumpFailed,
+                        },
                     })));
                 }
                 return ControlFlow::Continue(());
@@ -2397,7 +2400,13 @@ impl Interpreter {
                         src.jump_to_line(1)
                     }
                 };
-                result.map_err(|_| (ErrorCode::SourceJumpFailed, Some(code.cols)))?;
+                result.map_err(|e| {
+                    let code_of = match e {
+                        SourceError::NotServed => ErrorCode::JumpNotServed,
+                        _ => ErrorCode::SourceJumpFailed,
+                    };
+                    (code_of, Some(code.cols))
+                })?;
             }
             _ => {}
         }
@@ -2438,6 +2447,7 @@ impl Interpreter {
             let code = match e {
                 SourceError::DuplicateProgram => ErrorCode::DuplicateProgram,
                 SourceError::NoSuchLine => ErrorCode::SourceJumpFailed,
+                SourceError::NotServed => ErrorCode::JumpNotServed,
                 _ => ErrorCode::UnknownProgram,
             };
             (code, Some(p.cols))

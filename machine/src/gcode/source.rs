@@ -15,6 +15,8 @@ pub enum SourceError {
     UnknownSequence,
     /// The line number does not exist.
     NoSuchLine,
+    /// The sender streams lines in order only and cannot serve a jump (grbl mode).
+    NotServed,
 }
 
 /// A G-code program that can be read line by line and repositioned.

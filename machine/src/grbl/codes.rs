@@ -36,7 +36,7 @@ pub fn error_number(gantry: u16) -> u16 {
         102 | 104 | 105 => BAD_NUMBER,
         201 => 25,       // repeated word
         202 | 203 => 21, // modal group violation
-        204 | 205 | 212 | 504 | 506 => 20,
+        204 | 205 | 212 | 504 | 506 | 608 => 20,
         207 => 23, // needs an integer
         209 => 24, // two G codes use the axis words
         210 => 31, // axis words without a command

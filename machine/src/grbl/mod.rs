@@ -28,7 +28,7 @@ pub mod settings;
 pub mod text;
 
 use crate::board::link::KernelView;
-use crate::board::{Board, BoardEvent, JogRefused, OnError, ProbeResult, LINE_CAPACITY};
+use crate::board::{Board, BoardEvent, JogRefused, ProbeResult, Streamer, LINE_CAPACITY};
 use crate::controller::State;
 use crate::setup::STARTUP_LINE_LEN;
 use command::{Command, Restore};
@@ -354,11 +354,9 @@ impl Grbl {
                     self.out.eol();
                 }
                 BoardEvent::JobDone { line, .. } => self.taken_hint = self.taken_hint.max(line),
-                BoardEvent::Jump(_) => {
-                    // Subprograms are served by `gantry stream`'s program server only.
-                    self.out.line("[MSG:M98 needs gantry stream: job stopped]");
-                    board.abort();
-                }
+                // A line sender's job never jumps (`Streamer::LineSender`: M98 and O-word
+                // loops are errors of their line).
+                BoardEvent::Jump(_) => {}
             }
         }
     }
@@ -471,7 +469,7 @@ impl Grbl {
             let Ok(text) = core::str::from_utf8(buf.get(..n).unwrap_or_default()) else {
                 return;
             };
-            if board.state() == State::Idle && !board.start_job_with(OnError::SkipBlock) {
+            if board.state() == State::Idle && !board.start_job_from(Streamer::LineSender) {
                 self.startup_due = 0;
                 return;
             }
@@ -563,7 +561,7 @@ impl Grbl {
                     let started = if self.check_mode {
                         board.start_check()
                     } else {
-                        board.start_job_with(OnError::SkipBlock)
+                        board.start_job_from(Streamer::LineSender)
                     };
                     if !started {
                         self.rx.consume(raw);
