@@ -1156,3 +1156,43 @@ fn m98_and_m99_answer_error_20_once_and_the_job_reads_on() {
     let st = s.status();
     assert!(st.starts_with("<Idle|MPos:3.000,"), "{st}");
 }
+
+/// Issue 24: `$C` checks each line from the program's own position, as grbl's parser does: an
+/// arc valid from where the program stands passes, incremental moves that add up past the travel
+/// fail, and `$C` off soft-resets (one banner; the parser's position is the machine's again).
+#[test]
+fn check_mode_follows_the_programs_position_and_ends_with_a_soft_reset() {
+    let mut s = Sender::connected();
+    s.answer(b"$C\n", 100);
+    s.seen.clear();
+    let travel_mm = s.eb.board.setup().axes[0].travel_max / 1_000_000;
+    let step = travel_mm * 2 / 3;
+    let program = format!(
+        "G90 G0 X10 Y10\nG2 X20 Y10 I5 J0 F300\nG91 G1 X{step}\nG1 X{step}\nG90 G0 X0 Y0\n"
+    );
+    // Send-response, as most senders stream: each line once the last one is answered.
+    for line in program.lines() {
+        s.send(format!("{line}\n").as_bytes());
+        s.run(50);
+    }
+    assert_eq!(
+        s.answers(),
+        ["ok", "ok", "ok", "error:900", "ok"],
+        "{:?}",
+        s.seen
+    );
+    assert_eq!(s.steps(), [0, 0, 0], "nothing moved");
+    s.seen.clear();
+    s.send(b"$C\n");
+    s.run(100);
+    assert!(s.seen.contains("[MSG:Disabled]"), "{:?}", s.seen);
+    assert_eq!(s.seen.matches("Grbl 1.1h").count(), 1, "{:?}", s.seen);
+    let seen = s.answer(b"G91 G1 X1 F600\n", 100);
+    assert!(seen.contains("ok"), "{seen:?}");
+    s.run(2000);
+    assert_eq!(
+        s.ends_idle(5_000)[0],
+        STEPS_PER_MM,
+        "from the machine's position"
+    );
+}

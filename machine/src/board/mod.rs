@@ -486,7 +486,11 @@ impl Board {
         self.source.reset();
         self.source.serve_jumps(streamer == Streamer::ProgramServer);
         self.interp.rewind();
-        self.sync_interpreter_position();
+        if kind == JobKind::Machine {
+            // A check goes on from the program's own position, which no motion has followed
+            // (grbl's `$C`: the machine position comes back with the reset that ends it).
+            self.sync_interpreter_position();
+        }
         self.pending = None;
         self.probe = ProbeCycle::Off;
         let phase = if kind == JobKind::Machine && self.hold_input_active() {
@@ -1117,7 +1121,9 @@ impl Board {
                 self.program_stop();
             }
             self.mode = Mode::Idle;
-            self.sync_interpreter_position();
+            if job.kind == JobKind::Machine || how == JobEnd::Failed {
+                self.sync_interpreter_position();
+            }
             self.emit(BoardEvent::JobDone {
                 line: self.line,
                 end: how,

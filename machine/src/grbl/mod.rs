@@ -707,11 +707,14 @@ impl Grbl {
             }
             Command::Check => {
                 if self.check_mode {
+                    // grbl soft-resets as check mode ends: the parser's position and modes
+                    // come back from the machine.
                     self.check_mode = false;
                     if board.state() == State::Check {
                         board.abort();
                     }
                     self.out.line("[MSG:Disabled]");
+                    self.session = Session::Resetting;
                     return ok;
                 }
                 if let Some(s) = self.idle_gate(board, false) {
