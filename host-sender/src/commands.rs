@@ -35,7 +35,7 @@ pub fn connect_with(
         }
         Target::Port(p) => {
             // A `gantry serve` that owns the port takes the command; else the port itself.
-            let t: Box<dyn Transport> = match crate::serve::SocketTransport::connect(&p) {
+            let t: Box<dyn Transport> = match crate::serve::SocketTransport::connect(&p)? {
                 Some(s) => Box::new(s),
                 None => Box::new(SerialTransport::open_with(&p, on_close)?),
             };
