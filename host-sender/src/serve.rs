@@ -355,7 +355,7 @@ pub fn run(port: &str) -> anyhow::Result<ExitCode> {
                     let Some(msg) = s.endpoint.recv_queued() else {
                         break;
                     };
-                    if matches!(msg, HostMsg::Start | HostMsg::StartFromLine { .. }) {
+                    if matches!(msg, HostMsg::Start { .. } | HostMsg::StartFromLine { .. }) {
                         s.owns_job = true;
                     }
                     board.send(msg)?;

@@ -56,6 +56,12 @@ const EVENT_QUEUE: usize = 8;
 pub const ERROR_SOFT_LIMIT: u16 = 900;
 /// Error code reported when motion is refused: homing is required first.
 pub const ERROR_HOMING_REQUIRED: u16 = 901;
+/// Error code of a refused request: the board is busy (a job, a homing cycle, a jog not yet at
+/// rest); jogs, homing and jobs start from Idle.
+pub const ERROR_BUSY: u16 = 902;
+/// Error code of a refused request that can never be carried out: no such axis, no feed, no axis
+/// to home.
+pub const ERROR_INVALID_REQUEST: u16 = 903;
 /// Mark events waiting for the link.
 const MARK_QUEUE: usize = 4;
 /// Every limit-switch bit of [`InputBits`].
@@ -136,6 +142,10 @@ pub enum BoardEvent {
     JobDone { line: u32, end: JobEnd },
     /// The interpreter jumped: the host must serve lines from the request's target.
     Jump(JumpRequest),
+    /// The answer to the host request tagged `id` (`gantry_proto::BoardMsg::Answer`): 0 =
+    /// accepted, else the refusal's code. Queued by the link when it hands the request over, so
+    /// it follows every event emitted before.
+    Answer { id: u32, code: u16 },
 }
 
 /// How a job ended (in [`BoardEvent::JobDone`]).
@@ -461,18 +471,39 @@ impl Board {
 
     /// Starts a streamed job at the current position (only from idle).
     pub fn start_job(&mut self) -> bool {
+        match self.start(JobKind::Machine) {
+            Ok(()) => true,
+            Err(code) => {
+                if code == ERROR_HOMING_REQUIRED {
+                    self.emit(BoardEvent::Error {
+                        line: 0,
+                        code,
+                        column: 0,
+                    });
+                }
+                false
+            }
+        }
+    }
+
+    /// [`Board::start_job`] for a host request that is answered: the refusal's code (902 not
+    /// idle, 901 homing required) instead of an error event.
+    pub fn try_start_job(&mut self) -> Result<(), u16> {
         self.start(JobKind::Machine)
     }
 
     /// Starts a streamed job in check mode: interpreted and checked against the soft limits
     /// without any motion or output (grbl `$C`); ends with `JobDone` or the first error.
     pub fn start_check(&mut self) -> bool {
-        self.start(JobKind::Check)
+        self.start(JobKind::Check).is_ok()
     }
 
-    fn start(&mut self, kind: JobKind) -> bool {
-        if !matches!(self.mode, Mode::Idle) || (kind == JobKind::Machine && self.refuse_unhomed()) {
-            return false;
+    fn start(&mut self, kind: JobKind) -> Result<(), u16> {
+        if !matches!(self.mode, Mode::Idle) {
+            return Err(ERROR_BUSY);
+        }
+        if kind == JobKind::Machine && self.homing_missing() {
+            return Err(ERROR_HOMING_REQUIRED);
         }
         // No line of this job has run yet (a job that runs nothing ends with `JobDone{0}`).
         self.line = 0;
@@ -496,7 +527,7 @@ impl Board {
             queued: false,
             last_motion_line: 0,
         });
-        true
+        Ok(())
     }
 
     /// A streamed line for place `id` (0 = the main stream). False when dropped (stale or full).
@@ -897,8 +928,17 @@ impl Board {
     /// Clears an alarm (unlock); motion is allowed again. While homing is required and an axis
     /// is unhomed the board stays in alarm 11 (only homing is allowed).
     pub fn unlock(&mut self) {
-        if !matches!(self.mode, Mode::Alarm(_)) || self.motion.state() != MotionState::Idle {
-            return;
+        let _ = self.try_unlock();
+    }
+
+    /// [`Board::unlock`], with its outcome: `Ok` when no alarm is left (or there was none),
+    /// else [`ERROR_BUSY`] (still decelerating) or [`ERROR_HOMING_REQUIRED`] (alarm 11 stays).
+    pub fn try_unlock(&mut self) -> Result<(), u16> {
+        if !matches!(self.mode, Mode::Alarm(_)) {
+            return Ok(());
+        }
+        if self.motion.state() != MotionState::Idle {
+            return Err(ERROR_BUSY);
         }
         if self.homing_missing() {
             if !matches!(self.mode, Mode::Alarm(AlarmCode::HomingRequired)) {
@@ -908,7 +948,7 @@ impl Board {
                     line: 0,
                 });
             }
-            return;
+            return Err(ERROR_HOMING_REQUIRED);
         }
         // The operator takes the position as it is (no homing set up, or every axis homed).
         self.position_lost = false;
@@ -917,6 +957,7 @@ impl Board {
             self.rebuild_motion(true, &steps);
         }
         self.mode = Mode::Idle;
+        Ok(())
     }
 
     /// A stop (jog stop, stick release, feed hold, abort) or a jog's speed change wants to act
