@@ -35,7 +35,7 @@ pub fn connect_with(
         }
         Target::Port(p) => {
             // A `gantry serve` that owns the port takes the command; else the port itself.
-            let t: Box<dyn Transport> = match crate::serve::SocketTransport::connect(&p) {
+            let t: Box<dyn Transport> = match crate::serve::SocketTransport::connect(&p)? {
                 Some(s) => Box::new(s),
                 None => Box::new(SerialTransport::open_with(&p, on_close)?),
             };
@@ -117,6 +117,42 @@ fn print_notices<T: Transport>(client: &mut Client<T>) {
 /// How long a one-shot command waits for the board to confirm what it asked, ms (an abort's
 /// deceleration from full speed is well under this).
 pub const CONFIRM_MS: u32 = 10_000;
+
+/// `error 900: move exceeds the machine travel (soft limit)` for a refused request's code.
+fn refusal_text(code: u16) -> String {
+    crate::stream::BoardError {
+        line: 0,
+        code,
+        column: 0,
+    }
+    .describe("", &Program::from_text(""))
+    .trim_start_matches("resume preamble: ")
+    .to_owned()
+}
+
+/// Clears an alarm (unlock) and prints the status; exits 1 when the board keeps the alarm
+/// (homing required, or still decelerating) and says why.
+pub fn unlock(target: Target) -> anyhow::Result<ExitCode> {
+    let (mut client, setup) = connect(target)?;
+    let axes = setup.axis_count as usize;
+    let id = client.request_id();
+    client.send(HostMsg::Unlock { id })?;
+    let answer = client.await_answer(id, CONFIRM_MS)?;
+    let status = fresh_status(&mut client)?;
+    print_notices(&mut client);
+    println!("{}", format_status(&status, axes));
+    match answer {
+        Some(0) => Ok(ExitCode::SUCCESS),
+        Some(code) => {
+            println!("unlock refused: {}", refusal_text(code));
+            Ok(ExitCode::from(1))
+        }
+        None => anyhow::bail!(
+            "the board did not answer the unlock within {} s",
+            CONFIRM_MS / 1000
+        ),
+    }
+}
 
 /// Sends one realtime message (or none), waits until the board shows its effect (bounded by
 /// [`CONFIRM_MS`]), prints the status and closes the port without dropping DTR: a resume is not
@@ -301,25 +337,20 @@ pub fn push_setup_over<T: Transport>(
             bytes: heapless::Vec::from_slice(chunk).expect("chunk size"),
         })?;
     }
+    let id = client.request_id();
     client.send(HostMsg::SetupCommit {
+        id,
         len: blob.len() as u32,
         crc32: gantry_proto::crc::crc32(blob),
     })?;
-    for _ in 0..3000 {
-        client.pump(1)?;
-        while let Some(msg) = client.recv() {
-            if let gantry_proto::BoardMsg::SetupResult { code } = msg {
-                return match code {
-                    0 => Ok(()),
-                    1 => anyhow::bail!("the board received a damaged setup (length or CRC)"),
-                    2 => anyhow::bail!("the board refused the setup as invalid"),
-                    3 => anyhow::bail!("the board is not idle: setups are changed only when idle"),
-                    c => anyhow::bail!("the board refused the setup (code {c})"),
-                };
-            }
-        }
+    match client.await_answer(id, 3000)? {
+        Some(0) => Ok(()),
+        Some(1) => anyhow::bail!("the board received a damaged setup (length or CRC)"),
+        Some(2) => anyhow::bail!("the board refused the setup as invalid"),
+        Some(3) => anyhow::bail!("the board is not idle: setups are changed only when idle"),
+        Some(c) => anyhow::bail!("the board refused the setup (code {c})"),
+        None => anyhow::bail!("the board did not answer the setup within 3 s"),
     }
-    anyhow::bail!("the board did not answer the setup within 3 s")
 }
 
 /// Reads the board's setup.
@@ -447,7 +478,19 @@ pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
         t => connect(t)?,
     };
     let n = setup.axis_count as usize;
-    client.send(HostMsg::Home { axes })?;
+    let id = client.request_id();
+    client.send(HostMsg::Home { id, axes })?;
+    match client.await_answer(id, 1000)? {
+        Some(0) => {}
+        // Nothing to home: said below with the status.
+        Some(gantry_machine::board::ERROR_INVALID_REQUEST) => {}
+        Some(code) => {
+            println!("{}", format_status(&fresh_status(&mut client)?, n));
+            println!("home refused: {}", refusal_text(code));
+            return Ok(ExitCode::from(1));
+        }
+        None => anyhow::bail!("the board did not answer the homing request within 1 s"),
+    }
     // Seeks run at a slow constant rate over the whole travel.
     let status = wait_while(
         &mut client,
@@ -560,51 +603,25 @@ pub fn jog(target: Target, axis: u8, how: JogMove, feed_mm_min: f64) -> anyhow::
             return Ok(ExitCode::from(1));
         }
     }
+    let id = client.request_id();
     client.send(HostMsg::Jog(gantry_proto::Jog {
+        id,
         axis,
         feed_um_min: if negative { -speed } else { speed },
         distance_nm,
     }))?;
-    // The board either starts (state Jog) or refuses; a refusal beyond the travel or without
-    // homing comes as an error report.
+    // The board answers this jog (its id), started or refused; nothing else counts.
     let start = client.transport.now_ms();
-    let mut refused = None;
-    let mut status = before.clone();
-    let mut started = false;
-    while client.transport.now_ms().wrapping_sub(start) < 1000 {
-        client.pump(20)?;
-        while let Some(msg) = client.recv() {
-            match msg {
-                gantry_proto::BoardMsg::Error { code, line, column } => {
-                    refused = Some(crate::stream::BoardError { line, code, column })
-                }
-                gantry_proto::BoardMsg::Status(s) => {
-                    started |= s.state == S::Jog || s.machine_pos != before.machine_pos;
-                    status = s;
-                }
-                _ => {}
+    match client.await_answer(id, 1000)? {
+        Some(0) => {}
+        answer => {
+            println!("{}", format_status(&fresh_status(&mut client)?, n));
+            match answer {
+                Some(code) => println!("jog refused: {}", refusal_text(code)),
+                None => println!("jog refused: the board did not answer it within 1 s"),
             }
+            return Ok(ExitCode::from(1));
         }
-        if started || refused.is_some() {
-            break;
-        }
-    }
-    if let Some(e) = refused {
-        println!("{}", format_status(&status, n));
-        println!(
-            "jog refused: {}",
-            e.describe("", &Program::from_text(""))
-                .trim_start_matches("resume preamble: ")
-        );
-        return Ok(ExitCode::from(1));
-    }
-    if !started {
-        println!("{}", format_status(&status, n));
-        println!(
-            "jog refused: the board did not start it within 1 s (state {})",
-            state_name(status.state)
-        );
-        return Ok(ExitCode::from(1));
     }
     if let JogMove::Continuous { seconds, .. } = how {
         let stop = crate::stream::ctrl_c_flag();

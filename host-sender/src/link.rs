@@ -216,6 +216,16 @@ impl Transport for SerialTransport {
     }
 }
 
+/// The first request id of a link whose hello nonce is `nonce`: spread over the id space, so
+/// links of different processes (through `gantry serve` they see each other's answers) do not
+/// take the same ids.
+fn first_request_id(nonce: u32) -> u32 {
+    nonce.wrapping_mul(0x9E37_79B9)
+        ^ (std::time::UNIX_EPOCH
+            .elapsed()
+            .map_or(0, |d| d.subsec_nanos()))
+}
+
 /// Makes every link of this process say hello with its own nonce.
 static NONCES: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
 
@@ -232,6 +242,8 @@ pub struct Client<T: Transport> {
     board_resets: u32,
     /// Link clock when the last message arrived from the board.
     last_heard_ms: u32,
+    /// The id of the last request this link made ([`Client::request_id`]).
+    request: u32,
 }
 
 impl<T: Transport> Client<T> {
@@ -248,6 +260,7 @@ impl<T: Transport> Client<T> {
             stash: Default::default(),
             board_resets: 0,
             last_heard_ms: 0,
+            request: first_request_id(nonce),
         }
     }
 
@@ -264,6 +277,7 @@ impl<T: Transport> Client<T> {
             stash: Default::default(),
             board_resets: 0,
             last_heard_ms: 0,
+            request: first_request_id(nonce),
         };
         let start = c.transport.now_ms();
         c.last_heard_ms = start;
@@ -382,6 +396,36 @@ impl<T: Transport> Client<T> {
         let mut msgs: Vec<_> = msgs.into_iter().collect();
         msgs.extend(self.stash.drain(..));
         self.stash = msgs.into();
+    }
+
+    /// A new id for a request the board answers (`Jog`, `Home`, `Unlock`, `Start`,
+    /// `StartFromLine`, `SetupCommit`; docs/protocol.md "Answers"). Ids of different links (other
+    /// processes through `gantry serve`) start far apart.
+    pub fn request_id(&mut self) -> u32 {
+        self.request = self.request.wrapping_add(1);
+        self.request
+    }
+
+    /// Waits (at most `limit_ms` of link time) for the board's answer to request `id`: 0 =
+    /// accepted, else the refusal's code; `None` when none came. Whatever the board queued
+    /// before the answer is not about this request (an earlier command's answer or error, or
+    /// another command's through `gantry serve`) and is passed over; what follows the answer
+    /// stays for the caller, and alarm and limit reports are kept as notices.
+    pub fn await_answer(&mut self, id: u32, limit_ms: u32) -> anyhow::Result<Option<u16>> {
+        let start = self.transport.now_ms();
+        loop {
+            while let Some(msg) = self.recv() {
+                if let BoardMsg::Answer { id: got, code } = msg {
+                    if got == id {
+                        return Ok(Some(code));
+                    }
+                }
+            }
+            if self.transport.now_ms().wrapping_sub(start) > limit_ms {
+                return Ok(None);
+            }
+            self.pump(5)?;
+        }
     }
 
     /// The alarm and limit reports received since the last call, oldest first.

@@ -437,9 +437,7 @@ fn main() -> ExitCode {
         Command::Abort { board } => m
             .target(&board, Use::Controls)
             .and_then(|t| commands::realtime(t, Some(HostMsg::Abort))),
-        Command::Unlock { board } => m
-            .target(&board, Use::Controls)
-            .and_then(|t| commands::realtime(t, Some(HostMsg::Unlock))),
+        Command::Unlock { board } => m.target(&board, Use::Controls).and_then(commands::unlock),
         Command::Override { feed, rapid, board } => m.target(&board, Use::Controls).and_then(|t| {
             if let Some(f) = feed {
                 anyhow::ensure!((10..=200).contains(&f), "--feed {f}: must be 10-200 %");

@@ -28,10 +28,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// The socket of the server for `port`: `gantry-<port path, '/' as '_'>.sock` in
-/// `$XDG_RUNTIME_DIR` (else the temporary directory); the port path is resolved first, so a
-/// link to a port and the port itself find the same server.
-pub fn socket_path(port: &str) -> PathBuf {
+/// The socket of the server for `port`: `gantry-<port path, '/' as '_'>.sock` in the private
+/// directory [`socket_dir`]; the port path is resolved first, so a link to a port and the port
+/// itself find the same server.
+pub fn socket_name(port: &str) -> String {
     let resolved = std::fs::canonicalize(port).unwrap_or_else(|_| PathBuf::from(port));
     let name: String = resolved
         .to_string_lossy()
@@ -44,11 +44,101 @@ pub fn socket_path(port: &str) -> PathBuf {
             }
         })
         .collect();
-    let dir = std::env::var_os("XDG_RUNTIME_DIR")
-        .map(PathBuf::from)
-        .filter(|d| d.is_dir())
-        .unwrap_or_else(std::env::temp_dir);
-    dir.join(format!("gantry-{name}.sock"))
+    format!("gantry-{name}.sock")
+}
+
+/// The user this process runs as.
+fn my_uid() -> u32 {
+    nix::unistd::geteuid().as_raw()
+}
+
+/// Refuses a path another user owns: it may have been planted there to pose as this user's
+/// `gantry serve` (a fake board that answers `gantry abort` while the real job runs).
+fn check_owner(path: &Path, meta: &std::fs::Metadata) -> anyhow::Result<()> {
+    use std::os::unix::fs::MetadataExt;
+    let me = my_uid();
+    if meta.uid() != me {
+        anyhow::bail!(
+            "{}: not owned by you (owner uid {}, you are uid {me}): refusing it, another user may have put it there to pose as your `gantry serve`; remove it (as its owner or root) if it is stale",
+            path.display(),
+            meta.uid()
+        );
+    }
+    Ok(())
+}
+
+/// The private directory of the servers' sockets: `$XDG_RUNTIME_DIR` (the user's own, 0700),
+/// else `gantry-<uid>` in the temporary directory, created with mode 0700 when `create`. It must
+/// be a directory owned by this user and closed to everyone else (no group or other
+/// permission bit), else it is refused with the reason. `None`: it does not exist (and was not
+/// to be created), so no server runs.
+pub fn socket_dir(create: bool) -> anyhow::Result<Option<PathBuf>> {
+    use std::os::unix::fs::{DirBuilderExt, PermissionsExt};
+    let xdg = std::env::var_os("XDG_RUNTIME_DIR")
+        .filter(|d| !d.is_empty())
+        .map(PathBuf::from);
+    let (dir, meta) = match xdg {
+        // Set up by the login session; may be a link to /run/user/<uid>.
+        Some(d) => match std::fs::metadata(&d) {
+            Ok(m) => (d, m),
+            Err(e) => anyhow::bail!("XDG_RUNTIME_DIR {}: {e}", d.display()),
+        },
+        None => {
+            let d = std::env::temp_dir().join(format!("gantry-{}", my_uid()));
+            if create {
+                match std::fs::DirBuilder::new().mode(0o700).create(&d) {
+                    Ok(()) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+                    Err(e) => {
+                        return Err(e).with_context(|| format!("cannot create {}", d.display()))
+                    }
+                }
+            }
+            // Not followed: a link planted in the shared temporary directory is refused.
+            match std::fs::symlink_metadata(&d) {
+                Ok(m) => (d, m),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+                Err(e) => return Err(e).with_context(|| format!("cannot read {}", d.display())),
+            }
+        }
+    };
+    check_owner(&dir, &meta)?;
+    if !meta.is_dir() {
+        anyhow::bail!(
+            "{}: not a directory (refused as the socket directory of `gantry serve`)",
+            dir.display()
+        );
+    }
+    let mode = meta.permissions().mode() & 0o777;
+    if mode & 0o077 != 0 {
+        anyhow::bail!(
+            "{}: open to other users (mode {mode:04o}): the socket directory of `gantry serve` must be private (chmod 700 it)",
+            dir.display()
+        );
+    }
+    Ok(Some(dir))
+}
+
+/// The socket of the server for `port` (see [`socket_name`], [`socket_dir`]); `None` when the
+/// directory does not exist.
+pub fn socket_path(port: &str) -> anyhow::Result<Option<PathBuf>> {
+    Ok(socket_dir(false)?.map(|d| d.join(socket_name(port))))
+}
+
+/// Refuses an existing `path` that is not this user's socket; false when nothing is there.
+fn check_socket(path: &Path) -> anyhow::Result<bool> {
+    use std::os::unix::fs::FileTypeExt;
+    match std::fs::symlink_metadata(path) {
+        Ok(m) => {
+            check_owner(path, &m)?;
+            if !m.file_type().is_socket() {
+                anyhow::bail!("{}: not a socket (refused)", path.display());
+            }
+            Ok(true)
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(false),
+        Err(e) => Err(e).with_context(|| format!("cannot read {}", path.display())),
+    }
 }
 
 /// A command's link to the board through a running server.
@@ -58,14 +148,25 @@ pub struct SocketTransport {
 }
 
 impl SocketTransport {
-    /// Connects to the server of `port`, if one runs.
-    pub fn connect(port: &str) -> Option<Self> {
-        let stream = UnixStream::connect(socket_path(port)).ok()?;
-        stream.set_nonblocking(true).ok()?;
-        Some(SocketTransport {
+    /// Connects to the server of `port`, if one runs (`None`: no socket, or nobody listens).
+    /// A socket or socket directory of another user is refused (an error), never used.
+    pub fn connect(port: &str) -> anyhow::Result<Option<Self>> {
+        let Some(path) = socket_path(port)? else {
+            return Ok(None);
+        };
+        if !check_socket(&path)? {
+            return Ok(None);
+        }
+        let Ok(stream) = UnixStream::connect(&path) else {
+            return Ok(None);
+        };
+        if stream.set_nonblocking(true).is_err() {
+            return Ok(None);
+        }
+        Ok(Some(SocketTransport {
             stream,
             start: Instant::now(),
-        })
+        }))
     }
 }
 
@@ -185,18 +286,28 @@ impl Session {
 
 /// Runs the server for `port` until SIGINT or SIGTERM.
 pub fn run(port: &str) -> anyhow::Result<ExitCode> {
-    let path = socket_path(port);
-    if UnixStream::connect(&path).is_ok() {
-        anyhow::bail!(
-            "a gantry serve already owns {port} (socket {})",
-            path.display()
-        );
+    let dir = socket_dir(true)?.expect("created");
+    let path = dir.join(socket_name(port));
+    if check_socket(&path)? {
+        if UnixStream::connect(&path).is_ok() {
+            anyhow::bail!(
+                "a gantry serve already owns {port} (socket {})",
+                path.display()
+            );
+        }
+        // This user's socket that nobody listens on: left by a server that was killed.
+        let _ = std::fs::remove_file(&path);
     }
-    let _ = std::fs::remove_file(&path);
     let t: Box<dyn Transport> = Box::new(SerialTransport::open_with(port, OnClose::DropDtr)?);
     let mut board = Client::connect(t, 3000)?;
     let listener =
         UnixListener::bind(&path).with_context(|| format!("cannot bind {}", path.display()))?;
+    // Read and write for this user only, whatever the umask (the directory is private too).
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o600))
+            .with_context(|| format!("cannot make {} private", path.display()))?;
+    }
     listener.set_nonblocking(true)?;
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
@@ -244,7 +355,7 @@ pub fn run(port: &str) -> anyhow::Result<ExitCode> {
                     let Some(msg) = s.endpoint.recv_queued() else {
                         break;
                     };
-                    if matches!(msg, HostMsg::Start | HostMsg::StartFromLine { .. }) {
+                    if matches!(msg, HostMsg::Start { .. } | HostMsg::StartFromLine { .. }) {
                         s.owns_job = true;
                     }
                     board.send(msg)?;
@@ -336,9 +447,9 @@ fn placeholder() -> Client<Box<dyn Transport>> {
     Client::unconnected(Box::new(Nothing))
 }
 
-/// True when a server for `port` answers on its socket.
+/// True when a server for `port` answers on its socket (of this user).
 pub fn running(port: &str) -> bool {
-    Path::new(&socket_path(port)).exists() && UnixStream::connect(socket_path(port)).is_ok()
+    matches!(SocketTransport::connect(port), Ok(Some(_)))
 }
 
 /// The board's state as the server's log names it: each state the status tells apart has its own

@@ -55,6 +55,12 @@ impl BoardError {
                 gantry_machine::board::ERROR_HOMING_REQUIRED => {
                     "the machine must be homed first (gantry home)"
                 }
+                gantry_machine::board::ERROR_BUSY => {
+                    "the board is busy (a job, a homing cycle or a jog still moving): wait until it is Idle"
+                }
+                gantry_machine::board::ERROR_INVALID_REQUEST => {
+                    "the board cannot carry this out (no such axis, no feed, or no axis to home)"
+                }
                 _ => "unknown error",
             });
         if self.line == 0 {
@@ -198,8 +204,16 @@ pub fn stream_program<T: Transport>(
     program: &Program,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
-    client.send(HostMsg::Start)?;
-    run_job(client, program, Some(Serving::at(0, 1)), None, on_progress)
+    let id = client.request_id();
+    client.send(HostMsg::Start { id })?;
+    run_job(
+        client,
+        program,
+        Some(id),
+        Some(Serving::at(0, 1)),
+        None,
+        on_progress,
+    )
 }
 
 /// Takes over a job the board is already running (after the link was lost, or from a new
@@ -211,7 +225,8 @@ pub fn continue_job<T: Transport>(
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
     client.send(HostMsg::Resume)?;
-    run_job(client, program, None, None, on_progress)
+    // The job's messages from before (its errors, its end) are this command's to report.
+    run_job(client, program, None, None, None, on_progress)
 }
 
 /// Streams `program` from line `from` after `preamble` (see [`crate::resume`]): the blocks that
@@ -223,21 +238,27 @@ pub fn stream_from_line<T: Transport>(
     preamble: Vec<String>,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
-    client.send(HostMsg::StartFromLine { line_no: from })?;
+    let id = client.request_id();
+    client.send(HostMsg::StartFromLine { id, line_no: from })?;
     let mut serving = Serving::at(0, from);
     serving.preamble = preamble.iter().cloned().collect();
     run_job(
         client,
         program,
+        Some(id),
         Some(serving),
         Some((from, preamble)),
         on_progress,
     )
 }
 
+/// Runs the job to its end. `start`: the id of the `Start` / `StartFromLine` request that began
+/// it; queued messages before the board's answer to it are not about this job (an earlier
+/// command's, or another command's through `gantry serve`) and are passed over.
 fn run_job<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
+    start: Option<u32>,
     serving: Option<Serving>,
     resume: Option<(u32, Vec<String>)>,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
@@ -266,6 +287,7 @@ fn run_job<T: Transport>(
         ..Progress::default()
     };
     let mut last_heard = client.transport.now_ms();
+    let mut awaiting = start;
     let mut done = false;
     let mut warned_silent = false;
     let operator = MANUAL_TOOL_CHANGE.load(std::sync::atomic::Ordering::Relaxed);
@@ -315,15 +337,25 @@ fn run_job<T: Transport>(
                     tool_change_answered = at_tool_change && !operator;
                     progress.status = Some(s);
                 }
-                BoardMsg::Error { line, code, column } => {
-                    report.errors.push(BoardError { line, code, column });
-                    if line == 0 && code == gantry_machine::board::ERROR_HOMING_REQUIRED {
+                BoardMsg::Alarm { code, line } => report.alarms.push(BoardAlarm { code, line }),
+                BoardMsg::Limit { axis, max } => report.limits.push((axis, max)),
+                BoardMsg::Answer { id, code } if Some(id) == awaiting => {
+                    awaiting = None;
+                    if code != 0 {
                         // The board refused the start: no job runs, nothing more will come.
+                        report.errors.push(BoardError {
+                            line: 0,
+                            code,
+                            column: 0,
+                        });
                         done = true;
                     }
                 }
-                BoardMsg::Alarm { code, line } => report.alarms.push(BoardAlarm { code, line }),
-                BoardMsg::Limit { axis, max } => report.limits.push((axis, max)),
+                // Queued before the answer to this job's start: not about this job.
+                _ if awaiting.is_some() => {}
+                BoardMsg::Error { line, code, column } => {
+                    report.errors.push(BoardError { line, code, column });
+                }
                 BoardMsg::ProgramRequest { .. } if report.aborted => {}
                 BoardMsg::ProgramRequest { id, target } => {
                     report.jumps_served += 1;
@@ -360,7 +392,7 @@ fn run_job<T: Transport>(
                 BoardMsg::Mark { .. }
                 | BoardMsg::SetupChunk { .. }
                 | BoardMsg::SetupEnd { .. }
-                | BoardMsg::SetupResult { .. } => {}
+                | BoardMsg::Answer { .. } => {}
             }
         }
         progress.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);

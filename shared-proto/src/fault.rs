@@ -312,10 +312,10 @@ mod tests {
         let mut d: Duplex<4096> = Duplex::new(3, Faults::uniform(10_000));
         let mut host = HostEndpoint::new_host(Config::USB_MS, 1);
         let mut board = BoardEndpoint::new_board(Config::USB_MS, 2);
-        host.send(HostMsg::Start).unwrap();
+        host.send(HostMsg::Start { id: 1 }).unwrap();
         for t in 0..5_000 {
             d.step(t, &mut host, &mut board);
-            if board.recv() == Some(HostMsg::Start) {
+            if board.recv() == Some(HostMsg::Start { id: 1 }) {
                 return;
             }
         }

@@ -81,6 +81,8 @@ impl Line {
 /// A jog command (realtime).
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Jog {
+    /// Request id, echoed in the board's [`BoardMsg::Answer`].
+    pub id: u32,
     /// Axis index 0..AXES (X=0).
     pub axis: u8,
     /// Signed velocity in µm/min; the sign gives the direction.
@@ -136,16 +138,18 @@ wire_messages! {
             bytes: Vec<u8, SETUP_CHUNK_MAX>,
         },
         /// The setup blob is complete: `len` bytes with CRC-32/ISO-HDLC `crc32`.
-        /// The board validates and applies it (and writes flash only when idle).
-        Queued SetupCommit { len: u32, crc32: u32 },
+        /// The board validates and applies it (and writes flash only when idle), and answers
+        /// with [`BoardMsg::Answer`] `{ id, .. }`.
+        Queued SetupCommit { id: u32, len: u32, crc32: u32 },
         /// Ask the board to send its setup blob (as [`BoardMsg::SetupChunk`]s and a
         /// [`BoardMsg::SetupEnd`]).
         Queued SetupRequest,
-        /// Start executing the streamed job from its first line.
-        Queued Start,
+        /// Start executing the streamed job from its first line; answered by
+        /// [`BoardMsg::Answer`] `{ id, .. }` before any message of the job.
+        Queued Start { id: u32 },
         /// Start (resume) the job from line `line_no`; the host replays the modal
-        /// preamble as ordinary lines before it.
-        Queued StartFromLine { line_no: u32 },
+        /// preamble as ordinary lines before it. Answered as [`HostMsg::Start`].
+        Queued StartFromLine { id: u32, line_no: u32 },
         /// No more lines follow for this job (lets the board tell "done" from "starved").
         Queued EndOfJob,
         /// Decelerate on the path and hold.
@@ -158,16 +162,17 @@ wire_messages! {
         Realtime FeedOverride(u16),
         /// Rapid override in percent (e.g. 25, 50, 100).
         Realtime RapidOverride(u16),
-        /// Jog one axis.
+        /// Jog one axis; answered by [`BoardMsg::Answer`] with [`Jog::id`].
         Realtime Jog(Jog),
         /// Stop jogging and flush jog motion.
         Realtime JogStop,
         /// Ask for a [`BoardMsg::Status`].
         Realtime StatusRequest,
-        /// Clear an alarm lock.
-        Realtime Unlock,
-        /// Run the homing cycle for the axes in the bit mask (bit 0 = X; 0 = all).
-        Realtime Home { axes: u8 },
+        /// Clear an alarm lock; answered by [`BoardMsg::Answer`] `{ id, .. }`.
+        Realtime Unlock { id: u32 },
+        /// Run the homing cycle for the axes in the bit mask (bit 0 = X; 0 = all); answered by
+        /// [`BoardMsg::Answer`] `{ id, .. }`.
+        Realtime Home { id: u32, axes: u8 },
     }
 }
 
@@ -320,9 +325,14 @@ wire_messages! {
         },
         /// The setup blob is complete: `len` bytes with CRC-32/ISO-HDLC `crc32`.
         Queued SetupEnd { len: u32, crc32: u32 },
-        /// Answer to `SetupCommit`: 0 = applied (and saved), else why not (1 = bad length or
-        /// CRC, 2 = not a valid setup, 3 = not idle).
-        Queued SetupResult { code: u16 },
+        /// The answer to the request with this `id` (`Jog`, `Home`, `Unlock`, `Start`,
+        /// `StartFromLine`, `SetupCommit`): 0 = accepted, else why not (error 900 beyond the
+        /// travel, 901 homing required, 902 busy, 903 invalid; for `SetupCommit` 1 = bad length
+        /// or CRC, 2 = not a valid setup, 3 = not idle). Queued, after every message the board
+        /// queued before it took the request: whatever the host receives on the queued lane
+        /// before it is not about this request (an older command's, or another command's through
+        /// `gantry serve`).
+        Queued Answer { id: u32, code: u16 },
         /// The job ended; `line` is the last executed line, `end` says how.
         Queued JobDone { line: u32, end: JobEnd },
     }

@@ -28,11 +28,13 @@ fn random_host(r: &mut Rng) -> HostMsg {
         0 => HostMsg::FeedHold,
         1 => HostMsg::FeedOverride(r.next_u32() as u16),
         2 => HostMsg::Jog(Jog {
+            id: r.next_u32(),
             axis: r.next_u32() as u8,
             feed_um_min: r.next_u32() as i32,
             distance_nm: r.next_u64(),
         }),
         3 => HostMsg::StartFromLine {
+            id: r.next_u32(),
             line_no: r.next_u32(),
         },
         4 => HostMsg::SetupChunk {

@@ -400,7 +400,7 @@ fn version_mismatch_is_refused() {
     let mut buf = [0u8; MAX_FRAME_LEN];
     assert!(host.poll_transmit(0, &mut buf).is_some()); // Hello
     let ack = HelloAck {
-        version: 0x0400,
+        version: 0x0500,
         nonce: host.nonce(),
         boot_id: 1,
         rx_capacity: 16,
@@ -418,13 +418,13 @@ fn version_mismatch_is_refused() {
     assert_eq!(
         host.state(),
         LinkState::Incompatible {
-            peer_version: 0x0400
+            peer_version: 0x0500
         }
     );
     assert_eq!(
         host.poll_event(),
         Some(LinkEvent::VersionMismatch {
-            peer_version: 0x0400
+            peer_version: 0x0500
         })
     );
 
@@ -484,7 +484,7 @@ fn next_deadline_tracks_retransmission() {
     let mut sim = Sim::new(23, Faults::NONE, SIM);
     sim.connect(100);
     sim.pump();
-    sim.host.send(HostMsg::Start).unwrap();
+    sim.host.send(HostMsg::Start { id: 1 }).unwrap();
     sim.transmit(); // sent, not delivered yet
     let sent_at = sim.now;
     sim.h2b.clear(); // lost

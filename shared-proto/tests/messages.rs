@@ -41,12 +41,16 @@ fn all_host() -> Vec<HostMsg> {
             bytes: heapless::Vec::from_slice(&[0xFF; SETUP_CHUNK_MAX]).unwrap(),
         },
         HostMsg::SetupCommit {
+            id: u32::MAX,
             len: 1000,
             crc32: 0xDEAD_BEEF,
         },
         HostMsg::SetupRequest,
-        HostMsg::Start,
-        HostMsg::StartFromLine { line_no: 1234 },
+        HostMsg::Start { id: 7 },
+        HostMsg::StartFromLine {
+            id: 8,
+            line_no: 1234,
+        },
         HostMsg::EndOfJob,
         HostMsg::FeedHold,
         HostMsg::Resume,
@@ -54,19 +58,21 @@ fn all_host() -> Vec<HostMsg> {
         HostMsg::FeedOverride(150),
         HostMsg::RapidOverride(25),
         HostMsg::Jog(Jog {
+            id: 1,
             axis: 2,
             feed_um_min: -500_000,
             distance_nm: 0,
         }),
         HostMsg::Jog(Jog {
+            id: u32::MAX,
             axis: 5,
             feed_um_min: i32::MIN,
             distance_nm: u64::MAX,
         }),
         HostMsg::JogStop,
         HostMsg::StatusRequest,
-        HostMsg::Unlock,
-        HostMsg::Home { axes: 0b111 },
+        HostMsg::Unlock { id: 3 },
+        HostMsg::Home { id: 4, axes: 0b111 },
     ]
 }
 
@@ -165,7 +171,10 @@ fn all_board() -> Vec<BoardMsg> {
             len: u32::MAX,
             crc32: u32::MAX,
         },
-        BoardMsg::SetupResult { code: 3 },
+        BoardMsg::Answer {
+            id: u32::MAX,
+            code: 3,
+        },
         BoardMsg::JobDone {
             line: u32::MAX,
             end: JobEnd::Alarm,
@@ -270,7 +279,7 @@ fn lanes() {
                 | HostMsg::Jog(_)
                 | HostMsg::JogStop
                 | HostMsg::StatusRequest
-                | HostMsg::Unlock
+                | HostMsg::Unlock { .. }
                 | HostMsg::Home { .. }
         );
         assert_eq!(m.lane() == Lane::Realtime, rt, "{m:?}");
@@ -314,16 +323,18 @@ fn wire_bytes_of_every_message_kind_are_unchanged() {
     for (i, (g, w)) in got.iter().zip(&want).enumerate() {
         assert_eq!(g, w, "message {i}");
     }
-    // A few by hand, against docs/protocol.md: Start is variant 6 with no fields; Jog(axis 2,
-    // -500 000 µm/min, 0 nm) is variant 14, the axis byte, zigzag varint 999 999, varint 0.
-    assert_eq!(hex(&HostMsg::Start), "06");
+    // A few by hand, against docs/protocol.md: Start{id 7} is variant 6 and varint 7; Jog(id 1,
+    // axis 2, -500 000 µm/min, 0 nm) is variant 14, varint 1, the axis byte, zigzag varint
+    // 999 999, varint 0.
+    assert_eq!(hex(&HostMsg::Start { id: 7 }), "0607");
     assert_eq!(
         hex(&HostMsg::Jog(Jog {
+            id: 1,
             axis: 2,
             feed_um_min: -500_000,
             distance_nm: 0,
         })),
-        "0e02bf843d00"
+        "0e0102bf843d00"
     );
 }
 

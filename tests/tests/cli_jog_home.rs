@@ -14,6 +14,7 @@ fn a_host_jog_moves_exactly_the_distance() {
     let mut client = Client::connect(board, 2000).unwrap();
     client
         .send(HostMsg::Jog(Jog {
+            id: 1,
             axis: 1,
             feed_um_min: -1_200_000,
             distance_nm: 12_500_000,
@@ -34,7 +35,7 @@ fn homing_over_the_link_seeks_retracts_and_sets_home() {
     )
     .unwrap();
     let mut client = Client::connect(emulated_with_switches(setup), 2000).unwrap();
-    client.send(HostMsg::Home { axes: 0 }).unwrap();
+    client.send(HostMsg::Home { id: 1, axes: 0 }).unwrap();
     let mut s = fresh_status(&mut client).unwrap();
     for _ in 0..1000 {
         if s.state != MachineState::Homing {

@@ -688,3 +688,70 @@ fn a_hold_during_an_alarm_2_stop_ends_in_the_alarm_at_rest_with_outputs_off() {
     // Stopped on the path, well short of the 200 mm the queued blocks would have reached.
     ended_at_rest_with_outputs_off(&emu, "Alarm 2", 190, "Alarm");
 }
+
+/// Issue 25 item 12: a command's answer is the answer to that command. A jog the board refuses
+/// (error 900) must not poison the next command: the next jog reports success and moves exactly
+/// its distance, an `mdi` after a refused jog completes without the old error.
+#[test]
+fn a_refused_jog_then_a_good_one_no_stale_answer_exact_motion() {
+    let dir = Dir::new("jog-stale");
+    let emu = Emulator::start(&dir, None);
+    let port = emu.port();
+    run(
+        &["jog", "X", "5", "--port", port],
+        0,
+        &["machine:   X 5.000"],
+        &[],
+    );
+    let mut x = 5.0;
+    for _ in 0..3 {
+        run(
+            &["jog", "X", "400", "--port", port],
+            1,
+            &["jog refused: error 900: move exceeds the machine travel"],
+            &[],
+        );
+        x += 2.0;
+        let out = gantry(&["jog", "X", "2", "--port", port], 10 * S);
+        assert_eq!(
+            out.code,
+            Some(0),
+            "the good jog after a refused one: {out:?}"
+        );
+        assert!(!out.stdout.contains("error 900"), "{}", out.stdout);
+        assert!(
+            out.stdout
+                .contains(&format!("machine:   X {x:.3}  Y 0.000")),
+            "{}",
+            out.stdout
+        );
+    }
+    // 11 mm at 640 steps/mm, and the board at rest there.
+    assert!(
+        emu.wait_log(2 * S, |l| l.contains("Idle line 0 steps X 7040 Y 0 Z 0")),
+        "{}",
+        emu.log()
+    );
+    // The same for a job: an MDI block after a refused jog runs and reports success.
+    run(
+        &["jog", "X", "-400", "--port", port],
+        1,
+        &["jog refused: error 900"],
+        &[],
+    );
+    let out = gantry(&["mdi", "G90 G0 X3", "--port", port], 10 * S);
+    assert_eq!(out.code, Some(0), "mdi after a refused jog: {out:?}");
+    assert!(!out.stdout.contains("error 900"), "{}", out.stdout);
+    assert!(
+        out.stdout.contains("machine:   X 3.000  Y 0.000"),
+        "{}",
+        out.stdout
+    );
+    let (state, text) = status(port);
+    assert_eq!(state, "state:     Idle");
+    assert!(
+        text.contains("machine:   X 3.000  Y 0.000  Z 0.000"),
+        "{text}"
+    );
+    assert_eq!(emu.last_counts().0, "X 1920 Y 0 Z 0");
+}

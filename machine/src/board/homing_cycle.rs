@@ -12,13 +12,19 @@ impl Board {
     /// Starts a homing cycle of `axes` (bit mask, 0 = every axis with a homing priority), from
     /// idle or alarm with the machine at rest. False when refused.
     pub fn home(&mut self, axes: u8) -> bool {
+        self.try_home(axes).is_ok()
+    }
+
+    /// [`Board::home`] for a host request that is answered: the refusal's code (902 busy, 903
+    /// no axis to home).
+    pub fn try_home(&mut self, axes: u8) -> Result<(), u16> {
         if !matches!(self.mode, Mode::Idle | Mode::Alarm(_))
             || self.motion.state() != MotionState::Idle
         {
-            return false;
+            return Err(super::ERROR_BUSY);
         }
         let Some(h) = Homing::new(&self.setup, axes) else {
-            return false;
+            return Err(super::ERROR_INVALID_REQUEST);
         };
         let steps = self.motion.prepared_steps();
         self.rebuild_motion(false, &steps);
@@ -31,7 +37,7 @@ impl Board {
                 list: None,
             }),
         };
-        true
+        Ok(())
     }
 
     pub(super) fn poll_homing(&mut self, drained: bool) {

@@ -2,7 +2,10 @@
 //! stick), docs/controller.md "Jogging". Targets and stick mapping are in [`crate::controller::jog`].
 
 use super::mode::{Jogging, Mode};
-use super::{Board, BoardEvent, JogMotion, MarkEvent, MotionState, StickMove, ERROR_SOFT_LIMIT};
+use super::{
+    Board, BoardEvent, JogMotion, MarkEvent, MotionState, StickMove, ERROR_BUSY,
+    ERROR_HOMING_REQUIRED, ERROR_INVALID_REQUEST, ERROR_SOFT_LIMIT,
+};
 use crate::canon::{Action, Canon};
 use crate::controller::inputs::{InputBits, Signal};
 use crate::controller::jog::{self, JogMode};
@@ -26,14 +29,40 @@ pub enum JogRefused {
 impl Board {
     /// Host jog of one axis at `velocity_um_min` (sign = direction): `distance_nm` far, or
     /// (0) toward the soft limit until [`Board::jog_stop`]. From idle, or after the previous jog
-    /// has stopped; false when refused (an increment beyond the soft limits reports error 900).
+    /// has stopped; false when refused (an increment beyond the soft limits reports error 900,
+    /// a jog without the required homing error 901).
     pub fn jog(&mut self, axis: u8, velocity_um_min: i32, distance_nm: u64) -> bool {
+        match self.try_jog(axis, velocity_um_min, distance_nm) {
+            Ok(()) => true,
+            Err(code) => {
+                if code == ERROR_HOMING_REQUIRED || (code == ERROR_SOFT_LIMIT && distance_nm > 0) {
+                    self.emit(BoardEvent::Error {
+                        line: 0,
+                        code,
+                        column: 0,
+                    });
+                }
+                false
+            }
+        }
+    }
+
+    /// [`Board::jog`] for a host request that is answered: the refusal's code instead of an
+    /// error event (902 busy, 903 no such axis or no feed, 901 homing required, 900 beyond the
+    /// travel or already at its end).
+    pub fn try_jog(&mut self, axis: u8, velocity_um_min: i32, distance_nm: u64) -> Result<(), u16> {
         let free = matches!(self.mode, Mode::Idle)
             || (matches!(self.mode, Mode::Jog(Jogging::Moves))
                 && self.jog.motion != JogMotion::Stopping
                 && self.motion.state() == MotionState::Idle);
-        if !free || axis >= self.setup.axis_count || velocity_um_min == 0 || self.refuse_unhomed() {
-            return false;
+        if !free {
+            return Err(ERROR_BUSY);
+        }
+        if axis >= self.setup.axis_count || velocity_um_min == 0 {
+            return Err(ERROR_INVALID_REQUEST);
+        }
+        if self.homing_missing() {
+            return Err(ERROR_HOMING_REQUIRED);
         }
         let mut dirs = [0i64; MAX_AXES];
         // In range: `axis < axis_count <= MAX_AXES` (checked above, and by the setup).
@@ -43,14 +72,7 @@ impl Board {
         let distance = (distance_nm > 0).then(|| distance_nm.min(i64::MAX as u64 / 4) as i64);
         let from = self.motion.queued_position();
         let Some(to) = jog::jog_target(self.motion.config(), &from, &dirs, distance) else {
-            if distance.is_some() {
-                self.emit(BoardEvent::Error {
-                    line: 0,
-                    code: ERROR_SOFT_LIMIT,
-                    column: 0,
-                });
-            }
-            return false;
+            return Err(ERROR_SOFT_LIMIT);
         };
         let feed = i64::from(velocity_um_min.unsigned_abs()) * 1000;
         if self
@@ -61,10 +83,10 @@ impl Board {
             })
             .is_err()
         {
-            return false;
+            return Err(ERROR_BUSY);
         }
         self.mode = Mode::Jog(Jogging::Moves);
-        true
+        Ok(())
     }
 
     /// Host jog of several axes to the machine position `to` at `feed` nm/min (grbl's `$J=`,

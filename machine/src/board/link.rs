@@ -315,15 +315,19 @@ impl BoardLink {
             HostMsg::FeedOverride(p) => board.set_feed_override(p),
             HostMsg::RapidOverride(p) => board.set_rapid_override(p),
             HostMsg::StatusRequest => self.status_requested = true,
-            HostMsg::Unlock => board.unlock(),
-            // A refused jog or homing request leaves the state unchanged, which the host sees in
-            // the next status (a jog beyond the travel also reports error 900).
+            // Requests with an id are answered (`BoardMsg::Answer`), accepted or refused.
+            HostMsg::Unlock { id } => {
+                let r = board.try_unlock();
+                answer(board, id, r);
+            }
             HostMsg::Jog(j) => {
-                board.jog(j.axis, j.feed_um_min, j.distance_nm);
+                let r = board.try_jog(j.axis, j.feed_um_min, j.distance_nm);
+                answer(board, j.id, r);
             }
             HostMsg::JogStop => board.jog_stop(),
-            HostMsg::Home { axes } => {
-                board.home(axes);
+            HostMsg::Home { id, axes } => {
+                let r = board.try_home(axes);
+                answer(board, id, r);
             }
             _ => {}
         }
@@ -346,7 +350,7 @@ impl BoardLink {
                     rx.clear();
                 }
             }
-            HostMsg::SetupCommit { len, crc32 } => {
+            HostMsg::SetupCommit { id, len, crc32 } => {
                 let blob = &self.setup_in;
                 let code = if blob.len() != len as usize || gantry_proto::crc::crc32(blob) != crc32
                 {
@@ -365,7 +369,7 @@ impl BoardLink {
                     }
                 };
                 self.setup_in.clear();
-                self.queue_event(BoardMsg::SetupResult { code });
+                answer(board, id, if code == 0 { Ok(()) } else { Err(code) });
             }
             HostMsg::SetupRequest => {
                 let mut buf = [0u8; SETUP_BLOB_MAX];
@@ -377,8 +381,9 @@ impl BoardLink {
                     });
                 }
             }
-            HostMsg::Start | HostMsg::StartFromLine { .. } => {
-                board.start_job();
+            HostMsg::Start { id } | HostMsg::StartFromLine { id, .. } => {
+                let r = board.try_start_job();
+                answer(board, id, r);
             }
             HostMsg::Line(l) => {
                 board.push_line(0, l.line_no, &l.text);
@@ -390,12 +395,6 @@ impl BoardLink {
             HostMsg::EndOfJob => board.end_of_lines(0),
             _ => {}
         }
-    }
-
-    /// Queues a message after the ones already waiting (sent by [`Self::send_events`]).
-    fn queue_event(&mut self, msg: BoardMsg) {
-        // At most one setup answer waits at a time, so the outbox never overflows.
-        let _ = self.outbox.push_back(msg);
     }
 
     /// Sends the next chunks of an outgoing setup blob as the queue allows.
@@ -459,8 +458,19 @@ impl BoardLink {
     }
 }
 
+/// Answers the host request `id`: after every event emitted before (so the host can tell what
+/// came before its request from what came after).
+fn answer(board: &mut Board, id: u32, result: Result<(), u16>) {
+    let code = match result {
+        Ok(()) => 0,
+        Err(code) => code,
+    };
+    board.emit(BoardEvent::Answer { id, code });
+}
+
 fn event_message(e: BoardEvent) -> BoardMsg {
     match e {
+        BoardEvent::Answer { id, code } => BoardMsg::Answer { id, code },
         BoardEvent::Error { line, code, column } => BoardMsg::Error { line, code, column },
         BoardEvent::Alarm { code, line } => BoardMsg::Alarm {
             code: code as u16,

@@ -57,6 +57,12 @@ const EVENT_QUEUE: usize = 8;
 pub const ERROR_SOFT_LIMIT: u16 = 900;
 /// Error code reported when motion is refused: homing is required first.
 pub const ERROR_HOMING_REQUIRED: u16 = 901;
+/// Error code of a refused request: the board is busy (a job, a homing cycle, a jog not yet at
+/// rest); jogs, homing and jobs start from Idle.
+pub const ERROR_BUSY: u16 = 902;
+/// Error code of a refused request that can never be carried out: no such axis, no feed, no axis
+/// to home.
+pub const ERROR_INVALID_REQUEST: u16 = 903;
 /// Mark events waiting for the link.
 const MARK_QUEUE: usize = 4;
 /// Every limit-switch bit of [`InputBits`].
@@ -137,6 +143,10 @@ pub enum BoardEvent {
     JobDone { line: u32, end: JobEnd },
     /// The interpreter jumped: the host must serve lines from the request's target.
     Jump(JumpRequest),
+    /// The answer to the host request tagged `id` (`gantry_proto::BoardMsg::Answer`): 0 =
+    /// accepted, else the refusal's code. Queued by the link when it hands the request over, so
+    /// it follows every event emitted before.
+    Answer { id: u32, code: u16 },
 }
 
 /// How a job ended (in [`BoardEvent::JobDone`]).
@@ -463,23 +473,45 @@ impl Board {
     /// Starts a streamed job at the current position (only from idle), its lines served by the
     /// host's program server ([`Streamer::ProgramServer`]).
     pub fn start_job(&mut self) -> bool {
-        self.start(JobKind::Machine, Streamer::ProgramServer)
+        self.start_job_from(Streamer::ProgramServer)
     }
 
-    /// Starts a streamed job whose lines come from `streamer`.
+    /// Starts a streamed job whose lines come from `streamer` (false when refused; a refusal
+    /// for homing reports error 901).
     pub fn start_job_from(&mut self, streamer: Streamer) -> bool {
-        self.start(JobKind::Machine, streamer)
+        match self.start(JobKind::Machine, streamer) {
+            Ok(()) => true,
+            Err(code) => {
+                if code == ERROR_HOMING_REQUIRED {
+                    self.emit(BoardEvent::Error {
+                        line: 0,
+                        code,
+                        column: 0,
+                    });
+                }
+                false
+            }
+        }
+    }
+
+    /// [`Board::start_job`] for a host request that is answered: the refusal's code (902 not
+    /// idle, 901 homing required) instead of an error event.
+    pub fn try_start_job(&mut self) -> Result<(), u16> {
+        self.start(JobKind::Machine, Streamer::ProgramServer)
     }
 
     /// Starts a streamed job in check mode: interpreted and checked against the soft limits
     /// without any motion or output (grbl `$C`); each error is reported and the check reads on.
     pub fn start_check(&mut self) -> bool {
-        self.start(JobKind::Check, Streamer::LineSender)
+        self.start(JobKind::Check, Streamer::LineSender).is_ok()
     }
 
-    fn start(&mut self, kind: JobKind, streamer: Streamer) -> bool {
-        if !matches!(self.mode, Mode::Idle) || (kind == JobKind::Machine && self.refuse_unhomed()) {
-            return false;
+    fn start(&mut self, kind: JobKind, streamer: Streamer) -> Result<(), u16> {
+        if !matches!(self.mode, Mode::Idle) {
+            return Err(ERROR_BUSY);
+        }
+        if kind == JobKind::Machine && self.homing_missing() {
+            return Err(ERROR_HOMING_REQUIRED);
         }
         // No line of this job has run yet (a job that runs nothing ends with `JobDone{0}`).
         self.line = 0;
@@ -509,7 +541,7 @@ impl Board {
             last_motion_line: 0,
             streamer,
         });
-        true
+        Ok(())
     }
 
     /// A streamed line for place `id` (0 = the main stream). False when dropped (stale or full).
@@ -968,8 +1000,17 @@ impl Board {
     /// Clears an alarm (unlock); motion is allowed again. While homing is required and an axis
     /// is unhomed the board stays in alarm 11 (only homing is allowed).
     pub fn unlock(&mut self) {
-        if !matches!(self.mode, Mode::Alarm(_)) || self.motion.state() != MotionState::Idle {
-            return;
+        let _ = self.try_unlock();
+    }
+
+    /// [`Board::unlock`], with its outcome: `Ok` when no alarm is left (or there was none),
+    /// else [`ERROR_BUSY`] (still decelerating) or [`ERROR_HOMING_REQUIRED`] (alarm 11 stays).
+    pub fn try_unlock(&mut self) -> Result<(), u16> {
+        if !matches!(self.mode, Mode::Alarm(_)) {
+            return Ok(());
+        }
+        if self.motion.state() != MotionState::Idle {
+            return Err(ERROR_BUSY);
         }
         if self.homing_missing() {
             if !matches!(self.mode, Mode::Alarm(AlarmCode::HomingRequired)) {
@@ -979,7 +1020,7 @@ impl Board {
                     line: 0,
                 });
             }
-            return;
+            return Err(ERROR_HOMING_REQUIRED);
         }
         // The operator takes the position as it is (no homing set up, or every axis homed).
         self.position_lost = false;
@@ -988,6 +1029,7 @@ impl Board {
             self.rebuild_motion(true, &steps);
         }
         self.mode = Mode::Idle;
+        Ok(())
     }
 
     /// A stop (jog stop, stick release, feed hold, abort) or a jog's speed change wants to act

@@ -347,7 +347,8 @@ impl Grbl {
                         }
                     }
                 }
-                BoardEvent::Error { .. } | BoardEvent::Limit { .. } => {}
+                BoardEvent::Error { .. } | BoardEvent::Limit { .. } | BoardEvent::Answer { .. } => {
+                }
                 BoardEvent::Alarm { code, .. } => {
                     self.out.str("ALARM:");
                     self.out.uint(code as u64);

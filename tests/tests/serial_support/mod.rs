@@ -248,8 +248,12 @@ impl Drop for Running {
 
 /// Starts `gantry ARGS` with standard input piped (for answers) and its output collected.
 pub fn spawn(args: &[&str]) -> Running {
-    let mut child = Command::new(GANTRY)
-        .args(args)
+    spawn_cmd(Command::new(GANTRY).args(args))
+}
+
+/// Starts the prepared `cmd` (`gantry` with its arguments and environment) as [`spawn`] does.
+pub fn spawn_cmd(cmd: &mut Command) -> Running {
+    let mut child = cmd
         .env_remove("GANTRY_PORT")
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
