@@ -366,8 +366,7 @@ fn num(key: Key, index: usize, v: f64) -> anyhow::Result<i64> {
     } else {
         (v * key.row().unit.scale() as f64).round() as i64
     };
-    key.check(index, scaled)
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    key.check(index, scaled).map_err(anyhow::Error::new)?;
     Ok(scaled)
 }
 
@@ -598,7 +597,7 @@ impl SetupFile {
         self.apply_drivers(&mut s)?;
         self.apply_grbl(&mut s)?;
         // The rules between settings (start speed, pairs, step rate…): the core's own check.
-        s.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
+        s.validate().map_err(anyhow::Error::new)?;
         Ok(s)
     }
 

@@ -885,9 +885,9 @@ impl Grbl {
                 s => (s, 3),
             };
             self.out.byte(b' ');
-            self.out.fixed(row.min, scale, decimals);
+            self.out.fixed(row.min(), scale, decimals);
             self.out.str(" to ");
-            self.out.fixed(row.max, scale, decimals);
+            self.out.fixed(row.max(), scale, decimals);
         }
         self.out.line("]");
         Reply::Error(settings::refusal(e))

@@ -123,17 +123,72 @@ impl Unit {
 /// grbl number of a row without one.
 pub const NO_GRBL: u16 = u16::MAX;
 
-/// A setting as the board checks it.
+/// A setting as the board checks it (8 bytes: the range is two indices into [`BOUNDS`], which
+/// keeps the table small in the firmware's flash).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Row {
     pub key: Key,
     pub section: Section,
     pub unit: Unit,
-    /// Allowed values, inclusive, in core units.
-    pub min: i64,
-    pub max: i64,
+    lo: u8,
+    hi: u8,
     /// grbl `$` number ([`NO_GRBL`]: none); per-axis rows of 100 and up are `$n+axis`.
     pub grbl: u16,
+}
+
+impl Row {
+    /// Smallest allowed value, core units.
+    pub fn min(&self) -> i64 {
+        BOUNDS[usize::from(self.lo)]
+    }
+
+    /// Largest allowed value, core units.
+    pub fn max(&self) -> i64 {
+        BOUNDS[usize::from(self.hi)]
+    }
+}
+
+/// Every range bound of the table, core units.
+const BOUNDS: [i64; 27] = [
+    i64::MIN,
+    i64::MAX,
+    0,
+    1,
+    3,
+    6,
+    10,
+    100,
+    200,
+    255,
+    1_000,
+    10_000,
+    50_000,
+    60_000,
+    65_535,
+    90_000,
+    1_000_000,
+    mm(10),
+    mm(100),
+    mm(1000),
+    -mm(1000),
+    mm(10_000),
+    mm(100_000),
+    -mm(100_000),
+    mm(200_000),
+    u32::MAX as i64,
+    crate::units::MAX_AXES as i64,
+];
+
+/// The index of `v` in [`BOUNDS`] (a bound missing there fails the build).
+const fn bound(v: i64) -> u8 {
+    let mut i = 0;
+    while i < BOUNDS.len() {
+        if BOUNDS[i] == v {
+            return i as u8;
+        }
+        i += 1;
+    }
+    panic!("a settings-table bound missing from BOUNDS")
 }
 
 /// The host's part of a row: its name in the file and its reference text.
@@ -175,8 +230,8 @@ macro_rules! table {
                 key: Key::$key,
                 section: Section::$section,
                 unit: Unit::$unit,
-                min: $range.0,
-                max: $range.1,
+                lo: bound($range.0),
+                hi: bound($range.1),
                 grbl: $grbl,
             },)*
         ];
@@ -460,7 +515,7 @@ impl Key {
     /// `value` (core units) against the row's range: the one range check of every path.
     pub fn check(self, index: usize, value: i64) -> Result<(), super::SetupError> {
         let r = self.row();
-        if value < r.min || value > r.max {
+        if value < r.min() || value > r.max() {
             return Err(super::SetupError {
                 key: self,
                 index: index as u8,
@@ -484,7 +539,7 @@ mod tests {
         let s = Setup::default();
         for (i, r) in ROWS.iter().enumerate() {
             assert_eq!(r.key as usize, i);
-            assert!(r.min <= r.max, "{:?}", r.key);
+            assert!(r.min() <= r.max(), "{:?}", r.key);
             let t = r.key.text();
             assert_eq!(t.choices.is_empty(), r.unit != Unit::Choice, "{}", t.name);
             for k in 0..r.section.count(&s) {

@@ -196,6 +196,10 @@ pub fn file_value(key: Key, v: i64) -> impl core::fmt::Display {
     Scaled(v, key.row().unit.scale())
 }
 
+/// The host keeps the refusal itself as its error (`anyhow::Error::new`), so a test can compare
+/// it with the one the board gives.
+impl core::error::Error for SetupError {}
+
 /// The host's message: the key, the value in file units and what is allowed.
 impl core::fmt::Display for SetupError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -208,8 +212,8 @@ impl core::fmt::Display for SetupError {
             Reason::OutOfRange => write!(
                 f,
                 "{name} = {value}: must be between {} and {}{unit}",
-                file_value(key, row.min),
-                file_value(key, row.max)
+                file_value(key, row.min()),
+                file_value(key, row.max())
             ),
             Reason::StartAboveMaxRate => write!(
                 f,
