@@ -292,4 +292,19 @@ mod tests {
         );
         assert_eq!(read(199, &s), None);
     }
+
+    #[test]
+    fn the_listing_is_grbls_order_from_the_table() {
+        let listed = numbers(2);
+        assert_eq!(
+            listed.as_slice(),
+            [
+                0, 1, 2, 3, 4, 5, 6, 10, 11, 12, 13, 20, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32,
+                100, 101, 110, 111, 120, 121, 130, 131
+            ]
+        );
+        // Every number listed has a value.
+        let s = Setup::default();
+        assert!(listed.iter().all(|&n| read(n, &s).is_some()));
+    }
 }
