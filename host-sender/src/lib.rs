@@ -13,6 +13,7 @@ pub mod program;
 pub mod program_stops;
 pub mod resume;
 pub mod serve;
+pub mod settings_doc;
 pub mod setup_file;
 pub mod simulate;
 pub mod stream;

@@ -265,6 +265,13 @@ enum SetupAction {
         #[command(flatten)]
         board: BoardArgs,
     },
+    /// Regenerate the per-setting tables of a settings reference (docs/settings.md) from the
+    /// settings table, in place; with --check only report whether they are up to date.
+    Docs {
+        file: PathBuf,
+        #[arg(long)]
+        check: bool,
+    },
     /// Read the board's setup and write it as a setup file (to standard output without FILE).
     Pull {
         file: Option<PathBuf>,
@@ -286,6 +293,18 @@ fn setup(action: SetupAction, machine: &Machine) -> anyhow::Result<ExitCode> {
         SetupAction::Check { file } => {
             SetupFile::load(&file)?;
             println!("{}: setup is valid", file.display());
+        }
+        SetupAction::Docs { file, check } => {
+            let doc = std::fs::read_to_string(&file)?;
+            let want = host_sender::settings_doc::render(&doc)?;
+            if want == doc {
+                println!("{}: up to date", file.display());
+            } else if check {
+                anyhow::bail!("{}: stale: run gantry setup docs {0}", file.display());
+            } else {
+                std::fs::write(&file, want)?;
+                println!("{}: regenerated", file.display());
+            }
         }
         SetupAction::Push { file, board } => {
             let setup = SetupFile::load(&file)?;

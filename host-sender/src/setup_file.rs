@@ -7,9 +7,8 @@
 use anyhow::{bail, Context};
 use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::gcode::RetractMode;
-use gantry_machine::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::setup::{
-    AxisSetup, Dialect, DriverSetup, DwellUnits, GrblSetup, ListCommand, McodeList, Setup, Tool,
+    AxisSetup, Dialect, DwellUnits, Key, KeyName, ListCommand, McodeList, Setup, Tool,
     ToolChangePosition, MAX_TOOLS, MAX_USER_MCODES, STARTUP_LINE_LEN, USER_OUTPUTS,
 };
 use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES, NM_PER_MM};
@@ -358,7 +357,34 @@ pub const WORK_SYSTEMS: [&str; 9] = [
 /// Largest length accepted anywhere in the file, mm (the core is exact to 1 nm over far more).
 const MAX_LENGTH_MM: f64 = 100_000.0;
 
-/// Converts a value in mm to nm, checking `lo..=hi` (in mm) and naming `key` on error.
+/// A file value of setting `key` (axis or tool `index`) in the core's integer units, checked
+/// against the settings table's range by the core's own check (machine/src/setup/table.rs), so
+/// the refusal is the one the board and grbl `$x=` give.
+fn num(key: Key, index: usize, v: f64) -> anyhow::Result<i64> {
+    let scaled = if v.is_nan() {
+        i64::MIN
+    } else {
+        (v * key.row().unit.scale() as f64).round() as i64
+    };
+    key.check(index, scaled).map_err(anyhow::Error::new)?;
+    Ok(scaled)
+}
+
+/// `text` as the index of one of `key`'s choices.
+fn choice(key: Key, text: &str) -> anyhow::Result<usize> {
+    let choices = key.text().choices;
+    choices.iter().position(|c| *c == text).ok_or_else(|| {
+        let names: Vec<String> = choices.iter().map(|c| format!("{c:?}")).collect();
+        anyhow::anyhow!(
+            "{} = {text:?}: must be {}",
+            KeyName(key, 0),
+            names.join(" or ")
+        )
+    })
+}
+
+/// Converts a value in mm to nm, checking `lo..=hi` (in mm) and naming `key` on error (the
+/// positions of lists, which have no row of their own in the settings table).
 fn nm(key: &str, v: f64, lo: f64, hi: f64) -> anyhow::Result<Nm> {
     if !v.is_finite() || v < lo || v > hi {
         bail!("{key} = {v}: must be between {lo} and {hi}");
@@ -458,60 +484,51 @@ impl SetupFile {
                     &AXIS_LETTERS[..count]
                 );
             };
-            apply_axis(&format!("axis.{name}"), a, &mut s.axes[i])?;
+            apply_axis(i, a, &mut s.axes[i])?;
         }
         let p = &self.path;
         if let Some(v) = p.junction_deviation {
-            s.path.junction_deviation = nm("path.junction_deviation", v, 0.0, 10.0)?;
+            s.path.junction_deviation = num(Key::JunctionDeviation, 0, v)?;
         }
         if let Some(v) = p.feed_shift {
-            s.path.feed_shift = nm("path.feed_shift", v, 0.0, 100_000.0)?;
+            s.path.feed_shift = num(Key::FeedShift, 0, v)?;
         }
         if let Some(v) = p.chord_tolerance {
-            s.path.chord_tolerance = nm("path.chord_tolerance", v, 0.000_1, 1.0)?;
+            s.path.chord_tolerance = num(Key::ChordTolerance, 0, v)?;
         }
         if let Some(v) = p.arc_segment_angle {
-            if !(0.0..=90.0).contains(&v) {
-                bail!("path.arc_segment_angle = {v}: must be between 0 (off) and 90 degrees");
-            }
-            s.path.arc_segment_angle_mdeg = (v * 1000.0).round() as u32;
+            s.path.arc_segment_angle_mdeg = num(Key::ArcSegmentAngle, 0, v)? as u32;
         }
         if let Some(v) = p.arc_max_segments {
             s.path.arc_max_segments = v;
         }
         if let Some(v) = p.blend_tolerance {
-            s.path.blend_tolerance = nm("path.blend_tolerance", v, 0.0, 10.0)?;
+            s.path.blend_tolerance = num(Key::BlendTolerance, 0, v)?;
         }
         let g = &self.program;
         if let Some(d) = &g.dialect {
-            s.program.dialect = match d.as_str() {
-                "ngc" => Dialect::Rs274,
-                "gixa" => Dialect::Gixa,
-                other => bail!("program.dialect = {other:?}: must be \"ngc\" or \"gixa\""),
+            s.program.dialect = match choice(Key::Dialect, d)? {
+                0 => Dialect::Rs274,
+                _ => Dialect::Gixa,
             };
         }
         if let Some(d) = &g.dwell_units {
-            s.program.dwell_units = match d.as_str() {
-                "seconds" => DwellUnits::Seconds,
-                "milliseconds" => DwellUnits::FanucIntegerMillis,
-                other => {
-                    bail!(
-                        "program.dwell_units = {other:?}: must be \"seconds\" or \"milliseconds\""
-                    )
-                }
+            s.program.dwell_units = match choice(Key::DwellUnits, d)? {
+                0 => DwellUnits::Seconds,
+                _ => DwellUnits::FanucIntegerMillis,
             };
         }
         if let Some(v) = g.peck_clearance {
-            s.program.peck_clearance = nm("program.peck_clearance", v, 0.0, 100.0)?;
+            s.program.peck_clearance = num(Key::PeckClearance, 0, v)?;
         }
         if let Some(v) = g.chip_break_retract {
-            s.program.chip_break_retract = nm("program.chip_break_retract", v, 0.0, 100.0)?;
+            s.program.chip_break_retract = num(Key::ChipBreakRetract, 0, v)?;
         }
         if let Some(r) = &g.default_retract {
-            s.program.default_retract = match r.to_ascii_lowercase().as_str() {
-                "g98" => RetractMode::InitialLevel,
-                "g99" => RetractMode::RPlane,
-                other => bail!("program.default_retract = {other:?}: must be \"g98\" or \"g99\""),
+            s.program.default_retract = match choice(Key::DefaultRetract, &r.to_ascii_lowercase())?
+            {
+                0 => RetractMode::InitialLevel,
+                _ => RetractMode::RPlane,
             };
         }
         if let Some(codes) = &g.user_mcodes {
@@ -542,8 +559,8 @@ impl SetupFile {
             }
             let tool = Tool {
                 number: t.number,
-                length: nm(&format!("tool[{i}].length"), t.length, -1000.0, 1000.0)?,
-                diameter: nm(&format!("tool[{i}].diameter"), t.diameter, 0.0, 1000.0)?,
+                length: num(Key::ToolLength, i, t.length)?,
+                diameter: num(Key::ToolDiameter, i, t.diameter)?,
             };
             s.program
                 .tools
@@ -567,14 +584,11 @@ impl SetupFile {
             s.operator.two_hand_start = v;
         }
         if let Some((lo, hi)) = o.fro_range {
-            if !(10..=200).contains(&lo) || !(10..=200).contains(&hi) || lo > hi {
-                bail!("operator.fro_range = [{lo}, {hi}]: both within 10-200 % and low ≤ high");
-            }
-            s.operator.fro_low = lo;
-            s.operator.fro_high = hi;
+            s.operator.fro_low = num(Key::FroLow, 0, lo.into())? as u16;
+            s.operator.fro_high = num(Key::FroHigh, 0, hi.into())? as u16;
         }
         if let Some(v) = o.dry_run_feed {
-            s.operator.dry_run_feed = nm("operator.dry_run_feed", v, 1.0, 100_000.0)?;
+            s.operator.dry_run_feed = num(Key::DryRunFeed, 0, v)?;
         }
         self.apply_controller(&mut s)?;
         if let Some(v) = self.link.host_lost_stop_s {
@@ -582,6 +596,8 @@ impl SetupFile {
         }
         self.apply_drivers(&mut s)?;
         self.apply_grbl(&mut s)?;
+        // The rules between settings (start speed, pairs, step rate…): the core's own check.
+        s.validate().map_err(anyhow::Error::new)?;
         Ok(s)
     }
 
@@ -590,20 +606,13 @@ impl SetupFile {
     fn apply_grbl(&self, s: &mut Setup) -> anyhow::Result<()> {
         let g = &self.grbl;
         if let Some(v) = g.status_mask {
-            if v > 3 {
-                bail!("grbl.status_mask = {v}: 0-3 (bit 0 machine position, bit 1 buffer state)");
-            }
-            s.grbl.status_mask = v;
+            s.grbl.status_mask = num(Key::StatusMask, 0, v.into())? as u8;
         }
         if let Some(v) = g.report_inches {
             s.grbl.inches = v;
         }
         if let Some(v) = g.door_spin_up_s {
-            let max = f64::from(*GrblSetup::DOOR_SPIN_UP_MS.end()) / 1000.0;
-            if !v.is_finite() || !(0.0..=max).contains(&v) {
-                bail!("grbl.door_spin_up_s = {v}: must be between 0 and {max} s");
-            }
-            s.grbl.door_spin_up_ms = (v * 1000.0).round() as u16;
+            s.grbl.door_spin_up_ms = num(Key::DoorSpinUp, 0, v)? as u16;
         }
         if let Some(lines) = &g.startup_lines {
             if lines.len() > 2 {
@@ -639,40 +648,15 @@ impl SetupFile {
         Ok(())
     }
 
-    /// The `[drivers]` section, then the check that every axis's max rate leaves each step
-    /// period room for the pulse and the dir set-up (the board refuses such a setup).
+    /// The `[drivers]` section (the step rate each axis's max rate needs is checked with the
+    /// rest by [`Setup::validate`]).
     fn apply_drivers(&self, s: &mut Setup) -> anyhow::Result<()> {
-        let us = |key: &str, v: f64, range: &std::ops::RangeInclusive<u32>| {
-            let (lo, hi) = (*range.start() as f64 / 1000.0, *range.end() as f64 / 1000.0);
-            if !v.is_finite() || v < lo || v > hi {
-                bail!("{key} = {v}: must be between {lo} and {hi} µs");
-            }
-            Ok((v * 1000.0).round() as u32)
-        };
         let d = &self.drivers;
         if let Some(v) = d.step_pulse_us {
-            s.drivers.step_pulse_ns = us("drivers.step_pulse_us", v, &DriverSetup::PULSE_NS)?;
+            s.drivers.step_pulse_ns = num(Key::StepPulse, 0, v)? as u32;
         }
         if let Some(v) = d.dir_setup_us {
-            s.drivers.dir_setup_ns = us("drivers.dir_setup_us", v, &DriverSetup::DIR_SETUP_NS)?;
-        }
-        let timing = StepTiming::from_setup(&s.drivers);
-        let allowed = f64::from(KERNEL_TIMER_HZ) / f64::from(timing.min_period);
-        for (i, letter) in AXIS_LETTERS.iter().enumerate().take(s.axis_count as usize) {
-            if !s.step_rate_fits(i) {
-                let a = &s.axes[i];
-                let rate = a.max_rate as f64 * f64::from(a.steps) / a.units_nm as f64 / 60.0;
-                bail!(
-                    "axis.{}.max_rate = {} mm/min is {:.0} steps/s, but the drivers' step pulse \
-                     ({} µs, then low as long again) allows at most {:.0} steps/s: lower max_rate \
-                     or drivers.step_pulse_us",
-                    letter,
-                    mm(a.max_rate),
-                    rate,
-                    us_text(s.drivers.step_pulse_ns),
-                    allowed.floor()
-                );
-            }
+            s.drivers.dir_setup_ns = num(Key::DirSetup, 0, v)? as u32;
         }
         Ok(())
     }
@@ -688,10 +672,7 @@ impl SetupFile {
             }
         }
         if let Some(v) = i.debounce_ms {
-            if !(1..=100).contains(&v) {
-                bail!("inputs.debounce_ms = {v}: must be between 1 and 100");
-            }
-            s.inputs.debounce_ms = v;
+            s.inputs.debounce_ms = num(Key::DebounceMs, 0, v.into())? as u8;
         }
         if let Some(v) = &i.limits_min {
             s.inputs.limit_min = axis_mask("inputs.limits_min", v, count)?;
@@ -712,10 +693,7 @@ impl SetupFile {
             s.inputs.fro_pot = v;
         }
         if let Some(v) = i.adc_max {
-            if v < 255 {
-                bail!("inputs.adc_max = {v}: must be between 255 and 65535");
-            }
-            s.inputs.adc_max = v;
+            s.inputs.adc_max = num(Key::AdcMax, 0, v.into())? as u16;
         }
         let h = &self.homing;
         if let Some(v) = h.required {
@@ -738,28 +716,21 @@ impl SetupFile {
                 ha.priority = v;
             }
             if let Some(v) = &a.seek {
-                ha.seek_low = match v.as_str() {
-                    "low" => true,
-                    "high" => false,
-                    _ => bail!("{key}.seek = {v:?}: must be \"low\" or \"high\""),
-                };
+                ha.seek_low = choice(Key::Seek, v).map_err(|_| {
+                    anyhow::anyhow!("{key}.seek = {v:?}: must be \"low\" or \"high\"")
+                })? == 1;
             }
             if let Some(v) = a.seek_rate {
-                ha.seek_rate = nm(&format!("{key}.seek_rate"), v, 0.001, 200_000.0)?;
+                ha.seek_rate = num(Key::SeekRate, idx, v)?;
             }
             if let Some(v) = a.retract {
-                ha.retract = nm(&format!("{key}.retract"), v, 0.0, 1000.0)?;
+                ha.retract = num(Key::Retract, idx, v)?;
             }
             if let Some(v) = a.set_home {
                 ha.set_home = v;
             }
             if let Some(v) = a.home_position {
-                ha.home_position = nm(
-                    &format!("{key}.home_position"),
-                    v,
-                    -MAX_LENGTH_MM,
-                    MAX_LENGTH_MM,
-                )?;
+                ha.home_position = num(Key::HomePosition, idx, v)?;
             }
         }
         let j = &self.jog;
@@ -773,16 +744,13 @@ impl SetupFile {
             }
         }
         if let Some(v) = j.instant_speed {
-            s.jog.instant_speed = nm("jog.instant_speed", v, 0.001, 200_000.0)?;
+            s.jog.instant_speed = num(Key::InstantSpeed, 0, v)?;
         }
         if let Some(v) = j.nudge_distance {
-            s.jog.nudge_distance = nm("jog.nudge_distance", v, 0.000_001, 100.0)?;
+            s.jog.nudge_distance = num(Key::NudgeDistance, 0, v)?;
         }
         if let Some(v) = j.nudge_interval_ms {
-            if !(10..=10_000).contains(&v) {
-                bail!("jog.nudge_interval_ms = {v}: must be between 10 and 10000");
-            }
-            s.jog.nudge_interval_ms = v;
+            s.jog.nudge_interval_ms = num(Key::NudgeIntervalMs, 0, v.into())? as u16;
         }
         if let Some((a, b)) = &j.analog_axes {
             s.jog.analog_axes = [
@@ -791,30 +759,18 @@ impl SetupFile {
             ];
         }
         if let Some(v) = j.analog_deadband {
-            if u32::from(v) * 2 >= u32::from(s.inputs.adc_max) {
-                bail!(
-                    "jog.analog_deadband = {v}: must be below half of inputs.adc_max ({})",
-                    s.inputs.adc_max
-                );
-            }
-            s.jog.analog_deadband = v;
+            s.jog.analog_deadband = num(Key::AnalogDeadband, 0, v.into())? as u16;
         }
         if let Some(v) = j.analog_max_speed {
-            s.jog.analog_max_speed = nm("jog.analog_max_speed", v, 0.001, 200_000.0)?;
+            s.jog.analog_max_speed = num(Key::AnalogMaxSpeed, 0, v)?;
         }
         if let Some((lo, hi)) = self.spindle.rpm_range {
-            if lo >= hi || hi > 1_000_000 {
-                bail!("spindle.rpm_range = [{lo}, {hi}]: need 0 ≤ low < high ≤ 1000000");
-            }
-            s.outputs.spindle_min_rpm = lo;
-            s.outputs.spindle_max_rpm = hi;
+            s.outputs.spindle_min_rpm = num(Key::RpmMin, 0, lo.into())? as u32;
+            s.outputs.spindle_max_rpm = num(Key::RpmMax, 0, hi.into())? as u32;
         }
         if let Some((lo, hi)) = self.spindle.pwm_range {
-            if lo > hi || hi == 0 {
-                bail!("spindle.pwm_range = [{lo}, {hi}]: need 0 ≤ low ≤ high, high ≥ 1");
-            }
-            s.outputs.pwm_min = lo;
-            s.outputs.pwm_max = hi;
+            s.outputs.pwm_min = num(Key::PwmMin, 0, lo.into())? as u16;
+            s.outputs.pwm_max = num(Key::PwmMax, 0, hi.into())? as u16;
         }
         for (k, m) in self.mcode.iter().enumerate() {
             let key = format!("mcode[{k}]");
@@ -843,45 +799,25 @@ impl SetupFile {
     }
 }
 
-fn apply_axis(key: &str, a: &AxisFile, axis: &mut AxisSetup) -> anyhow::Result<()> {
+/// One `[axis.X]` table (axis `i`); start speed and travel order are checked with the rest by
+/// [`Setup::validate`].
+fn apply_axis(i: usize, a: &AxisFile, axis: &mut AxisSetup) -> anyhow::Result<()> {
     if let Some((steps, units)) = a.steps_per {
-        if steps == 0 {
-            bail!("{key}.steps_per: the step count must be 1 or more");
-        }
-        axis.steps = steps;
-        axis.units_nm = nm(&format!("{key}.steps_per"), units, 0.000_001, 10_000.0)?;
-        if axis.units_nm == 0 {
-            bail!("{key}.steps_per: the distance must be at least 0.000001 (1 nm)");
-        }
+        axis.steps = num(Key::Steps, i, steps.into())? as u32;
+        axis.units_nm = num(Key::StepUnits, i, units)?;
     }
     if let Some(v) = a.max_rate {
-        axis.max_rate = nm(&format!("{key}.max_rate"), v, 1.0, 200_000.0)?;
+        axis.max_rate = num(Key::MaxRate, i, v)?;
     }
     if let Some(v) = a.accel {
-        axis.accel = nm(&format!("{key}.accel"), v, 1.0, 100_000.0)?;
+        axis.accel = num(Key::Accel, i, v)?;
     }
     if let Some(v) = a.start_speed {
-        axis.start_speed = nm(&format!("{key}.start_speed"), v, 0.0, 200_000.0)?;
-    }
-    if axis.start_speed > axis.max_rate {
-        bail!("{key}.start_speed: must not exceed {key}.max_rate");
+        axis.start_speed = num(Key::StartSpeed, i, v)?;
     }
     if let Some((lo, hi)) = a.travel {
-        axis.travel_min = nm(
-            &format!("{key}.travel[0]"),
-            lo,
-            -MAX_LENGTH_MM,
-            MAX_LENGTH_MM,
-        )?;
-        axis.travel_max = nm(
-            &format!("{key}.travel[1]"),
-            hi,
-            -MAX_LENGTH_MM,
-            MAX_LENGTH_MM,
-        )?;
-        if axis.travel_min > axis.travel_max {
-            bail!("{key}.travel = [{lo}, {hi}]: min must not exceed max");
-        }
+        axis.travel_min = num(Key::TravelMin, i, lo)?;
+        axis.travel_max = num(Key::TravelMax, i, hi)?;
     }
     if let Some(v) = a.invert_dir {
         axis.invert_dir = v;
@@ -1255,9 +1191,61 @@ mod tests {
         let e = SetupFile::parse("[path]\nwobble = 1\n").unwrap_err();
         assert!(e.to_string().contains("unknown field `wobble`"), "{e}");
         let e = SetupFile::parse("[operator]\nfro_range = [150, 100]\n").unwrap_err();
-        assert!(
-            e.to_string().starts_with("operator.fro_range = [150, 100]"),
-            "{e}"
+        assert_eq!(
+            e.to_string(),
+            "operator.fro_range[0] = 150: must not exceed operator.fro_range[1] (100 %)"
+        );
+        // Rules between settings come from the core's validation (machine/src/setup/validate.rs).
+        let e = SetupFile::parse(
+            "[axis.Y]
+max_rate = 10
+",
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "axis.Y.start_speed = 60: must not exceed axis.Y.max_rate (10)"
+        );
+        let e = SetupFile::parse(
+            "[axis.Z]
+travel = [5.0, -5.0]
+",
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "axis.Z.travel[0] = 5: must not exceed axis.Z.travel[1] (-5)"
+        );
+        let e = SetupFile::parse(
+            "[jog]
+analog_deadband = 2048
+",
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "jog.analog_deadband = 2048: must be below half of inputs.adc_max (4095)"
+        );
+        let e = SetupFile::parse(
+            "[program]
+dialect = \"fanuc\"
+",
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "program.dialect = \"fanuc\": must be \"ngc\" or \"gixa\""
+        );
+        let e = SetupFile::parse(
+            "[[tool]]
+number = 1
+diameter = -1
+",
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "tool[0].diameter = -1: must be between 0 and 1000"
         );
         let e = SetupFile::parse("[program]\nuser_mcodes = [3]\n").unwrap_err();
         assert!(e.to_string().contains("M3 is reserved"), "{e}");
@@ -1400,7 +1388,7 @@ host_lost_stop_s = 0
         let e = SetupFile::parse("[drivers]\nstep_pulse_us = 15.6\n").unwrap_err();
         assert_eq!(
             e.to_string(),
-            "axis.X.max_rate = 3000.0 mm/min is 32000 steps/s, but the drivers' step pulse \
+            "axis.X.max_rate = 3000 mm/min is 32000 steps/s, but the drivers' step pulse \
              (15.6 µs, then low as long again) allows at most 31914 steps/s: lower max_rate or \
              drivers.step_pulse_us"
         );

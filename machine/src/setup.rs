@@ -12,6 +12,11 @@ use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
 mod blob;
+pub mod table;
+mod validate;
+
+pub use table::Key;
+pub use validate::{file_value, section_name, KeyName, Reason, SetupError};
 
 /// Number of user M-code lists.
 pub const MAX_USER_MCODES: usize = 16;
@@ -490,41 +495,11 @@ impl Setup {
         blob::decode(bytes).filter(Setup::is_valid)
     }
 
-    /// The invariants every part of the core relies on (the host validates each value with a
-    /// message; this is the board's own last line of defence against a corrupt or foreign blob).
+    /// [`Self::validate`] passes: the invariants every part of the core relies on (the board's
+    /// last line of defence against a corrupt or foreign blob; the host and grbl `$x=` refuse
+    /// with the same check's [`SetupError`]).
     pub fn is_valid(&self) -> bool {
-        let n = self.axis_count as usize;
-        (1..=MAX_AXES).contains(&n)
-            && self.axes[..n].iter().all(|a| {
-                a.steps > 0
-                    && a.units_nm > 0
-                    && a.max_rate > 0
-                    && a.accel > 0
-                    && a.start_speed >= 0
-                    && a.start_speed <= a.max_rate
-                    && a.travel_min <= a.travel_max
-            })
-            && self.path.chord_tolerance > 0
-            && self.path.junction_deviation >= 0
-            && self.operator.fro_low <= self.operator.fro_high
-            && self.inputs.adc_max > 0
-            && self.homing.axes[..n]
-                .iter()
-                .all(|h| h.priority == 0 || (h.seek_rate > 0 && h.retract >= 0))
-            && self.jog.nudge_interval_ms > 0
-            && self.jog.instant_speed > 0
-            && self.outputs.spindle_min_rpm < self.outputs.spindle_max_rpm
-            && self.outputs.pwm_min <= self.outputs.pwm_max
-            && DriverSetup::PULSE_NS.contains(&self.drivers.step_pulse_ns)
-            && DriverSetup::DIR_SETUP_NS.contains(&self.drivers.dir_setup_ns)
-            && (0..n).all(|i| self.step_rate_fits(i))
-            && self.grbl.status_mask <= 3
-            && GrblSetup::DOOR_SPIN_UP_MS.contains(&self.grbl.door_spin_up_ms)
-            && self
-                .grbl
-                .startup
-                .iter()
-                .all(|l| l.bytes().all(|c| (b' '..=b'~').contains(&c) && c != b'$'))
+        self.validate().is_ok()
     }
 
     /// Axis `axis` at its max rate leaves every step period long enough for the step pulse of

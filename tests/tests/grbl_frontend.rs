@@ -1196,3 +1196,136 @@ fn check_mode_follows_the_programs_position_and_ends_with_a_soft_reset() {
         "from the machine's position"
     );
 }
+
+/// The `$110` and `$100` values `$$` shows.
+fn listed(s: &mut Sender, number: &str) -> String {
+    let seen = s.answer(b"$$\n", 100);
+    let prefix = format!("{number}=");
+    seen.lines()
+        .find(|l| l.starts_with(&prefix))
+        .unwrap_or_else(|| panic!("no {number} in {seen:?}"))
+        .to_owned()
+}
+
+/// Sends `line` and returns what was seen up to and including its `error:N` line.
+fn refused(s: &mut Sender, line: &[u8]) -> String {
+    s.seen.clear();
+    s.send(line);
+    let mut seen = s.until("error:", 100);
+    s.run(5);
+    seen.push_str(&std::mem::take(&mut s.seen));
+    seen
+}
+
+#[test]
+fn a_setting_write_that_breaks_the_setup_is_refused_and_leaves_it_unchanged() {
+    let mut s = Sender::connected();
+    let before = s.eb.board.setup().clone();
+    // Below the 60 mm/min start speed.
+    let seen = refused(&mut s, b"$110=10\n");
+    assert!(
+        seen.contains("[MSG:Refused: start speed above max rate]\r\nerror:3\r\n"),
+        "{seen:?}"
+    );
+    assert_eq!(s.eb.board.setup(), &before);
+    assert_eq!(listed(&mut s, "$110"), "$110=3000.000");
+    // 100000 steps/mm at 3000 mm/min: 5 M steps/s, beyond the drivers' 200 k.
+    let seen = refused(&mut s, b"$100=100000\n");
+    assert!(
+        seen.contains("[MSG:Refused: step rate too high for the drivers]\r\nerror:12\r\n"),
+        "{seen:?}"
+    );
+    assert_eq!(listed(&mut s, "$100"), "$100=640.000");
+    assert_eq!(s.eb.board.setup(), &before);
+    // Out of range: the table's range in the message.
+    let seen = refused(&mut s, b"$110=300000\n");
+    assert!(
+        seen.contains("[MSG:Refused: out of range 1.000 to 200000.000]\r\nerror:3\r\n"),
+        "{seen:?}"
+    );
+    let seen = refused(&mut s, b"$0=60\n");
+    assert!(
+        seen.contains("[MSG:Refused: out of range 1.000 to 50.000]\r\nerror:6\r\n"),
+        "{seen:?}"
+    );
+    assert_eq!(s.eb.board.setup(), &before);
+    // Valid writes still go through.
+    s.answer(b"$110=2000\n", 100);
+    assert_eq!(listed(&mut s, "$110"), "$110=2000.000");
+    s.answer(b"$RST=$\n", 100);
+    assert_eq!(listed(&mut s, "$110"), "$110=3000.000");
+}
+
+#[test]
+fn a_setting_write_and_a_setup_file_give_the_same_refusal_from_the_same_check() {
+    use gantry_machine::setup::{Key, Reason, SetupError};
+    use host_sender::setup_file::SetupFile;
+    // Through grbl `$x=`: the setup after the write, validated as `$x=` does.
+    let grbl = |number: u16, milli: i64| {
+        let mut setup = gantry_machine::setup::Setup::default();
+        gantry_machine::grbl::settings::write(number, milli, &mut setup).unwrap();
+        setup.validate().unwrap_err()
+    };
+    // Through the setup file (`gantry setup check`/`push`): the core's SetupError is the error.
+    let file = |text: &str| {
+        let e = SetupFile::parse(text).unwrap_err();
+        *e.downcast_ref::<SetupError>()
+            .unwrap_or_else(|| panic!("not a SetupError: {e}"))
+    };
+    for (number, milli, toml, key, reason) in [
+        (
+            110,
+            300_000_000,
+            "[axis.X]\nmax_rate = 300000\n",
+            Key::MaxRate,
+            Reason::OutOfRange,
+        ),
+        (
+            110,
+            10_000,
+            "[axis.X]\nmax_rate = 10\n",
+            Key::StartSpeed,
+            Reason::StartAboveMaxRate,
+        ),
+        (
+            26,
+            0,
+            "[inputs]\ndebounce_ms = 0\n",
+            Key::DebounceMs,
+            Reason::OutOfRange,
+        ),
+        (
+            11,
+            20_000,
+            "[path]\njunction_deviation = 20\n",
+            Key::JunctionDeviation,
+            Reason::OutOfRange,
+        ),
+        (
+            27,
+            2_000_000,
+            "[homing.axis.X]\nretract = 2000\n",
+            Key::Retract,
+            Reason::OutOfRange,
+        ),
+    ] {
+        let e = grbl(number, milli);
+        assert_eq!(file(toml), e, "${number}");
+        assert_eq!((e.key, e.reason), (key, reason), "${number}");
+    }
+    // 100000 steps/mm on Y: the same ratio in lowest terms (1 step per 10 nm) both ways.
+    let e = grbl(101, 100_000_000);
+    assert_eq!(file("[axis.Y]\nsteps_per = [1, 0.00001]\n"), e);
+    assert_eq!((e.key, e.index), (Key::MaxRate, 1));
+    assert!(matches!(e.reason, Reason::StepRateTooHigh { .. }));
+    assert_eq!(
+        grbl(110, 10_000).to_string(),
+        "axis.X.start_speed = 60: must not exceed axis.X.max_rate (10)"
+    );
+    // And on the emulated board the write is answered with the error and changes nothing.
+    let mut s = Sender::connected();
+    let before = s.eb.board.setup().clone();
+    s.send(b"$26=0\n");
+    s.until("error:3\r\n", 100);
+    assert_eq!(s.eb.board.setup(), &before);
+}

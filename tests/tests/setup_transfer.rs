@@ -50,3 +50,41 @@ fn a_setup_is_refused_while_a_job_runs() {
     let err = push_setup_over(&mut client, &Setup::default()).unwrap_err();
     assert!(err.to_string().contains("not idle"), "{err}");
 }
+
+/// `gantry setup check FILE` as a process: a setup file grbl's `$110=10` would also make (max
+/// rate below the start speed) fails with exit code 2 and the core's message; a valid one passes.
+#[test]
+fn setup_check_refuses_with_the_cores_message_and_exit_code() {
+    let dir = std::env::temp_dir().join(format!("gantry-setup-check-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |text: &str| {
+        let file = dir.join("setup.toml");
+        std::fs::write(&file, text).unwrap();
+        std::process::Command::new(env!("CARGO_BIN_EXE_gantry-under-test"))
+            .args(["setup", "check"])
+            .arg(&file)
+            .output()
+            .unwrap()
+    };
+    let out = run("[axis.X]\nmax_rate = 10\n");
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    let mut setup = Setup::default();
+    gantry_machine::grbl::settings::write(110, 10_000, &mut setup).unwrap();
+    let refusal = setup.validate().unwrap_err().to_string();
+    assert_eq!(
+        refusal,
+        "axis.X.start_speed = 60: must not exceed axis.X.max_rate (10)"
+    );
+    assert!(err.contains(&refusal), "{err}");
+    let out = run("[axis.X]\nmax_rate = 300000\n");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&out.stderr)
+            .contains("axis.X.max_rate = 300000: must be between 1 and 200000"),
+        "{out:?}"
+    );
+    let out = run("[axis.X]\nmax_rate = 2000\n");
+    assert_eq!(out.status.code(), Some(0), "{out:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

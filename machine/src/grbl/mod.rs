@@ -785,16 +785,7 @@ impl Grbl {
 
     fn settings(&mut self, board: &Board) {
         let setup = board.setup();
-        let mut numbers: heapless::Vec<u16, 48> = heapless::Vec::new();
-        for n in settings::GLOBAL.iter().copied() {
-            let _ = numbers.push(n);
-        }
-        for g in settings::AXIS_GROUPS {
-            for a in 0..u16::from(setup.axis_count) {
-                let _ = numbers.push(g + a);
-            }
-        }
-        for n in numbers {
+        for n in settings::numbers(setup.axis_count) {
             if let Some(v) = settings::read(n, setup) {
                 self.out.byte(b'$');
                 self.out.uint(u64::from(n));
@@ -816,6 +807,11 @@ impl Grbl {
         let mut setup = board.setup().clone();
         if let Err(e) = settings::write(number, milli, &mut setup) {
             return Reply::Error(e);
+        }
+        // The same check as a setup push (machine/src/setup/validate.rs); refused, the
+        // setting stays as it was.
+        if let Err(e) = setup.validate() {
+            return self.refuse(&e);
         }
         // $10 and $13 are the front end's own section (stored, nothing rebuilt); the rest are
         // setup keys. (No comparison of the whole setup: its derived equality costs the
@@ -864,13 +860,7 @@ impl Grbl {
         let mut setup = board.setup().clone();
         if matches!(what, Restore::Settings | Restore::All) {
             let defaults = crate::setup::Setup::default();
-            let axes = u16::from(setup.axis_count);
-            let numbers = settings::GLOBAL.iter().copied().chain(
-                settings::AXIS_GROUPS
-                    .iter()
-                    .flat_map(move |g| (0..axes).map(move |a| g + a)),
-            );
-            for n in numbers {
+            for n in settings::numbers(setup.axis_count) {
                 if let Some(v) = settings::read(n, &defaults) {
                     let _ = settings::write(n, v.milli, &mut setup);
                 }
@@ -884,11 +874,34 @@ impl Grbl {
             setup.program.g28_home = Default::default();
             setup.program.g30_home = Default::default();
         }
+        if let Err(e) = setup.validate() {
+            return self.refuse(&e);
+        }
         if !board.set_setup(setup) {
             return Reply::Error(codes::IDLE_ONLY);
         }
         self.setup_changed = true;
         Reply::Ok
+    }
+
+    /// A setting refused by the setup's validation: `[MSG:Refused: <reason>]` (with the
+    /// allowed range when out of range, in the setting's file units) and its grbl error.
+    fn refuse(&mut self, e: &crate::setup::SetupError) -> Reply {
+        self.out.str("[MSG:Refused: ");
+        self.out.str(e.reason.text());
+        if e.reason == crate::setup::Reason::OutOfRange {
+            let row = e.key.row();
+            let (scale, decimals) = match row.unit.scale() {
+                1 => (1, 0),
+                s => (s, 3),
+            };
+            self.out.byte(b' ');
+            self.out.fixed(row.min(), scale, decimals);
+            self.out.str(" to ");
+            self.out.fixed(row.max(), scale, decimals);
+        }
+        self.out.line("]");
+        Reply::Error(settings::refusal(e))
     }
 }
 

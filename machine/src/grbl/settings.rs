@@ -5,7 +5,8 @@
 
 use super::codes;
 use crate::board::LIMIT_BITS;
-use crate::setup::Setup;
+use crate::setup::table::{NO_GRBL, ROWS};
+use crate::setup::{Key, Reason, Setup, SetupError};
 use crate::units::MAX_AXES;
 
 /// The front end's report preferences (`$10`, `$13`), read from the setup's grbl section.
@@ -26,12 +27,40 @@ impl Prefs {
     }
 }
 
-/// The non-axis settings, in `$$` order; `$100`… follow per axis.
-pub const GLOBAL: [u16; 22] = [
-    0, 1, 2, 3, 4, 5, 6, 10, 11, 12, 13, 20, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32,
-];
+/// grbl numbers with no row of their own in the settings table (machine/src/setup/table.rs):
+/// settings Gantry has no key for (shown with the value it behaves as), `$22` (read from the
+/// homing priorities) and `$25` (the second number of `homing.axis.*.seek_rate`).
+const NOT_IN_TABLE: [u16; 8] = [1, 2, 4, 6, 20, 22, 25, 32];
 /// Axis setting groups: steps/mm, max rate, acceleration, travel.
 pub const AXIS_GROUPS: [u16; 4] = [100, 110, 120, 130];
+
+/// The `$$` numbers, in order: the global settings ascending (the table's grbl numbers below
+/// 100 and [`NOT_IN_TABLE`]), then the table's per-axis groups (`$100`+i…) for each axis in use.
+pub fn numbers(axis_count: u8) -> heapless::Vec<u16, 48> {
+    let mut v = heapless::Vec::new();
+    for n in 0..100 {
+        if NOT_IN_TABLE.contains(&n) || ROWS.iter().any(|r| r.grbl == n) {
+            let _ = v.push(n);
+        }
+    }
+    for r in ROWS.iter().filter(|r| (100..NO_GRBL).contains(&r.grbl)) {
+        for a in 0..u16::from(axis_count) {
+            let _ = v.push(r.grbl + a);
+        }
+    }
+    v
+}
+
+/// The grbl error for a setup `$x=` would leave invalid (table in docs/grbl.md): grbl's
+/// "step rate too high" (12) and "step pulse too short" (6) where they fit, else "invalid
+/// statement" (3), grbl 1.1 having no number for an out-of-range value.
+pub fn refusal(e: &SetupError) -> u16 {
+    match (e.key, e.reason) {
+        (_, Reason::StepRateTooHigh { .. }) => 12,
+        (Key::StepPulse, _) => 6,
+        _ => codes::INVALID_STATEMENT,
+    }
+}
 
 /// A setting's value: `milli` thousandths, shown with 3 decimals or as an integer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -262,5 +291,20 @@ mod tests {
             250 * crate::units::NM_PER_MM
         );
         assert_eq!(read(199, &s), None);
+    }
+
+    #[test]
+    fn the_listing_is_grbls_order_from_the_table() {
+        let listed = numbers(2);
+        assert_eq!(
+            listed.as_slice(),
+            [
+                0, 1, 2, 3, 4, 5, 6, 10, 11, 12, 13, 20, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32,
+                100, 101, 110, 111, 120, 121, 130, 131
+            ]
+        );
+        // Every number listed has a value.
+        let s = Setup::default();
+        assert!(listed.iter().all(|&n| read(n, &s).is_some()));
     }
 }

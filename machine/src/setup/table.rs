@@ -1,0 +1,554 @@
+//! The one table of setup settings: every key of the setup file with its section, unit, range
+//! (in the core's integer units), grbl `$` number and reference text. The TOML reader
+//! (host-sender/src/setup_file.rs), [`super::Setup::validate`], the grbl `$$` listing
+//! (machine/src/grbl/settings.rs) and docs/settings.md (host-sender/src/settings_doc.rs) are all
+//! derived from it.
+//!
+//! [`ROWS`] is what the board needs (ranges, grbl numbers); [`TEXT`] holds the names and doc
+//! text, which only host code reads, so the firmware's linker drops it.
+
+use super::Setup;
+
+/// Where a row's key lives in the setup file, and how many times it repeats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Section {
+    Top,
+    /// `[axis.X]`: once per axis in use.
+    Axis,
+    Path,
+    Program,
+    /// `[[tool]]`: once per tool.
+    Tool,
+    Operator,
+    Inputs,
+    Homing,
+    /// `[homing.axis.X]`: once per axis in use.
+    HomingAxis,
+    Jog,
+    Spindle,
+    /// `[[mcode]]`: once per list (text rows only).
+    Mcode,
+    Link,
+    Drivers,
+    Grbl,
+}
+
+/// Sections in docs/settings.md order.
+pub const SECTIONS: [Section; 15] = [
+    Section::Top,
+    Section::Axis,
+    Section::Path,
+    Section::Program,
+    Section::Tool,
+    Section::Operator,
+    Section::Inputs,
+    Section::Homing,
+    Section::HomingAxis,
+    Section::Jog,
+    Section::Spindle,
+    Section::Mcode,
+    Section::Link,
+    Section::Drivers,
+    Section::Grbl,
+];
+
+impl Section {
+    /// How many times the section's rows apply to `s` (axes in use, tools; 1 otherwise).
+    pub fn count(self, s: &Setup) -> usize {
+        match self {
+            Section::Axis | Section::HomingAxis => {
+                usize::from(s.axis_count).min(crate::units::MAX_AXES)
+            }
+            Section::Tool => s.program.tools.len(),
+            Section::Mcode => s.outputs.mcode_lists.len(),
+            _ => 1,
+        }
+    }
+}
+
+/// How a row's integer value reads in the setup file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unit {
+    /// nm in the core, mm (degrees on A/B/C) in the file.
+    Mm,
+    /// nm/min, mm/min.
+    MmPerMin,
+    /// nm/s², mm/s².
+    MmPerS2,
+    /// ns, µs.
+    Us,
+    /// ms, s.
+    S,
+    /// ms, ms.
+    Ms,
+    /// s, s.
+    Seconds,
+    /// millidegrees, degrees.
+    Degrees,
+    Percent,
+    Rpm,
+    /// A plain count (steps, ADC counts, timer counts, a priority, a mask).
+    Count,
+    Bool,
+    /// An index into the row's [`RowText::choices`].
+    Choice,
+    /// A list or a name the host reads itself (axis letters, input names, list commands, text);
+    /// no range here.
+    Text,
+}
+
+impl Unit {
+    /// Core units per file unit.
+    pub const fn scale(self) -> i64 {
+        match self {
+            Unit::Mm | Unit::MmPerMin | Unit::MmPerS2 => 1_000_000,
+            Unit::Us | Unit::S | Unit::Degrees => 1_000,
+            _ => 1,
+        }
+    }
+
+    /// Text after a value in messages and docs (lengths and speeds go without: the file's
+    /// header says mm, mm/min, mm/s²).
+    pub const fn suffix(self) -> &'static str {
+        match self {
+            Unit::Us => " µs",
+            Unit::S | Unit::Seconds => " s",
+            Unit::Degrees => " degrees",
+            Unit::Percent => " %",
+            _ => "",
+        }
+    }
+}
+
+/// grbl number of a row without one.
+pub const NO_GRBL: u16 = u16::MAX;
+
+/// A setting as the board checks it (8 bytes: the range is two indices into [`BOUNDS`], which
+/// keeps the table small in the firmware's flash).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Row {
+    pub key: Key,
+    pub section: Section,
+    pub unit: Unit,
+    lo: u8,
+    hi: u8,
+    /// grbl `$` number ([`NO_GRBL`]: none); per-axis rows of 100 and up are `$n+axis`.
+    pub grbl: u16,
+}
+
+impl Row {
+    /// Smallest allowed value, core units.
+    pub fn min(&self) -> i64 {
+        BOUNDS[usize::from(self.lo)]
+    }
+
+    /// Largest allowed value, core units.
+    pub fn max(&self) -> i64 {
+        BOUNDS[usize::from(self.hi)]
+    }
+}
+
+/// Every range bound of the table, core units.
+const BOUNDS: [i64; 27] = [
+    i64::MIN,
+    i64::MAX,
+    0,
+    1,
+    3,
+    6,
+    10,
+    100,
+    200,
+    255,
+    1_000,
+    10_000,
+    50_000,
+    60_000,
+    65_535,
+    90_000,
+    1_000_000,
+    mm(10),
+    mm(100),
+    mm(1000),
+    -mm(1000),
+    mm(10_000),
+    mm(100_000),
+    -mm(100_000),
+    mm(200_000),
+    u32::MAX as i64,
+    crate::units::MAX_AXES as i64,
+];
+
+/// The index of `v` in [`BOUNDS`] (a bound missing there fails the build).
+const fn bound(v: i64) -> u8 {
+    let mut i = 0;
+    while i < BOUNDS.len() {
+        if BOUNDS[i] == v {
+            return i as u8;
+        }
+        i += 1;
+    }
+    panic!("a settings-table bound missing from BOUNDS")
+}
+
+/// The host's part of a row: its name in the file and its reference text.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RowText {
+    /// Name inside its section (`max_rate`, `travel[0]`).
+    pub name: &'static str,
+    /// Choices of a [`Unit::Choice`] row, by index.
+    pub choices: &'static [&'static str],
+    /// Range as docs/settings.md shows it; empty: from `min`/`max`.
+    pub range: &'static str,
+    /// Default as docs/settings.md shows it; empty: from [`Setup::default`].
+    pub default: &'static str,
+    pub doc: &'static str,
+}
+
+const fn mm(v: i64) -> i64 {
+    v * 1_000_000
+}
+
+const ANY: (i64, i64) = (i64::MIN, i64::MAX);
+const LENGTH: (i64, i64) = (-mm(100_000), mm(100_000));
+const SPEED: (i64, i64) = (1_000, mm(200_000));
+
+macro_rules! table {
+    ($($key:ident => $section:ident $name:literal $unit:ident $range:expr, $grbl:expr,
+        |$s:ident, $i:ident| $get:expr;
+        [$($choice:literal),*] $rtext:literal $dtext:literal $doc:literal,)*) => {
+        /// Every setting, in table order ([`ROWS`], [`TEXT`]).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+        #[repr(u8)]
+        pub enum Key {
+            $($key,)*
+        }
+
+        /// The rows the board checks, indexed by [`Key`].
+        pub const ROWS: &[Row] = &[
+            $(Row {
+                key: Key::$key,
+                section: Section::$section,
+                unit: Unit::$unit,
+                lo: bound($range.0),
+                hi: bound($range.1),
+                grbl: $grbl,
+            },)*
+        ];
+
+        /// Names and reference text, indexed by [`Key`] (host only).
+        pub const TEXT: &[RowText] = &[
+            $(RowText {
+                name: $name,
+                choices: &[$($choice),*],
+                range: $rtext,
+                default: $dtext,
+                doc: $doc,
+            },)*
+        ];
+
+        impl Key {
+            /// The row's value in `s` (`index`: axis or tool), widened to `i64`; 0 for text rows.
+            pub fn value(self, s: &Setup, index: usize) -> i64 {
+                match self {
+                    $(Key::$key => {
+                        let ($s, $i) = (s, index);
+                        let _ = ($s, $i);
+                        $get
+                    })*
+                }
+            }
+        }
+    };
+}
+
+table! {
+    Axes => Top "axes" Text (1, crate::units::MAX_AXES as i64), NO_GRBL,
+        |s, _i| i64::from(s.axis_count);
+        [] "1-6 letters, a prefix of X Y Z A B C" "`[\"X\",\"Y\",\"Z\"]`" "axes in use",
+    Steps => Axis "steps_per[0]" Count (1, u32::MAX as i64), 100,
+        |s, i| i64::from(s.axes[i].steps);
+        [] "" "" "exact ratio `[steps, distance]`: this many motor steps move the axis this far (seed \"Ratiometric Steps per Unit\"); long moves never drift. grbl `$100`+i writes steps per mm as an exact ratio",
+    StepUnits => Axis "steps_per[1]" Mm (1, mm(10_000)), NO_GRBL,
+        |s, i| s.axes[i].units_nm;
+        [] "" "" "",
+    MaxRate => Axis "max_rate" MmPerMin (mm(1), mm(200_000)), 110,
+        |s, i| s.axes[i].max_rate;
+        [] "" "" "highest speed of the axis (rapid rate); its step rate must fit the drivers' timing (`[drivers]`)",
+    Accel => Axis "accel" MmPerS2 (mm(1), mm(100_000)), 120,
+        |s, i| s.axes[i].accel;
+        [] "" "" "acceleration",
+    StartSpeed => Axis "start_speed" MmPerMin (0, mm(200_000)), NO_GRBL,
+        |s, i| s.axes[i].start_speed;
+        [] "0-`max_rate`" "" "speed the axis can reach instantly from rest (seed \"Starting Speed\")",
+    TravelMin => Axis "travel[0]" Mm LENGTH, NO_GRBL,
+        |s, i| s.axes[i].travel_min;
+        [] "±100000, min ≤ max" "" "soft-limit box `[min, max]` in machine coordinates; a block that would leave it never moves: error 900 when it is the job's first action (MDI), else the job stops on its path with alarm 2; jogs stop at it. grbl `$130`+i is max - min (writing it moves max)",
+    TravelMax => Axis "travel[1]" Mm LENGTH, 130,
+        |s, i| s.axes[i].travel_max;
+        [] "" "" "",
+    InvertDir => Axis "invert_dir" Bool (0, 1), 3,
+        |s, i| i64::from(s.axes[i].invert_dir);
+        [] "" "" "reverse the direction output (grbl `$3`, a mask of all axes)",
+
+    JunctionDeviation => Path "junction_deviation" Mm (0, mm(10)), 11,
+        |s, _i| s.path.junction_deviation;
+        [] "" "" "grbl junction deviation: how far a corner may be rounded, which sets the corner speed",
+    FeedShift => Path "feed_shift" MmPerMin (0, mm(100_000)), NO_GRBL,
+        |s, _i| s.path.feed_shift;
+        [] "" "" "instantaneous speed jump the steppers take at any junction (seed \"Feed Shift\"): a corner runs at the larger of junction deviation's speed and the speed whose direction change is this jump, so it only ever raises corner speeds (at the default 60 with the default limits, junction deviation's speed is the higher one except at near-reversals, turns of more than about 170°); 0 = junction deviation alone",
+    ChordTolerance => Path "chord_tolerance" Mm (100, mm(1)), 12,
+        |s, _i| s.path.chord_tolerance;
+        [] "" "" "arcs are cut into straight segments deviating at most this much",
+    ArcSegmentAngle => Path "arc_segment_angle" Degrees (0, 90_000), NO_GRBL,
+        |s, _i| i64::from(s.path.arc_segment_angle_mdeg);
+        [] "" "" "largest angle one arc segment may span (`gixa` \"Segment Angle\"); 0 = no limit",
+    ArcMaxSegments => Path "arc_max_segments" Count (0, u32::MAX as i64), NO_GRBL,
+        |s, _i| i64::from(s.path.arc_max_segments);
+        [] "≥ 0" "" "most segments per arc (`gixa` \"Max Segments per Arc\"), overrides both above; 0 = no limit",
+    BlendTolerance => Path "blend_tolerance" Mm (0, mm(10)), NO_GRBL,
+        |s, _i| s.path.blend_tolerance;
+        [] "" "" "path tolerance of `G64` without P (and of the power-up mode): short moves merged into chords and corners rounded by arcs within it, as `G64 P<blend_tolerance>` (below); 0 = off (junction deviation alone)",
+
+    Dialect => Program "dialect" Choice (0, 1), NO_GRBL,
+        |s, _i| s.program.dialect as i64;
+        ["ngc", "gixa"] "" "" "G-code dialect: RS274NGC/Fanuc mill, or the seed controller's (docs in the README)",
+    DwellUnits => Program "dwell_units" Choice (0, 1), NO_GRBL,
+        |s, _i| s.program.dwell_units as i64;
+        ["seconds", "milliseconds"] "" "" "how G4 P is read: seconds (RS274NGC) or integer milliseconds (classic Fanuc)",
+    PeckClearance => Program "peck_clearance" Mm (0, mm(100)), NO_GRBL,
+        |s, _i| s.program.peck_clearance;
+        [] "" "" "G73/G83 retract clearance",
+    ChipBreakRetract => Program "chip_break_retract" Mm (0, mm(100)), NO_GRBL,
+        |s, _i| s.program.chip_break_retract;
+        [] "" "" "`gixa` G87 partial retract",
+    DefaultRetract => Program "default_retract" Choice (0, 1), NO_GRBL,
+        |s, _i| s.program.default_retract as i64;
+        ["g98", "g99"] "" "" "canned-cycle retract mode at program start and after M2/M30, for programs that set neither G98 nor G99: `\"g98\"` returns to the initial level between holes (the safer default), `\"g99\"` to the R plane (LinuxCNC's power-up mode); `gantry check` shows it in its summary",
+    UserMcodes => Program "user_mcodes" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "up to 16 codes, 10-999 except 30, 98, 99" "`[]`" "M codes the machine defines (they run the user M-code lists)",
+    G28Home => Program "g28_home" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "±100000 per axis" "all 0" "G28 position in machine coordinates (G28.1 sets it at run time)",
+    G30Home => Program "g30_home" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "±100000 per axis" "all 0" "G30 position in machine coordinates (G30.1 sets it at run time)",
+    ToolChangePosition => Program "tool_change_position" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "inside each axis's travel" "none" "where M6 moves before its stop, machine coordinates: an inline table of the axes to move, e.g. `{ X = 0.0, Y = 200.0, Z = 0.0 }`; Z first, then the others (docs/probing.md \"The tool-change position\")",
+
+    ToolNumber => Tool "number" Count (1, u32::MAX as i64), NO_GRBL,
+        |s, i| i64::from(s.program.tools[i].number);
+        [] "≥ 1, unique" "—" "T number",
+    ToolLength => Tool "length" Mm (-mm(1000), mm(1000)), NO_GRBL,
+        |s, i| s.program.tools[i].length;
+        [] "" "`0`" "tool length offset applied by G43 H",
+    ToolDiameter => Tool "diameter" Mm (0, mm(1000)), NO_GRBL,
+        |s, i| s.program.tools[i].diameter;
+        [] "" "`0`" "diameter, used by cutter compensation (`G41 D<n>`, `G42 D<n>`; docs/gcode-compensation.md)",
+
+    ResumeNeedsCycleStart => Operator "resume_needs_cycle_start" Bool (0, 1), NO_GRBL,
+        |s, _i| i64::from(s.operator.resume_needs_cycle_start);
+        [] "" "" "after a feed hold is released: resume at once (seed behaviour) or wait for cycle start",
+    TwoHandStart => Operator "two_hand_start" Bool (0, 1), NO_GRBL,
+        |s, _i| i64::from(s.operator.two_hand_start);
+        [] "" "" "cycle start needs both start inputs",
+    FroLow => Operator "fro_range[0]" Percent (10, 200), NO_GRBL,
+        |s, _i| i64::from(s.operator.fro_low);
+        [] "10-200 %, low ≤ high" "" "feed-override potentiometer range `[low, high]`",
+    FroHigh => Operator "fro_range[1]" Percent (10, 200), NO_GRBL,
+        |s, _i| i64::from(s.operator.fro_high);
+        [] "" "" "",
+    DryRunFeed => Operator "dry_run_feed" MmPerMin (mm(1), mm(100_000)), NO_GRBL,
+        |s, _i| s.operator.dry_run_feed;
+        [] "" "" "feed used for every feed move during a dry run",
+
+    ActiveLow => Inputs "active_low" Text ANY, 5,
+        |_s, _i| 0;
+        [] "input names" "`[]`" "inputs that are active while their switch is *open* (pin high): list the normally-closed switches (see input polarity above). Without it a closed switch is active. grbl `$5` sets or clears all limit inputs together",
+    DebounceMs => Inputs "debounce_ms" Ms (1, 100), 26,
+        |s, _i| i64::from(s.inputs.debounce_ms);
+        [] "" "" "consecutive equal 1 ms samples before an input level counts. Limit switches stop the step interrupt from the raw pin at once; debouncing only delays the alarm bookkeeping",
+    LimitsMin => Inputs "limits_min" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "axis letters in use" "`[]`" "axes with a min-side limit switch",
+    LimitsMax => Inputs "limits_max" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "axis letters in use" "`[]`" "axes with a max-side limit switch",
+    HardLimits => Inputs "hard_limits" Bool (0, 1), 21,
+        |s, _i| i64::from(s.inputs.hard_limits);
+        [] "" "" "installed switches stop motion and raise alarm 1 (homing uses the switches either way)",
+    FeedHold => Inputs "feed_hold" Bool (0, 1), NO_GRBL,
+        |s, _i| i64::from(s.inputs.feed_hold);
+        [] "" "" "feed-hold switch installed",
+    Abort => Inputs "abort" Bool (0, 1), NO_GRBL,
+        |s, _i| i64::from(s.inputs.abort);
+        [] "" "" "abort push button installed",
+    FroPot => Inputs "fro_pot" Bool (0, 1), NO_GRBL,
+        |s, _i| i64::from(s.inputs.fro_pot);
+        [] "" "" "feed-override potentiometer installed (ADC range → `operator.fro_range`)",
+    AdcMax => Inputs "adc_max" Count (255, 65_535), NO_GRBL,
+        |s, _i| i64::from(s.inputs.adc_max);
+        [] "" "" "ADC full-scale reading (12-bit: 4095)",
+
+    Required => Homing "required" Bool (0, 1), NO_GRBL,
+        |s, _i| i64::from(s.homing.required);
+        [] "" "" "after power-up and after a hard limit, motion is refused (alarm 11, error 901) until the axes with a priority are homed. After a reset during motion (alarm 3) homing is required whenever an axis has a priority, whatever this says",
+    BeforeSeek => Homing "before_seek" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "≤ 8 list commands" "`[]`" "run before each axis's seek",
+    BeforeRetract => Homing "before_retract" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "≤ 8 list commands" "`[]`" "run when the switch has stopped the seek",
+    AfterRetract => Homing "after_retract" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "≤ 8 list commands" "`[]`" "run after the retract (and set home)",
+    Priority => HomingAxis "priority" Count (0, 255), NO_GRBL,
+        |s, i| i64::from(s.homing.axes[i].priority);
+        [] "" "" "order of the seek, lower first, one axis at a time; 0 = the axis is not homed (grbl `$22` reads 1 when an axis has a priority)",
+    Seek => HomingAxis "seek" Choice (0, 1), 23,
+        |s, i| i64::from(s.homing.axes[i].seek_low);
+        ["high", "low"] "" "" "seek the min or the max switch (grbl `$23`, a mask of all axes)",
+    SeekRate => HomingAxis "seek_rate" MmPerMin SPEED, 24,
+        |s, i| s.homing.axes[i].seek_rate;
+        [] "" "" "constant seek speed. Keep it at or below the axis `start_speed` so the seek has no ramp and the switch stops it without lost steps (grbl `$24` and `$25` write every axis)",
+    Retract => HomingAxis "retract" Mm (0, mm(1000)), 27,
+        |s, i| s.homing.axes[i].retract;
+        [] "" "" "back-off from the switch at the rapid rate; must release the switch (else alarm 8) (grbl `$27` writes every axis)",
+    SetHome => HomingAxis "set_home" Bool (0, 1), NO_GRBL,
+        |s, i| i64::from(s.homing.axes[i].set_home);
+        [] "" "" "after the retract, the axis position becomes `home_position`",
+    HomePosition => HomingAxis "home_position" Mm LENGTH, NO_GRBL,
+        |s, i| s.homing.axes[i].home_position;
+        [] "" "" "machine position of the axis after the retract",
+
+    Pair0 => Jog "pair0" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "axis letters or `\"-\"`" "`[\"Y\", \"X\"]`" "joystick axes with the pair selector off: `[S1 down / S4 up, S2 left / S3 right]`",
+    Pair1 => Jog "pair1" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "axis letters or `\"-\"`" "`[\"Z\", \"-\"]`" "the same with the pair selector on",
+    InstantSpeed => Jog "instant_speed" MmPerMin SPEED, NO_GRBL,
+        |s, _i| s.jog.instant_speed;
+        [] "" "" "Instantaneous mode speed (and nudge speed); at or below `start_speed` for no ramp",
+    NudgeDistance => Jog "nudge_distance" Mm (1, mm(100)), NO_GRBL,
+        |s, _i| s.jog.nudge_distance;
+        [] "" "" "one nudge",
+    NudgeIntervalMs => Jog "nudge_interval_ms" Ms (10, 10_000), NO_GRBL,
+        |s, _i| i64::from(s.jog.nudge_interval_ms);
+        [] "" "" "time between nudges while a switch is held",
+    AnalogAxes => Jog "analog_axes" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "axis letters or `\"-\"`" "`[\"X\", \"Y\"]`" "axes of analog stick channels 0 and 1",
+    AnalogDeadband => Jog "analog_deadband" Count (0, 65_535), NO_GRBL,
+        |s, _i| i64::from(s.jog.analog_deadband);
+        [] "below `adc_max / 2`" "" "ADC counts around the centre that count as neutral",
+    AnalogMaxSpeed => Jog "analog_max_speed" MmPerMin SPEED, NO_GRBL,
+        |s, _i| s.jog.analog_max_speed;
+        [] "" "" "speed at full deflection (8 steps); speed changes ramp at the axes' acceleration and direction changes bend the path without stopping (docs/controller.md, Jogging)",
+
+    RpmMin => Spindle "rpm_range[0]" Rpm (0, 1_000_000), 31,
+        |s, _i| i64::from(s.outputs.spindle_min_rpm);
+        [] "low < high ≤ 1000000" "" "S values `[low, high]` mapped onto the PWM range (clamped at both ends; S0 or M5 = duty 0); grbl `$31`, `$30`",
+    RpmMax => Spindle "rpm_range[1]" Rpm (1, 1_000_000), 30,
+        |s, _i| i64::from(s.outputs.spindle_max_rpm);
+        [] "" "" "",
+    PwmMin => Spindle "pwm_range[0]" Count (0, 65_535), NO_GRBL,
+        |s, _i| i64::from(s.outputs.pwm_min);
+        [] "low ≤ high, high ≥ 1" "" "PWM duty (timer counts) at the low and high rpm",
+    PwmMax => Spindle "pwm_range[1]" Count (1, 65_535), NO_GRBL,
+        |s, _i| i64::from(s.outputs.pwm_max);
+        [] "" "" "",
+
+    McodeCode => Mcode "code" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "a code listed in `program.user_mcodes`" "—" "the M code",
+    McodeDryRunDisabled => Mcode "dry_run_disabled" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "" "`false`" "skip the list during a dry run (seed \"Disable these commands for Dry Run\")",
+    McodeCommands => Mcode "commands" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "≤ 6 list commands" "`[]`" "run at rest when the program reaches the M code; the program continues when the list ends. **Exactly one `set N` or `clear N`** (N 0-15): an on-the-fly M code instead: the motion does not stop, output N switches at the M code's exact place on the path (docs/controller.md, \"On-the-fly outputs\"). An empty list or a missing table stops the motion and does nothing else",
+
+    HostLostStopS => Link "host_lost_stop_s" Seconds (0, 65_535), NO_GRBL,
+        |s, _i| i64::from(s.link.host_lost_stop_s);
+        [] "" "" "the board holds a running job when the host goes silent (1 s) and waits for it to come back and continue. A job that has stood still this long with the host gone — in a feed hold, or resumed locally and then waiting at rest for lines only the host could send — is ended (spindle, coolant and user outputs off, resume line remembered) with alarm 20. `0` = wait for the host forever. An M0/M1 stop is not ended (its outputs are off already)",
+
+    StepPulse => Drivers "step_pulse_us" Us (*super::DriverSetup::PULSE_NS.start() as i64, *super::DriverSetup::PULSE_NS.end() as i64), 0,
+        |s, _i| i64::from(s.drivers.step_pulse_ns);
+        [] "" "" "width of every step pulse (grbl `$0`, whole µs)",
+    DirSetup => Drivers "dir_setup_us" Us (*super::DriverSetup::DIR_SETUP_NS.start() as i64, *super::DriverSetup::DIR_SETUP_NS.end() as i64), NO_GRBL,
+        |s, _i| i64::from(s.drivers.dir_setup_ns);
+        [] "" "" "least time from a direction change to the next step pulse",
+
+    StatusMask => Grbl "status_mask" Count (0, 3), 10,
+        |s, _i| i64::from(s.grbl.status_mask);
+        [] "" "" "grbl `$10`: bit 0 `MPos` (set) or `WPos` in status reports, bit 1 the `Bf:` field",
+    ReportInches => Grbl "report_inches" Bool (0, 1), 13,
+        |s, _i| i64::from(s.grbl.inches);
+        [] "" "" "grbl `$13`: positions and feeds in reports in inches",
+    StartupLines => Grbl "startup_lines" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "2 lines, 64 characters each" "`[\"\", \"\"]`" "grbl `$N0`, `$N1`: G-code lines run after the banner (connect, soft reset, `$H`) unless the machine is in alarm",
+    DoorSpinUp => Grbl "door_spin_up_s" S (*super::GrblSetup::DOOR_SPIN_UP_MS.start() as i64, *super::GrblSetup::DOOR_SPIN_UP_MS.end() as i64), NO_GRBL,
+        |s, _i| i64::from(s.grbl.door_spin_up_ms);
+        [] "0-60 s, ms resolution" "" "after `~` closes the safety door (0x84) with the spindle on, spindle and coolant come back on at once and motion waits this long for the spindle to spin up (status `Door:3`), as grbl waits 4 s; 0 = no wait. No grbl `$` number (grbl has it built in)",
+}
+
+impl Key {
+    /// The key's row.
+    pub fn row(self) -> &'static Row {
+        &ROWS[self as usize]
+    }
+
+    /// The key's names and text (host only: keeps the text out of the firmware).
+    pub fn text(self) -> &'static RowText {
+        &TEXT[self as usize]
+    }
+
+    /// The key after this one in the table (the high half of a `[low, high]` pair).
+    pub fn next(self) -> Key {
+        ROWS.get(self as usize + 1).map_or(self, |r| r.key)
+    }
+
+    /// `value` (core units) against the row's range: the one range check of every path.
+    pub fn check(self, index: usize, value: i64) -> Result<(), super::SetupError> {
+        let r = self.row();
+        if value < r.min() || value > r.max() {
+            return Err(super::SetupError {
+                key: self,
+                index: index as u8,
+                value,
+                limit: 0,
+                reason: super::Reason::OutOfRange,
+            });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+
+    #[test]
+    fn rows_and_texts_line_up_and_defaults_pass() {
+        assert_eq!(ROWS.len(), TEXT.len());
+        let s = Setup::default();
+        for (i, r) in ROWS.iter().enumerate() {
+            assert_eq!(r.key as usize, i);
+            assert!(r.min() <= r.max(), "{:?}", r.key);
+            let t = r.key.text();
+            assert_eq!(t.choices.is_empty(), r.unit != Unit::Choice, "{}", t.name);
+            for k in 0..r.section.count(&s) {
+                assert_eq!(r.key.check(k, r.key.value(&s, k)), Ok(()), "{}", t.name);
+            }
+            // Pairs: `x[0]` is followed by `x[1]`.
+            if let Some(base) = t.name.strip_suffix("[0]") {
+                assert_eq!(r.key.next().text().name, std::format!("{base}[1]"));
+            }
+        }
+    }
+}
