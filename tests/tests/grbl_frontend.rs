@@ -1329,3 +1329,64 @@ fn a_setting_write_and_a_setup_file_give_the_same_refusal_from_the_same_check() 
     s.until("error:3\r\n", 100);
     assert_eq!(s.eb.board.setup(), &before);
 }
+
+/// Issue 24: `$J=` jogs sent back to back are planned together (grbl's jogging.md): 20 jogs of
+/// 0.5 mm at 1500 mm/min run as one smooth 10 mm move (no stop between them, well within 0.8 s),
+/// and one jog cancel (0x85) stops them all.
+#[test]
+fn jogs_sent_back_to_back_are_planned_together_and_one_cancel_stops_them_all() {
+    let mut s = Sender::connected();
+    let jogs = b"$J=G91 X0.5 F1500\n".repeat(20);
+    // Character counting: as many as the 128-byte RX buffer takes, the rest as oks come back.
+    let mut sent = 0;
+    let t0 = s.eb.now_ms();
+    let mut speeds = Vec::new();
+    let mut last = 0i64;
+    let mut end_ms = None;
+    for _ in 0..3000 {
+        while sent < 20 && (sent + 1) * 18 - s.oks() * 18 <= 120 {
+            s.send(&jogs[sent * 18..(sent + 1) * 18]);
+            sent += 1;
+        }
+        s.run(1);
+        let x = s.steps()[0];
+        speeds.push(x - last);
+        last = x;
+        if x == 10 * STEPS_PER_MM && s.eb.board.state() == State::Idle {
+            end_ms = Some(s.eb.now_ms() - t0);
+            break;
+        }
+    }
+    assert_eq!(s.oks(), 20, "{:?}", s.seen);
+    let took = end_ms.expect("the 20 jogs did not end at X 10");
+    assert!(took <= 800, "{took} ms");
+    // Smooth: once at the cruise speed it stays there until the final deceleration (no stop
+    // or dip between jogs).
+    let cruise = 1500 * STEPS_PER_MM / 60_000; // steps per ms at 1500 mm/min
+    let first = speeds.iter().position(|&d| d >= cruise).unwrap();
+    let last_cruising = speeds.iter().rposition(|&d| d >= cruise).unwrap();
+    assert!(
+        speeds[first..=last_cruising]
+            .iter()
+            .all(|&d| d >= cruise - 1),
+        "a dip between jogs: {speeds:?}"
+    );
+    assert!(last_cruising - first > 200, "{speeds:?}");
+
+    // Six of 5 mm (X 10 -> 40), cancelled after 300 ms: all stop within the deceleration
+    // (about 1.5 mm at 25 mm/s), nothing resumes.
+    s.seen.clear();
+    s.send(&b"$J=G91 X5 F1500\n".repeat(6));
+    s.run(300);
+    assert_eq!(s.oks(), 6, "{:?}", s.seen);
+    let at_cancel = s.steps()[0];
+    s.send(&[0x85]);
+    until_state(&mut s.eb, State::Idle, 2_000);
+    let x = s.steps()[0];
+    s.run(500);
+    assert_eq!(s.steps()[0], x);
+    assert!(
+        x > at_cancel && x < at_cancel + 2 * STEPS_PER_MM,
+        "{at_cancel} -> {x}"
+    );
+}

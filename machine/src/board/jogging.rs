@@ -90,13 +90,14 @@ impl Board {
     }
 
     /// Host jog of several axes to the machine position `to` at `feed` nm/min (grbl's `$J=`,
-    /// `machine/src/grbl/jog.rs`): from idle, or after the previous jog has stopped. A target
-    /// beyond the soft limits is refused as a whole (grbl error 15), never clipped.
+    /// `machine/src/grbl/jog.rs`): from idle, or queued behind the host jogs still moving (grbl's
+    /// jogging.md: a stream of jogs is planned together, so a jog wheel or a held key moves
+    /// smoothly, and one jog cancel stops them all); refused while a cancel is stopping them.
+    /// A target beyond the soft limits is refused as a whole (grbl error 15), never clipped.
     pub fn jog_to(&mut self, to: Pos, feed: i64) -> Result<(), JogRefused> {
         let free = matches!(self.mode, Mode::Idle)
             || (matches!(self.mode, Mode::Jog(Jogging::Moves))
-                && self.jog.motion != JogMotion::Stopping
-                && self.motion.state() == MotionState::Idle);
+                && self.jog.motion == JogMotion::Free);
         if !free {
             return Err(JogRefused::Busy);
         }
