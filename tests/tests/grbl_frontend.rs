@@ -1390,3 +1390,46 @@ fn jogs_sent_back_to_back_are_planned_together_and_one_cancel_stops_them_all() {
         "{at_cancel} -> {x}"
     );
 }
+
+/// Issue 24: grbl's hold rules. `!` in Idle holds (`Hold:0`): the next line waits for `~`
+/// before it moves. `~` while a hold still decelerates (`Hold:1`) is ignored; once the hold is
+/// complete it resumes, and the job ends at its exact end.
+#[test]
+fn feed_hold_in_idle_holds_the_next_motion_and_resume_waits_for_the_hold_to_complete() {
+    let mut s = Sender::connected();
+    s.send(b"!");
+    s.run(5);
+    assert!(s.status().starts_with("<Hold:0|"));
+    s.send(b"G1 X5 F600\n");
+    s.run(500);
+    assert_eq!(s.steps()[0], 0, "moved before ~");
+    assert!(s.status().starts_with("<Hold:0|"));
+    s.send(b"~");
+    s.run(200);
+    assert!(s.steps()[0] > 0);
+    assert_eq!(s.ends_idle(5_000)[0], 5 * STEPS_PER_MM);
+
+    // A hold at full speed, then ~ at once: ignored while Hold:1.
+    s.answer(b"G1 X50 F3000\n", 100);
+    s.run(1000);
+    s.send(b"!");
+    s.run(3);
+    assert!(s.status().starts_with("<Hold:1|"));
+    s.send(b"~");
+    s.run(1);
+    for _ in 0..2000 {
+        s.run(1);
+        if s.status().starts_with("<Hold:0|") {
+            break;
+        }
+    }
+    let held = s.steps()[0];
+    s.run(500);
+    assert_eq!(
+        s.steps()[0],
+        held,
+        "the ~ sent during Hold:1 resumed the job"
+    );
+    s.send(b"~");
+    assert_eq!(s.ends_idle(10_000)[0], 50 * STEPS_PER_MM);
+}

@@ -112,6 +112,9 @@ pub struct Grbl {
     session: Session,
     busy: Busy,
     check_mode: bool,
+    /// `!` came with the machine idle: grbl's `Hold:0` with nothing to hold; the next line's
+    /// job starts held and waits for `~`.
+    idle_hold: bool,
     door: Door,
     /// Startup lines still to run (bit i: `$Ni`), set with the banner.
     startup_due: u8,
@@ -143,6 +146,7 @@ impl Grbl {
             session: Session::Ready,
             busy: Busy::None,
             check_mode: false,
+            idle_hold: false,
             door: Door::Closed,
             startup_due: 0,
             sparse: Sparse::new(),
@@ -222,7 +226,7 @@ impl Grbl {
 
     /// One service of the link (twice per main-loop pass, `board/main_loop.rs`).
     pub fn service(&mut self, board: &mut Board, view: &KernelView) {
-        self.realtime_commands(board);
+        self.realtime_commands(board, view);
         self.door.poll(board, view);
         self.probe_message(board);
         self.board_events(board);
@@ -277,7 +281,11 @@ impl Grbl {
                 board,
                 view,
                 &Prefs::of(board.setup()),
-                self.door.state_name(board, view, self.check_mode),
+                if self.idle_hold && board.state() == State::Idle {
+                    "Hold:0"
+                } else {
+                    self.door.state_name(board, view, self.check_mode)
+                },
                 rx_free,
                 &mut self.sparse,
             );
@@ -296,13 +304,22 @@ impl Grbl {
         self.probe_seen = Some(result);
     }
 
-    fn realtime_commands(&mut self, board: &mut Board) {
+    fn realtime_commands(&mut self, board: &mut Board, view: &KernelView) {
         while let Some(rt) = self.realtime.pop_front() {
             match rt {
                 Realtime::Status => self.status_due = true,
-                Realtime::FeedHold => board.feed_hold(),
+                Realtime::FeedHold => {
+                    if board.state() == State::Idle && !self.check_mode {
+                        self.idle_hold = true;
+                    }
+                    board.feed_hold();
+                }
                 Realtime::CycleStart => {
-                    if self.door.resume(board) {
+                    // grbl resumes a feed hold only once it is complete (Hold:0), never
+                    // during its deceleration (Hold:1).
+                    let decelerating = board.state() == State::Hold && view.feed_um_min != 0;
+                    self.idle_hold = false;
+                    if !decelerating && self.door.resume(board) {
                         board.cycle_start();
                     }
                 }
@@ -312,6 +329,7 @@ impl Grbl {
                     board.abort();
                     self.busy = Busy::None;
                     self.check_mode = false;
+                    self.idle_hold = false;
                     self.door = Door::Closed;
                     self.session = Session::Resetting;
                 }
@@ -569,6 +587,10 @@ impl Grbl {
                         self.decided(raw, Reply::Error(codes::LOCKED));
                         continue;
                     }
+                    if core::mem::take(&mut self.idle_hold) {
+                        // The hold `!` asked for in Idle: the job waits for `~`.
+                        board.feed_hold();
+                    }
                 }
                 State::Homing | State::Jog => return,
                 State::Run | State::Hold | State::ToolChange | State::Check => {}
@@ -631,6 +653,7 @@ impl Grbl {
     /// a job that stands at rest ends; error 8 while something moves).
     fn idle_gate(&mut self, board: &mut Board, alarm_ok: bool) -> Option<Step> {
         match board.state() {
+            State::Idle if self.idle_hold => Some(Step::Reply(Reply::Error(codes::IDLE_ONLY))),
             State::Idle => None,
             State::Alarm if alarm_ok => None,
             State::Run if board.waiting_for_lines() => {
