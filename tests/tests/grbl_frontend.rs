@@ -1433,3 +1433,24 @@ fn feed_hold_in_idle_holds_the_next_motion_and_resume_waits_for_the_hold_to_comp
     s.send(b"~");
     assert_eq!(s.ends_idle(10_000)[0], 50 * STEPS_PER_MM);
 }
+
+/// Issue 24: the line length limit counts what grbl keeps of a line (blanks and comments are
+/// dropped first): a 120-character line that is mostly comment runs; one with 110 characters
+/// of words is refused with `error:11`; blanks do not count either.
+#[test]
+fn the_line_limit_counts_the_words_not_the_blanks_and_comments() {
+    let mut s = Sender::connected();
+    let commented = format!("G1 X2 F600 ({})\n", "x".repeat(105));
+    assert!(commented.len() > 110 && commented.len() < 128);
+    let words = format!("G1{}X3\n", " \t".repeat(50));
+    let long = format!("G1X3{}\n", "Y0".repeat(53));
+    assert!(long.len() - 1 > 104);
+    s.send(commented.as_bytes());
+    s.run(50);
+    s.send(words.as_bytes());
+    s.run(50);
+    s.send(long.as_bytes());
+    s.run(50);
+    assert_eq!(s.answers(), ["ok", "ok", "error:11"], "{:?}", s.seen);
+    assert_eq!(s.ends_idle(5_000)[0], 3 * STEPS_PER_MM);
+}

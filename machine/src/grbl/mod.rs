@@ -518,7 +518,7 @@ impl Grbl {
                 return;
             };
             let text = trim(buf.get(..n).unwrap_or_default());
-            if raw - 1 > LINE_CAPACITY {
+            if n > LINE_CAPACITY {
                 self.rx.consume(raw);
                 self.decided(raw, Reply::Error(codes::LINE_TOO_LONG));
                 continue;

@@ -8,6 +8,16 @@
 //! Line ends: `\n` or `\r`; the `\n` of a `\r\n` pair is not stored (the sender counted it, so
 //! its own count stays above ours, on the safe side).
 
+/// Where [`Rx::peek_line`] stands in a line's comments.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Comment {
+    None,
+    /// Inside `( … )`.
+    Paren,
+    /// After `;`: the rest of the line.
+    ToEnd,
+}
+
 /// Bytes of received, unanswered lines the board accepts (grbl's serial RX buffer).
 pub const RX_SIZE: usize = 128;
 
@@ -103,24 +113,38 @@ impl Rx {
         false
     }
 
-    /// The next complete unread line, copied into `out` without its end (bytes past `out`'s
-    /// length are cut: the caller sees `raw` longer than what it got), and its stored length
-    /// including the end. Not consumed: [`Rx::consume`] does that.
+    /// The next complete unread line without its blanks, comments and end, copied into `out`:
+    /// its length (bytes past `out`'s length are cut: the caller sees a length longer than what
+    /// it got) and its stored length including the end. Not consumed: [`Rx::consume`] does that.
     pub fn peek_line(&self, out: &mut [u8]) -> Option<(usize, usize)> {
         if self.complete == 0 {
             return None;
         }
+        // As grbl, blanks and comments (`(…)`, `;` to the end) are dropped as the line is read,
+        // so a line's length limit counts only what the interpreter needs.
+        let mut comment = Comment::None;
+        let mut n = 0;
         let mut i = 0;
         loop {
             let b = self.buf[(self.head + self.read + i) % RX_SIZE];
             i += 1;
             if b == b'\n' {
-                let text = i - 1;
-                return Some((text.min(out.len()), i));
+                return Some((n, i));
             }
-            if i - 1 < out.len() {
-                out[i - 1] = b;
-            }
+            comment = match (comment, b) {
+                (Comment::None, b'(') => Comment::Paren,
+                (Comment::None, b';') => Comment::ToEnd,
+                (Comment::Paren, b')') => Comment::None,
+                (Comment::None, b' ' | b'\t') => Comment::None,
+                (Comment::None, _) => {
+                    if let Some(o) = out.get_mut(n) {
+                        *o = b;
+                    }
+                    n += 1;
+                    Comment::None
+                }
+                (c, _) => c,
+            };
         }
     }
 
@@ -173,7 +197,7 @@ mod tests {
         feed(&mut rx, b"G0 X1\r\nG1");
         let mut buf = [0u8; 16];
         let (n, raw) = rx.peek_line(&mut buf).unwrap();
-        assert_eq!((&buf[..n], raw), (&b"G0 X1"[..], 6));
+        assert_eq!((&buf[..n], raw), (&b"G0X1"[..], 6));
         rx.consume(raw);
         assert_eq!(rx.free(), RX_SIZE - 8);
         assert!(rx.peek_line(&mut buf).is_none(), "G1 has no end yet");
@@ -181,12 +205,12 @@ mod tests {
         assert_eq!(rx.free(), RX_SIZE - 2);
         feed(&mut rx, b" Y2\n");
         let (n, raw) = rx.peek_line(&mut buf).unwrap();
-        assert_eq!((&buf[..n], raw), (&b"G1 Y2"[..], 6));
+        assert_eq!((&buf[..n], raw), (&b"G1Y2"[..], 6));
         rx.consume(raw);
         rx.rewind();
         assert_eq!(
             rx.peek_line(&mut buf),
-            Some((5, 6)),
+            Some((4, 6)),
             "read again after a rewind"
         );
     }
