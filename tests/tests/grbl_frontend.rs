@@ -1454,3 +1454,75 @@ fn the_line_limit_counts_the_words_not_the_blanks_and_comments() {
     assert_eq!(s.answers(), ["ok", "ok", "error:11"], "{:?}", s.seen);
     assert_eq!(s.ends_idle(5_000)[0], 3 * STEPS_PER_MM);
 }
+
+/// Issue 24: a line beyond the travel raises `ALARM:2` at once, as grbl's soft limit does
+/// (nothing moves, position kept), then grbl's critical event: `[MSG:Reset to continue]`, and
+/// nothing but a soft reset is taken (`$X` and lines answer `error:9`). After the reset, `$X`
+/// unlocks and the machine moves again.
+#[test]
+fn a_soft_limit_is_alarm_2_and_needs_a_reset_before_unlock() {
+    let mut s = Sender::connected();
+    s.answer(b"G0 X5\n", 100);
+    s.ends_idle(5_000);
+    s.seen.clear();
+    s.send(b"G0 X400\n");
+    s.run(100);
+    s.assert_seen("ALARM:2\r\n[MSG:Reset to continue]\r\n");
+    assert_eq!(s.steps()[0], 5 * STEPS_PER_MM);
+    s.seen.clear();
+    s.send(b"$X\nG0 X6\n");
+    s.run(100);
+    assert_eq!(s.answers(), ["error:9", "error:9"], "{:?}", s.seen);
+    s.send(b"\x18");
+    s.until("[MSG:'$H'|'$X' to unlock]\r\n", 200);
+    s.seen.clear();
+    let seen = s.answer(b"$X\n", 100);
+    assert!(seen.contains("[MSG:Caution: Unlocked]"), "{seen:?}");
+    s.answer(b"G0 X6\n", 100);
+    s.run(500);
+    assert_eq!(s.ends_idle(5_000)[0], 6 * STEPS_PER_MM);
+}
+
+/// Issue 24: `$X` in alarm 11 (homing required) does not answer a misleading `ok`: Gantry keeps
+/// the homing lock, so it answers `error:9` and says to home.
+#[test]
+fn unlock_in_the_homing_alarm_answers_error_9_and_says_to_home() {
+    let mut s = Sender::with(|s| {
+        s.inputs.limit_min = 0b001;
+        s.homing.required = true;
+        s.homing.axes[0].priority = 1;
+    });
+    s.send(b"\x18");
+    s.until(BANNER, 50);
+    s.seen.clear();
+    s.send(b"$X\n");
+    s.run(50);
+    s.assert_seen("[MSG:Homing required: '$H' to home]\r\nerror:9\r\n");
+    assert_eq!(s.eb.board.state(), State::Alarm);
+}
+
+/// Issue 24: `$SLP` stops everything and reports `Sleep`; only a soft reset wakes the board.
+#[test]
+fn sleep_reports_sleep_and_only_a_reset_wakes_it() {
+    let mut s = pwm_sender();
+    s.answer(b"M3 S5000 M8\n", 100);
+    s.run(20);
+    s.seen.clear();
+    let seen = s.answer(b"$SLP\n", 100);
+    assert!(seen.contains("[MSG:Sleeping]"), "{seen:?}");
+    s.run(20);
+    assert!(s.status().starts_with("<Sleep|"));
+    let o = s.eb.board.outputs();
+    assert_eq!(
+        (o.spindle, o.flood),
+        (gantry_machine::canon::Spindle::Off, false)
+    );
+    s.seen.clear();
+    s.send(b"G0 X1\n");
+    s.run(100);
+    assert_eq!(s.answers(), ["error:9"]);
+    assert_eq!(s.steps()[0], 0);
+    s.send(b"\x18");
+    s.until(BANNER, 100);
+    assert!(s.status().starts_with("<Idle|"));
+}

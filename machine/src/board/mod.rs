@@ -1257,10 +1257,20 @@ impl Board {
 
     /// A block of line `line` would leave the travel box. Before the job has queued anything
     /// (an MDI command, a program whose first move is out of reach) nothing has happened yet:
-    /// error 900 and the job ends. Later, the job is stopped on its path like an abort and ends
+    /// error 900 and the job ends (grbl's line sender: alarm 2 all the same). Later, the job is stopped on its path like an abort and ends
     /// in alarm 2 (grbl's soft-limit alarm), position kept.
     fn soft_limit(&mut self, line: u32) {
-        if matches!(self.mode, Mode::Job(Job { queued: true, .. })) {
+        // A line sender's job (grbl) raises alarm 2 at once, as grbl does (nothing moved yet:
+        // position kept).
+        if matches!(
+            self.mode,
+            Mode::Job(Job { queued: true, .. })
+                | Mode::Job(Job {
+                    streamer: Streamer::LineSender,
+                    kind: JobKind::Machine,
+                    ..
+                })
+        ) {
             self.stop_job(Some((AlarmCode::SoftLimit, line)));
         } else {
             self.emit(BoardEvent::Error {

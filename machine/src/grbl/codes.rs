@@ -47,6 +47,7 @@ pub fn error_number(gantry: u16) -> u16 {
         307 => 34,             // invalid arc radius
         309 => 32,             // arc without an in-plane axis word
         502 => 38,             // tool number
+        520 => 33,             // a probe move that does not move: invalid target
         503 => 30,             // G53 needs G0/G1
         505 => 28,             // value word missing
         507 => 26,             // no axis words

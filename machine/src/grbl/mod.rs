@@ -29,7 +29,7 @@ pub mod text;
 
 use crate::board::link::KernelView;
 use crate::board::{Board, BoardEvent, JogRefused, ProbeResult, Streamer, LINE_CAPACITY};
-use crate::controller::State;
+use crate::controller::{AlarmCode, State};
 use crate::setup::STARTUP_LINE_LEN;
 use command::{Command, Restore};
 use door::Door;
@@ -83,6 +83,12 @@ enum Session {
     Ready,
     /// A soft reset: the board is brought to rest, then the banner, then lines again.
     Resetting,
+    /// A hard or soft limit alarm (grbl's critical event, `[MSG:Reset to continue]`): nothing
+    /// but a soft reset is taken (a line answers `error:9`).
+    ResetToContinue,
+    /// `$SLP`: the job stopped, spindle and coolant off, status `Sleep`; only a soft reset wakes
+    /// it.
+    Sleeping,
 }
 
 /// A `$` command that runs across passes.
@@ -281,7 +287,9 @@ impl Grbl {
                 board,
                 view,
                 &Prefs::of(board.setup()),
-                if self.idle_hold && board.state() == State::Idle {
+                if self.session == Session::Sleeping {
+                    "Sleep"
+                } else if self.idle_hold && board.state() == State::Idle {
                     "Hold:0"
                 } else {
                     self.door.state_name(board, view, self.check_mode)
@@ -371,6 +379,12 @@ impl Grbl {
                     self.out.str("ALARM:");
                     self.out.uint(code as u64);
                     self.out.eol();
+                    if matches!(code, AlarmCode::HardLimit | AlarmCode::SoftLimit) {
+                        // grbl's critical event: a soft reset before anything else.
+                        self.out.line("[MSG:Reset to continue]");
+                        self.session = Session::ResetToContinue;
+                        self.busy = Busy::None;
+                    }
                 }
                 BoardEvent::JobDone { line, .. } => self.taken_hint = self.taken_hint.max(line),
                 // A line sender's job never jumps (`Streamer::LineSender`: M98 and O-word
@@ -521,6 +535,13 @@ impl Grbl {
             if n > LINE_CAPACITY {
                 self.rx.consume(raw);
                 self.decided(raw, Reply::Error(codes::LINE_TOO_LONG));
+                continue;
+            }
+            if matches!(self.session, Session::ResetToContinue | Session::Sleeping) {
+                // Only a soft reset is taken (grbl ignores everything else; an answer keeps a
+                // sender from waiting).
+                self.rx.consume(raw);
+                self.decided(raw, Reply::Error(codes::LOCKED));
                 continue;
             }
             if text.is_empty() {
@@ -751,9 +772,14 @@ impl Grbl {
             Command::Unlock => {
                 if board.state() == State::Alarm {
                     board.unlock();
-                    if board.state() != State::Alarm {
-                        self.out.line("[MSG:Caution: Unlocked]");
+                    if board.state() == State::Alarm {
+                        // Gantry keeps the homing lock (grbl would lift it): say so.
+                        if board.alarm() == Some(AlarmCode::HomingRequired) {
+                            self.out.line("[MSG:Homing required: '$H' to home]");
+                        }
+                        return Step::Reply(Reply::Error(codes::LOCKED));
                     }
+                    self.out.line("[MSG:Caution: Unlocked]");
                 }
                 ok
             }
@@ -800,7 +826,9 @@ impl Grbl {
             }
             Command::Sleep => {
                 board.abort();
+                board.stop_outputs_at_rest();
                 self.out.line("[MSG:Sleeping]");
+                self.session = Session::Sleeping;
                 ok
             }
         }

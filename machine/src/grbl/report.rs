@@ -186,6 +186,9 @@ fn pins(out: &mut Out, levels: InputBits, board: &Board) {
     if inputs.abort && levels.get(Signal::Abort) {
         put(out, b'R');
     }
+    if levels.get(Signal::Probe) {
+        put(out, b'P');
+    }
     if levels.get(Signal::CycleStart1) || levels.get(Signal::CycleStart2) {
         put(out, b'S');
     }
