@@ -254,6 +254,11 @@ pub(crate) fn serve(
     let mut host_open = false;
     let mut last_state: Option<MachineState> = None;
     let mut buf = [0u8; 4096];
+    // What the board writes to its flash (the main loop's save, once idle: a pushed setup, a
+    // grbl `$x=`, work offsets a job changed) goes to the state file.
+    let saved: std::rc::Rc<std::cell::RefCell<Option<Setup>>> = Default::default();
+    let to_save = saved.clone();
+    board.on_setup_saved(move |s| *to_save.borrow_mut() = Some(s.clone()));
     while !stop.load(Ordering::SeqCst) {
         let polled = host.poll(if host_open { 1 } else { 0 }, &mut buf)?;
         let open = polled.open;
@@ -296,9 +301,9 @@ pub(crate) fn serve(
         if open && !out.is_empty() {
             host.send(&out);
         }
-        if board.link.take_setup_changed() {
+        if let Some(setup) = saved.borrow_mut().take() {
             if let Some(st) = state {
-                save_state(st, board.board.setup())?;
+                save_state(st, &setup)?;
                 eprintln!("emulate: setup saved to {}", st.display());
             }
         }

@@ -229,3 +229,39 @@ fn a_setup_from_the_host_is_saved_to_flash_once() {
     // Idle with the kernel drained: written at once, and only once.
     assert_eq!(client.transport.setups_saved, 1);
 }
+
+/// Issue 25: work offsets and G28/G30 positions a job sets are the board's to keep: they go to
+/// the setup and to flash once idle, and a board that restarts from that flash has them.
+#[test]
+fn work_offsets_a_job_sets_are_saved_to_flash_and_survive_a_restart() {
+    let mut eb = board(|_| {});
+    let saved: std::rc::Rc<std::cell::RefCell<Vec<gantry_machine::setup::Setup>>> =
+        Default::default();
+    let s2 = saved.clone();
+    eb.on_setup_saved(move |s| s2.borrow_mut().push(s.clone()));
+    job(
+        &mut eb,
+        "G21 G90\nG0 X10 Y5\nG10 L20 P1 X0 Y0\nG10 L2 P2 X7\nG28.1\n",
+    );
+    until_state(&mut eb, State::Idle, 5_000);
+    eb.run_ms(5);
+    let flash = saved.borrow().last().cloned().expect("nothing saved");
+    assert_eq!(saved.borrow().len(), 1);
+    let p = &flash.program;
+    assert_eq!(p.work_offsets[0][..2], [10 * MM, 5 * MM]);
+    assert_eq!(p.work_offsets[1][0], 7 * MM);
+    assert_eq!(p.g28_home[..2], [10 * MM, 5 * MM]);
+    // A restart from that flash: G54 X0 is machine X10 again.
+    let mut eb = EmulatedBoard::new(flash);
+    let s3 = saved.clone();
+    eb.on_setup_saved(move |s| s3.borrow_mut().push(s.clone()));
+    job(&mut eb, "G21 G90 G54\nG0 X1 Y1\n");
+    until_state(&mut eb, State::Idle, 5_000);
+    eb.run_ms(5);
+    assert_eq!(
+        eb.kernel.position()[..2],
+        [11 * STEPS_PER_MM, 6 * STEPS_PER_MM]
+    );
+    // A job that changes no offset writes nothing.
+    assert_eq!(saved.borrow().len(), 1);
+}

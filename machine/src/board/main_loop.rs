@@ -397,6 +397,9 @@ impl MainLoop {
             port.apply_setup(s.inputs.invert, StepTiming::from_setup(&s.drivers));
             self.save = Save::Pending;
         }
+        if board.take_offsets_changed() {
+            self.save = Save::Pending;
+        }
         if self.save == Save::Pending && board.state() == State::Idle && drained {
             // A failed write is not retried every millisecond; the next setup change tries again.
             self.save = Save::Done;

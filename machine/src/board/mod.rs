@@ -196,6 +196,8 @@ pub struct Board {
     outputs: Outputs,
     /// Outputs to restore when a stopped program resumes (stop/restore rules, docs/controller.md "Outputs").
     saved_outputs: Option<Outputs>,
+    /// A job changed the stored offsets since the last [`Board::take_offsets_changed`].
+    offsets_changed: bool,
     events: Deque<BoardEvent, EVENT_QUEUE>,
     /// Last line the motion has reached (prep finished a block of it).
     line: u32,
@@ -282,6 +284,7 @@ impl Board {
             pending: None,
             outputs: Outputs::SAFE,
             saved_outputs: None,
+            offsets_changed: false,
             events: Deque::new(),
             line: 0,
             resume_line: 0,
@@ -618,6 +621,27 @@ impl Board {
                 }
             }
         }
+    }
+
+    /// The work offsets and G28/G30 positions a job set (G10 L2/L20, G28.1, G30.1, their
+    /// parameters) become the setup's, which the board keeps in flash (`MainLoop` saves it once
+    /// idle: [`Board::take_offsets_changed`]), so they survive a restart and a soft reset, and
+    /// `gantry setup pull` shows them (docs/controller.md "Work offsets").
+    fn keep_stored_offsets(&mut self) {
+        let s = self.interp.state();
+        let p = &mut self.setup.program;
+        if p.work_offsets != s.work_offsets || p.g28_home != s.g28 || p.g30_home != s.g30 {
+            p.work_offsets = s.work_offsets;
+            p.g28_home = s.g28;
+            p.g30_home = s.g30;
+            self.offsets_changed = true;
+        }
+    }
+
+    /// True once after a job changed the stored offsets ([`Board::keep_stored_offsets`]): the
+    /// owner writes the setup to flash.
+    pub fn take_offsets_changed(&mut self) -> bool {
+        core::mem::take(&mut self.offsets_changed)
     }
 
     /// Spindle and coolant off if the machine stands idle (a grbl sender left, `grbl/mod.rs`
@@ -1165,6 +1189,9 @@ impl Board {
             self.mode = Mode::Idle;
             if job.kind == JobKind::Machine || how == JobEnd::Failed {
                 self.sync_interpreter_position();
+            }
+            if job.kind == JobKind::Machine {
+                self.keep_stored_offsets();
             }
             self.emit(BoardEvent::JobDone {
                 line: self.line,
