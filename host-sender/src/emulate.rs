@@ -17,7 +17,7 @@ use crate::setup_file::{to_toml, SetupFile};
 use anyhow::Context;
 use gantry_machine::board::link::status_of;
 use gantry_machine::setup::Setup;
-use gantry_machine::units::AXIS_LETTERS;
+use gantry_machine::units::{Pos, AXIS_LETTERS, MAX_AXES};
 use gantry_proto::MachineState;
 use nix::poll::{poll, PollFd, PollFlags};
 use nix::sys::termios::{tcgetattr, ControlFlags};
@@ -100,6 +100,7 @@ fn host_side_open(fd: RawFd, wait_ms: i32) -> (bool, bool) {
 /// (`--probe-target`, [`ProbeTarget::parse`]) and the CPU model (`--cpu-model`).
 pub(crate) fn new_board(
     setup: Setup,
+    state: Option<&Path>,
     probe_targets: &[String],
     cpu: Option<crate::cpu_model::CpuModel>,
 ) -> anyhow::Result<EmulatedBoard> {
@@ -107,7 +108,10 @@ pub(crate) fn new_board(
         .iter()
         .map(|t| ProbeTarget::parse(t))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let mut board = EmulatedBoard::new(setup);
+    let stood_at = state.map(load_position).unwrap_or_default();
+    let mut board = EmulatedBoard::new(setup.clone());
+    add_travel_switches(&mut board, &setup, &stood_at);
+    board.stood_at = stood_at;
     for t in targets {
         board.add_probe_target(t);
     }
@@ -116,6 +120,63 @@ pub(crate) fn new_board(
         eprintln!("emulate: CPU model {} at {} MHz", m.name, m.hz / 1_000_000);
     }
     Ok(board)
+}
+
+/// How far beyond each end of the travel the emulated machine's switches sit, nm: a move to
+/// the travel's end stays clear of them, a homing seek finds them.
+pub const SWITCH_BEYOND_TRAVEL_NM: i64 = 1_000_000;
+
+/// The switches of the emulated machine: one at each end of the travel of every axis whose limit
+/// input the setup installs (`inputs.limit_min` / `limit_max`), with the setup's polarity (a
+/// normally-closed switch reads closed until the machine reaches it). `stood_at`: where the
+/// machine stands in the travel's frame as it powers up (its step count starts at 0 there, as a
+/// real board's does).
+fn add_travel_switches(board: &mut EmulatedBoard, setup: &Setup, stood_at: &Pos) {
+    for (axis, (a, at)) in setup
+        .axes
+        .iter()
+        .zip(stood_at)
+        .take(usize::from(setup.axis_count))
+        .enumerate()
+    {
+        if setup.inputs.limit_min >> axis & 1 != 0 {
+            board.add_switch(axis, false, a.travel_min - SWITCH_BEYOND_TRAVEL_NM - at);
+        }
+        if setup.inputs.limit_max >> axis & 1 != 0 {
+            board.add_switch(axis, true, a.travel_max + SWITCH_BEYOND_TRAVEL_NM - at);
+        }
+    }
+}
+
+/// Where the emulated machine stood when it last stopped (`STATE.position`, beside the state
+/// file: one nm value per axis); at 0 when there is none.
+fn load_position(state: &Path) -> Pos {
+    let mut p = [0; MAX_AXES];
+    if let Ok(text) = std::fs::read_to_string(position_file(state)) {
+        for (v, word) in p.iter_mut().zip(text.split_whitespace()) {
+            *v = word.parse().unwrap_or(0);
+        }
+    }
+    p
+}
+
+fn position_file(state: &Path) -> PathBuf {
+    let mut name = state.as_os_str().to_owned();
+    name.push(".position");
+    PathBuf::from(name)
+}
+
+/// Writes where the machine stands now (in the travel's frame) for the next power-up.
+fn save_position(state: &Path, board: &EmulatedBoard) -> anyhow::Result<()> {
+    let cfg = board.board.motion_config();
+    let now = cfg.to_nm(&board.physical());
+    let text: Vec<String> = now
+        .iter()
+        .zip(board.stood_at)
+        .map(|(n, s)| (n + s).to_string())
+        .collect();
+    std::fs::write(position_file(state), text.join(" ") + "\n")
+        .with_context(|| format!("cannot write {}", position_file(state).display()))
 }
 
 /// The longest lag behind the wall clock the board's clock catches up, ms (see [`serve`]).
@@ -190,7 +251,7 @@ pub fn run(
 ) -> anyhow::Result<ExitCode> {
     let setup = load_state(state.as_deref(), setup)?;
     let axes = setup.axis_count as usize;
-    let board = new_board(setup, probe_targets, cpu)?;
+    let board = new_board(setup, state.as_deref(), probe_targets, cpu)?;
     let (master, slave) = serialport::TTYPort::pair().context("cannot open a pseudo-terminal")?;
     let name = slave
         .name()
@@ -317,6 +378,11 @@ pub(crate) fn serve(
         let status = status_of(&board.board, &board.kernel_view());
         if last_state != Some(status.state) {
             last_state = Some(status.state);
+            if let (Some(st), MachineState::Idle | MachineState::Alarm { .. }) =
+                (state, status.state)
+            {
+                save_position(st, &board)?;
+            }
             let pulses: Vec<i64> = board.pulses.iter().map(|&p| p as i64).collect();
             eprintln!(
                 "emulate: {:.3} s {} line {} steps {} pulses {}",
@@ -329,6 +395,9 @@ pub(crate) fn serve(
             // Planner starvation so far (grbl streaming is judged by it, docs/grbl.md).
             eprintln!("emulate: underruns {}", board.underruns);
         }
+    }
+    if let Some(st) = state {
+        save_position(st, &board)?;
     }
     eprintln!("emulate: stopped");
     Ok(ExitCode::SUCCESS)

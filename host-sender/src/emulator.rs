@@ -42,7 +42,7 @@ use gantry_machine::motion::kernel::{
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::motion::sim::SegmentFifo;
 use gantry_machine::setup::Setup;
-use gantry_machine::units::MAX_AXES;
+use gantry_machine::units::{Pos, MAX_AXES};
 use std::ops::{Deref, DerefMut};
 
 /// Kernel timer counts per millisecond.
@@ -272,6 +272,9 @@ pub struct Hardware {
     host_port: HostPort,
     /// Setups written to the emulated flash so far.
     pub setups_saved: u32,
+    /// Where the machine stood at power-up in the frame of its travel and switches, nm
+    /// (`gantry emulate --state`: from the state file; its step count starts at 0 there).
+    pub stood_at: Pos,
     on_save: Option<SetupSaved>,
     /// The firmware's motion marker word (survives [`EmulatedBoard::reset`]): set before a
     /// segment goes to the kernel, cleared when the kernel is drained and the board's position is
@@ -397,6 +400,7 @@ impl EmulatedBoard {
             outbox: Vec::new(),
             inbox: Vec::new(),
             host_port: HostPort::Open,
+            stood_at: [0; MAX_AXES],
             setups_saved: 0,
             on_save: None,
             motion_marker: MARKER_IDLE,

@@ -110,7 +110,7 @@ pub fn run(
     check_address(&addr, allow_remote)?;
     let setup = load_state(state.as_deref(), setup)?;
     let axes = setup.axis_count;
-    let mut board = new_board(setup, probe_targets, cpu)?;
+    let mut board = new_board(setup, state.as_deref(), probe_targets, cpu)?;
     let listener = TcpListener::bind(addr).with_context(|| format!("cannot listen on {addr}"))?;
     listener.set_nonblocking(true)?;
     // No host until a client connects.

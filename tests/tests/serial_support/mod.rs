@@ -158,6 +158,13 @@ impl Emulator {
         (steps.to_owned(), pulses.to_owned())
     }
 
+    /// Stops the process as Ctrl-C does (it writes its state first) and waits for it.
+    #[allow(dead_code)]
+    pub fn kill_gently(&mut self) {
+        let _ = nix::sys::signal::kill(self.pid(), nix::sys::signal::Signal::SIGINT);
+        let _ = self.child.wait();
+    }
+
     /// Kills the process at once (a power cut).
     pub fn kill(&mut self) {
         let _ = self.child.kill();
