@@ -31,14 +31,14 @@ pub use crate::gcode::{Dialect, DwellUnits, Tool, ToolChangePosition, MAX_TOOLS}
 /// Per-axis setup.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct AxisSetup {
-    /// Exact ratio: `steps` motor steps move the axis `units_nm` nanometres (seed "Ratiometric Steps per Unit").
+    /// Exact ratio: `steps` motor steps move the axis `units_nm` nanometres (the GIXA controller's "Ratiometric Steps per Unit").
     pub steps: u32,
     pub units_nm: Nm,
     /// Highest speed of this axis (rapid rate) in nm/min.
     pub max_rate: FeedNmPerMin,
     /// Acceleration in nm/s².
     pub accel: i64,
-    /// Speed reachable instantly from rest (seed "Starting Speed"), nm/min.
+    /// Speed reachable instantly from rest (the GIXA controller's "Starting Speed"), nm/min.
     pub start_speed: FeedNmPerMin,
     /// Soft-limit box in machine coordinates, nm (min ≤ max).
     pub travel_min: Nm,
@@ -52,7 +52,7 @@ pub struct AxisSetup {
 pub struct PathSetup {
     /// grbl junction deviation, nm.
     pub junction_deviation: Nm,
-    /// Speed jump the steppers take at any junction (seed "Feed Shift"), nm/min; it only raises
+    /// Speed jump the steppers take at any junction (the GIXA controller's "Feed Shift"), nm/min; it only raises
     /// junction deviation's corner speed (docs/settings.md).
     pub feed_shift: FeedNmPerMin,
     /// Largest chord error when arcs are cut into lines, nm.
@@ -92,7 +92,7 @@ pub struct ProgramSetup {
 /// Operator-input behaviour.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct OperatorSetup {
-    /// After a feed hold is released: resume at once (seed behaviour) or wait for cycle start.
+    /// After a feed hold is released: resume at once (the GIXA controller's behaviour) or wait for cycle start.
     pub resume_needs_cycle_start: bool,
     /// Cycle start needs both start inputs (two-hand start).
     pub two_hand_start: bool,
@@ -172,7 +172,7 @@ pub struct HomingAxis {
     pub seek_rate: FeedNmPerMin,
     /// Back-off from the switch at the rapid rate, nm.
     pub retract: Nm,
-    /// After the retract, set the axis position to `home_position` (seed "Set Home After Retract").
+    /// After the retract, set the axis position to `home_position` (the GIXA controller's "Set Home After Retract").
     pub set_home: bool,
     /// Machine position (nm) the axis gets after the retract.
     pub home_position: Nm,

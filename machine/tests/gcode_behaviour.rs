@@ -1,4 +1,4 @@
-//! Interpreter behaviour with exact nanometre expectations (seed-002 §14 programs included).
+//! Interpreter behaviour with exact nanometre expectations (the Hurco ISNC manual's §14 programs included).
 #![allow(clippy::field_reassign_with_default, clippy::type_complexity)]
 
 use gantry_machine::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};

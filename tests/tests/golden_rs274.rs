@@ -1,8 +1,8 @@
 //! Golden tests of the G-code interpreter against LinuxCNC's standalone interpreter `rs274`,
-//! the dialect oracle of DESIGN.md section 3.
+//! the dialect oracle (tests/golden/rs274/README.md).
 //!
 //! Every `tests/golden/rs274/NN-name.ngc` is run through `host_sender::check::canon_jsonl` (what
-//! `gantry check --canon FILE` prints, DESIGN.md section 7; the few programs that need rs274's tool
+//! `gantry check --canon FILE` prints (docs/architecture.md, the canonical actions); the few programs that need rs274's tool
 //! table go through `check::canon_output` with it, see `TOOL_TABLE_PROGRAMS`) and compared with
 //! `NN-name.canon.jsonl` record by record, recorded from rs274 by `scripts/record-rs274.sh`
 //! (CI never runs rs274).
@@ -10,7 +10,7 @@
 //!
 //! Comparison rules:
 //! * only `rapid`, `feed`, `arc` and `error` records are compared; others (`dwell`, `spindle`,
-//!   `tool`, `coolant`, `mcode`, the golden `golden` header) are ignored as DESIGN section 7 allows;
+//!   `tool`, `coolant`, `mcode`, the golden `golden` header) are ignored, as docs/architecture.md allows for comparers;
 //! * a `rapid`/`feed` to the position the machine is already at is no motion and is dropped on
 //!   both sides before comparing (rs274 emits such moves, e.g. the G28 intermediate point of
 //!   `G91 G28 Z0` and the XY positioning of a canned cycle already over the hole);
@@ -31,7 +31,7 @@ use gantry_machine::gcode::InterpConfig;
 use serde_json::Value;
 
 /// Programs kept out of the compared set: each exposes a deliberate choice in which Gantry
-/// follows Fanuc (DESIGN.md section 3, seed-002 sections 13-14) or a rule of its own, and
+/// follows Fanuc (the Hurco/Fanuc conformance rules in tests/golden/rs274/README.md) or a rule of its own, and
 /// LinuxCNC does not.
 /// They are still run and their differences printed, but they do not fail the test.
 /// Keep in step with the "Known differences" table of tests/golden/rs274/README.md.
@@ -55,7 +55,7 @@ const KNOWN_DIFFERENCES: &[(&str, &str)] = &[
 ];
 
 /// Programs that need the tool table rs274 was given (`tools.tbl`): they run through
-/// `check::canon_output` with that table in the setup, since DESIGN section 7's `--canon` default
+/// `check::canon_output` with that table in the setup, since the `--canon` default (docs/architecture.md)
 /// (and so `check::canon_jsonl`) has an empty tool table. Every other program runs through
 /// `check::canon_jsonl` itself.
 const TOOL_TABLE_PROGRAMS: &[&str] = &[

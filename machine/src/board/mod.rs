@@ -762,7 +762,7 @@ impl Board {
         self.set_phase(JobPhase::Running(ending));
     }
 
-    /// The feed-hold switch closed again: continue the held motion (seed behaviour), unless the
+    /// The feed-hold switch closed again: continue the held motion (the GIXA controller's behaviour), unless the
     /// setup wants a cycle start for that.
     fn release_hold(&mut self) {
         if let Some(JobPhase::Hold { why, ending }) = self.machine_job() {
@@ -1429,7 +1429,7 @@ impl Board {
         }
         self.line = canon.line;
         match canon.action {
-            // Dry run: spindle and coolant stay as they are (seed: S has no effect).
+            // Dry run: spindle and coolant stay as they are (the GIXA controller: S has no effect).
             Action::Spindle { .. } | Action::Coolant { .. } if self.switches.dry_run => {}
             Action::Spindle { state, rpm } => {
                 self.stopped_spindle = None;
@@ -1474,7 +1474,7 @@ impl Board {
                 }
             }
             Action::Stop(StopKind::Pause | StopKind::OptionalPause) => {
-                // Seed 003 stop rule: spindle and coolant off while stopped, restored on resume.
+                // The GIXA controller's stop rule: spindle and coolant off while stopped, restored on resume.
                 self.saved_outputs = Some(self.outputs);
                 self.outputs.spindle = Spindle::Off;
                 self.outputs.mist = false;

@@ -13,14 +13,14 @@ pub const MAX_SPEED: u64 = u32::MAX as u64;
 /// One axis of the machine.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AxisConfig {
-    /// `steps` motor steps move the axis `units` nanometres (exact ratio, seed "Ratiometric Steps").
+    /// `steps` motor steps move the axis `units` nanometres (exact ratio, the GIXA controller's "Ratiometric Steps").
     pub steps: u32,
     pub units: Nm,
     /// Highest speed, nm/s.
     pub max_rate: u64,
     /// Acceleration, nm/s².
     pub accel: u64,
-    /// Speed reachable instantly from rest (seed "Starting Speed"), nm/s.
+    /// Speed reachable instantly from rest (the GIXA controller's "Starting Speed"), nm/s.
     pub start_speed: u64,
     /// Soft-limit box in machine coordinates, nm.
     pub travel_min: Nm,
@@ -68,7 +68,7 @@ pub struct MotionConfig {
     pub axes: [AxisConfig; MAX_AXES],
     /// grbl junction deviation, nm (0 = stop at every corner).
     pub junction_deviation: Nm,
-    /// Vector-speed jump the steppers take at any junction (seed "Feed Shift"), nm/s: a corner
+    /// Vector-speed jump the steppers take at any junction (the GIXA controller's "Feed Shift"), nm/s: a corner
     /// runs at the larger of this jump's speed and junction deviation's; 0 = junction deviation alone.
     pub feed_shift: u64,
     /// Largest chord-to-arc error, nm (default 0.002 mm).

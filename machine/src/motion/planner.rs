@@ -2,7 +2,7 @@
 //!
 //! Speeds are planned as squares (nm²/s²). Each line block knows its length, its per-axis-limited
 //! top speed, acceleration and start speed, and the geometric junction limit with the block before
-//! (grbl junction deviation and the seed's "Feed Shift"). The end of the buffer is always planned
+//! (grbl junction deviation and the GIXA controller's "Feed Shift"). The end of the buffer is always planned
 //! to stop (exit speed 0), so the machine can stop on whatever is buffered.
 //!
 //! *Reverse pass in O(1) per block.* Unrolled, grbl's reverse recurrence
@@ -774,7 +774,7 @@ impl LeastRatio {
 }
 
 /// Junction speed² limit between unit vectors `prev` and `cur` (2³⁰ scale): the larger of grbl's
-/// junction-deviation limit and the speed whose vector change at the corner is the seed's Feed
+/// junction-deviation limit and the speed whose vector change at the corner is the GIXA controller's Feed
 /// Shift (a jump the steppers take instantly), so a feed shift never slows a corner below
 /// junction deviation's speed.
 pub fn junction_limit_sq(

@@ -268,7 +268,7 @@ table! {
         [] "1-6 letters, a prefix of X Y Z A B C" "`[\"X\",\"Y\",\"Z\"]`" "axes in use",
     Steps => Axis "steps_per[0]" Count (1, u32::MAX as i64), 100,
         |s, i| i64::from(s.axes[i].steps);
-        [] "" "" "exact ratio `[steps, distance]`: this many motor steps move the axis this far (seed \"Ratiometric Steps per Unit\"); long moves never drift. grbl `$100`+i writes steps per mm as an exact ratio",
+        [] "" "" "exact ratio `[steps, distance]`: this many motor steps move the axis this far (the GIXA controller's \"Ratiometric Steps per Unit\"); long moves never drift. grbl `$100`+i writes steps per mm as an exact ratio",
     StepUnits => Axis "steps_per[1]" Mm (1, mm(10_000)), NO_GRBL,
         |s, i| s.axes[i].units_nm;
         [] "" "" "",
@@ -280,7 +280,7 @@ table! {
         [] "" "" "acceleration",
     StartSpeed => Axis "start_speed" MmPerMin (0, mm(200_000)), NO_GRBL,
         |s, i| s.axes[i].start_speed;
-        [] "0-`max_rate`" "" "speed the axis can reach instantly from rest (seed \"Starting Speed\")",
+        [] "0-`max_rate`" "" "speed the axis can reach instantly from rest (the GIXA controller's \"Starting Speed\")",
     TravelMin => Axis "travel[0]" Mm LENGTH, NO_GRBL,
         |s, i| s.axes[i].travel_min;
         [] "±100000, min ≤ max" "" "soft-limit box `[min, max]` in machine coordinates; a block that would leave it never moves: error 900 when it is the job's first action (MDI), else the job stops on its path with alarm 2; jogs stop at it. grbl `$130`+i is max - min (writing it moves max)",
@@ -296,7 +296,7 @@ table! {
         [] "" "" "grbl junction deviation: how far a corner may be rounded, which sets the corner speed",
     FeedShift => Path "feed_shift" MmPerMin (0, mm(100_000)), NO_GRBL,
         |s, _i| s.path.feed_shift;
-        [] "" "" "instantaneous speed jump the steppers take at any junction (seed \"Feed Shift\"): a corner runs at the larger of junction deviation's speed and the speed whose direction change is this jump, so it only ever raises corner speeds (at the default 60 with the default limits, junction deviation's speed is the higher one except at near-reversals, turns of more than about 170°); 0 = junction deviation alone",
+        [] "" "" "instantaneous speed jump the steppers take at any junction (the GIXA controller's \"Feed Shift\"): a corner runs at the larger of junction deviation's speed and the speed whose direction change is this jump, so it only ever raises corner speeds (at the default 60 with the default limits, junction deviation's speed is the higher one except at near-reversals, turns of more than about 170°); 0 = junction deviation alone",
     ChordTolerance => Path "chord_tolerance" Mm (100, mm(1)), 12,
         |s, _i| s.path.chord_tolerance;
         [] "" "" "arcs are cut into straight segments deviating at most this much",
@@ -312,7 +312,7 @@ table! {
 
     Dialect => Program "dialect" Choice (0, 1), NO_GRBL,
         |s, _i| s.program.dialect as i64;
-        ["ngc", "gixa"] "" "" "G-code dialect: RS274NGC/Fanuc mill, or the seed controller's (docs in the README)",
+        ["ngc", "gixa"] "" "" "G-code dialect: RS274NGC/Fanuc mill, or the GIXA controller's (docs in the README)",
     DwellUnits => Program "dwell_units" Choice (0, 1), NO_GRBL,
         |s, _i| s.program.dwell_units as i64;
         ["seconds", "milliseconds"] "" "" "how G4 P is read: seconds (RS274NGC) or integer milliseconds (classic Fanuc)",
@@ -350,7 +350,7 @@ table! {
 
     ResumeNeedsCycleStart => Operator "resume_needs_cycle_start" Bool (0, 1), NO_GRBL,
         |s, _i| i64::from(s.operator.resume_needs_cycle_start);
-        [] "" "" "after a feed hold is released: resume at once (seed behaviour) or wait for cycle start",
+        [] "" "" "after a feed hold is released: resume at once (the GIXA controller's behaviour) or wait for cycle start",
     TwoHandStart => Operator "two_hand_start" Bool (0, 1), NO_GRBL,
         |s, _i| i64::from(s.operator.two_hand_start);
         [] "" "" "cycle start needs both start inputs",
@@ -466,7 +466,7 @@ table! {
         [] "a code listed in `program.user_mcodes`" "—" "the M code",
     McodeDryRunDisabled => Mcode "dry_run_disabled" Text ANY, NO_GRBL,
         |_s, _i| 0;
-        [] "" "`false`" "skip the list during a dry run (seed \"Disable these commands for Dry Run\")",
+        [] "" "`false`" "skip the list during a dry run (the GIXA controller's \"Disable these commands for Dry Run\")",
     McodeCommands => Mcode "commands" Text ANY, NO_GRBL,
         |_s, _i| 0;
         [] "≤ 6 list commands" "`[]`" "run at rest when the program reaches the M code; the program continues when the list ends. **Exactly one `set N` or `clear N`** (N 0-15): an on-the-fly M code instead: the motion does not stop, output N switches at the M code's exact place on the path (docs/controller.md, \"On-the-fly outputs\"). An empty list or a missing table stops the motion and does nothing else",
