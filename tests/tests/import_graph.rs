@@ -12,7 +12,13 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The crates checked (paths from the workspace root).
-const CRATES: &[&str] = &["machine", "shared-proto", "host-sender", "settings-store", "tests"];
+const CRATES: &[&str] = &[
+    "machine",
+    "shared-proto",
+    "host-sender",
+    "settings-store",
+    "tests",
+];
 
 /// Edges (importing file → imported file, from the workspace root) that close a known cycle and
 /// are left for now, each with the issue that names it. Removing such an edge from the code means
@@ -266,7 +272,9 @@ fn crate_paths(text: &str, file_module: &[String]) -> Vec<Vec<String>> {
             continue;
         }
         if word == "use" {
-            let end = (i..chars.len()).find(|&k| chars[k] == ';').unwrap_or(chars.len());
+            let end = (i..chars.len())
+                .find(|&k| chars[k] == ';')
+                .unwrap_or(chars.len());
             let tree: String = chars[i + 3..end].iter().collect();
             for p in expand(&tree) {
                 if let Some(abs) = absolute(&p, &here) {
@@ -447,7 +455,10 @@ fn cycles(g: &BTreeMap<String, BTreeSet<String>>) -> Vec<Vec<String>> {
 }
 
 fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_owned()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_owned()
 }
 
 #[test]
