@@ -7,7 +7,7 @@ use gantry_machine::setup::Setup;
 use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
 use host_sender::program::Program;
-use host_sender::stream::{stream_program, Flow};
+use host_sender::session::{stream_program, Flow};
 use std::fmt::Write as _;
 use std::time::Instant;
 

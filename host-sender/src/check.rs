@@ -3,12 +3,12 @@
 //! `--canon` prints one JSON object per canonical action (tests/golden/rs274/README.md: mm, machine coordinates,
 //! 1-based lines) and stops at the first error; plain `check` lists every error with the source
 //! line and a caret under the bad word, then a one-line summary.
-use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
 use std::process::ExitCode;
 
 use crate::check_summary::{summarize_actions, JobSummary};
+use crate::present::{format_error, ErrorReport};
 use crate::preview::source::{Actions, Ended, FileSource};
 use gantry_machine::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
 use gantry_machine::gcode::{GcodeError, InterpConfig, MemorySource, ProgramSource};
@@ -307,43 +307,6 @@ pub fn error_json(line: u32, message: &str) -> String {
     record_json(line, Op::Error { message })
 }
 
-/// One error as `check`, `stream` and `mdi` print it (see [`format_error`]).
-pub struct ErrorReport<'a> {
-    /// Where the program comes from: a file name, or `mdi`.
-    pub place: &'a str,
-    /// 1-based line in the program.
-    pub line: u32,
-    /// The block's N word, if it has one.
-    pub n_word: Option<u32>,
-    /// The interpreter's error number (docs/errors.md); `None` for a host-side check.
-    pub code: Option<u16>,
-    pub message: &'a str,
-    /// The line as written, when known.
-    pub source: Option<&'a str>,
-    /// 0-based columns `[start, end)` of the word to blame in `source`.
-    pub columns: Option<(u16, u16)>,
-}
-
-/// `place:line: N20 error E211: message`, then the source line and a caret under the bad word
-/// (control characters in the source are shown escaped, never sent to the terminal).
-pub fn format_error(r: &ErrorReport<'_>) -> String {
-    let n = r.n_word.map(|n| format!(" N{n}")).unwrap_or_default();
-    let code = r.code.map(|c| format!(" E{c}")).unwrap_or_default();
-    let mut out = format!("{}:{}:{n} error{code}: {}\n", r.place, r.line, r.message);
-    if let Some(text) = r.source {
-        let text = text.trim_end_matches('\r');
-        let _ = writeln!(out, "    {}", crate::stream::printable(text));
-        if let Some((start, end)) = r.columns {
-            // Columns count characters of the raw line; escaping widens what comes before.
-            let before: String = text.chars().take(start as usize).collect();
-            let pad = crate::stream::printable(&before).chars().count();
-            let width = end.saturating_sub(start).max(1) as usize;
-            let _ = writeln!(out, "    {}{}", " ".repeat(pad), "^".repeat(width));
-        }
-    }
-    out
-}
-
 /// The message of a line too long for the board ([`crate::program::wire_text_of`]).
 fn long_line_message(e: &crate::program::WireTextError) -> String {
     format!(
@@ -483,6 +446,28 @@ mod tests {
         assert_eq!(mm(-254_000), "-0.254");
         assert_eq!(mm(7_071_068), "7.071068");
         assert_eq!(mm(-1), "-0.000001");
+    }
+
+    #[test]
+    fn board_errors_print_as_check_does() {
+        let program = crate::program::Program::from_text("G0 X1\nN20 G1 (cut) Q2 X3 F1\n");
+        // The board blames column 6 of the text it got, "N20G1Q2X3F1": the Q.
+        let e = crate::session::BoardError {
+            line: 2,
+            code: 211,
+            column: 6,
+        };
+        let (check, _) = human_report(
+            "p.nc",
+            b"G0 X1\nN20 G1 (cut) Q2 X3 F1\n",
+            &Default::default(),
+        );
+        let text = e.describe("p.nc", &program);
+        assert!(check.starts_with(&text), "{check}\n{text}");
+        assert!(
+            text.ends_with("    N20 G1 (cut) Q2 X3 F1\n                 ^^\n"),
+            "{text}"
+        );
     }
 
     #[test]

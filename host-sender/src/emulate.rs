@@ -81,7 +81,7 @@ fn state_text(s: MachineState) -> String {
         }
         MachineState::Alarm { code } => format!("Alarm {code}"),
         MachineState::ToolChange { tool } => format!("ToolChange T{tool}"),
-        other => crate::stream::state_name(other).to_owned(),
+        other => crate::present::state_name(other).to_owned(),
     }
 }
 

@@ -28,6 +28,7 @@
 //! bytes and DTR, the flash).
 
 use crate::cpu_model::{CpuMeter, CpuModel};
+use crate::link::Transport;
 use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::main_loop::{
     BoardPort, HostPort, KernelSnapshot, MainLoop, SEGMENT_QUEUE_DEPTH,
@@ -1139,4 +1140,49 @@ impl BoardPort for Hardware {
             }
         }
     }
+}
+
+/// The emulated board as a transport: waiting runs it on virtual time.
+impl Transport for EmulatedBoard {
+    fn write(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
+        self.receive(bytes);
+        Ok(())
+    }
+
+    fn read(&mut self, into: &mut Vec<u8>) -> anyhow::Result<()> {
+        into.extend(self.take_output());
+        Ok(())
+    }
+
+    fn wait(&mut self, ms: u32) {
+        self.run_for(ms as u64 * COUNTS_PER_MS);
+    }
+
+    fn now_ms(&self) -> u32 {
+        EmulatedBoard::now_ms(self)
+    }
+
+    fn underruns(&self) -> Option<u64> {
+        Some(self.starved.gaps)
+    }
+}
+
+/// The emulated board for `gantry home`: a limit switch sits at the travel end each homed axis
+/// seeks, as on a real machine, so the homing cycle can be tried without hardware.
+pub fn emulated_with_switches(setup: gantry_machine::setup::Setup) -> EmulatedBoard {
+    let mut board = EmulatedBoard::new(setup.clone());
+    for axis in 0..setup.axis_count as usize {
+        let h = &setup.homing.axes[axis];
+        if h.priority == 0 {
+            continue;
+        }
+        let a = &setup.axes[axis];
+        let at = if h.seek_low {
+            a.travel_min
+        } else {
+            a.travel_max
+        };
+        board.add_switch(axis, !h.seek_low, at);
+    }
+    board
 }

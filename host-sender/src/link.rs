@@ -1,7 +1,7 @@
-//! The host's side of the board link: a byte transport (USB serial port or the emulated board) and
-//! the protocol endpoint on top of it.
+//! The host's side of the board link: a byte transport ([`Transport`]: a USB serial port here; the
+//! emulated board's and `gantry serve`'s socket implement it where they are defined) and the
+//! protocol endpoint on top of it ([`Client`]). It knows nothing of what is connected.
 
-use crate::emulator::{EmulatedBoard, COUNTS_PER_MS};
 use anyhow::{bail, Context};
 use gantry_proto::{BoardMsg, Config, HostEndpoint, HostMsg, Lane, LinkEvent, SendError};
 use std::io::{Read, Write};
@@ -42,31 +42,6 @@ impl Transport for Box<dyn Transport> {
 
     fn underruns(&self) -> Option<u64> {
         (**self).underruns()
-    }
-}
-
-/// The emulated board as a transport: waiting runs it on virtual time.
-impl Transport for EmulatedBoard {
-    fn write(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
-        self.receive(bytes);
-        Ok(())
-    }
-
-    fn read(&mut self, into: &mut Vec<u8>) -> anyhow::Result<()> {
-        into.extend(self.take_output());
-        Ok(())
-    }
-
-    fn wait(&mut self, ms: u32) {
-        self.run_for(ms as u64 * COUNTS_PER_MS);
-    }
-
-    fn now_ms(&self) -> u32 {
-        EmulatedBoard::now_ms(self)
-    }
-
-    fn underruns(&self) -> Option<u64> {
-        Some(self.starved.gaps)
     }
 }
 

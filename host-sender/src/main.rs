@@ -1,7 +1,7 @@
 //! `gantry`: stream, check, simulate and preview G-code for a Gantry board (or its emulation).
 use clap::{Parser, Subcommand};
 use gantry_proto::HostMsg;
-use host_sender::commands;
+use host_sender::commands::oneshot;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -233,9 +233,9 @@ enum Use {
 }
 
 impl Machine {
-    fn target(&self, board: &BoardArgs, use_: Use) -> anyhow::Result<host_sender::stream::Target> {
+    fn target(&self, board: &BoardArgs, use_: Use) -> anyhow::Result<host_sender::session::Target> {
         use host_sender::port::{discover, Found};
-        use host_sender::stream::Target;
+        use host_sender::session::Target;
         if let Some(p) = &self.port {
             return Ok(Target::Port(p.clone()));
         }
@@ -309,8 +309,8 @@ fn setup(action: SetupAction, machine: &Machine) -> anyhow::Result<ExitCode> {
         SetupAction::Push { file, board } => {
             let setup = SetupFile::load(&file)?;
             let target = machine.target(&board, Use::Controls)?;
-            let emulated = matches!(target, host_sender::stream::Target::Emulated(_));
-            commands::setup_push(target, &setup)?;
+            let emulated = matches!(target, host_sender::session::Target::Emulated(_));
+            oneshot::setup_push(target, &setup)?;
             if emulated {
                 println!(
                     "{}: valid, and applied by the emulated board (which forgets it when gantry exits: give --setup FILE to commands that use the emulated board)",
@@ -321,7 +321,7 @@ fn setup(action: SetupAction, machine: &Machine) -> anyhow::Result<ExitCode> {
             }
         }
         SetupAction::Pull { file, board } => {
-            let text = to_toml(&commands::setup_pull(machine.target(&board, Use::Reads)?)?);
+            let text = to_toml(&oneshot::setup_pull(machine.target(&board, Use::Reads)?)?);
             match file {
                 Some(f) => {
                     std::fs::write(&f, text)?;
@@ -424,14 +424,14 @@ fn main() -> ExitCode {
             cpu_model,
             board,
         } => board.setup().and_then(|setup| {
-            use host_sender::stream::Start;
+            use host_sender::commands::stream::Start;
             let target = m.target(&board, Use::Reads)?;
             let start = match (from_line, take_over) {
                 (Some(n), _) => Start::FromLine(n),
                 (None, true) => Start::TakeOver,
                 (None, false) => Start::Beginning,
             };
-            host_sender::stream::run_with_cpu(&file, target, setup, start, cpu_model)
+            host_sender::commands::stream::run_with_cpu(&file, target, setup, start, cpu_model)
         }),
         Command::Status {
             watch: false,
@@ -439,24 +439,24 @@ fn main() -> ExitCode {
             ..
         } => m
             .target(&board, Use::Reads)
-            .and_then(|t| commands::realtime(t, None)),
+            .and_then(|t| oneshot::realtime(t, None)),
         Command::Status {
             watch: true,
             duration,
             board,
         } => m
             .target(&board, Use::Reads)
-            .and_then(|t| commands::watch(t, duration)),
+            .and_then(|t| oneshot::watch(t, duration)),
         Command::Hold { board } => m
             .target(&board, Use::Controls)
-            .and_then(|t| commands::realtime(t, Some(HostMsg::FeedHold))),
+            .and_then(|t| oneshot::realtime(t, Some(HostMsg::FeedHold))),
         Command::Resume { board } => m
             .target(&board, Use::Controls)
-            .and_then(|t| commands::realtime(t, Some(HostMsg::Resume))),
+            .and_then(|t| oneshot::realtime(t, Some(HostMsg::Resume))),
         Command::Abort { board } => m
             .target(&board, Use::Controls)
-            .and_then(|t| commands::realtime(t, Some(HostMsg::Abort))),
-        Command::Unlock { board } => m.target(&board, Use::Controls).and_then(commands::unlock),
+            .and_then(|t| oneshot::realtime(t, Some(HostMsg::Abort))),
+        Command::Unlock { board } => m.target(&board, Use::Controls).and_then(oneshot::unlock),
         Command::Override { feed, rapid, board } => m.target(&board, Use::Controls).and_then(|t| {
             if let Some(f) = feed {
                 anyhow::ensure!((10..=200).contains(&f), "--feed {f}: must be 10-200 %");
@@ -464,7 +464,7 @@ fn main() -> ExitCode {
             if let Some(r) = rapid {
                 anyhow::ensure!((1..=100).contains(&r), "--rapid {r}: must be 1-100 %");
             }
-            commands::set_overrides(t, feed, rapid)
+            oneshot::set_overrides(t, feed, rapid)
         }),
         Command::Jog {
             axis,
@@ -475,32 +475,32 @@ fn main() -> ExitCode {
             board,
         } => axis_index(axis).and_then(|a| {
             let how = match (distance, continuous) {
-                (Some(d), _) => commands::JogMove::By(d),
-                (None, Some(dir)) => commands::JogMove::Continuous {
+                (Some(d), _) => oneshot::JogMove::By(d),
+                (None, Some(dir)) => oneshot::JogMove::Continuous {
                     positive: dir == "+",
                     seconds: duration,
                 },
                 (None, None) => anyhow::bail!("give a distance or --continuous + / -"),
             };
             // Refuse a bad distance or feed before any port is opened.
-            if let commands::JogMove::By(d) = how {
-                commands::jog_distance_nm(d)?;
+            if let oneshot::JogMove::By(d) = how {
+                oneshot::jog_distance_nm(d)?;
             }
-            commands::jog_feed_um_min(feed)?;
+            oneshot::jog_feed_um_min(feed)?;
             m.target(&board, Use::Controls)
-                .and_then(|t| commands::jog(t, a, how, feed))
+                .and_then(|t| oneshot::jog(t, a, how, feed))
         }),
         Command::Home { axes, board } => axis_mask(axes.as_deref()).and_then(|mask| {
             m.target(&board, Use::Controls)
-                .and_then(|t| commands::home(t, mask))
+                .and_then(|t| oneshot::home(t, mask))
         }),
         Command::Mdi { blocks, board } => m
             .target(&board, Use::Controls)
-            .and_then(|t| commands::mdi(t, &blocks)),
+            .and_then(|t| oneshot::mdi(t, &blocks)),
         Command::Serve => match &m.port {
-            Some(p) => host_sender::serve::run(p),
+            Some(p) => host_sender::commands::serve::run(p),
             None => match host_sender::port::discover() {
-                Ok(host_sender::port::Found::One(p)) => host_sender::serve::run(&p),
+                Ok(host_sender::port::Found::One(p)) => host_sender::commands::serve::run(&p),
                 Ok(host_sender::port::Found::None) => Err(anyhow::anyhow!(
                     "gantry serve: give --port PATH (or GANTRY_PORT)"
                 )),

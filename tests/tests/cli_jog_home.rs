@@ -3,10 +3,10 @@
 
 use gantry_machine::setup::Setup;
 use gantry_proto::{BoardMsg, HostMsg, Jog, MachineState};
-use host_sender::commands::emulated_with_switches;
+use host_sender::emulator::emulated_with_switches;
 use host_sender::link::Client;
+use host_sender::session::fresh_status;
 use host_sender::setup_file::SetupFile;
-use host_sender::stream::fresh_status;
 
 #[test]
 fn a_host_jog_moves_exactly_the_distance() {

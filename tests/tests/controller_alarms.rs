@@ -12,7 +12,7 @@ use gantry_machine::motion::pipeline::MotionState;
 use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
 use host_sender::link::Client;
 use host_sender::program::Program;
-use host_sender::stream::{continue_job, Flow};
+use host_sender::session::{continue_job, Flow};
 
 // ---- alarm 2: a block of a running job would leave the travel ----
 

@@ -9,7 +9,7 @@ use gantry_machine::controller::AlarmCode;
 use gantry_proto::MachineState;
 use host_sender::link::Client;
 use host_sender::program::Program;
-use host_sender::stream::{stream_program, BoardAlarm, Flow};
+use host_sender::session::{stream_program, BoardAlarm, Flow};
 
 #[test]
 fn a_streamed_job_into_a_limit_switch_ends_with_alarm_1_at_the_sender() {

@@ -18,9 +18,9 @@ use gantry_machine::controller::{AlarmCode, State};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::setup::Setup;
 use gantry_proto::MachineState;
-use host_sender::commands::push_setup_over;
 use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
 use host_sender::link::Client;
+use host_sender::session::push_setup_over;
 
 /// 100 mm at 3000 mm/min.
 const LONG_CUT: &str = "G21 G90\nG1 X100 F3000\nM30\n";

@@ -13,7 +13,7 @@ use gantry_machine::motion::pipeline::MotionState;
 use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
 use host_sender::link::Client;
 use host_sender::program::Program;
-use host_sender::stream::{continue_job, Flow};
+use host_sender::session::{continue_job, Flow};
 
 /// Spindle on at S12000 (PWM 500 of 1000 with the default 0-24 000 rpm range).
 const SPINDLE: OutputLevels = OutputLevels {

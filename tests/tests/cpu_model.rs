@@ -7,7 +7,7 @@ use host_sender::cpu_model::CpuModel;
 use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
 use host_sender::program::Program;
-use host_sender::stream::{stream_program, Flow};
+use host_sender::session::{stream_program, Flow};
 
 /// A machine fast enough that the planner, not the axes, bounds the speed: 500 mm/s, 10 m/s²,
 /// 160 steps/mm (64 kHz at 400 mm/s, well within the default pulse timing).

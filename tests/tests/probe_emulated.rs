@@ -10,8 +10,8 @@ use gantry_machine::board::{BoardEvent, JobEnd};
 use gantry_machine::controller::{AlarmCode, State};
 use gantry_machine::gcode::expr::ParamRef;
 use gantry_proto::ProbeStatus;
-use host_sender::commands::format_status;
 use host_sender::emulator::{EmulatedBoard, ProbeTarget};
+use host_sender::present::format_status;
 
 /// A parameter's value in µm (program units are mm: values are mm × 10⁹).
 fn param_um(eb: &EmulatedBoard, n: u16) -> i64 {

@@ -5,7 +5,7 @@ use gantry_machine::setup::Setup;
 use host_sender::emulator::EmulatedBoard;
 use host_sender::link::{Client, SerialTransport};
 use host_sender::program::Program;
-use host_sender::stream::{stream_program, Flow};
+use host_sender::session::{stream_program, Flow};
 use serialport::{SerialPort, TTYPort};
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -2,12 +2,12 @@
 //! a setup while a job runs.
 
 use gantry_machine::setup::Setup;
-use host_sender::commands::{pull_setup_over, push_setup_over};
 use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
 use host_sender::program::Program;
+use host_sender::session::{pull_setup_over, push_setup_over};
+use host_sender::session::{stream_program, Flow};
 use host_sender::setup_file::SetupFile;
-use host_sender::stream::{stream_program, Flow};
 
 #[test]
 fn a_pushed_setup_is_applied_and_pulled_back_identical() {

@@ -7,7 +7,7 @@ use gantry_proto::MachineState;
 use host_sender::emulator::EmulatedBoard;
 use host_sender::link::{Client, Transport};
 use host_sender::program::Program;
-use host_sender::stream::{continue_job, stream_program, BoardAlarm, Flow, StreamReport};
+use host_sender::session::{continue_job, stream_program, BoardAlarm, Flow, StreamReport};
 use system_tests::{cam_program, reference, FaultyBoard};
 
 fn stream_emulated(text: &str) -> (StreamReport, EmulatedBoard) {
@@ -249,7 +249,7 @@ fn the_same_host_resumes_after_a_short_cable_pull() {
 #[test]
 fn running_from_a_line_rebuilds_the_state_and_ends_like_a_full_run() {
     use host_sender::resume::resume_preamble;
-    use host_sender::stream::stream_from_line;
+    use host_sender::session::stream_from_line;
     let text = "G21 G90 G17\nG10 L2 P2 X5 Y5\nG55\nG92 X1\nT1 M6\nS1000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F300\nG1 X10 F900\nX20 Y3\nG91 X1\nG90 G0 Z5\nM30\n";
     let setup = Setup::default();
     let (full, full_board) = stream_emulated(text);

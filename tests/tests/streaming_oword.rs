@@ -7,7 +7,7 @@ use gantry_machine::setup::Setup;
 use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
 use host_sender::program::Program;
-use host_sender::stream::{stream_program, Flow, StreamReport};
+use host_sender::session::{stream_program, Flow, StreamReport};
 use system_tests::reference;
 
 fn stream_emulated(text: &str) -> (StreamReport, EmulatedBoard) {

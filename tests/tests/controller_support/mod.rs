@@ -10,7 +10,7 @@ use gantry_machine::units::NM_PER_MM;
 use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
 use host_sender::program::Program;
-use host_sender::stream::{stream_program, Flow};
+use host_sender::session::{stream_program, Flow};
 
 pub const MM: i64 = NM_PER_MM;
 /// Default axes: 3200 steps per 5 mm.

@@ -1,0 +1,586 @@
+//! `gantry stream`: a job on a session (`crate::session`) with a progress bar or progress lines,
+//! the operator's answers at stops (Ctrl-C hold then "abort?", Enter at M0/M1/M6), an ETA from the
+//! planner, and the final report.
+
+use super::{check_can_start, ctrl_c_flag};
+use crate::emulator::EmulatedBoard;
+use crate::link::OnClose;
+use crate::present::{axes_line, hms, limit_text, state_name, underrun_line};
+use crate::program::Program;
+use crate::program_stops;
+use crate::resume::resume_preamble;
+use crate::session::{Flow, JobStart, LinkEnd, Progress, Session, StreamReport, Target};
+use gantry_proto::MachineState;
+
+/// Where `gantry stream` starts the job.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Start {
+    /// From line 1.
+    Beginning,
+    /// From a line, after the preamble that rebuilds the state there (`--from-line`).
+    FromLine(u32),
+    /// Take over the job the board is running (`--continue`).
+    TakeOver,
+}
+
+/// Runs `gantry stream FILE [--from-line N | --continue]`: progress while it runs, a final
+/// report, exit code 1 on errors. `setup` describes the machine for the run-from-line preamble
+/// (the emulated board runs with it too).
+pub fn run(
+    file: &std::path::Path,
+    target: Target,
+    setup: gantry_machine::setup::Setup,
+    start: Start,
+) -> anyhow::Result<std::process::ExitCode> {
+    run_with_cpu(file, target, setup, start, None)
+}
+
+/// [`run`] with a CPU model for the emulated board (`--cpu-model`, [`crate::cpu_model`]): its
+/// main loop then takes the time the MCU would, and the report's underruns show whether that
+/// MCU keeps up with the program.
+pub fn run_with_cpu(
+    file: &std::path::Path,
+    target: Target,
+    setup: gantry_machine::setup::Setup,
+    start: Start,
+    cpu: Option<crate::cpu_model::CpuModel>,
+) -> anyhow::Result<std::process::ExitCode> {
+    let program = Program::load(file)?;
+    let text = std::fs::read_to_string(file)?;
+    let wall = std::time::Instant::now();
+    let from_board = matches!(target, Target::Port(_));
+    // Someone must be able to continue a tool-change stop: the operator at a terminal (Enter) or
+    // a board's cycle-start input. The emulated board fed from a script has neither, so there
+    // the program runs through its M6 as the library streams do (no stop that nobody can end).
+    let can_continue = from_board || std::io::IsTerminal::is_terminal(&std::io::stdin());
+    if matches!(target, Target::Emulated(_)) {
+        println!(
+            "gantry: no --port given: streaming {} to the emulated board",
+            file.display()
+        );
+    }
+    let mut session = match (target, cpu) {
+        (Target::Emulated(setup), Some(model)) => {
+            let mut board = EmulatedBoard::new((*setup).clone());
+            board.set_cpu_model(Some(model));
+            Session::emulated(board, *setup)?
+        }
+        // The sender that owns the job: if it dies, closing the port holds the job.
+        (target, _) => Session::connect(target, OnClose::DropDtr)?,
+    };
+    session.set_operator(can_continue);
+    // The machine is what the board says it is.
+    let setup = if from_board {
+        session.setup().clone()
+    } else {
+        setup
+    };
+    let axes = setup.axis_count as usize;
+    let eta = Eta::plan(&text, &setup);
+    let report = match start {
+        Start::Beginning => {
+            check_can_start(&mut session)?;
+            stream_with_progress(&mut session, &program, JobStart::Beginning, &eta)?
+        }
+        Start::TakeOver => {
+            let state = session.status()?.state;
+            if !matches!(
+                state,
+                MachineState::Run | MachineState::Hold { .. } | MachineState::ToolChange { .. }
+            ) {
+                anyhow::bail!(
+                    "--continue: the board runs no job (it is {})",
+                    state_name(state)
+                );
+            }
+            stream_with_progress(&mut session, &program, JobStart::TakeOver, &eta)?
+        }
+        Start::FromLine(n) => {
+            check_can_start(&mut session)?;
+            let here = session.status()?.machine_pos;
+            let pre = resume_preamble(&program, &text, n, &setup, &here)?;
+            println!("resuming at line {n} after {} preamble blocks:", pre.len());
+            for b in &pre {
+                println!("    {b}");
+            }
+            stream_with_progress(&mut session, &program, JobStart::FromLine(n, pre), &eta)?
+        }
+    };
+    print_report(&report, &program, file, axes, wall.elapsed());
+    if let Some(n) = session.underruns() {
+        println!("{}", underrun_line(n, cpu));
+    }
+    if let Some(s) = &report.final_status {
+        let cfg = gantry_machine::motion::config::MotionConfig::from_setup(&setup);
+        let steps = cfg.to_steps(&s.machine_pos);
+        println!(
+            "steps:    {}",
+            (0..axes)
+                .map(|i| format!("{} {}", gantry_machine::units::AXIS_LETTERS[i], steps[i]))
+                .collect::<Vec<_>>()
+                .join("  ")
+        );
+    }
+    Ok(exit_code(&report))
+}
+
+fn exit_code(report: &StreamReport) -> std::process::ExitCode {
+    if report.completed {
+        std::process::ExitCode::SUCCESS
+    } else {
+        std::process::ExitCode::from(1)
+    }
+}
+
+/// What standard input has said, read on a thread so the link keeps being serviced (the board
+/// would otherwise count the host as gone) while the operator thinks.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Typed {
+    Line(String),
+    /// Standard input is closed (nobody to ask).
+    Closed,
+}
+
+/// The next line typed since the last call, if any.
+fn typed() -> Option<Typed> {
+    use std::io::BufRead;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::mpsc::{channel, Receiver};
+    use std::sync::{Mutex, OnceLock};
+    static LINES: OnceLock<Mutex<Receiver<String>>> = OnceLock::new();
+    static CLOSED: AtomicBool = AtomicBool::new(false);
+    let rx = LINES.get_or_init(|| {
+        let (tx, rx) = channel();
+        std::thread::spawn(move || loop {
+            let mut line = String::new();
+            match std::io::stdin().lock().read_line(&mut line) {
+                Ok(0) | Err(_) => {
+                    CLOSED.store(true, Ordering::SeqCst);
+                    break;
+                }
+                Ok(_) => {
+                    if tx.send(line).is_err() {
+                        break;
+                    }
+                }
+            }
+        });
+        Mutex::new(rx)
+    });
+    match rx.lock().expect("stdin lock").try_recv() {
+        Ok(l) => Some(Typed::Line(l)),
+        Err(_) if CLOSED.load(Ordering::SeqCst) => Some(Typed::Closed),
+        Err(_) => None,
+    }
+}
+
+/// Drops lines typed before a question was asked.
+fn forget_typed() {
+    while let Some(Typed::Line(_)) = typed() {}
+}
+
+/// Prints a question or message above the progress bar.
+fn say(bar: Option<&indicatif::ProgressBar>, text: &str, newline: bool) {
+    use std::io::Write;
+    let print = || {
+        if newline {
+            eprintln!("{text}");
+        } else {
+            eprint!("{text}");
+        }
+        let _ = std::io::stderr().flush();
+    };
+    match bar {
+        Some(b) => b.suspend(print),
+        None => print(),
+    }
+}
+
+/// What the operator is being asked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Asking {
+    Nothing,
+    /// After a Ctrl-C hold: "abort the job?"; `y` aborts, anything else resumes, a closed
+    /// standard input aborts.
+    AbortAfterHold,
+    /// At an M0/M1/M6 stop on this line: Enter resumes (so does cycle start on the machine).
+    Stop(u32),
+}
+
+/// The job's remaining machine time, from the planner (the same motion core as the board, each
+/// block's time in closed form: the exact time at 100 % override, dwells included); `None` when
+/// the program cannot be planned.
+///
+/// The plan is kept as a timeline in the order the board runs it: one span per run of blocks of
+/// one source line, so a subprogram called or repeated several times (M98 L, O-word repeat,
+/// while) has a span per pass. The board reports only the line it executes; the span is the
+/// next one of that line from the last match whose start the job's machine time has reached
+/// (each pass of a repeated line in turn), and within a span (an arc, or passes of one line
+/// back to back) the machine time places the job.
+pub struct Eta {
+    timeline: Vec<Span>,
+    total: f64,
+    /// Index of the span matched last (never goes back).
+    cursor: std::cell::Cell<usize>,
+    /// Planned time at which the streamed job starts (`--from-line`: the start of that line).
+    offset: std::cell::Cell<f64>,
+}
+
+/// Consecutive blocks of one source line in the plan, machine seconds from the program's start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Span {
+    line: u32,
+    start: f64,
+    end: f64,
+}
+
+impl Eta {
+    pub fn plan(text: &str, setup: &gantry_machine::setup::Setup) -> Option<Eta> {
+        let src = gantry_machine::gcode::MemorySource::new(text.as_bytes());
+        let mut actions = crate::preview::source::Actions::new(src, &setup.interp_config());
+        let mut timeline: Vec<Span> = Vec::new();
+        let seconds = crate::preview::plan::seconds;
+        let counts = crate::preview::plan::plan_stream(actions.by_ref(), setup, &mut |r, end| {
+            let (start, end) = (seconds(end.saturating_sub(r.counts)), seconds(end));
+            match timeline.last_mut() {
+                Some(s) if s.line == r.line => s.end = end,
+                _ => timeline.push(Span {
+                    line: r.line,
+                    start,
+                    end,
+                }),
+            }
+        })
+        .ok()?;
+        if actions.ended != crate::preview::source::Ended::No {
+            return None;
+        }
+        Some(Eta {
+            timeline,
+            total: seconds(counts),
+            cursor: std::cell::Cell::new(0),
+            offset: std::cell::Cell::new(0.0),
+        })
+    }
+
+    /// The job starts at the first pass of `line` (`--from-line`: nothing before it runs).
+    pub fn start_at(&self, line: u32) {
+        if let Some(i) = self.timeline.iter().position(|s| s.line >= line) {
+            self.cursor.set(i);
+            self.offset.set(self.timeline[i].start);
+        }
+    }
+
+    /// Machine seconds left when the board executes `line`, `elapsed_s` seconds into the job.
+    pub fn left_at(&self, line: u32, elapsed_s: f64) -> f64 {
+        let now = self.offset.get() + elapsed_s.max(0.0);
+        let from = self.cursor.get();
+        let mut pick = None;
+        for (i, s) in self.timeline.iter().enumerate().skip(from) {
+            if s.start > now && (pick.is_some() || s.start > 2.0 * now + 60.0) {
+                break;
+            }
+            if s.line == line {
+                pick = Some(i);
+                if s.start > now {
+                    break;
+                }
+            }
+        }
+        if let Some(i) = pick {
+            self.cursor.set(i);
+        }
+        let done = self
+            .timeline
+            .get(self.cursor.get())
+            .map_or(0.0, |s| now.clamp(s.start, s.end.max(s.start)));
+        (self.total - done).max(0.0)
+    }
+
+    /// Total machine time of the program (seconds).
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+}
+
+/// Streams with a live progress bar on a terminal, or a progress line every 10 % otherwise.
+fn stream_with_progress(
+    session: &mut Session,
+    program: &Program,
+    resume: JobStart,
+    eta: &Option<Eta>,
+) -> anyhow::Result<StreamReport> {
+    use std::io::IsTerminal;
+    let total = program.len().max(1) as u64;
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let b = indicatif::ProgressBar::new(total);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{bar:30} line {pos}/{len} {percent}%  {msg}")
+                .expect("valid template"),
+        );
+        b
+    });
+    let mut last_decile = 0;
+    let interrupted = ctrl_c_flag();
+    let mut asking = Asking::Nothing;
+    // A hold this sender asked for (Ctrl-C), as opposed to a program stop.
+    let mut hold_requested = false;
+    let mut last_stop_line = 0;
+    let mut on_progress = |p: &Progress| {
+        let ctrl_c = interrupted.swap(false, std::sync::atomic::Ordering::SeqCst);
+        let state = p.status.as_ref().map(|s| s.state);
+        match asking {
+            Asking::AbortAfterHold => {
+                // The link keeps running while the operator answers.
+                let flow = match (ctrl_c, typed()) {
+                    (true, _) => Some(Flow::Abort),
+                    (false, Some(Typed::Closed)) => {
+                        say(bar.as_ref(), "(no answer: standard input is closed)", true);
+                        Some(Flow::Abort)
+                    }
+                    (false, Some(Typed::Line(l))) if l.trim().eq_ignore_ascii_case("y") => {
+                        Some(Flow::Abort)
+                    }
+                    (false, Some(Typed::Line(_))) => Some(Flow::Resume),
+                    (false, None) => None,
+                };
+                if let Some(f) = flow {
+                    asking = Asking::Nothing;
+                    hold_requested = false;
+                    let text = if f == Flow::Abort {
+                        "aborting the job"
+                    } else {
+                        "resuming the job"
+                    };
+                    say(bar.as_ref(), text, true);
+                    return f;
+                }
+                return Flow::Continue;
+            }
+            Asking::Stop(_)
+                if !matches!(
+                    state,
+                    Some(MachineState::Hold { .. } | MachineState::ToolChange { .. })
+                ) =>
+            {
+                // Cycle start on the machine answered it.
+                asking = Asking::Nothing;
+            }
+            Asking::Stop(_) => {
+                if let Some(Typed::Line(_)) = typed() {
+                    asking = Asking::Nothing;
+                    return Flow::Resume;
+                }
+            }
+            Asking::Nothing => {}
+        }
+        if ctrl_c {
+            // Ctrl-C: hold first (decelerate on the path), then ask what to do.
+            forget_typed();
+            say(
+                bar.as_ref(),
+                "feed hold: abort the job? [y/N] (Ctrl-C again aborts) ",
+                false,
+            );
+            asking = Asking::AbortAfterHold;
+            hold_requested = true;
+            return Flow::Hold;
+        }
+        if asking == Asking::Nothing
+            && !hold_requested
+            && matches!(
+                state,
+                Some(MachineState::Hold { stopped: true } | MachineState::ToolChange { .. })
+            )
+            && p.line != last_stop_line
+        {
+            let stop = match state {
+                // The board names the tool it waits for.
+                Some(MachineState::ToolChange { tool }) => {
+                    Some(program_stops::Stop::ToolChange { tool: Some(tool) })
+                }
+                _ => program
+                    .wire_text(p.line)
+                    .ok()
+                    .flatten()
+                    .and_then(|t| program_stops::stop_in(&t))
+                    .filter(|s| matches!(s, program_stops::Stop::Program { .. })),
+            };
+            if let Some(stop) = stop {
+                last_stop_line = p.line;
+                forget_typed();
+                say(bar.as_ref(), &program_stops::message(stop, p.line), true);
+                asking = Asking::Stop(p.line);
+            }
+        }
+        let pct = (p.line as u64 * 100 / total).min(100);
+        let machine_s = p.elapsed_ms as f64 / 1000.0;
+        let left = match eta {
+            Some(e) => format!("ETA {}", hms(e.left_at(p.line.max(1), machine_s))),
+            None => "ETA -".to_owned(),
+        };
+        let state = state.map_or("-", state_name);
+        match &bar {
+            Some(b) => {
+                b.set_position((p.line as u64).min(total));
+                b.set_message(format!("{state}  {}  {left}", hms(machine_s)));
+            }
+            None => {
+                if pct / 10 > last_decile {
+                    last_decile = pct / 10;
+                    println!(
+                        "progress: line {}/{} ({pct}%)  {state}  {}  {left}",
+                        p.line.min(total as u32),
+                        total,
+                        hms(machine_s)
+                    );
+                }
+            }
+        }
+        Flow::Continue
+    };
+    if let (JobStart::FromLine(n, _), Some(e)) = (&resume, eta) {
+        e.start_at(*n);
+    }
+    let report = session.run_job(program, resume, &mut on_progress);
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    report
+}
+
+fn print_report(
+    report: &StreamReport,
+    program: &Program,
+    file: &std::path::Path,
+    axes: usize,
+    wall: std::time::Duration,
+) {
+    for e in &report.errors {
+        print!("{}", e.describe(&file.display().to_string(), program));
+    }
+    for &(axis, max) in &report.limits {
+        println!("{}", limit_text(axis, max));
+    }
+    for a in &report.alarms {
+        println!("{}", a.describe(program));
+    }
+    match report.link {
+        LinkEnd::Kept => {}
+        LinkEnd::Silent(ms) => {
+            println!(
+                "board silent: no word from the board for {:.1} s (expected a status every 0.1 s): the sender gave up",
+                ms as f64 / 1000.0
+            );
+            println!("the board, if it is alive, holds the job by itself (host lost) and ends it after link.host_lost_stop_s");
+            println!(
+                "resume:   (when the board answers again) gantry stream {} --continue",
+                file.display()
+            );
+            return;
+        }
+        LinkEnd::BoardReset => {
+            println!(
+                "board reset: the board restarted during the job (power, reset button or watchdog): the job is gone, the spindle stopped"
+            );
+            println!(
+                "resume:   (after gantry home, or gantry unlock) gantry stream {} --from-line {}",
+                file.display(),
+                report.last_line.max(1)
+            );
+            return;
+        }
+    }
+    let verdict = if report.completed {
+        "job done"
+    } else if report.aborted {
+        "job aborted"
+    } else {
+        "job stopped"
+    };
+    println!(
+        "{verdict}: last line {} of {}, {} lines sent, {} subprogram jumps served",
+        report.last_line,
+        program.len(),
+        report.lines_sent,
+        report.jumps_served
+    );
+    println!(
+        "time:     {:.3} s machine time ({:.2} s wall)",
+        report.elapsed_ms as f64 / 1000.0,
+        wall.as_secs_f64()
+    );
+    // Abort, alarm 2 and alarm 20 stop the job on its path with the position kept.
+    let stopped_on_path = report.alarms.iter().any(|a| {
+        a.code == gantry_machine::controller::AlarmCode::SoftLimit as u16
+            || a.code == gantry_machine::controller::AlarmCode::HostLost as u16
+    });
+    if report.aborted || stopped_on_path {
+        println!(
+            "resume:   {}gantry stream {} --from-line {}",
+            if stopped_on_path {
+                "(after gantry unlock) "
+            } else {
+                ""
+            },
+            file.display(),
+            report.last_line.max(1)
+        );
+    } else if let Some(e) = report.errors.iter().find(|e| e.line != 0) {
+        // An error ended the job: everything before its line ran, nothing from it on.
+        println!(
+            "resume:   (after fixing line {0}) gantry stream {1} --from-line {0}",
+            e.line,
+            file.display()
+        );
+    }
+    if let Some(s) = &report.final_status {
+        println!("machine:  {}", axes_line(&s.machine_pos, axes));
+        println!("work:     {}", axes_line(&s.work_pos, axes));
+        println!("state:    {}", state_name(s.state));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_eta_follows_subprogram_repeats_in_execution_order() {
+        use gantry_machine::setup::Setup;
+        // The body (lines 4-5) runs three times: 10 mm in X, then 10 mm in Y, at F600 (1 s
+        // each, plus ramps), then line 7 moves 20 mm back in X.
+        let program = "G21 G90 F600\nO101 repeat [3]\nG91\nG1 X10\nG1 Y10\nO101 endrepeat\n\
+                       G1 X-20\nM30\n";
+        let eta = Eta::plan(program, &Setup::default()).unwrap();
+        let lines: Vec<u32> = eta.timeline.iter().map(|s| s.line).collect();
+        assert_eq!(lines, [4, 5, 4, 5, 4, 5, 7]);
+        let total = eta.total();
+        assert!((8.0..8.5).contains(&total), "{total}");
+        let pass = |k: usize| eta.timeline[k].start;
+        // First pass of line 4 at the start.
+        assert_eq!(eta.left_at(4, 0.0), total);
+        // The board reports line 4 again later on: the second pass (the line-ratio or
+        // per-line lookup would still say the first).
+        let t = pass(2) + 0.1;
+        assert!((eta.left_at(4, t) - (total - t)).abs() < 1e-9);
+        // Line 7 after the three passes: only its own move is left.
+        let t = pass(6);
+        assert!((eta.left_at(7, t) - (total - pass(6))).abs() < 1e-9);
+        assert!(eta.left_at(7, t) < 2.2);
+        // Never back: line 4 reported late (a stale status) keeps the estimate.
+        assert!((eta.left_at(4, t) - (total - t)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_eta_from_a_line_counts_from_there() {
+        let program = "G21 G90 F600\nG1 X10\nG1 X20\nG1 X30\nM30\n";
+        let eta = Eta::plan(program, &gantry_machine::setup::Setup::default()).unwrap();
+        eta.start_at(4);
+        let left = eta.left_at(4, 0.0);
+        // Line 4's 10 mm at F600 (~1 s) is what is left, not the whole program.
+        assert!((0.9..1.2).contains(&left), "{left} of {}", eta.total());
+        // The preamble runs first (reported as line 0): the estimate stays.
+        assert_eq!(eta.left_at(0, 0.0), left);
+    }
+}

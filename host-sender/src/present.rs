@@ -1,0 +1,392 @@
+//! The host's words: how statuses, board errors (with the source line and a caret under the word
+//! the board blamed), alarms, limit reports, positions and times read on a terminal. Nothing here
+//! talks to a board; the session layer (`crate::session`) and the commands use it.
+
+use crate::program::Program;
+use crate::session::{BoardAlarm, BoardError};
+use gantry_machine::gcode::ErrorCode;
+use gantry_machine::units::AXIS_LETTERS;
+use gantry_proto::{MachineState, Status};
+use std::fmt::Write as _;
+
+/// One error as `check`, `stream` and `mdi` print it (see [`format_error`]).
+pub struct ErrorReport<'a> {
+    /// Where the program comes from: a file name, or `mdi`.
+    pub place: &'a str,
+    /// 1-based line in the program.
+    pub line: u32,
+    /// The block's N word, if it has one.
+    pub n_word: Option<u32>,
+    /// The interpreter's error number (docs/errors.md); `None` for a host-side check.
+    pub code: Option<u16>,
+    pub message: &'a str,
+    /// The line as written, when known.
+    pub source: Option<&'a str>,
+    /// 0-based columns `[start, end)` of the word to blame in `source`.
+    pub columns: Option<(u16, u16)>,
+}
+
+/// `place:line: N20 error E211: message`, then the source line and a caret under the bad word
+/// (control characters in the source are shown escaped, never sent to the terminal).
+pub fn format_error(r: &ErrorReport<'_>) -> String {
+    let n = r.n_word.map(|n| format!(" N{n}")).unwrap_or_default();
+    let code = r.code.map(|c| format!(" E{c}")).unwrap_or_default();
+    let mut out = format!("{}:{}:{n} error{code}: {}\n", r.place, r.line, r.message);
+    if let Some(text) = r.source {
+        let text = text.trim_end_matches('\r');
+        let _ = writeln!(out, "    {}", printable(text));
+        if let Some((start, end)) = r.columns {
+            // Columns count characters of the raw line; escaping widens what comes before.
+            let before: String = text.chars().take(start as usize).collect();
+            let pad = printable(&before).chars().count();
+            let width = end.saturating_sub(start).max(1) as usize;
+            let _ = writeln!(out, "    {}{}", " ".repeat(pad), "^".repeat(width));
+        }
+    }
+    out
+}
+
+/// Program text made safe for a terminal: control characters (an escape sequence in a comment
+/// would otherwise reach the terminal raw) are shown as `\u{1b}`-style escapes.
+pub fn printable(text: &str) -> String {
+    text.chars()
+        .flat_map(|c| {
+            if c.is_control() {
+                c.escape_unicode().collect::<Vec<_>>()
+            } else {
+                vec![c]
+            }
+        })
+        .collect()
+}
+
+/// "alarm 2 (soft limit): a block would leave …" for an alarm number.
+pub fn alarm_text(code: u16) -> String {
+    match gantry_machine::controller::AlarmCode::from_number(code) {
+        Some(a) => format!("alarm {code} ({}): {}", a.name(), a.message()),
+        None => format!("alarm {code} (unknown to this gantry)"),
+    }
+}
+
+/// "X max switch" for a limit report.
+pub fn limit_text(axis: u8, max: bool) -> String {
+    let letter = gantry_machine::units::AXIS_LETTERS
+        .get(axis as usize)
+        .copied()
+        .unwrap_or('?');
+    format!(
+        "limit switch {letter} {} stopped the motion",
+        if max { "max" } else { "min" }
+    )
+}
+
+/// `Idle`, `Run`, … as users read it.
+pub fn state_name(s: MachineState) -> &'static str {
+    match s {
+        MachineState::Idle => "Idle",
+        MachineState::Run => "Run",
+        MachineState::Hold { .. } => "Hold",
+        MachineState::Jog => "Jog",
+        MachineState::Alarm { .. } => "Alarm",
+        MachineState::Homing => "Homing",
+        MachineState::Check => "Check",
+        MachineState::ToolChange { .. } => "ToolChange",
+    }
+}
+
+fn mm(nm: i64) -> String {
+    format!("{:.3}", nm as f64 / 1e6)
+}
+
+/// A position as `X 1.000  Y 2.000  Z 3.000` (mm, 3 decimals) for the first `axes` axes.
+pub fn axes_line(p: &[i64], axes: usize) -> String {
+    let names = gantry_machine::units::AXIS_LETTERS;
+    (0..axes)
+        .map(|i| format!("{} {}", names[i], mm(p[i])))
+        .collect::<Vec<_>>()
+        .join("  ")
+}
+
+/// Seconds as h:mm:ss.
+pub fn hms(seconds: f64) -> String {
+    let s = seconds.max(0.0).round() as u64;
+    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+}
+
+/// The report line on the emulated board's underruns (gaps where its step kernel ran dry mid-job).
+pub fn underrun_line(gaps: u64, cpu: Option<crate::cpu_model::CpuModel>) -> String {
+    let model = match cpu {
+        Some(m) => format!("CPU model {} at {} MHz", m.name, m.hz / 1_000_000),
+        None => "no CPU model: main loop in no time, --cpu-model f411 charges it".to_owned(),
+    };
+    format!("underruns: {gaps} (the step kernel ran dry mid-job; {model})")
+}
+
+impl BoardError {
+    /// The error as `gantry check` prints it ([`format_error`]: `place:line: N.. error
+    /// E231: …`, the source line, a caret under the word the board blamed).
+    pub fn describe(&self, place: &str, program: &Program) -> String {
+        let message = ErrorCode::ALL
+            .iter()
+            .find(|c| c.number() == self.code)
+            .map(|c| c.message())
+            .unwrap_or(match self.code {
+                gantry_machine::board::ERROR_SOFT_LIMIT => {
+                    "move exceeds the machine travel (soft limit)"
+                }
+                gantry_machine::board::ERROR_HOMING_REQUIRED => {
+                    "the machine must be homed first (gantry home)"
+                }
+                gantry_machine::board::ERROR_BUSY => {
+                    "the board is busy (a job, a homing cycle or a jog still moving): wait until it is Idle"
+                }
+                gantry_machine::board::ERROR_INVALID_REQUEST => {
+                    "the board cannot carry this out (no such axis, no feed, or no axis to home)"
+                }
+                _ => "unknown error",
+            });
+        if self.line == 0 {
+            return format!("resume preamble: error {}: {message}", self.code);
+        }
+        format_error(&ErrorReport {
+            place,
+            line: self.line,
+            n_word: crate::program::n_word(program, self.line),
+            code: Some(self.code),
+            message,
+            source: program.line(self.line),
+            columns: program.source_columns(self.line, self.column),
+        })
+    }
+}
+
+impl BoardAlarm {
+    /// The alarm's name and text, with the program line it concerns and that line's text.
+    pub fn describe(&self, program: &Program) -> String {
+        let text = alarm_text(self.code);
+        if self.line == 0 {
+            return text;
+        }
+        let source = printable(program.line(self.line).unwrap_or("").trim());
+        format!(
+            "line {}: {text}
+    {source}",
+            self.line
+        )
+    }
+}
+
+/// The status as a short table.
+pub fn format_status(s: &Status, axes: usize) -> String {
+    let pos = |p: &[i64]| axes_line(p, axes);
+    let homed: String = (0..axes)
+        .filter(|i| s.homed >> i & 1 == 1)
+        .map(|i| AXIS_LETTERS[i])
+        .collect();
+    format!(
+        "state:     {}\nmachine:   {}\nwork:      {}\nfeed:      {:.1} mm/min (override feed {} %, rapid {} %)\nline:      {}\nbuffers:   {} planner blocks, {} lines\ninputs:    {:#010x}\nhomed:     {}\noutputs:   {}",
+        state_name(s.state),
+        pos(&s.machine_pos),
+        pos(&s.work_pos),
+        s.feed_um_min as f64 / 1000.0,
+        s.feed_override,
+        s.rapid_override,
+        s.line,
+        s.planner_fill,
+        s.queue_fill,
+        s.inputs,
+        if homed.is_empty() { "none".into() } else { homed },
+        outputs_text(&s.outputs)
+    ) + &s.probe.map_or(String::new(), |p| {
+        let contact = if p.success { "contact" } else { "no contact" };
+        format!("\nprobe:     {} ({contact})", pos(&p.machine_pos))
+    }) + &match s.state {
+        MachineState::Alarm { code } => format!("\nalarm:     {}", alarm_text(code)),
+        MachineState::ToolChange { tool } => format!(
+            "\ntool:      change to tool T{tool}, then cycle start or `gantry resume`"
+        ),
+        _ => String::new(),
+    }
+}
+
+/// The spindle, coolant and tool as the board drives them: `spindle CW 12000 rpm, flood, tool 3`.
+pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
+    use gantry_proto::SpindleStatus;
+    let spindle = match o.spindle {
+        SpindleStatus::Off => "spindle off".to_owned(),
+        SpindleStatus::Cw => format!("spindle CW {} rpm", o.rpm),
+        SpindleStatus::Ccw => format!("spindle CCW {} rpm", o.rpm),
+    };
+    let coolant = match (o.mist, o.flood) {
+        (false, false) => "coolant off",
+        (true, false) => "mist",
+        (false, true) => "flood",
+        (true, true) => "mist and flood",
+    };
+    let tool = match o.tool {
+        0 => "no tool".to_owned(),
+        t => format!("tool {t}"),
+    };
+    format!("{spindle}, {coolant}, {tool}")
+}
+
+/// `error 900: move exceeds the machine travel (soft limit)` for a refused request's code.
+pub fn refusal_text(code: u16) -> String {
+    BoardError {
+        line: 0,
+        code,
+        column: 0,
+    }
+    .describe("", &Program::from_text(""))
+    .trim_start_matches("resume preamble: ")
+    .to_owned()
+}
+
+/// The board's state as the server's log names it: each state the status tells apart has its own
+/// words, so a change is logged once and reads as one (a hold coming to rest goes from "holding"
+/// to "held"; an alarm and a tool change name their code and tool).
+pub fn state_words(s: MachineState) -> String {
+    match s {
+        MachineState::Hold { stopped: false } => "holding (stopping)".into(),
+        MachineState::Hold { stopped: true } => "held".into(),
+        MachineState::Alarm { code } => format!("Alarm {code}"),
+        MachineState::ToolChange { tool } => format!("ToolChange T{tool}"),
+        other => state_name(other).into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gantry_proto::MachineState;
+
+    fn status(state: MachineState) -> Status {
+        Status {
+            state,
+            machine_pos: [1_500_000, 0, 0, 0, 0, 0],
+            work_pos: [1_500_000, 0, 0, 0, 0, 0],
+            feed_um_min: 0,
+            feed_override: 100,
+            rapid_override: 100,
+            planner_fill: 0,
+            queue_fill: 0,
+            line: 7,
+            inputs: 0,
+            homed: 0b001,
+            outputs: Default::default(),
+            probe: None,
+        }
+    }
+
+    #[test]
+    fn the_status_names_the_alarm_and_says_what_it_means() {
+        let text = format_status(&status(MachineState::Alarm { code: 20 }), 3);
+        assert!(text.starts_with("state:     Alarm\nmachine:   X 1.500  Y 0.000  Z 0.000"));
+        assert!(
+            text.ends_with(
+                "homed:     X\noutputs:   spindle off, coolant off, no tool\nalarm:     alarm 20 (host lost): the host stayed away while the job stood still: job ended, spindle and coolant off"
+            ),
+            "{text}"
+        );
+        assert!(!format_status(&status(MachineState::Idle), 3).contains("alarm"));
+        assert!(!format_status(&status(MachineState::Idle), 3).contains("probe"));
+        let mut probed = status(MachineState::Idle);
+        probed.probe = Some(gantry_proto::ProbeStatus {
+            machine_pos: [0, 0, -5_000_000, 0, 0, 0],
+            success: true,
+        });
+        let text = format_status(&probed, 3);
+        assert!(
+            text.ends_with("no tool\nprobe:     X 0.000  Y 0.000  Z -5.000 (contact)"),
+            "{text}"
+        );
+        probed.probe = Some(gantry_proto::ProbeStatus {
+            machine_pos: [0, 0, -4_000_000, 0, 0, 0],
+            success: false,
+        });
+        let text = format_status(&probed, 3);
+        assert!(text.ends_with("Z -4.000 (no contact)"), "{text}");
+        let mut running = status(MachineState::Run);
+        running.outputs = gantry_proto::OutputsStatus {
+            spindle: gantry_proto::SpindleStatus::Ccw,
+            rpm: 12_000,
+            mist: true,
+            flood: true,
+            tool: 2,
+        };
+        assert!(format_status(&running, 3)
+            .ends_with("outputs:   spindle CCW 12000 rpm, mist and flood, tool 2"));
+        assert!(format_status(&status(MachineState::Alarm { code: 99 }), 3)
+            .ends_with("alarm:     alarm 99 (unknown to this gantry)"));
+        // Every alarm the board can raise has a name and a text.
+        for a in gantry_machine::controller::AlarmCode::ALL {
+            assert!(!alarm_text(a as u16).contains("unknown to this gantry"));
+        }
+    }
+
+    #[test]
+    fn the_status_names_the_tool_a_tool_change_waits_for() {
+        let text = format_status(&status(MachineState::ToolChange { tool: 2 }), 3);
+        assert!(
+            text.starts_with(
+                "state:     ToolChange
+"
+            ),
+            "{text}"
+        );
+        assert!(
+            text.ends_with("tool:      change to tool T2, then cycle start or `gantry resume`"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn program_text_never_reaches_the_terminal_with_control_characters() {
+        let program = Program::from_text("G1 X1 (\u{1b}[2J\u{7}cleared)\n");
+        let e = BoardError {
+            line: 1,
+            code: 900,
+            column: 0,
+        };
+        let text = e.describe("p.nc", &program);
+        assert!(
+            !text.chars().any(|c| c.is_control() && c != '\n'),
+            "{text:?}"
+        );
+        assert!(
+            text.trim_end().ends_with("G1 X1 (\\u{1b}[2J\\u{7}cleared)"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn eta_is_hours_minutes_seconds() {
+        assert_eq!(hms(0.4), "0:00:00");
+        assert_eq!(hms(3725.6), "1:02:06");
+    }
+
+    #[test]
+    fn each_state_change_has_its_own_words() {
+        let states = [
+            MachineState::Idle,
+            MachineState::Run,
+            MachineState::Hold { stopped: false },
+            MachineState::Hold { stopped: true },
+            MachineState::Jog,
+            MachineState::Alarm { code: 1 },
+            MachineState::Alarm { code: 9 },
+            MachineState::Homing,
+            MachineState::Check,
+            MachineState::ToolChange { tool: 2 },
+            MachineState::ToolChange { tool: 3 },
+        ];
+        let words: Vec<String> = states.iter().map(|&s| state_words(s)).collect();
+        for (i, w) in words.iter().enumerate() {
+            assert_eq!(words.iter().filter(|o| *o == w).count(), 1, "{w}");
+            assert_eq!(state_words(states[i]), *w);
+        }
+        assert_eq!(words[2], "holding (stopping)");
+        assert_eq!(words[3], "held");
+        assert_eq!(words[1], "Run");
+    }
+}

@@ -1,0 +1,282 @@
+//! The host's session layer: one [`Session`] owns the link to a board (a USB port, a running
+//! `gantry serve`'s socket, or the emulated board), the board's setup (read once when the session
+//! opens and kept current: a setup pushed through the session replaces it) and its last status.
+//! Everything the host asks of a board goes through it: status, hold / resume / abort, overrides,
+//! jog, home, unlock, MDI, setup get / push, and jobs (started, resumed from a line, or taken
+//! over) with their progress as events ([`job`]).
+//!
+//! The CLI's one-shot commands, `gantry stream` and `gantry serve` (`crate::commands`) are its
+//! clients; so will be a browser console: nothing here prints or reads a terminal (the words are
+//! `crate::present`'s). Realtime requests (hold, resume, abort, overrides, status, jog, home,
+//! unlock) travel on the link's realtime lane and never wait behind queued job lines.
+
+pub mod job;
+pub mod setup;
+pub mod socket;
+
+pub use job::{
+    continue_job, fresh_status, stream_from_line, stream_program, BoardAlarm, BoardError, Flow,
+    JobStart, LinkEnd, Progress, StreamReport, SILENT_GIVE_UP_MS, SILENT_WARN_MS,
+};
+pub use setup::{pull_setup_over, push_setup_over};
+
+use crate::emulator::EmulatedBoard;
+use crate::link::{Client, OnClose, SerialTransport, Transport};
+use crate::program::Program;
+use gantry_machine::setup::Setup;
+use gantry_proto::{BoardMsg, HostMsg, Status};
+
+/// Where `gantry` sends its commands.
+pub enum Target {
+    /// The built-in emulated board, with this setup.
+    Emulated(Box<Setup>),
+    /// A board on this serial port.
+    Port(String),
+}
+
+/// The link every session uses.
+pub type Link = Client<Box<dyn Transport>>;
+
+/// How long the handshake may take on a port (or through `gantry serve`), ms of link time.
+const CONNECT_MS: u32 = 3000;
+
+/// An open session with one board.
+pub struct Session {
+    link: Link,
+    setup: Setup,
+    status: Option<Status>,
+    /// Someone answers the board's tool-change stops (see [`job::run`]).
+    operator: bool,
+}
+
+impl Session {
+    /// Opens a session with `target`: the link's handshake, then the board's setup (from the
+    /// board itself over a port; through `gantry serve` the server answers from the setup it
+    /// keeps, so this never waits behind a running job's lines). `on_close`: what closing the
+    /// port does to the board ([`OnClose::DropDtr`] for the sender that owns a job).
+    pub fn connect(target: Target, on_close: OnClose) -> anyhow::Result<Session> {
+        match target {
+            Target::Emulated(setup) => Self::emulated(EmulatedBoard::new((*setup).clone()), *setup),
+            Target::Port(p) => {
+                // A `gantry serve` that owns the port takes the session; else the port itself.
+                let t: Box<dyn Transport> = match socket::SocketTransport::connect(&p)? {
+                    Some(s) => Box::new(s),
+                    None => Box::new(SerialTransport::open_with(&p, on_close)?),
+                };
+                let mut link = Client::connect(t, CONNECT_MS)?;
+                let setup = pull_setup_over(&mut link)
+                    .map_err(|e| anyhow::anyhow!("{p}: cannot read the board's setup: {e:#}"))?;
+                Ok(Session::over(link, setup))
+            }
+        }
+    }
+
+    /// A session with an emulated board built with `setup`.
+    pub fn emulated(board: EmulatedBoard, setup: Setup) -> anyhow::Result<Session> {
+        let t: Box<dyn Transport> = Box::new(board);
+        Ok(Session::over(Client::connect(t, 2000)?, setup))
+    }
+
+    /// A session over a connected link whose board has `setup`.
+    pub fn over(link: Link, setup: Setup) -> Session {
+        Session {
+            link,
+            setup,
+            status: None,
+            operator: false,
+        }
+    }
+
+    /// Whether someone answers the board's tool-change stops during jobs (default: no, a
+    /// tool change is resumed at once).
+    pub fn set_operator(&mut self, answers_tool_changes: bool) {
+        self.operator = answers_tool_changes;
+    }
+
+    /// The board's setup (as read when the session opened, or as last pushed or reloaded).
+    pub fn setup(&self) -> &Setup {
+        &self.setup
+    }
+
+    /// The machine's axis count.
+    pub fn axes(&self) -> usize {
+        self.setup.axis_count as usize
+    }
+
+    /// The link itself, for what the session has no method for (`gantry serve` relays raw
+    /// messages).
+    pub fn link(&mut self) -> &mut Link {
+        &mut self.link
+    }
+
+    /// The link clock, ms.
+    pub fn now_ms(&self) -> u32 {
+        self.link.transport.now_ms()
+    }
+
+    /// Exchanges bytes, then lets `ms` milliseconds pass.
+    pub fn pump(&mut self, ms: u32) -> anyhow::Result<()> {
+        self.link.pump(ms)
+    }
+
+    /// A status the board sends now (asked for, and waited for at most 2 s); other messages
+    /// are kept for whoever waits for them.
+    pub fn status(&mut self) -> anyhow::Result<Status> {
+        let s = fresh_status(&mut self.link)?;
+        self.status = Some(s.clone());
+        Ok(s)
+    }
+
+    /// The newest status seen by the session, without asking (`None` before the first).
+    pub fn last_status(&self) -> Option<&Status> {
+        self.status.as_ref()
+    }
+
+    /// The status reports the board pushed (every 100 ms) since the last call, newest last;
+    /// every other message is kept for whoever waits for it.
+    pub fn pushed_status(&mut self) -> anyhow::Result<Vec<Status>> {
+        self.link.pump(0)?;
+        let mut kept = Vec::new();
+        let mut got = Vec::new();
+        while let Some(m) = self.link.recv() {
+            match m {
+                BoardMsg::Status(s) => got.push(s),
+                other => kept.push(other),
+            }
+        }
+        self.link.put_back(kept);
+        if let Some(s) = got.last() {
+            self.status = Some(s.clone());
+        }
+        Ok(got)
+    }
+
+    /// Sends a realtime request (hold, resume, abort, overrides, jog stop, status request).
+    pub fn send(&mut self, msg: HostMsg) -> anyhow::Result<()> {
+        self.link.send(msg)
+    }
+
+    /// Feed hold: decelerate on the path and hold.
+    pub fn hold(&mut self) -> anyhow::Result<()> {
+        self.send(HostMsg::FeedHold)
+    }
+
+    /// Resume a hold or a tool-change stop.
+    pub fn resume(&mut self) -> anyhow::Result<()> {
+        self.send(HostMsg::Resume)
+    }
+
+    /// Abort: stop on the path, end the job.
+    pub fn abort(&mut self) -> anyhow::Result<()> {
+        self.send(HostMsg::Abort)
+    }
+
+    /// Sets the feed and/or rapid override (%).
+    pub fn set_overrides(&mut self, feed: Option<u16>, rapid: Option<u16>) -> anyhow::Result<()> {
+        if let Some(f) = feed {
+            self.send(HostMsg::FeedOverride(f))?;
+        }
+        if let Some(r) = rapid {
+            self.send(HostMsg::RapidOverride(r))?;
+        }
+        Ok(())
+    }
+
+    /// Sends a request the board answers by id, and waits (at most `limit_ms`) for its answer:
+    /// 0 accepted, else the refusal's code; `None` when none came.
+    fn request(
+        &mut self,
+        make: impl FnOnce(u32) -> HostMsg,
+        limit_ms: u32,
+    ) -> anyhow::Result<Option<u16>> {
+        let id = self.link.request_id();
+        self.link.send(make(id))?;
+        self.link.await_answer(id, limit_ms)
+    }
+
+    /// Jogs `axis` at `feed_um_min` (the sign is the direction) by `distance_nm` (0: until
+    /// [`Session::jog_stop`]); the board's answer as [`Session::request`].
+    pub fn jog(
+        &mut self,
+        axis: u8,
+        feed_um_min: i32,
+        distance_nm: u64,
+        limit_ms: u32,
+    ) -> anyhow::Result<Option<u16>> {
+        self.request(
+            |id| {
+                HostMsg::Jog(gantry_proto::Jog {
+                    id,
+                    axis,
+                    feed_um_min,
+                    distance_nm,
+                })
+            },
+            limit_ms,
+        )
+    }
+
+    /// Ends a jog.
+    pub fn jog_stop(&mut self) -> anyhow::Result<()> {
+        self.send(HostMsg::JogStop)
+    }
+
+    /// Starts homing the axes of `axes` (bit 0 = X; 0 = all); the board's answer.
+    pub fn home(&mut self, axes: u8, limit_ms: u32) -> anyhow::Result<Option<u16>> {
+        self.request(|id| HostMsg::Home { id, axes }, limit_ms)
+    }
+
+    /// Clears an alarm; the board's answer.
+    pub fn unlock(&mut self, limit_ms: u32) -> anyhow::Result<Option<u16>> {
+        self.request(|id| HostMsg::Unlock { id }, limit_ms)
+    }
+
+    /// Sends `setup` to the board (validated, applied and saved when idle); the session's setup
+    /// is then that one.
+    pub fn push_setup(&mut self, setup: &Setup) -> anyhow::Result<()> {
+        push_setup_over(&mut self.link, setup)?;
+        self.setup = setup.clone();
+        Ok(())
+    }
+
+    /// Reads the board's setup again (after something else changed it).
+    pub fn reload_setup(&mut self) -> anyhow::Result<&Setup> {
+        self.setup = pull_setup_over(&mut self.link)?;
+        Ok(&self.setup)
+    }
+
+    /// Runs a job to its end (or until `on_progress` detaches), with its progress as events.
+    pub fn run_job(
+        &mut self,
+        program: &Program,
+        start: JobStart,
+        on_progress: &mut dyn FnMut(&Progress) -> Flow,
+    ) -> anyhow::Result<StreamReport> {
+        let report = job::run(&mut self.link, program, start, self.operator, on_progress)?;
+        if let Some(s) = &report.final_status {
+            self.status = Some(s.clone());
+        }
+        Ok(report)
+    }
+
+    /// Runs MDI blocks as a small job.
+    pub fn mdi(
+        &mut self,
+        blocks: &[String],
+        on_progress: &mut dyn FnMut(&Progress) -> Flow,
+    ) -> anyhow::Result<(Program, StreamReport)> {
+        let program = Program::from_text(&blocks.join("\n"));
+        let report = self.run_job(&program, JobStart::Beginning, on_progress)?;
+        Ok((program, report))
+    }
+
+    /// The alarm and limit reports received since the last call, oldest first.
+    pub fn take_notices(&mut self) -> Vec<BoardMsg> {
+        self.link.take_notices()
+    }
+
+    /// Gaps in the motion where the step kernel ran dry (the emulated board only).
+    pub fn underruns(&self) -> Option<u64> {
+        self.link.transport.underruns()
+    }
+}
