@@ -54,6 +54,10 @@ enum Command {
         /// (f411: the Black Pill at 96 MHz), so the report's underruns show whether it keeps up.
         #[arg(long, value_parser = parse_cpu_model)]
         cpu_model: Option<host_sender::cpu_model::CpuModel>,
+        /// Start without checking the whole program first (for programs too long to check
+        /// before they run): the board then stops at the first bad line.
+        #[arg(long)]
+        no_check: bool,
         #[command(flatten)]
         board: BoardArgs,
     },
@@ -422,6 +426,7 @@ fn main() -> ExitCode {
             from_line,
             take_over,
             cpu_model,
+            no_check,
             board,
         } => board.setup().and_then(|setup| {
             use host_sender::commands::stream::Start;
@@ -431,7 +436,9 @@ fn main() -> ExitCode {
                 (None, true) => Start::TakeOver,
                 (None, false) => Start::Beginning,
             };
-            host_sender::commands::stream::run_with_cpu(&file, target, setup, start, cpu_model)
+            host_sender::commands::stream::run_checked(
+                &file, target, setup, start, cpu_model, !no_check,
+            )
         }),
         Command::Status {
             watch: false,

@@ -45,6 +45,46 @@ pub fn run_with_cpu(
     start: Start,
     cpu: Option<crate::cpu_model::CpuModel>,
 ) -> anyhow::Result<std::process::ExitCode> {
+    run_checked(file, target, setup, start, cpu, true)
+}
+
+/// The whole program checked with the machine's setup before anything moves, as LinuxCNC does
+/// (`gantry check`'s pass, constant memory): `None` when it has no error, else `gantry check`'s
+/// report (every error with its line and caret, the summary up to the first) and the refusal.
+fn check_first(
+    file: &std::path::Path,
+    setup: &gantry_machine::setup::Setup,
+) -> anyhow::Result<Option<String>> {
+    let src = crate::preview::source::FileSource::open(file)
+        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
+    let mut out = Vec::new();
+    let name = file.display().to_string();
+    let (errors, summary) =
+        crate::check::check_stream(&name, src, &setup.interp_config(), Some(setup), &mut out)?;
+    // (The travel is the board's to check: the job starts where the machine stands, which a
+    // check from the setup alone does not know.)
+    let _ = summary;
+    if errors == 0 {
+        return Ok(None);
+    }
+    let mut text = String::from_utf8_lossy(&out).into_owned();
+    text.push_str(
+        "gantry: nothing was run: the program was checked before the first move (fix it, or \
+         stream it with --no-check to let the board stop at the error)\n",
+    );
+    Ok(Some(text))
+}
+
+/// [`run_with_cpu`], checking the whole program first unless `check` is false (`--no-check`,
+/// for programs too long to check before they start).
+pub fn run_checked(
+    file: &std::path::Path,
+    target: Target,
+    setup: gantry_machine::setup::Setup,
+    start: Start,
+    cpu: Option<crate::cpu_model::CpuModel>,
+    check: bool,
+) -> anyhow::Result<std::process::ExitCode> {
     let program = Program::load(file)?;
     let text = std::fs::read_to_string(file)?;
     let wall = std::time::Instant::now();
@@ -76,6 +116,12 @@ pub fn run_with_cpu(
         setup
     };
     let axes = setup.axis_count as usize;
+    if check && start != Start::TakeOver {
+        if let Some(refusal) = check_first(file, &setup)? {
+            print!("{refusal}");
+            return Ok(std::process::ExitCode::from(1));
+        }
+    }
     let eta = Eta::plan(&text, &setup);
     let report = match start {
         Start::Beginning => {
