@@ -119,7 +119,7 @@ pub fn underrun_line(gaps: u64, cpu: Option<crate::cpu_model::CpuModel>) -> Stri
         Some(m) => format!("CPU model {} at {} MHz", m.name, m.hz / 1_000_000),
         None => "no CPU model: main loop in no time, --cpu-model f411 charges it".to_owned(),
     };
-    format!("underruns: {gaps} (the step kernel ran dry mid-job; {model})")
+    format!("underruns: {gaps} (times the step kernel ran dry mid-job; {model})")
 }
 
 impl BoardError {

@@ -59,21 +59,65 @@ pub fn stop_in(text: &str) -> Option<Stop> {
 
 /// What the sender tells the operator at a stop.
 pub fn message(stop: Stop, line: u32) -> String {
+    message_with(stop, line, None)
+}
+
+/// [`message`] with the stop line's comment (`M0 (check the cut)`: the program's word to the
+/// operator); line 0 is a run-from-line preamble's block.
+pub fn message_with(stop: Stop, line: u32, source: Option<&str>) -> String {
+    let place = if line == 0 {
+        "resume preamble".to_owned()
+    } else {
+        format!("line {line}")
+    };
+    let note = source
+        .and_then(comment_of)
+        .map_or(String::new(), |c| format!(" \u{201c}{c}\u{201d}"));
     match stop {
         Stop::Program { optional } => format!(
-            "line {line}: program stop ({}): press Enter (or cycle start) to continue",
+            "{place}: program stop ({}){note}: press Enter (or cycle start) to continue",
             if optional { "M1" } else { "M0" }
         ),
         Stop::ToolChange { tool } => format!(
-            "line {line}: tool change: put {} in the spindle, then press Enter (or cycle start) to continue",
+            "{place}: tool change{note}: put {} in the spindle, then press Enter (or cycle start) to continue",
             tool.map_or("the next tool".to_owned(), |t| format!("tool {t}"))
         ),
     }
 }
 
+/// The first comment of a line: `( … )` or after `;`, trimmed; none when empty.
+fn comment_of(line: &str) -> Option<&str> {
+    let text = match (line.find('('), line.find(';')) {
+        (Some(p), Some(s)) if s < p => &line[s + 1..],
+        (Some(p), _) => {
+            let rest = &line[p + 1..];
+            &rest[..rest.find(')').unwrap_or(rest.len())]
+        }
+        (None, Some(s)) => &line[s + 1..],
+        (None, None) => return None,
+    };
+    Some(text.trim()).filter(|t| !t.is_empty())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_stop_shows_its_comment_and_a_preamble_stop_says_so() {
+        let m0 = Stop::Program { optional: false };
+        assert_eq!(
+            message_with(m0, 3, Some("M0 (check the cut)")),
+            "line 3: program stop (M0) \u{201c}check the cut\u{201d}: press Enter (or cycle start) to continue"
+        );
+        assert_eq!(
+            message_with(m0, 4, Some("G0 X1 M0 ; look")),
+            "line 4: program stop (M0) \u{201c}look\u{201d}: press Enter (or cycle start) to continue"
+        );
+        assert!(message_with(m0, 5, Some("M0 ()")).starts_with("line 5: program stop (M0): "));
+        let tc = Stop::ToolChange { tool: Some(1) };
+        assert!(message_with(tc, 0, None).starts_with("resume preamble: tool change: put tool 1"));
+    }
 
     #[test]
     fn stops_are_found_by_their_words() {

@@ -9,7 +9,7 @@
 use crate::check::mm;
 use crate::program::Program;
 use anyhow::{bail, Context};
-use gantry_machine::canon::{PathMode, Plane, Spindle};
+use gantry_machine::canon::{Action, PathMode, Plane, Spindle};
 use gantry_machine::gcode::source::SourceError;
 use gantry_machine::gcode::{
     InterpConfig, Interpreter, MemorySource, ModalState, MotionMode, ProgramSource,
@@ -49,6 +49,17 @@ impl ProgramSource for UpTo<'_> {
 
 /// The modal state and the tool in the spindle when line `line` is about to run.
 pub fn state_before(text: &str, line: u32, config: &InterpConfig) -> anyhow::Result<ModalState> {
+    Ok(state_and_clearance_before(text, line, config)?.0)
+}
+
+/// [`state_before`] and the highest Z (machine nm) the program moved to before line `line`: its
+/// clearance height, where the preamble may cross the part.
+pub fn state_and_clearance_before(
+    text: &str,
+    line: u32,
+    config: &InterpConfig,
+) -> anyhow::Result<(ModalState, Option<i64>)> {
+    let mut clearance: Option<i64> = None;
     let mut interp = Interpreter::new(config);
     let mut src = UpTo {
         inner: MemorySource::new(text.as_bytes()),
@@ -56,12 +67,19 @@ pub fn state_before(text: &str, line: u32, config: &InterpConfig) -> anyhow::Res
         stopped: false,
     };
     while let Some(r) = interp.next(&mut src) {
-        if let Err(e) = r {
-            bail!(
+        match r {
+            Err(e) => bail!(
                 "line {}: {} (while rebuilding the state before line {line})",
                 e.line,
                 e.message()
-            );
+            ),
+            Ok(c) => {
+                if let Action::Rapid { to } | Action::Feed { to, .. } | Action::Arc { to, .. } =
+                    c.action
+                {
+                    clearance = Some(clearance.map_or(to[2], |z: i64| z.max(to[2])));
+                }
+            }
         }
     }
     if !src.stopped {
@@ -70,7 +88,7 @@ pub fn state_before(text: &str, line: u32, config: &InterpConfig) -> anyhow::Res
     if interp.call_depth() > 0 {
         bail!("line {line} is inside a subprogram: resume from a line of the main program");
     }
-    Ok(*interp.state())
+    Ok((*interp.state(), clearance))
 }
 
 fn axis_words(p: &Pos, axes: usize) -> String {
@@ -83,6 +101,17 @@ fn axis_words(p: &Pos, axes: usize) -> String {
 /// The blocks that bring a board standing at machine position `current` to the state `s`.
 /// Lengths are written in mm (G21) until the final block restores the program's units.
 pub fn preamble(s: &ModalState, setup: &Setup, current: &Pos) -> Vec<String> {
+    preamble_above(s, setup, current, None)
+}
+
+/// [`preamble`] whose XY move crosses at `clearance` (machine nm Z) at least: the program's own
+/// clearance height ([`state_and_clearance_before`]).
+pub fn preamble_above(
+    s: &ModalState,
+    setup: &Setup,
+    current: &Pos,
+    clearance: Option<i64>,
+) -> Vec<String> {
     let axes = setup.axis_count as usize;
     let config = setup.interp_config();
     let mut out = vec!["G21 G90 G94 G17 G40 G49 G80 G92.1".to_owned()];
@@ -99,10 +128,20 @@ pub fn preamble(s: &ModalState, setup: &Setup, current: &Pos) -> Vec<String> {
     if s.tool_loaded != 0 {
         out.push(format!("T{} M6", s.tool_loaded));
     }
-    // Clear the work, then go to the start point above it, then down.
+    // Clear the work, then go to the start point above it, then down. Above means no lower than
+    // where the tool stands, the start point, the tool-change position the M6 just went to, or
+    // the highest Z the program reached before (its clearance), so Z never comes down before XY
+    // is over the start point and XY never crosses the part lower than the program would.
     let target = s.position;
     let mut safe = *current;
     safe[2] = current[2].max(target[2]);
+    let tc = setup.program.tool_change_position;
+    if s.tool_loaded != 0 && tc.axes & 0b100 != 0 {
+        safe[2] = safe[2].max(tc.at[2]);
+    }
+    if let Some(z) = clearance {
+        safe[2] = safe[2].max(z);
+    }
     if axes >= 3 {
         out.push(format!("G53 G0 Z{}", mm(safe[2])));
     }
@@ -189,7 +228,7 @@ pub fn resume_preamble(
         "--from-line {line}: the program has lines 1 to {}",
         program.len()
     );
-    let state = state_before(text, line, &setup.interp_config())
+    let (state, clearance) = state_and_clearance_before(text, line, &setup.interp_config())
         .with_context(|| format!("cannot resume from line {line}"))?;
-    Ok(preamble(&state, setup, current))
+    Ok(preamble_above(&state, setup, current, clearance))
 }

@@ -123,10 +123,16 @@ pub fn run_checked(
         }
     }
     let eta = Eta::plan(&text, &setup);
-    let report = match start {
+    let (report, stopped_ms) = match start {
         Start::Beginning => {
             check_can_start(&mut session)?;
-            stream_with_progress(&mut session, &program, JobStart::Beginning, &eta)?
+            stream_with_progress(
+                &mut session,
+                &program,
+                JobStart::Beginning,
+                &eta,
+                !from_board,
+            )?
         }
         Start::TakeOver => {
             let state = session.status()?.state;
@@ -139,7 +145,13 @@ pub fn run_checked(
                     state_name(state)
                 );
             }
-            stream_with_progress(&mut session, &program, JobStart::TakeOver, &eta)?
+            stream_with_progress(
+                &mut session,
+                &program,
+                JobStart::TakeOver,
+                &eta,
+                !from_board,
+            )?
         }
         Start::FromLine(n) => {
             check_can_start(&mut session)?;
@@ -149,10 +161,30 @@ pub fn run_checked(
             for b in &pre {
                 println!("    {b}");
             }
-            stream_with_progress(&mut session, &program, JobStart::FromLine(n, pre), &eta)?
+            stream_with_progress(
+                &mut session,
+                &program,
+                JobStart::FromLine(n, pre),
+                &eta,
+                !from_board,
+            )?
         }
     };
-    print_report(&report, &program, file, axes, wall.elapsed());
+    // The first line of the program this run was to run: a stop in a run-from-line preamble
+    // (its blocks count as line 0) resumes there, not at line 1.
+    let first_line = match start {
+        Start::FromLine(n) => n,
+        _ => 1,
+    };
+    print_report(
+        &report,
+        &program,
+        file,
+        axes,
+        wall.elapsed(),
+        first_line,
+        stopped_ms,
+    );
     if let Some(n) = session.underruns() {
         println!("{}", underrun_line(n, cpu));
     }
@@ -355,7 +387,8 @@ fn stream_with_progress(
     program: &Program,
     resume: JobStart,
     eta: &Option<Eta>,
-) -> anyhow::Result<StreamReport> {
+    emulated: bool,
+) -> anyhow::Result<(StreamReport, u32)> {
     use std::io::IsTerminal;
     let total = program.len().max(1) as u64;
     let bar = std::io::stderr().is_terminal().then(|| {
@@ -371,7 +404,13 @@ fn stream_with_progress(
     let mut asking = Asking::Nothing;
     // A hold this sender asked for (Ctrl-C), as opposed to a program stop.
     let mut hold_requested = false;
-    let mut last_stop_line = 0;
+    // The line of the last stop the operator was asked about (a run-from-line preamble's stop,
+    // an M6 there, is line 0).
+    let mut last_stop_line = None;
+    let mut told_closed = false;
+    // Machine time spent standing at holds and stops (M0/M1, M6), for the report.
+    let mut stopped_ms = 0u32;
+    let mut last_elapsed_ms = 0u32;
     let mut on_progress = |p: &Progress| {
         let ctrl_c = interrupted.swap(false, std::sync::atomic::Ordering::SeqCst);
         let state = p.status.as_ref().map(|s| s.state);
@@ -412,14 +451,47 @@ fn stream_with_progress(
                 // Cycle start on the machine answered it.
                 asking = Asking::Nothing;
             }
-            Asking::Stop(_) => {
-                if let Some(Typed::Line(_)) = typed() {
+            Asking::Stop(_) => match typed() {
+                Some(Typed::Line(_)) => {
                     asking = Asking::Nothing;
                     return Flow::Resume;
                 }
-            }
+                // Nobody can answer on the emulated board: it goes on, as the README says.
+                Some(Typed::Closed) if emulated => {
+                    say(
+                        bar.as_ref(),
+                        "(standard input is closed: continuing on the emulated board)",
+                        true,
+                    );
+                    asking = Asking::Nothing;
+                    return Flow::Resume;
+                }
+                Some(Typed::Closed) if !told_closed => {
+                    told_closed = true;
+                    say(
+                        bar.as_ref(),
+                        "(standard input is closed: waiting for cycle start on the machine, or \
+                         `gantry resume` from another terminal)",
+                        true,
+                    );
+                }
+                _ => {
+                    if emulated {
+                        // The emulated board's clock runs only as the link is serviced: while
+                        // the operator thinks it runs at the wall clock's pace, not flat out.
+                        std::thread::sleep(std::time::Duration::from_millis(5));
+                    }
+                }
+            },
             Asking::Nothing => {}
         }
+        if matches!(
+            state,
+            Some(MachineState::Hold { stopped: true } | MachineState::ToolChange { .. })
+        ) {
+            stopped_ms += p.elapsed_ms.saturating_sub(last_elapsed_ms);
+        }
+        last_elapsed_ms = p.elapsed_ms;
         if ctrl_c {
             // Ctrl-C: hold first (decelerate on the path), then ask what to do.
             forget_typed();
@@ -438,7 +510,7 @@ fn stream_with_progress(
                 state,
                 Some(MachineState::Hold { stopped: true } | MachineState::ToolChange { .. })
             )
-            && p.line != last_stop_line
+            && last_stop_line != Some(p.line)
         {
             let stop = match state {
                 // The board names the tool it waits for.
@@ -453,9 +525,14 @@ fn stream_with_progress(
                     .filter(|s| matches!(s, program_stops::Stop::Program { .. })),
             };
             if let Some(stop) = stop {
-                last_stop_line = p.line;
+                last_stop_line = Some(p.line);
                 forget_typed();
-                say(bar.as_ref(), &program_stops::message(stop, p.line), true);
+                let source = program.line(p.line);
+                say(
+                    bar.as_ref(),
+                    &program_stops::message_with(stop, p.line, source),
+                    true,
+                );
                 asking = Asking::Stop(p.line);
             }
         }
@@ -492,7 +569,7 @@ fn stream_with_progress(
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    report
+    Ok((report?, stopped_ms))
 }
 
 fn print_report(
@@ -501,7 +578,10 @@ fn print_report(
     file: &std::path::Path,
     axes: usize,
     wall: std::time::Duration,
+    first_line: u32,
+    stopped_ms: u32,
 ) {
+    let resume_line = report.last_line.max(first_line);
     for e in &report.errors {
         print!("{}", e.describe(&file.display().to_string(), program));
     }
@@ -532,7 +612,7 @@ fn print_report(
             println!(
                 "resume:   (after gantry home, or gantry unlock) gantry stream {} --from-line {}",
                 file.display(),
-                report.last_line.max(1)
+                resume_line
             );
             return;
         }
@@ -551,11 +631,22 @@ fn print_report(
         report.lines_sent,
         report.jumps_served
     );
-    println!(
-        "time:     {:.3} s machine time ({:.2} s wall)",
-        report.elapsed_ms as f64 / 1000.0,
-        wall.as_secs_f64()
-    );
+    let stopped_ms = stopped_ms.min(report.elapsed_ms);
+    if stopped_ms > 0 {
+        println!(
+            "time:     {:.3} s machine time: {:.3} s running, {:.3} s standing at holds and stops ({:.2} s wall)",
+            report.elapsed_ms as f64 / 1000.0,
+            (report.elapsed_ms - stopped_ms) as f64 / 1000.0,
+            stopped_ms as f64 / 1000.0,
+            wall.as_secs_f64()
+        );
+    } else {
+        println!(
+            "time:     {:.3} s machine time ({:.2} s wall)",
+            report.elapsed_ms as f64 / 1000.0,
+            wall.as_secs_f64()
+        );
+    }
     // Abort, alarm 2 and alarm 20 stop the job on its path with the position kept.
     let stopped_on_path = report.alarms.iter().any(|a| {
         a.code == gantry_machine::controller::AlarmCode::SoftLimit as u16
@@ -570,7 +661,7 @@ fn print_report(
                 ""
             },
             file.display(),
-            report.last_line.max(1)
+            resume_line
         );
     } else if let Some(e) = report.errors.iter().find(|e| e.line != 0) {
         // An error ended the job: everything before its line ran, nothing from it on.
