@@ -413,6 +413,21 @@ fn main() -> ExitCode {
         emulated: cli.emulated,
     };
     let m = &machine;
+    // A program is read line by line in bounded memory; a line no G-code program has (a binary
+    // file, /dev/zero) is refused before anything reads it whole.
+    let program = match &cli.command {
+        Command::Check { file, .. }
+        | Command::Stream { file, .. }
+        | Command::Simulate { file, .. }
+        | Command::Preview { file, .. } => Some(file.clone()),
+        _ => None,
+    };
+    if let Some(file) = program {
+        if let Err(e) = host_sender::program::check_line_lengths(&file) {
+            eprintln!("gantry: {e:#}");
+            return ExitCode::from(2);
+        }
+    }
     let result = match cli.command {
         Command::Check { file, canon, setup } => setup
             .map_or_else(

@@ -28,18 +28,31 @@ pub struct ErrorReport<'a> {
 
 /// `place:line: N20 error E211: message`, then the source line and a caret under the bad word
 /// (control characters in the source are shown escaped, never sent to the terminal).
+/// How much of a program line an error quotes, characters.
+pub const QUOTED_CHARS: usize = 100;
+
 pub fn format_error(r: &ErrorReport<'_>) -> String {
     let n = r.n_word.map(|n| format!(" N{n}")).unwrap_or_default();
     let code = r.code.map(|c| format!(" E{c}")).unwrap_or_default();
     let mut out = format!("{}:{}:{n} error{code}: {}\n", r.place, r.line, r.message);
     if let Some(text) = r.source {
         let text = text.trim_end_matches('\r');
-        let _ = writeln!(out, "    {}", printable(text));
-        if let Some((start, end)) = r.columns {
+        // At most the first QUOTED_CHARS characters of a line are quoted (a huge line is not
+        // echoed whole); the caret only where it falls among them.
+        let shown: String = text.chars().take(QUOTED_CHARS).collect();
+        let cut = shown.len() < text.len();
+        let _ = writeln!(
+            out,
+            "    {}{}",
+            printable(&shown),
+            if cut { " …" } else { "" }
+        );
+        if let Some((start, end)) = r.columns.filter(|&(s, _)| usize::from(s) < QUOTED_CHARS) {
             // Columns count characters of the raw line; escaping widens what comes before.
             let before: String = text.chars().take(start as usize).collect();
             let pad = printable(&before).chars().count();
-            let width = end.saturating_sub(start).max(1) as usize;
+            let width =
+                (end.saturating_sub(start).max(1) as usize).min(QUOTED_CHARS - usize::from(start));
             let _ = writeln!(out, "    {}{}", " ".repeat(pad), "^".repeat(width));
         }
     }

@@ -13,8 +13,48 @@ pub struct Program {
 /// Where a board asked the sender to continue.
 pub use gantry_proto::ProgramTarget;
 
+/// The longest line a program file may have, bytes: far beyond any G-code line (the board takes
+/// [`LINE_MAX`] once comments and blanks are stripped), short enough to read any line whole.
+pub const FILE_LINE_LIMIT: usize = 64 * 1024;
+
+/// Reads `path` through once in constant memory and refuses it at the first line longer than
+/// [`FILE_LINE_LIMIT`] (a binary file, `/dev/zero`), naming the line, before anything reads it
+/// whole (`gantry check`, `simulate`, `preview`, `stream`).
+pub fn check_line_lengths(path: &Path) -> anyhow::Result<()> {
+    use std::io::BufRead;
+    let file =
+        std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut reader = std::io::BufReader::with_capacity(1 << 16, file);
+    let (mut line, mut len) = (1u64, 0usize);
+    loop {
+        let buf = reader
+            .fill_buf()
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        if buf.is_empty() {
+            return Ok(());
+        }
+        let n = buf.len();
+        for &b in buf {
+            if b == b'\n' {
+                line += 1;
+                len = 0;
+            } else {
+                len += 1;
+                if len > FILE_LINE_LIMIT {
+                    anyhow::bail!(
+                        "{}:{line}: line longer than {FILE_LINE_LIMIT} characters: not a G-code program (the board takes {LINE_MAX} once comments and blanks are dropped)",
+                        path.display()
+                    );
+                }
+            }
+        }
+        reader.consume(n);
+    }
+}
+
 impl Program {
     pub fn load(path: &Path) -> anyhow::Result<Self> {
+        check_line_lengths(path)?;
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read {}", path.display()))?;
         Ok(Self::from_text(&text))

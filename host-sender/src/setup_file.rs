@@ -442,11 +442,23 @@ fn tool_change_position(
     Ok(out)
 }
 
+/// The largest setup file read, bytes (a full setup with every tool and list is about 10 KiB).
+pub const SETUP_FILE_LIMIT: u64 = 1024 * 1024;
+
 impl SetupFile {
     /// Reads and validates a setup file.
     pub fn load(path: &Path) -> anyhow::Result<Setup> {
-        let text = std::fs::read_to_string(path)
+        use std::io::Read;
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(SETUP_FILE_LIMIT + 1).read_to_string(&mut text))
             .with_context(|| format!("cannot read setup file {}", path.display()))?;
+        anyhow::ensure!(
+            text.len() as u64 <= SETUP_FILE_LIMIT,
+            "setup file {}: longer than {} KiB, not a setup file (a full setup is about 10 KiB)",
+            path.display(),
+            SETUP_FILE_LIMIT / 1024
+        );
         Self::parse(&text).with_context(|| format!("in setup file {}", path.display()))
     }
 
