@@ -21,6 +21,10 @@ pub trait Transport {
     fn underruns(&self) -> Option<u64> {
         None
     }
+    /// The link has closed for good (the other end hung up): nothing more will come.
+    fn closed(&self) -> bool {
+        false
+    }
 }
 
 impl Transport for Box<dyn Transport> {
@@ -38,6 +42,10 @@ impl Transport for Box<dyn Transport> {
 
     fn now_ms(&self) -> u32 {
         (**self).now_ms()
+    }
+
+    fn closed(&self) -> bool {
+        (**self).closed()
     }
 
     fn underruns(&self) -> Option<u64> {

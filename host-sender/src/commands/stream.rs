@@ -605,6 +605,20 @@ fn print_report(
             );
             return;
         }
+        LinkEnd::Closed => {
+            println!(
+                "link closed: gantry serve closed this sender's link mid-job (the board restarted, or the server ended)"
+            );
+            println!(
+                "resume:   if the board restarted (the job is gone): gantry stream {} --from-line {resume_line}",
+                file.display()
+            );
+            println!(
+                "          if it still holds the job (serve ended): gantry stream {} --continue",
+                file.display()
+            );
+            return;
+        }
         LinkEnd::BoardReset => {
             println!(
                 "board reset: the board restarted during the job (power, reset button or watchdog): the job is gone, the spindle stopped"

@@ -89,6 +89,9 @@ pub enum LinkEnd {
     Silent(u32),
     /// The board restarted during the job (its boot id changed): the job is gone.
     BoardReset,
+    /// The link itself closed mid-job (`gantry serve` ended, or closed the link because the board
+    /// restarted): the sender cannot tell which.
+    Closed,
 }
 
 /// Board silence (ms) after which the sender warns (the board reports its status every 100 ms).
@@ -271,8 +274,15 @@ fn run_job<T: Transport>(
     let mut warned_silent = false;
     let mut tool_change_answered = false;
     while !done {
-        send_lines(client, program, &mut serving, &mut report)?;
-        client.pump(1)?;
+        let pumped =
+            send_lines(client, program, &mut serving, &mut report).and_then(|()| client.pump(1));
+        if pumped.is_err() && client.transport.closed() {
+            report.link = LinkEnd::Closed;
+            report.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);
+            report.last_line = progress.line;
+            return Ok(report);
+        }
+        pumped?;
         if client.take_board_reset() {
             report.link = LinkEnd::BoardReset;
             report.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);

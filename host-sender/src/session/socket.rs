@@ -128,6 +128,8 @@ pub fn check_socket(path: &Path) -> anyhow::Result<bool> {
 pub struct SocketTransport {
     stream: UnixStream,
     start: Instant,
+    /// The server closed the link.
+    closed: bool,
 }
 
 impl SocketTransport {
@@ -149,11 +151,16 @@ impl SocketTransport {
         Ok(Some(SocketTransport {
             stream,
             start: Instant::now(),
+            closed: false,
         }))
     }
 }
 
 impl Transport for SocketTransport {
+    fn closed(&self) -> bool {
+        self.closed
+    }
+
     fn write(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
         let mut rest = bytes;
         let since = Instant::now();
@@ -171,7 +178,10 @@ impl Transport for SocketTransport {
                     std::thread::sleep(Duration::from_millis(1))
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(e).context("gantry serve closed the link"),
+                Err(e) => {
+                    self.closed = true;
+                    return Err(e).context("gantry serve closed the link");
+                }
             }
         }
         Ok(())
@@ -181,13 +191,19 @@ impl Transport for SocketTransport {
         let mut buf = [0u8; 4096];
         loop {
             match self.stream.read(&mut buf) {
-                Ok(0) => anyhow::bail!(
-                    "gantry serve closed the link (the server ended, or the board restarted)"
-                ),
+                Ok(0) => {
+                    self.closed = true;
+                    anyhow::bail!(
+                        "gantry serve closed the link (the server ended, or the board restarted)"
+                    )
+                }
                 Ok(n) => into.extend_from_slice(&buf[..n]),
                 Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return Ok(()),
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => return Ok(()),
-                Err(e) => return Err(e).context("gantry serve closed the link"),
+                Err(e) => {
+                    self.closed = true;
+                    return Err(e).context("gantry serve closed the link");
+                }
             }
         }
     }
