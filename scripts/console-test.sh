@@ -26,11 +26,14 @@ GANTRY=$PWD/target/debug/gantry
 TMP=$(mktemp -d)
 EMU= SERVE=
 stop() {
+  local rc=$?
+  set +e
   # serve first: a serve whose port vanished keeps trying to reopen it.
   [ -n "$SERVE" ] && kill "$SERVE" 2>/dev/null && for _ in $(seq 30); do kill -0 "$SERVE" 2>/dev/null || break; sleep 0.1; done
   [ -n "$SERVE" ] && kill -9 "$SERVE" 2>/dev/null
   [ -n "$EMU" ] && kill "$EMU" 2>/dev/null
   rm -rf "$TMP"
+  exit $rc
 }
 trap stop EXIT
 "$GANTRY" emulate --pty "$TMP/tty" > "$TMP/emulate.log" 2>&1 &
