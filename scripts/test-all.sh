@@ -105,6 +105,9 @@ bash scripts/grbl-sender-test.sh
 section "grbl sender (CNCjs from npm) against gantry emulate --pty"
 bash scripts/cncjs-sender-test.sh
 
+section "operator console (gantry serve --http) in Debian's headless chromium"
+SHOT="$(mktemp -d)/console.png" bash scripts/console-test.sh
+
 section "firmware: clippy and release build per board"
 SIZES=()
 for board in "${BOARDS[@]}"; do

@@ -9,6 +9,7 @@
 pub mod check;
 pub mod check_summary;
 pub mod commands;
+pub mod console;
 pub mod cpu_model;
 pub mod emulate;
 pub mod emulator;

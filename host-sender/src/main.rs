@@ -191,7 +191,16 @@ enum Command {
     },
     /// Own the board's port (--port) until killed, and let other `gantry` commands reach the
     /// board through a local socket named after the port while a job runs (docs/ports.md).
-    Serve,
+    Serve {
+        /// Serve the operator's console (a web page) on this address, e.g. 127.0.0.1:8080
+        /// (docs/console.md). Loopback only unless --allow-remote.
+        #[arg(long)]
+        http: Option<std::net::SocketAddr>,
+        /// Allow an --http address other hosts can reach (the console has no authentication:
+        /// anyone who reaches it can move the machine).
+        #[arg(long, requires = "http")]
+        allow_remote: bool,
+    },
     /// Draw a program's tool path (top, front, side, isometric views) to a PNG or SVG file.
     Preview {
         file: PathBuf,
@@ -519,16 +528,21 @@ fn main() -> ExitCode {
         Command::Mdi { blocks, board } => m
             .target(&board, Use::Controls)
             .and_then(|t| oneshot::mdi(t, &blocks)),
-        Command::Serve => match &m.port {
-            Some(p) => host_sender::commands::serve::run(p),
-            None => match host_sender::port::discover() {
-                Ok(host_sender::port::Found::One(p)) => host_sender::commands::serve::run(&p),
-                Ok(host_sender::port::Found::None) => Err(anyhow::anyhow!(
-                    "gantry serve: give --port PATH (or GANTRY_PORT)"
-                )),
-                Err(e) => Err(e),
-            },
-        },
+        Command::Serve { http, allow_remote } => {
+            let http = http.map(|addr| host_sender::console::Options { addr, allow_remote });
+            match &m.port {
+                Some(p) => host_sender::commands::serve::run(p, http.as_ref()),
+                None => match host_sender::port::discover() {
+                    Ok(host_sender::port::Found::One(p)) => {
+                        host_sender::commands::serve::run(&p, http.as_ref())
+                    }
+                    Ok(host_sender::port::Found::None) => Err(anyhow::anyhow!(
+                        "gantry serve: give --port PATH (or GANTRY_PORT)"
+                    )),
+                    Err(e) => Err(e),
+                },
+            }
+        }
         Command::Emulate {
             pty,
             tcp,

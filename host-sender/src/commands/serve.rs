@@ -140,8 +140,12 @@ fn blob_of(setup: &Setup) -> anyhow::Result<Vec<u8>> {
     Ok(blob.to_vec())
 }
 
-/// Runs the server for `port` until SIGINT or SIGTERM.
-pub fn run(port: &str) -> anyhow::Result<ExitCode> {
+/// Runs the server for `port` until SIGINT or SIGTERM, with the operator's console on `http`
+/// (`crate::console`) when given.
+pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result<ExitCode> {
+    if let Some(o) = http {
+        crate::console::check_address(&o.addr, o.allow_remote)?;
+    }
     let dir = socket_dir(true)?.expect("created");
     let path = dir.join(socket_name(port));
     if check_socket(&path)? {
@@ -175,6 +179,9 @@ pub fn run(port: &str) -> anyhow::Result<ExitCode> {
     ctrlc::set_handler(move || s.store(true, Ordering::SeqCst))
         .context("cannot install the SIGINT/SIGTERM handler")?;
     eprintln!("serve: {port} is served on {}", path.display());
+    if let Some(o) = http {
+        crate::console::start(port, o)?;
+    }
     let start = Instant::now();
     let mut peers: Vec<Peer> = Vec::new();
     let mut next_id = 0u32;

@@ -1,0 +1,346 @@
+// Gantry console: the readout from the board's pushed status (Server-Sent Events), commands as
+// JSON POSTs to the same serve process. No libraries; nothing fetched from elsewhere.
+"use strict";
+const $ = (id) => document.getElementById(id);
+let status = null, setup = null, path = null, job = null, programName = null, errorLines = [];
+
+function log(text) {
+  const li = document.createElement("li");
+  li.textContent = new Date().toLocaleTimeString() + "  " + text;
+  $("log").prepend(li);
+  while ($("log").children.length > 200) $("log").lastChild.remove();
+}
+
+async function post(what, body) {
+  try {
+    const r = await fetch("/api/" + what, {
+      method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body || {}),
+    });
+    const v = await r.json();
+    if (!v.ok) log(what + ": " + v.error);
+    return v;
+  } catch (e) { log(what + ": " + e); return { ok: false, error: String(e) }; }
+}
+
+// ---- readout ----
+const fmt = (v) => (v < 0 ? "" : "+") + v.toFixed(3);
+function buildAxes(letters) {
+  const tb = document.querySelector("#axes tbody");
+  if (tb.children.length === letters.length) return;
+  tb.textContent = "";
+  for (const l of letters) {
+    const tr = document.createElement("tr");
+    tr.innerHTML = `<th>${l}</th><td class="pos" id="work-${l}">-</td><td class="mpos" id="mach-${l}">-</td>` +
+      `<td><button id="zero-${l}">Zero ${l}</button></td><td><button id="home-${l}">Home ${l}</button></td>`;
+    tb.append(tr);
+    $("zero-" + l).onclick = () => post("zero", { axis: l }).then((v) => v.ok && log(v.message));
+    $("home-" + l).onclick = () => post("home", { axis: l });
+  }
+}
+
+function onStatus(s) {
+  status = s;
+  buildAxes(s.letters);
+  $("state").textContent = s.state;
+  $("state").className = "state " + s.state;
+  $("words").textContent = s.words !== s.state ? s.words : "";
+  $("alarm").hidden = !s.alarm;
+  $("alarm").textContent = s.alarm ? s.alarm + " — clear the cause, then Unlock (or Home)" : "";
+  s.letters.forEach((l, i) => {
+    $("work-" + l).textContent = fmt(s.work[i]);
+    $("mach-" + l).textContent = fmt(s.machine[i]);
+  });
+  $("feed").textContent = s.feed.toFixed(1);
+  $("fo").textContent = s.feed_override;
+  $("ro").textContent = s.rapid_override;
+  $("outputs").textContent = s.outputs;
+  $("line").textContent = s.line;
+  $("tool").textContent = s.tool ? "T" + s.tool : "none";
+  $("homed").textContent = s.homed || "none";
+  $("inputs").textContent = s.inputs.length ? s.inputs.join(", ") : "none active";
+  $("buffers").textContent = `${s.planner} planner blocks, ${s.queue} lines queued`;
+  $("link").textContent = "live " + new Date().toLocaleTimeString();
+  if (s.tool_change != null && !(job && job.stop)) showStop("tool change: put tool " + s.tool_change + " in the spindle, then press Continue");
+  else if (!(job && job.stop)) showStop(null);
+  draw();
+}
+
+function showStop(text) {
+  $("stop").hidden = !text;
+  $("stop-text").textContent = text || "";
+}
+
+// ---- events ----
+function connect() {
+  const es = new EventSource("/events");
+  es.addEventListener("status", (e) => onStatus(JSON.parse(e.data)));
+  es.addEventListener("setup", (e) => {
+    setup = JSON.parse(e.data);
+    if (document.activeElement !== $("setup-toml") && !$("setup-toml").dataset.edited) $("setup-toml").value = setup.toml;
+    draw(true);
+  });
+  es.addEventListener("job", (e) => onJob(JSON.parse(e.data)));
+  es.addEventListener("program", (e) => {
+    const p = JSON.parse(e.data);
+    if (p.name !== programName) log("program " + p.name + " opened by another client");
+  });
+  es.addEventListener("notice", (e) => log(JSON.parse(e.data).text));
+  es.onerror = () => { $("link").textContent = "connection lost, retrying…"; };
+}
+
+function hms(s) {
+  s = Math.max(0, Math.round(s));
+  return `${Math.floor(s / 3600)}:${String(Math.floor(s / 60) % 60).padStart(2, "0")}:${String(s % 60).padStart(2, "0")}`;
+}
+
+function onJob(j) {
+  job = j;
+  const pct = j.total ? Math.min(100, (100 * j.line) / j.total) : 0;
+  $("progress-bar").style.width = (j.running ? pct : j.completed ? 100 : pct) + "%";
+  if (j.running) {
+    $("job").textContent = `${j.name}: line ${j.line} / ${j.total}, ${hms(j.elapsed_s)} elapsed` +
+      (j.left_s != null ? `, ETA ${hms(j.left_s)} (planned ${hms(j.planned_s)})` : ", ETA -") +
+      (j.from_line ? `, from line ${j.from_line}` : "");
+    $("job-errors").textContent = "";
+  } else {
+    $("job").textContent = `${j.name}: ` + (j.completed ? "done" : j.aborted ? "aborted" : "ended") +
+      (j.elapsed_s != null ? ` after ${hms(j.elapsed_s)}` : "");
+    $("job-errors").textContent = (j.errors || []).concat(j.alarms || []).join("\n");
+  }
+  showStop(j.running && j.stop ? j.stop : null);
+  markLine(j.line);
+  draw(true);
+}
+
+// ---- controls ----
+$("hold").onclick = () => post("hold");
+$("resume").onclick = () => post("resume");
+$("abort").onclick = () => post("abort");
+$("continue").onclick = () => post("continue");
+$("home-all").onclick = () => post("home", {});
+$("unlock").onclick = () => post("unlock");
+$("fo-set").onclick = () => post("override", { feed: +$("fo-in").value });
+$("ro-set").onclick = () => post("override", { rapid: +$("ro-in").value });
+$("ovr-reset").onclick = () => { $("fo-in").value = 100; $("ro-in").value = 100; post("override", { feed: 100, rapid: 100 }); };
+for (const b of document.querySelectorAll("[data-fo]")) {
+  b.onclick = () => {
+    const now = status ? status.feed_override : 100;
+    const v = Math.max(10, Math.min(200, now + +b.dataset.fo));
+    $("fo-in").value = v;
+    post("override", { feed: v });
+  };
+}
+$("off-set").onclick = () => {
+  const body = { p: +$("off-p").value };
+  for (const l of ["X", "Y", "Z"]) if ($("off-" + l).value !== "") body[l] = +$("off-" + l).value;
+  post("offset", body).then((v) => v.ok && log(v.message));
+};
+
+// Jog: a step per press, or (continuous) from press to release.
+const step = () => +$("step").value;
+let jogging = null;
+function jogStart(axis, dir) {
+  if (jogging) return;
+  jogging = { axis, dir };
+  post("jog", { axis, dir, step: step(), feed: +$("jogfeed").value });
+}
+function jogEnd() {
+  if (!jogging) return;
+  jogging = null;
+  if (step() === 0) post("jog_stop");
+}
+for (const b of document.querySelectorAll(".jog")) {
+  b.addEventListener("pointerdown", (e) => { e.preventDefault(); jogStart(b.dataset.axis, +b.dataset.dir); });
+  for (const ev of ["pointerup", "pointerleave", "pointercancel"]) b.addEventListener(ev, jogEnd);
+}
+const KEYS = { ArrowLeft: ["X", -1], ArrowRight: ["X", 1], ArrowUp: ["Y", 1], ArrowDown: ["Y", -1], PageUp: ["Z", 1], PageDown: ["Z", -1] };
+const typing = (t) => t && (t.tagName === "INPUT" || t.tagName === "TEXTAREA" || t.tagName === "SELECT");
+document.addEventListener("keydown", (e) => {
+  if (typing(e.target)) return;
+  if (e.key === "Escape") { post("abort"); e.preventDefault(); return; }
+  if (e.key === " ") { post("hold"); e.preventDefault(); return; }
+  const k = KEYS[e.key];
+  if (!k) return;
+  e.preventDefault();
+  if (!e.repeat) jogStart(k[0], k[1]);
+});
+document.addEventListener("keyup", (e) => { if (KEYS[e.key]) jogEnd(); });
+window.addEventListener("blur", jogEnd);
+
+// MDI with history (↑ ↓ in the field).
+const history = [];
+let hpos = 0;
+$("mdi-form").onsubmit = (e) => {
+  e.preventDefault();
+  const line = $("mdi").value.trim();
+  if (!line) return;
+  history.push(line);
+  hpos = history.length;
+  const li = document.createElement("li");
+  li.textContent = line;
+  li.onclick = () => { $("mdi").value = line; };
+  $("mdi-history").prepend(li);
+  $("mdi").value = "";
+  post("mdi", { line });
+};
+$("mdi").addEventListener("keydown", (e) => {
+  if (e.key === "ArrowUp" && hpos > 0) $("mdi").value = history[--hpos];
+  else if (e.key === "ArrowDown" && hpos < history.length) $("mdi").value = history[++hpos] || "";
+  else return;
+  e.preventDefault();
+});
+
+// ---- program ----
+$("file").onchange = async () => {
+  const f = $("file").files[0];
+  if (!f) return;
+  const text = await f.text();
+  programName = f.name;
+  $("prog-name").textContent = "checking…";
+  const v = await post("program", { name: f.name, text });
+  if (!v.ok) return;
+  $("prog-name").textContent = `${v.name}: ${v.lines} lines` + (v.seconds != null ? `, planned time ${hms(v.seconds)}` : "");
+  $("check").textContent = v.check;
+  $("check").className = v.errors ? "bad" : "";
+  errorLines = v.error_lines;
+  listing(v.source, v.error_lines);
+  path = v.path;
+  draw(true);
+};
+
+function listing(text, errs) {
+  const box = $("listing");
+  box.textContent = "";
+  const lines = text.split("\n");
+  const bad = new Set(errs);
+  const frag = document.createDocumentFragment();
+  lines.slice(0, 5000).forEach((l, i) => {
+    const d = document.createElement("div");
+    d.id = "L" + (i + 1);
+    if (bad.has(i + 1)) d.className = "err";
+    const n = document.createElement("span");
+    n.className = "n";
+    n.textContent = i + 1;
+    d.append(n, l);
+    frag.append(d);
+  });
+  box.append(frag);
+  if (errs.length) { const d = $("L" + errs[0]); if (d) box.scrollTop = d.offsetTop - box.offsetTop - 40; }
+}
+
+let marked = null;
+function markLine(n) {
+  if (marked) marked.classList.remove("cur");
+  marked = $("L" + n);
+  if (marked) marked.classList.add("cur");
+}
+
+$("run").onclick = () => post("run", {});
+$("run-from").onclick = () => post("run", { from_line: +$("from").value || 1 });
+$("show-pre").onclick = async () => {
+  const v = await post("preamble", { from_line: +$("from").value || 1 });
+  $("preamble").hidden = !v.ok;
+  if (v.ok) $("preamble").textContent = "preamble sent before line " + ($("from").value || 1) + ":\n" + v.preamble.join("\n");
+};
+
+// ---- setup ----
+$("setup-toml").addEventListener("input", () => { $("setup-toml").dataset.edited = "1"; });
+$("setup-check").onclick = async () => {
+  const v = await post("setup_check", { toml: $("setup-toml").value });
+  $("setup-msg").textContent = v.ok ? v.message : v.error;
+};
+$("setup-push").onclick = async () => {
+  const v = await post("setup_push", { toml: $("setup-toml").value });
+  $("setup-msg").textContent = v.ok ? v.message : v.error;
+  if (v.ok) delete $("setup-toml").dataset.edited;
+};
+$("setup-reload").onclick = () => {
+  delete $("setup-toml").dataset.edited;
+  if (setup) $("setup-toml").value = setup.toml;
+};
+
+// ---- tool path: top view and isometric ----
+const VIEWS = {
+  top: (p) => [p[0], p[1]],
+  iso: (p) => [(p[0] - p[1]) * 0.866, (p[0] + p[1]) * 0.5 + p[2]],
+};
+const cache = {};
+function box() {
+  // The travel box in the program's coordinates (machine travel shifted by the work offset).
+  if (!setup || !status) return null;
+  const off = [0, 1, 2].map((i) => (status.machine[i] ?? 0) - (status.work[i] ?? 0));
+  const lo = [0, 1, 2].map((i) => (setup.travel_min[i] ?? 0) - off[i]);
+  const hi = [0, 1, 2].map((i) => (setup.travel_max[i] ?? 0) - off[i]);
+  return { lo, hi };
+}
+function corners(b) {
+  const c = [];
+  for (const x of [b.lo[0], b.hi[0]]) for (const y of [b.lo[1], b.hi[1]]) for (const z of [b.lo[2], b.hi[2]]) c.push([x, y, z]);
+  return c;
+}
+const EDGES = [[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7], [0, 4], [1, 5], [2, 6], [3, 7]];
+let lastKey = "";
+function draw(force) {
+  const b = box();
+  const cut = job && job.name === programName ? job.line : 0;
+  const key = JSON.stringify([b, cut, path ? path.length : 0]);
+  const stale = force || key !== lastKey;
+  lastKey = key;
+  for (const name of ["top", "iso"]) {
+    const cv = $(name), proj = VIEWS[name];
+    const ctx = cv.getContext("2d");
+    if (stale || !cache[name]) cache[name] = render(cv.width, cv.height, proj, b, cut);
+    const c = cache[name];
+    ctx.clearRect(0, 0, cv.width, cv.height);
+    ctx.drawImage(c.img, 0, 0);
+    if (status && c.map) {
+      const [x, y] = c.map(proj([status.work[0] || 0, status.work[1] || 0, status.work[2] || 0]));
+      ctx.strokeStyle = "#ff5252"; ctx.lineWidth = 2;
+      ctx.beginPath(); ctx.arc(x, y, 6, 0, 7); ctx.moveTo(x - 10, y); ctx.lineTo(x + 10, y); ctx.moveTo(x, y - 10); ctx.lineTo(x, y + 10); ctx.stroke();
+    }
+  }
+}
+function render(w, h, proj, b, cut) {
+  const img = document.createElement("canvas");
+  img.width = w; img.height = h;
+  const ctx = img.getContext("2d");
+  // Fit the program's path (the travel box only when there is none); the box is clipped.
+  const pts = [];
+  if (b && !(path && path.length)) for (const c of corners(b)) pts.push(proj(c));
+  if (path) for (let i = 0; i < path.length; i += 5) pts.push(proj([path[i + 2], path[i + 3], path[i + 4]]));
+  if (!pts.length) return { img, map: null };
+  let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
+  for (const [x, y] of pts) { x0 = Math.min(x0, x); x1 = Math.max(x1, x); y0 = Math.min(y0, y); y1 = Math.max(y1, y); }
+  const pad = 0.08 * Math.max(x1 - x0, y1 - y0, 1);
+  x0 -= pad; x1 += pad; y0 -= pad; y1 += pad;
+  const s = Math.min((w - 20) / Math.max(x1 - x0, 1e-3), (h - 20) / Math.max(y1 - y0, 1e-3));
+  const map = ([x, y]) => [10 + (x - x0) * s + ((w - 20) - (x1 - x0) * s) / 2, h - 10 - (y - y0) * s - ((h - 20) - (y1 - y0) * s) / 2];
+  if (b) {
+    const c = corners(b).map((p) => map(proj(p)));
+    ctx.strokeStyle = "#5c6670"; ctx.setLineDash([4, 4]); ctx.beginPath();
+    for (const [i, j] of EDGES) { ctx.moveTo(...c[i]); ctx.lineTo(...c[j]); }
+    ctx.stroke(); ctx.setLineDash([]);
+  }
+  if (path) {
+    // Rapids dashed grey, feeds blue, what is already cut (lines before the board's) orange.
+    const style = (k, line) => (k === 0 ? "#8a949e" : line < cut ? "#ff9800" : "#4fc3f7");
+    let prev = null, cur = null;
+    ctx.lineWidth = 1.2;
+    for (let i = 0; i < path.length; i += 5) {
+      const k = path[i], line = path[i + 1];
+      const p = map(proj([path[i + 2], path[i + 3], path[i + 4]]));
+      if (prev && k !== 2) {
+        const st = style(k, line);
+        if (st !== cur) { if (cur) ctx.stroke(); ctx.strokeStyle = st; ctx.setLineDash(k === 0 ? [3, 3] : []); ctx.beginPath(); ctx.moveTo(...prev); cur = st; }
+        ctx.lineTo(...p);
+      } else if (cur) { ctx.stroke(); cur = null; }
+      if (!cur) { ctx.beginPath(); ctx.moveTo(...p); }
+      prev = p;
+    }
+    if (cur) ctx.stroke();
+    ctx.setLineDash([]);
+  }
+  return { img, map };
+}
+
+connect();

@@ -1,0 +1,799 @@
+//! The operator's console: `gantry serve --port P --http 127.0.0.1:8080` serves one page (its
+//! HTML, script and style compiled into the binary, nothing fetched from elsewhere) from which an
+//! operator reads the machine and drives it.
+//!
+//! The page is a client of the same session layer as the CLI (`crate::session`): the console
+//! opens its sessions through serve's own socket, exactly as `gantry status` or `gantry stream`
+//! in another terminal do, so a click and a command act on the same job and see the same state.
+//! - the *control* session (one thread, [`worker`]) reads the status the board pushes (every
+//!   100 ms) and broadcasts it to every page as Server-Sent Events, and carries the page's
+//!   realtime requests (hold, resume, abort, overrides, jog, home, unlock, zero, setup push);
+//! - a *job* session (a thread per job, [`job`]) streams a program or an MDI block, as
+//!   `gantry stream` would, and broadcasts its progress with the planner's ETA.
+//!
+//! The job belongs to the serve process, not to the page: closing the page never stops it.
+//! No authentication: the console listens on loopback unless `--allow-remote` (docs/console.md).
+
+mod http;
+pub mod program;
+
+use crate::commands::stream::Eta;
+use crate::link::OnClose;
+use crate::present::{alarm_text, limit_text, outputs_text, refusal_text, state_name, state_words};
+use crate::program::Program;
+use crate::program_stops;
+use crate::resume::resume_preamble;
+use crate::session::{Flow, JobStart, Session, Target};
+use anyhow::Context;
+use gantry_machine::controller::inputs::INPUT_NAMES;
+use gantry_machine::setup::Setup;
+use gantry_machine::units::AXIS_LETTERS;
+use gantry_proto::{BoardMsg, MachineState, Status};
+use serde_json::{json, Value};
+use std::collections::{BTreeMap, VecDeque};
+use std::io::{BufReader, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::sync::{Arc, Condvar, Mutex};
+use std::time::{Duration, Instant};
+
+const PAGE: &str = include_str!("page.html");
+const SCRIPT: &str = include_str!("console.js");
+const STYLE: &str = include_str!("console.css");
+
+/// How long the page's request waits for the board's answer.
+const ANSWER_MS: u32 = 2000;
+
+/// Where the console listens.
+#[derive(Clone, Debug)]
+pub struct Options {
+    pub addr: SocketAddr,
+    pub allow_remote: bool,
+}
+
+/// Refuses an address other hosts can reach unless `allow_remote`; warns when allowed.
+pub fn check_address(addr: &SocketAddr, allow_remote: bool) -> anyhow::Result<()> {
+    if addr.ip().is_loopback() {
+        return Ok(());
+    }
+    anyhow::ensure!(
+        allow_remote,
+        "--http {addr}: not a loopback address; the console has no authentication and anyone who \
+         reaches it can move the machine. Use 127.0.0.1 (and an SSH tunnel for a tablet, \
+         docs/console.md), or add --allow-remote if you mean it"
+    );
+    eprintln!(
+        "serve: WARNING: the console listens on {addr}, reachable from other hosts, with no \
+         authentication: anyone who reaches it can move the machine"
+    );
+    Ok(())
+}
+
+/// The events every page receives: a ring of the recent ones and the newest of each kind (a page
+/// that connects gets those first).
+#[derive(Default)]
+struct Hub {
+    state: Mutex<HubState>,
+    cv: Condvar,
+}
+
+#[derive(Default)]
+struct HubState {
+    seq: u64,
+    ring: VecDeque<(u64, String)>,
+    latest: BTreeMap<&'static str, String>,
+}
+
+impl Hub {
+    fn publish(&self, kind: &'static str, data: Value) {
+        let text = http::event_text(kind, &data.to_string());
+        let mut s = self.state.lock().expect("hub");
+        s.seq += 1;
+        let seq = s.seq;
+        s.ring.push_back((seq, text.clone()));
+        if s.ring.len() > 256 {
+            s.ring.pop_front();
+        }
+        if kind != "notice" {
+            s.latest.insert(kind, text);
+        }
+        self.cv.notify_all();
+    }
+
+    /// The newest event of each kind, and the sequence number they bring a page up to.
+    fn snapshot(&self) -> (u64, Vec<String>) {
+        let s = self.state.lock().expect("hub");
+        (s.seq, s.latest.values().cloned().collect())
+    }
+
+    /// The events after `seq` (waiting at most `limit` for one).
+    fn after(&self, seq: u64, limit: Duration) -> (u64, Vec<String>) {
+        let s = self.state.lock().expect("hub");
+        let (s, _) = self
+            .cv
+            .wait_timeout_while(s, limit, |s| s.seq <= seq)
+            .expect("hub");
+        let events = s
+            .ring
+            .iter()
+            .filter(|(n, _)| *n > seq)
+            .map(|(_, t)| t.clone())
+            .collect();
+        (s.seq, events)
+    }
+}
+
+/// A request for the control session.
+enum Cmd {
+    Hold,
+    Resume,
+    Abort,
+    Overrides {
+        feed: Option<u16>,
+        rapid: Option<u16>,
+    },
+    /// Jog `axis` towards `dir` (±1) by `step_nm` (0: continuous, to the end of the travel).
+    Jog {
+        axis: u8,
+        dir: i8,
+        step_nm: u64,
+        feed_um_min: i32,
+    },
+    JogStop,
+    Home(u8),
+    Unlock,
+    /// Work zero of `axis` here (G10 L20 P0).
+    Zero(u8),
+    /// Sets work offsets: `G10 L2 P<p>` with these axis values, mm.
+    Offsets(String),
+    PushSetup(Box<Setup>),
+}
+
+type Reply = Result<String, String>;
+
+/// The program the page loaded.
+struct Loaded {
+    name: String,
+    text: String,
+}
+
+struct Console {
+    port: String,
+    hub: Hub,
+    setup: Mutex<Option<Setup>>,
+    program: Mutex<Option<Loaded>>,
+    /// A console job thread runs.
+    job: AtomicBool,
+    /// A request to hold, resume, abort, or continue from the job thread.
+    control: Mutex<mpsc::Sender<(Cmd, mpsc::Sender<Reply>)>>,
+}
+
+impl Console {
+    fn ask(&self, cmd: Cmd) -> Reply {
+        let (tx, rx) = mpsc::channel();
+        self.control
+            .lock()
+            .expect("control")
+            .send((cmd, tx))
+            .map_err(|_| "the console's session has ended".to_owned())?;
+        rx.recv_timeout(Duration::from_secs(15))
+            .map_err(|_| "no answer from the console's session".to_owned())?
+    }
+
+    fn notice(&self, text: impl Into<String>) {
+        self.hub
+            .publish("notice", json!({ "text": text.into(), "at": now_s() }));
+    }
+}
+
+fn now_s() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
+}
+
+/// Starts the console for the board `gantry serve` serves on `port` (serve's socket must be bound
+/// already, and [`check_address`] passed); returns once it listens.
+pub fn start(port: &str, opts: &Options) -> anyhow::Result<()> {
+    let listener = TcpListener::bind(opts.addr)
+        .with_context(|| format!("--http {}: cannot listen", opts.addr))?;
+    let (tx, rx) = mpsc::channel();
+    let console = Arc::new(Console {
+        port: port.to_owned(),
+        hub: Hub::default(),
+        setup: Mutex::new(None),
+        program: Mutex::new(None),
+        job: AtomicBool::new(false),
+        control: Mutex::new(tx),
+    });
+    let c = console.clone();
+    std::thread::Builder::new()
+        .name("console-session".into())
+        .spawn(move || worker(c, rx))?;
+    let addr = listener.local_addr()?;
+    let c = console;
+    std::thread::Builder::new()
+        .name("console-http".into())
+        .spawn(move || {
+            for stream in listener.incoming().flatten() {
+                let c = c.clone();
+                let _ = std::thread::Builder::new()
+                    .name("console-client".into())
+                    .spawn(move || serve_client(&c, stream, addr));
+            }
+        })?;
+    eprintln!("serve: the console is on http://{addr}/");
+    Ok(())
+}
+
+/// The control session: the board's pushed status to every page, the page's requests to the
+/// board. Reconnects when its link ends (serve closes every command's link when the board
+/// restarts).
+fn worker(c: Arc<Console>, rx: mpsc::Receiver<(Cmd, mpsc::Sender<Reply>)>) {
+    loop {
+        let mut session = match Session::connect(Target::Port(c.port.clone()), OnClose::KeepDtr) {
+            Ok(s) => s,
+            Err(e) => {
+                c.notice(format!("cannot reach the board: {e:#}"));
+                std::thread::sleep(Duration::from_secs(1));
+                continue;
+            }
+        };
+        *c.setup.lock().expect("setup") = Some(session.setup().clone());
+        c.hub.publish("setup", setup_json(session.setup()));
+        let mut heard = Instant::now();
+        loop {
+            match rx.recv_timeout(Duration::from_millis(5)) {
+                Ok((cmd, reply)) => {
+                    let r = carry_out(&mut session, &c, cmd);
+                    let _ = reply.send(r);
+                }
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
+            match session.pushed_status() {
+                Ok(got) => {
+                    if let Some(s) = got.last() {
+                        heard = Instant::now();
+                        c.hub.publish("status", status_json(s, session.axes()));
+                    }
+                }
+                Err(e) => {
+                    c.notice(format!("the link to serve ended: {e:#}"));
+                    break;
+                }
+            }
+            for n in session.take_notices() {
+                match n {
+                    BoardMsg::Alarm { code, line } => {
+                        c.notice(format!("line {line}: {}", alarm_text(code)))
+                    }
+                    BoardMsg::Limit { axis, max } => c.notice(limit_text(axis, max)),
+                    _ => {}
+                }
+            }
+            if heard.elapsed() > Duration::from_secs(3) {
+                c.notice("no status from the board for 3 s: connecting again");
+                break;
+            }
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
+fn answer(a: anyhow::Result<Option<u16>>, done: &str) -> Reply {
+    match a {
+        Ok(Some(0)) => Ok(done.to_owned()),
+        Ok(Some(code)) => Err(format!("refused: {}", refusal_text(code))),
+        Ok(None) => Err(format!(
+            "the board did not answer within {} s",
+            ANSWER_MS / 1000
+        )),
+        Err(e) => Err(format!("{e:#}")),
+    }
+}
+
+fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
+    let e = |r: anyhow::Result<()>, done: &str| {
+        r.map(|()| done.to_owned()).map_err(|e| format!("{e:#}"))
+    };
+    match cmd {
+        Cmd::Hold => e(s.hold(), "feed hold sent"),
+        Cmd::Resume => e(s.resume(), "resume sent"),
+        Cmd::Abort => e(s.abort(), "abort sent"),
+        Cmd::Overrides { feed, rapid } => e(s.set_overrides(feed, rapid), "override sent"),
+        Cmd::JogStop => e(s.jog_stop(), "jog stopped"),
+        Cmd::Jog {
+            axis,
+            dir,
+            step_nm,
+            feed_um_min,
+        } => {
+            let axes = s.axes();
+            if axis as usize >= axes {
+                return Err(format!("the machine has {axes} axes"));
+            }
+            let here = match s.last_status() {
+                Some(st) => st.machine_pos[axis as usize],
+                None => s.status().map_err(|e| format!("{e:#}"))?.machine_pos[axis as usize],
+            };
+            let a = &s.setup().axes[axis as usize];
+            // Never beyond the travel: a step stops at its end, a continuous jog goes to it.
+            let room = if dir > 0 {
+                a.travel_max - here
+            } else {
+                here - a.travel_min
+            };
+            if room <= 0 {
+                return Err(format!(
+                    "{} is at the end of its travel",
+                    AXIS_LETTERS[axis as usize]
+                ));
+            }
+            let room = room as u64;
+            let distance = if step_nm == 0 {
+                room
+            } else {
+                step_nm.min(room)
+            };
+            let feed = feed_um_min.abs() * if dir > 0 { 1 } else { -1 };
+            answer(s.jog(axis, feed, distance, ANSWER_MS), "jogging")
+        }
+        Cmd::Home(axes) => answer(s.home(axes, ANSWER_MS), "homing"),
+        Cmd::Unlock => answer(s.unlock(ANSWER_MS), "unlocked"),
+        Cmd::Zero(axis) => {
+            let letter = AXIS_LETTERS[axis as usize];
+            mdi_here(s, &format!("G10 L20 P0 {letter}0"))
+                .map(|()| format!("work {letter} is 0 here"))
+        }
+        Cmd::Offsets(block) => mdi_here(s, &block).map(|()| format!("{block}: done")),
+        Cmd::PushSetup(setup) => match s.push_setup(&setup) {
+            Ok(()) => {
+                *c.setup.lock().expect("setup") = Some((*setup).clone());
+                c.hub.publish("setup", setup_json(&setup));
+                Ok("setup pushed, saved by the board".into())
+            }
+            Err(e) => Err(format!("{e:#}")),
+        },
+    }
+}
+
+/// Runs one block that does not move (offsets) on the control session.
+fn mdi_here(s: &mut Session, block: &str) -> Result<(), String> {
+    let (program, report) = s
+        .mdi(&[block.to_owned()], &mut |_| Flow::Continue)
+        .map_err(|e| format!("{e:#}"))?;
+    if let Some(e) = report.errors.first() {
+        return Err(e.describe("mdi", &program));
+    }
+    Ok(())
+}
+
+fn mm(nm: i64) -> f64 {
+    (nm as f64 / 1000.0).round() / 1000.0
+}
+
+/// The status as the page reads it.
+fn status_json(s: &Status, axes: usize) -> Value {
+    let homed: String = (0..axes)
+        .filter(|i| s.homed >> i & 1 == 1)
+        .map(|i| AXIS_LETTERS[i])
+        .collect();
+    let inputs: Vec<&str> = INPUT_NAMES
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| s.inputs >> i & 1 == 1)
+        .map(|(_, n)| *n)
+        .collect();
+    let alarm = match s.state {
+        MachineState::Alarm { code } => Some(alarm_text(code)),
+        _ => None,
+    };
+    let tool_change = match s.state {
+        MachineState::ToolChange { tool } => Some(tool),
+        _ => None,
+    };
+    json!({
+        "state": state_name(s.state),
+        "words": state_words(s.state),
+        "alarm": alarm,
+        "tool_change": tool_change,
+        "axes": axes,
+        "letters": AXIS_LETTERS[..axes].iter().map(|c| c.to_string()).collect::<Vec<_>>(),
+        "machine": s.machine_pos[..axes].iter().map(|&p| mm(p)).collect::<Vec<_>>(),
+        "work": s.work_pos[..axes].iter().map(|&p| mm(p)).collect::<Vec<_>>(),
+        "feed": s.feed_um_min as f64 / 1000.0,
+        "feed_override": s.feed_override,
+        "rapid_override": s.rapid_override,
+        "line": s.line,
+        "tool": s.outputs.tool,
+        "rpm": s.outputs.rpm,
+        "outputs": outputs_text(&s.outputs),
+        "homed": homed,
+        "inputs": inputs,
+        "planner": s.planner_fill,
+        "queue": s.queue_fill,
+        "probe": s.probe.map(|p| json!({"machine": p.machine_pos[..axes].iter().map(|&v| mm(v)).collect::<Vec<_>>(), "contact": p.success})),
+    })
+}
+
+/// The setup as the page shows it (the setup file's TOML, the travel box).
+fn setup_json(s: &Setup) -> Value {
+    let axes = s.axis_count as usize;
+    json!({
+        "toml": crate::setup_file::to_toml(s),
+        "axes": axes,
+        "travel_min": s.axes[..axes].iter().map(|a| mm(a.travel_min)).collect::<Vec<_>>(),
+        "travel_max": s.axes[..axes].iter().map(|a| mm(a.travel_max)).collect::<Vec<_>>(),
+    })
+}
+
+/// Streams `program` (a file from the page, or an MDI block) on a session of its own.
+fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
+    let program = Program::from_text(&text);
+    let publish_end = |v: Value| c.hub.publish("job", v);
+    let result = (|| -> anyhow::Result<()> {
+        let mut s = Session::connect(Target::Port(c.port.clone()), OnClose::KeepDtr)?;
+        s.set_operator(true);
+        let setup = s.setup().clone();
+        let eta = Eta::plan(&text, &setup);
+        let mut preamble = Vec::new();
+        let start = match from {
+            Some(n) if n > 1 => {
+                let here = s.status()?.machine_pos;
+                preamble = resume_preamble(&program, &text, n, &setup, &here)?;
+                if let Some(e) = &eta {
+                    e.start_at(n);
+                }
+                JobStart::FromLine(n, preamble.clone())
+            }
+            _ => JobStart::Beginning,
+        };
+        let total = program.len();
+        let mut last = 0u32;
+        let mut stop_line = 0u32;
+        let mut stop: Option<String> = None;
+        let report = s.run_job(&program, start, &mut |p| {
+            let state = p.status.as_ref().map(|s| s.state);
+            let stopped = matches!(
+                state,
+                Some(MachineState::Hold { stopped: true } | MachineState::ToolChange { .. })
+            );
+            if stopped && p.line != stop_line {
+                let found = match state {
+                    Some(MachineState::ToolChange { tool }) => {
+                        Some(program_stops::Stop::ToolChange { tool: Some(tool) })
+                    }
+                    _ => program
+                        .wire_text(p.line)
+                        .ok()
+                        .flatten()
+                        .and_then(|t| program_stops::stop_in(&t))
+                        .filter(|s| matches!(s, program_stops::Stop::Program { .. })),
+                };
+                if let Some(f) = found {
+                    stop_line = p.line;
+                    let source = program.line(p.line).unwrap_or("").trim().to_owned();
+                    stop = Some(format!(
+                        "{}\n{source}",
+                        program_stops::message(f, p.line)
+                            .replace("press Enter (or cycle start)", "press Continue")
+                    ));
+                    last = 0;
+                }
+            }
+            if !stopped {
+                stop = None;
+            }
+            if p.elapsed_ms.wrapping_sub(last) >= 100 || last == 0 {
+                last = p.elapsed_ms.max(1);
+                let elapsed = p.elapsed_ms as f64 / 1000.0;
+                let left = eta.as_ref().map(|e| e.left_at(p.line.max(1), elapsed));
+                c.hub.publish(
+                    "job",
+                    json!({
+                        "running": true, "name": name, "line": p.line, "total": total,
+                        "elapsed_s": elapsed, "left_s": left,
+                        "planned_s": eta.as_ref().map(|e| e.total()),
+                        "preamble": preamble, "from_line": from, "stop": stop,
+                    }),
+                );
+            }
+            Flow::Continue
+        })?;
+        let errors: Vec<String> = report
+            .errors
+            .iter()
+            .map(|e| e.describe(&name, &program))
+            .collect();
+        let alarms: Vec<String> = report.alarms.iter().map(|a| a.describe(&program)).collect();
+        publish_end(json!({
+            "running": false, "name": name, "line": report.last_line, "total": total,
+            "completed": report.completed, "aborted": report.aborted,
+            "errors": errors, "alarms": alarms,
+            "elapsed_s": report.elapsed_ms as f64 / 1000.0,
+            "link": format!("{:?}", report.link),
+        }));
+        Ok(())
+    })();
+    if let Err(e) = result {
+        publish_end(json!({ "running": false, "name": name, "errors": [format!("{e:#}")] }));
+    }
+    c.job.store(false, Ordering::SeqCst);
+}
+
+/// Starts a job thread unless one runs.
+fn start_job(c: &Arc<Console>, name: String, text: String, from: Option<u32>) -> Reply {
+    if c.job.swap(true, Ordering::SeqCst) {
+        return Err("a job started from the console is still running".into());
+    }
+    let c2 = c.clone();
+    let _ = std::thread::Builder::new()
+        .name("console-job".into())
+        .spawn(move || job(c2, name, text, from))
+        .map_err(|e| {
+            c.job.store(false, Ordering::SeqCst);
+            e.to_string()
+        })?;
+    Ok("started".into())
+}
+
+fn serve_client(c: &Arc<Console>, stream: TcpStream, addr: SocketAddr) {
+    let Ok(read_half) = stream.try_clone() else {
+        return;
+    };
+    let mut reader = BufReader::new(read_half);
+    let mut out = stream;
+    while let Some(req) = http::read_request(&mut reader) {
+        // A page from elsewhere must not drive the machine through the operator's browser: the
+        // Host must be this console's (no DNS rebinding), and a command must be JSON (a
+        // cross-site form cannot send that without a CORS preflight, which is never granted).
+        if !req.host_ok(addr) {
+            http::respond(&mut out, "403 Forbidden", "text/plain", b"wrong Host\n");
+            return;
+        }
+        let ok = match (req.method.as_str(), req.path.as_str()) {
+            ("GET", "/") | ("GET", "/index.html") => http::respond(
+                &mut out,
+                "200 OK",
+                "text/html; charset=utf-8",
+                PAGE.as_bytes(),
+            ),
+            ("GET", "/console.js") => http::respond(
+                &mut out,
+                "200 OK",
+                "text/javascript; charset=utf-8",
+                SCRIPT.as_bytes(),
+            ),
+            ("GET", "/console.css") => http::respond(
+                &mut out,
+                "200 OK",
+                "text/css; charset=utf-8",
+                STYLE.as_bytes(),
+            ),
+            ("GET", "/events") => {
+                events(c, out);
+                return;
+            }
+            ("POST", path) if path.starts_with("/api/") => {
+                if !req.json {
+                    http::respond(
+                        &mut out,
+                        "415 Unsupported Media Type",
+                        "text/plain",
+                        b"commands are application/json\n",
+                    );
+                    return;
+                }
+                let body: Value = serde_json::from_slice(&req.body).unwrap_or(Value::Null);
+                let (code, v) = match api(c, &path[5..], &body) {
+                    Ok(v) => ("200 OK", v),
+                    Err(e) => ("200 OK", json!({ "ok": false, "error": e })),
+                };
+                http::respond(&mut out, code, "application/json", v.to_string().as_bytes())
+            }
+            _ => http::respond(&mut out, "404 Not Found", "text/plain", b"not found\n"),
+        };
+        if !ok {
+            return;
+        }
+    }
+}
+
+/// The Server-Sent Events stream of one page: the newest event of each kind, then every event
+/// as it comes; a comment every second finds a page that went away.
+fn events(c: &Console, mut out: TcpStream) {
+    if !http::start_events(&mut out) {
+        return;
+    }
+    let (mut seq, first) = c.hub.snapshot();
+    for e in first {
+        if out.write_all(e.as_bytes()).is_err() {
+            return;
+        }
+    }
+    loop {
+        let (n, events) = c.hub.after(seq, Duration::from_secs(1));
+        let text = if events.is_empty() {
+            ": ping\n\n".to_owned()
+        } else {
+            events.concat()
+        };
+        if out.write_all(text.as_bytes()).is_err() || out.flush().is_err() {
+            return;
+        }
+        seq = n;
+    }
+}
+
+fn ok(message: String) -> Value {
+    json!({ "ok": true, "message": message })
+}
+
+fn num(v: &Value, key: &str) -> Option<f64> {
+    v.get(key).and_then(Value::as_f64).filter(|x| x.is_finite())
+}
+
+fn axis_of(v: &Value) -> Result<u8, String> {
+    match v.get("axis") {
+        Some(Value::String(s)) => AXIS_LETTERS
+            .iter()
+            .position(|a| s.eq_ignore_ascii_case(&a.to_string()))
+            .map(|i| i as u8)
+            .ok_or_else(|| format!("no axis {s}")),
+        Some(Value::Number(n)) => n
+            .as_u64()
+            .filter(|&n| n < 6)
+            .map(|n| n as u8)
+            .ok_or_else(|| "no such axis".into()),
+        _ => Err("which axis?".into()),
+    }
+}
+
+fn percent(v: &Value, key: &str) -> Result<Option<u16>, String> {
+    match num(v, key) {
+        None => Ok(None),
+        Some(p) if (1.0..=200.0).contains(&p) => Ok(Some(p.round() as u16)),
+        Some(p) => Err(format!("{key} override {p} %: give 1 to 200")),
+    }
+}
+
+fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
+    let m = match what {
+        "hold" => c.ask(Cmd::Hold)?,
+        "resume" | "continue" => c.ask(Cmd::Resume)?,
+        "abort" => c.ask(Cmd::Abort)?,
+        "override" => c.ask(Cmd::Overrides {
+            feed: percent(body, "feed")?,
+            rapid: percent(body, "rapid")?,
+        })?,
+        "jog" => {
+            let step = num(body, "step").unwrap_or(0.0);
+            if !(0.0..=1000.0).contains(&step) {
+                return Err(format!("jog step {step} mm: give 0 (continuous) to 1000"));
+            }
+            let feed = num(body, "feed").unwrap_or(1000.0);
+            if !(1.0..=100_000.0).contains(&feed) {
+                return Err(format!("jog feed {feed} mm/min: give 1 to 100000"));
+            }
+            c.ask(Cmd::Jog {
+                axis: axis_of(body)?,
+                dir: if num(body, "dir").unwrap_or(1.0) < 0.0 {
+                    -1
+                } else {
+                    1
+                },
+                step_nm: (step * 1e6).round() as u64,
+                feed_um_min: (feed * 1000.0).round() as i32,
+            })?
+        }
+        "jog_stop" => c.ask(Cmd::JogStop)?,
+        "home" => {
+            let axes = match body.get("axis") {
+                None | Some(Value::Null) => 0,
+                Some(_) => 1u8 << axis_of(body)?,
+            };
+            c.ask(Cmd::Home(axes))?
+        }
+        "unlock" => c.ask(Cmd::Unlock)?,
+        "zero" => c.ask(Cmd::Zero(axis_of(body)?))?,
+        "offset" => {
+            // G10 L2 P1..P9 (G54..G59.3) with the values given, mm.
+            let p = num(body, "p").unwrap_or(0.0);
+            if !(1.0..=9.0).contains(&p) || p.fract() != 0.0 {
+                return Err("P 1 (G54) to 9 (G59.3)".into());
+            }
+            let mut block = format!("G21 G10 L2 P{p}");
+            for (i, l) in AXIS_LETTERS.iter().enumerate() {
+                if let Some(v) = body.get(l.to_string()).and_then(Value::as_f64) {
+                    let _ = i;
+                    block.push_str(&format!(" {l}{v:.4}"));
+                }
+            }
+            c.ask(Cmd::Offsets(block))?
+        }
+        "mdi" => {
+            let line = body
+                .get("line")
+                .and_then(Value::as_str)
+                .unwrap_or("")
+                .trim();
+            if line.is_empty() {
+                return Err("an empty MDI block".into());
+            }
+            start_job(c, "mdi".into(), line.to_owned(), None)?
+        }
+        "program" => {
+            let name = body
+                .get("name")
+                .and_then(Value::as_str)
+                .unwrap_or("program.nc");
+            let name: String = name
+                .chars()
+                .filter(|ch| !ch.is_control() && *ch != ':')
+                .take(100)
+                .collect();
+            let text = body.get("text").and_then(Value::as_str).unwrap_or("");
+            let setup = c
+                .setup
+                .lock()
+                .expect("setup")
+                .clone()
+                .ok_or("the board's setup is not read yet")?;
+            let checked = program::check(&name, text, &setup);
+            let path: Value = serde_json::from_str(&program::path_json(text, &setup))
+                .map_err(|e| e.to_string())?;
+            *c.program.lock().expect("program") = Some(Loaded {
+                name: name.clone(),
+                text: text.to_owned(),
+            });
+            let v = json!({
+                "ok": true, "name": name, "lines": Program::from_text(text).len(),
+                "check": checked.text, "errors": checked.errors,
+                "error_lines": checked.error_lines, "seconds": checked.seconds,
+            });
+            c.hub.publish("program", v.clone());
+            let mut v = v;
+            v["path"] = path["pts"].clone();
+            v["source"] = Value::from(text);
+            return Ok(v);
+        }
+        "run" => {
+            let from = num(body, "from_line").map(|n| n.max(1.0) as u32);
+            let (name, text) = {
+                let p = c.program.lock().expect("program");
+                let p = p.as_ref().ok_or("open a program first")?;
+                (p.name.clone(), p.text.clone())
+            };
+            start_job(c, name, text, from)?
+        }
+        "preamble" => {
+            let from = num(body, "from_line").map_or(1, |n| n.max(1.0) as u32);
+            let p = c.program.lock().expect("program");
+            let p = p.as_ref().ok_or("open a program first")?;
+            let setup = c
+                .setup
+                .lock()
+                .expect("setup")
+                .clone()
+                .ok_or("no setup yet")?;
+            let program = Program::from_text(&p.text);
+            // Shown before the run; the job computes it again where the machine stands then.
+            let pre = resume_preamble(&program, &p.text, from, &setup, &[0; 6])
+                .map_err(|e| format!("{e:#}"))?;
+            return Ok(json!({ "ok": true, "preamble": pre }));
+        }
+        "setup_check" | "setup_push" => {
+            let text = body.get("toml").and_then(Value::as_str).unwrap_or("");
+            let setup = crate::setup_file::SetupFile::parse(text).map_err(|e| format!("{e:#}"))?;
+            if what == "setup_check" {
+                "the setup is valid".into()
+            } else {
+                c.ask(Cmd::PushSetup(Box::new(setup)))?
+            }
+        }
+        _ => return Err(format!("no command {what}")),
+    };
+    Ok(ok(m))
+}

@@ -1,0 +1,182 @@
+//! The console's program: a file uploaded from the page, checked with the board's setup as
+//! `gantry check` checks it (the same text: errors with their line and a caret, the summary with
+//! the planned time), and its tool path as polylines for the page's canvas.
+
+use crate::check::check_stream;
+use crate::check_summary::format_summary;
+use crate::preview::geom::plane_axes;
+use crate::preview::source::Actions;
+use gantry_machine::canon::{Action, ArcDir};
+use gantry_machine::gcode::MemorySource;
+use gantry_machine::setup::Setup;
+use std::fmt::Write as _;
+
+/// At most this many path points go to the page (a longer path is thinned evenly).
+const POINTS_MAX: usize = 400_000;
+
+/// What checking a program found.
+pub struct Checked {
+    /// `gantry check`'s report.
+    pub text: String,
+    pub errors: usize,
+    /// The lines the errors are at (1-based), in order.
+    pub error_lines: Vec<u32>,
+    /// Planned machine time, s (none when the check found an error).
+    pub seconds: Option<f64>,
+}
+
+/// Checks `text` (named `name`) with `setup`, as `gantry check NAME` does.
+pub fn check(name: &str, text: &str, setup: &Setup) -> Checked {
+    let mut out = Vec::new();
+    let (errors, summary) = check_stream(
+        name,
+        MemorySource::new(text.as_bytes()),
+        &setup.interp_config(),
+        Some(setup),
+        &mut out,
+    )
+    .expect("writing to memory does not fail");
+    let mut report = String::from_utf8_lossy(&out).into_owned();
+    let prefix = format!("{name}:");
+    let error_lines = report
+        .lines()
+        .filter_map(|l| l.strip_prefix(&prefix))
+        .filter_map(|rest| rest.split(':').next()?.parse().ok())
+        .collect();
+    let mut seconds = None;
+    if let Some(s) = &summary {
+        if errors == 0 {
+            seconds = s.run_time_s;
+        }
+        report.push_str(&format_summary(s, setup));
+    }
+    Checked {
+        text: report,
+        errors,
+        error_lines,
+        seconds,
+    }
+}
+
+/// The tool path as JSON: `{"pts":[kind,line,x,y,z,…]}` where each point ends a move from the
+/// point before (kind 0 rapid, 1 feed, 2 the first point), mm in the program's coordinates with
+/// no work offset (the page shifts by the board's offset), up to the first error.
+pub fn path_json(text: &str, setup: &Setup) -> String {
+    let mut pts: Vec<(u8, u32, [f64; 3])> = Vec::new();
+    let mut at: Option<[f64; 3]> = None;
+    let mm = |p: &[i64]| [p[0] as f64 / 1e6, p[1] as f64 / 1e6, p[2] as f64 / 1e6];
+    let actions = Actions::new(MemorySource::new(text.as_bytes()), &setup.interp_config());
+    for c in actions {
+        let (kind, to) = match &c.action {
+            Action::Rapid { to } => (0u8, mm(to)),
+            Action::Feed { to, .. } | Action::Probe { to, .. } => (1, mm(to)),
+            Action::Arc {
+                to,
+                center,
+                plane,
+                dir,
+                turns,
+                ..
+            } => {
+                let end = mm(to);
+                if let Some(from) = at {
+                    let (a, b, n) = plane_axes(*plane);
+                    let (ca, cb) = (center[a] as f64 / 1e6, center[b] as f64 / 1e6);
+                    let r = (from[a] - ca).hypot(from[b] - cb);
+                    let a0 = (from[b] - cb).atan2(from[a] - ca);
+                    let a1 = (end[b] - cb).atan2(end[a] - ca);
+                    let tau = std::f64::consts::TAU;
+                    let mut sweep = a1 - a0;
+                    let extra = turns.saturating_sub(1) as f64 * tau;
+                    if *dir == ArcDir::Ccw {
+                        while sweep <= 1e-9 {
+                            sweep += tau;
+                        }
+                        sweep += extra;
+                    } else {
+                        while sweep >= -1e-9 {
+                            sweep -= tau;
+                        }
+                        sweep -= extra;
+                    }
+                    let steps = ((sweep.abs() * r / 0.25) as usize).clamp(4, 720);
+                    for i in 1..steps {
+                        let t = i as f64 / steps as f64;
+                        let ang = a0 + sweep * t;
+                        let mut p = [0.0; 3];
+                        p[a] = ca + r * ang.cos();
+                        p[b] = cb + r * ang.sin();
+                        p[n] = from[n] + (end[n] - from[n]) * t;
+                        pts.push((1, c.line, p));
+                    }
+                }
+                (1, end)
+            }
+            _ => continue,
+        };
+        if at.is_none() {
+            pts.push((2, c.line, to));
+        }
+        pts.push((kind, c.line, to));
+        at = Some(to);
+    }
+    let keep = pts.len().div_ceil(POINTS_MAX).max(1);
+    let mut out = String::from("{\"pts\":[");
+    let last = pts.len().saturating_sub(1);
+    for (i, (k, line, p)) in pts.iter().enumerate() {
+        // Thinning keeps every rapid, the first and the last point.
+        if keep > 1 && *k == 1 && i % keep != 0 && i != last {
+            continue;
+        }
+        if out.len() > 8 {
+            out.push(',');
+        }
+        let _ = write!(out, "{k},{line},{:.3},{:.3},{:.3}", p[0], p[1], p[2]);
+    }
+    out.push_str("]}");
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_check_names_the_error_lines_and_the_time() {
+        let setup = Setup::default();
+        let ok = check("p.nc", "G21 G90\nG1 X10 F600\nM30\n", &setup);
+        assert_eq!(ok.errors, 0, "{}", ok.text);
+        assert!(ok.seconds.unwrap() > 0.9, "{:?}", ok.seconds);
+        let bad = check("p.nc", "G21 G90\nG1 X10 F600\nG1 X5 Q\nM30\n", &setup);
+        assert_eq!(bad.errors, 1, "{}", bad.text);
+        assert_eq!(bad.error_lines, vec![3], "{}", bad.text);
+        assert!(bad.text.contains("p.nc:3:"), "{}", bad.text);
+    }
+
+    #[test]
+    fn the_path_follows_lines_and_arcs() {
+        let j = path_json(
+            "G21 G90\nG0 X0 Y0\nG1 X10 F600\nG3 X0 Y10 I-10 J0\n",
+            &Setup::default(),
+        );
+        let v: serde_json::Value = serde_json::from_str(&j).unwrap();
+        let pts = v["pts"].as_array().unwrap();
+        assert_eq!(pts.len() % 5, 0);
+        // Starts at the origin, ends at (0, 10); the arc stays 10 mm from the centre.
+        let first: Vec<f64> = pts[..5].iter().map(|v| v.as_f64().unwrap()).collect();
+        assert_eq!(first, vec![2.0, 2.0, 0.0, 0.0, 0.0]);
+        let n = pts.len() / 5;
+        let x = pts[(n - 1) * 5 + 2].as_f64().unwrap();
+        let y = pts[(n - 1) * 5 + 3].as_f64().unwrap();
+        assert!(x.abs() < 1e-3 && (y - 10.0).abs() < 1e-3, "{x} {y}");
+        for i in 0..n {
+            if pts[i * 5 + 1].as_u64() == Some(4) {
+                let (x, y) = (
+                    pts[i * 5 + 2].as_f64().unwrap(),
+                    pts[i * 5 + 3].as_f64().unwrap(),
+                );
+                assert!((x.hypot(y) - 10.0).abs() < 2e-3, "{x} {y}");
+            }
+        }
+    }
+}

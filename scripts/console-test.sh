@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# The operator's console in a real browser (docs/console.md): Debian's chromium, headless, driven
+# by playwright-core (npm, pinned by scripts/console/package-lock.json; it uses the system
+# chromium and downloads no browser) against `gantry serve --http` + `gantry emulate --pty`.
+# Installs chromium with apt-get when it is missing. Writes the mid-job screenshot to
+# docs/console.png (SHOT=... to put it elsewhere).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+if ! command -v chromium >/dev/null; then
+  if command -v apt-get >/dev/null; then
+    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null
+  fi
+fi
+if ! command -v chromium >/dev/null || ! command -v npm >/dev/null; then
+  echo "SKIP console browser test: chromium or node/npm not installed"
+  exit 0
+fi
+DIR=target/console-test
+if ! [ -d "$DIR/node_modules/playwright-core" ] || ! cmp -s scripts/console/package-lock.json "$DIR/package-lock.json"; then
+  rm -rf "$DIR" && mkdir -p "$DIR"
+  cp scripts/console/package.json scripts/console/package-lock.json "$DIR/"
+  (cd "$DIR" && npm ci --no-audit --no-fund --loglevel=error)
+fi
+cargo build -q -p host-sender --bin gantry
+GANTRY=$PWD/target/debug/gantry
+TMP=$(mktemp -d)
+EMU= SERVE=
+stop() {
+  local rc=$?
+  set +e
+  # serve first: a serve whose port vanished keeps trying to reopen it.
+  [ -n "$SERVE" ] && kill "$SERVE" 2>/dev/null && for _ in $(seq 30); do kill -0 "$SERVE" 2>/dev/null || break; sleep 0.1; done
+  [ -n "$SERVE" ] && kill -9 "$SERVE" 2>/dev/null
+  [ -n "$EMU" ] && kill "$EMU" 2>/dev/null
+  rm -rf "$TMP"
+  exit $rc
+}
+trap stop EXIT
+"$GANTRY" emulate --pty "$TMP/tty" > "$TMP/emulate.log" 2>&1 &
+EMU=$!
+for _ in $(seq 50); do [ -e "$TMP/tty" ] && break; sleep 0.1; done
+HTTP=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
+"$GANTRY" serve --port "$TMP/tty" --http "127.0.0.1:$HTTP" > "$TMP/serve.log" 2>&1 &
+SERVE=$!
+for _ in $(seq 100); do grep -q "console is on" "$TMP/serve.log" && break; sleep 0.1; done
+printf 'G21 G90\nG1 X10 F600\nG1 X5 Q7\nM30\n' > "$TMP/bad.nc"
+python3 - "$TMP/job.nc" <<'PY'
+import math, sys
+l = ["G21 G90 G17", "G0 X0 Y0 Z5", "G1 Z-1 F300", "M0 (check the clamp)"]
+for i in range(400):
+    a = i * 0.05
+    l.append("G1 X%.3f Y%.3f F900" % (20 * math.cos(a) + 20, 20 * math.sin(a) + 0.02 * i))
+l += ["G0 Z5", "M30"]
+open(sys.argv[1], "w").write("\n".join(l) + "\n")
+PY
+rc=0
+URL="http://127.0.0.1:$HTTP/" GANTRY=$GANTRY PORT="$TMP/tty" BAD="$TMP/bad.nc" JOB="$TMP/job.nc" \
+  SHOT="${SHOT:-$PWD/docs/console.png}" NODE_PATH="$PWD/$DIR/node_modules" \
+  node scripts/console_drive.js || rc=$?
+if [ $rc -ne 0 ]; then
+  echo "--- serve log"; tail -30 "$TMP/serve.log"; echo "--- emulate log"; tail -10 "$TMP/emulate.log"
+fi
+exit $rc
