@@ -14,8 +14,8 @@
 //! up ([`svg::StatsBuilder`]: extents, speed range, lengths, time), which fixes the picture's frame
 //! ([`svg::Frame`]); the second draws each move into its view's lane as it comes ([`lanes`]).
 //! Memory stays bounded whatever the program's length: the planner's look-ahead, one chunk of
-//! SVG text per lane (in temporary files) or, for PNG, one pixmap per view and lane. [`PreviewJob`] (every move in
-//! memory) remains for callers that build a job themselves and for tests.
+//! SVG text per lane (in temporary files) or, for PNG, one pixmap per view and lane.
+//! [`PreviewJob`] (every move in memory) remains for callers that build a job themselves and for tests.
 
 pub mod adapt;
 pub mod colour;
