@@ -2,8 +2,9 @@
 //!
 //! Four views (top, front, side, isometric) with rapids dashed, feeds and arcs coloured by planned
 //! speed, arcs drawn as true curves, the machine travel box and a legend with the total time and
-//! the job's extents. The picture is built as SVG ([`svg`]) and rasterised by resvg for PNG
-//! ([`raster`]), with an embedded font, so it looks the same everywhere.
+//! the job's extents. The picture is built as SVG ([`svg`]); for PNG its frame is rasterised by
+//! resvg ([`raster`]), with an embedded font, so it looks the same everywhere, and the moves are
+//! drawn straight into pixmaps as resvg would draw their elements ([`lanes::PngLanes`]).
 //!
 //! Pipeline: program → canonical actions (the core's interpreter, or canon JSON Lines for
 //! `.jsonl` files) → [`adapt`] → moves → [`pass`] (each move's planned speed and the job's time,
@@ -13,8 +14,8 @@
 //! up ([`svg::StatsBuilder`]: extents, speed range, lengths, time), which fixes the picture's frame
 //! ([`svg::Frame`]); the second draws each move into its view's lane as it comes ([`lanes`]).
 //! Memory stays bounded whatever the program's length: the planner's look-ahead, one chunk of
-//! SVG text per lane and, for PNG, one pixmap per view and lane. [`PreviewJob`] (every move in
-//! memory) remains for callers that build a job themselves and for tests.
+//! SVG text per lane (in temporary files) or, for PNG, one pixmap per view and lane.
+//! [`PreviewJob`] (every move in memory) remains for callers that build a job themselves and for tests.
 
 pub mod adapt;
 pub mod colour;
@@ -70,7 +71,7 @@ pub fn render(job: &PreviewJob, format: Format, opts: &RenderOptions) -> anyhow:
             let mut lanes = lanes::PngLanes::new(&frame)?;
             for m in &job.moves {
                 for k in lanes::lanes_of(&frame, svg::Lane::of(m)) {
-                    lanes.put(k, &frame.element(frame.lanes[k].panel, m))?;
+                    lanes.draw(k, m);
                 }
             }
             lanes
@@ -244,12 +245,12 @@ pub fn run(file: &Path, out: &Path, setup: &Setup) -> anyhow::Result<ExitCode> {
     }
     let frame = svg::Frame::new(&job, &stats, &RenderOptions::default());
     let mut failed = None;
-    let mut draw = |put: &mut dyn FnMut(usize, &str) -> anyhow::Result<()>| {
+    let mut draw = |put: &mut dyn FnMut(usize, &PreviewMove) -> anyhow::Result<()>| {
         program.pass(planning, &mut |m, peak| {
             let m = if planning { with_peak(m, peak) } else { *m };
             for k in lanes::lanes_of(&frame, svg::Lane::of(&m)) {
                 if failed.is_none() {
-                    failed = put(k, &frame.element(frame.lanes[k].panel, &m)).err();
+                    failed = put(k, &m).err();
                 }
             }
         })
@@ -260,7 +261,7 @@ pub fn run(file: &Path, out: &Path, setup: &Setup) -> anyhow::Result<ExitCode> {
     match format {
         Format::Svg => {
             let mut parts = lanes::SvgLanes::new(frame.lanes.len())?;
-            draw(&mut |k, e| parts.put(k, e))?;
+            draw(&mut |k, m| parts.put(k, &frame.element(frame.lanes[k].panel, m)))?;
             if let Some(e) = failed {
                 return Err(e);
             }
@@ -273,7 +274,10 @@ pub fn run(file: &Path, out: &Path, setup: &Setup) -> anyhow::Result<ExitCode> {
         }
         Format::Png => {
             let mut pixmaps = lanes::PngLanes::new(&frame)?;
-            draw(&mut |k, e| pixmaps.put(k, e))?;
+            draw(&mut |k, m| {
+                pixmaps.draw(k, m);
+                Ok(())
+            })?;
             if let Some(e) = failed {
                 return Err(e);
             }

@@ -7,7 +7,7 @@
 //! cubic Béziers from [`super::geom`]. The same document is rasterised for PNG output, so both
 //! formats always show the same picture.
 
-use super::colour::{colour_at, hex, nice_step, SpeedScale, STOPS};
+use super::colour::{colour_at, hex, nice_step, Rgb, SpeedScale, STOPS};
 use super::geom::{arc_cubics, extend, length};
 use super::model::{Box3, MoveKind, PreviewJob, PreviewMove, SpeedSource, P3};
 use super::view::{Fit, View};
@@ -142,8 +142,9 @@ impl StatsBuilder {
 
 const FONT: &str = "DejaVu Sans, sans-serif";
 const RAPID_COLOUR: &str = "#7b8591";
+const RAPID_RGB: Rgb = [0x7b, 0x85, 0x91];
 const RAPID_DASH: &str = "5 3";
-const NO_SPEED_COLOUR: &str = "#495057";
+const NO_SPEED_RGB: Rgb = [0x49, 0x50, 0x57];
 const TRAVEL_COLOUR: &str = "#343a40";
 const TRAVEL_DASH: &str = "12 3 2 3";
 const WARN_COLOUR: &str = "#c92a2a";
@@ -228,7 +229,7 @@ impl Frame {
     /// The frame of `job` (its moves are not looked at: `stats` sums them up).
     pub fn new(job: &PreviewJob, stats: &Stats, opts: &RenderOptions) -> Frame {
         let (w, h) = (opts.width as f64, opts.height as f64);
-        let legend_w = (w * 0.25).clamp(240.0, 340.0);
+        let legend_w = legend_width(w);
         let layout = layout(job, stats, w - legend_w, h, opts);
 
         let open = format!(
@@ -286,6 +287,11 @@ impl Frame {
         move_element(&self.layout.panels[panel].fit, self.scale, m)
     }
 
+    /// The stroke colour of move `m`, as its element has it ([`Frame::element`]).
+    pub fn stroke_rgb(&self, m: &PreviewMove) -> Rgb {
+        stroke_rgb(self.scale, m)
+    }
+
     /// Writes the document, calling `lane` where each lane's moves go.
     pub fn write<W: std::io::Write>(
         &self,
@@ -304,6 +310,11 @@ impl Frame {
         out.write_all(&self.body.as_bytes()[from..])?;
         out.write_all(b"</svg>\n")
     }
+}
+
+/// The legend panel's width in a picture `w` px wide.
+fn legend_width(w: f64) -> f64 {
+    (w * 0.25).clamp(240.0, 340.0)
 }
 
 /// Places the four views: top and isometric above, front and side below (front under top, so X
@@ -648,16 +659,25 @@ fn move_element(fit: &Fit, scale: Option<SpeedScale>, m: &PreviewMove) -> String
     } else {
         "feed"
     };
-    let colour = match (m.speed_mm_min, scale) {
-        (Some(v), Some(sc)) => hex(sc.colour(v)),
-        _ => NO_SPEED_COLOUR.to_string(),
-    };
+    let colour = hex(stroke_rgb(scale, m));
     format!(
         r#"<path class="{class}" data-line="{}" stroke="{colour}" d="{}"/>
 "#,
         m.line,
         path_data(fit, m)
     )
+}
+
+/// The stroke colour of a move: rapids grey, feeds and arcs in their speed's colour (dark grey
+/// without one).
+fn stroke_rgb(scale: Option<SpeedScale>, m: &PreviewMove) -> Rgb {
+    if m.kind == MoveKind::Rapid {
+        return RAPID_RGB;
+    }
+    match (m.speed_mm_min, scale) {
+        (Some(v), Some(sc)) => sc.colour(v),
+        _ => NO_SPEED_RGB,
+    }
 }
 
 /// Program start (green dot) and end (black square).
@@ -738,24 +758,14 @@ fn draw_legend(s: &mut String, job: &PreviewJob, stats: &Stats, x: f64, w: f64, 
     text(s, x0, y, 10.5, "normal", MUTED, "start", how);
     y += 24.0;
 
-    let rows = [
-        (
-            "Moves",
-            format!(
-                "{}  ({} rapid, {} feed, {} arc)",
-                stats.rapids + stats.feeds + stats.arcs,
-                stats.rapids,
-                stats.feeds,
-                stats.arcs
-            ),
-        ),
-        ("Cutting path", format!("{:.1} mm", stats.feed_len_mm)),
-        ("Rapid path", format!("{:.1} mm", stats.rapid_len_mm)),
-    ];
-    for (k, v) in rows {
-        text(s, x0, y, 12.0, "normal", TEXT, "start", k);
-        text(s, right, y, 12.0, "normal", TEXT, "end", &v);
-        y += 18.0;
+    for row in figure_rows(stats, x0, right, y) {
+        let (x, anchor) = if row.start {
+            (row.x0, "start")
+        } else {
+            (row.x1, "end")
+        };
+        text(s, x, row.y, row.size, "normal", row.fill, anchor, &row.text);
+        y = y.max(row.y + 18.0);
     }
     y += 12.0;
 
@@ -874,6 +884,94 @@ fn draw_legend(s: &mut String, job: &PreviewJob, stats: &Stats, x: f64, w: f64, 
         "program start / end",
     );
     s.push_str("</g>\n");
+}
+
+/// A line of text of the legend and the room it takes, in pixels (its width estimated by
+/// [`text_width`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextBox {
+    pub text: String,
+    /// Left and right end.
+    pub x0: f64,
+    pub x1: f64,
+    /// Baseline.
+    pub y: f64,
+    pub size: f64,
+    /// Anchored at its start (x0), else at its end (x1).
+    pub start: bool,
+    pub fill: &'static str,
+}
+
+impl TextBox {
+    fn new(text: String, x: f64, y: f64, size: f64, start: bool, fill: &'static str) -> TextBox {
+        let w = text_width(&text, size);
+        let (x0, x1) = if start { (x, x + w) } else { (x - w, x) };
+        TextBox {
+            text,
+            x0,
+            x1,
+            y,
+            size,
+            start,
+            fill,
+        }
+    }
+
+    /// Whether the two share a line and some of its width.
+    pub fn overlaps(&self, o: &TextBox) -> bool {
+        (self.y - o.y).abs() < self.size.max(o.size) && self.x0 < o.x1 && o.x0 < self.x1
+    }
+}
+
+/// The width of `t` in DejaVu Sans at `size` px, from its advance widths (em fractions), rounded
+/// up a little: digits 0.636, lower case at most 0.64 but `m` and `w`, spaces and punctuation
+/// about 0.32–0.39.
+pub fn text_width(t: &str, size: f64) -> f64 {
+    let em: f64 = t
+        .chars()
+        .map(|c| match c {
+            ' ' | ',' | '.' | ':' | ';' | 'i' | 'l' | 'j' | '\'' => 0.33,
+            '(' | ')' | 'f' | 't' | 'r' => 0.42,
+            'm' | 'w' => 0.98,
+            'M' | 'W' => 1.0,
+            c if c.is_ascii_uppercase() => 0.78,
+            _ => 0.65,
+        })
+        .sum();
+    em * size
+}
+
+/// The legend's figures under the total time, from baseline `y`: each label at `x0` and its
+/// value ending at `right`. The move count's breakdown goes on a line of its own when the whole
+/// would reach the label (a count of 6 digits or more).
+pub fn figure_rows(stats: &Stats, x0: f64, right: f64, mut y: f64) -> Vec<TextBox> {
+    const GAP: f64 = 8.0;
+    let total = stats.rapids + stats.feeds + stats.arcs;
+    let split = format!(
+        "({} rapid, {} feed, {} arc)",
+        stats.rapids, stats.feeds, stats.arcs
+    );
+    let rows = [
+        ("Moves", format!("{total}  {split}")),
+        ("Cutting path", format!("{:.1} mm", stats.feed_len_mm)),
+        ("Rapid path", format!("{:.1} mm", stats.rapid_len_mm)),
+    ];
+    let mut out = Vec::new();
+    for (k, v) in rows {
+        let label = TextBox::new(k.to_string(), x0, y, 12.0, true, TEXT);
+        let value = TextBox::new(v, right, y, 12.0, false, TEXT);
+        if k == "Moves" && value.x0 < label.x1 + GAP {
+            out.push(label);
+            out.push(TextBox::new(total.to_string(), right, y, 12.0, false, TEXT));
+            y += 16.0;
+            out.push(TextBox::new(split.clone(), right, y, 11.0, false, MUTED));
+        } else {
+            out.push(label);
+            out.push(value);
+        }
+        y += 18.0;
+    }
+    out
 }
 
 /// A heading and one row per axis: min … max (size).
@@ -1014,6 +1112,72 @@ mod tests {
         assert_eq!(fmt_duration(12.34), "12.3 s");
         assert_eq!(fmt_duration(245.2), "4 min 05.2 s");
         assert_eq!(fmt_duration(3723.0), "1 h 02 min 03 s");
+    }
+
+    /// The legend's label and value columns in the default picture, as `Frame::new` and
+    /// `draw_legend` place them.
+    fn legend_columns() -> (f64, f64) {
+        let w = RenderOptions::default().width as f64;
+        let lw = legend_width(w);
+        let (x, pw) = (w - lw + 4.0, lw - 16.0);
+        (x + 14.0, x + pw - 14.0)
+    }
+
+    fn counts(rapids: usize, feeds: usize, arcs: usize) -> Stats {
+        let mut s = StatsBuilder::default().finish();
+        (s.rapids, s.feeds, s.arcs) = (rapids, feeds, arcs);
+        s.feed_len_mm = 123456.7;
+        s.rapid_len_mm = 98765.4;
+        s
+    }
+
+    #[test]
+    fn a_million_moves_do_not_overprint_their_label() {
+        let (x0, right) = legend_columns();
+        for (stats, lines) in [
+            (counts(40, 900, 60), 3),
+            (counts(403, 99_592, 0), 3),
+            (counts(1_000, 999_000, 0), 4),
+            (counts(250_000, 9_500_000, 250_000), 4),
+        ] {
+            let rows = figure_rows(&stats, x0, right, 100.0);
+            let mut ys: Vec<f64> = rows.iter().map(|r| r.y).collect();
+            ys.dedup();
+            assert_eq!(ys.len(), lines, "{rows:?}");
+            for (i, a) in rows.iter().enumerate() {
+                assert!(a.x0 >= x0 - 0.01 && a.x1 <= right + 0.01, "{a:?}");
+                for b in &rows[i + 1..] {
+                    assert!(!a.overlaps(b), "{a:?} overlaps {b:?}");
+                }
+            }
+            let total = stats.rapids + stats.feeds + stats.arcs;
+            assert!(rows.iter().any(|r| r.text.starts_with(&total.to_string())));
+        }
+    }
+
+    #[test]
+    fn text_width_is_not_less_than_the_drawn_text() {
+        for t in [
+            "Moves",
+            "1000000  (1000 rapid, 999000 feed, 0 arc)",
+            "Cutting path",
+        ] {
+            let doc = format!(
+                r##"<svg xmlns="http://www.w3.org/2000/svg" width="600" height="30"><text x="10" y="20" font-size="12" font-family="{FONT}" fill="#000">{t}</text></svg>"##
+            );
+            let pix = super::super::raster::rasterise(&doc).unwrap();
+            let inked = (0..600)
+                .filter(|&x| (0..30).any(|y| pix.pixel(x, y).unwrap().alpha() > 0))
+                .max()
+                .unwrap() as f64
+                + 1.0
+                - 10.0;
+            let w = text_width(t, 12.0);
+            assert!(
+                w >= inked && w <= inked * 1.25 + 4.0,
+                "{t}: {w} for {inked}"
+            );
+        }
     }
 
     #[test]
