@@ -114,9 +114,16 @@ for board in "${BOARDS[@]}"; do
     echo "-- $board"
     (cd firmware && cargo clippy --release --no-default-features --features "$board" -- -D warnings)
     # Panic locations keep their source paths in flash, so the size would depend on where the
-    # checkout and CARGO_HOME sit; the measured build maps both to fixed short names.
+    # checkout and CARGO_HOME sit; the measured build maps both to fixed short names, and the
+    # registry's source directory (`registry/src/index.crates.io-<hash>/`, 53 bytes in each of
+    # ~30 dependency paths) to `/crates` (the last matching prefix wins).
+    cargo_dir=${CARGO_HOME:-$HOME/.cargo}
+    remap="\"--remap-path-prefix=$ROOT=/gantry\",\"--remap-path-prefix=$cargo_dir=/cargo\""
+    for src in "$cargo_dir"/registry/src/*/; do
+        [ -d "$src" ] && remap+=",\"--remap-path-prefix=${src%/}=/crates\""
+    done
     (cd firmware && cargo build --release --no-default-features --features "$board" \
-        --config "target.$THUMB.rustflags=[\"--remap-path-prefix=$ROOT=/gantry\",\"--remap-path-prefix=${CARGO_HOME:-$HOME/.cargo}=/cargo\"]")
+        --config "target.$THUMB.rustflags=[$remap]")
     elf="firmware/target/$THUMB/release/gantry-firmware"
     read -r text data bss < <(elf_size "$elf")
     flash=$((text + data))

@@ -157,12 +157,24 @@ pub fn encode_frame<P: serde::Serialize>(
     out: &mut [u8],
 ) -> Result<usize, EncodeError> {
     let mut raw = [0u8; MAX_RAW];
-    header.write(&mut raw[..HEADER_LEN]);
     let plen = match payload {
         Some(p) => codec::encode(p, &mut raw[HEADER_LEN..MAX_RAW - CRC_LEN])
             .ok_or(EncodeError::PayloadTooLarge)?,
         None => 0,
     };
+    finish_frame(header, &mut raw, plen, out)
+}
+
+/// The part of [`encode_frame`] that does not depend on the payload's type (one copy in flash
+/// instead of one per payload type): the header before the `plen` payload bytes already in
+/// `raw`, the CRC after them, and the COBS encoding with its terminating zero into `out`.
+fn finish_frame(
+    header: &Header,
+    raw: &mut [u8; MAX_RAW],
+    plen: usize,
+    out: &mut [u8],
+) -> Result<usize, EncodeError> {
+    header.write(&mut raw[..HEADER_LEN]);
     // `plen` never exceeds the room it was given; the `min` lets the compiler see that the slices
     // below are in range (no bounds-check panic paths).
     let body = (HEADER_LEN + plen).min(MAX_RAW - CRC_LEN);
