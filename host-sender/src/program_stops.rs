@@ -72,14 +72,14 @@ pub fn message_with(stop: Stop, line: u32, source: Option<&str>) -> String {
     };
     let note = source
         .and_then(comment_of)
-        .map_or(String::new(), |c| format!(" \u{201c}{c}\u{201d}"));
+        .map_or(String::new(), |c| format!(" \u{2014} \u{201c}{c}\u{201d}"));
     match stop {
         Stop::Program { optional } => format!(
-            "{place}: program stop ({}){note}: press Enter (or cycle start) to continue",
+            "{place}: program stop ({}): press Enter (or cycle start) to continue{note}",
             if optional { "M1" } else { "M0" }
         ),
         Stop::ToolChange { tool } => format!(
-            "{place}: tool change{note}: put {} in the spindle, then press Enter (or cycle start) to continue",
+            "{place}: tool change: put {} in the spindle, then press Enter (or cycle start) to continue{note}",
             tool.map_or("the next tool".to_owned(), |t| format!("tool {t}"))
         ),
     }
@@ -108,13 +108,13 @@ mod tests {
         let m0 = Stop::Program { optional: false };
         assert_eq!(
             message_with(m0, 3, Some("M0 (check the cut)")),
-            "line 3: program stop (M0) \u{201c}check the cut\u{201d}: press Enter (or cycle start) to continue"
+            "line 3: program stop (M0): press Enter (or cycle start) to continue \u{2014} \u{201c}check the cut\u{201d}"
         );
         assert_eq!(
             message_with(m0, 4, Some("G0 X1 M0 ; look")),
-            "line 4: program stop (M0) \u{201c}look\u{201d}: press Enter (or cycle start) to continue"
+            "line 4: program stop (M0): press Enter (or cycle start) to continue \u{2014} \u{201c}look\u{201d}"
         );
-        assert!(message_with(m0, 5, Some("M0 ()")).starts_with("line 5: program stop (M0): "));
+        assert!(message_with(m0, 5, Some("M0 ()")).ends_with("to continue"));
         let tc = Stop::ToolChange { tool: Some(1) };
         assert!(message_with(tc, 0, None).starts_with("resume preamble: tool change: put tool 1"));
     }

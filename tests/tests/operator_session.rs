@@ -100,7 +100,7 @@ fn a_machinists_session_from_power_up_to_a_restart_from_a_line() {
 
     // The board restarts (power cut): the offsets are still there.
     emu.kill();
-    let mut emu = Emulator::start(&dir, None);
+    let emu = Emulator::start(&dir, None);
     let pulled = dir.0.join("pulled.toml");
     let out = gantry(
         &[
