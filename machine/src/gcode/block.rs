@@ -36,10 +36,21 @@ pub enum GGroup {
     Coordinate,
     /// 13: G61 G61.1 G64.
     Path,
+    /// Fanuc 11: G50 G51 (scaling).
+    Scaling,
+    /// Fanuc 16: G68 G69 (rotation).
+    Rotation,
+    /// Fanuc 17: G15 G16 (polar coordinates).
+    Polar,
+    /// Fanuc 18: G50.1 G51.1 (programmable mirror).
+    Mirror,
 }
 
 /// Number of [`GGroup`]s.
-pub const G_GROUPS: usize = 12;
+pub const G_GROUPS: usize = 16;
+
+/// The `g_set` bits of the transform groups (scaling, rotation, polar, mirror).
+pub const TRANSFORM_GROUPS: u16 = 0xf << GGroup::Scaling as u16;
 
 /// The group of a G code in tenths, or `None` if unknown.
 pub fn g_group(code: u16) -> Option<GGroup> {
@@ -48,8 +59,8 @@ pub fn g_group(code: u16) -> Option<GGroup> {
         G4 | G10 | G28 | G28_1 | G30 | G30_1 | G52 | G53 | G65 | G92 | G92_1 | G92_2 | G92_3 => {
             NonModal
         }
-        G0 | G1 | G2 | G3 | G38_2 | G38_3 | G38_4 | G38_5 | G73 | G80 | G81 | G82 | G83 | G84
-        | G85 | G86 | G87 | G88 | G89 => Motion,
+        G0 | G1 | G2 | G3 | G38_2 | G38_3 | G38_4 | G38_5 | G73 | G74 | G76 | G80 | G81 | G82
+        | G83 | G84 | G84_2 | G84_3 | G85 | G86 | G87 | G88 | G89 => Motion,
         G17 | G18 | G19 => Plane,
         G90 | G91 => Distance,
         G90_1 | G91_1 => ArcDistance,
@@ -60,6 +71,10 @@ pub fn g_group(code: u16) -> Option<GGroup> {
         G98 | G99 => Return,
         G54 | G55 | G56 | G57 | G58 | G59 | G59_1 | G59_2 | G59_3 => Coordinate,
         G61 | G61_1 | G64 => Path,
+        G50 | G51 => Scaling,
+        G68 | G69 => Rotation,
+        G15 | G16 => Polar,
+        G50_1 | G51_1 => Mirror,
         _ => return None,
     })
 }
@@ -264,6 +279,11 @@ impl Block {
     fn set_g(&mut self, group: GGroup, c: Code) {
         self.g[group as usize] = c.code;
         self.g_cols[group as usize] = (c.cols.0 as u32) << 16 | c.cols.1 as u32;
+    }
+
+    /// True if the block has a G code of a group in `mask` (bits of [`GGroup`]).
+    pub fn has_g_in(&self, mask: u16) -> bool {
+        self.g_set & mask != 0
     }
 
     /// True if the block has a G code of any group other than `group`.

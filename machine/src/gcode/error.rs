@@ -191,6 +191,21 @@ pub enum ErrorCode {
     CompLookAheadFull,
     /// G41.1/G42.1 without the D word (the diameter).
     CompDiameterMissing,
+    // --- 9xx coordinate transforms (docs/gcode-transforms.md) ---
+    /// G51, G51.1 or G68 twice without a cancel, or out of order (mirror, then scaling, then
+    /// rotation; cancelled in the reverse order).
+    TransformOrder,
+    /// G17/G18/G19 changing the plane while G68 is on.
+    TransformPlane,
+    /// An arc while its two plane axes are scaled by different factors.
+    TransformArcScaled,
+    /// G92, G92.1-G92.3, G52 or G10 L20 while a mirror, scaling or rotation is on.
+    TransformOffset,
+    /// G51 with other codes or words than X Y Z I J K P in its block.
+    TransformNotAlone,
+    /// G51 without a factor, a factor not in (0, 999.999999], P beside I/J/K; G68 without R or
+    /// beyond ±360°; G51.1 without an axis word.
+    TransformValue,
 }
 
 impl ErrorCode {
@@ -273,6 +288,12 @@ impl ErrorCode {
         ErrorCode::CompArcAfterExit,
         ErrorCode::CompLookAheadFull,
         ErrorCode::CompDiameterMissing,
+        ErrorCode::TransformOrder,
+        ErrorCode::TransformPlane,
+        ErrorCode::TransformArcScaled,
+        ErrorCode::TransformOffset,
+        ErrorCode::TransformNotAlone,
+        ErrorCode::TransformValue,
     ];
 
     /// The stable number of the code (`E` + this number in messages).
@@ -356,6 +377,12 @@ impl ErrorCode {
             CompArcAfterExit => 807,
             CompLookAheadFull => 808,
             CompDiameterMissing => 809,
+            TransformOrder => 901,
+            TransformPlane => 902,
+            TransformArcScaled => 903,
+            TransformOffset => 904,
+            TransformNotAlone => 905,
+            TransformValue => 906,
         }
     }
 
@@ -440,6 +467,12 @@ impl ErrorCode {
             CompArcAfterExit => "the move just after G40 must be straight, not an arc",
             CompLookAheadFull => "too many actions between two compensated moves (at most 5)",
             CompDiameterMissing => "G41.1/G42.1 need a D word (the tool diameter)",
+            TransformOrder => "G51.1, G51, G68 given twice or out of order (mirror, scaling, rotation; cancel in reverse order)",
+            TransformPlane => "plane change while G68 rotation is on (G69 first)",
+            TransformArcScaled => "arc while its plane axes are scaled by different factors",
+            TransformOffset => "G92, G52 or G10 L20 while mirror, scaling or rotation is on",
+            TransformNotAlone => "G51 must stand alone in its block (X Y Z I J K P only)",
+            TransformValue => "G51 needs a factor 0 < f <= 999.999999 (P or I/J/K, not both), G68 an R within 360 deg, G51.1 an axis",
         }
     }
 }

@@ -10,7 +10,9 @@ use super::codes::*;
 use super::comp::{Comp, Side};
 use core::ops::ControlFlow;
 
-use super::block::{letter_mask, parse_block_into, Block, BlockError, GGroup, MGroup};
+use super::block::{
+    letter_mask, parse_block_into, Block, BlockError, GGroup, MGroup, TRANSFORM_GROUPS,
+};
 use super::config::{ArcCenterMode, Dialect, DwellUnits, InterpConfig};
 use super::cycles::{CycleBody, CycleRun};
 use super::error::{ErrorCode, GcodeError};
@@ -22,6 +24,7 @@ use super::oword::{self, Keyword, Label, OLine};
 use super::params::{Params, LOCALS};
 use super::source::{ProgramSource, SourceError};
 use super::state::{CycleMemory, ModalState, MotionMode, Rollback};
+use super::transform::ONE as FACTOR_ONE;
 use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, ProbeMode, Spindle, StopKind};
 use crate::units::{Nm, Pos, MAX_AXES};
 
@@ -592,6 +595,7 @@ impl Interpreter {
         };
         let tables = block.g_of(GGroup::NonModal).is_some()
             || block.g_of(GGroup::ToolLength).is_some()
+            || block.has_g_in(TRANSFORM_GROUPS)
             || !block.m.is_empty();
         let saved = Rollback::of(&self.state, tables);
         let saved_finished = self.finished;
@@ -1096,6 +1100,13 @@ impl Interpreter {
                     .diameter
             }
         };
+        // One mirrored plane axis swaps G41 and G42 (compensation runs on the transformed path).
+        let (first, second, _) = arc_axes(self.state.plane);
+        let side = match (side, self.state.xf.flips(first, second)) {
+            (Side::Left, true) => Side::Right,
+            (Side::Right, true) => Side::Left,
+            (side, false) => side,
+        };
         self.comp
             .turn_on(side, diameter / 2, self.state.plane)
             .map_err(|c| (c, cols))
@@ -1166,15 +1177,42 @@ impl Interpreter {
     /// `Res<Pos>` it was copied byte by byte several times per line on the Cortex-M4.
     fn target(&self, b: &mut Block, g53: bool, to: &mut Pos) -> Res<()> {
         let polar = self.polar_words(b)?;
+        // `to` is the program point plus the offsets (no transform) unless in G53.
+        let at = |i: usize| to[i] - self.state.axis_offset(i);
+        let (mut pa, mut pb) = (0, 1);
+        let mut end = None;
         if let Some((radius, angle, cols)) = polar {
             if g53 {
                 return Err((ErrorCode::NotSupported, Some(cols)));
             }
-            let p = self.state.program_position();
-            let (x, y) = geometry::polar_end((p[0], p[1]), radius, angle, self.state.absolute)
-                .map_err(|c| (c, Some(cols)))?;
-            to[0] = x + self.state.axis_offset(0);
-            to[1] = y + self.state.axis_offset(1);
+            end = Some(
+                geometry::polar_end((at(0), at(1)), radius, angle, self.state.absolute)
+                    .map_err(|c| (c, Some(cols)))?,
+            );
+        } else if self.state.xf.polar && !g53 {
+            // G16: the first plane axis is the radius, the second the angle (degrees).
+            let (f, s, _) = arc_axes(self.state.plane);
+            let (r, a) = (b.take(AXIS_LETTERS[f]), b.take(AXIS_LETTERS[s]));
+            if let Some(first) = r.or(a) {
+                if let (Some(w), false) = (r, self.state.absolute) {
+                    return err(ErrorCode::NotSupported, Some(w));
+                }
+                let radius = r.map(|w| self.axis_value(f, w)).transpose()?;
+                (pa, pb) = (f, s);
+                end = Some(
+                    geometry::polar_end(
+                        (at(f), at(s)),
+                        radius,
+                        a.map(|w| w.value),
+                        self.state.absolute,
+                    )
+                    .map_err(|c| (c, Some(first.cols)))?,
+                );
+            }
+        }
+        if let Some((x, y)) = end {
+            to[pa] = x + self.state.axis_offset(pa);
+            to[pb] = y + self.state.axis_offset(pb);
         }
         for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
             if !b.has_any(AXIS_LETTERS_FROM[i]) {
@@ -1198,6 +1236,181 @@ impl Interpreter {
                 to[i] = m;
             }
         }
+        Ok(())
+    }
+
+    /// Where a move's target starts: the position, or under a transform the program point plus
+    /// the offsets (docs/gcode-transforms.md).
+    fn start_point(&self) -> Pos {
+        if !self.state.xf.active() {
+            return self.state.position;
+        }
+        let mut p = self.state.program_point();
+        for (i, v) in p.iter_mut().enumerate() {
+            *v += self.state.axis_offset(i);
+        }
+        p
+    }
+
+    /// The machine end point of a straight move from the block's axis words.
+    fn move_target(&mut self, b: &mut Block, g53: bool) -> Res<Pos> {
+        let mut to = if g53 {
+            self.state.position
+        } else {
+            self.start_point()
+        };
+        self.target(b, g53, &mut to)?;
+        if !g53 {
+            self.transform(&mut to)?;
+        }
+        Ok(to)
+    }
+
+    /// The transform pipeline: a program point plus offsets (from [`Interpreter::target`]) to
+    /// machine coordinates, X, Y, Z mirrored, scaled and rotated (drilling axis `keep` not
+    /// scaled); returns the program point.
+    fn xf_point(&self, to: &mut Pos, keep: usize) -> Res<[Nm; 3]> {
+        let off: [Nm; 3] = core::array::from_fn(|i| self.state.axis_offset(i));
+        let p: [Nm; 3] = core::array::from_fn(|i| to[i] - off[i]);
+        let w = self.state.xf.forward(p, keep);
+        for i in 0..3 {
+            to[i] = w[i] + off[i];
+            if to[i].abs() > MAX_COORD {
+                return Err((ErrorCode::CoordinateOverflow, None));
+            }
+        }
+        Ok(p)
+    }
+
+    /// [`Interpreter::xf_point`] for the block's end point: also remembers its program point.
+    fn transform(&mut self, to: &mut Pos) -> Res<()> {
+        if self.state.xf.active() {
+            self.state.xf_prog = self.xf_point(to, 3)?;
+            self.state.xf_at = core::array::from_fn(|i| to[i] - self.state.axis_offset(i));
+        }
+        Ok(())
+    }
+
+    /// Phase 5b: G50.1/G51.1 mirror, G50/G51 scaling, G68/G69 rotation, G15/G16 polar mode.
+    /// Cancels run first (G69, G50, G50.1), then the settings in pipeline order.
+    fn set_transforms(&mut self, b: &mut Block) -> Res<()> {
+        let p = self.state.program_point();
+        let mut xf = self.state.xf;
+        let (sc, rot, mir) = (
+            b.g(GGroup::Scaling),
+            b.g(GGroup::Rotation),
+            b.g(GGroup::Mirror),
+        );
+        if sc.or(rot).or(mir).is_some() {
+            self.refuse_under_comp(sc.or(rot).or(mir).map(|c| c.cols))?;
+        }
+        let order = |c: super::block::Code| Err((ErrorCode::TransformOrder, Some(c.cols)));
+        if rot.is_some_and(|c| c.code == G69) {
+            xf.rotating = false;
+        }
+        if let Some(c) = sc {
+            if xf.rotating || (c.code == G51 && xf.scaling()) {
+                return order(c);
+            }
+            xf.factor = [FACTOR_ONE; 3];
+        }
+        if let Some(c) = mir {
+            if xf.rotating || xf.scaling() {
+                return order(c);
+            }
+            let mut any = false;
+            for i in 0..3 {
+                if let Some(w) = b.take(AXIS_LETTERS[i]) {
+                    any = true;
+                    let v = self.axis_value(i, w)?;
+                    if c.code == G51_1 {
+                        xf.mirror |= 1 << i;
+                        xf.mirror_twice[i] = 2 * bounded(v, w)?;
+                    } else {
+                        xf.mirror &= !(1 << i);
+                    }
+                }
+            }
+            match (c.code, any) {
+                (G51_1, false) => return Err((ErrorCode::TransformValue, Some(c.cols))),
+                (G50_1, false) => xf.mirror = 0,
+                _ => {}
+            }
+        }
+        let fanuc_int = self.config.dwell_units == DwellUnits::FanucIntegerMillis;
+        // A G51 factor or G68 angle word: with the Fanuc integer setting, a number without a
+        // decimal point is in thousandths.
+        let value = |w: Word| -> i64 {
+            if fanuc_int && !w.has_point {
+                w.value / 1000
+            } else {
+                w.value
+            }
+        };
+        if let Some(c) = sc.filter(|c| c.code == G51) {
+            let bad = Err((ErrorCode::TransformValue, Some(c.cols)));
+            let all = b.take(b'P');
+            let ijk = [b.take(b'I'), b.take(b'J'), b.take(b'K')];
+            let f = match (all, ijk) {
+                (Some(w), [None, None, None]) => [value(w); 3],
+                // Hurco: I alone scales every axis.
+                (None, [Some(w), None, None]) => [value(w); 3],
+                (None, [i, j, k]) if i.or(j).or(k).is_some() => {
+                    [i, j, k].map(|w| w.map_or(FACTOR_ONE, value))
+                }
+                _ => return bad,
+            };
+            if f.iter().any(|&v| v <= 0 || v >= 1000 * FACTOR_ONE) {
+                return bad;
+            }
+            let mut centre = [p[0], p[1], p[2]];
+            for (i, v) in centre.iter_mut().enumerate() {
+                if let Some(w) = b.take(AXIS_LETTERS[i]) {
+                    *v = bounded(self.axis_value(i, w)?, w)?;
+                }
+            }
+            xf.factor = f;
+            // The centre is a program point: it goes through the mirror before it.
+            let mut m = xf;
+            m.factor = [FACTOR_ONE; 3];
+            xf.scale_center = m.forward(centre, 3);
+        }
+        if let Some(c) = rot.filter(|c| c.code == G68) {
+            if xf.rotating {
+                return order(c);
+            }
+            let (f, s, _) = arc_axes(self.state.plane);
+            let mut centre = [p[0], p[1], p[2]];
+            for i in [f, s] {
+                if let Some(w) = b.take(AXIS_LETTERS[i]) {
+                    centre[i] = bounded(self.axis_value(i, w)?, w)?;
+                }
+            }
+            let r = b
+                .take(b'R')
+                .ok_or((ErrorCode::TransformValue, Some(c.cols)))?;
+            let mut angle = value(r);
+            if angle.abs() > 360 * MICRO {
+                return err(ErrorCode::TransformValue, Some(r));
+            }
+            // One mirrored plane axis reverses the angle.
+            if xf.flips(f, s) {
+                angle = -angle;
+            }
+            let centre = xf.forward(centre, 3);
+            xf.rot_axes = (f as u8, s as u8);
+            xf.rot_center = (centre[f], centre[s]);
+            xf.set_angle(angle);
+            xf.rotating = true;
+        }
+        if let Some(c) = b.g(GGroup::Polar) {
+            xf.polar = c.code == G16;
+        }
+        self.state.xf = xf;
+        // The tool stays where it is; its program point stays what the program last wrote.
+        self.state.xf_prog = [p[0], p[1], p[2]];
+        let w = self.state.program_position();
+        self.state.xf_at = [w[0], w[1], w[2]];
         Ok(())
     }
 
@@ -1268,6 +1481,9 @@ impl Interpreter {
         self.dwell(b, line, &pre)?;
         self.set_plane_units_tool_length(b)?;
         self.set_modes(b, line)?;
+        if b.has_g_in(TRANSFORM_GROUPS) {
+            self.set_transforms(b)?;
+        }
         let tool_write = self.apply_nonmodal(b, line, pre.nonmodal)?;
         self.move_block(b, line, &pre)?;
         // M98's P and L words, taken before the unused-word check (a pair of words returned
@@ -1317,7 +1533,10 @@ impl Interpreter {
             .iter()
             .find_map(|&mask| b.first_word(mask));
         let nonmodal_axes = matches!(nonmodal, Some(G10 | G28 | G30 | G52 | G92))
-            || b.g_of(GGroup::ToolLength) == Some(G43_1);
+            || b.g_of(GGroup::ToolLength) == Some(G43_1)
+            || b.g_of(GGroup::Scaling) == Some(G51)
+            || b.g_of(GGroup::Rotation) == Some(G68)
+            || b.g(GGroup::Mirror).is_some();
         if nonmodal_axes {
             if let Some(m) = motion_g {
                 if m.code != G80 {
@@ -1333,6 +1552,15 @@ impl Interpreter {
         if motion == Some(MotionMode::None) && !nonmodal_axes && !(gixa && motion_g.is_some()) {
             if let Some(w) = first_axis {
                 return err(ErrorCode::AxisWordsWithoutMotion, Some(w));
+            }
+        }
+        if let Some(c) = b.g(GGroup::Scaling).filter(|c| c.code == G51) {
+            // Hurco §3.18: G51 stands alone (checked before phase 1 takes F, S and T).
+            let alone = !b.has_g_besides(GGroup::Scaling)
+                && b.m.is_empty()
+                && b.letters().all(|l| b"IJKPXYZ".contains(&l));
+            if !alone {
+                return Err((ErrorCode::TransformNotAlone, Some(c.cols)));
             }
         }
         let f_given = b.has(b'F');
@@ -1521,6 +1749,10 @@ impl Interpreter {
             if self.comp.is_on() && !same {
                 return Err((ErrorCode::CompPlane, Some(p.cols)));
             }
+            let same = same || (p.code, self.state.plane) == (G19, Plane::YZ);
+            if self.state.xf.rotating && !same && b.g_of(GGroup::Rotation) != Some(G69) {
+                return Err((ErrorCode::TransformPlane, Some(p.cols)));
+            }
         }
         match b.g_of(GGroup::Plane) {
             Some(G17) => self.state.plane = Plane::XY,
@@ -1650,6 +1882,14 @@ impl Interpreter {
         {
             self.refuse_under_comp(nonmodal.and_then(|g| b.g_cols(g)))?;
         }
+        let moves_frame = matches!(nonmodal, Some(G52 | G92 | G92_1 | G92_2 | G92_3))
+            || (nonmodal == Some(G10) && b.word(b'L').and_then(|w| w.integer()) == Some(20));
+        if moves_frame && self.state.xf.active() {
+            return Err((
+                ErrorCode::TransformOffset,
+                nonmodal.and_then(|g| b.g_cols(g)),
+            ));
+        }
         match nonmodal {
             Some(G10) => tool_write = self.set_work_offset(b)?,
             Some(G52) => {
@@ -1671,8 +1911,9 @@ impl Interpreter {
                     self.state.g30
                 };
                 let named: [bool; MAX_AXES] = core::array::from_fn(|i| b.has(AXIS_LETTERS[i]));
-                let mut via = self.state.position;
+                let mut via = self.start_point();
                 self.target(b, false, &mut via)?;
+                self.transform(&mut via)?;
                 self.push(line, Action::Rapid { to: via })?;
                 let mut to = via;
                 let any = named.iter().any(|&n| n);
@@ -1865,8 +2106,7 @@ impl Interpreter {
             MotionMode::Rapid => {
                 // As LinuxCNC, an explicit G0 without axis words is a zero-length move.
                 let has_axes = b.has_any(AXIS_WORDS);
-                let mut to = self.state.position;
-                self.target(b, g53, &mut to)?;
+                let to = self.move_target(b, g53)?;
                 if has_axes || explicit {
                     self.push(line, Action::Rapid { to })?;
                 }
@@ -1874,8 +2114,7 @@ impl Interpreter {
             }
             MotionMode::Linear => {
                 let has_axes = b.has_any(AXIS_WORDS);
-                let mut to = self.state.position;
-                self.target(b, g53, &mut to)?;
+                let to = self.move_target(b, g53)?;
                 if has_axes || explicit {
                     let feed = self.straight_feed(&self.state.position, &to, f_given)?;
                     self.push(line, Action::Feed { to, feed })?;
@@ -1888,8 +2127,7 @@ impl Interpreter {
             MotionMode::Probe(code) => {
                 // LinuxCNC refuses probing under cutter compensation too.
                 self.refuse_under_comp(b.g_cols(code))?;
-                let mut to = self.state.position;
-                self.target(b, g53, &mut to)?;
+                let to = self.move_target(b, g53)?;
                 if self.state.inverse_time {
                     return Err((ErrorCode::ProbeInverseTime, b.g_cols(code)));
                 }
@@ -1997,14 +2235,15 @@ impl Interpreter {
         if r_word.is_some() && !b.has(AXIS_LETTERS[first]) && !b.has(AXIS_LETTERS[second]) {
             return Err((ErrorCode::ArcEndPointMissing, r_word.map(|w| w.cols)));
         }
-        let start = self.state.position;
-        let mut to = self.state.position;
+        // The arc as programmed (program points plus offsets), then through the transforms.
+        let start = self.start_point();
+        let mut to = start;
         self.target(b, false, &mut to)?;
         let offset = self.state.offset();
         let tol = ArcTolerances::for_units(self.state.inch);
         let s2 = (start[first], start[second]);
         let e2 = (to[first], to[second]);
-        let center = match r_word {
+        let mut center = match r_word {
             Some(r) => {
                 let radius = self.len_word(r)?;
                 geometry::r_format_center(s2, e2, radius, cw, tol).map_err(|c| (c, Some(r.cols)))?
@@ -2029,6 +2268,27 @@ impl Interpreter {
                     .map_err(|code| (code, w_first.or(w_second).map(|w| w.cols)))?;
                 c
             }
+        };
+        let (start, s2, e2, cw) = if self.state.xf.active() {
+            let xf = self.state.xf;
+            if xf.factor[first] != xf.factor[second] {
+                return Err((ErrorCode::TransformArcScaled, None));
+            }
+            let mut c = to;
+            (c[first], c[second]) = center;
+            self.xf_point(&mut c, 3)?;
+            center = (c[first], c[second]);
+            self.transform(&mut to)?;
+            let start = self.state.position;
+            let s2 = (start[first], start[second]);
+            (
+                start,
+                s2,
+                (to[first], to[second]),
+                cw ^ xf.flips(first, second),
+            )
+        } else {
+            (start, s2, e2, cw)
         };
         let feed = if self.state.inverse_time {
             let sweep = geometry::sweep(s2, e2, center, !cw, turns);
@@ -2089,18 +2349,39 @@ impl Interpreter {
         }
         let (a, bx, c) = arc_axes(self.state.plane);
         let same = self.state.motion == MotionMode::Cycle(code);
-        let prog = self.state.program_position();
+        // Under a transform the hole positions are program points; the drilling axis is neither
+        // mirrored nor scaled (Hurco §3.18), so its level is where the tool is.
+        let xf = self.state.xf;
+        if xf.mirror >> c & 1 != 0 {
+            return Err((ErrorCode::NotSupported, g_cols));
+        }
+        let mut prog = self.state.program_point();
+        prog[c] = self.state.program_position()[c];
         let offset = self.state.offset();
         let mem = self.state.cycle;
-        let polar = if self.state.plane == Plane::XY {
+        let mut polar = if self.state.plane == Plane::XY {
             self.polar_words(b)?
         } else {
             None
         };
-        let a_w = b.take(AXIS_LETTERS[a]);
-        let b_w = b.take(AXIS_LETTERS[bx]);
+        let mut a_w = b.take(AXIS_LETTERS[a]);
+        let mut b_w = b.take(AXIS_LETTERS[bx]);
         let c_w = b.take(AXIS_LETTERS[c]);
         let r_w = b.take(b'R');
+        if xf.polar && polar.is_none() {
+            // G16: the first plane axis word is the radius, the second the angle.
+            if let Some(first) = a_w.or(b_w) {
+                if let (Some(w), false) = (a_w, self.state.absolute) {
+                    return err(ErrorCode::NotSupported, Some(w));
+                }
+                if !self.state.absolute && self.state.plane != Plane::XY {
+                    return err(ErrorCode::NotSupported, Some(first));
+                }
+                let radius = a_w.map(|w| self.axis_value(a, w)).transpose()?;
+                polar = Some((radius, b_w.map(|w| w.value), first.cols));
+                (a_w, b_w) = (None, None);
+            }
+        }
         let a_v = a_w.map(|w| self.axis_value(a, w)).transpose()?;
         let b_v = b_w.map(|w| self.axis_value(bx, w)).transpose()?;
         let initial = mem.initial_level.unwrap_or(prog[c]);
@@ -2267,7 +2548,10 @@ impl Interpreter {
             // LinuxCNC: a tool below R first rises to R where it stands.
             let mut up = prog;
             up[c] = r;
-            let to = self.state.to_machine(up);
+            let mut to = self.state.to_machine(up);
+            if xf.active() {
+                self.xf_point(&mut to, c)?;
+            }
             self.push(line, Action::Rapid { to })?;
         }
         let mut program = prog;
@@ -2277,6 +2561,7 @@ impl Interpreter {
             program[c] = r;
         }
         let mut run = CycleRun::new(line, body, gixa, (a, bx, c), program, offset, repeats);
+        run.xf = xf;
         run.inc = inc;
         run.polar_step = polar_step;
         run.r = r;
@@ -2306,6 +2591,10 @@ impl Interpreter {
         let mut machine = end;
         for (v, o) in machine.iter_mut().zip(offset) {
             *v += o;
+        }
+        if xf.active() {
+            self.state.xf_prog = self.xf_point(&mut machine, c)?;
+            self.state.xf_at = core::array::from_fn(|i| machine[i] - offset[i]);
         }
         self.state.position = machine;
         if body == CycleBody::Tap && gixa {
