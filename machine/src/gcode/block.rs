@@ -253,6 +253,26 @@ impl Block {
         w
     }
 
+    /// True if the block has no value word outside `mask` (see [`letter_mask`]).
+    pub fn has_only(&self, mask: u32) -> bool {
+        self.present & !mask == 0
+    }
+
+    /// Moves the word of letter `from` (if any) to the slot of letter `to`; false when `to` is
+    /// taken (G16 hands X and Y on as LinuxCNC's polar words `@` and `^`).
+    pub fn rename(&mut self, from: u8, to: u8) -> bool {
+        let (f, t) = (slot(from), slot(to));
+        if self.present & (1 << f) == 0 {
+            return true;
+        }
+        if self.present & (1 << t) != 0 {
+            return false;
+        }
+        self.index[t] = self.index[f];
+        self.present = self.present & !(1 << f) | 1 << t;
+        true
+    }
+
     /// Adds the word of a letter slot not set yet.
     fn insert(&mut self, at: usize, w: Word) {
         self.index[at] = self.words.len() as u8;

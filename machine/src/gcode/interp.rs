@@ -1178,41 +1178,15 @@ impl Interpreter {
     fn target(&self, b: &mut Block, g53: bool, to: &mut Pos) -> Res<()> {
         let polar = self.polar_words(b)?;
         // `to` is the program point plus the offsets (no transform) unless in G53.
-        let at = |i: usize| to[i] - self.state.axis_offset(i);
-        let (mut pa, mut pb) = (0, 1);
-        let mut end = None;
         if let Some((radius, angle, cols)) = polar {
             if g53 {
                 return Err((ErrorCode::NotSupported, Some(cols)));
             }
-            end = Some(
-                geometry::polar_end((at(0), at(1)), radius, angle, self.state.absolute)
-                    .map_err(|c| (c, Some(cols)))?,
-            );
-        } else if self.state.xf.polar && !g53 {
-            // G16: the first plane axis is the radius, the second the angle (degrees).
-            let (f, s, _) = arc_axes(self.state.plane);
-            let (r, a) = (b.take(AXIS_LETTERS[f]), b.take(AXIS_LETTERS[s]));
-            if let Some(first) = r.or(a) {
-                if let (Some(w), false) = (r, self.state.absolute) {
-                    return err(ErrorCode::NotSupported, Some(w));
-                }
-                let radius = r.map(|w| self.axis_value(f, w)).transpose()?;
-                (pa, pb) = (f, s);
-                end = Some(
-                    geometry::polar_end(
-                        (at(f), at(s)),
-                        radius,
-                        a.map(|w| w.value),
-                        self.state.absolute,
-                    )
-                    .map_err(|c| (c, Some(first.cols)))?,
-                );
-            }
-        }
-        if let Some((x, y)) = end {
-            to[pa] = x + self.state.axis_offset(pa);
-            to[pb] = y + self.state.axis_offset(pb);
+            let at = |i: usize| to[i] - self.state.axis_offset(i);
+            let (x, y) = geometry::polar_end((at(0), at(1)), radius, angle, self.state.absolute)
+                .map_err(|c| (c, Some(cols)))?;
+            to[0] = x + self.state.axis_offset(0);
+            to[1] = y + self.state.axis_offset(1);
         }
         for (i, &letter) in AXIS_LETTERS.iter().enumerate() {
             if !b.has_any(AXIS_LETTERS_FROM[i]) {
@@ -1268,8 +1242,9 @@ impl Interpreter {
 
     /// The transform pipeline: a program point plus offsets (from [`Interpreter::target`]) to
     /// machine coordinates, X, Y, Z mirrored, scaled and rotated (drilling axis `keep` not
-    /// scaled); returns the program point.
-    fn xf_point(&self, to: &mut Pos, keep: usize) -> Res<[Nm; 3]> {
+    /// scaled). The end point of a block (`end`) also becomes the position's program point.
+    #[inline(never)]
+    fn xf_point(&mut self, to: &mut Pos, keep: usize, end: bool) -> Res<()> {
         let off: [Nm; 3] = core::array::from_fn(|i| self.state.axis_offset(i));
         let p: [Nm; 3] = core::array::from_fn(|i| to[i] - off[i]);
         let w = self.state.xf.forward(p, keep);
@@ -1279,62 +1254,109 @@ impl Interpreter {
                 return Err((ErrorCode::CoordinateOverflow, None));
             }
         }
-        Ok(p)
+        if end {
+            self.state.xf_prog = p;
+            self.state.xf_at = w;
+        }
+        Ok(())
     }
 
-    /// [`Interpreter::xf_point`] for the block's end point: also remembers its program point.
+    /// [`Interpreter::xf_point`] for the block's end point when a transform is in force.
     fn transform(&mut self, to: &mut Pos) -> Res<()> {
         if self.state.xf.active() {
-            self.state.xf_prog = self.xf_point(to, 3)?;
-            self.state.xf_at = core::array::from_fn(|i| to[i] - self.state.axis_offset(i));
+            self.xf_point(to, 3, true)?;
+        }
+        Ok(())
+    }
+
+    /// Checks of a block under (or setting) a transform, before phase 0: G51 alone, no plane
+    /// change under G68, no G92/G52/G10 L20 under a transform; and G16's X and Y become `@`
+    /// and `^` (LinuxCNC's polar words about the XY origin) where they are a move's end point.
+    #[inline(never)]
+    fn check_transforms(&mut self, b: &mut Block) -> Res<()> {
+        let xf = self.state.xf;
+        if let Some(c) = b.g(GGroup::Scaling).filter(|c| c.code == G51) {
+            // Hurco §3.18: G51 stands alone.
+            let alone = !b.has_g_besides(GGroup::Scaling)
+                && b.m.is_empty()
+                && b.has_only(const { letter_mask(b"IJKPXYZ") });
+            if !alone {
+                return Err((ErrorCode::TransformNotAlone, Some(c.cols)));
+            }
+        }
+        if let Some(p) = b.g(GGroup::Plane) {
+            let same = matches!(
+                (p.code, self.state.plane),
+                (G17, Plane::XY) | (G18, Plane::ZX) | (G19, Plane::YZ)
+            );
+            if xf.rotating && !same && b.g_of(GGroup::Rotation) != Some(G69) {
+                return Err((ErrorCode::TransformPlane, Some(p.cols)));
+            }
+        }
+        let nonmodal = b.g(GGroup::NonModal);
+        if let Some(g) = nonmodal {
+            let moves_frame = matches!(g.code, G52 | G92 | G92_1 | G92_2 | G92_3)
+                || (g.code == G10 && b.word(b'L').and_then(|w| w.integer()) == Some(20));
+            if moves_frame && xf.active() {
+                return Err((ErrorCode::TransformOffset, Some(g.cols)));
+            }
+        }
+        // G16 (in this block or before): X is the radius, Y the angle, the `@` and `^` words of
+        // LinuxCNC's polar coordinates (about the XY origin), except where X and Y are not a
+        // move's end point.
+        let polar = b
+            .g_of(GGroup::Polar)
+            .map_or(self.state.xf.polar, |c| c == G16);
+        if polar
+            && nonmodal.is_none()
+            && !b.has_g_in(TRANSFORM_GROUPS & !(1 << GGroup::Polar as u16))
+            && b.g_of(GGroup::ToolLength).is_none()
+            && b.has_any(const { letter_mask(b"XY") })
+        {
+            let x = b.word(b'X');
+            if self.state.plane != Plane::XY
+                || (x.is_some()
+                    && b.g_of(GGroup::Distance)
+                        .map_or(!self.state.absolute, |d| d == G91))
+                || !b.rename(b'X', b'@')
+                || !b.rename(b'Y', b'^')
+            {
+                return err(ErrorCode::NotSupported, x.or(b.word(b'Y')));
+            }
         }
         Ok(())
     }
 
     /// Phase 5b: G50.1/G51.1 mirror, G50/G51 scaling, G68/G69 rotation, G15/G16 polar mode.
-    /// Cancels run first (G69, G50, G50.1), then the settings in pipeline order.
+    /// Cancels run first (G69, G50, G50.1), then the settings in pipeline order. The X, Y, Z
+    /// words are absolute program coordinates: the mirror axes, the scaling or rotation centre.
+    #[inline(never)]
     fn set_transforms(&mut self, b: &mut Block) -> Res<()> {
         let p = self.state.program_point();
         let mut xf = self.state.xf;
         let (sc, rot, mir) = (
-            b.g(GGroup::Scaling),
-            b.g(GGroup::Rotation),
-            b.g(GGroup::Mirror),
+            b.g_of(GGroup::Scaling).unwrap_or(0),
+            b.g_of(GGroup::Rotation).unwrap_or(0),
+            b.g_of(GGroup::Mirror).unwrap_or(0),
         );
-        if sc.or(rot).or(mir).is_some() {
-            self.refuse_under_comp(sc.or(rot).or(mir).map(|c| c.cols))?;
+        if let Some(c) = b.g(GGroup::Polar) {
+            xf.polar = c.code == G16;
         }
-        let order = |c: super::block::Code| Err((ErrorCode::TransformOrder, Some(c.cols)));
-        if rot.is_some_and(|c| c.code == G69) {
-            xf.rotating = false;
+        let cols = b
+            .g(GGroup::Scaling)
+            .or(b.g(GGroup::Rotation))
+            .or(b.g(GGroup::Mirror))
+            .map(|c| c.cols);
+        if cols.is_some() {
+            self.refuse_under_comp(cols)?;
         }
-        if let Some(c) = sc {
-            if xf.rotating || (c.code == G51 && xf.scaling()) {
-                return order(c);
-            }
-            xf.factor = [FACTOR_ONE; 3];
-        }
-        if let Some(c) = mir {
-            if xf.rotating || xf.scaling() {
-                return order(c);
-            }
-            let mut any = false;
-            for i in 0..3 {
-                if let Some(w) = b.take(AXIS_LETTERS[i]) {
-                    any = true;
-                    let v = self.axis_value(i, w)?;
-                    if c.code == G51_1 {
-                        xf.mirror |= 1 << i;
-                        xf.mirror_twice[i] = 2 * bounded(v, w)?;
-                    } else {
-                        xf.mirror &= !(1 << i);
-                    }
-                }
-            }
-            match (c.code, any) {
-                (G51_1, false) => return Err((ErrorCode::TransformValue, Some(c.cols))),
-                (G50_1, false) => xf.mirror = 0,
-                _ => {}
+        // The X, Y, Z words (absolute) over the program point, and which were given.
+        let mut centre = [p[0], p[1], p[2]];
+        let mut named = 0u8;
+        for (i, v) in centre.iter_mut().enumerate() {
+            if let Some(w) = b.take(AXIS_LETTERS[i]) {
+                *v = bounded(self.axis_value(i, w)?, w)?;
+                named |= 1 << i;
             }
         }
         let fanuc_int = self.config.dwell_units == DwellUnits::FanucIntegerMillis;
@@ -1347,65 +1369,85 @@ impl Interpreter {
                 w.value
             }
         };
-        if let Some(c) = sc.filter(|c| c.code == G51) {
-            let bad = Err((ErrorCode::TransformValue, Some(c.cols)));
-            let all = b.take(b'P');
-            let ijk = [b.take(b'I'), b.take(b'J'), b.take(b'K')];
-            let f = match (all, ijk) {
-                (Some(w), [None, None, None]) => [value(w); 3],
-                // Hurco: I alone scales every axis.
-                (None, [Some(w), None, None]) => [value(w); 3],
-                (None, [i, j, k]) if i.or(j).or(k).is_some() => {
-                    [i, j, k].map(|w| w.map_or(FACTOR_ONE, value))
+        let order = Err((ErrorCode::TransformOrder, cols));
+        let bad = Err((ErrorCode::TransformValue, cols));
+        if rot == G69 {
+            xf.rotating = false;
+        }
+        if sc != 0 {
+            if xf.rotating || (sc == G51 && xf.scaling()) {
+                return order;
+            }
+            xf.factor = [FACTOR_ONE; 3];
+        }
+        if mir != 0 {
+            if xf.rotating || xf.scaling() {
+                return order;
+            }
+            if mir == G51_1 {
+                if named == 0 {
+                    return bad;
                 }
-                _ => return bad,
-            };
+                xf.mirror |= named;
+                for (i, v) in centre.iter().enumerate() {
+                    if named >> i & 1 != 0 {
+                        xf.mirror_twice[i] = 2 * v;
+                    }
+                }
+            } else {
+                xf.mirror &= if named == 0 { 0 } else { !named };
+            }
+        } else if named != 0 && sc != G51 && rot != G68 {
+            return Err((ErrorCode::UnusedWord, cols));
+        }
+        // A centre is a program point: it goes through the stages before its own (G51 stands
+        // alone, so at most one of the two below runs).
+        let c = xf.forward(centre, 3);
+        if sc == G51 {
+            // -1: not given.
+            let mut f = [-1; 3];
+            for (v, l) in f.iter_mut().zip(b"IJK") {
+                if let Some(w) = b.take(*l) {
+                    *v = value(w).max(0);
+                }
+            }
+            if let Some(w) = b.take(b'P') {
+                if f != [-1; 3] {
+                    return bad;
+                }
+                f = [value(w).max(0); 3];
+            } else if f[1..] == [-1, -1] {
+                // Hurco: I alone scales every axis.
+                f = [f[0]; 3];
+            } else {
+                f = f.map(|v| if v < 0 { FACTOR_ONE } else { v });
+            }
             if f.iter().any(|&v| v <= 0 || v >= 1000 * FACTOR_ONE) {
                 return bad;
             }
-            let mut centre = [p[0], p[1], p[2]];
-            for (i, v) in centre.iter_mut().enumerate() {
-                if let Some(w) = b.take(AXIS_LETTERS[i]) {
-                    *v = bounded(self.axis_value(i, w)?, w)?;
-                }
-            }
+            xf.scale_center = c;
             xf.factor = f;
-            // The centre is a program point: it goes through the mirror before it.
-            let mut m = xf;
-            m.factor = [FACTOR_ONE; 3];
-            xf.scale_center = m.forward(centre, 3);
         }
-        if let Some(c) = rot.filter(|c| c.code == G68) {
+        if rot == G68 {
             if xf.rotating {
-                return order(c);
+                return order;
             }
-            let (f, s, _) = arc_axes(self.state.plane);
-            let mut centre = [p[0], p[1], p[2]];
-            for i in [f, s] {
-                if let Some(w) = b.take(AXIS_LETTERS[i]) {
-                    centre[i] = bounded(self.axis_value(i, w)?, w)?;
-                }
-            }
-            let r = b
-                .take(b'R')
-                .ok_or((ErrorCode::TransformValue, Some(c.cols)))?;
+            let (f, s, n) = arc_axes(self.state.plane);
+            let Some(r) = b.take(b'R') else { return bad };
             let mut angle = value(r);
-            if angle.abs() > 360 * MICRO {
-                return err(ErrorCode::TransformValue, Some(r));
+            if named >> n & 1 != 0 || angle.abs() > 360 * MICRO {
+                return bad;
             }
             // One mirrored plane axis reverses the angle.
             if xf.flips(f, s) {
                 angle = -angle;
             }
-            let centre = xf.forward(centre, 3);
             xf.rot_axes = (f as u8, s as u8);
-            xf.rot_center = (centre[f], centre[s]);
+            xf.rot_center = (c[f], c[s]);
             xf.set_angle(angle);
             xf.rotating = true;
         }
-        if let Some(c) = b.g(GGroup::Polar) {
-            xf.polar = c.code == G16;
-        }
+        xf.update();
         self.state.xf = xf;
         // The tool stays where it is; its program point stays what the program last wrote.
         self.state.xf_prog = [p[0], p[1], p[2]];
@@ -1473,6 +1515,9 @@ impl Interpreter {
         if b.g_of(GGroup::NonModal) == Some(G65) && !gixa {
             // Every letter of a G65 block is an argument, axis letters included.
             return self.macro_call(b, line, src);
+        }
+        if b.has_g_in(TRANSFORM_GROUPS) || self.state.xf.active() || self.state.xf.polar {
+            self.check_transforms(b)?;
         }
         // The RS274NGC order of execution, one phase each.
         let pre = self.check_block(b)?;
@@ -1552,15 +1597,6 @@ impl Interpreter {
         if motion == Some(MotionMode::None) && !nonmodal_axes && !(gixa && motion_g.is_some()) {
             if let Some(w) = first_axis {
                 return err(ErrorCode::AxisWordsWithoutMotion, Some(w));
-            }
-        }
-        if let Some(c) = b.g(GGroup::Scaling).filter(|c| c.code == G51) {
-            // Hurco §3.18: G51 stands alone (checked before phase 1 takes F, S and T).
-            let alone = !b.has_g_besides(GGroup::Scaling)
-                && b.m.is_empty()
-                && b.letters().all(|l| b"IJKPXYZ".contains(&l));
-            if !alone {
-                return Err((ErrorCode::TransformNotAlone, Some(c.cols)));
             }
         }
         let f_given = b.has(b'F');
@@ -1749,10 +1785,6 @@ impl Interpreter {
             if self.comp.is_on() && !same {
                 return Err((ErrorCode::CompPlane, Some(p.cols)));
             }
-            let same = same || (p.code, self.state.plane) == (G19, Plane::YZ);
-            if self.state.xf.rotating && !same && b.g_of(GGroup::Rotation) != Some(G69) {
-                return Err((ErrorCode::TransformPlane, Some(p.cols)));
-            }
         }
         match b.g_of(GGroup::Plane) {
             Some(G17) => self.state.plane = Plane::XY,
@@ -1881,14 +1913,6 @@ impl Interpreter {
         ) || (nonmodal == Some(G10) && self.g10_sets_active_system(b))
         {
             self.refuse_under_comp(nonmodal.and_then(|g| b.g_cols(g)))?;
-        }
-        let moves_frame = matches!(nonmodal, Some(G52 | G92 | G92_1 | G92_2 | G92_3))
-            || (nonmodal == Some(G10) && b.word(b'L').and_then(|w| w.integer()) == Some(20));
-        if moves_frame && self.state.xf.active() {
-            return Err((
-                ErrorCode::TransformOffset,
-                nonmodal.and_then(|g| b.g_cols(g)),
-            ));
         }
         match nonmodal {
             Some(G10) => tool_write = self.set_work_offset(b)?,
@@ -2165,6 +2189,7 @@ impl Interpreter {
         Ok(true)
     }
 
+    #[inline(never)]
     fn arc(&mut self, b: &mut Block, line: u32, cw: bool, f_given: bool) -> Res<()> {
         let gixa = self.gixa();
         let plane = self.state.plane;
@@ -2232,7 +2257,11 @@ impl Interpreter {
             None => 1,
         };
         let r_word = if gixa { None } else { b.take(b'R') };
-        if r_word.is_some() && !b.has(AXIS_LETTERS[first]) && !b.has(AXIS_LETTERS[second]) {
+        if r_word.is_some()
+            && !b.has(AXIS_LETTERS[first])
+            && !b.has(AXIS_LETTERS[second])
+            && !b.has_any(const { letter_mask(b"@^") })
+        {
             return Err((ErrorCode::ArcEndPointMissing, r_word.map(|w| w.cols)));
         }
         // The arc as programmed (program points plus offsets), then through the transforms.
@@ -2270,13 +2299,12 @@ impl Interpreter {
             }
         };
         let (start, s2, e2, cw) = if self.state.xf.active() {
-            let xf = self.state.xf;
-            if xf.factor[first] != xf.factor[second] {
+            if self.state.xf.factor[first] != self.state.xf.factor[second] {
                 return Err((ErrorCode::TransformArcScaled, None));
             }
             let mut c = to;
             (c[first], c[second]) = center;
-            self.xf_point(&mut c, 3)?;
+            self.xf_point(&mut c, 3, false)?;
             center = (c[first], c[second]);
             self.transform(&mut to)?;
             let start = self.state.position;
@@ -2285,7 +2313,7 @@ impl Interpreter {
                 start,
                 s2,
                 (to[first], to[second]),
-                cw ^ xf.flips(first, second),
+                cw ^ self.state.xf.flips(first, second),
             )
         } else {
             (start, s2, e2, cw)
@@ -2317,6 +2345,7 @@ impl Interpreter {
         Ok(())
     }
 
+    #[inline(never)]
     fn cycle(&mut self, b: &mut Block, line: u32, code: u16) -> Res<()> {
         let gixa = self.gixa();
         let g_cols = b.g_cols(code);
@@ -2351,37 +2380,23 @@ impl Interpreter {
         let same = self.state.motion == MotionMode::Cycle(code);
         // Under a transform the hole positions are program points; the drilling axis is neither
         // mirrored nor scaled (Hurco §3.18), so its level is where the tool is.
-        let xf = self.state.xf;
-        if xf.mirror >> c & 1 != 0 {
+        let on = self.state.xf.active();
+        if self.state.xf.mirror >> c & 1 != 0 {
             return Err((ErrorCode::NotSupported, g_cols));
         }
         let mut prog = self.state.program_point();
         prog[c] = self.state.program_position()[c];
         let offset = self.state.offset();
         let mem = self.state.cycle;
-        let mut polar = if self.state.plane == Plane::XY {
+        let polar = if self.state.plane == Plane::XY {
             self.polar_words(b)?
         } else {
             None
         };
-        let mut a_w = b.take(AXIS_LETTERS[a]);
-        let mut b_w = b.take(AXIS_LETTERS[bx]);
+        let a_w = b.take(AXIS_LETTERS[a]);
+        let b_w = b.take(AXIS_LETTERS[bx]);
         let c_w = b.take(AXIS_LETTERS[c]);
         let r_w = b.take(b'R');
-        if xf.polar && polar.is_none() {
-            // G16: the first plane axis word is the radius, the second the angle.
-            if let Some(first) = a_w.or(b_w) {
-                if let (Some(w), false) = (a_w, self.state.absolute) {
-                    return err(ErrorCode::NotSupported, Some(w));
-                }
-                if !self.state.absolute && self.state.plane != Plane::XY {
-                    return err(ErrorCode::NotSupported, Some(first));
-                }
-                let radius = a_w.map(|w| self.axis_value(a, w)).transpose()?;
-                polar = Some((radius, b_w.map(|w| w.value), first.cols));
-                (a_w, b_w) = (None, None);
-            }
-        }
         let a_v = a_w.map(|w| self.axis_value(a, w)).transpose()?;
         let b_v = b_w.map(|w| self.axis_value(bx, w)).transpose()?;
         let initial = mem.initial_level.unwrap_or(prog[c]);
@@ -2549,8 +2564,8 @@ impl Interpreter {
             let mut up = prog;
             up[c] = r;
             let mut to = self.state.to_machine(up);
-            if xf.active() {
-                self.xf_point(&mut to, c)?;
+            if on {
+                self.xf_point(&mut to, c, false)?;
             }
             self.push(line, Action::Rapid { to })?;
         }
@@ -2561,7 +2576,7 @@ impl Interpreter {
             program[c] = r;
         }
         let mut run = CycleRun::new(line, body, gixa, (a, bx, c), program, offset, repeats);
-        run.xf = xf;
+        run.xf = self.state.xf;
         run.inc = inc;
         run.polar_step = polar_step;
         run.r = r;
@@ -2592,9 +2607,8 @@ impl Interpreter {
         for (v, o) in machine.iter_mut().zip(offset) {
             *v += o;
         }
-        if xf.active() {
-            self.state.xf_prog = self.xf_point(&mut machine, c)?;
-            self.state.xf_at = core::array::from_fn(|i| machine[i] - offset[i]);
+        if on {
+            self.xf_point(&mut machine, c, true)?;
         }
         self.state.position = machine;
         if body == CycleBody::Tap && gixa {

@@ -8,19 +8,19 @@
 //! position changed by another path (G28, G53, a probe, a tool change) the program point is the
 //! inverse transform of where the tool is.
 
-use crate::motion::trig::{polar, TURN};
+use crate::motion::trig::{atan2, polar, TURN};
 use crate::units::Nm;
 
-use super::geometry::div_round;
+use super::geometry::{div_round, hypot};
 
 /// A scale factor of 1 (factors are in millionths).
 pub const ONE: i64 = 1_000_000;
-/// Binary point of the rotation's cosine and sine.
-const ROT_BITS: u32 = 40;
 
 /// The transforms in force (G51.1, G51, G68) and the polar mode (G16).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Transform {
+    /// A mirror, scaling or rotation is in force (kept by [`Transform::update`]).
+    pub on: bool,
     /// Mirrored axes: bit `i` for axis `i` (X, Y, Z).
     pub mirror: u8,
     /// Twice the mirror coordinate of each axis (x' = twice − x), program nm.
@@ -29,12 +29,11 @@ pub struct Transform {
     pub factor: [i64; 3],
     pub scale_center: [Nm; 3],
     /// G68 in force: the plane axes it turns (first → second is positive), the centre (after
-    /// mirror and scaling) and cos, sin of the angle (2⁻⁴⁰).
+    /// mirror and scaling) and the angle (binary, [`TURN`] a full turn).
     pub rotating: bool,
     pub rot_axes: (u8, u8),
     pub rot_center: (Nm, Nm),
-    pub cos: i64,
-    pub sin: i64,
+    pub angle: i64,
     /// G16 polar coordinates.
     pub polar: bool,
 }
@@ -42,6 +41,7 @@ pub struct Transform {
 impl Transform {
     /// No transform (G50.1, G50, G69, G15).
     pub const OFF: Transform = Transform {
+        on: false,
         mirror: 0,
         mirror_twice: [0; 3],
         factor: [ONE; 3],
@@ -49,8 +49,7 @@ impl Transform {
         rotating: false,
         rot_axes: (0, 1),
         rot_center: (0, 0),
-        cos: 1 << ROT_BITS,
-        sin: 0,
+        angle: 0,
         polar: false,
     };
 
@@ -61,7 +60,12 @@ impl Transform {
 
     /// True when a point transform (mirror, scaling or rotation) is in force.
     pub fn active(&self) -> bool {
-        self.mirror != 0 || self.scaling() || self.rotating
+        self.on
+    }
+
+    /// Sets [`Transform::on`] after a change.
+    pub fn update(&mut self) {
+        self.on = self.mirror != 0 || self.scaling() || self.rotating;
     }
 
     /// True when exactly one of plane axes `a`, `b` is mirrored: arcs, the side of cutter
@@ -70,62 +74,55 @@ impl Transform {
         ((self.mirror >> a) ^ (self.mirror >> b)) & 1 != 0
     }
 
-    /// Mirror, then scaling (axis `keep` unscaled: a canned cycle's drilling axis; 3 for none).
-    fn mirror_scale(&self, p: &mut [Nm; 3], keep: usize) {
-        for i in 0..3 {
-            if self.mirror >> i & 1 != 0 {
-                p[i] = self.mirror_twice[i] - p[i];
-            }
-            if self.factor[i] != ONE && i != keep {
-                let c = self.scale_center[i];
-                p[i] =
-                    c + div_round((p[i] - c) as i128 * self.factor[i] as i128, ONE as i128) as Nm;
-            }
-        }
+    /// The transformed point of program point `p` (work coordinates, offsets not added):
+    /// mirror, then scaling (axis `keep` unscaled: a canned cycle's drilling axis; 3 for none),
+    /// then rotation.
+    pub fn forward(&self, p: [Nm; 3], keep: usize) -> [Nm; 3] {
+        self.map(p, false, keep)
     }
 
-    /// The transformed point of program point `p` (work coordinates, offsets not added).
-    pub fn forward(&self, mut p: [Nm; 3], keep: usize) -> [Nm; 3] {
-        self.mirror_scale(&mut p, keep);
-        if self.rotating {
-            self.rotate(&mut p, self.sin);
+    /// The program point that [`Transform::forward`] takes to `w`.
+    pub fn inverse(&self, w: [Nm; 3]) -> [Nm; 3] {
+        self.map(w, true, 3)
+    }
+
+    #[inline(never)]
+    fn map(&self, mut p: [Nm; 3], inverse: bool, keep: usize) -> [Nm; 3] {
+        let turn = |p: &mut [Nm; 3], angle: i64| {
+            // About the centre through the core's one CORDIC (motion/trig.rs).
+            let (a, b) = (self.rot_axes.0 as usize, self.rot_axes.1 as usize);
+            let (ca, cb) = self.rot_center;
+            let (da, db) = (p[a] - ca, p[b] - cb);
+            let (x, y) = polar(hypot(da, db), atan2(db, da) + angle);
+            (p[a], p[b]) = (ca + x, cb + y);
+        };
+        if inverse && self.rotating {
+            turn(&mut p, -self.angle);
+        }
+        for (i, v) in p.iter_mut().enumerate() {
+            let mirror = self.mirror >> i & 1 != 0;
+            if mirror && !inverse {
+                *v = self.mirror_twice[i] - *v;
+            }
+            let f = self.factor[i];
+            if f != ONE && i != keep {
+                let (n, d) = if inverse { (ONE, f) } else { (f, ONE) };
+                let c = self.scale_center[i];
+                *v = c + div_round((*v - c) as i128 * n as i128, d as i128) as Nm;
+            }
+            if mirror && inverse {
+                *v = self.mirror_twice[i] - *v;
+            }
+        }
+        if !inverse && self.rotating {
+            turn(&mut p, self.angle);
         }
         p
     }
 
-    /// The program point that [`Transform::forward`] takes to `w`.
-    pub fn inverse(&self, mut w: [Nm; 3]) -> [Nm; 3] {
-        if self.rotating {
-            self.rotate(&mut w, -self.sin);
-        }
-        for i in 0..3 {
-            if self.factor[i] != ONE {
-                let c = self.scale_center[i];
-                w[i] =
-                    c + div_round((w[i] - c) as i128 * ONE as i128, self.factor[i] as i128) as Nm;
-            }
-            if self.mirror >> i & 1 != 0 {
-                w[i] = self.mirror_twice[i] - w[i];
-            }
-        }
-        w
-    }
-
-    /// Turns `p` about the rotation centre by the angle whose sine is `sin` (cosine `self.cos`).
-    fn rotate(&self, p: &mut [Nm; 3], sin: i64) {
-        let (a, b) = (self.rot_axes.0 as usize, self.rot_axes.1 as usize);
-        let (ca, cb) = self.rot_center;
-        let (da, db) = ((p[a] - ca) as i128, (p[b] - cb) as i128);
-        let (c, s) = (self.cos as i128, sin as i128);
-        let half = 1i128 << (ROT_BITS - 1);
-        p[a] = ca + ((da * c - db * s + half) >> ROT_BITS) as Nm;
-        p[b] = cb + ((da * s + db * c + half) >> ROT_BITS) as Nm;
-    }
-
     /// Sets the rotation angle (10⁻⁶ degree, + turns the first plane axis toward the second).
     pub fn set_angle(&mut self, udeg: i64) {
-        let angle = div_round(udeg as i128 * TURN as i128, 360_000_000) as i64;
-        (self.cos, self.sin) = polar(1 << ROT_BITS, angle);
+        self.angle = div_round(udeg as i128 * TURN as i128, 360_000_000) as i64;
     }
 }
 
@@ -145,6 +142,7 @@ mod tests {
         t.rotating = true;
         t.rot_axes = (0, 1);
         t.set_angle(90_000_000);
+        t.update();
         // (10, 0, 4): mirror about X1.5 → (−7, 0, 4); half about (40, 40, 0) → (16.5, 20, 2);
         // +90° about the origin → (−20, 16.5, 2).
         let w = t.forward([10 * MM, 0, 4 * MM], 3);
@@ -159,6 +157,7 @@ mod tests {
     fn rotation_of_45_degrees() {
         let mut t = Transform::OFF;
         t.rotating = true;
+        t.update();
         t.set_angle(45_000_000);
         assert_eq!(t.forward([10 * MM, 0, 0], 3), [7_071_068, 7_071_068, 0]);
         t.set_angle(-75_000_000);
