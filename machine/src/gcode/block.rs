@@ -323,6 +323,7 @@ impl Block {
 
     /// Moves the word of letter `from` (if any) to the slot of letter `to`; false when `to` is
     /// taken (G16 hands X and Y on as LinuxCNC's polar words `@` and `^`).
+    #[inline(always)]
     pub fn rename(&mut self, from: u8, to: u8) -> bool {
         let (f, t) = (slot(from), slot(to));
         if self.present & (1 << f) == 0 {

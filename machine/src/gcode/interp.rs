@@ -1215,6 +1215,7 @@ impl Interpreter {
 
     /// Where a move's target starts: the position, or under a transform the program point plus
     /// the offsets (docs/gcode-transforms.md).
+    #[inline(never)]
     fn start_point(&self) -> Pos {
         if !self.state.xf.active() {
             return self.state.position;
@@ -1262,6 +1263,7 @@ impl Interpreter {
     }
 
     /// [`Interpreter::xf_point`] for the block's end point when a transform is in force.
+    #[inline(always)]
     fn transform(&mut self, to: &mut Pos) -> Res<()> {
         if self.state.xf.active() {
             self.xf_point(to, 3, true)?;
@@ -1296,7 +1298,7 @@ impl Interpreter {
         let nonmodal = b.g(GGroup::NonModal);
         if let Some(g) = nonmodal {
             let moves_frame = matches!(g.code, G52 | G92 | G92_1 | G92_2 | G92_3)
-                || (g.code == G10 && b.word(b'L').and_then(|w| w.integer()) == Some(20));
+                || (g.code == G10 && b.word(b'L').is_some_and(|w| w.value == 20 * MICRO));
             if moves_frame && xf.active() {
                 return Err((ErrorCode::TransformOffset, Some(g.cols)));
             }
@@ -1404,23 +1406,31 @@ impl Interpreter {
         // alone, so at most one of the two below runs).
         let c = xf.forward(centre, 3);
         if sc == G51 {
-            // -1: not given.
-            let mut f = [-1; 3];
+            // 0: not given; -1: not positive.
+            let factor = |w: Word| {
+                let v = value(w);
+                if v > 0 {
+                    v
+                } else {
+                    -1
+                }
+            };
+            let mut f = [0; 3];
             for (v, l) in f.iter_mut().zip(b"IJK") {
                 if let Some(w) = b.take(*l) {
-                    *v = value(w).max(0);
+                    *v = factor(w);
                 }
             }
             if let Some(w) = b.take(b'P') {
-                if f != [-1; 3] {
+                if f != [0; 3] {
                     return bad;
                 }
-                f = [value(w).max(0); 3];
-            } else if f[1..] == [-1, -1] {
+                f = [factor(w); 3];
+            } else if f[1..] == [0, 0] {
                 // Hurco: I alone scales every axis.
                 f = [f[0]; 3];
             } else {
-                f = f.map(|v| if v < 0 { FACTOR_ONE } else { v });
+                f = f.map(|v| if v == 0 { FACTOR_ONE } else { v });
             }
             if f.iter().any(|&v| v <= 0 || v >= 1000 * FACTOR_ONE) {
                 return bad;
@@ -1451,8 +1461,8 @@ impl Interpreter {
         self.state.xf = xf;
         // The tool stays where it is; its program point stays what the program last wrote.
         self.state.xf_prog = [p[0], p[1], p[2]];
-        let w = self.state.program_position();
-        self.state.xf_at = [w[0], w[1], w[2]];
+        self.state.xf_at =
+            core::array::from_fn(|i| self.state.position[i] - self.state.axis_offset(i));
         Ok(())
     }
 
@@ -1935,9 +1945,7 @@ impl Interpreter {
                     self.state.g30
                 };
                 let named: [bool; MAX_AXES] = core::array::from_fn(|i| b.has(AXIS_LETTERS[i]));
-                let mut via = self.start_point();
-                self.target(b, false, &mut via)?;
-                self.transform(&mut via)?;
+                let via = self.move_target(b, false)?;
                 self.push(line, Action::Rapid { to: via })?;
                 let mut to = via;
                 let any = named.iter().any(|&n| n);
@@ -2298,27 +2306,22 @@ impl Interpreter {
                 c
             }
         };
-        let (start, s2, e2, cw) = if self.state.xf.active() {
-            if self.state.xf.factor[first] != self.state.xf.factor[second] {
+        let mut cw = cw;
+        if self.state.xf.active() {
+            let xf = &self.state.xf;
+            if xf.factor[first] != xf.factor[second] {
                 return Err((ErrorCode::TransformArcScaled, None));
             }
+            cw ^= xf.flips(first, second);
             let mut c = to;
             (c[first], c[second]) = center;
             self.xf_point(&mut c, 3, false)?;
             center = (c[first], c[second]);
             self.transform(&mut to)?;
-            let start = self.state.position;
-            let s2 = (start[first], start[second]);
-            (
-                start,
-                s2,
-                (to[first], to[second]),
-                cw ^ self.state.xf.flips(first, second),
-            )
-        } else {
-            (start, s2, e2, cw)
-        };
+        }
+        let start = self.state.position;
         let feed = if self.state.inverse_time {
+            let (s2, e2) = ((start[first], start[second]), (to[first], to[second]));
             let sweep = geometry::sweep(s2, e2, center, !cw, turns);
             let radius = geometry::hypot(s2.0 - center.0, s2.1 - center.1);
             let length = geometry::arc_length(sweep, radius, to[normal] - start[normal]);
@@ -2385,7 +2388,7 @@ impl Interpreter {
             return Err((ErrorCode::NotSupported, g_cols));
         }
         let mut prog = self.state.program_point();
-        prog[c] = self.state.program_position()[c];
+        prog[c] = self.state.position[c] - self.state.axis_offset(c);
         let offset = self.state.offset();
         let mem = self.state.cycle;
         let polar = if self.state.plane == Plane::XY {
