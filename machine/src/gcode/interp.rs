@@ -1316,7 +1316,8 @@ impl Interpreter {
             && b.has_any(const { letter_mask(b"XY") })
         {
             let x = b.word(b'X');
-            if self.state.plane != Plane::XY
+            if b.g_of(GGroup::Plane)
+                .map_or(self.state.plane != Plane::XY, |p| p != G17)
                 || (x.is_some()
                     && b.g_of(GGroup::Distance)
                         .map_or(!self.state.absolute, |d| d == G91))
@@ -1409,8 +1410,8 @@ impl Interpreter {
             // 0: not given; -1: not positive.
             let factor = |w: Word| {
                 let v = value(w);
-                if v > 0 {
-                    v
+                if v > 0 && v < 1000 * FACTOR_ONE as i64 {
+                    v as i32
                 } else {
                     -1
                 }
@@ -1432,7 +1433,7 @@ impl Interpreter {
             } else {
                 f = f.map(|v| if v == 0 { FACTOR_ONE } else { v });
             }
-            if f.iter().any(|&v| v <= 0 || v >= 1000 * FACTOR_ONE) {
+            if f.iter().any(|&v| v <= 0) {
                 return bad;
             }
             xf.scale_center = c;

@@ -14,7 +14,7 @@ use crate::units::Nm;
 use super::geometry::{div_round, hypot};
 
 /// A scale factor of 1 (factors are in millionths).
-pub const ONE: i64 = 1_000_000;
+pub const ONE: i32 = 1_000_000;
 
 /// The transforms in force (G51.1, G51, G68) and the polar mode (G16).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -26,7 +26,7 @@ pub struct Transform {
     /// Twice the mirror coordinate of each axis (x' = twice − x), program nm.
     pub mirror_twice: [Nm; 3],
     /// Scaling factors (millionths; all [`ONE`] when G50) and the centre (after the mirror).
-    pub factor: [i64; 3],
+    pub factor: [i32; 3],
     pub scale_center: [Nm; 3],
     /// G68 in force: the plane axes it turns (first → second is positive), the centre (after
     /// mirror and scaling) and the angle (binary, [`TURN`] a full turn).
