@@ -2565,12 +2565,9 @@ impl Interpreter {
         let raise_first = !gixa && initial < r;
         if raise_first {
             // LinuxCNC: a tool below R first rises to R where it stands.
-            let mut up = prog;
-            up[c] = r;
-            let mut to = self.state.to_machine(up);
-            if on {
-                self.xf_point(&mut to, c, false)?;
-            }
+            // (The drilling axis is neither mirrored, scaled nor turned by a transform.)
+            let mut to = self.state.position;
+            to[c] = r + offset[c];
             self.push(line, Action::Rapid { to })?;
         }
         let mut program = prog;
