@@ -1287,10 +1287,8 @@ impl Interpreter {
             }
         }
         if let Some(p) = b.g(GGroup::Plane) {
-            let same = matches!(
-                (p.code, self.state.plane),
-                (G17, Plane::XY) | (G18, Plane::ZX) | (G19, Plane::YZ)
-            );
+            // G17, G18, G19 in the order of `Plane`.
+            let same = p.code == G17 + 10 * self.state.plane as u16;
             if xf.rotating && !same && b.g_of(GGroup::Rotation) != Some(G69) {
                 return Err((ErrorCode::TransformPlane, Some(p.cols)));
             }
@@ -1312,7 +1310,7 @@ impl Interpreter {
         if polar
             && nonmodal.is_none()
             && !b.has_g_in(TRANSFORM_GROUPS & !(1 << GGroup::Polar as u16))
-            && b.g_of(GGroup::ToolLength).is_none()
+            && b.g_of(GGroup::ToolLength) != Some(G43_1)
             && b.has_any(const { letter_mask(b"XY") })
         {
             let x = b.word(b'X');
