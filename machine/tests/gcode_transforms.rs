@@ -1,6 +1,7 @@
 //! The Fanuc coordinate transforms (docs/gcode-transforms.md) through the interpreter: the
 //! errors the manuals name, the pipeline's interplay with compensation, offsets, G53 and
-//! program end, with hand-checked positions. The manuals' example programs are in
+//! program end, with hand-checked positions; and the Fanuc cycles G74, G76, G84.2, G84.3 and M19.
+//! The manuals' example programs are in
 //! tests/golden/transforms/ (through `gantry check --canon`).
 mod gcode_support;
 
@@ -132,4 +133,82 @@ fn scaled_arc_keeps_its_direction_and_doubles_its_radius() {
         }
         ref a => panic!("{a:?}"),
     }
+}
+
+// --- The Fanuc cycles of issue 28 (docs/gcode-transforms.md "Fanuc cycles") ---
+
+fn actions(program: &str, cfg: &InterpConfig) -> Vec<Result<Action, ErrorCode>> {
+    let mut it = Interpreter::new(cfg);
+    let mut src = MemorySource::new(program.as_bytes());
+    let mut out = Vec::new();
+    while let Some(r) = it.next(&mut src) {
+        let stop = r.is_err();
+        out.push(r.map(|c| c.action).map_err(|e| e.code));
+        if stop {
+            break;
+        }
+    }
+    out
+}
+
+#[test]
+fn g74_taps_left_handed_and_reverses_at_the_bottom() {
+    use gantry_machine::canon::Spindle;
+    let got = actions(
+        "G0 X0 Y0 Z10\nM4 S500\nG98 G74 X10 Y5 Z-8 R2 P0.5 F500\n",
+        &InterpConfig::default(),
+    );
+    let spindle = |state, rpm| Ok(Action::Spindle { state, rpm });
+    let to = |x: i64, y: i64, z: i64| [x * MM, y * MM, z * MM, 0, 0, 0];
+    assert_eq!(
+        got,
+        vec![
+            Ok(Action::Rapid { to: to(0, 0, 10) }),
+            spindle(Spindle::Ccw, 500),
+            Ok(Action::Rapid { to: to(10, 5, 10) }),
+            Ok(Action::Rapid { to: to(10, 5, 2) }),
+            Ok(Action::Feed {
+                to: to(10, 5, -8),
+                feed: 500 * MM
+            }),
+            spindle(Spindle::Off, 0),
+            spindle(Spindle::Cw, 500),
+            Ok(Action::Dwell { micros: 500_000 }),
+            Ok(Action::Feed {
+                to: to(10, 5, 10),
+                feed: 500 * MM
+            }),
+            spindle(Spindle::Off, 0),
+            spindle(Spindle::Ccw, 500),
+        ]
+    );
+}
+
+#[test]
+fn the_board_refuses_the_cycles_it_cannot_run_safely() {
+    use ErrorCode::*;
+    for (program, code) in [
+        // G74 needs the spindle turning counter-clockwise (M4).
+        ("M3 S500\nG74 X1 Z-1 R1 F10", CycleSpindleState),
+        // No oriented spindle stop, no spindle synchronisation.
+        ("M3 S500\nG76 X1 Z-1 R1 Q.1 F10", CycleNotSupported),
+        ("M3 S500\nG84.2 X1 Z-1 R1 F10", CycleNotSupported),
+        ("M4 S500\nG84.3 X1 Z-1 R1 F10", CycleNotSupported),
+    ] {
+        let e = first_error(program);
+        assert_eq!((e.line, e.code), (2, code), "{program}");
+    }
+}
+
+#[test]
+fn m19_is_an_output_the_setup_maps() {
+    // Without a mapping M19 is unknown (nothing orients the spindle); with `user_mcodes = [19]`
+    // and its `[[mcode]]` list it is a user M code like any other.
+    assert_eq!(first_error("M5\nM19").code, ErrorCode::UnknownMCode);
+    let mut cfg = InterpConfig::default();
+    assert!(cfg.add_user_m_code(19));
+    let got = actions("M5\nM19\n", &cfg);
+    assert!(got
+        .iter()
+        .any(|a| matches!(a, Ok(Action::UserMCode { code: 19, .. }))));
 }

@@ -103,7 +103,8 @@ pub enum ErrorCode {
     CycleQInvalid,
     /// G82/G86/G89 without a dwell P.
     CycleDwellMissing,
-    /// G84 needs the spindle turning clockwise (M3), G86/G87/G88 need it on.
+    /// G84 needs the spindle turning clockwise (M3), G74 counter-clockwise (M4), G86/G87/G88
+    /// need it on.
     CycleSpindleState,
     /// Canned cycle in G93 inverse-time mode.
     CycleInverseTime,
@@ -113,7 +114,9 @@ pub enum ErrorCode {
     CycleRepeatInvalid,
     /// gixa G87: Q not larger than the partial-retract distance.
     CyclePeckNotAboveRetract,
-    /// A canned cycle this dialect does not support (gixa G73).
+    /// A canned cycle this dialect does not support (gixa G73), or the board cannot run safely
+    /// (G76 fine boring: no oriented spindle stop; G84.2/G84.3 rigid tapping: no synchronised
+    /// spindle).
     CycleNotSupported,
     /// RS274NGC G87 without its I, J and K words in its first block.
     CycleBackBoreWordMissing,
@@ -426,12 +429,12 @@ impl ErrorCode {
             CycleRBelowBottom => "canned cycle R plane is below the bottom of the hole",
             CycleQInvalid => "peck cycle needs a positive Q (peck depth)",
             CycleDwellMissing => "canned cycle needs a dwell P in its first block",
-            CycleSpindleState => "spindle state wrong for this cycle (G84 needs M3, G86/G87/G88 need the spindle on)",
+            CycleSpindleState => "spindle state wrong for this cycle (G84 needs M3, G74 M4, G86/G87/G88 need the spindle on)",
             CycleInverseTime => "canned cycles cannot run in G93 inverse-time mode",
             CycleRotaryAxis => "rotary axis words are not allowed in a canned-cycle block",
             CycleRepeatInvalid => "canned-cycle repeat count (K/L) must be a whole number >= 0",
             CyclePeckNotAboveRetract => "G87 peck Q must be larger than the partial-retract distance",
-            CycleNotSupported => "canned cycle not supported in this dialect",
+            CycleNotSupported => "canned cycle not supported in this dialect (gixa G73), or not on this board (G76 needs an oriented spindle stop, G84.2/G84.3 a synchronised spindle)",
             CycleBackBoreWordMissing => "G87 back boring needs I, J and K in its first block",
             G10Invalid => "G10 needs L1 (P tool), L2 or L20 (P0..P9)",
             ToolNotInTable => "tool not in the tool table",

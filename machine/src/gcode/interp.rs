@@ -2356,7 +2356,7 @@ impl Interpreter {
             (_, G81) => CycleBody::Drill,
             (_, G82) => CycleBody::DrillDwell,
             (_, G83) => CycleBody::PeckFull,
-            (_, G84) => CycleBody::Tap,
+            (_, G84) | (false, G74) => CycleBody::Tap,
             (_, G85) => CycleBody::Bore,
             (false, G86) => CycleBody::BoreSpindleStop,
             (true, G86) => CycleBody::DrillPause,
@@ -2539,6 +2539,8 @@ impl Interpreter {
         }
         if !gixa {
             let ok = match body {
+                // G74 taps left-handed: down with M4, reversed to M3 at the bottom.
+                CycleBody::Tap if code == G74 => self.state.spindle == Spindle::Ccw,
                 CycleBody::Tap => self.state.spindle == Spindle::Cw,
                 CycleBody::BoreSpindleStop | CycleBody::BackBore | CycleBody::BoreManualRetract => {
                     self.state.spindle != Spindle::Off
