@@ -1216,29 +1216,30 @@ impl Interpreter {
     /// Where a move's target starts: the position, or under a transform the program point plus
     /// the offsets (docs/gcode-transforms.md).
     #[inline(never)]
-    fn start_point(&self) -> Pos {
-        if !self.state.xf.active() {
-            return self.state.position;
+    /// Written through a reference, as [`Interpreter::target`].
+    fn start_point(&self, to: &mut Pos) {
+        *to = self.state.position;
+        if self.state.xf.active() {
+            *to = self.state.program_point();
+            for (i, v) in to.iter_mut().enumerate() {
+                *v += self.state.axis_offset(i);
+            }
         }
-        let mut p = self.state.program_point();
-        for (i, v) in p.iter_mut().enumerate() {
-            *v += self.state.axis_offset(i);
-        }
-        p
     }
 
-    /// The machine end point of a straight move from the block's axis words.
-    fn move_target(&mut self, b: &mut Block, g53: bool) -> Res<Pos> {
-        let mut to = if g53 {
-            self.state.position
+    /// The machine end point of a straight move from the block's axis words, written over `to`
+    /// (a `Res<Pos>` return was copied byte by byte on the Cortex-M4).
+    fn move_target(&mut self, b: &mut Block, g53: bool, to: &mut Pos) -> Res<()> {
+        if g53 {
+            *to = self.state.position;
         } else {
-            self.start_point()
-        };
-        self.target(b, g53, &mut to)?;
-        if !g53 {
-            self.transform(&mut to)?;
+            self.start_point(to);
         }
-        Ok(to)
+        self.target(b, g53, to)?;
+        if !g53 {
+            self.transform(to)?;
+        }
+        Ok(())
     }
 
     /// The transform pipeline: a program point plus offsets (from [`Interpreter::target`]) to
@@ -1944,7 +1945,8 @@ impl Interpreter {
                     self.state.g30
                 };
                 let named: [bool; MAX_AXES] = core::array::from_fn(|i| b.has(AXIS_LETTERS[i]));
-                let via = self.move_target(b, false)?;
+                let mut via = [0; MAX_AXES];
+                self.move_target(b, false, &mut via)?;
                 self.push(line, Action::Rapid { to: via })?;
                 let mut to = via;
                 let any = named.iter().any(|&n| n);
@@ -2137,7 +2139,8 @@ impl Interpreter {
             MotionMode::Rapid => {
                 // As LinuxCNC, an explicit G0 without axis words is a zero-length move.
                 let has_axes = b.has_any(AXIS_WORDS);
-                let to = self.move_target(b, g53)?;
+                let mut to = [0; MAX_AXES];
+                self.move_target(b, g53, &mut to)?;
                 if has_axes || explicit {
                     self.push(line, Action::Rapid { to })?;
                 }
@@ -2145,7 +2148,8 @@ impl Interpreter {
             }
             MotionMode::Linear => {
                 let has_axes = b.has_any(AXIS_WORDS);
-                let to = self.move_target(b, g53)?;
+                let mut to = [0; MAX_AXES];
+                self.move_target(b, g53, &mut to)?;
                 if has_axes || explicit {
                     let feed = self.straight_feed(&self.state.position, &to, f_given)?;
                     self.push(line, Action::Feed { to, feed })?;
@@ -2158,7 +2162,8 @@ impl Interpreter {
             MotionMode::Probe(code) => {
                 // LinuxCNC refuses probing under cutter compensation too.
                 self.refuse_under_comp(b.g_cols(code))?;
-                let to = self.move_target(b, g53)?;
+                let mut to = [0; MAX_AXES];
+                self.move_target(b, g53, &mut to)?;
                 if self.state.inverse_time {
                     return Err((ErrorCode::ProbeInverseTime, b.g_cols(code)));
                 }
@@ -2272,7 +2277,8 @@ impl Interpreter {
             return Err((ErrorCode::ArcEndPointMissing, r_word.map(|w| w.cols)));
         }
         // The arc as programmed (program points plus offsets), then through the transforms.
-        let start = self.start_point();
+        let mut start = [0; MAX_AXES];
+        self.start_point(&mut start);
         let mut to = start;
         self.target(b, false, &mut to)?;
         let offset = self.state.offset();
