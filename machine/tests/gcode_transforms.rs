@@ -212,3 +212,20 @@ fn m19_is_an_output_the_setup_maps() {
         .iter()
         .any(|a| matches!(a, Ok(Action::UserMCode { code: 19, .. }))));
 }
+
+#[test]
+fn a_tool_number_must_be_in_the_setups_tool_table() {
+    // LinuxCNC: `T212` with no such tool is an error when the setup has a tool table.
+    let mut cfg = InterpConfig::default();
+    assert!(cfg.set_tool(1, 0) && cfg.set_tool(7, 5 * MM));
+    let got = actions("T7 M6\nT0\nT212 M6\n", &cfg);
+    assert_eq!(got.last(), Some(&Err(ErrorCode::ToolNotInTable)));
+    assert!(got[..got.len() - 1].iter().all(|a| a.is_ok()));
+    // A tool G10 L1 adds is in the table from then on; without a table any T is accepted.
+    assert!(actions("G10 L1 P212 Z1\nT212 M6\n", &cfg)
+        .iter()
+        .all(|a| a.is_ok()));
+    assert!(actions("T212 M6\n", &InterpConfig::default())
+        .iter()
+        .all(|a| a.is_ok()));
+}

@@ -1652,7 +1652,12 @@ impl Interpreter {
             self.state.rpm = ((w.value + MICRO / 2) / MICRO).min(u32::MAX as i64) as u32;
         }
         if let Some(w) = b.take(b'T') {
-            self.state.tool_selected = Self::integer(w, 99_999_999)? as u32;
+            let t = Self::integer(w, 99_999_999)? as u32;
+            // LinuxCNC: with a tool table in the setup, T names one of its tools (or is T0).
+            if t != 0 && self.config.tools[0].number != 0 && self.config.tool(t).is_none() {
+                return err(ErrorCode::ToolNotInTable, Some(w));
+            }
+            self.state.tool_selected = t;
         }
         Ok(s_word)
     }
