@@ -144,7 +144,8 @@ fn errors_as_linuxcnc() {
             5,
         ),
         (
-            "G41 D5 G1 X10 Y0 F100\nX20\nT1 M6\n",
+            // T5: a tool of this table (T1 would be E502 first, as in LinuxCNC).
+            "G41 D5 G1 X10 Y0 F100\nX20\nT5 M6\n",
             ErrorCode::CompForbidden,
             5,
         ),

@@ -400,6 +400,42 @@ const CASES: &[Case] = &[
         ErrorCode::CompDiameterMissing,
         Some((0, 5)),
     ),
+    (
+        "G68 R30\nG68 R10",
+        cfg_default,
+        ErrorCode::TransformOrder,
+        Some((0, 3)),
+    ),
+    (
+        "G68 R30\nG18",
+        cfg_default,
+        ErrorCode::TransformPlane,
+        Some((0, 3)),
+    ),
+    (
+        "G51 I.5 J2\nG2 X1 I.5 F1",
+        cfg_default,
+        ErrorCode::TransformArcScaled,
+        None,
+    ),
+    (
+        "G51.1 X5\nG92 X0",
+        cfg_default,
+        ErrorCode::TransformOffset,
+        Some((0, 3)),
+    ),
+    (
+        "G51 P2 F100",
+        cfg_default,
+        ErrorCode::TransformNotAlone,
+        Some((0, 3)),
+    ),
+    (
+        "G51 X0",
+        cfg_default,
+        ErrorCode::TransformValue,
+        Some((0, 3)),
+    ),
     ("G4", cfg_default, ErrorCode::DwellTimeMissing, Some((0, 2))),
     (
         "G10 L2 P1 R5",

@@ -36,33 +36,111 @@ pub enum GGroup {
     Coordinate,
     /// 13: G61 G61.1 G64.
     Path,
+    /// Fanuc 11: G50 G51 (scaling).
+    Scaling,
+    /// Fanuc 16: G68 G69 (rotation).
+    Rotation,
+    /// Fanuc 17: G15 G16 (polar coordinates).
+    Polar,
+    /// Fanuc 18: G50.1 G51.1 (programmable mirror).
+    Mirror,
 }
 
 /// Number of [`GGroup`]s.
-pub const G_GROUPS: usize = 12;
+pub const G_GROUPS: usize = 16;
+
+/// The `g_set` bits of the transform groups (scaling, rotation, polar, mirror).
+pub const TRANSFORM_GROUPS: u16 = 0xf << GGroup::Scaling as u16;
 
 /// The group of a G code in tenths, or `None` if unknown.
 pub fn g_group(code: u16) -> Option<GGroup> {
-    use GGroup::*;
-    Some(match code {
-        G4 | G10 | G28 | G28_1 | G30 | G30_1 | G52 | G53 | G65 | G92 | G92_1 | G92_2 | G92_3 => {
-            NonModal
-        }
-        G0 | G1 | G2 | G3 | G38_2 | G38_3 | G38_4 | G38_5 | G73 | G80 | G81 | G82 | G83 | G84
-        | G85 | G86 | G87 | G88 | G89 => Motion,
-        G17 | G18 | G19 => Plane,
-        G90 | G91 => Distance,
-        G90_1 | G91_1 => ArcDistance,
-        G93 | G94 => FeedMode,
-        G20 | G21 => Units,
-        G40 | G41 | G42 | G41_1 | G42_1 => CutterComp,
-        G43 | G43_1 | G49 => ToolLength,
-        G98 | G99 => Return,
-        G54 | G55 | G56 | G57 | G58 | G59 | G59_1 | G59_2 | G59_3 => Coordinate,
-        G61 | G61_1 | G64 => Path,
-        _ => return None,
-    })
+    G_TABLE.iter().find(|e| e.0 == code).map(|e| e.1)
 }
+
+/// Every known G code and its group, the common ones first: [`g_group`] scans it (a `match`
+/// over the codes compiled to 500 B of comparisons in the firmware).
+const G_TABLE: [(u16, GGroup); 77] = {
+    use GGroup::*;
+    [
+        (G0, Motion),
+        (G1, Motion),
+        (G2, Motion),
+        (G3, Motion),
+        (G80, Motion),
+        (G81, Motion),
+        (G82, Motion),
+        (G83, Motion),
+        (G73, Motion),
+        (G84, Motion),
+        (G85, Motion),
+        (G86, Motion),
+        (G87, Motion),
+        (G88, Motion),
+        (G89, Motion),
+        (G38_2, Motion),
+        (G38_3, Motion),
+        (G38_4, Motion),
+        (G38_5, Motion),
+        (G74, Motion),
+        (G76, Motion),
+        (G84_2, Motion),
+        (G84_3, Motion),
+        (G90, Distance),
+        (G91, Distance),
+        (G17, Plane),
+        (G18, Plane),
+        (G19, Plane),
+        (G20, Units),
+        (G21, Units),
+        (G94, FeedMode),
+        (G93, FeedMode),
+        (G40, CutterComp),
+        (G41, CutterComp),
+        (G42, CutterComp),
+        (G41_1, CutterComp),
+        (G42_1, CutterComp),
+        (G49, ToolLength),
+        (G43, ToolLength),
+        (G43_1, ToolLength),
+        (G54, Coordinate),
+        (G55, Coordinate),
+        (G56, Coordinate),
+        (G57, Coordinate),
+        (G58, Coordinate),
+        (G59, Coordinate),
+        (G59_1, Coordinate),
+        (G59_2, Coordinate),
+        (G59_3, Coordinate),
+        (G64, Path),
+        (G61, Path),
+        (G61_1, Path),
+        (G98, Return),
+        (G99, Return),
+        (G4, NonModal),
+        (G10, NonModal),
+        (G28, NonModal),
+        (G28_1, NonModal),
+        (G30, NonModal),
+        (G30_1, NonModal),
+        (G52, NonModal),
+        (G53, NonModal),
+        (G65, NonModal),
+        (G92, NonModal),
+        (G92_1, NonModal),
+        (G92_2, NonModal),
+        (G92_3, NonModal),
+        (G90_1, ArcDistance),
+        (G91_1, ArcDistance),
+        (G50, Scaling),
+        (G51, Scaling),
+        (G68, Rotation),
+        (G69, Rotation),
+        (G15, Polar),
+        (G16, Polar),
+        (G50_1, Mirror),
+        (G51_1, Mirror),
+    ]
+};
 
 /// Groups of M codes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -238,6 +316,27 @@ impl Block {
         w
     }
 
+    /// True if the block has no value word outside `mask` (see [`letter_mask`]).
+    pub fn has_only(&self, mask: u32) -> bool {
+        self.present & !mask == 0
+    }
+
+    /// Moves the word of letter `from` (if any) to the slot of letter `to`; false when `to` is
+    /// taken (G16 hands X and Y on as LinuxCNC's polar words `@` and `^`).
+    #[inline(always)]
+    pub fn rename(&mut self, from: u8, to: u8) -> bool {
+        let (f, t) = (slot(from), slot(to));
+        if self.present & (1 << f) == 0 {
+            return true;
+        }
+        if self.present & (1 << t) != 0 {
+            return false;
+        }
+        self.index[t] = self.index[f];
+        self.present = self.present & !(1 << f) | 1 << t;
+        true
+    }
+
     /// Adds the word of a letter slot not set yet.
     fn insert(&mut self, at: usize, w: Word) {
         self.index[at] = self.words.len() as u8;
@@ -264,6 +363,11 @@ impl Block {
     fn set_g(&mut self, group: GGroup, c: Code) {
         self.g[group as usize] = c.code;
         self.g_cols[group as usize] = (c.cols.0 as u32) << 16 | c.cols.1 as u32;
+    }
+
+    /// True if the block has a G code of a group in `mask` (bits of [`GGroup`]).
+    pub fn has_g_in(&self, mask: u16) -> bool {
+        self.g_set & mask != 0
     }
 
     /// True if the block has a G code of any group other than `group`.

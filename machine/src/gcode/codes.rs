@@ -14,6 +14,10 @@ pub const G3: u16 = 30;
 pub const G4: u16 = 40;
 /// `G10` offsets and tool table.
 pub const G10: u16 = 100;
+/// `G15` polar coordinates off (Fanuc).
+pub const G15: u16 = 150;
+/// `G16` polar coordinates: first plane axis radius, second angle (Fanuc).
+pub const G16: u16 = 160;
 /// `G17` XY plane.
 pub const G17: u16 = 170;
 /// `G18` ZX plane.
@@ -56,6 +60,14 @@ pub const G43: u16 = 430;
 pub const G43_1: u16 = 431;
 /// `G49` tool length offset off.
 pub const G49: u16 = 490;
+/// `G50` scaling off (Fanuc).
+pub const G50: u16 = 500;
+/// `G50.1` programmable mirror off (Fanuc).
+pub const G50_1: u16 = 501;
+/// `G51` scaling on (Fanuc).
+pub const G51: u16 = 510;
+/// `G51.1` programmable mirror on (Fanuc).
+pub const G51_1: u16 = 511;
 /// `G52` local offset.
 pub const G52: u16 = 520;
 /// `G53` machine coordinates for this block.
@@ -86,8 +98,16 @@ pub const G61_1: u16 = 611;
 pub const G64: u16 = 640;
 /// `G65` Fanuc macro call.
 pub const G65: u16 = 650;
+/// `G68` coordinate rotation (Fanuc).
+pub const G68: u16 = 680;
+/// `G69` coordinate rotation off (Fanuc).
+pub const G69: u16 = 690;
 /// `G73` peck drilling with chip break.
 pub const G73: u16 = 730;
+/// `G74` left-hand tapping (Fanuc).
+pub const G74: u16 = 740;
+/// `G76` fine boring (Fanuc).
+pub const G76: u16 = 760;
 /// `G80` cancel the canned cycle.
 pub const G80: u16 = 800;
 /// `G81` drilling.
@@ -98,6 +118,10 @@ pub const G82: u16 = 820;
 pub const G83: u16 = 830;
 /// `G84` tapping.
 pub const G84: u16 = 840;
+/// `G84.2` rigid tapping, right hand (Fanuc).
+pub const G84_2: u16 = 842;
+/// `G84.3` rigid tapping, left hand (Fanuc).
+pub const G84_3: u16 = 843;
 /// `G85` boring, feed out.
 pub const G85: u16 = 850;
 /// `G86` boring, spindle stop, rapid out.

@@ -512,13 +512,13 @@ impl Comp {
             side,
             r,
         };
-        let result = match programmed {
+        // `straight` and `arc` leave the compensated tool position in `self.tool`.
+        match programmed {
             Programmed::Straight { rapid } => self.straight(next, rapid, out)?,
             Programmed::Arc { center, dir } => self.arc(next, center, dir, out)?,
-        };
+        }
         self.programmed = to;
-        self.tool = result;
-        Ok(result)
+        Ok(self.tool)
     }
 
     /// A straight move after the entry move (LinuxCNC `convert_straight_comp2`).
@@ -528,7 +528,7 @@ impl Comp {
         next: Next,
         rapid: bool,
         out: &mut dyn FnMut(Canon),
-    ) -> Result<Pos, ErrorCode> {
+    ) -> Result<(), ErrorCode> {
         let (canon, to, p, op) = (next.canon, next.to, next.p, next.op);
         let (c, side, r, plane) = (next.c, next.side, next.r, self.plane);
         let line = canon.line;
@@ -543,7 +543,8 @@ impl Comp {
                 (0, 0),
                 0,
             )?;
-            return Ok(end);
+            self.tool = end;
+            return Ok(());
         }
         let b = sub(p, op);
         let n_new = side_normal(b, side, r);
@@ -602,7 +603,8 @@ impl Comp {
             b,
             0,
         )?;
-        Ok(end)
+        self.tool = end;
+        Ok(())
     }
 
     /// An arc after the entry move (LinuxCNC `convert_arc_comp2`).
@@ -613,7 +615,7 @@ impl Comp {
         center: (Nm, Nm),
         dir: ArcDir,
         out: &mut dyn FnMut(Canon),
-    ) -> Result<Pos, ErrorCode> {
+    ) -> Result<(), ErrorCode> {
         let (canon, to, p, op) = (next.canon, next.to, next.p, next.op);
         let (c, side, r, plane) = (next.c, next.side, next.r, self.plane);
         let line = canon.line;
@@ -704,7 +706,8 @@ impl Comp {
         };
         let sweep = geometry::sweep(arc_start, new_end, center, dir == ArcDir::Ccw, 1);
         self.push_held(Canon { line, action }, (0, 0), sweep)?;
-        Ok(end)
+        self.tool = end;
+        Ok(())
     }
 
     /// The last move's direction `d` at its end (from the tool's offset beside the programmed

@@ -12,6 +12,7 @@
 //! clear level (the operator's job at the stop), and the next move starts from the hole's bottom
 //! if the operator did not retract it.
 
+use super::transform::Transform;
 use crate::canon::{Action, Canon, Spindle, StopKind};
 use crate::units::{Nm, Pos};
 
@@ -72,6 +73,9 @@ pub struct CycleRun {
     pub program: Pos,
     /// Program → machine offset.
     pub offset: Pos,
+    /// The transforms in force (hole positions mirrored, scaled and rotated; the drilling
+    /// axis is not scaled).
+    pub xf: Transform,
     /// Per-repeat increments on a, b (G91).
     pub inc: (Nm, Nm),
     /// G91 polar increments per repeat (radius nm, angle 10⁻⁶ degree about the XY origin).
@@ -117,6 +121,7 @@ impl CycleRun {
             axes,
             program,
             offset,
+            xf: Transform::OFF,
             inc: (0, 0),
             polar_step: None,
             r: 0,
@@ -141,6 +146,10 @@ impl CycleRun {
 
     fn machine(&self) -> Pos {
         let mut p = self.program;
+        if self.xf.active() {
+            let w = self.xf.forward([p[0], p[1], p[2]], self.axes.2);
+            p[..3].copy_from_slice(&w);
+        }
         for (v, o) in p.iter_mut().zip(self.offset) {
             *v += o;
         }

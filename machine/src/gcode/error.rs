@@ -103,7 +103,8 @@ pub enum ErrorCode {
     CycleQInvalid,
     /// G82/G86/G89 without a dwell P.
     CycleDwellMissing,
-    /// G84 needs the spindle turning clockwise (M3), G86/G87/G88 need it on.
+    /// G84 needs the spindle turning clockwise (M3), G74 counter-clockwise (M4), G86/G87/G88
+    /// need it on.
     CycleSpindleState,
     /// Canned cycle in G93 inverse-time mode.
     CycleInverseTime,
@@ -113,7 +114,9 @@ pub enum ErrorCode {
     CycleRepeatInvalid,
     /// gixa G87: Q not larger than the partial-retract distance.
     CyclePeckNotAboveRetract,
-    /// A canned cycle this dialect does not support (gixa G73).
+    /// A canned cycle this dialect does not support (gixa G73), or the board cannot run safely
+    /// (G76 fine boring: no oriented spindle stop; G84.2/G84.3 rigid tapping: no synchronised
+    /// spindle).
     CycleNotSupported,
     /// RS274NGC G87 without its I, J and K words in its first block.
     CycleBackBoreWordMissing,
@@ -194,6 +197,21 @@ pub enum ErrorCode {
     CompLookAheadFull,
     /// G41.1/G42.1 without the D word (the diameter).
     CompDiameterMissing,
+    // --- 9xx coordinate transforms (docs/gcode-transforms.md) ---
+    /// G51, G51.1 or G68 twice without a cancel, or out of order (mirror, then scaling, then
+    /// rotation; cancelled in the reverse order).
+    TransformOrder,
+    /// G17/G18/G19 changing the plane while G68 is on.
+    TransformPlane,
+    /// An arc while its two plane axes are scaled by different factors.
+    TransformArcScaled,
+    /// G92, G92.1-G92.3, G52 or G10 L20 while a mirror, scaling or rotation is on.
+    TransformOffset,
+    /// G51 with other codes or words than X Y Z I J K P in its block.
+    TransformNotAlone,
+    /// G51 without a factor, a factor not in (0, 999.999999], P beside I/J/K; G68 without R or
+    /// beyond ±360°; G51.1 without an axis word.
+    TransformValue,
 }
 
 impl ErrorCode {
@@ -276,6 +294,12 @@ impl ErrorCode {
         ErrorCode::CompArcAfterExit,
         ErrorCode::CompLookAheadFull,
         ErrorCode::CompDiameterMissing,
+        ErrorCode::TransformOrder,
+        ErrorCode::TransformPlane,
+        ErrorCode::TransformArcScaled,
+        ErrorCode::TransformOffset,
+        ErrorCode::TransformNotAlone,
+        ErrorCode::TransformValue,
     ];
 
     /// The stable number of the code (`E` + this number in messages).
@@ -360,6 +384,12 @@ impl ErrorCode {
             CompArcAfterExit => 807,
             CompLookAheadFull => 808,
             CompDiameterMissing => 809,
+            TransformOrder => 901,
+            TransformPlane => 902,
+            TransformArcScaled => 903,
+            TransformOffset => 904,
+            TransformNotAlone => 905,
+            TransformValue => 906,
         }
     }
 
@@ -403,12 +433,12 @@ impl ErrorCode {
             CycleRBelowBottom => "canned cycle R plane is below the bottom of the hole",
             CycleQInvalid => "peck cycle needs a positive Q (peck depth)",
             CycleDwellMissing => "canned cycle needs a dwell P in its first block",
-            CycleSpindleState => "spindle state wrong for this cycle (G84 needs M3, G86/G87/G88 need the spindle on)",
+            CycleSpindleState => "spindle state wrong for this cycle (G84 needs M3, G74 M4, G86/G87/G88 need the spindle on)",
             CycleInverseTime => "canned cycles cannot run in G93 inverse-time mode",
             CycleRotaryAxis => "rotary axis words are not allowed in a canned-cycle block",
             CycleRepeatInvalid => "canned-cycle repeat count (K/L) must be a whole number >= 0",
             CyclePeckNotAboveRetract => "G87 peck Q must be larger than the partial-retract distance",
-            CycleNotSupported => "canned cycle not supported in this dialect",
+            CycleNotSupported => "canned cycle not supported in this dialect (gixa G73), or not on this board (G76 needs an oriented spindle stop, G84.2/G84.3 a synchronised spindle)",
             CycleBackBoreWordMissing => "G87 back boring needs I, J and K in its first block",
             G10Invalid => "G10 needs L1 (P tool), L2 or L20 (P0..P9)",
             ToolNotInTable => "tool not in the tool table",
@@ -445,6 +475,12 @@ impl ErrorCode {
             CompArcAfterExit => "the move just after G40 must be straight, not an arc",
             CompLookAheadFull => "too many actions between two compensated moves (at most 5)",
             CompDiameterMissing => "G41.1/G42.1 need a D word (the tool diameter)",
+            TransformOrder => "G51.1, G51, G68 given twice or out of order (mirror, scaling, rotation; cancel in reverse order)",
+            TransformPlane => "plane change while G68 rotation is on (G69 first)",
+            TransformArcScaled => "arc while its plane axes are scaled by different factors",
+            TransformOffset => "G92, G52 or G10 L20 while mirror, scaling or rotation is on",
+            TransformNotAlone => "G51 must stand alone in its block (X Y Z I J K P only)",
+            TransformValue => "G51 needs a factor 0 < f <= 999.999999 (P or I/J/K, not both), G68 an R within 360 deg, G51.1 an axis",
         }
     }
 }

@@ -10,7 +10,9 @@ use super::codes::*;
 use super::comp::{Comp, Side};
 use core::ops::ControlFlow;
 
-use super::block::{letter_mask, parse_block_into, Block, BlockError, GGroup, MGroup};
+use super::block::{
+    letter_mask, parse_block_into, Block, BlockError, GGroup, MGroup, TRANSFORM_GROUPS,
+};
 use super::config::{ArcCenterMode, Dialect, DwellUnits, InterpConfig};
 use super::cycles::{CycleBody, CycleRun};
 use super::error::{ErrorCode, GcodeError};
@@ -22,6 +24,7 @@ use super::oword::{self, Keyword, Label, OLine};
 use super::params::{Params, LOCALS};
 use super::source::{ProgramSource, SourceError};
 use super::state::{CycleMemory, ModalState, MotionMode, Rollback};
+use super::transform::ONE as FACTOR_ONE;
 use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, ProbeMode, Spindle, StopKind};
 use crate::units::{Nm, Pos, MAX_AXES};
 
@@ -595,6 +598,7 @@ impl Interpreter {
         };
         let tables = block.g_of(GGroup::NonModal).is_some()
             || block.g_of(GGroup::ToolLength).is_some()
+            || block.has_g_in(TRANSFORM_GROUPS)
             || !block.m.is_empty();
         let saved = Rollback::of(&self.state, tables);
         let saved_finished = self.finished;
@@ -1099,6 +1103,13 @@ impl Interpreter {
                     .diameter
             }
         };
+        // One mirrored plane axis swaps G41 and G42 (compensation runs on the transformed path).
+        let (first, second, _) = arc_axes(self.state.plane);
+        let side = match (side, self.state.xf.flips(first, second)) {
+            (Side::Left, true) => Side::Right,
+            (Side::Right, true) => Side::Left,
+            (side, false) => side,
+        };
         self.comp
             .turn_on(side, diameter / 2, self.state.plane)
             .map_err(|c| (c, cols))
@@ -1169,12 +1180,13 @@ impl Interpreter {
     /// `Res<Pos>` it was copied byte by byte several times per line on the Cortex-M4.
     fn target(&self, b: &mut Block, g53: bool, to: &mut Pos) -> Res<()> {
         let polar = self.polar_words(b)?;
+        // `to` is the program point plus the offsets (no transform) unless in G53.
         if let Some((radius, angle, cols)) = polar {
             if g53 {
                 return Err((ErrorCode::NotSupported, Some(cols)));
             }
-            let p = self.state.program_position();
-            let (x, y) = geometry::polar_end((p[0], p[1]), radius, angle, self.state.absolute)
+            let at = |i: usize| to[i] - self.state.axis_offset(i);
+            let (x, y) = geometry::polar_end((at(0), at(1)), radius, angle, self.state.absolute)
                 .map_err(|c| (c, Some(cols)))?;
             to[0] = x + self.state.axis_offset(0);
             to[1] = y + self.state.axis_offset(1);
@@ -1201,6 +1213,259 @@ impl Interpreter {
                 to[i] = m;
             }
         }
+        Ok(())
+    }
+
+    /// Where a move's target starts: the position, or under a transform the program point plus
+    /// the offsets (docs/gcode-transforms.md).
+    #[inline(never)]
+    /// Written through a reference, as [`Interpreter::target`].
+    fn start_point(&self, to: &mut Pos) {
+        *to = self.state.position;
+        if self.state.xf.active() {
+            *to = self.state.program_point();
+            for (i, v) in to.iter_mut().enumerate() {
+                *v += self.state.axis_offset(i);
+            }
+        }
+    }
+
+    /// The machine end point of a straight move from the block's axis words, written over `to`
+    /// (a `Res<Pos>` return was copied byte by byte on the Cortex-M4).
+    fn move_target(&mut self, b: &mut Block, g53: bool, to: &mut Pos) -> Res<()> {
+        if g53 {
+            *to = self.state.position;
+        } else {
+            self.start_point(to);
+        }
+        self.target(b, g53, to)?;
+        if !g53 {
+            self.transform(to)?;
+        }
+        Ok(())
+    }
+
+    /// The transform pipeline: a program point plus offsets (from [`Interpreter::target`]) to
+    /// machine coordinates, X, Y, Z mirrored, scaled and rotated (drilling axis `keep` not
+    /// scaled). The end point of a block (`end`) also becomes the position's program point.
+    #[inline(never)]
+    fn xf_point(&mut self, to: &mut Pos, keep: usize, end: bool) -> Res<()> {
+        let off: [Nm; 3] = core::array::from_fn(|i| self.state.axis_offset(i));
+        let p: [Nm; 3] = core::array::from_fn(|i| to[i] - off[i]);
+        let w = self.state.xf.forward(p, keep);
+        for i in 0..3 {
+            to[i] = w[i] + off[i];
+            if to[i].abs() > MAX_COORD {
+                return Err((ErrorCode::CoordinateOverflow, None));
+            }
+        }
+        if end {
+            self.state.xf_prog = p;
+            self.state.xf_at = w;
+        }
+        Ok(())
+    }
+
+    /// [`Interpreter::xf_point`] for the block's end point when a transform is in force.
+    #[inline(always)]
+    fn transform(&mut self, to: &mut Pos) -> Res<()> {
+        if self.state.xf.active() {
+            self.xf_point(to, 3, true)?;
+        }
+        Ok(())
+    }
+
+    /// Checks of a block under (or setting) a transform, before phase 0: G51 alone, no plane
+    /// change under G68, no G92/G52/G10 L20 under a transform; and G16's X and Y become `@`
+    /// and `^` (LinuxCNC's polar words about the XY origin) where they are a move's end point.
+    #[inline(never)]
+    fn check_transforms(&mut self, b: &mut Block) -> Res<()> {
+        let xf = self.state.xf;
+        if let Some(c) = b.g(GGroup::Scaling).filter(|c| c.code == G51) {
+            // Hurco §3.18: G51 stands alone.
+            let alone = !b.has_g_besides(GGroup::Scaling)
+                && b.m.is_empty()
+                && b.has_only(const { letter_mask(b"IJKPXYZ") });
+            if !alone {
+                return Err((ErrorCode::TransformNotAlone, Some(c.cols)));
+            }
+        }
+        if let Some(p) = b.g(GGroup::Plane) {
+            // G17, G18, G19 in the order of `Plane`.
+            let same = p.code == G17 + 10 * self.state.plane as u16;
+            if xf.rotating && !same && b.g_of(GGroup::Rotation) != Some(G69) {
+                return Err((ErrorCode::TransformPlane, Some(p.cols)));
+            }
+        }
+        let nonmodal = b.g(GGroup::NonModal);
+        if let Some(g) = nonmodal {
+            let moves_frame = matches!(g.code, G52 | G92 | G92_1 | G92_2 | G92_3)
+                || (g.code == G10 && b.word(b'L').is_some_and(|w| w.value == 20 * MICRO));
+            if moves_frame && xf.active() {
+                return Err((ErrorCode::TransformOffset, Some(g.cols)));
+            }
+        }
+        // G16 (in this block or before): X is the radius, Y the angle, the `@` and `^` words of
+        // LinuxCNC's polar coordinates (about the XY origin), except where X and Y are not a
+        // move's end point.
+        let polar = b
+            .g_of(GGroup::Polar)
+            .map_or(self.state.xf.polar, |c| c == G16);
+        if polar
+            && nonmodal.is_none()
+            && !b.has_g_in(TRANSFORM_GROUPS & !(1 << GGroup::Polar as u16))
+            && b.g_of(GGroup::ToolLength) != Some(G43_1)
+            && b.has_any(const { letter_mask(b"XY") })
+        {
+            let x = b.word(b'X');
+            if b.g_of(GGroup::Plane)
+                .map_or(self.state.plane != Plane::XY, |p| p != G17)
+                || (x.is_some()
+                    && b.g_of(GGroup::Distance)
+                        .map_or(!self.state.absolute, |d| d == G91))
+                || !b.rename(b'X', b'@')
+                || !b.rename(b'Y', b'^')
+            {
+                return err(ErrorCode::NotSupported, x.or(b.word(b'Y')));
+            }
+        }
+        Ok(())
+    }
+
+    /// Phase 5b: G50.1/G51.1 mirror, G50/G51 scaling, G68/G69 rotation, G15/G16 polar mode.
+    /// Cancels run first (G69, G50, G50.1), then the settings in pipeline order. The X, Y, Z
+    /// words are absolute program coordinates: the mirror axes, the scaling or rotation centre.
+    #[inline(never)]
+    fn set_transforms(&mut self, b: &mut Block) -> Res<()> {
+        let p = self.state.program_point();
+        let mut xf = self.state.xf;
+        let (sc, rot, mir) = (
+            b.g_of(GGroup::Scaling).unwrap_or(0),
+            b.g_of(GGroup::Rotation).unwrap_or(0),
+            b.g_of(GGroup::Mirror).unwrap_or(0),
+        );
+        if let Some(c) = b.g(GGroup::Polar) {
+            xf.polar = c.code == G16;
+        }
+        let cols = b
+            .g(GGroup::Scaling)
+            .or(b.g(GGroup::Rotation))
+            .or(b.g(GGroup::Mirror))
+            .map(|c| c.cols);
+        if cols.is_some() {
+            self.refuse_under_comp(cols)?;
+        }
+        // The X, Y, Z words (absolute) over the program point, and which were given.
+        let mut centre = [p[0], p[1], p[2]];
+        let mut named = 0u8;
+        for (i, v) in centre.iter_mut().enumerate() {
+            if let Some(w) = b.take(AXIS_LETTERS[i]) {
+                *v = bounded(self.axis_value(i, w)?, w)?;
+                named |= 1 << i;
+            }
+        }
+        let fanuc_int = self.config.dwell_units == DwellUnits::FanucIntegerMillis;
+        // A G51 factor or G68 angle word: with the Fanuc integer setting, a number without a
+        // decimal point is in thousandths.
+        let value = |w: Word| -> i64 {
+            if fanuc_int && !w.has_point {
+                w.value / 1000
+            } else {
+                w.value
+            }
+        };
+        let order = Err((ErrorCode::TransformOrder, cols));
+        let bad = Err((ErrorCode::TransformValue, cols));
+        if rot == G69 {
+            xf.rotating = false;
+        }
+        if sc != 0 {
+            if xf.rotating || (sc == G51 && xf.scaling()) {
+                return order;
+            }
+            xf.factor = [FACTOR_ONE; 3];
+        }
+        if mir != 0 {
+            if xf.rotating || xf.scaling() {
+                return order;
+            }
+            if mir == G51_1 {
+                if named == 0 {
+                    return bad;
+                }
+                xf.mirror |= named;
+                for (i, v) in centre.iter().enumerate() {
+                    if named >> i & 1 != 0 {
+                        xf.mirror_twice[i] = 2 * v;
+                    }
+                }
+            } else {
+                xf.mirror &= if named == 0 { 0 } else { !named };
+            }
+        } else if named != 0 && sc != G51 && rot != G68 {
+            return Err((ErrorCode::UnusedWord, cols));
+        }
+        // A centre is a program point: it goes through the stages before its own (G51 stands
+        // alone, so at most one of the two below runs).
+        let c = xf.forward(centre, 3);
+        if sc == G51 {
+            // 0: not given; -1: not positive.
+            let factor = |w: Word| {
+                let v = value(w);
+                if v > 0 && v < 1000 * FACTOR_ONE as i64 {
+                    v as i32
+                } else {
+                    -1
+                }
+            };
+            let mut f = [0; 3];
+            for (v, l) in f.iter_mut().zip(b"IJK") {
+                if let Some(w) = b.take(*l) {
+                    *v = factor(w);
+                }
+            }
+            if let Some(w) = b.take(b'P') {
+                if f != [0; 3] {
+                    return bad;
+                }
+                f = [factor(w); 3];
+            } else if f[1..] == [0, 0] {
+                // Hurco: I alone scales every axis.
+                f = [f[0]; 3];
+            } else {
+                f = f.map(|v| if v == 0 { FACTOR_ONE } else { v });
+            }
+            if f.iter().any(|&v| v <= 0) {
+                return bad;
+            }
+            xf.scale_center = c;
+            xf.factor = f;
+        }
+        if rot == G68 {
+            if xf.rotating {
+                return order;
+            }
+            let (f, s, n) = arc_axes(self.state.plane);
+            let Some(r) = b.take(b'R') else { return bad };
+            let mut angle = value(r);
+            if named >> n & 1 != 0 || angle.abs() > 360 * MICRO {
+                return bad;
+            }
+            // One mirrored plane axis reverses the angle.
+            if xf.flips(f, s) {
+                angle = -angle;
+            }
+            xf.rot_axes = (f as u8, s as u8);
+            xf.rot_center = (c[f], c[s]);
+            xf.set_angle(angle);
+            xf.rotating = true;
+        }
+        xf.update();
+        self.state.xf = xf;
+        // The tool stays where it is; its program point stays what the program last wrote.
+        self.state.xf_prog = [p[0], p[1], p[2]];
+        self.state.xf_at =
+            core::array::from_fn(|i| self.state.position[i] - self.state.axis_offset(i));
         Ok(())
     }
 
@@ -1264,6 +1529,9 @@ impl Interpreter {
             // Every letter of a G65 block is an argument, axis letters included.
             return self.macro_call(b, line, src);
         }
+        if b.has_g_in(TRANSFORM_GROUPS) || self.state.xf.active() || self.state.xf.polar {
+            self.check_transforms(b)?;
+        }
         // The RS274NGC order of execution, one phase each.
         let pre = self.check_block(b)?;
         let s_word = self.set_feed_speed_tool(b)?;
@@ -1271,6 +1539,9 @@ impl Interpreter {
         self.dwell(b, line, &pre)?;
         self.set_plane_units_tool_length(b)?;
         self.set_modes(b, line)?;
+        if b.has_g_in(TRANSFORM_GROUPS) {
+            self.set_transforms(b)?;
+        }
         let tool_write = self.apply_nonmodal(b, line, pre.nonmodal)?;
         self.move_block(b, line, &pre)?;
         // M98's P and L words, taken before the unused-word check (a pair of words returned
@@ -1320,7 +1591,10 @@ impl Interpreter {
             .iter()
             .find_map(|&mask| b.first_word(mask));
         let nonmodal_axes = matches!(nonmodal, Some(G10 | G28 | G30 | G52 | G92))
-            || b.g_of(GGroup::ToolLength) == Some(G43_1);
+            || b.g_of(GGroup::ToolLength) == Some(G43_1)
+            || b.g_of(GGroup::Scaling) == Some(G51)
+            || b.g_of(GGroup::Rotation) == Some(G68)
+            || b.g(GGroup::Mirror).is_some();
         if nonmodal_axes {
             if let Some(m) = motion_g {
                 if m.code != G80 {
@@ -1381,7 +1655,12 @@ impl Interpreter {
             self.state.rpm = ((w.value + MICRO / 2) / MICRO).min(u32::MAX as i64) as u32;
         }
         if let Some(w) = b.take(b'T') {
-            self.state.tool_selected = Self::integer(w, 99_999_999)? as u32;
+            let t = Self::integer(w, 99_999_999)? as u32;
+            // LinuxCNC: with a tool table in the setup, T names one of its tools (or is T0).
+            if t != 0 && self.config.tools[0].number != 0 && self.config.tool(t).is_none() {
+                return err(ErrorCode::ToolNotInTable, Some(w));
+            }
+            self.state.tool_selected = t;
         }
         Ok(s_word)
     }
@@ -1674,8 +1953,8 @@ impl Interpreter {
                     self.state.g30
                 };
                 let named: [bool; MAX_AXES] = core::array::from_fn(|i| b.has(AXIS_LETTERS[i]));
-                let mut via = self.state.position;
-                self.target(b, false, &mut via)?;
+                let mut via = [0; MAX_AXES];
+                self.move_target(b, false, &mut via)?;
                 self.push(line, Action::Rapid { to: via })?;
                 let mut to = via;
                 let any = named.iter().any(|&n| n);
@@ -1868,8 +2147,8 @@ impl Interpreter {
             MotionMode::Rapid => {
                 // As LinuxCNC, an explicit G0 without axis words is a zero-length move.
                 let has_axes = b.has_any(AXIS_WORDS);
-                let mut to = self.state.position;
-                self.target(b, g53, &mut to)?;
+                let mut to = [0; MAX_AXES];
+                self.move_target(b, g53, &mut to)?;
                 if has_axes || explicit {
                     self.push(line, Action::Rapid { to })?;
                 }
@@ -1877,8 +2156,8 @@ impl Interpreter {
             }
             MotionMode::Linear => {
                 let has_axes = b.has_any(AXIS_WORDS);
-                let mut to = self.state.position;
-                self.target(b, g53, &mut to)?;
+                let mut to = [0; MAX_AXES];
+                self.move_target(b, g53, &mut to)?;
                 if has_axes || explicit {
                     let feed = self.straight_feed(&self.state.position, &to, f_given)?;
                     self.push(line, Action::Feed { to, feed })?;
@@ -1891,8 +2170,8 @@ impl Interpreter {
             MotionMode::Probe(code) => {
                 // LinuxCNC refuses probing under cutter compensation too.
                 self.refuse_under_comp(b.g_cols(code))?;
-                let mut to = self.state.position;
-                self.target(b, g53, &mut to)?;
+                let mut to = [0; MAX_AXES];
+                self.move_target(b, g53, &mut to)?;
                 if self.state.inverse_time {
                     return Err((ErrorCode::ProbeInverseTime, b.g_cols(code)));
                 }
@@ -1930,6 +2209,7 @@ impl Interpreter {
         Ok(true)
     }
 
+    #[inline(never)]
     fn arc(&mut self, b: &mut Block, line: u32, cw: bool, f_given: bool) -> Res<()> {
         let gixa = self.gixa();
         let plane = self.state.plane;
@@ -1997,17 +2277,23 @@ impl Interpreter {
             None => 1,
         };
         let r_word = if gixa { None } else { b.take(b'R') };
-        if r_word.is_some() && !b.has(AXIS_LETTERS[first]) && !b.has(AXIS_LETTERS[second]) {
+        if r_word.is_some()
+            && !b.has(AXIS_LETTERS[first])
+            && !b.has(AXIS_LETTERS[second])
+            && !b.has_any(const { letter_mask(b"@^") })
+        {
             return Err((ErrorCode::ArcEndPointMissing, r_word.map(|w| w.cols)));
         }
-        let start = self.state.position;
-        let mut to = self.state.position;
+        // The arc as programmed (program points plus offsets), then through the transforms.
+        let mut start = [0; MAX_AXES];
+        self.start_point(&mut start);
+        let mut to = start;
         self.target(b, false, &mut to)?;
         let offset = self.state.offset();
         let tol = ArcTolerances::for_units(self.state.inch);
         let s2 = (start[first], start[second]);
         let e2 = (to[first], to[second]);
-        let center = match r_word {
+        let mut center = match r_word {
             Some(r) => {
                 let radius = self.len_word(r)?;
                 geometry::r_format_center(s2, e2, radius, cw, tol).map_err(|c| (c, Some(r.cols)))?
@@ -2033,7 +2319,22 @@ impl Interpreter {
                 c
             }
         };
+        let mut cw = cw;
+        if self.state.xf.active() {
+            let xf = &self.state.xf;
+            if xf.factor[first] != xf.factor[second] {
+                return Err((ErrorCode::TransformArcScaled, None));
+            }
+            cw ^= xf.flips(first, second);
+            let mut c = to;
+            (c[first], c[second]) = center;
+            self.xf_point(&mut c, 3, false)?;
+            center = (c[first], c[second]);
+            self.transform(&mut to)?;
+        }
+        let start = self.state.position;
         let feed = if self.state.inverse_time {
+            let (s2, e2) = ((start[first], start[second]), (to[first], to[second]));
             let sweep = geometry::sweep(s2, e2, center, !cw, turns);
             let radius = geometry::hypot(s2.0 - center.0, s2.1 - center.1);
             let length = geometry::arc_length(sweep, radius, to[normal] - start[normal]);
@@ -2060,6 +2361,7 @@ impl Interpreter {
         Ok(())
     }
 
+    #[inline(never)]
     fn cycle(&mut self, b: &mut Block, line: u32, code: u16) -> Res<()> {
         let gixa = self.gixa();
         let g_cols = b.g_cols(code);
@@ -2068,7 +2370,7 @@ impl Interpreter {
             (_, G81) => CycleBody::Drill,
             (_, G82) => CycleBody::DrillDwell,
             (_, G83) => CycleBody::PeckFull,
-            (_, G84) => CycleBody::Tap,
+            (_, G84) | (false, G74) => CycleBody::Tap,
             (_, G85) => CycleBody::Bore,
             (false, G86) => CycleBody::BoreSpindleStop,
             (true, G86) => CycleBody::DrillPause,
@@ -2092,7 +2394,14 @@ impl Interpreter {
         }
         let (a, bx, c) = arc_axes(self.state.plane);
         let same = self.state.motion == MotionMode::Cycle(code);
-        let prog = self.state.program_position();
+        // Under a transform the hole positions are program points; the drilling axis is neither
+        // mirrored nor scaled (Hurco §3.18), so its level is where the tool is.
+        let on = self.state.xf.active();
+        if self.state.xf.mirror >> c & 1 != 0 {
+            return Err((ErrorCode::NotSupported, g_cols));
+        }
+        let mut prog = self.state.program_point();
+        prog[c] = self.state.position[c] - self.state.axis_offset(c);
         let offset = self.state.offset();
         let mem = self.state.cycle;
         let polar = if self.state.plane == Plane::XY {
@@ -2244,6 +2553,8 @@ impl Interpreter {
         }
         if !gixa {
             let ok = match body {
+                // G74 taps left-handed: down with M4, reversed to M3 at the bottom.
+                CycleBody::Tap if code == G74 => self.state.spindle == Spindle::Ccw,
                 CycleBody::Tap => self.state.spindle == Spindle::Cw,
                 CycleBody::BoreSpindleStop | CycleBody::BackBore | CycleBody::BoreManualRetract => {
                     self.state.spindle != Spindle::Off
@@ -2268,9 +2579,9 @@ impl Interpreter {
         let raise_first = !gixa && initial < r;
         if raise_first {
             // LinuxCNC: a tool below R first rises to R where it stands.
-            let mut up = prog;
-            up[c] = r;
-            let to = self.state.to_machine(up);
+            // (The drilling axis is neither mirrored, scaled nor turned by a transform.)
+            let mut to = self.state.position;
+            to[c] = r + offset[c];
             self.push(line, Action::Rapid { to })?;
         }
         let mut program = prog;
@@ -2280,6 +2591,7 @@ impl Interpreter {
             program[c] = r;
         }
         let mut run = CycleRun::new(line, body, gixa, (a, bx, c), program, offset, repeats);
+        run.xf = self.state.xf;
         run.inc = inc;
         run.polar_step = polar_step;
         run.r = r;
@@ -2309,6 +2621,9 @@ impl Interpreter {
         let mut machine = end;
         for (v, o) in machine.iter_mut().zip(offset) {
             *v += o;
+        }
+        if on {
+            self.xf_point(&mut machine, c, true)?;
         }
         self.state.position = machine;
         if body == CycleBody::Tap && gixa {

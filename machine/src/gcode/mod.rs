@@ -39,6 +39,7 @@ pub mod params;
 pub mod source;
 pub mod state;
 mod test_vectors;
+pub mod transform;
 
 pub use config::{
     ArcCenterMode, Dialect, DwellUnits, GixaSetup, InterpConfig, RetractMode, Tool,

@@ -5,6 +5,7 @@
 //! (work) coordinate of an axis is `machine - work offset - G92 offset - tool offset`.
 
 use super::config::{InterpConfig, WORK_SYSTEMS};
+use super::transform::Transform;
 use crate::canon::{PathMode, Plane, Spindle};
 use crate::units::{Nm, Pos, MAX_AXES};
 
@@ -61,6 +62,8 @@ pub struct ModalState {
     pub tool_offset: Pos,
     pub g28: Pos,
     pub g30: Pos,
+    /// Mirror, scaling, rotation and polar mode (docs/gcode-transforms.md).
+    pub xf: Transform,
 }
 
 /// Every field of [`ModalState`] but the offset tables (work offsets, G92 and its saved value,
@@ -100,6 +103,10 @@ pub struct Modes {
     pub cycle: CycleMemory,
     /// gixa: dwell stored by G04 P, microseconds.
     pub stored_dwell_us: u64,
+    /// Under a transform: the program point (X, Y, Z before the transforms) of the position,
+    /// valid while the position's work point is still `xf_at` (docs/gcode-transforms.md).
+    pub xf_prog: [Nm; 3],
+    pub xf_at: [Nm; 3],
 }
 
 impl core::ops::Deref for ModalState {
@@ -176,6 +183,8 @@ impl ModalState {
                 position: [0; MAX_AXES],
                 cycle: CycleMemory::default(),
                 stored_dwell_us: 0,
+                xf_prog: [0; 3],
+                xf_at: [0; 3],
             },
             work_offsets: config.work_offsets,
             g92: [0; MAX_AXES],
@@ -183,6 +192,7 @@ impl ModalState {
             tool_offset: [0; MAX_AXES],
             g28: config.g28_position,
             g30: config.g30_position,
+            xf: Transform::OFF,
         }
     }
 
@@ -209,6 +219,22 @@ impl ModalState {
         p
     }
 
+    /// The program point of the current position: the work point before the transforms (X, Y,
+    /// Z), the work point itself on the other axes and when no transform is in force.
+    pub fn program_point(&self) -> Pos {
+        let mut p = self.program_position();
+        if self.xf.active() {
+            let w = [p[0], p[1], p[2]];
+            let q = if w == self.xf_at {
+                self.xf_prog
+            } else {
+                self.xf.inverse(w)
+            };
+            p[..3].copy_from_slice(&q);
+        }
+        p
+    }
+
     /// Program coordinates to machine coordinates.
     pub fn to_machine(&self, program: Pos) -> Pos {
         let o = self.offset();
@@ -220,7 +246,7 @@ impl ModalState {
     }
 
     /// Resets what M2/M30 reset (Fanuc/LinuxCNC): G54, G17, G90, G94, G80 → G0, the setup's
-    /// retract mode (G98 by default), M5, M9, G92
+    /// retract mode (G98 by default), M5, M9, G50.1 G50 G69 G15, G92
     /// offsets off (saved values kept). Units, tool offset and path mode survive.
     pub fn reset_at_program_end(&mut self, config: &InterpConfig) {
         let fresh = ModalState::new(config);
@@ -236,6 +262,7 @@ impl ModalState {
         self.mist = false;
         self.flood = false;
         self.g92 = [0; MAX_AXES];
+        self.xf = Transform::OFF;
         self.cycle = CycleMemory::default();
         if config.dialect == super::config::Dialect::Gixa {
             self.feed = config.gixa.default_feed;

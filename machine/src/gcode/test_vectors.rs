@@ -237,6 +237,64 @@ fn gixa() -> u32 {
     digest_program(GIXA, &InterpConfig::gixa())
 }
 
+/// The transform pipeline (docs/gcode-transforms.md): an arc mirrored about X5, doubled and
+/// turned 90 deg (tests/golden/transforms/07-pipeline-arc), an incremental arc under it, a
+/// rotation by -33.3 deg about 1,2 with a G16 polar end point, a scaled cycle.
+const TRANSFORMED: &[u8] = b"G21 G90 G17\nG0 X0 Y0 Z0\nG51.1 X5.\nG51 X0 Y0 P2.\nG68 X0 Y0 R90.\n\
+G1 X10. Y0 F600\nG3 X0 Y10. R10.\nG91 G2 X-3.3 Y1.7 R2.5\nG90 G69\nG50\nG50.1\nG68 X1. Y2. R-33.3\n\
+G16 G1 X12.5 Y40.\nG15 G69\nG51 X1 Y1 I1.5 J1.5 K.5\nG98 G81 X3 Y-2 Z-1 R1 F300\nG80 G50\nG0 X0 Y0 Z0\nM2\n";
+
+/// [`TRANSFORMED`] interpreted (every action digested) and its moves stepped by the motion
+/// core (every step event digested): the board computes the same steps as the host.
+fn transformed_arc() -> u32 {
+    use crate::motion::config::MotionConfig;
+    use crate::motion::sim::{Feeder, Sim, SimEvent};
+    let mut interp = Interpreter::new(&InterpConfig::default());
+    let mut src = MemorySource::new(TRANSFORMED);
+    let mut d = Digest::new();
+    let mut moves = [None; 24];
+    let mut n = 0;
+    while let Some(item) = interp.next(&mut src) {
+        match item {
+            Ok(c) => {
+                d.u64(c.line as u64);
+                digest_action(&mut d, &c.action);
+                if matches!(
+                    c.action,
+                    Action::Rapid { .. } | Action::Feed { .. } | Action::Arc { .. }
+                ) && n < moves.len()
+                {
+                    moves[n] = Some(c);
+                    n += 1;
+                }
+            }
+            Err(e) => d.u64(e.code.number() as u64),
+        }
+    }
+    let mut sim: Sim<48> = Sim::new(MotionConfig::default());
+    let mut feeder = Feeder::new(moves.into_iter().flatten());
+    let mut on = |e: SimEvent| {
+        if let SimEvent::Step(s) = e {
+            d.u64(s.time);
+            d.bytes(&[s.step, s.dir]);
+        }
+    };
+    let mut idle = 0;
+    while idle < 4 {
+        let _ = feeder.feed(&mut sim);
+        if sim.tick(&mut on).period == 0 && feeder.exhausted() {
+            idle += 1;
+        } else {
+            idle = 0;
+        }
+    }
+    for p in sim.kernel.position() {
+        d.i64(p);
+    }
+    d.u64(n as u64);
+    d.finish()
+}
+
 /// Cross-target vectors of the interpreter (see [`crate::vectors`]).
 pub const VECTORS: &[Vector] = &[
     Vector {
@@ -283,5 +341,10 @@ pub const VECTORS: &[Vector] = &[
         name: "gcode/parametric",
         run: parametric,
         expected: 0xeebc_aa62,
+    },
+    Vector {
+        name: "gcode/transformed-arc",
+        run: transformed_arc,
+        expected: 0xb6d9_ee01,
     },
 ];
