@@ -5,7 +5,8 @@
 # `gantry stream` on the same program and setup; a 10,000-line program of 0.1 mm segments
 # streams at real time with no lost or repeated line (the step counts) and reports the
 # emulated board's underruns; then the seams of issue 24 (scripts/grbl_seams.py): an error
-# mid-job with the spindle on, a sender killed mid-job and the next client. Installs the sender itself; skips (saying why) only when PyPI
+# mid-job with the spindle on, a sender killed mid-job and the next client, M98, \$C, \$110 and
+# 20 queued \$J= jogs. Installs the sender itself; skips (saying why) only when PyPI
 # cannot be reached.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -73,5 +74,6 @@ sleep 2
 kill -9 $KILLED; wait $KILLED 2>/dev/null || true
 sleep 1.5
 "$VENV/bin/python" scripts/grbl_seams.py after-kill "$TMP/pty" || seams_fail "a killed sender"
+"$VENV/bin/python" scripts/grbl_seams.py answers "$TMP/pty" || seams_fail "M98, \$C, \$110, \$J="
 kill -INT $EMU; wait $EMU || true
-echo "grbl sender test: 4 passed, 0 failed"
+echo "grbl sender test: 5 passed, 0 failed"

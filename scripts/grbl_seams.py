@@ -7,6 +7,10 @@
                   kills this process with SIGKILL mid-job).
   after-kill PORT the next client after a killed sender: it is greeted with the banner, the
                   machine stands Idle with spindle and coolant off (no A:) and does not move.
+  answers PORT    M98 answered once (error:20) and the sender goes on; $C over arcs and G91
+                  moves from the program's position (no false error, the travel caught); $110
+                  below the start speed refused and unchanged; 20 queued $J= jogs smooth and
+                  within 0.8 s, and one jog cancel stops a stream of them.
 Prints one line per check; exit status 0 when every check passed.
 """
 import re
@@ -117,5 +121,83 @@ elif mode == "after-kill":
     p = mpos(first)
     check(p is not None and 0.0 < p[0] < 100.0, f"stopped on the path, not at the end: {p}")
     check(mpos(second) == p, f"no motion after the sender left: {p} -> {mpos(second)}")
+    g.disconnect()
+elif mode == "answers":
+    g = Recording(port, rx_buffer_size=128)
+    g.connect(reset=True)
+    time.sleep(0.3)
+
+    def answers_of(lines, timeout=20, idle=True):
+        with lock:
+            seen.clear()
+        ok = g.stream(lines, stop_on_error=False, wait_for_idle=idle, ack_timeout=timeout)
+        time.sleep(0.2)
+        with lock:
+            return ok, [l for l in seen if l == "ok" or l.startswith("error")], list(seen)
+
+    ok, ans, raw = answers_of(["G21 G90", "M98 P100", "G0 X1"])
+    msgs = [l for l in raw if l.startswith("[MSG")]
+    check(ans == ["ok", "error:20", "ok"] and not msgs, f"M98: {ans} {msgs}")
+    st = poll_status(g)
+    check(st.startswith("<Idle") and mpos(st)[0] == 1.0, f"usable after M98: {st}")
+    # Check mode: an arc valid from the program's own position, G91 moves adding up past the
+    # travel (X travels to +300 mm).
+    g.command("$C")
+    time.sleep(0.2)
+    ok, ans, raw = answers_of(
+        ["G90 G0 X10 Y10", "G2 X20 Y10 I5 J0 F300", "G91 G1 X200", "G1 X200", "G90 G0 X0 Y0"],
+        idle=False)  # (grbl reports Check, never Idle, in check mode)
+    check(ans == ["ok", "ok", "ok", "error:900", "ok"], f"$C: {ans}")
+    with lock:
+        seen.clear()
+    g.command("$C")
+    time.sleep(0.5)
+    with lock:
+        banners = [l for l in seen if l.startswith("Grbl 1.1")]
+    check(len(banners) == 1, f"$C off soft-resets: {banners}")
+    # $110 below the start speed (60 mm/min): refused, unchanged.
+    with lock:
+        seen.clear()
+    refused = g.command("$110=10")
+    time.sleep(0.2)
+    with lock:
+        reply = [l for l in seen if l.startswith("error") or l.startswith("[MSG")]
+        seen.clear()
+    g.command("$$")
+    time.sleep(0.3)
+    with lock:
+        s110 = [l for l in seen if l.startswith("$110=")]
+    check(not refused and any(l.startswith("error:") for l in reply) and s110 == ["$110=3000.000"],
+          f"$110=10: {reply} {s110}")
+    # 20 jogs of 0.5 mm back to back: one smooth move.
+    st0 = mpos(poll_status(g, 0.1))
+    t0 = time.time()
+    # Character counting (the sender keeps the 128-byte RX buffer full), as a jog wheel does.
+    jogger = threading.Thread(
+        target=lambda: g.stream(["$J=G91 X0.5 F1500"] * 20, wait_for_idle=False, ack_timeout=10),
+        daemon=True)
+    jogger.start()
+    deadline = time.time() + 5
+    moved = None
+    while time.time() < deadline:
+        st = poll_status(g, 0.02)
+        if st.startswith("<Idle") and mpos(st) and mpos(st)[0] >= st0[0] + 9.999:
+            moved = time.time() - t0
+            break
+    check(moved is not None and moved <= 0.8, f"20 jogs of 0.5 mm: X {st0[0]} -> {mpos(st)}, {moved} s")
+    # A stream of jogs, one cancel: everything stops.
+    jogger.join()
+    jogger = threading.Thread(
+        target=lambda: g.stream(["$J=G91 X5 F1500"] * 6, wait_for_idle=False, ack_timeout=10),
+        daemon=True)
+    jogger.start()
+    time.sleep(0.3)
+    g.realtime(b"\x85")
+    time.sleep(1.0)
+    a = mpos(poll_status(g, 0.1))
+    time.sleep(1.0)
+    b = mpos(poll_status(g, 0.1))
+    jogger.join()
+    check(a == b and a[0] < st0[0] + 10 + 30 - 5, f"one cancel stops them all: {a} {b}")
     g.disconnect()
 sys.exit(1 if failures else 0)
