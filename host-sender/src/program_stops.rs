@@ -58,6 +58,26 @@ pub fn stop_in(text: &str) -> Option<Stop> {
 }
 
 /// What the sender tells the operator at a stop.
+/// The stop the job stands at, if the board's state says it stopped for one: an M6 (the board
+/// names the tool) or an M0/M1 on line `line` of `program` (a feed hold is not a stop).
+pub fn stop_at(
+    state: Option<gantry_proto::MachineState>,
+    program: &crate::program::Program,
+    line: u32,
+) -> Option<Stop> {
+    use gantry_proto::MachineState;
+    match state? {
+        MachineState::ToolChange { tool } => Some(Stop::ToolChange { tool: Some(tool) }),
+        MachineState::Hold { stopped: true } => program
+            .wire_text(line)
+            .ok()
+            .flatten()
+            .and_then(|t| stop_in(&t))
+            .filter(|s| matches!(s, Stop::Program { .. })),
+        _ => None,
+    }
+}
+
 pub fn message(stop: Stop, line: u32) -> String {
     message_with(stop, line, None)
 }

@@ -512,19 +512,7 @@ fn stream_with_progress(
             )
             && last_stop_line != Some(p.line)
         {
-            let stop = match state {
-                // The board names the tool it waits for.
-                Some(MachineState::ToolChange { tool }) => {
-                    Some(program_stops::Stop::ToolChange { tool: Some(tool) })
-                }
-                _ => program
-                    .wire_text(p.line)
-                    .ok()
-                    .flatten()
-                    .and_then(|t| program_stops::stop_in(&t))
-                    .filter(|s| matches!(s, program_stops::Stop::Program { .. })),
-            };
-            if let Some(stop) = stop {
+            if let Some(stop) = program_stops::stop_at(state, program, p.line) {
                 last_stop_line = Some(p.line);
                 forget_typed();
                 let source = program.line(p.line);

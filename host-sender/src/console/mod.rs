@@ -461,18 +461,7 @@ fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
                 Some(MachineState::Hold { stopped: true } | MachineState::ToolChange { .. })
             );
             if stopped && p.line != stop_line {
-                let found = match state {
-                    Some(MachineState::ToolChange { tool }) => {
-                        Some(program_stops::Stop::ToolChange { tool: Some(tool) })
-                    }
-                    _ => program
-                        .wire_text(p.line)
-                        .ok()
-                        .flatten()
-                        .and_then(|t| program_stops::stop_in(&t))
-                        .filter(|s| matches!(s, program_stops::Stop::Program { .. })),
-                };
-                if let Some(f) = found {
+                if let Some(f) = program_stops::stop_at(state, &program, p.line) {
                     stop_line = p.line;
                     let source = program.line(p.line).unwrap_or("").trim().to_owned();
                     stop = Some(format!(
