@@ -67,6 +67,8 @@ pub struct GrblFile {
     /// Seconds motion waits for the spindle to spin up after `~` closes the safety door (0-60,
     /// ms resolution; 0 = no wait).
     pub door_spin_up_s: Option<f64>,
+    /// `M6` stops for a manual tool change (true), or answers grbl's `error:20` (false).
+    pub m6_stop: Option<bool>,
 }
 
 /// Step and direction signal timing of the stepper drivers, in µs (see their datasheets).
@@ -623,6 +625,9 @@ impl SetupFile {
         if let Some(v) = g.report_inches {
             s.grbl.inches = v;
         }
+        if let Some(v) = g.m6_stop {
+            s.grbl.m6_stop = v;
+        }
         if let Some(v) = g.door_spin_up_s {
             s.grbl.door_spin_up_ms = num(Key::DoorSpinUp, 0, v)? as u16;
         }
@@ -1043,6 +1048,11 @@ pub fn to_toml(s: &Setup) -> String {
         t,
         "door_spin_up_s = {}   # after ~ closes the safety door, the spindle spins up this long before motion; 0 = no wait",
         us_text(u32::from(g.door_spin_up_ms)) // thousandths, as for µs
+    );
+    let _ = writeln!(
+        t,
+        "m6_stop = {}   # M6 stops for a manual tool change; false: grbl's error:20",
+        g.m6_stop
     );
     t
 }

@@ -303,6 +303,9 @@ pub struct GrblSetup {
     /// spindle to spin up (`Door:3`, machine/src/grbl/door.rs), ms; 0 = no wait
     /// ([`Self::DOOR_SPIN_UP_MS`]).
     pub door_spin_up_ms: u16,
+    /// `M6` stops for a manual tool change (`Hold:0`, `~` continues: Gantry's stop), or, when
+    /// false, answers grbl 1.1's `error:20` and changes nothing (docs/grbl.md).
+    pub m6_stop: bool,
 }
 
 impl GrblSetup {
@@ -313,6 +316,7 @@ impl GrblSetup {
         inches: false,
         startup: [heapless::String::new(), heapless::String::new()],
         door_spin_up_ms: 4_000,
+        m6_stop: true,
     };
 
     /// Accepted spin-up waits after the safety door, ms: up to a minute (grbl waits 4 s).

@@ -1526,3 +1526,24 @@ fn sleep_reports_sleep_and_only_a_reset_wakes_it() {
     s.until(BANNER, 100);
     assert!(s.status().starts_with("<Idle|"));
 }
+
+/// Issue 24: `M6` is a setting. By default Gantry's tool-change stop (`Hold:0`, `~` continues);
+/// with `grbl.m6_stop = false`, grbl 1.1's `error:20`: the line runs nothing, the job reads on.
+#[test]
+fn m6_stops_by_default_and_answers_error_20_when_the_setting_says_so() {
+    let mut s = Sender::connected();
+    s.send(b"G1 X1 F600\nT2 M6\nG1 X2\n");
+    s.until_state_name("<Hold:0", 3000);
+    assert_eq!(s.eb.board.tool_change(), Some(2));
+    s.send(b"~");
+    assert_eq!(s.ends_idle(5_000)[0], 2 * STEPS_PER_MM);
+
+    let mut s = Sender::with(|st| st.grbl.m6_stop = false);
+    s.send(b"\x18");
+    s.until(BANNER, 50);
+    s.send(b"G1 X1 F600\nT2 M06\nG1 X2\n");
+    s.run(2000);
+    assert_eq!(s.answers(), ["ok", "error:20", "ok"], "{:?}", s.seen);
+    assert_eq!(s.ends_idle(5_000)[0], 2 * STEPS_PER_MM);
+    assert_eq!(s.eb.board.outputs().tool, 0);
+}

@@ -28,6 +28,8 @@ pub const JOG_INVALID: u16 = 16;
 pub const LASER_MODE: u16 = 17;
 /// grbl: undefined feed rate.
 pub const UNDEFINED_FEED: u16 = 22;
+/// Unsupported or invalid G-code command.
+pub const UNSUPPORTED: u16 = 20;
 
 /// The grbl number for a Gantry error number.
 pub fn error_number(gantry: u16) -> u16 {

@@ -582,6 +582,12 @@ impl Grbl {
                 self.decided(raw, Reply::Error(codes::EXPECTED_LETTER));
                 continue;
             };
+            if !board.setup().grbl.m6_stop && has_m6(text.as_bytes()) {
+                // grbl 1.1 has no tool change: its unsupported-command error, nothing run.
+                self.rx.consume(raw);
+                self.decided(raw, Reply::Error(codes::UNSUPPORTED));
+                continue;
+            }
             match board.state() {
                 State::Alarm => {
                     self.rx.consume(raw);
@@ -954,6 +960,23 @@ impl Grbl {
         self.out.line("]");
         Reply::Error(settings::refusal(e))
     }
+}
+
+/// The line (blanks and comments already dropped) has an `M6` word (`M6`, `M06`, `m6`).
+fn has_m6(line: &[u8]) -> bool {
+    line.iter().enumerate().any(|(i, &c)| {
+        if c | 0x20 != b'm' {
+            return false;
+        }
+        let digits = line.get(i + 1..).unwrap_or_default();
+        let n = digits.iter().take_while(|d| d.is_ascii_digit()).count();
+        let number = digits.get(..n).unwrap_or_default();
+        let after = digits.get(n).copied();
+        after != Some(b'.')
+            && !number.is_empty()
+            && number.iter().rev().skip(1).all(|&d| d == b'0')
+            && number.last() == Some(&b'6')
+    })
 }
 
 /// The line without leading and trailing blanks.

@@ -27,9 +27,9 @@ use crate::gcode::{Dialect, DwellUnits, RetractMode, Tool, ToolChangePosition};
 /// First byte of every blob: the encoding's version. 1 was the first serde/postcard encoding
 /// (without this byte), 2 the hand-written one; 3 is postcard through serde again; 4 adds
 /// `program.tool_change_position`, `path.blend_tolerance` and the grbl front end's section; 5
-/// adds `grbl.door_spin_up_ms`. Format 5 is written by hand again, byte for byte as postcard.
-/// Change it whenever the layout changes.
-pub const FORMAT: u8 = 5;
+/// adds `grbl.door_spin_up_ms`. Format 5 is written by hand again, byte for byte as postcard; 6
+/// adds `grbl.m6_stop`. Change it whenever the layout changes.
+pub const FORMAT: u8 = 6;
 
 /// Writes blob bytes `skip ..` into `out`. With `clip`, bytes beyond `out` are counted and
 /// dropped (a window of the blob); without, they make the encoding fail (`full`).
@@ -300,7 +300,7 @@ code_struct! {
     McodeList { code, dry_run_disabled, commands }
     LinkSetup { host_lost_stop_s }
     DriverSetup { step_pulse_ns, dir_setup_ns }
-    GrblSetup { status_mask, inches, startup, door_spin_up_ms }
+    GrblSetup { status_mask, inches, startup, door_spin_up_ms, m6_stop }
 }
 
 impl Elem for Tool {

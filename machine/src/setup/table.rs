@@ -494,6 +494,9 @@ table! {
     DoorSpinUp => Grbl "door_spin_up_s" S (*super::GrblSetup::DOOR_SPIN_UP_MS.start() as i64, *super::GrblSetup::DOOR_SPIN_UP_MS.end() as i64), NO_GRBL,
         |s, _i| i64::from(s.grbl.door_spin_up_ms);
         [] "0-60 s, ms resolution" "" "after `~` closes the safety door (0x84) with the spindle on, spindle and coolant come back on at once and motion waits this long for the spindle to spin up (status `Door:3`), as grbl waits 4 s; 0 = no wait. No grbl `$` number (grbl has it built in)",
+    M6Stop => Grbl "m6_stop" Bool (0, 1), NO_GRBL,
+        |s, _i| i64::from(s.grbl.m6_stop);
+        [] "" "" "in grbl mode, `M6` stops for a manual tool change (`Hold:0`, `~` continues), which every sender shows as a hold with its resume button; `false`: grbl 1.1's `error:20`, for senders that handle the tool change themselves and expect grbl's answer (docs/grbl.md)",
 }
 
 impl Key {
