@@ -320,10 +320,11 @@ fn setup(action: SetupAction, machine: &Machine) -> anyhow::Result<ExitCode> {
             }
         }
         SetupAction::Push { file, board } => {
-            let setup = SetupFile::load(&file)?;
+            // Checked before anything connects; pushed with the board's offsets kept.
+            SetupFile::load(&file)?;
             let target = machine.target(&board, Use::Controls)?;
             let emulated = matches!(target, host_sender::session::Target::Emulated(_));
-            oneshot::setup_push(target, &setup)?;
+            oneshot::setup_push_file(target, &file)?;
             if emulated {
                 println!(
                     "{}: valid, and applied by the emulated board (which forgets it when gantry exits: give --setup FILE to commands that use the emulated board)",

@@ -450,6 +450,40 @@ pub const SETUP_FILE_LIMIT: u64 = 1024 * 1024;
 impl SetupFile {
     /// Reads and validates a setup file.
     pub fn load(path: &Path) -> anyhow::Result<Setup> {
+        let text = Self::read_bounded(path)?;
+        Self::parse(&text).with_context(|| format!("in setup file {}", path.display()))
+    }
+
+    /// [`SetupFile::load`] for a push to a board whose setup is `board`: the work offsets and
+    /// the G28/G30 positions are the board's (the operator set them with G10, G28.1, G30.1 and
+    /// the board keeps them in flash) unless the file names them, so a push never clears them by
+    /// accident (docs/controller.md "Work offsets").
+    pub fn load_for_push(path: &Path, board: &Setup) -> anyhow::Result<Setup> {
+        let text = Self::read_bounded(path)?;
+        let file: SetupFile =
+            toml::from_str(&text).with_context(|| format!("in setup file {}", path.display()))?;
+        let (work, g28, g30) = (
+            !file.work_offsets.is_empty(),
+            file.program.g28_home.is_some(),
+            file.program.g30_home.is_some(),
+        );
+        let mut s = file
+            .into_setup()
+            .with_context(|| format!("in setup file {}", path.display()))?;
+        if !work {
+            s.program.work_offsets = board.program.work_offsets;
+        }
+        if !g28 {
+            s.program.g28_home = board.program.g28_home;
+        }
+        if !g30 {
+            s.program.g30_home = board.program.g30_home;
+        }
+        Ok(s)
+    }
+
+    /// The file's text, refused beyond [`SETUP_FILE_LIMIT`].
+    fn read_bounded(path: &Path) -> anyhow::Result<String> {
         use std::io::Read;
         let mut text = String::new();
         std::fs::File::open(path)
@@ -461,7 +495,7 @@ impl SetupFile {
             path.display(),
             SETUP_FILE_LIMIT / 1024
         );
-        Self::parse(&text).with_context(|| format!("in setup file {}", path.display()))
+        Ok(text)
     }
 
     /// Parses and validates setup text.

@@ -111,3 +111,78 @@ fn a_pushed_setup_is_saved_and_a_restarted_emulator_comes_back_with_it() {
     let text = std::fs::read_to_string(&pulled).unwrap();
     assert!(text.contains("max_rate = 2500.0"), "{text}");
 }
+
+/// Issue 25 item 5: `setup push` of a file that does not name the work offsets keeps the ones the
+/// operator set on the board; a file that names them sets them.
+#[test]
+fn a_setup_push_keeps_the_boards_offsets_unless_the_file_names_them() {
+    let dir = Dir::new("push-keeps-offsets");
+    let emu = Emulator::start(&dir, None);
+    let out = gantry(
+        &[
+            "--port",
+            emu.port(),
+            "mdi",
+            "G21 G90 G0 X10 Y5",
+            "G10 L20 P1 X0 Y0",
+            "G28.1",
+        ],
+        T,
+    );
+    assert_eq!(out.code, Some(0), "{out:?}");
+    let plain = dir.file("plain.toml", "[axis.X]\nmax_rate = 2500.0\n");
+    let out = gantry(
+        &[
+            "--port",
+            emu.port(),
+            "setup",
+            "push",
+            plain.to_str().unwrap(),
+        ],
+        T,
+    );
+    assert_eq!(out.code, Some(0), "{out:?}");
+    let pulled = dir.0.join("pulled.toml");
+    let out = gantry(
+        &[
+            "--port",
+            emu.port(),
+            "setup",
+            "pull",
+            pulled.to_str().unwrap(),
+        ],
+        T,
+    );
+    assert_eq!(out.code, Some(0), "{out:?}");
+    let text = std::fs::read_to_string(&pulled).unwrap();
+    assert!(text.contains("max_rate = 2500.0"), "{text}");
+    assert!(text.contains("\"G54\" = [10.0, 5.0, 0.0]"), "{text}");
+    assert!(text.contains("g28_home = [10.0, 5.0, 0.0]"), "{text}");
+    // Named in the file: set.
+    let named = dir.file("named.toml", "[work_offsets]\n\"G54\" = [1.0, 2.0, 3.0]\n");
+    let out = gantry(
+        &[
+            "--port",
+            emu.port(),
+            "setup",
+            "push",
+            named.to_str().unwrap(),
+        ],
+        T,
+    );
+    assert_eq!(out.code, Some(0), "{out:?}");
+    let out = gantry(
+        &[
+            "--port",
+            emu.port(),
+            "setup",
+            "pull",
+            pulled.to_str().unwrap(),
+        ],
+        T,
+    );
+    assert_eq!(out.code, Some(0), "{out:?}");
+    let text = std::fs::read_to_string(&pulled).unwrap();
+    assert!(text.contains("\"G54\" = [1.0, 2.0, 3.0]"), "{text}");
+    assert!(text.contains("g28_home = [10.0, 5.0, 0.0]"), "{text}");
+}

@@ -203,6 +203,14 @@ pub fn setup_push(target: Target, setup: &gantry_machine::setup::Setup) -> anyho
     connect(target)?.push_setup(setup)
 }
 
+/// Sends the setup file `file` to the board, keeping the board's work offsets and G28/G30
+/// positions where the file does not name them ([`crate::setup_file::SetupFile::load_for_push`]).
+pub fn setup_push_file(target: Target, file: &std::path::Path) -> anyhow::Result<()> {
+    let mut session = connect(target)?;
+    let setup = crate::setup_file::SetupFile::load_for_push(file, session.setup())?;
+    session.push_setup(&setup)
+}
+
 /// Reads the board's setup.
 pub fn setup_pull(target: Target) -> anyhow::Result<gantry_machine::setup::Setup> {
     Ok(connect(target)?.setup().clone())
