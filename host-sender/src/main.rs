@@ -335,7 +335,10 @@ fn setup(action: SetupAction, machine: &Machine) -> anyhow::Result<ExitCode> {
             }
         }
         SetupAction::Pull { file, board } => {
-            let text = to_toml(&oneshot::setup_pull(machine.target(&board, Use::Reads)?)?);
+            // A fresh emulated board's setup is the defaults: `setup show` prints those.
+            let text = to_toml(&oneshot::setup_pull(
+                machine.target(&board, Use::Controls)?,
+            )?);
             match file {
                 Some(f) => {
                     std::fs::write(&f, text)?;
@@ -465,19 +468,21 @@ fn main() -> ExitCode {
                 &file, target, setup, start, cpu_model, !no_check,
             )
         }),
+        // The status of a fresh emulated board says nothing of the machine: refused without a
+        // board unless --emulated (issue 25 item 11).
         Command::Status {
             watch: false,
             board,
             ..
         } => m
-            .target(&board, Use::Reads)
+            .target(&board, Use::Controls)
             .and_then(|t| oneshot::realtime(t, None)),
         Command::Status {
             watch: true,
             duration,
             board,
         } => m
-            .target(&board, Use::Reads)
+            .target(&board, Use::Controls)
             .and_then(|t| oneshot::watch(t, duration)),
         Command::Hold { board } => m
             .target(&board, Use::Controls)

@@ -56,3 +56,18 @@ fn an_error_quotes_at_most_the_first_100_characters_of_its_line() {
     assert!(quoted.ends_with(" …"));
     assert!(out.stdout.len() < 2000, "{out:?}");
 }
+
+/// Issue 25 item 11: `status` and `setup pull` with no board refuse (a fresh emulated board's
+/// state says nothing of the machine) unless `--emulated` asks for it.
+#[test]
+fn status_and_setup_pull_without_a_board_refuse_unless_emulated() {
+    for args in [vec!["status"], vec!["setup", "pull"]] {
+        let out = gantry(&args, T);
+        assert_eq!(out.code, Some(2), "{args:?}: {out:?}");
+        assert!(out.stderr.contains("add --emulated"), "{args:?}: {out:?}");
+        let mut emulated = vec!["--emulated"];
+        emulated.extend(args.iter().copied());
+        let out = gantry(&emulated, T);
+        assert_eq!(out.code, Some(0), "{emulated:?}: {out:?}");
+    }
+}
