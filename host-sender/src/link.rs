@@ -53,6 +53,16 @@ impl Transport for Box<dyn Transport> {
     }
 }
 
+/// Set once this process was asked to stop (SIGINT, SIGTERM: each command's handler calls
+/// [`request_stop`]): a port that went away is then no longer waited for. A signal is state of the
+/// whole process, so this is one flag for it.
+static STOP_REQUESTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// This process was asked to stop: [`SerialTransport`] gives up reopening a port at once.
+pub fn request_stop() {
+    STOP_REQUESTED.store(true, std::sync::atomic::Ordering::SeqCst);
+}
+
 /// How long the sender keeps trying to reopen a port that went away (USB cable pulled, board
 /// re-enumerating) before it gives up.
 pub const REOPEN_FOR: Duration = Duration::from_secs(60);
@@ -127,6 +137,11 @@ impl SerialTransport {
                         eprintln!("gantry: {} is back", self.path);
                         self.port = Some(p);
                         break;
+                    }
+                    Err(e) if STOP_REQUESTED.load(std::sync::atomic::Ordering::SeqCst) => {
+                        return Err(e).with_context(|| {
+                            format!("{} went away and this process was asked to stop", self.path)
+                        })
                     }
                     Err(e) if since.elapsed() > REOPEN_FOR => {
                         return Err(e).with_context(|| {

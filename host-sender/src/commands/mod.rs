@@ -60,7 +60,10 @@ pub fn ctrl_c_flag() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
         let f = flag.clone();
         // If no handler can be installed, Ctrl-C keeps its default meaning (the board then holds
         // by itself when the link goes silent).
-        let _ = ctrlc::set_handler(move || f.store(true, Ordering::SeqCst));
+        let _ = ctrlc::set_handler(move || {
+            f.store(true, Ordering::SeqCst);
+            crate::link::request_stop();
+        });
         flag
     })
     .clone()

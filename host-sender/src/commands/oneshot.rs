@@ -151,7 +151,10 @@ pub fn watch(target: Target, seconds: Option<f64>) -> anyhow::Result<ExitCode> {
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
     // Without a handler Ctrl-C simply ends the process, which is just as good here.
-    let _ = ctrlc::set_handler(move || s.store(true, Ordering::SeqCst));
+    let _ = ctrlc::set_handler(move || {
+        s.store(true, Ordering::SeqCst);
+        crate::link::request_stop();
+    });
     let mut session = connect(target)?;
     let axes = session.axes();
     let start = session.now_ms();

@@ -176,8 +176,11 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
     listener.set_nonblocking(true)?;
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
-    ctrlc::set_handler(move || s.store(true, Ordering::SeqCst))
-        .context("cannot install the SIGINT/SIGTERM handler")?;
+    ctrlc::set_handler(move || {
+        s.store(true, Ordering::SeqCst);
+        crate::link::request_stop();
+    })
+    .context("cannot install the SIGINT/SIGTERM handler")?;
     eprintln!("serve: {port} is served on {}", path.display());
     if let Some(o) = http {
         crate::console::start(port, o)?;
