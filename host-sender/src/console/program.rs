@@ -4,7 +4,8 @@
 
 use crate::check::check_stream;
 use crate::check_summary::format_summary;
-use crate::preview::geom::plane_axes;
+use crate::preview::geom::arc_interior;
+use crate::preview::model::ArcGeom;
 use crate::preview::source::Actions;
 use gantry_machine::canon::{Action, ArcDir};
 use gantry_machine::gcode::MemorySource;
@@ -80,33 +81,13 @@ pub fn path_json(text: &str, setup: &Setup) -> String {
             } => {
                 let end = mm(to);
                 if let Some(from) = at {
-                    let (a, b, n) = plane_axes(*plane);
-                    let (ca, cb) = (center[a] as f64 / 1e6, center[b] as f64 / 1e6);
-                    let r = (from[a] - ca).hypot(from[b] - cb);
-                    let a0 = (from[b] - cb).atan2(from[a] - ca);
-                    let a1 = (end[b] - cb).atan2(end[a] - ca);
-                    let tau = std::f64::consts::TAU;
-                    let mut sweep = a1 - a0;
-                    let extra = turns.saturating_sub(1) as f64 * tau;
-                    if *dir == ArcDir::Ccw {
-                        while sweep <= 1e-9 {
-                            sweep += tau;
-                        }
-                        sweep += extra;
-                    } else {
-                        while sweep >= -1e-9 {
-                            sweep -= tau;
-                        }
-                        sweep -= extra;
-                    }
-                    let steps = ((sweep.abs() * r / 0.25) as usize).clamp(4, 720);
-                    for i in 1..steps {
-                        let t = i as f64 / steps as f64;
-                        let ang = a0 + sweep * t;
-                        let mut p = [0.0; 3];
-                        p[a] = ca + r * ang.cos();
-                        p[b] = cb + r * ang.sin();
-                        p[n] = from[n] + (end[n] - from[n]) * t;
+                    let arc = ArcGeom {
+                        center: mm(center),
+                        plane: *plane,
+                        ccw: *dir == ArcDir::Ccw,
+                        turns: (*turns).max(1),
+                    };
+                    for p in arc_interior(from, end, &arc, 0.25, (4, 720)) {
                         pts.push((1, c.line, p));
                     }
                 }

@@ -93,6 +93,20 @@ impl Polar {
     }
 }
 
+/// Points along an arc from `from` to `to` for a polyline: the interior points only (the caller
+/// has both ends), about one every `step_mm` of the sweep, between `min` and `max` segments.
+pub fn arc_interior(
+    from: P3,
+    to: P3,
+    arc: &ArcGeom,
+    step_mm: f64,
+    (min, max): (usize, usize),
+) -> impl Iterator<Item = P3> {
+    let p = Polar::new(from, to, arc);
+    let steps = ((p.sweep.abs() * p.r0 / step_mm) as usize).clamp(min, max);
+    (1..steps).map(move |i| p.at(i as f64 / steps as f64))
+}
+
 /// Cubic Bézier pieces (≤ 45° each) of an arc from `from` to `to`; they start at `from` and end
 /// exactly at `to`.
 pub fn arc_cubics(from: P3, to: P3, arc: &ArcGeom) -> Vec<Cubic> {
