@@ -427,10 +427,10 @@ fn main() -> ExitCode {
     };
     let m = &machine;
     // A program is read line by line in bounded memory; a line no G-code program has (a binary
-    // file, /dev/zero) is refused before anything reads it whole.
+    // file, /dev/zero) is refused before anything reads it whole (`stream` checks it where it
+    // reads the file, host-sender/src/commands/stream.rs).
     let program = match &cli.command {
         Command::Check { file, .. }
-        | Command::Stream { file, .. }
         | Command::Simulate { file, .. }
         | Command::Preview { file, .. } => Some(file.clone()),
         _ => None,

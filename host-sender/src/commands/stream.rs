@@ -85,8 +85,10 @@ pub fn run_checked(
     cpu: Option<crate::cpu_model::CpuModel>,
     check: bool,
 ) -> anyhow::Result<std::process::ExitCode> {
-    let program = Program::load(file)?;
+    // The file read once (its line lengths checked first: crate::program::check_line_lengths).
+    crate::program::check_line_lengths(file)?;
     let text = std::fs::read_to_string(file)?;
+    let program = Program::from_text(&text);
     let wall = std::time::Instant::now();
     let from_board = matches!(target, Target::Port(_));
     // Someone must be able to continue a tool-change stop: the operator at a terminal (Enter) or
