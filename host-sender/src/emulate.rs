@@ -45,6 +45,23 @@ pub(crate) fn load_state(state: Option<&Path>, setup: Option<PathBuf>) -> anyhow
     }
 }
 
+/// Where the emulated board's setup came from and where a pushed one goes, for its ready line.
+pub(crate) fn setup_origin(state: Option<&Path>, setup: Option<&Path>) -> String {
+    match (setup, state) {
+        (Some(f), Some(st)) => format!("setup from {}, stored in {}", f.display(), st.display()),
+        (Some(f), None) => format!(
+            "setup from {} (a pushed setup is forgotten at exit: no --state)",
+            f.display()
+        ),
+        (None, Some(st)) if st.exists() => format!("stored setup: {}", st.display()),
+        (None, Some(st)) => format!(
+            "no stored setup yet, defaults (a pushed setup is stored in {})",
+            st.display()
+        ),
+        (None, None) => "defaults (a pushed setup is forgotten at exit: no --state)".into(),
+    }
+}
+
 pub(crate) fn save_state(state: &Path, setup: &Setup) -> anyhow::Result<()> {
     let tmp = state.with_extension("tmp");
     std::fs::write(&tmp, to_toml(setup))?;
@@ -249,6 +266,7 @@ pub fn run(
     probe_targets: &[String],
     cpu: Option<crate::cpu_model::CpuModel>,
 ) -> anyhow::Result<ExitCode> {
+    let origin = setup_origin(state.as_deref(), setup.as_deref());
     let setup = load_state(state.as_deref(), setup)?;
     let axes = setup.axis_count as usize;
     let board = new_board(setup, state.as_deref(), probe_targets, cpu)?;
@@ -270,13 +288,8 @@ pub fn run(
         last_termios_check: Instant::now(),
     };
     let ready = format!(
-        "emulate: board ready on {} ({name}), {axes} axes; stored setup: {}",
+        "emulate: board ready on {} ({name}), {axes} axes; {origin}",
         pty.display(),
-        state
-            .as_ref()
-            .map_or("none (defaults, forgotten at exit)".into(), |p| p
-                .display()
-                .to_string())
     );
     let result = serve(board, &mut host, state.as_deref(), &ready);
     // Remove the link only when it is still ours.

@@ -637,7 +637,8 @@ impl EmulatedBoard {
     /// After a pass: whether the kernel running dry before the next one would be a gap in the
     /// motion ([`Starved`]).
     fn note_gap_possible(&mut self) {
-        let running = self.board.state() == gantry_machine::controller::State::Run;
+        // Not during an abort's or an alarm's stop: the job ends there (its kernel drains).
+        let running = self.board.job_running();
         let s = &mut self.hw.starved;
         if !running {
             s.moved = false;

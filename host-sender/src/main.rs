@@ -268,8 +268,15 @@ impl Machine {
 
 #[derive(Subcommand)]
 enum SetupAction {
-    /// Print a setup file's effective values (every default filled in), or the defaults.
-    Show { file: Option<PathBuf> },
+    /// Print the effective values (every default filled in) of a setup file; without FILE, of
+    /// the board's setup (--port, GANTRY_PORT or the one Gantry board plugged in), else of the
+    /// defaults.
+    Show {
+        file: Option<PathBuf>,
+        /// The built-in defaults, even with a board.
+        #[arg(long, conflicts_with = "file")]
+        defaults: bool,
+    },
     /// Validate a setup file; every error names the key and the allowed range.
     Check { file: PathBuf },
     /// Validate a setup file and send it to the board, which saves it in flash (only when idle).
@@ -296,11 +303,12 @@ enum SetupAction {
 fn setup(action: SetupAction, machine: &Machine) -> anyhow::Result<ExitCode> {
     use host_sender::setup_file::{to_toml, SetupFile};
     match action {
-        SetupAction::Show { file } => {
-            let setup = match file {
-                Some(f) => SetupFile::load(&f)?,
-                None => Default::default(),
+        SetupAction::Show { file, defaults } => {
+            let (origin, setup) = match file {
+                Some(f) => (format!("setup file {}", f.display()), SetupFile::load(&f)?),
+                None => show_source(machine, defaults)?,
             };
+            println!("# Effective values of the {origin}.");
             print!("{}", to_toml(&setup));
         }
         SetupAction::Check { file } => {
@@ -349,6 +357,29 @@ fn setup(action: SetupAction, machine: &Machine) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// What `setup show` without a file shows: the board's setup when there is a board (issue 25
+/// item 11: it printed the defaults beside a configured board), else the defaults, saying which.
+fn show_source(
+    machine: &Machine,
+    defaults: bool,
+) -> anyhow::Result<(String, gantry_machine::setup::Setup)> {
+    use host_sender::session::Target;
+    if defaults {
+        return Ok(("built-in defaults".into(), Default::default()));
+    }
+    let no_setup = BoardArgs { setup: None };
+    match machine.target(&no_setup, Use::Reads)? {
+        Target::Port(p) => Ok((
+            format!("board's setup on {p}"),
+            oneshot::setup_pull(Target::Port(p))?,
+        )),
+        Target::Emulated(_) => Ok((
+            "built-in defaults (no board: give --port for the board's setup)".into(),
+            Default::default(),
+        )),
+    }
 }
 
 fn simulate(
@@ -416,6 +447,15 @@ fn quiet_broken_pipe() {
         }
         default(info);
     }));
+}
+
+/// The error is a write to a closed pipe (standard output read by `head`).
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 fn main() -> ExitCode {
@@ -587,6 +627,8 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(code) => code,
+        // `gantry simulate … | head`: the reader went away; end quietly, as SIGPIPE would.
+        Err(e) if is_broken_pipe(&e) => ExitCode::from(141),
         Err(e) => {
             eprintln!("gantry: {e:#}");
             ExitCode::from(2)

@@ -5,7 +5,7 @@
 //! behind the pty (`crate::emulate::serve`), so grbl and the framed protocol both work, and the
 //! log is the same.
 
-use crate::emulate::{load_state, new_board, serve, HostSide, Polled};
+use crate::emulate::{load_state, new_board, serve, setup_origin, HostSide, Polled};
 use anyhow::Context;
 use nix::poll::{poll, PollFd, PollFlags};
 use std::io::{ErrorKind, Read, Write};
@@ -108,6 +108,7 @@ pub fn run(
     cpu: Option<crate::cpu_model::CpuModel>,
 ) -> anyhow::Result<ExitCode> {
     check_address(&addr, allow_remote)?;
+    let origin = setup_origin(state.as_deref(), setup.as_deref());
     let setup = load_state(state.as_deref(), setup)?;
     let axes = setup.axis_count;
     let mut board = new_board(setup, state.as_deref(), probe_targets, cpu)?;
@@ -116,7 +117,7 @@ pub fn run(
     // No host until a client connects.
     board.set_dtr(false);
     let ready = format!(
-        "emulate: board ready on tcp {}, {axes} axes",
+        "emulate: board ready on tcp {}, {axes} axes; {origin}",
         listener.local_addr().map_or(addr, |a| a)
     );
     let mut host = TcpHost {

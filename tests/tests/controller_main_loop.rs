@@ -265,3 +265,38 @@ fn work_offsets_a_job_sets_are_saved_to_flash_and_survive_a_restart() {
     // A job that changes no offset writes nothing.
     assert_eq!(saved.borrow().len(), 1);
 }
+
+#[test]
+fn an_abort_or_a_hold_is_no_underrun() {
+    // An abort stops on the path: the kernel drains because the job ends, not because segment
+    // preparation fell behind (issue 25 item 16: each abort was counted as an underrun).
+    let zigzag: String = (1..400)
+        .map(|i| format!("G1 X{}.{} Y{}\n", i % 50, i % 10, i % 7))
+        .collect();
+    let mut eb = board(|_| {});
+    job(&mut eb, &format!("G21 G90 F3000\n{zigzag}M30\n"));
+    assert_eq!(eb.board.state(), State::Run);
+    eb.run_ms(100);
+    eb.board.abort();
+    assert!(eb.run_until(5_000, |b| b.board.state() == State::Idle));
+    eb.run_ms(50);
+    assert_eq!((eb.underruns, eb.starved.gaps), (0, 0), "abort");
+    // The sender went away mid-job: a hold on the path.
+    let mut eb = board(|_| {});
+    job(&mut eb, &format!("G21 G90 F3000\n{zigzag}M30\n"));
+    eb.run_ms(100);
+    eb.board.host_lost();
+    assert!(eb.run_until(5_000, |b| b.board.motion().state() == MotionState::Held));
+    eb.run_ms(100);
+    assert_eq!((eb.underruns, eb.starved.gaps), (0, 0), "host lost");
+    // A hold, at rest, then a resume to the end.
+    let mut eb = board(|_| {});
+    job(&mut eb, LONG_CUT);
+    assert!(eb.run_until(5_000, |b| b.now_ms() == 500));
+    eb.board.feed_hold();
+    assert!(eb.run_until(5_000, |b| b.board.motion().state() == MotionState::Held));
+    eb.run_ms(100);
+    eb.board.resume();
+    assert!(eb.run_until(10_000, |b| b.board.state() == State::Idle));
+    assert_eq!((eb.underruns, eb.starved.gaps), (0, 0), "hold");
+}

@@ -54,6 +54,13 @@ pub fn realtime(target: Target, msg: Option<HostMsg>) -> anyhow::Result<ExitCode
         return Ok(ExitCode::SUCCESS);
     };
     let before = session.status()?;
+    if matches!(m, HostMsg::Resume) {
+        if let Some(why) = nothing_to_resume(&before) {
+            println!("{}", format_status(&before, axes));
+            println!("nothing to resume: {why}");
+            return Ok(ExitCode::from(1));
+        }
+    }
     let expected = expected_after(&m, &before);
     let hold = matches!(m, HostMsg::FeedHold);
     session.send(m)?;
@@ -87,6 +94,21 @@ pub fn realtime(target: Target, msg: Option<HostMsg>) -> anyhow::Result<ExitCode
     Ok(ExitCode::SUCCESS)
 }
 
+/// Why a resume (cycle start) would do nothing in the state of `before`: only a feed hold, an
+/// M0/M1 stop (a hold at rest) and a tool-change stop wait for one.
+fn nothing_to_resume(before: &Status) -> Option<String> {
+    use gantry_proto::MachineState as S;
+    match before.state {
+        S::Hold { .. } | S::ToolChange { .. } => None,
+        S::Alarm { code } => Some(format!(
+            "the board is in {} (clear it with `gantry unlock`, or home)",
+            alarm_text(code)
+        )),
+        S::Run => Some("the job is running (or ending after an abort or alarm)".into()),
+        other => Some(format!("the board is {}", state_name(other))),
+    }
+}
+
 /// A state test for what a realtime request leads to from `before`, with its description.
 type Expectation = (&'static str, fn(&Status) -> bool);
 
@@ -103,6 +125,9 @@ fn expected_after(msg: &HostMsg, before: &Status) -> Option<Expectation> {
         }
         (HostMsg::Resume, S::Hold { .. }) => Some(("the job running again", |s| {
             !matches!(s.state, S::Hold { .. })
+        })),
+        (HostMsg::Resume, S::ToolChange { .. }) => Some(("the job running again", |s| {
+            !matches!(s.state, S::ToolChange { .. })
         })),
         (HostMsg::Abort, S::Run | S::Hold { .. } | S::Jog | S::Homing | S::Check) => {
             Some(("the job ended at rest", |s| {
@@ -433,5 +458,18 @@ pub fn jog(target: Target, axis: u8, how: JogMove, feed_mm_min: f64) -> anyhow::
     )?;
     print_notices(&mut session);
     println!("{}", format_status(&status, n));
+    let a = &setup.axes[axis as usize];
+    let step_nm = a.units_nm.unsigned_abs() as f64 / f64::from(a.steps.max(1));
+    if distance_nm > 0
+        && (distance_nm as f64) < step_nm
+        && status.machine_pos[axis as usize] == before.machine_pos[axis as usize]
+    {
+        println!(
+            "no motion: {} mm is less than one step of {} ({} mm)",
+            distance_nm as f64 / 1e6,
+            AXIS_LETTERS[axis as usize],
+            step_nm / 1e6
+        );
+    }
     Ok(ExitCode::SUCCESS)
 }

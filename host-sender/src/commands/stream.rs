@@ -259,15 +259,33 @@ fn forget_typed() {
     while let Some(Typed::Line(_)) = typed() {}
 }
 
+/// Asks a question on the progress bar's line: the bar is cleared and stays hidden until
+/// [`answered`], so that its updates never draw over the question or the answer being typed.
+fn ask(bar: Option<&indicatif::ProgressBar>, question: &str) {
+    use std::io::Write;
+    match bar {
+        Some(b) => {
+            b.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+            // Carriage return and erase the line: the bar's last drawing goes.
+            eprint!("\r\x1b[2K{question}");
+        }
+        None => eprint!("{question}"),
+    }
+    let _ = std::io::stderr().flush();
+}
+
+/// The question [`ask`] asked has its answer: the bar shows again.
+fn answered(bar: Option<&indicatif::ProgressBar>) {
+    if let Some(b) = bar {
+        b.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+    }
+}
+
 /// Prints a question or message above the progress bar.
-fn say(bar: Option<&indicatif::ProgressBar>, text: &str, newline: bool) {
+fn say(bar: Option<&indicatif::ProgressBar>, text: &str) {
     use std::io::Write;
     let print = || {
-        if newline {
-            eprintln!("{text}");
-        } else {
-            eprint!("{text}");
-        }
+        eprintln!("{text}");
         let _ = std::io::stderr().flush();
     };
     match bar {
@@ -422,7 +440,7 @@ fn stream_with_progress(
                 let flow = match (ctrl_c, typed()) {
                     (true, _) => Some(Flow::Abort),
                     (false, Some(Typed::Closed)) => {
-                        say(bar.as_ref(), "(no answer: standard input is closed)", true);
+                        say(bar.as_ref(), "(no answer: standard input is closed)");
                         Some(Flow::Abort)
                     }
                     (false, Some(Typed::Line(l))) if l.trim().eq_ignore_ascii_case("y") => {
@@ -432,6 +450,7 @@ fn stream_with_progress(
                     (false, None) => None,
                 };
                 if let Some(f) = flow {
+                    answered(bar.as_ref());
                     asking = Asking::Nothing;
                     hold_requested = false;
                     let text = if f == Flow::Abort {
@@ -439,7 +458,7 @@ fn stream_with_progress(
                     } else {
                         "resuming the job"
                     };
-                    say(bar.as_ref(), text, true);
+                    say(bar.as_ref(), text);
                     return f;
                 }
                 return Flow::Continue;
@@ -453,38 +472,35 @@ fn stream_with_progress(
                 // Cycle start on the machine answered it.
                 asking = Asking::Nothing;
             }
-            Asking::Stop(_) => match typed() {
-                Some(Typed::Line(_)) => {
-                    asking = Asking::Nothing;
-                    return Flow::Resume;
-                }
-                // Nobody can answer on the emulated board: it goes on, as the README says.
-                Some(Typed::Closed) if emulated => {
-                    say(
-                        bar.as_ref(),
-                        "(standard input is closed: continuing on the emulated board)",
-                        true,
-                    );
-                    asking = Asking::Nothing;
-                    return Flow::Resume;
-                }
-                Some(Typed::Closed) if !told_closed => {
-                    told_closed = true;
-                    say(
-                        bar.as_ref(),
-                        "(standard input is closed: waiting for cycle start on the machine, or \
-                         `gantry resume` from another terminal)",
-                        true,
-                    );
-                }
-                _ => {
-                    if emulated {
-                        // The emulated board's clock runs only as the link is serviced: while
-                        // the operator thinks it runs at the wall clock's pace, not flat out.
-                        std::thread::sleep(std::time::Duration::from_millis(5));
+            Asking::Stop(_) => {
+                match typed() {
+                    Some(Typed::Line(_)) => {
+                        asking = Asking::Nothing;
+                        return Flow::Resume;
+                    }
+                    // Nobody can answer on the emulated board: it goes on, as the README says.
+                    Some(Typed::Closed) if emulated => {
+                        say(
+                            bar.as_ref(),
+                            "(standard input is closed: continuing on the emulated board)",
+                        );
+                        asking = Asking::Nothing;
+                        return Flow::Resume;
+                    }
+                    Some(Typed::Closed) if !told_closed => {
+                        told_closed = true;
+                        say(bar.as_ref(), "(standard input is closed: waiting for cycle start on the machine, or \
+                         `gantry resume` from another terminal)");
+                    }
+                    _ => {
+                        if emulated {
+                            // The emulated board's clock runs only as the link is serviced: while
+                            // the operator thinks it runs at the wall clock's pace, not flat out.
+                            std::thread::sleep(std::time::Duration::from_millis(5));
+                        }
                     }
                 }
-            },
+            }
             Asking::Nothing => {}
         }
         if matches!(
@@ -497,10 +513,9 @@ fn stream_with_progress(
         if ctrl_c {
             // Ctrl-C: hold first (decelerate on the path), then ask what to do.
             forget_typed();
-            say(
+            ask(
                 bar.as_ref(),
                 "feed hold: abort the job? [y/N] (Ctrl-C again aborts) ",
-                false,
             );
             asking = Asking::AbortAfterHold;
             hold_requested = true;
@@ -521,7 +536,6 @@ fn stream_with_progress(
                 say(
                     bar.as_ref(),
                     &program_stops::message_with(stop, p.line, source),
-                    true,
                 );
                 asking = Asking::Stop(p.line);
             }

@@ -364,7 +364,7 @@ impl MainLoop {
             if !board.position_lost() {
                 port.motion_marker(false);
             }
-            if board.state() == State::Run && board.motion().state() == MotionState::Running {
+            if board.job_running() && board.motion().state() == MotionState::Running {
                 self.underruns += 1;
             }
         }
