@@ -439,4 +439,10 @@ impl<T: Transport> Client<T> {
     pub fn stats(&self) -> gantry_proto::LinkStats {
         self.endpoint.stats()
     }
+
+    /// The protocol version the board (or `gantry serve`) announced in the handshake: a message
+    /// newer than its minor must not be sent to it (docs/protocol.md §8).
+    pub fn peer_version(&self) -> Option<u16> {
+        self.endpoint.peer_version()
+    }
 }

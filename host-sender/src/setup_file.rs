@@ -17,6 +17,41 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+/// A `[a, b]` value read as exactly two elements: the `toml` reader fills a pair from a longer
+/// list and drops the rest silently (`travel = [-300.0, 300.0, 5]` was accepted).
+fn exact_pair<'de, D, A, B>(d: D) -> Result<Option<(A, B)>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    A: Deserialize<'de>,
+    B: Deserialize<'de>,
+{
+    use serde::de::{Error, IgnoredAny, SeqAccess, Visitor};
+    struct Pair<A, B>(std::marker::PhantomData<(A, B)>);
+    impl<'de, A: Deserialize<'de>, B: Deserialize<'de>> Visitor<'de> for Pair<A, B> {
+        type Value = (A, B);
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a list of exactly two values")
+        }
+        fn visit_seq<S: SeqAccess<'de>>(self, mut seq: S) -> Result<(A, B), S::Error> {
+            let a = seq
+                .next_element()?
+                .ok_or_else(|| S::Error::invalid_length(0, &self))?;
+            let b = seq
+                .next_element()?
+                .ok_or_else(|| S::Error::invalid_length(1, &self))?;
+            let mut extra = 0;
+            while seq.next_element::<IgnoredAny>()?.is_some() {
+                extra += 1;
+            }
+            if extra > 0 {
+                return Err(S::Error::invalid_length(2 + extra, &self));
+            }
+            Ok((a, b))
+        }
+    }
+    d.deserialize_seq(Pair(std::marker::PhantomData)).map(Some)
+}
+
 /// The file as written by users: every field optional, defaults from [`Setup::default`].
 #[derive(Debug, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -131,11 +166,14 @@ pub struct HomingAxisFile {
 #[serde(deny_unknown_fields)]
 pub struct JogFile {
     /// `[down/up axis, left/right axis]` per selector position; `"-"` = none.
+    #[serde(default, deserialize_with = "exact_pair")]
     pub pair0: Option<(String, String)>,
+    #[serde(default, deserialize_with = "exact_pair")]
     pub pair1: Option<(String, String)>,
     pub instant_speed: Option<f64>,
     pub nudge_distance: Option<f64>,
     pub nudge_interval_ms: Option<u16>,
+    #[serde(default, deserialize_with = "exact_pair")]
     pub analog_axes: Option<(String, String)>,
     pub analog_deadband: Option<u16>,
     pub analog_max_speed: Option<f64>,
@@ -144,7 +182,9 @@ pub struct JogFile {
 #[derive(Debug, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SpindleFile {
+    #[serde(default, deserialize_with = "exact_pair")]
     pub rpm_range: Option<(u32, u32)>,
+    #[serde(default, deserialize_with = "exact_pair")]
     pub pwm_range: Option<(u16, u16)>,
 }
 
@@ -296,11 +336,13 @@ fn commands<const N: usize>(
 #[serde(deny_unknown_fields)]
 pub struct AxisFile {
     /// `[steps, units]`: this many motor steps move the axis this many mm (or degrees).
+    #[serde(default, deserialize_with = "exact_pair")]
     pub steps_per: Option<(u32, f64)>,
     pub max_rate: Option<f64>,
     pub accel: Option<f64>,
     pub start_speed: Option<f64>,
     /// `[min, max]` in machine coordinates.
+    #[serde(default, deserialize_with = "exact_pair")]
     pub travel: Option<(f64, f64)>,
     pub invert_dir: Option<bool>,
 }
@@ -347,6 +389,7 @@ pub struct ToolFile {
 pub struct OperatorFile {
     pub resume_needs_cycle_start: Option<bool>,
     pub two_hand_start: Option<bool>,
+    #[serde(default, deserialize_with = "exact_pair")]
     pub fro_range: Option<(u16, u16)>,
     pub dry_run_feed: Option<f64>,
 }
@@ -1182,6 +1225,28 @@ fn controller_toml(s: &Setup, t: &mut String) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pair_takes_exactly_two_values() {
+        for text in [
+            "[axis.X]\nsteps_per = [3200, 5.0, 7]\n",
+            "[axis.X]\ntravel = [-300.0, 300.0, 5.0]\n",
+            "[axis.X]\ntravel = [-300.0]\n",
+            "[operator]\nfro_range = [10, 200, 300]\n",
+            "[jog]\npair0 = [\"Y\", \"X\", \"Z\"]\n",
+        ] {
+            let e = format!("{:#}", SetupFile::parse(text).unwrap_err());
+            assert!(
+                e.contains("expected a list of exactly two values"),
+                "{text}: {e}"
+            );
+        }
+        let s = SetupFile::parse("[axis.X]\ntravel = [-250.0, 250.0]\n").unwrap();
+        assert_eq!(
+            (s.axes[0].travel_min, s.axes[0].travel_max),
+            (-250 * NM_PER_MM, 250 * NM_PER_MM)
+        );
+    }
 
     #[test]
     fn defaults_round_trip_through_the_file() {

@@ -173,6 +173,11 @@ wire_messages! {
         /// Run the homing cycle for the axes in the bit mask (bit 0 = X; 0 = all); answered by
         /// [`BoardMsg::Answer`] `{ id, .. }`.
         Realtime Home { id: u32, axes: u8 },
+        /// A sender takes over the running job (`gantry stream --continue`). `gantry serve`
+        /// makes that command the job's owner; the board ignores it (a sender's new connection
+        /// already makes it ask for the lines it misses). It resumes nothing: a take-over sends
+        /// [`HostMsg::Resume`] only for the hold its lost predecessor left.
+        Realtime TakeOver,
     }
 }
 

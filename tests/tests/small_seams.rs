@@ -12,6 +12,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const T: Duration = Duration::from_secs(20);
+const S: Duration = Duration::from_secs(1);
 
 #[test]
 fn resume_with_nothing_to_resume_fails_and_says_why() {
@@ -161,4 +162,99 @@ fn the_progress_bar_never_draws_over_the_ctrl_c_question() {
     drop(stdin);
     let _ = child.wait();
     let _ = reader.join();
+}
+
+#[test]
+fn check_and_the_board_give_the_same_recursion_error() {
+    let dir = Dir::new("recursion");
+    let emu = Emulator::start(&dir, None);
+    for (name, text, line) in [
+        (
+            "oword.ngc",
+            "G21 G90\nO1 sub\nG0 X1\nO1 call\nO1 endsub\nO1 call\nM30\n",
+            4,
+        ),
+        (
+            "m98.ngc",
+            "G21 G90\nM98 P100\nM30\nO100\nG0 X1\nM98 P100\nM99\n",
+            6,
+        ),
+    ] {
+        let prog = dir.file(name, text);
+        let p = prog.to_str().unwrap();
+        let want = format!("{name}:{line}: error E603: subprogram calls nested too deeply");
+        let check = gantry(&["check", p], T);
+        assert_eq!(check.code, Some(1), "{check:?}");
+        assert!(check.stdout.contains(&want), "{check:?}");
+        let stream = gantry(&["--port", emu.port(), "stream", "--no-check", p], T);
+        assert_ne!(stream.code, Some(0), "{stream:?}");
+        assert!(
+            (stream.stdout.clone() + &stream.stderr).contains(&want),
+            "{stream:?}"
+        );
+    }
+}
+
+#[test]
+fn continue_at_a_tool_change_with_stdin_closed_waits_for_cycle_start_and_ends() {
+    use nix::sys::signal::Signal;
+    let dir = Dir::new("continue-at-m6");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let emu = Emulator::start(&dir, Some(&setup));
+    let port = emu.port();
+    let job = dir.file("m6.ngc", "G21 G90 G1 F3000\nX5\nT2 M6\nG1 X10\nY4\nM30\n");
+    let job = job.to_str().unwrap();
+    // Other terminals reach the board while a job runs through `gantry serve`.
+    let server = spawn(&["serve", "--port", port]);
+    assert!(wait_for(10 * S, || server
+        .stderr()
+        .contains("is served on")));
+    // The first sender stops at the tool change (its standard input stays open), then dies.
+    let sender = spawn(&["stream", "--port", port, job]);
+    assert!(
+        emu.wait_log(10 * S, |l| l.contains("ToolChange T2")),
+        "{}",
+        emu.log()
+    );
+    sender.signal(Signal::SIGKILL);
+    drop(sender);
+    assert!(
+        wait_for(5 * S, || server.stderr().contains("went away")),
+        "{}",
+        server.stderr()
+    );
+    // Taken over with standard input closed: it says what it waits for and does not hang.
+    let mut taker = spawn(&["stream", "--port", port, job, "--continue"]);
+    drop(taker.stdin.take());
+    let waiting =
+        "standard input is closed: waiting for cycle start on the machine, or `gantry resume`";
+    assert!(
+        wait_for(10 * S, || taker.stderr().contains(waiting)),
+        "{}",
+        taker.stderr()
+    );
+    // It waits: the take-over does not answer the tool change itself (it did: the job went on
+    // with the old tool in the spindle).
+    std::thread::sleep(Duration::from_millis(500));
+    let (state, _) = status_line(port);
+    assert_eq!(state, "state:     ToolChange", "{}", emu.log());
+    // Cycle start from another terminal: the job goes on to its end.
+    let out = gantry(&["--port", port, "resume"], T);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    let out = taker.wait(T);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.contains("job done: last line 6 of 6"), "{out:?}");
+    assert!(emu.wait_log(5 * S, |l| l.contains("Idle line 6")));
+    // 10 mm of X and 4 mm of Y at 640 steps/mm.
+    assert_eq!(emu.last_counts().0, "X 6400 Y 2560 Z 0");
+    drop(server);
+}
+
+/// The first line of `gantry status` and the whole output.
+fn status_line(port: &str) -> (String, String) {
+    let out = gantry(&["--port", port, "status"], T);
+    (
+        out.stdout.lines().next().unwrap_or("").to_owned(),
+        out.stdout,
+    )
 }

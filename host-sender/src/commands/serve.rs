@@ -209,20 +209,21 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
                 // The command's handshake is the endpoint's own business.
                 while p.endpoint.poll_event().is_some() {}
                 while let Some(msg) = p.endpoint.recv_realtime() {
-                    if matches!(msg, HostMsg::Resume)
-                        && matches!(
+                    if matches!(msg, HostMsg::TakeOver) {
+                        if matches!(
                             state,
                             MachineState::Run
                                 | MachineState::Hold { .. }
                                 | MachineState::ToolChange { .. }
-                        )
-                        && !job_owned
-                    {
-                        // `stream --continue` taking over a job no command owns: a new hello
-                        // makes the board ask for the lines it is missing.
-                        board.link().reconnect();
-                        p.owns_job = true;
-                        eprintln!("serve: a command takes over the job");
+                        ) && !job_owned
+                        {
+                            // `stream --continue` taking over a job no command owns: a new
+                            // hello makes the board ask for the lines it is missing.
+                            board.link().reconnect();
+                            p.owns_job = true;
+                            eprintln!("serve: a command takes over the job");
+                        }
+                        continue;
                     }
                     to_board.push_back(msg);
                 }

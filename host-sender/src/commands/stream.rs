@@ -125,16 +125,17 @@ pub fn run_checked(
         }
     }
     let eta = Eta::plan(&text, &setup);
+    let answers = if !from_board {
+        StopAnswers::Itself
+    } else if session.served() {
+        StopAnswers::MachineOrCommand
+    } else {
+        StopAnswers::Machine
+    };
     let (report, stopped_ms) = match start {
         Start::Beginning => {
             check_can_start(&mut session)?;
-            stream_with_progress(
-                &mut session,
-                &program,
-                JobStart::Beginning,
-                &eta,
-                !from_board,
-            )?
+            stream_with_progress(&mut session, &program, JobStart::Beginning, &eta, answers)?
         }
         Start::TakeOver => {
             let state = session.status()?.state;
@@ -147,13 +148,7 @@ pub fn run_checked(
                     state_name(state)
                 );
             }
-            stream_with_progress(
-                &mut session,
-                &program,
-                JobStart::TakeOver,
-                &eta,
-                !from_board,
-            )?
+            stream_with_progress(&mut session, &program, JobStart::TakeOver, &eta, answers)?
         }
         Start::FromLine(n) => {
             check_can_start(&mut session)?;
@@ -168,7 +163,7 @@ pub fn run_checked(
                 &program,
                 JobStart::FromLine(n, pre),
                 &eta,
-                !from_board,
+                answers,
             )?
         }
     };
@@ -294,6 +289,18 @@ fn say(bar: Option<&indicatif::ProgressBar>, text: &str) {
     }
 }
 
+/// Who else can answer a stop when this sender's standard input is closed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum StopAnswers {
+    /// Nobody: the emulated board in this process goes on by itself.
+    Itself,
+    /// The machine's cycle-start input (this sender owns the port).
+    Machine,
+    /// The machine's cycle start, or `gantry resume` from another terminal (through `gantry
+    /// serve`).
+    MachineOrCommand,
+}
+
 /// What the operator is being asked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Asking {
@@ -407,8 +414,9 @@ fn stream_with_progress(
     program: &Program,
     resume: JobStart,
     eta: &Option<Eta>,
-    emulated: bool,
+    answers: StopAnswers,
 ) -> anyhow::Result<(StreamReport, u32)> {
+    let emulated = answers == StopAnswers::Itself;
     use std::io::IsTerminal;
     let total = program.len().max(1) as u64;
     let bar = std::io::stderr().is_terminal().then(|| {
@@ -489,8 +497,16 @@ fn stream_with_progress(
                     }
                     Some(Typed::Closed) if !told_closed => {
                         told_closed = true;
-                        say(bar.as_ref(), "(standard input is closed: waiting for cycle start on the machine, or \
-                         `gantry resume` from another terminal)");
+                        let who = if answers == StopAnswers::MachineOrCommand {
+                            "cycle start on the machine, or `gantry resume` from another terminal"
+                        } else {
+                            "cycle start on the machine (`gantry resume` from another terminal \
+                             reaches the board only through `gantry serve`)"
+                        };
+                        say(
+                            bar.as_ref(),
+                            &format!("(standard input is closed: waiting for {who})"),
+                        );
                     }
                     _ => {
                         if emulated {

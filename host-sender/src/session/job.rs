@@ -187,7 +187,19 @@ fn take_over<T: Transport>(
     operator: bool,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
-    client.send(HostMsg::Resume)?;
+    // Only the hold the lost sender left is resumed. A job standing at an operator stop (an M6
+    // tool change, an M0/M1) stays there: that stop is the operator's to answer (this sender's
+    // prompt, cycle start or `gantry resume`), never the take-over's (it used to resume an M6 with
+    // the old tool in the spindle).
+    let status = fresh_status(client)?;
+    // Protocol 4.1 added the message; `gantry serve` makes this command the job's owner on it.
+    const TAKE_OVER_SINCE: u16 = 0x0401;
+    if client.peer_version().is_some_and(|v| v >= TAKE_OVER_SINCE) {
+        client.send(HostMsg::TakeOver)?;
+    }
+    if crate::program_stops::stop_at(Some(status.state), program, status.line).is_none() {
+        client.send(HostMsg::Resume)?;
+    }
     // The job's messages from before (its errors, its end) are this command's to report.
     run_job(client, program, None, None, None, operator, on_progress)
 }

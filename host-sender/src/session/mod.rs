@@ -47,6 +47,8 @@ pub struct Session {
     status: Option<Status>,
     /// Someone answers the board's tool-change stops (see [`job::run`]).
     operator: bool,
+    /// The link goes through `gantry serve` (other commands reach the board meanwhile).
+    served: bool,
 }
 
 impl Session {
@@ -59,14 +61,18 @@ impl Session {
             Target::Emulated(setup) => Self::emulated(EmulatedBoard::new((*setup).clone()), *setup),
             Target::Port(p) => {
                 // A `gantry serve` that owns the port takes the session; else the port itself.
-                let t: Box<dyn Transport> = match socket::SocketTransport::connect(&p)? {
+                let socket = socket::SocketTransport::connect(&p)?;
+                let served = socket.is_some();
+                let t: Box<dyn Transport> = match socket {
                     Some(s) => Box::new(s),
                     None => Box::new(SerialTransport::open_with(&p, on_close)?),
                 };
                 let mut link = Client::connect(t, CONNECT_MS)?;
                 let setup = pull_setup_over(&mut link)
                     .map_err(|e| anyhow::anyhow!("{p}: cannot read the board's setup: {e:#}"))?;
-                Ok(Session::over(link, setup))
+                let mut session = Session::over(link, setup);
+                session.served = served;
+                Ok(session)
             }
         }
     }
@@ -84,7 +90,14 @@ impl Session {
             setup,
             status: None,
             operator: false,
+            served: false,
         }
+    }
+
+    /// The session goes through `gantry serve`: `gantry resume` and the other commands reach the
+    /// board from another terminal while this session runs a job.
+    pub fn served(&self) -> bool {
+        self.served
     }
 
     /// Whether someone answers the board's tool-change stops during jobs (default: no, a
