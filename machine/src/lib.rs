@@ -3,7 +3,8 @@
 //! The interpreter, look-ahead planner, step kernel and controller state machine live here, with no
 //! HAL or executor dependency, so the firmware and the host's emulated board run the very same code.
 //! There is no floating point anywhere in this crate: lengths are integer nanometres ([`units`]) and
-//! geometry uses the `fixed` crate, so the same input gives bit-identical output on every target.
+//! geometry is integer arithmetic (`motion::trig`), so the same input gives bit-identical output on
+//! every target.
 //!
 //! Integer clamping is written `.max(lo).min(hi)` (same result for `lo ≤ hi`, which every use
 //! here has): `Ord::clamp` formats its arguments into its panic message, which links `core::fmt`'s

@@ -29,16 +29,6 @@ const ALLOWED: &[(&str, &str, &str)] = &[
         "machine/src/setup.rs",
         "issue 26.4: setup.rs <-> motion/kernel.rs (the kernel takes DriverSetup, the setup checks step rates with the kernel's timing)",
     ),
-    (
-        "machine/src/grbl/mod.rs",
-        "machine/src/board/link.rs",
-        "issue 26.4: board/link.rs <-> grbl/ (grbl reads the link's KernelView, the link owns the grbl front end)",
-    ),
-    (
-        "machine/src/motion/prep.rs",
-        "machine/src/motion/pipeline.rs",
-        "issue 26.4 (found by this check): prep.rs's tests drive pipeline::Motion, which is built on prep",
-    ),
 ];
 
 /// The source with comments, string and character literals blanked out (newlines kept).

@@ -5,7 +5,6 @@
 use super::{Board, BoardEvent, JobEnd, JumpTarget};
 use crate::controller::State;
 use crate::setup::{Setup, SETUP_BLOB_MAX};
-use crate::units::MAX_AXES;
 use gantry_proto::{
     BoardEndpoint, BoardMsg, Config, HostMsg, Lane, LinkEvent, MachineState, OutputsStatus,
     ProbeStatus, ProgramTarget, SpindleStatus, Status,
@@ -71,16 +70,7 @@ pub const STATUS_INTERVAL_MS: u32 = 100;
 /// the operator resumed it locally and it then waits for lines the host cannot send).
 pub const HOST_TIMEOUT_MS: u32 = 4 * Config::USB_MS.keepalive;
 
-/// What only the kernel's owner knows, for status reports.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct KernelView {
-    /// Step position the kernel has reached.
-    pub steps: [i64; MAX_AXES],
-    /// Debounced input levels.
-    pub inputs: u32,
-    /// Current path speed, µm/min.
-    pub feed_um_min: u32,
-}
+pub use super::kernel_view::KernelView;
 
 /// The board's setup being sent to the host: each chunk is encoded from the live setup as it
 /// goes out (no copy of the blob is kept); length and CRC are those of the blob at the request,

@@ -10,6 +10,7 @@
 
 mod homing_cycle;
 mod jogging;
+pub mod kernel_view;
 #[cfg(feature = "link")]
 pub mod link;
 #[cfg(feature = "link")]

@@ -8,7 +8,7 @@
 //! alarm forget the door (the outputs stay off).
 
 use super::report;
-use crate::board::link::KernelView;
+use crate::board::kernel_view::KernelView;
 use crate::board::{Board, DoorOutputs};
 use crate::canon::Spindle;
 use crate::controller::State;

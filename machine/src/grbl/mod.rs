@@ -27,7 +27,7 @@ pub mod rx;
 pub mod settings;
 pub mod text;
 
-use crate::board::link::KernelView;
+use crate::board::kernel_view::KernelView;
 use crate::board::{Board, BoardEvent, JogRefused, ProbeResult, Streamer, LINE_CAPACITY};
 use crate::controller::{AlarmCode, State};
 use crate::setup::STARTUP_LINE_LEN;

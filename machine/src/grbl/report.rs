@@ -4,7 +4,7 @@
 use super::settings::Prefs;
 use super::text::Out;
 use super::RX_SIZE;
-use crate::board::link::KernelView;
+use crate::board::kernel_view::KernelView;
 use crate::board::{Board, PLANNER_BLOCKS};
 use crate::canon::{Plane, Spindle};
 use crate::controller::inputs::{InputBits, Signal};

@@ -1,0 +1,16 @@
+//! What only the step kernel's owner (the main loop, machine/src/board/main_loop.rs) knows of
+//! the machine, for the status reports of both front ends: the framed link
+//! (machine/src/board/link.rs) and grbl (machine/src/grbl/).
+
+use crate::units::MAX_AXES;
+
+/// What only the kernel's owner knows, for status reports.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct KernelView {
+    /// Step position the kernel has reached.
+    pub steps: [i64; MAX_AXES],
+    /// Debounced input levels.
+    pub inputs: u32,
+    /// Current path speed, µm/min.
+    pub feed_um_min: u32,
+}
