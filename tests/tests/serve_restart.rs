@@ -36,8 +36,21 @@ fn a_board_restart_under_serve_ends_the_stream_with_the_resume_command() {
             && (text.contains("board reset") || text.contains("link closed")),
         "{out:?}"
     );
-    // (The restarted emulator may get another pty name behind the same link, under which serve's
-    // socket is not found: see the closing note of this session.)
+    // The restarted board may have another pty name behind the same link: serve follows it, and
+    // commands given the link reach the board through serve.
+    assert!(
+        wait_for(10 * S, || {
+            let out = gantry(&["--port", emu.port(), "status"], 10 * S);
+            out.code == Some(0) && out.stdout.starts_with("state:     Idle")
+        }),
+        "serve: {}",
+        server.stderr()
+    );
+    assert!(
+        emu.log().matches("host opened the port").count() == 1,
+        "one host, serve: {}",
+        emu.log()
+    );
     drop(emu);
     drop(server);
 }

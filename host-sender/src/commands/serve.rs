@@ -147,7 +147,7 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
         crate::console::check_address(&o.addr, o.allow_remote)?;
     }
     let dir = socket_dir(true)?.expect("created");
-    let path = dir.join(socket_name(port));
+    let mut path = dir.join(socket_name(port));
     if check_socket(&path)? {
         if UnixStream::connect(&path).is_ok() {
             anyhow::bail!(
@@ -194,9 +194,14 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
     // Ids of setup commits passed to the board: an accepting answer changes its setup.
     let mut commits: Vec<u32> = Vec::new();
     let mut setup_stale = false;
+    let mut named_at = Instant::now();
     let result = (|| -> anyhow::Result<()> {
         while !stop.load(Ordering::SeqCst) {
             let now = start.elapsed().as_millis() as u32;
+            if named_at.elapsed().as_millis() >= 250 {
+                named_at = Instant::now();
+                follow_port(port, &dir, &mut path);
+            }
             while let Ok((stream, _)) = listener.accept() {
                 if stream.set_nonblocking(true).is_ok() {
                     next_id += 1;
@@ -351,6 +356,21 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
     let _ = std::fs::remove_file(&path);
     eprintln!("serve: stopped");
     result.map(|()| ExitCode::SUCCESS)
+}
+
+/// Keeps the socket named after the device `port` resolves to now: a board that restarts may
+/// come back under another device name behind the same link (a new pty of `gantry emulate`, a
+/// USB board re-enumerated), and commands find the server by the name their `--port` resolves to
+/// ([`socket_name`]). A live socket of another server under the new name is left alone.
+fn follow_port(port: &str, dir: &std::path::Path, path: &mut std::path::PathBuf) {
+    let now = dir.join(socket_name(port));
+    if now == *path || UnixStream::connect(&now).is_ok() {
+        return;
+    }
+    if std::fs::rename(&*path, &now).is_ok() {
+        eprintln!("serve: {port} is now served on {}", now.display());
+        *path = now;
+    }
 }
 
 /// A link that is never used, while the real one is being replaced.
