@@ -7,9 +7,9 @@
 //! line buffer, status reports) and `BoardLink::poll_transmit` (acks, status frames); those are
 //! the link. `Board::poll` and `Board::next_segment` (interpret, plan, prepare) are timed apart.
 //!
-//! Two runs, the lines bare and padded with a 40-byte comment, give the link's cost per received
-//! wire byte (their difference over the bytes' difference) and per frame (the rest); a run of
-//! passes with nothing received gives the link's cost of an idle pass. Run with the `-icount
+//! A run of passes with nothing received gives the link's cost of a pass; two runs, the lines
+//! bare and padded with a 40-byte comment, then give its cost per received wire byte (their
+//! difference over the bytes' difference) and per frame (the rest). Run with the `-icount
 //! shift=0,sleep=off` runner (target-tests/README.md); the last line (`figures ...`) is what
 //! scripts/bench-mcu.sh reads.
 #![no_std]
@@ -34,6 +34,9 @@ const WARM_UP: u32 = 300;
 /// Lines measured per run.
 const LINES: u32 = 2_000;
 
+/// Planner blocks kept queued ahead of segment preparation (of the board's 128).
+const LOOK_AHEAD: usize = 96;
+
 /// Counts spent per stage, and what went through the link.
 #[derive(Default, Clone, Copy)]
 struct Tally {
@@ -41,11 +44,11 @@ struct Tally {
     link: u64,
     /// SysTick counts in `Board::poll` and `next_segment` (interpret, plan, prepare).
     motion: u64,
-    /// Timed calls (each pays one `now()` pair, subtracted at the end).
-    timed: u64,
     /// Bytes and frames the board received.
     rx_bytes: u64,
     rx_frames: u64,
+    /// Segments the board prepared.
+    segments: u64,
     passes: u64,
 }
 
@@ -122,8 +125,14 @@ impl Rig {
         self.link.service(&mut self.board, self.now_ms, &view);
         let t1 = now();
         self.board.poll(false);
-        while let Some(seg) = self.board.next_segment() {
+        // Segments are taken only behind a full look-ahead, as a kernel running in real time
+        // would (draining the planner each pass would prepare every block's ramp to rest).
+        while self.board.motion().planner().len() > LOOK_AHEAD {
+            let Some(seg) = self.board.next_segment() else {
+                break;
+            };
             black_box(seg);
+            t.segments += 1;
         }
         let t2 = now();
         self.link.service(&mut self.board, self.now_ms, &view);
@@ -138,7 +147,6 @@ impl Rig {
         let t3 = now();
         t.link += (t1 - t0) + (t3 - t2);
         t.motion += t2 - t1;
-        t.timed += 3;
         t.passes += 1;
         // The host hears the acks and status (untimed).
         self.host.on_bytes(self.now_ms, &out[..out_len]);
@@ -152,7 +160,7 @@ impl Rig {
     fn stream(&mut self, count: u32) -> Tally {
         let last = self.next_line - 1 + count;
         let mut t = Tally::default();
-        while self.delivered() < last || self.board.lines_buffered() > 0 {
+        while self.delivered() < last {
             self.pass(&mut t, last);
             if t.passes > 100 * count as u64 {
                 fail("the board stopped taking lines");
@@ -184,44 +192,46 @@ fn instr_milli(counts: u64, calls: u64, overhead: u64) -> u64 {
     (counts * 1000).saturating_sub(calls * overhead) * INSTR_PER_COUNT
 }
 
-/// What one run measured, per line, instructions × 1000.
-struct PerLine {
+/// What one run of [`LINES`] lines measured: link and motion instructions × 1000 in total,
+/// passes, and the bytes and frames the board received.
+struct Run {
     link: u64,
     motion: u64,
-    bytes_milli: u64,
-    frames_milli: u64,
+    passes: u64,
+    bytes: u64,
+    frames: u64,
+    segments: u64,
 }
 
-fn run(pad: usize, overhead: u64) -> PerLine {
+fn run(pad: usize, overhead: u64) -> Run {
     let mut rig = Rig::new(pad);
     rig.stream(WARM_UP);
     let t = rig.stream(LINES);
-    let n = LINES as u64;
-    // Each timed stage pays one `now()` pair per pass; the link has two stages, motion one.
-    let link = instr_milli(t.link, 2 * t.passes, overhead) / n;
-    let motion = instr_milli(t.motion, t.passes, overhead) / n;
-    let r = PerLine {
-        link,
-        motion,
-        bytes_milli: t.rx_bytes * 1000 / n,
-        frames_milli: t.rx_frames * 1000 / n,
+    // Each pass times the link in two stages and motion in one, one `now()` pair each.
+    let r = Run {
+        link: instr_milli(t.link, 2 * t.passes, overhead),
+        motion: instr_milli(t.motion, t.passes, overhead),
+        passes: t.passes,
+        bytes: t.rx_bytes,
+        frames: t.rx_frames,
+        segments: t.segments,
     };
+    let n = LINES as u64;
     println!(
-        "lines padded by {} bytes: {}.{:03} wire bytes and {}.{:03} frames per line, {} lines per pass; link {} instructions per line, interpret + plan + prepare {}",
+        "lines padded by {} bytes: {} wire bytes in {} frames for {} lines ({} segments) in {} passes; per line: link {} instructions, interpret + plan + prepare {}",
         pad,
-        r.bytes_milli / 1000,
-        r.bytes_milli % 1000,
-        r.frames_milli / 1000,
-        r.frames_milli % 1000,
-        n / t.passes.max(1),
-        r.link / 1000,
-        r.motion / 1000
+        r.bytes,
+        r.frames,
+        n,
+        r.segments,
+        r.passes,
+        r.link / 1000 / n,
+        r.motion / 1000 / n
     );
-    let _ = t.timed;
     r
 }
 
-/// Link instructions of a pass that received nothing (service, status every 100 ms).
+/// Link instructions × 1000 of a pass that received nothing (service, status every 100 ms).
 fn idle_pass(overhead: u64) -> u64 {
     let mut rig = Rig::new(0);
     rig.stream(50);
@@ -231,7 +241,7 @@ fn idle_pass(overhead: u64) -> u64 {
     for _ in 0..PASSES {
         rig.pass(&mut t, last);
     }
-    instr_milli(t.link, 2 * t.passes, overhead) / 1000 / PASSES as u64
+    instr_milli(t.link, 2 * t.passes, overhead) / PASSES as u64
 }
 
 /// Instructions per byte × 1000 of `gantry_proto::crc::crc32` over a 48-byte frame body.
@@ -265,31 +275,33 @@ fn main() -> ! {
         crc / 1000,
         crc % 1000
     );
+    let idle = idle_pass(overhead);
     let short = run(0, overhead);
     let long = run(40, overhead);
-    if long.bytes_milli <= short.bytes_milli || long.frames_milli != short.frames_milli {
+    if long.bytes <= short.bytes || long.frames != short.frames {
         fail("the padded run must differ in bytes only");
     }
-    // link = frames · per_frame + bytes · per_byte, from the two runs (per line, × 1000).
-    let per_byte =
-        (long.link.saturating_sub(short.link)) * 1000 / (long.bytes_milli - short.bytes_milli);
-    let per_frame = (short.link * 1000).saturating_sub(per_byte * short.bytes_milli)
-        / short.frames_milli.max(1);
-    let idle = idle_pass(overhead);
+    // link = passes · idle + frames · per_frame + bytes · per_byte (× 1000).
+    let net = |r: &Run| r.link.saturating_sub(r.passes * idle);
+    let per_byte = net(&long).saturating_sub(net(&short)) / (long.bytes - short.bytes);
+    let per_frame = net(&short).saturating_sub(per_byte * short.bytes) / short.frames;
+    let n = LINES as u64;
     println!(
-        "link: {} instructions per frame + {}.{:03} per wire byte; idle pass {} instructions",
+        "link: {} instructions per pass + {} per frame + {}.{:03} per wire byte",
+        idle / 1000,
         per_frame / 1000,
         per_byte / 1000,
-        per_byte % 1000,
-        idle
+        per_byte % 1000
     );
+    // For scripts/bench-mcu.sh (host-sender/src/cpu_model_f411.rs, firmware/README.md).
     println!(
-        "figures link_line={} link_frame={} link_byte={} link_idle_pass={} line_bytes={}",
-        short.link / 1000,
+        "figures link_line={} link_pass={} link_frame={} link_byte={} line_bytes={} lines_per_pass={}",
+        short.link / 1000 / n,
+        (idle + 500) / 1000,
         (per_frame + 500) / 1000,
         (per_byte + 500) / 1000,
-        idle,
-        (short.bytes_milli + 500) / 1000
+        (short.bytes + n / 2) / n,
+        (n + short.passes / 2) / short.passes
     );
     exit(true)
 }
