@@ -62,9 +62,9 @@ fn stream(program: &str, cpu: Option<CpuModel>, x_end_steps: i64) -> (u64, f64) 
 #[test]
 fn the_f411_model_starves_the_kernel_only_where_the_f411_would() {
     // 0.02 mm lines at up to 226 mm/s (the 128-block look-ahead over 2.56 mm at 10 m/s²) is
-    // ~11,000 lines/s, more than the ~10,900 a 96 MHz F411 interprets and plans
-    // (3,740 + 3,300 + 1,760 instructions each) less the step interrupt's share (~4 % at
-    // 64 kHz on three axes): X ends at −50 mm.
+    // ~11,000 lines/s, more than the ~6,000 a 96 MHz F411 receives, interprets, plans and
+    // prepares (firmware/README.md "Measured figures") less the step interrupt's share: X ends
+    // at −50 mm.
     let fast = fine_program(30_000, 20);
     let (gaps, with_model) = stream(&fast, Some(CpuModel::F411), -8_000);
     eprintln!("0.02 mm lines at F30000, F411 model: {gaps} underruns, {with_model:.3} s");
