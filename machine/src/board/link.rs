@@ -80,6 +80,8 @@ pub struct KernelView {
     pub inputs: u32,
     /// Current path speed, µm/min.
     pub feed_um_min: u32,
+    /// The current or last job's time lost to starvation, ms (machine/src/board/starvation.rs).
+    pub starved_ms: u32,
 }
 
 /// The board's setup being sent to the host: each chunk is encoded from the live setup as it
@@ -530,6 +532,7 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
         inputs: view.inputs,
         homed: board.homed(),
         outputs: outputs_status(board.outputs()),
+        starved_ms: view.starved_ms,
         probe: board.probe_result().map(|p| ProbeStatus {
             machine_pos: p.position,
             success: p.success,
