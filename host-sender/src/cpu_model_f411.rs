@@ -7,10 +7,10 @@ Measured {
     kernel_tick: [39, 67, 108],
     step_event: [120, 148, 189],
     step_entry_exit_cycles: 22,
-    link_pass: 2588,
-    link_frame: 2967,
+    link_pass: 2599,
+    link_frame: 2968,
     link_byte: 93,
-    link_line: 7159,
+    link_line: 7162,
     line_bytes: 43,
     lines_per_pass: 16,
 }
