@@ -3,19 +3,78 @@
 //! so the emulated board's segment queue runs dry when the real board's would.
 //!
 //! Without a model the emulated board runs a whole main-loop pass in no time, every virtual
-//! millisecond. With one, a pass that interprets `l` lines, plans `b` blocks and prepares `s`
-//! segments takes `l·line + b·block + s·segment` instructions at the MCU clock, stretched by the
-//! share of the CPU the step interrupt took since the previous pass (each kernel tick costs
-//! `tick_base + tick_axis·(axes stepping)`); the segments it prepared reach the kernel's queue
+//! millisecond. With one, a pass that received `f` frames of `n` bytes, interprets `l` lines,
+//! plans `b` blocks and prepares `s` segments takes
+//! `link_pass + f·link_frame + n·link_byte + l·line + b·block + s·segment` instructions at the
+//! MCU clock (one per cycle), stretched by the share of the CPU the step interrupt took since
+//! the previous pass (each step event costs the interrupt's measured instructions for the axes
+//! stepping plus its entry and exit cycles); the segments it prepared reach the kernel's queue
 //! only when the pass ends, and the next pass starts 1 ms after the previous one or when it
 //! ends, whichever is later (the firmware's control task, `firmware/src/control.rs`, runs the
 //! pass every millisecond and cannot start one before the last has finished).
 //!
-//! The figures of [`CpuModel::F411`] come from `target-tests/src/bin/bench_motion.rs` under QEMU
-//! (`-icount shift=0`, one instruction per virtual ns): see that file and firmware/README.md for
-//! how they are taken.
+//! The figures ([`Measured`]) are not typed here: `scripts/bench-mcu.sh` runs the QEMU
+//! benchmarks (target-tests `bench_motion`, `bench_step`, `bench_link`, `-icount shift=0`, one
+//! instruction per virtual ns) and writes them into `cpu_model_f411.rs`, and the figures table
+//! of firmware/README.md from it ([`figures_table`]; a test keeps the two equal).
 
 use gantry_machine::board::Board;
+
+/// What the QEMU benchmarks measured on the firmware's Cortex-M4 code, instructions unless
+/// named otherwise (`cpu_model_f411.rs`, written by scripts/bench-mcu.sh).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Measured {
+    /// Interpreting one short streamed G1 line (`G1 Y-6.789 F3000`, 0.1 mm), lex,
+    /// parse and execute (`bench_motion`: `Interpreter::next` from a `StreamSource`).
+    pub interpret_line: u64,
+    /// Planning its block (`Motion::push`).
+    pub plan_block: u64,
+    /// Preparing one segment (`Motion::next_segment`; a short block is one segment).
+    pub prepare_segment: u64,
+    /// The step kernel's tick alone for 1, 3 and 6 axes stepping (`bench_motion`).
+    pub kernel_tick: [u64; 3],
+    /// The step interrupt per step event, kernel tick included, for 1, 3 and 6 axes stepping
+    /// (`bench_step`: firmware/src/step_body.rs), and its exception entry plus exit in cycles.
+    pub step_event: [u64; 3],
+    pub step_entry_exit_cycles: u64,
+    /// The board's side of the link (`bench_link`: `BoardLink::on_bytes`, `service` twice,
+    /// `poll_transmit`): per main-loop pass, per received frame and per received wire byte.
+    pub link_pass: u64,
+    pub link_frame: u64,
+    pub link_byte: u64,
+    /// Per short streamed line all told, with its wire bytes and the lines a pass took.
+    pub link_line: u64,
+    pub line_bytes: u64,
+    pub lines_per_pass: u64,
+}
+
+/// The STM32F411's figures, from the last `scripts/bench-mcu.sh` run.
+pub const F411_MEASURED: Measured = include!("cpu_model_f411.rs");
+
+/// The axis counts [`Measured::step_event`] and [`Measured::kernel_tick`] were measured at.
+const MEASURED_AXES: [u64; 3] = [1, 3, 6];
+
+impl Measured {
+    /// Cycles of one step interrupt that stepped `axes` axes (at least one): the measured
+    /// instructions (one per cycle), linear between the measured axis counts, plus entry and exit.
+    pub fn step_event_cycles(&self, axes: u32) -> u64 {
+        let n = u64::from(axes.clamp(1, 6));
+        let [a1, a3, a6] = MEASURED_AXES;
+        let [e1, e3, e6] = self.step_event;
+        let (lo_n, lo, hi_n, hi) = if n <= a3 {
+            (a1, e1, a3, e3)
+        } else {
+            (a3, e3, a6, e6)
+        };
+        let body = lo + (hi.saturating_sub(lo) * (n - lo_n) + (hi_n - lo_n) / 2) / (hi_n - lo_n);
+        body + self.step_entry_exit_cycles
+    }
+
+    /// Instructions of one short streamed line on the board: link, interpret, plan, prepare.
+    pub fn short_line(&self) -> u64 {
+        self.link_line + self.interpret_line + self.plan_block + self.prepare_segment
+    }
+}
 
 /// Instructions per unit of main-loop and interrupt work, and the clock.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,33 +83,16 @@ pub struct CpuModel {
     pub name: &'static str,
     /// Core clock, Hz.
     pub hz: u64,
-    /// Interpreting one line that makes a move (a short G1).
-    pub line: u64,
-    /// Planning one block (the look-ahead's share of `bench_motion`'s "plan + prep").
-    pub block: u64,
-    /// Preparing one segment.
-    pub segment: u64,
-    /// One step-kernel tick: `tick_base + tick_axis × axes stepping` (at least one axis).
-    pub tick_base: u64,
-    pub tick_axis: u64,
+    /// The benchmarks' figures.
+    pub figures: Measured,
 }
 
 impl CpuModel {
-    /// The Black Pill's STM32F411 at 96 MHz. `bench_motion` (re-measured 2026-11-25, round 2
-    /// session 5): 39 / 67 / 108 instructions per kernel tick for 1 / 3 / 6 axes (fitted as
-    /// 23 + 14 per axis, plus the loop's own); a short G1 line streamed the board's way
-    /// (`G1 Y-6.789 F3000`, 0.1 mm, one segment): 3,740 to interpret
-    /// (`Interpreter::next` from a `StreamSource`: 2,026 lex + parse, 1,716 execute), 3,300 to
-    /// plan (`Motion::push`) and 1,760 to prepare its segment (a short block is one segment: a
-    /// remainder of less than half a segment joins the one before, machine/src/motion/prep.rs).
+    /// The Black Pill's STM32F411 at 96 MHz.
     pub const F411: CpuModel = CpuModel {
         name: "f411",
         hz: 96_000_000,
-        line: 3_740,
-        block: 3_300,
-        segment: 1_760,
-        tick_base: 23,
-        tick_axis: 14,
+        figures: F411_MEASURED,
     };
 
     /// The models `--cpu-model` accepts.
@@ -63,31 +105,136 @@ impl CpuModel {
             .find(|m| m.name.eq_ignore_ascii_case(name))
     }
 
-    /// Instructions of one kernel tick that stepped the axes in `step` (bit per axis).
+    /// Cycles of one step event that stepped the axes in `step` (bit per axis).
     pub fn tick(&self, step: u8) -> u64 {
-        self.tick_base + self.tick_axis * u64::from(step.count_ones().max(1))
+        self.figures.step_event_cycles(step.count_ones())
     }
 
     /// Instructions of a main-loop pass that did `work`.
     pub fn pass(&self, work: &PassWork) -> u64 {
-        work.lines * self.line + work.blocks * self.block + work.segments * self.segment
+        let f = &self.figures;
+        f.link_pass
+            + work.frames * f.link_frame
+            + work.bytes * f.link_byte
+            + work.lines * f.interpret_line
+            + work.blocks * f.plan_block
+            + work.segments * f.prepare_segment
     }
 }
 
 /// What one main-loop pass did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PassWork {
+    /// Frames and bytes received from the host.
+    pub frames: u64,
+    pub bytes: u64,
     pub lines: u64,
     pub blocks: u64,
     pub segments: u64,
+}
+
+/// Markers around the generated table in firmware/README.md.
+pub const TABLE_BEGIN: &str =
+    "<!-- bench-mcu: generated by scripts/bench-mcu.sh from host-sender/src/cpu_model_f411.rs -->";
+pub const TABLE_END: &str = "<!-- bench-mcu: end -->";
+
+/// Thousands separated by commas (`12,345`).
+fn grouped(v: u64) -> String {
+    let digits = v.to_string();
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// The figures table of firmware/README.md for `model` (markdown, markers excluded).
+pub fn figures_table(model: &CpuModel) -> String {
+    let f = &model.figures;
+    let mhz = model.hz / 1_000_000;
+    let per_axes = |v: [u64; 3]| format!("{} / {} / {}", v[0], v[1], v[2]);
+    let cycles = MEASURED_AXES.map(|n| f.step_event_cycles(n as u32));
+    let khz = cycles.map(|c| model.hz / 1000 / c);
+    let line = f.short_line();
+    let rows = [
+        (
+            "step interrupt per step event, 1 / 3 / 6 axes stepping (`bench_step`)".to_owned(),
+            per_axes(f.step_event),
+            format!(
+                "{} cycles with {} entry + exit: at most {} kHz per axis at {mhz} MHz",
+                per_axes(cycles),
+                f.step_entry_exit_cycles,
+                per_axes(khz)
+            ),
+        ),
+        (
+            "step kernel tick alone, 1 / 3 / 6 axes (`bench_motion`)".to_owned(),
+            per_axes(f.kernel_tick),
+            "part of the step interrupt's figures".to_owned(),
+        ),
+        (
+            "short G1 line: interpret (lex, parse, execute; `bench_motion`)".to_owned(),
+            grouped(f.interpret_line),
+            "`G1 X-99.893 Y-6.789 F3000`, 0.1 mm".to_owned(),
+        ),
+        (
+            "short G1 line: plan its block".to_owned(),
+            grouped(f.plan_block),
+            String::new(),
+        ),
+        (
+            "short G1 line: prepare its segment".to_owned(),
+            grouped(f.prepare_segment),
+            "a short block is one segment".to_owned(),
+        ),
+        (
+            "short G1 line: the board's link (`bench_link`)".to_owned(),
+            grouped(f.link_line),
+            format!(
+                "{} wire bytes, one frame, {} lines per pass: {} per pass + {} per frame + {} per byte",
+                f.line_bytes,
+                f.lines_per_pass,
+                grouped(f.link_pass),
+                grouped(f.link_frame),
+                f.link_byte
+            ),
+        ),
+        (
+            "**short G1 line, all told**".to_owned(),
+            format!("**{}**", grouped(line)),
+            format!(
+                "{} lines/s at {mhz} MHz with the whole CPU",
+                grouped(model.hz / line)
+            ),
+        ),
+    ];
+    let mut out = String::from("| work | instructions | notes |\n|---|---:|---|\n");
+    for (what, n, notes) in rows {
+        out.push_str(&format!("| {what} | {n} | {notes} |\n"));
+    }
+    out
+}
+
+/// `readme` with the text between [`TABLE_BEGIN`] and [`TABLE_END`] replaced by `table`;
+/// `None` when the markers are missing.
+pub fn with_figures_table(readme: &str, table: &str) -> Option<String> {
+    let begin = readme.find(TABLE_BEGIN)? + TABLE_BEGIN.len();
+    let end = begin + readme[begin..].find(TABLE_END)?;
+    Some(format!("{}\n{}{}", &readme[..begin], table, &readme[end..]))
 }
 
 /// The model's running state on an emulated board.
 #[derive(Clone, Debug)]
 pub struct CpuMeter {
     pub model: CpuModel,
-    /// Tick instructions since the last pass started.
-    tick_instructions: u64,
+    /// Step interrupt cycles since the last pass started.
+    isr_cycles: u64,
+    /// Frames (delimiters) and bytes received from the host since the last pass ended.
+    rx_frames: u64,
+    rx_bytes: u64,
     /// Virtual time (kernel timer counts) the last pass started.
     last_pass_at: u64,
     /// Highest planner block sequence number seen.
@@ -105,7 +252,9 @@ impl CpuMeter {
     pub fn new(model: CpuModel) -> Self {
         CpuMeter {
             model,
-            tick_instructions: 0,
+            isr_cycles: 0,
+            rx_frames: 0,
+            rx_bytes: 0,
             last_pass_at: 0,
             last_seq: None,
             last_line: 0,
@@ -115,9 +264,15 @@ impl CpuMeter {
         }
     }
 
-    /// The kernel ticked, stepping the axes in `step`.
+    /// The kernel ticked (one step interrupt), stepping the axes in `step`.
     pub fn on_tick(&mut self, step: u8) {
-        self.tick_instructions += self.model.tick(step);
+        self.isr_cycles += self.model.tick(step);
+    }
+
+    /// The main loop read `bytes` from the host (a frame ends at each 0x00).
+    pub fn on_received(&mut self, bytes: &[u8]) {
+        self.rx_bytes += bytes.len() as u64;
+        self.rx_frames += bytes.iter().filter(|&&b| b == 0).count() as u64;
     }
 
     /// Blocks planned and lines interpreted since the last look at the planner: blocks newer
@@ -152,6 +307,8 @@ impl CpuMeter {
     pub fn pass_done(&mut self, board: &Board, start: u64, timer_hz: u64) -> u64 {
         let (blocks, lines) = self.planned(board);
         let work = PassWork {
+            frames: core::mem::take(&mut self.rx_frames),
+            bytes: core::mem::take(&mut self.rx_bytes),
             lines,
             blocks,
             segments: core::mem::take(&mut self.segments),
@@ -161,7 +318,7 @@ impl CpuMeter {
         // The step interrupt's share of the CPU since the last pass.
         let interval = start.saturating_sub(self.last_pass_at).max(1);
         let isr_capacity = interval as u128 * self.model.hz as u128 / timer_hz as u128;
-        let isr_permille = (core::mem::take(&mut self.tick_instructions) as u128 * 1000
+        let isr_permille = (core::mem::take(&mut self.isr_cycles) as u128 * 1000
             / isr_capacity.max(1))
         .min(900) as u64;
         self.last_pass_at = start;
@@ -179,21 +336,77 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_f411_model_matches_the_benchmarks() {
+    fn the_f411_model_charges_the_measured_figures() {
         let m = CpuModel::named("F411").unwrap();
+        let f = F411_MEASURED;
+        assert_eq!(m.figures, f);
+        // A step event: the interrupt's instructions plus entry and exit, between the measured
+        // axis counts linearly.
         assert_eq!(
             [m.tick(0b1), m.tick(0b111), m.tick(0b11_1111)],
-            [37, 65, 107]
+            [0, 1, 2].map(|i| f.step_event[i] + f.step_entry_exit_cycles)
         );
-        // One short G1 line, planned and prepared as one segment: 3,740 + 3,300 + 1,760.
+        assert_eq!(m.tick(0), m.tick(0b1));
+        let two = m.tick(0b11) - f.step_entry_exit_cycles;
+        assert_eq!(two, (f.step_event[0] + f.step_event[1]).div_ceil(2));
+        // One short G1 line in a pass of its own: the pass, its frame and bytes, the G-code work.
         let line = PassWork {
+            frames: 1,
+            bytes: 43,
             lines: 1,
             blocks: 1,
             segments: 1,
         };
-        assert_eq!(m.pass(&line), 8_800);
-        // ≈ 10,900 such lines per second at 100 % of the CPU.
-        assert_eq!(m.hz / m.pass(&line), 10_909);
+        assert_eq!(
+            m.pass(&line),
+            f.link_pass
+                + f.link_frame
+                + 43 * f.link_byte
+                + f.interpret_line
+                + f.plan_block
+                + f.prepare_segment
+        );
+        assert_eq!(m.pass(&PassWork::default()), f.link_pass);
         assert!(CpuModel::named("f446").is_none());
+    }
+
+    #[test]
+    fn received_frames_are_counted_at_their_delimiters() {
+        let mut meter = CpuMeter::new(CpuModel::F411);
+        meter.on_received(&[3, 1, 2, 0, 5, 1]);
+        meter.on_received(&[1, 1, 0]);
+        assert_eq!((meter.rx_frames, meter.rx_bytes), (2, 9));
+    }
+
+    #[test]
+    fn grouped_thousands() {
+        assert_eq!(
+            [0, 999, 1_000, 12_345, 1_234_567].map(grouped),
+            ["0", "999", "1,000", "12,345", "1,234,567"]
+        );
+    }
+
+    /// firmware/README.md's figures table is the one `cpu_model_f411.rs` gives (both written by
+    /// scripts/bench-mcu.sh; a hand edit of either fails here).
+    #[test]
+    fn readme_table_is_the_generated_one() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../firmware/README.md");
+        let readme = std::fs::read_to_string(path).unwrap();
+        let expected = with_figures_table(&readme, &figures_table(&CpuModel::F411))
+            .expect("firmware/README.md has the bench-mcu markers");
+        assert!(
+            readme == expected,
+            "firmware/README.md's figures table differs from host-sender/src/cpu_model_f411.rs: run scripts/bench-mcu.sh"
+        );
+    }
+
+    #[test]
+    fn the_table_goes_between_the_markers() {
+        let doc = format!("a\n{TABLE_BEGIN}\nold\n{TABLE_END}\nb\n");
+        assert_eq!(
+            with_figures_table(&doc, "new\n").unwrap(),
+            format!("a\n{TABLE_BEGIN}\nnew\n{TABLE_END}\nb\n")
+        );
+        assert_eq!(with_figures_table("no markers", "new"), None);
     }
 }

@@ -1091,6 +1091,9 @@ impl BoardPort for Hardware {
         let n = buf.len().min(self.inbox.len());
         buf[..n].copy_from_slice(&self.inbox[..n]);
         self.inbox.drain(..n);
+        if let Some(cpu) = self.cpu.as_mut() {
+            cpu.meter.on_received(&buf[..n]);
+        }
         n
     }
 

@@ -135,6 +135,16 @@ pub fn underrun_line(gaps: u64, cpu: Option<crate::cpu_model::CpuModel>) -> Stri
     format!("underruns: {gaps} (times the step kernel ran dry mid-job; {model})")
 }
 
+/// The report line on the job's time lost to starvation (`Status::starved_ms`, counted by the
+/// board: machine/src/board/starvation.rs).
+pub fn starved_line(ms: u32) -> String {
+    format!(
+        "starved:  {}.{:03} s (machine time lost because the planner held too little of a program with more lines)",
+        ms / 1000,
+        ms % 1000
+    )
+}
+
 impl BoardError {
     /// The error as `gantry check` prints it ([`format_error`]: `place:line: N.. error
     /// E231: …`, the source line, a caret under the word the board blamed).
@@ -287,6 +297,7 @@ mod tests {
             inputs: 0,
             homed: 0b001,
             outputs: Default::default(),
+            starved_ms: 0,
             probe: None,
         }
     }

@@ -279,6 +279,10 @@ pub struct Status {
     pub homed: u8,
     /// Spindle, coolant and tool.
     pub outputs: OutputsStatus,
+    /// Time lost to starvation in the current or last job, ms: how long its planner had nothing
+    /// queued while the program had lines to come, from its first motion on (docs/ports.md
+    /// "Starvation").
+    pub starved_ms: u32,
     /// The last probe move's result since power-up (`None` before the first).
     pub probe: Option<ProbeStatus>,
 }

@@ -64,6 +64,7 @@ fn random_board(r: &mut Rng) -> BoardMsg {
             inputs: r.next_u32(),
             homed: 1,
             outputs: Default::default(),
+            starved_ms: r.next_u32(),
             probe: None,
         }),
         1 => BoardMsg::Alarm {

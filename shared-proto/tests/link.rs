@@ -25,6 +25,7 @@ fn status(line: u32) -> BoardMsg {
         inputs: 0,
         homed: 0b111,
         outputs: Default::default(),
+        starved_ms: 0,
         probe: None,
     })
 }
@@ -400,7 +401,7 @@ fn version_mismatch_is_refused() {
     let mut buf = [0u8; MAX_FRAME_LEN];
     assert!(host.poll_transmit(0, &mut buf).is_some()); // Hello
     let ack = HelloAck {
-        version: 0x0500,
+        version: 0x0600,
         nonce: host.nonce(),
         boot_id: 1,
         rx_capacity: 16,
@@ -418,13 +419,13 @@ fn version_mismatch_is_refused() {
     assert_eq!(
         host.state(),
         LinkState::Incompatible {
-            peer_version: 0x0500
+            peer_version: 0x0600
         }
     );
     assert_eq!(
         host.poll_event(),
         Some(LinkEvent::VersionMismatch {
-            peer_version: 0x0500
+            peer_version: 0x0600
         })
     );
 

@@ -96,6 +96,7 @@ fn worst_status() -> Status {
             flood: true,
             tool: u32::MAX,
         },
+        starved_ms: u32::MAX,
         probe: Some(ProbeStatus {
             machine_pos: [i64::MIN; AXES],
             success: true,
@@ -135,6 +136,7 @@ fn all_board() -> Vec<BoardMsg> {
                     flood: true,
                     tool: 3,
                 },
+                starved_ms: 1_234,
                 probe: (state == MachineState::Check).then_some(ProbeStatus {
                     machine_pos: [0, 0, -5_000_000, 0, 0, 0],
                     success: true,

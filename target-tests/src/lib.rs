@@ -8,6 +8,8 @@ use core::fmt::Write;
 use cortex_m_rt::{exception, ExceptionFrame};
 use cortex_m_semihosting::{debug, hio};
 
+pub mod program;
+
 /// Writes formatted text to the host's stdout.
 pub fn print(args: core::fmt::Arguments) {
     if let Ok(mut out) = hio::hstdout() {

@@ -40,10 +40,10 @@ fn fine_program(feed_mm_min: u32, step_um: i64) -> String {
     p
 }
 
-/// Streams `program` to the emulated fast machine; returns the gaps and the machine seconds.
-/// Every step must arrive, whatever the model does to the timing: X ends at `x_end_steps`
-/// (160 steps/mm).
-fn stream(program: &str, cpu: Option<CpuModel>, x_end_steps: i64) -> (u64, f64) {
+/// Streams `program` to the emulated fast machine; returns the gaps, the machine seconds and
+/// the seconds the board says the job lost to starvation. Every step must arrive, whatever the
+/// model does to the timing: X ends at `x_end_steps` (160 steps/mm).
+fn stream_starved(program: &str, cpu: Option<CpuModel>, x_end_steps: i64) -> (u64, f64, f64) {
     let mut board = EmulatedBoard::new(fast_machine());
     board.set_cpu_model(cpu);
     let mut client = Client::connect(board, 2000).unwrap();
@@ -56,15 +56,46 @@ fn stream(program: &str, cpu: Option<CpuModel>, x_end_steps: i64) -> (u64, f64) 
     (
         client.transport.starved.gaps,
         report.elapsed_ms as f64 / 1000.0,
+        report.final_status.unwrap().starved_ms as f64 / 1000.0,
     )
+}
+
+/// [`stream_starved`] without the starved time.
+fn stream(program: &str, cpu: Option<CpuModel>, x_end_steps: i64) -> (u64, f64) {
+    let (gaps, seconds, _) = stream_starved(program, cpu, x_end_steps);
+    (gaps, seconds)
+}
+
+/// The board's starved time (machine/src/board/starvation.rs) is the time the job took beyond
+/// its planned time: 0.02 mm lines at F30000 need ~11,000 lines/s, more than the F411 model
+/// manages, and the job takes ~0.85 s longer than the 1.46 s `simulate` plans; the same job
+/// without the model, fed in time, loses next to nothing.
+#[test]
+fn the_starved_time_is_the_time_beyond_the_plan() {
+    let fast = fine_program(30_000, 20);
+    let (_, without, starved_without) = stream_starved(&fast, None, -8_000);
+    let (_, with_model, starved) = stream_starved(&fast, Some(CpuModel::F411), -8_000);
+    eprintln!(
+        "F30000: {without:.3} s (starved {starved_without:.3}) without the model, {with_model:.3} s (starved {starved:.3}) with"
+    );
+    let beyond = with_model - without;
+    assert!(beyond > 0.5, "{beyond}");
+    assert!(
+        (starved - beyond).abs() < 0.1 * beyond,
+        "starved {starved} s, {beyond} s beyond the job fed in time"
+    );
+    assert!(starved_without < 0.1, "{starved_without}");
+    // 0.05 mm lines at F6000 (2,000 lines/s): the model keeps up.
+    let (_, _, starved) = stream_starved(&fine_program(6_000, 50), Some(CpuModel::F411), 40_000);
+    assert!(starved < 0.01, "{starved}");
 }
 
 #[test]
 fn the_f411_model_starves_the_kernel_only_where_the_f411_would() {
     // 0.02 mm lines at up to 226 mm/s (the 128-block look-ahead over 2.56 mm at 10 m/s²) is
-    // ~11,000 lines/s, more than the ~10,900 a 96 MHz F411 interprets and plans
-    // (3,740 + 3,300 + 1,760 instructions each) less the step interrupt's share (~4 % at
-    // 64 kHz on three axes): X ends at −50 mm.
+    // ~11,000 lines/s, more than the ~6,000 a 96 MHz F411 receives, interprets, plans and
+    // prepares (firmware/README.md "Measured figures") less the step interrupt's share: X ends
+    // at −50 mm.
     let fast = fine_program(30_000, 20);
     let (gaps, with_model) = stream(&fast, Some(CpuModel::F411), -8_000);
     eprintln!("0.02 mm lines at F30000, F411 model: {gaps} underruns, {with_model:.3} s");

@@ -5,7 +5,7 @@
 use super::{check_can_start, ctrl_c_flag};
 use crate::emulator::EmulatedBoard;
 use crate::link::OnClose;
-use crate::present::{axes_line, hms, limit_text, state_name, underrun_line};
+use crate::present::{axes_line, hms, limit_text, starved_line, state_name, underrun_line};
 use crate::program::Program;
 use crate::program_stops;
 use crate::resume::resume_preamble;
@@ -186,6 +186,7 @@ pub fn run_checked(
         println!("{}", underrun_line(n, cpu));
     }
     if let Some(s) = &report.final_status {
+        println!("{}", starved_line(s.starved_ms));
         let cfg = gantry_machine::motion::config::MotionConfig::from_setup(&setup);
         let steps = cfg.to_steps(&s.machine_pos);
         println!(

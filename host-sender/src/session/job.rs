@@ -192,11 +192,8 @@ fn take_over<T: Transport>(
     // prompt, cycle start or `gantry resume`), never the take-over's (it used to resume an M6 with
     // the old tool in the spindle).
     let status = fresh_status(client)?;
-    // Protocol 4.1 added the message; `gantry serve` makes this command the job's owner on it.
-    const TAKE_OVER_SINCE: u16 = 0x0401;
-    if client.peer_version().is_some_and(|v| v >= TAKE_OVER_SINCE) {
-        client.send(HostMsg::TakeOver)?;
-    }
+    // `gantry serve` makes this command the job's owner on it (protocol 5.0).
+    client.send(HostMsg::TakeOver)?;
     if crate::program_stops::stop_at(Some(status.state), program, status.line).is_none() {
         client.send(HostMsg::Resume)?;
     }

@@ -13,4 +13,6 @@ pub struct KernelView {
     pub inputs: u32,
     /// Current path speed, µm/min.
     pub feed_um_min: u32,
+    /// The current or last job's time lost to starvation, ms (machine/src/board/starvation.rs).
+    pub starved_ms: u32,
 }

@@ -520,6 +520,7 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
         inputs: view.inputs,
         homed: board.homed(),
         outputs: outputs_status(board.outputs()),
+        starved_ms: view.starved_ms,
         probe: board.probe_result().map(|p| ProbeStatus {
             machine_pos: p.position,
             success: p.success,

@@ -19,14 +19,15 @@
 //!    [`Board::poll`] with the kernel's drained flag; a new home loaded
 //!    into the kernel; queued segments taken back for a stop or a jog's speed change.
 //! 4. **Segments** into the kernel's queue (the probe latch armed first, [`Board::probe_arm`]) (the motion marker set before the kernel can step
-//!    them, cleared once drained), the user output word exchanged with the kernel, the limit bits
-//!    armed for the kernel.
+//!    them, cleared once drained), time lost to starvation counted ([`Starvation`]),
+//!    the user output word exchanged with the kernel, the limit bits armed for the kernel.
 //! 5. **Out.** The link again (events of this pass go out in it), frames to the host, output
 //!    levels to the pins.
 //! 6. **Setup change.** A setup the host pushed: new debouncer and step pulse timing now, saved
 //!    once the board is idle and the kernel drained (a flash write stalls the CPU).
 
 use super::link::{BoardLink, KernelView};
+use super::starvation::{Sample, Starvation};
 use super::Board;
 use crate::controller::inputs::{Debouncer, InputBits};
 use crate::controller::{AdcReadings, OutputLevels, State};
@@ -222,6 +223,7 @@ pub struct MainLoop {
     steppers_enabled: bool,
     view: KernelView,
     underruns: u64,
+    starvation: Starvation,
 }
 
 impl MainLoop {
@@ -237,6 +239,7 @@ impl MainLoop {
             steppers_enabled: false,
             view: KernelView::default(),
             underruns: 0,
+            starvation: Starvation::new(),
         }
     }
 
@@ -249,6 +252,13 @@ impl MainLoop {
     /// (the planner starved the kernel).
     pub fn underruns(&self) -> u64 {
         self.underruns
+    }
+
+    /// Milliseconds the current or last job lost to starvation: machine time beyond the planned
+    /// time because the planner held too little of a program with more lines
+    /// (machine/src/board/starvation.rs).
+    pub fn starved_ms(&self) -> u32 {
+        self.starvation.starved_ms()
     }
 
     /// The stepper drivers are enabled (the first segment has gone to the kernel).
@@ -324,6 +334,7 @@ impl MainLoop {
             steps: k.steps,
             inputs: levels.0,
             feed_um_min: speed_um_min,
+            starved_ms: self.starvation.starved_ms(),
         };
         port.before_link_service(board);
         link.service(board, now_ms, &self.view);
@@ -368,6 +379,11 @@ impl MainLoop {
                 self.underruns += 1;
             }
         }
+        let in_job = matches!(board.state(), State::Run | State::Hold | State::ToolChange);
+        // µm/min → 1.024 µm/s (nm/s >> 10, the units of `Sample`): × 1000 / 60 / 1024.
+        let speed = ((u64::from(measured) * 1067) >> 16) as u32;
+        self.starvation
+            .pass(now_ms, in_job, handed_out, speed, Sample::of(board));
         // User outputs: the board takes the levels the kernel's on-the-fly events left on the
         // pins, or (after a list at rest, an alarm) loads its own into the kernel and the pins.
         port.exchange_user_outputs(|word| board.sync_user_outputs(word));

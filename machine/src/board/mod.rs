@@ -20,6 +20,8 @@ mod operator;
 mod overrides;
 mod probing;
 pub mod source;
+#[cfg(feature = "link")]
+mod starvation;
 
 use crate::canon::{Action, Canon, Spindle, StopKind};
 use crate::controller::homing::{self, Phase};
@@ -738,6 +740,17 @@ impl Board {
             && self.source.is_empty()
             && self.drained
             && self.motion.state() == MotionState::Idle
+    }
+
+    /// The job runs on its path (not held, not at a sync point) and its program has lines to
+    /// come: the end of the program has not been received and read.
+    pub fn lines_to_come(&self) -> bool {
+        self.machine_job() == Some(JobPhase::Running(Ending::No))
+            && !self.source.is_exhausted()
+            && matches!(
+                self.motion.state(),
+                MotionState::Running | MotionState::Idle
+            )
     }
 
     /// True while the feed-hold input is installed and open.

@@ -25,6 +25,7 @@ use gantry_machine::motion::kernel::{Segment, SegmentSource, StepKernel, TickOut
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::motion::pipeline::{Motion, PushError};
 use gantry_target_tests::clock::{now, RELOAD};
+use gantry_target_tests::program::program_line;
 use gantry_target_tests::{exit, println};
 
 /// A segment source that hands out the same segment for ever.
@@ -152,79 +153,6 @@ fn block_cost(blend: bool) -> (u64, u64) {
     )
 }
 
-/// Writes `value` thousandths as a decimal with three places (`-6.789`) at the end of `out`.
-fn push_milli(out: &mut heapless_line::Line, value: i64) {
-    if value < 0 {
-        out.push(b'-');
-    }
-    let v = value.unsigned_abs();
-    out.push_int(v / 1000);
-    out.push(b'.');
-    let frac = v % 1000;
-    out.push(b'0' + (frac / 100) as u8);
-    out.push(b'0' + (frac / 10 % 10) as u8);
-    out.push(b'0' + (frac % 10) as u8);
-}
-
-/// A line buffer without `core::fmt` (its cost would blur nothing, but keeps the setup short).
-mod heapless_line {
-    pub struct Line {
-        pub bytes: [u8; 48],
-        pub len: usize,
-    }
-    impl Line {
-        pub fn new() -> Self {
-            Line {
-                bytes: [0; 48],
-                len: 0,
-            }
-        }
-        pub fn push(&mut self, b: u8) {
-            self.bytes[self.len] = b;
-            self.len += 1;
-        }
-        pub fn push_str(&mut self, s: &[u8]) {
-            for &b in s {
-                self.push(b);
-            }
-        }
-        pub fn push_int(&mut self, v: u64) {
-            let mut digits = [0u8; 20];
-            let mut n = 0;
-            let mut v = v;
-            loop {
-                digits[n] = b'0' + (v % 10) as u8;
-                n += 1;
-                v /= 10;
-                if v == 0 {
-                    break;
-                }
-            }
-            while n > 0 {
-                n -= 1;
-                self.push(digits[n]);
-            }
-        }
-        pub fn as_str(&self) -> &str {
-            core::str::from_utf8(&self.bytes[..self.len]).unwrap_or("")
-        }
-    }
-}
-
-/// Line `i` of the streamed program: `G1 Y-6.789 F3000`, 0.1 mm steps along X (the
-/// last digit wandering) on a gentle zigzag in Y, every number changing from line to line.
-fn program_line(i: u32) -> heapless_line::Line {
-    let mut l = heapless_line::Line::new();
-    let x = -100_000 + i as i64 * 100 + (i % 7) as i64;
-    let y = if i.is_multiple_of(2) { -6_789 } else { -6_788 };
-    l.push_str(b"G1 X");
-    push_milli(&mut l, x);
-    l.push_str(b" Y");
-    push_milli(&mut l, y);
-    l.push_str(b" F3000");
-    l
-}
-
 /// Counts × 1000 of an empty `now()` pair (subtracted from the per-stage figures).
 fn timer_overhead() -> u64 {
     const N: u64 = 1000;
@@ -254,7 +182,7 @@ fn line_cost() -> [u64; 4] {
     for i in 0..LINES {
         let l = program_line(i);
         let p0 = now();
-        let mut lexer = Lexer::new(black_box(&l.bytes[..l.len]), true);
+        let mut lexer = Lexer::new(black_box(l.as_bytes()), true);
         lexer.start();
         let b = parse_block(&mut lexer, &config);
         black_box(&b);
@@ -421,6 +349,11 @@ fn main() -> ! {
     println!(
         "kernel instructions/tick: 1 axis {}, 3 axes {}, 6 axes {}; block {}; F411@96MHz 3-axis tick ceiling {} kHz (100% CPU, {} cycles/ISR), {} kHz at 25% CPU",
         t1, t3, t6, block, rate_khz, isr, rate_khz / 4
+    );
+    // For scripts/bench-mcu.sh (host-sender/src/cpu_model_f411.rs, firmware/README.md).
+    println!(
+        "figures interpret_line={} plan_block={} prepare_segment={} kernel_tick_1={} kernel_tick_3={} kernel_tick_6={}",
+        interpret, plan, prepare, t1, t3, t6
     );
     exit(true)
 }

@@ -1,0 +1,307 @@
+//! MCU cost of the board's side of the host link per streamed line, apart from the G-code work:
+//! a host endpoint (untimed) streams short G1 lines (`G1 Y-6.789 F3000`,
+//! `gantry_target_tests::program`) as `HostMsg::Line` frames; the board takes them the way its
+//! main loop does (machine/src/board/main_loop.rs, one pass per virtual millisecond) through
+//! the public API only: `BoardLink::on_bytes` in 64-byte reads (frame decoder, COBS, CRC,
+//! message decode, the receive window), `BoardLink::service` twice (delivery into the board's
+//! line buffer, status reports) and `BoardLink::poll_transmit` (acks, status frames); those are
+//! the link. `Board::poll` and `Board::next_segment` (interpret, plan, prepare) are timed apart.
+//!
+//! A run of passes with nothing received gives the link's cost of a pass; two runs, the lines
+//! bare and padded with a 40-byte comment, then give its cost per received wire byte (their
+//! difference over the bytes' difference) and per frame (the rest). Run with the `-icount
+//! shift=0,sleep=off` runner (target-tests/README.md); the last line (`figures ...`) is what
+//! scripts/bench-mcu.sh reads.
+#![no_std]
+#![no_main]
+
+use core::hint::black_box;
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SYST;
+use cortex_m_rt::entry;
+use gantry_machine::board::link::{BoardLink, KernelView};
+use gantry_machine::board::Board;
+use gantry_machine::setup::Setup;
+use gantry_proto::{Config, HostEndpoint, HostMsg, Lane, Line, MAX_FRAME_LEN};
+use gantry_target_tests::clock::{now, RELOAD};
+use gantry_target_tests::program::padded_line;
+use gantry_target_tests::{exit, println};
+
+/// Instructions per SysTick count (25 MHz SysTick, one instruction per ns: 40).
+const INSTR_PER_COUNT: u64 = 40;
+/// Lines streamed before the measured ones (window and planner in steady state).
+const WARM_UP: u32 = 300;
+/// Lines measured per run.
+const LINES: u32 = 2_000;
+
+/// Planner blocks kept queued ahead of segment preparation (of the board's 128).
+const LOOK_AHEAD: usize = 96;
+
+/// Counts spent per stage, and what went through the link.
+#[derive(Default, Clone, Copy)]
+struct Tally {
+    /// SysTick counts in `on_bytes`, `service` and `poll_transmit` (the link).
+    link: u64,
+    /// SysTick counts in `Board::poll` and `next_segment` (interpret, plan, prepare).
+    motion: u64,
+    /// Bytes and frames the board received.
+    rx_bytes: u64,
+    rx_frames: u64,
+    /// Segments the board prepared.
+    segments: u64,
+    passes: u64,
+}
+
+/// A host endpoint wired to a board and its link, with a virtual millisecond clock.
+struct Rig {
+    host: HostEndpoint,
+    link: BoardLink,
+    board: Board,
+    now_ms: u32,
+    /// The next line number the host sends.
+    next_line: u32,
+    /// Padding of each line (bytes of comment).
+    pad: usize,
+}
+
+impl Rig {
+    /// Connected, with a job started, nothing streamed yet.
+    fn new(pad: usize) -> Rig {
+        let mut rig = Rig {
+            host: HostEndpoint::new_host(Config::USB_MS, 7),
+            link: BoardLink::new(1),
+            board: Board::new(Setup::default()),
+            now_ms: 0,
+            next_line: 1,
+            pad,
+        };
+        let mut t = Tally::default();
+        while !rig.host.is_up() {
+            rig.pass(&mut t, 0);
+        }
+        if rig.host.send(HostMsg::Start { id: 1 }).is_err() {
+            fail("the host could not send Start");
+        }
+        for _ in 0..5 {
+            rig.pass(&mut t, 0);
+        }
+        rig
+    }
+
+    /// Lines taken off the board's endpoint so far.
+    fn delivered(&self) -> u32 {
+        self.next_line - 1 - self.host.unacked(Lane::Queued) as u32
+    }
+
+    /// One main-loop pass at the next millisecond; the host sends lines up to `last`.
+    fn pass(&mut self, t: &mut Tally, last: u32) {
+        // The host side (untimed): lines while the window has credit, then its frames.
+        while self.next_line <= last && self.host.send_capacity(Lane::Queued) > 0 {
+            let text = padded_line(self.next_line, self.pad);
+            let Some(line) = Line::new(self.next_line, text.as_str()) else {
+                fail("a line too long for a frame");
+            };
+            if self.host.send(HostMsg::Line(line)).is_err() {
+                fail("the host could not send a line");
+            }
+            self.next_line += 1;
+        }
+        let mut wire = [0u8; 16 * MAX_FRAME_LEN];
+        let mut len = 0;
+        while let Some(n) = self.host.poll_transmit(self.now_ms, &mut wire[len..]) {
+            len += n;
+            t.rx_frames += 1;
+            if wire.len() - len < MAX_FRAME_LEN {
+                break;
+            }
+        }
+        t.rx_bytes += len as u64;
+        let view = KernelView::default();
+        // The board's pass: receive, service, motion, service, transmit.
+        let t0 = now();
+        for chunk in wire[..len].chunks(64) {
+            self.link.on_bytes(self.now_ms, black_box(chunk));
+        }
+        self.link.service(&mut self.board, self.now_ms, &view);
+        let t1 = now();
+        self.board.poll(false);
+        // Segments are taken only behind a full look-ahead, as a kernel running in real time
+        // would (draining the planner each pass would prepare every block's ramp to rest).
+        while self.board.motion().planner().len() > LOOK_AHEAD {
+            let Some(seg) = self.board.next_segment() else {
+                break;
+            };
+            black_box(seg);
+            t.segments += 1;
+        }
+        let t2 = now();
+        self.link.service(&mut self.board, self.now_ms, &view);
+        let mut out = [0u8; 16 * MAX_FRAME_LEN];
+        let mut out_len = 0;
+        while out.len() - out_len >= MAX_FRAME_LEN {
+            let Some(n) = self.link.poll_transmit(self.now_ms, &mut out[out_len..]) else {
+                break;
+            };
+            out_len += n;
+        }
+        let t3 = now();
+        t.link += (t1 - t0) + (t3 - t2);
+        t.motion += t2 - t1;
+        t.passes += 1;
+        // The host hears the acks and status (untimed).
+        self.host.on_bytes(self.now_ms, &out[..out_len]);
+        while black_box(self.host.recv()).is_some() {}
+        while black_box(self.host.poll_event()).is_some() {}
+        self.now_ms += 1;
+    }
+
+    /// Streams `count` more lines and passes until the board has taken every one: what the
+    /// board's side spent on them.
+    fn stream(&mut self, count: u32) -> Tally {
+        let last = self.next_line - 1 + count;
+        let mut t = Tally::default();
+        while self.delivered() < last {
+            self.pass(&mut t, last);
+            if t.passes > 100 * count as u64 {
+                fail("the board stopped taking lines");
+            }
+        }
+        t
+    }
+}
+
+/// Ends the run with failure, saying why.
+fn fail(why: &str) -> ! {
+    println!("bench_link: {}", why);
+    exit(false)
+}
+
+/// Counts × 1000 of an empty `now()` pair (subtracted per timed call).
+fn timer_overhead() -> u64 {
+    const N: u64 = 1000;
+    let mut acc = 0u64;
+    for _ in 0..N {
+        let p0 = now();
+        acc += black_box(now()) - p0;
+    }
+    acc * 1000 / N
+}
+
+/// Instructions × 1000 of the stage counts `counts` over `calls` timed calls.
+fn instr_milli(counts: u64, calls: u64, overhead: u64) -> u64 {
+    (counts * 1000).saturating_sub(calls * overhead) * INSTR_PER_COUNT
+}
+
+/// What one run of [`LINES`] lines measured: link and motion instructions × 1000 in total,
+/// passes, and the bytes and frames the board received.
+struct Run {
+    link: u64,
+    motion: u64,
+    passes: u64,
+    bytes: u64,
+    frames: u64,
+    segments: u64,
+}
+
+fn run(pad: usize, overhead: u64) -> Run {
+    let mut rig = Rig::new(pad);
+    rig.stream(WARM_UP);
+    let t = rig.stream(LINES);
+    // Each pass times the link in two stages and motion in one, one `now()` pair each.
+    let r = Run {
+        link: instr_milli(t.link, 2 * t.passes, overhead),
+        motion: instr_milli(t.motion, t.passes, overhead),
+        passes: t.passes,
+        bytes: t.rx_bytes,
+        frames: t.rx_frames,
+        segments: t.segments,
+    };
+    let n = LINES as u64;
+    println!(
+        "lines padded by {} bytes: {} wire bytes in {} frames for {} lines ({} segments) in {} passes; per line: link {} instructions, interpret + plan + prepare {}",
+        pad,
+        r.bytes,
+        r.frames,
+        n,
+        r.segments,
+        r.passes,
+        r.link / 1000 / n,
+        r.motion / 1000 / n
+    );
+    r
+}
+
+/// Link instructions × 1000 of a pass that received nothing (service, status every 100 ms).
+fn idle_pass(overhead: u64) -> u64 {
+    let mut rig = Rig::new(0);
+    rig.stream(50);
+    let mut t = Tally::default();
+    const PASSES: u32 = 1000;
+    let last = rig.next_line - 1;
+    for _ in 0..PASSES {
+        rig.pass(&mut t, last);
+    }
+    instr_milli(t.link, 2 * t.passes, overhead) / PASSES as u64
+}
+
+/// Instructions per byte × 1000 of `gantry_proto::crc::crc32` over a 48-byte frame body.
+fn crc_per_byte() -> u64 {
+    const N: u64 = 1000;
+    let body = [0xA5u8; 48];
+    let t0 = now();
+    let mut acc = 0u32;
+    for _ in 0..N {
+        acc ^= gantry_proto::crc::crc32(black_box(&body));
+    }
+    black_box(acc);
+    (now() - t0) * INSTR_PER_COUNT * 1000 / N / body.len() as u64
+}
+
+#[entry]
+fn main() -> ! {
+    let mut cp = cortex_m::Peripherals::take().unwrap();
+    cp.SYST.set_clock_source(SystClkSource::Core);
+    cp.SYST.set_reload(RELOAD);
+    cp.SYST.clear_current();
+    cp.SYST.enable_interrupt();
+    cp.SYST.enable_counter();
+    // The counter starts at 0 and reloads on the first clock: wait for that before timing.
+    while SYST::get_current() == 0 {}
+
+    let overhead = timer_overhead();
+    let crc = crc_per_byte();
+    println!(
+        "crc32: {}.{:03} instructions per byte",
+        crc / 1000,
+        crc % 1000
+    );
+    let idle = idle_pass(overhead);
+    let short = run(0, overhead);
+    let long = run(40, overhead);
+    if long.bytes <= short.bytes || long.frames != short.frames {
+        fail("the padded run must differ in bytes only");
+    }
+    // link = passes · idle + frames · per_frame + bytes · per_byte (× 1000).
+    let net = |r: &Run| r.link.saturating_sub(r.passes * idle);
+    let per_byte = net(&long).saturating_sub(net(&short)) / (long.bytes - short.bytes);
+    let per_frame = net(&short).saturating_sub(per_byte * short.bytes) / short.frames;
+    let n = LINES as u64;
+    println!(
+        "link: {} instructions per pass + {} per frame + {}.{:03} per wire byte",
+        idle / 1000,
+        per_frame / 1000,
+        per_byte / 1000,
+        per_byte % 1000
+    );
+    // For scripts/bench-mcu.sh (host-sender/src/cpu_model_f411.rs, firmware/README.md).
+    println!(
+        "figures link_line={} link_pass={} link_frame={} link_byte={} line_bytes={} lines_per_pass={}",
+        short.link / 1000 / n,
+        (idle + 500) / 1000,
+        (per_frame + 500) / 1000,
+        (per_byte + 500) / 1000,
+        (short.bytes + n / 2) / n,
+        (n + short.passes / 2) / short.passes
+    );
+    exit(true)
+}
