@@ -47,7 +47,7 @@ fn a_limit_hit_at_rapid_stops_within_one_tick_and_unhomes_only_that_axis() {
     assert_eq!(eb.board.homed(), 0b010);
     assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
     // The board reports the stopped position as its machine position.
-    let pos = eb.board.machine_position(&eb.kernel.position());
+    let pos = eb.board.machine_position(&eb.isr.kernel.position());
     assert_eq!(eb.board.motion().queued_position(), pos);
     // Motion is refused until unlock.
     assert!(!eb.board.start_job());
@@ -68,7 +68,7 @@ fn a_feed_into_a_switch_stops_on_the_switch_step_and_the_program_does_not_contin
     job(&mut eb, "G90 G21\nG1 X60 F1200\nG0 X0\nM30\n");
     until_state(&mut eb, State::Alarm, 10_000);
     eb.run_ms(200);
-    assert_eq!(eb.kernel.position()[0], 50 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 50 * STEPS_PER_MM);
     assert_eq!(eb.pulses[0], 50 * STEPS_PER_MM as u64);
     assert_eq!(eb.board.state(), State::Alarm);
     assert_eq!(eb.board.line(), 2);
@@ -118,7 +118,7 @@ fn a_switch_hit_during_a_jog_alarms_and_active_low_switches_work() {
     assert!(eb.board.jog(1, 1_200_000, 0));
     until_state(&mut eb, State::Alarm, 10_000);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
-    assert_eq!(eb.kernel.position()[1], 12 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[1], 12 * STEPS_PER_MM);
     assert_eq!(eb.raw_pins() & (1 << 23), 0);
 }
 
@@ -133,7 +133,7 @@ fn switches_do_not_stop_motion_when_hard_limits_are_off_or_not_installed() {
     job(&mut eb, "G90 G21\nG1 X10 Y10 F3000\nM30\n");
     until_state(&mut eb, State::Idle, 10_000);
     assert_eq!(
-        eb.kernel.position()[..2],
+        eb.isr.kernel.position()[..2],
         [10 * STEPS_PER_MM, 10 * STEPS_PER_MM]
     );
     assert_eq!(eb.limit_stops, 0);

@@ -112,7 +112,7 @@ fn run_to_idle(eb: &mut EmulatedBoard, max_ms: u64) {
         } else {
             behind = 0;
         }
-        if eb.board.state() == State::Idle && !eb.kernel.is_busy() {
+        if eb.board.state() == State::Idle && !eb.isr.kernel.is_busy() {
             assert_eq!(eb.board.output_levels().user, eb.user_outputs());
             return;
         }
@@ -295,7 +295,7 @@ fn a_hold_and_resume_across_the_point_fire_it_once_at_the_same_step() {
         eb.board.feed_hold();
         assert!(eb.run_until(2_000, |b| b.board.motion().state()
             == gantry_machine::motion::pipeline::MotionState::Held
-            && !b.kernel.is_busy()));
+            && !b.isr.kernel.is_busy()));
         let stopped = steps(&eb)[0];
         assert_eq!(stopped > STEPS_1IN, stops_beyond, "stopped at {stopped}");
         eb.run_ms(500);

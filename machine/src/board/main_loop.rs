@@ -25,8 +25,11 @@
 //!    levels to the pins.
 //! 6. **Setup change.** A setup the host pushed: new debouncer and step pulse timing now, saved
 //!    once the board is idle and the kernel drained (a flash write stalls the CPU).
+//! 7. **Underruns.** Whether the kernel running dry before the next pass would be a gap in the
+//!    job's motion; the next pass counts it from the kernel's dry runs ([`Underruns`]).
 
 use super::link::{BoardLink, KernelView};
+use super::underruns::Underruns;
 use super::Board;
 use crate::controller::inputs::{Debouncer, InputBits};
 use crate::controller::{AdcReadings, OutputLevels, State};
@@ -35,6 +38,8 @@ use crate::motion::pipeline::MotionState;
 use crate::motion::trig::isqrt_u64;
 use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
+
+pub use crate::step::KernelSnapshot;
 
 /// Slots of the segment queue between the main loop and the step kernel. The firmware's queue is
 /// a heapless SPSC queue of this many slots, which holds one less ([`SEGMENT_QUEUE_DEPTH`]).
@@ -47,17 +52,6 @@ const _: () = assert!(
     SEGMENT_QUEUE_DEPTH <= crate::motion::history::SEGMENT_HISTORY,
     "every queued segment can be taken back"
 );
-
-/// What the main loop reads of the step kernel at one moment.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct KernelSnapshot {
-    /// Step position the kernel has reached.
-    pub steps: [i64; MAX_AXES],
-    /// The kernel latched a stop (its limit flag) and steps no more until re-armed.
-    pub stopped: bool,
-    /// The queue is empty and the kernel has no segment running.
-    pub drained: bool,
-}
 
 /// What differs between the board and its emulation: the step kernel and its segment queue, the
 /// pins, the link's bytes, the flash and the motion marker. Each method does one thing and
@@ -221,7 +215,7 @@ pub struct MainLoop {
     /// Drivers stay disabled from power-up until the first segment goes to the kernel.
     steppers_enabled: bool,
     view: KernelView,
-    underruns: u64,
+    underruns: Underruns,
 }
 
 impl MainLoop {
@@ -236,7 +230,7 @@ impl MainLoop {
             save: Save::Done,
             steppers_enabled: false,
             view: KernelView::default(),
-            underruns: 0,
+            underruns: Underruns::new(),
         }
     }
 
@@ -245,10 +239,10 @@ impl MainLoop {
         self.view
     }
 
-    /// Passes that found the kernel drained with the job's motion running and nothing prepared
-    /// (the planner starved the kernel).
-    pub fn underruns(&self) -> u64 {
-        self.underruns
+    /// Times the step kernel ran dry in the middle of a job's motion (the planner starved it,
+    /// [`Underruns`]).
+    pub fn underruns(&self) -> u32 {
+        self.underruns.gaps()
     }
 
     /// The stepper drivers are enabled (the first segment has gone to the kernel).
@@ -276,6 +270,7 @@ impl MainLoop {
     ) {
         // 1. A limit stopped the kernel: drop the queue, tell the board, re-arm unless alarmed.
         let k = port.kernel();
+        self.underruns.kernel_seen(k.dry_runs);
         if k.stopped && self.latch == Latch::Armed {
             port.flush_kernel();
             let steps = port.kernel().steps;
@@ -354,19 +349,15 @@ impl MainLoop {
                     break;
                 };
                 self.steppers_enabled = true;
+                self.underruns.segment_handed_out();
                 // Before the kernel can step it: a reset from here on is a reset during motion.
                 port.motion_marker(true);
                 handed_out = true;
                 port.push_segment(seg);
             }
         }
-        if drained && !handed_out {
-            if !board.position_lost() {
-                port.motion_marker(false);
-            }
-            if board.state() == State::Run && board.motion().state() == MotionState::Running {
-                self.underruns += 1;
-            }
+        if drained && !handed_out && !board.position_lost() {
+            port.motion_marker(false);
         }
         // User outputs: the board takes the levels the kernel's on-the-fly events left on the
         // pins, or (after a list at rest, an alarm) loads its own into the kernel and the pins.
@@ -405,6 +396,17 @@ impl MainLoop {
             self.save = Save::Done;
             port.save_setup(board.setup());
         }
+
+        // 7. Whether the kernel running dry before the next pass would be an underrun: motion
+        // still queued, or none with the program not at its end (lines not yet interpreted, or
+        // not yet received).
+        let motion_to_come = match board.motion().state() {
+            MotionState::Running => true,
+            MotionState::Idle => !board.interpreter().is_finished(),
+            _ => false,
+        };
+        self.underruns
+            .pass_done(board.state() == State::Run, motion_to_come);
     }
 }
 

@@ -19,6 +19,7 @@ mod operator;
 mod overrides;
 mod probing;
 pub mod source;
+pub mod underruns;
 
 use crate::canon::{Action, Canon, Spindle, StopKind};
 use crate::controller::homing::{self, Phase};

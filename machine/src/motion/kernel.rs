@@ -46,7 +46,7 @@ pub const fn ns_to_counts(ns: u32) -> u32 {
 ///
 /// The step timer raises the step pins at each update and drops them `pulse` counts later; the
 /// step interrupt then writes the dir pins of the next step, its step word and the period after
-/// it (`firmware/src/step_body.rs` explains the timeline). So a period must hold the pulse, then
+/// it (`step/isr.rs` explains the timeline). So a period must hold the pulse, then
 /// the pin low at least as long as the pulse (drivers want that) and at least as long as the
 /// interrupt's *write window* ([`Self::WRITE_WINDOW`]): [`Self::min_period`]. Only the period
 /// before a step whose dir byte differs from the step before must also hold the dir set-up
@@ -220,6 +220,8 @@ pub struct StepKernel {
     outputs: u16,
     /// The latched position (the tick that saw the pin), until disarmed.
     probe_at: Option<[i64; MAX_AXES]>,
+    /// Times a tick found the queue empty after a segment ([`Self::dry_runs`]).
+    dry_runs: u16,
 }
 
 /// [`StepKernel`] flags: a stop has latched.
@@ -251,6 +253,7 @@ impl StepKernel {
             flags: 0,
             outputs: 0,
             probe_at: None,
+            dry_runs: 0,
         }
     }
 
@@ -312,7 +315,15 @@ impl StepKernel {
     #[inline(never)]
     fn load(&mut self, src: &mut impl SegmentSource) -> Option<OutputEvent> {
         self.fold_position();
-        let seg = src.next_segment()?;
+        let Some(seg) = src.next_segment() else {
+            // The first empty look after a segment (`ticks` is ≥ 1 while one was loaded; 0
+            // marks the kernel as dry until the next).
+            if self.ticks != 0 {
+                self.ticks = 0;
+                self.dry_runs = self.dry_runs.wrapping_add(1);
+            }
+            return None;
+        };
         let ticks = seg.ticks.max(1);
         self.increment = seg.steps;
         // Start every accumulator half way so steps sit in the middle of their tick slots.
@@ -414,6 +425,14 @@ impl StepKernel {
     /// alarm's safe state). The owner drives the pins to it.
     pub fn set_outputs(&mut self, word: u16) {
         self.outputs = word;
+    }
+
+    /// Times a tick found the segment queue empty after running a segment (wrapping): each is
+    /// the kernel running dry, whether the motion ended there or the queue starved it (the main
+    /// loop tells which, `board::main_loop`). Counted where a segment would load, off the
+    /// per-step path.
+    pub fn dry_runs(&self) -> u16 {
+        self.dry_runs
     }
 
     /// True while a segment is running (ticks are still due).

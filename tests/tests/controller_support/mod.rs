@@ -88,7 +88,7 @@ pub fn events(eb: &mut EmulatedBoard) -> Vec<BoardEvent> {
 }
 
 pub fn steps(eb: &EmulatedBoard) -> [i64; 6] {
-    eb.kernel.position()
+    eb.isr.kernel.position()
 }
 
 /// Streams `text` from a host that vanishes (stops sending anything) once the board runs line
