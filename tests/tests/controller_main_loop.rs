@@ -95,7 +95,7 @@ fn a_limit_stop_keeps_the_kernel_latched_until_unlock() {
     until_state(&mut eb, State::Alarm, 10_000);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
     let at = eb.isr.kernel.position();
-    assert_eq!(at[0], 10 * STEPS_PER_MM);
+    assert_eq!(at[0], 10 * STEPS_PER_MM + AHEAD);
     // In the alarm the kernel stays stopped and gets nothing (the firmware's latch).
     eb.run_ms(500);
     assert!(eb.isr.kernel.is_stopped());
@@ -112,7 +112,7 @@ fn a_limit_stop_keeps_the_kernel_latched_until_unlock() {
     assert!(!eb.kernel_latched());
     assert!(eb.board.jog(0, -600_000, 2 * MM as u64));
     until_state(&mut eb, State::Idle, 5_000);
-    assert_eq!(eb.isr.kernel.position()[0], 8 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 8 * STEPS_PER_MM + AHEAD);
     assert_eq!(eb.limit_stops, 1);
 }
 

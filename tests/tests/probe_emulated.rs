@@ -57,20 +57,25 @@ fn g38_2_toward_a_plane_latches_within_one_step_and_decelerates_after_contact() 
     // and the kernel's running segment, ≤ 2 ms): at most 3 ms at the feed. F20 is below the
     // start speed: the move stops at once, on the contact step.
     let cases: [(i64, i64); 4] = [(20, 0), (100, 5), (300, 46), (600, 172)];
+    // The step onto the plane (-3200 steps) raised the pin; the interrupt's next kernel tick saw
+    // it and latched the kernel's count before its own step: the plane, plus the steps of the
+    // two ticks the interrupt had computed ahead of the pins (machine/src/step/isr.rs
+    // `TICKS_AHEAD`, as on the board): at F600 one of them stepped, below it neither did
+    // (slower feeds tick several times per step: AMASS, machine/src/motion/prep.rs).
+    let latched_past = [0, 0, 0, 1];
     let mut overruns = Vec::new();
-    for (feed, overrun) in cases {
+    for ((feed, overrun), past) in cases.into_iter().zip(latched_past) {
         let eb = run(&[PLANE], &format!("G38.2 Z-20 F{feed}\nM2"));
         assert_eq!(eb.board.state(), State::Idle, "F{feed}");
         assert_eq!(param_um(&eb, 5070), 1000, "F{feed}: #5070 success");
-        // The step onto the plane (-3200 steps) raised the pin; the next tick saw it and latched
-        // the position before its own step: exactly the plane.
         let z = param_nm(&eb, 5063);
         assert!((z - (-5 * MM)).abs() <= MM / 640, "F{feed}: #5063 = {z} nm");
-        assert_eq!(z, -5_000_000, "F{feed}: the step onto the plane");
+        let latched = -5_000_000 - past * MM / 640;
+        assert_eq!(z, latched, "F{feed}: the step onto the plane and {past} after it");
         assert_eq!((param_nm(&eb, 5061), param_nm(&eb, 5062)), (0, 0));
         let result = eb.board.probe_result().unwrap();
         assert!(result.success);
-        assert_eq!(result.position[2], -5_000_000);
+        assert_eq!(result.position[2], latched);
         // At rest below the contact by the planned deceleration (200 mm/s², stops from the 60
         // mm/min start speed at once) plus the kernel's running segment.
         let stopped = eb.isr.kernel.position()[2];

@@ -37,6 +37,12 @@ use crate::motion::output_event::OutputEvent;
 /// Tick period while the kernel is idle (1 ms), i.e. how often an empty queue is polled.
 pub const IDLE_PERIOD_COUNTS: u32 = KERNEL_TIMER_HZ / 1_000;
 
+/// Kernel ticks computed ahead of the step pins ([`StepIsr::next`] and [`StepIsr::after`]): the
+/// kernel's position leads the pins by up to this many steps per axis, a stop latched by the
+/// kernel still lets that many go out, and the first step after an idle poll finds a segment
+/// comes that many periods after the one that poll set.
+pub const TICKS_AHEAD: u32 = 2;
+
 /// Timer counts kept between the body's timer read and the next update, for its writes in
 /// between ([`StepTiming::WRITE_GUARD`], where the figure is derived).
 pub const WRITE_GUARD: u32 = StepTiming::WRITE_GUARD;

@@ -11,5 +11,5 @@ pub mod pins;
 
 pub use access::{KernelSnapshot, SegmentQueue};
 pub use hardware::StepHardware;
-pub use isr::{Prepared, Run, StepIsr, IDLE_PERIOD_COUNTS, WRITE_GUARD};
+pub use isr::{Prepared, Run, StepIsr, IDLE_PERIOD_COUNTS, TICKS_AHEAD, WRITE_GUARD};
 pub use pins::PinWords;
