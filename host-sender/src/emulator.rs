@@ -32,8 +32,8 @@
 
 use crate::cpu_model::{CpuMeter, CpuModel};
 use crate::link::Transport;
-use gantry_machine::board::link::{BoardLink, KernelView};
 use crate::step_clock::{ClockEvent, StepClock};
+use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::main_loop::{
     BoardPort, HostPort, KernelSnapshot, MainLoop, SEGMENT_QUEUE_DEPTH,
 };

@@ -100,7 +100,11 @@ fn abort_input_stops_runs_the_program_stop_and_remembers_the_line() {
     eb.run_ms(2);
     set(&mut eb, Signal::Abort, false);
     until_state(&mut eb, State::Idle, 5_000);
-    assert_eq!(eb.isr.kernel.position(), at, "abort from a hold does not move");
+    assert_eq!(
+        eb.isr.kernel.position(),
+        at,
+        "abort from a hold does not move"
+    );
     assert_eq!(eb.board.resume_line(), 5);
     assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
     // The board continues from where it stopped: a new job moves from there (once the hold

@@ -191,7 +191,12 @@ fn leaving_jog_mode_and_abort_stop_the_same_way() {
         let stop = measure_stop(&mut eb, t0, from, queued, 50.0);
         check_stop(&stop, if leave { "leave jog" } else { "abort" }, 50.0);
         let drop = eb.last_drop.unwrap();
-        let rest = (eb.isr.kernel.position(), eb.last_step_at, drop, stop.travelled);
+        let rest = (
+            eb.isr.kernel.position(),
+            eb.last_step_at,
+            drop,
+            stop.travelled,
+        );
         set(&mut eb, Signal::JogS3, false);
         set(&mut eb, Signal::Mark, false);
         set(&mut eb, Signal::Release, false);
@@ -531,7 +536,7 @@ fn an_analog_bend_toward_a_near_edge_stops_and_restarts_instead() {
     eb.adc.stick = Some([stick(8), stick(1)]);
     eb.run_ms(1000);
     assert_eq!(eb.isr.kernel.position()[1], 6); // 0.01 mm = 6.4 steps
-                                            // The slowest X segment before Y starts: at rest (a bend would pass the corner at speed).
+                                                // The slowest X segment before Y starts: at rest (a bend would pass the corner at speed).
     let log = eb.started_segments.as_ref().unwrap();
     let before_y: Vec<f64> = log
         .iter()

@@ -39,5 +39,8 @@ fn a_streamed_job_into_a_limit_switch_ends_with_alarm_1_at_the_sender() {
     assert_eq!(status.homed, 0);
     // The switch is still pressed: the inputs word shows the X max bit.
     assert_ne!(status.inputs & (1 << 22), 0);
-    assert_eq!(client.transport.isr.kernel.position()[0], 40 * STEPS_PER_MM + AHEAD);
+    assert_eq!(
+        client.transport.isr.kernel.position()[0],
+        40 * STEPS_PER_MM + AHEAD
+    );
 }

@@ -330,7 +330,10 @@ fn a_limit_stop_after_the_point_switches_the_outputs_off() {
     // On at 1 in on the fly, off from the main loop at the stop (the M15 point is never reached).
     assert_eq!(
         e.iter().map(|e| (e.on, e.x, e.tick)).collect::<Vec<_>>(),
-        [(true, STEPS_1IN, true), (false, 50 * STEPS_PER_MM + AHEAD, false)]
+        [
+            (true, STEPS_1IN, true),
+            (false, 50 * STEPS_PER_MM + AHEAD, false)
+        ]
     );
     assert_eq!(eb.user_outputs(), 0);
     assert_eq!(eb.board.output_levels().user, 0);

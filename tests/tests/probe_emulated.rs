@@ -71,7 +71,10 @@ fn g38_2_toward_a_plane_latches_within_one_step_and_decelerates_after_contact() 
         let z = param_nm(&eb, 5063);
         assert!((z - (-5 * MM)).abs() <= MM / 640, "F{feed}: #5063 = {z} nm");
         let latched = -5_000_000 - past * MM / 640;
-        assert_eq!(z, latched, "F{feed}: the step onto the plane and {past} after it");
+        assert_eq!(
+            z, latched,
+            "F{feed}: the step onto the plane and {past} after it"
+        );
         assert_eq!((param_nm(&eb, 5061), param_nm(&eb, 5062)), (0, 0));
         let result = eb.board.probe_result().unwrap();
         assert!(result.success);
@@ -88,7 +91,10 @@ fn g38_2_toward_a_plane_latches_within_one_step_and_decelerates_after_contact() 
         );
         // The interpreter continues from where the machine stands.
         let pos = eb.board.interpreter().state().position;
-        assert_eq!(pos[2], eb.board.machine_position(&eb.isr.kernel.position())[2]);
+        assert_eq!(
+            pos[2],
+            eb.board.machine_position(&eb.isr.kernel.position())[2]
+        );
     }
     assert_eq!(overruns, cases.to_vec(), "(feed, overrun steps)");
 }

@@ -529,6 +529,32 @@ mod tests {
     }
 
     #[test]
+    fn a_kernel_that_runs_dry_mid_job_is_one_underrun_however_many_passes_it_stands() {
+        let (mut main, mut board, mut link, mut port) = parts();
+        main.pass(0, &mut board, &mut link, &mut port);
+        assert!(board.start_job());
+        assert!(board.push_line(0, 1, "G1 X10 F600"));
+        for t in 1..5 {
+            main.pass(t, &mut board, &mut link, &mut port);
+        }
+        // The queue is full (this port never empties it) and the move has a second to run.
+        assert_eq!(port.queued, SEGMENT_QUEUE_DEPTH as u32);
+        assert_eq!(board.motion().state(), MotionState::Running);
+        // No dry run yet: nothing.
+        assert_eq!(main.underruns(), 0);
+        // The kernel ran dry once and stands for 20 passes: one underrun (the main loop used to
+        // count every pass, the emulated board once: two figures for one gap).
+        port.kernel.dry_runs = 1;
+        for t in 5..25 {
+            main.pass(t, &mut board, &mut link, &mut port);
+        }
+        assert_eq!(main.underruns(), 1);
+        port.kernel.dry_runs = 2;
+        main.pass(25, &mut board, &mut link, &mut port);
+        assert_eq!(main.underruns(), 2);
+    }
+
+    #[test]
     fn the_host_closing_the_port_holds_a_job_and_opening_it_does_nothing() {
         let (mut main, mut board, mut link, mut port) = parts();
         main.pass(0, &mut board, &mut link, &mut port);
