@@ -990,8 +990,8 @@ impl BoardPort for Hardware {
     }
 
     fn set_position(&mut self, steps: [i64; MAX_AXES]) {
-        for i in 0..MAX_AXES {
-            self.phys_offset[i] += self.pin_steps[i] - steps[i];
+        for ((offset, pins), new) in self.phys_offset.iter_mut().zip(self.pin_steps).zip(steps) {
+            *offset += pins - new;
         }
         self.pin_steps = steps;
         self.isr.kernel.set_position(steps);

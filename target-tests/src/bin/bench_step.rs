@@ -34,9 +34,9 @@ use cortex_m_rt::entry;
 use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::setup::DriverSetup;
+use gantry_machine::step::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS};
 use gantry_target_tests::clock::{now, RELOAD};
 use gantry_target_tests::{exit, println};
-use gantry_machine::step::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS};
 
 /// Step pins on bits 10..16 and dir pins on bits 0..6 of their ports, as on a board.
 static WORDS: PinWords = PinWords::new(
