@@ -25,11 +25,6 @@ const CRATES: &[&str] = &[
 /// removing it here.
 const ALLOWED: &[(&str, &str, &str)] = &[
     (
-        "machine/src/motion/kernel.rs",
-        "machine/src/setup.rs",
-        "issue 26.4: setup.rs <-> motion/kernel.rs (the kernel takes DriverSetup, the setup checks step rates with the kernel's timing)",
-    ),
-    (
         "machine/src/grbl/mod.rs",
         "machine/src/board/link.rs",
         "issue 26.4: board/link.rs <-> grbl/ (grbl reads the link's KernelView, the link owns the grbl front end)",
