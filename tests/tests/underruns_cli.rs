@@ -23,11 +23,11 @@ fn the_emulators_underrun_log_and_its_main_loop_count_agree() {
     let dir = Dir::new("underruns-cli");
     let setup = dir.file("fast.toml", FAST_SETUP);
     let emu = Emulator::start_with(&dir, Some(&setup), &["--cpu-model", "f411"]);
-    // 1,500 moves of 0.01 mm at 6000 mm/min: 10,000 lines a second, more than the F411 model
-    // plans and the link brings, so the kernel runs dry again and again mid-job.
+    // 3,000 moves of 0.005 mm along X at 6000 mm/min: 20,000 lines a second, twice what the
+    // F411 model interprets and plans, so the kernel runs dry again and again mid-job.
     let mut program = String::from("G21 G91 G1 F6000\n");
-    for i in 0..1_500 {
-        program.push_str(if i % 2 == 0 { "X0.01\n" } else { "Y0.01\n" });
+    for _ in 0..3_000 {
+        program.push_str("X0.005\n");
     }
     program.push_str("M30\n");
     let job = dir.file("fine.ngc", &program);
