@@ -148,7 +148,7 @@ cd "$ROOT/target-tests"
 cargo clippy --release --all-targets -- -D warnings
 cargo build --release --bin vectors
 timeout "$QEMU_TIMEOUT" cargo run --release --bin vectors || fail "target vectors failed under QEMU"
-# The firmware's step interrupt body (firmware/src/step_body.rs) against a model of TIM2 and its
+# The step interrupt body (machine/src/step/isr.rs) against a model of TIM2 and its
 # DMA streams: every step reaches the pins once, direction set-up kept, late interrupts retried.
 # It also prints instructions per step event (counted with -icount shift=0, as the benchmarks in
 # target-tests/README.md are); those figures are information, never asserted.

@@ -17,7 +17,6 @@ mod reset_marker;
 mod safety;
 mod settings;
 mod step;
-mod step_body;
 mod step_dma;
 mod usb;
 mod watchdog;

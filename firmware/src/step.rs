@@ -6,7 +6,8 @@
 //! interrupt gets there. At compare 1 (`pulse` counts later, [`StepTiming::pulse`] from
 //! `Setup::drivers`) a second stream drops the step pins (the pulse end) and, at compare 2 (the
 //! same count), a third overwrites CCR3 with that reset word, so an update nobody prepared
-//! raises nothing. Compare 1 also raises the one interrupt, at P0: the body in `step_body.rs`
+//! raises nothing. Compare 1 also raises the one interrupt, at P0: the core's body
+//! (`gantry_machine::step`, machine/src/step/isr.rs)
 //! writes the dir pins of the step the next update emits, puts that step's word in CCR3 and the
 //! period after it in the preloaded ARR, then runs `StepKernel::tick`; it keeps two computed
 //! ticks, so it knows whether the step after the next one changes direction and gives the period
@@ -33,7 +34,6 @@
 
 use crate::board::{gpio_block, PinId};
 use crate::board_def::{AXES, DIR, PROBE, STEP, USER_OUTPUTS, USER_PINS};
-use crate::step_body::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS};
 use crate::step_dma::{self, StepDma};
 use core::cell::UnsafeCell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -44,9 +44,11 @@ use embassy_stm32::pac::timer::regs::SrGp16;
 use embassy_stm32::peripherals::TIM2;
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::Peri;
-use gantry_machine::board::main_loop::KernelSnapshot;
-use gantry_machine::motion::kernel::{ProbeLatch, Segment, SegmentSource, StepTiming};
+use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming};
 use gantry_machine::motion::output_event::OutputEvent;
+use gantry_machine::step::{
+    KernelSnapshot, PinWords, Run, SegmentQueue, StepHardware, StepIsr, IDLE_PERIOD_COUNTS,
+};
 use gantry_machine::units::MAX_AXES;
 use heapless::spsc::{Consumer, Producer, Queue};
 use static_cell::StaticCell;
@@ -151,6 +153,12 @@ impl SegmentSource for QueueSource {
     }
 }
 
+impl SegmentQueue for QueueSource {
+    fn is_empty(&self) -> bool {
+        !self.0.ready()
+    }
+}
+
 /// The interrupt's hardware: TIM2's counter, reload and CCR3 (the step word the update DMA
 /// copies), the dir port and the user output pins.
 struct Tim2Dma;
@@ -214,25 +222,18 @@ fn with_kernel<R>(f: impl FnOnce(&mut StepIsr<QueueSource>) -> R) -> Option<R> {
 
 /// Reads the kernel's position and state.
 pub fn snapshot() -> KernelSnapshot {
-    with_kernel(|s| KernelSnapshot {
-        steps: s.kernel.position(),
-        drained: s.idle && !s.kernel.is_busy() && !s.source.0.ready(),
-        stopped: s.kernel.is_stopped(),
-    })
-    .unwrap_or(KernelSnapshot {
+    with_kernel(|s| s.snapshot()).unwrap_or(KernelSnapshot {
         steps: [0; MAX_AXES],
         drained: true,
         stopped: false,
+        dry_runs: 0,
     })
 }
 
 /// After a latched stop: drops every queued segment and the running one (the position keeps the
 /// steps made). The kernel stays stopped until [`rearm`].
 pub fn flush() {
-    with_kernel(|s| {
-        while s.source.0.dequeue().is_some() {}
-        s.kernel.flush();
-    });
+    with_kernel(|s| s.flush());
 }
 
 /// Removes up to `max` of the *newest* queued segments the kernel has not started (a stop or a
@@ -264,7 +265,7 @@ pub fn drop_newest(max: usize, producer: &mut Producer<'static, Segment>) -> usi
 
 /// Re-arms a stopped kernel (after [`flush`] and the board's `limit_stop`).
 pub fn rearm() {
-    with_kernel(|s| s.kernel.clear_stop());
+    with_kernel(|s| s.rearm());
 }
 
 /// Exchanges the user output word between the board and the kernel (`Board::sync_user_outputs`):
@@ -274,12 +275,9 @@ pub fn rearm() {
 /// computed but not yet emitted is dropped with it.
 pub fn sync_user_outputs(f: impl FnOnce(u16) -> Option<u16>) {
     with_kernel(|s| {
-        let Some(word) = f(s.kernel.outputs()) else {
+        let Some(word) = s.exchange_outputs(f) else {
             return;
         };
-        s.kernel.set_outputs(word);
-        s.next.output = OutputEvent::NONE;
-        s.after.output = OutputEvent::NONE;
         for n in 0..USER_OUTPUTS as u8 {
             if let Some(e) = OutputEvent::new(n, word >> n & 1 != 0) {
                 write_output(e);
@@ -292,21 +290,12 @@ pub fn sync_user_outputs(f: impl FnOnce(u16) -> Option<u16>) {
 /// latched position); an armed or tripped latch for the same level is left alone
 /// (`BoardPort::arm_probe`).
 pub fn arm_probe(trips_at: Option<bool>) {
-    with_kernel(|s| match (s.kernel.probe_latch(), trips_at) {
-        (ProbeLatch::Armed { trips_at: t }, Some(l)) if t == l => {}
-        (ProbeLatch::Tripped { .. }, Some(_)) | (ProbeLatch::Off, None) => {}
-        (_, Some(l)) => s.kernel.arm_probe(l),
-        (_, None) => s.kernel.disarm_probe(),
-    });
+    with_kernel(|s| s.arm_probe(trips_at));
 }
 
 /// The step position the probe latch recorded, if it tripped.
 pub fn probe_latched() -> Option<[i64; MAX_AXES]> {
-    with_kernel(|s| match s.kernel.probe_latch() {
-        ProbeLatch::Tripped { steps } => Some(steps),
-        _ => None,
-    })
-    .flatten()
+    with_kernel(|s| s.probe_latched()).flatten()
 }
 
 /// Loads a new step position (homing set home); the kernel is at rest then.

@@ -402,11 +402,11 @@ pub(crate) fn serve(
                 board.seconds(),
                 state_text(status.state),
                 status.line,
-                axes_field(&board.kernel.position(), axes),
+                axes_field(&board.isr.kernel.position(), axes),
                 axes_field(&pulses, axes)
             );
             // Planner starvation so far (grbl streaming is judged by it, docs/grbl.md).
-            eprintln!("emulate: underruns {}", board.underruns);
+            eprintln!("emulate: underruns {}", board.starved.gaps);
         }
     }
     if let Some(st) = state {

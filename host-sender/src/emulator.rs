@@ -1,34 +1,38 @@
-//! The emulated board: the very same [`Board`] and [`BoardLink`] the firmware runs, with the step
-//! kernel ticked on a virtual clock instead of a timer interrupt.
+//! The emulated board: the very same [`Board`], [`BoardLink`], main loop and step interrupt
+//! ([`StepIsr`]) the firmware runs, with the step timer on a virtual clock
+//! ([`crate::step_clock`]) instead of TIM2.
 //!
 //! Virtual time counts kernel timer counts ([`KERNEL_TIMER_HZ`]). The main loop (link service,
-//! interpretation, segment preparation) runs once per virtual millisecond, the kernel at the
-//! periods it asks for, so the emulation runs as fast as the host can while keeping the board's
-//! timing. Every step is counted per axis, and an optional observer sees every tick that stepped
-//! (for VCD traces).
+//! interpretation, segment preparation) runs once per virtual millisecond, the step interrupt at
+//! the periods it sets (polling the queue every millisecond while idle, two kernel ticks ahead of
+//! the pins), so the emulation runs as fast as the host can while keeping the board's timing.
+//! Every step that reaches the pins is counted per axis, and an optional observer sees every
+//! update that stepped or followed a change of the dir or output pins (for VCD traces).
 //!
 //! Inputs are virtual pins ([`EmulatedBoard::pins`], raw levels before the polarity setting) and
 //! ADC readings, sampled and debounced once per main-loop pass exactly as the firmware does.
 //! Limit switches can be modelled at fixed machine positions ([`EmulatedBoard::add_switch`]): the
-//! switch pin follows the kernel's step position after every tick, and the kernel's limit flag is
-//! set in that same tick when the switch is armed, so the next tick stops (docs/controller.md "Safety rules as built").
+//! switch pin follows the step pins' position after every step, and the kernel's limit flag is
+//! set at that step when the switch is armed, so the interrupt's next kernel tick stops (the two
+//! steps it has prepared still go out, as on the board; docs/controller.md "Safety rules as built").
 //!
 //! The firmware's motion marker (a RAM word that survives a reset, see
 //! `gantry_machine::controller::power_up`) is modelled too: [`EmulatedBoard::reset`] restarts the
 //! board the way a watchdog, reset-pin or power-on reset would, with the machine standing where it
 //! stopped.
 //!
-//! User outputs are virtual pins too: the kernel's output word ([`StepKernel::outputs`]), switched
-//! by on-the-fly events on the tick that starts their segment, and loaded from the board when it
-//! switches outputs itself ([`Board::sync_user_outputs`], once per main-loop pass, as the firmware).
+//! User outputs are virtual pins too: switched by the interrupt with the dir pins before the first
+//! step of their segment (on-the-fly events), and loaded from the board when it switches outputs
+//! itself ([`Board::sync_user_outputs`], once per main-loop pass, as the firmware).
 //!
 //! The main loop itself is the core's [`MainLoop::pass`], the very function the firmware calls
 //! (`firmware/src/control.rs`): this file only models the hardware behind its [`BoardPort`]
-//! (virtual time, the kernel and its queue, switches, gangs, pins and their traces, the host's
-//! bytes and DTR, the flash).
+//! (virtual time, the step timer, switches, gangs, pins and their traces, the host's bytes and
+//! DTR, the flash).
 
 use crate::cpu_model::{CpuMeter, CpuModel};
 use crate::link::Transport;
+use crate::step_clock::{ClockEvent, StepClock};
 use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::main_loop::{
     BoardPort, HostPort, KernelSnapshot, MainLoop, SEGMENT_QUEUE_DEPTH,
@@ -37,21 +41,19 @@ use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
 use gantry_machine::controller::inputs::{limit_bit, InputBits, Signal};
 use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
 use gantry_machine::controller::{AdcReadings, OutputLevels};
-use gantry_machine::motion::kernel::{
-    ProbeLatch, Segment, StepKernel, StepTiming, KERNEL_TIMER_HZ,
-};
-use gantry_machine::motion::pipeline::MotionState;
+use gantry_machine::motion::kernel::{Segment, StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::motion::sim::SegmentFifo;
 use gantry_machine::setup::Setup;
+use gantry_machine::step::{Run, StepIsr};
 use gantry_machine::units::{Pos, MAX_AXES};
 use std::ops::{Deref, DerefMut};
 
 /// Kernel timer counts per millisecond.
 pub const COUNTS_PER_MS: u64 = KERNEL_TIMER_HZ as u64 / 1000;
 
-/// A change of the board's pins: a kernel tick that stepped, changed direction or switched a user
-/// output, or a change of the input levels or of the user outputs in the main loop (then `step`
-/// is 0).
+/// A change of the board's pins: a timer update that stepped, or the first after the interrupt
+/// changed the dir pins or switched a user output, or a change of the input levels or of the user
+/// outputs in the main loop (then `step` and `period` are 0).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PinEvent {
     /// Virtual time, kernel timer counts.
@@ -62,7 +64,7 @@ pub struct PinEvent {
     pub inputs: u32,
     /// User output pins (bit n = output n), switched before this event's steps.
     pub outputs: u16,
-    /// Timer counts to the kernel's next tick (0: idle, or a main-loop event).
+    /// Timer counts of the period this update starts (0: a main-loop event).
     pub period: u32,
 }
 
@@ -211,13 +213,16 @@ struct ProbeFrame {
 /// switches, gangs and their traces, the host's bytes and DTR, the flash and the motion marker.
 /// [`EmulatedBoard`] derefs to it, so its fields read as the board's.
 pub struct Hardware {
-    pub kernel: StepKernel,
-    fifo: SegmentFifo<SEGMENT_QUEUE_DEPTH>,
+    /// The step interrupt's state (the kernel, its segment queue, the prepared writes).
+    pub isr: StepIsr<SegmentFifo<SEGMENT_QUEUE_DEPTH>>,
+    /// The step timer and the pins the interrupt writes.
+    pub clock: StepClock,
     /// Virtual time, kernel timer counts.
     now: u64,
     next_main_loop: u64,
-    /// When the kernel ticks next (`None`: idle until the main loop hands it a segment).
-    next_tick: Option<u64>,
+    /// Step position the step pins have made (the kernel's count less the steps it has
+    /// prepared and not emitted yet).
+    pin_steps: [i64; MAX_AXES],
     /// Step pulses per axis since power-up (direction-independent).
     pub pulses: [u64; MAX_AXES],
     /// Debounced input levels the controller sees.
@@ -248,9 +253,7 @@ pub struct Hardware {
     /// Input polarity the hardware was given (the firmware's `INVERT`): from the setup at
     /// power-up and with every setup the host pushes.
     invert: u32,
-    /// Step pulse timing the kernel's timer was given (likewise).
-    timing: StepTiming,
-    /// Physical position = kernel steps + offset (homing redefines the kernel's zero).
+    /// Physical position = pin steps + offset (homing redefines the kernel's zero).
     phys_offset: [i64; MAX_AXES],
     /// Limit bits armed for the kernel (from the board, once per main-loop pass).
     arm: u32,
@@ -258,13 +261,9 @@ pub struct Hardware {
     switch_stop: bool,
     /// Ticks that stopped the kernel on a limit, and the virtual time of the last one.
     pub limit_stops: u32,
+    /// Dir pins at the last pin event.
     last_dir: u8,
-    /// Virtual time and kernel period of the last tick, for the dir set-up of the next one.
-    last_tick: Option<(u64, u32)>,
     observer: Option<Box<dyn FnMut(PinEvent)>>,
-    /// Main-loop passes that found the kernel idle with motion still to run and nothing prepared
-    /// (the planner starved the kernel).
-    pub underruns: u64,
     /// Bytes the board has sent and the host not yet read.
     outbox: Vec<u8>,
     /// Bytes from the host the main loop has not read yet.
@@ -300,11 +299,11 @@ pub struct Hardware {
     pub output_changes: Option<Vec<(u64, OutputLevels)>>,
     /// Output levels the last main-loop pass drove.
     driven: OutputLevels,
-    /// Virtual time of the last kernel tick that stepped (0: none yet).
+    /// Virtual time of the last update that stepped (0: none yet).
     pub last_step_at: u64,
-    /// Virtual time of the last tick that found no segment and stopped the kernel's timer: from
-    /// then on the kernel is drained (until the main loop hands it a segment again); the first
-    /// main-loop pass after it sees the machine at rest.
+    /// Virtual time of the last interrupt run that found the kernel idle with nothing prepared:
+    /// from then on the kernel is drained (until the main loop hands it a segment again); the
+    /// first main-loop pass after it sees the machine at rest.
     pub kernel_idle_at: u64,
     /// The CPU model, when one is set ([`EmulatedBoard::set_cpu_model`]), and the segments of
     /// the pass running now, which reach the kernel's queue when it ends.
@@ -321,21 +320,12 @@ struct CpuTime {
     release_at: u64,
 }
 
-/// Underruns as the machine feels them: the step kernel found its queue empty in Run after the
-/// job had moved, while the last main-loop pass left motion queued or the planner empty before
-/// the program's end (lines not interpreted or not received yet) — not at a sync point, a hold,
-/// a program stop or the job's start and end. One per time the kernel stopped.
+/// Underruns as the machine feels them: the main loop's count
+/// (`gantry_machine::board::underruns`), the firmware's own.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Starved {
-    /// Gaps in the motion so far.
+    /// Times the step kernel ran dry in the middle of a job's motion so far.
     pub gaps: u64,
-    /// Virtual time (kernel timer counts) the kernel stood still in them.
-    pub counts: u64,
-    /// A segment reached the kernel since the job entered Run.
-    moved: bool,
-    gap_possible: bool,
-    /// When the kernel stopped in the gap running now.
-    since: Option<u64>,
 }
 
 /// A board with its kernel on a virtual clock: the firmware's [`Board`], [`BoardLink`] and main
@@ -369,14 +359,14 @@ const BOOT_ID: u32 = 0x6a17_0001;
 
 impl EmulatedBoard {
     pub fn new(setup: Setup) -> Self {
+        let timing = StepTiming::from_setup(&setup.drivers);
         let hw = Hardware {
             invert: setup.inputs.invert,
-            timing: StepTiming::from_setup(&setup.drivers),
-            kernel: StepKernel::new(),
-            fifo: SegmentFifo::default(),
+            isr: StepIsr::new(SegmentFifo::default(), timing),
+            clock: StepClock::start(0, &timing),
             now: 0,
             next_main_loop: 0,
-            next_tick: None,
+            pin_steps: [0; MAX_AXES],
             pulses: [0; MAX_AXES],
             inputs: 0,
             limit: false,
@@ -395,9 +385,7 @@ impl EmulatedBoard {
             switch_stop: false,
             limit_stops: 0,
             last_dir: 0,
-            last_tick: None,
             observer: None,
-            underruns: 0,
             outbox: Vec::new(),
             inbox: Vec::new(),
             host_port: HostPort::Open,
@@ -445,10 +433,14 @@ impl EmulatedBoard {
         self.resets += 1;
         self.board = Board::power_up(setup.clone(), how);
         self.link = BoardLink::new(BOOT_ID.wrapping_add(self.resets));
-        self.kernel = StepKernel::new();
+        let timing = StepTiming::from_setup(&setup.drivers);
+        self.isr = StepIsr::new(SegmentFifo::default(), timing);
+        // The timer restarts with the MCU: dir and output pins low, no step prepared.
+        let probe = self.clock.regs.probe;
+        self.clock = StepClock::start(self.now, &timing);
+        self.clock.regs.probe = probe;
         self.phys_offset = here;
-        self.fifo = SegmentFifo::default();
-        self.next_tick = None;
+        self.pin_steps = [0; MAX_AXES];
         self.limit = false;
         self.switch_stop = false;
         self.arm = 0;
@@ -466,7 +458,6 @@ impl EmulatedBoard {
         }
         self.main = MainLoop::new(&setup);
         self.invert = setup.inputs.invert;
-        self.timing = StepTiming::from_setup(&setup.drivers);
         self.outbox.clear();
         self.inbox.clear();
         how
@@ -476,7 +467,7 @@ impl EmulatedBoard {
     /// now): the min switch is active at or below it, the max switch at or above.
     pub fn add_switch(&mut self, axis: usize, max: bool, at_nm: i64) {
         let steps = self.board.motion_config().axes[axis].nm_to_steps(at_nm);
-        let at = steps - self.kernel.position()[axis] + self.physical()[axis];
+        let at = steps - self.isr.kernel.position()[axis] + self.physical()[axis];
         self.switches.push(LimitSwitch { axis, max, at });
     }
 
@@ -484,7 +475,7 @@ impl EmulatedBoard {
     /// follows the machine position after every step.
     pub fn add_probe_target(&mut self, target: ProbeTarget) {
         let cfg = self.board.motion_config();
-        let k = self.kernel.position();
+        let k = self.isr.kernel.position();
         let phys = self.physical();
         self.hw.probe_frame = Some(ProbeFrame {
             axes: [cfg.axes[0], cfg.axes[1], cfg.axes[2]],
@@ -499,7 +490,7 @@ impl EmulatedBoard {
     pub fn add_gang(&mut self, axis: usize, max: bool, enable: [u8; 2], at_nm: [i64; 2]) {
         let a = self.board.motion_config().axes[axis];
         let here = self.physical()[axis];
-        let k = self.kernel.position()[axis];
+        let k = self.isr.kernel.position()[axis];
         self.gang = Some(Gang {
             axis,
             max,
@@ -530,7 +521,7 @@ impl EmulatedBoard {
     /// debounced inputs and path speed (20 ms window) of the last main-loop pass.
     pub fn kernel_view(&self) -> KernelView {
         KernelView {
-            steps: self.hw.kernel.position(),
+            steps: self.hw.isr.kernel.position(),
             ..self.main.kernel_view()
         }
     }
@@ -544,13 +535,10 @@ impl EmulatedBoard {
                 let busy = self.main_loop();
                 self.next_main_loop = self.now + busy.max(COUNTS_PER_MS);
             }
-            if self.next_tick.is_some_and(|t| t <= self.now) {
-                self.tick();
+            while self.clock.next_event() <= self.now {
+                self.clock_event();
             }
-            let mut next = self.next_main_loop.min(end);
-            if let Some(t) = self.next_tick {
-                next = next.min(t);
-            }
+            let mut next = self.next_main_loop.min(end).min(self.clock.next_event());
             if let Some(c) = self.cpu.as_ref().filter(|c| !c.pending.is_empty()) {
                 next = next.min(c.release_at);
             }
@@ -613,10 +601,9 @@ impl EmulatedBoard {
         let now = self.hw.now_ms();
         self.main
             .pass(now, &mut self.board, &mut self.link, &mut self.hw);
-        self.hw.underruns = self.main.underruns();
+        self.hw.starved.gaps = u64::from(self.main.underruns());
         self.hw.tool = self.board.outputs().tool;
         self.hw.steppers_enabled = self.main.steppers_enabled();
-        self.note_gap_possible();
         self.cpu_pass_done()
     }
 
@@ -632,25 +619,6 @@ impl EmulatedBoard {
             .pass_done(&self.board, start, u64::from(KERNEL_TIMER_HZ));
         cpu.release_at = start + busy;
         busy
-    }
-
-    /// After a pass: whether the kernel running dry before the next one would be a gap in the
-    /// motion ([`Starved`]).
-    fn note_gap_possible(&mut self) {
-        // Not during an abort's or an alarm's stop: the job ends there (its kernel drains).
-        let running = self.board.job_running();
-        let s = &mut self.hw.starved;
-        if !running {
-            s.moved = false;
-        }
-        // Motion still queued, or none with the program not at its end: the planner ran dry
-        // (lines not yet interpreted, or not yet received).
-        s.gap_possible = running
-            && match self.board.motion().state() {
-                MotionState::Running => true,
-                MotionState::Idle => !self.board.interpreter().is_finished(),
-                _ => false,
-            };
     }
 
     /// Gives the emulated board a CPU model ([`crate::cpu_model`]): from now on each main-loop
@@ -670,19 +638,6 @@ impl EmulatedBoard {
 }
 
 impl Hardware {
-    /// Segments are queued: an idle kernel's timer polls the queue and starts one now (ending a
-    /// gap in the motion, if it stood in one).
-    fn kernel_restarts(&mut self) {
-        if self.next_tick.is_none() {
-            self.next_tick = Some(self.now);
-        }
-        let s = &mut self.starved;
-        s.moved = true;
-        if let Some(t) = s.since.take() {
-            s.counts += self.now - t;
-        }
-    }
-
     /// The segments of a pass that has ended go to the kernel's queue (CPU model only).
     fn release_pass_segments(&mut self) {
         let Some(cpu) = self.cpu.as_mut() else {
@@ -692,9 +647,8 @@ impl Hardware {
             return;
         }
         for seg in cpu.pending.drain(..) {
-            let _ = self.fifo.0.push_back(seg);
+            let _ = self.isr.source.0.push_back(seg);
         }
-        self.kernel_restarts();
     }
 
     /// From now on the board's events (alarms, limit reports, errors, job ends) are collected in
@@ -704,9 +658,9 @@ impl Hardware {
         self.capture = true;
     }
 
-    /// Physical step position (kernel position + the offset homing introduced).
+    /// Physical step position (the steps the pins made + the offset homing introduced).
     pub fn physical(&self) -> [i64; MAX_AXES] {
-        let mut p = self.kernel.position();
+        let mut p = self.pin_steps;
         for (v, o) in p.iter_mut().zip(self.phys_offset) {
             *v += o;
         }
@@ -715,13 +669,13 @@ impl Hardware {
 
     /// User output pins now (bit n = output n).
     pub fn user_outputs(&self) -> u16 {
-        self.kernel.outputs()
+        self.clock.regs.outputs
     }
 
     /// Logical levels of the modelled switches now, and the bits they own.
     fn switch_levels(&self) -> (u32, u32) {
         let p = self.physical();
-        let user_outputs = self.kernel.outputs();
+        let user_outputs = self.user_outputs();
         let (mut on, mut owned) = (0, 0);
         if let Some(g) = &self.gang {
             owned |= g.bit();
@@ -795,18 +749,18 @@ impl Hardware {
         self.pins = b.0;
     }
 
-    /// The kernel has run every segment it was given (queue empty, no tick due).
+    /// The kernel has run every segment it was given and every step reached the pins.
     pub fn kernel_drained(&self) -> bool {
-        self.fifo.0.is_empty() && self.next_tick.is_none()
+        self.isr.snapshot().drained
     }
 
     /// Virtual time the kernel's segment queue holds (not counting the running segment), ms.
     pub fn queued_ms(&self) -> f64 {
-        let counts: u64 = self.fifo.0.iter().map(|s| s.duration()).sum();
+        let counts: u64 = self.isr.source.0.iter().map(|s| s.duration()).sum();
         counts as f64 / COUNTS_PER_MS as f64
     }
 
-    /// Calls `f` for every kernel tick that stepped or changed direction.
+    /// Calls `f` for every pin event ([`PinEvent`]).
     pub fn observe(&mut self, f: impl FnMut(PinEvent) + 'static) {
         self.observer = Some(Box::new(f));
     }
@@ -862,89 +816,76 @@ impl Hardware {
         std::mem::take(&mut self.outbox)
     }
 
-    /// The kernel's next tick has another dir byte than the last: it starts a segment with
-    /// another direction (a stopping or busy kernel keeps its dir byte).
-    fn next_tick_turns(&self) -> bool {
-        let stopping = self.limit || self.switch_stop || self.kernel.is_stopped();
-        !stopping
-            && !self.kernel.is_busy()
-            && self.fifo.0.front().is_some_and(|s| s.dir != self.last_dir)
+    /// The step clock's next event, due now.
+    fn clock_event(&mut self) {
+        let stop = self.limit || self.switch_stop;
+        self.clock.regs.probe = self.probe_pin();
+        let (queued, front) = (self.isr.source.0.len(), self.isr.source.0.front().copied());
+        let was_idle = self.isr.idle;
+        match self.clock.advance(self.now, &mut self.isr, stop) {
+            ClockEvent::Update { step, period } => self.on_update(step, period),
+            ClockEvent::Interrupt(Run::Scheduled) => {
+                if let (Some(log), Some(seg)) = (self.started_segments.as_mut(), front) {
+                    if self.isr.source.0.len() < queued {
+                        log.push((self.now, seg));
+                    }
+                }
+                if let Some(cpu) = self.cpu.as_mut() {
+                    cpu.meter.on_tick(self.isr.after.step);
+                }
+                if self.isr.idle && !was_idle {
+                    self.kernel_idle_at = self.now;
+                }
+            }
+            ClockEvent::Interrupt(Run::Late) => {}
+        }
     }
 
-    fn tick(&mut self) {
-        // As the step interrupt: the period before a tick that changes direction holds the dir
-        // set-up ([`StepTiming::period`]); the others were timed when their tick ran.
-        if let Some((at, period)) = self.last_tick.filter(|_| self.next_tick_turns()) {
-            let due = at + u64::from(self.timing.period(period.max(1), true));
-            if self.now < due {
-                self.next_tick = Some(due);
-                return;
+    /// An update of the step timer: the step pins of `step` rise (with the dir pins the
+    /// interrupt wrote before), a period of `period` counts starts.
+    fn on_update(&mut self, step: u8, period: u32) {
+        let dir = self.clock.regs.dir_pins;
+        let outputs = self.clock.regs.outputs;
+        if step != 0 {
+            for (axis, (p, pulses)) in self.pin_steps.iter_mut().zip(&mut self.pulses).enumerate() {
+                if step >> axis & 1 != 0 {
+                    *pulses += 1;
+                    *p += if dir >> axis & 1 != 0 { -1 } else { 1 };
+                }
             }
-        }
-        let (queued, front) = (self.fifo.0.len(), self.fifo.0.front().copied());
-        let probe = self.probe_pin();
-        let out = self
-            .kernel
-            .tick(&mut self.fifo, self.limit || self.switch_stop, probe);
-        self.last_tick = Some((self.now, out.period));
-        let user_outputs = self.kernel.outputs();
-        if let (Some(log), Some(seg)) = (self.started_segments.as_mut(), front) {
-            if self.fifo.0.len() < queued {
-                log.push((self.now, seg));
-            }
-        }
-        if let Some(g) = self.gang.as_mut() {
-            if out.step & (1 << g.axis) != 0 {
-                let d = if out.dir & (1 << g.axis) != 0 { -1 } else { 1 };
-                for m in 0..2 {
-                    if user_outputs & (1 << g.enable[m]) != 0 {
-                        g.motors[m] += d;
+            if let Some(g) = self.gang.as_mut() {
+                if step & (1 << g.axis) != 0 {
+                    let d = if dir & (1 << g.axis) != 0 { -1 } else { 1 };
+                    for m in 0..2 {
+                        if outputs & (1 << g.enable[m]) != 0 {
+                            g.motors[m] += d;
+                        }
                     }
                 }
             }
-        }
-        if out.step != 0 {
             self.last_step_at = self.now;
-        }
-        if out.step != 0 && !self.probe_targets.is_empty() {
-            // The probe pin follows this tick's step; the interrupt reads it on the next tick.
-            self.probe_raw = self.probe_level();
-        }
-        if let Some(cpu) = self.cpu.as_mut() {
-            cpu.meter.on_tick(out.step);
-        }
-        if out.step != 0 && (!self.switches.is_empty() || self.gang.is_some()) {
-            // The switch pin follows this tick's step; the interrupt sees it on the next tick.
-            self.switch_stop = self.logical_pins() & self.arm & LIMIT_BITS != 0;
-        }
-        if out.step != 0 || out.dir != self.last_dir || user_outputs != self.last_outputs {
-            for (axis, p) in self.pulses.iter_mut().enumerate() {
-                *p += u64::from(out.step >> axis & 1);
+            if !self.probe_targets.is_empty() {
+                // The probe pin follows this step; the interrupt reads it on its next run.
+                self.probe_raw = self.probe_level();
             }
+            if !self.switches.is_empty() || self.gang.is_some() {
+                // The switch pin follows this step; the kernel sees it on its next tick.
+                self.switch_stop = self.logical_pins() & self.arm & LIMIT_BITS != 0;
+            }
+        }
+        if step != 0 || dir != self.last_dir || outputs != self.last_outputs {
             if let Some(f) = self.observer.as_mut() {
                 f(PinEvent {
                     time: self.now,
-                    step: out.step,
-                    dir: out.dir,
+                    step,
+                    dir,
                     inputs: self.inputs,
-                    outputs: user_outputs,
-                    period: out.period,
+                    outputs,
+                    period,
                 });
             }
-            self.last_dir = out.dir;
-            self.last_outputs = user_outputs;
-        }
-        // As the step interrupt: a period too short for the setup's pulse (and the interrupt's
-        // writes) is stretched to the shortest one that fits.
-        self.next_tick =
-            (out.period != 0).then(|| self.now + u64::from(self.timing.period(out.period, false)));
-        if out.period == 0 {
-            self.kernel_idle_at = self.now;
-            let s = &mut self.starved;
-            if s.moved && s.gap_possible && s.since.is_none() {
-                s.gaps += 1;
-                s.since = Some(self.now);
-            }
+            self.last_dir = dir;
+            self.last_outputs = outputs;
         }
     }
 
@@ -967,18 +908,12 @@ impl Hardware {
 /// The emulated hardware as the main loop's port.
 impl BoardPort for Hardware {
     fn kernel(&mut self) -> KernelSnapshot {
-        KernelSnapshot {
-            steps: self.kernel.position(),
-            stopped: self.kernel.is_stopped(),
-            drained: self.kernel_drained(),
-        }
+        self.isr.snapshot()
     }
 
     fn flush_kernel(&mut self) {
         self.limit_stops += 1;
-        self.fifo.0.clear();
-        self.kernel.flush();
-        self.next_tick = None;
+        self.isr.flush();
     }
 
     fn rearm_kernel(&mut self) {
@@ -986,7 +921,7 @@ impl BoardPort for Hardware {
         // (a forced `limit` is a one-off stop).
         self.limit = false;
         self.switch_stop = self.logical_pins() & self.arm & LIMIT_BITS != 0;
-        self.kernel.clear_stop();
+        self.isr.rearm();
     }
 
     fn arm_limits(&mut self, arm: u32) {
@@ -1023,7 +958,7 @@ impl BoardPort for Hardware {
 
     fn queue_ready(&mut self) -> bool {
         let pending = self.cpu.as_ref().map_or(0, |c| c.pending.len());
-        self.fifo.0.len() + pending < self.fifo.0.capacity()
+        self.isr.source.0.len() + pending < self.isr.source.0.capacity()
     }
 
     fn push_segment(&mut self, seg: Segment) {
@@ -1033,17 +968,18 @@ impl BoardPort for Hardware {
             cpu.pending.push(seg);
             return;
         }
-        let _ = self.fifo.0.push_back(seg);
-        self.kernel_restarts();
+        let _ = self.isr.source.0.push_back(seg);
     }
 
     fn drop_newest(&mut self, max: usize) -> usize {
-        let fifo = &mut self.fifo.0;
+        let fifo = &mut self.isr.source.0;
         let dropped = max.min(fifo.len());
         fifo.truncate(fifo.len() - dropped);
-        let running_left = match self.next_tick {
-            Some(t) => t.saturating_sub(self.now) + self.kernel.remaining_counts(),
-            None => 0,
+        // The kernel ticks at the interrupt after the next update, then once a period.
+        let running_left = if self.isr.idle {
+            0
+        } else {
+            self.clock.next_update().saturating_sub(self.now) + self.isr.kernel.remaining_counts()
         };
         self.last_drop = Some(QueueDrop {
             time: self.now,
@@ -1054,22 +990,23 @@ impl BoardPort for Hardware {
     }
 
     fn set_position(&mut self, steps: [i64; MAX_AXES]) {
-        let old = self.kernel.position();
-        for i in 0..MAX_AXES {
-            self.phys_offset[i] += old[i] - steps[i];
+        for ((offset, pins), new) in self.phys_offset.iter_mut().zip(self.pin_steps).zip(steps) {
+            *offset += pins - new;
         }
-        self.kernel.set_position(steps);
+        self.pin_steps = steps;
+        self.isr.kernel.set_position(steps);
     }
 
     fn apply_setup(&mut self, invert: u32, timing: StepTiming) {
         self.invert = invert;
-        self.timing = timing;
+        self.isr.timing = timing;
+        self.clock.set_pulse(timing.pulse);
     }
 
     fn exchange_user_outputs(&mut self, f: impl FnOnce(u16) -> Option<u16>) {
-        if let Some(word) = f(self.kernel.outputs()) {
+        if let Some(word) = self.isr.exchange_outputs(f) {
             // The board switched outputs itself (a list at rest, the safe state).
-            self.kernel.set_outputs(word);
+            self.clock.regs.outputs = word;
             if word != self.last_outputs {
                 self.drive_user_outputs(word);
             }
@@ -1121,20 +1058,11 @@ impl BoardPort for Hardware {
     }
 
     fn arm_probe(&mut self, trips_at: Option<bool>) {
-        match (self.kernel.probe_latch(), trips_at) {
-            (ProbeLatch::Armed { trips_at: t }, Some(l)) if t == l => {}
-            (ProbeLatch::Tripped { .. }, Some(_)) => {}
-            (ProbeLatch::Off, None) => {}
-            (_, Some(l)) => self.kernel.arm_probe(l),
-            (_, None) => self.kernel.disarm_probe(),
-        }
+        self.isr.arm_probe(trips_at);
     }
 
     fn probe_latched(&mut self) -> Option<[i64; MAX_AXES]> {
-        match self.kernel.probe_latch() {
-            ProbeLatch::Tripped { steps } => Some(steps),
-            _ => None,
-        }
+        self.isr.probe_latched()
     }
 
     fn before_link_service(&mut self, board: &mut Board) {

@@ -24,6 +24,7 @@ pub mod session;
 pub mod settings_doc;
 pub mod setup_file;
 pub mod simulate;
+pub mod step_clock;
 pub mod tcp;
 pub mod trace;
 pub mod vcd;

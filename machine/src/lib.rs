@@ -22,5 +22,6 @@ pub mod gcode;
 pub mod grbl;
 pub mod motion;
 pub mod setup;
+pub mod step;
 pub mod units;
 pub mod vectors;

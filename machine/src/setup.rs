@@ -6,7 +6,8 @@
 //! so the same setup means bit-identical behaviour on every target.
 
 use crate::gcode::config::WORK_SYSTEMS;
-use crate::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
+pub use crate::step::timing::DriverSetup;
+use crate::step::timing::{StepTiming, KERNEL_TIMER_HZ};
 use crate::units::{FeedNmPerMin, Nm, Pos, MAX_AXES, NM_PER_MM};
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
@@ -253,36 +254,6 @@ impl McodeList {
             _ => None,
         }
     }
-}
-
-/// Step and direction signal timing the stepper drivers need (their datasheets give both as
-/// minimums). The step interrupt holds each step pulse for `step_pulse_ns` and changes a direction
-/// pin at least `dir_setup_ns` before the next step pulse starts; both are rounded up to whole
-/// step-timer counts (83.3 ns, [`StepTiming`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct DriverSetup {
-    /// Width of every step pulse, ns ([`Self::PULSE_NS`]).
-    pub step_pulse_ns: u32,
-    /// Time from a direction change to the next step pulse, at least, ns ([`Self::DIR_SETUP_NS`]).
-    pub dir_setup_ns: u32,
-}
-
-impl DriverSetup {
-    /// Accepted step pulse widths, ns: 1-50 µs (the step interrupt cannot end a pulse much
-    /// sooner than 1 µs after starting it).
-    pub const PULSE_NS: core::ops::RangeInclusive<u32> = 1_000..=50_000;
-    /// Accepted direction set-up times, ns: 0-50 µs.
-    pub const DIR_SETUP_NS: core::ops::RangeInclusive<u32> = 0..=50_000;
-
-    /// 2.5 µs pulse, 5 µs direction set-up: the minimums of the most demanding common driver,
-    /// the opto-isolated Leadshine DM542 (pulse ≥ 2.5 µs, direction ≥ 5 µs ahead of the pulse);
-    /// more than TB6600 modules (≥ 2.2 µs), the DRV8825 (1.9 µs, 650 ns set-up) and the A4988
-    /// (1 µs, 200 ns). It allows 200 k steps/s (a 5 µs period: the pulse and as long low), with
-    /// 8.5 µs before a direction change ([`StepTiming`]).
-    pub const DEFAULT: DriverSetup = DriverSetup {
-        step_pulse_ns: 2_500,
-        dir_setup_ns: 5_000,
-    };
 }
 
 /// Characters a grbl startup line (`$N0=`, `$N1=`) holds, at most (grbl stores 79; docs/grbl.md).

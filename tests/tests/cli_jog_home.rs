@@ -25,7 +25,7 @@ fn a_host_jog_moves_exactly_the_distance() {
     assert_eq!(s.state, MachineState::Idle);
     assert_eq!(s.machine_pos[1], -12_500_000);
     // 12.5 mm at 3200 steps / 5 mm.
-    assert_eq!(client.transport.kernel.position()[1], -8000);
+    assert_eq!(client.transport.isr.kernel.position()[1], -8000);
 }
 
 #[test]

@@ -52,13 +52,13 @@ fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2(
     // main loop is the core's, prep runs 14 ms further ahead than with the emulator's old 8.)
     assert!(eb.run_until(20_000, |b| b.board.motion().state() == MotionState::Holding));
     let stop_ms = eb.now_ms() - 1;
-    assert_eq!(stop_ms, 5868);
-    assert_eq!(eb.kernel.position()[0], 46_386);
+    assert_eq!(stop_ms, 5875);
+    assert_eq!(eb.isr.kernel.position()[0], 46_392);
     assert_eq!(eb.board.line(), 77);
     // Spindle and coolant run until the machine is at rest (a feed hold's rule) …
     assert!(eb.board.output_levels().spindle_enable && eb.board.output_levels().flood);
     until_state(&mut eb, State::Alarm, 5_000);
-    let x = eb.kernel.position()[0];
+    let x = eb.isr.kernel.position()[0];
     // The stop takes back the queued segments of the block being prepared (line 77); those of
     // line 76 still queued run first (a stop only rewinds into the block in progress), so the
     // ramp (1 mm from 20 mm/s) starts at X 73 and ends exactly on the end of line 77.
@@ -95,7 +95,7 @@ fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2(
     assert_eq!(eb.board.homed(), 0b001);
     assert_eq!(eb.board.motion().queued_position()[0], 74_000_000);
     eb.run_ms(1000);
-    assert_eq!(eb.kernel.position()[0], x, "nothing moves in the alarm");
+    assert_eq!(eb.isr.kernel.position()[0], x, "nothing moves in the alarm");
     assert!(!eb.board.start_job());
     assert!(!eb.board.jog(0, 600_000, MM as u64));
     // Unlock clears it; the machine goes on from where it stands.
@@ -103,7 +103,7 @@ fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2(
     assert_eq!(eb.board.state(), State::Idle);
     job(&mut eb, "G90 G21\nG0 X0\nM30\n");
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[0], 0);
+    assert_eq!(eb.isr.kernel.position()[0], 0);
 
     // The same job with a legal line 204, feed-held at that very millisecond, stops on the same
     // step: the alarm stop is a feed hold's deceleration on the path, never an abrupt stop.
@@ -113,7 +113,7 @@ fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2(
     twin.board.feed_hold();
     assert!(twin.run_until(5_000, |b| b.board.motion().state() == MotionState::Held));
     twin.run_ms(200);
-    assert_eq!(twin.kernel.position()[0], x);
+    assert_eq!(twin.isr.kernel.position()[0], x);
 }
 
 #[test]
@@ -160,7 +160,7 @@ fn before_the_job_queued_anything_a_block_beyond_the_travel_is_error_900_and_not
 fn moving(eb: &mut EmulatedBoard) {
     job(eb, "G90 G21\nM3 S12000\nG1 X50 F1200\nM30\n");
     eb.run_ms(1000);
-    assert!(eb.kernel.is_busy());
+    assert!(eb.isr.kernel.is_busy());
     assert_eq!(eb.motion_marker, MARKER_MOVING);
 }
 
@@ -169,11 +169,11 @@ fn a_watchdog_reset_during_motion_powers_up_in_alarm_3_and_unlock_clears_it_with
     let mut eb = board(|_| {});
     moving(&mut eb);
     let here = eb.physical();
-    assert_eq!(here[0], 12_210, "19.08 mm along when the reset hits");
+    assert_eq!(here[0], 12_184, "19.04 mm along when the reset hits");
     assert_eq!(eb.reset(ResetCause::Watchdog), PowerUp::MotionInterrupted);
     // The machine stands where the reset stopped it; the new kernel counts from 0.
     assert_eq!(eb.physical(), here);
-    assert_eq!(eb.kernel.position(), [0; 6]);
+    assert_eq!(eb.isr.kernel.position(), [0; 6]);
     assert_eq!(eb.board.state(), State::Alarm);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::ResetDuringMotion));
     assert_eq!(eb.board.homed(), 0);
@@ -280,7 +280,7 @@ fn a_job_held_by_host_loss_ends_with_alarm_20_after_host_lost_stop_s() {
     // Decelerated to a stop on the path within 200 ms (5 mm/s at 200 mm/s²: 25 ms).
     eb.run_ms(200);
     assert_eq!(eb.board.motion().state(), MotionState::Held);
-    let at = eb.kernel.position();
+    let at = eb.isr.kernel.position();
     // Until the 60 s are up nothing changes.
     assert!(eb.run_until(70_000, |b| b.now_ms() == held + 60_000));
     assert_eq!(eb.board.state(), State::Hold);
@@ -308,9 +308,9 @@ fn a_job_held_by_host_loss_ends_with_alarm_20_after_host_lost_stop_s() {
         ]
     );
     assert_eq!(eb.board.resume_line(), 4);
-    assert_eq!(eb.kernel.position(), at);
+    assert_eq!(eb.isr.kernel.position(), at);
     // The hold ramps down from the kernel's running segment (the queued ones were taken back).
-    assert_eq!(at[0], 9_294, "14.52 mm along the 250 mm feed");
+    assert_eq!(at[0], 9_288, "14.51 mm along the 250 mm feed");
     eb.board.unlock();
     assert_eq!(eb.board.state(), State::Idle);
 }
@@ -329,7 +329,7 @@ fn a_host_back_within_the_limit_continues_the_job() {
     assert!(report.completed, "{:?} {:?}", report.errors, report.alarms);
     let eb = client.into_transport();
     assert_eq!(eb.board.state(), State::Idle);
-    assert_eq!(eb.kernel.position()[0], 250 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 250 * STEPS_PER_MM);
     assert!(eb.now_ms() > held + 60_000, "ran on past the limit");
 }
 
@@ -358,5 +358,5 @@ fn an_m0_stop_is_not_ended_by_host_loss() {
     assert_eq!(eb.board.alarm(), None);
     eb.board.cycle_start();
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[0], 2 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 2 * STEPS_PER_MM);
 }

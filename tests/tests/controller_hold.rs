@@ -16,7 +16,7 @@ fn uninterrupted() -> ([i64; 6], [u64; 6]) {
     job(&mut eb, ARC_JOB);
     eb.run_ms(1);
     until_state(&mut eb, State::Idle, 60_000);
-    (eb.kernel.position(), eb.pulses)
+    (eb.isr.kernel.position(), eb.pulses)
 }
 
 /// Holds mid-arc with the feed-hold input; returns the board stopped in the hold.
@@ -34,9 +34,9 @@ fn held_mid_arc(
     eb.run_until(5_000, |b| {
         b.board.motion().state() == MotionState::Held && b.kernel_drained()
     });
-    let at = eb.kernel.position();
+    let at = eb.isr.kernel.position();
     eb.run_ms(500);
-    assert_eq!(eb.kernel.position(), at, "stopped while held");
+    assert_eq!(eb.isr.kernel.position(), at, "stopped while held");
     // A hold keeps spindle and coolant running (docs/controller.md, "Outputs": no automatic outputs).
     assert!(eb.board.output_levels().spindle_enable && eb.board.output_levels().flood);
     eb
@@ -50,7 +50,7 @@ fn releasing_a_hold_mid_arc_ends_exactly_where_an_uninterrupted_run_ends() {
     eb.run_ms(2);
     assert_eq!(eb.board.state(), State::Run);
     until_state(&mut eb, State::Idle, 60_000);
-    assert_eq!(eb.kernel.position(), end);
+    assert_eq!(eb.isr.kernel.position(), end);
     assert_eq!(eb.pulses, pulses);
     assert_eq!(&end[..2], &[30 * STEPS_PER_MM, 5 * STEPS_PER_MM]);
     // M30 cleared the outputs.
@@ -61,7 +61,7 @@ fn releasing_a_hold_mid_arc_ends_exactly_where_an_uninterrupted_run_ends() {
 fn with_resume_needs_cycle_start_the_release_waits_for_the_start_button() {
     let (end, _) = uninterrupted();
     let mut eb = held_mid_arc(|s| s.operator.resume_needs_cycle_start = true);
-    let at = eb.kernel.position();
+    let at = eb.isr.kernel.position();
     // Cycle start while the hold switch is still open does nothing.
     set(&mut eb, Signal::CycleStart1, true);
     eb.run_ms(5);
@@ -69,12 +69,12 @@ fn with_resume_needs_cycle_start_the_release_waits_for_the_start_button() {
     set(&mut eb, Signal::FeedHold, false);
     eb.run_ms(300);
     assert_eq!(eb.board.state(), State::Hold);
-    assert_eq!(eb.kernel.position(), at);
+    assert_eq!(eb.isr.kernel.position(), at);
     set(&mut eb, Signal::CycleStart1, true);
     eb.run_ms(5);
     assert_eq!(eb.board.state(), State::Run);
     until_state(&mut eb, State::Idle, 60_000);
-    assert_eq!(eb.kernel.position(), end);
+    assert_eq!(eb.isr.kernel.position(), end);
 }
 
 #[test]
@@ -95,12 +95,16 @@ fn two_hand_start_needs_both_buttons() {
 #[test]
 fn abort_input_stops_runs_the_program_stop_and_remembers_the_line() {
     let mut eb = held_mid_arc(|_| {});
-    let at = eb.kernel.position();
+    let at = eb.isr.kernel.position();
     set(&mut eb, Signal::Abort, true);
     eb.run_ms(2);
     set(&mut eb, Signal::Abort, false);
     until_state(&mut eb, State::Idle, 5_000);
-    assert_eq!(eb.kernel.position(), at, "abort from a hold does not move");
+    assert_eq!(
+        eb.isr.kernel.position(),
+        at,
+        "abort from a hold does not move"
+    );
     assert_eq!(eb.board.resume_line(), 5);
     assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
     // The board continues from where it stopped: a new job moves from there (once the hold
@@ -110,7 +114,7 @@ fn abort_input_stops_runs_the_program_stop_and_remembers_the_line() {
     assert_eq!(eb.board.state(), State::Idle);
     job(&mut eb, "G91 G1 X1 F600\nM30\n");
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[0], at[0] + STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], at[0] + STEPS_PER_MM);
 }
 
 #[test]
@@ -120,9 +124,9 @@ fn abort_while_running_decelerates_on_the_path_and_stops() {
     eb.run_ms(1500);
     set(&mut eb, Signal::Abort, true);
     until_state(&mut eb, State::Idle, 5_000);
-    let x = eb.kernel.position()[0];
+    let x = eb.isr.kernel.position()[0];
     assert!(x > 0 && x < 200 * STEPS_PER_MM, "stopped at {x}");
-    assert_eq!(eb.kernel.position()[1], 0);
+    assert_eq!(eb.isr.kernel.position()[1], 0);
 }
 
 #[test]
@@ -139,7 +143,7 @@ fn m0_switches_spindle_and_coolant_off_and_cycle_start_restores_them() {
     until_state(&mut eb, State::Hold, 10_000);
     let stopped = eb.board.output_levels();
     assert_eq!(stopped, OutputLevels::SAFE);
-    assert_eq!(eb.kernel.position()[0], 5 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 5 * STEPS_PER_MM);
     set(&mut eb, Signal::CycleStart1, true);
     eb.run_ms(2);
     set(&mut eb, Signal::CycleStart1, false);
@@ -157,7 +161,7 @@ fn m0_switches_spindle_and_coolant_off_and_cycle_start_restores_them() {
     assert_eq!(eb.board.outputs().spindle, Spindle::Ccw);
     // M1 with the optional-stop switch off runs through; M30 clears everything.
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[0], 15 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 15 * STEPS_PER_MM);
     assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
 }
 
@@ -168,10 +172,10 @@ fn optional_stop_switch_makes_m1_stop() {
     eb.run_ms(2);
     job(&mut eb, "G21 G90\nG1 X5 F600\nM1\nG1 X10\nM30\n");
     until_state(&mut eb, State::Hold, 10_000);
-    assert_eq!(eb.kernel.position()[0], 5 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 5 * STEPS_PER_MM);
     eb.board.cycle_start();
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[0], 10 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 10 * STEPS_PER_MM);
 }
 
 #[test]
@@ -189,7 +193,7 @@ fn a_job_started_with_the_hold_switch_open_waits_for_it() {
     assert_eq!(eb.pulses[0], 0);
     set(&mut eb, Signal::FeedHold, false);
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[0], 2 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 2 * STEPS_PER_MM);
 }
 
 #[test]
@@ -199,9 +203,9 @@ fn a_feed_hold_decelerates_from_the_kernels_running_segment_and_resumes_exactly(
     // stop is v²/2a = 6.25 mm.
     let mut eb = board(|_| {});
     job(&mut eb, "G21 G90\nG1 X100 F3000\nM30\n");
-    eb.run_until(10_000, |b| b.kernel.position()[0] >= 20 * STEPS_PER_MM);
+    eb.run_until(10_000, |b| b.isr.kernel.position()[0] >= 20 * STEPS_PER_MM);
     eb.run_for(host_sender::emulator::COUNTS_PER_MS / 3);
-    let (t0, from, queued) = (eb.now(), eb.kernel.position()[0], eb.queued_ms());
+    let (t0, from, queued) = (eb.now(), eb.isr.kernel.position()[0], eb.queued_ms());
     set(&mut eb, Signal::FeedHold, true);
     eb.run_until(5_000, |b| {
         b.board.motion().state() == MotionState::Held && b.kernel_drained()
@@ -210,7 +214,7 @@ fn a_feed_hold_decelerates_from_the_kernels_running_segment_and_resumes_exactly(
     let ms = |c: u64| c as f64 / host_sender::emulator::COUNTS_PER_MS as f64;
     let (left, delay) = (ms(drop.running_left), ms(drop.time - t0));
     let (v, a, step) = (50.0, 200.0, 1.0 / STEPS_PER_MM as f64);
-    let travelled = (eb.kernel.position()[0] - from) as f64 * step;
+    let travelled = (eb.isr.kernel.position()[0] - from) as f64 * step;
     let ideal = v * v / (2.0 * a);
     println!(
         "feed hold at 3000 mm/min: stopped in {travelled:.4} mm, ideal {ideal:.4} mm, running \
@@ -220,9 +224,9 @@ fn a_feed_hold_decelerates_from_the_kernels_running_segment_and_resumes_exactly(
     assert!(delay <= 1.0 && drop.dropped > 0);
     assert!(travelled <= ideal + v * (left + delay) / 1000.0 + step);
     assert!(travelled >= ideal - step);
-    assert_eq!(eb.board.motion().prepared_steps(), eb.kernel.position());
+    assert_eq!(eb.board.motion().prepared_steps(), eb.isr.kernel.position());
     set(&mut eb, Signal::FeedHold, false);
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[0], 100 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 100 * STEPS_PER_MM);
     assert_eq!(eb.pulses[0], 100 * STEPS_PER_MM as u64);
 }

@@ -47,15 +47,15 @@ fn axes_home_in_priority_order_and_the_retract_lands_on_the_exact_step() {
     assert_eq!(p[0], -3 * STEPS_PER_MM + 2 * STEPS_PER_MM);
     assert_eq!(p[2], 7 * STEPS_PER_MM - STEPS_PER_MM);
     // Set home: the machine position after the retract is the configured home position.
-    assert_eq!(eb.kernel.position()[0], -10 * STEPS_PER_MM);
-    assert_eq!(eb.kernel.position()[2], 0);
-    let m = eb.board.machine_position(&eb.kernel.position());
+    assert_eq!(eb.isr.kernel.position()[0], -10 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[2], 0);
+    let m = eb.board.machine_position(&eb.isr.kernel.position());
     assert_eq!((m[0], m[2]), (-10 * MM, 0));
     assert_eq!(eb.board.motion().queued_position(), m);
     // Soft limits apply again in the new coordinates: X travel is ±300 mm.
     job(&mut eb, "G90 G21\nG0 X-305\nM30\n");
     until_state(&mut eb, State::Idle, 1_000);
-    assert_eq!(eb.kernel.position()[0], -10 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], -10 * STEPS_PER_MM);
 }
 
 #[test]
@@ -64,6 +64,9 @@ fn the_seek_runs_at_a_constant_rate() {
     let mut eb = machine(|s| s.homing.axes[2].priority = 0);
     let mut counts = Vec::new();
     eb.board.home(0b001);
+    // The first window holds the start: the interrupt's idle poll and its two ticks ahead of
+    // the pins (up to 2 ms and two periods, one step of 160 here).
+    eb.run_ms(250);
     for _ in 0..8 {
         let before = eb.pulses[0];
         eb.run_ms(250);
@@ -211,7 +214,7 @@ fn squaring_leaves_both_motors_on_their_switches_then_retracts() {
     let g = eb.gang.unwrap();
     assert_eq!(g.motors, [g.at[0] + STEPS_PER_MM, g.at[1] + STEPS_PER_MM]);
     assert_eq!(eb.board.homed(), 0b010);
-    assert_eq!(eb.kernel.position()[1], 0);
+    assert_eq!(eb.isr.kernel.position()[1], 0);
     assert_eq!(eb.board.output_levels().user, 0b11);
     // No alarm on the way, and `disable_limit_report` kept the list's two commanded switch
     // hits from the host; the cycle's own seek is never reported.
@@ -249,13 +252,13 @@ fn an_unexpected_switch_during_a_quiet_list_seek_still_stops_and_alarms() {
         MotionState::Running,
         "motor 1 seeking"
     );
-    let y = eb.kernel.position()[1];
+    let y = eb.isr.kernel.position()[1];
     eb.set_pin(LIMIT_MAX_BIT, true);
     until_state(&mut eb, State::Alarm, 1_000);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
     assert_eq!(eb.limit_stops, 3);
     // Motor 1 steps every 1.5625 ms: the pass that saw the pin armed the stop before its next step.
-    assert_eq!(eb.kernel.position()[1], y);
+    assert_eq!(eb.isr.kernel.position()[1], y);
     assert_eq!(
         events(&mut eb),
         vec![

@@ -23,11 +23,11 @@ fn a_host_jog_increment_moves_exactly_and_refuses_to_leave_the_travel() {
     assert!(eb.board.jog(0, 600_000, 10_000_000));
     assert_eq!(eb.board.state(), State::Jog);
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[0], 10 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 10 * STEPS_PER_MM);
     // 300 mm is the X travel: 295 more would leave it.
     assert!(!eb.board.jog(0, 600_000, 295_000_000));
     eb.run_ms(100);
-    assert_eq!(eb.kernel.position()[0], 10 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 10 * STEPS_PER_MM);
     assert_eq!(eb.board.state(), State::Idle);
 }
 
@@ -36,7 +36,7 @@ fn a_continuous_host_jog_ends_on_the_soft_limit() {
     let mut eb = board(|s| s.axes[1].travel_max = 20 * MM);
     assert!(eb.board.jog(1, 3_000_000, 0));
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[1], 20 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[1], 20 * STEPS_PER_MM);
 }
 
 #[test]
@@ -48,13 +48,13 @@ fn joystick_nudge_moves_exactly_n_increments() {
     eb.run_ms(1200); // nudges at 0, 500 and 1000 ms
     set(&mut eb, Signal::JogS3, false);
     eb.run_ms(500);
-    assert_eq!(eb.kernel.position()[0], 3 * 32);
+    assert_eq!(eb.isr.kernel.position()[0], 3 * 32);
     // S1 (down) = -Y: one press, one nudge.
     set(&mut eb, Signal::JogS1, true);
     eb.run_ms(100);
     set(&mut eb, Signal::JogS1, false);
     eb.run_ms(300);
-    assert_eq!(eb.kernel.position()[..2], [96, -32]);
+    assert_eq!(eb.isr.kernel.position()[..2], [96, -32]);
     assert_eq!(eb.board.state(), State::Jog);
 }
 
@@ -72,13 +72,13 @@ fn joystick_switches_drive_accelerated_jogs_both_ways() {
     until_at_rest(&mut eb, 5_000);
     assert_eq!(eb.board.state(), State::Jog);
     // Reversing: S2 drives -X.
-    let at = eb.kernel.position()[0];
+    let at = eb.isr.kernel.position()[0];
     set(&mut eb, Signal::JogS2, true);
     eb.run_ms(300);
     set(&mut eb, Signal::JogS2, false);
     until_at_rest(&mut eb, 5_000);
-    assert!(eb.kernel.position()[0] < at);
-    assert_eq!(eb.board.motion().prepared_steps(), eb.kernel.position());
+    assert!(eb.isr.kernel.position()[0] < at);
+    assert_eq!(eb.board.motion().prepared_steps(), eb.isr.kernel.position());
 }
 
 #[test]
@@ -95,10 +95,10 @@ fn instantaneous_mode_runs_at_the_jog_speed_and_stops_on_the_soft_limit() {
     eb.run_ms(500);
     assert_eq!(eb.pulses[2] - before, 320); // 60 mm/min = 640 steps/s
     eb.run_ms(3000);
-    assert_eq!(eb.kernel.position()[2], 2 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[2], 2 * STEPS_PER_MM);
     set(&mut eb, Signal::JogS4, false);
     eb.run_ms(10);
-    assert_eq!(eb.kernel.position()[2], 2 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[2], 2 * STEPS_PER_MM);
 }
 
 #[test]
@@ -146,7 +146,7 @@ fn the_analog_stick_drives_proportional_speed() {
     let v = x_speed_mm_min(&mut eb);
     println!("analog half deflection: {v:.0} mm/min");
     assert!((590.0..=610.0).contains(&v), "{v}");
-    assert_eq!(eb.kernel.position()[1], 0);
+    assert_eq!(eb.isr.kernel.position()[1], 0);
     eb.adc.stick = Some([2047, 2047]);
     until_at_rest(&mut eb, 5_000);
     assert_eq!(eb.board.state(), State::Jog);
@@ -162,5 +162,5 @@ fn slow_nudges_do_not_queue_up_behind_the_stick() {
     eb.run_ms(1200);
     set(&mut eb, Signal::JogS3, false);
     eb.run_ms(3000);
-    assert_eq!(eb.kernel.position()[0], 2 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 2 * STEPS_PER_MM);
 }

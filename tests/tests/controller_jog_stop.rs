@@ -70,7 +70,7 @@ fn measure_stop(eb: &mut EmulatedBoard, t0: u64, from: i64, queued: f64, v: f64)
     assert!(drop.time >= t0, "no queue drop since the stop");
     let ms = |counts: u64| counts as f64 / COUNTS_PER_MS as f64;
     let stop = Stop {
-        travelled: (eb.kernel.position()[0] - from).abs() as f64 * STEP_MM,
+        travelled: (eb.isr.kernel.position()[0] - from).abs() as f64 * STEP_MM,
         ideal: v * v / (2.0 * ACCEL),
         running_left: ms(drop.running_left),
         delay: ms(drop.time - t0),
@@ -79,11 +79,11 @@ fn measure_stop(eb: &mut EmulatedBoard, t0: u64, from: i64, queued: f64, v: f64)
     };
     assert!(stop.delay <= 1.0, "the stop waited {} ms", stop.delay);
     // Nothing lost: the board's position is the kernel's.
-    assert_eq!(eb.board.motion().prepared_steps(), eb.kernel.position());
+    assert_eq!(eb.board.motion().prepared_steps(), eb.isr.kernel.position());
     let cfg = *eb.board.motion_config();
     assert_eq!(
         eb.board.motion().queued_position(),
-        cfg.to_nm(&eb.kernel.position())
+        cfg.to_nm(&eb.isr.kernel.position())
     );
     stop
 }
@@ -117,16 +117,16 @@ fn a_host_jog_stop_decelerates_from_the_running_segment_at_every_speed() {
         let v = jog as f64 / 60.0;
         eb.run_ms((v / ACCEL * 1000.0) as u64 + 300);
         eb.run_for((offset_ms * COUNTS_PER_MS as f64) as u64);
-        let (t0, from, queued) = (eb.now(), eb.kernel.position()[0], eb.queued_ms());
+        let (t0, from, queued) = (eb.now(), eb.isr.kernel.position()[0], eb.queued_ms());
         eb.board.jog_stop();
         let stop = measure_stop(&mut eb, t0, from, queued, v);
         check_stop(&stop, "host jog stop", v);
         until_state(&mut eb, State::Idle, 100);
         // The next jog starts from where the kernel stopped.
-        let at = eb.kernel.position()[0];
+        let at = eb.isr.kernel.position()[0];
         assert!(eb.board.jog(0, 600_000, 1_000_000));
         until_state(&mut eb, State::Idle, 5_000);
-        assert_eq!(eb.kernel.position()[0], at + STEPS_PER_MM);
+        assert_eq!(eb.isr.kernel.position()[0], at + STEPS_PER_MM);
     }
 }
 
@@ -142,7 +142,7 @@ fn a_stick_release_decelerates_from_the_running_segment_at_every_speed() {
         let v = rate as f64 / 60.0;
         eb.run_ms((v / ACCEL * 1000.0) as u64 + 300);
         eb.run_for((offset_ms * COUNTS_PER_MS as f64) as u64);
-        let (t0, from, queued) = (eb.now(), eb.kernel.position()[0], eb.queued_ms());
+        let (t0, from, queued) = (eb.now(), eb.isr.kernel.position()[0], eb.queued_ms());
         set(&mut eb, Signal::JogS3, false);
         let stop = measure_stop(&mut eb, t0, from, queued, v);
         check_stop(&stop, "stick release", v);
@@ -157,7 +157,7 @@ fn the_old_queued_overrun_is_gone() {
     let mut eb = board(|_| {});
     assert!(eb.board.jog(0, 3_000_000, 0));
     eb.run_ms(1000);
-    let (t0, from, queued) = (eb.now(), eb.kernel.position()[0], eb.queued_ms());
+    let (t0, from, queued) = (eb.now(), eb.isr.kernel.position()[0], eb.queued_ms());
     eb.board.jog_stop();
     let stop = measure_stop(&mut eb, t0, from, queued, 50.0);
     check_stop(&stop, "jog stop", 50.0);
@@ -181,7 +181,7 @@ fn leaving_jog_mode_and_abort_stop_the_same_way() {
         set(&mut eb, Signal::Accelerated, true);
         set(&mut eb, Signal::JogS3, true);
         eb.run_ms(1000);
-        let (t0, from, queued) = (eb.now(), eb.kernel.position()[0], eb.queued_ms());
+        let (t0, from, queued) = (eb.now(), eb.isr.kernel.position()[0], eb.queued_ms());
         if leave {
             set(&mut eb, Signal::Mark, true);
             set(&mut eb, Signal::Release, true);
@@ -191,7 +191,12 @@ fn leaving_jog_mode_and_abort_stop_the_same_way() {
         let stop = measure_stop(&mut eb, t0, from, queued, 50.0);
         check_stop(&stop, if leave { "leave jog" } else { "abort" }, 50.0);
         let drop = eb.last_drop.unwrap();
-        let rest = (eb.kernel.position(), eb.last_step_at, drop, stop.travelled);
+        let rest = (
+            eb.isr.kernel.position(),
+            eb.last_step_at,
+            drop,
+            stop.travelled,
+        );
         set(&mut eb, Signal::JogS3, false);
         set(&mut eb, Signal::Mark, false);
         set(&mut eb, Signal::Release, false);
@@ -201,7 +206,7 @@ fn leaving_jog_mode_and_abort_stop_the_same_way() {
         set(&mut eb, Signal::JogS3, true);
         eb.run_ms(50);
         assert_eq!(eb.board.state(), State::Idle);
-        assert_eq!(eb.kernel.position(), rest.0);
+        assert_eq!(eb.isr.kernel.position(), rest.0);
         stops.push(rest);
     }
     let (leave, abort) = (stops[0], stops[1]);
@@ -216,7 +221,7 @@ fn a_host_feed_hold_during_a_jog_stops_it_the_same_way() {
     let mut eb = board(|_| {});
     assert!(eb.board.jog(0, -3_000_000, 0));
     eb.run_ms(1000);
-    let (t0, from, queued) = (eb.now(), eb.kernel.position()[0], eb.queued_ms());
+    let (t0, from, queued) = (eb.now(), eb.isr.kernel.position()[0], eb.queued_ms());
     eb.board.feed_hold();
     let stop = measure_stop(&mut eb, t0, from, queued, 50.0);
     check_stop(&stop, "feed hold while jogging", 50.0);
@@ -345,10 +350,10 @@ fn the_analog_stick_speed_follows_the_deflection_without_stopping() {
     let slowest = speed_samples[moving + 100..].iter().min().unwrap();
     println!("slowest 1 ms sample after the start: {slowest} µm/min");
     assert!(*slowest >= 500_000, "{slowest} µm/min");
-    assert_eq!(eb.kernel.position()[1], 0);
+    assert_eq!(eb.isr.kernel.position()[1], 0);
 
     // Centre: stops within v²/2a from 600 mm/min.
-    let (t0, from, queued) = (eb.now(), eb.kernel.position()[0], eb.queued_ms());
+    let (t0, from, queued) = (eb.now(), eb.isr.kernel.position()[0], eb.queued_ms());
     eb.adc.stick = Some([2047, 2047]);
     let stop = measure_stop(&mut eb, t0, from, queued, 10.0);
     check_stop(&stop, "analog stick to centre", 10.0);
@@ -385,7 +390,7 @@ fn reversing_the_analog_stick_passes_through_zero() {
     assert!((v.last().unwrap().1 - 1200.0).abs() < 1200.0 * ROUNDING);
     eb.adc.stick = Some([2047, 2047]);
     until_at_rest(&mut eb, 5_000);
-    assert_eq!(eb.board.motion().prepared_steps(), eb.kernel.position());
+    assert_eq!(eb.board.motion().prepared_steps(), eb.isr.kernel.position());
 }
 
 #[test]
@@ -407,14 +412,14 @@ fn continuous_jogs_stop_on_the_soft_limit_without_an_error() {
             }
             1 => {
                 eb.adc.stick = Some([stick(2), 2047]);
-                eb.run_until(10_000, |b| b.kernel.position()[0] >= 15 * STEPS_PER_MM);
+                eb.run_until(10_000, |b| b.isr.kernel.position()[0] >= 15 * STEPS_PER_MM);
                 // 3000 mm/min needs 6.25 mm to stop: the speed-up is bounded by the edge.
                 eb.adc.stick = Some([stick(8), 2047]);
             }
             _ => assert!(eb.board.jog(0, 3_000_000, 0)),
         }
         eb.run_ms(3000);
-        assert_eq!(eb.kernel.position()[0], 20 * STEPS_PER_MM, "case {how}");
+        assert_eq!(eb.isr.kernel.position()[0], 20 * STEPS_PER_MM, "case {how}");
         assert_eq!(eb.board.motion().state(), MotionState::Idle);
         assert_eq!(eb.board.alarm(), None, "case {how}");
         let state = if how < 2 { State::Jog } else { State::Idle };
@@ -502,12 +507,12 @@ fn turning_the_analog_stick_bends_the_path_without_stopping() {
         println!("bend: axis {axis} peak acceleration beyond the corner jump {peak:.1} mm/s²");
         assert!(peak <= ACCEL * 1.05, "axis {axis}: {peak}");
     }
-    let y = eb.kernel.position()[1];
+    let y = eb.isr.kernel.position()[1];
     assert!(y > 0);
     eb.adc.stick = Some([2047, 2047]);
     until_at_rest(&mut eb, 5_000);
-    assert_eq!(eb.kernel.position()[1], y);
-    assert_eq!(eb.board.motion().prepared_steps(), eb.kernel.position());
+    assert_eq!(eb.isr.kernel.position()[1], y);
+    assert_eq!(eb.board.motion().prepared_steps(), eb.isr.kernel.position());
     assert_eq!(eb.board.state(), State::Jog);
 }
 
@@ -530,8 +535,8 @@ fn an_analog_bend_toward_a_near_edge_stops_and_restarts_instead() {
     let t1 = eb.now();
     eb.adc.stick = Some([stick(8), stick(1)]);
     eb.run_ms(1000);
-    assert_eq!(eb.kernel.position()[1], 6); // 0.01 mm = 6.4 steps
-                                            // The slowest X segment before Y starts: at rest (a bend would pass the corner at speed).
+    assert_eq!(eb.isr.kernel.position()[1], 6); // 0.01 mm = 6.4 steps
+                                                // The slowest X segment before Y starts: at rest (a bend would pass the corner at speed).
     let log = eb.started_segments.as_ref().unwrap();
     let before_y: Vec<f64> = log
         .iter()
@@ -547,6 +552,6 @@ fn an_analog_bend_toward_a_near_edge_stops_and_restarts_instead() {
     );
     eb.adc.stick = Some([2047, 2047]);
     until_at_rest(&mut eb, 5_000);
-    assert_eq!(eb.board.motion().prepared_steps(), eb.kernel.position());
+    assert_eq!(eb.board.motion().prepared_steps(), eb.isr.kernel.position());
     assert_eq!(eb.board.alarm(), None);
 }

@@ -36,9 +36,10 @@ fn a_limit_hit_at_rapid_stops_within_one_tick_and_unhomes_only_that_axis() {
     job(&mut eb, "G90 G21\nM3 S12000\nM8\nG0 X100 Y20\nM30\n");
     until_state(&mut eb, State::Alarm, 10_000);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
-    // The switch sits at physical 50 mm: the last step made is the one that reached it.
+    // The switch sits at physical 50 mm: the kernel stopped on the tick after the step that
+    // reached it, and the steps the interrupt had prepared went out (as on the board).
     let p = eb.physical();
-    assert_eq!(p[0], 50 * STEPS_PER_MM);
+    assert_eq!(p[0], 50 * STEPS_PER_MM + AHEAD);
     assert_eq!(eb.limit_stops, 3);
     // Y stopped with X on the same tick: the rapid is a straight line from the start.
     let (dx, dy) = (p[0] - before[0], p[1] - before[1]);
@@ -47,7 +48,7 @@ fn a_limit_hit_at_rapid_stops_within_one_tick_and_unhomes_only_that_axis() {
     assert_eq!(eb.board.homed(), 0b010);
     assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
     // The board reports the stopped position as its machine position.
-    let pos = eb.board.machine_position(&eb.kernel.position());
+    let pos = eb.board.machine_position(&eb.isr.kernel.position());
     assert_eq!(eb.board.motion().queued_position(), pos);
     // Motion is refused until unlock.
     assert!(!eb.board.start_job());
@@ -58,7 +59,7 @@ fn a_limit_hit_at_rapid_stops_within_one_tick_and_unhomes_only_that_axis() {
     assert_eq!(eb.board.limit_arm() & (1 << 22), 0);
     assert!(eb.board.jog(0, -600_000, 5 * MM as u64));
     until_state(&mut eb, State::Idle, 5_000);
-    assert_eq!(eb.physical()[0], 45 * STEPS_PER_MM);
+    assert_eq!(eb.physical()[0], 45 * STEPS_PER_MM + AHEAD);
     assert_ne!(eb.board.limit_arm() & (1 << 22), 0);
 }
 
@@ -68,8 +69,8 @@ fn a_feed_into_a_switch_stops_on_the_switch_step_and_the_program_does_not_contin
     job(&mut eb, "G90 G21\nG1 X60 F1200\nG0 X0\nM30\n");
     until_state(&mut eb, State::Alarm, 10_000);
     eb.run_ms(200);
-    assert_eq!(eb.kernel.position()[0], 50 * STEPS_PER_MM);
-    assert_eq!(eb.pulses[0], 50 * STEPS_PER_MM as u64);
+    assert_eq!(eb.isr.kernel.position()[0], 50 * STEPS_PER_MM + AHEAD);
+    assert_eq!(eb.pulses[0], (50 * STEPS_PER_MM + AHEAD) as u64);
     assert_eq!(eb.board.state(), State::Alarm);
     assert_eq!(eb.board.line(), 2);
 }
@@ -118,7 +119,7 @@ fn a_switch_hit_during_a_jog_alarms_and_active_low_switches_work() {
     assert!(eb.board.jog(1, 1_200_000, 0));
     until_state(&mut eb, State::Alarm, 10_000);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
-    assert_eq!(eb.kernel.position()[1], 12 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[1], 12 * STEPS_PER_MM + AHEAD);
     assert_eq!(eb.raw_pins() & (1 << 23), 0);
 }
 
@@ -133,7 +134,7 @@ fn switches_do_not_stop_motion_when_hard_limits_are_off_or_not_installed() {
     job(&mut eb, "G90 G21\nG1 X10 Y10 F3000\nM30\n");
     until_state(&mut eb, State::Idle, 10_000);
     assert_eq!(
-        eb.kernel.position()[..2],
+        eb.isr.kernel.position()[..2],
         [10 * STEPS_PER_MM, 10 * STEPS_PER_MM]
     );
     assert_eq!(eb.limit_stops, 0);

@@ -34,9 +34,13 @@ fn a_streamed_job_into_a_limit_switch_ends_with_alarm_1_at_the_sender() {
     );
     let status = report.final_status.unwrap();
     assert_eq!(status.state, MachineState::Alarm { code: 1 });
-    assert_eq!(status.machine_pos[0], 40 * MM);
+    // The switch step, then the two steps the interrupt had prepared (as on the board).
+    assert_eq!(status.machine_pos[0], 40 * MM + AHEAD * MM / STEPS_PER_MM);
     assert_eq!(status.homed, 0);
     // The switch is still pressed: the inputs word shows the X max bit.
     assert_ne!(status.inputs & (1 << 22), 0);
-    assert_eq!(client.transport.kernel.position()[0], 40 * STEPS_PER_MM);
+    assert_eq!(
+        client.transport.isr.kernel.position()[0],
+        40 * STEPS_PER_MM + AHEAD
+    );
 }

@@ -112,7 +112,7 @@ fn run_to_idle(eb: &mut EmulatedBoard, max_ms: u64) {
         } else {
             behind = 0;
         }
-        if eb.board.state() == State::Idle && !eb.kernel.is_busy() {
+        if eb.board.state() == State::Idle && !eb.isr.kernel.is_busy() {
             assert_eq!(eb.board.output_levels().user, eb.user_outputs());
             return;
         }
@@ -295,7 +295,7 @@ fn a_hold_and_resume_across_the_point_fire_it_once_at_the_same_step() {
         eb.board.feed_hold();
         assert!(eb.run_until(2_000, |b| b.board.motion().state()
             == gantry_machine::motion::pipeline::MotionState::Held
-            && !b.kernel.is_busy()));
+            && !b.isr.kernel.is_busy()));
         let stopped = steps(&eb)[0];
         assert_eq!(stopped > STEPS_1IN, stops_beyond, "stopped at {stopped}");
         eb.run_ms(500);
@@ -330,7 +330,10 @@ fn a_limit_stop_after_the_point_switches_the_outputs_off() {
     // On at 1 in on the fly, off from the main loop at the stop (the M15 point is never reached).
     assert_eq!(
         e.iter().map(|e| (e.on, e.x, e.tick)).collect::<Vec<_>>(),
-        [(true, STEPS_1IN, true), (false, 50 * STEPS_PER_MM, false)]
+        [
+            (true, STEPS_1IN, true),
+            (false, 50 * STEPS_PER_MM + AHEAD, false)
+        ]
     );
     assert_eq!(eb.user_outputs(), 0);
     assert_eq!(eb.board.output_levels().user, 0);

@@ -69,15 +69,15 @@ fn a_user_m_code_list_sets_outputs_dwells_and_waits_for_an_input() {
     let mut eb = board(|s| with_m100(s, 0));
     job(&mut eb, "G21 G90\nG1 X5 F600\nM100\nG1 X10\nM30\n");
     eb.run_until(10_000, |b| b.board.output_levels().user != 0);
-    assert_eq!(eb.kernel.position()[0], 5 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 5 * STEPS_PER_MM);
     assert_eq!(eb.board.output_levels().user, 0b100);
     eb.run_ms(2000);
     // Waiting for input 30: nothing moved, output 2 still on.
-    assert_eq!(eb.kernel.position()[0], 5 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 5 * STEPS_PER_MM);
     assert_eq!(eb.board.output_levels().user, 0b100);
     eb.set_pin(30, true);
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[0], 10 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 10 * STEPS_PER_MM);
     // The list's outputs stay after M30 (only spindle and coolant are program-stop outputs).
     assert_eq!(eb.board.output_levels().user, 0b10_0000);
 }
@@ -90,7 +90,7 @@ fn an_input_wait_that_times_out_alarms() {
     assert_eq!(eb.board.alarm(), Some(AlarmCode::ListInputTimeout));
     assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);
     eb.run_ms(500);
-    assert_eq!(eb.kernel.position()[0], 5 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 5 * STEPS_PER_MM);
 }
 
 #[test]
@@ -140,7 +140,7 @@ fn dry_run_feeds_at_the_dry_run_rate_and_skips_outputs() {
     until_state(&mut eb, State::Idle, 20_000);
     // M100's list is "disabled for dry run": it neither waited nor switched anything.
     assert_eq!(eb.board.output_levels().user, 0);
-    assert_eq!(eb.kernel.position()[0], 100 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 100 * STEPS_PER_MM);
 }
 
 #[test]
@@ -155,7 +155,7 @@ fn single_block_stops_after_each_block() {
     for x in 1..=2 {
         until_state(&mut eb, State::Hold, 10_000);
         eb.run_ms(100);
-        assert_eq!(eb.kernel.position()[0], x * STEPS_PER_MM);
+        assert_eq!(eb.isr.kernel.position()[0], x * STEPS_PER_MM);
         // Stopped like M0: spindle off, restored on cycle start.
         assert!(!eb.board.output_levels().spindle_enable);
         eb.board.cycle_start();
@@ -165,7 +165,7 @@ fn single_block_stops_after_each_block() {
     // Switch off: the rest runs through.
     set(&mut eb, Signal::SingleBlock, false);
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[0], 3 * STEPS_PER_MM);
+    assert_eq!(eb.isr.kernel.position()[0], 3 * STEPS_PER_MM);
 }
 
 #[test]
@@ -175,7 +175,7 @@ fn the_block_delete_switch_skips_slashed_blocks() {
     eb.run_ms(2);
     job(&mut eb, "G21 G90\n/G1 X5 F600\nG1 Y2 F600\nM30\n");
     until_state(&mut eb, State::Idle, 10_000);
-    assert_eq!(eb.kernel.position()[..2], [0, 2 * STEPS_PER_MM]);
+    assert_eq!(eb.isr.kernel.position()[..2], [0, 2 * STEPS_PER_MM]);
 }
 
 #[test]
@@ -191,7 +191,7 @@ fn check_mode_interprets_without_motion() {
     }
     eb.board.end_of_lines(0);
     until_state(&mut eb, State::Idle, 1_000);
-    assert_eq!(eb.kernel.position(), [0; 6]);
+    assert_eq!(eb.isr.kernel.position(), [0; 6]);
     assert_eq!(eb.pulses, [0; 6]);
     assert_eq!(eb.board.line(), 5);
     assert_eq!(eb.board.output_levels(), OutputLevels::SAFE);

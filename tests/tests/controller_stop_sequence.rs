@@ -9,6 +9,7 @@ use controller_support::*;
 use gantry_machine::board::{BoardEvent, JobEnd, ERROR_SOFT_LIMIT};
 use gantry_machine::controller::inputs::Signal;
 use gantry_machine::controller::{AlarmCode, OutputLevels, State};
+use gantry_machine::motion::kernel::StepTiming;
 use gantry_machine::motion::pipeline::MotionState;
 use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
 use host_sender::link::Client;
@@ -97,7 +98,7 @@ fn a_job_ending_on_an_error_machines_every_line_before_it_then_stops_spindle_and
             (off, OutputLevels::SAFE)
         ]
     );
-    assert_eq!(off, 2048 * COUNTS_PER_MS);
+    assert_eq!(off, 2049 * COUNTS_PER_MS);
     // The board takes a new job from there.
     job(&mut eb, "G91 G1 X1 F600\nM30\n");
     until_state(&mut eb, State::Idle, 10_000);
@@ -124,8 +125,8 @@ fn an_abort_decelerates_along_the_cut_with_the_spindle_on_and_stops_it_at_rest()
     let x = steps(&eb)[0];
     // X decelerated from 50 mm/s at 200 mm/s² (6.25 mm, 0.25 s) from the end of the kernel's
     // running segment: the last step 248 ms after the abort.
-    assert_eq!(x, 32_118);
-    assert_eq!(eb.last_step_at, 14_979_188);
+    assert_eq!(x, 32_054);
+    assert_eq!(eb.last_step_at, 14_979_290);
     let off = first_pass_after(eb.kernel_idle_at);
     assert_eq!(off, 1251 * COUNTS_PER_MS);
     assert_eq!(
@@ -233,15 +234,21 @@ fn a_hard_limit_stops_at_once_and_switches_the_outputs_off_in_the_pass_that_sees
     eb.add_switch(0, true, 10 * MM);
     job(&mut eb, "G21 G90\nM3 S12000\nM8\nG1 X50 F1200\nM30\n");
     until_state(&mut eb, State::Alarm, 10_000);
-    // No deceleration: the step that reached the switch is the last one (docs/controller.md, "Safety rules as built"), the
-    // kernel halted on the next tick.
-    assert_eq!(steps(&eb)[0], 10 * STEPS_PER_MM);
+    // No deceleration: the kernel halted on the tick after the step that reached the switch
+    // (docs/controller.md, "Safety rules as built"); the steps the interrupt had prepared went
+    // out.
+    assert_eq!(steps(&eb)[0], 10 * STEPS_PER_MM + AHEAD);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
-    // The halting tick came one step period (12 800 steps/s: 937 counts) after the last step;
-    // the next pass switched everything off.
-    assert_eq!(eb.kernel_idle_at - eb.last_step_at, 937);
+    // The last prepared step went out and the interrupt of its period (the pulse end, then the
+    // entry) found the kernel halted with nothing prepared; the next pass switched everything
+    // off.
+    let timing = StepTiming::from_setup(&eb.board.setup().drivers);
+    assert_eq!(
+        eb.kernel_idle_at - eb.last_step_at,
+        u64::from(timing.pulse + StepTiming::ENTRY_COUNTS)
+    );
     let off = first_pass_after(eb.kernel_idle_at);
-    assert_eq!(off, 548 * COUNTS_PER_MS);
+    assert_eq!(off, 550 * COUNTS_PER_MS);
     assert_eq!(
         output_changes(&mut eb),
         vec![

@@ -52,7 +52,7 @@ fn stream_starved(program: &str, cpu: Option<CpuModel>, x_end_steps: i64) -> (u6
     })
     .unwrap();
     assert!(report.completed, "{:?}", report.errors);
-    assert_eq!(client.transport.kernel.position()[0], x_end_steps);
+    assert_eq!(client.transport.isr.kernel.position()[0], x_end_steps);
     (
         client.transport.starved.gaps,
         report.elapsed_ms as f64 / 1000.0,

@@ -102,7 +102,7 @@ impl Sender {
     }
 
     fn steps(&self) -> [i64; 3] {
-        let p = self.eb.kernel.position();
+        let p = self.eb.isr.kernel.position();
         [p[0], p[1], p[2]]
     }
 

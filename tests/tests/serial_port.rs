@@ -33,7 +33,7 @@ fn board_on(mut port: TTYPort, stop: Arc<AtomicBool>) -> std::thread::JoinHandle
             }
             std::thread::sleep(Duration::from_micros(200));
         }
-        board.kernel.position()
+        board.isr.kernel.position()
     })
 }
 

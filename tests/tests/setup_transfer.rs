@@ -27,8 +27,8 @@ fn a_pushed_setup_is_applied_and_pulled_back_identical() {
     )
     .unwrap();
     assert!(report.completed, "{:?}", report.errors);
-    assert_eq!(client.transport.kernel.position()[0], 2000);
-    assert_eq!(client.transport.kernel.position()[3], 1000);
+    assert_eq!(client.transport.isr.kernel.position()[0], 2000);
+    assert_eq!(client.transport.isr.kernel.position()[3], 1000);
 }
 
 #[test]

@@ -1,5 +1,5 @@
 //! Step timing on the emulated board at the shortest periods (`StepTiming::period` in
-//! machine/src/motion/kernel.rs): with 1 µs pulses and 1 µs dir set-up, steps in one direction
+//! machine/src/step/timing.rs): with 1 µs pulses and 1 µs dir set-up, steps in one direction
 //! come every 24 timer counts (500 kHz) and only the period before a direction change holds the
 //! set-up. Measured on the board's pin events (one per tick that steps or changes direction).
 

@@ -26,7 +26,7 @@ fn the_example_job_ends_where_the_core_simulation_ends() {
     let (report, board) = stream_emulated(BRACKET);
     assert!(report.completed, "{:?}", report.errors);
     let r = reference(BRACKET, &Setup::default());
-    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.isr.kernel.position(), r.steps);
     assert_eq!(board.pulses, r.pulses);
     // The program ends at X0 Y0 Z10: 10 mm at 3200 steps / 5 mm.
     assert_eq!(&r.steps[..3], &[0, 0, 6400]);
@@ -42,7 +42,7 @@ fn a_rejected_block_stops_the_job_before_its_motion() {
     assert_eq!(report.errors.len(), 1);
     assert_eq!(report.errors[0].line, 3);
     // Only line 2 ran: X stands at 1 mm = 640 steps, nothing after the bad block moved.
-    assert_eq!(board.kernel.position()[..3], [640, 0, 0]);
+    assert_eq!(board.isr.kernel.position()[..3], [640, 0, 0]);
 }
 
 #[test]
@@ -93,10 +93,10 @@ fn subprograms_after_m30_are_served_on_request_and_repeat() {
     let (report, board) = stream_emulated(&p);
     assert!(report.completed, "{:?}", report.errors);
     // Four calls of O100 (+1 mm Y each), then G0 Y0; one O200 (-1 mm Z).
-    assert_eq!(board.kernel.position()[..3], [0, 0, -640]);
+    assert_eq!(board.isr.kernel.position()[..3], [0, 0, -640]);
     let r = reference(&p, &Setup::default());
     assert_eq!(board.pulses, r.pulses);
-    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.isr.kernel.position(), r.steps);
     // 3 calls + 3 returns/repeats for L3, 2 for O200, 2 for the nested O100.
     assert!(report.jumps_served >= 7, "{}", report.jumps_served);
 }
@@ -114,7 +114,7 @@ fn one_percent_dropped_corrupted_and_duplicated_bytes_lose_nothing() {
     assert!(report.completed, "{:?} {:?}", report.errors, report.alarms);
     let r = reference(&program, &setup);
     let board = &client.transport.board;
-    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.isr.kernel.position(), r.steps);
     assert_eq!(board.pulses, r.pulses);
     let stats = client.transport.to_board.stats();
     assert!(
@@ -129,9 +129,9 @@ fn a_100k_line_cam_program_streams_without_loss() {
     let (report, board) = stream_emulated(&program);
     assert!(report.completed, "{:?}", report.errors);
     assert_eq!(report.lines_sent, 100_007);
-    assert_eq!(board.underruns, 0, "the planner starved the kernel");
+    assert_eq!(board.starved.gaps, 0, "the planner starved the kernel");
     let r = reference(&program, &Setup::default());
-    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.isr.kernel.position(), r.steps);
     assert_eq!(board.pulses, r.pulses);
 }
 
@@ -154,9 +154,9 @@ fn a_thousand_blocks_per_second_never_starve_the_planner() {
     .unwrap();
     assert!(report.completed, "{:?}", report.errors);
     let board = &client.transport;
-    assert_eq!(board.underruns, 0, "the planner starved the kernel");
+    assert_eq!(board.starved.gaps, 0, "the planner starved the kernel");
     let r = reference(&program, &setup);
-    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.isr.kernel.position(), r.steps);
     // The streamed job takes as long as the core's own simulation (the link never held motion
     // up). 2000 mm of path at 100 mm/s is 20 s, plus 40 row reversals at 2000 mm/s² (about
     // 0.05 s each) and the approach: 22.3 s means the 1000 blocks/s rate was really held.
@@ -192,14 +192,14 @@ fn a_new_host_takes_over_a_job_after_the_cable_was_pulled() {
     transport.to_host.clear();
     transport.wait(3000);
     // The board noticed the silence and held the job on its path.
-    let held_at = transport.board.kernel.position();
+    let held_at = transport.board.isr.kernel.position();
     assert_eq!(
         transport.board.board.state(),
         gantry_machine::controller::State::Hold
     );
     transport.wait(500);
     assert_eq!(
-        transport.board.kernel.position(),
+        transport.board.isr.kernel.position(),
         held_at,
         "held means no motion"
     );
@@ -211,7 +211,7 @@ fn a_new_host_takes_over_a_job_after_the_cable_was_pulled() {
     assert!(report.jumps_served >= 1);
     let r = reference(&program, &setup);
     let board = &client.transport.board;
-    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.isr.kernel.position(), r.steps);
     assert_eq!(board.pulses, r.pulses);
 }
 
@@ -236,7 +236,7 @@ fn the_same_host_resumes_after_a_short_cable_pull() {
     let board = &client.transport.board;
     assert!(board.board.state() == gantry_machine::controller::State::Idle);
     let r = reference(&program, &setup);
-    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.isr.kernel.position(), r.steps);
     assert_eq!(board.pulses, r.pulses);
     // The job took longer than an uninterrupted one: the board really held during the outage.
     assert!(
@@ -262,8 +262,8 @@ fn running_from_a_line_rebuilds_the_state_and_ends_like_a_full_run() {
             stream_from_line(&mut client, &program, from, pre, &mut |_| Flow::Continue).unwrap();
         assert!(report.completed, "from {from}: {:?}", report.errors);
         assert_eq!(
-            client.transport.kernel.position(),
-            full_board.kernel.position(),
+            client.transport.isr.kernel.position(),
+            full_board.isr.kernel.position(),
             "from line {from}"
         );
         // The work offsets were rebuilt too: same work position as the full run.

@@ -48,7 +48,7 @@ fn a_while_loop_of_1000_turns_streams_with_the_steps_of_the_unrolled_program() {
     // One jump back per turn, served by the host as M99's are.
     assert!(report.jumps_served >= 1000, "{}", report.jumps_served);
     let r = reference(&unrolled, &Setup::default());
-    assert_eq!(board.kernel.position(), r.steps);
+    assert_eq!(board.isr.kernel.position(), r.steps);
     assert_eq!(board.pulses, r.pulses);
     // 1000 × 0.01 mm = 10 mm on X at 640 steps/mm; Y1 = 640 steps.
     assert_eq!(&r.steps[..3], &[6400, 640, 0]);

@@ -54,7 +54,7 @@ fn a_two_tool_job_changes_at_the_setup_s_position_z_first_and_goes_on_from_there
         let done = eb.run_until(100_000, |b| {
             let line = b.board.line();
             if line == 5 || line == 8 {
-                let p = b.kernel.position();
+                let p = b.isr.kernel.position();
                 let s = *start.get_or_insert(p);
                 if p != s {
                     let outputs = b.board.outputs();

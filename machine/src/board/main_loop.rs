@@ -25,9 +25,12 @@
 //!    levels to the pins.
 //! 6. **Setup change.** A setup the host pushed: new debouncer and step pulse timing now, saved
 //!    once the board is idle and the kernel drained (a flash write stalls the CPU).
+//! 7. **Underruns.** Whether the kernel running dry before the next pass would be a gap in the
+//!    job's motion; the next pass counts it from the kernel's dry runs ([`Underruns`]).
 
 use super::link::{BoardLink, KernelView};
 use super::starvation::{Sample, Starvation};
+use super::underruns::Underruns;
 use super::Board;
 use crate::controller::inputs::{Debouncer, InputBits};
 use crate::controller::{AdcReadings, OutputLevels, State};
@@ -36,6 +39,8 @@ use crate::motion::pipeline::MotionState;
 use crate::motion::trig::isqrt_u64;
 use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
+
+pub use crate::step::KernelSnapshot;
 
 /// Slots of the segment queue between the main loop and the step kernel. The firmware's queue is
 /// a heapless SPSC queue of this many slots, which holds one less ([`SEGMENT_QUEUE_DEPTH`]).
@@ -48,17 +53,6 @@ const _: () = assert!(
     SEGMENT_QUEUE_DEPTH <= crate::motion::history::SEGMENT_HISTORY,
     "every queued segment can be taken back"
 );
-
-/// What the main loop reads of the step kernel at one moment.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct KernelSnapshot {
-    /// Step position the kernel has reached.
-    pub steps: [i64; MAX_AXES],
-    /// The kernel latched a stop (its limit flag) and steps no more until re-armed.
-    pub stopped: bool,
-    /// The queue is empty and the kernel has no segment running.
-    pub drained: bool,
-}
 
 /// What differs between the board and its emulation: the step kernel and its segment queue, the
 /// pins, the link's bytes, the flash and the motion marker. Each method does one thing and
@@ -222,7 +216,7 @@ pub struct MainLoop {
     /// Drivers stay disabled from power-up until the first segment goes to the kernel.
     steppers_enabled: bool,
     view: KernelView,
-    underruns: u64,
+    underruns: Underruns,
     starvation: Starvation,
 }
 
@@ -238,7 +232,7 @@ impl MainLoop {
             save: Save::Done,
             steppers_enabled: false,
             view: KernelView::default(),
-            underruns: 0,
+            underruns: Underruns::new(),
             starvation: Starvation::new(),
         }
     }
@@ -248,10 +242,10 @@ impl MainLoop {
         self.view
     }
 
-    /// Passes that found the kernel drained with the job's motion running and nothing prepared
-    /// (the planner starved the kernel).
-    pub fn underruns(&self) -> u64 {
-        self.underruns
+    /// Times the step kernel ran dry in the middle of a job's motion (the planner starved it,
+    /// [`Underruns`]).
+    pub fn underruns(&self) -> u32 {
+        self.underruns.gaps()
     }
 
     /// Milliseconds the current or last job lost to starvation: machine time beyond the planned
@@ -286,6 +280,7 @@ impl MainLoop {
     ) {
         // 1. A limit stopped the kernel: drop the queue, tell the board, re-arm unless alarmed.
         let k = port.kernel();
+        self.underruns.kernel_seen(k.dry_runs);
         if k.stopped && self.latch == Latch::Armed {
             port.flush_kernel();
             let steps = port.kernel().steps;
@@ -365,19 +360,15 @@ impl MainLoop {
                     break;
                 };
                 self.steppers_enabled = true;
+                self.underruns.segment_handed_out();
                 // Before the kernel can step it: a reset from here on is a reset during motion.
                 port.motion_marker(true);
                 handed_out = true;
                 port.push_segment(seg);
             }
         }
-        if drained && !handed_out {
-            if !board.position_lost() {
-                port.motion_marker(false);
-            }
-            if board.job_running() && board.motion().state() == MotionState::Running {
-                self.underruns += 1;
-            }
+        if drained && !handed_out && !board.position_lost() {
+            port.motion_marker(false);
         }
         let in_job = matches!(board.state(), State::Run | State::Hold | State::ToolChange);
         // µm/min → 1.024 µm/s (nm/s >> 10, the units of `Sample`): × 1000 / 60 / 1024.
@@ -421,6 +412,17 @@ impl MainLoop {
             self.save = Save::Done;
             port.save_setup(board.setup());
         }
+
+        // 7. Whether the kernel running dry before the next pass would be an underrun: motion
+        // still queued, or none with the program not at its end (lines not yet interpreted, or
+        // not yet received).
+        let motion_to_come = match board.motion().state() {
+            MotionState::Running => true,
+            MotionState::Idle => !board.interpreter().is_finished(),
+            _ => false,
+        };
+        self.underruns
+            .pass_done(board.job_running(), motion_to_come);
     }
 }
 
@@ -540,6 +542,32 @@ mod tests {
         main.pass(100, &mut board, &mut link, &mut port);
         assert_eq!((port.flushed, port.rearmed), (1, 1));
         assert!(!main.kernel_latched());
+    }
+
+    #[test]
+    fn a_kernel_that_runs_dry_mid_job_is_one_underrun_however_many_passes_it_stands() {
+        let (mut main, mut board, mut link, mut port) = parts();
+        main.pass(0, &mut board, &mut link, &mut port);
+        assert!(board.start_job());
+        assert!(board.push_line(0, 1, "G1 X10 F600"));
+        for t in 1..5 {
+            main.pass(t, &mut board, &mut link, &mut port);
+        }
+        // The queue is full (this port never empties it) and the move has a second to run.
+        assert_eq!(port.queued, SEGMENT_QUEUE_DEPTH as u32);
+        assert_eq!(board.motion().state(), MotionState::Running);
+        // No dry run yet: nothing.
+        assert_eq!(main.underruns(), 0);
+        // The kernel ran dry once and stands for 20 passes: one underrun (the main loop used to
+        // count every pass, the emulated board once: two figures for one gap).
+        port.kernel.dry_runs = 1;
+        for t in 5..25 {
+            main.pass(t, &mut board, &mut link, &mut port);
+        }
+        assert_eq!(main.underruns(), 1);
+        port.kernel.dry_runs = 2;
+        main.pass(25, &mut board, &mut link, &mut port);
+        assert_eq!(main.underruns(), 2);
     }
 
     #[test]

@@ -22,6 +22,7 @@ mod probing;
 pub mod source;
 #[cfg(feature = "link")]
 mod starvation;
+pub mod underruns;
 
 use crate::canon::{Action, Canon, Spindle, StopKind};
 use crate::controller::homing::{self, Phase};

@@ -5,7 +5,7 @@
 
 use super::table::{Key, Section, Unit, ROWS};
 use super::Setup;
-use crate::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
+use crate::step::timing::{StepTiming, KERNEL_TIMER_HZ};
 
 /// Why a setting is refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

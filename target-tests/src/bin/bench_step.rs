@@ -1,7 +1,8 @@
 //! The step interrupt's body measured and checked on a Cortex-M4 (QEMU `mps2-an386`).
 //!
-//! The body is the firmware's own file (`firmware/src/step_body.rs`, included below), compiled
-//! here with the firmware's code generation and run over [`FakeHardware`]: its registers are
+//! The body is the core's (`gantry_machine::step`, machine/src/step/isr.rs), the one the firmware
+//! and the emulated board run, compiled here with the firmware's code generation and run over
+//! [`FakeHardware`]: its registers are
 //! words in RAM read and written exactly like TIM2's and the GPIO's (one `ldr`/`str` to a fixed
 //! address each), so the instructions counted are those of the firmware's interrupt.
 //!
@@ -25,9 +26,6 @@
 #![no_std]
 #![no_main]
 
-#[path = "../../../firmware/src/step_body.rs"]
-mod step_body;
-
 use core::hint::black_box;
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
@@ -36,9 +34,9 @@ use cortex_m_rt::entry;
 use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::setup::DriverSetup;
+use gantry_machine::step::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS};
 use gantry_target_tests::clock::{now, RELOAD};
 use gantry_target_tests::{exit, println};
-use step_body::{PinWords, Run, StepHardware, StepIsr};
 
 /// Step pins on bits 10..16 and dir pins on bits 0..6 of their ports, as on a board.
 static WORDS: PinWords = PinWords::new(
@@ -268,7 +266,7 @@ fn end_position(segs: &[Segment]) -> [i64; 6] {
 
 /// The registers at power-up: the idle period, the reset word in CCR3, dir and output pins low.
 fn power_up() {
-    ARR.store(step_body::IDLE_PERIOD_COUNTS - 1, Ordering::Relaxed);
+    ARR.store(IDLE_PERIOD_COUNTS - 1, Ordering::Relaxed);
     STEP_WORD.store(WORDS.step_reset, Ordering::Relaxed);
     DIR_BSRR.store(0, Ordering::Relaxed);
     OUTPUT.store(0, Ordering::Relaxed);

@@ -15,6 +15,10 @@ use host_sender::session::{stream_program, Flow};
 pub const MM: i64 = NM_PER_MM;
 /// Default axes: 3200 steps per 5 mm.
 pub const STEPS_PER_MM: i64 = 640;
+/// Steps the step interrupt has computed ahead of the pins (machine/src/step/isr.rs): a limit
+/// stop latched by the kernel on the tick after the step that reached the switch still lets
+/// them out, so the machine stands this many steps past the switch step.
+pub const AHEAD: i64 = gantry_machine::step::TICKS_AHEAD as i64;
 
 /// A board with no debounce delay beyond one sample and the given setup changes.
 pub fn board(edit: impl FnOnce(&mut Setup)) -> EmulatedBoard {
@@ -88,7 +92,7 @@ pub fn events(eb: &mut EmulatedBoard) -> Vec<BoardEvent> {
 }
 
 pub fn steps(eb: &EmulatedBoard) -> [i64; 6] {
-    eb.kernel.position()
+    eb.isr.kernel.position()
 }
 
 /// Streams `text` from a host that vanishes (stops sending anything) once the board runs line

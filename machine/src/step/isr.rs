@@ -1,9 +1,10 @@
 //! The step interrupt's body, apart from the registers it writes: one run per step event.
 //!
-//! The firmware runs it in the TIM2 compare-1 interrupt (`step.rs`) over the real timer and GPIO
-//! registers; `target-tests/src/bin/bench_step.rs` includes this same file and runs it over a
-//! memory-backed fake of those registers to count its instructions. So it depends on nothing but
-//! the core and `core`, and reaches the hardware only through [`StepHardware`].
+//! The firmware runs it in the TIM2 compare-1 interrupt (`firmware/src/step.rs`) over the real
+//! timer and GPIO registers; the emulated board (`host-sender/src/step_clock.rs`) runs it over a
+//! timer on its virtual clock; `target-tests/src/bin/bench_step.rs` runs it over a memory-backed
+//! fake of the registers to count its instructions. It reaches the hardware only through
+//! [`StepHardware`].
 //!
 //! Timeline of one step (timer counts from the update that starts a period):
 //! - count 0, the update: a DMA request copies the *step word* (a GPIO BSRR word raising this
@@ -28,86 +29,23 @@
 //! A late run never loses or repeats a step: the step word it would have written is kept for the
 //! next period, and the word the hardware copies at an unprepared update is the reset word.
 
-use gantry_machine::motion::kernel::{
-    SegmentSource, StepKernel, StepTiming, TickOut, KERNEL_TIMER_HZ,
-};
-use gantry_machine::motion::output_event::OutputEvent;
+use super::hardware::StepHardware;
+use super::pins::PinWords;
+use crate::motion::kernel::{SegmentSource, StepKernel, StepTiming, TickOut, KERNEL_TIMER_HZ};
+use crate::motion::output_event::OutputEvent;
 
 /// Tick period while the kernel is idle (1 ms), i.e. how often an empty queue is polled.
 pub const IDLE_PERIOD_COUNTS: u32 = KERNEL_TIMER_HZ / 1_000;
 
+/// Kernel ticks computed ahead of the step pins ([`StepIsr::next`] and [`StepIsr::after`]): the
+/// kernel's position leads the pins by up to this many steps per axis, a stop latched by the
+/// kernel still lets that many go out, and the first step after an idle poll finds a segment
+/// comes that many periods after the one that poll set.
+pub const TICKS_AHEAD: u32 = 2;
+
 /// Timer counts kept between the body's timer read and the next update, for its writes in
 /// between ([`StepTiming::WRITE_GUARD`], where the figure is derived).
 pub const WRITE_GUARD: u32 = StepTiming::WRITE_GUARD;
-
-/// GPIO BSRR words for the step and dir pins, indexed by the kernel's 6-bit step and dir bytes:
-/// one table lookup and one register write each, no loop in the interrupt.
-pub struct PinWords {
-    /// Raises the step pins of each step mask.
-    pub step_set: [u32; 64],
-    /// Drops every step pin (the pulse end, and the step word of an unprepared update).
-    pub step_reset: u32,
-    /// Sets every dir pin for each dir mask (bit set = negative = pin high).
-    pub dir: [u32; 64],
-}
-
-impl PinWords {
-    /// Words for step and dir pins with these masks (bit n of a port = pin n), axis order; the
-    /// step pins share one port and so do the dir pins.
-    pub const fn new(step: &[u32], dir: &[u32]) -> Self {
-        let mut words = PinWords {
-            step_set: [0; 64],
-            step_reset: 0,
-            dir: [0; 64],
-        };
-        let mut axis = 0;
-        while axis < step.len() {
-            words.step_reset |= step[axis] << 16;
-            axis += 1;
-        }
-        let mut bits = 0;
-        while bits < 64 {
-            let mut axis = 0;
-            while axis < step.len() {
-                if bits & (1 << axis) != 0 {
-                    words.step_set[bits] |= step[axis];
-                }
-                axis += 1;
-            }
-            let mut axis = 0;
-            while axis < dir.len() {
-                words.dir[bits] |= if bits & (1 << axis) != 0 {
-                    dir[axis]
-                } else {
-                    dir[axis] << 16
-                };
-                axis += 1;
-            }
-            bits += 1;
-        }
-        words
-    }
-}
-
-/// The registers the body reads and writes (TIM2 and GPIO on the board, plain memory in the
-/// benchmark).
-pub trait StepHardware {
-    /// Timer counts since the last update.
-    fn count(&self) -> u32;
-    /// Auto-reload value of the running period (its length − 1). The body writes it once per
-    /// period (preloaded: it takes effect at the next update), after reading it.
-    fn reload(&self) -> u32;
-    /// Sets the reload value that takes effect at the next update.
-    fn set_reload(&mut self, reload: u32);
-    /// Writes the dir port's BSRR.
-    fn write_dir(&mut self, bsrr: u32);
-    /// Sets the step word the next update copies to the step port's BSRR.
-    fn set_step_word(&mut self, bsrr: u32);
-    /// Switches one user output (an on-the-fly M code).
-    fn write_output(&mut self, event: OutputEvent);
-    /// The touch probe's raw level (true = pin low = closed), for the kernel's probe latch.
-    fn probe_closed(&self) -> bool;
-}
 
 /// What a run of the body did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -144,7 +82,7 @@ pub struct Prepared {
 impl Prepared {
     /// The writes of an idle kernel at power-up: no step, dir pins left low, a poll a period
     /// later.
-    const IDLE: Prepared = Prepared {
+    pub const IDLE: Prepared = Prepared {
         dir_word: 0,
         step_word: 0,
         reload: IDLE_PERIOD_COUNTS - 1,

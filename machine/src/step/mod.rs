@@ -1,0 +1,16 @@
+//! The step interrupt, written once: its body ([`isr`]), the pin words it writes ([`pins`]), the
+//! registers it reaches ([`hardware::StepHardware`]), the main loop's access to its state
+//! ([`access`]) and the pulse timing it keeps ([`timing`]). The firmware's TIM2 and DMA (`firmware/src/step.rs`) and the emulated board's
+//! virtual timer (`host-sender/src/step_clock.rs`) each implement [`StepHardware`] and nothing
+//! more.
+
+pub mod access;
+pub mod hardware;
+pub mod isr;
+pub mod pins;
+pub mod timing;
+
+pub use access::{KernelSnapshot, SegmentQueue};
+pub use hardware::StepHardware;
+pub use isr::{Prepared, Run, StepIsr, IDLE_PERIOD_COUNTS, TICKS_AHEAD, WRITE_GUARD};
+pub use pins::PinWords;
