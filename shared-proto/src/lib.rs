@@ -26,13 +26,13 @@ pub use channel::{
 pub use frame::{encode_frame, Frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
 pub use messages::{
     BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, Line, LineText, MachineState,
-    OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
+    ModesStatus, OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
 };
 
 /// Protocol version exchanged in the handshake: major in the high byte, minor
 /// in the low byte. Endpoints connect only when the majors are equal (see
 /// `docs/protocol.md`, version policy).
-pub const PROTOCOL_VERSION: u16 = 0x0400;
+pub const PROTOCOL_VERSION: u16 = 0x0500;
 
 /// True when two protocol versions can talk (same major).
 pub const fn versions_compatible(a: u16, b: u16) -> bool {

@@ -173,6 +173,9 @@ wire_messages! {
         /// Run the homing cycle for the axes in the bit mask (bit 0 = X; 0 = all); answered by
         /// [`BoardMsg::Answer`] `{ id, .. }`.
         Realtime Home { id: u32, axes: u8 },
+        /// Spindle speed override in percent (the board clamps it to 10..=200); it scales the
+        /// spindle output, the programmed S stays as programmed.
+        Realtime SpindleOverride(u16),
     }
 }
 
@@ -240,7 +243,8 @@ pub enum SpindleStatus {
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct OutputsStatus {
     pub spindle: SpindleStatus,
-    /// Programmed spindle speed (S), rpm; 0 with the spindle off.
+    /// Programmed spindle speed (S), rpm; 0 with the spindle off. The speed commanded to the
+    /// spindle is this times [`Status::spindle_override`] / 100.
     pub rpm: u32,
     pub mist: bool,
     pub flood: bool,
@@ -262,6 +266,10 @@ pub struct Status {
     pub feed_override: u16,
     /// Rapid override, %.
     pub rapid_override: u16,
+    /// Spindle speed override, %.
+    pub spindle_override: u16,
+    /// The program's modes of the block being executed.
+    pub modes: ModesStatus,
     /// Planner blocks in use.
     pub planner_fill: u16,
     /// Link queue slots in use (lines received but not yet interpreted).
@@ -276,6 +284,18 @@ pub struct Status {
     pub outputs: OutputsStatus,
     /// The last probe move's result since power-up (`None` before the first).
     pub probe: Option<ProbeStatus>,
+}
+
+/// The program's modes of the block being executed (not of the lines the board has read ahead).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ModesStatus {
+    /// Programmed path speed, µm/min (a rapid: the machine's limit for it; 0 with nothing
+    /// queued). [`Status::feed_um_min`] is the actual speed.
+    pub programmed_feed_um_min: u32,
+    /// Work system: 0..=8 = G54..G59.3.
+    pub work_system: u8,
+    /// The program's units are inches (G20); else millimetres (G21).
+    pub inch: bool,
 }
 
 /// The result of a G38 probe move (docs/probing.md).

@@ -58,6 +58,8 @@ fn random_board(r: &mut Rng) -> BoardMsg {
             feed_um_min: r.next_u32(),
             feed_override: 100,
             rapid_override: 100,
+            spindle_override: 100,
+            modes: Default::default(),
             planner_fill: 3,
             queue_fill: 2,
             line: r.next_u32(),

@@ -19,6 +19,8 @@ fn status(line: u32) -> BoardMsg {
         feed_um_min: 1_200_000,
         feed_override: 100,
         rapid_override: 100,
+        spindle_override: 100,
+        modes: Default::default(),
         planner_fill: 3,
         queue_fill: 1,
         line,
@@ -400,7 +402,7 @@ fn version_mismatch_is_refused() {
     let mut buf = [0u8; MAX_FRAME_LEN];
     assert!(host.poll_transmit(0, &mut buf).is_some()); // Hello
     let ack = HelloAck {
-        version: 0x0500,
+        version: 0x7F00,
         nonce: host.nonce(),
         boot_id: 1,
         rx_capacity: 16,
@@ -418,13 +420,13 @@ fn version_mismatch_is_refused() {
     assert_eq!(
         host.state(),
         LinkState::Incompatible {
-            peer_version: 0x0500
+            peer_version: 0x7F00
         }
     );
     assert_eq!(
         host.poll_event(),
         Some(LinkEvent::VersionMismatch {
-            peer_version: 0x0500
+            peer_version: 0x7F00
         })
     );
 

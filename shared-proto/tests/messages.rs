@@ -5,7 +5,7 @@ use gantry_proto::codec;
 use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN, MAX_PAYLOAD};
 use gantry_proto::messages::SETUP_CHUNK_MAX;
 use gantry_proto::{
-    BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, Line, MachineState, OutputsStatus,
+    BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, Line, MachineState, ModesStatus, OutputsStatus,
     ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
 };
 use serde::{de::DeserializeOwned, Serialize};
@@ -73,6 +73,7 @@ fn all_host() -> Vec<HostMsg> {
         HostMsg::StatusRequest,
         HostMsg::Unlock { id: 3 },
         HostMsg::Home { id: 4, axes: 0b111 },
+        HostMsg::SpindleOverride(120),
     ]
 }
 
@@ -84,6 +85,8 @@ fn worst_status() -> Status {
         feed_um_min: u32::MAX,
         feed_override: u16::MAX,
         rapid_override: u16::MAX,
+        spindle_override: u16::MAX,
+        modes: ModesStatus { programmed_feed_um_min: u32::MAX, work_system: u8::MAX, inch: true },
         planner_fill: u16::MAX,
         queue_fill: u16::MAX,
         line: u32::MAX,
@@ -123,6 +126,8 @@ fn all_board() -> Vec<BoardMsg> {
                 feed_um_min: 1_200_000,
                 feed_override: 100,
                 rapid_override: 50,
+                spindle_override: 100,
+                modes: Default::default(),
                 planner_fill: 127,
                 queue_fill: 16,
                 line: 99,
@@ -281,6 +286,7 @@ fn lanes() {
                 | HostMsg::StatusRequest
                 | HostMsg::Unlock { .. }
                 | HostMsg::Home { .. }
+                | HostMsg::SpindleOverride(_)
         );
         assert_eq!(m.lane() == Lane::Realtime, rt, "{m:?}");
     }

@@ -23,7 +23,7 @@ use crate::present::{alarm_text, limit_text, outputs_text, refusal_text, state_n
 use crate::program::Program;
 use crate::program_stops;
 use crate::resume::resume_preamble;
-use crate::session::{Flow, JobStart, Session, Target};
+use crate::session::{Flow, JobStart, Overrides, Session, Target};
 use anyhow::Context;
 use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::setup::Setup;
@@ -129,10 +129,7 @@ enum Cmd {
     Hold,
     Resume,
     Abort,
-    Overrides {
-        feed: Option<u16>,
-        rapid: Option<u16>,
-    },
+    Overrides(Overrides),
     /// Jog `axis` towards `dir` (±1) by `step_nm` (0: continuous, to the end of the travel).
     Jog {
         axis: u8,
@@ -302,7 +299,7 @@ fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
         Cmd::Hold => e(s.hold(), "feed hold sent"),
         Cmd::Resume => e(s.resume(), "resume sent"),
         Cmd::Abort => e(s.abort(), "abort sent"),
-        Cmd::Overrides { feed, rapid } => e(s.set_overrides(feed, rapid), "override sent"),
+        Cmd::Overrides(o) => e(s.set_overrides(o), "override sent"),
         Cmd::JogStop => e(s.jog_stop(), "jog stopped"),
         Cmd::Jog {
             axis,
@@ -653,10 +650,11 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
         "hold" => c.ask(Cmd::Hold)?,
         "resume" | "continue" => c.ask(Cmd::Resume)?,
         "abort" => c.ask(Cmd::Abort)?,
-        "override" => c.ask(Cmd::Overrides {
+        "override" => c.ask(Cmd::Overrides(Overrides {
             feed: percent(body, "feed")?,
             rapid: percent(body, "rapid")?,
-        })?,
+            spindle: percent(body, "spindle")?,
+        }))?,
         "jog" => {
             let step = num(body, "step").unwrap_or(0.0);
             if !(0.0..=1000.0).contains(&step) {

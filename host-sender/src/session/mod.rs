@@ -26,6 +26,26 @@ use crate::program::Program;
 use gantry_machine::setup::Setup;
 use gantry_proto::{BoardMsg, HostMsg, Status};
 
+/// Override percentages to set (`None`: leave that one as it is).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Overrides {
+    /// Feed override, 10-200 %.
+    pub feed: Option<u16>,
+    /// Rapid override, 1-100 %.
+    pub rapid: Option<u16>,
+    /// Spindle speed override, 10-200 %.
+    pub spindle: Option<u16>,
+}
+
+impl Overrides {
+    /// The status shows every override given.
+    pub fn shown_in(&self, s: &Status) -> bool {
+        self.feed.is_none_or(|f| s.feed_override == f)
+            && self.rapid.is_none_or(|r| s.rapid_override == r)
+            && self.spindle.is_none_or(|p| s.spindle_override == p)
+    }
+}
+
 /// Where `gantry` sends its commands.
 pub enum Target {
     /// The built-in emulated board, with this setup.
@@ -171,13 +191,16 @@ impl Session {
         self.send(HostMsg::Abort)
     }
 
-    /// Sets the feed and/or rapid override (%).
-    pub fn set_overrides(&mut self, feed: Option<u16>, rapid: Option<u16>) -> anyhow::Result<()> {
-        if let Some(f) = feed {
+    /// Sets the overrides given (%).
+    pub fn set_overrides(&mut self, o: Overrides) -> anyhow::Result<()> {
+        if let Some(f) = o.feed {
             self.send(HostMsg::FeedOverride(f))?;
         }
-        if let Some(r) = rapid {
+        if let Some(r) = o.rapid {
             self.send(HostMsg::RapidOverride(r))?;
+        }
+        if let Some(s) = o.spindle {
+            self.send(HostMsg::SpindleOverride(s))?;
         }
         Ok(())
     }

@@ -122,7 +122,7 @@ pub fn status(
     pins(out, InputBits(view.inputs), board);
     // WCO and Ov: when they change, and every 10th report.
     sparse.count = (sparse.count + 1) % 10;
-    let wco = board.interpreter().state().offset();
+    let wco = board.executing_modes().offset;
     let o = board.outputs();
     let acc = [
         (o.spindle == Spindle::Cw, 'S'),
