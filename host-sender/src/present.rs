@@ -201,9 +201,9 @@ pub fn format_status(s: &Status, axes: usize) -> String {
         state_name(s.state),
         pos(&s.machine_pos),
         pos(&s.work_pos),
-        modes_text(&s.modes),
+        modes_text(s),
         s.feed_um_min as f64 / 1000.0,
-        s.modes.programmed_feed_um_min as f64 / 1000.0,
+        s.programmed_feed_um_min as f64 / 1000.0,
         s.feed_override,
         s.rapid_override,
         s.spindle_override,
@@ -234,9 +234,9 @@ pub fn work_system_name(n: u8) -> &'static str {
 }
 
 /// The executing block's work system and units: `G54, G21 (mm)`.
-pub fn modes_text(m: &gantry_proto::ModesStatus) -> String {
-    let units = if m.inch { "G20 (inch)" } else { "G21 (mm)" };
-    format!("{}, {units}", work_system_name(m.work_system))
+pub fn modes_text(s: &Status) -> String {
+    let units = if s.inch { "G20 (inch)" } else { "G21 (mm)" };
+    format!("{}, {units}", work_system_name(s.work_system))
 }
 
 /// The spindle, coolant and tool as the board drives them: `spindle CW 12000 rpm, flood, tool 3`.
@@ -299,7 +299,9 @@ mod tests {
             feed_override: 100,
             rapid_override: 100,
             spindle_override: 100,
-            modes: Default::default(),
+            programmed_feed_um_min: 0,
+            work_system: 0,
+            inch: false,
             planner_fill: 0,
             queue_fill: 0,
             line: 7,

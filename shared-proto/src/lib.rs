@@ -26,7 +26,7 @@ pub use channel::{
 pub use frame::{encode_frame, Frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
 pub use messages::{
     BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, Line, LineText, MachineState,
-    ModesStatus, OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
+    OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
 };
 
 /// Protocol version exchanged in the handshake: major in the high byte, minor

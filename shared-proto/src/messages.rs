@@ -266,10 +266,16 @@ pub struct Status {
     pub feed_override: u16,
     /// Rapid override, %.
     pub rapid_override: u16,
-    /// Spindle speed override, %.
-    pub spindle_override: u16,
-    /// The program's modes of the block being executed.
-    pub modes: ModesStatus,
+    /// Spindle speed override, % (10..=200: one byte keeps the status at 200 bytes in the
+    /// board's queues).
+    pub spindle_override: u8,
+    /// Programmed path speed of the block being executed, µm/min (a rapid: the machine's limit
+    /// for it; 0 with nothing queued). `feed_um_min` is the actual speed.
+    pub programmed_feed_um_min: u32,
+    /// Work system of the block being executed: 0..=8 = G54..G59.3.
+    pub work_system: u8,
+    /// The block being executed is in inches (G20); else millimetres (G21).
+    pub inch: bool,
     /// Planner blocks in use.
     pub planner_fill: u16,
     /// Link queue slots in use (lines received but not yet interpreted).
@@ -284,18 +290,6 @@ pub struct Status {
     pub outputs: OutputsStatus,
     /// The last probe move's result since power-up (`None` before the first).
     pub probe: Option<ProbeStatus>,
-}
-
-/// The program's modes of the block being executed (not of the lines the board has read ahead).
-#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct ModesStatus {
-    /// Programmed path speed, µm/min (a rapid: the machine's limit for it; 0 with nothing
-    /// queued). [`Status::feed_um_min`] is the actual speed.
-    pub programmed_feed_um_min: u32,
-    /// Work system: 0..=8 = G54..G59.3.
-    pub work_system: u8,
-    /// The program's units are inches (G20); else millimetres (G21).
-    pub inch: bool,
 }
 
 /// The result of a G38 probe move (docs/probing.md).

@@ -5,7 +5,7 @@ use gantry_proto::codec;
 use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN, MAX_PAYLOAD};
 use gantry_proto::messages::SETUP_CHUNK_MAX;
 use gantry_proto::{
-    BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, Line, MachineState, ModesStatus, OutputsStatus,
+    BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, Line, MachineState, OutputsStatus,
     ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
 };
 use serde::{de::DeserializeOwned, Serialize};
@@ -85,8 +85,10 @@ fn worst_status() -> Status {
         feed_um_min: u32::MAX,
         feed_override: u16::MAX,
         rapid_override: u16::MAX,
-        spindle_override: u16::MAX,
-        modes: ModesStatus { programmed_feed_um_min: u32::MAX, work_system: u8::MAX, inch: true },
+        spindle_override: u8::MAX,
+        programmed_feed_um_min: u32::MAX,
+        work_system: u8::MAX,
+        inch: true,
         planner_fill: u16::MAX,
         queue_fill: u16::MAX,
         line: u32::MAX,
@@ -127,7 +129,9 @@ fn all_board() -> Vec<BoardMsg> {
                 feed_override: 100,
                 rapid_override: 50,
                 spindle_override: 100,
-                modes: Default::default(),
+                programmed_feed_um_min: 0,
+                work_system: 0,
+                inch: false,
                 planner_fill: 127,
                 queue_fill: 16,
                 line: 99,

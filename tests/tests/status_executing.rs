@@ -37,7 +37,11 @@ fn mid_cut(eb: &mut EmulatedBoard) {
     eb.run_ms(2_000);
     assert_eq!(eb.board.state(), State::Run);
     assert_eq!(eb.board.line(), 6);
-    assert_eq!(eb.board.lines_buffered(), 0, "the rest of the program is read");
+    assert_eq!(
+        eb.board.lines_buffered(),
+        0,
+        "the rest of the program is read"
+    );
 }
 
 #[test]
@@ -53,15 +57,15 @@ fn a_tool_length_read_ahead_does_not_move_the_work_position_of_the_cut() {
     assert_eq!(s.work_pos[2], -MM);
     assert_eq!(s.work_pos[1], 0);
     assert_eq!(s.machine_pos[0] - s.work_pos[0], 0);
-    assert_eq!(s.modes.programmed_feed_um_min, 600_000);
-    assert_eq!(s.modes.work_system, 0);
-    assert!(!s.modes.inch);
+    assert_eq!(s.programmed_feed_um_min, 600_000);
+    assert_eq!(s.work_system, 0);
+    assert!(!s.inch);
     // Once the retract under H2 runs, the status has H2: machine Z −80 + 22.5 + 5.
     until_state(&mut eb, State::Idle, 30_000);
     let s = status_of(&eb.board, &eb.kernel_view());
     assert_eq!(s.machine_pos[2], -52_500_000);
     assert_eq!(s.work_pos[2], 5 * MM);
-    assert_eq!(s.modes.programmed_feed_um_min, 0, "nothing queued");
+    assert_eq!(s.programmed_feed_um_min, 0, "nothing queued");
 }
 
 #[test]
@@ -84,7 +88,10 @@ fn grbl_reports_the_offset_of_the_cut_in_wco() {
             }
             run(&mut eb, 1, &mut seen);
         }
-        assert!(seen.matches("ok\r\n").count() > oks, "no ok for {line}: {seen}");
+        assert!(
+            seen.matches("ok\r\n").count() > oks,
+            "no ok for {line}: {seen}"
+        );
     }
     assert!(eb.run_until(60_000, |b| b.board.line() == 6));
     eb.run_ms(2_000);
@@ -94,7 +101,10 @@ fn grbl_reports_the_offset_of_the_cut_in_wco() {
     run(&mut eb, 50, &mut seen);
     // MPos Z −71 and WCO Z = G54 −80 + H1 10 = −70 mm (not −57.5 with the H2 read ahead), so
     // the sender's work Z is −1.
-    let report = seen.lines().find(|l| l.starts_with("<Run")).unwrap_or_else(|| panic!("{seen}"));
+    let report = seen
+        .lines()
+        .find(|l| l.starts_with("<Run"))
+        .unwrap_or_else(|| panic!("{seen}"));
     assert!(report.contains(",0.000,-71.000|Ln:6|FS:600,0|"), "{report}");
     assert!(report.contains("|WCO:0.000,0.000,-70.000"), "{report}");
 }
@@ -103,24 +113,25 @@ fn grbl_reports_the_offset_of_the_cut_in_wco() {
 fn units_and_work_system_read_ahead_wait_for_their_move() {
     let mut eb = board(|_| {});
     // 1.6 in = 40.64 mm along X at 20 in/min (5 s), then G21 G55 read ahead.
-    job(
-        &mut eb,
-        "G20 G90 G54\nG1 X1.6 F20\nG21 G55\nG0 X0\n",
-    );
+    job(&mut eb, "G20 G90 G54\nG1 X1.6 F20\nG21 G55\nG0 X0\n");
     assert!(eb.run_until(10_000, |b| b.board.line() == 2));
     eb.run_ms(2_000);
     assert_eq!(eb.board.line(), 2);
     assert!(!eb.board.interpreter().state().inch, "G21 is read");
     let s = status_of(&eb.board, &eb.kernel_view());
-    assert!(s.modes.inch);
-    assert_eq!(s.modes.work_system, 0);
+    assert!(s.inch);
+    assert_eq!(s.work_system, 0);
     // 20 in/min = 508 mm/min.
-    assert_eq!(s.modes.programmed_feed_um_min, 508_000);
-    assert!((500_000..=516_000).contains(&s.feed_um_min), "{}", s.feed_um_min);
+    assert_eq!(s.programmed_feed_um_min, 508_000);
+    assert!(
+        (500_000..=516_000).contains(&s.feed_um_min),
+        "{}",
+        s.feed_um_min
+    );
     until_state(&mut eb, State::Idle, 20_000);
     let s = status_of(&eb.board, &eb.kernel_view());
-    assert!(!s.modes.inch);
-    assert_eq!(s.modes.work_system, 1);
+    assert!(!s.inch);
+    assert_eq!(s.work_system, 1);
 }
 
 #[test]

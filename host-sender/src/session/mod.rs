@@ -42,7 +42,9 @@ impl Overrides {
     pub fn shown_in(&self, s: &Status) -> bool {
         self.feed.is_none_or(|f| s.feed_override == f)
             && self.rapid.is_none_or(|r| s.rapid_override == r)
-            && self.spindle.is_none_or(|p| s.spindle_override == p)
+            && self
+                .spindle
+                .is_none_or(|p| u16::from(s.spindle_override) == p)
     }
 }
 

@@ -10,13 +10,13 @@
 
 use crate::gcode::state::ModalState;
 use crate::units::Pos;
-use heapless::Deque;
 
-/// Mode changes the board remembers while the blocks they belong to wait in the planner. A
-/// program that changes offsets or units more often than this within the planner's look-ahead
-/// has the newest change merged into the one before (its modes are shown a few blocks early); the
-/// motion is the same either way.
-const CHANGES: usize = 3;
+/// Entries of the ring: the active modes and up to `RING - 1` changes still ahead of the machine
+/// (a power of two: the index arithmetic is a mask).
+/// A program that changes offsets or units more often than that within the planner's look-ahead
+/// has its newest change merged into the one before (those modes are shown a few blocks early);
+/// the motion is the same either way.
+const RING: usize = 4;
 
 /// The modal offsets and units a block runs under.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,6 +38,15 @@ impl BlockModes {
             inch: s.inch,
         }
     }
+
+    /// Work position of the machine position `machine`: minus these offsets.
+    pub fn work_position(&self, machine: &Pos) -> Pos {
+        let mut w = *machine;
+        for (w, o) in w.iter_mut().zip(self.offset) {
+            *w -= o;
+        }
+        w
+    }
 }
 
 /// Modes that start with the first block numbered at least `from_seq` whose source line is at
@@ -56,27 +65,45 @@ impl Change {
     }
 }
 
-/// The active modes and the changes still ahead of the machine.
+/// The active modes and the changes still ahead of the machine, in a ring that is never shifted
+/// (a `heapless::Deque` moved its 64-byte entries with a `memmove` the firmware had no other use
+/// for: 1.5 KiB of F411 flash).
 #[derive(Clone, Debug)]
 pub struct Executing {
-    active: BlockModes,
-    changes: Deque<Change, CHANGES>,
+    ring: [Change; RING],
+    /// Index of the active entry.
+    active: usize,
+    /// Index of the newest entry (`active` when no change is ahead).
+    newest: usize,
     /// Programmed path speed of the block being executed, nm/s (rapids: their limit).
     programmed: u32,
 }
 
 impl Executing {
-    pub fn new(modes: BlockModes) -> Self {
+    /// Nothing noted yet: zero offsets, G54, millimetres, until the first motion of a job (noted
+    /// at rest, [`Executing::note`]); [`super::Board::executing_modes`] reads the interpreter
+    /// outside a job. All zero, so the firmware's board starts without copying modes around.
+    pub const fn new() -> Self {
+        const NONE: Change = Change {
+            from_seq: 0,
+            line: 0,
+            modes: BlockModes {
+                offset: [0; crate::units::MAX_AXES],
+                work_system: 0,
+                inch: false,
+            },
+        };
         Executing {
-            active: modes,
-            changes: Deque::new(),
+            ring: [NONE; RING],
+            active: 0,
+            newest: 0,
             programmed: 0,
         }
     }
 
     /// The modes of the block being executed (or executed last).
     pub fn active(&self) -> &BlockModes {
-        &self.active
+        &self.ring[self.active % RING].modes
     }
 
     /// Programmed path speed of the block being executed, nm/s.
@@ -85,43 +112,47 @@ impl Executing {
     }
 
     /// A motion canon of source line `line` is about to be queued, its first block numbered at
-    /// least `next_seq`, under `modes`. `at_rest`: nothing is queued, so they apply at once.
-    pub fn note(&mut self, at_rest: bool, next_seq: u32, line: u32, modes: BlockModes) {
+    /// least `next_seq`, under the modes of `state`. `at_rest`: nothing is queued, so they apply
+    /// at once.
+    pub fn note(&mut self, at_rest: bool, next_seq: u32, line: u32, state: &ModalState) {
+        self.note_modes(at_rest, next_seq, line, BlockModes::of(state));
+    }
+
+    /// [`Executing::note`] with the modes given.
+    #[inline(always)]
+    fn note_modes(&mut self, at_rest: bool, next_seq: u32, line: u32, modes: BlockModes) {
         if at_rest {
-            self.changes.clear();
-            self.active = modes;
+            self.newest = self.active;
+        } else if self.ring[self.newest % RING].modes == modes {
             return;
-        }
-        let newest = self.changes.back().map_or(&self.active, |c| &c.modes);
-        if *newest == modes {
-            return;
-        }
-        let change = Change {
-            from_seq: next_seq,
-            line,
-            modes,
-        };
-        if let Err(change) = self.changes.push_back(change) {
-            if let Some(last) = self.changes.back_mut() {
-                last.modes = change.modes;
+        } else {
+            let next = (self.newest + 1) % RING;
+            if next != self.active {
+                self.newest = next;
+                self.ring[next].from_seq = next_seq;
+                self.ring[next].line = line;
             }
         }
+        self.ring[self.newest % RING].modes = modes;
     }
 
     /// Segment prep works on the block numbered `seq` of source line `line`, at programmed speed
     /// `programmed` (nm/s): the newest change it has reached becomes active, with those before.
     pub fn on_block(&mut self, seq: u32, line: u32, programmed: u32) {
         self.programmed = programmed;
-        let reached = self
-            .changes
-            .iter()
-            .rposition(|c| c.reached_by(seq, line))
-            .map_or(0, |i| i + 1);
-        for _ in 0..reached {
-            if let Some(c) = self.changes.pop_front() {
-                self.active = c.modes;
+        let mut i = self.active;
+        while i != self.newest {
+            i = (i + 1) % RING;
+            if self.ring[i].reached_by(seq, line) {
+                self.active = i;
             }
         }
+    }
+}
+
+impl Default for Executing {
+    fn default() -> Self {
+        Self::new()
     }
 }
 
@@ -139,11 +170,11 @@ mod tests {
 
     #[test]
     fn a_change_waits_for_its_block() {
-        let mut e = Executing::new(modes(0));
-        e.note(true, 0, 2, modes(-10));
+        let mut e = Executing::new();
+        e.note_modes(true, 0, 2, modes(-10));
         assert_eq!(e.active().offset[2], -10);
         // Read ahead: line 9's modes, its first block numbered 5 or later.
-        e.note(false, 5, 9, modes(-20));
+        e.note_modes(false, 5, 9, modes(-20));
         e.on_block(3, 4, 100);
         assert_eq!(e.active().offset[2], -10);
         // A block queued after the note but of an earlier line (a leg held back) is not it.
@@ -156,31 +187,53 @@ mod tests {
 
     #[test]
     fn a_later_change_reached_retires_the_ones_before() {
-        let mut e = Executing::new(modes(0));
-        e.note(false, 1, 5, modes(-1));
-        e.note(false, 2, 6, modes(-2));
+        let mut e = Executing::new();
+        e.note_modes(false, 1, 5, modes(-1));
+        e.note_modes(false, 2, 6, modes(-2));
         e.on_block(3, 7, 1);
         assert_eq!(e.active().offset[2], -2);
         // Unchanged modes add nothing.
-        e.note(false, 4, 8, modes(-2));
+        e.note_modes(false, 4, 8, modes(-2));
         e.on_block(5, 9, 1);
         assert_eq!(e.active().offset[2], -2);
     }
 
     #[test]
-    fn a_full_list_merges_the_newest_change() {
-        let mut e = Executing::new(modes(0));
+    fn a_full_ring_merges_the_newest_change() {
+        let mut e = Executing::new();
         for (i, z) in [-1, -2, -3, -4].into_iter().enumerate() {
-            e.note(false, i as u32, 10 + i as u32, modes(z));
+            e.note_modes(false, i as u32, 10 + i as u32, modes(z));
         }
+        // Three changes fit beside the active modes: line 12's took line 13's modes.
+        e.on_block(0, 10, 1);
+        assert_eq!(e.active().offset[2], -1);
+        e.on_block(1, 11, 1);
+        assert_eq!(e.active().offset[2], -2);
         e.on_block(2, 12, 1);
         assert_eq!(e.active().offset[2], -4);
+        // Room again: the next change is kept apart.
+        e.note_modes(false, 5, 20, modes(-5));
+        e.on_block(4, 19, 1);
+        assert_eq!(e.active().offset[2], -4);
+        e.on_block(5, 20, 1);
+        assert_eq!(e.active().offset[2], -5);
+    }
+
+    #[test]
+    fn at_rest_the_modes_apply_at_once() {
+        let mut e = Executing::new();
+        e.note_modes(false, 1, 5, modes(-1));
+        e.note_modes(true, 9, 9, modes(-9));
+        assert_eq!(e.active().offset[2], -9);
+        // The change noted before is gone: its block never ran.
+        e.on_block(9, 9, 1);
+        assert_eq!(e.active().offset[2], -9);
     }
 
     #[test]
     fn sequence_numbers_wrap() {
-        let mut e = Executing::new(modes(0));
-        e.note(false, u32::MAX, 3, modes(-7));
+        let mut e = Executing::new();
+        e.note_modes(false, u32::MAX, 3, modes(-7));
         e.on_block(u32::MAX - 1, 3, 1);
         assert_eq!(e.active().offset[2], 0);
         e.on_block(0, 3, 1);

@@ -7,7 +7,7 @@ use crate::controller::State;
 use crate::setup::{Setup, SETUP_BLOB_MAX};
 use crate::units::MAX_AXES;
 use gantry_proto::{
-    BoardEndpoint, BoardMsg, Config, HostMsg, Lane, LinkEvent, MachineState, ModesStatus, OutputsStatus,
+    BoardEndpoint, BoardMsg, Config, HostMsg, Lane, LinkEvent, MachineState, OutputsStatus,
     ProbeStatus, ProgramTarget, SpindleStatus, Status,
 };
 
@@ -502,10 +502,7 @@ fn event_message(e: BoardEvent) -> BoardMsg {
 pub fn status_of(board: &Board, view: &KernelView) -> Status {
     let machine = board.machine_position(&view.steps);
     let modes = board.executing_modes();
-    let mut work = machine;
-    for (w, o) in work.iter_mut().zip(modes.offset) {
-        *w -= o;
-    }
+    let work = modes.work_position(&machine);
     let state = match board.state() {
         State::Idle => MachineState::Idle,
         State::Run => MachineState::Run,
@@ -529,12 +526,10 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
         feed_um_min: view.feed_um_min,
         feed_override: board.motion().planner().feed_override(),
         rapid_override: board.motion().planner().rapid_override(),
-        spindle_override: board.spindle_override(),
-        modes: ModesStatus {
-            programmed_feed_um_min: board.programmed_feed_um_min(),
-            work_system: modes.work_system,
-            inch: modes.inch,
-        },
+        spindle_override: board.spindle_override() as u8,
+        programmed_feed_um_min: board.programmed_feed_um_min(),
+        work_system: modes.work_system,
+        inch: modes.inch,
         planner_fill: board.motion().planner().len() as u16,
         queue_fill: board.lines_buffered() as u16,
         line: board.line(),

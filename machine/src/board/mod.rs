@@ -276,10 +276,9 @@ impl Board {
         } else {
             None
         };
-        let interp = Interpreter::new(&setup.interp_config());
         Board {
-            executing: Executing::new(BlockModes::of(interp.state())),
-            interp,
+            executing: Executing::new(),
+            interp: Interpreter::new(&setup.interp_config()),
             motion: Motion::new(MotionConfig::from_setup(&setup)),
             setup,
             mode: match alarm {
@@ -1265,12 +1264,10 @@ impl Board {
                 if let Mode::Job(job) = &mut self.mode {
                     job.last_motion_line = canon.line;
                 }
-            }
-            if is_motion(&canon) {
                 let at_rest = self.motion.state() == MotionState::Idle;
                 let seq = self.motion.planner().next_seq();
-                let modes = BlockModes::of(self.interp.state());
-                self.executing.note(at_rest, seq, canon.line, modes);
+                self.executing
+                    .note(at_rest, seq, canon.line, self.interp.state());
             }
             let pushed = match self.on_the_fly(&canon) {
                 Some((code, output)) => self.motion.push_output(canon.line, code, output),
@@ -1523,22 +1520,12 @@ impl Board {
         self.motion.config().to_nm(kernel_steps)
     }
 
-    /// Work position: machine position minus the active offsets (work system, G92, tool length).
-    pub fn work_position(&self, machine: &Pos) -> Pos {
-        let offset = self.executing_modes().offset;
-        let mut w = [0; MAX_AXES];
-        for i in 0..MAX_AXES {
-            w[i] = machine[i] - offset[i];
-        }
-        w
-    }
-
-    /// The offsets and units of the move being executed: in a job with motion queued, those the
-    /// block the kernel runs was queued under (`board/executing.rs`), not the interpreter's,
-    /// which has read ahead; otherwise (idle, jogging, homing, a job at rest with nothing
-    /// queued) the interpreter's.
+    /// The offsets and units of the move being executed: in a job with blocks in the planner,
+    /// those the block the kernel runs was queued under (`board/executing.rs`), not the
+    /// interpreter's, which has read ahead; otherwise (idle, jogging, homing, a job with nothing
+    /// planned) the interpreter's.
     pub fn executing_modes(&self) -> BlockModes {
-        if matches!(self.mode, Mode::Job(_)) && self.motion.state() != MotionState::Idle {
+        if matches!(self.mode, Mode::Job(_)) && !self.motion.planner().is_empty() {
             *self.executing.active()
         } else {
             BlockModes::of(self.interp.state())
@@ -1546,9 +1533,9 @@ impl Board {
     }
 
     /// Programmed speed of the block being executed, µm/min (rapids: their limit); 0 when
-    /// nothing is queued.
+    /// nothing is planned.
     pub fn programmed_feed_um_min(&self) -> u32 {
-        if self.motion.state() == MotionState::Idle {
+        if self.motion.planner().is_empty() {
             return 0;
         }
         ((u64::from(self.executing.programmed()) * 60 + 500) / 1000) as u32
