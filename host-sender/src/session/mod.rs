@@ -26,6 +26,15 @@ use crate::program::Program;
 use gantry_machine::setup::Setup;
 use gantry_proto::{BoardMsg, HostMsg, Status};
 
+/// What [`Session::pushed_status`] found.
+#[derive(Debug, Default)]
+pub struct Pushed {
+    /// Status reports, newest last.
+    pub statuses: Vec<Status>,
+    /// Jobs that ended.
+    pub jobs_ended: usize,
+}
+
 /// Override percentages to set (`None`: leave that one as it is).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Overrides {
@@ -154,20 +163,23 @@ impl Session {
         self.status.as_ref()
     }
 
-    /// The status reports the board pushed (every 100 ms) since the last call, newest last;
-    /// every other message is kept for whoever waits for it.
-    pub fn pushed_status(&mut self) -> anyhow::Result<Vec<Status>> {
+    /// The status reports the board pushed (every 100 ms) since the last call, newest last, and
+    /// how many jobs ended meanwhile (any command's, through `gantry serve`): for a session that
+    /// only watches, so nothing on it waits for those `JobDone`s. Every other message is kept for
+    /// whoever waits for it.
+    pub fn pushed_status(&mut self) -> anyhow::Result<Pushed> {
         self.link.pump(0)?;
         let mut kept = Vec::new();
-        let mut got = Vec::new();
+        let mut got = Pushed::default();
         while let Some(m) = self.link.recv() {
             match m {
-                BoardMsg::Status(s) => got.push(s),
+                BoardMsg::Status(s) => got.statuses.push(s),
+                BoardMsg::JobDone { .. } => got.jobs_ended += 1,
                 other => kept.push(other),
             }
         }
         self.link.put_back(kept);
-        if let Some(s) = got.last() {
+        if let Some(s) = got.statuses.last() {
             self.status = Some(s.clone());
         }
         Ok(got)
