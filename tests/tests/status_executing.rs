@@ -3,6 +3,7 @@
 //! kernel runs (machine/src/board/executing.rs), in Gantry's status and in grbl's `?` report.
 
 mod controller_support;
+mod serial_support;
 
 use controller_support::*;
 use gantry_machine::board::link::status_of;
@@ -72,7 +73,7 @@ fn a_tool_length_read_ahead_does_not_move_the_work_position_of_the_cut() {
 fn grbl_reports_the_offset_of_the_cut_in_wco() {
     let mut eb = board(with_tools);
     let mut seen = String::new();
-    let mut run = |eb: &mut EmulatedBoard, ms: u64, seen: &mut String| {
+    let run = |eb: &mut EmulatedBoard, ms: u64, seen: &mut String| {
         for _ in 0..ms {
             eb.run_ms(1);
             seen.push_str(&String::from_utf8_lossy(&eb.take_output()));
@@ -148,4 +149,87 @@ fn the_spindle_override_scales_the_output_not_the_programmed_speed() {
     assert_eq!(eb.board.output_levels().spindle_pwm, 625, "15000 rpm");
     eb.board.set_spindle_override(5);
     assert_eq!(eb.board.spindle_override(), 10, "clamped to 10 %");
+}
+
+/// Through the binary: `gantry status` from another terminal while `gantry stream` runs the job
+/// under `gantry serve`, against `gantry emulate --pty` with the two tools in its setup.
+mod through_the_binary {
+    use super::serial_support::*;
+    use std::time::Duration;
+
+    const S: Duration = Duration::from_secs(1);
+
+    #[test]
+    fn gantry_status_shows_the_work_position_of_the_cut_not_of_the_lines_read_ahead() {
+        let dir = Dir::new("status-executing");
+        let setup = dir.file(
+            "tools.toml",
+            "[[tool]]\nnumber = 1\nlength = 10.0\n[[tool]]\nnumber = 2\nlength = 22.5\n",
+        );
+        let emu = Emulator::start(&dir, Some(&setup));
+        let port = emu.port();
+        let server = spawn(&["serve", "--port", port]);
+        assert!(wait_for(10 * S, || server
+            .stderr()
+            .contains("is served on")));
+        let job = dir.file("two-tools.nc", super::TWO_TOOLS);
+        let _sender = spawn(&["stream", job.to_str().unwrap(), "--port", port]);
+        // The cut along X (line 6) takes 10 s; the rest of the program is read ahead by then.
+        let mut text = String::new();
+        assert!(
+            wait_for(30 * S, || {
+                text = gantry(&["status", "--port", port], 10 * S).stdout;
+                text.contains("line:      6\n")
+            }),
+            "{text}\n{}",
+            emu.log()
+        );
+        std::thread::sleep(S);
+        let text = gantry(&["status", "--port", port], 10 * S).stdout;
+        assert!(text.contains("\nline:      6\n"), "{text}");
+        // H1 in force for the cut: machine Z −80 + 10 − 1 = −71, work Z −1 (main showed −13.500:
+        // the H2 read ahead).
+        let z = |name: &str| {
+            let line = text.lines().find(|l| l.starts_with(name)).unwrap();
+            line.split_whitespace()
+                .skip_while(|w| *w != "Z")
+                .nth(1)
+                .unwrap()
+                .to_owned()
+        };
+        assert_eq!(z("machine:"), "-71.000", "{text}");
+        assert_eq!(z("work:"), "-1.000", "{text}");
+        assert!(text.contains("\nprogram:   G54, G21 (mm)\n"), "{text}");
+        assert!(text.contains(", programmed 600.0 mm/min ("), "{text}");
+        let out = gantry(&["abort", "--port", port], 10 * S);
+        assert_eq!(out.code, Some(0), "{out:?}");
+    }
+
+    #[test]
+    fn gantry_override_spindle_sets_the_spindle_speed_override() {
+        let dir = Dir::new("override-spindle");
+        let emu = Emulator::start(&dir, None);
+        let port = emu.port();
+        let out = gantry(&["override", "--spindle", "150", "--port", port], 10 * S);
+        assert_eq!(out.code, Some(0), "{out:?}");
+        assert!(
+            out.stdout
+                .contains("(override feed 100 %, rapid 100 %, spindle 150 %)"),
+            "{out:?}"
+        );
+        let out = gantry(&["status", "--port", port], 10 * S);
+        assert!(out.stdout.contains("spindle 150 %)"), "{out:?}");
+        let out = gantry(&["override", "--spindle", "5", "--port", port], 10 * S);
+        assert_eq!(out.code, Some(2), "{out:?}");
+        assert!(
+            out.stderr.contains("--spindle 5: must be 10-200 %"),
+            "{out:?}"
+        );
+        let out = gantry(&["override", "--port", port], 10 * S);
+        assert_eq!(out.code, Some(2), "{out:?}");
+        assert!(
+            out.stderr.contains("give --feed, --rapid and/or --spindle"),
+            "{out:?}"
+        );
+    }
 }
