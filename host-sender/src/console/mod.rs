@@ -730,7 +730,10 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
         "override" => c.ask(Cmd::Overrides(Overrides {
             feed: percent(body, "feed")?,
             rapid: percent(body, "rapid")?,
-            spindle: percent(body, "spindle")?,
+            spindle: match percent(body, "spindle")? {
+                Some(p) if p < 10 => return Err(format!("spindle override {p} %: give 10 to 200")),
+                p => p,
+            },
         }))?,
         "jog" => {
             let step = num(body, "step").unwrap_or(0.0);
