@@ -28,6 +28,7 @@ function cliStatus() {
   return {
     text: t, state: t.match(/^state:\s+(\S+)/m)[1], machine: pos("machine"), work: pos("work"),
     line: +t.match(/^line:\s+(\d+)/m)[1], fo: +t.match(/override feed (\d+)/)[1],
+    so: +t.match(/spindle (\d+) %/)[1], program: t.match(/^program:\s+(.*)$/m)[1],
   };
 }
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
@@ -139,6 +140,50 @@ async function waitState(page, want, ms = 10000) {
   await page.click("#zero-X");
   await page.waitForFunction(() => document.getElementById("work-X").textContent === "+0.000", null, { timeout: 5000 }).catch(() => {});
   check((await text(page, "#work-X")) === "+0.000" && cliStatus().work[0] === 0, "Zero X: work X 0.000 on the page and in gantry status");
+
+  // The offset table reads the zero back from the board: G54 X is where X stood.
+  await page.waitForFunction((x) => document.getElementById("off-1-X").value === x.toFixed(3), x1, { timeout: 5000 }).catch(() => {});
+  check((await page.inputValue("#off-1-X")) === x1.toFixed(3), `the G54 row shows the G10 L20 zero: X ${await page.inputValue("#off-1-X")} (machine X ${x1})`);
+  // Edited in the table (G10 L2 P2), read back from the board.
+  await page.fill("#off-2-Y", "12.5");
+  await page.click("#off-set-2");
+  await page.waitForFunction(() => document.getElementById("off-2-Y").value === "12.500", null, { timeout: 5000 }).catch(() => {});
+  const pulled = execFileSync(GANTRY, ["setup", "pull", "--port", PORT], { encoding: "utf8", timeout: 20000 });
+  check((await page.inputValue("#off-2-Y")) === "12.500" && /^"G55" = \[[^\]]*12\.5/m.test(pulled),
+    "G55 Y 12.5 set in the table: read back on the page and in gantry setup pull");
+
+  // Spindle override: the readout follows (programmed S and the speed commanded).
+  await page.fill("#mdi", "M3 S10000");
+  await page.press("#mdi", "Enter");
+  await page.waitForFunction(() => document.getElementById("rpm").textContent === "10000", null, { timeout: 5000 }).catch(() => {});
+  await page.click("[data-so='10']");
+  await page.waitForFunction(() => document.getElementById("so").textContent === "110", null, { timeout: 5000 }).catch(() => {});
+  const spun = cliStatus();
+  check((await text(page, "#rpm")) === "10000" && (await text(page, "#rpm-actual")) === "11000" && spun.so === 110,
+    `spindle override +10: S ${await text(page, "#rpm")} programmed, ${await text(page, "#rpm-actual")} rpm commanded, gantry status spindle ${spun.so} %`);
+  await page.click("#ovr-reset");
+  await page.waitForFunction(() => document.getElementById("so").textContent === "100", null, { timeout: 5000 }).catch(() => {});
+  check(cliStatus().so === 100, "Reset all: spindle override 100 %");
+  await page.fill("#mdi", "M5");
+  await page.press("#mdi", "Enter");
+
+  // Inch readout after G20: work X 1 mm shows +0.0394 in.
+  await page.fill("#mdi", "G20");
+  await page.press("#mdi", "Enter");
+  await page.waitForFunction(() => document.getElementById("units").textContent === "in", null, { timeout: 5000 }).catch(() => {});
+  await page.locator("body").click({ position: { x: 5, y: 300 } });
+  await page.keyboard.press("ArrowRight");
+  await sleep(300);
+  await waitState(page, "Idle");
+  await sleep(300);
+  const inch = cliStatus();
+  const wantIn = "+" + (inch.work[0] / 25.4).toFixed(4);
+  check((await text(page, "#units")) === "in" && (await text(page, "#work-X")) === wantIn && inch.program.includes("G20"),
+    `after G20 the readout is in inches: work X ${await text(page, "#work-X")} (gantry status ${inch.work[0]} mm, ${inch.program})`);
+  await page.fill("#mdi", "G21");
+  await page.press("#mdi", "Enter");
+  await page.waitForFunction(() => document.getElementById("units").textContent === "mm", null, { timeout: 5000 }).catch(() => {});
+  check((await text(page, "#work-X")) === "+" + inch.work[0].toFixed(3), "after G21: mm again");
 
   await browser.close();
   console.log(failures ? `console test: ${failures} FAILED` : "console test: all passed");

@@ -92,12 +92,15 @@ enum Command {
         #[command(flatten)]
         board: BoardArgs,
     },
-    /// Set the feed (10-200 %) and/or rapid (1-100 %) override.
+    /// Set the feed (10-200 %), rapid (1-100 %) and/or spindle speed (10-200 %) override.
     Override {
         #[arg(long)]
         feed: Option<u16>,
         #[arg(long)]
         rapid: Option<u16>,
+        /// Spindle speed override: scales the spindle output; the programmed S stays.
+        #[arg(long)]
+        spindle: Option<u16>,
         #[command(flatten)]
         board: BoardArgs,
     },
@@ -534,14 +537,31 @@ fn main() -> ExitCode {
             .target(&board, Use::Controls)
             .and_then(|t| oneshot::realtime(t, Some(HostMsg::Abort))),
         Command::Unlock { board } => m.target(&board, Use::Controls).and_then(oneshot::unlock),
-        Command::Override { feed, rapid, board } => m.target(&board, Use::Controls).and_then(|t| {
+        Command::Override {
+            feed,
+            rapid,
+            spindle,
+            board,
+        } => m.target(&board, Use::Controls).and_then(|t| {
             if let Some(f) = feed {
                 anyhow::ensure!((10..=200).contains(&f), "--feed {f}: must be 10-200 %");
             }
             if let Some(r) = rapid {
                 anyhow::ensure!((1..=100).contains(&r), "--rapid {r}: must be 1-100 %");
             }
-            oneshot::set_overrides(t, feed, rapid)
+            if let Some(s) = spindle {
+                anyhow::ensure!((10..=200).contains(&s), "--spindle {s}: must be 10-200 %");
+            }
+            let o = host_sender::session::Overrides {
+                feed,
+                rapid,
+                spindle,
+            };
+            anyhow::ensure!(
+                o != host_sender::session::Overrides::default(),
+                "give --feed, --rapid and/or --spindle"
+            );
+            oneshot::set_overrides(t, o)
         }),
         Command::Jog {
             axis,

@@ -207,13 +207,16 @@ pub fn format_status(s: &Status, axes: usize) -> String {
         .map(|i| AXIS_LETTERS[i])
         .collect();
     format!(
-        "state:     {}\nmachine:   {}\nwork:      {}\nfeed:      {:.1} mm/min (override feed {} %, rapid {} %)\nline:      {}\nbuffers:   {} planner blocks, {} lines\ninputs:    {:#010x}\nhomed:     {}\noutputs:   {}",
+        "state:     {}\nmachine:   {}\nwork:      {}\nprogram:   {}\nfeed:      {:.1} mm/min, programmed {:.1} mm/min (override feed {} %, rapid {} %, spindle {} %)\nline:      {}\nbuffers:   {} planner blocks, {} lines\ninputs:    {:#010x}\nhomed:     {}\noutputs:   {}",
         state_name(s.state),
         pos(&s.machine_pos),
         pos(&s.work_pos),
+        modes_text(s),
         s.feed_um_min as f64 / 1000.0,
+        s.programmed_feed_um_min as f64 / 1000.0,
         s.feed_override,
         s.rapid_override,
+        s.spindle_override,
         s.line,
         s.planner_fill,
         s.queue_fill,
@@ -230,6 +233,20 @@ pub fn format_status(s: &Status, axes: usize) -> String {
         ),
         _ => String::new(),
     }
+}
+
+/// Name of work system `n` (0 = G54 .. 8 = G59.3).
+pub fn work_system_name(n: u8) -> &'static str {
+    const NAMES: [&str; 9] = [
+        "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
+    ];
+    NAMES.get(usize::from(n)).copied().unwrap_or("G54")
+}
+
+/// The executing block's work system and units: `G54, G21 (mm)`.
+pub fn modes_text(s: &Status) -> String {
+    let units = if s.inch { "G20 (inch)" } else { "G21 (mm)" };
+    format!("{}, {units}", work_system_name(s.work_system))
 }
 
 /// The spindle, coolant and tool as the board drives them: `spindle CW 12000 rpm, flood, tool 3`.
@@ -291,6 +308,10 @@ mod tests {
             feed_um_min: 0,
             feed_override: 100,
             rapid_override: 100,
+            spindle_override: 100,
+            programmed_feed_um_min: 0,
+            work_system: 0,
+            inch: false,
             planner_fill: 0,
             queue_fill: 0,
             line: 7,

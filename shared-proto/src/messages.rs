@@ -178,6 +178,9 @@ wire_messages! {
         /// already makes it ask for the lines it misses). It resumes nothing: a take-over sends
         /// [`HostMsg::Resume`] only for the hold its lost predecessor left.
         Realtime TakeOver,
+        /// Spindle speed override in percent (the board clamps it to 10..=200); it scales the
+        /// spindle output, the programmed S stays as programmed.
+        Realtime SpindleOverride(u16),
     }
 }
 
@@ -245,7 +248,8 @@ pub enum SpindleStatus {
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct OutputsStatus {
     pub spindle: SpindleStatus,
-    /// Programmed spindle speed (S), rpm; 0 with the spindle off.
+    /// Programmed spindle speed (S), rpm; 0 with the spindle off. The speed commanded to the
+    /// spindle is this times [`Status::spindle_override`] / 100.
     pub rpm: u32,
     pub mist: bool,
     pub flood: bool,
@@ -267,6 +271,16 @@ pub struct Status {
     pub feed_override: u16,
     /// Rapid override, %.
     pub rapid_override: u16,
+    /// Spindle speed override, % (10..=200: one byte keeps the status at 200 bytes in the
+    /// board's queues).
+    pub spindle_override: u8,
+    /// Programmed path speed of the block being executed, µm/min (a rapid: the machine's limit
+    /// for it; 0 with nothing queued). `feed_um_min` is the actual speed.
+    pub programmed_feed_um_min: u32,
+    /// Work system of the block being executed: 0..=8 = G54..G59.3.
+    pub work_system: u8,
+    /// The block being executed is in inches (G20); else millimetres (G21).
+    pub inch: bool,
     /// Planner blocks in use.
     pub planner_fill: u16,
     /// Link queue slots in use (lines received but not yet interpreted).

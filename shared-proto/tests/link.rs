@@ -19,6 +19,10 @@ fn status(line: u32) -> BoardMsg {
         feed_um_min: 1_200_000,
         feed_override: 100,
         rapid_override: 100,
+        spindle_override: 100,
+        programmed_feed_um_min: 0,
+        work_system: 0,
+        inch: false,
         planner_fill: 3,
         queue_fill: 1,
         line,
@@ -290,7 +294,15 @@ fn host_restart_resumes_without_loss_or_repetition() {
         }
     }
     let last = resumed.expect("reconnected");
-    assert!(last >= 4_000 && last < s.next_send);
+    // Every line the board's application took (4,000 before the crash, lines 0..=3,999, and
+    // any it took alone after) was delivered, so the handshake reports at least the last of
+    // them; lines beyond what the host sent cannot be.
+    assert!(
+        last + 1 >= s.next_recv && last < s.next_send,
+        "last {last}, next_recv {}, next_send {}",
+        s.next_recv,
+        s.next_send
+    );
     s.next_send = last + 1;
     // Marks the old host never acknowledged come again to the new host.
     s.next_mark = 0;
@@ -401,7 +413,7 @@ fn version_mismatch_is_refused() {
     let mut buf = [0u8; MAX_FRAME_LEN];
     assert!(host.poll_transmit(0, &mut buf).is_some()); // Hello
     let ack = HelloAck {
-        version: 0x0600,
+        version: 0x7F00,
         nonce: host.nonce(),
         boot_id: 1,
         rx_capacity: 16,
@@ -419,13 +431,13 @@ fn version_mismatch_is_refused() {
     assert_eq!(
         host.state(),
         LinkState::Incompatible {
-            peer_version: 0x0600
+            peer_version: 0x7F00
         }
     );
     assert_eq!(
         host.poll_event(),
         Some(LinkEvent::VersionMismatch {
-            peer_version: 0x0600
+            peer_version: 0x7F00
         })
     );
 

@@ -73,6 +73,8 @@ fn all_host() -> Vec<HostMsg> {
         HostMsg::StatusRequest,
         HostMsg::Unlock { id: 3 },
         HostMsg::Home { id: 4, axes: 0b111 },
+        HostMsg::TakeOver,
+        HostMsg::SpindleOverride(120),
     ]
 }
 
@@ -84,6 +86,10 @@ fn worst_status() -> Status {
         feed_um_min: u32::MAX,
         feed_override: u16::MAX,
         rapid_override: u16::MAX,
+        spindle_override: u8::MAX,
+        programmed_feed_um_min: u32::MAX,
+        work_system: u8::MAX,
+        inch: true,
         planner_fill: u16::MAX,
         queue_fill: u16::MAX,
         line: u32::MAX,
@@ -124,6 +130,10 @@ fn all_board() -> Vec<BoardMsg> {
                 feed_um_min: 1_200_000,
                 feed_override: 100,
                 rapid_override: 50,
+                spindle_override: 100,
+                programmed_feed_um_min: 0,
+                work_system: 0,
+                inch: false,
                 planner_fill: 127,
                 queue_fill: 16,
                 line: 99,
@@ -283,6 +293,8 @@ fn lanes() {
                 | HostMsg::StatusRequest
                 | HostMsg::Unlock { .. }
                 | HostMsg::Home { .. }
+                | HostMsg::TakeOver
+                | HostMsg::SpindleOverride(_)
         );
         assert_eq!(m.lane() == Lane::Realtime, rt, "{m:?}");
     }

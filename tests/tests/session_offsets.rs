@@ -186,3 +186,31 @@ fn a_setup_push_keeps_the_boards_offsets_unless_the_file_names_them() {
     assert!(text.contains("\"G54\" = [1.0, 2.0, 3.0]"), "{text}");
     assert!(text.contains("g28_home = [10.0, 5.0, 0.0]"), "{text}");
 }
+
+/// Under `gantry serve`, which answers setup requests from its copy of the board's setup, a zero
+/// set by a job is in the setup the next command reads (serve read it again after the job).
+#[test]
+fn setup_pull_through_serve_shows_a_zero_set_by_a_job() {
+    let dir = Dir::new("offsets-serve");
+    let emu = Emulator::start(&dir, None);
+    let port = emu.port();
+    let server = spawn(&["serve", "--port", port]);
+    assert!(wait_for(T, || server.stderr().contains("is served on")));
+    // serve has read the setup before this job.
+    let out = gantry(&["--port", port, "setup", "pull"], T);
+    assert!(out.stdout.contains("\"G54\" = [0.0, 0.0, 0.0]"), "{out:?}");
+    let out = gantry(
+        &[
+            "--port",
+            port,
+            "mdi",
+            "G21 G90 G0 X10 Y5",
+            "G10 L20 P1 X0 Y0",
+        ],
+        T,
+    );
+    assert_eq!(out.code, Some(0), "{out:?}");
+    let out = gantry(&["--port", port, "setup", "pull"], T);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(out.stdout.contains("\"G54\" = [10.0, 5.0, 0.0]"), "{out:?}");
+}

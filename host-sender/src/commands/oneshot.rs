@@ -9,7 +9,7 @@ use super::{check_can_start, ctrl_c_flag, print_notices, CONFIRM_MS};
 use crate::emulator::emulated_with_switches;
 use crate::link::OnClose;
 use crate::present::{alarm_text, format_status, limit_text, refusal_text, state_name};
-use crate::session::{Flow, Session, Target};
+use crate::session::{Flow, Overrides, Session, Target};
 use gantry_machine::setup::Setup;
 use gantry_machine::units::AXIS_LETTERS;
 use gantry_proto::{HostMsg, Status};
@@ -140,20 +140,15 @@ fn expected_after(msg: &HostMsg, before: &Status) -> Option<Expectation> {
 
 /// Sets the feed and/or rapid override (already range-checked) and prints the status once the
 /// board shows them.
-pub fn set_overrides(
-    target: Target,
-    feed: Option<u16>,
-    rapid: Option<u16>,
-) -> anyhow::Result<ExitCode> {
+pub fn set_overrides(target: Target, overrides: Overrides) -> anyhow::Result<ExitCode> {
     let mut session = connect(target)?;
     let axes = session.axes();
-    session.set_overrides(feed, rapid)?;
+    session.set_overrides(overrides)?;
     let start = session.now_ms();
     loop {
         session.pump(20)?;
         let s = session.status()?;
-        if feed.is_none_or(|f| s.feed_override == f) && rapid.is_none_or(|r| s.rapid_override == r)
-        {
+        if overrides.shown_in(&s) {
             println!("{}", format_status(&s, axes));
             return Ok(ExitCode::SUCCESS);
         }

@@ -299,6 +299,9 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
                     }
                     // Only the server asks the board for its setup.
                     BoardMsg::SetupChunk { .. } | BoardMsg::SetupEnd { .. } => continue,
+                    // A job may have set work offsets (G10, G28.1, G30.1), which the board keeps
+                    // in its setup (`Board::keep_stored_offsets`): read it again.
+                    BoardMsg::JobDone { .. } => setup_stale = true,
                     BoardMsg::Answer { id, code } if commits.contains(id) => {
                         commits.retain(|c| c != id);
                         setup_stale |= *code == 0;

@@ -23,7 +23,7 @@ async function post(what, body) {
 }
 
 // ---- readout ----
-const fmt = (v) => (v < 0 ? "" : "+") + v.toFixed(3);
+const fmt = (v, digits = 3) => (v < 0 ? "" : "+") + v.toFixed(digits);
 function buildAxes(letters) {
   const tb = document.querySelector("#axes tbody");
   if (tb.children.length === letters.length) return;
@@ -41,18 +41,28 @@ function buildAxes(letters) {
 function onStatus(s) {
   status = s;
   buildAxes(s.letters);
+  // Work position in the executing move's units: mm to the µm, inches to 0.0001 in.
+  const inch = s.units === "in", digits = inch ? 4 : 3;
+  $("units").textContent = s.units;
+  $("wcs").textContent = s.work_system;
+  for (const u of document.querySelectorAll(".u")) u.textContent = s.units;
   $("state").textContent = s.state;
   $("state").className = "state " + s.state;
   $("words").textContent = s.words !== s.state ? s.words : "";
   $("alarm").hidden = !s.alarm;
   $("alarm").textContent = s.alarm ? s.alarm + " — clear the cause, then Unlock (or Home)" : "";
   s.letters.forEach((l, i) => {
-    $("work-" + l).textContent = fmt(s.work[i]);
+    $("work-" + l).textContent = fmt(s.work_units[i], digits);
     $("mach-" + l).textContent = fmt(s.machine[i]);
   });
-  $("feed").textContent = s.feed.toFixed(1);
+  $("feed").textContent = s.feed_units.toFixed(inch ? 2 : 1);
+  $("pfeed").textContent = s.programmed_feed_units.toFixed(inch ? 2 : 1);
   $("fo").textContent = s.feed_override;
   $("ro").textContent = s.rapid_override;
+  $("so").textContent = s.spindle_override;
+  $("rpm").textContent = s.rpm;
+  $("rpm-actual").textContent = s.rpm_actual;
+  for (const tr of document.querySelectorAll("#offsets tbody tr")) tr.classList.toggle("active", +tr.dataset.p === s.work_system_index + 1);
   $("outputs").textContent = s.outputs;
   $("line").textContent = s.line;
   $("tool").textContent = s.tool ? "T" + s.tool : "none";
@@ -77,6 +87,7 @@ function connect() {
   es.addEventListener("setup", (e) => {
     setup = JSON.parse(e.data);
     if (document.activeElement !== $("setup-toml") && !$("setup-toml").dataset.edited) $("setup-toml").value = setup.toml;
+    showOffsets(setup.offsets);
     draw(true);
   });
   es.addEventListener("job", (e) => onJob(JSON.parse(e.data)));
@@ -121,7 +132,19 @@ $("home-all").onclick = () => post("home", {});
 $("unlock").onclick = () => post("unlock");
 $("fo-set").onclick = () => post("override", { feed: +$("fo-in").value });
 $("ro-set").onclick = () => post("override", { rapid: +$("ro-in").value });
-$("ovr-reset").onclick = () => { $("fo-in").value = 100; $("ro-in").value = 100; post("override", { feed: 100, rapid: 100 }); };
+$("so-set").onclick = () => post("override", { spindle: +$("so-in").value });
+$("ovr-reset").onclick = () => {
+  $("fo-in").value = 100; $("ro-in").value = 100; $("so-in").value = 100;
+  post("override", { feed: 100, rapid: 100, spindle: 100 });
+};
+for (const b of document.querySelectorAll("[data-so]")) {
+  b.onclick = () => {
+    const now = status ? status.spindle_override : 100;
+    const v = Math.max(10, Math.min(200, now + +b.dataset.so));
+    $("so-in").value = v;
+    post("override", { spindle: v });
+  };
+}
 for (const b of document.querySelectorAll("[data-fo]")) {
   b.onclick = () => {
     const now = status ? status.feed_override : 100;
@@ -130,11 +153,30 @@ for (const b of document.querySelectorAll("[data-fo]")) {
     post("override", { feed: v });
   };
 }
-$("off-set").onclick = () => {
-  const body = { p: +$("off-p").value };
-  for (const l of ["X", "Y", "Z"]) if ($("off-" + l).value !== "") body[l] = +$("off-" + l).value;
-  post("offset", body).then((v) => v.ok && log(v.message));
-};
+// Work offsets G54..G59.3 as the board keeps them: one row each, editable, set with G10 L2.
+function showOffsets(offsets) {
+  const tb = document.querySelector("#offsets tbody");
+  if (tb.children.length !== offsets.length) {
+    tb.textContent = "";
+    offsets.forEach((o, i) => {
+      const tr = document.createElement("tr");
+      tr.dataset.p = i + 1;
+      tr.innerHTML = `<th>${o.name}</th>` + ["X", "Y", "Z"].map((l) => `<td><input id="off-${i + 1}-${l}" class="off" inputmode="decimal"></td>`).join("") +
+        `<td><button id="off-set-${i + 1}">Set</button></td>`;
+      tb.append(tr);
+      $("off-set-" + (i + 1)).onclick = () => {
+        const body = { p: i + 1 };
+        for (const l of ["X", "Y", "Z"]) if ($(`off-${i + 1}-${l}`).value !== "") body[l] = +$(`off-${i + 1}-${l}`).value;
+        post("offset", body).then((v) => v.ok && log(v.message));
+      };
+    });
+  }
+  offsets.forEach((o, i) => ["X", "Y", "Z"].forEach((l, a) => {
+    const inp = $(`off-${i + 1}-${l}`);
+    if (inp && document.activeElement !== inp && o.values[a] != null) inp.value = o.values[a].toFixed(3);
+  }));
+}
+$("off-read").onclick = () => post("read_back");
 
 // Jog: a step per press, or (continuous) from press to release.
 const step = () => +$("step").value;

@@ -19,11 +19,13 @@ pub mod program;
 
 use crate::commands::stream::Eta;
 use crate::link::OnClose;
-use crate::present::{alarm_text, limit_text, outputs_text, refusal_text, state_name, state_words};
+use crate::present::{
+    alarm_text, limit_text, outputs_text, refusal_text, state_name, state_words, work_system_name,
+};
 use crate::program::Program;
 use crate::program_stops;
 use crate::resume::resume_preamble;
-use crate::session::{Flow, JobStart, Session, Target};
+use crate::session::{Flow, JobStart, Overrides, Session, Target};
 use anyhow::Context;
 use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::setup::Setup;
@@ -129,10 +131,7 @@ enum Cmd {
     Hold,
     Resume,
     Abort,
-    Overrides {
-        feed: Option<u16>,
-        rapid: Option<u16>,
-    },
+    Overrides(Overrides),
     /// Jog `axis` towards `dir` (±1) by `step_nm` (0: continuous, to the end of the travel).
     Jog {
         axis: u8,
@@ -147,6 +146,8 @@ enum Cmd {
     Zero(u8),
     /// Sets work offsets: `G10 L2 P<p>` with these axis values, mm.
     Offsets(String),
+    /// Reads the board's setup (and the work offsets in it) again.
+    ReadBack,
     PushSetup(Box<Setup>),
 }
 
@@ -254,9 +255,14 @@ fn worker(c: Arc<Console>, rx: mpsc::Receiver<(Cmd, mpsc::Sender<Reply>)>) {
             }
             match session.pushed_status() {
                 Ok(got) => {
-                    if let Some(s) = got.last() {
+                    if let Some(s) = got.statuses.last() {
                         heard = Instant::now();
                         c.hub.publish("status", status_json(s, session.axes()));
+                    }
+                    // A job (any client's: a program, an MDI block) may have set work offsets,
+                    // which the board keeps in its setup: read them back once it is over.
+                    if got.jobs_ended > 0 {
+                        read_back(&mut session, &c);
                     }
                 }
                 Err(e) => {
@@ -302,7 +308,7 @@ fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
         Cmd::Hold => e(s.hold(), "feed hold sent"),
         Cmd::Resume => e(s.resume(), "resume sent"),
         Cmd::Abort => e(s.abort(), "abort sent"),
-        Cmd::Overrides { feed, rapid } => e(s.set_overrides(feed, rapid), "override sent"),
+        Cmd::Overrides(o) => e(s.set_overrides(o), "override sent"),
         Cmd::JogStop => e(s.jog_stop(), "jog stopped"),
         Cmd::Jog {
             axis,
@@ -344,10 +350,27 @@ fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
         Cmd::Unlock => answer(s.unlock(ANSWER_MS), "unlocked"),
         Cmd::Zero(axis) => {
             let letter = AXIS_LETTERS[axis as usize];
-            mdi_here(s, &format!("G10 L20 P0 {letter}0"))
-                .map(|()| format!("work {letter} is 0 here"))
+            let r = mdi_here(s, &format!("G10 L20 P0 {letter}0"))
+                .map(|()| format!("work {letter} is 0 here"));
+            read_back(s, c);
+            r
         }
-        Cmd::Offsets(block) => mdi_here(s, &block).map(|()| format!("{block}: done")),
+        Cmd::Offsets(block) => {
+            // The block is in mm (G21); a program in inches gets its G20 back.
+            let inch = s.last_status().is_some_and(|st| st.inch);
+            let r = if inch {
+                mdi_lines(s, &[block.clone(), "G20".into()])
+            } else {
+                mdi_here(s, &block)
+            }
+            .map(|()| format!("{block}: done"));
+            read_back(s, c);
+            r
+        }
+        Cmd::ReadBack => {
+            read_back(s, c);
+            Ok("the board's setup and work offsets read back".into())
+        }
         Cmd::PushSetup(setup) => match s.push_setup(&setup) {
             Ok(()) => {
                 *c.setup.lock().expect("setup") = Some((*setup).clone());
@@ -359,10 +382,28 @@ fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
     }
 }
 
+/// Reads the board's setup again (the work offsets a job or a zero changed, which the board keeps
+/// in it) and shows it to every page.
+fn read_back(s: &mut Session, c: &Console) {
+    match s.reload_setup() {
+        Ok(setup) => {
+            let setup = setup.clone();
+            c.hub.publish("setup", setup_json(&setup));
+            *c.setup.lock().expect("setup") = Some(setup);
+        }
+        Err(e) => c.notice(format!("cannot read the board's setup back: {e:#}")),
+    }
+}
+
 /// Runs one block that does not move (offsets) on the control session.
 fn mdi_here(s: &mut Session, block: &str) -> Result<(), String> {
+    mdi_lines(s, &[block.to_owned()])
+}
+
+/// Runs blocks that do not move on the control session.
+fn mdi_lines(s: &mut Session, blocks: &[String]) -> Result<(), String> {
     let (program, report) = s
-        .mdi(&[block.to_owned()], &mut |_| Flow::Continue)
+        .mdi(blocks, &mut |_| Flow::Continue)
         .map_err(|e| format!("{e:#}"))?;
     if let Some(e) = report.errors.first() {
         return Err(e.describe("mdi", &program));
@@ -372,6 +413,24 @@ fn mdi_here(s: &mut Session, block: &str) -> Result<(), String> {
 
 fn mm(nm: i64) -> f64 {
     (nm as f64 / 1000.0).round() / 1000.0
+}
+
+/// A length in the program's units: mm to the µm, or inches to 0.0001 in.
+fn in_units(nm: i64, inch: bool) -> f64 {
+    if inch {
+        (nm as f64 / 2540.0).round() / 10_000.0
+    } else {
+        mm(nm)
+    }
+}
+
+/// A speed (µm/min) in the program's units per minute, to 0.1 mm/min or 0.01 in/min.
+fn speed_in_units(um_min: u32, inch: bool) -> f64 {
+    if inch {
+        (f64::from(um_min) / 254.0).round() / 100.0
+    } else {
+        (f64::from(um_min) / 100.0).round() / 10.0
+    }
 }
 
 /// The status as the page reads it.
@@ -403,9 +462,19 @@ fn status_json(s: &Status, axes: usize) -> Value {
         "letters": AXIS_LETTERS[..axes].iter().map(|c| c.to_string()).collect::<Vec<_>>(),
         "machine": s.machine_pos[..axes].iter().map(|&p| mm(p)).collect::<Vec<_>>(),
         "work": s.work_pos[..axes].iter().map(|&p| mm(p)).collect::<Vec<_>>(),
+        // The move being executed, in its program's units (G20/G21).
+        "units": if s.inch { "in" } else { "mm" },
+        "work_units": s.work_pos[..axes].iter().map(|&p| in_units(p, s.inch)).collect::<Vec<_>>(),
+        "work_system": work_system_name(s.work_system),
+        "work_system_index": s.work_system,
         "feed": s.feed_um_min as f64 / 1000.0,
+        "feed_units": speed_in_units(s.feed_um_min, s.inch),
+        "programmed_feed_units": speed_in_units(s.programmed_feed_um_min, s.inch),
         "feed_override": s.feed_override,
         "rapid_override": s.rapid_override,
+        "spindle_override": s.spindle_override,
+        // The speed commanded to the spindle: the programmed S scaled by the override.
+        "rpm_actual": u64::from(s.outputs.rpm) * u64::from(s.spindle_override) / 100,
         "line": s.line,
         "tool": s.outputs.tool,
         "rpm": s.outputs.rpm,
@@ -426,6 +495,11 @@ fn setup_json(s: &Setup) -> Value {
         "axes": axes,
         "travel_min": s.axes[..axes].iter().map(|a| mm(a.travel_min)).collect::<Vec<_>>(),
         "travel_max": s.axes[..axes].iter().map(|a| mm(a.travel_max)).collect::<Vec<_>>(),
+        // G54..G59.3 as the board keeps them (machine mm), read back with the setup.
+        "offsets": s.program.work_offsets.iter().enumerate().map(|(i, o)| json!({
+            "name": work_system_name(i as u8),
+            "values": o[..axes].iter().map(|&v| mm(v)).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
     })
 }
 
@@ -653,10 +727,14 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
         "hold" => c.ask(Cmd::Hold)?,
         "resume" | "continue" => c.ask(Cmd::Resume)?,
         "abort" => c.ask(Cmd::Abort)?,
-        "override" => c.ask(Cmd::Overrides {
+        "override" => c.ask(Cmd::Overrides(Overrides {
             feed: percent(body, "feed")?,
             rapid: percent(body, "rapid")?,
-        })?,
+            spindle: match percent(body, "spindle")? {
+                Some(p) if p < 10 => return Err(format!("spindle override {p} %: give 10 to 200")),
+                p => p,
+            },
+        }))?,
         "jog" => {
             let step = num(body, "step").unwrap_or(0.0);
             if !(0.0..=1000.0).contains(&step) {
@@ -687,6 +765,7 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
         }
         "unlock" => c.ask(Cmd::Unlock)?,
         "zero" => c.ask(Cmd::Zero(axis_of(body)?))?,
+        "read_back" => c.ask(Cmd::ReadBack)?,
         "offset" => {
             // G10 L2 P1..P9 (G54..G59.3) with the values given, mm.
             let p = num(body, "p").unwrap_or(0.0);

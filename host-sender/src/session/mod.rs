@@ -26,6 +26,37 @@ use crate::program::Program;
 use gantry_machine::setup::Setup;
 use gantry_proto::{BoardMsg, HostMsg, Status};
 
+/// What [`Session::pushed_status`] found.
+#[derive(Debug, Default)]
+pub struct Pushed {
+    /// Status reports, newest last.
+    pub statuses: Vec<Status>,
+    /// Jobs that ended.
+    pub jobs_ended: usize,
+}
+
+/// Override percentages to set (`None`: leave that one as it is).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Overrides {
+    /// Feed override, 10-200 %.
+    pub feed: Option<u16>,
+    /// Rapid override, 1-100 %.
+    pub rapid: Option<u16>,
+    /// Spindle speed override, 10-200 %.
+    pub spindle: Option<u16>,
+}
+
+impl Overrides {
+    /// The status shows every override given.
+    pub fn shown_in(&self, s: &Status) -> bool {
+        self.feed.is_none_or(|f| s.feed_override == f)
+            && self.rapid.is_none_or(|r| s.rapid_override == r)
+            && self
+                .spindle
+                .is_none_or(|p| u16::from(s.spindle_override) == p)
+    }
+}
+
 /// Where `gantry` sends its commands.
 pub enum Target {
     /// The built-in emulated board, with this setup.
@@ -145,20 +176,23 @@ impl Session {
         self.status.as_ref()
     }
 
-    /// The status reports the board pushed (every 100 ms) since the last call, newest last;
-    /// every other message is kept for whoever waits for it.
-    pub fn pushed_status(&mut self) -> anyhow::Result<Vec<Status>> {
+    /// The status reports the board pushed (every 100 ms) since the last call, newest last, and
+    /// how many jobs ended meanwhile (any command's, through `gantry serve`): for a session that
+    /// only watches, so nothing on it waits for those `JobDone`s. Every other message is kept for
+    /// whoever waits for it.
+    pub fn pushed_status(&mut self) -> anyhow::Result<Pushed> {
         self.link.pump(0)?;
         let mut kept = Vec::new();
-        let mut got = Vec::new();
+        let mut got = Pushed::default();
         while let Some(m) = self.link.recv() {
             match m {
-                BoardMsg::Status(s) => got.push(s),
+                BoardMsg::Status(s) => got.statuses.push(s),
+                BoardMsg::JobDone { .. } => got.jobs_ended += 1,
                 other => kept.push(other),
             }
         }
         self.link.put_back(kept);
-        if let Some(s) = got.last() {
+        if let Some(s) = got.statuses.last() {
             self.status = Some(s.clone());
         }
         Ok(got)
@@ -184,13 +218,16 @@ impl Session {
         self.send(HostMsg::Abort)
     }
 
-    /// Sets the feed and/or rapid override (%).
-    pub fn set_overrides(&mut self, feed: Option<u16>, rapid: Option<u16>) -> anyhow::Result<()> {
-        if let Some(f) = feed {
+    /// Sets the overrides given (%).
+    pub fn set_overrides(&mut self, o: Overrides) -> anyhow::Result<()> {
+        if let Some(f) = o.feed {
             self.send(HostMsg::FeedOverride(f))?;
         }
-        if let Some(r) = rapid {
+        if let Some(r) = o.rapid {
             self.send(HostMsg::RapidOverride(r))?;
+        }
+        if let Some(s) = o.spindle {
+            self.send(HostMsg::SpindleOverride(s))?;
         }
         Ok(())
     }

@@ -304,6 +304,7 @@ impl BoardLink {
             HostMsg::Abort => board.abort(),
             HostMsg::FeedOverride(p) => board.set_feed_override(p),
             HostMsg::RapidOverride(p) => board.set_rapid_override(p),
+            HostMsg::SpindleOverride(p) => board.set_spindle_override(p),
             HostMsg::StatusRequest => self.status_requested = true,
             // Requests with an id are answered (`BoardMsg::Answer`), accepted or refused.
             HostMsg::Unlock { id } => {
@@ -490,7 +491,8 @@ fn event_message(e: BoardEvent) -> BoardMsg {
 /// The status report of the board as the kernel sees it now.
 pub fn status_of(board: &Board, view: &KernelView) -> Status {
     let machine = board.machine_position(&view.steps);
-    let work = board.work_position(&machine);
+    let modes = board.executing_modes();
+    let work = modes.work_position(&machine);
     let state = match board.state() {
         State::Idle => MachineState::Idle,
         State::Run => MachineState::Run,
@@ -514,6 +516,10 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
         feed_um_min: view.feed_um_min,
         feed_override: board.motion().planner().feed_override(),
         rapid_override: board.motion().planner().rapid_override(),
+        spindle_override: board.spindle_override() as u8,
+        programmed_feed_um_min: board.programmed_feed_um_min(),
+        work_system: modes.work_system,
+        inch: modes.inch,
         planner_fill: board.motion().planner().len() as u16,
         queue_fill: board.lines_buffered() as u16,
         line: board.line(),

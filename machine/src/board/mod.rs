@@ -8,6 +8,7 @@
 //! [`Board::drop_queued`] take back queued segments when a stop or a speed change wants to act
 //! from the kernel's running segment.
 
+pub mod executing;
 mod homing_cycle;
 mod jogging;
 pub mod kernel_view;
@@ -38,6 +39,7 @@ use crate::motion::output_event::OutputEvent;
 use crate::motion::pipeline::{Motion, MotionState, PushError};
 use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
+use executing::{BlockModes, Executing};
 use heapless::Deque;
 pub use jogging::JogRefused;
 pub use mode::Streamer;
@@ -205,6 +207,8 @@ pub struct Board {
     events: Deque<BoardEvent, EVENT_QUEUE>,
     /// Last line the motion has reached (prep finished a block of it).
     line: u32,
+    /// The offsets, units and programmed speed of the block being executed (`board/executing.rs`).
+    executing: Executing,
     /// Where an abort stopped: the line to resume from.
     resume_line: u32,
     /// The kernel was drained at the last [`Board::poll`].
@@ -277,6 +281,7 @@ impl Board {
             None
         };
         Board {
+            executing: Executing::new(),
             interp: Interpreter::new(&setup.interp_config()),
             motion: Motion::new(MotionConfig::from_setup(&setup)),
             setup,
@@ -1108,6 +1113,8 @@ impl Board {
         if let Some(head) = self.motion.planner().head() {
             if seg.is_some() {
                 self.line = head.line;
+                let speed = if head.is_line() { head.programmed } else { 0 };
+                self.executing.on_block(head.seq, head.line, speed);
             }
         }
         seg
@@ -1278,6 +1285,10 @@ impl Board {
                 if let Mode::Job(job) = &mut self.mode {
                     job.last_motion_line = canon.line;
                 }
+                let at_rest = self.motion.state() == MotionState::Idle;
+                let seq = self.motion.planner().next_seq();
+                self.executing
+                    .note(at_rest, seq, canon.line, self.interp.state());
             }
             let pushed = match self.on_the_fly(&canon) {
                 Some((code, output)) => self.motion.push_output(canon.line, code, output),
@@ -1530,14 +1541,25 @@ impl Board {
         self.motion.config().to_nm(kernel_steps)
     }
 
-    /// Work position: machine position minus the active offsets (work system, G92, tool length).
-    pub fn work_position(&self, machine: &Pos) -> Pos {
-        let offset = self.interp.state().offset();
-        let mut w = [0; MAX_AXES];
-        for i in 0..MAX_AXES {
-            w[i] = machine[i] - offset[i];
+    /// The offsets and units of the move being executed: in a job with blocks in the planner,
+    /// those the block the kernel runs was queued under (`board/executing.rs`), not the
+    /// interpreter's, which has read ahead; otherwise (idle, jogging, homing, a job with nothing
+    /// planned) the interpreter's.
+    pub fn executing_modes(&self) -> BlockModes {
+        if matches!(self.mode, Mode::Job(_)) && !self.motion.planner().is_empty() {
+            *self.executing.active()
+        } else {
+            BlockModes::of(self.interp.state())
         }
-        w
+    }
+
+    /// Programmed speed of the block being executed, µm/min (rapids: their limit); 0 when
+    /// nothing is planned.
+    pub fn programmed_feed_um_min(&self) -> u32 {
+        if self.motion.planner().is_empty() {
+            return 0;
+        }
+        ((u64::from(self.executing.programmed()) * 60 + 500) / 1000) as u32
     }
 
     /// Output levels for the pins (spindle enable/direction/PWM, coolant, user outputs).

@@ -95,6 +95,8 @@ pub fn status(
 ) {
     let axes = usize::from(board.setup().axis_count);
     let machine = board.machine_position(&view.steps);
+    // WCO: the offsets of the move being executed (`board/executing.rs`), as grbl's.
+    let modes = board.executing_modes();
     out.byte(b'<');
     out.str(state);
     if prefs.status_mask & 1 != 0 {
@@ -102,7 +104,7 @@ pub fn status(
         position(out, &machine, axes, prefs);
     } else {
         out.str("|WPos:");
-        position(out, &board.work_position(&machine), axes, prefs);
+        position(out, &modes.work_position(&machine), axes, prefs);
     }
     if prefs.status_mask & 2 != 0 {
         let planner = board.motion().planner().len();
@@ -122,7 +124,6 @@ pub fn status(
     pins(out, InputBits(view.inputs), board);
     // WCO and Ov: when they change, and every 10th report.
     sparse.count = (sparse.count + 1) % 10;
-    let wco = board.interpreter().state().offset();
     let o = board.outputs();
     let acc = [
         (o.spindle == Spindle::Cw, 'S'),
@@ -136,6 +137,7 @@ pub fn status(
         board.spindle_override(),
         acc.map(|(on, _)| on),
     );
+    let wco = modes.offset;
     if sparse.count == 0 || sparse.wco != Some(wco) {
         sparse.wco = Some(wco);
         out.str("|WCO:");

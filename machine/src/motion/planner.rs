@@ -263,6 +263,11 @@ impl<const N: usize> Planner<N> {
         self.ring.len()
     }
 
+    /// The sequence number the next queued block gets.
+    pub fn next_seq(&self) -> u32 {
+        self.next_seq
+    }
+
     pub fn is_empty(&self) -> bool {
         self.ring.is_empty()
     }
