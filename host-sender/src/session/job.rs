@@ -7,7 +7,8 @@
 use crate::link::{Client, Transport};
 use crate::program::{Program, ProgramTarget};
 use anyhow::bail;
-use gantry_proto::{BoardMsg, HostMsg, Line, MachineState, Status};
+use gantry_proto::lines::push_record;
+use gantry_proto::{BoardMsg, HostMsg, LineBatch, MachineState, Status};
 
 /// What the sender is serving now.
 struct Serving {
@@ -408,7 +409,9 @@ fn run_job<T: Transport>(
     Ok(report)
 }
 
-/// Sends lines of the current place while the link has credit.
+/// Sends lines of the current place while the link's send queue has room, packed into batches
+/// (`gantry_proto::lines`: as many lines as a frame carries, docs/protocol.md "Line batches"); the
+/// link sends each batch once the board's credit (bytes of its line ring) covers it.
 fn send_lines<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
@@ -416,21 +419,7 @@ fn send_lines<T: Transport>(
     report: &mut StreamReport,
 ) -> anyhow::Result<()> {
     while !serving.ended && client.queued_room() > 0 {
-        if let Some(text) = serving.preamble.pop_front() {
-            let line = Line::new(0, &text)
-                .ok_or_else(|| anyhow::anyhow!("resume preamble block too long: {text}"))?;
-            client.send(if serving.id == 0 {
-                HostMsg::Line(line)
-            } else {
-                HostMsg::ProgramLine {
-                    id: serving.id,
-                    line,
-                }
-            })?;
-            continue;
-        }
-        let n = serving.next_line;
-        if n > program.len() {
+        if serving.preamble.is_empty() && serving.next_line > program.len() {
             let end = if serving.id == 0 {
                 HostMsg::EndOfJob
             } else {
@@ -443,23 +432,41 @@ fn send_lines<T: Transport>(
             serving.ended = true;
             break;
         }
-        serving.next_line += 1;
-        let text = match program.wire_text(n) {
-            Ok(Some(t)) => t,
-            Ok(None) => continue,
-            Err(e) => bail!("{e}"),
-        };
-        let line = Line::new(n, &text).expect("wire_text checked the length");
-        let msg = if serving.id == 0 {
-            HostMsg::Line(line)
-        } else {
-            HostMsg::ProgramLine {
-                id: serving.id,
-                line,
+        let mut records = LineBatch::new();
+        let mut lines = 0;
+        while let Some(text) = serving.preamble.front() {
+            if !push_record(&mut records, 0, text.as_bytes()) {
+                if records.is_empty() {
+                    bail!("resume preamble block too long: {text}");
+                }
+                break;
             }
-        };
-        client.send(msg)?;
-        report.lines_sent += 1;
+            serving.preamble.pop_front();
+        }
+        while serving.preamble.is_empty() && serving.next_line <= program.len() {
+            let n = serving.next_line;
+            let text = match program.wire_text(n) {
+                Ok(Some(t)) => t,
+                Ok(None) => {
+                    serving.next_line += 1;
+                    continue;
+                }
+                Err(e) => bail!("{e}"),
+            };
+            // wire_text checked the length: only a full batch refuses the line.
+            if !push_record(&mut records, n, text.as_bytes()) {
+                break;
+            }
+            serving.next_line += 1;
+            lines += 1;
+        }
+        if !records.is_empty() {
+            client.send(HostMsg::Lines {
+                id: serving.id,
+                records,
+            })?;
+            report.lines_sent += lines;
+        }
     }
     Ok(())
 }
