@@ -243,7 +243,7 @@ mod tests {
 
     #[test]
     fn lines_come_out_in_order_and_stale_ones_are_dropped() {
-        let mut s: StreamSource<{ 4 * super::line_ring::RECORD_MAX }> = StreamSource::new();
+        let mut s: StreamSource<{ 4 * crate::board::line_ring::RECORD_MAX }> = StreamSource::new();
         assert!(s.push(0, 1, "G0 X1"));
         assert!(s.push(0, 2, "M98 P7"));
         assert_eq!(s.next_line(), Some((1, &b"G0 X1"[..])));
@@ -281,7 +281,7 @@ mod tests {
 
     #[test]
     fn resync_asks_for_the_line_after_the_last_one_interpreted() {
-        let mut s: StreamSource<{ 4 * super::line_ring::RECORD_MAX }> = StreamSource::new();
+        let mut s: StreamSource<{ 4 * crate::board::line_ring::RECORD_MAX }> = StreamSource::new();
         s.resync();
         assert_eq!(
             s.take_request(),
@@ -318,7 +318,7 @@ mod tests {
     fn exhausted_only_after_the_end_and_the_last_line() {
         extern crate std;
         // A ring of 262 bytes: "M30" (6 + 3) and a 247-character line fill it.
-        let mut s: StreamSource<{ 2 * super::line_ring::RECORD_MAX }> = StreamSource::new();
+        let mut s: StreamSource<{ 2 * crate::board::line_ring::RECORD_MAX }> = StreamSource::new();
         assert!(!s.is_exhausted());
         assert_eq!(s.next_line(), None);
         assert!(
