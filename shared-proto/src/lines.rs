@@ -89,6 +89,35 @@ pub fn check_records(records: &[u8]) -> Option<RunSummary> {
     Some(summary)
 }
 
+/// The variant index of [`crate::HostMessage::Lines`] on the wire (its first byte).
+pub const LINES_TAG: u8 = 0;
+
+/// A `Lines` message read where it lies: its place id and its records (not checked), or `None`
+/// when `payload` is not a whole `Lines` message. The same bytes as postcard's (variant index,
+/// varint id, varint length, the records), read without a deserializer, so a board decodes every
+/// other message with the one it has for the realtime lane.
+pub fn batch_in_place(payload: &[u8]) -> Option<(u16, &[u8])> {
+    let (&tag, rest) = payload.split_first()?;
+    if tag != LINES_TAG {
+        return None;
+    }
+    let (id, rest) = varint(rest, 3)?;
+    let (len, rest) = varint(rest, 2)?;
+    (rest.len() == len as usize).then_some((u16::try_from(id).ok()?, rest))
+}
+
+/// An unsigned LEB128 varint of at most `max` bytes, and the bytes after it.
+fn varint(bytes: &[u8], max: usize) -> Option<(u32, &[u8])> {
+    let mut value = 0u32;
+    for (i, &b) in bytes.iter().enumerate().take(max) {
+        value |= u32::from(b & 0x7F) << (7 * i);
+        if b & 0x80 == 0 {
+            return Some((value, bytes.get(i + 1..)?));
+        }
+    }
+    None
+}
+
 /// The records of a valid run, in order, as (line number, text).
 pub fn records(run: &[u8]) -> impl Iterator<Item = (u32, &[u8])> {
     let mut rest = run;
@@ -131,6 +160,29 @@ mod tests {
         let mut long = [0u8; RECORD_HEADER + LINE_MAX + 1];
         long[4..6].copy_from_slice(&((LINE_MAX + 1) as u16).to_le_bytes());
         assert_eq!(check_records(&long), None);
+    }
+
+    #[test]
+    fn batches_read_in_place_match_postcard() {
+        let mut records = LineBatch::new();
+        assert!(push_record(&mut records, 5, &[b'G'; 200]));
+        for id in [0u16, 1, 127, 128, 300, u16::MAX] {
+            let msg = crate::HostMsg::Lines {
+                id,
+                records: records.clone(),
+            };
+            let mut buf = [0u8; crate::frame::MAX_PAYLOAD];
+            let n = crate::codec::encode(&msg, &mut buf).unwrap();
+            assert_eq!(batch_in_place(&buf[..n]), Some((id, &records[..])), "id {id}");
+            // Cut short or one byte longer: not a whole message.
+            assert_eq!(batch_in_place(&buf[..n - 1]), None);
+            let mut longer = buf;
+            longer[n] = 0;
+            assert_eq!(batch_in_place(&longer[..n + 1]), None);
+        }
+        let mut buf = [0u8; 16];
+        let n = crate::codec::encode(&crate::HostMsg::EndOfJob, &mut buf).unwrap();
+        assert_eq!(batch_in_place(&buf[..n]), None);
     }
 
     #[test]

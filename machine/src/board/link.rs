@@ -425,9 +425,11 @@ struct Inbox<'a> {
 
 impl QueuedSink for Inbox<'_> {
     fn deliver(&mut self, payload: &[u8]) -> Result<Option<u32>, Refusal> {
-        let msg = gantry_proto::codec::decode_borrowed::<HostMessage<&[u8]>>(payload)
-            .ok_or(Refusal::Undecodable)?;
-        let HostMessage::Lines { id, records } = msg else {
+        // Batches are read in place; anything else with the realtime lane's decoder (one
+        // deserializer for the message enum in flash).
+        let Some((id, records)) = gantry_proto::lines::batch_in_place(payload) else {
+            let msg = gantry_proto::codec::decode::<BoardInbound>(payload)
+                .ok_or(Refusal::Undecodable)?;
             self.queued(msg);
             return Ok(None);
         };
@@ -444,7 +446,7 @@ impl QueuedSink for Inbox<'_> {
 }
 
 impl Inbox<'_> {
-    fn queued(&mut self, msg: HostMessage<&[u8]>) {
+    fn queued(&mut self, msg: BoardInbound) {
         match msg {
             HostMessage::SetupChunk { offset, bytes } => {
                 let rx = &mut self.setup.incoming;
