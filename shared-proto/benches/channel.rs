@@ -8,8 +8,8 @@
 //! CPU on this machine).
 
 use criterion::{Criterion, Throughput};
-use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
 use gantry_proto::channel::{QueuedSink, Refusal};
+use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
 use gantry_proto::lines::{check_records, push_record};
 use gantry_proto::{BoardEndpoint, Config, HostEndpoint, HostMessage, HostMsg, LineBatch};
 use std::hint::black_box;

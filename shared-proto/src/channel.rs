@@ -496,7 +496,8 @@ impl<T: Wire, R: Wire, const TQ: usize, Q: QueuedRecv, const TRT: usize, const R
             // The new host accepts from our base with its own window; resend
             // everything unacknowledged at once.
             self.tx.renumber(self.tx.base(), hello.window);
-            self.rt_tx.renumber(self.rt_tx.base(), u16::from(hello.rt_window));
+            self.rt_tx
+                .renumber(self.rt_tx.base(), u16::from(hello.rt_window));
             self.event(LinkEvent::HostAttached { nonce: hello.nonce });
         }
         self.hello_ack_owed = Some(hello.nonce);

@@ -173,7 +173,11 @@ mod tests {
             };
             let mut buf = [0u8; crate::frame::MAX_PAYLOAD];
             let n = crate::codec::encode(&msg, &mut buf).unwrap();
-            assert_eq!(batch_in_place(&buf[..n]), Some((id, &records[..])), "id {id}");
+            assert_eq!(
+                batch_in_place(&buf[..n]),
+                Some((id, &records[..])),
+                "id {id}"
+            );
             // Cut short or one byte longer: not a whole message.
             assert_eq!(batch_in_place(&buf[..n - 1]), None);
             let mut longer = buf;
@@ -192,7 +196,11 @@ mod tests {
         assert!(push_record(&mut b, 1, &[b'X'; LINE_MAX]));
         assert_eq!(b.len(), RECORD_MAX);
         let room = BATCH_MAX - RECORD_MAX;
-        assert!(!push_record(&mut b, 2, &vec![b'Y'; room - RECORD_HEADER + 1]));
+        assert!(!push_record(
+            &mut b,
+            2,
+            &vec![b'Y'; room - RECORD_HEADER + 1]
+        ));
         assert!(push_record(&mut b, 2, &vec![b'Y'; room - RECORD_HEADER]));
         assert_eq!(b.len(), BATCH_MAX);
     }

@@ -169,7 +169,9 @@ where
 
     fn stream_token(&self) -> Option<u32> {
         match self {
-            HostMessage::Lines { id: 0, records } => crate::lines::records(records).last().map(|(n, _)| n),
+            HostMessage::Lines { id: 0, records } => {
+                crate::lines::records(records).last().map(|(n, _)| n)
+            }
             _ => None,
         }
     }

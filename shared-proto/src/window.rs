@@ -122,9 +122,9 @@ impl<T, const N: usize> SendLane<T, N> {
 
     /// There are unsent messages but the peer's window is closed.
     pub fn blocked(&self) -> bool {
-        self.q.get(self.sent).is_some_and(|next| {
-            self.sent_charge + u32::from(next.charge) > u32::from(self.credit)
-        })
+        self.q
+            .get(self.sent)
+            .is_some_and(|next| self.sent_charge + u32::from(next.charge) > u32::from(self.credit))
     }
 
     /// Applies a cumulative ack `ack` (next seq the peer expects) with credit

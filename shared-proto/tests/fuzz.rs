@@ -11,8 +11,8 @@ use gantry_proto::channel::{QueuedSink, Refusal, HOST_RX_QUEUE};
 use gantry_proto::fault::Rng;
 use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
 use gantry_proto::{
-    BoardEndpoint, BoardMsg, Config, Hello, HelloAck, HostEndpoint, HostMsg, Jog, Lane,
-    LineBatch, MachineState, Status, Wire, PROTOCOL_VERSION,
+    BoardEndpoint, BoardMsg, Config, Hello, HelloAck, HostEndpoint, HostMsg, Jog, Lane, LineBatch,
+    MachineState, Status, Wire, PROTOCOL_VERSION,
 };
 
 /// The board application's store: decoded queued messages within a byte budget (as the board's
@@ -71,7 +71,8 @@ fn random_host(r: &mut Rng) -> HostMsg {
             let mut records = LineBatch::new();
             for _ in 0..1 + r.below(5) {
                 let text = "G1X1Y2".repeat(r.below(17) as usize);
-                let _ = gantry_proto::lines::push_record(&mut records, r.next_u32(), text.as_bytes());
+                let _ =
+                    gantry_proto::lines::push_record(&mut records, r.next_u32(), text.as_bytes());
             }
             HostMsg::Lines {
                 id: r.next_u32() as u16,

@@ -96,7 +96,11 @@ impl Stream {
                 break;
             };
             for (n, text) in lines_of(&m) {
-                assert_eq!((n, text), (self.next_recv, line(self.next_recv)), "host→board order/content");
+                assert_eq!(
+                    (n, text),
+                    (self.next_recv, line(self.next_recv)),
+                    "host→board order/content"
+                );
                 if n.is_multiple_of(100) {
                     sim.board
                         .send(BoardMsg::Mark { line: n, id: 0 })
@@ -231,7 +235,10 @@ fn realtime_bypasses_a_full_queue() {
     sim.host.send(HostMsg::FeedOverride(50)).unwrap();
     sim.pump();
     assert_eq!(sim.board.recv_realtime(), Some(BoardInbound::FeedHold));
-    assert_eq!(sim.board.recv_realtime(), Some(BoardInbound::FeedOverride(50)));
+    assert_eq!(
+        sim.board.recv_realtime(),
+        Some(BoardInbound::FeedOverride(50))
+    );
     // Then the queued lines, in order.
     assert_eq!(sim.board_recv_queued(), Some(batch(1, 1)));
 }

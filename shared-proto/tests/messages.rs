@@ -3,12 +3,12 @@
 
 use gantry_proto::codec;
 use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN, MAX_PAYLOAD};
+use gantry_proto::lines::{push_record, BATCH_MAX, RECORD_MAX};
 use gantry_proto::messages::SETUP_CHUNK_MAX;
 use gantry_proto::{
     BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, LineBatch, MachineState, OutputsStatus,
     ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
 };
-use gantry_proto::lines::{push_record, BATCH_MAX, RECORD_MAX};
 use serde::{de::DeserializeOwned, Serialize};
 use std::fmt::Debug;
 
@@ -318,7 +318,11 @@ fn lanes() {
         Lane::Queued
     );
     assert_eq!(worst_line(0).stream_token(), Some(u32::MAX));
-    assert_eq!(worst_line(1).stream_token(), None, "a served place marks no stream position");
+    assert_eq!(
+        worst_line(1).stream_token(),
+        None,
+        "a served place marks no stream position"
+    );
     assert_eq!(lines(0, &[(3, "G0"), (9, "M2")]).stream_token(), Some(9));
     assert_eq!(lines(0, &[(3, "G0"), (9, "M2")]).charge(), 2 * 6 + 4);
     assert_eq!(HostMsg::EndOfJob.charge(), 0);

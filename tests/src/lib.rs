@@ -84,7 +84,9 @@ impl Transport for FaultyBoard {
             }
             self.board.wait(1);
             let now = self.board.now_ms();
-            if self.outage.is_some_and(|(from, to)| now >= from && now < to)
+            if self
+                .outage
+                .is_some_and(|(from, to)| now >= from && now < to)
                 && self.board.board.state() == gantry_machine::controller::State::Hold
             {
                 self.held_in_outage_ms += 1;

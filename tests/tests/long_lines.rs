@@ -57,11 +57,22 @@ fn a_256_character_line_streams_over_a_pty_and_257_is_refused() {
     );
     std::thread::sleep(Duration::from_millis(300));
     let (steps, _) = emu.last_counts();
-    assert_eq!(steps.trim(), "X 6400 Y 0 Z 0", "nothing moved: {}", emu.log());
+    assert_eq!(
+        steps.trim(),
+        "X 6400 Y 0 Z 0",
+        "nothing moved: {}",
+        emu.log()
+    );
 
     // Without the check the sender still refuses it as it reads the file, with its number.
     let out = gantry(
-        &["--port", emu.port(), "stream", "--no-check", file.to_str().unwrap()],
+        &[
+            "--port",
+            emu.port(),
+            "stream",
+            "--no-check",
+            file.to_str().unwrap(),
+        ],
         T,
     );
     assert_eq!(out.code, Some(2), "{out:?}");
@@ -70,5 +81,10 @@ fn a_256_character_line_streams_over_a_pty_and_257_is_refused() {
         "gantry: line 3: 257 characters without comments and blanks, the board takes at most 256\n"
     );
     let (steps, _) = emu.last_counts();
-    assert_eq!(steps.trim(), "X 6400 Y 0 Z 0", "nothing moved: {}", emu.log());
+    assert_eq!(
+        steps.trim(),
+        "X 6400 Y 0 Z 0",
+        "nothing moved: {}",
+        emu.log()
+    );
 }

@@ -276,9 +276,8 @@ fn run_job<T: Transport>(
     let mut warned_silent = false;
     let mut tool_change_answered = false;
     while !done {
-        let pumped =
-            send_lines(client, program, &mut serving, &mut batch, &mut report)
-                .and_then(|()| client.pump(1));
+        let pumped = send_lines(client, program, &mut serving, &mut batch, &mut report)
+            .and_then(|()| client.pump(1));
         if pumped.is_err() && client.transport.closed() {
             report.link = LinkEnd::Closed;
             report.elapsed_ms = client.transport.now_ms().wrapping_sub(start_ms);

@@ -218,7 +218,11 @@ mod tests {
                 let mut batch = Vec::new();
                 let mut lines = Vec::new();
                 for _ in 0..1 + rnd(4) {
-                    let len = if rnd(8) == 0 { LINE_MAX } else { rnd(40) as usize };
+                    let len = if rnd(8) == 0 {
+                        LINE_MAX
+                    } else {
+                        rnd(40) as usize
+                    };
                     let text: Vec<u8> = (0..len)
                         .map(|i| b'A' + ((next as usize + i) % 26) as u8)
                         .collect();
@@ -247,7 +251,10 @@ mod tests {
             assert_eq!(ring.free(), ring.capacity() - used);
             assert_eq!(ring.lines(), model.len());
         }
-        assert!(run_ons > 1000, "records ran on past the end {run_ons} times");
+        assert!(
+            run_ons > 1000,
+            "records ran on past the end {run_ons} times"
+        );
     }
 
     #[test]

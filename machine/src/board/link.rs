@@ -2,11 +2,11 @@
 //! [`Board`], and reports status and events back. Sans-IO: the owner feeds received bytes in,
 //! drains frames out, and calls [`BoardLink::service`] from its main loop.
 
+use super::{line_ring, Pushed};
 use super::{Board, BoardEvent, JobEnd, JumpTarget};
 use crate::controller::State;
 use crate::setup::{Setup, SETUP_BLOB_MAX};
 use crate::units::MAX_AXES;
-use super::{line_ring, Pushed};
 use gantry_proto::channel::{QueuedSink, Refusal};
 use gantry_proto::{
     BoardEndpoint, BoardInbound, BoardMsg, Config, HostMessage, Lane, LinkEvent, MachineState,
@@ -428,8 +428,8 @@ impl QueuedSink for Inbox<'_> {
         // Batches are read in place; anything else with the realtime lane's decoder (one
         // deserializer for the message enum in flash).
         let Some((id, records)) = gantry_proto::lines::batch_in_place(payload) else {
-            let msg = gantry_proto::codec::decode::<BoardInbound>(payload)
-                .ok_or(Refusal::Undecodable)?;
+            let msg =
+                gantry_proto::codec::decode::<BoardInbound>(payload).ok_or(Refusal::Undecodable)?;
             self.queued(msg);
             return Ok(None);
         };
