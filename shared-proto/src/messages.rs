@@ -315,7 +315,7 @@ wire_messages! {
         /// a board-chosen tag (e.g. an M-code mark).
         Queued Mark { line: u32, id: u32 },
         /// The interpreter jumped (M98/M99): stop serving the previous place and serve lines from
-        /// `target` on as `ProgramLine { id, .. }`. Lines for older ids are dropped by the board.
+        /// `target` on as `Lines { id, .. }`. Lines for older ids are dropped by the board.
         Queued ProgramRequest { id: u16, target: ProgramTarget },
         /// A chunk of the board's setup blob at byte `offset` (answer to `SetupRequest`).
         Queued SetupChunk {
