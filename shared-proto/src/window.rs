@@ -586,6 +586,62 @@ mod tests {
     }
 
     #[test]
+    fn sender_spends_byte_credit_and_goes_back_on_a_nak() {
+        let mut s: SendLane<u32, 8> = SendLane::new();
+        for (i, charge) in [(0, 100), (1, 0), (2, 150), (3, 60)] {
+            s.push(i, charge).unwrap();
+        }
+        s.on_ack(0, 250);
+        // 100 + 0 + 150 = 250 fits; the fourth (60) does not.
+        let sent: std::vec::Vec<u16> =
+            core::iter::from_fn(|| s.next_transmit(0, 10).map(|(q, _)| q)).collect();
+        assert_eq!(sent, [0, 1, 2]);
+        assert!(s.blocked());
+        // An older advertisement for the same ack with less credit changes nothing.
+        s.on_ack(0, 100);
+        assert_eq!(s.credit(), 250);
+        // Two acknowledged: the credit now counts from seq 2 (150 + 60 > 200).
+        assert_eq!(s.on_ack(2, 200), 2);
+        assert!(s.next_transmit(1, 10).is_none());
+        assert_eq!(s.on_ack(2, 210), 0);
+        assert_eq!(s.next_transmit(1, 10).map(|(q, _)| q), Some(3));
+        // A NAK for seq 2 with go-back makes 2 and 3 due again at once.
+        s.on_nak(2, 5, 10, true);
+        let again: std::vec::Vec<u16> =
+            core::iter::from_fn(|| s.next_transmit(5, 10).map(|(q, _)| q)).collect();
+        assert_eq!(again, [2, 3]);
+    }
+
+    #[test]
+    fn direct_lane_delivers_in_order_and_drops_the_rest() {
+        let mut d = DirectLane::new(500);
+        let mut taken = std::vec::Vec::new();
+        assert_eq!(d.on_frame(1, || unreachable!()), RxOutcome::Skipped);
+        assert_eq!(
+            d.on_frame(0, || {
+                taken.push(0);
+                true
+            }),
+            RxOutcome::Delivered(1)
+        );
+        assert_eq!(d.on_frame(0, || unreachable!()), RxOutcome::Duplicate);
+        // Refused by the application (no room): not delivered, counted.
+        assert_eq!(d.on_frame(1, || false), RxOutcome::Violation);
+        assert_eq!(
+            d.on_frame(1, || {
+                taken.push(1);
+                true
+            }),
+            RxOutcome::Delivered(1)
+        );
+        assert_eq!(taken, [0, 1]);
+        assert_eq!(d.counters(), (2, 1, 1));
+        assert!(!d.set_window(400));
+        assert!(d.set_window(450));
+        assert_eq!(QueuedRecv::window(&d), 450);
+    }
+
+    #[test]
     fn sender_respects_window_and_retransmits() {
         let mut s: SendLane<u32, 8> = SendLane::new();
         for i in 0..5 {
