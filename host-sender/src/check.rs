@@ -549,13 +549,13 @@ mod tests {
 
     #[test]
     fn lines_longer_than_the_board_takes_are_errors() {
-        let long = format!("G1 F100 (comment) X{}1", "0".repeat(100)); // 108 characters sent
+        let long = format!("G1 F100 (comment) X{}1", "0".repeat(249)); // 257 characters sent
         let program = format!("G0 X0\n{long}\nG0 X2\n");
         let (report, errors) = human_report("p.nc", program.as_bytes(), &InterpConfig::default());
         assert_eq!(errors, 1, "{report}");
         assert!(
             report.starts_with(
-                "p.nc:2: error: line too long for the board: 108 characters without comments and blanks, at most 104\n"
+                "p.nc:2: error: line too long for the board: 257 characters without comments and blanks, at most 256\n"
             ),
             "{report}"
         );
@@ -564,8 +564,8 @@ mod tests {
         assert_eq!(last["op"], "error");
         assert_eq!(last["line"], 2);
         assert_eq!(out.lines().count(), 2, "{out}");
-        // 104 characters are fine.
-        let fits = format!("G1 F100 X{}1", "0".repeat(96));
+        // 256 characters are fine.
+        let fits = format!("G1 F100 X{}1", "0".repeat(248));
         let (_, errors) = human_report("p.nc", fits.as_bytes(), &InterpConfig::default());
         assert_eq!(errors, 0);
     }

@@ -3,7 +3,7 @@
 //! protocol endpoint on top of it ([`Client`]). It knows nothing of what is connected.
 
 use anyhow::{bail, Context};
-use gantry_proto::{BoardMsg, Config, HostEndpoint, HostMsg, Lane, LinkEvent, SendError};
+use gantry_proto::{BoardMsg, Config, HostEndpoint, HostMsg, Lane, LinkEvent, SendError, Wire};
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
@@ -238,6 +238,8 @@ pub struct Client<T: Transport> {
     stash: std::collections::VecDeque<BoardMsg>,
     /// Handshakes after the first one that found a restarted board (a new boot id).
     board_resets: u32,
+    /// Queued-lane messages handed to the endpoint.
+    queued_sent: u64,
     /// Link clock when the last message arrived from the board.
     last_heard_ms: u32,
     /// The id of the last request this link made ([`Client::request_id`]).
@@ -257,6 +259,7 @@ impl<T: Transport> Client<T> {
             notices: Vec::new(),
             stash: Default::default(),
             board_resets: 0,
+            queued_sent: 0,
             last_heard_ms: 0,
             request: first_request_id(nonce),
         }
@@ -274,6 +277,7 @@ impl<T: Transport> Client<T> {
             notices: Vec::new(),
             stash: Default::default(),
             board_resets: 0,
+            queued_sent: 0,
             last_heard_ms: 0,
             request: first_request_id(nonce),
         };
@@ -349,9 +353,12 @@ impl<T: Transport> Client<T> {
 
     /// Queues a message; gives it back when its lane is full (pump and try again).
     pub fn try_send(&mut self, msg: HostMsg) -> Result<(), Box<HostMsg>> {
+        let queued = msg.lane() == Lane::Queued;
         self.endpoint
             .send(msg)
-            .map_err(|SendError::Full(m)| Box::new(m))
+            .map_err(|SendError::Full(m)| Box::new(m))?;
+        self.queued_sent += u64::from(queued);
+        Ok(())
     }
 
     /// Queues a message, pumping until there is room.
@@ -367,7 +374,17 @@ impl<T: Transport> Client<T> {
         }
     }
 
-    /// Room in the queued lane (lines that can be sent now).
+    /// Queued-lane messages handed to the link since it opened.
+    pub fn queued_sent(&self) -> u64 {
+        self.queued_sent
+    }
+
+    /// Queued-lane messages not yet acknowledged by the board.
+    pub fn unacked_queued(&self) -> usize {
+        self.endpoint.unacked(Lane::Queued)
+    }
+
+    /// Room in the queued lane (messages that can be queued now).
     pub fn queued_room(&self) -> usize {
         self.endpoint.send_capacity(Lane::Queued)
     }

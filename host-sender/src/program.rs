@@ -235,9 +235,12 @@ mod tests {
 
     #[test]
     fn long_lines_are_refused_with_their_number() {
-        let long = format!("G1 X1 (c) {}", "Y1".repeat(60));
-        let p = Program::from_text(&format!("G0\n{long}\n"));
-        assert_eq!(p.wire_text(2), Err(WireTextError { line: 2, len: 124 }));
+        // 4 + 126 × 2 = 256 characters sent: the longest line; one more is refused.
+        let fits = format!("G1 X1 (c) {}", "Y1".repeat(126));
+        let long = format!("G1 X1 (c) {}Z", "Y1".repeat(126));
+        let p = Program::from_text(&format!("G0\n{fits}\n{long}\n"));
+        assert_eq!(p.wire_text(2).unwrap().unwrap().len(), 256);
+        assert_eq!(p.wire_text(3), Err(WireTextError { line: 3, len: 257 }));
     }
 
     #[test]

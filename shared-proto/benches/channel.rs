@@ -1,14 +1,17 @@
-//! Throughput of `Line` frames through the reliable channel: the host
-//! endpoint encodes, the board endpoint decodes, delivers and acknowledges,
+//! Throughput of program lines through the reliable channel, packed into
+//! `Lines` batches as `gantry stream` packs them: the host endpoint encodes,
+//! the board endpoint decodes, hands each batch to its sink and acknowledges,
 //! the host decodes the acks (perfect in-memory pipe, both directions).
 //!
 //! `cargo bench -p gantry-proto --bench channel`; the last line is
-//! `line_frames_per_s: N` (frames delivered to the board application per
-//! second of CPU on this machine).
+//! `lines_per_s: N` (lines delivered to the board application per second of
+//! CPU on this machine).
 
 use criterion::{Criterion, Throughput};
+use gantry_proto::channel::{QueuedSink, Refusal};
 use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
-use gantry_proto::{BoardEndpoint, Config, HostEndpoint, HostMsg, Line};
+use gantry_proto::lines::{check_records, push_record};
+use gantry_proto::{BoardEndpoint, Config, HostEndpoint, HostMessage, HostMsg, LineBatch};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -17,6 +20,29 @@ const CFG: Config = Config {
     hello_interval: 10,
     keepalive: 0,
 };
+
+/// The board application: checks each batch's records and counts the lines (it takes them at once,
+/// so its room is always the whole ring).
+struct Counter(usize);
+
+const RING: u16 = 4096;
+const TEXT: &[u8] = b"G1 X123.456 Y-78.9 F1500";
+
+impl QueuedSink for Counter {
+    fn deliver(&mut self, payload: &[u8]) -> Result<Option<u32>, Refusal> {
+        let m = gantry_proto::codec::decode_borrowed::<HostMessage<&[u8]>>(payload)
+            .ok_or(Refusal::Undecodable)?;
+        if let HostMessage::Lines { records, .. } = m {
+            let run = check_records(records).ok_or(Refusal::Undecodable)?;
+            self.0 += run.lines;
+            return Ok(run.last_line);
+        }
+        Ok(None)
+    }
+    fn room(&self) -> u16 {
+        RING
+    }
+}
 
 struct Pair {
     host: HostEndpoint,
@@ -31,7 +57,7 @@ impl Pair {
     fn new() -> Self {
         let mut p = Self {
             host: HostEndpoint::new_host(CFG, 1),
-            board: BoardEndpoint::new_board(CFG, 2),
+            board: BoardEndpoint::new_board(CFG, 2, RING),
             now: 0,
             next: 1,
             buf: [0; MAX_FRAME_LEN],
@@ -48,12 +74,9 @@ impl Pair {
         while let Some(n) = self.host.poll_transmit(self.now, &mut self.buf) {
             self.wire.extend_from_slice(&self.buf[..n]);
         }
-        self.board.on_bytes(self.now, &self.wire);
-        let mut got = 0;
-        while let Some(m) = self.board.recv_queued() {
-            black_box(&m);
-            got += 1;
-        }
+        let mut counter = Counter(0);
+        self.board.on_bytes(self.now, &self.wire, &mut counter);
+        let got = black_box(counter.0);
         self.wire.clear();
         while let Some(n) = self.board.poll_transmit(self.now, &mut self.buf) {
             self.wire.extend_from_slice(&self.buf[..n]);
@@ -68,12 +91,12 @@ impl Pair {
         let end = self.next + count;
         let mut got = 0;
         while got < count {
-            while self.next < end {
-                let l = Line::new(self.next, "G1 X123.456 Y-78.9 F1500").unwrap();
-                if self.host.send(HostMsg::Line(l)).is_err() {
-                    break;
+            while self.next < end && self.host.send_capacity(gantry_proto::Lane::Queued) > 0 {
+                let mut records = LineBatch::new();
+                while self.next < end && push_record(&mut records, self.next, TEXT) {
+                    self.next += 1;
                 }
-                self.next += 1;
+                let _ = self.host.send(HostMsg::Lines { id: 0, records });
             }
             got += self.step() as u32;
         }
@@ -86,12 +109,14 @@ fn benches(c: &mut Criterion) {
     const BATCH: u32 = 1_000;
     g.throughput(Throughput::Elements(BATCH as u64));
     let mut pair = Pair::new();
-    g.bench_function("line_frames_through_channel", |b| {
+    g.bench_function("lines_through_channel", |b| {
         b.iter(|| black_box(pair.stream(BATCH)))
     });
 
     g.throughput(Throughput::Elements(1));
-    let msg = HostMsg::Line(Line::new(4242, "G1 X123.456 Y-78.9 F1500").unwrap());
+    let mut records = LineBatch::new();
+    push_record(&mut records, 4242, TEXT);
+    let msg = HostMsg::Lines { id: 0, records };
     let mut out = [0u8; MAX_FRAME_LEN];
     let mut dec = FrameDecoder::new();
     g.bench_function("encode_decode_one_line_frame", |b| {
@@ -116,5 +141,5 @@ fn main() {
     let t = Instant::now();
     let got = pair.stream(n);
     let dt = t.elapsed().as_secs_f64();
-    println!("line_frames_per_s: {:.0}", got as f64 / dt);
+    println!("lines_per_s: {:.0}", got as f64 / dt);
 }

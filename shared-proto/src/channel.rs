@@ -9,17 +9,19 @@
 //! (milliseconds recommended) passed into every call; it may wrap.
 //!
 //! Two lanes share the frames (see [`crate::window`]): the queued lane
-//! (credit = free slots of the receiver's queue) and the realtime lane (its
-//! own sequence space and a small window; never waits behind queued data,
-//! transmitted first, handed out first by `recv`). Handshake, reconnect and
+//! (credit = free slots of the host's queue, or free bytes of the board's line
+//! ring: the board takes each queued message as it arrives, through a
+//! [`QueuedSink`]) and the realtime lane (its own sequence space and a small
+//! window; never waits behind queued data, transmitted first, handed out first
+//! by `recv`). Handshake, reconnect and
 //! the boot-id reset detection are described in `docs/protocol.md`.
 
 use crate::frame::{
     encode_frame, DecoderStats, FrameDecoder, Header, Kind, FLAG_NAK, FLAG_POLL, FLAG_RT_NAK,
     MAX_FRAME_LEN, MAX_PAYLOAD,
 };
-use crate::messages::{BoardMsg, Hello, HelloAck, HostMsg, Lane, Wire};
-use crate::window::{seq_before, RecvLane, RxOutcome, SendLane};
+use crate::messages::{BoardInbound, BoardMsg, Hello, HelloAck, HostMsg, Lane, Wire};
+use crate::window::{seq_before, DirectLane, QueuedRecv, RecvLane, RxOutcome, SendLane};
 use crate::{versions_compatible, PROTOCOL_VERSION};
 use heapless::Deque;
 
@@ -128,12 +130,37 @@ pub struct LinkStats {
 
 const EVENTS: usize = 4;
 
+/// Why a [`QueuedSink`] did not take a message (it is not acknowledged; the peer sends it again).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Refusal {
+    /// It does not fit in the room the sink has (the peer exceeded the credit).
+    NoRoom,
+    /// Its bytes are not a message (version skew or a bug).
+    Undecodable,
+}
+
+/// Where an endpoint with a [`DirectLane`] (the board's) hands each queued message, in order, as
+/// its payload bytes: the application decodes it in place and keeps what it needs.
+pub trait QueuedSink {
+    /// Takes the next queued message; `Ok` with its stream token ([`Wire::stream_token`]).
+    fn deliver(&mut self, payload: &[u8]) -> Result<Option<u32>, Refusal>;
+    /// The room the sink has now (the credit advertised to the peer).
+    fn room(&self) -> u16;
+}
+
+/// What the queued lane made of a Data frame.
+enum DataOutcome {
+    Undecodable,
+    Taken(RxOutcome, Option<u32>),
+}
+
 /// A link endpoint sending `T` and receiving `R`.
 ///
-/// `TQ`/`RQ`: queued-lane send queue and receive queue (the receive queue's
-/// free slots are the credit advertised to the peer); `TRT`/`RRT`: the same
-/// for the realtime lane. Each in 1..=255 (checked at compile time).
-pub struct Endpoint<T, R, const TQ: usize, const RQ: usize, const TRT: usize, const RRT: usize> {
+/// `TQ`: queued-lane send queue; `Q`: the queued lane's receiving half (a
+/// [`RecvLane`] queue whose free slots are the credit, or a [`DirectLane`]);
+/// `TRT`/`RRT`: send and receive queues of the realtime lane. Queue sizes in
+/// 1..=255 (checked at compile time).
+pub struct Endpoint<T, R, const TQ: usize, Q, const TRT: usize, const RRT: usize> {
     role: Role,
     cfg: Config,
     state: LinkState,
@@ -144,7 +171,7 @@ pub struct Endpoint<T, R, const TQ: usize, const RQ: usize, const TRT: usize, co
     peer_version: Option<u16>,
     tx: SendLane<T, TQ>,
     rt_tx: SendLane<T, TRT>,
-    rx: RecvLane<R, RQ>,
+    rx: Q,
     rt_rx: RecvLane<R, RRT>,
     decoder: FrameDecoder,
     ack_owed: bool,
@@ -163,22 +190,15 @@ pub struct Endpoint<T, R, const TQ: usize, const RQ: usize, const TRT: usize, co
     encode_errors: u32,
 }
 
-impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const RRT: usize>
-    Endpoint<T, R, TQ, RQ, TRT, RRT>
+impl<T: Wire, R: Wire, const TQ: usize, Q: QueuedRecv, const TRT: usize, const RRT: usize>
+    Endpoint<T, R, TQ, Q, TRT, RRT>
 {
     const CAPS_OK: () = assert!(
-        TQ > 0
-            && RQ > 0
-            && TRT > 0
-            && RRT > 0
-            && TQ <= 255
-            && RQ <= 255
-            && TRT <= 255
-            && RRT <= 255,
+        TQ > 0 && TRT > 0 && RRT > 0 && TQ <= 255 && TRT <= 255 && RRT <= 255,
         "lane capacities must be 1..=255"
     );
 
-    fn new(role: Role, cfg: Config, id: u32) -> Self {
+    fn new(role: Role, cfg: Config, id: u32, rx: Q) -> Self {
         #[allow(clippy::let_unit_value)]
         let _ = Self::CAPS_OK;
         Self {
@@ -195,7 +215,7 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
             peer_version: None,
             tx: SendLane::new(),
             rt_tx: SendLane::new(),
-            rx: RecvLane::new(),
+            rx,
             rt_rx: RecvLane::new(),
             decoder: FrameDecoder::new(),
             ack_owed: false,
@@ -213,19 +233,6 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
             undecodable: 0,
             encode_errors: 0,
         }
-    }
-
-    /// A host endpoint; it starts connecting at once. `nonce` should differ
-    /// between host sessions (e.g. from the process id and clock).
-    pub fn new_host(cfg: Config, nonce: u32) -> Self {
-        Self::new(Role::Host, cfg, nonce)
-    }
-
-    /// A board endpoint. `boot_id` must differ between power-ups (e.g. a boot
-    /// counter in flash, or a hardware RNG value) so a host can tell a reset
-    /// board from a reconnection.
-    pub fn new_board(cfg: Config, boot_id: u32) -> Self {
-        Self::new(Role::Board, cfg, boot_id)
     }
 
     pub fn role(&self) -> Role {
@@ -280,9 +287,10 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
     /// as the peer's credit allows; realtime ones go out before any queued
     /// frame. Accepted before the link is up too (sent after the handshake).
     pub fn send(&mut self, msg: T) -> Result<(), SendError<T>> {
+        let charge = msg.charge();
         match msg.lane() {
-            Lane::Queued => self.tx.push(msg),
-            Lane::Realtime => self.rt_tx.push(msg),
+            Lane::Queued => self.tx.push(msg, charge),
+            Lane::Realtime => self.rt_tx.push(msg, charge),
         }
         .map_err(SendError::Full)
     }
@@ -303,31 +311,17 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
         }
     }
 
-    /// The credit limit the peer granted on the queued lane, as
-    /// (next sequence number to send, first sequence number not allowed).
+    /// The credit the peer granted on the queued lane, as (oldest unacknowledged sequence
+    /// number, what the messages from it on may cost).
     pub fn send_window(&self) -> (u16, u16) {
-        (self.tx.next_seq(), self.tx.limit())
+        (self.tx.base(), self.tx.credit())
     }
 
     // ---------------------------------------------------------- receiving
 
-    /// Takes the next incoming message: realtime first, then queued.
-    pub fn recv(&mut self) -> Option<R> {
-        self.recv_realtime().or_else(|| self.recv_queued())
-    }
-
     /// Takes the next realtime message.
     pub fn recv_realtime(&mut self) -> Option<R> {
         let m = self.rt_rx.pop();
-        if m.is_some() {
-            self.ack_owed = true; // window update
-        }
-        m
-    }
-
-    /// Takes the next queued message; its slot becomes credit for the peer.
-    pub fn recv_queued(&mut self) -> Option<R> {
-        let m = self.rx.pop();
         if m.is_some() {
             self.ack_owed = true; // window update
         }
@@ -341,17 +335,6 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
             Lane::Queued => self.rx.expected(),
             Lane::Realtime => self.rt_rx.expected(),
         }
-    }
-
-    /// Looks at the next queued message without taking it (e.g. to wait for
-    /// planner room before consuming a line).
-    pub fn peek_queued(&self) -> Option<&R> {
-        self.rx.peek()
-    }
-
-    /// Queued messages delivered and not yet taken.
-    pub fn queued_len(&self) -> usize {
-        self.rx.ready_len()
     }
 
     /// Next link event, if any.
@@ -390,8 +373,16 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
 
     // ------------------------------------------------------------- input
 
-    /// Feeds bytes received from the pipe at time `now` (any chunking).
-    pub fn on_bytes(&mut self, now: u32, bytes: &[u8]) {
+    /// Feeds received bytes to the decoder; each complete frame goes to [`Self::on_frame`],
+    /// with `data` taking a Data frame's message into the queued lane. The payload is copied once
+    /// out of the decoder's buffer (a block copy per frame), so the endpoint may change while the
+    /// message is handled.
+    fn on_bytes_with(
+        &mut self,
+        now: u32,
+        bytes: &[u8],
+        data: &mut impl FnMut(&mut Q, u16, &[u8]) -> DataOutcome,
+    ) {
         let mut payload = [0u8; MAX_PAYLOAD];
         for &b in bytes {
             let Some(frame) = self.decoder.push_byte(b) else {
@@ -402,11 +393,17 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
             if let (Some(to), Some(from)) = (payload.get_mut(..n), frame.payload.get(..n)) {
                 to.copy_from_slice(from);
             }
-            self.on_frame(now, header, &payload[..n]);
+            self.on_frame(now, header, payload.get(..n).unwrap_or_default(), data);
         }
     }
 
-    fn on_frame(&mut self, now: u32, h: Header, payload: &[u8]) {
+    fn on_frame(
+        &mut self,
+        now: u32,
+        h: Header,
+        payload: &[u8],
+        data: &mut impl FnMut(&mut Q, u16, &[u8]) -> DataOutcome,
+    ) {
         self.frames_rx = self.frames_rx.wrapping_add(1);
         self.last_rx = Some(now);
         match h.kind {
@@ -444,34 +441,43 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
                     self.ack_owed = true;
                 }
                 self.tx.on_ack(h.ack, h.win);
-                self.rt_tx.on_ack(h.rt_ack, h.rt_win);
+                self.rt_tx.on_ack(h.rt_ack, u16::from(h.rt_win));
                 if h.flags & FLAG_NAK != 0 {
-                    self.tx.on_nak(h.ack, now, self.cfg.rto);
+                    // The board parks nothing on its queued lane: the host goes back to the gap.
+                    let go_back = self.role == Role::Host;
+                    self.tx.on_nak(h.ack, now, self.cfg.rto, go_back);
                 }
                 if h.flags & FLAG_RT_NAK != 0 {
-                    self.rt_tx.on_nak(h.rt_ack, now, self.cfg.rto);
+                    self.rt_tx.on_nak(h.rt_ack, now, self.cfg.rto, false);
                 }
                 if h.kind == Kind::Ack {
                     return;
                 }
+                if h.kind == Kind::Data {
+                    match data(&mut self.rx, h.seq, payload) {
+                        // Not acknowledged: the peer will retransmit; a persistent failure means
+                        // version skew and shows in the counter.
+                        DataOutcome::Undecodable => {
+                            self.undecodable = self.undecodable.wrapping_add(1);
+                        }
+                        DataOutcome::Taken(r, token) => {
+                            self.ack_owed = true;
+                            if let Some(t) = token {
+                                self.last_token = t;
+                            }
+                            if matches!(r, RxOutcome::Parked | RxOutcome::Skipped) {
+                                self.nak_owed = true;
+                            }
+                        }
+                    }
+                    return;
+                }
                 let Some(msg) = decode_exact::<R>(payload) else {
-                    // Not acknowledged: the peer will retransmit; a persistent
-                    // failure means version skew and shows in the counter.
                     self.undecodable = self.undecodable.wrapping_add(1);
                     return;
                 };
                 self.ack_owed = true;
-                if h.kind == Kind::Data {
-                    let last = &mut self.last_token;
-                    let r = self.rx.on_frame_with(h.seq, msg, |m| {
-                        if let Some(t) = m.stream_token() {
-                            *last = t;
-                        }
-                    });
-                    if r == RxOutcome::Parked {
-                        self.nak_owed = true;
-                    }
-                } else if self.rt_rx.on_frame(h.seq, msg) == RxOutcome::Parked {
+                if self.rt_rx.on_frame(h.seq, msg) == RxOutcome::Parked {
                     self.rt_nak_owed = true;
                 }
             }
@@ -490,7 +496,8 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
             // The new host accepts from our base with its own window; resend
             // everything unacknowledged at once.
             self.tx.renumber(self.tx.base(), hello.window);
-            self.rt_tx.renumber(self.rt_tx.base(), hello.rt_window);
+            self.rt_tx
+                .renumber(self.rt_tx.base(), u16::from(hello.rt_window));
             self.event(LinkEvent::HostAttached { nonce: hello.nonce });
         }
         self.hello_ack_owed = Some(hello.nonce);
@@ -524,7 +531,7 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
             &mut self.rt_tx,
             fresh,
             a.rt_next_expected,
-            a.rt_window,
+            u16::from(a.rt_window),
             now,
             self.cfg.rto,
         );
@@ -557,7 +564,7 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
             ack: self.rx.expected(),
             win: self.rx.window(),
             rt_ack: self.rt_rx.expected(),
-            rt_win: self.rt_rx.window(),
+            rt_win: self.rt_rx.window().min(255) as u8,
         }
     }
 
@@ -609,7 +616,7 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
                     version: PROTOCOL_VERSION,
                     nonce: self.nonce,
                     window: self.rx.window(),
-                    rt_window: self.rt_rx.window(),
+                    rt_window: self.rt_rx.window().min(255) as u8,
                 };
                 let r = encode_frame(&Header::new(Kind::Hello), Some(&hello), out);
                 let n = r.ok()?;
@@ -638,12 +645,12 @@ impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const
             version: PROTOCOL_VERSION,
             nonce,
             boot_id: self.boot_id,
-            rx_capacity: RQ as u16,
+            rx_capacity: self.rx.capacity(),
             rt_capacity: RRT as u16,
             next_expected: self.rx.expected(),
             rt_next_expected: self.rt_rx.expected(),
             window: self.rx.window(),
-            rt_window: self.rt_rx.window(),
+            rt_window: self.rt_rx.window().min(255) as u8,
             tx_base: self.tx.base(),
             rt_tx_base: self.rt_tx.base(),
             last_line: self.last_token,
@@ -721,7 +728,7 @@ fn sync_send<T, const N: usize>(
     lane: &mut SendLane<T, N>,
     fresh: bool,
     next_expected: u16,
-    win: u8,
+    win: u16,
     now: u32,
     rto: u32,
 ) {
@@ -734,7 +741,7 @@ fn sync_send<T, const N: usize>(
     }
 }
 
-fn sync_recv<R, const N: usize>(lane: &mut RecvLane<R, N>, fresh: bool, tx_base: u16) {
+fn sync_recv(lane: &mut impl QueuedRecv, fresh: bool, tx_base: u16) {
     if fresh || seq_before(lane.expected(), tx_base) {
         lane.reset(tx_base);
     } else {
@@ -742,22 +749,118 @@ fn sync_recv<R, const N: usize>(lane: &mut RecvLane<R, N>, fresh: bool, tx_base:
     }
 }
 
-/// Host queued-lane send queue: twice the board's credit, so a full window
-/// can be in flight while the application queues the next one.
+impl<T: Wire, R: Wire, const TQ: usize, const RQ: usize, const TRT: usize, const RRT: usize>
+    Endpoint<T, R, TQ, RecvLane<R, RQ>, TRT, RRT>
+{
+    /// A host endpoint; it starts connecting at once. `nonce` should differ
+    /// between host sessions (e.g. from the process id and clock).
+    pub fn new_host(cfg: Config, nonce: u32) -> Self {
+        Self::new(Role::Host, cfg, nonce, RecvLane::new())
+    }
+
+    /// Feeds bytes received from the pipe at time `now` (any chunking).
+    pub fn on_bytes(&mut self, now: u32, bytes: &[u8]) {
+        self.on_bytes_with(now, bytes, &mut |rx, seq, payload| {
+            let Some(msg) = decode_exact::<R>(payload) else {
+                return DataOutcome::Undecodable;
+            };
+            let mut token = None;
+            let r = rx.on_frame_with(seq, msg, |m| {
+                if let Some(t) = m.stream_token() {
+                    token = Some(t);
+                }
+            });
+            DataOutcome::Taken(r, token)
+        });
+    }
+
+    /// Takes the next incoming message: realtime first, then queued.
+    pub fn recv(&mut self) -> Option<R> {
+        self.recv_realtime().or_else(|| self.recv_queued())
+    }
+
+    /// Takes the next queued message; its slot becomes credit for the peer.
+    pub fn recv_queued(&mut self) -> Option<R> {
+        let m = self.rx.pop();
+        if m.is_some() {
+            self.ack_owed = true; // window update
+        }
+        m
+    }
+
+    /// Looks at the next queued message without taking it (e.g. to wait for
+    /// planner room before consuming a line).
+    pub fn peek_queued(&self) -> Option<&R> {
+        self.rx.peek()
+    }
+
+    /// Queued messages delivered and not yet taken.
+    pub fn queued_len(&self) -> usize {
+        self.rx.ready_len()
+    }
+}
+
+impl<T: Wire, R: Wire, const TQ: usize, const TRT: usize, const RRT: usize>
+    Endpoint<T, R, TQ, DirectLane, TRT, RRT>
+{
+    /// A board endpoint whose application holds `capacity` units of queued messages (its line
+    /// ring's bytes). `boot_id` must differ between power-ups (e.g. a boot counter in flash, or a
+    /// hardware RNG value) so a host can tell a reset board from a reconnection.
+    pub fn new_board(cfg: Config, boot_id: u32, capacity: u16) -> Self {
+        Self::new(Role::Board, cfg, boot_id, DirectLane::new(capacity))
+    }
+
+    /// Feeds bytes received from the pipe at time `now` (any chunking); each queued message
+    /// goes to `sink` as it arrives, in order.
+    pub fn on_bytes(&mut self, now: u32, bytes: &[u8], sink: &mut impl QueuedSink) {
+        self.on_bytes_with(now, bytes, &mut |rx, seq, payload| {
+            let mut token = None;
+            let mut undecodable = false;
+            let r = rx.on_frame(seq, || match sink.deliver(payload) {
+                Ok(t) => {
+                    token = t;
+                    true
+                }
+                Err(e) => {
+                    undecodable = e == Refusal::Undecodable;
+                    false
+                }
+            });
+            rx.set_window(sink.room());
+            if undecodable {
+                return DataOutcome::Undecodable;
+            }
+            DataOutcome::Taken(r, token)
+        });
+    }
+
+    /// The application's room changed (it took lines out of its ring): the credit advertised
+    /// from now on. A grown credit is announced at once.
+    pub fn set_window(&mut self, room: u16) {
+        if self.rx.set_window(room) {
+            self.ack_owed = true;
+        }
+    }
+}
+
+/// Host queued-lane send queue: up to this many messages (line batches) queued or in flight.
 pub const HOST_TX_QUEUE: usize = 32;
 /// Host receive queue for board messages.
 pub const HOST_RX_QUEUE: usize = 32;
-/// Board queued-lane receive queue: lines buffered in the link ahead of the
-/// interpreter (the credit the board advertises).
-pub const BOARD_RX_QUEUE: usize = 16;
 /// Board send queue for events.
 pub const BOARD_TX_QUEUE: usize = 16;
 /// Realtime lane queues (both directions).
 pub const RT_QUEUE: usize = 8;
 
 /// The host sender's endpoint.
-pub type HostEndpoint =
-    Endpoint<HostMsg, BoardMsg, HOST_TX_QUEUE, HOST_RX_QUEUE, RT_QUEUE, RT_QUEUE>;
-/// The firmware's endpoint.
+pub type HostEndpoint = Endpoint<
+    HostMsg,
+    BoardMsg,
+    HOST_TX_QUEUE,
+    RecvLane<BoardMsg, HOST_RX_QUEUE>,
+    RT_QUEUE,
+    RT_QUEUE,
+>;
+/// The firmware's endpoint: queued messages go to the board's [`QueuedSink`] as they arrive.
 pub type BoardEndpoint =
-    Endpoint<BoardMsg, HostMsg, BOARD_TX_QUEUE, BOARD_RX_QUEUE, RT_QUEUE, RT_QUEUE>;
+    Endpoint<BoardMsg, BoardInbound, BOARD_TX_QUEUE, DirectLane, RT_QUEUE, RT_QUEUE>;

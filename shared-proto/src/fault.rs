@@ -7,9 +7,7 @@
 //! wanted, an on-target soak test. Order is preserved: a delayed byte also
 //! holds back the bytes behind it, like a stalled USB endpoint.
 
-use crate::channel::Endpoint;
 use crate::frame::MAX_FRAME_LEN;
-use crate::messages::Wire;
 use heapless::Deque;
 
 /// SplitMix64: tiny, fast, good enough for test randomness; not cryptographic.
@@ -227,24 +225,14 @@ impl<const N: usize> Duplex<N> {
     }
 
     /// At time `now`: both endpoints transmit everything due, then every byte
-    /// due is delivered in random chunk sizes (1..=64 bytes).
-    #[allow(clippy::type_complexity)]
-    pub fn step<
-        T: Wire,
-        R: Wire,
-        const ATQ: usize,
-        const ARQ: usize,
-        const ATRT: usize,
-        const ARRT: usize,
-        const BTQ: usize,
-        const BRQ: usize,
-        const BTRT: usize,
-        const BRRT: usize,
-    >(
+    /// due is delivered in random chunk sizes (1..=64 bytes); the board's queued
+    /// messages go to `sink`.
+    pub fn step(
         &mut self,
         now: u32,
-        a: &mut Endpoint<T, R, ATQ, ARQ, ATRT, ARRT>,
-        b: &mut Endpoint<R, T, BTQ, BRQ, BTRT, BRRT>,
+        a: &mut crate::HostEndpoint,
+        b: &mut crate::BoardEndpoint,
+        sink: &mut impl crate::channel::QueuedSink,
     ) {
         let mut buf = [0u8; MAX_FRAME_LEN];
         while let Some(n) = a.poll_transmit(now, &mut buf) {
@@ -260,7 +248,7 @@ impl<const N: usize> Duplex<N> {
             if n == 0 {
                 break;
             }
-            b.on_bytes(now, &chunk[..n]);
+            b.on_bytes(now, &chunk[..n], sink);
         }
         loop {
             let want = 1 + self.chunking.below(64) as usize;
@@ -308,14 +296,31 @@ mod tests {
 
     #[test]
     fn duplex_connects_a_host_and_a_board() {
+        use crate::channel::{QueuedSink, Refusal};
         use crate::{BoardEndpoint, Config, HostEndpoint, HostMsg};
+        /// Keeps the payloads it is given.
+        struct Got(std::vec::Vec<std::vec::Vec<u8>>);
+        impl QueuedSink for Got {
+            fn deliver(&mut self, payload: &[u8]) -> Result<Option<u32>, Refusal> {
+                self.0.push(payload.to_vec());
+                Ok(None)
+            }
+            fn room(&self) -> u16 {
+                100
+            }
+        }
         let mut d: Duplex<4096> = Duplex::new(3, Faults::uniform(10_000));
         let mut host = HostEndpoint::new_host(Config::USB_MS, 1);
-        let mut board = BoardEndpoint::new_board(Config::USB_MS, 2);
+        let mut board = BoardEndpoint::new_board(Config::USB_MS, 2, 100);
+        let mut got = Got(std::vec::Vec::new());
         host.send(HostMsg::Start { id: 1 }).unwrap();
         for t in 0..5_000 {
-            d.step(t, &mut host, &mut board);
-            if board.recv() == Some(HostMsg::Start { id: 1 }) {
+            d.step(t, &mut host, &mut board, &mut got);
+            if let Some(p) = got.0.first() {
+                assert_eq!(
+                    crate::codec::decode::<HostMsg>(p),
+                    Some(HostMsg::Start { id: 1 })
+                );
                 return;
             }
         }

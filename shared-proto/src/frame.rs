@@ -7,11 +7,11 @@
 //! | 0 | 1 | kind (low nibble) and flags (high nibble) |
 //! | 1 | 2 | `seq` (LE): sequence number of a Data or Realtime frame, else 0 |
 //! | 3 | 2 | `ack` (LE): next queued-lane seq the sender of this frame expects |
-//! | 5 | 1 | `win`: free queued-lane slots after `ack` (credit) |
-//! | 6 | 2 | `rt_ack` (LE): next realtime-lane seq expected |
-//! | 8 | 1 | `rt_win`: free realtime-lane slots |
-//! | 9 | n | postcard payload (empty for Ack and Desync) |
-//! | 9+n | 4 | CRC-32/ISO-HDLC over bytes 0..9+n, little-endian |
+//! | 5 | 2 | `win` (LE): queued-lane credit after `ack` (free slots; the board: free line-ring bytes) |
+//! | 7 | 2 | `rt_ack` (LE): next realtime-lane seq expected |
+//! | 9 | 1 | `rt_win`: free realtime-lane slots |
+//! | 10 | n | postcard payload (empty for Ack and Desync) |
+//! | 10+n | 4 | CRC-32/ISO-HDLC over bytes 0..10+n, little-endian |
 //!
 //! COBS (the `cobs` crate) removes every 0x00 from the frame so 0x00 marks
 //! frame boundaries; a receiver that starts mid-stream or sees garbage loses
@@ -21,9 +21,10 @@ use crate::codec;
 use crate::crc::{crc32, CRC_LEN};
 
 /// Bytes of the fixed header.
-pub const HEADER_LEN: usize = 9;
-/// Largest raw frame (header + payload + CRC) before COBS.
-pub const MAX_RAW: usize = 256;
+pub const HEADER_LEN: usize = 10;
+/// Largest raw frame (header + payload + CRC) before COBS: room for a batch holding the longest
+/// line ([`crate::lines::BATCH_MAX`]), or several short ones.
+pub const MAX_RAW: usize = 320;
 /// Largest payload.
 pub const MAX_PAYLOAD: usize = MAX_RAW - HEADER_LEN - CRC_LEN;
 /// Largest frame on the wire, COBS overhead and delimiter included. Buffers
@@ -82,7 +83,7 @@ pub struct Header {
     pub flags: u8,
     pub seq: u16,
     pub ack: u16,
-    pub win: u8,
+    pub win: u16,
     pub rt_ack: u16,
     pub rt_win: u8,
 }
@@ -105,9 +106,9 @@ impl Header {
         b[0] = self.kind as u8 | (self.flags & FLAGS_KNOWN);
         b[1..3].copy_from_slice(&self.seq.to_le_bytes());
         b[3..5].copy_from_slice(&self.ack.to_le_bytes());
-        b[5] = self.win;
-        b[6..8].copy_from_slice(&self.rt_ack.to_le_bytes());
-        b[8] = self.rt_win;
+        b[5..7].copy_from_slice(&self.win.to_le_bytes());
+        b[7..9].copy_from_slice(&self.rt_ack.to_le_bytes());
+        b[9] = self.rt_win;
     }
 
     fn read(b: &[u8; HEADER_LEN]) -> Option<Self> {
@@ -121,9 +122,9 @@ impl Header {
             flags,
             seq: u16::from_le_bytes([b[1], b[2]]),
             ack: u16::from_le_bytes([b[3], b[4]]),
-            win: b[5],
-            rt_ack: u16::from_le_bytes([b[6], b[7]]),
-            rt_win: b[8],
+            win: u16::from_le_bytes([b[5], b[6]]),
+            rt_ack: u16::from_le_bytes([b[7], b[8]]),
+            rt_win: b[9],
         })
     }
 }
@@ -350,7 +351,7 @@ mod tests {
         assert_eq!(gh, h);
         assert_eq!(gp, [0x81, 0x04, 0xEF, 0xFD, 0xB6, 0xF5, 0x0D, 16, 8]);
         assert_eq!(crate::codec::decode::<crate::Hello>(&gp), Some(hello));
-        assert_eq!(MAX_FRAME_LEN, 259);
+        assert_eq!(MAX_FRAME_LEN, 323);
     }
 
     #[test]

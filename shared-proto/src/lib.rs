@@ -1,6 +1,7 @@
 //! Gantry wire protocol shared by the firmware and the host sender (no_std).
 //!
 //! * [`messages`]: what host and board say to each other ([`HostMsg`], [`BoardMsg`]).
+//! * [`lines`]: the records that carry program lines, several per frame.
 //! * [`codec`]: their bytes (postcard, serde derive).
 //! * [`frame`]: COBS frames with a fixed header and CRC-32 ([`encode_frame`], [`FrameDecoder`]).
 //! * [`crc`]: the frame check sequence.
@@ -17,6 +18,7 @@ pub mod codec;
 pub mod crc;
 pub mod fault;
 pub mod frame;
+pub mod lines;
 pub mod messages;
 pub mod window;
 
@@ -25,8 +27,9 @@ pub use channel::{
 };
 pub use frame::{encode_frame, Frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
 pub use messages::{
-    BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, Line, LineText, MachineState,
-    OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
+    BoardInbound, BoardMsg, Hello, HelloAck, HostMessage, HostMsg, JobEnd, Jog, Lane, LineBatch,
+    MachineState, OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES,
+    LINE_MAX,
 };
 
 /// Protocol version exchanged in the handshake: major in the high byte, minor

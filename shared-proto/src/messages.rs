@@ -6,34 +6,22 @@
 //! indices on the wire (declaration order) and [`Wire::lane`] all come from that one list. Each
 //! message belongs to a
 //! [`Lane`]: `Queued` messages are delivered in order and consume the
-//! receiver's credit (its free queue slots); `Realtime` messages travel on a
+//! receiver's credit ([`Wire::charge`]: free queue slots, or the board's free line-ring bytes); `Realtime` messages travel on a
 //! separate sequence space that bypasses the queue (see `docs/protocol.md`).
 //!
 //! Units: lengths in nanometres (`i64`, exact to 1 nm over ±10 m), feeds in
 //! micrometres per minute, overrides in percent.
 
-use heapless::{String, Vec};
+use heapless::Vec;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
-/// Longest G-code line (bytes) a [`Line`] carries.
-///
-/// 104 bytes is the largest text for which the worst-case `Line` frame
-/// (9-byte header, 1-byte tag, 5-byte varint line number, 1-byte length,
-/// text, 4-byte CRC, 1 byte of COBS overhead and the 0x00 delimiter = 126 B)
-/// still fits in two 64-byte USB full-speed bulk packets. It is longer than
-/// grbl's 80-byte line buffer; the host strips comments and blanks before
-/// sending, so CAM output (typically < 60 bytes) fits with room to spare. A
-/// longer line is an error reported by the host against that line.
-pub const LINE_MAX: usize = 104;
+pub use crate::lines::{LineBatch, LINE_MAX};
 
 /// Bytes per setup chunk (one USB packet of payload).
 pub const SETUP_CHUNK_MAX: usize = 64;
 
 /// Number of axes the wire format carries (X Y Z A B C).
 pub const AXES: usize = 6;
-
-/// Text of one G-code line.
-pub type LineText = String<LINE_MAX>;
 
 /// Which path a message takes through the link.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,31 +38,18 @@ pub trait Wire: Serialize + DeserializeOwned {
     /// The lane this message travels on.
     fn lane(&self) -> Lane;
 
-    /// A position in the stream this message marks (the job line number for
-    /// [`HostMsg::Line`]). The receiving endpoint remembers the token of the
+    /// A position in the stream this message marks (the number of the last job line of a
+    /// main-stream [`HostMessage::Lines`]). The receiving endpoint remembers the token of the
     /// last message it delivered and reports it in [`HelloAck::last_line`],
     /// so a restarted host knows where to continue.
     fn stream_token(&self) -> Option<u32> {
         None
     }
-}
 
-/// One G-code line of the streamed job.
-#[derive(Serialize, Deserialize, Clone, Debug, PartialEq, Eq)]
-pub struct Line {
-    /// Line number in the host's file (1-based), used in errors and status.
-    pub line_no: u32,
-    /// The text, comments and blanks stripped by the host.
-    pub text: LineText,
-}
-
-impl Line {
-    /// Builds a line; `None` when `text` is longer than [`LINE_MAX`].
-    pub fn new(line_no: u32, text: &str) -> Option<Self> {
-        Some(Self {
-            line_no,
-            text: LineText::try_from(text).ok()?,
-        })
+    /// What this message costs of the receiver's credit on its lane: one slot, except where the
+    /// receiver counts otherwise (the board counts line bytes, [`HostMessage`]).
+    fn charge(&self) -> u16 {
+        1
     }
 }
 
@@ -97,7 +72,7 @@ pub struct Jog {
 macro_rules! wire_messages {
     (
         $(#[$meta:meta])*
-        pub enum $name:ident {
+        pub enum $name:ident $(<$g:ident>)? {
             $(
                 $(#[$vmeta:meta])* $lane:ident $variant:ident
                 $( ( $($tuple:tt)* ) )? $( { $($named:tt)* } )?
@@ -106,11 +81,11 @@ macro_rules! wire_messages {
     ) => {
         $(#[$meta])*
         #[derive(Serialize, Deserialize, Clone, Debug, PartialEq, Eq)]
-        pub enum $name {
+        pub enum $name $(<$g>)? {
             $( $(#[$vmeta])* $variant $( ( $($tuple)* ) )? $( { $($named)* } )? ),*
         }
 
-        impl $name {
+        impl $(<$g>)? $name $(<$g>)? {
             /// The lane of this kind of message, from its declaration.
             fn declared_lane(&self) -> Lane {
                 match self {
@@ -122,13 +97,13 @@ macro_rules! wire_messages {
 }
 
 wire_messages! {
-    /// Messages from the host to the board.
-    pub enum HostMsg {
-        /// A line of the streamed job.
-        Queued Line(Line),
-        /// Program server answer to the [`BoardMsg::ProgramRequest`] with the same `id`: the
-        /// next line from the requested place on (lines are sent in file order).
-        Queued ProgramLine { id: u16, line: Line },
+    /// Messages from the host to the board; `B` holds a batch's records ([`HostMsg`] on the
+    /// host, [`BoardInbound`] for the board's realtime lane, which never carries lines).
+    pub enum HostMessage<B> {
+        /// Lines of the program, in file order, as records (`crate::lines`). `id` 0: the streamed
+        /// job; else the program server's answer to the [`BoardMsg::ProgramRequest`] with that
+        /// `id` (lines from the requested place on).
+        Queued Lines { id: u16, records: B },
         /// Program server answer: no more lines follow for request `id` (end of the file), or the
         /// requested place does not exist (`found` false).
         Queued ProgramEnd { id: u16, found: bool },
@@ -184,15 +159,39 @@ wire_messages! {
     }
 }
 
-impl Wire for HostMsg {
+/// Messages from the host as the host holds them (each batch's records inline).
+pub type HostMsg = HostMessage<LineBatch>;
+
+/// Host messages as the board's realtime lane decodes them: no room for records (the board takes
+/// line batches in place from the frame, `channel::QueuedSink`; a batch on the realtime lane does
+/// not decode).
+pub type BoardInbound = HostMessage<heapless::Vec<u8, 0>>;
+
+impl<B> Wire for HostMessage<B>
+where
+    B: Serialize + DeserializeOwned + core::ops::Deref<Target = [u8]>,
+{
     fn lane(&self) -> Lane {
         self.declared_lane()
     }
 
     fn stream_token(&self) -> Option<u32> {
         match self {
-            HostMsg::Line(l) => Some(l.line_no),
+            HostMessage::Lines { id: 0, records } => {
+                crate::lines::records(records).last().map(|(n, _)| n)
+            }
             _ => None,
+        }
+    }
+
+    /// The board takes queued messages as they arrive: a batch costs the bytes its records take
+    /// in the board's line ring, anything else nothing (it is handled at once); a realtime
+    /// message costs a slot of the board's realtime queue.
+    fn charge(&self) -> u16 {
+        match self {
+            HostMessage::Lines { records, .. } => records.len() as u16,
+            m if m.lane() == Lane::Queued => 0,
+            _ => 1,
         }
     }
 }
@@ -339,7 +338,7 @@ wire_messages! {
         /// a board-chosen tag (e.g. an M-code mark).
         Queued Mark { line: u32, id: u32 },
         /// The interpreter jumped (M98/M99): stop serving the previous place and serve lines from
-        /// `target` on as `ProgramLine { id, .. }`. Lines for older ids are dropped by the board.
+        /// `target` on as `Lines { id, .. }`. Lines for older ids are dropped by the board.
         Queued ProgramRequest { id: u16, target: ProgramTarget },
         /// A chunk of the board's setup blob at byte `offset` (answer to `SetupRequest`).
         Queued SetupChunk {
@@ -375,7 +374,7 @@ pub struct Hello {
     /// Random per-attempt value echoed in the answer, so stale answers are ignored.
     pub nonce: u32,
     /// Free slots of the host's queued-lane receive queue.
-    pub window: u8,
+    pub window: u16,
     /// Free slots of the host's realtime-lane receive queue.
     pub rt_window: u8,
 }
@@ -391,7 +390,7 @@ pub struct HelloAck {
     pub nonce: u32,
     /// Identifies this power-up of the board; a change means the board reset.
     pub boot_id: u32,
-    /// Queued-lane receive queue size (slots) of the board.
+    /// Queued-lane receive capacity of the board: bytes of its line ring.
     pub rx_capacity: u16,
     /// Realtime-lane receive queue size of the board.
     pub rt_capacity: u16,
@@ -400,8 +399,8 @@ pub struct HelloAck {
     pub next_expected: u16,
     /// Same for the realtime lane.
     pub rt_next_expected: u16,
-    /// Current free slots (credit) of the queued lane.
-    pub window: u8,
+    /// Current credit of the queued lane: free bytes of the board's line ring.
+    pub window: u16,
     /// Current free slots of the realtime lane.
     pub rt_window: u8,
     /// Oldest board→host queued sequence number not yet acknowledged.

@@ -2,17 +2,21 @@
 //! receiving half ([`RecvLane`]).
 //!
 //! Sequence numbers are `u16` and wrap; they are compared by wrapping
-//! difference, which is sound because a window never exceeds 255 frames.
+//! difference, which is sound because a sender never has more than 255
+//! frames in flight (its queue, `Endpoint`'s capacities).
 //!
 //! * The receiver delivers in order. A frame below `expected` is a duplicate
 //!   (dropped, re-acknowledged); a frame inside the window but beyond
 //!   `expected` is parked in a slot until the gap fills (and a NAK hint is
 //!   sent); a frame beyond the window is a credit violation (dropped, counted).
-//! * The window (credit) is the number of free slots in the receiver's
-//!   delivery queue. A limit `ack + win` once advertised stays valid forever,
-//!   because the queue only shrinks by the application popping and only grows
-//!   by accepting frames below that limit; so the sender keeps the largest
-//!   limit it has seen, and stale or reordered advertisements are harmless.
+//! * The window (credit) is what the receiver can take after `ack`, in the
+//!   units each message is charged ([`crate::Wire::charge`]): free slots of its
+//!   delivery queue ([`RecvLane`]), or free bytes of the board's line ring
+//!   ([`DirectLane`]). A credit once advertised stays valid, because the
+//!   receiver's free room only shrinks by accepting the frames it allowed and
+//!   grows as the application takes messages; so the sender keeps the largest
+//!   credit seen for its oldest unacknowledged frame, and stale or reordered
+//!   advertisements are harmless.
 //! * The sender keeps every unacknowledged message with the time it was last
 //!   sent and retransmits each one `rto` after its last transmission (oldest
 //!   first). A NAK for its oldest frame makes that frame due at once, at most
@@ -29,6 +33,8 @@ pub(crate) fn seq_before(a: u16, b: u16) -> bool {
 struct Slot<T> {
     msg: T,
     sent_at: u32,
+    /// What the message costs of the peer's credit.
+    charge: u16,
 }
 
 /// Sending half of a lane: up to `N` messages from the oldest unacknowledged.
@@ -38,8 +44,10 @@ pub struct SendLane<T, const N: usize> {
     base: u16,
     /// Entries of `q` transmitted at least once (a prefix).
     sent: usize,
-    /// The peer accepts sequence numbers before this.
-    limit: u16,
+    /// Sum of the charges of the sent entries.
+    sent_charge: u32,
+    /// The peer accepts messages from `base` on whose charges add up to at most this.
+    credit: u16,
     retransmits: u32,
 }
 
@@ -55,15 +63,21 @@ impl<T, const N: usize> SendLane<T, N> {
             q: Deque::new(),
             base: 0,
             sent: 0,
-            limit: 0,
+            sent_charge: 0,
+            credit: 0,
             retransmits: 0,
         }
     }
 
-    /// Queues a message; gives it back when the lane is full.
-    pub fn push(&mut self, msg: T) -> Result<(), T> {
+    /// Queues a message costing `charge` of the peer's credit; gives it back when the lane is
+    /// full.
+    pub fn push(&mut self, msg: T, charge: u16) -> Result<(), T> {
         self.q
-            .push_back(Slot { msg, sent_at: 0 })
+            .push_back(Slot {
+                msg,
+                sent_at: 0,
+                charge,
+            })
             .map_err(|s| s.msg)
     }
 
@@ -96,9 +110,9 @@ impl<T, const N: usize> SendLane<T, N> {
         self.base.wrapping_add(self.q.len() as u16)
     }
 
-    /// The peer's credit limit (sequence numbers before it are allowed).
-    pub fn limit(&self) -> u16 {
-        self.limit
+    /// The peer's credit from [`base`](Self::base) on.
+    pub fn credit(&self) -> u16 {
+        self.credit
     }
 
     /// Total retransmissions so far.
@@ -108,39 +122,50 @@ impl<T, const N: usize> SendLane<T, N> {
 
     /// There are unsent messages but the peer's window is closed.
     pub fn blocked(&self) -> bool {
-        self.sent < self.q.len()
-            && !seq_before(self.base.wrapping_add(self.sent as u16), self.limit)
+        self.q
+            .get(self.sent)
+            .is_some_and(|next| self.sent_charge + u32::from(next.charge) > u32::from(self.credit))
     }
 
     /// Applies a cumulative ack `ack` (next seq the peer expects) with credit
     /// `win`. Returns how many messages it acknowledged. Acks outside
     /// `base..=base+in_flight` are ignored.
-    pub fn on_ack(&mut self, ack: u16, win: u8) -> usize {
+    pub fn on_ack(&mut self, ack: u16, win: u16) -> usize {
         let d = ack.wrapping_sub(self.base) as usize;
         if d > self.sent {
             return 0;
         }
         for _ in 0..d {
-            self.q.pop_front();
+            if let Some(s) = self.q.pop_front() {
+                self.sent_charge -= u32::from(s.charge);
+            }
         }
         self.sent -= d;
         self.base = ack;
-        let new_limit = ack.wrapping_add(win as u16);
-        if seq_before(self.limit, new_limit) {
-            self.limit = new_limit;
+        // A new oldest frame: its credit replaces the old one; the same one: the larger counts
+        // (an older advertisement arriving late).
+        if d > 0 || win > self.credit {
+            self.credit = win;
         }
         d
     }
 
-    /// Fast-retransmit hint: the peer still expects `ack` and saw later frames.
-    pub fn on_nak(&mut self, ack: u16, now: u32, rto: u32) {
+    /// Fast-retransmit hint: the peer still expects `ack` and saw later frames. The oldest
+    /// frame falls due at once; with `go_back`, every frame in flight does (the peer dropped
+    /// what came after the gap, [`DirectLane`]).
+    pub fn on_nak(&mut self, ack: u16, now: u32, rto: u32, go_back: bool) {
         if ack != self.base || self.sent == 0 {
             return;
         }
         let holdoff = (rto / 4).max(1);
-        if let Some(front) = self.q.front_mut() {
-            if now.wrapping_sub(front.sent_at) >= holdoff {
-                front.sent_at = now.wrapping_sub(rto);
+        if self
+            .q
+            .front()
+            .is_some_and(|front| now.wrapping_sub(front.sent_at) >= holdoff)
+        {
+            let n = if go_back { self.sent } else { 1 };
+            for s in self.q.iter_mut().take(n) {
+                s.sent_at = now.wrapping_sub(rto);
             }
         }
     }
@@ -154,16 +179,18 @@ impl<T, const N: usize> SendLane<T, N> {
 
     /// Renumbers everything still queued to start at `base` (the peer lost its
     /// state or we have none); all of it will be sent again as new.
-    pub fn renumber(&mut self, base: u16, win: u8) {
+    pub fn renumber(&mut self, base: u16, win: u16) {
         self.base = base;
         self.sent = 0;
-        self.limit = base.wrapping_add(win as u16);
+        self.sent_charge = 0;
+        self.credit = win;
     }
 
     /// Forgets every queued message.
     pub fn clear(&mut self) {
         self.q.clear();
         self.sent = 0;
+        self.sent_charge = 0;
     }
 
     /// The next message to put on the wire at `now`, if any: the oldest
@@ -184,6 +211,7 @@ impl<T, const N: usize> SendLane<T, N> {
                 if self.sent >= self.q.len() || self.blocked() {
                     return None;
                 }
+                self.sent_charge += u32::from(self.q.get(self.sent)?.charge);
                 self.sent += 1;
                 self.sent - 1
             }
@@ -210,6 +238,9 @@ pub enum RxOutcome {
     Delivered(usize),
     /// Inside the window but after a gap: parked until the gap fills.
     Parked,
+    /// After a gap, on a lane that parks nothing ([`DirectLane`]): dropped, the sender sends it
+    /// again after the gap.
+    Skipped,
     /// Already delivered (or already parked): dropped.
     Duplicate,
     /// Beyond the advertised window: dropped.
@@ -262,9 +293,9 @@ impl<T, const N: usize> RecvLane<T, N> {
         self.expected
     }
 
-    /// Credit: free slots in the delivery queue (capped at 255).
-    pub fn window(&self) -> u8 {
-        (N - self.ready).min(255) as u8
+    /// Credit: free slots in the delivery queue.
+    pub fn window(&self) -> u16 {
+        (N - self.ready).min(u16::MAX as usize) as u16
     }
 
     /// Messages delivered and not yet popped.
@@ -362,6 +393,112 @@ impl<T, const N: usize> RecvLane<T, N> {
     }
 }
 
+/// What an endpoint needs of its queued lane's receiving half, whichever kind it is.
+pub trait QueuedRecv {
+    /// Next sequence number to deliver (the cumulative ack).
+    fn expected(&self) -> u16;
+    /// The credit to advertise after `expected`.
+    fn window(&self) -> u16;
+    /// The whole credit when nothing waits (for the handshake).
+    fn capacity(&self) -> u16;
+    /// Restarts the sequence space at `expected` (see [`RecvLane::reset`]).
+    fn reset(&mut self, expected: u16);
+    /// Counters: (delivered, duplicates, violations).
+    fn counters(&self) -> (u32, u32, u32);
+}
+
+impl<T, const N: usize> QueuedRecv for RecvLane<T, N> {
+    fn expected(&self) -> u16 {
+        RecvLane::expected(self)
+    }
+    fn window(&self) -> u16 {
+        RecvLane::window(self)
+    }
+    fn capacity(&self) -> u16 {
+        N.min(u16::MAX as usize) as u16
+    }
+    fn reset(&mut self, expected: u16) {
+        RecvLane::reset(self, expected)
+    }
+    fn counters(&self) -> (u32, u32, u32) {
+        RecvLane::counters(self)
+    }
+}
+
+/// Receiving half of a lane with no queue of its own (the board's queued lane): each frame that
+/// comes in order goes straight to the application, which stores what it keeps (program lines in
+/// its line ring) and whose free room is the credit. A frame after a gap is dropped: parking it
+/// would need room the missing frames may take, so the sender goes back to the gap instead
+/// (`SendLane::rewind` on a NAK).
+pub struct DirectLane {
+    expected: u16,
+    /// The application's free room, as it last said ([`DirectLane::set_window`]).
+    window: u16,
+    capacity: u16,
+    delivered: u32,
+    duplicates: u32,
+    violations: u32,
+}
+
+impl DirectLane {
+    /// A lane whose application can hold `capacity` units.
+    pub const fn new(capacity: u16) -> Self {
+        Self {
+            expected: 0,
+            window: capacity,
+            capacity,
+            delivered: 0,
+            duplicates: 0,
+            violations: 0,
+        }
+    }
+
+    /// The application's free room now; true when it grew (worth a window update).
+    pub fn set_window(&mut self, window: u16) -> bool {
+        let grew = window > self.window;
+        self.window = window;
+        grew
+    }
+
+    /// Frame `seq`: `deliver` hands its message to the application and returns whether it was
+    /// taken (false: it did not fit or did not decode; it is then not acknowledged).
+    pub fn on_frame(&mut self, seq: u16, deliver: impl FnOnce() -> bool) -> RxOutcome {
+        let d = seq.wrapping_sub(self.expected) as i16;
+        if d < 0 {
+            self.duplicates = self.duplicates.wrapping_add(1);
+            return RxOutcome::Duplicate;
+        }
+        if d > 0 {
+            return RxOutcome::Skipped;
+        }
+        if !deliver() {
+            self.violations = self.violations.wrapping_add(1);
+            return RxOutcome::Violation;
+        }
+        self.expected = self.expected.wrapping_add(1);
+        self.delivered = self.delivered.wrapping_add(1);
+        RxOutcome::Delivered(1)
+    }
+}
+
+impl QueuedRecv for DirectLane {
+    fn expected(&self) -> u16 {
+        self.expected
+    }
+    fn window(&self) -> u16 {
+        self.window
+    }
+    fn capacity(&self) -> u16 {
+        self.capacity
+    }
+    fn reset(&mut self, expected: u16) {
+        self.expected = expected;
+    }
+    fn counters(&self) -> (u32, u32, u32) {
+        (self.delivered, self.duplicates, self.violations)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -449,10 +586,66 @@ mod tests {
     }
 
     #[test]
+    fn sender_spends_byte_credit_and_goes_back_on_a_nak() {
+        let mut s: SendLane<u32, 8> = SendLane::new();
+        for (i, charge) in [(0, 100), (1, 0), (2, 150), (3, 60)] {
+            s.push(i, charge).unwrap();
+        }
+        s.on_ack(0, 250);
+        // 100 + 0 + 150 = 250 fits; the fourth (60) does not.
+        let sent: std::vec::Vec<u16> =
+            core::iter::from_fn(|| s.next_transmit(0, 10).map(|(q, _)| q)).collect();
+        assert_eq!(sent, [0, 1, 2]);
+        assert!(s.blocked());
+        // An older advertisement for the same ack with less credit changes nothing.
+        s.on_ack(0, 100);
+        assert_eq!(s.credit(), 250);
+        // Two acknowledged: the credit now counts from seq 2 (150 + 60 > 200).
+        assert_eq!(s.on_ack(2, 200), 2);
+        assert!(s.next_transmit(1, 10).is_none());
+        assert_eq!(s.on_ack(2, 210), 0);
+        assert_eq!(s.next_transmit(1, 10).map(|(q, _)| q), Some(3));
+        // A NAK for seq 2 with go-back makes 2 and 3 due again at once.
+        s.on_nak(2, 5, 10, true);
+        let again: std::vec::Vec<u16> =
+            core::iter::from_fn(|| s.next_transmit(5, 10).map(|(q, _)| q)).collect();
+        assert_eq!(again, [2, 3]);
+    }
+
+    #[test]
+    fn direct_lane_delivers_in_order_and_drops_the_rest() {
+        let mut d = DirectLane::new(500);
+        let mut taken = std::vec::Vec::new();
+        assert_eq!(d.on_frame(1, || unreachable!()), RxOutcome::Skipped);
+        assert_eq!(
+            d.on_frame(0, || {
+                taken.push(0);
+                true
+            }),
+            RxOutcome::Delivered(1)
+        );
+        assert_eq!(d.on_frame(0, || unreachable!()), RxOutcome::Duplicate);
+        // Refused by the application (no room): not delivered, counted.
+        assert_eq!(d.on_frame(1, || false), RxOutcome::Violation);
+        assert_eq!(
+            d.on_frame(1, || {
+                taken.push(1);
+                true
+            }),
+            RxOutcome::Delivered(1)
+        );
+        assert_eq!(taken, [0, 1]);
+        assert_eq!(d.counters(), (2, 1, 1));
+        assert!(!d.set_window(400));
+        assert!(d.set_window(450));
+        assert_eq!(QueuedRecv::window(&d), 450);
+    }
+
+    #[test]
     fn sender_respects_window_and_retransmits() {
         let mut s: SendLane<u32, 8> = SendLane::new();
         for i in 0..5 {
-            s.push(i).unwrap();
+            s.push(i, 1).unwrap();
         }
         s.on_ack(0, 2);
         assert_eq!(s.next_transmit(0, 10).map(|(q, m)| (q, *m)), Some((0, 0)));
@@ -462,7 +655,7 @@ mod tests {
         // Timeout: oldest first.
         assert_eq!(s.next_transmit(10, 10).map(|(q, _)| q), Some(0));
         assert_eq!(s.on_ack(1, 2), 1);
-        assert_eq!(s.limit(), 3);
+        assert_eq!(s.credit(), 2);
         // Seq 1 (sent at 0) is overdue and goes before the new seq 2.
         assert_eq!(s.next_transmit(11, 10).map(|(q, _)| q), Some(1));
         assert_eq!(s.next_transmit(11, 10).map(|(q, _)| q), Some(2));

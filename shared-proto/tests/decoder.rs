@@ -16,7 +16,7 @@ fn frames(count: u32) -> (Vec<Vec<u8>>, Decoded) {
             flags: 0,
             seq: i as u16,
             ack: rng.next_u32() as u16,
-            win: rng.next_u32() as u8,
+            win: rng.next_u32() as u16,
             rt_ack: 0,
             rt_win: 8,
         };

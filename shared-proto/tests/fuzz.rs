@@ -7,13 +7,39 @@
 //! Default suite: `FUZZ_DEFAULT` executions. The long run:
 //! `GANTRY_FUZZ_EXECS=1000000 cargo test --release -p gantry-proto --test fuzz -- --ignored --nocapture`
 
-use gantry_proto::channel::{BOARD_RX_QUEUE, HOST_RX_QUEUE};
+use gantry_proto::channel::{QueuedSink, Refusal, HOST_RX_QUEUE};
 use gantry_proto::fault::Rng;
 use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
 use gantry_proto::{
-    BoardEndpoint, BoardMsg, Config, Hello, HelloAck, HostEndpoint, HostMsg, Jog, Lane, Line,
-    MachineState, Status, PROTOCOL_VERSION,
+    BoardEndpoint, BoardMsg, Config, Hello, HelloAck, HostEndpoint, HostMsg, Jog, Lane, LineBatch,
+    MachineState, Status, Wire, PROTOCOL_VERSION,
 };
+
+/// The board application's store: decoded queued messages within a byte budget (as the board's
+/// line ring); it refuses what does not fit.
+const BOARD_BYTES: u16 = 1024;
+
+#[derive(Default)]
+struct Store {
+    q: Vec<HostMsg>,
+    used: u32,
+}
+
+impl QueuedSink for Store {
+    fn deliver(&mut self, payload: &[u8]) -> Result<Option<u32>, Refusal> {
+        let m: HostMsg = gantry_proto::codec::decode(payload).ok_or(Refusal::Undecodable)?;
+        if m.charge() > self.room() {
+            return Err(Refusal::NoRoom);
+        }
+        self.used += u32::from(m.charge());
+        let t = m.stream_token();
+        self.q.push(m);
+        Ok(t)
+    }
+    fn room(&self) -> u16 {
+        (u32::from(BOARD_BYTES) - self.used) as u16
+    }
+}
 use std::time::Instant;
 
 const FUZZ_DEFAULT: u64 = 20_000;
@@ -42,7 +68,16 @@ fn random_host(r: &mut Rng) -> HostMsg {
             bytes: heapless::Vec::from_slice(&[r.next_u32() as u8; 40]).unwrap(),
         },
         _ => {
-            HostMsg::Line(Line::new(r.next_u32(), &"G1X1Y2".repeat(r.below(17) as usize)).unwrap())
+            let mut records = LineBatch::new();
+            for _ in 0..1 + r.below(5) {
+                let text = "G1X1Y2".repeat(r.below(17) as usize);
+                let _ =
+                    gantry_proto::lines::push_record(&mut records, r.next_u32(), text.as_bytes());
+            }
+            HostMsg::Lines {
+                id: r.next_u32() as u16,
+                records,
+            }
         }
     }
 }
@@ -91,6 +126,7 @@ struct Fuzzer {
     r: Rng,
     now: u32,
     board: Box<BoardEndpoint>,
+    store: Store,
     host: Box<HostEndpoint>,
     dec: FrameDecoder,
     check: FrameDecoder,
@@ -103,7 +139,8 @@ impl Fuzzer {
         Self {
             r: Rng::new(seed),
             now: 0,
-            board: Box::new(BoardEndpoint::new_board(CFG, seed as u32)),
+            board: Box::new(BoardEndpoint::new_board(CFG, seed as u32, BOARD_BYTES)),
+            store: Store::default(),
             host: Box::new(HostEndpoint::new_host(CFG, (seed >> 7) as u32)),
             dec: FrameDecoder::new(),
             check: FrameDecoder::new(),
@@ -119,7 +156,7 @@ impl Fuzzer {
             flags: (r.next_u32() as u8) & 0x70,
             seq,
             ack: r.next_u32() as u16 % 64,
-            win: r.below(40) as u8,
+            win: r.below(1200) as u16,
             rt_ack: r.next_u32() as u16 % 64,
             rt_win: r.below(12) as u8,
         }
@@ -145,7 +182,7 @@ impl Fuzzer {
                         self.r.next_u32() as u16
                     },
                     nonce: self.r.next_u32(),
-                    window: self.r.below(40) as u8,
+                    window: self.r.below(1200) as u16,
                     rt_window: self.r.below(9) as u8,
                 };
                 self.push_frame(&Header::new(Kind::Hello), Some(&h));
@@ -163,7 +200,7 @@ impl Fuzzer {
                     rt_capacity: 8,
                     next_expected: self.r.next_u32() as u16 % 64,
                     rt_next_expected: self.r.next_u32() as u16 % 64,
-                    window: self.r.below(40) as u8,
+                    window: self.r.below(1200) as u16,
                     rt_window: self.r.below(12) as u8,
                     tx_base: self.r.next_u32() as u16 % 64,
                     rt_tx_base: 0,
@@ -292,7 +329,7 @@ impl Fuzzer {
             let c = &input[i..i + n];
             self.dec.feed(c, |_| {});
             if to_board {
-                self.board.on_bytes(self.now, c);
+                self.board.on_bytes(self.now, c, &mut self.store);
             } else {
                 self.host.on_bytes(self.now, c);
             }
@@ -310,13 +347,15 @@ impl Fuzzer {
             let _ = self.host.send(random_host(&mut self.r));
         }
         if self.r.chance(500_000) {
-            while self.board.recv().is_some() {}
+            while self.board.recv_realtime().is_some() {}
+            self.store = Store::default();
+            self.board.set_window(self.store.room());
             while self.host.recv().is_some() {}
         }
         if self.r.chance(5_000) {
             self.host.connect();
         }
-        assert!(self.board.queued_len() <= BOARD_RX_QUEUE);
+        assert!(self.store.used <= u32::from(BOARD_BYTES));
         assert!(self.host.queued_len() <= HOST_RX_QUEUE);
         self.now = self.now.wrapping_add(self.r.below(30));
         self.drain_output();

@@ -2,14 +2,17 @@
 
 mod support;
 
-use gantry_proto::channel::BOARD_RX_QUEUE as BOARD_RX_QUEUE_LEN;
 use gantry_proto::fault::Faults;
 use gantry_proto::frame::{encode_frame, Header, Kind, MAX_FRAME_LEN};
+use gantry_proto::Lane;
 use gantry_proto::{
-    BoardEndpoint, BoardMsg, Config, HelloAck, HostEndpoint, HostMsg, LinkEvent, LinkState,
-    MachineState, Status,
+    BoardEndpoint, BoardInbound, BoardMsg, Config, HelloAck, HostEndpoint, HostMsg, LinkEvent,
+    LinkState, MachineState, Status,
 };
-use support::{line, Sim, SIM};
+use support::{batch, line, lines_of, Sim, INBOX_BYTES, SIM};
+
+/// The largest batch the tests send: 4 lines of at most 20 characters.
+const MAX_BATCH_CHARGE: u32 = 4 * (6 + 20);
 
 fn status(line: u32) -> BoardMsg {
     BoardMsg::Status(Status {
@@ -58,13 +61,19 @@ impl Stream {
         }
     }
 
-    fn host_app(&mut self, sim: &mut Sim) {
+    /// Batches of 1 to 4 lines.
+    fn send_lines(&mut self, sim: &mut Sim) {
         while self.next_send <= self.total {
-            match sim.host.send(HostMsg::Line(line(self.next_send))) {
-                Ok(()) => self.next_send += 1,
+            let n = (1 + sim.rng().below(4)).min(self.total + 1 - self.next_send);
+            match sim.host.send(batch(self.next_send, n)) {
+                Ok(()) => self.next_send += n,
                 Err(_) => break,
             }
         }
+    }
+
+    fn host_app(&mut self, sim: &mut Sim) {
+        self.send_lines(sim);
         if sim.now.is_multiple_of(97) {
             let _ = sim.host.send(HostMsg::StatusRequest);
         }
@@ -83,29 +92,29 @@ impl Stream {
 
     fn board_app(&mut self, sim: &mut Sim, max_per_tick: u32) {
         while let Some(m) = sim.board.recv_realtime() {
-            assert_eq!(m, HostMsg::StatusRequest);
+            assert_eq!(m, BoardInbound::StatusRequest);
             let _ = sim.board.send(status(self.next_recv));
         }
         let k = sim.rng().below(max_per_tick + 1);
         for _ in 0..k {
-            let Some(m) = sim.board.recv_queued() else {
+            let Some(m) = sim.board_recv_queued() else {
                 break;
             };
-            let HostMsg::Line(l) = m else {
-                panic!("unexpected {m:?}")
-            };
-            assert_eq!(l, line(self.next_recv), "host→board order/content");
-            if l.line_no.is_multiple_of(100) {
-                sim.board
-                    .send(BoardMsg::Mark {
-                        line: l.line_no,
-                        id: 0,
-                    })
-                    .expect("board send queue");
+            for (n, text) in lines_of(&m) {
+                assert_eq!(
+                    (n, text),
+                    (self.next_recv, line(self.next_recv)),
+                    "host→board order/content"
+                );
+                if n.is_multiple_of(100) {
+                    sim.board
+                        .send(BoardMsg::Mark { line: n, id: 0 })
+                        .expect("board send queue");
+                }
+                self.next_recv += 1;
             }
-            self.next_recv += 1;
         }
-        assert!(sim.board.queued_len() <= BOARD_RX_QUEUE_LEN);
+        assert!(sim.inbox.used() <= u32::from(INBOX_BYTES));
     }
 
     fn done(&self) -> bool {
@@ -137,7 +146,7 @@ fn assert_clean(sim: &Sim) {
         sim.credit_violations, 0,
         "host wrote data beyond the board's credit"
     );
-    assert!(sim.max_in_flight as usize <= BOARD_RX_QUEUE_LEN);
+    assert!(sim.max_in_flight <= u32::from(INBOX_BYTES));
     assert_eq!(sim.board.stats().window_violations, 0);
     assert_eq!(sim.host.stats().window_violations, 0);
     assert_eq!(sim.board.stats().undecodable, 0);
@@ -206,8 +215,10 @@ fn flow_control_never_exceeds_window() {
             s.host_app(&mut sim);
             sim.pump();
         }
-        assert_eq!(sim.board.queued_len(), BOARD_RX_QUEUE_LEN);
-        assert_eq!(sim.host.stats().window_violations, 0);
+        // The credit is spent: no further batch fits.
+        assert!(sim.inbox.used() > u32::from(INBOX_BYTES) - MAX_BATCH_CHARGE);
+        assert!(sim.host.unacked(Lane::Queued) > 0);
+        assert_eq!(sim.board.stats().window_violations, 0);
         s.run(&mut sim, 500_000, 2);
         assert_clean(&sim);
     }
@@ -217,20 +228,24 @@ fn flow_control_never_exceeds_window() {
 fn realtime_bypasses_a_full_queue() {
     let mut sim = Sim::new(3, Faults::NONE, SIM);
     sim.connect(100);
-    for n in 1..=40 {
-        let _ = sim.host.send(HostMsg::Line(line(n)));
+    for n in 1..=30 {
+        let _ = sim.host.send(batch(n, 1));
     }
     for _ in 0..50 {
         sim.pump();
     }
-    assert_eq!(sim.board.queued_len(), BOARD_RX_QUEUE_LEN); // credit exhausted
+    // Credit exhausted: the board holds some lines, the host keeps the rest.
+    assert!(sim.inbox.len() < 30 && sim.host.unacked(Lane::Queued) > 0);
     sim.host.send(HostMsg::FeedHold).unwrap();
     sim.host.send(HostMsg::FeedOverride(50)).unwrap();
     sim.pump();
-    assert_eq!(sim.board.recv(), Some(HostMsg::FeedHold));
-    assert_eq!(sim.board.recv(), Some(HostMsg::FeedOverride(50)));
+    assert_eq!(sim.board.recv_realtime(), Some(BoardInbound::FeedHold));
+    assert_eq!(
+        sim.board.recv_realtime(),
+        Some(BoardInbound::FeedOverride(50))
+    );
     // Then the queued lines, in order.
-    assert_eq!(sim.board.recv(), Some(HostMsg::Line(line(1))));
+    assert_eq!(sim.board_recv_queued(), Some(batch(1, 1)));
 }
 
 #[test]
@@ -245,7 +260,7 @@ fn realtime_lane_survives_faults_in_order() {
         }
         sim.pump();
         while let Some(m) = sim.board.recv_realtime() {
-            assert_eq!(m, HostMsg::FeedOverride(got));
+            assert_eq!(m, BoardInbound::FeedOverride(got));
             got += 1;
         }
         if got == 3_000 {
@@ -318,12 +333,7 @@ impl Stream {
             if self.next_recv > self.total {
                 return;
             }
-            while self.next_send <= self.total {
-                match sim.host.send(HostMsg::Line(line(self.next_send))) {
-                    Ok(()) => self.next_send += 1,
-                    Err(_) => break,
-                }
-            }
+            self.send_lines(sim);
             while let Some(m) = sim.host.recv() {
                 if let BoardMsg::Mark { line, .. } = m {
                     assert!(line > self.next_mark, "marks in order, no repeats");
@@ -375,18 +385,17 @@ fn board_reset_is_detected() {
     let mut sim = Sim::new(17, Faults::NONE, SIM);
     sim.connect(100);
     for n in 1..=10 {
-        sim.host.send(HostMsg::Line(line(n))).unwrap();
+        sim.host.send(batch(n, 1)).unwrap();
     }
     for _ in 0..20 {
         sim.pump();
     }
     while sim.host.poll_event().is_some() {}
-    sim.board = BoardEndpoint::new_board(SIM, 0x1234_5678);
-    sim.reset_spies();
+    sim.reset_board(0x1234_5678);
     assert_eq!(sim.board.state(), LinkState::Unsynced);
     // The host only notices when it sends something.
     for n in 11..=30 {
-        sim.host.send(HostMsg::Line(line(n))).unwrap();
+        sim.host.send(batch(n, 1)).unwrap();
     }
     let mut reset_seen = false;
     let mut got = Vec::new();
@@ -397,8 +406,8 @@ fn board_reset_is_detected() {
                 reset_seen |= board_reset;
             }
         }
-        while let Some(HostMsg::Line(l)) = sim.board.recv() {
-            got.push(l.line_no);
+        while let Some(m) = sim.board_recv_queued() {
+            got.extend(lines_of(&m).into_iter().map(|(n, _)| n));
         }
     }
     assert!(reset_seen);
@@ -441,7 +450,7 @@ fn version_mismatch_is_refused() {
         })
     );
 
-    let mut board = BoardEndpoint::new_board(Config::default(), 9);
+    let mut board = BoardEndpoint::new_board(Config::default(), 9, INBOX_BYTES);
     let hello = gantry_proto::Hello {
         version: 0x0100,
         nonce: 1,
@@ -449,7 +458,7 @@ fn version_mismatch_is_refused() {
         rt_window: 8,
     };
     let n = encode_frame(&Header::new(Kind::Hello), Some(&hello), &mut buf).unwrap();
-    board.on_bytes(0, &buf[..n]);
+    board.on_bytes(0, &buf[..n], &mut support::Inbox::default());
     assert_eq!(board.state(), LinkState::Unsynced);
     // It still answers, so the host can report the board's version.
     let n = board.poll_transmit(0, &mut buf).unwrap();
@@ -465,15 +474,16 @@ fn version_mismatch_is_refused() {
 fn lost_window_update_is_recovered_by_probe() {
     let mut sim = Sim::new(21, Faults::NONE, SIM);
     sim.connect(100);
-    for n in 1..=40 {
-        let _ = sim.host.send(HostMsg::Line(line(n)));
+    for n in 1..=30 {
+        let _ = sim.host.send(batch(n, 1));
     }
     for _ in 0..30 {
         sim.pump();
     }
-    assert_eq!(sim.board.queued_len(), BOARD_RX_QUEUE_LEN);
+    let first = sim.inbox.len();
+    assert!(first < 30 && sim.host.unacked(Lane::Queued) > 0);
     let mut got = 0;
-    while sim.board.recv_queued().is_some() {
+    while sim.board_recv_queued().is_some() {
         got += 1;
     }
     // The board's window update goes out, and is lost.
@@ -481,15 +491,15 @@ fn lost_window_update_is_recovered_by_probe() {
     sim.b2h.clear();
     sim.h2b.clear();
     let t0 = sim.now;
-    while sim.board.queued_len() == 0 {
+    while sim.inbox.len() == 0 {
         sim.now += 1;
         sim.pump();
         assert!(sim.now - t0 < 3 * SIM.rto, "host never probed"); // keepalive is 50
     }
-    while sim.board.recv_queued().is_some() {
+    while sim.board_recv_queued().is_some() {
         got += 1;
     }
-    assert!(got > 16);
+    assert!(got > first);
 }
 
 #[test]
@@ -503,7 +513,7 @@ fn next_deadline_tracks_retransmission() {
     sim.h2b.clear(); // lost
     let d = sim.host.next_deadline().unwrap();
     assert_eq!(d, sent_at + SIM.rto);
-    while sim.board.recv().is_none() {
+    while sim.inbox.len() == 0 {
         sim.pump();
         assert!(sim.now <= d + 2);
     }

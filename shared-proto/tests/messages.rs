@@ -3,31 +3,47 @@
 
 use gantry_proto::codec;
 use gantry_proto::frame::{encode_frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN, MAX_PAYLOAD};
+use gantry_proto::lines::{push_record, BATCH_MAX};
 use gantry_proto::messages::SETUP_CHUNK_MAX;
 use gantry_proto::{
-    BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, Line, MachineState, OutputsStatus,
+    BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, LineBatch, MachineState, OutputsStatus,
     ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
 };
 use serde::{de::DeserializeOwned, Serialize};
 use std::fmt::Debug;
 
-fn worst_line() -> Line {
-    Line::new(u32::MAX, &"X".repeat(LINE_MAX)).unwrap()
+/// A batch of `lines` as (number, text).
+fn lines(id: u16, lines: &[(u32, &str)]) -> HostMsg {
+    let mut records = LineBatch::new();
+    for (n, t) in lines {
+        assert!(push_record(&mut records, *n, t.as_bytes()));
+    }
+    HostMsg::Lines { id, records }
+}
+
+/// The longest line, numbered `u32::MAX`.
+fn worst_line(id: u16) -> HostMsg {
+    lines(id, &[(u32::MAX, &"X".repeat(LINE_MAX))])
+}
+
+/// A batch as full as a frame allows.
+fn full_batch() -> HostMsg {
+    let mut records = LineBatch::new();
+    let mut n = 1;
+    while push_record(&mut records, n, b"G1 X1.234 Y5.678") {
+        n += 1;
+    }
+    HostMsg::Lines { id: 0, records }
 }
 
 fn all_host() -> Vec<HostMsg> {
     vec![
-        HostMsg::Line(Line::new(1, "G1 X10 Y-2.5 F1200").unwrap()),
-        HostMsg::Line(worst_line()),
-        HostMsg::Line(Line::new(7, "").unwrap()),
-        HostMsg::ProgramLine {
-            id: 9001,
-            line: Line::new(3, "G91 G0 Z1").unwrap(),
-        },
-        HostMsg::ProgramLine {
-            id: u16::MAX,
-            line: worst_line(),
-        },
+        lines(0, &[(1, "G1 X10 Y-2.5 F1200")]),
+        worst_line(0),
+        lines(0, &[(7, "")]),
+        lines(9001, &[(3, "G91 G0 Z1"), (4, "G0 X1")]),
+        worst_line(u16::MAX),
+        full_batch(),
         HostMsg::ProgramEnd {
             id: 12,
             found: true,
@@ -253,7 +269,7 @@ fn handshake_messages_round_trip() {
         rt_capacity: u16::MAX,
         next_expected: u16::MAX,
         rt_next_expected: u16::MAX,
-        window: u8::MAX,
+        window: u16::MAX,
         rt_window: u8::MAX,
         tx_base: u16::MAX,
         rt_tx_base: u16::MAX,
@@ -262,7 +278,7 @@ fn handshake_messages_round_trip() {
 }
 
 #[test]
-fn worst_case_line_frame_fits_two_usb_packets() {
+fn worst_case_line_frames_fit_a_frame() {
     let mut out = [0u8; MAX_FRAME_LEN];
     let h = Header {
         kind: Kind::Data,
@@ -273,9 +289,16 @@ fn worst_case_line_frame_fits_two_usb_packets() {
         rt_ack: u16::MAX,
         rt_win: 255,
     };
-    let n = encode_frame(&h, Some(&HostMsg::Line(worst_line())), &mut out).unwrap();
-    assert!(n <= 128, "worst Line frame is {n} bytes");
-    assert!(Line::new(1, &"X".repeat(LINE_MAX + 1)).is_none());
+    let n = encode_frame(&h, Some(&worst_line(u16::MAX)), &mut out).unwrap();
+    assert!(n <= MAX_FRAME_LEN, "worst line frame is {n} bytes");
+    // The fullest batch fits a frame too; one byte more does not fit the batch.
+    let full = HostMsg::Lines {
+        id: u16::MAX,
+        records: LineBatch::from_slice(&[0u8; BATCH_MAX]).unwrap(),
+    };
+    assert!(encode_frame(&h, Some(&full), &mut out).is_ok());
+    let mut b = LineBatch::new();
+    assert!(!push_record(&mut b, 1, "X".repeat(LINE_MAX + 1).as_bytes()));
 }
 
 #[test]
@@ -307,7 +330,16 @@ fn lanes() {
         .lane(),
         Lane::Queued
     );
-    assert_eq!(HostMsg::Line(worst_line()).stream_token(), Some(u32::MAX));
+    assert_eq!(worst_line(0).stream_token(), Some(u32::MAX));
+    assert_eq!(
+        worst_line(1).stream_token(),
+        None,
+        "a served place marks no stream position"
+    );
+    assert_eq!(lines(0, &[(3, "G0"), (9, "M2")]).stream_token(), Some(9));
+    assert_eq!(lines(0, &[(3, "G0"), (9, "M2")]).charge(), 2 * 6 + 4);
+    assert_eq!(HostMsg::EndOfJob.charge(), 0);
+    assert_eq!(HostMsg::FeedHold.charge(), 1);
 }
 
 /// The bytes of every message of `all_host` and `all_board`, one hex line each, as
@@ -337,10 +369,12 @@ fn wire_bytes_of_every_message_kind_are_unchanged() {
     for (i, (g, w)) in got.iter().zip(&want).enumerate() {
         assert_eq!(g, w, "message {i}");
     }
-    // A few by hand, against docs/protocol.md: Start{id 7} is variant 6 and varint 7; Jog(id 1,
-    // axis 2, -500 000 µm/min, 0 nm) is variant 14, varint 1, the axis byte, zigzag varint
-    // 999 999, varint 0.
-    assert_eq!(hex(&HostMsg::Start { id: 7 }), "0607");
+    // A few by hand, against docs/protocol.md: Start{id 7} is variant 5 and varint 7; Jog(id 1,
+    // axis 2, -500 000 µm/min, 0 nm) is variant 13, varint 1, the axis byte, zigzag varint
+    // 999 999, varint 0; Lines{id 0, one record: line 1 "G0"} is variant 0, varint 0, varint 8
+    // (the records' length), then the record: line 1 (u32 LE), length 2 (u16 LE), the text.
+    assert_eq!(hex(&HostMsg::Start { id: 7 }), "0507");
+    assert_eq!(hex(&lines(0, &[(1, "G0")])), "0000080100000002004730");
     assert_eq!(
         hex(&HostMsg::Jog(Jog {
             id: 1,
@@ -348,7 +382,7 @@ fn wire_bytes_of_every_message_kind_are_unchanged() {
             feed_um_min: -500_000,
             distance_nm: 0,
         })),
-        "0e0102bf843d00"
+        "0d0102bf843d00"
     );
 }
 

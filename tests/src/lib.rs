@@ -24,6 +24,8 @@ pub struct FaultyBoard {
     pub connected: bool,
     /// A scheduled cable pull: no byte gets through from the first to the second link time (ms).
     pub outage: Option<(u32, u32)>,
+    /// Milliseconds of the outage the board spent in a feed hold.
+    pub held_in_outage_ms: u32,
 }
 
 impl FaultyBoard {
@@ -34,6 +36,7 @@ impl FaultyBoard {
             to_host: Box::new(FaultyPipe::new(seed ^ 0xa5a5_a5a5, faults)),
             connected: true,
             outage: None,
+            held_in_outage_ms: 0,
         }
     }
 
@@ -80,6 +83,14 @@ impl Transport for FaultyBoard {
                 self.board.receive(&buf[..n]);
             }
             self.board.wait(1);
+            let now = self.board.now_ms();
+            if self
+                .outage
+                .is_some_and(|(from, to)| now >= from && now < to)
+                && self.board.board.state() == gantry_machine::controller::State::Hold
+            {
+                self.held_in_outage_ms += 1;
+            }
             let out = self.board.take_output();
             if self.link_up() {
                 let now = self.board.now_ms();

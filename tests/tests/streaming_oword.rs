@@ -1,8 +1,7 @@
-//! O-word loops stream like M98/M99: a `while` loop whose body is longer than the board's line
-//! buffer jumps back 1,000 times by asking the host for its lines again, and ends with exactly the
-//! steps of the same program unrolled.
+//! O-word loops stream like M98/M99: a `while` loop jumps back 1,000 times by asking the host for
+//! its lines again (the board keeps no line it has interpreted), and ends with exactly the steps of
+//! the same program unrolled.
 
-use gantry_machine::board::LINE_BUFFER;
 use gantry_machine::setup::Setup;
 use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
@@ -19,10 +18,13 @@ fn stream_emulated(text: &str) -> (StreamReport, EmulatedBoard) {
     (report, client.transport)
 }
 
+/// Comment lines in the loop body: the jump back lands 20 file lines before the `endwhile`.
+const PADDING: usize = 20;
+
 /// The loop body: a zig-zag of +0.5 mm / -0.49 mm on X with padding comments between.
 fn body() -> String {
     let mut b = String::from("G91 G1 X0.5 F3000\n");
-    for i in 0..LINE_BUFFER + 4 {
+    for i in 0..PADDING {
         b.push_str(&format!(
             "(padding {i}: the body is longer than the line buffer)\n"
         ));
@@ -41,7 +43,7 @@ fn a_while_loop_of_1000_turns_streams_with_the_steps_of_the_unrolled_program() {
         unrolled.push_str(&body());
     }
     unrolled.push_str("G90 G0 Y1\nM30\n");
-    assert!(looped.lines().count() > LINE_BUFFER + 5);
+    assert!(looped.lines().count() > PADDING + 5);
 
     let (report, board) = stream_emulated(&looped);
     assert!(report.completed, "{:?} {:?}", report.errors, report.alarms);

@@ -23,8 +23,10 @@ use crate::session::socket::{check_socket, socket_dir, socket_name};
 use crate::session::{Link, Session};
 use anyhow::Context;
 use gantry_machine::setup::{Setup, SETUP_BLOB_MAX};
+use gantry_proto::channel::{QueuedSink, Refusal, BOARD_TX_QUEUE, RT_QUEUE};
 use gantry_proto::messages::{Wire, SETUP_CHUNK_MAX};
-use gantry_proto::{BoardEndpoint, BoardMsg, Config, HostMsg, Lane, MachineState};
+use gantry_proto::window::DirectLane;
+use gantry_proto::{BoardMsg, Config, Endpoint, HostMsg, Lane, MachineState};
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -33,15 +35,46 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Queued messages taken from a command ahead of the board's credit (its own order kept): enough
-/// to see a setup request behind a few others, few enough that the command still feels the
-/// board's back-pressure.
-const PENDING_MAX: usize = 8;
+/// Bytes of line records taken from a command ahead of the board's credit (its own order kept):
+/// the credit the server grants each command, as the board grants the bytes of its line ring.
+/// Other queued messages cost nothing (as on the board), so a setup request behind a job's lines
+/// is seen at once; the command still feels the board's back-pressure through its lines.
+const PENDING_BYTES: u16 = 4096;
+
+/// The board's side of the link as the server plays it for one command: board messages out,
+/// host messages in, each queued one taken as it arrives ([`Pending`]).
+type PeerEndpoint = Endpoint<BoardMsg, HostMsg, BOARD_TX_QUEUE, DirectLane, RT_QUEUE, RT_QUEUE>;
+
+/// A command's queued messages not yet passed to the board.
+struct Pending<'a>(&'a mut VecDeque<HostMsg>);
+
+impl Pending<'_> {
+    fn room(queue: &VecDeque<HostMsg>) -> u16 {
+        let used: u32 = queue.iter().map(|m| u32::from(m.charge())).sum();
+        u32::from(PENDING_BYTES).saturating_sub(used) as u16
+    }
+}
+
+impl QueuedSink for Pending<'_> {
+    fn deliver(&mut self, payload: &[u8]) -> Result<Option<u32>, Refusal> {
+        let msg: HostMsg = gantry_proto::codec::decode(payload).ok_or(Refusal::Undecodable)?;
+        if msg.charge() > self.room() {
+            return Err(Refusal::NoRoom);
+        }
+        let token = msg.stream_token();
+        self.0.push_back(msg);
+        Ok(token)
+    }
+
+    fn room(&self) -> u16 {
+        Pending::room(self.0)
+    }
+}
 
 /// One command connected to the server.
 struct Peer {
     stream: UnixStream,
-    endpoint: BoardEndpoint,
+    endpoint: PeerEndpoint,
     /// Queued messages from the command, not yet passed to the board.
     pending: VecDeque<HostMsg>,
     /// Board messages not yet taken by the endpoint (its send queue was full).
@@ -55,7 +88,7 @@ impl Peer {
     fn new(stream: UnixStream, id: u32) -> Self {
         Peer {
             stream,
-            endpoint: BoardEndpoint::new_board(Config::USB_MS, 0x5e7e_0000 ^ id),
+            endpoint: PeerEndpoint::new_board(Config::USB_MS, 0x5e7e_0000 ^ id, PENDING_BYTES),
             pending: VecDeque::new(),
             outbox: VecDeque::new(),
             owns_job: false,
@@ -71,7 +104,9 @@ impl Peer {
                     self.alive = false;
                     return;
                 }
-                Ok(n) => self.endpoint.on_bytes(now, &buf[..n]),
+                Ok(n) => self
+                    .endpoint
+                    .on_bytes(now, &buf[..n], &mut Pending(&mut self.pending)),
                 Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return,
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
                 Err(_) => {
@@ -232,12 +267,6 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
                     }
                     to_board.push_back(msg);
                 }
-                while p.pending.len() < PENDING_MAX {
-                    match p.endpoint.recv_queued() {
-                        Some(m) => p.pending.push_back(m),
-                        None => break,
-                    }
-                }
                 // The session's setup answers a setup request at once (the command's earlier
                 // queued messages have gone to the board).
                 while matches!(p.pending.front(), Some(HostMsg::SetupRequest)) && !setup_stale {
@@ -328,6 +357,7 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
                 }
             }
             for p in peers.iter_mut() {
+                p.endpoint.set_window(Pending::room(&p.pending));
                 p.flush(now);
             }
             let gone_owner = peers.iter().any(|p| !p.alive && p.owns_job);

@@ -2,13 +2,22 @@
 //! [`Board`], and reports status and events back. Sans-IO: the owner feeds received bytes in,
 //! drains frames out, and calls [`BoardLink::service`] from its main loop.
 
+use super::{line_ring, Pushed};
 use super::{Board, BoardEvent, JobEnd, JumpTarget};
 use crate::controller::State;
 use crate::setup::{Setup, SETUP_BLOB_MAX};
+use gantry_proto::channel::{QueuedSink, Refusal};
 use gantry_proto::{
-    BoardEndpoint, BoardMsg, Config, HostMsg, Lane, LinkEvent, MachineState, OutputsStatus,
-    ProbeStatus, ProgramTarget, SpindleStatus, Status,
+    BoardEndpoint, BoardInbound, BoardMsg, Config, HostMessage, Lane, LinkEvent, MachineState,
+    OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status,
 };
+
+// The line ring stores the link's line records as they come: both sides use one format.
+const _: () = assert!(
+    line_ring::LINE_MAX == gantry_proto::lines::LINE_MAX
+        && line_ring::RECORD_HEADER == gantry_proto::lines::RECORD_HEADER
+        && super::LINE_RING <= u16::MAX as usize
+);
 
 /// The protocol a connection speaks, told from its first byte and forgotten when the host
 /// disconnects (DTR drop, port closed): Gantry's framed protocol or grbl 1.1's text
@@ -83,6 +92,15 @@ struct SetupOut {
     sent: usize,
 }
 
+/// The setup blobs in transfer.
+struct SetupTransfer {
+    /// The setup blob being received from the host.
+    incoming: heapless::Vec<u8, SETUP_BLOB_MAX>,
+    outgoing: Option<SetupOut>,
+    /// A new setup was applied: the firmware saves it to flash (when idle).
+    changed: bool,
+}
+
 /// Link endpoint + the glue to the board.
 pub struct BoardLink {
     endpoint: BoardEndpoint,
@@ -96,11 +114,8 @@ pub struct BoardLink {
     /// Since when (ms) the job has been held, or waited for lines, with the host gone (alarm 20
     /// timer).
     unattended_since: Option<u32>,
-    /// The setup blob being received from the host.
-    setup_in: heapless::Vec<u8, SETUP_BLOB_MAX>,
-    setup_out: Option<SetupOut>,
-    /// A new setup was applied: the firmware saves it to flash (when idle).
-    setup_changed: bool,
+    /// Setup blobs to and from the host.
+    setup: SetupTransfer,
     /// The protocol of the current connection.
     protocol: LinkProtocol,
     /// The grbl front end (used while `protocol` is [`LinkProtocol::Grbl`]).
@@ -114,16 +129,18 @@ impl BoardLink {
     /// `boot_id` must differ at every power-up (the host detects board resets by it).
     pub fn new(boot_id: u32) -> Self {
         BoardLink {
-            endpoint: BoardEndpoint::new_board(Config::USB_MS, boot_id),
+            endpoint: BoardEndpoint::new_board(Config::USB_MS, boot_id, super::LINE_RING as u16),
             outbox: heapless::Deque::new(),
             last_status: None,
             status_requested: false,
             host_attached: false,
             host_lost: false,
             unattended_since: None,
-            setup_in: heapless::Vec::new(),
-            setup_out: None,
-            setup_changed: false,
+            setup: SetupTransfer {
+                incoming: heapless::Vec::new(),
+                outgoing: None,
+                changed: false,
+            },
             protocol: LinkProtocol::Undecided,
             grbl: crate::grbl::Grbl::new(),
             undecided: heapless::Vec::new(),
@@ -137,8 +154,9 @@ impl BoardLink {
     }
 
     /// Bytes received from the host. The first bytes of a connection choose its protocol
-    /// ([`LinkProtocol::decide`]); until they do, they wait here.
-    pub fn on_bytes(&mut self, now_ms: u32, bytes: &[u8]) {
+    /// ([`LinkProtocol::decide`]); until they do, they wait here. Queued messages reach the
+    /// board as they arrive (program lines into its line ring).
+    pub fn on_bytes(&mut self, board: &mut Board, now_ms: u32, bytes: &[u8]) {
         if self.protocol == LinkProtocol::Undecided {
             if self.undecided.is_empty() {
                 self.undecided_since = now_ms;
@@ -148,30 +166,36 @@ impl BoardLink {
                 rest = after;
                 let _ = self.undecided.push(b);
                 if let Some(p) = LinkProtocol::decide(&self.undecided) {
-                    self.choose(now_ms, p);
-                    self.deliver(now_ms, rest);
+                    self.choose(board, now_ms, p);
+                    self.deliver(board, now_ms, rest);
                     return;
                 }
             }
             return;
         }
-        self.deliver(now_ms, bytes);
+        self.deliver(board, now_ms, bytes);
     }
 
     /// The connection speaks `p`: the bytes that waited go to it.
-    fn choose(&mut self, now_ms: u32, p: LinkProtocol) {
+    fn choose(&mut self, board: &mut Board, now_ms: u32, p: LinkProtocol) {
         self.protocol = p;
         if p == LinkProtocol::Grbl {
             self.grbl.connect();
         }
         let held = core::mem::take(&mut self.undecided);
-        self.deliver(now_ms, &held);
+        self.deliver(board, now_ms, &held);
     }
 
-    fn deliver(&mut self, now_ms: u32, bytes: &[u8]) {
+    fn deliver(&mut self, board: &mut Board, now_ms: u32, bytes: &[u8]) {
         match self.protocol {
             LinkProtocol::Grbl => self.grbl.on_bytes(bytes),
-            _ => self.endpoint.on_bytes(now_ms, bytes),
+            _ => {
+                let mut inbox = Inbox {
+                    board,
+                    setup: &mut self.setup,
+                };
+                self.endpoint.on_bytes(now_ms, bytes, &mut inbox);
+            }
         }
     }
 
@@ -222,7 +246,7 @@ impl BoardLink {
             && now_ms.wrapping_sub(self.undecided_since) >= UNDECIDED_MS
         {
             if let Some(p) = LinkProtocol::decide_after_wait(&self.undecided) {
-                self.choose(now_ms, p);
+                self.choose(board, now_ms, p);
             }
         }
         if self.protocol == LinkProtocol::Grbl {
@@ -250,18 +274,10 @@ impl BoardLink {
         while let Some(msg) = self.endpoint.recv_realtime() {
             self.realtime(board, msg);
         }
-        // Queued messages: take a line only when the board has room for it, so the credit the
-        // host sees is exactly the board's free line buffer.
-        while let Some(msg) = self.endpoint.peek_queued() {
-            let is_line = matches!(msg, HostMsg::Line(_) | HostMsg::ProgramLine { .. });
-            if is_line && board.line_room() == 0 {
-                break;
-            }
-            let Some(msg) = self.endpoint.recv_queued() else {
-                break;
-            };
-            self.queued(board, msg);
-        }
+        // Queued messages were taken as they arrived (`Inbox`); the credit is the line ring's
+        // room now that the interpreter has taken lines out of it.
+        self.endpoint
+            .set_window(board.line_ring_free().min(u16::MAX as usize) as u16);
         self.send_events(board);
         self.send_setup(board);
         let due = self
@@ -297,26 +313,26 @@ impl BoardLink {
         }
     }
 
-    fn realtime(&mut self, board: &mut Board, msg: HostMsg) {
+    fn realtime(&mut self, board: &mut Board, msg: BoardInbound) {
         match msg {
-            HostMsg::FeedHold => board.feed_hold(),
-            HostMsg::Resume => board.resume(),
-            HostMsg::Abort => board.abort(),
-            HostMsg::FeedOverride(p) => board.set_feed_override(p),
-            HostMsg::RapidOverride(p) => board.set_rapid_override(p),
-            HostMsg::SpindleOverride(p) => board.set_spindle_override(p),
-            HostMsg::StatusRequest => self.status_requested = true,
+            HostMessage::FeedHold => board.feed_hold(),
+            HostMessage::Resume => board.resume(),
+            HostMessage::Abort => board.abort(),
+            HostMessage::FeedOverride(p) => board.set_feed_override(p),
+            HostMessage::RapidOverride(p) => board.set_rapid_override(p),
+            HostMessage::SpindleOverride(p) => board.set_spindle_override(p),
+            HostMessage::StatusRequest => self.status_requested = true,
             // Requests with an id are answered (`BoardMsg::Answer`), accepted or refused.
-            HostMsg::Unlock { id } => {
+            HostMessage::Unlock { id } => {
                 let r = board.try_unlock();
                 answer(board, id, r);
             }
-            HostMsg::Jog(j) => {
+            HostMessage::Jog(j) => {
                 let r = board.try_jog(j.axis, j.feed_um_min, j.distance_nm);
                 answer(board, j.id, r);
             }
-            HostMsg::JogStop => board.jog_stop(),
-            HostMsg::Home { id, axes } => {
+            HostMessage::JogStop => board.jog_stop(),
+            HostMessage::Home { id, axes } => {
                 let r = board.try_home(axes);
                 answer(board, id, r);
             }
@@ -326,71 +342,12 @@ impl BoardLink {
 
     /// True once after a setup from the host was applied: the owner persists `board.setup()`.
     pub fn take_setup_changed(&mut self) -> bool {
-        core::mem::take(&mut self.setup_changed) | self.grbl.take_setup_changed()
-    }
-
-    fn queued(&mut self, board: &mut Board, msg: HostMsg) {
-        match msg {
-            HostMsg::SetupChunk { offset, bytes } => {
-                let rx = &mut self.setup_in;
-                if offset == 0 {
-                    rx.clear();
-                }
-                // Chunks arrive in order (queued lane); a gap or overflow fails at commit.
-                if offset as usize == rx.len() && rx.extend_from_slice(&bytes).is_err() {
-                    rx.clear();
-                }
-            }
-            HostMsg::SetupCommit { id, len, crc32 } => {
-                let blob = &self.setup_in;
-                let code = if blob.len() != len as usize || gantry_proto::crc::crc32(blob) != crc32
-                {
-                    1
-                } else {
-                    match Setup::from_blob(blob) {
-                        None => 2,
-                        Some(setup) => {
-                            if board.set_setup(setup) {
-                                self.setup_changed = true;
-                                0
-                            } else {
-                                3
-                            }
-                        }
-                    }
-                };
-                self.setup_in.clear();
-                answer(board, id, if code == 0 { Ok(()) } else { Err(code) });
-            }
-            HostMsg::SetupRequest => {
-                let mut buf = [0u8; SETUP_BLOB_MAX];
-                if let Some(blob) = board.setup().to_blob(&mut buf) {
-                    self.setup_out = Some(SetupOut {
-                        len: blob.len(),
-                        crc32: gantry_proto::crc::crc32(blob),
-                        sent: 0,
-                    });
-                }
-            }
-            HostMsg::Start { id } | HostMsg::StartFromLine { id, .. } => {
-                let r = board.try_start_job();
-                answer(board, id, r);
-            }
-            HostMsg::Line(l) => {
-                board.push_line(0, l.line_no, &l.text);
-            }
-            HostMsg::ProgramLine { id, line } => {
-                board.push_line(id, line.line_no, &line.text);
-            }
-            HostMsg::ProgramEnd { id, .. } => board.end_of_lines(id),
-            HostMsg::EndOfJob => board.end_of_lines(0),
-            _ => {}
-        }
+        core::mem::take(&mut self.setup.changed) | self.grbl.take_setup_changed()
     }
 
     /// Sends the next chunks of an outgoing setup blob as the queue allows.
     fn send_setup(&mut self, board: &Board) {
-        let Some(out) = self.setup_out.as_mut() else {
+        let Some(out) = self.setup.outgoing.as_mut() else {
             return;
         };
         while self.endpoint.send_capacity(Lane::Queued) > 0 {
@@ -400,7 +357,7 @@ impl BoardLink {
                     crc32: out.crc32,
                 };
                 if self.endpoint.send(end).is_ok() {
-                    self.setup_out = None;
+                    self.setup.outgoing = None;
                 }
                 return;
             }
@@ -445,6 +402,91 @@ impl BoardLink {
                 let _ = self.outbox.push_front(m);
                 return;
             }
+        }
+    }
+}
+
+/// The board as the link's queued lane sees it while bytes arrive: each queued message is taken
+/// at once, in order (docs/protocol.md "Flow control"): a line batch's records are checked and
+/// copied into the board's line ring as they are, everything else is handled on the spot.
+struct Inbox<'a> {
+    board: &'a mut Board,
+    setup: &'a mut SetupTransfer,
+}
+
+impl QueuedSink for Inbox<'_> {
+    fn deliver(&mut self, payload: &[u8]) -> Result<Option<u32>, Refusal> {
+        // Batches are read in place; anything else with the realtime lane's decoder (one
+        // deserializer for the message enum in flash).
+        let Some((id, records)) = gantry_proto::lines::batch_in_place(payload) else {
+            let msg =
+                gantry_proto::codec::decode::<BoardInbound>(payload).ok_or(Refusal::Undecodable)?;
+            self.queued(msg);
+            return Ok(None);
+        };
+        let (lines, last) = line_ring::check_run(records).ok_or(Refusal::Undecodable)?;
+        match self.board.push_lines(id, records, lines) {
+            Pushed::Full => Err(Refusal::NoRoom),
+            Pushed::Stored | Pushed::Stale => Ok(if id == 0 { last } else { None }),
+        }
+    }
+
+    fn room(&self) -> u16 {
+        self.board.line_ring_free().min(u16::MAX as usize) as u16
+    }
+}
+
+impl Inbox<'_> {
+    fn queued(&mut self, msg: BoardInbound) {
+        match msg {
+            HostMessage::SetupChunk { offset, bytes } => {
+                let rx = &mut self.setup.incoming;
+                if offset == 0 {
+                    rx.clear();
+                }
+                // Chunks arrive in order (queued lane); a gap or overflow fails at commit.
+                if offset as usize == rx.len() && rx.extend_from_slice(&bytes).is_err() {
+                    rx.clear();
+                }
+            }
+            HostMessage::SetupCommit { id, len, crc32 } => {
+                let blob = &self.setup.incoming;
+                let code = if blob.len() != len as usize || gantry_proto::crc::crc32(blob) != crc32
+                {
+                    1
+                } else {
+                    match Setup::from_blob(blob) {
+                        None => 2,
+                        Some(setup) => {
+                            if self.board.set_setup(setup) {
+                                self.setup.changed = true;
+                                0
+                            } else {
+                                3
+                            }
+                        }
+                    }
+                };
+                self.setup.incoming.clear();
+                answer(self.board, id, if code == 0 { Ok(()) } else { Err(code) });
+            }
+            HostMessage::SetupRequest => {
+                let mut buf = [0u8; SETUP_BLOB_MAX];
+                if let Some(blob) = self.board.setup().to_blob(&mut buf) {
+                    self.setup.outgoing = Some(SetupOut {
+                        len: blob.len(),
+                        crc32: gantry_proto::crc::crc32(blob),
+                        sent: 0,
+                    });
+                }
+            }
+            HostMessage::Start { id } | HostMessage::StartFromLine { id, .. } => {
+                let r = self.board.try_start_job();
+                answer(self.board, id, r);
+            }
+            HostMessage::ProgramEnd { id, .. } => self.board.end_of_lines(id),
+            HostMessage::EndOfJob => self.board.end_of_lines(0),
+            _ => {}
         }
     }
 }

@@ -309,7 +309,7 @@ impl MainLoop {
                 break;
             }
             // (`get`: a port never reports more than it was given; no panic path for it.)
-            link.on_bytes(now_ms, rx.get(..n).unwrap_or_default());
+            link.on_bytes(board, now_ms, rx.get(..n).unwrap_or_default());
         }
         let host_port = port.host_port();
         if self.host_port == HostPort::Open && host_port != HostPort::Open {

@@ -12,6 +12,7 @@ pub mod executing;
 mod homing_cycle;
 mod jogging;
 pub mod kernel_view;
+pub mod line_ring;
 #[cfg(feature = "link")]
 pub mod link;
 #[cfg(feature = "link")]
@@ -50,12 +51,16 @@ use operator::RunSwitches;
 pub use overrides::DoorOutputs;
 use probing::ProbeCycle;
 pub use probing::ProbeResult;
-pub use source::{JumpRequest, JumpTarget, StreamSource, LINE_CAPACITY};
+pub use source::{JumpRequest, JumpTarget, Pushed, StreamSource, LINE_CAPACITY};
 
 /// Planner ring size on the board (look-ahead over at least 128 blocks, docs/architecture.md).
 pub const PLANNER_BLOCKS: usize = 128;
-/// Streamed lines the board buffers ahead of the interpreter.
-pub const LINE_BUFFER: usize = 16;
+/// Bytes of line records (`board/line_ring.rs`) the board buffers ahead of the interpreter: the
+/// queued lane's credit. 4 KiB is ~250 short CAM lines, 25 ms of a 10 k lines/s program: more
+/// than a USB or pty round trip plus a main-loop pass (docs/protocol.md "Flow control").
+pub const LINE_RING: usize = 4096;
+/// The line ring's buffer: the ring and the run-on room of one record (`line_ring.rs`).
+const LINE_RING_BUFFER: usize = LINE_RING + line_ring::RECORD_MAX;
 /// Events waiting for the link.
 const EVENT_QUEUE: usize = 8;
 
@@ -195,7 +200,7 @@ pub struct Board {
     /// Idle, a job (running, held, stopping), an alarm, homing or jogging.
     mode: Mode,
     interp: Interpreter,
-    source: StreamSource<LINE_BUFFER>,
+    source: StreamSource<LINE_RING_BUFFER>,
     motion: Motion<PLANNER_BLOCKS>,
     /// An action the motion queue had no room for yet.
     pending: Option<Canon>,
@@ -386,7 +391,8 @@ impl Board {
         self.source.len()
     }
 
-    /// Free slots for streamed lines; the link takes lines only while this is non-zero.
+    /// Free bytes for streamed line records (a line takes its text and 6 bytes); `usize::MAX`
+    /// when lines are not taken (they are dropped at once).
     pub fn line_room(&self) -> usize {
         if self.takes_lines() {
             self.source.free()
@@ -562,6 +568,21 @@ impl Board {
             return false;
         }
         self.source.push(id, line_no, text)
+    }
+
+    /// Free bytes of the line ring, whether or not a job takes lines: the credit the link grants
+    /// (a `Start` and the job's first lines may come in one burst).
+    pub fn line_ring_free(&self) -> usize {
+        self.source.free()
+    }
+
+    /// A valid run of `lines` line records from the link for place `id`, stored as it is. Lines
+    /// of no running job are dropped ([`Pushed::Stale`]).
+    pub fn push_lines(&mut self, id: u16, run: &[u8], lines: usize) -> Pushed {
+        if !self.takes_lines() {
+            return Pushed::Stale;
+        }
+        self.source.push_run(id, run, lines)
     }
 
     /// A host (re)attached: if a job is running, ask it for every line after the last one the

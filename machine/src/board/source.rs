@@ -1,5 +1,6 @@
-//! The streamed program as the board's interpreter sees it: a small buffer of lines the host sent,
-//! plus the jump requests subprograms need (the board owns the call stack, the host serves
+//! The streamed program as the board's interpreter sees it: the lines the host sent, held once in
+//! a [`LineRing`] (the interpreter reads each where it lies), plus the jump requests subprograms
+//! need (the board owns the call stack, the host serves
 //! "program O from line n" on request: `ProgramRequest` in docs/protocol.md).
 //!
 //! Every jump gets a new request id; lines that arrive for an older id (already in flight when the
@@ -7,11 +8,11 @@
 //! return a *token* instead of a file line number (the board does not know where `O<n>` stands in
 //! the host's file); jumping to that token later (an `L` repeat) asks for the same subprogram again.
 
+use super::line_ring::LineRing;
 use crate::gcode::source::{ProgramSource, SourceError};
-use heapless::{Deque, String};
 
 /// Longest line the board accepts (bytes), equal to the protocol's line limit.
-pub const LINE_CAPACITY: usize = 104;
+pub const LINE_CAPACITY: usize = super::line_ring::LINE_MAX;
 
 /// Tokens at or above this value stand for "the start of subprogram `u32::MAX - token`".
 const PROGRAM_TOKEN_BASE: u32 = 0xF000_0000;
@@ -34,11 +35,22 @@ pub struct JumpRequest {
     pub target: JumpTarget,
 }
 
-/// Buffer of `N` streamed lines with jump bookkeeping.
-pub struct StreamSource<const N: usize> {
-    lines: Deque<(u32, String<LINE_CAPACITY>), N>,
-    /// The line handed to the interpreter (its first bytes, as long as the line).
-    current: [u8; LINE_CAPACITY],
+/// What [`StreamSource::push_run`] did with a run of lines.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pushed {
+    /// Stored.
+    Stored,
+    /// Dropped: for an older place, or after the place's end.
+    Stale,
+    /// Not stored: the ring has no room for it.
+    Full,
+}
+
+/// Streamed lines in a ring of `B` bytes ([`LineRing`]) with jump bookkeeping.
+pub struct StreamSource<const B: usize> {
+    lines: LineRing<B>,
+    /// The interpreter holds the front line (handed out by `next_line`, dropped at the next call).
+    front_taken: bool,
     /// Id of the place lines are accepted for: 0 = the linear main stream.
     id: u16,
     /// The host said no line follows for the current id.
@@ -54,17 +66,17 @@ pub struct StreamSource<const N: usize> {
     jumps_served: bool,
 }
 
-impl<const N: usize> Default for StreamSource<N> {
+impl<const B: usize> Default for StreamSource<B> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize> StreamSource<N> {
+impl<const B: usize> StreamSource<B> {
     pub const fn new() -> Self {
         StreamSource {
-            lines: Deque::new(),
-            current: [0; LINE_CAPACITY],
+            lines: LineRing::new(),
+            front_taken: false,
             id: 0,
             ended: false,
             pending: None,
@@ -81,21 +93,28 @@ impl<const N: usize> StreamSource<N> {
 
     /// Forgets everything (new job).
     pub fn reset(&mut self) {
-        *self = Self::new();
+        self.lines.clear();
+        self.front_taken = false;
+        self.id = 0;
+        self.ended = false;
+        self.pending = None;
+        self.origin = JumpTarget::Line(1);
+        self.last_out = None;
+        self.jumps_served = true;
     }
 
-    /// Free line slots; the board takes lines from the link only while this is non-zero.
+    /// Free bytes of line records (`line_ring.rs`): the credit the host gets.
     pub fn free(&self) -> usize {
-        N - self.lines.len()
+        self.lines.free()
     }
 
-    /// Lines buffered.
+    /// Lines buffered and not yet handed to the interpreter.
     pub fn len(&self) -> usize {
-        self.lines.len()
+        self.lines.lines() - usize::from(self.front_taken)
     }
 
     pub fn is_empty(&self) -> bool {
-        self.lines.is_empty()
+        self.len() == 0
     }
 
     /// Id of the current place (0 = main stream).
@@ -109,10 +128,19 @@ impl<const N: usize> StreamSource<N> {
         if id != self.id || self.ended {
             return false;
         }
-        let Ok(text) = String::try_from(text) else {
-            return false;
-        };
-        self.lines.push_back((line_no, text)).is_ok()
+        self.lines.push_line(line_no, text.as_bytes())
+    }
+
+    /// Accepts `run`, a valid run of `lines` line records ([`super::line_ring::check_run`])
+    /// for place `id`, copied in as it is.
+    pub fn push_run(&mut self, id: u16, run: &[u8], lines: usize) -> Pushed {
+        if id != self.id || self.ended {
+            Pushed::Stale
+        } else if self.lines.push_run(run, lines) {
+            Pushed::Stored
+        } else {
+            Pushed::Full
+        }
     }
 
     /// The host has no more lines for place `id` (end of file or of the main job).
@@ -129,12 +157,14 @@ impl<const N: usize> StreamSource<N> {
 
     /// True when the place has ended and every line was consumed.
     pub fn is_exhausted(&self) -> bool {
-        self.ended && self.lines.is_empty()
+        self.ended && self.is_empty()
     }
 
-    /// Line number of the next line to be interpreted, if buffered.
-    pub fn next_line_no(&self) -> Option<u32> {
-        self.lines.front().map(|(n, _)| *n)
+    /// Drops the line the interpreter was given last (it is done with it).
+    fn release_front(&mut self) {
+        if core::mem::take(&mut self.front_taken) {
+            self.lines.pop();
+        }
     }
 
     fn jump(&mut self, target: JumpTarget) -> Result<(), SourceError> {
@@ -143,6 +173,7 @@ impl<const N: usize> StreamSource<N> {
         }
         self.id = self.id.wrapping_add(1).max(1);
         self.lines.clear();
+        self.front_taken = false;
         self.ended = false;
         self.origin = target;
         self.last_out = None;
@@ -167,24 +198,15 @@ impl<const N: usize> StreamSource<N> {
     }
 }
 
-impl<const N: usize> ProgramSource for StreamSource<N> {
+impl<const B: usize> ProgramSource for StreamSource<B> {
     fn next_line(&mut self) -> Option<(u32, &[u8])> {
-        // Copied from the front in place, then popped: moving the popped `String` into
-        // `current` compiled to a `memmove` (the firmware's only other user of it). One
-        // `memcpy`: `String::push_str` copied byte by byte, ~170 Cortex-M4 instructions a short
-        // line (target-tests/src/bin/bench_motion.rs).
+        // The line is read where it lies in the ring (no copy); it stays there until the next
+        // call, when the interpreter is done with it.
+        self.release_front();
         let (n, text) = self.lines.front()?;
-        let n = *n;
-        // Same capacity: every byte fits. No slice index that could fail (its panic would link
-        // the formatting code).
-        let src = text.as_bytes();
-        for (to, &from) in self.current.iter_mut().zip(src) {
-            *to = from;
-        }
-        let len = src.len();
-        self.lines.pop_front();
+        self.front_taken = true;
         self.last_out = Some(n);
-        Some((n, self.current.get(..len).unwrap_or(&[])))
+        Some((n, text))
     }
 
     fn is_exhausted(&self) -> bool {
@@ -221,7 +243,7 @@ mod tests {
 
     #[test]
     fn lines_come_out_in_order_and_stale_ones_are_dropped() {
-        let mut s: StreamSource<4> = StreamSource::new();
+        let mut s: StreamSource<{ 4 * crate::board::line_ring::RECORD_MAX }> = StreamSource::new();
         assert!(s.push(0, 1, "G0 X1"));
         assert!(s.push(0, 2, "M98 P7"));
         assert_eq!(s.next_line(), Some((1, &b"G0 X1"[..])));
@@ -259,7 +281,7 @@ mod tests {
 
     #[test]
     fn resync_asks_for_the_line_after_the_last_one_interpreted() {
-        let mut s: StreamSource<4> = StreamSource::new();
+        let mut s: StreamSource<{ 4 * crate::board::line_ring::RECORD_MAX }> = StreamSource::new();
         s.resync();
         assert_eq!(
             s.take_request(),
@@ -294,7 +316,9 @@ mod tests {
 
     #[test]
     fn exhausted_only_after_the_end_and_the_last_line() {
-        let mut s: StreamSource<2> = StreamSource::new();
+        extern crate std;
+        // A ring of 262 bytes: "M30" (6 + 3) and a 247-character line fill it.
+        let mut s: StreamSource<{ 2 * crate::board::line_ring::RECORD_MAX }> = StreamSource::new();
         assert!(!s.is_exhausted());
         assert_eq!(s.next_line(), None);
         assert!(
@@ -302,7 +326,9 @@ mod tests {
             "an empty buffer is starved, not finished"
         );
         assert!(s.push(0, 1, "M30"));
-        assert!(s.push(0, 2, "G0"));
+        let long = std::format!("G0 X1{}", "0".repeat(242));
+        assert!(s.push(0, 2, &long));
+        assert_eq!(s.free(), 0);
         assert!(!s.push(0, 3, "G0"), "full");
         s.end(0);
         assert!(!s.is_exhausted());

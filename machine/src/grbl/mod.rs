@@ -28,7 +28,12 @@ pub mod settings;
 pub mod text;
 
 use crate::board::kernel_view::KernelView;
-use crate::board::{Board, BoardEvent, JogRefused, ProbeResult, Streamer, LINE_CAPACITY};
+use crate::board::{Board, BoardEvent, JogRefused, ProbeResult, Streamer};
+
+/// Longest line (bytes, blanks and comments dropped) the grbl front end takes: more than grbl's
+/// own 80, and with its line end well inside the 128-byte receive buffer grbl senders count on
+/// (`rx.rs`). The framed link carries up to `board::LINE_CAPACITY` (256).
+pub const LINE_CAPACITY: usize = 104;
 use crate::controller::{AlarmCode, State};
 use crate::setup::STARTUP_LINE_LEN;
 use command::{Command, Restore};

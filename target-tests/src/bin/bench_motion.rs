@@ -15,6 +15,7 @@ use core::hint::black_box;
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::entry;
+use gantry_machine::board::line_ring::RECORD_MAX;
 use gantry_machine::board::StreamSource;
 use gantry_machine::canon::{Action, Canon};
 use gantry_machine::gcode::block::parse_block;
@@ -192,7 +193,8 @@ fn line_cost() -> [u64; 4] {
         }
     }
     let mut interp = Interpreter::new(&config);
-    let mut source: StreamSource<16> = StreamSource::new();
+    // Room for one line at a time (it is pushed, then interpreted).
+    let mut source: StreamSource<{ 2 * RECORD_MAX }> = StreamSource::new();
     let mut motion: Motion<128> = Motion::new(MotionConfig::default());
     // Counts and timed calls per stage: interpret, plan, prepare.
     let mut sums = [(0u64, 0u64); 3];
