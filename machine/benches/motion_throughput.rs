@@ -7,11 +7,11 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, Throughput};
+use gantry_machine::arith::{polar, TURN};
 use gantry_machine::canon::{Action, Canon};
 use gantry_machine::gcode::{InterpConfig, Interpreter, MemorySource};
 use gantry_machine::motion::config::MotionConfig;
 use gantry_machine::motion::pipeline::{Motion, PushError};
-use gantry_machine::motion::trig::{polar, TURN};
 
 const BLOCKS: u32 = 100_000;
 

@@ -2,6 +2,7 @@
 //! chords within the tolerance, corners at the tolerance's junction speed, exact end positions,
 //! exact stop under G61, holds inside a merged chord.
 
+use gantry_machine::arith::isqrt_u64;
 use gantry_machine::canon::{Action, Canon, PathMode};
 use gantry_machine::motion::config::MotionConfig;
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
@@ -9,7 +10,6 @@ use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::motion::planner::{junction_limit_sq, UNIT};
 use gantry_machine::motion::prep::BlockReport;
 use gantry_machine::motion::sim::{Sim, SimEvent, StepEvent};
-use gantry_machine::motion::trig::isqrt_u64;
 use gantry_machine::units::{Pos, MAX_AXES};
 
 const MM: i64 = 1_000_000;

@@ -257,7 +257,7 @@ impl Board {
         }
         let sq: u128 = dirs
             .iter()
-            .map(|&v| crate::motion::trig::mul_i128(v as i128, v as i128) as u128)
+            .map(|&v| crate::arith::mul_i128(v as i128, v as i128) as u128)
             .sum();
         (sq != 0).then(|| StickMove {
             dirs,

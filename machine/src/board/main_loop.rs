@@ -32,11 +32,11 @@ use super::link::{BoardLink, KernelView};
 use super::starvation::{Sample, Starvation};
 use super::underruns::Underruns;
 use super::Board;
+use crate::arith::isqrt_u64;
 use crate::controller::inputs::{Debouncer, InputBits};
 use crate::controller::{AdcReadings, OutputLevels, State};
 use crate::motion::kernel::{Segment, StepTiming};
 use crate::motion::pipeline::MotionState;
-use crate::motion::trig::isqrt_u64;
 use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
 

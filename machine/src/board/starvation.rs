@@ -13,7 +13,7 @@
 //! job's first segments starts the count.
 
 use super::{Board, PLANNER_BLOCKS};
-use crate::motion::trig::isqrt_u64;
+use crate::arith::isqrt_u64;
 
 /// Where the job stands for the count.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -12,8 +12,8 @@
 //! stopping.
 
 use super::inputs::{InputBits, Signal};
+use crate::arith::{div_i128, mul_i128};
 use crate::motion::config::MotionConfig;
-use crate::motion::trig::{div_i128, mul_i128};
 use crate::setup::JogSetup;
 use crate::units::{Nm, Pos, MAX_AXES};
 
@@ -137,7 +137,7 @@ pub fn same_direction(a: &[i64; MAX_AXES], b: &[i64; MAX_AXES]) -> bool {
 /// Integer square root (floor) of a u128, for path speeds of the analog stick (the motion
 /// core's, one copy in flash for every caller).
 pub fn isqrt(v: u128) -> u128 {
-    crate::motion::trig::isqrt_u128(v)
+    crate::arith::isqrt_u128(v)
 }
 
 #[cfg(test)]

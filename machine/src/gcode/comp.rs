@@ -22,7 +22,7 @@ use super::error::ErrorCode;
 use super::geometry::{self, div_round, isqrt};
 use crate::canon::{Action, ArcDir, Canon, Plane};
 // i128 products out of line (a dozen here; each is a long inline expansion on the Cortex-M4).
-use crate::motion::trig::mul_i128 as mul;
+use crate::arith::mul_i128 as mul;
 use crate::units::{Nm, Pos};
 
 /// Actions that can wait for the next compensated move (the move itself and what follows it).

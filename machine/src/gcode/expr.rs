@@ -3,14 +3,14 @@
 //! Every value is an [`Fx`]: an `i64` holding the number times 10⁹ (nine decimals, range ±9.2·10⁹),
 //! so arithmetic is exact integer arithmetic and bit-identical on the host and the Cortex-M4.
 //! Products and quotients go through `i128` and round half away from zero. Angles are degrees as
-//! in LinuxCNC; SIN/COS/ATAN use the CORDIC of `machine/src/motion/trig.rs`, SQRT the integer
+//! in LinuxCNC; SIN/COS/ATAN use the CORDIC of `machine/src/arith.rs`, SQRT the integer
 //! square root there, EXP/LN short series on 10¹⁸-scaled `i128` values.
 //!
 //! Precedence (LinuxCNC): `**` > `* / MOD` > `+ -` > `EQ NE GT GE LT LE` > `AND OR XOR`, each left
 //! associative. Comparisons and logic give 1 or 0; AND/OR/XOR treat any non-zero value as true.
 
 use super::error::ErrorCode;
-use crate::motion::trig;
+use crate::arith;
 
 /// A fixed-point value: the number times [`ONE`].
 pub type Fx = i64;
@@ -280,7 +280,10 @@ fn checked(v: i128) -> Result<Fx, ErrorCode> {
 
 /// `a × b / ONE` rounded half away from zero.
 pub fn mul(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
-    checked(round_div(trig::mul_i128(a as i128, b as i128), ONE as i128))
+    checked(round_div(
+        arith::mul_i128(a as i128, b as i128),
+        ONE as i128,
+    ))
 }
 
 /// `a × ONE / b` rounded half away from zero.
@@ -293,7 +296,7 @@ pub fn div(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
 
 fn round_div(n: i128, d: i128) -> i128 {
     let (n, d) = if d < 0 { (-n, -d) } else { (n, d) };
-    let q = trig::div_i128(n.abs() + d / 2, d);
+    let q = arith::div_i128(n.abs() + d / 2, d);
     if n < 0 {
         -q
     } else {
@@ -460,23 +463,23 @@ fn function(c: &mut Cursor<'_>, params: &dyn ParamRead, depth: u8) -> Result<Fx,
 /// 360° in binary-angle units per ONE degree: degrees × TURN / 360 / ONE.
 fn deg_to_binary(deg: Fx) -> i64 {
     let full = 360 * ONE as i128;
-    let turns = deg as i128 - trig::div_i128(deg as i128, full) * full;
-    trig::div_i128(turns * trig::TURN as i128, 360 * ONE as i128) as i64
+    let turns = deg as i128 - arith::div_i128(deg as i128, full) * full;
+    arith::div_i128(turns * arith::TURN as i128, 360 * ONE as i128) as i64
 }
 
 fn binary_to_deg(angle: i64) -> Fx {
-    round_div(angle as i128 * 360 * ONE as i128, trig::TURN as i128) as i64
+    round_div(angle as i128 * 360 * ONE as i128, arith::TURN as i128) as i64
 }
 
 /// (cos, sin) of an angle in degrees.
 pub fn sin_cos_deg(deg: Fx) -> (Fx, Fx) {
-    let (c, s) = trig::polar(ONE, deg_to_binary(deg));
+    let (c, s) = arith::polar(ONE, deg_to_binary(deg));
     (c, s)
 }
 
 /// ATAN[y]/[x] in degrees, in (−180, 180].
 pub fn atan_deg(y: Fx, x: Fx) -> Fx {
-    binary_to_deg(trig::atan2(y, x))
+    binary_to_deg(arith::atan2(y, x))
 }
 
 /// √v (v ≥ 0).
@@ -485,7 +488,7 @@ pub fn sqrt(v: Fx) -> Result<Fx, ErrorCode> {
         return Err(ErrorCode::FunctionDomain);
     }
     let scaled = v as u128 * ONE as u128;
-    let r = trig::isqrt_u128(scaled);
+    let r = arith::isqrt_u128(scaled);
     // Round to nearest: r or r + 1.
     let r = if (r * r + r) < scaled { r + 1 } else { r };
     Ok(r as i64)
@@ -528,15 +531,15 @@ pub fn ln(v: Fx) -> Result<Fx, ErrorCode> {
         m *= 2;
         k -= 1;
     }
-    let z = trig::div_i128((m - E18) * E18, m + E18);
+    let z = arith::div_i128((m - E18) * E18, m + E18);
     // i128 `/` is expanded inline on the Cortex-M4 (~1 KiB each): the shared division instead.
-    let z2 = trig::div_i128(trig::mul_i128(z, z), E18);
+    let z2 = arith::div_i128(arith::mul_i128(z, z), E18);
     let mut term = z;
     let mut sum = 0i128;
     let mut n = 1i128;
     while term != 0 {
-        sum += trig::div_i128(term, n);
-        term = trig::div_i128(trig::mul_i128(term, z2), E18);
+        sum += arith::div_i128(term, n);
+        term = arith::div_i128(arith::mul_i128(term, z2), E18);
         n += 2;
     }
     let r = 2 * sum + k * LN2_E18;
@@ -559,7 +562,7 @@ pub fn exp(v: Fx) -> Result<Fx, ErrorCode> {
     let mut n = 1i128;
     while term != 0 {
         sum += term;
-        term = trig::div_i128(trig::div_i128(trig::mul_i128(term, r), E18), n);
+        term = arith::div_i128(arith::div_i128(arith::mul_i128(term, r), E18), n);
         n += 1;
     }
     let scaled = if k >= 0 { sum << k } else { sum >> (-k) };

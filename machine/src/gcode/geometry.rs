@@ -6,12 +6,12 @@
 
 use super::error::ErrorCode;
 // Wide i128 products out of line (each is a long inline expansion on the Cortex-M4).
-use crate::motion::trig::mul_i128 as mul;
+use crate::arith::mul_i128 as mul;
 use crate::units::Nm;
 
 /// Floor of the square root of `v` (the motion core's, one copy in flash for every caller).
 pub fn isqrt(v: u128) -> u128 {
-    crate::motion::trig::isqrt_u128(v)
+    crate::arith::isqrt_u128(v)
 }
 
 /// Square root rounded to the nearest integer.
@@ -39,7 +39,7 @@ pub fn hypot3(a: Nm, b: Nm, c: Nm) -> Nm {
 
 /// Divides rounding half away from zero.
 pub fn div_round(n: i128, d: i128) -> i128 {
-    let q = crate::motion::trig::div_i128(n, d);
+    let q = crate::arith::div_i128(n, d);
     let r = n - q * d;
     if 2 * r.abs() >= d.abs() {
         if (n < 0) != (d < 0) {
@@ -143,8 +143,8 @@ pub fn r_format_center(
 }
 
 /// Angles in units of 2^-48 radian, π in them, and atan2 on them: the one CORDIC module's
-/// (`crate::motion::trig`).
-pub use crate::motion::trig::{atan2_rad as atan2, PI_RAD as PI, RAD as ANGLE_ONE};
+/// (`crate::arith`).
+pub use crate::arith::{atan2_rad as atan2, PI_RAD as PI, RAD as ANGLE_ONE};
 
 /// Swept angle (2^-48 rad, > 0) of an arc from `start` to `end` about `center`, `turns` ≥ 1.
 pub fn sweep(start: (Nm, Nm), end: (Nm, Nm), center: (Nm, Nm), ccw: bool, turns: u32) -> i128 {
@@ -177,7 +177,7 @@ pub fn polar_end(
     angle_udeg: Option<i64>,
     absolute: bool,
 ) -> Result<(Nm, Nm), ErrorCode> {
-    use crate::motion::trig::{atan2 as binary_atan2, polar, TURN};
+    use crate::arith::{atan2 as binary_atan2, polar, TURN};
     let at_origin = current == (0, 0);
     let angle = angle_udeg.map(|a| div_round(a as i128 * TURN as i128, 360_000_000) as i64);
     let now_radius = hypot(current.0, current.1);

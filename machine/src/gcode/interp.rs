@@ -1516,7 +1516,7 @@ impl Interpreter {
     }
 
     fn inverse_time_feed(&self, length: i128) -> Res<i64> {
-        let feed = crate::motion::trig::div_i128(length * self.state.feed as i128, MICRO as i128);
+        let feed = crate::arith::div_i128(length * self.state.feed as i128, MICRO as i128);
         if feed > i64::MAX as i128 / 4 {
             return err(ErrorCode::CoordinateOverflow, None);
         }

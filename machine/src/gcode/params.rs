@@ -61,7 +61,7 @@ fn copy_entry<T: Copy>(to: &mut T, from: &T) {
 /// nm to the program's length units as an [`Fx`] (mm ×10⁹ or inch ×10⁹).
 pub fn nm_to_fx(nm: Nm, inch: bool) -> Fx {
     if inch {
-        crate::motion::trig::div_i128(nm as i128 * 10_000, 254) as i64
+        crate::arith::div_i128(nm as i128 * 10_000, 254) as i64
     } else {
         nm.saturating_mul(1000)
     }
@@ -70,7 +70,7 @@ pub fn nm_to_fx(nm: Nm, inch: bool) -> Fx {
 /// An [`Fx`] length in program units to nm, rounded.
 pub fn fx_to_nm(v: Fx, inch: bool) -> Nm {
     let n = if inch {
-        crate::motion::trig::div_i128(v as i128 * 254, 10_000)
+        crate::arith::div_i128(v as i128 * 254, 10_000)
     } else {
         v as i128
     };
@@ -79,7 +79,7 @@ pub fn fx_to_nm(v: Fx, inch: bool) -> Nm {
     } else {
         // Through `div_i128` (same truncation as `/`): an i128 `/` is a ~0.7 KiB inline
         // expansion on the Cortex-M4.
-        crate::motion::trig::div_i128(n + n.signum() * 500, 1000)
+        crate::arith::div_i128(n + n.signum() * 500, 1000)
     };
     nm as Nm
 }

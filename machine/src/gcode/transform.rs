@@ -8,7 +8,7 @@
 //! position changed by another path (G28, G53, a probe, a tool change) the program point is the
 //! inverse transform of where the tool is.
 
-use crate::motion::trig::{atan2, polar, TURN};
+use crate::arith::{atan2, polar, TURN};
 use crate::units::Nm;
 
 use super::geometry::{div_round, hypot};

@@ -7,7 +7,7 @@
 //! linearly (helix), and the last chord ends exactly on the programmed end point.
 
 use super::config::MotionConfig;
-use super::trig::{atan2, div_i128, isqrt_u128, mul_i128, polar, HALF_TURN, QUARTER_TURN, TURN};
+use crate::arith::{atan2, div_i128, isqrt_u128, mul_i128, polar, HALF_TURN, QUARTER_TURN, TURN};
 use crate::canon::{ArcDir, Plane};
 use crate::units::{Nm, Pos, MAX_AXES};
 

@@ -3,7 +3,7 @@
 //! Speeds are stored in nm/s (or 1e-6 °/s) and accelerations in nm/s², integers throughout.
 //! [`MotionConfig::from_setup`] derives the model from the persistent [`crate::setup::Setup`].
 
-use super::trig::{div_euclid_i128, div_floor_i64};
+use crate::arith::{div_euclid_i128, div_floor_i64};
 use crate::setup::Setup;
 use crate::units::{Nm, Pos, MAX_AXES, NM_PER_MM};
 

@@ -22,7 +22,7 @@
 
 use super::config::MotionConfig;
 use super::planner::{direction, UNIT};
-use super::trig::{atan2, div_i128, isqrt_u128, mul_div, mul_i128, polar, sat_mul};
+use crate::arith::{atan2, div_i128, isqrt_u128, mul_div, mul_i128, polar, sat_mul};
 use crate::units::{Pos, MAX_AXES};
 use heapless::Vec;
 
@@ -154,7 +154,7 @@ fn sub(a: &Pos, b: &Pos) -> Pos {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::trig::isqrt_u64;
+    use crate::arith::isqrt_u64;
 
     const MM: i64 = 1_000_000;
 

@@ -24,7 +24,6 @@ pub mod prep;
 pub mod profile;
 pub mod sim;
 mod test_vectors;
-pub mod trig;
 
 /// Cross-target vectors of the planner and step kernel (see [`crate::vectors`]).
 pub use test_vectors::VECTORS;

@@ -32,8 +32,8 @@ use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::output_event::OutputEvent;
 use super::planner::{direction, junction_limit_sq, Block, BlockKind, LineRequest, Planner, UNIT};
 use super::prep::{BlockOut, BlockReport, Prep, PrepOut, PrepState};
-use super::trig::{self, mul_div};
-use super::trig::{polar, QUARTER_TURN};
+use crate::arith::{self, mul_div};
+use crate::arith::{polar, QUARTER_TURN};
 use crate::canon::{Action, Canon};
 use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
@@ -454,7 +454,7 @@ impl<const N: usize> Motion<N> {
             );
             match rounded {
                 Some(c) => {
-                    let arc_speed = trig::isqrt_u64(c.speed_sq).max(1);
+                    let arc_speed = arith::isqrt_u64(c.speed_sq).max(1);
                     let corner_speed = Some(prev.speed.min(arc_speed));
                     self.queue_line_at(prev.line, &c.vertices[0], Some(prev.speed), prev.entry_sq);
                     for v in c.vertices.iter().skip(1) {
@@ -580,21 +580,21 @@ impl<const N: usize> Motion<N> {
             self.position[a0] - center[a0],
             self.position[a1] - center[a1],
         );
-        let start = super::trig::atan2(sy, sx);
+        let start = crate::arith::atan2(sy, sx);
         let sweep = chords.sweep();
         let r = {
             let (ex, ey) = (to[a0] - center[a0], to[a1] - center[a1]);
-            let sq = |v: i64| trig::mul_i128(v as i128, v as i128);
+            let sq = |v: i64| arith::mul_i128(v as i128, v as i128);
             let r2 = |x: i64, y: i64| (sq(x) + sq(y)) as u128;
-            super::trig::isqrt_u128(r2(sx, sy).max(r2(ex, ey))) as i64
+            crate::arith::isqrt_u128(r2(sx, sy).max(r2(ex, ey))) as i64
         };
         for k in 0..4i64 {
             let q = k * QUARTER_TURN;
             // Is the cardinal angle q inside the swept range?
             let rel = if sweep >= 0 {
-                (q - start).rem_euclid(super::trig::TURN)
+                (q - start).rem_euclid(crate::arith::TURN)
             } else {
-                (start - q).rem_euclid(super::trig::TURN)
+                (start - q).rem_euclid(crate::arith::TURN)
             };
             if rel <= sweep.abs() {
                 let (dx, dy) = polar(r, q);
@@ -791,8 +791,8 @@ impl<const N: usize> Motion<N> {
         let slow = (v * v - corner_sq).div_ceil(two_a).min(remaining);
         let mut corner = here;
         for (c, u) in corner.iter_mut().zip(old.unit) {
-            *c += trig::div_i128(
-                trig::mul_i128(i128::from(u), i128::from(slow)),
+            *c += arith::div_i128(
+                arith::mul_i128(i128::from(u), i128::from(slow)),
                 i128::from(UNIT),
             ) as i64;
         }
@@ -931,7 +931,7 @@ fn length(d: &Pos) -> u64 {
         .iter()
         .map(|v| v.unsigned_abs() as u128 * v.unsigned_abs() as u128)
         .sum();
-    super::trig::isqrt_u128(sq) as u64
+    crate::arith::isqrt_u128(sq) as u64
 }
 
 /// nm/min → nm/s.

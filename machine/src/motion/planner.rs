@@ -20,7 +20,7 @@
 
 use super::config::{MotionConfig, MAX_SPEED};
 use super::output_event::OutputEvent;
-use super::trig::{div_i128, div_u64, isqrt_u128, isqrt_u64, mul_div, sat_mul};
+use crate::arith::{div_i128, div_u64, isqrt_u128, isqrt_u64, mul_div, sat_mul};
 use crate::units::MAX_AXES;
 use heapless::Deque;
 
@@ -867,7 +867,7 @@ fn sin_half_of(half: u64) -> u64 {
 mod tests {
     extern crate std;
     use super::*;
-    use crate::motion::trig::XorShift;
+    use crate::arith::XorShift;
     use crate::units::NM_PER_MM;
     use std::vec;
     use std::vec::Vec;

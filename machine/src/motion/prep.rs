@@ -20,7 +20,7 @@ use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::output_event::OutputEvent;
 use super::planner::{Block, BlockKind, Planner};
 use super::profile::Profile;
-use super::trig::{div_u64, isqrt_u64, mul_div, sat_mul};
+use crate::arith::{div_u64, isqrt_u64, mul_div, sat_mul};
 use crate::units::MAX_AXES;
 
 /// Target segment duration in kernel timer counts (2 ms).

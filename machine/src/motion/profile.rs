@@ -7,7 +7,7 @@
 //! Speeds are nm/s, accelerations nm/s², times kernel timer counts.
 
 use super::kernel::KERNEL_TIMER_HZ;
-use super::trig::{div_u64, isqrt_u64, mul_div, sat_mul};
+use crate::arith::{div_u64, isqrt_u64, mul_div, sat_mul};
 
 const HZ: u64 = KERNEL_TIMER_HZ as u64;
 

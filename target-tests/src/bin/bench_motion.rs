@@ -251,7 +251,7 @@ fn line_cost() -> [u64; 4] {
 /// Instructions per call of a few core helpers (for finding where block time goes).
 fn helper_costs() {
     use gantry_machine::motion::profile::Profile;
-    use gantry_machine::motion::trig::{isqrt_u64, mul_div};
+    use gantry_machine::arith::{isqrt_u64, mul_div};
     const N: u64 = 1000;
     let t0 = now();
     let mut acc = 0u64;

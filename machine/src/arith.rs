@@ -1,5 +1,6 @@
-//! Integer geometry helpers: square roots, overflow-safe `a × b / c`, and the core's one CORDIC
-//! (arcs in the planner, sweep angles in the interpreter's `gcode/geometry.rs`).
+//! Integer arithmetic the interpreter (`gcode/`) and motion (`motion/`) both stand on: square
+//! roots, overflow-safe `a × b / c`, and the core's one CORDIC (arcs in the planner, sweep angles
+//! in the interpreter's `gcode/geometry.rs`). It depends on nothing else in the crate.
 //!
 //! The planner's angles are *binary angles*: [`TURN`] units make a full turn (2⁴⁸), so wrapping is
 //! exact integer arithmetic. The CORDIC runs 40 iterations on vectors pre-scaled by 2¹⁶, which
