@@ -101,6 +101,17 @@ struct SetupTransfer {
     changed: bool,
 }
 
+/// The framed link's host, as the board knows it during this power-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Host {
+    /// No host has attached yet.
+    Never,
+    /// A host attached and has not gone silent since.
+    Attached,
+    /// The host went silent (its job is held; `link.host_lost_stop_s` counts).
+    Lost,
+}
+
 /// Link endpoint + the glue to the board.
 pub struct BoardLink {
     endpoint: BoardEndpoint,
@@ -108,9 +119,7 @@ pub struct BoardLink {
     outbox: heapless::Deque<BoardMsg, 4>,
     last_status: Option<u32>,
     status_requested: bool,
-    host_attached: bool,
-    /// The host went silent during this power-up.
-    host_lost: bool,
+    host: Host,
     /// Since when (ms) the job has been held, or waited for lines, with the host gone (alarm 20
     /// timer).
     unattended_since: Option<u32>,
@@ -133,8 +142,7 @@ impl BoardLink {
             outbox: heapless::Deque::new(),
             last_status: None,
             status_requested: false,
-            host_attached: false,
-            host_lost: false,
+            host: Host::Never,
             unattended_since: None,
             setup: SetupTransfer {
                 incoming: heapless::Vec::new(),
@@ -230,7 +238,7 @@ impl BoardLink {
 
     /// True while a host is attached and has been heard from recently.
     pub fn host_alive(&self, now_ms: u32) -> bool {
-        self.host_attached
+        self.host == Host::Attached
             && self
                 .endpoint
                 .peer_alive(now_ms, 4 * gantry_proto::Config::USB_MS.keepalive)
@@ -255,19 +263,17 @@ impl BoardLink {
         }
         while let Some(ev) = self.endpoint.poll_event() {
             if let LinkEvent::HostAttached { .. } = ev {
-                if self.host_attached || self.host_lost {
+                if self.host != Host::Never {
                     // A host came back (or a new one took over): it serves the job again from
                     // the line after the last one interpreted.
                     board.resync_stream();
                 }
-                self.host_attached = true;
-                self.host_lost = false;
+                self.host = Host::Attached;
                 self.status_requested = true;
             }
         }
-        if self.host_attached && !self.endpoint.peer_alive(now_ms, HOST_TIMEOUT_MS) {
-            self.host_attached = false;
-            self.host_lost = true;
+        if self.host == Host::Attached && !self.endpoint.peer_alive(now_ms, HOST_TIMEOUT_MS) {
+            self.host = Host::Lost;
             board.host_lost();
         }
         self.watch_unattended_job(board, now_ms);
@@ -302,7 +308,7 @@ impl BoardLink {
     fn watch_unattended_job(&mut self, board: &mut Board, now_ms: u32) {
         let limit_s = board.setup().link.host_lost_stop_s;
         let standing = board.feed_held() || board.waiting_for_lines();
-        if !self.host_lost || limit_s == 0 || !standing {
+        if self.host != Host::Lost || limit_s == 0 || !standing {
             self.unattended_since = None;
             return;
         }
@@ -388,7 +394,7 @@ impl BoardLink {
                     Some(e) => event_message(e),
                     // Joystick Mark presses, for teach-in on the host (kept on the board, in
                     // its small queue, while no host listens).
-                    None if !self.host_attached => return,
+                    None if self.host != Host::Attached => return,
                     None => match board.take_mark() {
                         Some(m) => BoardMsg::Mark {
                             line: board.line(),
