@@ -129,7 +129,7 @@ pub fn error_text(e: &GcodeError) -> String {
 }
 
 /// Millimetres (from nm) with up to 6 decimals, trailing zeros removed.
-pub fn mm(nm: Nm) -> String {
+pub fn mm_text(nm: Nm) -> String {
     let sign = if nm < 0 { "-" } else { "" };
     let a = nm.unsigned_abs();
     let int = a / 1_000_000;
@@ -143,7 +143,7 @@ pub fn mm(nm: Nm) -> String {
 }
 
 /// A length in mm on the JSON output: an integer when whole, else the nearest `f64` (which prints
-/// the same up-to-6 decimals as [`mm`], in exponent form below 0.0001 mm).
+/// the same up-to-6 decimals as [`mm_text`], in exponent form below 0.0001 mm).
 #[derive(Clone, Copy)]
 struct Mm(Nm);
 
@@ -440,12 +440,12 @@ mod tests {
 
     #[test]
     fn millimetres_format() {
-        assert_eq!(mm(0), "0");
-        assert_eq!(mm(10_000_000), "10");
-        assert_eq!(mm(1_500_000), "1.5");
-        assert_eq!(mm(-254_000), "-0.254");
-        assert_eq!(mm(7_071_068), "7.071068");
-        assert_eq!(mm(-1), "-0.000001");
+        assert_eq!(mm_text(0), "0");
+        assert_eq!(mm_text(10_000_000), "10");
+        assert_eq!(mm_text(1_500_000), "1.5");
+        assert_eq!(mm_text(-254_000), "-0.254");
+        assert_eq!(mm_text(7_071_068), "7.071068");
+        assert_eq!(mm_text(-1), "-0.000001");
     }
 
     #[test]

@@ -107,7 +107,8 @@ pub fn state_name(s: MachineState) -> &'static str {
     }
 }
 
-fn mm(nm: i64) -> String {
+/// Millimetres (from nm) to 3 decimals, for the status readout.
+fn mm_3dp(nm: i64) -> String {
     format!("{:.3}", nm as f64 / 1e6)
 }
 
@@ -115,7 +116,7 @@ fn mm(nm: i64) -> String {
 pub fn axes_line(p: &[i64], axes: usize) -> String {
     let names = gantry_machine::units::AXIS_LETTERS;
     (0..axes)
-        .map(|i| format!("{} {}", names[i], mm(p[i])))
+        .map(|i| format!("{} {}", names[i], mm_3dp(p[i])))
         .collect::<Vec<_>>()
         .join("  ")
 }

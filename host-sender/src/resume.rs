@@ -6,7 +6,7 @@
 //! G28.1/G30.1 positions set before `n` are not restored, and a modal arc or canned-cycle mode is
 //! not restored (the resumed line must name its own G2/G3 or cycle).
 
-use crate::check::mm;
+use crate::check::mm_text;
 use crate::program::Program;
 use anyhow::{bail, Context};
 use gantry_machine::canon::{Action, PathMode, Plane, Spindle};
@@ -93,7 +93,7 @@ pub fn state_and_clearance_before(
 
 fn axis_words(p: &Pos, axes: usize) -> String {
     (0..axes)
-        .map(|i| format!("{}{}", AXIS_LETTERS[i], mm(p[i])))
+        .map(|i| format!("{}{}", AXIS_LETTERS[i], mm_text(p[i])))
         .collect::<Vec<_>>()
         .join(" ")
 }
@@ -143,7 +143,7 @@ pub fn preamble_above(
         safe[2] = safe[2].max(z);
     }
     if axes >= 3 {
-        out.push(format!("G53 G0 Z{}", mm(safe[2])));
+        out.push(format!("G53 G0 Z{}", mm_text(safe[2])));
     }
     let mut xy = target;
     xy[2] = safe[2];
@@ -165,7 +165,11 @@ pub fn preamble_above(
         } else {
             100_000_000
         };
-        out.push(format!("G53 G1 Z{} F{}", mm(target[2]), mm(plunge)));
+        out.push(format!(
+            "G53 G1 Z{} F{}",
+            mm_text(target[2]),
+            mm_text(plunge)
+        ));
     }
     let ws = match s.work_system {
         0..=5 => format!("G{}", 54 + s.work_system),
@@ -193,7 +197,7 @@ pub fn preamble_above(
         match s.path {
             PathMode::ExactStop => "G61".to_owned(),
             PathMode::Blend { tolerance: 0 } => "G64".to_owned(),
-            PathMode::Blend { tolerance } => format!("G64 P{}", mm(tolerance)),
+            PathMode::Blend { tolerance } => format!("G64 P{}", mm_text(tolerance)),
         },
         if s.retract_to_r { "G99" } else { "G98" }.to_owned(),
     ];
@@ -202,7 +206,7 @@ pub fn preamble_above(
         let f = if s.inch {
             format!("{:.4}", s.feed as f64 / 25_400_000.0)
         } else {
-            mm(s.feed)
+            mm_text(s.feed)
         };
         modes.push(format!("F{f}"));
     }

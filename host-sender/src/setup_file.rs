@@ -477,8 +477,8 @@ fn tool_change_position(
             bail!(
                 "{key} = {v}: outside the {} travel [{}, {}] (soft limits)",
                 AXIS_LETTERS[i],
-                mm(lo),
-                mm(hi)
+                mm_toml(lo),
+                mm_toml(hi)
             );
         }
         out.axes |= 1 << i;
@@ -919,7 +919,8 @@ fn apply_axis(i: usize, a: &AxisFile, axis: &mut AxisSetup) -> anyhow::Result<()
     Ok(())
 }
 
-fn mm(v: Nm) -> String {
+/// Millimetres (from nm) as a TOML float: up to 6 decimals, at least one (`5.0`).
+fn mm_toml(v: Nm) -> String {
     let sign = if v < 0 { "-" } else { "" };
     let a = v.unsigned_abs();
     let (int, frac) = (a / NM_PER_MM as u64, a % NM_PER_MM as u64);
@@ -944,7 +945,7 @@ fn us_text(ns: u32) -> String {
 }
 
 fn mm_list(p: &[Nm]) -> String {
-    let items: Vec<String> = p.iter().map(|&v| mm(v)).collect();
+    let items: Vec<String> = p.iter().map(|&v| mm_toml(v)).collect();
     format!("[{}]", items.join(", "))
 }
 
@@ -971,35 +972,35 @@ pub fn to_toml(s: &Setup) -> String {
             t,
             "steps_per = [{}, {}]   # motor steps : distance, an exact ratio",
             a.steps,
-            mm(a.units_nm)
+            mm_toml(a.units_nm)
         );
-        let _ = writeln!(t, "max_rate = {}         # rapid rate", mm(a.max_rate));
-        let _ = writeln!(t, "accel = {}", mm(a.accel));
+        let _ = writeln!(t, "max_rate = {}         # rapid rate", mm_toml(a.max_rate));
+        let _ = writeln!(t, "accel = {}", mm_toml(a.accel));
         let _ = writeln!(
             t,
             "start_speed = {}      # reachable instantly from rest",
-            mm(a.start_speed)
+            mm_toml(a.start_speed)
         );
         let _ = writeln!(
             t,
             "travel = [{}, {}]     # soft limits, machine coordinates",
-            mm(a.travel_min),
-            mm(a.travel_max)
+            mm_toml(a.travel_min),
+            mm_toml(a.travel_max)
         );
         let _ = writeln!(t, "invert_dir = {}", a.invert_dir);
     }
     let p = &s.path;
     let _ = writeln!(t, "\n[path]");
-    let _ = writeln!(t, "junction_deviation = {}", mm(p.junction_deviation));
+    let _ = writeln!(t, "junction_deviation = {}", mm_toml(p.junction_deviation));
     let _ = writeln!(
         t,
         "feed_shift = {}        # largest speed jump at a corner",
-        mm(p.feed_shift)
+        mm_toml(p.feed_shift)
     );
     let _ = writeln!(
         t,
         "chord_tolerance = {}   # arcs are cut into lines within this error",
-        mm(p.chord_tolerance)
+        mm_toml(p.chord_tolerance)
     );
     let _ = writeln!(
         t,
@@ -1015,7 +1016,7 @@ pub fn to_toml(s: &Setup) -> String {
     let _ = writeln!(
         t,
         "blend_tolerance = {}   # G64 without P: path tolerance, 0 = off",
-        mm(p.blend_tolerance)
+        mm_toml(p.blend_tolerance)
     );
     let g = &s.program;
     let _ = writeln!(t, "\n[program]");
@@ -1035,8 +1036,8 @@ pub fn to_toml(s: &Setup) -> String {
             DwellUnits::FanucIntegerMillis => "milliseconds",
         }
     );
-    let _ = writeln!(t, "peck_clearance = {}", mm(g.peck_clearance));
-    let _ = writeln!(t, "chip_break_retract = {}", mm(g.chip_break_retract));
+    let _ = writeln!(t, "peck_clearance = {}", mm_toml(g.peck_clearance));
+    let _ = writeln!(t, "chip_break_retract = {}", mm_toml(g.chip_break_retract));
     let _ = writeln!(
         t,
         "default_retract = \"{}\"",
@@ -1052,7 +1053,7 @@ pub fn to_toml(s: &Setup) -> String {
     let place = &g.tool_change_position;
     let set: Vec<String> = (0..n)
         .filter(|&i| place.axes & (1 << i) != 0)
-        .map(|i| format!("{} = {}", AXIS_LETTERS[i], mm(place.at[i])))
+        .map(|i| format!("{} = {}", AXIS_LETTERS[i], mm_toml(place.at[i])))
         .collect();
     if set.is_empty() {
         let _ = writeln!(
@@ -1071,8 +1072,8 @@ pub fn to_toml(s: &Setup) -> String {
             t,
             "\n[[tool]]\nnumber = {}\nlength = {}\ndiameter = {}",
             tool.number,
-            mm(tool.length),
-            mm(tool.diameter)
+            mm_toml(tool.length),
+            mm_toml(tool.diameter)
         );
     }
     let _ = writeln!(t, "\n[work_offsets]");
@@ -1088,7 +1089,7 @@ pub fn to_toml(s: &Setup) -> String {
     );
     let _ = writeln!(t, "two_hand_start = {}", o.two_hand_start);
     let _ = writeln!(t, "fro_range = [{}, {}]", o.fro_low, o.fro_high);
-    let _ = writeln!(t, "dry_run_feed = {}", mm(o.dry_run_feed));
+    let _ = writeln!(t, "dry_run_feed = {}", mm_toml(o.dry_run_feed));
     controller_toml(s, &mut t);
     let _ = writeln!(t, "\n[link]");
     let _ = writeln!(
@@ -1165,10 +1166,10 @@ fn controller_toml(s: &Setup, t: &mut String) {
         let _ = writeln!(t, "\n[homing.axis.{}]", AXIS_LETTERS[k]);
         let _ = writeln!(t, "priority = {}   # 0 = not homed", a.priority);
         let _ = writeln!(t, "seek = \"{}\"", if a.seek_low { "low" } else { "high" });
-        let _ = writeln!(t, "seek_rate = {}", mm(a.seek_rate));
-        let _ = writeln!(t, "retract = {}", mm(a.retract));
+        let _ = writeln!(t, "seek_rate = {}", mm_toml(a.seek_rate));
+        let _ = writeln!(t, "retract = {}", mm_toml(a.retract));
         let _ = writeln!(t, "set_home = {}", a.set_home);
-        let _ = writeln!(t, "home_position = {}", mm(a.home_position));
+        let _ = writeln!(t, "home_position = {}", mm_toml(a.home_position));
     }
     let j = &s.jog;
     let name = |a: u8| {
@@ -1187,8 +1188,8 @@ fn controller_toml(s: &Setup, t: &mut String) {
             name(p[1])
         );
     }
-    let _ = writeln!(t, "instant_speed = {}", mm(j.instant_speed));
-    let _ = writeln!(t, "nudge_distance = {}", mm(j.nudge_distance));
+    let _ = writeln!(t, "instant_speed = {}", mm_toml(j.instant_speed));
+    let _ = writeln!(t, "nudge_distance = {}", mm_toml(j.nudge_distance));
     let _ = writeln!(t, "nudge_interval_ms = {}", j.nudge_interval_ms);
     let _ = writeln!(
         t,
@@ -1197,7 +1198,7 @@ fn controller_toml(s: &Setup, t: &mut String) {
         name(j.analog_axes[1])
     );
     let _ = writeln!(t, "analog_deadband = {}", j.analog_deadband);
-    let _ = writeln!(t, "analog_max_speed = {}", mm(j.analog_max_speed));
+    let _ = writeln!(t, "analog_max_speed = {}", mm_toml(j.analog_max_speed));
     let o = &s.outputs;
     let _ = writeln!(t, "\n[spindle]");
     let _ = writeln!(

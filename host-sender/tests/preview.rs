@@ -7,12 +7,12 @@ use gantry_machine::units::{Pos, NM_PER_MM};
 use host_sender::preview::{self, adapt, raster, svg, Format, MoveKind, RenderOptions, View};
 use host_sender::vcd::{read_vcd, write_vcd, write_vcd_with, VcdEvent, VcdOptions};
 
-fn mm(v: f64) -> i64 {
+fn nm_of_mm(v: f64) -> i64 {
     (v * NM_PER_MM as f64).round() as i64
 }
 
 fn pos(x: f64, y: f64, z: f64) -> Pos {
-    [mm(x), mm(y), mm(z), 0, 0, 0]
+    [nm_of_mm(x), nm_of_mm(y), nm_of_mm(z), 0, 0, 0]
 }
 
 /// A small known program: 2 rapids, 3 feeds, 2 arcs (one a full helical turn).
@@ -35,43 +35,43 @@ fn program() -> Vec<Canon> {
             3,
             Action::Feed {
                 to: pos(10.0, 10.0, -1.0),
-                feed: mm(300.0),
+                feed: nm_of_mm(300.0),
             },
         ),
         c(
             4,
             Action::Feed {
                 to: pos(40.0, 10.0, -1.0),
-                feed: mm(1200.0),
+                feed: nm_of_mm(1200.0),
             },
         ),
         c(
             5,
             Action::Arc {
                 to: pos(50.0, 20.0, -1.0),
-                center: [mm(40.0), mm(20.0), mm(-1.0)],
+                center: [nm_of_mm(40.0), nm_of_mm(20.0), nm_of_mm(-1.0)],
                 plane: Plane::XY,
                 dir: ArcDir::Ccw,
                 turns: 1,
-                feed: mm(900.0),
+                feed: nm_of_mm(900.0),
             },
         ),
         c(
             6,
             Action::Feed {
                 to: pos(50.0, 30.0, -1.0),
-                feed: mm(900.0),
+                feed: nm_of_mm(900.0),
             },
         ),
         c(
             7,
             Action::Arc {
                 to: pos(50.0, 30.0, -2.0),
-                center: [mm(45.0), mm(30.0), mm(-1.0)],
+                center: [nm_of_mm(45.0), nm_of_mm(30.0), nm_of_mm(-1.0)],
                 plane: Plane::XY,
                 dir: ArcDir::Cw,
                 turns: 1,
-                feed: mm(600.0),
+                feed: nm_of_mm(600.0),
             },
         ),
     ]
@@ -84,8 +84,8 @@ fn tight_setup() -> Setup {
         .iter()
         .enumerate()
     {
-        s.axes[i].travel_min = mm(*lo);
-        s.axes[i].travel_max = mm(*hi);
+        s.axes[i].travel_min = nm_of_mm(*lo);
+        s.axes[i].travel_max = nm_of_mm(*hi);
     }
     s
 }
@@ -375,10 +375,10 @@ fn drawn_arcs_follow_the_cores_arc_chords_in_every_plane() {
             ] {
                 let mut from = [0i64; 6];
                 let mut to = [0i64; 6];
-                from[a] = mm(10.0);
-                to[a] = mm(end.0);
-                to[b] = mm(end.1);
-                to[n] = mm(climb);
+                from[a] = nm_of_mm(10.0);
+                to[a] = nm_of_mm(end.0);
+                to[b] = nm_of_mm(end.1);
+                to[n] = nm_of_mm(climb);
                 let center = [0i64; 3];
                 let mut chords = ArcChords::new(&cfg, &from, &to, &center, plane, dir, turns);
                 let geom = ArcGeom {
@@ -434,7 +434,7 @@ fn empty_and_degenerate_jobs_still_render() {
             line: 1,
             action: Action::Feed {
                 to: [0; 6],
-                feed: mm(100.0),
+                feed: nm_of_mm(100.0),
             },
         }],
         &setup,

@@ -312,7 +312,7 @@ pub struct Setup {
     pub grbl: GrblSetup,
 }
 
-const fn mm(v: i64) -> Nm {
+const fn nm_of_mm(v: i64) -> Nm {
     v * NM_PER_MM
 }
 
@@ -322,12 +322,12 @@ impl AxisSetup {
     pub const fn default_linear(travel_mm: i64) -> Self {
         AxisSetup {
             steps: 3200,
-            units_nm: mm(5),
-            max_rate: mm(3000),
-            accel: mm(200),
-            start_speed: mm(60),
-            travel_min: -mm(travel_mm),
-            travel_max: mm(travel_mm),
+            units_nm: nm_of_mm(5),
+            max_rate: nm_of_mm(3000),
+            accel: nm_of_mm(200),
+            start_speed: nm_of_mm(60),
+            travel_min: -nm_of_mm(travel_mm),
+            travel_max: nm_of_mm(travel_mm),
             invert_dir: false,
         }
     }
@@ -343,7 +343,7 @@ impl Default for Setup {
             axes,
             path: PathSetup {
                 junction_deviation: 10_000,
-                feed_shift: mm(60),
+                feed_shift: nm_of_mm(60),
                 chord_tolerance: 2_000,
                 arc_segment_angle_mdeg: 0,
                 arc_max_segments: 0,
@@ -367,7 +367,7 @@ impl Default for Setup {
                 two_hand_start: false,
                 fro_low: 10,
                 fro_high: 200,
-                dry_run_feed: mm(2000),
+                dry_run_feed: nm_of_mm(2000),
             },
             inputs: InputSetup {
                 invert: 0,
@@ -384,8 +384,8 @@ impl Default for Setup {
                 axes: [HomingAxis {
                     priority: 0,
                     seek_low: true,
-                    seek_rate: mm(60),
-                    retract: mm(2),
+                    seek_rate: nm_of_mm(60),
+                    retract: nm_of_mm(2),
                     set_home: true,
                     home_position: 0,
                 }; MAX_AXES],
@@ -396,12 +396,12 @@ impl Default for Setup {
             },
             jog: JogSetup {
                 pairs: [[1, 0], [2, 255]],
-                instant_speed: mm(60),
+                instant_speed: nm_of_mm(60),
                 nudge_distance: 10_000,
                 nudge_interval_ms: 500,
                 analog_axes: [0, 1],
                 analog_deadband: 100,
-                analog_max_speed: mm(1000),
+                analog_max_speed: nm_of_mm(1000),
             },
             outputs: OutputSetup {
                 spindle_min_rpm: 0,

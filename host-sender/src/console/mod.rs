@@ -411,7 +411,7 @@ fn mdi_lines(s: &mut Session, blocks: &[String]) -> Result<(), String> {
     Ok(())
 }
 
-fn mm(nm: i64) -> f64 {
+fn nm_to_mm(nm: i64) -> f64 {
     (nm as f64 / 1000.0).round() / 1000.0
 }
 
@@ -420,7 +420,7 @@ fn in_units(nm: i64, inch: bool) -> f64 {
     if inch {
         (nm as f64 / 2540.0).round() / 10_000.0
     } else {
-        mm(nm)
+        nm_to_mm(nm)
     }
 }
 
@@ -460,8 +460,8 @@ fn status_json(s: &Status, axes: usize) -> Value {
         "tool_change": tool_change,
         "axes": axes,
         "letters": AXIS_LETTERS[..axes].iter().map(|c| c.to_string()).collect::<Vec<_>>(),
-        "machine": s.machine_pos[..axes].iter().map(|&p| mm(p)).collect::<Vec<_>>(),
-        "work": s.work_pos[..axes].iter().map(|&p| mm(p)).collect::<Vec<_>>(),
+        "machine": s.machine_pos[..axes].iter().map(|&p| nm_to_mm(p)).collect::<Vec<_>>(),
+        "work": s.work_pos[..axes].iter().map(|&p| nm_to_mm(p)).collect::<Vec<_>>(),
         // The move being executed, in its program's units (G20/G21).
         "units": if s.inch { "in" } else { "mm" },
         "work_units": s.work_pos[..axes].iter().map(|&p| in_units(p, s.inch)).collect::<Vec<_>>(),
@@ -483,7 +483,7 @@ fn status_json(s: &Status, axes: usize) -> Value {
         "inputs": inputs,
         "planner": s.planner_fill,
         "queue": s.queue_fill,
-        "probe": s.probe.map(|p| json!({"machine": p.machine_pos[..axes].iter().map(|&v| mm(v)).collect::<Vec<_>>(), "contact": p.success})),
+        "probe": s.probe.map(|p| json!({"machine": p.machine_pos[..axes].iter().map(|&v| nm_to_mm(v)).collect::<Vec<_>>(), "contact": p.success})),
     })
 }
 
@@ -493,12 +493,12 @@ fn setup_json(s: &Setup) -> Value {
     json!({
         "toml": crate::setup_file::to_toml(s),
         "axes": axes,
-        "travel_min": s.axes[..axes].iter().map(|a| mm(a.travel_min)).collect::<Vec<_>>(),
-        "travel_max": s.axes[..axes].iter().map(|a| mm(a.travel_max)).collect::<Vec<_>>(),
+        "travel_min": s.axes[..axes].iter().map(|a| nm_to_mm(a.travel_min)).collect::<Vec<_>>(),
+        "travel_max": s.axes[..axes].iter().map(|a| nm_to_mm(a.travel_max)).collect::<Vec<_>>(),
         // G54..G59.3 as the board keeps them (machine mm), read back with the setup.
         "offsets": s.program.work_offsets.iter().enumerate().map(|(i, o)| json!({
             "name": work_system_name(i as u8),
-            "values": o[..axes].iter().map(|&v| mm(v)).collect::<Vec<_>>(),
+            "values": o[..axes].iter().map(|&v| nm_to_mm(v)).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
     })
 }

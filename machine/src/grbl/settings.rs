@@ -84,7 +84,7 @@ const fn dec(milli: i64) -> Value {
 }
 
 /// nm as a 3-decimal mm value.
-fn mm(nm: i64) -> Value {
+fn mm_value(nm: i64) -> Value {
     dec(div_round(nm, 1000))
 }
 
@@ -127,9 +127,9 @@ pub fn read(n: u16, setup: &Setup) -> Option<Value> {
         return Some(match group {
             // steps per mm = steps / (units_nm / 1e6), in thousandths.
             100 => dec(div_round(i64::from(ax.steps) * 1_000_000_000, ax.units_nm)),
-            110 => mm(ax.max_rate),
-            120 => mm(ax.accel),
-            _ => mm(ax.travel_max - ax.travel_min),
+            110 => mm_value(ax.max_rate),
+            120 => mm_value(ax.accel),
+            _ => mm_value(ax.travel_max - ax.travel_min),
         });
     }
     let h = &setup.homing.axes[0];
@@ -140,8 +140,8 @@ pub fn read(n: u16, setup: &Setup) -> Option<Value> {
         3 => int(bits(setup, |i| setup.axes[i].invert_dir)),
         5 => int(i64::from(setup.inputs.invert & LIMIT_BITS != 0)),
         10 => int(i64::from(setup.grbl.status_mask)),
-        11 => mm(setup.path.junction_deviation),
-        12 => mm(setup.path.chord_tolerance),
+        11 => mm_value(setup.path.junction_deviation),
+        12 => mm_value(setup.path.chord_tolerance),
         13 => int(i64::from(setup.grbl.inches)),
         20 => int(1),
         21 => int(i64::from(setup.inputs.hard_limits)),
@@ -154,9 +154,9 @@ pub fn read(n: u16, setup: &Setup) -> Option<Value> {
                 .any(|h| h.priority > 0),
         )),
         23 => int(bits(setup, |i| setup.homing.axes[i].seek_low)),
-        24 | 25 => mm(h.seek_rate),
+        24 | 25 => mm_value(h.seek_rate),
         26 => int(i64::from(setup.inputs.debounce_ms)),
-        27 => mm(h.retract),
+        27 => mm_value(h.retract),
         30 => int(i64::from(setup.outputs.spindle_max_rpm)),
         31 => int(i64::from(setup.outputs.spindle_min_rpm)),
         32 => int(0),

@@ -364,7 +364,7 @@ mod tests {
     }
 
     /// µm as a G-code number in mm.
-    fn mm(um: i64) -> std::string::String {
+    fn mm_text(um: i64) -> std::string::String {
         std::format!(
             "{}{}.{:03}",
             if um < 0 { "-" } else { "" },
@@ -387,7 +387,12 @@ mod tests {
             let x = i * 50;
             let y = (i % 400 - 200).abs() * 20 - 2000;
             let z = -((i % 1000 - 500).abs() * 2);
-            fine.push_str(&std::format!("X{} Y{} Z{}\n", mm(x), mm(y), mm(z)));
+            fine.push_str(&std::format!(
+                "X{} Y{} Z{}\n",
+                mm_text(x),
+                mm_text(y),
+                mm_text(z)
+            ));
         }
         let programs = [
             include_str!("../../../examples/bracket.ngc"),

@@ -167,14 +167,14 @@ const BOUNDS: [i64; 27] = [
     65_535,
     90_000,
     1_000_000,
-    mm(10),
-    mm(100),
-    mm(1000),
-    -mm(1000),
-    mm(10_000),
-    mm(100_000),
-    -mm(100_000),
-    mm(200_000),
+    nm_of_mm(10),
+    nm_of_mm(100),
+    nm_of_mm(1000),
+    -nm_of_mm(1000),
+    nm_of_mm(10_000),
+    nm_of_mm(100_000),
+    -nm_of_mm(100_000),
+    nm_of_mm(200_000),
     u32::MAX as i64,
     crate::units::MAX_AXES as i64,
 ];
@@ -205,13 +205,13 @@ pub struct RowText {
     pub doc: &'static str,
 }
 
-const fn mm(v: i64) -> i64 {
+const fn nm_of_mm(v: i64) -> i64 {
     v * 1_000_000
 }
 
 const ANY: (i64, i64) = (i64::MIN, i64::MAX);
-const LENGTH: (i64, i64) = (-mm(100_000), mm(100_000));
-const SPEED: (i64, i64) = (1_000, mm(200_000));
+const LENGTH: (i64, i64) = (-nm_of_mm(100_000), nm_of_mm(100_000));
+const SPEED: (i64, i64) = (1_000, nm_of_mm(200_000));
 
 macro_rules! table {
     ($($key:ident => $section:ident $name:literal $unit:ident $range:expr, $grbl:expr,
@@ -269,16 +269,16 @@ table! {
     Steps => Axis "steps_per[0]" Count (1, u32::MAX as i64), 100,
         |s, i| i64::from(s.axes[i].steps);
         [] "" "" "exact ratio `[steps, distance]`: this many motor steps move the axis this far (the GIXA controller's \"Ratiometric Steps per Unit\"); long moves never drift. grbl `$100`+i writes steps per mm as an exact ratio",
-    StepUnits => Axis "steps_per[1]" Mm (1, mm(10_000)), NO_GRBL,
+    StepUnits => Axis "steps_per[1]" Mm (1, nm_of_mm(10_000)), NO_GRBL,
         |s, i| s.axes[i].units_nm;
         [] "" "" "",
-    MaxRate => Axis "max_rate" MmPerMin (mm(1), mm(200_000)), 110,
+    MaxRate => Axis "max_rate" MmPerMin (nm_of_mm(1), nm_of_mm(200_000)), 110,
         |s, i| s.axes[i].max_rate;
         [] "" "" "highest speed of the axis (rapid rate); its step rate must fit the drivers' timing (`[drivers]`)",
-    Accel => Axis "accel" MmPerS2 (mm(1), mm(100_000)), 120,
+    Accel => Axis "accel" MmPerS2 (nm_of_mm(1), nm_of_mm(100_000)), 120,
         |s, i| s.axes[i].accel;
         [] "" "" "acceleration",
-    StartSpeed => Axis "start_speed" MmPerMin (0, mm(200_000)), NO_GRBL,
+    StartSpeed => Axis "start_speed" MmPerMin (0, nm_of_mm(200_000)), NO_GRBL,
         |s, i| s.axes[i].start_speed;
         [] "0-`max_rate`" "" "speed the axis can reach instantly from rest (the GIXA controller's \"Starting Speed\")",
     TravelMin => Axis "travel[0]" Mm LENGTH, NO_GRBL,
@@ -291,13 +291,13 @@ table! {
         |s, i| i64::from(s.axes[i].invert_dir);
         [] "" "" "reverse the direction output (grbl `$3`, a mask of all axes)",
 
-    JunctionDeviation => Path "junction_deviation" Mm (0, mm(10)), 11,
+    JunctionDeviation => Path "junction_deviation" Mm (0, nm_of_mm(10)), 11,
         |s, _i| s.path.junction_deviation;
         [] "" "" "grbl junction deviation: how far a corner may be rounded, which sets the corner speed",
-    FeedShift => Path "feed_shift" MmPerMin (0, mm(100_000)), NO_GRBL,
+    FeedShift => Path "feed_shift" MmPerMin (0, nm_of_mm(100_000)), NO_GRBL,
         |s, _i| s.path.feed_shift;
         [] "" "" "instantaneous speed jump the steppers take at any junction (the GIXA controller's \"Feed Shift\"): a corner runs at the larger of junction deviation's speed and the speed whose direction change is this jump, so it only ever raises corner speeds (at the default 60 with the default limits, junction deviation's speed is the higher one except at near-reversals, turns of more than about 170°); 0 = junction deviation alone",
-    ChordTolerance => Path "chord_tolerance" Mm (100, mm(1)), 12,
+    ChordTolerance => Path "chord_tolerance" Mm (100, nm_of_mm(1)), 12,
         |s, _i| s.path.chord_tolerance;
         [] "" "" "arcs are cut into straight segments deviating at most this much",
     ArcSegmentAngle => Path "arc_segment_angle" Degrees (0, 90_000), NO_GRBL,
@@ -306,7 +306,7 @@ table! {
     ArcMaxSegments => Path "arc_max_segments" Count (0, u32::MAX as i64), NO_GRBL,
         |s, _i| i64::from(s.path.arc_max_segments);
         [] "≥ 0" "" "most segments per arc (`gixa` \"Max Segments per Arc\"), overrides both above; 0 = no limit",
-    BlendTolerance => Path "blend_tolerance" Mm (0, mm(10)), NO_GRBL,
+    BlendTolerance => Path "blend_tolerance" Mm (0, nm_of_mm(10)), NO_GRBL,
         |s, _i| s.path.blend_tolerance;
         [] "" "" "path tolerance of `G64` without P (and of the power-up mode): short moves merged into chords and corners rounded by arcs within it, as `G64 P<blend_tolerance>` (below); 0 = off (junction deviation alone)",
 
@@ -316,10 +316,10 @@ table! {
     DwellUnits => Program "dwell_units" Choice (0, 1), NO_GRBL,
         |s, _i| s.program.dwell_units as i64;
         ["seconds", "milliseconds"] "" "" "how G4 P is read: seconds (RS274NGC) or integer milliseconds (classic Fanuc)",
-    PeckClearance => Program "peck_clearance" Mm (0, mm(100)), NO_GRBL,
+    PeckClearance => Program "peck_clearance" Mm (0, nm_of_mm(100)), NO_GRBL,
         |s, _i| s.program.peck_clearance;
         [] "" "" "G73/G83 retract clearance",
-    ChipBreakRetract => Program "chip_break_retract" Mm (0, mm(100)), NO_GRBL,
+    ChipBreakRetract => Program "chip_break_retract" Mm (0, nm_of_mm(100)), NO_GRBL,
         |s, _i| s.program.chip_break_retract;
         [] "" "" "`gixa` G87 partial retract",
     DefaultRetract => Program "default_retract" Choice (0, 1), NO_GRBL,
@@ -341,10 +341,10 @@ table! {
     ToolNumber => Tool "number" Count (1, u32::MAX as i64), NO_GRBL,
         |s, i| i64::from(s.program.tools[i].number);
         [] "≥ 1, unique" "—" "T number",
-    ToolLength => Tool "length" Mm (-mm(1000), mm(1000)), NO_GRBL,
+    ToolLength => Tool "length" Mm (-nm_of_mm(1000), nm_of_mm(1000)), NO_GRBL,
         |s, i| s.program.tools[i].length;
         [] "" "`0`" "tool length offset applied by G43 H",
-    ToolDiameter => Tool "diameter" Mm (0, mm(1000)), NO_GRBL,
+    ToolDiameter => Tool "diameter" Mm (0, nm_of_mm(1000)), NO_GRBL,
         |s, i| s.program.tools[i].diameter;
         [] "" "`0`" "diameter, used by cutter compensation (`G41 D<n>`, `G42 D<n>`; docs/gcode-compensation.md)",
 
@@ -360,7 +360,7 @@ table! {
     FroHigh => Operator "fro_range[1]" Percent (10, 200), NO_GRBL,
         |s, _i| i64::from(s.operator.fro_high);
         [] "" "" "",
-    DryRunFeed => Operator "dry_run_feed" MmPerMin (mm(1), mm(100_000)), NO_GRBL,
+    DryRunFeed => Operator "dry_run_feed" MmPerMin (nm_of_mm(1), nm_of_mm(100_000)), NO_GRBL,
         |s, _i| s.operator.dry_run_feed;
         [] "" "" "feed used for every feed move during a dry run",
 
@@ -413,7 +413,7 @@ table! {
     SeekRate => HomingAxis "seek_rate" MmPerMin SPEED, 24,
         |s, i| s.homing.axes[i].seek_rate;
         [] "" "" "constant seek speed. Keep it at or below the axis `start_speed` so the seek has no ramp and the switch stops it without lost steps (grbl `$24` and `$25` write every axis)",
-    Retract => HomingAxis "retract" Mm (0, mm(1000)), 27,
+    Retract => HomingAxis "retract" Mm (0, nm_of_mm(1000)), 27,
         |s, i| s.homing.axes[i].retract;
         [] "" "" "back-off from the switch at the rapid rate; must release the switch (else alarm 8) (grbl `$27` writes every axis)",
     SetHome => HomingAxis "set_home" Bool (0, 1), NO_GRBL,
@@ -432,7 +432,7 @@ table! {
     InstantSpeed => Jog "instant_speed" MmPerMin SPEED, NO_GRBL,
         |s, _i| s.jog.instant_speed;
         [] "" "" "Instantaneous mode speed (and nudge speed); at or below `start_speed` for no ramp",
-    NudgeDistance => Jog "nudge_distance" Mm (1, mm(100)), NO_GRBL,
+    NudgeDistance => Jog "nudge_distance" Mm (1, nm_of_mm(100)), NO_GRBL,
         |s, _i| s.jog.nudge_distance;
         [] "" "" "one nudge",
     NudgeIntervalMs => Jog "nudge_interval_ms" Ms (10, 10_000), NO_GRBL,
