@@ -224,7 +224,7 @@ impl<const N: usize> Motion<N> {
             return Err(PushError::Full);
         }
         match canon.action {
-            Action::Rapid { to } => self.push_line(canon.line, &to, None),
+            Action::Rapid { to } => self.push_straight(canon.line, &to, None),
             Action::Feed { .. } => Ok(()),
             Action::Arc {
                 to,
@@ -480,7 +480,7 @@ impl<const N: usize> Motion<N> {
         }
     }
 
-    fn push_line(&mut self, line: u32, to: &Pos, speed: Option<u64>) -> Result<(), PushError> {
+    fn push_straight(&mut self, line: u32, to: &Pos, speed: Option<u64>) -> Result<(), PushError> {
         // Both read the configured axes only (no masked copy of the target).
         if let Some(axis) = self.cfg.travel_violation(to) {
             return Err(PushError::Travel { axis });
@@ -517,7 +517,7 @@ impl<const N: usize> Motion<N> {
         }
         let blocks = self.planner.len();
         let (cfg, steps, position) = (&self.cfg, &mut self.steps, &mut self.position);
-        let queued = self.planner.push_line(cfg, &req, |i| {
+        let queued = self.planner.push_block(cfg, &req, |i| {
             if to[i] == position[i] {
                 // An axis the line does not move makes no step (and costs no conversion: a
                 // 64-bit division per axis on the Cortex-M4).

@@ -179,7 +179,7 @@ impl Block {
 }
 
 /// A line to plan, in machine terms (its displacement per axis comes from the function given to
-/// [`Planner::push_line`]).
+/// [`Planner::push_block`]).
 #[derive(Clone, Copy, Debug)]
 pub struct LineRequest {
     pub line: u32,
@@ -481,7 +481,7 @@ impl<const N: usize> Planner<N> {
     /// `axis_move(i)` gives the displacement of configured axis `i` as (steps, nm); it is called
     /// once per configured axis, in order (the pipeline converts and books its new end there: no
     /// zero-filled displacement arrays built and copied per line).
-    pub fn push_line(
+    pub fn push_block(
         &mut self,
         cfg: &MotionConfig,
         req: &LineRequest,
@@ -691,7 +691,7 @@ pub struct Direction {
 }
 
 /// The direction of a move by `delta` (nm per axis) and what the axes allow along it; `None`
-/// for no move. (The same limits [`Planner::push_line`] applies.)
+/// for no move. (The same limits [`Planner::push_block`] applies.)
 pub fn direction(cfg: &MotionConfig, delta: &[i64; MAX_AXES]) -> Option<Direction> {
     let axes = cfg.axis_count as usize;
     let len_sq: u128 = delta[..axes]
@@ -920,7 +920,7 @@ mod tests {
     }
 
     fn push<const N: usize>(p: &mut Planner<N>, cfg: &MotionConfig, l: &TestLine) -> bool {
-        p.push_line(cfg, &l.req, |i| (l.steps[i], l.delta[i]))
+        p.push_block(cfg, &l.req, |i| (l.steps[i], l.delta[i]))
     }
 
     #[test]
