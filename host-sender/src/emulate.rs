@@ -196,7 +196,7 @@ fn save_position(state: &Path, board: &EmulatedBoard) -> anyhow::Result<()> {
         .with_context(|| format!("cannot write {}", position_file(state).display()))
 }
 
-/// The longest lag behind the wall clock the board's clock catches up, ms (see [`serve`]).
+/// The longest lag behind the wall clock the board's clock catches up, ms (see [`run_board`]).
 const CATCH_UP_LIMIT_MS: u64 = 500;
 
 /// One pass's news from the host side of the emulated board's port.
@@ -208,7 +208,7 @@ pub(crate) struct Polled {
 }
 
 /// The host side of the emulated board: a pty (`--pty`) or a TCP listener (`--tcp`). One
-/// [`serve`] loop runs the board behind either.
+/// [`run_board`] loop runs the board behind either.
 pub(crate) trait HostSide {
     /// Waits at most `wait_ms` for bytes; whether a host is there, and the bytes it sent.
     fn poll(&mut self, wait_ms: i32, buf: &mut [u8]) -> anyhow::Result<Polled>;
@@ -291,7 +291,7 @@ pub fn run(
         "emulate: board ready on {} ({name}), {axes} axes; {origin}",
         pty.display(),
     );
-    let result = serve(board, &mut host, state.as_deref(), &ready);
+    let result = run_board(board, &mut host, state.as_deref(), &ready);
     // Remove the link only when it is still ours.
     if std::fs::read_link(pty).is_ok_and(|t| t == Path::new(&name)) {
         let _ = std::fs::remove_file(pty);
@@ -302,7 +302,7 @@ pub fn run(
 /// The run loop of `gantry emulate`, behind either host side, until SIGINT or SIGTERM: bytes in
 /// and out, the board's clock following the wall clock, the stored setup saved when the board
 /// writes its flash, and every state change logged on stderr with the step counts.
-pub(crate) fn serve(
+pub(crate) fn run_board(
     mut board: EmulatedBoard,
     host: &mut dyn HostSide,
     state: Option<&Path>,

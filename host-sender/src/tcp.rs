@@ -2,10 +2,10 @@
 //! builds offer, for senders that connect by address (docs/grbl.md). One client at a time; a
 //! client connecting is the port opening (DTR up), its disconnect is the port closing (DTR
 //! drop: the next connection chooses its protocol again). The board runs in the same loop as
-//! behind the pty (`crate::emulate::serve`), so grbl and the framed protocol both work, and the
+//! behind the pty (`crate::emulate::run_board`), so grbl and the framed protocol both work, and the
 //! log is the same.
 
-use crate::emulate::{load_state, new_board, serve, setup_origin, HostSide, Polled};
+use crate::emulate::{load_state, new_board, run_board, setup_origin, HostSide, Polled};
 use anyhow::Context;
 use nix::poll::{poll, PollFd, PollFlags};
 use std::io::{ErrorKind, Read, Write};
@@ -124,7 +124,7 @@ pub fn run(
         listener,
         client: None,
     };
-    serve(board, &mut host, state.as_deref(), &ready)
+    run_board(board, &mut host, state.as_deref(), &ready)
 }
 
 #[cfg(test)]
