@@ -200,7 +200,7 @@ pub struct Block {
     words: heapless::Vec<Word, WORD_SLOTS>,
     /// Where in `words` the word of each letter slot (`A`..`Z`, `@`, `^`) is, while its
     /// `present` bit is set. A new block only clears this and the mask, not 28 optional words
-    /// (machine/src/gcode/interp.rs makes one per line).
+    /// (machine/src/gcode/interp/mod.rs makes one per line).
     index: [u8; WORD_SLOTS],
     /// Bit `slot` set while the block has the word of that slot (the unused-word check of every
     /// block reads it instead of scanning the 28 slots).

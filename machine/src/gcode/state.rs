@@ -124,7 +124,7 @@ impl core::ops::DerefMut for ModalState {
     }
 }
 
-/// What a failing block must give back (machine/src/gcode/interp.rs, `Interpreter::next`): the
+/// What a failing block must give back (machine/src/gcode/interp/mod.rs, `Interpreter::next`): the
 /// whole state, or only its modes and position when the block cannot touch the offset tables.
 /// Copying the 904-byte state before every line was the largest single cost of a short line
 /// (target-tests/src/bin/bench_motion.rs). It lives on the stack for one block (no heap to box
