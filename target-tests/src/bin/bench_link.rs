@@ -379,8 +379,7 @@ fn main() -> ! {
     let per_byte = net(&padded).saturating_sub(net(&bare)) / (padded.bytes - bare.bytes);
     let rest = |r: &Run| net(r).saturating_sub(per_byte * r.bytes);
     // Both runs carry LINES lines: the difference of the rests is the difference of frames.
-    let per_frame =
-        rest(&bare).saturating_sub(rest(&steady)) / (bare.frames - steady.frames);
+    let per_frame = rest(&bare).saturating_sub(rest(&steady)) / (bare.frames - steady.frames);
     let n = LINES as u64;
     let per_line = rest(&steady).saturating_sub(per_frame * steady.frames) / n;
     // The CPU model charges frames and bytes: a steady-state frame carries its lines' share.
