@@ -52,6 +52,7 @@ out=host-sender/src/cpu_model_f411.rs
     echo "    link_byte: $(need link_byte),"
     echo "    link_line: $(need link_line),"
     echo "    line_bytes: $(need line_bytes),"
+    echo "    lines_per_frame: $(need lines_per_frame),"
     echo "    lines_per_pass: $(need lines_per_pass),"
     echo "}"
 } >"$out"

@@ -38,13 +38,17 @@ pub struct Measured {
     pub step_event: [u64; 3],
     pub step_entry_exit_cycles: u64,
     /// The board's side of the link (`bench_link`: `BoardLink::on_bytes`, `service` twice,
-    /// `poll_transmit`): per main-loop pass, per received frame and per received wire byte.
+    /// `poll_transmit`): per main-loop pass, per received frame and per received wire byte. The
+    /// frame figure is that of a steady-state batch (`lines_per_frame` short lines, the batches
+    /// `gantry stream` sends while nothing is retransmitted), its lines' own share included.
     pub link_pass: u64,
     pub link_frame: u64,
     pub link_byte: u64,
-    /// Per short streamed line all told, with its wire bytes and the lines a pass took.
+    /// Per short streamed line all told, with its wire bytes, the lines a frame carried and the
+    /// lines a pass took.
     pub link_line: u64,
     pub line_bytes: u64,
+    pub lines_per_frame: u64,
     pub lines_per_pass: u64,
 }
 
@@ -194,8 +198,9 @@ pub fn figures_table(model: &CpuModel) -> String {
             "short G1 line: the board's link (`bench_link`)".to_owned(),
             grouped(f.link_line),
             format!(
-                "{} wire bytes, one frame, {} lines per pass: {} per pass + {} per frame + {} per byte",
+                "{} wire bytes, {} lines a frame, {} lines per pass: {} per pass + {} per frame + {} per byte",
                 f.line_bytes,
+                f.lines_per_frame,
                 f.lines_per_pass,
                 grouped(f.link_pass),
                 grouped(f.link_frame),

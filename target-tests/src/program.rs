@@ -65,6 +65,16 @@ impl TextLine {
         &self.bytes[..self.len]
     }
 
+    /// The line without its blanks, as `gantry stream` sends it (host-sender/src/program.rs
+    /// `strip`; a comment keeps its blanks, and this program's have none).
+    pub fn without_blanks(&self) -> TextLine {
+        let mut l = TextLine::new();
+        for &b in self.as_bytes().iter().filter(|b| !b.is_ascii_whitespace()) {
+            l.push(b);
+        }
+        l
+    }
+
     pub fn as_str(&self) -> &str {
         core::str::from_utf8(self.as_bytes()).unwrap_or("")
     }

@@ -3,6 +3,8 @@
 //! cannot keep up with, and none at a feed it can; without the model the same fast job has none.
 
 use gantry_machine::setup::Setup;
+use gantry_machine::step::timing::KERNEL_TIMER_HZ;
+use gantry_machine::step::IDLE_PERIOD_COUNTS;
 use host_sender::cpu_model::CpuModel;
 use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
@@ -67,22 +69,39 @@ fn stream(program: &str, cpu: Option<CpuModel>, x_end_steps: i64) -> (u64, f64) 
 }
 
 /// The board's starved time (machine/src/board/starvation.rs) is the time the job took beyond
-/// its planned time: 0.02 mm lines at F30000 need ~11,000 lines/s, more than the F411 model
-/// manages, and the job takes ~0.85 s longer than the 1.46 s `simulate` plans; the same job
+/// its planned time, less the kernel's restarts after running dry: 0.02 mm lines at F30000 need
+/// ~11,000 lines/s, more than the F411 model manages (firmware/README.md "Measured figures"), and
+/// the job takes ~1.23 s longer than fed in time (1.49 s, `simulate` plans 1.46 s); the same job
 /// without the model, fed in time, loses next to nothing.
+///
+/// Each time the kernel runs dry (an underrun) the segments the next pass prepares wait for the
+/// step interrupt's idle poll (machine/src/step/isr.rs `IDLE_PERIOD_COUNTS`, 1 ms, as the
+/// firmware's TIM2 does: firmware/src/step.rs) before the kernel steps again. The board's
+/// starvation sample sees the planner fed again by then, so most of that wait is not counted
+/// as starved: it is the underruns' cost, counted in the underruns. Measured with the
+/// emulator's clock: 410 restarts waited 0.263 s in all (0.64 ms each), and the starved time
+/// (1.013 s) falls 0.216 s short of the time beyond (1.229 s, 409 underruns). So the starved
+/// time is at most the time beyond, and short of it by no more than one idle poll per underrun.
 #[test]
 fn the_starved_time_is_the_time_beyond_the_plan() {
     let fast = fine_program(30_000, 20);
     let (_, without, starved_without) = stream_starved(&fast, None, -8_000);
-    let (_, with_model, starved) = stream_starved(&fast, Some(CpuModel::F411), -8_000);
+    let (gaps, with_model, starved) = stream_starved(&fast, Some(CpuModel::F411), -8_000);
     eprintln!(
-        "F30000: {without:.3} s (starved {starved_without:.3}) without the model, {with_model:.3} s (starved {starved:.3}) with"
+        "F30000: {without:.3} s (starved {starved_without:.3}) without the model, {with_model:.3} s (starved {starved:.3}, {gaps} underruns) with"
     );
     let beyond = with_model - without;
     assert!(beyond > 0.5, "{beyond}");
+    // Most of the time beyond is starvation; the rest, the restarts' waits.
     assert!(
-        (starved - beyond).abs() < 0.1 * beyond,
-        "starved {starved} s, {beyond} s beyond the job fed in time"
+        starved > 0.7 * beyond,
+        "starved {starved} s of {beyond} s beyond"
+    );
+    assert!(starved <= beyond, "starved {starved} s, {beyond} s beyond");
+    let idle_poll_s = f64::from(IDLE_PERIOD_COUNTS) / f64::from(KERNEL_TIMER_HZ);
+    assert!(
+        beyond - starved <= gaps as f64 * idle_poll_s,
+        "starved {starved} s, {beyond} s beyond, {gaps} underruns"
     );
     assert!(starved_without < 0.1, "{starved_without}");
     // 0.05 mm lines at F6000 (2,000 lines/s): the model keeps up.
