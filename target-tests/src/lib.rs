@@ -66,6 +66,18 @@ pub mod clock {
         WRAPS.fetch_add(1, Ordering::Relaxed);
     }
 
+    /// Starts SysTick on the core clock from [`RELOAD`], its wrap exception on, and returns once
+    /// the counter has loaded (it starts at 0 and reloads on the first clock).
+    pub fn start(syst: &mut SYST) {
+        use cortex_m::peripheral::syst::SystClkSource;
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(RELOAD);
+        syst.clear_current();
+        syst.enable_interrupt();
+        syst.enable_counter();
+        while SYST::get_current() == 0 {}
+    }
+
     /// SysTick counts since start (wraps counted by the exception).
     pub fn now() -> u64 {
         loop {

@@ -23,15 +23,13 @@
 #![no_main]
 
 use core::hint::black_box;
-use cortex_m::peripheral::syst::SystClkSource;
-use cortex_m::peripheral::SYST;
 use cortex_m_rt::entry;
 use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::Board;
 use gantry_machine::setup::Setup;
 use gantry_proto::lines::{push_record, record_len, BATCH_MAX};
 use gantry_proto::{Config, HostEndpoint, HostMsg, Lane, LineBatch, MAX_FRAME_LEN};
-use gantry_target_tests::clock::{now, RELOAD};
+use gantry_target_tests::clock::{self, now};
 use gantry_target_tests::program::{padded_line, TextLine};
 use gantry_target_tests::{exit, println};
 
@@ -340,13 +338,7 @@ impl core::fmt::Display for Milli {
 #[entry]
 fn main() -> ! {
     let mut cp = cortex_m::Peripherals::take().unwrap();
-    cp.SYST.set_clock_source(SystClkSource::Core);
-    cp.SYST.set_reload(RELOAD);
-    cp.SYST.clear_current();
-    cp.SYST.enable_interrupt();
-    cp.SYST.enable_counter();
-    // The counter starts at 0 and reloads on the first clock: wait for that before timing.
-    while SYST::get_current() == 0 {}
+    clock::start(&mut cp.SYST);
 
     let overhead = timer_overhead();
     let crc = crc_per_byte();

@@ -12,8 +12,6 @@
 #![no_main]
 
 use core::hint::black_box;
-use cortex_m::peripheral::syst::SystClkSource;
-use cortex_m::peripheral::SYST;
 use cortex_m_rt::entry;
 use gantry_machine::board::line_ring::RECORD_MAX;
 use gantry_machine::board::StreamSource;
@@ -25,7 +23,7 @@ use gantry_machine::motion::config::MotionConfig;
 use gantry_machine::motion::kernel::{Segment, SegmentSource, StepKernel, TickOut};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::motion::pipeline::{Motion, PushError};
-use gantry_target_tests::clock::{now, RELOAD};
+use gantry_target_tests::clock::{self, now};
 use gantry_target_tests::program::program_line;
 use gantry_target_tests::{exit, println};
 
@@ -250,8 +248,8 @@ fn line_cost() -> [u64; 4] {
 
 /// Instructions per call of a few core helpers (for finding where block time goes).
 fn helper_costs() {
-    use gantry_machine::motion::profile::Profile;
     use gantry_machine::arith::{isqrt_u64, mul_div};
+    use gantry_machine::motion::profile::Profile;
     const N: u64 = 1000;
     let t0 = now();
     let mut acc = 0u64;
@@ -291,13 +289,7 @@ fn helper_costs() {
 #[entry]
 fn main() -> ! {
     let mut cp = cortex_m::Peripherals::take().unwrap();
-    cp.SYST.set_clock_source(SystClkSource::Core);
-    cp.SYST.set_reload(RELOAD);
-    cp.SYST.clear_current();
-    cp.SYST.enable_interrupt();
-    cp.SYST.enable_counter();
-    // The counter starts at 0 and reloads on the first clock: wait for that before timing.
-    while SYST::get_current() == 0 {}
+    clock::start(&mut cp.SYST);
 
     let ipc = calibrate(); // instructions per count × 1000
     println!(

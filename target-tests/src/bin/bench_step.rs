@@ -28,14 +28,13 @@
 
 use core::hint::black_box;
 use core::sync::atomic::{AtomicU32, Ordering};
-use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::entry;
 use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::setup::DriverSetup;
 use gantry_machine::step::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS};
-use gantry_target_tests::clock::{now, RELOAD};
+use gantry_target_tests::clock::{self, now};
 use gantry_target_tests::{exit, println};
 
 /// Step pins on bits 10..16 and dir pins on bits 0..6 of their ports, as on a board.
@@ -536,13 +535,7 @@ fn seg(steps: [u32; 6], ticks: u32, period: u32, dir: u8, output: OutputEvent) -
 #[entry]
 fn main() -> ! {
     let mut cp = cortex_m::Peripherals::take().unwrap();
-    cp.SYST.set_clock_source(SystClkSource::Core);
-    cp.SYST.set_reload(RELOAD);
-    cp.SYST.clear_current();
-    cp.SYST.enable_interrupt();
-    cp.SYST.enable_counter();
-    // The counter starts at 0 and reloads on the first clock: wait for that before timing.
-    while SYST::get_current() == 0 {}
+    clock::start(&mut cp.SYST);
 
     check_against_timer_model();
     let fast = StepTiming::from_setup(&FAST_DRIVERS);
