@@ -107,9 +107,24 @@ pub fn state_name(s: MachineState) -> &'static str {
     }
 }
 
-/// Millimetres (from nm) to 3 decimals, for the status readout.
+/// A length in whole micrometres, half a micrometre rounded away from zero: the one rounding of
+/// every position readout (`gantry status` here, the console's page in `crate::console`), so the
+/// two never differ by a digit (`{:.3}` rounded 28.5625 mm to 28.562, the page to 28.563).
+pub fn um_of_nm(nm: i64) -> i64 {
+    let um = (nm.unsigned_abs() + 500) / 1000;
+    if nm < 0 {
+        -(um as i64)
+    } else {
+        um as i64
+    }
+}
+
+/// Millimetres (from nm) to 3 decimals ([`um_of_nm`]), for the status readout.
 fn mm_3dp(nm: i64) -> String {
-    format!("{:.3}", nm as f64 / 1e6)
+    let um = um_of_nm(nm);
+    let sign = if um < 0 { "-" } else { "" };
+    let a = um.unsigned_abs();
+    format!("{sign}{}.{:03}", a / 1000, a % 1000)
 }
 
 /// A position as `X 1.000  Y 2.000  Z 3.000` (mm, 3 decimals) for the first `axes` axes.
@@ -299,6 +314,17 @@ pub fn state_words(s: MachineState) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn positions_round_half_a_micrometre_away_from_zero() {
+        assert_eq!(mm_3dp(28_562_500), "28.563");
+        assert_eq!(mm_3dp(-28_562_500), "-28.563");
+        assert_eq!(mm_3dp(28_562_499), "28.562");
+        assert_eq!(mm_3dp(1_000_500), "1.001");
+        assert_eq!(mm_3dp(0), "0.000");
+        assert_eq!(mm_3dp(-400), "0.000");
+        assert_eq!(mm_3dp(-12_000_000), "-12.000");
+    }
     use gantry_proto::MachineState;
 
     fn status(state: MachineState) -> Status {

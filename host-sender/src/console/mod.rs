@@ -411,8 +411,9 @@ fn mdi_lines(s: &mut Session, blocks: &[String]) -> Result<(), String> {
     Ok(())
 }
 
+/// Millimetres to the µm, rounded as `gantry status` rounds (`crate::present::um_of_nm`).
 fn nm_to_mm(nm: i64) -> f64 {
-    (nm as f64 / 1000.0).round() / 1000.0
+    crate::present::um_of_nm(nm) as f64 / 1000.0
 }
 
 /// A length in the program's units: mm to the µm, or inches to 0.0001 in.
