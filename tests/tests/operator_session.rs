@@ -101,19 +101,7 @@ fn a_machinists_session_from_power_up_to_a_restart_from_a_line() {
     // The board restarts (power cut): the offsets are still there.
     emu.kill();
     let emu = Emulator::start(&dir, None);
-    let pulled = dir.0.join("pulled.toml");
-    let out = gantry(
-        &[
-            "--port",
-            emu.port(),
-            "setup",
-            "pull",
-            pulled.to_str().unwrap(),
-        ],
-        T,
-    );
-    assert_eq!(out.code, Some(0), "{out:?}");
-    let text = std::fs::read_to_string(&pulled).unwrap();
+    let text = pulled_setup(&dir, emu.port());
     assert!(text.contains("\"G54\" = [100.0, 50.0, -20.0]"), "{text}");
     // Homing again after the power cut (the position was lost).
     let out = gantry(&["--port", emu.port(), "home"], T);

@@ -39,19 +39,7 @@ fn a_zero_set_with_g10_survives_a_restart_and_setup_pull_shows_it() {
     let (steps, _) = emu.last_counts();
     // Default 640 steps/mm; the emulated board powers up at 0 (issue 25 item 6 is separate).
     assert_eq!(steps.trim(), "X 7040 Y 3840 Z 0", "{}", emu.log());
-    let pulled = dir.0.join("pulled.toml");
-    let out = gantry(
-        &[
-            "--port",
-            emu.port(),
-            "setup",
-            "pull",
-            pulled.to_str().unwrap(),
-        ],
-        T,
-    );
-    assert_eq!(out.code, Some(0), "{out:?}");
-    let text = std::fs::read_to_string(&pulled).unwrap();
+    let text = pulled_setup(&dir, emu.port());
     assert!(text.contains("\"G54\" = [10.0, 5.0, 0.0]"), "{text}");
 }
 
@@ -61,19 +49,7 @@ fn a_zero_set_with_g10_survives_a_restart_and_setup_pull_shows_it() {
 fn a_pushed_setup_is_saved_and_a_restarted_emulator_comes_back_with_it() {
     let dir = Dir::new("push-saved");
     let mut emu = Emulator::start(&dir, None);
-    let pulled = dir.0.join("pulled.toml");
-    let out = gantry(
-        &[
-            "--port",
-            emu.port(),
-            "setup",
-            "pull",
-            pulled.to_str().unwrap(),
-        ],
-        T,
-    );
-    assert_eq!(out.code, Some(0), "{out:?}");
-    let text = std::fs::read_to_string(&pulled).unwrap();
+    let text = pulled_setup(&dir, emu.port());
     assert!(text.contains("max_rate = 3000.0"), "{text}");
     let edited = dir.file(
         "edited.toml",
@@ -97,18 +73,7 @@ fn a_pushed_setup_is_saved_and_a_restarted_emulator_comes_back_with_it() {
     );
     emu.kill();
     let emu = Emulator::start(&dir, None);
-    let out = gantry(
-        &[
-            "--port",
-            emu.port(),
-            "setup",
-            "pull",
-            pulled.to_str().unwrap(),
-        ],
-        T,
-    );
-    assert_eq!(out.code, Some(0), "{out:?}");
-    let text = std::fs::read_to_string(&pulled).unwrap();
+    let text = pulled_setup(&dir, emu.port());
     assert!(text.contains("max_rate = 2500.0"), "{text}");
 }
 
@@ -142,19 +107,7 @@ fn a_setup_push_keeps_the_boards_offsets_unless_the_file_names_them() {
         T,
     );
     assert_eq!(out.code, Some(0), "{out:?}");
-    let pulled = dir.0.join("pulled.toml");
-    let out = gantry(
-        &[
-            "--port",
-            emu.port(),
-            "setup",
-            "pull",
-            pulled.to_str().unwrap(),
-        ],
-        T,
-    );
-    assert_eq!(out.code, Some(0), "{out:?}");
-    let text = std::fs::read_to_string(&pulled).unwrap();
+    let text = pulled_setup(&dir, emu.port());
     assert!(text.contains("max_rate = 2500.0"), "{text}");
     assert!(text.contains("\"G54\" = [10.0, 5.0, 0.0]"), "{text}");
     assert!(text.contains("g28_home = [10.0, 5.0, 0.0]"), "{text}");
@@ -171,18 +124,7 @@ fn a_setup_push_keeps_the_boards_offsets_unless_the_file_names_them() {
         T,
     );
     assert_eq!(out.code, Some(0), "{out:?}");
-    let out = gantry(
-        &[
-            "--port",
-            emu.port(),
-            "setup",
-            "pull",
-            pulled.to_str().unwrap(),
-        ],
-        T,
-    );
-    assert_eq!(out.code, Some(0), "{out:?}");
-    let text = std::fs::read_to_string(&pulled).unwrap();
+    let text = pulled_setup(&dir, emu.port());
     assert!(text.contains("\"G54\" = [1.0, 2.0, 3.0]"), "{text}");
     assert!(text.contains("g28_home = [10.0, 5.0, 0.0]"), "{text}");
 }

@@ -3,19 +3,15 @@
 //! streams (the registers as memory words, as target-tests/src/bin/bench_step.rs has them, with
 //! another pin map) run the same scenario — moves with idle gaps between them, a probe move that
 //! trips the probe latch, a move into a limit switch — and must put out the same step edges at
-//! the same timer counts. The emulated board itself keeps the firmware's start-up timing: the
-//! 1 ms idle poll and the two kernel ticks ahead of the pins.
+//! the same timer counts. The emulated board's start-up timing (the 1 ms idle poll and the two
+//! kernel ticks ahead of the pins) is tested with the other step timing, tests/tests/step_timing.rs.
 
-use gantry_machine::board::main_loop::BoardPort;
 use gantry_machine::motion::kernel::{ProbeLatch, Segment, StepTiming};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::motion::sim::SegmentFifo;
-use gantry_machine::setup::{DriverSetup, Setup};
+use gantry_machine::setup::DriverSetup;
 use gantry_machine::step::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS, TICKS_AHEAD};
-use host_sender::emulator::{EmulatedBoard, PinEvent};
 use host_sender::step_clock::{ClockEvent, StepClock};
-use std::cell::RefCell;
-use std::rc::Rc;
 
 /// 1 µs pulses and dir set-up: short periods, so the set-up shows in the timing.
 const FAST: DriverSetup = DriverSetup {
@@ -279,53 +275,4 @@ fn the_emulated_timer_and_the_register_model_put_out_the_same_steps_at_the_same_
         panic!("the probe latch did not trip: {:?}", o.latch);
     };
     assert_eq!(steps[0], World::PROBE_AT + 1);
-}
-
-/// Runs `segs` queued at 5 ms on an idle board with 1 µs pulses; returns its step events.
-fn steps_after_idle(segs: &[Segment]) -> (u64, Vec<PinEvent>) {
-    let mut eb = EmulatedBoard::new(Setup {
-        drivers: FAST,
-        ..Setup::default()
-    });
-    eb.run_ms(5);
-    let events = Rc::new(RefCell::new(Vec::new()));
-    let sink = events.clone();
-    eb.observe(move |p| sink.borrow_mut().push(p));
-    let queued = eb.now();
-    for s in segs {
-        eb.push_segment(*s);
-    }
-    eb.run_ms(5);
-    let e = events
-        .borrow()
-        .iter()
-        .filter(|e| e.step != 0)
-        .copied()
-        .collect();
-    (queued, e)
-}
-
-#[test]
-fn the_first_step_after_idle_waits_for_the_poll_and_the_two_ticks_ahead() {
-    let t = StepTiming::from_setup(&FAST);
-    let (queued, steps) = steps_after_idle(&[seg(10, 10, 100, 0)]);
-    assert_eq!(steps.len(), 10);
-    // Queued at 5 ms, just before the update at 5 ms: its interrupt (at the pulse end plus the
-    // entry) polls the queue and finds the segment; the period it starts next was set by the
-    // poll before (1 ms idle), the one after by this poll (the turn period, for the dir set-up);
-    // the step goes out at the update after it. The old emulation stepped at 5 ms sharp.
-    assert_eq!(queued, 60_000);
-    let first = steps[0].time - queued;
-    assert_eq!(
-        first,
-        2 * u64::from(IDLE_PERIOD_COUNTS) + u64::from(t.turn_period)
-    );
-    // Then every 100 counts, each event naming the period it starts; X steps on each, Y on
-    // every second.
-    for (n, e) in steps.iter().enumerate() {
-        assert_eq!(e.time - steps[0].time, 100 * n as u64);
-        assert_eq!(e.step & 1, 1);
-    }
-    assert_eq!(steps.iter().filter(|e| e.step & 2 != 0).count(), 5);
-    assert!(steps[..9].iter().all(|e| e.period == 100));
 }

@@ -299,3 +299,15 @@ pub fn zigzag(n: usize) -> String {
     s.push_str("G90 M30\n");
     s
 }
+
+/// The board's setup as `gantry setup pull FILE` writes it (to `dir/pulled.toml`), checked to
+/// succeed.
+pub fn pulled_setup(dir: &Dir, port: &str) -> String {
+    let pulled = dir.0.join("pulled.toml");
+    let out = gantry(
+        &["--port", port, "setup", "pull", pulled.to_str().unwrap()],
+        Duration::from_secs(20),
+    );
+    assert_eq!(out.code, Some(0), "{out:?}");
+    std::fs::read_to_string(&pulled).unwrap()
+}
