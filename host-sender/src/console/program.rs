@@ -4,10 +4,10 @@
 
 use crate::check::check_stream;
 use crate::check_summary::format_summary;
+use crate::preview::adapt::MoveAdapter;
 use crate::preview::geom::arc_interior;
-use crate::preview::model::ArcGeom;
 use crate::preview::source::Actions;
-use gantry_machine::canon::{Action, ArcDir};
+use crate::preview::MoveKind;
 use gantry_machine::gcode::MemorySource;
 use gantry_machine::setup::Setup;
 use std::fmt::Write as _;
@@ -64,42 +64,30 @@ pub fn check(name: &str, text: &str, setup: &Setup) -> Checked {
 /// no work offset (the page shifts by the board's offset), up to the first error.
 pub fn path_json(text: &str, setup: &Setup) -> String {
     let mut pts: Vec<(u8, u32, [f64; 3])> = Vec::new();
-    let mut at: Option<[f64; 3]> = None;
-    let mm = |p: &[i64]| [p[0] as f64 / 1e6, p[1] as f64 / 1e6, p[2] as f64 / 1e6];
-    let actions = Actions::new(MemorySource::new(text.as_bytes()), &setup.interp_config());
-    for c in actions {
-        let (kind, to) = match &c.action {
-            Action::Rapid { to } => (0u8, mm(to)),
-            Action::Feed { to, .. } | Action::Probe { to, .. } => (1, mm(to)),
-            Action::Arc {
-                to,
-                center,
-                plane,
-                dir,
-                turns,
-                ..
-            } => {
-                let end = mm(to);
-                if let Some(from) = at {
-                    let arc = ArcGeom {
-                        center: mm(center),
-                        plane: *plane,
-                        ccw: *dir == ArcDir::Ccw,
-                        turns: (*turns).max(1),
-                    };
-                    for p in arc_interior(from, end, &arc, 0.25, (4, 720)) {
-                        pts.push((1, c.line, p));
+    // The moves as `gantry preview` takes them (mm, arcs with their geometry).
+    let mut moves = MoveAdapter::new(setup);
+    let mut first = true;
+    for c in Actions::new(MemorySource::new(text.as_bytes()), &setup.interp_config()) {
+        let Some(m) = moves.take(&c) else {
+            continue;
+        };
+        let kind = match &m.kind {
+            MoveKind::Rapid => 0u8,
+            MoveKind::Feed => 1,
+            MoveKind::Arc(arc) => {
+                if !first {
+                    for p in arc_interior(m.from, m.to, arc, 0.25, (4, 720)) {
+                        pts.push((1, m.line, p));
                     }
                 }
-                (1, end)
+                1
             }
-            _ => continue,
         };
-        if at.is_none() {
-            pts.push((2, c.line, to));
+        if first {
+            pts.push((2, m.line, m.to));
+            first = false;
         }
-        pts.push((kind, c.line, to));
-        at = Some(to);
+        pts.push((kind, m.line, m.to));
     }
     let keep = pts.len().div_ceil(POINTS_MAX).max(1);
     let mut out = String::from("{\"pts\":[");
