@@ -137,22 +137,19 @@ $("ovr-reset").onclick = () => {
   $("fo-in").value = 100; $("ro-in").value = 100; $("so-in").value = 100;
   post("override", { feed: 100, rapid: 100, spindle: 100 });
 };
-for (const b of document.querySelectorAll("[data-so]")) {
-  b.onclick = () => {
-    const now = status ? status.spindle_override : 100;
-    const v = Math.max(10, Math.min(200, now + +b.dataset.so));
-    $("so-in").value = v;
-    post("override", { spindle: v });
-  };
-}
-for (const b of document.querySelectorAll("[data-fo]")) {
-  b.onclick = () => {
-    const now = status ? status.feed_override : 100;
-    const v = Math.max(10, Math.min(200, now + +b.dataset.fo));
-    $("fo-in").value = v;
-    post("override", { feed: v });
-  };
-}
+// The ± buttons of the feed (data-fo) and spindle (data-so) overrides: 10-200 % from the board's.
+const overrideSteps = (attr, which, input) => {
+  for (const b of document.querySelectorAll(`[data-${attr}]`)) {
+    b.onclick = () => {
+      const now = status ? status[`${which}_override`] : 100;
+      const v = Math.max(10, Math.min(200, now + +b.dataset[attr]));
+      $(input).value = v;
+      post("override", { [which]: v });
+    };
+  }
+};
+overrideSteps("so", "spindle", "so-in");
+overrideSteps("fo", "feed", "fo-in");
 // Work offsets G54..G59.3 as the board keeps them: one row each, editable, set with G10 L2.
 function showOffsets(offsets) {
   const tb = document.querySelector("#offsets tbody");
