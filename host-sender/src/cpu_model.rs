@@ -307,6 +307,11 @@ impl CpuMeter {
         (new, lines)
     }
 
+    /// Kernel timer counts of preparing one segment, the CPU's whole attention on it.
+    pub fn segment_counts(&self, timer_hz: u64) -> u64 {
+        (self.model.figures.prepare_segment * timer_hz).div_ceil(self.model.hz)
+    }
+
     /// A pass started at `start` (kernel timer counts) and did its work on `board`: returns its
     /// duration in kernel timer counts.
     pub fn pass_done(&mut self, board: &Board, start: u64, timer_hz: u64) -> u64 {
@@ -319,6 +324,9 @@ impl CpuMeter {
             segments: core::mem::take(&mut self.segments),
         };
         let instructions = self.model.pass(&work);
+        if std::env::var_os("GANTRY_PASS_LOG").is_some() && instructions > 0 {
+            eprintln!("pass at {} work {:?} instr {} isr {} planner {} ring {:?}", start, work, instructions, self.isr_cycles, board.motion().planner().len(), (board.lines_buffered(), board.line_room()));
+        }
         self.instructions += instructions;
         // The step interrupt's share of the CPU since the last pass.
         let interval = start.saturating_sub(self.last_pass_at).max(1);

@@ -368,12 +368,24 @@ pub(crate) fn run_board(
                 "emulate: this process was stopped for {:.1} s: the board's clock skips it",
                 behind as f64 / 1000.0
             );
-        } else if behind > 0 {
-            board.run_ms(behind.min(50));
-        }
-        let out = board.take_output();
-        if open && !out.is_empty() {
-            host.send(&out);
+        } else {
+            // A millisecond at a time, with the port read and written in between: a real
+            // board's bytes arrive while it runs, so a lag behind the wall clock must not turn
+            // into a burst of virtual time with no host byte in it (and then a burst of bytes
+            // one pass has to take).
+            for ms in 0..behind.min(50) {
+                if ms > 0 && open {
+                    let polled = host.poll(0, &mut buf)?;
+                    if polled.read > 0 {
+                        board.receive(&buf[..polled.read]);
+                    }
+                }
+                board.run_ms(1);
+                let out = board.take_output();
+                if open && !out.is_empty() {
+                    host.send(&out);
+                }
+            }
         }
         if let Some(setup) = saved.borrow_mut().take() {
             if let Some(st) = state {

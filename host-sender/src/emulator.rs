@@ -46,6 +46,7 @@ use gantry_machine::motion::sim::SegmentFifo;
 use gantry_machine::setup::Setup;
 use gantry_machine::step::{Run, StepIsr};
 use gantry_machine::units::{Pos, MAX_AXES};
+use std::collections::VecDeque;
 use std::ops::{Deref, DerefMut};
 
 /// Kernel timer counts per millisecond.
@@ -305,8 +306,9 @@ pub struct Hardware {
     /// from then on the kernel is drained (until the main loop hands it a segment again); the
     /// first main-loop pass after it sees the machine at rest.
     pub kernel_idle_at: u64,
-    /// The CPU model, when one is set ([`EmulatedBoard::set_cpu_model`]), and the segments of
-    /// the pass running now, which reach the kernel's queue when it ends.
+    /// The CPU model, when one is set ([`EmulatedBoard::set_cpu_model`]), and the segments the
+    /// pass running now prepared, each reaching the kernel's queue when the pass has done the
+    /// work before it.
     cpu: Option<CpuTime>,
     /// Times the step kernel ran dry in the middle of a job's motion ([`Starved`]).
     pub starved: Starved,
@@ -315,10 +317,20 @@ pub struct Hardware {
 /// The CPU model's state on the hardware.
 struct CpuTime {
     meter: CpuMeter,
-    pending: Vec<Segment>,
-    /// When the pass running now ends (its segments reach the queue).
-    release_at: u64,
+    /// Segments prepared by the pass running now, oldest first, with the virtual time each
+    /// reaches the kernel's queue ([`AT_PASS_END`] until the pass's length is known).
+    pending: VecDeque<(u64, Segment)>,
+    /// When the pass running now started.
+    pass_start: u64,
+    /// The pass has not read the host's bytes yet: a segment it hands out now (the top-up at
+    /// its start, `MainLoop::pass`) costs only its own preparation.
+    before_intake: bool,
+    /// Virtual time the top-up's segments took to prepare so far, in this pass.
+    topped_up: u64,
 }
+
+/// Release time of a segment prepared after the pass's intake: when the pass ends.
+const AT_PASS_END: u64 = u64::MAX;
 
 /// Underruns as the machine feels them: the main loop's count
 /// (`gantry_machine::board::underruns`), the firmware's own.
@@ -539,8 +551,8 @@ impl EmulatedBoard {
                 self.clock_event();
             }
             let mut next = self.next_main_loop.min(end).min(self.clock.next_event());
-            if let Some(c) = self.cpu.as_ref().filter(|c| !c.pending.is_empty()) {
-                next = next.min(c.release_at);
+            if let Some(&(at, _)) = self.cpu.as_ref().and_then(|c| c.pending.front()) {
+                next = next.min(at);
             }
             self.now = next.max(self.now);
         }
@@ -598,6 +610,11 @@ impl EmulatedBoard {
     /// as its port. Returns how long it keeps the CPU busy (kernel timer counts): 0 without a CPU
     /// model.
     fn main_loop(&mut self) -> u64 {
+        if let Some(cpu) = self.hw.cpu.as_mut() {
+            cpu.pass_start = self.hw.now;
+            cpu.before_intake = true;
+            cpu.topped_up = 0;
+        }
         let now = self.hw.now_ms();
         self.main
             .pass(now, &mut self.board, &mut self.link, &mut self.hw);
@@ -617,7 +634,11 @@ impl EmulatedBoard {
         let busy = cpu
             .meter
             .pass_done(&self.board, start, u64::from(KERNEL_TIMER_HZ));
-        cpu.release_at = start + busy;
+        for (at, _) in cpu.pending.iter_mut() {
+            if *at == AT_PASS_END {
+                *at = start + busy;
+            }
+        }
         busy
     }
 
@@ -626,8 +647,10 @@ impl EmulatedBoard {
     pub fn set_cpu_model(&mut self, model: Option<CpuModel>) {
         self.hw.cpu = model.map(|m| CpuTime {
             meter: CpuMeter::new(m),
-            pending: Vec::new(),
-            release_at: 0,
+            pending: VecDeque::new(),
+            pass_start: 0,
+            before_intake: false,
+            topped_up: 0,
         });
     }
 
@@ -638,15 +661,16 @@ impl EmulatedBoard {
 }
 
 impl Hardware {
-    /// The segments of a pass that has ended go to the kernel's queue (CPU model only).
+    /// The segments the pass has prepared by now go to the kernel's queue (CPU model only).
     fn release_pass_segments(&mut self) {
         let Some(cpu) = self.cpu.as_mut() else {
             return;
         };
-        if cpu.pending.is_empty() || cpu.release_at > self.now {
-            return;
-        }
-        for seg in cpu.pending.drain(..) {
+        while let Some(&(at, seg)) = cpu.pending.front() {
+            if at > self.now {
+                break;
+            }
+            cpu.pending.pop_front();
             let _ = self.isr.source.0.push_back(seg);
         }
     }
@@ -963,9 +987,16 @@ impl BoardPort for Hardware {
 
     fn push_segment(&mut self, seg: Segment) {
         if let Some(cpu) = self.cpu.as_mut() {
-            // Prepared by the pass running now: in the queue when it ends.
+            // Prepared by the pass running now: in the queue once prepared at its start (the
+            // top-up before the intake), else when the pass ends.
             cpu.meter.segments += 1;
-            cpu.pending.push(seg);
+            let at = if cpu.before_intake {
+                cpu.topped_up += cpu.meter.segment_counts(u64::from(KERNEL_TIMER_HZ));
+                cpu.pass_start + cpu.topped_up
+            } else {
+                AT_PASS_END
+            };
+            cpu.pending.push_back((at, seg));
             return;
         }
         let _ = self.isr.source.0.push_back(seg);
@@ -1025,6 +1056,9 @@ impl BoardPort for Hardware {
     }
 
     fn receive(&mut self, buf: &mut [u8]) -> usize {
+        if let Some(cpu) = self.cpu.as_mut() {
+            cpu.before_intake = false;
+        }
         let n = buf.len().min(self.inbox.len());
         buf[..n].copy_from_slice(&self.inbox[..n]);
         self.inbox.drain(..n);

@@ -49,6 +49,9 @@ pub const SEGMENT_QUEUE_SLOTS: usize = 16;
 /// remembers at least as many, so a stop can take every queued segment back.
 pub const SEGMENT_QUEUE_DEPTH: usize = SEGMENT_QUEUE_SLOTS - 1;
 
+/// Bytes a pass takes from the host at most.
+pub const RX_BYTES_PER_PASS: usize = 512;
+
 const _: () = assert!(
     SEGMENT_QUEUE_DEPTH <= crate::motion::history::SEGMENT_HISTORY,
     "every queued segment can be taken back"
@@ -270,6 +273,25 @@ impl MainLoop {
         self.save == Save::Pending
     }
 
+    /// Hands the kernel's queue the segments it has room for, the probe latch armed first;
+    /// returns whether any went out.
+    fn feed_kernel(&mut self, board: &mut Board, port: &mut impl BoardPort) -> bool {
+        port.arm_probe(board.probe_arm());
+        let mut handed_out = false;
+        while port.queue_ready() {
+            let Some(seg) = board.next_segment() else {
+                break;
+            };
+            self.steppers_enabled = true;
+            self.underruns.segment_handed_out();
+            // Before the kernel can step it: a reset from here on is a reset during motion.
+            port.motion_marker(true);
+            handed_out = true;
+            port.push_segment(seg);
+        }
+        handed_out
+    }
+
     /// One pass of the main loop at `now_ms` (see the module documentation for the order).
     pub fn pass(
         &mut self,
@@ -301,13 +323,27 @@ impl MainLoop {
         let adc = port.adc();
         board.on_inputs(now_ms, levels, changed, adc);
 
-        // 3. Host link and controller.
+        // 3. The kernel's queue topped up from what is already planned, before the host's
+        // bytes and the interpreter take their share of the pass (at thousands of short lines a
+        // second the queue holds little more than a pass of motion). Only in a plain run: a
+        // stop or a speed change waits for `drop_queued` below, a limit for its latch.
+        let mut handed_out = false;
+        if self.latch == Latch::Armed
+            && board.state() == State::Run
+            && board.motion().drop_request().is_none()
+        {
+            handed_out = self.feed_kernel(board, port);
+        }
+
+        // 4. Host link and controller.
         let mut rx = [0u8; 64];
-        loop {
+        let mut budget = RX_BYTES_PER_PASS;
+        while budget > 0 {
             let n = port.receive(&mut rx);
             if n == 0 {
                 break;
             }
+            budget = budget.saturating_sub(n);
             // (`get`: a port never reports more than it was given; no panic path for it.)
             link.on_bytes(board, now_ms, rx.get(..n).unwrap_or_default());
         }
@@ -351,21 +387,11 @@ impl MainLoop {
             board.drop_queued(|max| port.drop_newest(max));
         }
 
-        // 4. Segments for the kernel (none while it is latched), the probe latch armed first.
-        port.arm_probe(board.probe_arm());
-        let mut handed_out = false;
+        // 5. Segments for the kernel (none while it is latched).
         if !latched {
-            while port.queue_ready() {
-                let Some(seg) = board.next_segment() else {
-                    break;
-                };
-                self.steppers_enabled = true;
-                self.underruns.segment_handed_out();
-                // Before the kernel can step it: a reset from here on is a reset during motion.
-                port.motion_marker(true);
-                handed_out = true;
-                port.push_segment(seg);
-            }
+            handed_out |= self.feed_kernel(board, port);
+        } else {
+            port.arm_probe(board.probe_arm());
         }
         if drained && !handed_out && !board.position_lost() {
             port.motion_marker(false);
@@ -380,7 +406,7 @@ impl MainLoop {
         port.exchange_user_outputs(|word| board.sync_user_outputs(word));
         port.arm_limits(board.limit_arm());
 
-        // 5. Events of this pass go out now; then the pins.
+        // 6. Events of this pass go out now; then the pins.
         port.before_link_service(board);
         link.service(board, now_ms, &self.view);
         let mut frame = [0u8; gantry_proto::MAX_FRAME_LEN];
@@ -396,7 +422,7 @@ impl MainLoop {
             self.steppers_enabled,
         );
 
-        // 6. A new setup from the host (taken only while idle): its input polarity, debounce and
+        // 7. A new setup from the host (taken only while idle): its input polarity, debounce and
         // step pulse shape now; flash once idle with nothing moving.
         if link.take_setup_changed() {
             let s = board.setup();
@@ -413,7 +439,7 @@ impl MainLoop {
             port.save_setup(board.setup());
         }
 
-        // 7. Whether the kernel running dry before the next pass would be an underrun: motion
+        // 8. Whether the kernel running dry before the next pass would be an underrun: motion
         // still queued, or none with the program not at its end (lines not yet interpreted, or
         // not yet received).
         let motion_to_come = match board.motion().state() {
