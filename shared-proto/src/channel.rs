@@ -384,8 +384,11 @@ impl<T: Wire, R: Wire, const TQ: usize, Q: QueuedRecv, const TRT: usize, const R
         data: &mut impl FnMut(&mut Q, u16, &[u8]) -> DataOutcome,
     ) {
         let mut payload = [0u8; MAX_PAYLOAD];
-        for &b in bytes {
-            let Some(frame) = self.decoder.push_byte(b) else {
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            let (used, frame) = self.decoder.push_run(rest);
+            rest = rest.get(used..).unwrap_or_default();
+            let Some(frame) = frame else {
                 continue;
             };
             let header = frame.header;

@@ -262,15 +262,38 @@ impl FrameDecoder {
     /// Feeds one byte; returns a frame when this byte completes a valid one.
     /// The frame borrows the decoder until the next call.
     pub fn push_byte(&mut self, b: u8) -> Option<Frame<'_>> {
-        if b != 0 {
-            if self.len < self.buf.len() {
-                self.buf[self.len] = b;
-                self.len += 1;
-            } else {
-                self.overflow = true;
+        self.push_run(core::slice::from_ref(&b)).1
+    }
+
+    /// Feeds `bytes` up to and including the first frame delimiter (0x00) among them: returns
+    /// how many bytes it took (all of them when there is no delimiter) and the frame that
+    /// delimiter completed, when it is valid. The bytes before the delimiter are copied into the
+    /// frame buffer in one block (a frame arriving byte by byte costs a call per byte; a chunk
+    /// from the USB endpoint costs a scan and a copy). The frame borrows the decoder until the
+    /// next call.
+    pub fn push_run(&mut self, bytes: &[u8]) -> (usize, Option<Frame<'_>>) {
+        let end = bytes.iter().position(|&b| b == 0);
+        let run = bytes.get(..end.unwrap_or(bytes.len())).unwrap_or_default();
+        match self.buf.get_mut(self.len..self.len + run.len()) {
+            Some(to) => {
+                to.copy_from_slice(run);
+                self.len += run.len();
             }
-            return None;
+            // Longer than a frame: the rest is dropped, the frame counted oversize at its end.
+            None => {
+                self.len = self.buf.len();
+                self.overflow |= !run.is_empty();
+            }
         }
+        match end {
+            Some(i) => (i + 1, self.end_frame()),
+            None => (bytes.len(), None),
+        }
+    }
+
+    /// A delimiter ended the bytes buffered since the last one: the frame they encode, when it
+    /// is valid (each kind of invalid frame is counted).
+    fn end_frame(&mut self) -> Option<Frame<'_>> {
         let len = core::mem::replace(&mut self.len, 0);
         if core::mem::replace(&mut self.overflow, false) {
             self.stats.oversize = self.stats.oversize.wrapping_add(1);
@@ -310,11 +333,13 @@ impl FrameDecoder {
     }
 
     /// Feeds a chunk and calls `f` for every valid frame it completes.
-    pub fn feed(&mut self, bytes: &[u8], mut f: impl FnMut(Frame<'_>)) {
-        for &b in bytes {
-            if let Some(frame) = self.push_byte(b) {
+    pub fn feed(&mut self, mut bytes: &[u8], mut f: impl FnMut(Frame<'_>)) {
+        while !bytes.is_empty() {
+            let (used, frame) = self.push_run(bytes);
+            if let Some(frame) = frame {
                 f(frame);
             }
+            bytes = bytes.get(used..).unwrap_or_default();
         }
     }
 }
