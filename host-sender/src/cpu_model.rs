@@ -324,9 +324,6 @@ impl CpuMeter {
             segments: core::mem::take(&mut self.segments),
         };
         let instructions = self.model.pass(&work);
-        if std::env::var_os("GANTRY_PASS_LOG").is_some() && instructions > 0 {
-            eprintln!("pass at {} work {:?} instr {} isr {} planner {} ring {:?}", start, work, instructions, self.isr_cycles, board.motion().planner().len(), (board.lines_buffered(), board.line_room()));
-        }
         self.instructions += instructions;
         // The step interrupt's share of the CPU since the last pass.
         let interval = start.saturating_sub(self.last_pass_at).max(1);
