@@ -199,32 +199,54 @@ pub struct Frame<'a> {
     pub payload: &'a [u8],
 }
 
-/// Decodes the COBS bytes of one frame (no delimiter among them) in place; returns the decoded
-/// length, or `None` when there are none or a code byte points past the end. Each code's run moves with one block
-/// copy. The `cobs` crate (whose encoder [`encode_frame`] uses) decodes a byte at a time: 19
-/// Cortex-M4 instructions per byte against about 3 here (target-tests `bench_link`), and the board
-/// decodes every byte the host sends. A test holds the two decoders equal on every input.
-fn cobs_decode_in_place(buf: &mut [u8]) -> Option<usize> {
-    let len = buf.len();
-    if len == 0 {
-        return None;
-    }
-    let (mut src, mut dst) = (0, 0);
-    while let Some(&code) = buf.get(src) {
-        let end = src + code as usize;
-        if code == 0 || end > len {
-            return None;
+/// COBS decoding as the bytes arrive, a block at a time: a code byte, then the bytes it vouches
+/// for, copied to the output in one block, then (for a code below 0xFF that is not the frame's
+/// last) a zero. The `cobs` crate (whose encoder [`encode_frame`] uses) decodes a byte at a time
+/// after the whole frame is in: 19 Cortex-M4 instructions per byte, on every byte the host sends
+/// (target-tests `bench_link`). A test holds the two decoders equal on every input and chunking.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct CobsRun {
+    /// Bytes of the current code's block still to come (0: the next byte is a code).
+    block_left: u8,
+    /// The last code was below 0xFF: a zero goes out before the next block's bytes.
+    zero_owed: bool,
+}
+
+impl CobsRun {
+    /// Decodes `run` (no delimiter in it) onto `out` from `*len` on; false when the decoded
+    /// bytes do not fit (`*len` then stands at the end of `out`).
+    fn decode(&mut self, mut run: &[u8], out: &mut [u8], len: &mut usize) -> bool {
+        while let Some((&first, rest)) = run.split_first() {
+            if self.block_left == 0 {
+                if core::mem::replace(&mut self.zero_owed, first != 0xFF) {
+                    let Some(z) = out.get_mut(*len) else {
+                        return false;
+                    };
+                    *z = 0;
+                    *len += 1;
+                }
+                self.block_left = first.wrapping_sub(1);
+                run = rest;
+                continue;
+            }
+            let n = run.len().min(self.block_left as usize);
+            let (block, rest) = run.split_at(n);
+            let Some(to) = out.get_mut(*len..*len + n) else {
+                return false;
+            };
+            to.copy_from_slice(block);
+            *len += n;
+            self.block_left -= n as u8;
+            run = rest;
         }
-        buf.copy_within(src + 1..end, dst);
-        dst += code as usize - 1;
-        src = end;
-        // A code below 0xFF ends its run with a zero, except at the frame's end.
-        if code != 0xFF && src < len {
-            *buf.get_mut(dst)? = 0;
-            dst += 1;
-        }
+        true
     }
-    Some(dst)
+
+    /// The frame's delimiter came: whether every code's block was complete; ready for the next
+    /// frame either way.
+    fn finish(&mut self) -> bool {
+        core::mem::take(self).block_left == 0
+    }
 }
 
 /// Counters of what the decoder saw.
@@ -248,8 +270,13 @@ pub struct DecoderStats {
 /// frame once and silently drops (and counts) everything else. Memory is one
 /// fixed buffer of [`MAX_FRAME_LEN`] bytes.
 pub struct FrameDecoder {
+    /// The frame in progress, decoded as it arrives.
     buf: [u8; MAX_FRAME_LEN],
+    /// Bytes of it decoded so far.
+    decoded: usize,
+    /// Wire bytes of it received so far.
     len: usize,
+    cobs: CobsRun,
     overflow: bool,
     stats: DecoderStats,
 }
@@ -264,7 +291,12 @@ impl FrameDecoder {
     pub const fn new() -> Self {
         Self {
             buf: [0; MAX_FRAME_LEN],
+            decoded: 0,
             len: 0,
+            cobs: CobsRun {
+                block_left: 0,
+                zero_owed: false,
+            },
             overflow: false,
             stats: DecoderStats {
                 frames: 0,
@@ -295,34 +327,30 @@ impl FrameDecoder {
 
     /// Feeds `bytes` up to and including the first frame delimiter (0x00) among them: returns
     /// how many bytes it took (all of them when there is no delimiter) and the frame that
-    /// delimiter completed, when it is valid. The bytes before the delimiter are copied into the
-    /// frame buffer in one block (a frame arriving byte by byte costs a call per byte; a chunk
-    /// from the USB endpoint costs a scan and a copy). The frame borrows the decoder until the
-    /// next call.
+    /// delimiter completed, when it is valid. The bytes before the delimiter are found with one
+    /// scan and decoded into the frame buffer a COBS block at a time (a call per byte would cost
+    /// more than the decoding). The frame borrows the decoder until the next call.
     pub fn push_run(&mut self, bytes: &[u8]) -> (usize, Option<Frame<'_>>) {
         let end = bytes.iter().position(|&b| b == 0);
         let run = bytes.get(..end.unwrap_or(bytes.len())).unwrap_or_default();
-        match self.buf.get_mut(self.len..self.len + run.len()) {
-            Some(to) => {
-                to.copy_from_slice(run);
-                self.len += run.len();
-            }
-            // Longer than a frame: the rest is dropped, the frame counted oversize at its end.
-            None => {
-                self.len = self.buf.len();
-                self.overflow |= !run.is_empty();
-            }
+        if !self.overflow {
+            // Longer than a frame on the wire: dropped up to its end, counted oversize there.
+            self.overflow = self.len + run.len() > MAX_FRAME_LEN
+                || !self.cobs.decode(run, &mut self.buf, &mut self.decoded);
         }
+        self.len = (self.len + run.len()).min(MAX_FRAME_LEN);
         match end {
             Some(i) => (i + 1, self.end_frame()),
             None => (bytes.len(), None),
         }
     }
 
-    /// A delimiter ended the bytes buffered since the last one: the frame they encode, when it
+    /// A delimiter ended the bytes received since the last one: the frame they encode, when it
     /// is valid (each kind of invalid frame is counted).
     fn end_frame(&mut self) -> Option<Frame<'_>> {
         let len = core::mem::replace(&mut self.len, 0);
+        let n = core::mem::replace(&mut self.decoded, 0);
+        let whole = self.cobs.finish();
         if core::mem::replace(&mut self.overflow, false) {
             self.stats.oversize = self.stats.oversize.wrapping_add(1);
             return None;
@@ -330,14 +358,10 @@ impl FrameDecoder {
         if len == 0 {
             return None; // back-to-back delimiters: idle fill, not an error
         }
-        // `len` never exceeds the buffer (checked as the bytes came in).
-        let n = match self.buf.get_mut(..len).and_then(cobs_decode_in_place) {
-            Some(n) => n,
-            _ => {
-                self.stats.bad_cobs = self.stats.bad_cobs.wrapping_add(1);
-                return None;
-            }
-        };
+        if !whole {
+            self.stats.bad_cobs = self.stats.bad_cobs.wrapping_add(1);
+            return None;
+        }
         // Header, payload, CRC (decoding never grows the frame: `n <= len`); shorter is a runt.
         let split = self
             .buf
@@ -376,9 +400,9 @@ impl FrameDecoder {
 mod tests {
     use super::*;
 
-    /// Our block decoder and the `cobs` crate's agree on every frame body: valid encodings of
-    /// random data (decoded back to the data), and random bytes without a delimiter (the same
-    /// result, or both refuse).
+    /// Our block decoder and the `cobs` crate's agree on every frame body, whatever chunks it
+    /// arrives in: valid encodings of random data (decoded back to the data), and random bytes
+    /// without a delimiter (the same result, or both refuse).
     #[test]
     fn cobs_decoder_equals_the_crates() {
         let mut seed = 0x2545_F491_u32;
@@ -387,6 +411,19 @@ mod tests {
             seed ^= seed >> 17;
             seed ^= seed << 5;
             seed
+        };
+        let mut ours = |wire: &[u8], cuts: u32| -> Option<Vec<u8>> {
+            let mut run = CobsRun::default();
+            let mut out = vec![0u8; wire.len()];
+            let mut len = 0;
+            let mut rest = wire;
+            while !rest.is_empty() {
+                let n = (1 + cuts as usize % 300).min(rest.len());
+                let (chunk, after) = rest.split_at(n);
+                assert!(run.decode(chunk, &mut out, &mut len), "decoding never grows");
+                rest = after;
+            }
+            run.finish().then(|| out[..len].to_vec())
         };
         for round in 0..20_000 {
             let len = 1 + (next() % 600) as usize;
@@ -397,18 +434,13 @@ mod tests {
                 .collect();
             let mut enc = vec![0u8; cobs::max_encoding_length(len)];
             let n = cobs::encode(&data, &mut enc);
-            let mut ours = enc[..n].to_vec();
-            let got = cobs_decode_in_place(&mut ours).expect("a valid encoding decodes");
-            assert_eq!(&ours[..got], &data[..], "round {round}");
+            let got = ours(&enc[..n], next()).expect("a valid encoding decodes");
+            assert_eq!(got, data, "round {round}");
 
             let junk: Vec<u8> = (0..len).map(|_| (next() as u8).max(1)).collect();
-            let mut ours = junk.clone();
             let mut theirs = junk.clone();
-            match (cobs_decode_in_place(&mut ours), cobs::decode_in_place(&mut theirs)) {
-                (Some(a), Ok(b)) => {
-                    assert_eq!(a, b, "round {round}");
-                    assert_eq!(ours[..a], theirs[..b], "round {round}");
-                }
+            match (ours(&junk, next()), cobs::decode_in_place(&mut theirs)) {
+                (Some(a), Ok(b)) => assert_eq!(a[..], theirs[..b], "round {round}"),
                 (None, Err(_)) => {}
                 (a, b) => panic!("round {round}: ours {a:?}, the crate's {b:?} for {junk:?}"),
             }
