@@ -8,9 +8,10 @@
 //! `link_pass + f·link_frame + n·link_byte + l·line + b·block + s·segment` instructions at the
 //! MCU clock (one per cycle), stretched by the share of the CPU the step interrupt took since
 //! the previous pass (each step event costs the interrupt's measured instructions for the axes
-//! stepping plus its entry and exit cycles); the segments it prepared reach the kernel's queue
-//! only when the pass ends, and the next pass starts 1 ms after the previous one or when it
-//! ends, whichever is later (the firmware's control task, `firmware/src/control.rs`, runs the
+//! stepping plus its entry and exit cycles). The segments of the pass's top-up (before it reads
+//! the host's bytes, `MainLoop::pass`) reach the kernel's queue once each is prepared; those it
+//! prepared after the link and the interpreter, when the pass ends. The next pass starts 1 ms
+//! after the previous one or when it ends, whichever is later (the firmware's control task, `firmware/src/control.rs`, runs the
 //! pass every millisecond and cannot start one before the last has finished).
 //!
 //! The figures ([`Measured`]) are not typed here: `scripts/bench-mcu.sh` runs the QEMU

@@ -412,7 +412,7 @@ mod tests {
             seed ^= seed << 5;
             seed
         };
-        let mut ours = |wire: &[u8], cuts: u32| -> Option<Vec<u8>> {
+        let ours = |wire: &[u8], cuts: u32| -> Option<Vec<u8>> {
             let mut run = CobsRun::default();
             let mut out = vec![0u8; wire.len()];
             let mut len = 0;
@@ -420,7 +420,10 @@ mod tests {
             while !rest.is_empty() {
                 let n = (1 + cuts as usize % 300).min(rest.len());
                 let (chunk, after) = rest.split_at(n);
-                assert!(run.decode(chunk, &mut out, &mut len), "decoding never grows");
+                assert!(
+                    run.decode(chunk, &mut out, &mut len),
+                    "decoding never grows"
+                );
                 rest = after;
             }
             run.finish().then(|| out[..len].to_vec())
@@ -430,7 +433,13 @@ mod tests {
             // Runs of zeros and 254-byte stretches without one are both likely.
             let zeros = [2, 16, 1000][round % 3];
             let data: Vec<u8> = (0..len)
-                .map(|_| if next() % zeros == 0 { 0 } else { next() as u8 | 1 })
+                .map(|_| {
+                    if next() % zeros == 0 {
+                        0
+                    } else {
+                        next() as u8 | 1
+                    }
+                })
                 .collect();
             let mut enc = vec![0u8; cobs::max_encoding_length(len)];
             let n = cobs::encode(&data, &mut enc);

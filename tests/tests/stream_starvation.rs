@@ -1,7 +1,7 @@
 //! The stream report's time lost to starvation (machine/src/board/starvation.rs, carried in
-//! the board's status), through the `gantry` binary: very short lines streamed over a pty to
-//! `gantry emulate --cpu-model f411` lose time, the example job streamed to the emulated board
-//! loses none.
+//! the board's status), through the `gantry` binary: very short lines, long on the wire, streamed
+//! over a pty to `gantry emulate --cpu-model f411` lose time, the example job streamed to the
+//! emulated board loses none.
 
 mod serial_support;
 
@@ -15,14 +15,21 @@ const FAST_AXES: &str = "[axis.X]\nsteps_per = [800, 5]\nmax_rate = 30000.0\nacc
 [axis.Y]\nsteps_per = [800, 5]\nmax_rate = 30000.0\naccel = 10000.0\n\
 [axis.Z]\nsteps_per = [800, 5]\nmax_rate = 30000.0\naccel = 10000.0\n";
 
-/// `n` lines of 0.02 mm at F30000 along X (Y and Z drifting): ~11,000 lines/s.
+/// A parameter of a long name (0) each line adds to its X: 143 bytes a line, so the link, which
+/// the board takes at most 512 B a millisecond of (`RX_BYTES_PER_PASS`), delivers ~3,500 lines a
+/// second, fewer than the moves need.
+const NAME: &str =
+    "_a_parameter_whose_long_name_makes_each_line_of_this_program_take_more_bytes_on_the_wire";
+
+/// `n` lines of 0.02 mm at F30000 along X (Y and Z drifting): ~11,000 lines/s, each long on the
+/// wire.
 fn short_lines(n: i64) -> String {
-    let mut p = String::from("G21 G90\nG0 X-100 Y0 Z0\nG1 F30000\n");
+    let mut p = format!("G21 G90\n#<{NAME}>=0\nG0 X-100 Y0 Z0\nG1 F30000\n");
     for i in 1..=n {
         let x = -100_000 + i * 20;
         let sign = if x < 0 { "-" } else { "" };
         p.push_str(&format!(
-            "X{sign}{}.{:03} Y0.{:05} Z-0.{:05}\n",
+            "X[{sign}{}.{:03}+#<{NAME}>] Y0.{:05} Z-0.{:05}\n",
             x.abs() / 1000,
             x.abs() % 1000,
             2 * i,

@@ -13,19 +13,21 @@
 //!    seek's switch).
 //! 2. **Inputs.** Raw pins debounced with the setup's polarity and debounce, the ADC readings:
 //!    [`Board::on_inputs`].
-//! 3. **Host link and controller.** Bytes from the host; the host-loss rule (the host closed the
+//! 3. **Top-up.** In a plain run, the kernel's queue is filled from what is already planned
+//!    before the link and the interpreter take their share of the pass.
+//! 4. **Host link and controller.** Bytes from the host, at most [`RX_BYTES_PER_PASS`]; the host-loss rule (the host closed the
 //!    port, DTR dropped: feed hold); the path speed ([`SpeedMeter`], a 20 ms window);
 //!    [`BoardLink::service`]; a tripped probe latch to [`Board::probe_tripped`];
 //!    [`Board::poll`] with the kernel's drained flag; a new home loaded
 //!    into the kernel; queued segments taken back for a stop or a jog's speed change.
-//! 4. **Segments** into the kernel's queue (the probe latch armed first, [`Board::probe_arm`]) (the motion marker set before the kernel can step
+//! 5. **Segments** into the kernel's queue (the probe latch armed first, [`Board::probe_arm`]) (the motion marker set before the kernel can step
 //!    them, cleared once drained), time lost to starvation counted ([`Starvation`]),
 //!    the user output word exchanged with the kernel, the limit bits armed for the kernel.
-//! 5. **Out.** The link again (events of this pass go out in it), frames to the host, output
+//! 6. **Out.** The link again (events of this pass go out in it), frames to the host, output
 //!    levels to the pins.
-//! 6. **Setup change.** A setup the host pushed: new debouncer and step pulse timing now, saved
+//! 7. **Setup change.** A setup the host pushed: new debouncer and step pulse timing now, saved
 //!    once the board is idle and the kernel drained (a flash write stalls the CPU).
-//! 7. **Underruns.** Whether the kernel running dry before the next pass would be a gap in the
+//! 8. **Underruns.** Whether the kernel running dry before the next pass would be a gap in the
 //!    job's motion; the next pass counts it from the kernel's dry runs ([`Underruns`]).
 
 use super::link::{BoardLink, KernelView};
@@ -49,7 +51,10 @@ pub const SEGMENT_QUEUE_SLOTS: usize = 16;
 /// remembers at least as many, so a stop can take every queued segment back.
 pub const SEGMENT_QUEUE_DEPTH: usize = SEGMENT_QUEUE_SLOTS - 1;
 
-/// Bytes a pass takes from the host at most.
+/// Bytes a pass takes from the host at most: a burst (a pty read of 4 KiB, the USB stack's
+/// buffer after a busy moment) is taken over several passes, so one pass's link work cannot
+/// outlast the kernel's queue (docs/architecture.md "One pass, in order"). 512 B a millisecond is
+/// 1.8× what 8 k short lines a second need; the rest waits in the port's buffer.
 pub const RX_BYTES_PER_PASS: usize = 512;
 
 const _: () = assert!(
@@ -325,11 +330,12 @@ impl MainLoop {
 
         // 3. The kernel's queue topped up from what is already planned, before the host's
         // bytes and the interpreter take their share of the pass (at thousands of short lines a
-        // second the queue holds little more than a pass of motion). Only in a plain run: a
-        // stop or a speed change waits for `drop_queued` below, a limit for its latch.
+        // second the queue holds little more than a pass of motion). Only in a job running on
+        // its path: a hold, an abort or a speed change waits for `drop_queued` below, a limit
+        // for its latch.
         let mut handed_out = false;
         if self.latch == Latch::Armed
-            && board.state() == State::Run
+            && board.job_running()
             && board.motion().drop_request().is_none()
         {
             handed_out = self.feed_kernel(board, port);
