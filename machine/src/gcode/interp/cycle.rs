@@ -376,42 +376,49 @@ impl Interpreter {
         if raise_first {
             program[c] = r;
         }
-        let mut run = CycleRun::new(line, cb.body, gixa, cb.axes, program, offset, w.repeats);
-        run.xf = self.state.xf;
-        run.inc = place.inc;
-        run.polar_step = place.polar_step;
-        run.r = r;
-        run.bottom = place.bottom;
         let old_c = if raise_first { r } else { cb.initial };
-        run.clear = if self.state.retract_to_r { r } else { old_c };
-        run.q = body.q;
-        run.clearance = match (gixa, cb.body) {
+        let clear = if self.state.retract_to_r { r } else { old_c };
+        let clearance = match (gixa, cb.body) {
             (true, CycleBody::PeckFull) => 0,
             (true, _) => self.config.gixa.partial_retract,
             (false, _) => self.config.peck_clearance,
         };
+        let feed = self.len(self.state.feed);
+        let (xf, spindle, rpm, absolute) = (
+            self.state.xf,
+            self.state.spindle,
+            self.state.rpm,
+            self.state.absolute,
+        );
+        // Built in place (a failing block clears it with the rest of the block's work).
+        let run = self.cycle.insert(CycleRun::new(
+            line, cb.body, gixa, cb.axes, program, offset, w.repeats,
+        ));
+        run.xf = xf;
+        run.inc = place.inc;
+        run.polar_step = place.polar_step;
+        run.r = r;
+        run.bottom = place.bottom;
+        run.clear = clear;
+        run.q = body.q;
+        run.clearance = clearance;
         run.dwell_us = body.dwell_us;
         if let (CycleBody::BackBore, Some(m)) = (cb.body, w.back_bore) {
             run.back_bore_offset = (m[a], m[bx]);
             // K (the drilling-axis letter) is absolute in G90 and relative to the bottom in G91.
-            run.middle = if self.state.absolute {
-                m[c]
-            } else {
-                place.bottom + m[c]
-            };
+            run.middle = if absolute { m[c] } else { place.bottom + m[c] };
         }
-        run.feed = self.len(self.state.feed);
-        run.spindle = self.state.spindle;
-        run.rpm = self.state.rpm;
+        run.feed = feed;
+        run.spindle = spindle;
+        run.rpm = rpm;
         let mut machine = run.final_program_position();
         for (v, o) in machine.iter_mut().zip(offset) {
             *v += o;
         }
-        if self.state.xf.active() {
+        if xf.active() {
             self.xf_point(&mut machine, c, true)?;
         }
         self.state.position = machine;
-        self.cycle = Some(run);
         Ok(())
     }
 }
