@@ -117,8 +117,9 @@ pub struct BoardLink {
     endpoint: BoardEndpoint,
     /// Messages for the host the send queue had no room for yet, oldest first.
     outbox: heapless::Deque<BoardMsg, 4>,
+    /// When (ms) the last status report went out; `None` when one is due now whatever the
+    /// interval: none sent yet, or the host asked (or attached) since the last one.
     last_status: Option<u32>,
-    status_requested: bool,
     host: Host,
     /// Since when (ms) the job has been held, or waited for lines, with the host gone (alarm 20
     /// timer).
@@ -141,7 +142,6 @@ impl BoardLink {
             endpoint: BoardEndpoint::new_board(Config::USB_MS, boot_id, super::LINE_RING as u16),
             outbox: heapless::Deque::new(),
             last_status: None,
-            status_requested: false,
             host: Host::Never,
             unattended_since: None,
             setup: SetupTransfer {
@@ -269,7 +269,7 @@ impl BoardLink {
                     board.resync_stream();
                 }
                 self.host = Host::Attached;
-                self.status_requested = true;
+                self.last_status = None;
             }
         }
         if self.host == Host::Attached && !self.endpoint.peer_alive(now_ms, HOST_TIMEOUT_MS) {
@@ -289,11 +289,10 @@ impl BoardLink {
         let due = self
             .last_status
             .is_none_or(|t| now_ms.wrapping_sub(t) >= STATUS_INTERVAL_MS);
-        if (due || self.status_requested) && self.endpoint.send_capacity(Lane::Realtime) > 0 {
+        if due && self.endpoint.send_capacity(Lane::Realtime) > 0 {
             let status = status_of(board, view);
             if self.endpoint.send(BoardMsg::Status(status)).is_ok() {
                 self.last_status = Some(now_ms);
-                self.status_requested = false;
             }
         }
     }
@@ -327,7 +326,7 @@ impl BoardLink {
             HostMessage::FeedOverride(p) => board.set_feed_override(p),
             HostMessage::RapidOverride(p) => board.set_rapid_override(p),
             HostMessage::SpindleOverride(p) => board.set_spindle_override(p),
-            HostMessage::StatusRequest => self.status_requested = true,
+            HostMessage::StatusRequest => self.last_status = None,
             // Requests with an id are answered (`BoardMsg::Answer`), accepted or refused.
             HostMessage::Unlock { id } => {
                 let r = board.try_unlock();

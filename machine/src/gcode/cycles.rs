@@ -176,10 +176,6 @@ impl CycleRun {
         self.push(out, Action::Feed { to, feed });
     }
 
-    fn rapid_ab_c(&mut self, c: Nm, out: &mut impl FnMut(Canon)) {
-        self.rapid_c(c, out)
-    }
-
     /// Rapid to plane position (`pa`, `pb`) at drilling level `c`.
     fn rapid_abc(&mut self, pa: Nm, pb: Nm, c: Nm, out: &mut impl FnMut(Canon)) {
         self.program[self.axes.0] = pa;
@@ -215,177 +211,202 @@ impl CycleRun {
 
     /// Pushes the next few actions; returns false when the cycle is complete (nothing pushed).
     pub fn step(&mut self, out: &mut impl FnMut(Canon)) -> bool {
-        let (a, b, _) = self.axes;
         match self.phase {
-            Phase::Position => {
-                if self.repeats_left == 0 {
-                    return false;
-                }
-                let current_c = self.program[self.axes.2];
-                self.program[a] += self.inc.0;
-                self.program[b] += self.inc.1;
-                self.polar_move();
-                if self.gixa {
-                    // Rapid in the plane at the current level, then down (or up) to R.
-                    self.rapid_ab_c(current_c, out);
-                    if self.body == CycleBody::Punch {
-                        self.push(
-                            out,
-                            Action::UserMCode {
-                                code: self.punch_m_code,
-                                // A punch needs the machine stopped at its position.
-                                at_rest: true,
-                            },
-                        );
-                        self.first = false;
-                        self.repeats_left -= 1;
-                        return true;
-                    }
-                    if current_c != self.r {
-                        self.rapid_c(self.r, out);
-                    }
-                } else if self.first && self.start_c > self.r {
-                    self.rapid_ab_c(self.start_c, out);
-                    self.rapid_c(self.r, out);
-                } else {
-                    self.rapid_ab_c(self.clear, out);
-                    if self.clear > self.r {
-                        self.rapid_c(self.r, out);
-                    }
-                }
-                self.first = false;
-                self.depth = self.r - self.q;
-                self.phase = match self.body {
-                    CycleBody::PeckFull | CycleBody::PeckChipBreak => Phase::Peck,
-                    _ => Phase::Body,
-                };
-                true
-            }
-            Phase::Peck => {
-                if self.depth > self.bottom {
-                    let depth = self.depth;
-                    self.feed_c(depth, out);
-                    if self.body == CycleBody::PeckFull {
-                        self.rapid_c(self.r, out);
-                    }
-                    self.rapid_c(depth + self.clearance, out);
-                    self.depth -= self.q;
-                } else {
-                    self.feed_c(self.bottom, out);
-                    self.rapid_c(self.clear, out);
-                    self.phase = Phase::Finish;
-                }
-                true
-            }
-            Phase::Body => {
-                let (bottom, clear, r) = (self.bottom, self.clear, self.r);
-                match self.body {
-                    CycleBody::Drill => {
-                        self.feed_c(bottom, out);
-                        self.rapid_c(clear, out);
-                    }
-                    CycleBody::DrillDwell => {
-                        self.feed_c(bottom, out);
-                        self.dwell(out);
-                        self.rapid_c(clear, out);
-                    }
-                    CycleBody::Tap => {
-                        let (reverse, forward) = if self.spindle == Spindle::Cw {
-                            (Spindle::Ccw, Spindle::Cw)
-                        } else {
-                            (Spindle::Cw, Spindle::Ccw)
-                        };
-                        self.feed_c(bottom, out);
-                        if !self.gixa {
-                            self.spindle(Spindle::Off, out);
-                        }
-                        self.spindle(reverse, out);
-                        if self.dwell_us > 0 {
-                            self.dwell(out);
-                        }
-                        if self.gixa {
-                            self.feed_c(r, out);
-                            self.spindle(forward, out);
-                            if clear != r {
-                                self.rapid_c(clear, out);
-                            }
-                        } else {
-                            self.feed_c(clear, out);
-                            self.spindle(Spindle::Off, out);
-                            self.spindle(forward, out);
-                        }
-                    }
-                    CycleBody::Bore => {
-                        self.feed_c(bottom, out);
-                        self.feed_c(r, out);
-                        if !self.gixa || clear != r {
-                            self.rapid_c(clear, out);
-                        }
-                    }
-                    CycleBody::BoreSpindleStop => {
-                        self.feed_c(bottom, out);
-                        self.dwell(out);
-                        self.spindle(Spindle::Off, out);
-                        self.rapid_c(clear, out);
-                        self.spindle(self.spindle, out);
-                    }
-                    CycleBody::DrillPause => {
-                        self.feed_c(bottom, out);
-                        self.push(out, Action::Stop(StopKind::Pause));
-                        self.rapid_c(clear, out);
-                    }
-                    CycleBody::BoreDwell => {
-                        self.feed_c(bottom, out);
-                        self.dwell(out);
-                        if self.gixa {
-                            self.feed_c(r, out);
-                            if clear != r {
-                                self.rapid_c(clear, out);
-                            }
-                        } else {
-                            self.feed_c(clear, out);
-                        }
-                    }
-                    CycleBody::BackBore => {
-                        let (hole, off) = self.hole_and_offset();
-                        self.rapid_abc(off.0, off.1, r, out);
-                        self.spindle(Spindle::Off, out);
-                        self.rapid_c(bottom, out);
-                        self.rapid_abc(hole.0, hole.1, bottom, out);
-                        self.spindle(self.spindle, out);
-                        self.feed_c(self.middle, out);
-                        self.feed_c(bottom, out);
-                        self.phase = Phase::BackBoreOut;
-                        return true;
-                    }
-                    CycleBody::BoreManualRetract => {
-                        self.feed_c(bottom, out);
-                        self.dwell(out);
-                        self.spindle(Spindle::Off, out);
-                        self.push(out, Action::Stop(StopKind::Pause));
-                        self.spindle(self.spindle, out);
-                    }
-                    CycleBody::PeckFull | CycleBody::PeckChipBreak | CycleBody::Punch => {}
-                }
-                self.phase = Phase::Finish;
-                true
-            }
-            Phase::BackBoreOut => {
-                let (hole, off) = self.hole_and_offset();
-                self.spindle(Spindle::Off, out);
-                self.rapid_abc(off.0, off.1, self.bottom, out);
-                self.rapid_c(self.clear, out);
-                self.rapid_abc(hole.0, hole.1, self.clear, out);
-                self.spindle(self.spindle, out);
-                self.phase = Phase::Finish;
-                true
-            }
+            Phase::Position => return self.position(out),
+            Phase::Peck => self.peck(out),
+            Phase::Body => self.body(out),
+            Phase::BackBoreOut => self.back_bore_out(out),
             Phase::Finish => {
+                // The hole is done: on to the next one.
                 self.repeats_left -= 1;
                 self.phase = Phase::Position;
-                self.step(out)
+                return self.position(out);
             }
         }
+        true
+    }
+
+    /// The next hole (false when none is left): the plane move and the approach to R (gixa:
+    /// in the plane at the current level, then to R; a punch stops there for its M code).
+    #[inline(always)]
+    fn position(&mut self, out: &mut impl FnMut(Canon)) -> bool {
+        let (a, b, _) = self.axes;
+        if self.repeats_left == 0 {
+            return false;
+        }
+        let current_c = self.program[self.axes.2];
+        self.program[a] += self.inc.0;
+        self.program[b] += self.inc.1;
+        self.polar_move();
+        // The plane axes hold the hole already: each rapid below goes there too.
+        if self.gixa {
+            // Rapid in the plane at the current level, then down (or up) to R.
+            self.rapid_c(current_c, out);
+            if self.body == CycleBody::Punch {
+                self.push(
+                    out,
+                    Action::UserMCode {
+                        code: self.punch_m_code,
+                        // A punch needs the machine stopped at its position.
+                        at_rest: true,
+                    },
+                );
+                self.first = false;
+                self.repeats_left -= 1;
+                return true;
+            }
+            if current_c != self.r {
+                self.rapid_c(self.r, out);
+            }
+        } else if self.first && self.start_c > self.r {
+            self.rapid_c(self.start_c, out);
+            self.rapid_c(self.r, out);
+        } else {
+            self.rapid_c(self.clear, out);
+            if self.clear > self.r {
+                self.rapid_c(self.r, out);
+            }
+        }
+        self.first = false;
+        self.depth = self.r - self.q;
+        self.phase = match self.body {
+            CycleBody::PeckFull | CycleBody::PeckChipBreak => Phase::Peck,
+            _ => Phase::Body,
+        };
+        true
+    }
+
+    /// One peck down to the next depth and its retract (to R, or a short back-off), or the
+    /// last one to the bottom and out to the clear level.
+    #[inline(always)]
+    fn peck(&mut self, out: &mut impl FnMut(Canon)) {
+        if self.depth > self.bottom {
+            let depth = self.depth;
+            self.feed_c(depth, out);
+            if self.body == CycleBody::PeckFull {
+                self.rapid_c(self.r, out);
+            }
+            self.rapid_c(depth + self.clearance, out);
+            self.depth -= self.q;
+        } else {
+            self.feed_c(self.bottom, out);
+            self.rapid_c(self.clear, out);
+            self.phase = Phase::Finish;
+        }
+    }
+
+    /// The body of a non-pecking cycle at the hole (G87's first half; its way out is
+    /// [`Self::back_bore_out`]).
+    #[inline(always)]
+    fn body(&mut self, out: &mut impl FnMut(Canon)) {
+        let (bottom, clear, r) = (self.bottom, self.clear, self.r);
+        self.phase = Phase::Finish;
+        match self.body {
+            CycleBody::Drill => {
+                self.feed_c(bottom, out);
+                self.rapid_c(clear, out);
+            }
+            CycleBody::DrillDwell => {
+                self.feed_c(bottom, out);
+                self.dwell(out);
+                self.rapid_c(clear, out);
+            }
+            CycleBody::Tap => self.tap(out),
+            CycleBody::Bore => {
+                self.feed_c(bottom, out);
+                self.feed_c(r, out);
+                if !self.gixa || clear != r {
+                    self.rapid_c(clear, out);
+                }
+            }
+            CycleBody::BoreSpindleStop => {
+                self.feed_c(bottom, out);
+                self.dwell(out);
+                self.spindle(Spindle::Off, out);
+                self.rapid_c(clear, out);
+                self.spindle(self.spindle, out);
+            }
+            CycleBody::DrillPause => {
+                self.feed_c(bottom, out);
+                self.push(out, Action::Stop(StopKind::Pause));
+                self.rapid_c(clear, out);
+            }
+            CycleBody::BoreDwell => {
+                self.feed_c(bottom, out);
+                self.dwell(out);
+                if self.gixa {
+                    self.feed_c(r, out);
+                    if clear != r {
+                        self.rapid_c(clear, out);
+                    }
+                } else {
+                    self.feed_c(clear, out);
+                }
+            }
+            CycleBody::BackBore => {
+                let (hole, off) = self.hole_and_offset();
+                self.rapid_abc(off.0, off.1, r, out);
+                self.spindle(Spindle::Off, out);
+                self.rapid_c(bottom, out);
+                self.rapid_abc(hole.0, hole.1, bottom, out);
+                self.spindle(self.spindle, out);
+                self.feed_c(self.middle, out);
+                self.feed_c(bottom, out);
+                self.phase = Phase::BackBoreOut;
+            }
+            CycleBody::BoreManualRetract => {
+                self.feed_c(bottom, out);
+                self.dwell(out);
+                self.spindle(Spindle::Off, out);
+                self.push(out, Action::Stop(StopKind::Pause));
+                self.spindle(self.spindle, out);
+            }
+            CycleBody::PeckFull | CycleBody::PeckChipBreak | CycleBody::Punch => {}
+        }
+    }
+
+    /// G84 (and G74): feed down, reverse the spindle (RS274: stopped first), dwell, feed out
+    /// (gixa: to R, then rapid to clear), the spindle turning as before.
+    #[inline(always)]
+    fn tap(&mut self, out: &mut impl FnMut(Canon)) {
+        let (bottom, clear, r) = (self.bottom, self.clear, self.r);
+        let (reverse, forward) = if self.spindle == Spindle::Cw {
+            (Spindle::Ccw, Spindle::Cw)
+        } else {
+            (Spindle::Cw, Spindle::Ccw)
+        };
+        self.feed_c(bottom, out);
+        if !self.gixa {
+            self.spindle(Spindle::Off, out);
+        }
+        self.spindle(reverse, out);
+        if self.dwell_us > 0 {
+            self.dwell(out);
+        }
+        if self.gixa {
+            self.feed_c(r, out);
+            self.spindle(forward, out);
+            if clear != r {
+                self.rapid_c(clear, out);
+            }
+        } else {
+            self.feed_c(clear, out);
+            self.spindle(Spindle::Off, out);
+            self.spindle(forward, out);
+        }
+    }
+
+    /// G87's way out: spindle stopped, to the offset position at the bottom, out to the clear
+    /// level, back over the hole, spindle on again.
+    #[inline(always)]
+    fn back_bore_out(&mut self, out: &mut impl FnMut(Canon)) {
+        let (hole, off) = self.hole_and_offset();
+        self.spindle(Spindle::Off, out);
+        self.rapid_abc(off.0, off.1, self.bottom, out);
+        self.rapid_c(self.clear, out);
+        self.rapid_abc(hole.0, hole.1, self.clear, out);
+        self.spindle(self.spindle, out);
+        self.phase = Phase::Finish;
     }
 
     /// One G91 polar increment of the hole position (LinuxCNC: radius, then angle).

@@ -109,6 +109,19 @@ struct Leg {
     entry_sq: Option<u64>,
 }
 
+/// Where the queue's flow stands. An abort and a sync point exclude each other: an abort at a
+/// sync point drops everything at once, and a sync point reached while an abort decelerates
+/// finishes the abort.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Flow {
+    /// Segments are prepared as the planner holds them.
+    Open,
+    /// The queue stopped at a sync point ([`Motion::sync_point`]) until it is released.
+    AtSync,
+    /// An abort decelerates on the path (as a hold); everything queued goes once stopped.
+    Aborting,
+}
+
 /// Planner blocks a push may queue when it ends a held-back chain and leg: the leg up to a
 /// rounded corner, the corner's polygon, the chain's leg itself, and the action.
 const BLEND_RESERVE: usize = MAX_VERTICES + 2;
@@ -133,11 +146,12 @@ pub struct Motion<const N: usize> {
     chain: Option<Chain>,
     /// The last finished feed move, held back until the corner after it is known.
     leg: Option<Leg>,
-    abort_pending: bool,
-    at_sync: bool,
+    flow: Flow,
     /// An on-the-fly M code waiting for the next line block.
     pending_output: Option<PendingOutput>,
-    /// A hold, abort or speed change waits for the owner to drop the queued segments.
+    /// A hold, abort, speed change or bend waits for the owner to drop the queued segments.
+    /// Independent of `flow`: every pair occurs (a hold at a sync point raises it, an abort
+    /// raises it as its deceleration starts and keeps decelerating once it is answered).
     drop_wanted: bool,
 }
 
@@ -158,8 +172,7 @@ impl<const N: usize> Motion<N> {
             blend_tolerance: cfg.blend_tolerance.max(0) as u64,
             chain: None,
             leg: None,
-            abort_pending: false,
-            at_sync: false,
+            flow: Flow::Open,
             pending_output: None,
             drop_wanted: false,
         }
@@ -212,7 +225,7 @@ impl<const N: usize> Motion<N> {
     /// Queues one canonical action. Non-motion actions that must happen at rest become sync points.
     pub fn push(&mut self, canon: &Canon) -> Result<(), PushError> {
         self.feed_arc();
-        if self.arc.is_some() || !self.has_room(self.reserve(), 0) || self.abort_pending {
+        if self.arc.is_some() || !self.has_room(self.reserve(), 0) || self.aborting() {
             return Err(PushError::Full);
         }
         if let Action::Feed { to, feed } = canon.action {
@@ -304,7 +317,7 @@ impl<const N: usize> Motion<N> {
         output: OutputEvent,
     ) -> Result<(), PushError> {
         self.feed_arc();
-        if self.arc.is_some() || self.abort_pending {
+        if self.arc.is_some() || self.aborting() {
             return Err(PushError::Full);
         }
         if self.chain.is_some() || self.leg.is_some() {
@@ -335,7 +348,7 @@ impl<const N: usize> Motion<N> {
             return Ok(());
         }
         self.feed_arc();
-        if self.arc.is_some() || self.abort_pending || !self.has_room(1, 1) {
+        if self.arc.is_some() || self.aborting() || !self.has_room(1, 1) {
             return Err(PushError::Full);
         }
         self.output_to_sync();
@@ -345,6 +358,12 @@ impl<const N: usize> Motion<N> {
     /// True while an on-the-fly M code waits for the next line block.
     pub fn output_pending(&self) -> bool {
         self.pending_output.is_some()
+    }
+
+    /// True while an abort decelerates (nothing new is taken).
+    #[inline(always)]
+    fn aborting(&self) -> bool {
+        self.flow == Flow::Aborting
     }
 
     /// Room for `blocks` more planner blocks and `syncs` more sync points.
@@ -550,7 +569,7 @@ impl<const N: usize> Motion<N> {
     #[inline(never)]
     fn feed_arc_chords(&mut self) {
         while let Some(arc) = self.arc.as_mut() {
-            if self.planner.is_full() || self.abort_pending {
+            if self.planner.is_full() || self.flow == Flow::Aborting {
                 return;
             }
             let (line, speed) = (arc.line, arc.speed);
@@ -613,28 +632,30 @@ impl<const N: usize> Motion<N> {
 
     /// Prepares the next step segment for the kernel's queue (`None`: nothing now).
     pub fn next_segment(&mut self) -> Option<Segment> {
-        if (self.chain.is_some() || self.leg.is_some()) && self.planner.len() < 2 && !self.at_sync {
+        let at_sync = self.flow == Flow::AtSync;
+        if (self.chain.is_some() || self.leg.is_some()) && self.planner.len() < 2 && !at_sync {
             // The motion is about to run out: the held-back chain and leg run as they are.
             self.flush_blend();
         }
+        if at_sync {
+            return None;
+        }
         loop {
-            if self.at_sync {
-                return None;
-            }
             let out = self.prep.next(&mut self.planner);
             self.feed_arc();
             match out {
                 PrepOut::Segment(s) => return Some(s),
                 PrepOut::Sync => {
-                    if self.abort_pending {
+                    if self.aborting() {
+                        // The abort drops the sync point with the rest; prep is idle now.
                         self.finish_abort();
                         continue;
                     }
-                    self.at_sync = true;
+                    self.flow = Flow::AtSync;
                     return None;
                 }
                 PrepOut::Idle => {
-                    if self.abort_pending
+                    if self.aborting()
                         && (self.prep.state == PrepState::Held || self.planner.is_empty())
                     {
                         self.finish_abort();
@@ -649,15 +670,21 @@ impl<const N: usize> Motion<N> {
     /// closed form ([`Prep::next_block`]): `Some(counts)` for a finished line or dwell block,
     /// `None` at a sync point or with nothing queued. Not for a board: nothing is stepped.
     pub fn next_block(&mut self) -> Option<u64> {
-        if self.at_sync {
+        if self.flow == Flow::AtSync {
             return None;
         }
         let out = self.prep.next_block(&mut self.planner);
         self.feed_arc();
         match out {
             BlockOut::Time(counts) => Some(counts),
+            // A sync point reached while aborting goes with the rest, as in `next_segment`
+            // (no host planning tool aborts).
+            BlockOut::Sync if self.aborting() => {
+                self.finish_abort();
+                None
+            }
             BlockOut::Sync => {
-                self.at_sync = true;
+                self.flow = Flow::AtSync;
                 None
             }
             BlockOut::Idle => None,
@@ -667,7 +694,7 @@ impl<const N: usize> Motion<N> {
     /// The sync point the queue stopped at: once the kernel has run every segment handed out,
     /// perform it, then call [`Self::release_sync`].
     pub fn sync_point(&self) -> Option<&Canon> {
-        if self.at_sync {
+        if self.flow == Flow::AtSync {
             self.syncs.front()
         } else {
             None
@@ -676,8 +703,8 @@ impl<const N: usize> Motion<N> {
 
     /// Continues past the current sync point.
     pub fn release_sync(&mut self) {
-        if self.at_sync {
-            self.at_sync = false;
+        if self.flow == Flow::AtSync {
+            self.flow = Flow::Open;
             self.syncs.pop_front();
             self.planner.pop();
         }
@@ -689,7 +716,7 @@ impl<const N: usize> Motion<N> {
     }
 
     pub fn state(&self) -> MotionState {
-        if self.at_sync {
+        if self.flow == Flow::AtSync {
             return MotionState::Sync;
         }
         match self.prep.state {
@@ -724,7 +751,7 @@ impl<const N: usize> Motion<N> {
     /// the owner has dropped the queued ones (like a feed override without the queue's lag).
     /// Ignored while holding or stopping.
     pub fn change_speed(&mut self, feed: i64) {
-        if self.prep.state == PrepState::Running && !self.abort_pending {
+        if self.prep.state == PrepState::Running && !self.aborting() {
             self.planner.set_programmed_speed(speed_of(feed));
             self.drop_wanted = true;
         }
@@ -747,8 +774,7 @@ impl<const N: usize> Motion<N> {
     /// to stop from the corner speed.
     pub fn bend(&mut self, feed: i64, target: impl Fn(&Pos) -> Option<Pos>) -> bool {
         if self.prep.state != PrepState::Running
-            || self.abort_pending
-            || self.at_sync
+            || self.flow != Flow::Open
             || self.arc.is_some()
             || !self.prep.is_active()
             || self.planner.len() != 1
@@ -836,7 +862,7 @@ impl<const N: usize> Motion<N> {
 
     /// Resumes after a hold, on the path, from where it stopped (or from the current speed).
     pub fn resume(&mut self) {
-        if self.abort_pending {
+        if self.aborting() {
             return;
         }
         if self.prep.state != PrepState::Running {
@@ -848,11 +874,11 @@ impl<const N: usize> Motion<N> {
     /// Abort: decelerate on the path like a hold, then drop everything queued. The step position
     /// stays exact ([`Self::prepared_steps`]); the queued position becomes the stopped position.
     pub fn abort(&mut self) {
-        self.abort_pending = true;
         self.arc = None;
-        if self.at_sync || !self.prep.is_active() {
+        if self.flow == Flow::AtSync || !self.prep.is_active() {
             self.finish_abort();
         } else {
+            self.flow = Flow::Aborting;
             self.feed_hold();
         }
     }
@@ -864,9 +890,8 @@ impl<const N: usize> Motion<N> {
         self.syncs.clear();
         self.pending_output = None;
         self.arc = None;
-        self.at_sync = false;
+        self.flow = Flow::Open;
         self.prep.reset();
-        self.abort_pending = false;
         self.drop_wanted = false;
         self.steps = self.prep.position();
         self.position = self.cfg.to_nm(&self.steps);

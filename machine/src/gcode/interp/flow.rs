@@ -72,56 +72,8 @@ impl Interpreter {
                 self.remember_sub(o.label, line)?;
                 self.start_skip(o.label, SkipTo::EndSub)
             }
-            Keyword::EndSub | Keyword::Return => {
-                let Some(call) = self.ocalls.pop() else {
-                    return unbalanced;
-                };
-                if call.label != o.label {
-                    return unbalanced;
-                }
-                self.params
-                    .restore_args(call.saved_mask, &call.saved)
-                    .map_err(|c| (c, None))?;
-                self.params.drop_locals_above(self.ocalls.len() as u8);
-                self.loops.truncate(call.loops as usize);
-                Ok(Parsed::Jump(call.return_line))
-            }
-            Keyword::Call => {
-                let mut args = [0 as Fx; 30];
-                let mut count = 0usize;
-                let mut c = Cursor::new(bytes, o.rest);
-                while c.peek() == Some(b'[') {
-                    if count == 30 {
-                        return Err((ErrorCode::ExpressionSyntax, Some(o.cols)));
-                    }
-                    args[count] = expr::bracketed(&mut c, &self.reader(), 0)
-                        .map_err(|(code, at)| (code, Some((at as u16, at as u16 + 1))))?;
-                    count += 1;
-                }
-                if self.ocalls.is_full() {
-                    return Err((ErrorCode::NestingTooDeep, Some(o.cols)));
-                }
-                let (saved_mask, saved) = self.params.save_args();
-                let _ = self.ocalls.push(OCall {
-                    label: o.label,
-                    return_line: line + 1,
-                    saved_mask,
-                    saved,
-                    loops: self.loops.len() as u8,
-                });
-                let mask = if count == 30 {
-                    u32::MAX >> 2
-                } else {
-                    (1u32 << count) - 1
-                };
-                self.params
-                    .restore_args(mask, &args)
-                    .map_err(|c| (c, None))?;
-                match self.subs.iter().find(|s| s.0 == o.label) {
-                    Some(&(_, at)) => Ok(Parsed::Jump(at + 1)),
-                    None => self.start_skip(o.label, SkipTo::Sub),
-                }
-            }
+            Keyword::EndSub | Keyword::Return => self.o_return(o),
+            Keyword::Call => self.o_call(line, bytes, o),
             Keyword::If => {
                 if self.o_value(bytes, &o)? != 0 {
                     Ok(Parsed::Nothing)
@@ -131,32 +83,7 @@ impl Interpreter {
             }
             Keyword::ElseIf | Keyword::Else => self.start_skip(o.label, SkipTo::EndIf),
             Keyword::EndIf => Ok(Parsed::Nothing),
-            Keyword::While => {
-                let go = self.o_value(bytes, &o)? != 0;
-                match top {
-                    Some(l) if l.kind == LoopKind::Do => {
-                        if go {
-                            Ok(Parsed::Jump(l.line + 1))
-                        } else {
-                            self.loops.pop();
-                            Ok(Parsed::Nothing)
-                        }
-                    }
-                    Some(l) if l.kind == LoopKind::While && l.line == line => {
-                        if go {
-                            Ok(Parsed::Nothing)
-                        } else {
-                            self.loops.pop();
-                            self.start_skip(o.label, SkipTo::EndWhile)
-                        }
-                    }
-                    _ if go => {
-                        self.push_loop(o, LoopKind::While, line)?;
-                        Ok(Parsed::Nothing)
-                    }
-                    _ => self.start_skip(o.label, SkipTo::EndWhile),
-                }
-            }
+            Keyword::While => self.o_while(line, bytes, o, top),
             Keyword::EndWhile => match top {
                 Some(l) if l.kind == LoopKind::While => Ok(Parsed::Jump(l.line)),
                 _ => unbalanced,
@@ -204,6 +131,95 @@ impl Interpreter {
                 }
                 _ => unbalanced,
             },
+        }
+    }
+
+    /// `o.. endsub` / `o.. return`: back to the caller of the `o.. call` on top (its #1-#30
+    /// and loops restored); refused when no call of this label is open.
+    #[inline(always)]
+    fn o_return(&mut self, o: OLine) -> Res<Parsed> {
+        let unbalanced = Err((ErrorCode::UnbalancedBlock, Some(o.cols)));
+        let Some(call) = self.ocalls.pop() else {
+            return unbalanced;
+        };
+        if call.label != o.label {
+            return unbalanced;
+        }
+        self.params
+            .restore_args(call.saved_mask, &call.saved)
+            .map_err(|c| (c, None))?;
+        self.params.drop_locals_above(self.ocalls.len() as u8);
+        self.loops.truncate(call.loops as usize);
+        Ok(Parsed::Jump(call.return_line))
+    }
+
+    /// `o.. call [a] [b]...`: the arguments become #1-#30 (the caller's saved), then on to
+    /// the subroutine's first line, or a skip to its definition when it has not been met.
+    #[inline(always)]
+    fn o_call(&mut self, line: u32, bytes: &[u8], o: OLine) -> Res<Parsed> {
+        let mut args = [0 as Fx; 30];
+        let mut count = 0usize;
+        let mut c = Cursor::new(bytes, o.rest);
+        while c.peek() == Some(b'[') {
+            if count == 30 {
+                return Err((ErrorCode::ExpressionSyntax, Some(o.cols)));
+            }
+            args[count] = expr::bracketed(&mut c, &self.reader(), 0)
+                .map_err(|(code, at)| (code, Some((at as u16, at as u16 + 1))))?;
+            count += 1;
+        }
+        if self.ocalls.is_full() {
+            return Err((ErrorCode::NestingTooDeep, Some(o.cols)));
+        }
+        let (saved_mask, saved) = self.params.save_args();
+        let _ = self.ocalls.push(OCall {
+            label: o.label,
+            return_line: line + 1,
+            saved_mask,
+            saved,
+            loops: self.loops.len() as u8,
+        });
+        let mask = if count == 30 {
+            u32::MAX >> 2
+        } else {
+            (1u32 << count) - 1
+        };
+        self.params
+            .restore_args(mask, &args)
+            .map_err(|c| (c, None))?;
+        match self.subs.iter().find(|s| s.0 == o.label) {
+            Some(&(_, at)) => Ok(Parsed::Jump(at + 1)),
+            None => self.start_skip(o.label, SkipTo::Sub),
+        }
+    }
+
+    /// `o.. while [c]`: the end of a `do` loop (back to its start while c holds), a `while`
+    /// loop met again (on, or skip past its `endwhile`), or a new loop (entered, or skipped).
+    #[inline(always)]
+    fn o_while(&mut self, line: u32, bytes: &[u8], o: OLine, top: Option<Loop>) -> Res<Parsed> {
+        let go = self.o_value(bytes, &o)? != 0;
+        match top {
+            Some(l) if l.kind == LoopKind::Do => {
+                if go {
+                    Ok(Parsed::Jump(l.line + 1))
+                } else {
+                    self.loops.pop();
+                    Ok(Parsed::Nothing)
+                }
+            }
+            Some(l) if l.kind == LoopKind::While && l.line == line => {
+                if go {
+                    Ok(Parsed::Nothing)
+                } else {
+                    self.loops.pop();
+                    self.start_skip(o.label, SkipTo::EndWhile)
+                }
+            }
+            _ if go => {
+                self.push_loop(o, LoopKind::While, line)?;
+                Ok(Parsed::Nothing)
+            }
+            _ => self.start_skip(o.label, SkipTo::EndWhile),
         }
     }
 

@@ -8,7 +8,7 @@
 //!
 //! This file holds the state, the line reader and the block's execution order; program flow
 //! (O-words, calls, macros) is in `flow.rs`, targets, transforms, feeds and the motion modes in
-//! `moves.rs`.
+//! `moves.rs`, canned-cycle blocks in `cycle.rs`.
 
 use super::codes::*;
 use super::comp::{Comp, Side};
@@ -427,7 +427,7 @@ impl Interpreter {
                 return Some(Ok(c));
             }
             if let ControlFlow::Break(done) = self.refill(src) {
-                return done;
+                return done.map(Err);
             }
         }
     }
@@ -436,11 +436,34 @@ impl Interpreter {
     /// compensated moves held back at the end, or one line read and executed. `Break` hands
     /// `next` its answer. Not inlined: in `next`'s loop its ~90 pointers into `self` were
     /// computed again on every call (target-tests/src/bin/bench_motion.rs, per-line profile).
+    /// Its steps below are inlined into it (one caller each, and on every line's path).
     #[inline(never)]
-    fn refill(
-        &mut self,
-        src: &mut impl ProgramSource,
-    ) -> ControlFlow<Option<Result<Canon, GcodeError>>> {
+    fn refill(&mut self, src: &mut impl ProgramSource) -> Step {
+        if let Some(step) = self.before_next_line() {
+            return step;
+        }
+        let mut block = Block::new();
+        let Some((line, bytes)) = src.next_line() else {
+            return self.end_of_source(src);
+        };
+        self.last_line = line;
+        self.expanded_line = false;
+        if self.skip.is_some() {
+            if let Some(step) = self.skip_step(line, bytes) {
+                return step;
+            }
+        }
+        match self.parse_line(line, bytes, &mut block) {
+            Ok(Parsed::Block) => self.execute_or_roll_back(&mut block, line, src),
+            other => self.follow(line, other, src),
+        }
+    }
+
+    /// What comes before the next line is read: the next step of a canned cycle, the stop
+    /// after a block, the compensated moves held back when the program has ended, the end;
+    /// `None` when a line is to be read.
+    #[inline(always)]
+    fn before_next_line(&mut self) -> Option<Step> {
         if let Some(run) = self.cycle.as_mut() {
             let queue = &mut self.queue;
             let more = run.step(&mut |c| {
@@ -450,7 +473,7 @@ impl Interpreter {
             if !more {
                 self.cycle = None;
             }
-            return ControlFlow::Continue(());
+            return Some(ANOTHER_STEP);
         }
         if let Post::Stop(kind, line) = self.post {
             self.post = Post::None;
@@ -458,7 +481,7 @@ impl Interpreter {
                 line,
                 action: Action::Stop(kind),
             });
-            return ControlFlow::Continue(());
+            return Some(ANOTHER_STEP);
         }
         if self.comp.holds() && self.finished {
             // The program ended with compensated moves held back: they end as aimed.
@@ -469,108 +492,92 @@ impl Interpreter {
             if let Err(code) = released {
                 self.comp.reset();
                 self.finished = true;
-                return ControlFlow::Break(Some(Err(GcodeError {
-                    line: self.last_line,
-                    n_word: None,
-                    columns: None,
-                    code,
-                })));
+                return Some(line_error(self.last_line, code));
             }
-            return ControlFlow::Continue(());
+            return Some(ANOTHER_STEP);
         }
         if self.finished {
+            return Some(ControlFlow::Break(None));
+        }
+        None
+    }
+
+    /// A line read while O-word flow skips lines ([`Interpreter::skip_line`]): the step it
+    /// is (skipped, or it ended the skip; an error ends the skip), or `None` when the skip has
+    /// ended before it and the line is read as usual.
+    #[inline(always)]
+    fn skip_step(&mut self, line: u32, bytes: &[u8]) -> Option<Step> {
+        match self.skip_line(line, bytes) {
+            Ok(true) => Some(ANOTHER_STEP),
+            Ok(false) => None,
+            Err((code, columns)) => {
+                self.skip = None;
+                Some(ControlFlow::Break(Some(GcodeError {
+                    line,
+                    n_word: None,
+                    columns,
+                    code,
+                })))
+            }
+        }
+    }
+
+    /// The source has no line now: wait for one (`next` answers `None` while it is not
+    /// exhausted), or end the program, refusing O-word flow or subprograms left open (once the
+    /// compensated moves held back are out).
+    #[inline(always)]
+    fn end_of_source(&mut self, src: &mut impl ProgramSource) -> Step {
+        if !src.is_exhausted() {
             return ControlFlow::Break(None);
         }
-        let mut block = Block::new();
-        let (line, parsed) = match src.next_line() {
-            Some((line, bytes)) => {
-                self.last_line = line;
-                self.expanded_line = false;
-                if self.skip.is_some() {
-                    match self.skip_line(line, bytes) {
-                        Ok(true) => return ControlFlow::Continue(()),
-                        Ok(false) => {}
-                        Err((code, columns)) => {
-                            self.skip = None;
-                            return ControlFlow::Break(Some(Err(GcodeError {
-                                line,
-                                n_word: None,
-                                columns,
-                                code,
-                            })));
-                        }
-                    }
-                }
-                (line, self.parse_line(line, bytes, &mut block))
+        self.finished = true;
+        if self.comp.holds() {
+            return ANOTHER_STEP;
+        }
+        let open = match self.skip {
+            Some(Skip {
+                to: SkipTo::Sub, ..
+            }) => Some(ErrorCode::UnknownSubroutine),
+            Some(_) => Some(ErrorCode::UnbalancedBlock),
+            None if !self.loops.is_empty() || !self.ocalls.is_empty() => {
+                Some(ErrorCode::UnbalancedBlock)
             }
-            None => {
-                if !src.is_exhausted() {
-                    return ControlFlow::Break(None);
-                }
-                self.finished = true;
-                if self.comp.holds() {
-                    return ControlFlow::Continue(());
-                }
-                let open = match self.skip {
-                    Some(Skip {
-                        to: SkipTo::Sub, ..
-                    }) => Some(ErrorCode::UnknownSubroutine),
-                    Some(_) => Some(ErrorCode::UnbalancedBlock),
-                    None if !self.loops.is_empty() || !self.ocalls.is_empty() => {
-                        Some(ErrorCode::UnbalancedBlock)
-                    }
-                    None => None,
-                };
-                if let Some(code) = open {
-                    self.clear_control();
-                    return ControlFlow::Break(Some(Err(GcodeError {
-                        line: self.last_line,
-                        n_word: None,
-                        columns: None,
-                        code,
-                    })));
-                }
-                if !self.stack.is_empty() {
-                    self.stack.clear();
-                    self.macros.clear();
-                    return ControlFlow::Break(Some(Err(GcodeError {
-                        line: self.last_line,
-                        n_word: None,
-                        columns: None,
-                        code: ErrorCode::SubprogramWithoutM99,
-                    })));
-                }
-                return ControlFlow::Break(None);
-            }
+            None => None,
         };
+        if let Some(code) = open {
+            self.clear_control();
+            return line_error(self.last_line, code);
+        }
+        if !self.stack.is_empty() {
+            self.stack.clear();
+            self.macros.clear();
+            return line_error(self.last_line, ErrorCode::SubprogramWithoutM99);
+        }
+        ControlFlow::Break(None)
+    }
+
+    /// What a line turned into other than a block: nothing, a jump in `src` (counted against
+    /// endless loops), or its error.
+    #[inline(always)]
+    fn follow(&mut self, line: u32, parsed: ParsedLine, src: &mut impl ProgramSource) -> Step {
         match parsed {
-            Ok(Parsed::Block) => {}
-            Ok(Parsed::Nothing) => return ControlFlow::Continue(()),
+            Ok(Parsed::Block | Parsed::Nothing) => ANOTHER_STEP,
             Ok(Parsed::Jump(to)) => {
                 self.jumps_without_action += 1;
                 if self.jumps_without_action > MAX_JUMPS_WITHOUT_ACTION {
                     self.finished = true;
                     self.clear_control();
-                    return ControlFlow::Break(Some(Err(GcodeError {
-                        line,
-                        n_word: None,
-                        columns: None,
-                        code: ErrorCode::EndlessLoop,
-                    })));
+                    return line_error(line, ErrorCode::EndlessLoop);
                 }
                 if let Err(e) = src.jump_to_line(to) {
                     self.finished = true;
-                    return ControlFlow::Break(Some(Err(GcodeError {
-                        line,
-                        n_word: None,
-                        columns: None,
-                        code: match e {
-                            SourceError::NotServed => ErrorCode::JumpNotServed,
-                            _ => ErrorCode::SourceJumpFailed,
-                        },
-                    })));
+                    let code = match e {
+                        SourceError::NotServed => ErrorCode::JumpNotServed,
+                        _ => ErrorCode::SourceJumpFailed,
+                    };
+                    return line_error(line, code);
                 }
-                return ControlFlow::Continue(());
+                ANOTHER_STEP
             }
             Ok(Parsed::JumpSequence(n)) => {
                 self.jumps_without_action += 1;
@@ -578,28 +585,33 @@ impl Interpreter {
                 if endless || src.jump_to_sequence(n).is_err() {
                     self.finished = true;
                     self.clear_control();
-                    return ControlFlow::Break(Some(Err(GcodeError {
-                        line,
-                        n_word: None,
-                        columns: None,
-                        code: if endless {
-                            ErrorCode::EndlessLoop
-                        } else {
-                            ErrorCode::SourceJumpFailed
-                        },
-                    })));
+                    let code = if endless {
+                        ErrorCode::EndlessLoop
+                    } else {
+                        ErrorCode::SourceJumpFailed
+                    };
+                    return line_error(line, code);
                 }
-                return ControlFlow::Continue(());
+                ANOTHER_STEP
             }
-            Err((n_word, (code, columns))) => {
-                return ControlFlow::Break(Some(Err(GcodeError {
-                    line,
-                    n_word,
-                    columns,
-                    code,
-                })))
-            }
-        };
+            Err((n_word, (code, columns))) => ControlFlow::Break(Some(GcodeError {
+                line,
+                n_word,
+                columns,
+                code,
+            })),
+        }
+    }
+
+    /// Executes the block of `line`; a failing block gives back the state, compensation and
+    /// the end flag saved before it (only the tables it may change) and drops what it queued.
+    #[inline(always)]
+    fn execute_or_roll_back(
+        &mut self,
+        block: &mut Block,
+        line: u32,
+        src: &mut impl ProgramSource,
+    ) -> Step {
         let tables = block.g_of(GGroup::NonModal).is_some()
             || block.g_of(GGroup::ToolLength).is_some()
             || block.has_g_in(TRANSFORM_GROUPS)
@@ -607,27 +619,44 @@ impl Interpreter {
         let saved = Rollback::of(&self.state, tables);
         let saved_finished = self.finished;
         let saved_comp = (!self.comp.is_idle()).then(|| self.comp.clone());
-        match self.execute(&mut block, line, src) {
-            Ok(()) => {}
-            Err((code, columns)) => {
-                let columns = if self.expanded_line { None } else { columns };
-                saved.restore(&mut self.state);
-                self.comp = saved_comp.unwrap_or_default();
-                // An endless loop ends the program; other errors skip the block.
-                self.finished = saved_finished || code == ErrorCode::EndlessLoop;
-                self.queue.clear();
-                self.cycle = None;
-                self.post = Post::None;
-                return ControlFlow::Break(Some(Err(GcodeError {
-                    line,
-                    n_word: block.n,
-                    columns,
-                    code,
-                })));
-            }
-        }
-        ControlFlow::Continue(())
+        let Err((code, columns)) = self.execute(block, line, src) else {
+            return ANOTHER_STEP;
+        };
+        let columns = if self.expanded_line { None } else { columns };
+        saved.restore(&mut self.state);
+        self.comp = saved_comp.unwrap_or_default();
+        // An endless loop ends the program; other errors skip the block.
+        self.finished = saved_finished || code == ErrorCode::EndlessLoop;
+        self.queue.clear();
+        self.cycle = None;
+        self.post = Post::None;
+        ControlFlow::Break(Some(GcodeError {
+            line,
+            n_word: block.n,
+            columns,
+            code,
+        }))
     }
+}
+
+/// A step of [`Interpreter::refill`]: `Break` with `next`'s answer (an error, or `None`: the
+/// end, or no line yet), or `Continue`: `next` takes what was queued or asks again. Never an
+/// action: small values, written without copying an action around.
+type Step = ControlFlow<Option<GcodeError>>;
+/// A line read: a block, a jump or nothing, or the line's error (with its N word).
+type ParsedLine = Result<Parsed, (Option<u32>, BlockError)>;
+
+/// `refill` is done: `next` takes what was queued, or calls it again.
+const ANOTHER_STEP: Step = ControlFlow::Continue(());
+
+/// `next`'s answer: the error `code` of `line`, not tied to a word or an N word.
+fn line_error(line: u32, code: ErrorCode) -> Step {
+    ControlFlow::Break(Some(GcodeError {
+        line,
+        n_word: None,
+        columns: None,
+        code,
+    }))
 }
 
 /// True if `bytes` may hold an O-word, a Fanuc keyword or a parameter: an `O`, `E`, `[` or `#`
@@ -1536,6 +1565,7 @@ struct Prelude {
     f_given: bool,
 }
 
+mod cycle;
 mod flow;
 mod moves;
 
