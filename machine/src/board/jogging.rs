@@ -115,7 +115,7 @@ impl Board {
     pub fn try_jog(&mut self, axis: u8, velocity_um_min: i32, distance_nm: u64) -> Result<(), u16> {
         let free = matches!(self.mode, Mode::Idle)
             || (matches!(self.mode, Mode::Jog(Jogging::Moves))
-                && self.jog.motion != JogMotion::Stopping
+                && !matches!(self.jog.motion, JogMotion::Stopping)
                 && self.motion.state() == MotionState::Idle);
         if !free {
             return Err(ERROR_BUSY);
@@ -159,7 +159,7 @@ impl Board {
     pub fn jog_to(&mut self, to: Pos, feed: i64) -> Result<(), JogRefused> {
         let free = matches!(self.mode, Mode::Idle)
             || (matches!(self.mode, Mode::Jog(Jogging::Moves))
-                && self.jog.motion == JogMotion::Free);
+                && matches!(self.jog.motion, JogMotion::Free));
         if !free {
             return Err(JogRefused::Busy);
         }
@@ -199,7 +199,9 @@ impl Board {
     }
 
     pub(super) fn poll_jog(&mut self, drained: bool) {
-        if self.motion.state() == MotionState::Idle && self.jog.motion == JogMotion::Stopping {
+        if self.motion.state() == MotionState::Idle
+            && matches!(self.jog.motion, JogMotion::Stopping)
+        {
             self.jog.motion = JogMotion::Free;
         }
         if matches!(self.mode, Mode::Jog(Jogging::Moves))
@@ -251,7 +253,7 @@ impl Board {
                 analog: false,
             });
         }
-        if self.jog.motion == JogMotion::Stopping {
+        if matches!(self.jog.motion, JogMotion::Stopping) {
             if self.motion.state() != MotionState::Idle {
                 return;
             }
@@ -331,7 +333,7 @@ impl Board {
     /// stops and the new direction starts from rest.
     pub(super) fn bend_stick_move(&mut self, m: StickMove) {
         if !matches!(self.mode, Mode::Jog(Jogging::Joystick))
-            || self.jog.motion == JogMotion::Stopping
+            || matches!(self.jog.motion, JogMotion::Stopping)
         {
             return;
         }

@@ -94,7 +94,7 @@ impl Board {
     /// A probe move of the job waits at its sync point, moves or decelerates: its result is not
     /// known yet (the grbl front end holds the probe line's `ok` until then).
     pub fn probing(&self) -> bool {
-        self.probing.cycle != ProbeCycle::Off
+        !matches!(self.probing.cycle, ProbeCycle::Off)
     }
 
     /// The raw probe pin level that must trip the step kernel's probe latch now (`None`: the
@@ -186,7 +186,7 @@ impl Board {
 
     /// The interpreter must wait: a probe move is queued or under way.
     pub(super) fn probe_busy(&self) -> bool {
-        self.probing.cycle != ProbeCycle::Off
+        !matches!(self.probing.cycle, ProbeCycle::Off)
             && matches!(
                 self.mode,
                 Mode::Job(Job {
