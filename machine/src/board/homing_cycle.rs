@@ -98,7 +98,7 @@ impl Board {
 
     /// [`Board::home`] for a host request that is answered: the refusal's code (902 busy, 903
     /// no axis to home).
-    pub fn try_home(&mut self, axes: u8) -> Result<(), u16> {
+    pub(crate) fn try_home(&mut self, axes: u8) -> Result<(), u16> {
         if !matches!(self.mode, Mode::Idle | Mode::Alarm(_))
             || self.motion.state() != MotionState::Idle
         {

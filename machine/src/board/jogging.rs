@@ -112,7 +112,12 @@ impl Board {
     /// [`Board::jog`] for a host request that is answered: the refusal's code instead of an
     /// error event (902 busy, 903 no such axis or no feed, 901 homing required, 900 beyond the
     /// travel or already at its end).
-    pub fn try_jog(&mut self, axis: u8, velocity_um_min: i32, distance_nm: u64) -> Result<(), u16> {
+    pub(crate) fn try_jog(
+        &mut self,
+        axis: u8,
+        velocity_um_min: i32,
+        distance_nm: u64,
+    ) -> Result<(), u16> {
         let free = matches!(self.mode, Mode::Idle)
             || (matches!(self.mode, Mode::Jog(Jogging::Moves))
                 && !matches!(self.jog.motion, JogMotion::Stopping)
@@ -156,7 +161,7 @@ impl Board {
     /// jogging.md: a stream of jogs is planned together, so a jog wheel or a held key moves
     /// smoothly, and one jog cancel stops them all); refused while a cancel is stopping them.
     /// A target beyond the soft limits is refused as a whole (grbl error 15), never clipped.
-    pub fn jog_to(&mut self, to: Pos, feed: i64) -> Result<(), JogRefused> {
+    pub(crate) fn jog_to(&mut self, to: Pos, feed: i64) -> Result<(), JogRefused> {
         let free = matches!(self.mode, Mode::Idle)
             || (matches!(self.mode, Mode::Jog(Jogging::Moves))
                 && matches!(self.jog.motion, JogMotion::Free));

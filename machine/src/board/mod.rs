@@ -191,7 +191,7 @@ impl Board {
 
     /// Main-loop time from the last [`Board::on_inputs`], ms (the grbl door's spin-up wait,
     /// `machine/src/grbl/door.rs`).
-    pub fn now_ms(&self) -> u32 {
+    pub(crate) fn now_ms(&self) -> u32 {
         self.sensed.now_ms
     }
 
@@ -246,7 +246,7 @@ impl Board {
 
     /// Free bytes for streamed line records (a line takes its text and 6 bytes); `usize::MAX`
     /// when lines are not taken (they are dropped at once).
-    pub fn line_room(&self) -> usize {
+    pub(crate) fn line_room(&self) -> usize {
         if self.takes_lines() {
             self.source.free()
         } else {
@@ -270,7 +270,7 @@ impl Board {
 
     /// Replaces the grbl front end's section of the setup (`machine/src/grbl/`), in any state:
     /// nothing else of the core reads it, so nothing is rebuilt.
-    pub fn set_grbl_setup(&mut self, grbl: crate::setup::GrblSetup) {
+    pub(crate) fn set_grbl_setup(&mut self, grbl: crate::setup::GrblSetup) {
         self.setup.grbl = grbl;
     }
 
@@ -338,7 +338,7 @@ impl Board {
 
     /// Starts a streamed job whose lines come from `streamer` (false when refused; a refusal
     /// for homing reports error 901).
-    pub fn start_job_from(&mut self, streamer: Streamer) -> bool {
+    pub(crate) fn start_job_from(&mut self, streamer: Streamer) -> bool {
         match self.start(JobKind::Machine, streamer) {
             Ok(()) => true,
             Err(code) => {
@@ -356,7 +356,7 @@ impl Board {
 
     /// [`Board::start_job`] for a host request that is answered: the refusal's code (902 not
     /// idle, 901 homing required) instead of an error event.
-    pub fn try_start_job(&mut self) -> Result<(), u16> {
+    pub(crate) fn try_start_job(&mut self) -> Result<(), u16> {
         self.start(JobKind::Machine, Streamer::ProgramServer)
     }
 
@@ -414,13 +414,13 @@ impl Board {
 
     /// Free bytes of the line ring, whether or not a job takes lines: the credit the link grants
     /// (a `Start` and the job's first lines may come in one burst).
-    pub fn line_ring_free(&self) -> usize {
+    pub(crate) fn line_ring_free(&self) -> usize {
         self.source.free()
     }
 
     /// A valid run of `lines` line records from the link for place `id`, stored as it is. Lines
     /// of no running job are dropped ([`Pushed::Stale`]).
-    pub fn push_lines(&mut self, id: u16, run: &[u8], lines: usize) -> Pushed {
+    pub(crate) fn push_lines(&mut self, id: u16, run: &[u8], lines: usize) -> Pushed {
         if !self.takes_lines() {
             return Pushed::Stale;
         }
@@ -429,7 +429,7 @@ impl Board {
 
     /// A host (re)attached: if a job is running, ask it for every line after the last one the
     /// interpreter took, so a reconnect neither loses nor repeats a block.
-    pub fn resync_stream(&mut self) {
+    pub(crate) fn resync_stream(&mut self) {
         if let Some(
             JobPhase::Running(Ending::No)
             | JobPhase::Hold {
@@ -512,13 +512,13 @@ impl Board {
 
     /// True once after a job changed the stored offsets ([`Board::keep_stored_offsets`]): the
     /// owner writes the setup to flash.
-    pub fn take_offsets_changed(&mut self) -> bool {
+    pub(crate) fn take_offsets_changed(&mut self) -> bool {
         self.outbox.take_offsets_changed()
     }
 
     /// Spindle and coolant off if the machine stands idle (a grbl sender left, `grbl/mod.rs`
     /// `Grbl::disconnect`); a job's outputs go off when it stops.
-    pub fn stop_outputs_at_rest(&mut self) {
+    pub(crate) fn stop_outputs_at_rest(&mut self) {
         if matches!(self.mode, Mode::Idle) {
             self.outputs.program_stop();
         }
@@ -544,7 +544,7 @@ impl Board {
     #[inline(never)]
     /// A machine job is interpreting and moving: not held, not stopping after an abort or an
     /// alarm. Only then is a step kernel that runs dry with motion still to come an underrun.
-    pub fn job_running(&self) -> bool {
+    pub(crate) fn job_running(&self) -> bool {
         matches!(self.machine_job(), Some(JobPhase::Running(_)))
     }
 
@@ -609,7 +609,7 @@ impl Board {
 
     /// The job runs on its path (not held, not at a sync point) and its program has lines to
     /// come: the end of the program has not been received and read.
-    pub fn lines_to_come(&self) -> bool {
+    pub(crate) fn lines_to_come(&self) -> bool {
         self.machine_job() == Some(JobPhase::Running(Ending::No))
             && !self.source.is_exhausted()
             && matches!(
@@ -719,7 +719,7 @@ impl Board {
     /// The host has stayed away for `link.host_lost_stop_s` while the job was held or waited for
     /// lines ([`link::BoardLink`] decides): end the job and raise alarm 20 at rest (every output
     /// off), with the line it stopped in.
-    pub fn host_lost_stop(&mut self) {
+    pub(crate) fn host_lost_stop(&mut self) {
         if matches!(
             self.machine_job(),
             Some(JobPhase::Running(_) | JobPhase::Hold { .. })
@@ -730,7 +730,7 @@ impl Board {
 
     /// A hard limit tripped: the kernel has already stopped stepping (docs/controller.md "Safety rules as built"). `kernel_steps`
     /// is where it stopped; the owner flushes its segment queue. The tripped axes lose home.
-    pub fn hard_limit(&mut self, axes: u8, kernel_steps: &[i64; MAX_AXES]) {
+    pub(crate) fn hard_limit(&mut self, axes: u8, kernel_steps: &[i64; MAX_AXES]) {
         self.rebuild_motion(true, kernel_steps);
         self.source.reset();
         self.progress.pending = None;
@@ -768,7 +768,7 @@ impl Board {
     /// homing cycle ends here when its switch alone tripped (a list's `seek` is reported to the
     /// host unless the list disabled limit reports; the cycle's own seek never is); anything else
     /// is a hard limit on the tripped axes, reported switch by switch, then alarm 1.
-    pub fn limit_stop(&mut self, levels: InputBits, kernel_steps: &[i64; MAX_AXES]) {
+    pub(crate) fn limit_stop(&mut self, levels: InputBits, kernel_steps: &[i64; MAX_AXES]) {
         let tripped = levels.0 & self.limit_arm();
         if let Some(c) = self.homing_cycle() {
             let h = &c.homing;
@@ -872,7 +872,7 @@ impl Board {
 
     /// [`Board::unlock`], with its outcome: `Ok` when no alarm is left (or there was none),
     /// else [`ERROR_BUSY`] (still decelerating) or [`ERROR_HOMING_REQUIRED`] (alarm 11 stays).
-    pub fn try_unlock(&mut self) -> Result<(), u16> {
+    pub(crate) fn try_unlock(&mut self) -> Result<(), u16> {
         if !matches!(self.mode, Mode::Alarm(_)) {
             return Ok(());
         }
@@ -906,7 +906,7 @@ impl Board {
     /// segment kept (its exact step position and speed). Call it every main-loop pass after
     /// [`Board::poll`] and before [`Board::next_segment`]; `drop_newest` is not called when
     /// nothing is pending.
-    pub fn drop_queued(&mut self, drop_newest: impl FnOnce(usize) -> usize) {
+    pub(crate) fn drop_queued(&mut self, drop_newest: impl FnOnce(usize) -> usize) {
         if let Some(max) = self.motion.drop_request() {
             let dropped = if max > 0 {
                 drop_newest(max).min(max)
@@ -1354,7 +1354,7 @@ impl Board {
     /// those the block the kernel runs was queued under (`board/executing.rs`), not the
     /// interpreter's, which has read ahead; otherwise (idle, jogging, homing, a job with nothing
     /// planned) the interpreter's.
-    pub fn executing_modes(&self) -> BlockModes {
+    pub(crate) fn executing_modes(&self) -> BlockModes {
         if matches!(self.mode, Mode::Job(_)) && !self.motion.planner().is_empty() {
             *self.executing.active()
         } else {
@@ -1364,7 +1364,7 @@ impl Board {
 
     /// Programmed speed of the block being executed, µm/min (rapids: their limit); 0 when
     /// nothing is planned.
-    pub fn programmed_feed_um_min(&self) -> u32 {
+    pub(crate) fn programmed_feed_um_min(&self) -> u32 {
         if self.motion.planner().is_empty() {
             return 0;
         }
@@ -1385,14 +1385,14 @@ impl Board {
     /// and drive onto the pins; otherwise it takes the kernel's word, so the board's levels (status,
     /// stop/restore rules) never lag the pins by more than one pass. The board only switches
     /// outputs at rest or with the kernel stopped, so the two never change the same word at once.
-    pub fn sync_user_outputs(&mut self, kernel_word: u16) -> Option<u16> {
+    pub(crate) fn sync_user_outputs(&mut self, kernel_word: u16) -> Option<u16> {
         self.outputs.sync_user(kernel_word)
     }
 
     /// A new step position for the kernel (homing set home): the owner loads it into the kernel
     /// (`StepKernel::set_position`) right after the [`Board::poll`] that produced it, before
     /// handing out new segments. The kernel is at rest then.
-    pub fn take_position_reset(&mut self) -> Option<[i64; MAX_AXES]> {
+    pub(crate) fn take_position_reset(&mut self) -> Option<[i64; MAX_AXES]> {
         self.position.take_reset()
     }
 

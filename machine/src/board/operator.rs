@@ -80,7 +80,13 @@ impl Board {
     /// `changed` the bits that changed with this sample, `adc` the analog readings. Drives feed
     /// hold, abort, cycle start, the switches (single block, optional stop, block delete), the
     /// feed-override potentiometer and the joystick.
-    pub fn on_inputs(&mut self, now_ms: u32, levels: InputBits, changed: u32, adc: AdcReadings) {
+    pub(crate) fn on_inputs(
+        &mut self,
+        now_ms: u32,
+        levels: InputBits,
+        changed: u32,
+        adc: AdcReadings,
+    ) {
         let prev = self.sensed.sample(now_ms, levels);
         let rose = |s: Signal| changed & (1 << s as u32) != 0 && levels.get(s);
         let fell = |s: Signal| changed & (1 << s as u32) != 0 && !levels.get(s);

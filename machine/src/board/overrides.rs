@@ -69,7 +69,7 @@ impl Board {
         self.motion.set_feed_override(pct);
     }
 
-    pub fn set_rapid_override(&mut self, pct: u16) {
+    pub(crate) fn set_rapid_override(&mut self, pct: u16) {
         self.motion.set_rapid_override(pct);
     }
 
@@ -102,7 +102,7 @@ impl Board {
     /// Flips flood (`flood`) or mist coolant by hand. Only idle, in a running job or in a feed
     /// hold (grbl's Idle/Run/Hold); an M0/M1 or M6 stop, which switched the coolant off, keeps
     /// it off. The program's next M7/M8/M9 sets the coolant again.
-    pub fn toggle_coolant(&mut self, flood: bool) {
+    pub(crate) fn toggle_coolant(&mut self, flood: bool) {
         let allowed = match self.mode {
             Mode::Idle => true,
             _ => self.feed_held() || matches!(self.machine_job(), Some(JobPhase::Running(_))),
@@ -115,7 +115,7 @@ impl Board {
     /// Spindle stop: only in a feed hold at rest. Switches a running spindle off, or back on
     /// when a spindle stop had switched it off; cycle start (or the feed-hold switch closing)
     /// restores it before the motion resumes (grbl's rule), a job's end forgets it.
-    pub fn toggle_spindle_stop(&mut self) {
+    pub(crate) fn toggle_spindle_stop(&mut self) {
         if !self.feed_held() || self.motion.state() != MotionState::Held {
             return;
         }
@@ -124,7 +124,7 @@ impl Board {
 
     /// The machine stands still where the door may switch spindle and coolant: idle, or a feed
     /// hold at rest.
-    pub fn door_may_switch(&self) -> bool {
+    pub(crate) fn door_may_switch(&self) -> bool {
         match self.mode {
             Mode::Idle => self.motion.state() == MotionState::Idle,
             _ => self.feed_held() && self.motion.state() == MotionState::Held,
@@ -133,7 +133,7 @@ impl Board {
 
     /// The safety door at rest: spindle and coolant off; returns them for
     /// [`Board::door_restore`]. `None` (nothing switched) unless [`Board::door_may_switch`].
-    pub fn door_outputs_off(&mut self) -> Option<DoorOutputs> {
+    pub(crate) fn door_outputs_off(&mut self) -> Option<DoorOutputs> {
         if !self.door_may_switch() {
             return None;
         }
@@ -142,7 +142,7 @@ impl Board {
 
     /// Cycle start after the door: spindle and coolant as the door found them (only where
     /// [`Board::door_may_switch`]; the caller then resumes a held job).
-    pub fn door_restore(&mut self, was: DoorOutputs) {
+    pub(crate) fn door_restore(&mut self, was: DoorOutputs) {
         if self.door_may_switch() {
             self.outputs.door_restore(was);
         }

@@ -93,13 +93,13 @@ impl Board {
 
     /// A probe move of the job waits at its sync point, moves or decelerates: its result is not
     /// known yet (the grbl front end holds the probe line's `ok` until then).
-    pub fn probing(&self) -> bool {
+    pub(crate) fn probing(&self) -> bool {
         !matches!(self.probing.cycle, ProbeCycle::Off)
     }
 
     /// The raw probe pin level that must trip the step kernel's probe latch now (`None`: the
     /// latch stays off). The main loop arms the kernel with it before handing out segments.
-    pub fn probe_arm(&self) -> Option<bool> {
+    pub(crate) fn probe_arm(&self) -> Option<bool> {
         match self.probing.cycle {
             ProbeCycle::Moving { trips_at, .. } => Some(trips_at),
             _ => None,
@@ -108,7 +108,7 @@ impl Board {
 
     /// The step kernel latched the probe at `kernel_steps`: stop the move with a planned
     /// deceleration (the kernel keeps stepping what the stop needs).
-    pub fn probe_tripped(&mut self, kernel_steps: &[i64; MAX_AXES]) {
+    pub(crate) fn probe_tripped(&mut self, kernel_steps: &[i64; MAX_AXES]) {
         if let ProbeCycle::Moving { line, .. } = self.probing.cycle {
             let at = self.motion.config().to_nm(kernel_steps);
             self.probing.cycle = ProbeCycle::Stopping { line, at };
