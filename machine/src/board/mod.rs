@@ -539,15 +539,15 @@ impl Board {
         }
     }
 
-    /// The phase of a machine job (not a check), if one runs. (Out of line: it was inlined 15
-    /// times.)
-    #[inline(never)]
     /// A machine job is interpreting and moving: not held, not stopping after an abort or an
     /// alarm. Only then is a step kernel that runs dry with motion still to come an underrun.
     pub(crate) fn job_running(&self) -> bool {
         matches!(self.machine_job(), Some(JobPhase::Running(_)))
     }
 
+    /// The phase of a machine job (not a check), if one runs. (Out of line: it was inlined 15
+    /// times.)
+    #[inline(never)]
     fn machine_job(&self) -> Option<JobPhase> {
         match self.mode {
             Mode::Job(Job {
