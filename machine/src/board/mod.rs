@@ -8,6 +8,10 @@
 //! [`Board::drop_queued`] take back queued segments when a stop or a speed change wants to act
 //! from the kernel's running segment.
 
+// Without the `link` feature nothing in this crate drives the board (its owner is
+// `main_loop::MainLoop`), so the methods only the main loop and the link call are dead there.
+#![cfg_attr(not(feature = "link"), allow(dead_code))]
+
 pub mod executing;
 mod homing_cycle;
 mod jogging;
