@@ -1,4 +1,4 @@
-//! The board tables as plain data for the host checks (`tests.rs`).
+//! The board tables as plain data ([`PinMap`]) for the host checks (`tests.rs`).
 
 extern crate std;
 
@@ -7,9 +7,9 @@ use std::string::String;
 use std::vec::Vec;
 use std::{format, vec};
 
-/// One board table, as plain data.
+/// One board table's pin map (pins by role, clocks), as plain data.
 #[derive(Clone, Debug)]
-pub struct Board {
+pub struct PinMap {
     pub name: &'static str,
     pub probe_chip: &'static str,
     pub clocks: Clocks,
@@ -27,7 +27,7 @@ pub struct Board {
     pub outputs: Vec<(&'static str, &'static str)>,
 }
 
-impl Board {
+impl PinMap {
     /// Every (role, pin name) of the table, in table order.
     pub fn roles(&self) -> Vec<(String, &'static str)> {
         let mut v = Vec::new();
@@ -64,7 +64,7 @@ macro_rules! gantry_board {
     };
 }
 
-/// Expands a board table, as [`board_table!`] hands it over, into a `pub fn board() -> Board`.
+/// Expands a board table, as [`board_table!`] hands it over, into a `pub fn pin_map() -> PinMap`.
 macro_rules! expand_board {
     (
         name: $name:literal,
@@ -90,7 +90,7 @@ macro_rules! expand_board {
         outputs: [$($out:ident),+],
     ) => {
         /// This board's table as plain data.
-        pub fn board() -> $crate::Board {
+        pub fn pin_map() -> $crate::PinMap {
             let mut exti_inputs = vec![$(("limit", stringify!($lim), stringify!($lim_ch))),+];
             exti_inputs.push(("feed_hold", stringify!($hold), stringify!($hold_ch)));
             exti_inputs.push(("abort", stringify!($abort), stringify!($abort_ch)));
@@ -104,7 +104,7 @@ macro_rules! expand_board {
                 ("coolant_mist", stringify!($mist)),
             ];
             $(outputs.push(("user_output", stringify!($out)));)+
-            $crate::Board {
+            $crate::PinMap {
                 name: $name,
                 probe_chip: $chip,
                 clocks: $clocks,
@@ -131,9 +131,9 @@ pub mod blackpill_f411;
 #[path = "../nucleo_f446.rs"]
 pub mod nucleo_f446;
 
-/// Every board table.
-pub fn boards() -> Vec<Board> {
-    vec![blackpill_f411::board(), nucleo_f446::board()]
+/// Every board table's pin map.
+pub fn pin_maps() -> Vec<PinMap> {
+    vec![blackpill_f411::pin_map(), nucleo_f446::pin_map()]
 }
 
 #[cfg(test)]

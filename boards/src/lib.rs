@@ -1,9 +1,9 @@
 //! The board tables in `boards/*.rs`: the one reader of their grammar ([`board_table!`]) with
 //! pins and clock numbers (`table.rs`, no_std, used by the firmware too), and with the `std`
-//! feature (default) the host-side data ([`Board`]) the checks run on.
+//! feature (default) the host-side data ([`PinMap`]) the checks run on.
 //!
 //! The firmware expands each board file's `gantry_board!` invocation into embassy peripherals; this
-//! crate expands the very same file into plain data ([`Board`]) so tests can check the table on
+//! crate expands the very same file into plain data ([`PinMap`]) so tests can check the table on
 //! the host: no pin used twice, step pins on one port, dir pins on one port, EXTI channels matching
 //! their pins and distinct, analog roles on ADC1 pins, reserved pins untouched, and clocks that
 //! give exactly 48 MHz USB and a TIM2 clock within limits.

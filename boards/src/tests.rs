@@ -12,7 +12,7 @@ fn pin(name: &str) -> Pin {
 const RESERVED: &[&str] = &["PA11", "PA12", "PA13", "PA14", "PH0", "PH1"];
 
 /// Extra pins to leave alone, per board.
-fn board_reserved(b: &Board) -> &'static [&'static str] {
+fn board_reserved(b: &PinMap) -> &'static [&'static str] {
     match b.name {
         // PB11 is not bonded on the F411 UFQFPN48.
         "blackpill-f411" => &["PB11"],
@@ -47,7 +47,7 @@ const PWM_PINS: &[(&str, &str)] = &[
 
 #[test]
 fn no_pin_is_used_twice_or_reserved() {
-    for b in boards() {
+    for b in pin_maps() {
         let mut seen: BTreeMap<Pin, String> = BTreeMap::new();
         for (role, name) in b.roles() {
             let p = pin(name);
@@ -65,7 +65,7 @@ fn no_pin_is_used_twice_or_reserved() {
 
 #[test]
 fn step_and_dir_pins_each_share_one_port() {
-    for b in boards() {
+    for b in pin_maps() {
         assert!(
             !b.step.is_empty() && b.step.len() <= 6,
             "{}: 1..=6 axes",
@@ -96,7 +96,7 @@ fn step_and_dir_pins_each_share_one_port() {
 
 #[test]
 fn exti_channels_match_their_pins_and_are_distinct() {
-    for b in boards() {
+    for b in pin_maps() {
         let mut lines = BTreeMap::new();
         for (role, name, ch) in &b.exti_inputs {
             let p = pin(name);
@@ -115,7 +115,7 @@ fn exti_channels_match_their_pins_and_are_distinct() {
 
 #[test]
 fn analog_roles_are_on_adc1_pins() {
-    for b in boards() {
+    for b in pin_maps() {
         for (role, name) in &b.analog {
             assert!(
                 adc1_channel(pin(name)).is_some(),
@@ -128,7 +128,7 @@ fn analog_roles_are_on_adc1_pins() {
 
 #[test]
 fn spindle_pwm_is_a_free_timer_channel() {
-    for b in boards() {
+    for b in pin_maps() {
         assert!(
             PWM_PINS.contains(&b.spindle_pwm),
             "{}: spindle PWM {:?}",
@@ -140,7 +140,7 @@ fn spindle_pwm_is_a_free_timer_channel() {
 
 #[test]
 fn at_least_four_user_outputs() {
-    for b in boards() {
+    for b in pin_maps() {
         let n = b.outputs.iter().filter(|o| o.0 == "user_output").count();
         assert!(n >= 4, "{}: {n} user outputs", b.name);
     }
@@ -148,7 +148,7 @@ fn at_least_four_user_outputs() {
 
 #[test]
 fn clocks_are_within_limits_and_usb_is_48_mhz() {
-    for b in boards() {
+    for b in pin_maps() {
         let c = b.clocks;
         // (max SYSCLK, max PCLK1, max PCLK2) from the datasheets.
         let (sys_max, p1_max, p2_max) = match b.probe_chip {
@@ -183,13 +183,13 @@ fn clocks_are_within_limits_and_usb_is_48_mhz() {
 
 #[test]
 fn documented_clock_figures() {
-    let f411 = blackpill_f411::board().clocks;
+    let f411 = blackpill_f411::pin_map().clocks;
     assert_eq!(
         (f411.sysclk_hz(), f411.tim_apb1_hz()),
         (96_000_000, 96_000_000)
     );
     assert!(!f411.hse_bypass);
-    let f446 = nucleo_f446::board().clocks;
+    let f446 = nucleo_f446::pin_map().clocks;
     assert_eq!(
         (f446.sysclk_hz(), f446.tim_apb1_hz()),
         (168_000_000, 84_000_000)

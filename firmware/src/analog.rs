@@ -3,7 +3,7 @@
 //! Raw 12-bit readings go to atomics; scaling (override percent, jog speed, dead band) belongs to
 //! the core's controller.
 
-use crate::board_def::Analog;
+use crate::pin_table::Analog;
 use core::sync::atomic::{AtomicBool, AtomicU16, Ordering};
 use embassy_stm32::adc::{Adc, SampleTime};
 use embassy_stm32::peripherals::ADC1;

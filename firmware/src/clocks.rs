@@ -4,7 +4,7 @@
 //! hardware cannot take fails the build. The step timer's prescaler is derived here too: TIM2 must
 //! count at exactly the step kernel's `KERNEL_TIMER_HZ`.
 
-use crate::board_def::CLOCKS;
+use crate::pin_table::CLOCKS;
 use embassy_stm32::rcc::{
     mux, AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv,
     PllSource, Sysclk,

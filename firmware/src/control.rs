@@ -5,8 +5,8 @@
 //! output pins, the USB pipes and DTR (`usb`), flash (`settings`), the motion marker
 //! (`reset_marker`) and the watchdog. Nothing here decides anything.
 
-use crate::board_def::Outputs;
 use crate::inputs::{armed_limit, ARM, INVERT, PINS};
+use crate::pin_table::Outputs;
 use crate::settings::{self, Store};
 use crate::step::{self, STOP};
 use crate::usb::{LinkPipe, DTR};

@@ -12,7 +12,7 @@
 //! one pin) report that pin as both the axis's min and max bit, so either kind of switch can be
 //! declared installed (and homing can seek either end).
 
-use crate::board_def::{
+use crate::pin_table::{
     Inputs, ABORT, AXES, CYCLE_START0, EXTI_INPUTS, FEED_HOLD, JOYSTICK_SWITCHES, LIMIT0,
     LIMIT_MAX0, LIMIT_MAX_INPUTS,
 };

@@ -8,7 +8,7 @@
 #![no_main]
 
 #[macro_use]
-mod board;
+mod pin_map;
 mod analog;
 mod clocks;
 mod control;
@@ -24,13 +24,13 @@ mod watchdog;
 #[cfg(all(feature = "board-f411", feature = "board-f446"))]
 compile_error!("choose exactly one board feature");
 
-/// The board table chosen by the `board-*` feature, expanded by `board::gantry_board!`.
+/// The board table (pin map) chosen by the `board-*` feature, expanded by `pin_map::gantry_board!`.
 #[cfg(feature = "board-f411")]
 #[path = "../../boards/blackpill_f411.rs"]
-mod board_def;
+mod pin_table;
 #[cfg(all(feature = "board-f446", not(feature = "board-f411")))]
 #[path = "../../boards/nucleo_f446.rs"]
-mod board_def;
+mod pin_table;
 
 use defmt_rtt as _;
 use embassy_executor::{InterruptExecutor, SpawnError, SpawnToken, Spawner};
@@ -58,21 +58,21 @@ async fn main(spawner: Spawner) {
     watchdog::start();
     defmt::info!(
         "Gantry on {} ({}), SYSCLK {} Hz",
-        board_def::NAME,
-        board_def::PROBE_CHIP,
+        pin_table::NAME,
+        pin_table::PROBE_CHIP,
         clocks::SYSCLK_HZ
     );
     let (cause, how) = reset_marker::describe(power_up, reset_cause);
     defmt::info!("reset: {=str}, {=str}", cause, how);
-    let (pins, rest) = board_def::split(p);
-    let board_def::Pins {
+    let (pins, rest) = pin_table::split(p);
+    let pin_table::Pins {
         step_dir,
         inputs,
         analog,
         outputs,
     } = pins;
     // Never dropped: step/dir stay configured for the ISR's register writes.
-    static STEP_DIR: StaticCell<[Output<'static>; 2 * board_def::AXES]> = StaticCell::new();
+    static STEP_DIR: StaticCell<[Output<'static>; 2 * pin_table::AXES]> = StaticCell::new();
     STEP_DIR.init(step_dir);
 
     // embassy leaves its interrupts at reset priority 0; only the step timer may have that.

@@ -3,11 +3,11 @@
 //!
 //! Safe state (docs/controller.md "Safety rules as built"): spindle enable/direction/PWM, coolant and user outputs low, stepper
 //! drivers disabled (enable pin high, active low), step timer stopped. Reset gives the same state
-//! (pins are inputs until `board_def::split` drives them to these levels), so after a panic the
+//! (pins are inputs until `pin_table::split` drives them to these levels), so after a panic the
 //! watchdog's reset keeps it.
 
-use crate::board::{gpio_block, safe_bsrr};
-use crate::board_def::{SAFE_LOW, STEPPER_ENABLE};
+use crate::pin_map::{gpio_block, safe_bsrr};
+use crate::pin_table::{SAFE_LOW, STEPPER_ENABLE};
 use core::panic::PanicInfo;
 use cortex_m_rt::{exception, ExceptionFrame};
 use embassy_stm32::pac;

@@ -14,7 +14,7 @@
 //! the CPU stalls during flash writes anyway, and this way the store's futures and its 2 KiB
 //! working buffer live on the stack for the call instead of in the static task storage.
 
-use crate::board::Irqs;
+use crate::pin_map::Irqs;
 use embassy_futures::block_on;
 use embassy_stm32::flash::{Async, Bank1Region3, Flash};
 use embassy_stm32::interrupt;

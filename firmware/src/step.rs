@@ -32,8 +32,8 @@
 //! before are still emitted, so the kernel's position count stays exact. When the kernel is
 //! idle the timer keeps polling the queue every millisecond.
 
-use crate::board::{gpio_block, PinId};
-use crate::board_def::{AXES, DIR, PROBE, STEP, USER_OUTPUTS, USER_PINS};
+use crate::pin_map::{gpio_block, PinId};
+use crate::pin_table::{AXES, DIR, PROBE, STEP, USER_OUTPUTS, USER_PINS};
 use crate::step_dma::{self, StepDma};
 use core::cell::UnsafeCell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};

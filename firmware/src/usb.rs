@@ -5,7 +5,7 @@
 //! `BoardLink::poll_transmit` into the transmit pipe. DTR changes are published for the host-loss
 //! policy. The USB interrupt runs below the step timer (see `main`).
 
-use crate::board::Irqs;
+use crate::pin_map::Irqs;
 use core::sync::atomic::{AtomicBool, Ordering};
 use embassy_stm32::peripherals::{PA11, PA12, USB_OTG_FS};
 use embassy_stm32::usb::Driver;

@@ -2,11 +2,92 @@
 //! "Homing"). The pure parts (order, targets, switch bits) are in [`crate::controller::homing`].
 
 use super::mode::{HomingCycle, HomingPhase, Mode};
-use super::{Board, MotionState, Pos};
+use super::{Board, MotionState, Pos, MAX_AXES};
 use crate::canon::{Action, Canon};
 use crate::controller::homing::{self, Homing, Phase};
 use crate::controller::lists::{ListRunner, ListStatus};
 use crate::controller::AlarmCode;
+use crate::setup::Setup;
+
+/// Which axes are homed, and whether the machine position can be trusted at all.
+pub(super) struct PositionTrust {
+    /// The board reset during motion (alarm 3) and nothing has re-established the position yet:
+    /// homing is required, where homing is set up, until every axis with a homing priority is
+    /// homed again; else an unlock clears it.
+    lost: bool,
+    /// Axes whose home is known (bit 0 = X).
+    homed: u8,
+    /// Step position the kernel's owner must load (homing set a new home).
+    reset: Option<[i64; MAX_AXES]>,
+}
+
+impl PositionTrust {
+    /// Nothing homed; `lost` after a reset during motion.
+    #[inline(always)]
+    pub(super) const fn new(lost: bool) -> Self {
+        PositionTrust {
+            lost,
+            homed: 0,
+            reset: None,
+        }
+    }
+
+    /// The position was lost in a reset during motion and is not re-established yet.
+    pub(super) fn lost(&self) -> bool {
+        self.lost
+    }
+
+    /// Axes whose home is known (bit 0 = X).
+    pub(super) fn homed(&self) -> u8 {
+        self.homed
+    }
+
+    /// Homing is required (`setup`, or the position was lost in a reset) and some axis with a
+    /// homing priority is not homed.
+    pub(super) fn homing_missing(&self, setup: &Setup) -> bool {
+        (setup.homing.required || self.lost) && self.some_axis_unhomed(setup)
+    }
+
+    /// Some axis with a homing priority is not homed.
+    fn some_axis_unhomed(&self, setup: &Setup) -> bool {
+        homing::order(setup, 0)
+            .iter()
+            .any(|&a| self.homed & (1 << a) == 0)
+    }
+
+    /// The axes of `axes` (bit mask) lose their home.
+    pub(super) fn unhome(&mut self, axes: u8) {
+        self.homed &= !axes;
+    }
+
+    /// `axis` has been homed.
+    fn homed_axis(&mut self, axis: usize) {
+        self.homed |= 1 << axis;
+    }
+
+    /// A homing cycle ended: once every axis with a homing priority is homed, the position is
+    /// known again (after alarm 3).
+    fn cycle_done(&mut self, setup: &Setup) {
+        if !self.some_axis_unhomed(setup) {
+            self.lost = false;
+        }
+    }
+
+    /// The operator takes the position as it is (an unlock).
+    pub(super) fn trust(&mut self) {
+        self.lost = false;
+    }
+
+    /// Homing set a new home: the kernel's owner must load `steps`.
+    fn reset_to(&mut self, steps: [i64; MAX_AXES]) {
+        self.reset = Some(steps);
+    }
+
+    /// The step position the kernel's owner must load, once.
+    pub(super) fn take_reset(&mut self) -> Option<[i64; MAX_AXES]> {
+        self.reset.take()
+    }
+}
 
 impl Board {
     /// Starts a homing cycle of `axes` (bit mask, 0 = every axis with a homing priority), from
@@ -17,7 +98,7 @@ impl Board {
 
     /// [`Board::home`] for a host request that is answered: the refusal's code (902 busy, 903
     /// no axis to home).
-    pub fn try_home(&mut self, axes: u8) -> Result<(), u16> {
+    pub(crate) fn try_home(&mut self, axes: u8) -> Result<(), u16> {
         if !matches!(self.mode, Mode::Idle | Mode::Alarm(_))
             || self.motion.state() != MotionState::Idle
         {
@@ -29,7 +110,7 @@ impl Board {
         let steps = self.motion.prepared_steps();
         self.rebuild_motion(false, &steps);
         for &a in &h.order {
-            self.homed &= !(1 << a);
+            self.position.unhome(1 << a);
         }
         self.mode = Mode::Homing {
             phase: HomingPhase::Cycle(HomingCycle {
@@ -75,7 +156,11 @@ impl Board {
                     _ => &self.setup.homing.after_retract,
                 };
                 let runner = homing_list.get_or_insert_with(|| ListRunner::new(list));
-                match runner.step(self.now_ms, self.levels, &mut self.user_outputs) {
+                match runner.step(
+                    self.sensed.now_ms,
+                    self.sensed.levels,
+                    self.outputs.user_mut(),
+                ) {
                     ListStatus::Running => {}
                     ListStatus::Seek => {
                         self.push_seek(axis, &at);
@@ -103,13 +188,10 @@ impl Board {
                             }
                             _ => {
                                 h.done |= 1 << axis;
-                                self.homed |= 1 << axis;
+                                self.position.homed_axis(axis);
                                 h.index += 1;
                                 if h.index == h.order.len() {
-                                    if !self.some_axis_unhomed() {
-                                        // Every homed axis is known again (after alarm 3).
-                                        self.position_lost = false;
-                                    }
+                                    self.position.cycle_done(&self.setup);
                                     let steps = self.motion.prepared_steps();
                                     self.rebuild_motion(true, &steps);
                                     self.sync_interpreter_position();
@@ -128,7 +210,7 @@ impl Board {
                 return;
             }
             Phase::Retract => {
-                if self.levels.0 & (1 << homing::switch_bit(axis, &ha)) != 0 {
+                if self.sensed.levels.0 & (1 << homing::switch_bit(axis, &ha)) != 0 {
                     self.enter_alarm(AlarmCode::HomingPullOffFailed, 0);
                     return;
                 }
@@ -136,7 +218,7 @@ impl Board {
                     let mut steps = self.motion.prepared_steps();
                     steps[axis] = self.motion.config().axes[axis].nm_to_steps(ha.home_position);
                     self.rebuild_motion(false, &steps);
-                    self.position_reset = Some(steps);
+                    self.position.reset_to(steps);
                 }
                 h.phase = Phase::AfterRetract;
             }

@@ -3,8 +3,8 @@
 
 use super::mode::{Jogging, Mode};
 use super::{
-    Board, BoardEvent, JogMotion, MarkEvent, MotionState, StickMove, ERROR_BUSY,
-    ERROR_HOMING_REQUIRED, ERROR_INVALID_REQUEST, ERROR_SOFT_LIMIT,
+    Board, BoardEvent, MarkEvent, MotionState, ERROR_BUSY, ERROR_HOMING_REQUIRED,
+    ERROR_INVALID_REQUEST, ERROR_SOFT_LIMIT,
 };
 use crate::canon::{Action, Canon};
 use crate::controller::inputs::{InputBits, Signal};
@@ -24,6 +24,68 @@ pub enum JogRefused {
     Travel,
     /// No feed.
     Invalid,
+}
+
+/// What a joystick jog is doing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct StickMove {
+    /// Direction weights per axis (±1 for switches, nm/min for the analog stick).
+    dirs: [i64; MAX_AXES],
+    /// Instantaneous/analog feed (nm/min); 0 = rapid (Accelerated mode).
+    feed: i64,
+    /// From the analog stick (its speed and direction change without stopping).
+    analog: bool,
+}
+
+/// Where jog motion stands (host jogs and the joystick).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) enum JogMotion {
+    /// No stick move planned and no stop under way (a host jog or a nudge may be moving).
+    #[default]
+    Free,
+    /// The stick move now planned (also kept at the travel edge, so it is not retried every
+    /// millisecond).
+    Stick(StickMove),
+    /// Decelerating and flushing for a stick change, a jog stop or an abort: nothing new starts
+    /// until the motion is at rest.
+    Stopping,
+}
+
+impl JogMotion {
+    /// The stick move now planned, if any.
+    fn stick(self) -> Option<StickMove> {
+        match self {
+            JogMotion::Stick(m) => Some(m),
+            _ => None,
+        }
+    }
+}
+
+/// Jog bookkeeping (host jogs and the joystick).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct JogState {
+    motion: JogMotion,
+    /// An analog move to bend into once the kernel's queue has been taken back.
+    bend: Option<StickMove>,
+    /// Nudge: the switches' directions at the last nudge and when the next one is due.
+    nudge_dirs: [i8; MAX_AXES],
+    next_nudge: u32,
+    marks: u32,
+}
+
+impl JogState {
+    /// An alarm ends every jog: nothing planned, stopping or due; the Mark count goes on.
+    pub(super) fn end_for_alarm(&mut self) {
+        *self = JogState {
+            marks: self.marks,
+            ..JogState::default()
+        };
+    }
+
+    /// The analog move waiting to bend in once the kernel's queue has been taken back.
+    pub(super) fn take_bend(&mut self) -> Option<StickMove> {
+        self.bend.take()
+    }
 }
 
 impl Board {
@@ -50,10 +112,15 @@ impl Board {
     /// [`Board::jog`] for a host request that is answered: the refusal's code instead of an
     /// error event (902 busy, 903 no such axis or no feed, 901 homing required, 900 beyond the
     /// travel or already at its end).
-    pub fn try_jog(&mut self, axis: u8, velocity_um_min: i32, distance_nm: u64) -> Result<(), u16> {
+    pub(crate) fn try_jog(
+        &mut self,
+        axis: u8,
+        velocity_um_min: i32,
+        distance_nm: u64,
+    ) -> Result<(), u16> {
         let free = matches!(self.mode, Mode::Idle)
             || (matches!(self.mode, Mode::Jog(Jogging::Moves))
-                && self.jog.motion != JogMotion::Stopping
+                && !matches!(self.jog.motion, JogMotion::Stopping)
                 && self.motion.state() == MotionState::Idle);
         if !free {
             return Err(ERROR_BUSY);
@@ -94,10 +161,10 @@ impl Board {
     /// jogging.md: a stream of jogs is planned together, so a jog wheel or a held key moves
     /// smoothly, and one jog cancel stops them all); refused while a cancel is stopping them.
     /// A target beyond the soft limits is refused as a whole (grbl error 15), never clipped.
-    pub fn jog_to(&mut self, to: Pos, feed: i64) -> Result<(), JogRefused> {
+    pub(crate) fn jog_to(&mut self, to: Pos, feed: i64) -> Result<(), JogRefused> {
         let free = matches!(self.mode, Mode::Idle)
             || (matches!(self.mode, Mode::Jog(Jogging::Moves))
-                && self.jog.motion == JogMotion::Free);
+                && matches!(self.jog.motion, JogMotion::Free));
         if !free {
             return Err(JogRefused::Busy);
         }
@@ -137,7 +204,9 @@ impl Board {
     }
 
     pub(super) fn poll_jog(&mut self, drained: bool) {
-        if self.motion.state() == MotionState::Idle && self.jog.motion == JogMotion::Stopping {
+        if self.motion.state() == MotionState::Idle
+            && matches!(self.jog.motion, JogMotion::Stopping)
+        {
             self.jog.motion = JogMotion::Free;
         }
         if matches!(self.mode, Mode::Jog(Jogging::Moves))
@@ -168,10 +237,7 @@ impl Board {
         if levels.get(Signal::Mark) && !prev.get(Signal::Mark) && !levels.get(Signal::Release) {
             self.jog.marks += 1;
             let position = self.motion.config().to_nm(&self.motion.prepared_steps());
-            if self.marks.is_full() {
-                self.marks.pop_front();
-            }
-            let _ = self.marks.push_back(MarkEvent {
+            self.outbox.mark(MarkEvent {
                 id: self.jog.marks,
                 position,
             });
@@ -192,7 +258,7 @@ impl Board {
                 analog: false,
             });
         }
-        if self.jog.motion == JogMotion::Stopping {
+        if matches!(self.jog.motion, JogMotion::Stopping) {
             if self.motion.state() != MotionState::Idle {
                 return;
             }
@@ -229,11 +295,12 @@ impl Board {
         if mode == JogMode::Nudge && want.is_none() {
             let any = dirs.iter().any(|&d| d != 0);
             let due = dirs != self.jog.nudge_dirs
-                || self.now_ms.wrapping_sub(self.jog.next_nudge) < u32::MAX / 2;
+                || self.sensed.now_ms.wrapping_sub(self.jog.next_nudge) < u32::MAX / 2;
             // A nudge still moving delays the next one: nothing queues up behind the stick.
             if any && due && self.motion.state() == MotionState::Idle {
                 self.nudge(&dirs);
                 self.jog.next_nudge = self
+                    .sensed
                     .now_ms
                     .wrapping_add(u32::from(self.setup.jog.nudge_interval_ms));
             }
@@ -271,7 +338,7 @@ impl Board {
     /// stops and the new direction starts from rest.
     pub(super) fn bend_stick_move(&mut self, m: StickMove) {
         if !matches!(self.mode, Mode::Jog(Jogging::Joystick))
-            || self.jog.motion == JogMotion::Stopping
+            || matches!(self.jog.motion, JogMotion::Stopping)
         {
             return;
         }

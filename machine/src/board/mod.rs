@@ -8,6 +8,10 @@
 //! [`Board::drop_queued`] take back queued segments when a stop or a speed change wants to act
 //! from the kernel's running segment.
 
+// Without the `link` feature nothing in this crate drives the board (its owner is
+// `main_loop::MainLoop`), so the methods only the main loop and the link call are dead there.
+#![cfg_attr(not(feature = "link"), allow(dead_code))]
+
 pub mod executing;
 mod homing_cycle;
 mod jogging;
@@ -19,6 +23,8 @@ pub mod link;
 pub mod main_loop;
 mod mode;
 mod operator;
+mod outbox;
+mod outputs;
 mod overrides;
 mod probing;
 pub mod source;
@@ -26,11 +32,11 @@ pub mod source;
 mod starvation;
 pub mod underruns;
 
-use crate::canon::{Action, Canon, Spindle, StopKind};
+use crate::canon::{Action, Canon, StopKind};
 use crate::controller::homing::{self, Phase};
 use crate::controller::inputs::{InputBits, Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
-use crate::controller::lists::{ListRunner, ListStatus};
-use crate::controller::outputs::{spindle_duty, OutputLevels};
+use crate::controller::lists::ListStatus;
+use crate::controller::outputs::OutputLevels;
 use crate::controller::power_up::PowerUp;
 use crate::controller::{AlarmCode, State};
 use crate::gcode::{GcodeError, Interpreter};
@@ -41,16 +47,21 @@ use crate::motion::pipeline::{Motion, MotionState, PushError};
 use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
 use executing::{BlockModes, Executing};
-use heapless::Deque;
+use homing_cycle::PositionTrust;
 pub use jogging::JogRefused;
+use jogging::JogState;
 pub use mode::Streamer;
 use mode::{
     Ending, HoldWhy, HomingCycle, HomingPhase, Job, JobKind, JobPhase, Jogging, Mode, Ramp,
 };
-use operator::RunSwitches;
-pub use overrides::DoorOutputs;
-use probing::ProbeCycle;
+use operator::Sensed;
+use outbox::Outbox;
+pub use outbox::{BoardEvent, JobEnd, MarkEvent};
+use outputs::OutputState;
+pub use outputs::{DoorOutputs, Outputs};
+use overrides::Overrides;
 pub use probing::ProbeResult;
+use probing::Probing;
 pub use source::{JumpRequest, JumpTarget, Pushed, StreamSource, LINE_CAPACITY};
 
 /// Planner ring size on the board (look-ahead over at least 128 blocks, docs/architecture.md).
@@ -61,8 +72,6 @@ pub const PLANNER_BLOCKS: usize = 128;
 pub const LINE_RING: usize = 4096;
 /// The line ring's buffer: the ring and the run-on room of one record (`line_ring.rs`).
 const LINE_RING_BUFFER: usize = LINE_RING + line_ring::RECORD_MAX;
-/// Events waiting for the link.
-const EVENT_QUEUE: usize = 8;
 
 /// Error code reported when a move would leave the machine travel (soft limit).
 pub const ERROR_SOFT_LIMIT: u16 = 900;
@@ -74,127 +83,12 @@ pub const ERROR_BUSY: u16 = 902;
 /// Error code of a refused request that can never be carried out: no such axis, no feed, no axis
 /// to home.
 pub const ERROR_INVALID_REQUEST: u16 = 903;
-/// Mark events waiting for the link.
-const MARK_QUEUE: usize = 4;
 /// Every limit-switch bit of [`InputBits`].
 pub const LIMIT_BITS: u32 = (0x3f << LIMIT_MIN_BIT) | (0x3f << LIMIT_MAX_BIT);
 
-/// The joystick's Mark switch was pressed in jog mode (teach-in, docs/controller.md "Jogging"): the host hears where
-/// the machine stands.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct MarkEvent {
-    /// Running count of marks since power-up (1, 2, …).
-    pub id: u32,
-    /// Machine position, nm.
-    pub position: Pos,
-}
-
-/// What a joystick jog is doing.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-struct StickMove {
-    /// Direction weights per axis (±1 for switches, nm/min for the analog stick).
-    dirs: [i64; MAX_AXES],
-    /// Instantaneous/analog feed (nm/min); 0 = rapid (Accelerated mode).
-    feed: i64,
-    /// From the analog stick (its speed and direction change without stopping).
-    analog: bool,
-}
-
-/// Where jog motion stands (host jogs and the joystick).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-enum JogMotion {
-    /// No stick move planned and no stop under way (a host jog or a nudge may be moving).
-    #[default]
-    Free,
-    /// The stick move now planned (also kept at the travel edge, so it is not retried every
-    /// millisecond).
-    Stick(StickMove),
-    /// Decelerating and flushing for a stick change, a jog stop or an abort: nothing new starts
-    /// until the motion is at rest.
-    Stopping,
-}
-
-impl JogMotion {
-    /// The stick move now planned, if any.
-    fn stick(self) -> Option<StickMove> {
-        match self {
-            JogMotion::Stick(m) => Some(m),
-            _ => None,
-        }
-    }
-}
-
-/// Jog bookkeeping (host jogs and the joystick).
-#[derive(Clone, Copy, Debug, Default)]
-struct JogState {
-    motion: JogMotion,
-    /// An analog move to bend into once the kernel's queue has been taken back.
-    bend: Option<StickMove>,
-    /// Nudge: the switches' directions at the last nudge and when the next one is due.
-    nudge_dirs: [i8; MAX_AXES],
-    next_nudge: u32,
-    marks: u32,
-}
-
-/// Something the host must hear about (in order, never dropped).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BoardEvent {
-    /// A block was rejected: `code` is the documented error number, `column` the bad word (0 = none).
-    Error { line: u32, code: u16, column: u16 },
-    /// The machine entered the alarm state. `line`: the program line concerned (the block that
-    /// would have left the travel for alarm 2, the line running for alarms raised during a job;
-    /// 0 = none).
-    Alarm { code: AlarmCode, line: u32 },
-    /// A limit switch stopped motion (the axis and the switch side; docs/controller.md "Limit reports").
-    /// Sent before alarm 1 for every tripped switch, and alone for the switch hits a homing
-    /// list's `seek` commands cause, unless that list starts with `DisableLimitReport`.
-    Limit { axis: u8, max: bool },
-    /// The job ended (M2/M30, end of the program, an error, an abort or an alarm); `line` is the
-    /// last line run, `end` says how.
-    JobDone { line: u32, end: JobEnd },
-    /// The interpreter jumped: the host must serve lines from the request's target.
-    Jump(JumpRequest),
-    /// The answer to the host request tagged `id` (`gantry_proto::BoardMsg::Answer`): 0 =
-    /// accepted, else the refusal's code. Queued by the link when it hands the request over, so
-    /// it follows every event emitted before.
-    Answer { id: u32, code: u16 },
-}
-
-/// How a job ended (in [`BoardEvent::JobDone`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum JobEnd {
-    /// It ran to its end (M2/M30 or the end of the program).
-    Completed,
-    /// A block was rejected (the `Error` event before it says which).
-    Failed,
-    /// An abort stopped it on its path.
-    Aborted,
-    /// An alarm ended it (the `Alarm` event before it says which).
-    Alarm,
-}
-
-/// Output levels the controller drives (spindle, coolant, tool), as the program set them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Outputs {
-    pub spindle: Spindle,
-    pub rpm: u32,
-    pub mist: bool,
-    pub flood: bool,
-    pub tool: u32,
-}
-
-impl Outputs {
-    /// Everything off: the power-up and program-stop state (docs/controller.md "Safety rules as built").
-    pub const SAFE: Outputs = Outputs {
-        spindle: Spindle::Off,
-        rpm: 0,
-        mist: false,
-        flood: false,
-        tool: 0,
-    };
-}
-
-/// The controller with everything it drives.
+/// The controller with everything it drives: the core components the data flows through
+/// (setup, mode, interpreter, line source, motion) and the parts around them, each one job with
+/// its own module.
 pub struct Board {
     setup: Setup,
     /// Idle, a job (running, held, stopping), an alarm, homing or jogging.
@@ -202,58 +96,35 @@ pub struct Board {
     interp: Interpreter,
     source: StreamSource<LINE_RING_BUFFER>,
     motion: Motion<PLANNER_BLOCKS>,
-    /// An action the motion queue had no room for yet.
-    pending: Option<Canon>,
-    outputs: Outputs,
-    /// Outputs to restore when a stopped program resumes (stop/restore rules, docs/controller.md "Outputs").
-    saved_outputs: Option<Outputs>,
-    /// A job changed the stored offsets since the last [`Board::take_offsets_changed`].
-    offsets_changed: bool,
-    events: Deque<BoardEvent, EVENT_QUEUE>,
-    /// Last line the motion has reached (prep finished a block of it).
-    line: u32,
+    /// Where the job stands on its program: the action waiting for room, the line reached, the
+    /// line to resume from.
+    progress: Progress,
     /// The offsets, units and programmed speed of the block being executed (`board/executing.rs`).
     executing: Executing,
+    /// Spindle, coolant, tool and user outputs with what the stops saved (`board/outputs.rs`).
+    outputs: OutputState,
+    /// Feed and spindle overrides and the run switches (`board/overrides.rs`).
+    overrides: Overrides,
+    /// Which axes are homed and whether the position is trusted (`board/homing_cycle.rs`).
+    position: PositionTrust,
+    /// Time, input levels and the kernel's drained flag, as last heard (`board/operator.rs`).
+    sensed: Sensed,
+    /// Host jogs and the joystick (`board/jogging.rs`).
+    jog: JogState,
+    /// A G38 probe move of the job and the last result (`board/probing.rs`).
+    probing: Probing,
+    /// Events, Marks and offset changes for the owner (`board/outbox.rs`).
+    outbox: Outbox,
+}
+
+/// Where a job stands on its program.
+struct Progress {
+    /// An action the motion queue had no room for yet.
+    pending: Option<Canon>,
+    /// Last line the motion has reached (prep finished a block of it).
+    line: u32,
     /// Where an abort stopped: the line to resume from.
     resume_line: u32,
-    /// The kernel was drained at the last [`Board::poll`].
-    drained: bool,
-    /// The board reset during motion (alarm 3) and nothing has re-established the position yet:
-    /// homing is required, where homing is set up, until every axis with a homing priority is
-    /// homed again; else an unlock clears it.
-    position_lost: bool,
-    homed: u8,
-    /// Main-loop time from the last [`Board::on_inputs`], ms.
-    now_ms: u32,
-    /// Debounced input levels from the last [`Board::on_inputs`].
-    levels: InputBits,
-    /// User outputs (bit n = output n): set by command lists, and by the kernel's on-the-fly
-    /// events once [`Board::sync_user_outputs`] learns of them.
-    user_outputs: u16,
-    /// The user output word last exchanged with the kernel (`None`: the board must load its own,
-    /// e.g. the safe state).
-    user_loaded: Option<u16>,
-    /// A user M-code list running at its sync point.
-    list: Option<ListRunner>,
-    /// Step position the kernel's owner must load (homing set a new home).
-    position_reset: Option<[i64; MAX_AXES]>,
-    /// Limit bits ignored until they release (a switch still pressed when the alarm was raised).
-    disarmed: u32,
-    jog: JogState,
-    marks: Deque<MarkEvent, MARK_QUEUE>,
-    /// Feed override in force (host or potentiometer), percent.
-    feed_override: u16,
-    fro_pot: Option<u16>,
-    /// Spindle speed override, percent (`board/overrides.rs`).
-    spindle_override: u16,
-    /// The spindle a spindle stop switched off in a feed hold, restored by cycle start
-    /// (`board/overrides.rs`).
-    stopped_spindle: Option<Spindle>,
-    /// Dry run and single block.
-    switches: RunSwitches,
-    /// A G38 probe move of the job (`board/probing.rs`).
-    probe: ProbeCycle,
-    probe_result: Option<ProbeResult>,
 }
 
 impl Board {
@@ -295,32 +166,18 @@ impl Board {
                 None => Mode::Idle,
             },
             source: StreamSource::new(),
-            pending: None,
-            outputs: Outputs::SAFE,
-            saved_outputs: None,
-            offsets_changed: false,
-            events: Deque::new(),
-            line: 0,
-            resume_line: 0,
-            drained: true,
-            position_lost: how == PowerUp::MotionInterrupted,
-            homed: 0,
-            now_ms: 0,
-            levels: InputBits(0),
-            user_outputs: 0,
-            user_loaded: Some(0),
-            list: None,
-            position_reset: None,
-            disarmed: 0,
+            progress: Progress {
+                pending: None,
+                line: 0,
+                resume_line: 0,
+            },
+            outputs: OutputState::new(),
+            overrides: Overrides::new(),
+            position: PositionTrust::new(how == PowerUp::MotionInterrupted),
+            sensed: Sensed::new(),
             jog: JogState::default(),
-            marks: Deque::new(),
-            feed_override: 100,
-            fro_pot: None,
-            spindle_override: 100,
-            stopped_spindle: None,
-            switches: RunSwitches::default(),
-            probe: ProbeCycle::Off,
-            probe_result: None,
+            probing: Probing::new(),
+            outbox: Outbox::new(),
         }
     }
 
@@ -333,13 +190,13 @@ impl Board {
     }
 
     pub fn outputs(&self) -> Outputs {
-        self.outputs
+        self.outputs.program()
     }
 
     /// Main-loop time from the last [`Board::on_inputs`], ms (the grbl door's spin-up wait,
     /// `machine/src/grbl/door.rs`).
-    pub fn now_ms(&self) -> u32 {
-        self.now_ms
+    pub(crate) fn now_ms(&self) -> u32 {
+        self.sensed.now_ms
     }
 
     pub fn alarm(&self) -> Option<AlarmCode> {
@@ -353,12 +210,12 @@ impl Board {
     /// re-established the position yet. The firmware keeps its motion marker set meanwhile, so a
     /// further reset still powers up in alarm 3.
     pub fn position_lost(&self) -> bool {
-        self.position_lost
+        self.position.lost()
     }
 
     /// Axes whose home is known (bit 0 = X).
     pub fn homed(&self) -> u8 {
-        self.homed
+        self.position.homed()
     }
 
     /// The interpreter (modal state, work offsets) for status reports.
@@ -377,13 +234,13 @@ impl Board {
 
     /// Line the machine is executing (or last executed).
     pub fn line(&self) -> u32 {
-        self.line
+        self.progress.line
     }
 
     /// The line a stopped job resumes from (0 = none): where an abort or an alarm stop (2, 20)
     /// left the machine, or the line whose error ended the job.
     pub fn resume_line(&self) -> u32 {
-        self.resume_line
+        self.progress.resume_line
     }
 
     /// Lines buffered but not yet interpreted.
@@ -393,7 +250,7 @@ impl Board {
 
     /// Free bytes for streamed line records (a line takes its text and 6 bytes); `usize::MAX`
     /// when lines are not taken (they are dropped at once).
-    pub fn line_room(&self) -> usize {
+    pub(crate) fn line_room(&self) -> usize {
         if self.takes_lines() {
             self.source.free()
         } else {
@@ -417,7 +274,7 @@ impl Board {
 
     /// Replaces the grbl front end's section of the setup (`machine/src/grbl/`), in any state:
     /// nothing else of the core reads it, so nothing is rebuilt.
-    pub fn set_grbl_setup(&mut self, grbl: crate::setup::GrblSetup) {
+    pub(crate) fn set_grbl_setup(&mut self, grbl: crate::setup::GrblSetup) {
         self.setup.grbl = grbl;
     }
 
@@ -432,11 +289,11 @@ impl Board {
         self.interp = Interpreter::new(&self.setup.interp_config());
         let cfg = MotionConfig::from_setup(&self.setup);
         self.motion.reconfigure(cfg, cfg.to_steps(&position));
-        self.motion.set_feed_override(self.feed_override);
+        self.motion.set_feed_override(self.overrides.feed());
         self.source.reset();
-        self.pending = None;
+        self.progress.pending = None;
         self.jog = JogState::default();
-        self.outputs_safe();
+        self.outputs.safe();
         if self.homing_missing() {
             self.mode = Mode::Alarm(AlarmCode::HomingRequired);
         }
@@ -447,14 +304,7 @@ impl Board {
     /// Homing is required (setup, or the position was lost in a reset) and some axis with a
     /// homing priority is not homed.
     fn homing_missing(&self) -> bool {
-        (self.setup.homing.required || self.position_lost) && self.some_axis_unhomed()
-    }
-
-    /// Some axis with a homing priority is not homed.
-    fn some_axis_unhomed(&self) -> bool {
-        homing::order(&self.setup, 0)
-            .iter()
-            .any(|&a| self.homed & (1 << a) == 0)
+        self.position.homing_missing(&self.setup)
     }
 
     /// Refuses motion (error 901) while homing is required and missing.
@@ -472,20 +322,16 @@ impl Board {
 
     /// The next Mark event for the host (joystick teach-in).
     pub fn take_mark(&mut self) -> Option<MarkEvent> {
-        self.marks.pop_front()
+        self.outbox.take_mark()
     }
 
     /// The next event for the host.
     pub fn take_event(&mut self) -> Option<BoardEvent> {
-        self.events.pop_front()
+        self.outbox.take_event()
     }
 
     fn emit(&mut self, e: BoardEvent) {
-        // The queue is drained every link poll; if it ever overflows, keep the newest alarm.
-        if self.events.push_back(e).is_err() {
-            self.events.pop_front();
-            let _ = self.events.push_back(e);
-        }
+        self.outbox.emit(e);
     }
 
     /// Starts a streamed job at the current position (only from idle), its lines served by the
@@ -496,7 +342,7 @@ impl Board {
 
     /// Starts a streamed job whose lines come from `streamer` (false when refused; a refusal
     /// for homing reports error 901).
-    pub fn start_job_from(&mut self, streamer: Streamer) -> bool {
+    pub(crate) fn start_job_from(&mut self, streamer: Streamer) -> bool {
         match self.start(JobKind::Machine, streamer) {
             Ok(()) => true,
             Err(code) => {
@@ -514,7 +360,7 @@ impl Board {
 
     /// [`Board::start_job`] for a host request that is answered: the refusal's code (902 not
     /// idle, 901 homing required) instead of an error event.
-    pub fn try_start_job(&mut self) -> Result<(), u16> {
+    pub(crate) fn try_start_job(&mut self) -> Result<(), u16> {
         self.start(JobKind::Machine, Streamer::ProgramServer)
     }
 
@@ -532,7 +378,7 @@ impl Board {
             return Err(ERROR_HOMING_REQUIRED);
         }
         // No line of this job has run yet (a job that runs nothing ends with `JobDone{0}`).
-        self.line = 0;
+        self.progress.line = 0;
         self.source.reset();
         self.source.serve_jumps(streamer == Streamer::ProgramServer);
         self.interp.rewind();
@@ -541,8 +387,8 @@ impl Board {
             // (grbl's `$C`: the machine position comes back with the reset that ends it).
             self.sync_interpreter_position();
         }
-        self.pending = None;
-        self.probe = ProbeCycle::Off;
+        self.progress.pending = None;
+        self.probing.cancel();
         let phase = if kind == JobKind::Machine && self.hold_input_active() {
             // The feed-hold switch is open: the job waits, held, until it closes.
             JobPhase::Hold {
@@ -572,13 +418,13 @@ impl Board {
 
     /// Free bytes of the line ring, whether or not a job takes lines: the credit the link grants
     /// (a `Start` and the job's first lines may come in one burst).
-    pub fn line_ring_free(&self) -> usize {
+    pub(crate) fn line_ring_free(&self) -> usize {
         self.source.free()
     }
 
     /// A valid run of `lines` line records from the link for place `id`, stored as it is. Lines
     /// of no running job are dropped ([`Pushed::Stale`]).
-    pub fn push_lines(&mut self, id: u16, run: &[u8], lines: usize) -> Pushed {
+    pub(crate) fn push_lines(&mut self, id: u16, run: &[u8], lines: usize) -> Pushed {
         if !self.takes_lines() {
             return Pushed::Stale;
         }
@@ -587,7 +433,7 @@ impl Board {
 
     /// A host (re)attached: if a job is running, ask it for every line after the last one the
     /// interpreter took, so a reconnect neither loses nor repeats a block.
-    pub fn resync_stream(&mut self) {
+    pub(crate) fn resync_stream(&mut self) {
         if let Some(
             JobPhase::Running(Ending::No)
             | JobPhase::Hold {
@@ -664,21 +510,21 @@ impl Board {
             p.work_offsets = s.work_offsets;
             p.g28_home = s.g28;
             p.g30_home = s.g30;
-            self.offsets_changed = true;
+            self.outbox.offsets_changed();
         }
     }
 
     /// True once after a job changed the stored offsets ([`Board::keep_stored_offsets`]): the
     /// owner writes the setup to flash.
-    pub fn take_offsets_changed(&mut self) -> bool {
-        core::mem::take(&mut self.offsets_changed)
+    pub(crate) fn take_offsets_changed(&mut self) -> bool {
+        self.outbox.take_offsets_changed()
     }
 
     /// Spindle and coolant off if the machine stands idle (a grbl sender left, `grbl/mod.rs`
     /// `Grbl::disconnect`); a job's outputs go off when it stops.
-    pub fn stop_outputs_at_rest(&mut self) {
+    pub(crate) fn stop_outputs_at_rest(&mut self) {
         if matches!(self.mode, Mode::Idle) {
-            self.program_stop();
+            self.outputs.program_stop();
         }
     }
 
@@ -690,26 +536,22 @@ impl Board {
                 why: HoldWhy::HostLost,
                 ..
             })
-        ) && self.drained
+        ) && self.sensed.drained
             && self.motion.state() == MotionState::Held;
-        if held_at_rest && self.saved_outputs.is_none() {
-            self.restore_stopped_spindle();
-            self.saved_outputs = Some(self.outputs);
-            self.outputs.spindle = Spindle::Off;
-            self.outputs.mist = false;
-            self.outputs.flood = false;
+        if held_at_rest {
+            self.outputs.host_lost_off();
         }
+    }
+
+    /// A machine job is interpreting and moving: not held, not stopping after an abort or an
+    /// alarm. Only then is a step kernel that runs dry with motion still to come an underrun.
+    pub(crate) fn job_running(&self) -> bool {
+        matches!(self.machine_job(), Some(JobPhase::Running(_)))
     }
 
     /// The phase of a machine job (not a check), if one runs. (Out of line: it was inlined 15
     /// times.)
     #[inline(never)]
-    /// A machine job is interpreting and moving: not held, not stopping after an abort or an
-    /// alarm. Only then is a step kernel that runs dry with motion still to come an underrun.
-    pub fn job_running(&self) -> bool {
-        matches!(self.machine_job(), Some(JobPhase::Running(_)))
-    }
-
     fn machine_job(&self) -> Option<JobPhase> {
         match self.mode {
             Mode::Job(Job {
@@ -763,15 +605,15 @@ impl Board {
     /// wait never ends by itself; [`link::BoardLink`] bounds it like a hold (alarm 20).
     pub fn waiting_for_lines(&self) -> bool {
         self.machine_job() == Some(JobPhase::Running(Ending::No))
-            && self.pending.is_none()
+            && self.progress.pending.is_none()
             && self.source.is_empty()
-            && self.drained
+            && self.sensed.drained
             && self.motion.state() == MotionState::Idle
     }
 
     /// The job runs on its path (not held, not at a sync point) and its program has lines to
     /// come: the end of the program has not been received and read.
-    pub fn lines_to_come(&self) -> bool {
+    pub(crate) fn lines_to_come(&self) -> bool {
         self.machine_job() == Some(JobPhase::Running(Ending::No))
             && !self.source.is_exhausted()
             && matches!(
@@ -782,7 +624,7 @@ impl Board {
 
     /// True while the feed-hold input is installed and open.
     fn hold_input_active(&self) -> bool {
-        self.setup.inputs.feed_hold && self.levels.get(Signal::FeedHold)
+        self.setup.inputs.feed_hold && self.sensed.levels.get(Signal::FeedHold)
     }
 
     /// Cycle start / resume: continue after a feed hold or an M0/M1 pause (refused while the
@@ -794,12 +636,7 @@ impl Board {
         if self.hold_input_active() {
             return;
         }
-        self.restore_stopped_spindle();
-        if why.pause() || why == HoldWhy::HostLost {
-            if let Some(saved) = self.saved_outputs.take() {
-                self.outputs = saved;
-            }
-        }
+        self.outputs.resume(why.pause() || why == HoldWhy::HostLost);
         if why.pause() {
             self.motion.release_sync();
         }
@@ -815,7 +652,7 @@ impl Board {
         if let Some(JobPhase::Hold { why, ending }) = self.machine_job() {
             // (A hold for a lost host waits for a host or a cycle start, not for the switch.)
             if why.feed() && why != HoldWhy::HostLost {
-                self.restore_stopped_spindle();
+                self.outputs.restore_stopped_spindle();
                 self.motion.resume();
                 self.set_phase(if why.pause() {
                     JobPhase::Hold {
@@ -871,15 +708,12 @@ impl Board {
     /// `alarm`, raises that alarm (with its line) instead, which switches every output off.
     /// Callers check that the job is not stopping already: the first stop wins.
     fn stop_job(&mut self, alarm: Option<(AlarmCode, u32)>) {
-        self.resume_line = self.line;
+        self.progress.resume_line = self.progress.line;
         self.motion.abort();
         self.source.reset();
-        self.pending = None;
-        // Nothing is restored any more (an M0 stop's outputs included, a stopped spindle too).
-        self.saved_outputs = None;
-        self.stopped_spindle = None;
-        self.list = None;
-        self.probe = ProbeCycle::Off;
+        self.progress.pending = None;
+        self.outputs.forget_restores();
+        self.probing.cancel();
         self.set_phase(JobPhase::Stopping {
             alarm,
             ramp: Ramp::Decelerating,
@@ -889,31 +723,22 @@ impl Board {
     /// The host has stayed away for `link.host_lost_stop_s` while the job was held or waited for
     /// lines ([`link::BoardLink`] decides): end the job and raise alarm 20 at rest (every output
     /// off), with the line it stopped in.
-    pub fn host_lost_stop(&mut self) {
+    pub(crate) fn host_lost_stop(&mut self) {
         if matches!(
             self.machine_job(),
             Some(JobPhase::Running(_) | JobPhase::Hold { .. })
         ) {
-            self.stop_job(Some((AlarmCode::HostLost, self.line)));
+            self.stop_job(Some((AlarmCode::HostLost, self.progress.line)));
         }
-    }
-
-    pub fn set_feed_override(&mut self, pct: u16) {
-        self.feed_override = pct.max(10).min(200);
-        self.motion.set_feed_override(pct);
-    }
-
-    pub fn set_rapid_override(&mut self, pct: u16) {
-        self.motion.set_rapid_override(pct);
     }
 
     /// A hard limit tripped: the kernel has already stopped stepping (docs/controller.md "Safety rules as built"). `kernel_steps`
     /// is where it stopped; the owner flushes its segment queue. The tripped axes lose home.
-    pub fn hard_limit(&mut self, axes: u8, kernel_steps: &[i64; MAX_AXES]) {
+    pub(crate) fn hard_limit(&mut self, axes: u8, kernel_steps: &[i64; MAX_AXES]) {
         self.rebuild_motion(true, kernel_steps);
         self.source.reset();
-        self.pending = None;
-        self.homed &= !axes;
+        self.progress.pending = None;
+        self.position.unhome(axes);
         let line = self.job_line();
         self.enter_alarm(AlarmCode::HardLimit, line);
     }
@@ -921,7 +746,7 @@ impl Board {
     /// The line a job is executing, for an alarm raised now (0 outside a job).
     fn job_line(&self) -> u32 {
         if self.machine_job().is_some() {
-            self.line
+            self.progress.line
         } else {
             0
         }
@@ -947,7 +772,7 @@ impl Board {
     /// homing cycle ends here when its switch alone tripped (a list's `seek` is reported to the
     /// host unless the list disabled limit reports; the cycle's own seek never is); anything else
     /// is a hard limit on the tripped axes, reported switch by switch, then alarm 1.
-    pub fn limit_stop(&mut self, levels: InputBits, kernel_steps: &[i64; MAX_AXES]) {
+    pub(crate) fn limit_stop(&mut self, levels: InputBits, kernel_steps: &[i64; MAX_AXES]) {
         let tripped = levels.0 & self.limit_arm();
         if let Some(c) = self.homing_cycle() {
             let h = &c.homing;
@@ -980,7 +805,7 @@ impl Board {
             // Stopped without a known switch: every axis's position is suspect.
             axes = (1u8 << self.setup.axis_count) - 1;
         }
-        self.disarmed |= levels.0 & LIMIT_BITS;
+        self.sensed.disarm(levels.0 & LIMIT_BITS);
         self.hard_limit(axes, kernel_steps);
     }
 
@@ -993,7 +818,7 @@ impl Board {
         let i = &self.setup.inputs;
         let installed =
             (u32::from(i.limit_min) << LIMIT_MIN_BIT) | (u32::from(i.limit_max) << LIMIT_MAX_BIT);
-        let mut arm = if i.hard_limits { installed } else { 0 } & !self.disarmed;
+        let mut arm = self.sensed.armed(if i.hard_limits { installed } else { 0 });
         if let Some(HomingCycle { homing: h, .. }) = self.homing_cycle() {
             let axis = h.axis();
             let bit = 1 << homing::switch_bit(axis, &self.setup.homing.axes[axis]);
@@ -1022,46 +847,21 @@ impl Board {
         let mut cfg = MotionConfig::from_setup(&self.setup);
         cfg.soft_limits = soft_limits;
         self.motion.reconfigure(cfg, *kernel_steps);
-        self.motion.set_feed_override(self.feed_override);
-    }
-
-    /// The program-stop sequence (docs/controller.md "How a job ends": M2/M30, abort, a job ended by an error): spindle
-    /// and coolant off, nothing saved to restore; the tool stays, and user outputs stay as the
-    /// program left them (alarms switch those off too, [`Board::outputs_safe`]).
-    fn program_stop(&mut self) {
-        self.outputs = Outputs {
-            tool: self.outputs.tool,
-            ..Outputs::SAFE
-        };
-        self.saved_outputs = None;
-        self.stopped_spindle = None;
-    }
-
-    /// Everything off (alarms, a new setup): the program-stop sequence and the user outputs.
-    fn outputs_safe(&mut self) {
-        self.program_stop();
-        self.user_outputs = 0;
-        // Loaded into the kernel even if the board's word was 0 already: an on-the-fly event
-        // may have switched an output since the last exchange.
-        self.user_loaded = None;
-        self.list = None;
+        self.motion.set_feed_override(self.overrides.feed());
     }
 
     /// Raises alarm `code` concerning program line `line` (0 = none): outputs safe, jog and job
     /// ended (`JobDone` when a job was running).
     fn enter_alarm(&mut self, code: AlarmCode, line: u32) {
         let was_running = matches!(self.mode, Mode::Job(_));
-        self.probe = ProbeCycle::Off;
-        self.outputs_safe();
-        self.jog = JogState {
-            marks: self.jog.marks,
-            ..JogState::default()
-        };
+        self.probing.cancel();
+        self.outputs.safe();
+        self.jog.end_for_alarm();
         self.mode = Mode::Alarm(code);
         self.emit(BoardEvent::Alarm { code, line });
         if was_running {
             self.emit(BoardEvent::JobDone {
-                line: self.line,
+                line: self.progress.line,
                 end: JobEnd::Alarm,
             });
         }
@@ -1076,7 +876,7 @@ impl Board {
 
     /// [`Board::unlock`], with its outcome: `Ok` when no alarm is left (or there was none),
     /// else [`ERROR_BUSY`] (still decelerating) or [`ERROR_HOMING_REQUIRED`] (alarm 11 stays).
-    pub fn try_unlock(&mut self) -> Result<(), u16> {
+    pub(crate) fn try_unlock(&mut self) -> Result<(), u16> {
         if !matches!(self.mode, Mode::Alarm(_)) {
             return Ok(());
         }
@@ -1094,7 +894,7 @@ impl Board {
             return Err(ERROR_HOMING_REQUIRED);
         }
         // The operator takes the position as it is (no homing set up, or every axis homed).
-        self.position_lost = false;
+        self.position.trust();
         if !self.motion.config().soft_limits {
             let steps = self.motion.prepared_steps();
             self.rebuild_motion(true, &steps);
@@ -1110,7 +910,7 @@ impl Board {
     /// segment kept (its exact step position and speed). Call it every main-loop pass after
     /// [`Board::poll`] and before [`Board::next_segment`]; `drop_newest` is not called when
     /// nothing is pending.
-    pub fn drop_queued(&mut self, drop_newest: impl FnOnce(usize) -> usize) {
+    pub(crate) fn drop_queued(&mut self, drop_newest: impl FnOnce(usize) -> usize) {
         if let Some(max) = self.motion.drop_request() {
             let dropped = if max > 0 {
                 drop_newest(max).min(max)
@@ -1119,7 +919,7 @@ impl Board {
             };
             self.motion.segments_dropped(dropped);
         }
-        if let Some(m) = self.jog.bend.take() {
+        if let Some(m) = self.jog.take_bend() {
             self.bend_stick_move(m);
         }
     }
@@ -1128,12 +928,12 @@ impl Board {
     pub fn next_segment(&mut self) -> Option<Segment> {
         let seg = self.motion.next_segment();
         while let Some(report) = self.motion.take_report() {
-            self.line = report.line;
+            self.progress.line = report.line;
         }
         // The block being prepared is the one about to run (segments lead the kernel by a few ms).
         if let Some(head) = self.motion.planner().head() {
             if seg.is_some() {
-                self.line = head.line;
+                self.progress.line = head.line;
                 let speed = if head.is_line() { head.programmed } else { 0 };
                 self.executing.on_block(head.seq, head.line, speed);
             }
@@ -1145,7 +945,7 @@ impl Board {
     /// the kernel has drained (`kernel_drained`: the segment queue is empty and the kernel idle),
     /// and finish the job when everything has run.
     pub fn poll(&mut self, kernel_drained: bool) {
-        self.drained = kernel_drained;
+        self.sensed.drained = kernel_drained;
         if !self.motion.config().soft_limits
             && !matches!(self.mode, Mode::Homing { .. })
             && kernel_drained
@@ -1202,7 +1002,7 @@ impl Board {
         {
             if self.motion.state() == MotionState::Idle {
                 // The deceleration may have carried the machine into the next block.
-                self.resume_line = self.line;
+                self.progress.resume_line = self.progress.line;
                 self.set_phase(JobPhase::Stopping {
                     alarm,
                     ramp: Ramp::Done,
@@ -1233,7 +1033,7 @@ impl Board {
                 return;
             }
             if end.1 {
-                self.program_stop();
+                self.outputs.program_stop();
             }
             self.mode = Mode::Idle;
             if job.kind == JobKind::Machine || how == JobEnd::Failed {
@@ -1243,7 +1043,7 @@ impl Board {
                 self.keep_stored_offsets();
             }
             self.emit(BoardEvent::JobDone {
-                line: self.line,
+                line: self.progress.line,
                 end: how,
             });
         }
@@ -1255,7 +1055,7 @@ impl Board {
                 // Nothing after a probe move is interpreted before its result is known.
                 return;
             }
-            let canon = match self.pending.take() {
+            let canon = match self.progress.pending.take() {
                 Some(c) => c,
                 None => match self.interp.next(&mut self.source) {
                     Some(Ok(c)) => c,
@@ -1291,7 +1091,7 @@ impl Board {
                     Mode::Job(job) => job.last_motion_line,
                     _ => 0,
                 };
-                if self.switches.single_block && last != 0 && canon.line != last {
+                if self.overrides.switches.single_block && last != 0 && canon.line != last {
                     // Single block: a breakpoint after each block (docs/controller.md "Run modes"), with
                     // the M0 stop/restore rules.
                     let pause = Canon {
@@ -1299,7 +1099,7 @@ impl Board {
                         action: Action::Stop(StopKind::Pause),
                     };
                     if self.motion.push(&pause).is_err() {
-                        self.pending = Some(canon);
+                        self.progress.pending = Some(canon);
                         return;
                     }
                 }
@@ -1318,7 +1118,7 @@ impl Board {
             match pushed {
                 Ok(()) => {}
                 Err(PushError::Full) => {
-                    self.pending = Some(canon);
+                    self.progress.pending = Some(canon);
                     return;
                 }
                 Err(PushError::Travel { .. }) => {
@@ -1330,7 +1130,7 @@ impl Board {
                 job.queued = true;
             }
             if matches!(canon.action, Action::Probe { .. }) {
-                self.probe = ProbeCycle::Queued;
+                self.probing.queue();
             }
         }
     }
@@ -1368,7 +1168,7 @@ impl Board {
     fn fail_at(&mut self, line: u32) {
         self.set_ending(Ending::Failed);
         if self.machine_job().is_some() {
-            self.resume_line = line;
+            self.progress.resume_line = line;
         }
     }
 
@@ -1392,13 +1192,13 @@ impl Board {
             .iter()
             .find(|l| l.code == code)?;
         let output = list.on_the_fly()?;
-        let skipped = self.switches.dry_run && list.dry_run_disabled;
+        let skipped = self.overrides.switches.dry_run && list.dry_run_disabled;
         Some((code, if skipped { OutputEvent::NONE } else { output }))
     }
 
     /// Dry run: every feed move at the setup's dry-run feed.
     fn dry_run_feed(&self, mut canon: Canon) -> Canon {
-        if self.switches.dry_run {
+        if self.overrides.switches.dry_run {
             let dry = self.setup.operator.dry_run_feed;
             match &mut canon.action {
                 Action::Feed { feed, .. } | Action::Arc { feed, .. } => *feed = dry,
@@ -1426,13 +1226,13 @@ impl Board {
                 return false;
             }
             Action::Stop(StopKind::End | StopKind::EndRewind) => {
-                self.line = canon.line;
+                self.progress.line = canon.line;
                 self.set_ending(Ending::Finished);
                 return false;
             }
             _ => {}
         }
-        self.line = canon.line;
+        self.progress.line = canon.line;
         true
     }
 
@@ -1462,45 +1262,38 @@ impl Board {
         if matches!(self.machine_job(), Some(JobPhase::Hold { why, .. }) if why.pause()) {
             return;
         }
-        if let Some(list) = self.list.as_mut() {
-            match list.step(self.now_ms, self.levels, &mut self.user_outputs) {
+        if let Some(status) = self
+            .outputs
+            .step_list(self.sensed.now_ms, self.sensed.levels)
+        {
+            match status {
                 // `seek` means nothing outside homing: the next pass continues the list.
                 ListStatus::Running | ListStatus::Seek => {}
-                ListStatus::Done => {
-                    self.list = None;
-                    self.motion.release_sync();
-                }
+                ListStatus::Done => self.motion.release_sync(),
                 ListStatus::Timeout => {
                     let steps = self.motion.prepared_steps();
                     self.rebuild_motion(true, &steps);
                     self.source.reset();
-                    self.pending = None;
+                    self.progress.pending = None;
                     self.enter_alarm(AlarmCode::ListInputTimeout, canon.line);
                 }
             }
             return;
         }
-        self.line = canon.line;
+        self.progress.line = canon.line;
         match canon.action {
             // Dry run: spindle and coolant stay as they are (the GIXA controller: S has no effect).
-            Action::Spindle { .. } | Action::Coolant { .. } if self.switches.dry_run => {}
+            Action::Spindle { .. } | Action::Coolant { .. } if self.overrides.switches.dry_run => {}
             Action::Spindle { state, rpm } => {
-                self.stopped_spindle = None;
-                self.outputs.spindle = state;
-                self.outputs.rpm = rpm;
+                self.outputs.set_spindle(state, rpm);
             }
             Action::Coolant { mist, flood } => {
-                self.outputs.mist = mist;
-                self.outputs.flood = flood;
+                self.outputs.set_coolant(mist, flood);
             }
             Action::ToolChange { tool } => {
-                self.outputs.tool = tool;
                 // A manual tool change (docs/probing.md "Tool change"): at rest, spindle and
                 // coolant off (not restored), until cycle start or the host resumes.
-                self.saved_outputs = None;
-                self.outputs.spindle = Spindle::Off;
-                self.outputs.mist = false;
-                self.outputs.flood = false;
+                self.outputs.tool_change(tool);
                 let (why, ending) = match self.machine_job() {
                     Some(JobPhase::Hold { ending, .. }) => (HoldWhy::FeedAndPause, ending),
                     Some(JobPhase::Running(ending)) => (HoldWhy::ToolChange { tool }, ending),
@@ -1520,18 +1313,17 @@ impl Board {
                     .mcode_lists
                     .iter()
                     .find(|l| l.code == code);
-                if let Some(l) = list.filter(|l| !(self.switches.dry_run && l.dry_run_disabled)) {
-                    self.list = Some(ListRunner::new(&l.commands));
+                if let Some(l) =
+                    list.filter(|l| !(self.overrides.switches.dry_run && l.dry_run_disabled))
+                {
+                    self.outputs.run_list(&l.commands);
                     self.perform_sync();
                     return;
                 }
             }
             Action::Stop(StopKind::Pause | StopKind::OptionalPause) => {
                 // The GIXA controller's stop rule: spindle and coolant off while stopped, restored on resume.
-                self.saved_outputs = Some(self.outputs);
-                self.outputs.spindle = Spindle::Off;
-                self.outputs.mist = false;
-                self.outputs.flood = false;
+                self.outputs.pause();
                 let (why, ending) = match self.machine_job() {
                     Some(JobPhase::Hold { ending, .. }) => (HoldWhy::FeedAndPause, ending),
                     Some(JobPhase::Running(ending)) => (HoldWhy::Pause, ending),
@@ -1541,7 +1333,7 @@ impl Board {
                 return;
             }
             Action::Stop(StopKind::End | StopKind::EndRewind) => {
-                self.program_stop();
+                self.outputs.program_stop();
                 self.set_ending(Ending::Finished);
             }
             _ => {}
@@ -1566,7 +1358,7 @@ impl Board {
     /// those the block the kernel runs was queued under (`board/executing.rs`), not the
     /// interpreter's, which has read ahead; otherwise (idle, jogging, homing, a job with nothing
     /// planned) the interpreter's.
-    pub fn executing_modes(&self) -> BlockModes {
+    pub(crate) fn executing_modes(&self) -> BlockModes {
         if matches!(self.mode, Mode::Job(_)) && !self.motion.planner().is_empty() {
             *self.executing.active()
         } else {
@@ -1576,7 +1368,7 @@ impl Board {
 
     /// Programmed speed of the block being executed, µm/min (rapids: their limit); 0 when
     /// nothing is planned.
-    pub fn programmed_feed_um_min(&self) -> u32 {
+    pub(crate) fn programmed_feed_um_min(&self) -> u32 {
         if self.motion.planner().is_empty() {
             return 0;
         }
@@ -1585,15 +1377,8 @@ impl Board {
 
     /// Output levels for the pins (spindle enable/direction/PWM, coolant, user outputs).
     pub fn output_levels(&self) -> OutputLevels {
-        let o = &self.outputs;
-        OutputLevels {
-            spindle_enable: o.spindle != Spindle::Off,
-            spindle_ccw: o.spindle == Spindle::Ccw,
-            spindle_pwm: spindle_duty(&self.setup.outputs, o.spindle, self.overridden_rpm()),
-            mist: o.mist,
-            flood: o.flood,
-            user: self.user_outputs,
-        }
+        self.outputs
+            .levels(&self.setup.outputs, self.overrides.spindle())
     }
 
     /// Exchanges the user output word with the owner of the step kernel, once per main-loop pass
@@ -1604,46 +1389,20 @@ impl Board {
     /// and drive onto the pins; otherwise it takes the kernel's word, so the board's levels (status,
     /// stop/restore rules) never lag the pins by more than one pass. The board only switches
     /// outputs at rest or with the kernel stopped, so the two never change the same word at once.
-    pub fn sync_user_outputs(&mut self, kernel_word: u16) -> Option<u16> {
-        if self.user_loaded != Some(self.user_outputs) {
-            self.user_loaded = Some(self.user_outputs);
-            return Some(self.user_outputs);
-        }
-        self.user_outputs = kernel_word;
-        self.user_loaded = Some(kernel_word);
-        None
+    pub(crate) fn sync_user_outputs(&mut self, kernel_word: u16) -> Option<u16> {
+        self.outputs.sync_user(kernel_word)
     }
 
     /// A new step position for the kernel (homing set home): the owner loads it into the kernel
     /// (`StepKernel::set_position`) right after the [`Board::poll`] that produced it, before
     /// handing out new segments. The kernel is at rest then.
-    pub fn take_position_reset(&mut self) -> Option<[i64; MAX_AXES]> {
-        self.position_reset.take()
-    }
-
-    /// Dry run on or off (only while idle): feed moves at `operator.dry_run_feed`, spindle and
-    /// coolant untouched, M-code lists flagged `dry_run_disabled` skipped.
-    pub fn set_dry_run(&mut self, on: bool) -> bool {
-        if !matches!(self.mode, Mode::Idle) {
-            return false;
-        }
-        self.switches.dry_run = on;
-        true
-    }
-
-    /// Single block on or off (any time): the job stops after each block until cycle start.
-    pub fn set_single_block(&mut self, on: bool) {
-        self.switches.single_block = on;
-    }
-
-    /// Feed-rate override in force, percent.
-    pub fn feed_override(&self) -> u16 {
-        self.feed_override
+    pub(crate) fn take_position_reset(&mut self) -> Option<[i64; MAX_AXES]> {
+        self.position.take_reset()
     }
 
     /// The debounced input levels the controller last saw.
     pub fn inputs(&self) -> InputBits {
-        self.levels
+        self.sensed.levels
     }
 }
 

@@ -20,6 +20,53 @@ pub(super) struct RunSwitches {
     pub single_block: bool,
 }
 
+/// What the board last heard from its owner: the main-loop time and debounced input levels of
+/// the last [`Board::on_inputs`], the kernel's drained flag of the last [`Board::poll`], and the
+/// limit switches ignored until they release.
+pub(super) struct Sensed {
+    /// Main-loop time, ms.
+    pub(super) now_ms: u32,
+    /// Debounced logical input levels.
+    pub(super) levels: InputBits,
+    /// The kernel was drained (segment queue empty, kernel idle).
+    pub(super) drained: bool,
+    /// Limit bits ignored until they release (a switch still pressed when the alarm was raised).
+    disarmed: u32,
+}
+
+impl Sensed {
+    /// Nothing heard yet: time 0, every input low, the kernel drained.
+    #[inline(always)]
+    pub(super) const fn new() -> Self {
+        Sensed {
+            now_ms: 0,
+            levels: InputBits(0),
+            drained: true,
+            disarmed: 0,
+        }
+    }
+
+    /// A new input sample; returns the levels before it. A disarmed limit switch re-arms once it
+    /// has released.
+    fn sample(&mut self, now_ms: u32, levels: InputBits) -> InputBits {
+        let prev = self.levels;
+        self.now_ms = now_ms;
+        self.levels = levels;
+        self.disarmed &= levels.0;
+        prev
+    }
+
+    /// Ignores the limit bits of `bits` until they release.
+    pub(super) fn disarm(&mut self, bits: u32) {
+        self.disarmed |= bits;
+    }
+
+    /// The limit bits of `installed` not disarmed.
+    pub(super) fn armed(&self, installed: u32) -> u32 {
+        installed & !self.disarmed
+    }
+}
+
 impl Board {
     /// Cycle start: resumes a hold, an M0/M1/single-block stop or a tool-change stop.
     pub fn cycle_start(&mut self) {
@@ -33,12 +80,14 @@ impl Board {
     /// `changed` the bits that changed with this sample, `adc` the analog readings. Drives feed
     /// hold, abort, cycle start, the switches (single block, optional stop, block delete), the
     /// feed-override potentiometer and the joystick.
-    pub fn on_inputs(&mut self, now_ms: u32, levels: InputBits, changed: u32, adc: AdcReadings) {
-        let prev = self.levels;
-        self.now_ms = now_ms;
-        self.levels = levels;
-        // A disarmed limit switch re-arms once it has released.
-        self.disarmed &= levels.0;
+    pub(crate) fn on_inputs(
+        &mut self,
+        now_ms: u32,
+        levels: InputBits,
+        changed: u32,
+        adc: AdcReadings,
+    ) {
+        let prev = self.sensed.sample(now_ms, levels);
         let rose = |s: Signal| changed & (1 << s as u32) != 0 && levels.get(s);
         let fell = |s: Signal| changed & (1 << s as u32) != 0 && !levels.get(s);
         let inputs = self.setup.inputs;
@@ -65,7 +114,7 @@ impl Board {
             self.cycle_start();
         }
         if changed & (1 << Signal::SingleBlock as u32) != 0 {
-            self.switches.single_block = levels.get(Signal::SingleBlock);
+            self.overrides.switches.single_block = levels.get(Signal::SingleBlock);
         }
         if changed & (1 << Signal::OptionalStop as u32) != 0 {
             self.interp
@@ -79,8 +128,7 @@ impl Board {
             let op = &self.setup.operator;
             let pct = fro_from_adc(raw, inputs.adc_max, op.fro_low, op.fro_high);
             // Applied when the pot moves, so a host override stays until the knob is turned.
-            if self.fro_pot != Some(pct) {
-                self.fro_pot = Some(pct);
+            if self.overrides.pot_moved(pct) {
                 self.set_feed_override(pct);
             }
         }

@@ -48,22 +48,59 @@ pub struct ProbeResult {
     pub number: u16,
 }
 
+/// The job's probe move and the last result.
+pub(super) struct Probing {
+    cycle: ProbeCycle,
+    result: Option<ProbeResult>,
+}
+
+impl Probing {
+    /// No probe move, no result yet.
+    #[inline(always)]
+    pub(super) const fn new() -> Self {
+        Probing {
+            cycle: ProbeCycle::Off,
+            result: None,
+        }
+    }
+
+    /// A probe move reached the motion queue: it waits at its sync point.
+    pub(super) fn queue(&mut self) {
+        self.cycle = ProbeCycle::Queued;
+    }
+
+    /// No probe move any more (a new job, a stop, an alarm).
+    pub(super) fn cancel(&mut self) {
+        self.cycle = ProbeCycle::Off;
+    }
+
+    /// Records a finished probe move's result, numbered on from the last one.
+    fn record(&mut self, position: Pos, success: bool) {
+        let number = self.result.map_or(1, |p| p.number.wrapping_add(1));
+        self.result = Some(ProbeResult {
+            position,
+            success,
+            number,
+        });
+    }
+}
+
 impl Board {
     /// The result of the last probe move since power-up.
     pub fn probe_result(&self) -> Option<ProbeResult> {
-        self.probe_result
+        self.probing.result
     }
 
     /// A probe move of the job waits at its sync point, moves or decelerates: its result is not
     /// known yet (the grbl front end holds the probe line's `ok` until then).
-    pub fn probing(&self) -> bool {
-        self.probe != ProbeCycle::Off
+    pub(crate) fn probing(&self) -> bool {
+        !matches!(self.probing.cycle, ProbeCycle::Off)
     }
 
     /// The raw probe pin level that must trip the step kernel's probe latch now (`None`: the
     /// latch stays off). The main loop arms the kernel with it before handing out segments.
-    pub fn probe_arm(&self) -> Option<bool> {
-        match self.probe {
+    pub(crate) fn probe_arm(&self) -> Option<bool> {
+        match self.probing.cycle {
             ProbeCycle::Moving { trips_at, .. } => Some(trips_at),
             _ => None,
         }
@@ -71,10 +108,10 @@ impl Board {
 
     /// The step kernel latched the probe at `kernel_steps`: stop the move with a planned
     /// deceleration (the kernel keeps stepping what the stop needs).
-    pub fn probe_tripped(&mut self, kernel_steps: &[i64; MAX_AXES]) {
-        if let ProbeCycle::Moving { line, .. } = self.probe {
+    pub(crate) fn probe_tripped(&mut self, kernel_steps: &[i64; MAX_AXES]) {
+        if let ProbeCycle::Moving { line, .. } = self.probing.cycle {
             let at = self.motion.config().to_nm(kernel_steps);
-            self.probe = ProbeCycle::Stopping { line, at };
+            self.probing.cycle = ProbeCycle::Stopping { line, at };
             self.motion.abort();
         }
     }
@@ -87,8 +124,8 @@ impl Board {
         };
         self.motion.release_sync();
         // Logical level the move looks for: touching (active) toward, clear away.
-        if self.levels.get(Signal::Probe) == mode.toward {
-            self.probe = ProbeCycle::Off;
+        if self.sensed.levels.get(Signal::Probe) == mode.toward {
+            self.probing.cycle = ProbeCycle::Off;
             self.stop_job(Some((AlarmCode::ProbeFailInitial, canon.line)));
             return;
         }
@@ -99,7 +136,7 @@ impl Board {
         };
         match self.motion.push(&feed_move) {
             Ok(()) => {
-                self.probe = ProbeCycle::Moving {
+                self.probing.cycle = ProbeCycle::Moving {
                     mode,
                     line: canon.line,
                     trips_at: mode.toward ^ invert,
@@ -108,7 +145,7 @@ impl Board {
             // Only a travel error can happen: the queue was empty at the sync point, so it is
             // never full here (handled the same way, without a panic path for it).
             Err(PushError::Travel { .. } | PushError::Full) => {
-                self.probe = ProbeCycle::Off;
+                self.probing.cycle = ProbeCycle::Off;
                 self.soft_limit(canon.line);
             }
         }
@@ -118,7 +155,7 @@ impl Board {
     /// continues, or alarm 5 for a G38.2/G38.4 without a change.
     pub(super) fn poll_probe(&mut self, kernel_drained: bool) {
         if !matches!(
-            self.probe,
+            self.probing.cycle,
             ProbeCycle::Moving { .. } | ProbeCycle::Stopping { .. }
         ) || !kernel_drained
             || self.motion.state() != MotionState::Idle
@@ -126,39 +163,30 @@ impl Board {
             return;
         }
         let here = self.motion.queued_position();
-        let number = self.probe_result.map_or(1, |p| p.number.wrapping_add(1));
-        match self.probe {
+        match self.probing.cycle {
             ProbeCycle::Stopping { line, at } => {
-                self.line = line;
+                self.progress.line = line;
                 self.interp.probe_done(here, Some(at));
-                self.probe_result = Some(ProbeResult {
-                    position: at,
-                    success: true,
-                    number,
-                });
+                self.probing.record(at, true);
             }
             ProbeCycle::Moving { mode, line, .. } => {
-                self.line = line;
+                self.progress.line = line;
                 self.interp.probe_done(here, None);
-                self.probe_result = Some(ProbeResult {
-                    position: here,
-                    success: false,
-                    number,
-                });
+                self.probing.record(here, false);
                 if mode.must_trip {
-                    self.probe = ProbeCycle::Off;
+                    self.probing.cycle = ProbeCycle::Off;
                     self.stop_job(Some((AlarmCode::ProbeFailContact, line)));
                     return;
                 }
             }
             _ => {}
         }
-        self.probe = ProbeCycle::Off;
+        self.probing.cycle = ProbeCycle::Off;
     }
 
     /// The interpreter must wait: a probe move is queued or under way.
     pub(super) fn probe_busy(&self) -> bool {
-        self.probe != ProbeCycle::Off
+        !matches!(self.probing.cycle, ProbeCycle::Off)
             && matches!(
                 self.mode,
                 Mode::Job(Job {

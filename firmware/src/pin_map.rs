@@ -1,4 +1,5 @@
-//! Board glue: expands a `boards/*.rs` table into configured embassy drivers.
+//! Pin-map glue: expands a `boards/*.rs` table into configured embassy drivers (the chosen table
+//! itself is `main.rs`'s `pin_table` module).
 //!
 //! `gantry_board!` is invoked by the board file chosen with the `board-*` feature (see `main.rs`);
 //! `gantry_boards::board_table!` reads the table (the same reader as the host check in
@@ -109,16 +110,16 @@ macro_rules! pwm_channel {
         ch
     }};
     (@new $p:ident, $tim:ident, $pin:ident, 1) => {
-        SimplePwm::new($p.$tim, $pin, None, None, None, embassy_stm32::time::Hertz($crate::board::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
+        SimplePwm::new($p.$tim, $pin, None, None, None, embassy_stm32::time::Hertz($crate::pin_map::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
     };
     (@new $p:ident, $tim:ident, $pin:ident, 2) => {
-        SimplePwm::new($p.$tim, None, $pin, None, None, embassy_stm32::time::Hertz($crate::board::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
+        SimplePwm::new($p.$tim, None, $pin, None, None, embassy_stm32::time::Hertz($crate::pin_map::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
     };
     (@new $p:ident, $tim:ident, $pin:ident, 3) => {
-        SimplePwm::new($p.$tim, None, None, $pin, None, embassy_stm32::time::Hertz($crate::board::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
+        SimplePwm::new($p.$tim, None, None, $pin, None, embassy_stm32::time::Hertz($crate::pin_map::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
     };
     (@new $p:ident, $tim:ident, $pin:ident, 4) => {
-        SimplePwm::new($p.$tim, None, None, None, $pin, embassy_stm32::time::Hertz($crate::board::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
+        SimplePwm::new($p.$tim, None, None, None, $pin, embassy_stm32::time::Hertz($crate::pin_map::SPINDLE_PWM_HZ), CountingMode::EdgeAlignedUp)
     };
 }
 
@@ -192,43 +193,43 @@ macro_rules! expand_board {
         use embassy_stm32::gpio::{Input, Level, Output, Pull, Speed};
         use embassy_stm32::mode::Async;
         use embassy_stm32::{peripherals, Peri};
-        use $crate::board::PinId;
+        use $crate::pin_map::PinId;
 
         /// Board name (as in boards/README.md).
         pub const NAME: &str = $name;
         /// probe-rs chip name for flashing.
         pub const PROBE_CHIP: &str = $chip;
         /// Clock tree numbers.
-        pub const CLOCKS: $crate::board::Clocks = $clocks;
+        pub const CLOCKS: $crate::pin_map::Clocks = $clocks;
         /// Number of stepper axes wired (X Y Z A ... order).
         pub const AXES: usize = [$(stringify!($step)),+].len();
         /// Step pins, axis order.
-        pub const STEP: [PinId; AXES] = [$($crate::board::pin(stringify!($step))),+];
+        pub const STEP: [PinId; AXES] = [$($crate::pin_map::pin(stringify!($step))),+];
         /// Dir pins, axis order.
-        pub const DIR: [PinId; AXES] = [$($crate::board::pin(stringify!($dir))),+];
+        pub const DIR: [PinId; AXES] = [$($crate::pin_map::pin(stringify!($dir))),+];
         /// Number of user outputs.
         pub const USER_OUTPUTS: usize = [$(stringify!($out)),+].len();
         /// User output pins, output 0 first (the step ISR switches them by register for the
         /// on-the-fly events).
-        pub const USER_PINS: [PinId; USER_OUTPUTS] = [$($crate::board::pin(stringify!($out))),+];
+        pub const USER_PINS: [PinId; USER_OUTPUTS] = [$($crate::pin_map::pin(stringify!($out))),+];
         /// Outputs that are low in the safe state: spindle enable/dir/PWM, coolant, user outputs.
         pub const SAFE_LOW: [PinId; 5 + USER_OUTPUTS] = [
-            $crate::board::pin(stringify!($sp_en)),
-            $crate::board::pin(stringify!($sp_dir)),
-            $crate::board::pin(stringify!($sp_pwm)),
-            $crate::board::pin(stringify!($flood)),
-            $crate::board::pin(stringify!($mist)),
-            $($crate::board::pin(stringify!($out))),+
+            $crate::pin_map::pin(stringify!($sp_en)),
+            $crate::pin_map::pin(stringify!($sp_dir)),
+            $crate::pin_map::pin(stringify!($sp_pwm)),
+            $crate::pin_map::pin(stringify!($flood)),
+            $crate::pin_map::pin(stringify!($mist)),
+            $($crate::pin_map::pin(stringify!($out))),+
         ];
         /// Touch probe input (pull-up, the probe closes to ground): the step interrupt reads
         /// its pin every tick (`step::PROBE_GPIO`), the input task samples it for the status.
-        pub const PROBE: PinId = $crate::board::pin(stringify!($probe));
+        pub const PROBE: PinId = $crate::pin_map::pin(stringify!($probe));
         /// Stepper enable pin (active low: high = steppers disabled, the safe state).
-        pub const STEPPER_ENABLE: PinId = $crate::board::pin(stringify!($en));
+        pub const STEPPER_ENABLE: PinId = $crate::pin_map::pin(stringify!($en));
 
         const _: () = assert!(AXES <= 6, "the step tables cover 6 axes");
-        const _: () = assert!($crate::board::same_port(&STEP), "step pins must share one port");
-        const _: () = assert!($crate::board::same_port(&DIR), "dir pins must share one port");
+        const _: () = assert!($crate::pin_map::same_port(&STEP), "step pins must share one port");
+        const _: () = assert!($crate::pin_map::same_port(&DIR), "dir pins must share one port");
         const _: () = assert!(USER_OUTPUTS >= 4, "at least four user outputs");
         const _: () = assert!(USER_OUTPUTS <= 16, "the core switches at most 16 user outputs");
         const _: () = assert!(
@@ -317,7 +318,7 @@ macro_rules! expand_board {
             let out = |pin: Peri<'static, embassy_stm32::gpio::AnyPin>, level| {
                 Output::new(pin, level, Speed::Low)
             };
-            let irqs = $crate::board::Irqs;
+            let irqs = $crate::pin_map::Irqs;
             let pins = Pins {
                 step_dir: [
                     $(fast(p.$step.into()),)+
