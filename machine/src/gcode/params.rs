@@ -37,13 +37,20 @@ const GLOBAL: u8 = 0xFF;
 
 /// Keeps the entries `wanted` accepts, in their order: `retain` without heapless's drop guard,
 /// whose overlapping copy links a 1.5 KiB `memmove` into the firmware.
+/// Checked splits and `get` rather than indexing: no bounds-check panic paths.
 fn keep<T: Copy, const N: usize>(v: &mut heapless::Vec<T, N>, wanted: impl Fn(&T) -> bool) {
     let mut kept = 0;
     for i in 0..v.len() {
-        if wanted(&v[i]) {
-            if kept < i {
-                let (front, back) = v.split_at_mut(i);
-                copy_entry(&mut front[kept], &back[0]);
+        let Some((front, back)) = v.split_at_mut_checked(i) else {
+            break;
+        };
+        let Some(entry) = back.first() else {
+            break;
+        };
+        if wanted(entry) {
+            // Slot `kept` lies before entry `i` once an earlier entry was dropped.
+            if let Some(slot) = front.get_mut(kept) {
+                copy_entry(slot, entry);
             }
             kept += 1;
         }
