@@ -216,5 +216,30 @@ mod tests {
         assert_eq!(run("#1 = [2 * 3] #<a>=#2 G0").unwrap(), (" G0".into(), 2));
         assert_eq!(run("X SIN[0] Y2").unwrap(), ("X0.000000000 Y2".into(), 0));
         assert_eq!(run("#1 5").unwrap_err(), ErrorCode::ExpressionSyntax);
+        // A comment without `)` runs to the end of the line; `;` ends it.
+        assert_eq!(
+            run("X#1 (open [#2").unwrap(),
+            ("X1.000000000(open [#2".into(), 0)
+        );
+        assert_eq!(run("Y#2;#3").unwrap(), ("Y2.000000000;#3".into(), 0));
+    }
+
+    #[test]
+    fn values_are_written_with_nine_places_at_both_extremes() {
+        let written = |v: Fx| {
+            let mut out = Expanded::new();
+            assert!(write_fx(&mut out, v));
+            String::from_utf8(out.to_vec()).unwrap()
+        };
+        assert_eq!(written(0), "0.000000000");
+        assert_eq!(written(-1), "-0.000000001");
+        assert_eq!(written(12 * ONE + 5), "12.000000005");
+        assert_eq!(written(Fx::MAX), "9223372036.854775807");
+        assert_eq!(written(Fx::MIN), "-9223372036.854775808");
+        // A full line refuses the value (and keeps what it had).
+        let mut out = Expanded::new();
+        while out.push(b'G').is_ok() {}
+        assert!(!write_fx(&mut out, ONE));
+        assert_eq!(out.len(), EXPANDED_MAX);
     }
 }
