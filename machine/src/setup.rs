@@ -436,7 +436,9 @@ impl Setup {
         c.g28_position = p.g28_home;
         c.g30_position = p.g30_home;
         c.tool_change_position = p.tool_change_position;
-        c.tools[..p.tools.len()].copy_from_slice(&p.tools);
+        for (slot, tool) in c.tools.iter_mut().zip(&p.tools) {
+            *slot = *tool;
+        }
         for &code in &p.user_mcodes {
             c.add_user_m_code(code);
         }
@@ -451,7 +453,7 @@ impl Setup {
     /// Encodes the setup for flash and the link ([`blob`]); `None` if it does not fit `out`.
     pub fn to_blob<'a>(&self, out: &'a mut [u8]) -> Option<&'a mut [u8]> {
         let len = blob::encode(self, out, 0, false)?;
-        Some(&mut out[..len])
+        out.get_mut(..len)
     }
 
     /// Encodes bytes `from .. from + out.len()` of the blob into `out` (a chunk for the link,

@@ -121,10 +121,14 @@ impl<'a> Lexer<'a> {
             match self.line[self.pos] {
                 b'(' => {
                     let start = self.pos;
-                    match self.line[start..].iter().position(|&c| c == b')') {
+                    // `get` rather than slicing: no bounds-check panic paths.
+                    let rest = self.line.get(start..).unwrap_or_default();
+                    match rest.iter().position(|&c| c == b')') {
                         Some(off) => {
                             // rs274 stops on `(a (b)`: a comment may not hold another `(`.
-                            if let Some(inner) = self.line[start + 1..start + off]
+                            if let Some(inner) = rest
+                                .get(1..off)
+                                .unwrap_or_default()
                                 .iter()
                                 .position(|&c| c == b'(')
                             {
