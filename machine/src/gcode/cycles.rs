@@ -163,31 +163,38 @@ impl CycleRun {
         })
     }
 
-    /// The hole's position in the plane (`program` at the plane axes). This and the setters
-    /// below are the run's only indexing of `program` by `axes`: one bounds check each instead of
-    /// one per use (flash).
+    /// Program position of axis `axis`. This and [`Self::set`] are the run's only indexing of
+    /// `program`: one bounds check each instead of one per use (flash).
     #[inline(never)]
+    fn at(&self, axis: usize) -> Nm {
+        self.program[axis]
+    }
+
+    /// Moves axis `axis` to `v` (program position).
+    #[inline(never)]
+    fn set(&mut self, axis: usize, v: Nm) {
+        self.program[axis] = v;
+    }
+
+    /// The hole's position in the plane.
     fn plane(&self) -> (Nm, Nm) {
-        (self.program[self.axes.0], self.program[self.axes.1])
+        (self.at(self.axes.0), self.at(self.axes.1))
     }
 
     /// Moves the hole in the plane.
-    #[inline(never)]
     fn set_plane(&mut self, at: (Nm, Nm)) {
-        self.program[self.axes.0] = at.0;
-        self.program[self.axes.1] = at.1;
+        self.set(self.axes.0, at.0);
+        self.set(self.axes.1, at.1);
     }
 
     /// The drilling-axis position.
-    #[inline(never)]
     fn c(&self) -> Nm {
-        self.program[self.axes.2]
+        self.at(self.axes.2)
     }
 
     /// Moves the drilling axis.
-    #[inline(never)]
     fn set_c(&mut self, c: Nm) {
-        self.program[self.axes.2] = c;
+        self.set(self.axes.2, c);
     }
 
     /// The next hole: one G91 increment in the plane.
