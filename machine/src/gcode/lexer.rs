@@ -267,7 +267,8 @@ impl<'a> Lexer<'a> {
         let (frac, extra) = if frac_digits <= 6 {
             (frac * SCALE[frac_digits + 3], 0)
         } else {
-            (frac, extra * SCALE[frac_digits])
+            // At most 9 digits (`min`: no bounds-check panic path).
+            (frac, extra * SCALE[frac_digits.min(9)])
         };
         let mut value = int_part as i64 * MICRO + frac as i64;
         let mut nano = extra as i16;
