@@ -436,7 +436,9 @@ impl Setup {
         c.g28_position = p.g28_home;
         c.g30_position = p.g30_home;
         c.tool_change_position = p.tool_change_position;
-        c.tools[..p.tools.len()].copy_from_slice(&p.tools);
+        for (slot, tool) in c.tools.iter_mut().zip(&p.tools) {
+            *slot = *tool;
+        }
         for &code in &p.user_mcodes {
             c.add_user_m_code(code);
         }
@@ -451,7 +453,7 @@ impl Setup {
     /// Encodes the setup for flash and the link ([`blob`]); `None` if it does not fit `out`.
     pub fn to_blob<'a>(&self, out: &'a mut [u8]) -> Option<&'a mut [u8]> {
         let len = blob::encode(self, out, 0, false)?;
-        Some(&mut out[..len])
+        out.get_mut(..len)
     }
 
     /// Encodes bytes `from .. from + out.len()` of the blob into `out` (a chunk for the link,
@@ -477,15 +479,14 @@ impl Setup {
         self.validate().is_ok()
     }
 
-    /// Axis `axis` at its max rate leaves every step period long enough for the step pulse of
+    /// Axis `a` (one of [`Self::axes`]) at its max rate leaves every step period long enough for the step pulse of
     /// [`Self::drivers`], the pin low as long again and the step interrupt's writes
     /// ([`StepTiming::min_period`]); else the step interrupt would stretch the periods and the
     /// machine would run slower than planned. The dir set-up is not part of it: only the period
     /// before a direction change holds it ([`StepTiming::period`]), a few µs per reversal.
     /// Exact: `max_rate · steps / (units · 60)` steps/s times the period in timer counts must not
     /// exceed the timer's counts per second (compared multiplied out, no rounding).
-    pub fn step_rate_fits(&self, axis: usize) -> bool {
-        let a = &self.axes[axis];
+    pub fn step_rate_fits(&self, a: &AxisSetup) -> bool {
         let period = StepTiming::from_setup(&self.drivers).min_period;
         let need = a.max_rate.max(0) as u128 * u128::from(a.steps) * u128::from(period);
         let have = a.units_nm.max(1) as u128 * 60 * u128::from(KERNEL_TIMER_HZ);
@@ -680,10 +681,10 @@ mod tests {
             dir_setup_ns: 50_000,
         };
         assert_eq!(StepTiming::from_setup(&s.drivers).min_period, 376);
-        assert!(!s.step_rate_fits(0));
+        assert!(!s.step_rate_fits(&s.axes[0]));
         assert!(!s.is_valid());
         s.drivers.step_pulse_ns = 15_583; // 187 counts: a 374-count period fits
-        assert!(s.step_rate_fits(0));
+        assert!(s.step_rate_fits(&s.axes[0]));
         assert!(s.is_valid());
         // Axes beyond axis_count do not count.
         s.axes[5].max_rate *= 10;

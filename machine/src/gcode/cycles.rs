@@ -163,14 +163,54 @@ impl CycleRun {
         })
     }
 
+    /// Program position of axis `axis`. This and [`Self::set`] are the run's only indexing of
+    /// `program`: one bounds check each instead of one per use (flash).
+    #[inline(never)]
+    fn at(&self, axis: usize) -> Nm {
+        self.program[axis]
+    }
+
+    /// Moves axis `axis` to `v` (program position).
+    #[inline(never)]
+    fn set(&mut self, axis: usize, v: Nm) {
+        self.program[axis] = v;
+    }
+
+    /// The hole's position in the plane.
+    fn plane(&self) -> (Nm, Nm) {
+        (self.at(self.axes.0), self.at(self.axes.1))
+    }
+
+    /// Moves the hole in the plane.
+    fn set_plane(&mut self, at: (Nm, Nm)) {
+        self.set(self.axes.0, at.0);
+        self.set(self.axes.1, at.1);
+    }
+
+    /// The drilling-axis position.
+    fn c(&self) -> Nm {
+        self.at(self.axes.2)
+    }
+
+    /// Moves the drilling axis.
+    fn set_c(&mut self, c: Nm) {
+        self.set(self.axes.2, c);
+    }
+
+    /// The next hole: one G91 increment in the plane.
+    fn advance(&mut self) {
+        let (a, b) = self.plane();
+        self.set_plane((a + self.inc.0, b + self.inc.1));
+    }
+
     fn rapid_c(&mut self, c: Nm, out: &mut impl FnMut(Canon)) {
-        self.program[self.axes.2] = c;
+        self.set_c(c);
         let to = self.machine();
         self.push(out, Action::Rapid { to });
     }
 
     fn feed_c(&mut self, c: Nm, out: &mut impl FnMut(Canon)) {
-        self.program[self.axes.2] = c;
+        self.set_c(c);
         let to = self.machine();
         let feed = self.feed;
         self.push(out, Action::Feed { to, feed });
@@ -178,14 +218,13 @@ impl CycleRun {
 
     /// Rapid to plane position (`pa`, `pb`) at drilling level `c`.
     fn rapid_abc(&mut self, pa: Nm, pb: Nm, c: Nm, out: &mut impl FnMut(Canon)) {
-        self.program[self.axes.0] = pa;
-        self.program[self.axes.1] = pb;
+        self.set_plane((pa, pb));
         self.rapid_c(c, out)
     }
 
     /// The hole's plane position and the G87 offset position.
     fn hole_and_offset(&self) -> ((Nm, Nm), (Nm, Nm)) {
-        let hole = (self.program[self.axes.0], self.program[self.axes.1]);
+        let hole = self.plane();
         let (oa, ob) = self.back_bore_offset;
         (hole, (hole.0 + oa, hole.1 + ob))
     }
@@ -230,13 +269,11 @@ impl CycleRun {
     /// in the plane at the current level, then to R; a punch stops there for its M code).
     #[inline(always)]
     fn position(&mut self, out: &mut impl FnMut(Canon)) -> bool {
-        let (a, b, _) = self.axes;
         if self.repeats_left == 0 {
             return false;
         }
-        let current_c = self.program[self.axes.2];
-        self.program[a] += self.inc.0;
-        self.program[b] += self.inc.1;
+        let current_c = self.c();
+        self.advance();
         self.polar_move();
         // The plane axes hold the hole already: each rapid below goes there too.
         if self.gixa {
@@ -411,9 +448,8 @@ impl CycleRun {
 
     /// One G91 polar increment of the hole position (LinuxCNC: radius, then angle).
     fn polar_move(&mut self) {
-        let (a, b, _) = self.axes;
         if let Some((dr, da)) = self.polar_step {
-            let at = (self.program[a], self.program[b]);
+            let at = self.plane();
             let step = |r: Option<Nm>, d: Option<i64>, at| {
                 super::geometry::polar_end(at, r, d, false).unwrap_or(at)
             };
@@ -424,35 +460,27 @@ impl CycleRun {
             if da != 0 {
                 at = step(None, Some(da), at);
             }
-            (self.program[a], self.program[b]) = at;
+            self.set_plane(at);
         }
     }
 
     /// Program position after the whole run (for the interpreter's state).
     pub fn final_program_position(&self) -> Pos {
-        let (a, b, c) = self.axes;
+        let mut run = *self;
         if self.polar_step.is_some() {
-            let mut run = *self;
             for _ in 0..self.repeats_left {
-                run.program[a] += run.inc.0;
-                run.program[b] += run.inc.1;
+                run.advance();
                 run.polar_move();
             }
-            let mut p = run.program;
-            if self.body != CycleBody::Punch {
-                p[c] = self.clear;
-            }
-            return p;
+        } else {
+            let n = self.repeats_left as i64;
+            let (a, b) = run.plane();
+            run.set_plane((a + self.inc.0 * n, b + self.inc.1 * n));
         }
-        let mut p = self.program;
-        let n = self.repeats_left as i64;
-        p[a] += self.inc.0 * n;
-        p[b] += self.inc.1 * n;
-        if self.body == CycleBody::Punch {
-            // Punching never moves the drilling axis.
-            return p;
+        // Punching never moves the drilling axis.
+        if self.body != CycleBody::Punch {
+            run.set_c(self.clear);
         }
-        p[c] = self.clear;
-        p
+        run.program
     }
 }

@@ -42,39 +42,37 @@ pub fn needs_expansion(line: &[u8]) -> bool {
 
 /// Writes a value as a decimal with nine places; false if the line is full.
 pub fn write_fx(out: &mut Expanded, v: Fx) -> bool {
-    let mut buf = [0u8; 24];
-    let mut n = 0;
+    // Written from the end (nine decimals, the point, the integer's digits, the sign: at most
+    // 9 + 1 + 20 + 1 bytes) through an iterator over the slots: no indexing, so no
+    // bounds-check panic paths.
+    let mut buf = [0u8; 31];
+    let mut len = 0;
+    let mut slots = buf.iter_mut().rev();
+    let mut put = |c: u8| {
+        if let Some(slot) = slots.next() {
+            *slot = c;
+            len += 1;
+        }
+    };
     let a = v.unsigned_abs();
-    let (int, frac) = (a / ONE as u64, a % ONE as u64);
-    if v < 0 {
-        buf[n] = b'-';
-        n += 1;
+    let (mut int, mut frac) = (a / ONE as u64, a % ONE as u64);
+    for _ in 0..9 {
+        put(b'0' + (frac % 10) as u8);
+        frac /= 10;
     }
-    let mut digits = [0u8; 20];
-    let mut d = 0;
-    let mut i = int;
+    put(b'.');
     loop {
-        digits[d] = b'0' + (i % 10) as u8;
-        d += 1;
-        i /= 10;
-        if i == 0 {
+        put(b'0' + (int % 10) as u8);
+        int /= 10;
+        if int == 0 {
             break;
         }
     }
-    while d > 0 {
-        d -= 1;
-        buf[n] = digits[d];
-        n += 1;
+    if v < 0 {
+        put(b'-');
     }
-    buf[n] = b'.';
-    n += 1;
-    let mut f = frac;
-    for k in (0..9).rev() {
-        buf[n + k] = b'0' + (f % 10) as u8;
-        f /= 10;
-    }
-    n += 9;
-    out.extend_from_slice(&buf[..n]).is_ok()
+    let text = buf.get(buf.len() - len..).unwrap_or(&[]);
+    out.extend_from_slice(text).is_ok()
 }
 
 /// True if a function name followed by `[` starts at the cursor.
@@ -102,19 +100,23 @@ pub fn expand(
     let too_long = (ErrorCode::ExpressionSyntax, (0, line.len() as u16));
     let full = |_| too_long;
     let mut i = 0;
-    while i < line.len() {
-        let ch = line[i];
+    while let Some(rest) = line.get(i..) {
+        let Some(&ch) = rest.first() else {
+            break;
+        };
         match ch {
             b'(' => {
-                let end = line[i..]
+                // The comment through its `)` (the rest of the line without one).
+                let comment = rest
                     .iter()
                     .position(|&c| c == b')')
-                    .map_or(line.len(), |p| i + p + 1);
-                out.extend_from_slice(&line[i..end]).map_err(full)?;
-                i = end;
+                    .and_then(|p| rest.get(..=p))
+                    .unwrap_or(rest);
+                out.extend_from_slice(comment).map_err(full)?;
+                i += comment.len();
             }
             b';' => {
-                out.extend_from_slice(&line[i..]).map_err(full)?;
+                out.extend_from_slice(rest).map_err(full)?;
                 break;
             }
             b'#' => {
@@ -214,5 +216,30 @@ mod tests {
         assert_eq!(run("#1 = [2 * 3] #<a>=#2 G0").unwrap(), (" G0".into(), 2));
         assert_eq!(run("X SIN[0] Y2").unwrap(), ("X0.000000000 Y2".into(), 0));
         assert_eq!(run("#1 5").unwrap_err(), ErrorCode::ExpressionSyntax);
+        // A comment without `)` runs to the end of the line; `;` ends it.
+        assert_eq!(
+            run("X#1 (open [#2").unwrap(),
+            ("X1.000000000(open [#2".into(), 0)
+        );
+        assert_eq!(run("Y#2;#3").unwrap(), ("Y2.000000000;#3".into(), 0));
+    }
+
+    #[test]
+    fn values_are_written_with_nine_places_at_both_extremes() {
+        let written = |v: Fx| {
+            let mut out = Expanded::new();
+            assert!(write_fx(&mut out, v));
+            String::from_utf8(out.to_vec()).unwrap()
+        };
+        assert_eq!(written(0), "0.000000000");
+        assert_eq!(written(-1), "-0.000000001");
+        assert_eq!(written(12 * ONE + 5), "12.000000005");
+        assert_eq!(written(Fx::MAX), "9223372036.854775807");
+        assert_eq!(written(Fx::MIN), "-9223372036.854775808");
+        // A full line refuses the value (and keeps what it had).
+        let mut out = Expanded::new();
+        while out.push(b'G').is_ok() {}
+        assert!(!write_fx(&mut out, ONE));
+        assert_eq!(out.len(), EXPANDED_MAX);
     }
 }

@@ -110,12 +110,14 @@ pub fn name_hash(name: &[u8]) -> u32 {
 pub fn read_name(c: &mut Cursor<'_>) -> Result<(u32, bool), ExprError> {
     c.expect(b'<')?;
     let start = c.pos;
-    let end = c.line[start..]
+    // `get` rather than slicing: no bounds-check panic paths (`start` is within the line).
+    let rest = c.line.get(start..).unwrap_or_default();
+    let len = rest
         .iter()
         .position(|&b| b == b'>')
-        .map(|p| start + p)
         .ok_or((ErrorCode::ExpressionSyntax, start))?;
-    let name = &c.line[start..end];
+    let name = rest.get(..len).unwrap_or_default();
+    let end = start + len;
     let first = name.iter().find(|b| !b.is_ascii_whitespace());
     if first.is_none() {
         return syntax(start);

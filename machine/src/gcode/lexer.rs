@@ -121,10 +121,14 @@ impl<'a> Lexer<'a> {
             match self.line[self.pos] {
                 b'(' => {
                     let start = self.pos;
-                    match self.line[start..].iter().position(|&c| c == b')') {
+                    // `get` rather than slicing: no bounds-check panic paths.
+                    let rest = self.line.get(start..).unwrap_or_default();
+                    match rest.iter().position(|&c| c == b')') {
                         Some(off) => {
                             // rs274 stops on `(a (b)`: a comment may not hold another `(`.
-                            if let Some(inner) = self.line[start + 1..start + off]
+                            if let Some(inner) = rest
+                                .get(1..off)
+                                .unwrap_or_default()
                                 .iter()
                                 .position(|&c| c == b'(')
                             {
@@ -263,7 +267,8 @@ impl<'a> Lexer<'a> {
         let (frac, extra) = if frac_digits <= 6 {
             (frac * SCALE[frac_digits + 3], 0)
         } else {
-            (frac, extra * SCALE[frac_digits])
+            // At most 9 digits (`min`: no bounds-check panic path).
+            (frac, extra * SCALE[frac_digits.min(9)])
         };
         let mut value = int_part as i64 * MICRO + frac as i64;
         let mut nano = extra as i16;

@@ -176,10 +176,12 @@ pub fn parse(line: &[u8]) -> Option<OLine> {
     let mut end = c.pos;
     let label = if c.peek() == Some(b'<') {
         let open = c.pos;
-        let close = line[open..].iter().position(|&b| b == b'>')? + open;
-        c.pos = close + 1;
+        // `get` rather than slicing: no bounds-check panic paths.
+        let rest = line.get(open..)?;
+        let len = rest.iter().position(|&b| b == b'>')?;
+        c.pos = open + len + 1;
         end = c.pos;
-        (1u64 << 32) | name_hash(&line[open + 1..close]) as u64
+        (1u64 << 32) | name_hash(rest.get(1..len)?) as u64
     } else {
         let mut n: u64 = 0;
         let mut any = false;

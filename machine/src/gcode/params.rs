@@ -37,13 +37,20 @@ const GLOBAL: u8 = 0xFF;
 
 /// Keeps the entries `wanted` accepts, in their order: `retain` without heapless's drop guard,
 /// whose overlapping copy links a 1.5 KiB `memmove` into the firmware.
+/// Checked splits and `get` rather than indexing: no bounds-check panic paths.
 fn keep<T: Copy, const N: usize>(v: &mut heapless::Vec<T, N>, wanted: impl Fn(&T) -> bool) {
     let mut kept = 0;
     for i in 0..v.len() {
-        if wanted(&v[i]) {
-            if kept < i {
-                let (front, back) = v.split_at_mut(i);
-                copy_entry(&mut front[kept], &back[0]);
+        let Some((front, back)) = v.split_at_mut_checked(i) else {
+            break;
+        };
+        let Some(entry) = back.first() else {
+            break;
+        };
+        if wanted(entry) {
+            // Slot `kept` lies before entry `i` once an earlier entry was dropped.
+            if let Some(slot) = front.get_mut(kept) {
+                copy_entry(slot, entry);
             }
             kept += 1;
         }
@@ -118,6 +125,19 @@ fn system(n: u16) -> Option<System> {
     }
 }
 
+/// Length `i` of the modal state's lengths `p` (a system parameter's): one bounds check for
+/// all of them (each indexing had its panic path).
+#[inline(never)]
+fn at(p: &[Nm], i: usize) -> Nm {
+    p[i]
+}
+
+/// The length [`at`] reads, to write.
+#[inline(never)]
+fn at_mut(p: &mut [Nm], i: usize) -> &mut Nm {
+    &mut p[i]
+}
+
 impl Params {
     /// Empty tables.
     pub fn new() -> Self {
@@ -134,14 +154,16 @@ impl Params {
                 if let Some(sys) = system(n) {
                     let len = |nm: Nm| nm_to_fx(nm, false);
                     return Ok(match sys {
-                        System::G28(i) => len(s.g28[i]),
-                        System::G30(i) => len(s.g30[i]),
-                        System::G92(i) => len(s.g92[i]),
+                        System::G28(i) => len(at(&s.g28, i)),
+                        System::G30(i) => len(at(&s.g30, i)),
+                        System::G92(i) => len(at(&s.g92, i)),
                         System::ActiveWorkOffset => (s.work_system as Fx + 1) * ONE,
-                        System::Work(w, i) => len(s.work_offsets[w][i]),
+                        System::Work(w, i) => {
+                            len(at(s.work_offsets.as_flattened(), w * MAX_AXES + i))
+                        }
                         System::Tool => s.tool_loaded as Fx * ONE,
-                        System::ToolOffset(i) => len(s.tool_offset[i]),
-                        System::Position(i) => nm_to_fx(s.program_position()[i], s.inch),
+                        System::ToolOffset(i) => len(at(&s.tool_offset, i)),
+                        System::Position(i) => nm_to_fx(at(&s.program_position(), i), s.inch),
                     });
                 }
                 Ok(self.numbered.iter().find(|e| e.0 == n).map_or(0, |e| e.1))
@@ -184,10 +206,12 @@ impl Params {
                 if let Some(sys) = system(n) {
                     let nm = fx_to_nm(v, false);
                     match sys {
-                        System::G28(i) => s.g28[i] = nm,
-                        System::G30(i) => s.g30[i] = nm,
-                        System::G92(i) => s.g92[i] = nm,
-                        System::Work(w, i) => s.work_offsets[w][i] = nm,
+                        System::G28(i) => *at_mut(&mut s.g28, i) = nm,
+                        System::G30(i) => *at_mut(&mut s.g30, i) = nm,
+                        System::G92(i) => *at_mut(&mut s.g92, i) = nm,
+                        System::Work(w, i) => {
+                            *at_mut(s.work_offsets.as_flattened_mut(), w * MAX_AXES + i) = nm
+                        }
                         _ => return Err(ErrorCode::ParameterNumberInvalid),
                     }
                     return Ok(());

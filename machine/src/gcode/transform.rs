@@ -99,19 +99,23 @@ impl Transform {
         if inverse && self.rotating {
             turn(&mut p, -self.angle);
         }
-        for (i, v) in p.iter_mut().enumerate() {
+        // Zipped rather than indexed: no bounds-check panic paths.
+        let per_axis = self
+            .mirror_twice
+            .iter()
+            .zip(&self.factor)
+            .zip(&self.scale_center);
+        for (i, (v, ((&twice, &f), &c))) in p.iter_mut().zip(per_axis).enumerate() {
             let mirror = self.mirror >> i & 1 != 0;
             if mirror && !inverse {
-                *v = self.mirror_twice[i] - *v;
+                *v = twice - *v;
             }
-            let f = self.factor[i];
             if f != ONE && i != keep {
                 let (n, d) = if inverse { (ONE, f) } else { (f, ONE) };
-                let c = self.scale_center[i];
                 *v = c + div_round((*v - c) as i128 * n as i128, d as i128) as Nm;
             }
             if mirror && inverse {
-                *v = self.mirror_twice[i] - *v;
+                *v = twice - *v;
             }
         }
         if !inverse && self.rotating {

@@ -39,7 +39,13 @@ pub struct Chain {
 impl Chain {
     /// A chain of the one move from `start` to `to`; `None` when the move is too long to merge.
     pub fn new(start: &Pos, to: &Pos, line: u32, speed: u64, axes: usize) -> Option<Chain> {
-        if (0..axes).any(|i| (to[i] - start[i]).abs() > MAX_CHORD) {
+        // Zipped rather than indexed: no bounds-check panic path.
+        if to
+            .iter()
+            .zip(start)
+            .take(axes)
+            .any(|(t, s)| (t - s).abs() > MAX_CHORD)
+        {
             return None;
         }
         let mut points = Vec::new();

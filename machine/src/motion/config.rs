@@ -131,12 +131,18 @@ impl MotionConfig {
         }
     }
 
+    /// The axis count as an index bound the compiler knows is within `MAX_AXES` (loops over the
+    /// axes then index without bounds checks).
+    pub fn axis_count_in_bounds(&self) -> usize {
+        usize::from(self.axis_count).min(MAX_AXES)
+    }
+
     /// Step position of a machine position (exact rational conversion per axis). Out of line:
     /// its few callers (position changes, not the per-line path) share one copy.
     #[inline(never)]
     pub fn to_steps(&self, p: &Pos) -> [i64; MAX_AXES] {
         let mut s = [0; MAX_AXES];
-        for i in 0..self.axis_count as usize {
+        for i in 0..self.axis_count_in_bounds() {
             s[i] = self.axes[i].nm_to_steps(p[i]);
         }
         s
@@ -145,7 +151,7 @@ impl MotionConfig {
     /// Machine position (nm) of a step position.
     pub fn to_nm(&self, s: &[i64; MAX_AXES]) -> Pos {
         let mut p = [0; MAX_AXES];
-        for i in 0..self.axis_count as usize {
+        for i in 0..self.axis_count_in_bounds() {
             p[i] = self.axes[i].steps_to_nm(s[i]);
         }
         p
@@ -156,7 +162,7 @@ impl MotionConfig {
         if !self.soft_limits {
             return None;
         }
-        (0..self.axis_count as usize)
+        (0..self.axis_count_in_bounds())
             .find(|&i| p[i] < self.axes[i].travel_min || p[i] > self.axes[i].travel_max)
     }
 }

@@ -92,7 +92,8 @@ pub fn round(
     let chord_tolerance = cfg.chord_tolerance.max(1) as u64;
     let mut n = MAX_VERTICES as i64;
     let mut vertex_cos = 0u64;
-    for k in 1..=MAX_VERTICES as i64 {
+    // A half-open range: with `1..=` the compiler kept a division-by-zero check below.
+    for k in 1..MAX_VERTICES as i64 + 1 {
         let c = polar(UNIT, alpha / (2 * k)).0.max(1) as u64;
         if mul_div(r, UNIT as u64, c) - r <= chord_tolerance || k == MAX_VERTICES as i64 {
             (n, vertex_cos) = (k, c);

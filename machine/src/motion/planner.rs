@@ -491,7 +491,7 @@ impl<const N: usize> Planner<N> {
         if self.is_full() {
             return false;
         }
-        let axes = cfg.axis_count as usize;
+        let axes = cfg.axis_count_in_bounds();
         let mut steps = [0u32; MAX_AXES];
         let mut delta = [0i64; MAX_AXES];
         let mut dir = 0u8;
@@ -693,7 +693,7 @@ pub struct Direction {
 /// The direction of a move by `delta` (nm per axis) and what the axes allow along it; `None`
 /// for no move. (The same limits [`Planner::push_block`] applies.)
 pub fn direction(cfg: &MotionConfig, delta: &[i64; MAX_AXES]) -> Option<Direction> {
-    let axes = cfg.axis_count as usize;
+    let axes = cfg.axis_count_in_bounds();
     let len_sq: u128 = delta[..axes]
         .iter()
         .map(|d| d.unsigned_abs() as u128 * d.unsigned_abs() as u128)
@@ -788,7 +788,7 @@ pub fn junction_limit_sq(
     cur: &[i64; MAX_AXES],
     deviation: u64,
 ) -> u64 {
-    let axes = cfg.axis_count as usize;
+    let axes = cfg.axis_count_in_bounds();
     let mut dot: i64 = 0;
     let mut jump_sq: u64 = 0;
     for i in 0..axes {

@@ -328,7 +328,8 @@ macro_rules! code_unit_enum {
             }
             fn dec(&mut self, r: &mut Reader) {
                 const ALL: &[$t] = &[$($t::$v),*];
-                *self = ALL[r.variant(ALL.len())];
+                // `variant` is below `ALL.len()`; `get` leaves no bounds-check panic path.
+                *self = ALL.get(r.variant(ALL.len())).copied().unwrap_or(ALL[0]);
             }
         }
     )*};

@@ -7,7 +7,8 @@
 //! [`ROWS`] is what the board needs (ranges, grbl numbers); [`TEXT`] holds the names and doc
 //! text, which only host code reads, so the firmware's linker drops it.
 
-use super::Setup;
+use super::{AxisSetup, HomingAxis, Setup};
+use crate::gcode::Tool;
 
 /// Where a row's key lives in the setup file, and how many times it repeats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -139,13 +140,19 @@ pub struct Row {
 impl Row {
     /// Smallest allowed value, core units.
     pub fn min(&self) -> i64 {
-        BOUNDS[usize::from(self.lo)]
+        bound_at(self.lo)
     }
 
     /// Largest allowed value, core units.
     pub fn max(&self) -> i64 {
-        BOUNDS[usize::from(self.hi)]
+        bound_at(self.hi)
     }
+}
+
+/// Bound `i` of [`BOUNDS`]: one bounds check for both ends of every row.
+#[inline(never)]
+fn bound_at(i: u8) -> i64 {
+    BOUNDS[usize::from(i)]
 }
 
 /// Every range bound of the table, core units.
@@ -267,28 +274,28 @@ table! {
         |s, _i| i64::from(s.axis_count);
         [] "1-6 letters, a prefix of X Y Z A B C" "`[\"X\",\"Y\",\"Z\"]`" "axes in use",
     Steps => Axis "steps_per[0]" Count (1, u32::MAX as i64), 100,
-        |s, i| i64::from(s.axes[i].steps);
+        |s, i| i64::from(axis(s, i).steps);
         [] "" "" "exact ratio `[steps, distance]`: this many motor steps move the axis this far (the GIXA controller's \"Ratiometric Steps per Unit\"); long moves never drift. grbl `$100`+i writes steps per mm as an exact ratio",
     StepUnits => Axis "steps_per[1]" Mm (1, nm_of_mm(10_000)), NO_GRBL,
-        |s, i| s.axes[i].units_nm;
+        |s, i| axis(s, i).units_nm;
         [] "" "" "",
     MaxRate => Axis "max_rate" MmPerMin (nm_of_mm(1), nm_of_mm(200_000)), 110,
-        |s, i| s.axes[i].max_rate;
+        |s, i| axis(s, i).max_rate;
         [] "" "" "highest speed of the axis (rapid rate); its step rate must fit the drivers' timing (`[drivers]`)",
     Accel => Axis "accel" MmPerS2 (nm_of_mm(1), nm_of_mm(100_000)), 120,
-        |s, i| s.axes[i].accel;
+        |s, i| axis(s, i).accel;
         [] "" "" "acceleration",
     StartSpeed => Axis "start_speed" MmPerMin (0, nm_of_mm(200_000)), NO_GRBL,
-        |s, i| s.axes[i].start_speed;
+        |s, i| axis(s, i).start_speed;
         [] "0-`max_rate`" "" "speed the axis can reach instantly from rest (the GIXA controller's \"Starting Speed\")",
     TravelMin => Axis "travel[0]" Mm LENGTH, NO_GRBL,
-        |s, i| s.axes[i].travel_min;
+        |s, i| axis(s, i).travel_min;
         [] "±100000, min ≤ max" "" "soft-limit box `[min, max]` in machine coordinates; a block that would leave it never moves: error 900 when it is the job's first action (MDI), else the job stops on its path with alarm 2; jogs stop at it. grbl `$130`+i is max - min (writing it moves max)",
     TravelMax => Axis "travel[1]" Mm LENGTH, 130,
-        |s, i| s.axes[i].travel_max;
+        |s, i| axis(s, i).travel_max;
         [] "" "" "",
     InvertDir => Axis "invert_dir" Bool (0, 1), 3,
-        |s, i| i64::from(s.axes[i].invert_dir);
+        |s, i| i64::from(axis(s, i).invert_dir);
         [] "" "" "reverse the direction output (grbl `$3`, a mask of all axes)",
 
     JunctionDeviation => Path "junction_deviation" Mm (0, nm_of_mm(10)), 11,
@@ -339,13 +346,13 @@ table! {
         [] "inside each axis's travel" "none" "where M6 moves before its stop, machine coordinates: an inline table of the axes to move, e.g. `{ X = 0.0, Y = 200.0, Z = 0.0 }`; Z first, then the others (docs/probing.md \"The tool-change position\")",
 
     ToolNumber => Tool "number" Count (1, u32::MAX as i64), NO_GRBL,
-        |s, i| i64::from(s.program.tools[i].number);
+        |s, i| i64::from(tool(s, i).number);
         [] "≥ 1, unique" "—" "T number",
     ToolLength => Tool "length" Mm (-nm_of_mm(1000), nm_of_mm(1000)), NO_GRBL,
-        |s, i| s.program.tools[i].length;
+        |s, i| tool(s, i).length;
         [] "" "`0`" "tool length offset applied by G43 H",
     ToolDiameter => Tool "diameter" Mm (0, nm_of_mm(1000)), NO_GRBL,
-        |s, i| s.program.tools[i].diameter;
+        |s, i| tool(s, i).diameter;
         [] "" "`0`" "diameter, used by cutter compensation (`G41 D<n>`, `G42 D<n>`; docs/gcode-compensation.md)",
 
     ResumeNeedsCycleStart => Operator "resume_needs_cycle_start" Bool (0, 1), NO_GRBL,
@@ -405,22 +412,22 @@ table! {
         |_s, _i| 0;
         [] "≤ 8 list commands" "`[]`" "run after the retract (and set home)",
     Priority => HomingAxis "priority" Count (0, 255), NO_GRBL,
-        |s, i| i64::from(s.homing.axes[i].priority);
+        |s, i| i64::from(homing_axis(s, i).priority);
         [] "" "" "order of the seek, lower first, one axis at a time; 0 = the axis is not homed (grbl `$22` reads 1 when an axis has a priority)",
     Seek => HomingAxis "seek" Choice (0, 1), 23,
-        |s, i| i64::from(s.homing.axes[i].seek_low);
+        |s, i| i64::from(homing_axis(s, i).seek_low);
         ["high", "low"] "" "" "seek the min or the max switch (grbl `$23`, a mask of all axes)",
     SeekRate => HomingAxis "seek_rate" MmPerMin SPEED, 24,
-        |s, i| s.homing.axes[i].seek_rate;
+        |s, i| homing_axis(s, i).seek_rate;
         [] "" "" "constant seek speed. Keep it at or below the axis `start_speed` so the seek has no ramp and the switch stops it without lost steps (grbl `$24` and `$25` write every axis)",
     Retract => HomingAxis "retract" Mm (0, nm_of_mm(1000)), 27,
-        |s, i| s.homing.axes[i].retract;
+        |s, i| homing_axis(s, i).retract;
         [] "" "" "back-off from the switch at the rapid rate; must release the switch (else alarm 8) (grbl `$27` writes every axis)",
     SetHome => HomingAxis "set_home" Bool (0, 1), NO_GRBL,
-        |s, i| i64::from(s.homing.axes[i].set_home);
+        |s, i| i64::from(homing_axis(s, i).set_home);
         [] "" "" "after the retract, the axis position becomes `home_position`",
     HomePosition => HomingAxis "home_position" Mm LENGTH, NO_GRBL,
-        |s, i| s.homing.axes[i].home_position;
+        |s, i| homing_axis(s, i).home_position;
         [] "" "" "machine position of the axis after the retract",
 
     Pair0 => Jog "pair0" Text ANY, NO_GRBL,
@@ -497,6 +504,25 @@ table! {
     M6Stop => Grbl "m6_stop" Bool (0, 1), NO_GRBL,
         |s, _i| i64::from(s.grbl.m6_stop);
         [] "" "" "in grbl mode, `M6` stops for a manual tool change (`Hold:0`, `~` continues), which every sender shows as a hold with its resume button; `false`: grbl 1.1's `error:20`, for senders that handle the tool change themselves and expect grbl's answer (docs/grbl.md)",
+}
+
+/// Axis `i` of `s` for the per-axis rows of [`Key::value`]: one bounds check for all of them
+/// (indexing in each row gave each its own panic path, about 30 bytes of flash apiece).
+#[inline(never)]
+fn axis(s: &Setup, i: usize) -> &AxisSetup {
+    &s.axes[i]
+}
+
+/// Homing axis `i` of `s` (as [`axis`]).
+#[inline(never)]
+fn homing_axis(s: &Setup, i: usize) -> &HomingAxis {
+    &s.homing.axes[i]
+}
+
+/// Tool `i` of `s` (as [`axis`]).
+#[inline(never)]
+fn tool(s: &Setup, i: usize) -> &Tool {
+    &s.program.tools[i]
 }
 
 impl Key {

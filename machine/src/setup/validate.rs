@@ -109,7 +109,7 @@ impl Setup {
             return Err(err(Key::AnalogDeadband, 0, band.into(), adc.into(), e));
         }
         for (i, a) in self.axes[..n].iter().enumerate() {
-            if !self.step_rate_fits(i) {
+            if !self.step_rate_fits(a) {
                 let e = Reason::StepRateTooHigh {
                     steps: a.steps,
                     units_nm: a.units_nm,
