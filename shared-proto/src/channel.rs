@@ -383,7 +383,6 @@ impl<T: Wire, R: Wire, const TQ: usize, Q: QueuedRecv, const TRT: usize, const R
         bytes: &[u8],
         data: &mut impl FnMut(&mut Q, u16, &[u8]) -> DataOutcome,
     ) {
-        let mut payload = [0u8; MAX_PAYLOAD];
         let mut rest = bytes;
         while !rest.is_empty() {
             let (used, frame) = self.decoder.push_run(rest);
@@ -391,6 +390,8 @@ impl<T: Wire, R: Wire, const TQ: usize, Q: QueuedRecv, const TRT: usize, const R
             let Some(frame) = frame else {
                 continue;
             };
+            // Per frame, not per call: a call per 64-byte USB chunk zeroed it for nothing.
+            let mut payload = [0u8; MAX_PAYLOAD];
             let header = frame.header;
             let n = frame.payload.len().min(MAX_PAYLOAD);
             if let (Some(to), Some(from)) = (payload.get_mut(..n), frame.payload.get(..n)) {
