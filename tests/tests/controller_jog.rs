@@ -117,6 +117,27 @@ fn mark_reports_the_position_and_mark_with_release_leaves_jog() {
     enter_joystick_leave(&mut eb);
 }
 
+/// Mark ids count since power-up (docs/ports.md): a setup pushed between two marks does not
+/// start them again at 1, so a teach-in list keeps one numbering.
+#[test]
+fn mark_ids_go_on_across_a_new_setup() {
+    let mut eb = board(|_| {});
+    let press_mark = |eb: &mut EmulatedBoard| {
+        set(eb, Signal::Mark, true);
+        eb.run_ms(2);
+        set(eb, Signal::Mark, false);
+        eb.run_ms(2);
+        eb.board.take_mark().expect("mark event").id
+    };
+    enter_joystick(&mut eb);
+    assert_eq!(press_mark(&mut eb), 1);
+    enter_joystick_leave(&mut eb);
+    let setup = eb.board.setup().clone();
+    assert!(eb.board.set_setup(setup));
+    enter_joystick(&mut eb);
+    assert_eq!(press_mark(&mut eb), 2);
+}
+
 fn enter_joystick_leave(eb: &mut EmulatedBoard) {
     set(eb, Signal::Release, true);
     eb.run_ms(2);

@@ -74,8 +74,9 @@ pub(super) struct JogState {
 }
 
 impl JogState {
-    /// An alarm ends every jog: nothing planned, stopping or due; the Mark count goes on.
-    pub(super) fn end_for_alarm(&mut self) {
+    /// Every jog ends (an alarm, a new setup): nothing planned, stopping or due; the Mark count
+    /// goes on (ids count since power-up).
+    pub(super) fn end_all(&mut self) {
         *self = JogState {
             marks: self.marks,
             ..JogState::default()

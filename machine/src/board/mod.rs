@@ -292,7 +292,7 @@ impl Board {
         self.motion.set_feed_override(self.overrides.feed());
         self.source.reset();
         self.progress.pending = None;
-        self.jog = JogState::default();
+        self.jog.end_all();
         self.outputs.safe();
         if self.homing_missing() {
             self.mode = Mode::Alarm(AlarmCode::HomingRequired);
@@ -856,7 +856,7 @@ impl Board {
         let was_running = matches!(self.mode, Mode::Job(_));
         self.probing.cancel();
         self.outputs.safe();
-        self.jog.end_for_alarm();
+        self.jog.end_all();
         self.mode = Mode::Alarm(code);
         self.emit(BoardEvent::Alarm { code, line });
         if was_running {
