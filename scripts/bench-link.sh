@@ -68,7 +68,8 @@ PY
   out=$("$G" stream --no-check --port "$pty" "$prog" 2>&1 | grep -v '^progress:')
   kill "$EMU"; wait "$EMU" 2>/dev/null || true; EMU=
   took=$(echo "$out" | sed -n 's/^time: *\([0-9.]*\) s.*/\1/p')
-  under=$(echo "$out" | sed -n 's/^underruns: \([0-9]*\).*/\1/p')
+  # The board's own count (a pty-attached board's report has none): the emulator's last line.
+  under=$(sed -n 's/^emulate: underruns \([0-9]*\)$/\1/p' "$WORK/emu.log" | tail -n 1)
   ratio=$(python3 -c "print(f'{$took/$planned:.4f}')")
   rate=$(python3 -c "print(round($feed / 60 / $step))")
   echo "$LINES lines of $step mm at F$feed ($rate lines/s), cpu model $CPU: planned $planned s, streamed $took s, ratio $ratio, underruns ${under:-?}"
