@@ -88,4 +88,16 @@ pub mod clock {
             }
         }
     }
+
+    /// Counts × 1000 of an empty [`now`] pair: what each timed call's own two reads add
+    /// (the benchmarks subtract it per timed call).
+    pub fn timer_overhead() -> u64 {
+        const N: u64 = 1000;
+        let mut acc = 0u64;
+        for _ in 0..N {
+            let p0 = now();
+            acc += core::hint::black_box(now()) - p0;
+        }
+        acc * 1000 / N
+    }
 }

@@ -29,7 +29,7 @@ use gantry_machine::board::Board;
 use gantry_machine::setup::Setup;
 use gantry_proto::lines::{push_record, record_len, BATCH_MAX};
 use gantry_proto::{Config, HostEndpoint, HostMsg, Lane, LineBatch, MAX_FRAME_LEN};
-use gantry_target_tests::clock::{self, now};
+use gantry_target_tests::clock::{self, now, timer_overhead};
 use gantry_target_tests::program::{padded_line, TextLine};
 use gantry_target_tests::{exit, println};
 
@@ -247,17 +247,6 @@ impl Rig {
 fn fail(why: &str) -> ! {
     println!("bench_link: {}", why);
     exit(false)
-}
-
-/// Counts × 1000 of an empty `now()` pair (subtracted per timed call).
-fn timer_overhead() -> u64 {
-    const N: u64 = 1000;
-    let mut acc = 0u64;
-    for _ in 0..N {
-        let p0 = now();
-        acc += black_box(now()) - p0;
-    }
-    acc * 1000 / N
 }
 
 /// Instructions × 1000 of the stage counts `counts` over `calls` timed calls.

@@ -23,7 +23,7 @@ use gantry_machine::motion::config::MotionConfig;
 use gantry_machine::motion::kernel::{Segment, SegmentSource, StepKernel, TickOut};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::motion::pipeline::{Motion, PushError};
-use gantry_target_tests::clock::{self, now};
+use gantry_target_tests::clock::{self, now, timer_overhead};
 use gantry_target_tests::program::program_line;
 use gantry_target_tests::{exit, println};
 
@@ -150,17 +150,6 @@ fn block_cost(blend: bool) -> (u64, u64) {
         total * 1000 / BLOCKS as u64,
         push_counts * 1000 / BLOCKS as u64,
     )
-}
-
-/// Counts × 1000 of an empty `now()` pair (subtracted from the per-stage figures).
-fn timer_overhead() -> u64 {
-    const N: u64 = 1000;
-    let mut acc = 0u64;
-    for _ in 0..N {
-        let p0 = now();
-        acc += black_box(now()) - p0;
-    }
-    acc * 1000 / N
 }
 
 /// Per short G1 line streamed through the board's path (`StreamSource` → `Interpreter::next` →
