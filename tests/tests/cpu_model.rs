@@ -2,6 +2,9 @@
 //! streamed to the emulated board with the F411 model on shows underruns at a feed the F411
 //! cannot keep up with, and none at a feed it can; without the model the same fast job has none.
 
+mod fine_lines;
+
+use fine_lines::{fine_lines, Wording};
 use gantry_machine::setup::Setup;
 use host_sender::cpu_model::CpuModel;
 use host_sender::emulator::EmulatedBoard;
@@ -23,38 +26,14 @@ fn fast_machine() -> Setup {
 }
 
 /// 10,000 lines of `step_um` µm along a straight 3D line (X, with Y and Z drifting), from
-/// X −250 mm.
+/// X −250 mm, written short.
 fn fine_program(feed_mm_min: u32, step_um: i64) -> String {
-    let mut p = format!("G21 G90\nG0 X-250 Y0 Z0\nG1 F{feed_mm_min}\n");
-    for i in 1..=10_000i64 {
-        // µm: X `step_um` per line, Y and Z 0.02 (written to 5 decimals of a mm).
-        let (x, yz) = (-250_000 + i * step_um, i * 2);
-        let sign = if x < 0 { "-" } else { "" };
-        p.push_str(&format!(
-            "X{sign}{}.{:03} Y0.{yz:05} Z-0.{yz:05}\n",
-            x.abs() / 1000,
-            x.abs() % 1000
-        ));
-    }
-    p.push_str("M30\n");
-    p
+    fine_lines(-250, 10_000, step_um, feed_mm_min, Wording::Short)
 }
 
-/// [`fine_program`]'s moves with each X written as a sum with a parameter of a long name (0): 143
-/// bytes a line instead of 30, so the link, not the board's CPU, is what cannot keep up (the board
-/// takes at most `RX_BYTES_PER_PASS`, 512 B, a millisecond: ~3,500 such lines a second).
+/// [`fine_program`]'s moves, 143 bytes a line ([`Wording::Wordy`]).
 fn wordy_program(feed_mm_min: u32, step_um: i64) -> String {
-    const NAME: &str =
-        "_a_parameter_whose_long_name_makes_each_line_of_this_program_take_more_bytes_on_the_wire";
-    let fine = fine_program(feed_mm_min, step_um);
-    let mut p = format!("#<{NAME}>=0\n");
-    for line in fine.lines() {
-        match line.strip_prefix('X').and_then(|l| l.split_once(' ')) {
-            Some((x, rest)) => p.push_str(&format!("X[{x}+#<{NAME}>] {rest}\n")),
-            None => p.push_str(&format!("{line}\n")),
-        }
-    }
-    p
+    fine_lines(-250, 10_000, step_um, feed_mm_min, Wording::Wordy)
 }
 
 /// Streams `program` to the emulated fast machine; returns the gaps, the machine seconds and

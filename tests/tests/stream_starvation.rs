@@ -3,8 +3,10 @@
 //! over a pty to `gantry emulate --cpu-model f411` lose time, the example job streamed to the
 //! emulated board loses none.
 
+mod fine_lines;
 mod serial_support;
 
+use fine_lines::{fine_lines, Wording};
 use serial_support::*;
 use std::time::Duration;
 
@@ -15,29 +17,10 @@ const FAST_AXES: &str = "[axis.X]\nsteps_per = [800, 5]\nmax_rate = 30000.0\nacc
 [axis.Y]\nsteps_per = [800, 5]\nmax_rate = 30000.0\naccel = 10000.0\n\
 [axis.Z]\nsteps_per = [800, 5]\nmax_rate = 30000.0\naccel = 10000.0\n";
 
-/// A parameter of a long name (0) each line adds to its X: 143 bytes a line, so the link, which
-/// the board takes at most 512 B a millisecond of (`RX_BYTES_PER_PASS`), delivers ~3,500 lines a
-/// second, fewer than the moves need.
-const NAME: &str =
-    "_a_parameter_whose_long_name_makes_each_line_of_this_program_take_more_bytes_on_the_wire";
-
-/// `n` lines of 0.02 mm at F30000 along X (Y and Z drifting): ~11,000 lines/s, each long on the
-/// wire.
+/// `n` lines of 0.02 mm at F30000 along X from −100 mm (Y and Z drifting): ~11,000 lines/s,
+/// each 143 bytes on the wire (the link, not the CPU, cannot keep up).
 fn short_lines(n: i64) -> String {
-    let mut p = format!("G21 G90\n#<{NAME}>=0\nG0 X-100 Y0 Z0\nG1 F30000\n");
-    for i in 1..=n {
-        let x = -100_000 + i * 20;
-        let sign = if x < 0 { "-" } else { "" };
-        p.push_str(&format!(
-            "X[{sign}{}.{:03}+#<{NAME}>] Y0.{:05} Z-0.{:05}\n",
-            x.abs() / 1000,
-            x.abs() % 1000,
-            2 * i,
-            2 * i
-        ));
-    }
-    p.push_str("M30\n");
-    p
+    fine_lines(-100, n, 20, 30_000, Wording::Wordy)
 }
 
 /// The seconds on the report's `starved:` line.
