@@ -82,23 +82,6 @@ else
     cargo test --workspace --no-fail-fast
 fi
 
-# text/data/bss of an ARM ELF from its section headers (as Berkeley `size` counts them):
-# text = allocated read-only sections, data = allocated writable PROGBITS, bss = NOBITS.
-elf_size() {
-    local text=0 data=0 bss=0 name type addr off size es flags rest
-    while read -r name type addr off size es flags rest; do
-        case "$flags" in *A*) ;; *) continue ;; esac
-        if [ "$type" = NOBITS ]; then
-            bss=$((bss + 16#$size))
-        elif [[ $flags == *W* ]]; then
-            data=$((data + 16#$size))
-        else
-            text=$((text + 16#$size))
-        fi
-    done < <(readelf -S -W "$1" | sed -n 's/^ *\[ *[0-9]*\] //p')
-    echo "$text $data $bss"
-}
-
 section "grbl sender (pygrbl-streamer from PyPI) against gantry emulate --pty"
 bash scripts/grbl-sender-test.sh
 
@@ -113,21 +96,9 @@ SIZES=()
 for board in "${BOARDS[@]}"; do
     echo "-- $board"
     (cd firmware && cargo clippy --release --no-default-features --features "$board" -- -D warnings)
-    # Panic locations keep their source paths in flash, so the size would depend on where the
-    # checkout and CARGO_HOME sit; the measured build maps both to fixed short names, and the
-    # registry's source directory (`registry/src/index.crates.io-<hash>/`, 53 bytes in each of
-    # ~30 dependency paths) to `/crates` (the last matching prefix wins).
-    cargo_dir=${CARGO_HOME:-$HOME/.cargo}
-    remap="\"--remap-path-prefix=$ROOT=/gantry\",\"--remap-path-prefix=$cargo_dir=/cargo\""
-    for src in "$cargo_dir"/registry/src/*/; do
-        [ -d "$src" ] && remap+=",\"--remap-path-prefix=${src%/}=/crates\""
-    done
-    (cd firmware && cargo build --release --no-default-features --features "$board" \
-        --config "target.$THUMB.rustflags=[$remap]")
-    elf="firmware/target/$THUMB/release/gantry-firmware"
-    read -r text data bss < <(elf_size "$elf")
-    flash=$((text + data))
-    ram=$((data + bss))
+    # The measured build (path prefixes remapped, so the figure is the same on every machine).
+    sizes=$(bash "$ROOT/scripts/fwsize.sh" "$board" | tail -1) || fail "firmware release build failed for $board"
+    read -r _ _ text _ data _ bss _ flash _ ram <<<"$sizes"
     line=$(printf '%-11s text %7d  data %6d  bss %6d  -> flash %7d B (%d KiB), static RAM %6d B (%d KiB)' \
         "$board" "$text" "$data" "$bss" "$flash" $(((flash + 1023) / 1024)) "$ram" $(((ram + 1023) / 1024)))
     echo "$line"
@@ -145,7 +116,11 @@ done
 
 section "target tests: core vectors and the step interrupt on Cortex-M4 (QEMU mps2-an386)"
 cd "$ROOT/target-tests"
+# Every feature of the target tests is built (and linted), so none of them rots unbuilt.
 cargo clippy --release --all-targets -- -D warnings
+for feature in wrong-vector profile-lines step-window; do
+    cargo clippy --release --all-targets --features "$feature" -- -D warnings
+done
 cargo build --release --bin vectors
 timeout "$QEMU_TIMEOUT" cargo run --release --bin vectors || fail "target vectors failed under QEMU"
 # The step interrupt body (machine/src/step/isr.rs) against a model of TIM2 and its

@@ -108,9 +108,37 @@ fn write_raster_program(path: &Path, rows: usize) {
     writeln!(f, "G0 Z5\nM30").unwrap();
 }
 
+/// Set in the child process that measures: the peak RSS is the whole process's, so the
+/// measurement runs alone in a process of its own, never beside a sibling test that renders.
+const MEASURE_ALONE: &str = "GANTRY_PREVIEW_MEMORY_ALONE";
+
 #[cfg(target_os = "linux")]
 #[test]
 fn preview_memory_does_not_grow_with_the_program() {
+    if std::env::var_os(MEASURE_ALONE).is_none() {
+        // Re-run this test, and only it, in a fresh process of this test binary.
+        let out = std::process::Command::new(std::env::current_exe().unwrap())
+            .args([
+                "preview_memory_does_not_grow_with_the_program",
+                "--exact",
+                "--test-threads=1",
+                "--nocapture",
+            ])
+            .env(MEASURE_ALONE, "1")
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned()
+            + &String::from_utf8_lossy(&out.stderr);
+        assert!(
+            out.status.success(),
+            "the measuring process failed:\n{text}"
+        );
+        assert!(
+            text.contains("1 passed"),
+            "the measuring process ran no test:\n{text}"
+        );
+        return;
+    }
     let dir = TempDir::new("preview-memory");
     let run = |rows: usize, out: &str| {
         let program = dir.0.join(format!("raster{rows}.ngc"));

@@ -229,7 +229,7 @@ fn write_window() -> (u64, u64) {
                 u64::from(if at <= t0 {
                     t0 - at
                 } else {
-                    t0 + RELOAD + 1 - at
+                    t0 + gantry_target_tests::clock::RELOAD + 1 - at
                 })
             };
             sums[n][0] += ticks(READ_AT.load(Ordering::Relaxed));
