@@ -117,7 +117,7 @@ fn a_switch_hit_during_a_jog_alarms_and_active_low_switches_work() {
     eb.run_ms(5);
     assert_eq!(eb.raw_pins() & (1 << 23), 1 << 23);
     assert!(eb.board.jog(1, 1_200_000, 0));
-    until_state(&mut eb, State::Alarm, 10_000);
+    until_state_held(&mut eb, State::Alarm, 10_000);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
     assert_eq!(eb.isr.kernel.position()[1], 12 * STEPS_PER_MM + AHEAD);
     assert_eq!(eb.raw_pins() & (1 << 23), 0);

@@ -4,11 +4,11 @@
 use super::mode::{Jogging, Mode};
 use super::{
     Board, BoardEvent, MarkEvent, MotionState, ERROR_BUSY, ERROR_HOMING_REQUIRED,
-    ERROR_INVALID_REQUEST, ERROR_SOFT_LIMIT,
+    ERROR_INVALID_REQUEST, ERROR_JOG_DEADMAN, ERROR_SOFT_LIMIT,
 };
 use crate::canon::{Action, Canon};
 use crate::controller::inputs::{InputBits, Signal};
-use crate::controller::jog::{self, JogMode};
+use crate::controller::jog::{self, Deadman, JogMode};
 use crate::controller::{AdcReadings, State};
 use crate::motion::pipeline::PushError;
 use crate::units::{Pos, MAX_AXES};
@@ -71,6 +71,9 @@ pub(super) struct JogState {
     nudge_dirs: [i8; MAX_AXES],
     next_nudge: u32,
     marks: u32,
+    /// The dead-man of the continuous host jog under way (`None`: none, or a stepped jog, a grbl
+    /// `$J=` jog or the joystick, which need none).
+    deadman: Option<Deadman>,
 }
 
 impl JogState {
@@ -154,7 +157,18 @@ impl Board {
             return Err(ERROR_BUSY);
         }
         self.mode = Mode::Jog(Jogging::Moves);
+        // Only a continuous jog runs on its host's word; a distance ends by itself.
+        self.jog.deadman = (distance_nm == 0).then(|| Deadman::armed(self.sensed.now_ms));
         Ok(())
+    }
+
+    /// The host's keepalive for its continuous jog (`HostMessage::JogKeepalive`): the jog goes
+    /// on for another [`jog::JOG_DEADMAN_MS`]. Without a continuous host jog it does nothing.
+    pub fn jog_keepalive(&mut self) {
+        let now = self.sensed.now_ms;
+        if let Some(d) = &mut self.jog.deadman {
+            d.heard(now);
+        }
     }
 
     /// Host jog of several axes to the machine position `to` at `feed` nm/min (grbl's `$J=`,
@@ -193,6 +207,7 @@ impl Board {
 
     /// Stops a jog within its deceleration distance and drops what was queued of it.
     pub fn jog_stop(&mut self) {
+        self.jog.deadman = None;
         if self.state() != State::Jog {
             return;
         }
@@ -205,6 +220,19 @@ impl Board {
     }
 
     pub(super) fn poll_jog(&mut self, drained: bool) {
+        if self
+            .jog
+            .deadman
+            .is_some_and(|d| d.expired(self.sensed.now_ms))
+        {
+            // The host went silent (killed, stopped, cut off): a controlled stop, as a jog stop.
+            self.jog_stop();
+            self.emit(BoardEvent::Error {
+                line: 0,
+                code: ERROR_JOG_DEADMAN,
+                column: 0,
+            });
+        }
         if self.motion.state() == MotionState::Idle
             && matches!(self.jog.motion, JogMotion::Stopping)
         {
@@ -215,6 +243,7 @@ impl Board {
             && self.motion.state() == MotionState::Idle
         {
             self.mode = Mode::Idle;
+            self.jog.deadman = None;
             self.sync_interpreter_position();
         }
     }

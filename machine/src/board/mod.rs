@@ -83,6 +83,9 @@ pub const ERROR_BUSY: u16 = 902;
 /// Error code of a refused request that can never be carried out: no such axis, no feed, no axis
 /// to home.
 pub const ERROR_INVALID_REQUEST: u16 = 903;
+/// Error code reported when the board ended a continuous host jog because no keepalive came for
+/// [`crate::controller::jog::JOG_DEADMAN_MS`] (the host was killed, stopped or cut off).
+pub const ERROR_JOG_DEADMAN: u16 = 904;
 /// Every limit-switch bit of [`InputBits`].
 pub const LIMIT_BITS: u32 = (0x3f << LIMIT_MIN_BIT) | (0x3f << LIMIT_MAX_BIT);
 
@@ -193,9 +196,9 @@ impl Board {
         self.outputs.program()
     }
 
-    /// Main-loop time from the last [`Board::on_inputs`], ms (the grbl door's spin-up wait,
-    /// `machine/src/grbl/door.rs`).
-    pub(crate) fn now_ms(&self) -> u32 {
+    /// Main-loop time from the last [`Board::on_inputs`], ms: the board's clock (the grbl door's
+    /// spin-up wait, `machine/src/grbl/door.rs`; the jog dead-man, `board/jogging.rs`).
+    pub fn now_ms(&self) -> u32 {
         self.sensed.now_ms
     }
 
