@@ -37,6 +37,10 @@ pub use messages::{
 /// `docs/protocol.md`, version policy).
 pub const PROTOCOL_VERSION: u16 = 0x0501;
 
+/// The first version whose board takes [`HostMsg::JogKeepalive`] (a 5.0 board cannot decode it:
+/// it would stand unacknowledged at the head of the realtime lane).
+pub const JOG_KEEPALIVE_SINCE: u16 = 0x0501;
+
 /// True when two protocol versions can talk (same major).
 pub const fn versions_compatible(a: u16, b: u16) -> bool {
     a >> 8 == b >> 8

@@ -12,7 +12,7 @@ use crate::present::{alarm_text, format_status, limit_text, refusal_text, state_
 use crate::session::{Flow, Overrides, Session, Target};
 use gantry_machine::setup::Setup;
 use gantry_machine::units::AXIS_LETTERS;
-use gantry_proto::{HostMsg, Status};
+use gantry_proto::{BoardMsg, HostMsg, Status};
 use std::process::ExitCode;
 
 /// Opens a session for a one-shot command: closing it later leaves DTR up, so the board does not
@@ -428,19 +428,36 @@ pub fn jog(target: Target, axis: u8, how: JogMove, feed_mm_min: f64) -> anyhow::
             return Ok(ExitCode::from(1));
         }
     }
+    let mut deadman = false;
     if let JogMove::Continuous { seconds, .. } = how {
         let stop = ctrl_c_flag();
         let limit_ms = seconds.map(|s| (s * 1000.0) as u32);
         eprintln!("jogging: Ctrl-C stops");
+        // The board's dead-man ends the jog 250 ms after the last keepalive, so this process
+        // being killed or stopped stops the axis (docs/controller.md "Jogging").
+        let (mut alive_at, mut asked_at) = (start, start);
+        let mut ended = false;
         while !stop.swap(false, std::sync::atomic::Ordering::SeqCst)
             && limit_ms.is_none_or(|l| session.now_ms().wrapping_sub(start) < l)
         {
-            session.pump(20)?;
-            if session.status()?.state != S::Jog {
-                break;
+            session.pump(10)?;
+            let now = session.now_ms();
+            if now.wrapping_sub(alive_at) >= JOG_KEEPALIVE_MS {
+                session.jog_keepalive()?;
+                alive_at = now;
+            }
+            if now.wrapping_sub(asked_at) >= 100 {
+                asked_at = now;
+                if session.status()?.state != S::Jog {
+                    ended = true;
+                    break;
+                }
             }
         }
-        session.jog_stop()?;
+        if !ended {
+            session.jog_stop()?;
+        }
+        deadman = took_deadman_error(&mut session)?;
     }
     // The longest jog: the whole travel at the requested speed, with a margin.
     let span = setup.axes[axis as usize].travel_max - setup.axes[axis as usize].travel_min;
@@ -466,5 +483,36 @@ pub fn jog(target: Target, axis: u8, how: JogMove, feed_mm_min: f64) -> anyhow::
             step_nm / 1e6
         );
     }
+    if deadman || took_deadman_error(&mut session)? {
+        println!(
+            "the board stopped the jog: no keepalive from this command for {} ms (it was stopped, \
+             too slow or cut off from the board)",
+            gantry_machine::controller::jog::JOG_DEADMAN_MS
+        );
+        return Ok(ExitCode::from(1));
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// How often `gantry jog --continuous` keeps its jog alive, ms (the board's dead-man waits 250 ms;
+/// senders send at least every 100 ms).
+const JOG_KEEPALIVE_MS: u32 = 50;
+
+/// True when the board reported ending a continuous jog by its dead-man (error 904) among the
+/// messages received so far; the others stay for whoever waits for them.
+fn took_deadman_error(session: &mut Session) -> anyhow::Result<bool> {
+    session.pump(0)?;
+    let mut kept = Vec::new();
+    let mut found = false;
+    while let Some(m) = session.link().recv() {
+        match m {
+            BoardMsg::Error {
+                code: gantry_machine::board::ERROR_JOG_DEADMAN,
+                ..
+            } => found = true,
+            other => kept.push(other),
+        }
+    }
+    session.link().put_back(kept);
+    Ok(found)
 }
