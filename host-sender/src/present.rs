@@ -174,6 +174,9 @@ fn board_code_text(code: u16) -> Option<&'static str> {
         ERROR_INVALID_REQUEST => {
             "the board cannot carry this out (no such axis, no feed, or no axis to home)"
         }
+        ERROR_LIMIT_PRESSED => {
+            "a limit switch is still pressed: jog the axis off it (away from the switch) first"
+        }
         ERROR_JOG_DEADMAN => {
             "the board stopped the continuous jog: no keepalive from the host for 250 ms"
         }
@@ -295,7 +298,7 @@ pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
 
 /// `error 900: move exceeds the machine travel (soft limit)` for a refused request's code.
 pub fn refusal_text(code: u16) -> String {
-    // The board's own codes first: 901-904 are also G-code transform errors (E901-E906), which
+    // The board's own codes first: 901-905 are also G-code transform errors (E901-E906), which
     // never answer a request.
     if let Some(text) = board_code_text(code) {
         return format!("error {code}: {text}");

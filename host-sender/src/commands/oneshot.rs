@@ -34,6 +34,9 @@ pub fn unlock(target: Target) -> anyhow::Result<ExitCode> {
         Some(0) => Ok(ExitCode::SUCCESS),
         Some(code) => {
             println!("unlock refused: {}", refusal_text(code));
+            if let Some(hint) = pressed_switch_hint(&status, session.setup()) {
+                println!("{hint}, then gantry unlock");
+            }
             Ok(ExitCode::from(1))
         }
         None => anyhow::bail!(
@@ -295,8 +298,12 @@ pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
         // Nothing to home: said below with the status.
         Some(gantry_machine::board::ERROR_INVALID_REQUEST) => {}
         Some(code) => {
-            println!("{}", format_status(&session.status()?, n));
+            let status = session.status()?;
+            println!("{}", format_status(&status, n));
             println!("home refused: {}", refusal_text(code));
+            if let Some(hint) = pressed_switch_hint(&status, &setup) {
+                println!("{hint}, then gantry unlock and gantry home");
+            }
             return Ok(ExitCode::from(1));
         }
         None => anyhow::bail!("the board did not answer the homing request within 1 s"),
@@ -319,6 +326,36 @@ pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// What to do about the limit switches `status` shows pressed (error 905): the switch and the
+/// jog that takes the axis off it and back inside the travel (`gantry jog X -2`), one per switch.
+fn pressed_switch_hint(status: &Status, setup: &Setup) -> Option<String> {
+    use gantry_machine::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+    let mut jogs = Vec::new();
+    for axis in 0..setup.axis_count as usize {
+        let a = &setup.axes[axis];
+        let at = status.machine_pos[axis];
+        for (bit, max) in [(LIMIT_MIN_BIT, false), (LIMIT_MAX_BIT, true)] {
+            if status.inputs >> (bit as usize + axis) & 1 == 0 {
+                continue;
+            }
+            // Back inside the travel, then 1 mm more, in whole mm.
+            let beyond = if max {
+                at - a.travel_max
+            } else {
+                a.travel_min - at
+            };
+            let mm = (beyond.max(0) as f64 / 1e6).ceil() + 1.0;
+            let letter = AXIS_LETTERS[axis];
+            let side = if max { "max" } else { "min" };
+            let sign = if max { "-" } else { "" };
+            jogs.push(format!(
+                "the {letter} {side} limit switch is pressed: jog off it with gantry jog {letter} {sign}{mm}"
+            ));
+        }
+    }
+    (!jogs.is_empty()).then(|| jogs.join("; "))
 }
 
 /// How far a jog goes.
@@ -397,8 +434,11 @@ pub fn jog(target: Target, axis: u8, how: JogMove, feed_mm_min: f64) -> anyhow::
     );
     let before = session.status()?;
     use gantry_proto::MachineState as S;
+    let limit_bits = gantry_machine::board::LIMIT_BITS;
     match before.state {
         S::Idle | S::Jog => {}
+        // A jog off a pressed limit switch: the board decides whether it may leave the alarm.
+        S::Alarm { .. } if before.inputs & limit_bits != 0 => {}
         S::Alarm { code } => {
             println!("{}", format_status(&before, n));
             println!("jog refused: the board is in {}", alarm_text(code));

@@ -26,6 +26,7 @@ mod operator;
 mod outbox;
 mod outputs;
 mod overrides;
+mod pressed_switch;
 mod probing;
 pub mod source;
 #[cfg(feature = "link")]
@@ -60,6 +61,7 @@ pub use outbox::{BoardEvent, JobEnd, MarkEvent};
 use outputs::OutputState;
 pub use outputs::{DoorOutputs, Outputs};
 use overrides::Overrides;
+pub use pressed_switch::ERROR_LIMIT_PRESSED;
 pub use probing::ProbeResult;
 use probing::Probing;
 pub use source::{JumpRequest, JumpTarget, Pushed, StreamSource, LINE_CAPACITY};
@@ -684,9 +686,11 @@ impl Board {
                     phase: HomingPhase::Aborting,
                 };
             }
-            Mode::Jog(_) => {
-                // Leaves joystick mode too.
-                self.mode = Mode::Jog(Jogging::Moves);
+            Mode::Jog(who) => {
+                // Leaves joystick mode too (a jog off a pressed switch goes back to its alarm).
+                if who == Jogging::Joystick {
+                    self.mode = Mode::Jog(Jogging::Moves);
+                }
                 self.jog_stop();
             }
             Mode::Job(Job {
@@ -879,12 +883,17 @@ impl Board {
 
     /// [`Board::unlock`], with its outcome: `Ok` when no alarm is left (or there was none),
     /// else [`ERROR_BUSY`] (still decelerating) or [`ERROR_HOMING_REQUIRED`] (alarm 11 stays).
-    pub(crate) fn try_unlock(&mut self) -> Result<(), u16> {
+    pub fn try_unlock(&mut self) -> Result<(), u16> {
         if !matches!(self.mode, Mode::Alarm(_)) {
             return Ok(());
         }
         if self.motion.state() != MotionState::Idle {
             return Err(ERROR_BUSY);
+        }
+        if self.pressed_limits() != 0 {
+            // Unlocked, it would trip again on the switch it stands on (or be driven further
+            // into it): the operator jogs off it first (`board/pressed_switch.rs`).
+            return Err(ERROR_LIMIT_PRESSED);
         }
         if self.homing_missing() {
             if !matches!(self.mode, Mode::Alarm(AlarmCode::HomingRequired)) {
