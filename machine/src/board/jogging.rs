@@ -166,6 +166,7 @@ impl Board {
             return Err(ERROR_BUSY);
         }
         self.mode = Mode::Jog(jogging);
+        self.jogging_off(&from, &to);
         // Only a continuous jog runs on its host's word; a distance ends by itself.
         self.jog.deadman = (distance_nm == 0).then(|| Deadman::armed(self.sensed.now_ms));
         Ok(())
@@ -213,6 +214,7 @@ impl Board {
         }) {
             Ok(()) => {
                 self.mode = Mode::Jog(jogging);
+                self.jogging_off(&from, &to);
                 Ok(())
             }
             Err(PushError::Travel { .. }) => Err(JogRefused::Travel),

@@ -41,6 +41,23 @@ impl Board {
         })
     }
 
+    /// A jog from `from` to `to` was accepted (it moves away from every pressed switch): the
+    /// pressed switches of its axes are disarmed until they release, so a switch the machine
+    /// stood on at power-up does not stop the jog that takes it off.
+    pub(super) fn jogging_off(&mut self, from: &Pos, to: &Pos) {
+        let axes = (0..MAX_AXES).fold(0u32, |m, i| {
+            if to[i] != from[i] {
+                m | 1 << (LIMIT_MIN_BIT as usize + i) | 1 << (LIMIT_MAX_BIT as usize + i)
+            } else {
+                m
+            }
+        });
+        let bits = self.pressed_limits() & axes;
+        if bits != 0 {
+            self.sensed.disarm(bits);
+        }
+    }
+
     /// The alarm a jog from `from` to `to` may leave to jog off a pressed switch: alarm 1 (hard
     /// limit) or 11 (homing required) while a switch is pressed, for a move of only the axes of
     /// pressed switches, each away from its switch.
