@@ -333,9 +333,8 @@ pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
 fn pressed_switch_hint(status: &Status, setup: &Setup) -> Option<String> {
     use gantry_machine::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
     let mut jogs = Vec::new();
-    for axis in 0..setup.axis_count as usize {
-        let a = &setup.axes[axis];
-        let at = status.machine_pos[axis];
+    let axes = setup.axes.iter().zip(status.machine_pos).zip(AXIS_LETTERS);
+    for (axis, ((a, at), letter)) in axes.take(setup.axis_count as usize).enumerate() {
         for (bit, max) in [(LIMIT_MIN_BIT, false), (LIMIT_MAX_BIT, true)] {
             if status.inputs >> (bit as usize + axis) & 1 == 0 {
                 continue;
@@ -347,7 +346,6 @@ fn pressed_switch_hint(status: &Status, setup: &Setup) -> Option<String> {
                 a.travel_min - at
             };
             let mm = (beyond.max(0) as f64 / 1e6).ceil() + 1.0;
-            let letter = AXIS_LETTERS[axis];
             let side = if max { "max" } else { "min" };
             let sign = if max { "-" } else { "" };
             jogs.push(format!(
