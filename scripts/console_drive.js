@@ -147,8 +147,8 @@ async function waitState(page, want, ms = 10000) {
   for (let i = 0; i < 50 && !jogging; i++) { jogging = cliStatus().state === "Jog"; if (!jogging) await sleep(100); }
   check(jogging, "held X+: the board jogs");
   await sleep(1000);
-  const held = cliStatus();
-  check(held.state === "Jog", `still jogging after 1 s held (the page's keepalives): ${held.state} at X ${held.machine[0]}`);
+  const stillJog = cliStatus();
+  check(stillJog.state === "Jog", `still jogging after 1 s held (the page's keepalives): ${stillJog.state} at X ${stillJog.machine[0]}`);
   await ctx.setOffline(true);
   const off = Date.now();
   let st = cliStatus();
