@@ -132,9 +132,37 @@ async function waitState(page, want, ms = 10000) {
   await sleep(300);
   await waitState(page, "Idle");
   await sleep(300);
-  const x1 = cliStatus().machine[0];
+  let x1 = cliStatus().machine[0];
   check(Math.abs(x1 - x0 - 1) < 1e-9, `ArrowRight jogs X by 1.000 mm (${x0} -> ${x1})`);
   check(parseFloat(await text(page, "#mach-X")) === x1, "the readout shows it");
+
+  // A held continuous jog is kept alive by the page (a keepalive every 50 ms); taken offline,
+  // the page sends none and the board's dead-man stops the jog (docs/controller.md "Jogging").
+  await page.selectOption("#step", "0");
+  await page.fill("#jogfeed", "600");
+  const xp = page.locator('.jog[data-axis="X"][data-dir="1"]');
+  await xp.hover();
+  await page.mouse.down();
+  let jogging = false;
+  for (let i = 0; i < 50 && !jogging; i++) { jogging = cliStatus().state === "Jog"; if (!jogging) await sleep(100); }
+  check(jogging, "held X+: the board jogs");
+  await sleep(1000);
+  const stillJog = cliStatus();
+  check(stillJog.state === "Jog", `still jogging after 1 s held (the page's keepalives): ${stillJog.state} at X ${stillJog.machine[0]}`);
+  await ctx.setOffline(true);
+  const off = Date.now();
+  let st = cliStatus();
+  while (st.state === "Jog" && Date.now() - off < 5000) st = cliStatus();
+  const took = Date.now() - off;
+  check(st.state === "Idle" && took <= 500, `offline: the board stopped the jog by itself in ${took} ms (state ${st.state})`);
+  await sleep(300);
+  const rest = cliStatus();
+  check(rest.state === "Idle" && rest.machine[0] === st.machine[0], `and nothing moved after (X ${st.machine[0]} -> ${rest.machine[0]})`);
+  await ctx.setOffline(false);
+  await page.mouse.up();
+  await page.selectOption("#step", "1");
+  await waitState(page, "Idle");
+  x1 = cliStatus().machine[0];
 
   // Zero X.
   await page.click("#zero-X");

@@ -197,7 +197,10 @@ fn save_position(state: &Path, board: &EmulatedBoard) -> anyhow::Result<()> {
 }
 
 /// The longest lag behind the wall clock the board's clock catches up, ms (see [`run_board`]).
-const CATCH_UP_LIMIT_MS: u64 = 500;
+/// Shorter than the board's shortest wait on its host, the 250 ms jog dead-man
+/// (`machine/src/controller/jog.rs`): a catch-up runs faster than the host writes, so a longer
+/// one would be a silence the host never made.
+const CATCH_UP_LIMIT_MS: u64 = 200;
 
 /// One pass's news from the host side of the emulated board's port.
 pub(crate) struct Polled {

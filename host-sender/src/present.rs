@@ -161,6 +161,29 @@ pub fn starved_line(ms: u32) -> String {
     )
 }
 
+/// The text of an error code the board itself gives (a refused request, a stopped jog), not the
+/// interpreter.
+fn board_code_text(code: u16) -> Option<&'static str> {
+    use gantry_machine::board::*;
+    Some(match code {
+        ERROR_SOFT_LIMIT => "move exceeds the machine travel (soft limit)",
+        ERROR_HOMING_REQUIRED => "the machine must be homed first (gantry home)",
+        ERROR_BUSY => {
+            "the board is busy (a job, a homing cycle or a jog still moving): wait until it is Idle"
+        }
+        ERROR_INVALID_REQUEST => {
+            "the board cannot carry this out (no such axis, no feed, or no axis to home)"
+        }
+        ERROR_LIMIT_PRESSED => {
+            "a limit switch is still pressed: jog the axis off it (away from the switch) first"
+        }
+        ERROR_JOG_DEADMAN => {
+            "the board stopped the continuous jog: no keepalive from the host for 250 ms"
+        }
+        _ => return None,
+    })
+}
+
 impl BoardError {
     /// The error as `gantry check` prints it ([`format_error`]: `place:line: N.. error
     /// E231: …`, the source line, a caret under the word the board blamed).
@@ -169,21 +192,8 @@ impl BoardError {
             .iter()
             .find(|c| c.number() == self.code)
             .map(|c| c.message())
-            .unwrap_or(match self.code {
-                gantry_machine::board::ERROR_SOFT_LIMIT => {
-                    "move exceeds the machine travel (soft limit)"
-                }
-                gantry_machine::board::ERROR_HOMING_REQUIRED => {
-                    "the machine must be homed first (gantry home)"
-                }
-                gantry_machine::board::ERROR_BUSY => {
-                    "the board is busy (a job, a homing cycle or a jog still moving): wait until it is Idle"
-                }
-                gantry_machine::board::ERROR_INVALID_REQUEST => {
-                    "the board cannot carry this out (no such axis, no feed, or no axis to home)"
-                }
-                _ => "unknown error",
-            });
+            .or(board_code_text(self.code))
+            .unwrap_or("unknown error");
         if self.line == 0 {
             return format!("resume preamble: error {}: {message}", self.code);
         }
@@ -288,6 +298,11 @@ pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
 
 /// `error 900: move exceeds the machine travel (soft limit)` for a refused request's code.
 pub fn refusal_text(code: u16) -> String {
+    // The board's own codes first: 901-905 are also G-code transform errors (E901-E906), which
+    // never answer a request.
+    if let Some(text) = board_code_text(code) {
+        return format!("error {code}: {text}");
+    }
     BoardError {
         line: 0,
         code,
@@ -429,6 +444,25 @@ mod tests {
             text.trim_end().ends_with("G1 X1 (\\u{1b}[2J\\u{7}cleared)"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn a_refusal_names_the_boards_reason_not_a_transform_error() {
+        assert_eq!(
+            refusal_text(902),
+            "error 902: the board is busy (a job, a homing cycle or a jog still moving): wait until it is Idle"
+        );
+        assert!(
+            refusal_text(901).contains("homed first"),
+            "{}",
+            refusal_text(901)
+        );
+        assert!(
+            refusal_text(904).contains("no keepalive"),
+            "{}",
+            refusal_text(904)
+        );
+        assert!(refusal_text(900).contains("soft limit"));
     }
 
     #[test]

@@ -62,7 +62,8 @@ pub struct Jog {
     pub axis: u8,
     /// Signed velocity in µm/min; the sign gives the direction.
     pub feed_um_min: i32,
-    /// Distance to travel in nm; 0 = continuous until `JogStop`.
+    /// Distance to travel in nm; 0 = continuous until `JogStop`, kept alive by
+    /// [`HostMessage::JogKeepalive`].
     pub distance_nm: u64,
 }
 
@@ -156,6 +157,11 @@ wire_messages! {
         /// Spindle speed override in percent (the board clamps it to 10..=200); it scales the
         /// spindle output, the programmed S stays as programmed.
         Realtime SpindleOverride(u16),
+        /// The continuous jog goes on: a sender holding a jog (`distance_nm` 0) sends this at
+        /// least every 100 ms; the board ends the jog with a controlled stop when none came for
+        /// 250 ms (its dead-man, docs/controller.md "Jogging"). Ignored without such a jog.
+        /// Protocol 5.1: never sent to a 5.0 peer.
+        Realtime JogKeepalive,
     }
 }
 

@@ -35,7 +35,7 @@ fn a_host_jog_increment_moves_exactly_and_refuses_to_leave_the_travel() {
 fn a_continuous_host_jog_ends_on_the_soft_limit() {
     let mut eb = board(|s| s.axes[1].travel_max = 20 * MM);
     assert!(eb.board.jog(1, 3_000_000, 0));
-    until_state(&mut eb, State::Idle, 10_000);
+    until_state_held(&mut eb, State::Idle, 10_000);
     assert_eq!(eb.isr.kernel.position()[1], 20 * STEPS_PER_MM);
 }
 

@@ -115,7 +115,7 @@ fn a_host_jog_stop_decelerates_from_the_running_segment_at_every_speed() {
         let mut eb = board(with_x_rate(rate));
         assert!(eb.board.jog(0, jog * 1000, 0));
         let v = jog as f64 / 60.0;
-        eb.run_ms((v / ACCEL * 1000.0) as u64 + 300);
+        run_held(&mut eb, (v / ACCEL * 1000.0) as u64 + 300);
         eb.run_for((offset_ms * COUNTS_PER_MS as f64) as u64);
         let (t0, from, queued) = (eb.now(), eb.isr.kernel.position()[0], eb.queued_ms());
         eb.board.jog_stop();
@@ -156,7 +156,7 @@ fn the_old_queued_overrun_is_gone() {
     // board kept while jogging). Now only the running segment (≤ 2 ms) runs before the ramp.
     let mut eb = board(|_| {});
     assert!(eb.board.jog(0, 3_000_000, 0));
-    eb.run_ms(1000);
+    run_held(&mut eb, 1000);
     let (t0, from, queued) = (eb.now(), eb.isr.kernel.position()[0], eb.queued_ms());
     eb.board.jog_stop();
     let stop = measure_stop(&mut eb, t0, from, queued, 50.0);
@@ -220,7 +220,7 @@ fn leaving_jog_mode_and_abort_stop_the_same_way() {
 fn a_host_feed_hold_during_a_jog_stops_it_the_same_way() {
     let mut eb = board(|_| {});
     assert!(eb.board.jog(0, -3_000_000, 0));
-    eb.run_ms(1000);
+    run_held(&mut eb, 1000);
     let (t0, from, queued) = (eb.now(), eb.isr.kernel.position()[0], eb.queued_ms());
     eb.board.feed_hold();
     let stop = measure_stop(&mut eb, t0, from, queued, 50.0);
@@ -418,7 +418,7 @@ fn continuous_jogs_stop_on_the_soft_limit_without_an_error() {
             }
             _ => assert!(eb.board.jog(0, 3_000_000, 0)),
         }
-        eb.run_ms(3000);
+        run_held(&mut eb, 3000);
         assert_eq!(eb.isr.kernel.position()[0], 20 * STEPS_PER_MM, "case {how}");
         assert_eq!(eb.board.motion().state(), MotionState::Idle);
         assert_eq!(eb.board.alarm(), None, "case {how}");

@@ -5,7 +5,7 @@
 mod controller_support;
 
 use controller_support::*;
-use gantry_machine::board::ERROR_HOMING_REQUIRED;
+use gantry_machine::board::{ERROR_HOMING_REQUIRED, ERROR_LIMIT_PRESSED};
 use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 
 /// X and Y with min switches at -2 mm for homing, X with a max switch at 50 mm.
@@ -50,17 +50,23 @@ fn a_limit_hit_at_rapid_stops_within_one_tick_and_unhomes_only_that_axis() {
     // The board reports the stopped position as its machine position.
     let pos = eb.board.machine_position(&eb.isr.kernel.position());
     assert_eq!(eb.board.motion().queued_position(), pos);
-    // Motion is refused until unlock.
+    // Motion is refused until unlock, and the unlock while the switch is pressed (905).
     assert!(!eb.board.start_job());
-    assert!(!eb.board.jog(0, -60_000, MM as u64));
+    assert!(!eb.board.jog(0, 60_000, MM as u64));
+    assert_eq!(eb.board.try_unlock(), Err(ERROR_LIMIT_PRESSED));
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
+    // The pressed switch is disarmed (it does not trip again), and the one motion allowed is a
+    // jog off it: Y or toward the switch are refused, -X runs, and the alarm stays.
+    assert_eq!(eb.board.limit_arm() & (1 << 22), 0);
+    assert!(!eb.board.jog(1, -600_000, MM as u64));
+    assert!(eb.board.jog(0, -600_000, 5 * MM as u64));
+    until_state(&mut eb, State::Alarm, 5_000);
+    assert_eq!(eb.physical()[0], 45 * STEPS_PER_MM + AHEAD);
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
+    // Released, it re-arms; now the unlock clears the alarm.
+    assert_ne!(eb.board.limit_arm() & (1 << 22), 0);
     eb.board.unlock();
     assert_eq!(eb.board.state(), State::Idle);
-    // The pressed switch is disarmed so the axis can be jogged off it; it re-arms on release.
-    assert_eq!(eb.board.limit_arm() & (1 << 22), 0);
-    assert!(eb.board.jog(0, -600_000, 5 * MM as u64));
-    until_state(&mut eb, State::Idle, 5_000);
-    assert_eq!(eb.physical()[0], 45 * STEPS_PER_MM + AHEAD);
-    assert_ne!(eb.board.limit_arm() & (1 << 22), 0);
 }
 
 #[test]
@@ -94,11 +100,20 @@ fn with_homing_required_motion_waits_for_homing_after_a_hard_limit() {
     until_state(&mut eb, State::Idle, 20_000);
     job(&mut eb, "G90 G21\nG0 X80\nM30\n");
     until_state(&mut eb, State::Alarm, 10_000);
+    // On the max switch: neither unlock nor homing (X homes to its min switch), both 905.
+    assert_eq!(eb.board.try_unlock(), Err(ERROR_LIMIT_PRESSED));
+    assert!(!eb.board.home(0b001));
+    assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
+    assert_eq!(eb.board.homed(), 0b010);
+    // A jog off it though X is unhomed, then the unlock leaves the homing lock.
+    assert!(eb.board.jog(0, -600_000, 2 * MM as u64));
+    until_state(&mut eb, State::Alarm, 5_000);
+    eb.run_ms(20);
     eb.board.unlock();
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HomingRequired));
     assert!(!eb.board.start_job());
     assert_eq!(eb.board.state(), State::Alarm);
-    // Rehoming X from the max switch clears it.
+    // Rehoming X clears it.
     assert!(eb.board.home(0b001));
     until_state(&mut eb, State::Idle, 60_000);
     assert_eq!(eb.board.homed(), 0b011);
@@ -117,7 +132,7 @@ fn a_switch_hit_during_a_jog_alarms_and_active_low_switches_work() {
     eb.run_ms(5);
     assert_eq!(eb.raw_pins() & (1 << 23), 1 << 23);
     assert!(eb.board.jog(1, 1_200_000, 0));
-    until_state(&mut eb, State::Alarm, 10_000);
+    until_state_held(&mut eb, State::Alarm, 10_000);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
     assert_eq!(eb.isr.kernel.position()[1], 12 * STEPS_PER_MM + AHEAD);
     assert_eq!(eb.raw_pins() & (1 << 23), 0);

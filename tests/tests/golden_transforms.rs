@@ -93,3 +93,68 @@ fn transforms_match_the_hand_checked_motions() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// The motion records (`rapid`, `feed`, `arc`) of `gantry check --canon` output, as (line, op).
+fn motion_lines(canon: &str) -> Vec<(u64, String)> {
+    canon
+        .lines()
+        .map(|l| serde_json::from_str::<Value>(l).unwrap())
+        .filter(|v| matches!(v["op"].as_str(), Some("rapid" | "feed" | "arc")))
+        .map(|v| {
+            (
+                v["line"].as_u64().unwrap(),
+                v["op"].as_str().unwrap().to_owned(),
+            )
+        })
+        .collect()
+}
+
+/// A `G0` or `G1` block with no axis words under a mirror, scaling or rotation makes no motion
+/// (Fanuc, Hurco, LinuxCNC): no record, and the next move starts from where the tool stands.
+/// Checked through the binary (`gantry check --canon`) as well as in-process.
+#[test]
+fn an_axis_less_move_under_a_transform_makes_no_motion() {
+    // The transform, and where `G0 X40` (line 7) goes under it from X30 Y20.
+    let cases = [
+        ("G51.1 X15.", [-10.0, 20.0]),
+        ("G51 X0 Y0 P2.", [80.0, 40.0]),
+        ("G68 X0 Y0 R90.", [-20.0, 40.0]),
+    ];
+    let dir = std::env::temp_dir().join(format!("gantry-axisless-{}", std::process::id()));
+    fs::create_dir_all(&dir).unwrap();
+    for (xf, x40) in cases {
+        let program = format!("G21 G90 G54\nG0 X30 Y20 Z-1\n{xf}\nG0\nG1 F100\nF200\nG0 X40\nM2\n");
+        let (canon, _) = host_sender::check::canon_output(program.as_bytes(), &Default::default());
+        let path = dir.join("axisless.ngc");
+        fs::write(&path, &program).unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_gantry-under-test"))
+            .args(["check", "--canon", path.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{xf}: {out:?}");
+        let binary = String::from_utf8(out.stdout).unwrap();
+        assert_eq!(
+            binary, canon,
+            "{xf}: the binary prints what canon_output gives"
+        );
+        assert_eq!(
+            motion_lines(&canon),
+            [(2, "rapid".to_owned()), (7, "rapid".to_owned())],
+            "{xf}: {canon}"
+        );
+        let last: Value = canon
+            .lines()
+            .map(|l| serde_json::from_str::<Value>(l).unwrap())
+            .rfind(|v| v["op"] == "rapid")
+            .unwrap();
+        let to: Vec<f64> = last["to"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        // The scaling centre's Z is the current program point's: Z stays at -1 under G51 too.
+        assert_eq!(to, [x40[0], x40[1], -1.0], "{xf}: {canon}");
+    }
+    let _ = fs::remove_dir_all(&dir);
+}

@@ -12,7 +12,7 @@ use crate::present::{alarm_text, format_status, limit_text, refusal_text, state_
 use crate::session::{Flow, Overrides, Session, Target};
 use gantry_machine::setup::Setup;
 use gantry_machine::units::AXIS_LETTERS;
-use gantry_proto::{HostMsg, Status};
+use gantry_proto::{BoardMsg, HostMsg, Status};
 use std::process::ExitCode;
 
 /// Opens a session for a one-shot command: closing it later leaves DTR up, so the board does not
@@ -34,6 +34,9 @@ pub fn unlock(target: Target) -> anyhow::Result<ExitCode> {
         Some(0) => Ok(ExitCode::SUCCESS),
         Some(code) => {
             println!("unlock refused: {}", refusal_text(code));
+            if let Some(hint) = pressed_switch_hint(&status, session.setup()) {
+                println!("{hint}, then gantry unlock");
+            }
             Ok(ExitCode::from(1))
         }
         None => anyhow::bail!(
@@ -295,8 +298,12 @@ pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
         // Nothing to home: said below with the status.
         Some(gantry_machine::board::ERROR_INVALID_REQUEST) => {}
         Some(code) => {
-            println!("{}", format_status(&session.status()?, n));
+            let status = session.status()?;
+            println!("{}", format_status(&status, n));
             println!("home refused: {}", refusal_text(code));
+            if let Some(hint) = pressed_switch_hint(&status, &setup) {
+                println!("{hint}, then gantry unlock and gantry home");
+            }
             return Ok(ExitCode::from(1));
         }
         None => anyhow::bail!("the board did not answer the homing request within 1 s"),
@@ -319,6 +326,34 @@ pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// What to do about the limit switches `status` shows pressed (error 905): the switch and the
+/// jog that takes the axis off it and back inside the travel (`gantry jog X -2`), one per switch.
+fn pressed_switch_hint(status: &Status, setup: &Setup) -> Option<String> {
+    use gantry_machine::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+    let mut jogs = Vec::new();
+    let axes = setup.axes.iter().zip(status.machine_pos).zip(AXIS_LETTERS);
+    for (axis, ((a, at), letter)) in axes.take(setup.axis_count as usize).enumerate() {
+        for (bit, max) in [(LIMIT_MIN_BIT, false), (LIMIT_MAX_BIT, true)] {
+            if status.inputs >> (bit as usize + axis) & 1 == 0 {
+                continue;
+            }
+            // Back inside the travel, then 1 mm more, in whole mm.
+            let beyond = if max {
+                at - a.travel_max
+            } else {
+                a.travel_min - at
+            };
+            let mm = (beyond.max(0) as f64 / 1e6).ceil() + 1.0;
+            let side = if max { "max" } else { "min" };
+            let sign = if max { "-" } else { "" };
+            jogs.push(format!(
+                "the {letter} {side} limit switch is pressed: jog off it with gantry jog {letter} {sign}{mm}"
+            ));
+        }
+    }
+    (!jogs.is_empty()).then(|| jogs.join("; "))
 }
 
 /// How far a jog goes.
@@ -397,8 +432,11 @@ pub fn jog(target: Target, axis: u8, how: JogMove, feed_mm_min: f64) -> anyhow::
     );
     let before = session.status()?;
     use gantry_proto::MachineState as S;
+    let limit_bits = gantry_machine::board::LIMIT_BITS;
     match before.state {
         S::Idle | S::Jog => {}
+        // A jog off a pressed limit switch: the board decides whether it may leave the alarm.
+        S::Alarm { .. } if before.inputs & limit_bits != 0 => {}
         S::Alarm { code } => {
             println!("{}", format_status(&before, n));
             println!("jog refused: the board is in {}", alarm_text(code));
@@ -428,19 +466,36 @@ pub fn jog(target: Target, axis: u8, how: JogMove, feed_mm_min: f64) -> anyhow::
             return Ok(ExitCode::from(1));
         }
     }
+    let mut deadman = false;
     if let JogMove::Continuous { seconds, .. } = how {
         let stop = ctrl_c_flag();
         let limit_ms = seconds.map(|s| (s * 1000.0) as u32);
         eprintln!("jogging: Ctrl-C stops");
+        // The board's dead-man ends the jog 250 ms after the last keepalive, so this process
+        // being killed or stopped stops the axis (docs/controller.md "Jogging").
+        let (mut alive_at, mut asked_at) = (start, start);
+        let mut ended = false;
         while !stop.swap(false, std::sync::atomic::Ordering::SeqCst)
             && limit_ms.is_none_or(|l| session.now_ms().wrapping_sub(start) < l)
         {
-            session.pump(20)?;
-            if session.status()?.state != S::Jog {
-                break;
+            session.pump(10)?;
+            let now = session.now_ms();
+            if now.wrapping_sub(alive_at) >= JOG_KEEPALIVE_MS {
+                session.jog_keepalive()?;
+                alive_at = now;
+            }
+            if now.wrapping_sub(asked_at) >= 100 {
+                asked_at = now;
+                if session.status()?.state != S::Jog {
+                    ended = true;
+                    break;
+                }
             }
         }
-        session.jog_stop()?;
+        if !ended {
+            session.jog_stop()?;
+        }
+        deadman = took_deadman_error(&mut session)?;
     }
     // The longest jog: the whole travel at the requested speed, with a margin.
     let span = setup.axes[axis as usize].travel_max - setup.axes[axis as usize].travel_min;
@@ -466,5 +521,36 @@ pub fn jog(target: Target, axis: u8, how: JogMove, feed_mm_min: f64) -> anyhow::
             step_nm / 1e6
         );
     }
+    if deadman || took_deadman_error(&mut session)? {
+        println!(
+            "the board stopped the jog: no keepalive from this command for {} ms (it was stopped, \
+             too slow or cut off from the board)",
+            gantry_machine::controller::jog::JOG_DEADMAN_MS
+        );
+        return Ok(ExitCode::from(1));
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// How often `gantry jog --continuous` keeps its jog alive, ms (the board's dead-man waits 250 ms;
+/// senders send at least every 100 ms).
+const JOG_KEEPALIVE_MS: u32 = 50;
+
+/// True when the board reported ending a continuous jog by its dead-man (error 904) among the
+/// messages received so far; the others stay for whoever waits for them.
+fn took_deadman_error(session: &mut Session) -> anyhow::Result<bool> {
+    session.pump(0)?;
+    let mut kept = Vec::new();
+    let mut found = false;
+    while let Some(m) = session.link().recv() {
+        match m {
+            BoardMsg::Error {
+                code: gantry_machine::board::ERROR_JOG_DEADMAN,
+                ..
+            } => found = true,
+            other => kept.push(other),
+        }
+    }
+    session.link().put_back(kept);
+    Ok(found)
 }

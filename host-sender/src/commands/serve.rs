@@ -278,6 +278,14 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
             // while the board's realtime lane is full (a silent board): the server keeps serving
             // its commands meanwhile.
             while let Some(msg) = to_board.pop_front() {
+                let old_board = board
+                    .link()
+                    .peer_version()
+                    .is_some_and(|v| v < gantry_proto::JOG_KEEPALIVE_SINCE);
+                if old_board && msg == HostMsg::JogKeepalive {
+                    // A 5.0 board cannot decode it (and has no dead-man).
+                    continue;
+                }
                 if let Err(m) = board.link().try_send(msg) {
                     to_board.push_front(*m);
                     break;

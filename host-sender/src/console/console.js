@@ -175,18 +175,30 @@ function showOffsets(offsets) {
 }
 $("off-read").onclick = () => post("read_back");
 
-// Jog: a step per press, or (continuous) from press to release.
+// Jog: a step per press, or (continuous) from press to release. A continuous jog is the
+// board's: while the button is held this page sends a keepalive every 50 ms, and the board
+// stops the jog 250 ms after the last one it heard, so a page that closes, hangs or goes offline
+// stops the machine (docs/controller.md "Jogging").
 const step = () => +$("step").value;
+const KEEPALIVE_MS = 50;
 let jogging = null;
+function keepAlive() {
+  // Quietly: a lost keepalive is what the board's dead-man is for.
+  fetch("/api/jog_alive", { method: "POST", headers: { "Content-Type": "application/json" }, body: "{}" })
+    .catch(() => {});
+}
 function jogStart(axis, dir) {
   if (jogging) return;
-  jogging = { axis, dir };
+  const continuous = step() === 0;
+  jogging = { axis, dir, continuous, timer: continuous ? setInterval(keepAlive, KEEPALIVE_MS) : null };
   post("jog", { axis, dir, step: step(), feed: +$("jogfeed").value });
 }
 function jogEnd() {
   if (!jogging) return;
+  const j = jogging;
   jogging = null;
-  if (step() === 0) post("jog_stop");
+  if (j.timer) clearInterval(j.timer);
+  if (j.continuous) post("jog_stop");
 }
 for (const b of document.querySelectorAll(".jog")) {
   b.addEventListener("pointerdown", (e) => { e.preventDefault(); jogStart(b.dataset.axis, +b.dataset.dir); });

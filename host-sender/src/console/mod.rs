@@ -140,6 +140,9 @@ enum Cmd {
         feed_um_min: i32,
     },
     JogStop,
+    /// The page still holds its continuous jog button: passed on to the board as a keepalive
+    /// (only what the page sends: a page gone offline stops the jog, docs/console.md).
+    JogKeepalive,
     Home(u8),
     Unlock,
     /// Work zero of `axis` here (G10 L20 P0).
@@ -310,6 +313,7 @@ fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
         Cmd::Abort => e(s.abort(), "abort sent"),
         Cmd::Overrides(o) => e(s.set_overrides(o), "override sent"),
         Cmd::JogStop => e(s.jog_stop(), "jog stopped"),
+        Cmd::JogKeepalive => e(s.jog_keepalive(), "jog kept alive"),
         Cmd::Jog {
             axis,
             dir,
@@ -325,7 +329,8 @@ fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
                 None => s.status().map_err(|e| format!("{e:#}"))?.machine_pos[axis as usize],
             };
             let a = &s.setup().axes[axis as usize];
-            // Never beyond the travel: a step stops at its end, a continuous jog goes to it.
+            // Never beyond the travel: a step stops at its end, a continuous jog (the board's,
+            // kept alive by the page) goes at most to it.
             let room = if dir > 0 {
                 a.travel_max - here
             } else {
@@ -337,11 +342,10 @@ fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
                     AXIS_LETTERS[axis as usize]
                 ));
             }
-            let room = room as u64;
             let distance = if step_nm == 0 {
-                room
+                0
             } else {
-                step_nm.min(room)
+                step_nm.min(room as u64)
             };
             let feed = feed_um_min.abs() * if dir > 0 { 1 } else { -1 };
             answer(s.jog(axis, feed, distance, ANSWER_MS), "jogging")
@@ -757,6 +761,7 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
             })?
         }
         "jog_stop" => c.ask(Cmd::JogStop)?,
+        "jog_alive" => c.ask(Cmd::JogKeepalive)?,
         "home" => {
             let axes = match body.get("axis") {
                 None | Some(Value::Null) => 0,

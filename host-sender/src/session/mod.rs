@@ -271,6 +271,21 @@ impl Session {
         self.send(HostMsg::JogStop)
     }
 
+    /// Keeps a continuous jog going (`HostMsg::JogKeepalive`): a sender holding one sends this
+    /// at least every 100 ms; the board ends the jog 250 ms after the last (its dead-man,
+    /// docs/controller.md "Jogging"). Not sent to a board older than protocol 5.1, which has no
+    /// dead-man and cannot decode it.
+    pub fn jog_keepalive(&mut self) -> anyhow::Result<()> {
+        if self
+            .link
+            .peer_version()
+            .is_some_and(|v| v >= gantry_proto::JOG_KEEPALIVE_SINCE)
+        {
+            self.send(HostMsg::JogKeepalive)?;
+        }
+        Ok(())
+    }
+
     /// Starts homing the axes of `axes` (bit 0 = X; 0 = all); the board's answer.
     pub fn home(&mut self, axes: u8, limit_ms: u32) -> anyhow::Result<Option<u16>> {
         self.request(|id| HostMsg::Home { id, axes }, limit_ms)

@@ -107,6 +107,17 @@ impl Board {
         let Some(h) = Homing::new(&self.setup, axes) else {
             return Err(super::ERROR_INVALID_REQUEST);
         };
+        // A pressed switch other than a seek switch of the cycle would trip it at once (or,
+        // disarmed, not stop an axis driven into it): the operator jogs off it first
+        // (`board/pressed_switch.rs`). A seek that starts on its own switch stops at once and
+        // pulls off, as homing does.
+        let seeks = h.order.iter().fold(0u32, |m, &a| {
+            let a = usize::from(a);
+            m | 1 << homing::switch_bit(a, &self.setup.homing.axes[a])
+        });
+        if self.pressed_limits() & !seeks != 0 {
+            return Err(super::ERROR_LIMIT_PRESSED);
+        }
         let steps = self.motion.prepared_steps();
         self.rebuild_motion(false, &steps);
         for &a in &h.order {

@@ -4,11 +4,11 @@
 use super::mode::{Jogging, Mode};
 use super::{
     Board, BoardEvent, MarkEvent, MotionState, ERROR_BUSY, ERROR_HOMING_REQUIRED,
-    ERROR_INVALID_REQUEST, ERROR_SOFT_LIMIT,
+    ERROR_INVALID_REQUEST, ERROR_JOG_DEADMAN, ERROR_LIMIT_PRESSED, ERROR_SOFT_LIMIT,
 };
 use crate::canon::{Action, Canon};
 use crate::controller::inputs::{InputBits, Signal};
-use crate::controller::jog::{self, JogMode};
+use crate::controller::jog::{self, Deadman, JogMode};
 use crate::controller::{AdcReadings, State};
 use crate::motion::pipeline::PushError;
 use crate::units::{Pos, MAX_AXES};
@@ -24,6 +24,8 @@ pub enum JogRefused {
     Travel,
     /// No feed.
     Invalid,
+    /// Toward a limit switch still pressed (or, in the alarm, anything but a jog off it).
+    LimitPressed,
 }
 
 /// What a joystick jog is doing.
@@ -71,6 +73,9 @@ pub(super) struct JogState {
     nudge_dirs: [i8; MAX_AXES],
     next_nudge: u32,
     marks: u32,
+    /// The dead-man of the continuous host jog under way (`None`: none, or a stepped jog, a grbl
+    /// `$J=` jog or the joystick, which need none).
+    deadman: Option<Deadman>,
 }
 
 impl JogState {
@@ -119,18 +124,16 @@ impl Board {
         velocity_um_min: i32,
         distance_nm: u64,
     ) -> Result<(), u16> {
-        let free = matches!(self.mode, Mode::Idle)
-            || (matches!(self.mode, Mode::Jog(Jogging::Moves))
+        let at_rest = self.motion.state() == MotionState::Idle;
+        let free = matches!(self.mode, Mode::Idle | Mode::Alarm(_))
+            || (matches!(self.mode, Mode::Jog(Jogging::Moves | Jogging::OffSwitch(_)))
                 && !matches!(self.jog.motion, JogMotion::Stopping)
-                && self.motion.state() == MotionState::Idle);
+                && at_rest);
         if !free {
             return Err(ERROR_BUSY);
         }
         if axis >= self.setup.axis_count || velocity_um_min == 0 {
             return Err(ERROR_INVALID_REQUEST);
-        }
-        if self.homing_missing() {
-            return Err(ERROR_HOMING_REQUIRED);
         }
         let mut dirs = [0i64; MAX_AXES];
         // In range: `axis < axis_count <= MAX_AXES` (checked above, and by the setup).
@@ -139,6 +142,15 @@ impl Board {
         }
         let distance = (distance_nm > 0).then(|| distance_nm.min(i64::MAX as u64 / 4) as i64);
         let from = self.motion.queued_position();
+        let probe = {
+            let mut p = from;
+            p[usize::from(axis).min(MAX_AXES - 1)] += dirs[usize::from(axis).min(MAX_AXES - 1)];
+            p
+        };
+        let jogging = self.jog_mode_for(&from, &probe)?;
+        if jogging == Jogging::Moves && self.homing_missing() {
+            return Err(ERROR_HOMING_REQUIRED);
+        }
         let Some(to) = jog::jog_target(self.motion.config(), &from, &dirs, distance) else {
             return Err(ERROR_SOFT_LIMIT);
         };
@@ -153,8 +165,20 @@ impl Board {
         {
             return Err(ERROR_BUSY);
         }
-        self.mode = Mode::Jog(Jogging::Moves);
+        self.mode = Mode::Jog(jogging);
+        self.jogging_off(&from, &to);
+        // Only a continuous jog runs on its host's word; a distance ends by itself.
+        self.jog.deadman = (distance_nm == 0).then(|| Deadman::armed(self.sensed.now_ms));
         Ok(())
+    }
+
+    /// The host's keepalive for its continuous jog (`HostMessage::JogKeepalive`): the jog goes
+    /// on for another [`jog::JOG_DEADMAN_MS`]. Without a continuous host jog it does nothing.
+    pub fn jog_keepalive(&mut self) {
+        let now = self.sensed.now_ms;
+        if let Some(d) = &mut self.jog.deadman {
+            d.heard(now);
+        }
     }
 
     /// Host jog of several axes to the machine position `to` at `feed` nm/min (grbl's `$J=`,
@@ -163,13 +187,19 @@ impl Board {
     /// smoothly, and one jog cancel stops them all); refused while a cancel is stopping them.
     /// A target beyond the soft limits is refused as a whole (grbl error 15), never clipped.
     pub(crate) fn jog_to(&mut self, to: Pos, feed: i64) -> Result<(), JogRefused> {
-        let free = matches!(self.mode, Mode::Idle)
-            || (matches!(self.mode, Mode::Jog(Jogging::Moves))
+        let free = matches!(self.mode, Mode::Idle | Mode::Alarm(_))
+            || (matches!(self.mode, Mode::Jog(Jogging::Moves | Jogging::OffSwitch(_)))
                 && matches!(self.jog.motion, JogMotion::Free));
         if !free {
             return Err(JogRefused::Busy);
         }
-        if self.homing_missing() {
+        let from = self.motion.queued_position();
+        let jogging = match self.jog_mode_for(&from, &to) {
+            Ok(j) => j,
+            Err(ERROR_LIMIT_PRESSED) => return Err(JogRefused::LimitPressed),
+            Err(_) => return Err(JogRefused::Busy),
+        };
+        if jogging == Jogging::Moves && self.homing_missing() {
             return Err(JogRefused::HomingRequired);
         }
         if feed <= 0 {
@@ -183,7 +213,8 @@ impl Board {
             action: Action::Feed { to, feed },
         }) {
             Ok(()) => {
-                self.mode = Mode::Jog(Jogging::Moves);
+                self.mode = Mode::Jog(jogging);
+                self.jogging_off(&from, &to);
                 Ok(())
             }
             Err(PushError::Travel { .. }) => Err(JogRefused::Travel),
@@ -191,8 +222,33 @@ impl Board {
         }
     }
 
+    /// How a host jog from `from` toward `to` may run: as a plain jog (from Idle or behind host
+    /// jogs), or off a pressed limit switch from alarm 1 or 11 (and behind such a jog); refused
+    /// toward a pressed switch (905: it is disarmed, nothing would stop the axis), and in any
+    /// other alarm (902, as before).
+    fn jog_mode_for(&self, from: &Pos, to: &Pos) -> Result<Jogging, u16> {
+        match self.mode {
+            Mode::Jog(Jogging::OffSwitch(code)) => {
+                // Behind a jog off the switch: still off it, or the switch has released.
+                match self.jog_off_from(from, to) {
+                    Some(_) => Ok(Jogging::OffSwitch(code)),
+                    None if self.pressed_limits() == 0 => Ok(Jogging::OffSwitch(code)),
+                    None => Err(ERROR_LIMIT_PRESSED),
+                }
+            }
+            Mode::Alarm(_) => match self.jog_off_from(from, to) {
+                Some(code) => Ok(Jogging::OffSwitch(code)),
+                None if self.pressed_limits() != 0 => Err(ERROR_LIMIT_PRESSED),
+                None => Err(ERROR_BUSY),
+            },
+            _ if self.toward_pressed(from, to) => Err(ERROR_LIMIT_PRESSED),
+            _ => Ok(Jogging::Moves),
+        }
+    }
+
     /// Stops a jog within its deceleration distance and drops what was queued of it.
     pub fn jog_stop(&mut self) {
+        self.jog.deadman = None;
         if self.state() != State::Jog {
             return;
         }
@@ -205,17 +261,38 @@ impl Board {
     }
 
     pub(super) fn poll_jog(&mut self, drained: bool) {
+        if self
+            .jog
+            .deadman
+            .is_some_and(|d| d.expired(self.sensed.now_ms))
+        {
+            // The host went silent (killed, stopped, cut off): a controlled stop, as a jog stop.
+            self.jog_stop();
+            self.emit(BoardEvent::Error {
+                line: 0,
+                code: ERROR_JOG_DEADMAN,
+                column: 0,
+            });
+        }
         if self.motion.state() == MotionState::Idle
             && matches!(self.jog.motion, JogMotion::Stopping)
         {
             self.jog.motion = JogMotion::Free;
         }
-        if matches!(self.mode, Mode::Jog(Jogging::Moves))
-            && drained
-            && self.motion.state() == MotionState::Idle
-        {
-            self.mode = Mode::Idle;
-            self.sync_interpreter_position();
+        let at_rest = drained && self.motion.state() == MotionState::Idle;
+        match self.mode {
+            Mode::Jog(Jogging::Moves) if at_rest => {
+                self.mode = Mode::Idle;
+                self.jog.deadman = None;
+                self.sync_interpreter_position();
+            }
+            // Off the switch: the alarm stays until the operator unlocks.
+            Mode::Jog(Jogging::OffSwitch(code)) if at_rest => {
+                self.mode = Mode::Alarm(code);
+                self.jog.deadman = None;
+                self.sync_interpreter_position();
+            }
+            _ => {}
         }
     }
 

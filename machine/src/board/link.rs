@@ -337,6 +337,7 @@ impl BoardLink {
                 answer(board, j.id, r);
             }
             HostMessage::JogStop => board.jog_stop(),
+            HostMessage::JogKeepalive => board.jog_keepalive(),
             HostMessage::Home { id, axes } => {
                 let r = board.try_home(axes);
                 answer(board, id, r);

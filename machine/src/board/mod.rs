@@ -26,6 +26,7 @@ mod operator;
 mod outbox;
 mod outputs;
 mod overrides;
+mod pressed_switch;
 mod probing;
 pub mod source;
 #[cfg(feature = "link")]
@@ -60,6 +61,7 @@ pub use outbox::{BoardEvent, JobEnd, MarkEvent};
 use outputs::OutputState;
 pub use outputs::{DoorOutputs, Outputs};
 use overrides::Overrides;
+pub use pressed_switch::ERROR_LIMIT_PRESSED;
 pub use probing::ProbeResult;
 use probing::Probing;
 pub use source::{JumpRequest, JumpTarget, Pushed, StreamSource, LINE_CAPACITY};
@@ -83,6 +85,9 @@ pub const ERROR_BUSY: u16 = 902;
 /// Error code of a refused request that can never be carried out: no such axis, no feed, no axis
 /// to home.
 pub const ERROR_INVALID_REQUEST: u16 = 903;
+/// Error code reported when the board ended a continuous host jog because no keepalive came for
+/// [`crate::controller::jog::JOG_DEADMAN_MS`] (the host was killed, stopped or cut off).
+pub const ERROR_JOG_DEADMAN: u16 = 904;
 /// Every limit-switch bit of [`InputBits`].
 pub const LIMIT_BITS: u32 = (0x3f << LIMIT_MIN_BIT) | (0x3f << LIMIT_MAX_BIT);
 
@@ -193,9 +198,9 @@ impl Board {
         self.outputs.program()
     }
 
-    /// Main-loop time from the last [`Board::on_inputs`], ms (the grbl door's spin-up wait,
-    /// `machine/src/grbl/door.rs`).
-    pub(crate) fn now_ms(&self) -> u32 {
+    /// Main-loop time from the last [`Board::on_inputs`], ms: the board's clock (the grbl door's
+    /// spin-up wait, `machine/src/grbl/door.rs`; the jog dead-man, `board/jogging.rs`).
+    pub fn now_ms(&self) -> u32 {
         self.sensed.now_ms
     }
 
@@ -681,9 +686,11 @@ impl Board {
                     phase: HomingPhase::Aborting,
                 };
             }
-            Mode::Jog(_) => {
-                // Leaves joystick mode too.
-                self.mode = Mode::Jog(Jogging::Moves);
+            Mode::Jog(who) => {
+                // Leaves joystick mode too (a jog off a pressed switch goes back to its alarm).
+                if who == Jogging::Joystick {
+                    self.mode = Mode::Jog(Jogging::Moves);
+                }
                 self.jog_stop();
             }
             Mode::Job(Job {
@@ -876,12 +883,17 @@ impl Board {
 
     /// [`Board::unlock`], with its outcome: `Ok` when no alarm is left (or there was none),
     /// else [`ERROR_BUSY`] (still decelerating) or [`ERROR_HOMING_REQUIRED`] (alarm 11 stays).
-    pub(crate) fn try_unlock(&mut self) -> Result<(), u16> {
+    pub fn try_unlock(&mut self) -> Result<(), u16> {
         if !matches!(self.mode, Mode::Alarm(_)) {
             return Ok(());
         }
         if self.motion.state() != MotionState::Idle {
             return Err(ERROR_BUSY);
+        }
+        if self.pressed_limits() != 0 {
+            // Unlocked, it would trip again on the switch it stands on (or be driven further
+            // into it): the operator jogs off it first (`board/pressed_switch.rs`).
+            return Err(ERROR_LIMIT_PRESSED);
         }
         if self.homing_missing() {
             if !matches!(self.mode, Mode::Alarm(AlarmCode::HomingRequired)) {

@@ -65,6 +65,9 @@ pub(super) enum Jogging {
     Moves,
     /// Joystick jog mode (entered and left with Mark + Release): the switches and the stick jog.
     Joystick,
+    /// A host jog off a pressed limit switch from this alarm (`board/pressed_switch.rs`): back
+    /// in the alarm once at rest.
+    OffSwitch(AlarmCode),
 }
 
 /// A homing cycle, running or aborted.

@@ -32,6 +32,9 @@ pub(super) struct Sensed {
     pub(super) drained: bool,
     /// Limit bits ignored until they release (a switch still pressed when the alarm was raised).
     disarmed: u32,
+    /// When the last switch was disarmed, ms: its debounced level may show it pressed only a
+    /// debounce time later, so it re-arms on a release seen after that.
+    disarmed_at: u32,
 }
 
 impl Sensed {
@@ -43,22 +46,34 @@ impl Sensed {
             levels: InputBits(0),
             drained: true,
             disarmed: 0,
+            disarmed_at: 0,
         }
     }
 
-    /// A new input sample; returns the levels before it. A disarmed limit switch re-arms once it
-    /// has released.
-    fn sample(&mut self, now_ms: u32, levels: InputBits) -> InputBits {
+    /// A new input sample (debounced over `debounce_ms`); returns the levels before it. A
+    /// disarmed limit switch re-arms once it has released, judged only once the debounced levels
+    /// can show it pressed: the kernel stops on the raw pin, the debounced level follows
+    /// `debounce_ms` later, and a switch re-armed in between tripped again at the unlock.
+    fn sample(&mut self, now_ms: u32, levels: InputBits, debounce_ms: u8) -> InputBits {
         let prev = self.levels;
         self.now_ms = now_ms;
         self.levels = levels;
-        self.disarmed &= levels.0;
+        // (Twice the debounce time and two samples: a margin over the debouncer's lag.)
+        if now_ms.wrapping_sub(self.disarmed_at) > 2 * u32::from(debounce_ms) + 2 {
+            self.disarmed &= levels.0;
+        }
         prev
     }
 
     /// Ignores the limit bits of `bits` until they release.
     pub(super) fn disarm(&mut self, bits: u32) {
         self.disarmed |= bits;
+        self.disarmed_at = self.now_ms;
+    }
+
+    /// The limit bits ignored until they release.
+    pub(super) fn disarmed_bits(&self) -> u32 {
+        self.disarmed
     }
 
     /// The limit bits of `installed` not disarmed.
@@ -87,7 +102,9 @@ impl Board {
         changed: u32,
         adc: AdcReadings,
     ) {
-        let prev = self.sensed.sample(now_ms, levels);
+        let prev = self
+            .sensed
+            .sample(now_ms, levels, self.setup.inputs.debounce_ms);
         let rose = |s: Signal| changed & (1 << s as u32) != 0 && levels.get(s);
         let fell = |s: Signal| changed & (1 << s as u32) != 0 && !levels.get(s);
         let inputs = self.setup.inputs;

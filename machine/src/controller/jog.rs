@@ -20,6 +20,36 @@ use crate::units::{Nm, Pos, MAX_AXES};
 /// Speed steps of the analog stick: the deflection is quantised so noise does not restart jogs.
 pub const ANALOG_LEVELS: i64 = 8;
 
+/// The dead-man of a continuous host jog: the board ends it with a controlled stop when no
+/// keepalive (or the jog itself) arrived for this long, on the board's clock. Senders keep it
+/// alive at least every 100 ms (docs/controller.md "Jogging"), so a lost frame or two, or a
+/// host stalled for a scheduler tick, does not stop a held jog, and a host that is killed,
+/// stopped or cut off stops the axis within a quarter of a second plus its deceleration.
+pub const JOG_DEADMAN_MS: u32 = 250;
+
+/// When a continuous host jog last heard from its host (board milliseconds).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Deadman {
+    heard_ms: u32,
+}
+
+impl Deadman {
+    /// Armed at `now_ms` (the jog request itself counts as the first keepalive).
+    pub fn armed(now_ms: u32) -> Deadman {
+        Deadman { heard_ms: now_ms }
+    }
+
+    /// A keepalive arrived at `now_ms`.
+    pub fn heard(&mut self, now_ms: u32) {
+        self.heard_ms = now_ms;
+    }
+
+    /// True once [`JOG_DEADMAN_MS`] passed since the last keepalive (wrapping clock).
+    pub fn expired(&self, now_ms: u32) -> bool {
+        now_ms.wrapping_sub(self.heard_ms) >= JOG_DEADMAN_MS
+    }
+}
+
 /// Jog mode selected by the joystick's selector switches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum JogMode {
@@ -181,6 +211,17 @@ mod tests {
         assert!(!same_direction(&a, &[-2000, 1000, 0, 0, 0, 0]));
         assert!(!same_direction(&a, &[4000, -1000, 0, 0, 0, 0]));
         assert!(!same_direction(&a, &[0; MAX_AXES]));
+    }
+
+    #[test]
+    fn the_deadman_expires_250_ms_after_the_last_keepalive() {
+        // Near the wrap of the board's millisecond clock.
+        let t0 = u32::MAX - 100;
+        let mut d = Deadman::armed(t0);
+        assert!(!d.expired(t0.wrapping_add(249)));
+        d.heard(t0.wrapping_add(200));
+        assert!(!d.expired(t0.wrapping_add(449)));
+        assert!(d.expired(t0.wrapping_add(450)));
     }
 
     #[test]

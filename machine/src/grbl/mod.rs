@@ -784,8 +784,12 @@ impl Grbl {
                 if board.state() == State::Alarm {
                     board.unlock();
                     if board.state() == State::Alarm {
-                        // Gantry keeps the homing lock (grbl would lift it): say so.
-                        if board.alarm() == Some(AlarmCode::HomingRequired) {
+                        // Gantry keeps the homing lock (grbl would lift it), and the alarm
+                        // while a limit switch is pressed (`board/pressed_switch.rs`): say so.
+                        if board.pressed_limits() != 0 {
+                            self.out
+                                .line("[MSG:Limit switch pressed: jog off it ('$J='), then '$X']");
+                        } else if board.alarm() == Some(AlarmCode::HomingRequired) {
                             self.out.line("[MSG:Homing required: '$H' to home]");
                         }
                         return Step::Reply(Reply::Error(codes::LOCKED));
@@ -802,6 +806,11 @@ impl Grbl {
                 if let Some(s) = self.idle_gate(board, true) {
                     return s;
                 }
+                if board.pressed_limits() != 0 {
+                    self.out
+                        .line("[MSG:Limit switch pressed: jog off it ('$J='), then '$X']");
+                    return Step::Reply(Reply::Error(codes::LOCKED));
+                }
                 if board.home(axes) {
                     Step::Homing
                 } else {
@@ -810,7 +819,9 @@ impl Grbl {
             }
             Command::Jog(words) => {
                 if board.state() != State::Jog {
-                    if let Some(s) = self.idle_gate(board, false) {
+                    // In the alarm, a jog off a pressed limit switch (the board decides).
+                    let off_switch = board.pressed_limits() != 0;
+                    if let Some(s) = self.idle_gate(board, off_switch) {
                         return s;
                     }
                 }
@@ -827,6 +838,7 @@ impl Grbl {
                     Err(JogRefused::Travel) => Step::Reply(Reply::Error(codes::JOG_TRAVEL)),
                     Err(JogRefused::HomingRequired) => Step::Reply(Reply::Error(codes::LOCKED)),
                     Err(JogRefused::Invalid) => Step::Reply(Reply::Error(codes::JOG_INVALID)),
+                    Err(JogRefused::LimitPressed) => Step::Reply(Reply::Error(codes::LOCKED)),
                 }
             }
             Command::Restore(what) => {

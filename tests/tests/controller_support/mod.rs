@@ -58,6 +58,33 @@ pub fn until_state(eb: &mut EmulatedBoard, state: State, max_ms: u64) {
     );
 }
 
+/// How often a test's host keeps its continuous jog alive, ms (senders: at least every 100 ms;
+/// the board's dead-man ends the jog after 250 ms without one).
+pub const KEEPALIVE_MS: u64 = 50;
+
+/// Runs `ms` as a host holding a continuous jog does: a keepalive every [`KEEPALIVE_MS`].
+pub fn run_held(eb: &mut EmulatedBoard, ms: u64) {
+    let mut left = ms;
+    while left > 0 {
+        eb.board.jog_keepalive();
+        let n = left.min(KEEPALIVE_MS);
+        eb.run_ms(n);
+        left -= n;
+    }
+}
+
+/// [`until_state`] while the host keeps its continuous jog alive ([`run_held`]).
+pub fn until_state_held(eb: &mut EmulatedBoard, state: State, max_ms: u64) {
+    let mut waited = 0;
+    while eb.board.state() != state && waited < max_ms {
+        eb.board.jog_keepalive();
+        let n = (max_ms - waited).min(KEEPALIVE_MS);
+        eb.run_until(n, |b| b.board.state() == state);
+        waited += n;
+    }
+    until_state(eb, state, 0);
+}
+
 /// Runs until the kernel has stopped stepping and the board is idle-ish (no motion queued).
 pub fn until_at_rest(eb: &mut EmulatedBoard, max_ms: u64) {
     let ok = eb.run_until(max_ms, |b| {

@@ -422,6 +422,7 @@ impl Interpreter {
     ) -> Res<bool> {
         let gixa = self.gixa();
         match mode {
+            MotionMode::Rapid | MotionMode::Linear if self.stays_under_transform(b, g53) => {}
             MotionMode::Rapid => {
                 // As LinuxCNC, an explicit G0 without axis words is a zero-length move.
                 let has_axes = b.has_any(AXIS_WORDS);
@@ -485,6 +486,14 @@ impl Interpreter {
             }
         }
         Ok(true)
+    }
+
+    /// True for a G0/G1 block without axis words under a mirror, scaling or rotation: it makes
+    /// no motion, as on Fanuc, Hurco and LinuxCNC. The transformed image of the program point is
+    /// not where the tool stands when the transform was set there (a G51.1 keeps the tool in
+    /// place, [`Interpreter::set_transforms`]), so going through the pipeline would rapid to it.
+    fn stays_under_transform(&self, b: &Block, g53: bool) -> bool {
+        !g53 && self.state.xf.active() && !b.has_any(AXIS_WORDS)
     }
 
     #[inline(never)]
