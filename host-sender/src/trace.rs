@@ -73,7 +73,9 @@ pub fn trace(
         }
     });
     let mut client = Client::connect(board, 2000)?;
-    let report = stream_program(&mut client, program, &mut |_| Flow::Continue)?;
+    // A simulation stands for no machine: its M0/M1 and M6 stops are answered at once.
+    let mut stops = crate::session::job::ThroughStops::new();
+    let report = stream_program(&mut client, program, &mut |p| stops.flow(program, p))?;
     if let Some(err) = error.borrow_mut().take() {
         return Err(err).context("writing the VCD trace");
     }

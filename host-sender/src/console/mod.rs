@@ -504,13 +504,19 @@ fn setup_json(s: &Setup) -> Value {
     })
 }
 
-/// Streams `program` (a file from the page, or an MDI block) on a session of its own.
-fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
+/// Streams `program` (a file from the page, or an MDI block) on a session of its own, once it
+/// passed the start check (`cleared`).
+fn job(
+    c: Arc<Console>,
+    name: String,
+    text: String,
+    from: Option<u32>,
+    cleared: crate::session::Cleared,
+) {
     let program = Program::from_text(&text);
     let publish_end = |v: Value| c.hub.publish("job", v);
     let result = (|| -> anyhow::Result<()> {
         let mut s = Session::connect(Target::Port(c.port.clone()), OnClose::KeepDtr)?;
-        s.set_operator(true);
         let setup = s.setup().clone();
         let eta = Eta::plan(&text, &setup);
         let mut preamble = Vec::new();
@@ -529,7 +535,7 @@ fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
         let mut last = 0u32;
         let mut stop_line = 0u32;
         let mut stop: Option<String> = None;
-        let report = s.run_job(&program, start, &mut |p| {
+        let report = s.start_job(&program, start, cleared, &mut |p| {
             let state = p.status.as_ref().map(|s| s.state);
             let stopped = matches!(
                 state,
@@ -587,15 +593,29 @@ fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
     c.job.store(false, Ordering::SeqCst);
 }
 
-/// Starts a job thread unless one runs.
+/// Starts a job thread unless one runs, once the program passed the start check
+/// (`crate::session::start`) with the board's setup: a program with an error is refused with
+/// the check's report, and nothing moves.
 fn start_job(c: &Arc<Console>, name: String, text: String, from: Option<u32>) -> Reply {
+    let setup = c
+        .setup
+        .lock()
+        .expect("setup")
+        .clone()
+        .ok_or("the board's setup is not read yet")?;
+    let cleared = crate::session::check_text(&name, &text, &setup).map_err(|refused| {
+        format!(
+            "{}nothing was run: the program has an error (fix it and open it again)",
+            refused.report
+        )
+    })?;
     if c.job.swap(true, Ordering::SeqCst) {
         return Err("a job started from the console is still running".into());
     }
     let c2 = c.clone();
     let _ = std::thread::Builder::new()
         .name("console-job".into())
-        .spawn(move || job(c2, name, text, from))
+        .spawn(move || job(c2, name, text, from, cleared))
         .map_err(|e| {
             c.job.store(false, Ordering::SeqCst);
             e.to_string()
