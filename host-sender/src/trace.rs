@@ -4,7 +4,7 @@
 use crate::emulator::{EmulatedBoard, PinEvent};
 use crate::link::Client;
 use crate::program::Program;
-use crate::session::{stream_program, Flow};
+use crate::session::stream_program;
 use crate::vcd::{counts_to_ns, VcdEvent, VcdOptions, VcdSummary, VcdWriter};
 use anyhow::Context;
 use gantry_machine::controller::inputs::INPUT_NAMES;

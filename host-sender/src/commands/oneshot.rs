@@ -8,6 +8,7 @@
 use super::{check_can_start, ctrl_c_flag, print_notices, CONFIRM_MS};
 use crate::emulator::emulated_with_switches;
 use crate::link::OnClose;
+use anyhow::Context;
 use crate::present::{alarm_text, format_status, limit_text, refusal_text, state_name};
 use crate::session::{Flow, Overrides, Session, Target};
 use gantry_machine::setup::Setup;
@@ -227,11 +228,15 @@ pub fn setup_push(target: Target, setup: &gantry_machine::setup::Setup) -> anyho
 }
 
 /// Sends the setup file `file` to the board, keeping the board's work offsets and G28/G30
-/// positions where the file does not name them ([`crate::setup_file::SetupFile::load_for_push`]).
+/// positions where the file does not name them (the session's one push path,
+/// [`Session::push_setup_text`]); an empty file is refused.
 pub fn setup_push_file(target: Target, file: &std::path::Path) -> anyhow::Result<()> {
+    let text = crate::setup_file::SetupFile::read_bounded(file)?;
     let mut session = connect(target)?;
-    let setup = crate::setup_file::SetupFile::load_for_push(file, session.setup())?;
-    session.push_setup(&setup)
+    session
+        .push_setup_text(&text)
+        .with_context(|| format!("in setup file {}", file.display()))?;
+    Ok(())
 }
 
 /// Reads the board's setup.

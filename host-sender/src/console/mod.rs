@@ -148,7 +148,8 @@ enum Cmd {
     Offsets(String),
     /// Reads the board's setup (and the work offsets in it) again.
     ReadBack,
-    PushSetup(Box<Setup>),
+    /// The editor's setup text, pushed through the session's one push path.
+    PushSetup(String),
 }
 
 type Reply = Result<String, String>;
@@ -371,13 +372,13 @@ fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
             read_back(s, c);
             Ok("the board's setup and work offsets read back".into())
         }
-        Cmd::PushSetup(setup) => match s.push_setup(&setup) {
-            Ok(()) => {
-                *c.setup.lock().expect("setup") = Some((*setup).clone());
+        Cmd::PushSetup(text) => match s.push_setup_text(&text) {
+            Ok(setup) => {
                 c.hub.publish("setup", setup_json(&setup));
+                *c.setup.lock().expect("setup") = Some(setup);
                 Ok("setup pushed, saved by the board".into())
             }
-            Err(e) => Err(format!("{e:#}")),
+            Err(e) => Err(format!("nothing was pushed: {e:#}")),
         },
     }
 }
@@ -670,8 +671,14 @@ fn serve_client(c: &Arc<Console>, stream: TcpStream, addr: SocketAddr) {
                     );
                     return;
                 }
-                let body: Value = serde_json::from_slice(&req.body).unwrap_or(Value::Null);
-                let (code, v) = match api(c, &path[5..], &body) {
+                // A body that is not JSON is refused, never taken as an empty command.
+                let parsed = if req.body.iter().all(u8::is_ascii_whitespace) {
+                    Ok(Value::Null)
+                } else {
+                    serde_json::from_slice(&req.body)
+                        .map_err(|e| format!("the request is not valid JSON ({e}): nothing was done"))
+                };
+                let (code, v) = match parsed.and_then(|body| api(c, &path[5..], &body)) {
                     Ok(v) => ("200 OK", v),
                     Err(e) => ("200 OK", json!({ "ok": false, "error": e })),
                 };
@@ -874,12 +881,18 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
             return Ok(json!({ "ok": true, "preamble": pre }));
         }
         "setup_check" | "setup_push" => {
-            let text = body.get("toml").and_then(Value::as_str).unwrap_or("");
-            let setup = crate::setup_file::SetupFile::parse(text).map_err(|e| format!("{e:#}"))?;
+            let Some(text) = body.get("toml").and_then(Value::as_str) else {
+                return Err(
+                    "expected {\"toml\": \"<the setup file's text>\"}: nothing was changed".into(),
+                );
+            };
             if what == "setup_check" {
+                let board = c.setup.lock().expect("setup").clone().unwrap_or_default();
+                crate::setup_file::SetupFile::parse_for_push(text, &board)
+                    .map_err(|e| format!("{e:#}"))?;
                 "the setup is valid".into()
             } else {
-                c.ask(Cmd::PushSetup(Box::new(setup)))?
+                c.ask(Cmd::PushSetup(text.to_owned()))?
             }
         }
         _ => return Err(format!("no command {what}")),

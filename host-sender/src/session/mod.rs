@@ -282,6 +282,17 @@ impl Session {
         Ok(())
     }
 
+    /// The one setup push from setup text (`gantry setup push FILE`, the console's Push): the
+    /// text is parsed and validated (an empty or unreadable setup is an error and nothing is
+    /// sent), the board's work offsets and G28/G30 positions are kept where the text names none
+    /// (`SetupFile::parse_for_push`), then it is pushed ([`Session::push_setup`]). Returns the
+    /// setup the board now has.
+    pub fn push_setup_text(&mut self, text: &str) -> anyhow::Result<Setup> {
+        let setup = crate::setup_file::SetupFile::parse_for_push(text, &self.setup)?;
+        self.push_setup(&setup)?;
+        Ok(setup)
+    }
+
     /// Reads the board's setup again (after something else changed it).
     pub fn reload_setup(&mut self) -> anyhow::Result<&Setup> {
         self.setup = pull_setup_over(&mut self.link)?;
