@@ -15,7 +15,8 @@ const S: Duration = Duration::from_secs(1);
 const T: Duration = Duration::from_secs(90);
 
 /// Fast axes; the host-loss stop (alarm 20) left at its 60 s.
-const SETUP: &str = "[axis.X]\nmax_rate = 6000.0\naccel = 5000.0\n[axis.Y]\nmax_rate = 6000.0\naccel = 5000.0\n";
+const SETUP: &str =
+    "[axis.X]\nmax_rate = 6000.0\naccel = 5000.0\n[axis.Y]\nmax_rate = 6000.0\naccel = 5000.0\n";
 
 /// 30 moves of 20 mm in X at 3000 mm/min (0.4 s each) climbing 0.5 mm in Y, spindle and flood
 /// on: 600 mm of X (384 000 pulses at 640 steps/mm) and 15 mm of Y (9 600), ending at X 0.
@@ -67,7 +68,11 @@ fn a_sender_killed_under_serve_is_a_lost_host_and_a_take_over_finishes_the_job()
     let job = dir.file("climb.ngc", &climb());
     let job = job.to_str().unwrap();
     let sender = spawn(&["--port", port, "stream", job]);
-    assert!(wait_for(20 * S, || line_of(&status(port)) >= 10), "{}", emu.log());
+    assert!(
+        wait_for(20 * S, || line_of(&status(port)) >= 10),
+        "{}",
+        emu.log()
+    );
     assert!(status(port).contains("outputs:   spindle CW 12000 rpm, flood"));
     sender.signal(Signal::SIGKILL);
     let killed = Instant::now();
@@ -76,8 +81,7 @@ fn a_sender_killed_under_serve_is_a_lost_host_and_a_take_over_finishes_the_job()
     let mut last = String::new();
     let at_rest = wait_for(5 * S, || {
         last = status(port);
-        last.starts_with("state:     Hold")
-            && last.contains("outputs:   spindle off, coolant off")
+        last.starts_with("state:     Hold") && last.contains("outputs:   spindle off, coolant off")
     });
     assert!(
         at_rest,
@@ -101,7 +105,10 @@ fn a_sender_killed_under_serve_is_a_lost_host_and_a_take_over_finishes_the_job()
     // Spindle and flood back with the motion.
     let out = taker.wait(T);
     assert_eq!(out.code, Some(0), "{out:?}");
-    assert!(out.stdout.contains("job done: last line 34 of 34"), "{out:?}");
+    assert!(
+        out.stdout.contains("job done: last line 34 of 34"),
+        "{out:?}"
+    );
     assert!(emu.wait_log(10 * S, |l| l.contains("Idle line 34")));
     // The uninterrupted run's counts: back at X 0, Y 15 mm; every pulse of the path once.
     let (steps, pulses) = emu.last_counts();
@@ -121,7 +128,11 @@ fn a_thousand_status_requests_while_the_board_is_stalled_cause_no_reopen_and_no_
     let server = serve(&port, &[]);
     let job = dir.file("climb.ngc", &climb());
     let sender = spawn(&["--port", &port, "stream", job.to_str().unwrap()]);
-    assert!(wait_for(20 * S, || line_of(&status(&port)) >= 5), "{}", emu.log());
+    assert!(
+        wait_for(20 * S, || line_of(&status(&port)) >= 5),
+        "{}",
+        emu.log()
+    );
     // A client of its own through the server.
     let t: Box<dyn Transport> = Box::new(SocketTransport::connect(&port).unwrap().unwrap());
     let mut client = Client::connect(t, 5000).unwrap();
@@ -143,11 +154,18 @@ fn a_thousand_status_requests_while_the_board_is_stalled_cause_no_reopen_and_no_
     drop(client);
     let out = sender.wait(T);
     assert_eq!(out.code, Some(0), "{out:?}");
-    assert!(out.stdout.contains("job done: last line 34 of 34"), "{out:?}");
+    assert!(
+        out.stdout.contains("job done: last line 34 of 34"),
+        "{out:?}"
+    );
     let log = emu.log();
     assert!(log.contains("this process was stopped for"), "{log}");
     // No reopen (before: "went away; reopening it" a thousand times, DTR dropped) and no hold.
-    assert!(!server.stderr().contains("went away"), "{}", server.stderr());
+    assert!(
+        !server.stderr().contains("went away"),
+        "{}",
+        server.stderr()
+    );
     assert!(!log.contains("host closed the port (DTR drop"), "{log}");
     assert!(!log.contains("Hold"), "{log}");
     let (steps, pulses) = emu.last_counts();
@@ -201,7 +219,9 @@ fn console(port: &str) -> (Running, u16) {
     let http = free_port();
     let addr = format!("127.0.0.1:{http}");
     let server = serve(port, &["--http", &addr]);
-    assert!(wait_for(10 * S, || server.stderr().contains("the console is on")));
+    assert!(wait_for(10 * S, || server
+        .stderr()
+        .contains("the console is on")));
     // The console's session has read the board's setup once `setup_check` knows it.
     assert!(wait_for(10 * S, || post(http, "read_back", "{}")["ok"] == true));
     (server, http)
@@ -217,7 +237,13 @@ fn the_console_refuses_to_run_a_program_whose_check_failed_and_nothing_moves() {
     let v = post(http, "program", &body);
     assert_eq!(v["ok"], true, "{v}");
     assert_eq!(v["errors"], 1, "{v}");
-    assert!(v["check"].as_str().unwrap().contains("typo.ngc:3: error E202"), "{v}");
+    assert!(
+        v["check"]
+            .as_str()
+            .unwrap()
+            .contains("typo.ngc:3: error E202"),
+        "{v}"
+    );
     // Run and run-from-line are refused with the check's report; the MDI of the bad block too.
     for (what, body) in [
         ("run", "{}".to_owned()),
@@ -230,7 +256,10 @@ fn the_console_refuses_to_run_a_program_whose_check_failed_and_nothing_moves() {
         let v = post(http, what, &body);
         assert_eq!(v["ok"], false, "{what} {body}: {v}");
         let e = v["error"].as_str().unwrap();
-        assert!(e.contains("error E202") && e.contains("nothing was run"), "{e}");
+        assert!(
+            e.contains("error E202") && e.contains("nothing was run"),
+            "{e}"
+        );
     }
     // Nothing moved: the board never left Idle, no step.
     let st = status(emu.port());
@@ -242,7 +271,11 @@ fn the_console_refuses_to_run_a_program_whose_check_failed_and_nothing_moves() {
     let body = serde_json::json!({ "name": "fixed.ngc", "text": fixed }).to_string();
     assert_eq!(post(http, "program", &body)["errors"], 0);
     assert_eq!(post(http, "run", "{}")["ok"], true);
-    assert!(emu.wait_log(T, |l| l.contains("Idle line 4")), "{}", emu.log());
+    assert!(
+        emu.wait_log(T, |l| l.contains("Idle line 4")),
+        "{}",
+        emu.log()
+    );
     drop(server);
 }
 

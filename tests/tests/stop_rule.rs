@@ -14,7 +14,8 @@ const S: Duration = Duration::from_secs(1);
 const T: Duration = Duration::from_secs(60);
 
 /// Fast axes; the host-loss stop (alarm 20) left at its 60 s so that a held job stays held.
-const SETUP: &str = "[axis.X]\nmax_rate = 6000.0\naccel = 5000.0\n[axis.Y]\nmax_rate = 6000.0\naccel = 5000.0\n";
+const SETUP: &str =
+    "[axis.X]\nmax_rate = 6000.0\naccel = 5000.0\n[axis.Y]\nmax_rate = 6000.0\naccel = 5000.0\n";
 
 /// The emulator's last state line (its state and step counts), once it contains `what`.
 fn state_line_with(emu: &Emulator, what: &str) -> String {
@@ -78,7 +79,9 @@ fn a_feed_hold_stays_held_when_the_sender_stalls_and_comes_back() {
     // Ctrl-C: the sender holds, then asks whether to abort (its standard input stays open).
     sender.signal(Signal::SIGINT);
     let held = state_line_with(&emu, "Hold (at rest)");
-    assert!(wait_for(10 * S, || sender.stderr().contains("abort the job?")));
+    assert!(wait_for(10 * S, || sender
+        .stderr()
+        .contains("abort the job?")));
     stall_and_watch(&emu, &sender, &held);
     // The operator answers: abort. The job ends where it stood.
     sender.answer("y");
@@ -114,13 +117,15 @@ fn an_m0_and_an_m6_stay_stopped_when_the_sender_stalls_and_comes_back() {
         sender.answer("");
         let out = sender.wait(T);
         assert_eq!(out.code, Some(0), "{name}: {out:?}");
-        assert!(
-            out.stdout.contains("job done: last line 5 of 5"),
-            "{out:?}"
-        );
+        assert!(out.stdout.contains("job done: last line 5 of 5"), "{out:?}");
         assert!(emu.wait_log(10 * S, |l| l.contains("Idle line 5")));
         // 10 mm of X at 640 steps/mm.
-        assert_eq!(emu.last_counts().0, "X 6400 Y 0 Z 0", "{name}: {}", emu.log());
+        assert_eq!(
+            emu.last_counts().0,
+            "X 6400 Y 0 Z 0",
+            "{name}: {}",
+            emu.log()
+        );
     }
 }
 
@@ -131,7 +136,9 @@ fn under_serve_a_hold_stays_held_when_the_sender_stalls_and_the_sender_says_why(
     let emu = Emulator::start(&dir, Some(&setup));
     let port = emu.port();
     let server = spawn(&["serve", "--port", port]);
-    assert!(wait_for(10 * S, || server.stderr().contains("is served on")));
+    assert!(wait_for(10 * S, || server
+        .stderr()
+        .contains("is served on")));
     let job = dir.file("cut.ngc", LONG_CUT);
     let sender = spawn(&["--port", port, "stream", job.to_str().unwrap()]);
     assert!(

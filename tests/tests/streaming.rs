@@ -215,8 +215,7 @@ fn a_new_host_takes_over_a_job_after_the_cable_was_pulled() {
         if let (None, Some(s)) = (operator.pressed_at, &p.status) {
             seen_hold |= matches!(s.state, MachineState::Hold { .. });
             assert!(
-                !seen_hold ||
-                matches!(s.state, MachineState::Hold { stopped: true }),
+                !seen_hold || matches!(s.state, MachineState::Hold { stopped: true }),
                 "held until the operator resumes: {:?}",
                 s.state
             );
@@ -257,7 +256,9 @@ fn after_a_short_cable_pull_the_same_host_leaves_the_job_held_until_the_operator
     .unwrap();
     // Held from the host timeout to the operator's press, which came 3 s after the link was
     // back and the sender saw the hold: no resume came from the host meanwhile.
-    let pressed = operator.pressed_at.expect("the operator pressed cycle start");
+    let pressed = operator
+        .pressed_at
+        .expect("the operator pressed cycle start");
     assert!(pressed >= 10_000 + 3_000, "pressed at {pressed}");
     let held = states
         .iter()
@@ -268,7 +269,10 @@ fn after_a_short_cable_pull_the_same_host_leaves_the_job_held_until_the_operator
         .find(|(_, s)| *s == MachineState::Run)
         .map(|(t, _)| *t)
         .unwrap();
-    assert!(resumed >= pressed, "running again at {resumed}, pressed at {pressed}");
+    assert!(
+        resumed >= pressed,
+        "running again at {resumed}, pressed at {pressed}"
+    );
     // The sender saw the gap and can say why the job is held.
     assert!((1_000..=2_500).contains(&gap_reported), "{gap_reported}");
     assert!(report.completed, "{:?}", report.errors);

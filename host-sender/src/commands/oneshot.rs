@@ -8,9 +8,9 @@
 use super::{check_can_start, ctrl_c_flag, print_notices, CONFIRM_MS};
 use crate::emulator::emulated_with_switches;
 use crate::link::OnClose;
-use anyhow::Context;
 use crate::present::{alarm_text, format_status, limit_text, refusal_text, state_name};
 use crate::session::{Flow, Overrides, Session, Target};
+use anyhow::Context;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::AXIS_LETTERS;
 use gantry_proto::{HostMsg, Status};

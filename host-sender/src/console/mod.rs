@@ -675,8 +675,9 @@ fn serve_client(c: &Arc<Console>, stream: TcpStream, addr: SocketAddr) {
                 let parsed = if req.body.iter().all(u8::is_ascii_whitespace) {
                     Ok(Value::Null)
                 } else {
-                    serde_json::from_slice(&req.body)
-                        .map_err(|e| format!("the request is not valid JSON ({e}): nothing was done"))
+                    serde_json::from_slice(&req.body).map_err(|e| {
+                        format!("the request is not valid JSON ({e}): nothing was done")
+                    })
                 };
                 let (code, v) = match parsed.and_then(|body| api(c, &path[5..], &body)) {
                     Ok(v) => ("200 OK", v),

@@ -208,7 +208,12 @@ pub fn stream_from_line<T: Transport>(
     preamble: Vec<String>,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
-    run(client, program, JobStart::FromLine(from, preamble), on_progress)
+    run(
+        client,
+        program,
+        JobStart::FromLine(from, preamble),
+        on_progress,
+    )
 }
 
 fn from_line<T: Transport>(

@@ -282,10 +282,7 @@ impl BoardLink {
         }
         // The ownerless job ended (alarm 20, an abort, its end): the next job has its owner.
         if self.host == Host::OwnerLost
-            && !matches!(
-                board.state(),
-                State::Run | State::Hold | State::ToolChange
-            )
+            && !matches!(board.state(), State::Run | State::Hold | State::ToolChange)
         {
             self.host = Host::Attached;
         }
