@@ -65,6 +65,13 @@ async function waitState(page, want, ms = 10000) {
   check(await page.locator("#L3.err").count() === 1, "listing line 3 is marked as the error");
   const want = spawnSync(GANTRY, ["check", BAD], { encoding: "utf8" }).stdout.split("\n")[0];
   check(report.includes(want.replace(/^.*bad\.nc/, "bad.nc")), "same message as gantry check: " + want);
+  // It does not run: Run is disabled, and the server refuses it (the session's one start check).
+  check(await page.locator("#run").isDisabled() && await page.locator("#run-from").isDisabled(),
+    "Run and Run from line are disabled for a program whose check failed");
+  const refused = await page.evaluate(() => fetch("/api/run", {
+    method: "POST", headers: { "Content-Type": "application/json" }, body: "{}",
+  }).then((r) => r.json()));
+  check(!refused.ok && /nothing was run/.test(refused.error), "the server refuses to run it: " + JSON.stringify(refused).slice(0, 120));
 
   // A good program: checked, planned, drawn, run.
   await page.setInputFiles("#file", JOB);

@@ -79,14 +79,35 @@ pub enum OnClose {
     KeepDtr,
 }
 
-/// A real board on a USB serial port (CDC-ACM). When the port fails (the cable was pulled) it is
-/// reopened by path until [`REOPEN_FOR`] has passed; the protocol then resynchronises, and the board,
-/// which held the job meanwhile, continues it without losing or repeating a block.
+/// A real board on a USB serial port (CDC-ACM). When the port fails (the cable was pulled, the
+/// device is gone: ENXIO, EIO) it is reopened by path until [`REOPEN_FOR`] has passed; the
+/// protocol then resynchronises, and the board, which held the job meanwhile, waits for the
+/// operator to resume it. A board that only stops reading for a while (busy, stalled) is no lost
+/// port: the bytes it does not take wait here ([`OUT_LIMIT`]) and the link's window holds the
+/// rest back, so the port is never reopened (which would drop DTR and hold the job) for it.
 pub struct SerialTransport {
     path: String,
     port: Option<serialport::TTYPort>,
     start: Instant,
     on_close: OnClose,
+    /// Bytes written while the board did not read, sent before anything else.
+    out: std::collections::VecDeque<u8>,
+}
+
+/// Bytes kept for a board that does not read (a few dozen frames). Frames beyond it are dropped
+/// whole, as a noisy line loses them: the protocol sends them again, and its windows bound what
+/// waits (the link's queues are the back-pressure the commands feel).
+pub const OUT_LIMIT: usize = 16 * 1024;
+
+/// A write error that means the port is gone (the device was unplugged or closed under us), as
+/// opposed to a board that is slow to read.
+fn port_gone(e: &std::io::Error) -> bool {
+    !matches!(
+        e.kind(),
+        std::io::ErrorKind::TimedOut
+            | std::io::ErrorKind::WouldBlock
+            | std::io::ErrorKind::Interrupted
+    )
 }
 
 fn open_port(path: &str, on_close: OnClose) -> serialport::Result<serialport::TTYPort> {
@@ -123,7 +144,34 @@ impl SerialTransport {
             port: Some(port),
             start: Instant::now(),
             on_close,
+            out: Default::default(),
         })
+    }
+
+    /// Writes what waits in [`SerialTransport::out`] as far as the board takes it now (without
+    /// waiting); the port counts as lost only on an error that says it is gone.
+    fn flush_out(&mut self) -> anyhow::Result<()> {
+        while !self.out.is_empty() {
+            let (head, _) = self.out.as_slices();
+            let n = head.len().min(4096);
+            let chunk: Vec<u8> = head[..n].to_vec();
+            match self.port()?.write(&chunk) {
+                Ok(0) => return Ok(()),
+                Ok(k) => {
+                    self.out.drain(..k);
+                }
+                Err(e) if port_gone(&e) => {
+                    // The device is gone: what waited is lost with it (the protocol resends).
+                    self.port = None;
+                    self.out.clear();
+                    return Ok(());
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                // Not read yet: try again at the next pass.
+                Err(_) => return Ok(()),
+            }
+        }
+        Ok(())
     }
 
     /// The open port, reopening it after a failure.
@@ -172,23 +220,19 @@ fn port_error(path: &str, e: serialport::Error) -> anyhow::Error {
 }
 
 impl Transport for SerialTransport {
+    /// Queues a whole frame behind what waits and writes as much as the board takes (at most the
+    /// port's 1 ms timeout of waiting).
     fn write(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
-        let port = self.port()?;
-        loop {
-            match port.write_all(bytes) {
-                Ok(()) => return Ok(()),
-                // A signal (Ctrl-C) interrupted the call: the port is fine.
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-                Err(_) => {
-                    // Lost frames are retransmitted by the protocol once the port is back.
-                    self.port = None;
-                    return Ok(());
-                }
-            }
+        if self.out.len() + bytes.len() > OUT_LIMIT {
+            // The board has not read for a while: this frame is lost as on a noisy line.
+            return self.flush_out();
         }
+        self.out.extend(bytes);
+        self.flush_out()
     }
 
     fn read(&mut self, into: &mut Vec<u8>) -> anyhow::Result<()> {
+        self.flush_out()?;
         let mut buf = [0u8; 512];
         loop {
             match self.port()?.read(&mut buf) {

@@ -47,7 +47,8 @@ enum Command {
         #[arg(long)]
         from_line: Option<u32>,
         /// Take over the job the board is running (after this sender was closed or crashed): the
-        /// board asks for exactly the lines it is missing and the held job resumes.
+        /// board asks for exactly the lines it is missing; a held job stays held until the
+        /// operator resumes it (Enter, cycle start, `gantry resume`).
         #[arg(long = "continue", conflicts_with = "from_line")]
         take_over: bool,
         /// Emulated board only: charge each main-loop pass the instructions it costs on this MCU
@@ -58,6 +59,12 @@ enum Command {
         /// before they run): the board then stops at the first bad line.
         #[arg(long)]
         no_check: bool,
+        /// Emulated board in this process only (no --port): answer every M0/M1 and M6 stop at
+        /// once, for unattended runs (scripts, tests). Without it a stop waits for Enter, and one
+        /// nobody can answer (standard input closed) aborts the job. Refused with --port: on a
+        /// machine only the operator continues a stop.
+        #[arg(long)]
+        through_stops: bool,
         #[command(flatten)]
         board: BoardArgs,
     },
@@ -498,6 +505,7 @@ fn main() -> ExitCode {
             take_over,
             cpu_model,
             no_check,
+            through_stops,
             board,
         } => board.setup().and_then(|setup| {
             use host_sender::commands::stream::Start;
@@ -508,7 +516,13 @@ fn main() -> ExitCode {
                 (None, false) => Start::Beginning,
             };
             host_sender::commands::stream::run_checked(
-                &file, target, setup, start, cpu_model, !no_check,
+                &file,
+                target,
+                setup,
+                start,
+                cpu_model,
+                !no_check,
+                through_stops,
             )
         }),
         // The status of a fresh emulated board says nothing of the machine: refused without a

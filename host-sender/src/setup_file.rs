@@ -503,16 +503,28 @@ impl SetupFile {
     /// accident (docs/controller.md "Work offsets").
     pub fn load_for_push(path: &Path, board: &Setup) -> anyhow::Result<Setup> {
         let text = Self::read_bounded(path)?;
-        let file: SetupFile =
-            toml::from_str(&text).with_context(|| format!("in setup file {}", path.display()))?;
+        Self::parse_for_push(&text, board)
+            .with_context(|| format!("in setup file {}", path.display()))
+    }
+
+    /// [`SetupFile::load_for_push`] on setup text (the console's editor; the one push path,
+    /// `crate::session::Session::push_setup_text`). An empty setup (no setting at all: an empty
+    /// editor, only comments) is refused: pushed, it would set every default (travel, steps per
+    /// mm, switch polarity, homing) on the machine.
+    pub fn parse_for_push(text: &str, board: &Setup) -> anyhow::Result<Setup> {
+        let table: toml::Table = toml::from_str(text)?;
+        anyhow::ensure!(
+            !table.is_empty(),
+            "an empty setup (no setting in it): nothing was pushed (`gantry setup pull` or the \
+             console's \"Show the board's\" gives the board's setup to edit)"
+        );
+        let file: SetupFile = toml::from_str(text)?;
         let (work, g28, g30) = (
             !file.work_offsets.is_empty(),
             file.program.g28_home.is_some(),
             file.program.g30_home.is_some(),
         );
-        let mut s = file
-            .into_setup()
-            .with_context(|| format!("in setup file {}", path.display()))?;
+        let mut s = file.into_setup()?;
         if !work {
             s.program.work_offsets = board.program.work_offsets;
         }
@@ -526,7 +538,7 @@ impl SetupFile {
     }
 
     /// The file's text, refused beyond [`SETUP_FILE_LIMIT`].
-    fn read_bounded(path: &Path) -> anyhow::Result<String> {
+    pub(crate) fn read_bounded(path: &Path) -> anyhow::Result<String> {
         use std::io::Read;
         let mut text = String::new();
         std::fs::File::open(path)

@@ -4,7 +4,7 @@
 use crate::emulator::{EmulatedBoard, PinEvent};
 use crate::link::Client;
 use crate::program::Program;
-use crate::session::{stream_program, Flow};
+use crate::session::stream_program;
 use crate::vcd::{counts_to_ns, VcdEvent, VcdOptions, VcdSummary, VcdWriter};
 use anyhow::Context;
 use gantry_machine::controller::inputs::INPUT_NAMES;
@@ -73,7 +73,9 @@ pub fn trace(
         }
     });
     let mut client = Client::connect(board, 2000)?;
-    let report = stream_program(&mut client, program, &mut |_| Flow::Continue)?;
+    // A simulation stands for no machine: its M0/M1 and M6 stops are answered at once.
+    let mut stops = crate::session::job::ThroughStops::new();
+    let report = stream_program(&mut client, program, &mut |p| stops.flow(program, p))?;
     if let Some(err) = error.borrow_mut().take() {
         return Err(err).context("writing the VCD trace");
     }

@@ -150,9 +150,9 @@ wire_messages! {
         /// [`BoardMsg::Answer`] `{ id, .. }`.
         Realtime Home { id: u32, axes: u8 },
         /// A sender takes over the running job (`gantry stream --continue`). `gantry serve`
-        /// makes that command the job's owner; the board ignores it (a sender's new connection
-        /// already makes it ask for the lines it misses). It resumes nothing: a take-over sends
-        /// [`HostMsg::Resume`] only for the hold its lost predecessor left.
+        /// makes that command the job's owner; the board counts its host as back after a
+        /// [`HostMsg::OwnerLost`] (a sender's new connection already makes it ask for the lines
+        /// it misses). It resumes nothing: a held job stays held until the operator resumes it.
         Realtime TakeOver,
         /// Spindle speed override in percent (the board clamps it to 10..=200); it scales the
         /// spindle output, the programmed S stays as programmed.
@@ -162,6 +162,13 @@ wire_messages! {
         /// 250 ms (its dead-man, docs/controller.md "Jogging"). Ignored without such a jog.
         /// Protocol 5.1: never sent to a 5.0 peer.
         Realtime JogKeepalive,
+        /// The job's owner is lost though the link stays (protocol 5.1): `gantry serve` says so
+        /// when the command that started the job (or took it over) went away without finishing
+        /// it (killed, crashed, terminal closed). The board treats it exactly as a lost direct
+        /// host (a dropped DTR): hold on the path, spindle and coolant off at rest, the alarm-20
+        /// count of `link.host_lost_stop_s`, until a sender takes the job over
+        /// ([`HostMsg::TakeOver`]).
+        Realtime OwnerLost,
     }
 }
 

@@ -91,6 +91,7 @@ fn all_host() -> Vec<HostMsg> {
         HostMsg::Home { id: 4, axes: 0b111 },
         HostMsg::TakeOver,
         HostMsg::SpindleOverride(120),
+        HostMsg::OwnerLost,
     ]
 }
 
@@ -318,6 +319,7 @@ fn lanes() {
                 | HostMsg::Home { .. }
                 | HostMsg::TakeOver
                 | HostMsg::SpindleOverride(_)
+                | HostMsg::OwnerLost
         );
         assert_eq!(m.lane() == Lane::Realtime, rt, "{m:?}");
     }

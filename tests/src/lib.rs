@@ -174,3 +174,45 @@ pub fn cam_program_at(lines: usize, feed: u32) -> String {
     p.push_str("G0 Z5.\nM30\n");
     p
 }
+
+/// The operator of an in-process test: presses cycle start once, the first time the job is seen
+/// held at rest after `after_ms` of link time (a held job is never resumed by the host on its own:
+/// docs/controller.md "Only the operator releases a stop"). Returns the progress callback and
+/// keeps, in `held_ms`, for how long the job stood held before that press.
+pub struct CycleStart {
+    after_ms: u32,
+    held_since: Option<u32>,
+    pub pressed_at: Option<u32>,
+    pub held_ms: u32,
+}
+
+impl CycleStart {
+    pub fn after(after_ms: u32) -> Self {
+        CycleStart {
+            after_ms,
+            held_since: None,
+            pressed_at: None,
+            held_ms: 0,
+        }
+    }
+
+    /// The callback's answer at this progress.
+    pub fn flow(&mut self, p: &host_sender::session::Progress) -> host_sender::session::Flow {
+        use gantry_proto::MachineState;
+        use host_sender::session::Flow;
+        let held = matches!(
+            p.status.as_ref().map(|s| s.state),
+            Some(MachineState::Hold { stopped: true })
+        );
+        if self.pressed_at.is_some() || !held {
+            return Flow::Continue;
+        }
+        let since = *self.held_since.get_or_insert(p.elapsed_ms);
+        if p.elapsed_ms.wrapping_sub(since) >= self.after_ms {
+            self.pressed_at = Some(p.elapsed_ms);
+            self.held_ms = p.elapsed_ms.wrapping_sub(since);
+            return Flow::Resume;
+        }
+        Flow::Continue
+    }
+}

@@ -12,7 +12,7 @@ use gantry_machine::motion::pipeline::MotionState;
 use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
 use host_sender::link::Client;
 use host_sender::program::Program;
-use host_sender::session::{continue_job, Flow};
+use host_sender::session::continue_job;
 
 // ---- alarm 2: a block of a running job would leave the travel ----
 
@@ -328,11 +328,14 @@ fn a_host_back_within_the_limit_continues_the_job() {
     assert!(eb.run_until(5_000, |b| b.board.state() == State::Hold));
     let held = eb.now_ms() - 1;
     assert_eq!(held - gone, 1_001);
-    // A new host process attaches after 59 s of hold and takes the job over.
+    // A new host process attaches after 59 s of hold and takes the job over; the operator
+    // resumes it at once (the take-over itself releases no hold).
     assert!(eb.run_until(70_000, |b| b.now_ms() == held + 59_000));
     let mut client = Client::connect(eb, 2000).unwrap();
     let program = Program::from_text(LONG_FEED);
-    let report = continue_job(&mut client, &program, &mut |_| Flow::Continue).unwrap();
+    let mut operator = system_tests::CycleStart::after(0);
+    let report = continue_job(&mut client, &program, &mut |p| operator.flow(p)).unwrap();
+    assert!(operator.pressed_at.is_some());
     assert!(report.completed, "{:?} {:?}", report.errors, report.alarms);
     let eb = client.into_transport();
     assert_eq!(eb.board.state(), State::Idle);

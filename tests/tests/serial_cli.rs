@@ -22,6 +22,20 @@ fn check(out: Out, code: i32, stdout_has: &[&str], stderr_has: &[&str]) -> Out {
     out
 }
 
+/// `gantry stream … --continue` as the operator runs it: the take-over leaves the held job held
+/// (docs/controller.md "Only the operator releases a stop") and says so; the operator presses
+/// Enter; then the run to its end (at most `limit`).
+fn take_over_and_resume(args: &[&str], limit: Duration) -> Out {
+    let mut taker = spawn(args);
+    assert!(
+        wait_for(limit, || taker.stderr().contains("takes over is held")),
+        "{}",
+        taker.stderr()
+    );
+    taker.answer("");
+    taker.wait(limit)
+}
+
 /// `gantry args` (10 s at most), checked as [`check`] does.
 fn run(args: &[&str], code: i32, stdout_has: &[&str], stderr_has: &[&str]) -> Out {
     check(gantry(args, 10 * S), code, stdout_has, stderr_has)
@@ -196,7 +210,7 @@ fn a_sender_killed_mid_job_is_continued_and_the_job_ends_like_an_uninterrupted_r
     assert!(emu.wait_log(5 * S, |l| l.contains("DTR drop")));
     assert!(emu.wait_log(5 * S, |l| l.contains("Hold (at rest)")));
     let out = check(
-        gantry(&["stream", job, "--continue", "--port", port], 30 * S),
+        take_over_and_resume(&["stream", job, "--continue", "--port", port], 30 * S),
         0,
         &["job done: last line 402 of 402"],
         &[],
@@ -402,7 +416,7 @@ fn under_gantry_serve_a_silent_board_is_reported_and_the_sender_exits_within_its
     // and ends as an uninterrupted run would (the serve test below: pulses X 38400 Y 5120).
     nix::sys::signal::kill(emu.pid(), Signal::SIGCONT).unwrap();
     let out = check(
-        gantry(
+        take_over_and_resume(
             &[
                 "stream",
                 job.to_str().unwrap(),

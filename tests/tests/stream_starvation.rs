@@ -54,7 +54,11 @@ fn short_lines_over_a_pty_to_the_f411_model_lose_time() {
 #[test]
 fn the_example_job_loses_no_time() {
     let bracket = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/bracket.ngc");
-    let out = gantry(&["stream", "--emulated", bracket], 60 * S);
+    // Its M6 answered at once: an unattended run (`--through-stops`).
+    let out = gantry(
+        &["stream", "--emulated", "--through-stops", bracket],
+        60 * S,
+    );
     assert_eq!(out.code, Some(0), "{out:?}");
     assert_eq!(starved_seconds(&out.stdout), 0.0, "{}", out.stdout);
 }

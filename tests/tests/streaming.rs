@@ -8,14 +8,15 @@ use host_sender::emulator::EmulatedBoard;
 use host_sender::link::{Client, Transport};
 use host_sender::program::Program;
 use host_sender::session::{continue_job, stream_program, BoardAlarm, Flow, StreamReport};
-use system_tests::{cam_program, reference, FaultyBoard};
+use system_tests::{cam_program, reference, CycleStart, FaultyBoard};
 
+/// Streams `text` to an emulated board that stands for no machine: its M0/M1/M6 stops are
+/// answered as they come (`ThroughStops`, an operator pressing cycle start at once).
 fn stream_emulated(text: &str) -> (StreamReport, EmulatedBoard) {
     let mut client = Client::connect(EmulatedBoard::new(Setup::default()), 2000).unwrap();
-    let report = stream_program(&mut client, &Program::from_text(text), &mut |_| {
-        Flow::Continue
-    })
-    .unwrap();
+    let program = Program::from_text(text);
+    let mut stops = host_sender::session::job::ThroughStops::new();
+    let report = stream_program(&mut client, &program, &mut |p| stops.flow(&program, p)).unwrap();
     (report, client.transport)
 }
 
@@ -203,10 +204,26 @@ fn a_new_host_takes_over_a_job_after_the_cable_was_pulled() {
         held_at,
         "held means no motion"
     );
-    // A new host connects, is asked for exactly the missing lines, and resumes.
+    // A new host connects and is asked for exactly the missing lines; the job stays held until
+    // the operator presses cycle start (here 2 s later): the take-over resumes nothing.
     transport.connected = true;
     let mut client = Client::connect(transport, 2000).unwrap();
-    let report = continue_job(&mut client, &text, &mut |_| Flow::Continue).unwrap();
+    let mut operator = CycleStart::after(2_000);
+    // (A report sent before the pull may still arrive first.)
+    let mut seen_hold = false;
+    let report = continue_job(&mut client, &text, &mut |p| {
+        if let (None, Some(s)) = (operator.pressed_at, &p.status) {
+            seen_hold |= matches!(s.state, MachineState::Hold { .. });
+            assert!(
+                !seen_hold || matches!(s.state, MachineState::Hold { stopped: true }),
+                "held until the operator resumes: {:?}",
+                s.state
+            );
+        }
+        operator.flow(p)
+    })
+    .unwrap();
+    assert!(operator.held_ms >= 2_000, "{}", operator.held_ms);
     assert!(report.completed, "{:?}", report.errors);
     assert!(report.jumps_served >= 1);
     let r = reference(&program, &setup);
@@ -216,7 +233,7 @@ fn a_new_host_takes_over_a_job_after_the_cable_was_pulled() {
 }
 
 #[test]
-fn the_same_host_resumes_after_a_short_cable_pull() {
+fn after_a_short_cable_pull_the_same_host_leaves_the_job_held_until_the_operator_resumes() {
     let program = cam_program(4_000);
     let setup = Setup::default();
     let text = Program::from_text(&program);
@@ -225,13 +242,39 @@ fn the_same_host_resumes_after_a_short_cable_pull() {
     transport.outage = Some((8_000, 10_000));
     let mut client = Client::connect(transport, 2000).unwrap();
     let mut states = Vec::new();
+    // The operator presses cycle start 3 s after the job stands held (the sender used to send a
+    // resume of its own as soon as the link was back: the machine cut on by itself).
+    let mut operator = CycleStart::after(3_000);
+    let mut gap_reported = 0;
     let report = stream_program(&mut client, &text, &mut |p| {
         if let Some(s) = &p.status {
             states.push((p.elapsed_ms, s.state));
         }
-        Flow::Continue
+        gap_reported = gap_reported.max(p.link_gap_ms);
+        operator.flow(p)
     })
     .unwrap();
+    // Held from the host timeout to the operator's press, which came 3 s after the link was
+    // back and the sender saw the hold: no resume came from the host meanwhile.
+    let pressed = operator
+        .pressed_at
+        .expect("the operator pressed cycle start");
+    assert!(pressed >= 10_000 + 3_000, "pressed at {pressed}");
+    let held = states
+        .iter()
+        .position(|(t, s)| *t > 8_000 && matches!(s, MachineState::Hold { .. }))
+        .unwrap();
+    let resumed = states[held..]
+        .iter()
+        .find(|(_, s)| *s == MachineState::Run)
+        .map(|(t, _)| *t)
+        .unwrap();
+    assert!(
+        resumed >= pressed,
+        "running again at {resumed}, pressed at {pressed}"
+    );
+    // The sender saw the gap and can say why the job is held.
+    assert!((1_000..=2_500).contains(&gap_reported), "{gap_reported}");
     assert!(report.completed, "{:?}", report.errors);
     let board = &client.transport.board;
     assert!(board.board.state() == gantry_machine::controller::State::Idle);
@@ -265,8 +308,11 @@ fn running_from_a_line_rebuilds_the_state_and_ends_like_a_full_run() {
         let program = Program::from_text(text);
         let mut client = Client::connect(EmulatedBoard::new(setup.clone()), 2000).unwrap();
         let pre = resume_preamble(&program, text, from, &setup, &[0; 6]).unwrap();
-        let report =
-            stream_from_line(&mut client, &program, from, pre, &mut |_| Flow::Continue).unwrap();
+        let mut stops = host_sender::session::job::ThroughStops::new();
+        let report = stream_from_line(&mut client, &program, from, pre, &mut |p| {
+            stops.flow(&program, p)
+        })
+        .unwrap();
         assert!(report.completed, "from {from}: {:?}", report.errors);
         assert_eq!(
             client.transport.isr.kernel.position(),

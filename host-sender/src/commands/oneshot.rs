@@ -10,6 +10,7 @@ use crate::emulator::emulated_with_switches;
 use crate::link::OnClose;
 use crate::present::{alarm_text, format_status, limit_text, refusal_text, state_name};
 use crate::session::{Flow, Overrides, Session, Target};
+use anyhow::Context;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::AXIS_LETTERS;
 use gantry_proto::{BoardMsg, HostMsg, Status};
@@ -200,11 +201,42 @@ pub fn watch(target: Target, seconds: Option<f64>) -> anyhow::Result<ExitCode> {
 }
 
 /// Runs blocks typed on the command line as a small job and prints the result.
+/// A block that stops (M0/M1, M6) waits there for the operator (cycle start, or `gantry
+/// resume` through `gantry serve`), said once; on the emulated board in this process, which
+/// nobody else can reach, it is aborted instead of waiting for ever.
 pub fn mdi(target: Target, blocks: &[String]) -> anyhow::Result<ExitCode> {
+    let in_process = matches!(target, Target::Emulated(_));
     let mut session = connect(target)?;
     let axes = session.axes();
     check_can_start(&mut session)?;
-    let (program, report) = session.mdi(blocks, &mut |_| Flow::Continue)?;
+    let served = session.served();
+    let mut told = false;
+    let (program, report) = session.mdi(blocks, &mut |p| {
+        let state = p.status.as_ref().map(|s| s.state);
+        let standing = matches!(
+            state,
+            Some(gantry_proto::MachineState::Hold { stopped: true })
+                | Some(gantry_proto::MachineState::ToolChange { .. })
+        );
+        if !standing || told {
+            return Flow::Continue;
+        }
+        told = true;
+        let state = state.map_or("-", state_name);
+        if in_process {
+            eprintln!(
+                "mdi: the job stands at a stop ({state}) that nothing can continue on the emulated board in this process: aborting it"
+            );
+            return Flow::Abort;
+        }
+        let who = if served {
+            "cycle start on the machine, or `gantry resume` from another terminal"
+        } else {
+            "cycle start on the machine"
+        };
+        eprintln!("mdi: the job stands at a stop ({state}): it goes on with {who}");
+        Flow::Continue
+    })?;
     for e in &report.errors {
         print!("{}", e.describe("mdi", &program));
     }
@@ -230,11 +262,15 @@ pub fn setup_push(target: Target, setup: &gantry_machine::setup::Setup) -> anyho
 }
 
 /// Sends the setup file `file` to the board, keeping the board's work offsets and G28/G30
-/// positions where the file does not name them ([`crate::setup_file::SetupFile::load_for_push`]).
+/// positions where the file does not name them (the session's one push path,
+/// [`Session::push_setup_text`]); an empty file is refused.
 pub fn setup_push_file(target: Target, file: &std::path::Path) -> anyhow::Result<()> {
+    let text = crate::setup_file::SetupFile::read_bounded(file)?;
     let mut session = connect(target)?;
-    let setup = crate::setup_file::SetupFile::load_for_push(file, session.setup())?;
-    session.push_setup(&setup)
+    session
+        .push_setup_text(&text)
+        .with_context(|| format!("in setup file {}", file.display()))?;
+    Ok(())
 }
 
 /// Reads the board's setup.

@@ -13,9 +13,12 @@
 //! board's buffers during short-segment jobs.
 //!
 //! The job belongs to the command that started it (or took it over with `stream --continue`):
-//! when that command goes away mid-job (killed, terminal closed), the server holds the job, as
-//! the board does when the port is closed, and a later `stream --continue` through the server
-//! takes it over. When the server itself ends, its port closes with DTR dropped: the board holds.
+//! when that command's connection ends mid-job (killed, crashed, terminal closed), the server
+//! tells the board its job's owner is lost (`HostMsg::OwnerLost`), which the board takes exactly
+//! as a lost direct host (hold on the path, spindle and coolant off at rest, the
+//! `link.host_lost_stop_s` count: the policy is the core's, `machine/src/board/link.rs`); a later
+//! `stream --continue` through the server takes the job over, and the operator resumes it. When
+//! the server itself ends, its port closes with DTR dropped: the board holds.
 
 use crate::link::{Client, OnClose, SerialTransport, Transport};
 use crate::present::state_words;
@@ -258,11 +261,21 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
                         ) && !job_owned
                         {
                             // `stream --continue` taking over a job no command owns: a new
-                            // hello makes the board ask for the lines it is missing.
+                            // hello makes the board ask for the lines it is missing, and the
+                            // take-over tells it the job has an owner again.
                             board.link().reconnect();
                             p.owns_job = true;
                             eprintln!("serve: a command takes over the job");
+                            to_board.push_back(HostMsg::TakeOver);
                         }
+                        continue;
+                    }
+                    // A status request already waiting for the board answers this one too (the
+                    // board's report goes to every command): a board that stops reading for a
+                    // while does not pile them up here.
+                    if matches!(msg, HostMsg::StatusRequest)
+                        && to_board.iter().any(|m| matches!(m, HostMsg::StatusRequest))
+                    {
                         continue;
                     }
                     to_board.push_back(msg);
@@ -375,20 +388,27 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
                     MachineState::Run | MachineState::Hold { .. } | MachineState::ToolChange { .. }
                 )
             {
-                eprintln!("serve: the command that owned the job went away: feed hold");
-                if board.link().try_send(HostMsg::FeedHold).is_err() {
-                    eprintln!("serve: the board takes no message now (its link is stuck)");
-                }
-                board.pump(1)?;
+                // A board of protocol 5.0 knows no `OwnerLost`: it gets the feed hold it got
+                // before (its spindle then stays on at rest).
+                let owner_lost = board.link().peer_version().is_some_and(|v| v & 0xff >= 1);
+                eprintln!(
+                    "serve: the command that owned the job went away: the board holds it (host lost)"
+                );
                 // Its lines still waiting here would block every later queued message (a
                 // setup commit, a new start): a fresh link to the board drops them, and the
                 // board asks for what it misses when a command takes the job over.
                 // The handshake completes in later passes, so a board that is silent now (the
-                // reason its owner gave up) does not end the server: it answers when it is back.
+                // reason its owner gave up) does not end the server: it answers when it is back;
+                // the owner's loss goes on the new link, after its handshake.
                 let link = board.link();
                 let t = std::mem::replace(link, placeholder()).into_transport();
                 *link = Client::unconnected(t);
                 link.reconnect();
+                to_board.push_back(if owner_lost {
+                    HostMsg::OwnerLost
+                } else {
+                    HostMsg::FeedHold
+                });
             }
             peers.retain(|p| p.alive);
         }

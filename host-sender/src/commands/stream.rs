@@ -45,38 +45,25 @@ pub fn run_with_cpu(
     start: Start,
     cpu: Option<crate::cpu_model::CpuModel>,
 ) -> anyhow::Result<std::process::ExitCode> {
-    run_checked(file, target, setup, start, cpu, true)
+    run_checked(file, target, setup, start, cpu, true, false)
 }
 
-/// The whole program checked with the machine's setup before anything moves, as LinuxCNC does
-/// (`gantry check`'s pass, constant memory): `None` when it has no error, else `gantry check`'s
-/// report (every error with its line and caret, the summary up to the first) and the refusal.
-fn check_first(
-    file: &std::path::Path,
-    setup: &gantry_machine::setup::Setup,
-) -> anyhow::Result<Option<String>> {
-    let src = crate::preview::source::FileSource::open(file)
-        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
-    let mut out = Vec::new();
-    let name = file.display().to_string();
-    let (errors, summary) =
-        crate::check::check_stream(&name, src, &setup.interp_config(), Some(setup), &mut out)?;
-    // (The travel is the board's to check: the job starts where the machine stands, which a
-    // check from the setup alone does not know.)
-    let _ = summary;
-    if errors == 0 {
-        return Ok(None);
-    }
-    let mut text = String::from_utf8_lossy(&out).into_owned();
+/// The start check's refusal as `gantry stream` prints it: `gantry check`'s report, then why
+/// nothing moved.
+fn refusal_text(refused: &crate::session::Refused) -> String {
+    let mut text = refused.report.clone();
     text.push_str(
         "gantry: nothing was run: the program was checked before the first move (fix it, or \
          stream it with --no-check to let the board stop at the error)\n",
     );
-    Ok(Some(text))
+    text
 }
 
 /// [`run_with_cpu`], checking the whole program first unless `check` is false (`--no-check`,
-/// for programs too long to check before they start).
+/// for programs too long to check before they start). `through_stops` (`--through-stops`, the
+/// emulated board in this process only): every M0/M1 and M6 stop is answered at once, for
+/// unattended runs; without it a stop waits for the operator, and one nobody can answer (standard
+/// input closed, no machine behind the emulated board) aborts the job instead of hanging.
 pub fn run_checked(
     file: &std::path::Path,
     target: Target,
@@ -84,6 +71,7 @@ pub fn run_checked(
     start: Start,
     cpu: Option<crate::cpu_model::CpuModel>,
     check: bool,
+    through_stops: bool,
 ) -> anyhow::Result<std::process::ExitCode> {
     // The file read once (its line lengths checked first: crate::program::check_line_lengths).
     crate::program::check_line_lengths(file)?;
@@ -91,10 +79,11 @@ pub fn run_checked(
     let program = Program::from_text(&text);
     let wall = std::time::Instant::now();
     let from_board = matches!(target, Target::Port(_));
-    // Someone must be able to continue a tool-change stop: the operator at a terminal (Enter) or
-    // a board's cycle-start input. The emulated board fed from a script has neither, so there
-    // the program runs through its M6 as the library streams do (no stop that nobody can end).
-    let can_continue = from_board || std::io::IsTerminal::is_terminal(&std::io::stdin());
+    anyhow::ensure!(
+        !(through_stops && from_board),
+        "--through-stops answers the stops of the emulated board in this process only: on a \
+         machine, only the operator continues a stop (Enter, cycle start, `gantry resume`)"
+    );
     if matches!(target, Target::Emulated(_)) {
         println!(
             "gantry: no --port given: streaming {} to the emulated board",
@@ -110,7 +99,6 @@ pub fn run_checked(
         // The sender that owns the job: if it dies, closing the port holds the job.
         (target, _) => Session::connect(target, OnClose::DropDtr)?,
     };
-    session.set_operator(can_continue);
     // The machine is what the board says it is.
     let setup = if from_board {
         session.setup().clone()
@@ -118,15 +106,27 @@ pub fn run_checked(
         setup
     };
     let axes = setup.axis_count as usize;
-    if check && start != Start::TakeOver {
-        if let Some(refusal) = check_first(file, &setup)? {
-            print!("{refusal}");
-            return Ok(std::process::ExitCode::from(1));
+    // The one start check (`crate::session::start`), in constant memory.
+    let cleared = if start == Start::TakeOver {
+        None
+    } else if check {
+        let src = crate::preview::source::FileSource::open(file)
+            .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
+        match session.check_start(&file.display().to_string(), src)? {
+            Ok(c) => Some(c),
+            Err(refused) => {
+                print!("{}", refusal_text(&refused));
+                return Ok(std::process::ExitCode::from(1));
+            }
         }
-    }
+    } else {
+        Some(crate::session::Cleared::unchecked())
+    };
     let eta = Eta::plan(&text, &setup);
     let answers = if !from_board {
-        StopAnswers::Itself
+        StopAnswers::Itself {
+            at_once: through_stops,
+        }
     } else if session.served() {
         StopAnswers::MachineOrCommand
     } else {
@@ -135,7 +135,14 @@ pub fn run_checked(
     let (report, stopped_ms) = match start {
         Start::Beginning => {
             check_can_start(&mut session)?;
-            stream_with_progress(&mut session, &program, JobStart::Beginning, &eta, answers)?
+            stream_with_progress(
+                &mut session,
+                &program,
+                JobStart::Beginning,
+                cleared,
+                &eta,
+                answers,
+            )?
         }
         Start::TakeOver => {
             let state = session.status()?.state;
@@ -148,7 +155,14 @@ pub fn run_checked(
                     state_name(state)
                 );
             }
-            stream_with_progress(&mut session, &program, JobStart::TakeOver, &eta, answers)?
+            stream_with_progress(
+                &mut session,
+                &program,
+                JobStart::TakeOver,
+                None,
+                &eta,
+                answers,
+            )?
         }
         Start::FromLine(n) => {
             check_can_start(&mut session)?;
@@ -162,6 +176,7 @@ pub fn run_checked(
                 &mut session,
                 &program,
                 JobStart::FromLine(n, pre),
+                cleared,
                 &eta,
                 answers,
             )?
@@ -293,8 +308,11 @@ fn say(bar: Option<&indicatif::ProgressBar>, text: &str) {
 /// Who else can answer a stop when this sender's standard input is closed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum StopAnswers {
-    /// Nobody: the emulated board in this process goes on by itself.
-    Itself,
+    /// Nobody: the emulated board in this process has no cycle start and no other command
+    /// reaches it. `at_once` (`--through-stops`, the operator's choice on the command line):
+    /// every program stop is answered as it comes; else a stop standard input cannot answer
+    /// aborts the job.
+    Itself { at_once: bool },
     /// The machine's cycle-start input (this sender owns the port).
     Machine,
     /// The machine's cycle start, or `gantry resume` from another terminal (through `gantry
@@ -311,6 +329,10 @@ enum Asking {
     AbortAfterHold,
     /// At an M0/M1/M6 stop on this line: Enter resumes (so does cycle start on the machine).
     Stop(u32),
+    /// The job is held and this sender did not ask for it (the board held it when its host went
+    /// silent or away, the machine's hold input, another command's hold, or the hold a lost
+    /// sender left to a take-over): Enter resumes (so do cycle start and `gantry resume`).
+    Held,
 }
 
 /// The job's remaining machine time, from the planner (the same motion core as the board, each
@@ -414,10 +436,12 @@ fn stream_with_progress(
     session: &mut Session,
     program: &Program,
     resume: JobStart,
+    cleared: Option<crate::session::Cleared>,
     eta: &Option<Eta>,
     answers: StopAnswers,
 ) -> anyhow::Result<(StreamReport, u32)> {
-    let emulated = answers == StopAnswers::Itself;
+    let emulated = matches!(answers, StopAnswers::Itself { .. });
+    let at_once = answers == StopAnswers::Itself { at_once: true };
     use std::io::IsTerminal;
     let total = program.len().max(1) as u64;
     let bar = std::io::stderr().is_terminal().then(|| {
@@ -437,12 +461,27 @@ fn stream_with_progress(
     // an M6 there, is line 0).
     let mut last_stop_line = None;
     let mut told_closed = false;
+    let taking_over = resume == JobStart::TakeOver;
+    // When this sender last sent a resume (machine ms): the board's next reports may still show
+    // the hold it ended, which is not a new hold to announce.
+    let resumed_at: std::cell::Cell<Option<u32>> = std::cell::Cell::new(None);
+    let mut told_take_over = false;
     // Machine time spent standing at holds and stops (M0/M1, M6), for the report.
     let mut stopped_ms = 0u32;
     let mut last_elapsed_ms = 0u32;
-    let mut on_progress = |p: &Progress| {
+    let mut answer = |p: &Progress| {
         let ctrl_c = interrupted.swap(false, std::sync::atomic::Ordering::SeqCst);
         let state = p.status.as_ref().map(|s| s.state);
+        let standing = matches!(
+            state,
+            Some(MachineState::Hold { .. } | MachineState::ToolChange { .. })
+        );
+        if resumed_at
+            .get()
+            .is_some_and(|t| !standing || p.elapsed_ms.wrapping_sub(t) > 1000)
+        {
+            resumed_at.set(None);
+        }
         match asking {
             Asking::AbortAfterHold => {
                 // The link keeps running while the operator answers.
@@ -472,29 +511,36 @@ fn stream_with_progress(
                 }
                 return Flow::Continue;
             }
-            Asking::Stop(_)
+            Asking::Stop(_) | Asking::Held
                 if !matches!(
                     state,
                     Some(MachineState::Hold { .. } | MachineState::ToolChange { .. })
                 ) =>
             {
-                // Cycle start on the machine answered it.
+                // Cycle start on the machine (or `gantry resume`) answered it.
                 asking = Asking::Nothing;
+                told_closed = false;
             }
-            Asking::Stop(_) => {
+            Asking::Stop(_) | Asking::Held => {
                 match typed() {
                     Some(Typed::Line(_)) => {
                         asking = Asking::Nothing;
+                        told_closed = false;
+                        say(bar.as_ref(), "resuming the job");
                         return Flow::Resume;
                     }
-                    // Nobody can answer on the emulated board: it goes on, as the README says.
+                    // Nobody can answer on the emulated board in this process: the job ends
+                    // rather than wait for ever (only the operator releases a stop; the
+                    // operator's `--through-stops` answers them as they come).
                     Some(Typed::Closed) if emulated => {
                         say(
                             bar.as_ref(),
-                            "(standard input is closed: continuing on the emulated board)",
+                            "(standard input is closed and nothing else can continue a stop on \
+                             the emulated board in this process: aborting the job; run it from \
+                             a terminal, or give --through-stops to answer its stops at once)",
                         );
                         asking = Asking::Nothing;
-                        return Flow::Resume;
+                        return Flow::Abort;
                     }
                     Some(Typed::Closed) if !told_closed => {
                         told_closed = true;
@@ -540,22 +586,67 @@ fn stream_with_progress(
         }
         if asking == Asking::Nothing
             && !hold_requested
+            && resumed_at.get().is_none()
             && matches!(
                 state,
                 Some(MachineState::Hold { stopped: true } | MachineState::ToolChange { .. })
             )
             && last_stop_line != Some(p.line)
         {
+            last_stop_line = Some(p.line);
             if let Some(stop) = program_stops::stop_at(state, program, p.line) {
-                last_stop_line = Some(p.line);
-                forget_typed();
                 let source = program.line(p.line);
                 say(
                     bar.as_ref(),
                     &program_stops::message_with(stop, p.line, source),
                 );
+                if at_once {
+                    say(bar.as_ref(), "(--through-stops: continuing)");
+                    return Flow::Resume;
+                }
+                forget_typed();
                 asking = Asking::Stop(p.line);
+            } else {
+                // A hold this sender did not ask for: say what stopped the job and how it goes
+                // on, and wait like at a program stop (never resumed from here on its own).
+                let why = if taking_over && !told_take_over {
+                    "the job this sender takes over is held (the sender that ran it was lost, \
+                     or the job was held before)"
+                        .to_owned()
+                } else if p.link_gap_ms > 0 {
+                    format!(
+                        "the board held the job while its link was silent for {:.1} s (host lost: \
+                         spindle and coolant go off at rest)",
+                        p.link_gap_ms as f64 / 1000.0
+                    )
+                } else {
+                    "the job is held (the machine's hold input, another command's `gantry hold` \
+                     or the console's Hold, or the host was lost)"
+                        .to_owned()
+                };
+                told_take_over = true;
+                let how = match answers {
+                    StopAnswers::MachineOrCommand => {
+                        "press Enter, cycle start on the machine, or `gantry resume` (or the \
+                         console's Continue) to go on"
+                    }
+                    _ => "press Enter or cycle start on the machine to go on",
+                };
+                say(
+                    bar.as_ref(),
+                    &format!("line {}: {why}; {how}; Ctrl-C aborts", p.line),
+                );
+                forget_typed();
+                asking = Asking::Held;
             }
+        }
+        if !matches!(
+            state,
+            Some(MachineState::Hold { .. } | MachineState::ToolChange { .. })
+        ) && asking == Asking::Nothing
+        {
+            // Running again: the next stop (even on the same line) is announced again.
+            last_stop_line = None;
         }
         let pct = (p.line as u64 * 100 / total).min(100);
         let machine_s = p.elapsed_ms as f64 / 1000.0;
@@ -583,10 +674,20 @@ fn stream_with_progress(
         }
         Flow::Continue
     };
+    let mut on_progress = |p: &Progress| {
+        let flow = answer(p);
+        if flow == Flow::Resume {
+            resumed_at.set(Some(p.elapsed_ms));
+        }
+        flow
+    };
     if let (JobStart::FromLine(n, _), Some(e)) = (&resume, eta) {
         e.start_at(*n);
     }
-    let report = session.run_job(program, resume, &mut on_progress);
+    let report = match cleared {
+        Some(c) => session.start_job(program, resume, c, &mut on_progress),
+        None => session.take_over_job(program, &mut on_progress),
+    };
     if let Some(b) = bar {
         b.finish_and_clear();
     }

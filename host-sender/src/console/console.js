@@ -254,6 +254,12 @@ $("file").onchange = async () => {
   $("check").textContent = v.check;
   $("check").className = v.errors ? "bad" : "";
   errorLines = v.error_lines;
+  // A program whose check failed does not run (the server refuses it too): Run stays disabled
+  // until the program is fixed and opened again.
+  for (const id of ["run", "run-from"]) {
+    $(id).disabled = v.errors > 0;
+    $(id).title = v.errors ? "the program has errors (see the check): fix it and open it again" : "";
+  }
   listing(v.source, v.error_lines);
   path = v.path;
   draw(true);

@@ -151,7 +151,8 @@ enum Cmd {
     Offsets(String),
     /// Reads the board's setup (and the work offsets in it) again.
     ReadBack,
-    PushSetup(Box<Setup>),
+    /// The editor's setup text, pushed through the session's one push path.
+    PushSetup(String),
 }
 
 type Reply = Result<String, String>;
@@ -375,13 +376,13 @@ fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
             read_back(s, c);
             Ok("the board's setup and work offsets read back".into())
         }
-        Cmd::PushSetup(setup) => match s.push_setup(&setup) {
-            Ok(()) => {
-                *c.setup.lock().expect("setup") = Some((*setup).clone());
+        Cmd::PushSetup(text) => match s.push_setup_text(&text) {
+            Ok(setup) => {
                 c.hub.publish("setup", setup_json(&setup));
+                *c.setup.lock().expect("setup") = Some(setup);
                 Ok("setup pushed, saved by the board".into())
             }
-            Err(e) => Err(format!("{e:#}")),
+            Err(e) => Err(format!("nothing was pushed: {e:#}")),
         },
     }
 }
@@ -508,13 +509,19 @@ fn setup_json(s: &Setup) -> Value {
     })
 }
 
-/// Streams `program` (a file from the page, or an MDI block) on a session of its own.
-fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
+/// Streams `program` (a file from the page, or an MDI block) on a session of its own, once it
+/// passed the start check (`cleared`).
+fn job(
+    c: Arc<Console>,
+    name: String,
+    text: String,
+    from: Option<u32>,
+    cleared: crate::session::Cleared,
+) {
     let program = Program::from_text(&text);
     let publish_end = |v: Value| c.hub.publish("job", v);
     let result = (|| -> anyhow::Result<()> {
         let mut s = Session::connect(Target::Port(c.port.clone()), OnClose::KeepDtr)?;
-        s.set_operator(true);
         let setup = s.setup().clone();
         let eta = Eta::plan(&text, &setup);
         let mut preamble = Vec::new();
@@ -533,7 +540,7 @@ fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
         let mut last = 0u32;
         let mut stop_line = 0u32;
         let mut stop: Option<String> = None;
-        let report = s.run_job(&program, start, &mut |p| {
+        let report = s.start_job(&program, start, cleared, &mut |p| {
             let state = p.status.as_ref().map(|s| s.state);
             let stopped = matches!(
                 state,
@@ -591,15 +598,29 @@ fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
     c.job.store(false, Ordering::SeqCst);
 }
 
-/// Starts a job thread unless one runs.
+/// Starts a job thread unless one runs, once the program passed the start check
+/// (`crate::session::start`) with the board's setup: a program with an error is refused with
+/// the check's report, and nothing moves.
 fn start_job(c: &Arc<Console>, name: String, text: String, from: Option<u32>) -> Reply {
+    let setup = c
+        .setup
+        .lock()
+        .expect("setup")
+        .clone()
+        .ok_or("the board's setup is not read yet")?;
+    let cleared = crate::session::check_text(&name, &text, &setup).map_err(|refused| {
+        format!(
+            "{}nothing was run: the program has an error (fix it and open it again)",
+            refused.report
+        )
+    })?;
     if c.job.swap(true, Ordering::SeqCst) {
         return Err("a job started from the console is still running".into());
     }
     let c2 = c.clone();
     let _ = std::thread::Builder::new()
         .name("console-job".into())
-        .spawn(move || job(c2, name, text, from))
+        .spawn(move || job(c2, name, text, from, cleared))
         .map_err(|e| {
             c.job.store(false, Ordering::SeqCst);
             e.to_string()
@@ -654,8 +675,15 @@ fn serve_client(c: &Arc<Console>, stream: TcpStream, addr: SocketAddr) {
                     );
                     return;
                 }
-                let body: Value = serde_json::from_slice(&req.body).unwrap_or(Value::Null);
-                let (code, v) = match api(c, &path[5..], &body) {
+                // A body that is not JSON is refused, never taken as an empty command.
+                let parsed = if req.body.iter().all(u8::is_ascii_whitespace) {
+                    Ok(Value::Null)
+                } else {
+                    serde_json::from_slice(&req.body).map_err(|e| {
+                        format!("the request is not valid JSON ({e}): nothing was done")
+                    })
+                };
+                let (code, v) = match parsed.and_then(|body| api(c, &path[5..], &body)) {
                     Ok(v) => ("200 OK", v),
                     Err(e) => ("200 OK", json!({ "ok": false, "error": e })),
                 };
@@ -859,12 +887,18 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
             return Ok(json!({ "ok": true, "preamble": pre }));
         }
         "setup_check" | "setup_push" => {
-            let text = body.get("toml").and_then(Value::as_str).unwrap_or("");
-            let setup = crate::setup_file::SetupFile::parse(text).map_err(|e| format!("{e:#}"))?;
+            let Some(text) = body.get("toml").and_then(Value::as_str) else {
+                return Err(
+                    "expected {\"toml\": \"<the setup file's text>\"}: nothing was changed".into(),
+                );
+            };
             if what == "setup_check" {
+                let board = c.setup.lock().expect("setup").clone().unwrap_or_default();
+                crate::setup_file::SetupFile::parse_for_push(text, &board)
+                    .map_err(|e| format!("{e:#}"))?;
                 "the setup is valid".into()
             } else {
-                c.ask(Cmd::PushSetup(Box::new(setup)))?
+                c.ask(Cmd::PushSetup(text.to_owned()))?
             }
         }
         _ => return Err(format!("no command {what}")),

@@ -8,7 +8,7 @@ use crate::link::{Client, Transport};
 use crate::program::{Program, ProgramTarget};
 use anyhow::bail;
 use gantry_proto::lines::{push_record, record_len};
-use gantry_proto::{BoardMsg, HostMsg, LineBatch, MachineState, Status};
+use gantry_proto::{BoardMsg, HostMsg, LineBatch, Status};
 
 /// What the sender is serving now.
 struct Serving {
@@ -57,6 +57,10 @@ pub struct Progress {
     /// Link clock, ms since the link opened.
     pub elapsed_ms: u32,
     pub status: Option<Status>,
+    /// The last gap in the board's messages long enough for the board to count its host as lost
+    /// (more than `HOST_TIMEOUT_MS`: this process stalled, the cable was out), ms; 0 if none. A
+    /// job the board held then stays held: the caller tells the operator why.
+    pub link_gap_ms: u32,
 }
 
 /// How a streamed job ended.
@@ -119,7 +123,7 @@ pub fn stream_program<T: Transport>(
     program: &Program,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
-    run(client, program, JobStart::Beginning, false, on_progress)
+    run(client, program, JobStart::Beginning, on_progress)
 }
 
 /// How a job begins ([`run`]).
@@ -135,27 +139,27 @@ pub enum JobStart {
 }
 
 /// Runs a job over a connected link to its end (see [`stream_program`], [`stream_from_line`],
-/// [`continue_job`]). `operator`: someone answers the board's tool-change stops (the
-/// interactive `gantry stream`); without one a tool change is resumed at once, as if the tool
-/// were already in the spindle.
+/// [`continue_job`]). Nothing here ever releases a stop (a feed hold, a hold for a lost host, an
+/// M0/M1, a tool change): only the operator does (docs/controller.md "Only the operator releases
+/// a stop"), through the caller's [`Flow::Resume`] (its answer to the operator's Enter or
+/// Continue), the machine's cycle start or another command's `resume`. A job standing at a stop
+/// is waited on for as long as it stands.
 pub fn run<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
     start: JobStart,
-    operator: bool,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
     match start {
-        JobStart::Beginning => begin(client, program, operator, on_progress),
-        JobStart::FromLine(n, pre) => from_line(client, program, n, pre, operator, on_progress),
-        JobStart::TakeOver => take_over(client, program, operator, on_progress),
+        JobStart::Beginning => begin(client, program, on_progress),
+        JobStart::FromLine(n, pre) => from_line(client, program, n, pre, on_progress),
+        JobStart::TakeOver => take_over(client, program, on_progress),
     }
 }
 
 fn begin<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
-    operator: bool,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
     let id = client.request_id();
@@ -166,40 +170,33 @@ fn begin<T: Transport>(
         Some(id),
         Some(Serving::at(0, 1)),
         None,
-        operator,
         on_progress,
     )
 }
 
 /// Takes over a job the board is already running (after the link was lost, or from a new
-/// `gantry` process): the board asks for exactly the lines it is missing, and the job resumes
-/// from where the board holds.
+/// `gantry` process): the board asks for exactly the lines it is missing. A job the board holds
+/// stays held until the operator resumes it (the caller's [`Flow::Resume`], cycle start or
+/// `gantry resume`): a take-over releases no stop.
 pub fn continue_job<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
-    run(client, program, JobStart::TakeOver, false, on_progress)
+    run(client, program, JobStart::TakeOver, on_progress)
 }
 
 fn take_over<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
-    operator: bool,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
-    // Only the hold the lost sender left is resumed. A job standing at an operator stop (an M6
-    // tool change, an M0/M1) stays there: that stop is the operator's to answer (this sender's
-    // prompt, cycle start or `gantry resume`), never the take-over's (it used to resume an M6 with
-    // the old tool in the spindle).
-    let status = fresh_status(client)?;
-    // `gantry serve` makes this command the job's owner on it (protocol 5.0).
+    // `gantry serve` makes this command the job's owner on it (protocol 5.0), and the board
+    // counts its host as back. Whatever stop the job stands at (the hold the lost sender left,
+    // an M0/M1, a tool change) stays: the operator releases it, not the take-over.
     client.send(HostMsg::TakeOver)?;
-    if crate::program_stops::stop_at(Some(status.state), program, status.line).is_none() {
-        client.send(HostMsg::Resume)?;
-    }
     // The job's messages from before (its errors, its end) are this command's to report.
-    run_job(client, program, None, None, None, operator, on_progress)
+    run_job(client, program, None, None, None, on_progress)
 }
 
 /// Streams `program` from line `from` after `preamble` (see [`crate::resume`]): the blocks that
@@ -215,7 +212,6 @@ pub fn stream_from_line<T: Transport>(
         client,
         program,
         JobStart::FromLine(from, preamble),
-        false,
         on_progress,
     )
 }
@@ -225,7 +221,6 @@ fn from_line<T: Transport>(
     program: &Program,
     from: u32,
     preamble: Vec<String>,
-    operator: bool,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
     let id = client.request_id();
@@ -238,7 +233,6 @@ fn from_line<T: Transport>(
         Some(id),
         Some(serving),
         Some((from, preamble)),
-        operator,
         on_progress,
     )
 }
@@ -252,7 +246,6 @@ fn run_job<T: Transport>(
     start: Option<u32>,
     serving: Option<Serving>,
     resume: Option<(u32, Vec<String>)>,
-    operator: bool,
     on_progress: &mut dyn FnMut(&Progress) -> Flow,
 ) -> anyhow::Result<StreamReport> {
     let start_ms = client.transport.now_ms();
@@ -279,11 +272,9 @@ fn run_job<T: Transport>(
         total_lines: program.len(),
         ..Progress::default()
     };
-    let mut last_heard = client.transport.now_ms();
     let mut awaiting = start;
     let mut done = false;
     let mut warned_silent = false;
-    let mut tool_change_answered = false;
     while !done {
         let pumped = send_lines(client, program, &mut serving, &mut batch, &mut report)
             .and_then(|()| client.pump(1));
@@ -318,22 +309,16 @@ fn run_job<T: Transport>(
             warned_silent = false;
             eprintln!("gantry: the board is back");
         }
-        let now = client.transport.now_ms();
+        // A gap in the board's messages (this process stalled, the cable came back) changes
+        // nothing here: a job the board held meanwhile (host lost) stays held until the operator
+        // resumes it; the gap is reported with the progress.
+        if silent > gantry_machine::board::link::HOST_TIMEOUT_MS {
+            progress.link_gap_ms = silent;
+        }
         while let Some(msg) = client.recv() {
-            if now.wrapping_sub(last_heard) > gantry_machine::board::link::HOST_TIMEOUT_MS {
-                // The link was down long enough for the board to hold the job: resume it.
-                client.send(HostMsg::Resume)?;
-            }
-            last_heard = now;
             match msg {
                 BoardMsg::Status(s) => {
                     progress.line = s.line;
-                    let at_tool_change = matches!(s.state, MachineState::ToolChange { .. });
-                    if at_tool_change && !operator && !tool_change_answered {
-                        // Nobody to change the tool: go on with the one in the spindle.
-                        client.send(HostMsg::Resume)?;
-                    }
-                    tool_change_answered = at_tool_change && !operator;
                     progress.status = Some(s);
                 }
                 BoardMsg::Alarm { code, line } => report.alarms.push(BoardAlarm { code, line }),
@@ -560,4 +545,48 @@ pub fn fresh_status<T: Transport>(client: &mut Client<T>) -> anyhow::Result<Stat
     })();
     client.put_back(kept);
     result
+}
+
+/// A progress callback for an emulated board that stands for no machine (a simulation's trace,
+/// tests): it answers every program stop (M0/M1, M6) once it stands, as an operator pressing
+/// cycle start at once would. Never used for a board that drives a machine: there only the
+/// operator releases a stop (`gantry stream --through-stops` is refused with `--port`).
+pub struct ThroughStops {
+    /// The line of the stop answered last, while the job still stands there.
+    answered: Option<u32>,
+}
+
+impl ThroughStops {
+    pub fn new() -> Self {
+        ThroughStops { answered: None }
+    }
+
+    /// What to do at this progress: resume a program stop the job stands at, else go on.
+    pub fn flow(&mut self, program: &Program, p: &Progress) -> Flow {
+        let state = p.status.as_ref().map(|s| s.state);
+        let standing = matches!(
+            state,
+            Some(
+                gantry_proto::MachineState::Hold { stopped: true }
+                    | gantry_proto::MachineState::ToolChange { .. }
+            )
+        );
+        if !standing {
+            self.answered = None;
+            return Flow::Continue;
+        }
+        if self.answered != Some(p.line)
+            && crate::program_stops::stop_at(state, program, p.line).is_some()
+        {
+            self.answered = Some(p.line);
+            return Flow::Resume;
+        }
+        Flow::Continue
+    }
+}
+
+impl Default for ThroughStops {
+    fn default() -> Self {
+        Self::new()
+    }
 }

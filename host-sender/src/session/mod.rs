@@ -13,12 +13,14 @@
 pub mod job;
 pub mod setup;
 pub mod socket;
+pub mod start;
 
 pub use job::{
     continue_job, fresh_status, stream_from_line, stream_program, BoardAlarm, BoardError, Flow,
     JobStart, LinkEnd, Progress, StreamReport, SILENT_GIVE_UP_MS, SILENT_WARN_MS,
 };
 pub use setup::{pull_setup_over, push_setup_over};
+pub use start::{check_program, check_text, Cleared, Refused};
 
 use crate::emulator::EmulatedBoard;
 use crate::link::{Client, OnClose, SerialTransport, Transport};
@@ -76,8 +78,6 @@ pub struct Session {
     link: Link,
     setup: Setup,
     status: Option<Status>,
-    /// Someone answers the board's tool-change stops (see [`job::run`]).
-    operator: bool,
     /// The link goes through `gantry serve` (other commands reach the board meanwhile).
     served: bool,
 }
@@ -120,7 +120,6 @@ impl Session {
             link,
             setup,
             status: None,
-            operator: false,
             served: false,
         }
     }
@@ -129,12 +128,6 @@ impl Session {
     /// board from another terminal while this session runs a job.
     pub fn served(&self) -> bool {
         self.served
-    }
-
-    /// Whether someone answers the board's tool-change stops during jobs (default: no, a
-    /// tool change is resumed at once).
-    pub fn set_operator(&mut self, answers_tool_changes: bool) {
-        self.operator = answers_tool_changes;
     }
 
     /// The board's setup (as read when the session opened, or as last pushed or reloaded).
@@ -304,34 +297,87 @@ impl Session {
         Ok(())
     }
 
+    /// The one setup push from setup text (`gantry setup push FILE`, the console's Push): the
+    /// text is parsed and validated (an empty or unreadable setup is an error and nothing is
+    /// sent), the board's work offsets and G28/G30 positions are kept where the text names none
+    /// (`SetupFile::parse_for_push`), then it is pushed ([`Session::push_setup`]). Returns the
+    /// setup the board now has.
+    pub fn push_setup_text(&mut self, text: &str) -> anyhow::Result<Setup> {
+        let setup = crate::setup_file::SetupFile::parse_for_push(text, &self.setup)?;
+        self.push_setup(&setup)?;
+        Ok(setup)
+    }
+
     /// Reads the board's setup again (after something else changed it).
     pub fn reload_setup(&mut self) -> anyhow::Result<&Setup> {
         self.setup = pull_setup_over(&mut self.link)?;
         Ok(&self.setup)
     }
 
-    /// Runs a job to its end (or until `on_progress` detaches), with its progress as events.
-    pub fn run_job(
+    /// The start check ([`start`]) of the program `name` read from `src`, with the board's
+    /// setup: cleared to start, or refused with `gantry check`'s report.
+    pub fn check_start<S: gantry_machine::gcode::ProgramSource>(
+        &self,
+        name: &str,
+        src: S,
+    ) -> anyhow::Result<Result<Cleared, Refused>> {
+        check_program(name, src, &self.setup)
+    }
+
+    /// Starts `program` (from its beginning, or from a line) once it passed the start check, and
+    /// runs it to its end (or until `on_progress` detaches), with its progress as events. A job
+    /// standing at a stop is waited on: only the operator releases it ([`job::run`]).
+    pub fn start_job(
+        &mut self,
+        program: &Program,
+        start: JobStart,
+        _cleared: Cleared,
+        on_progress: &mut dyn FnMut(&Progress) -> Flow,
+    ) -> anyhow::Result<StreamReport> {
+        anyhow::ensure!(
+            start != JobStart::TakeOver,
+            "a take-over starts nothing (Session::take_over_job)"
+        );
+        self.run_job(program, start, on_progress)
+    }
+
+    /// Takes over the job the board runs (`gantry stream --continue`; it passed its check when
+    /// it started) and runs it to its end; a stop it stands at stays until the operator resumes.
+    pub fn take_over_job(
+        &mut self,
+        program: &Program,
+        on_progress: &mut dyn FnMut(&Progress) -> Flow,
+    ) -> anyhow::Result<StreamReport> {
+        self.run_job(program, JobStart::TakeOver, on_progress)
+    }
+
+    fn run_job(
         &mut self,
         program: &Program,
         start: JobStart,
         on_progress: &mut dyn FnMut(&Progress) -> Flow,
     ) -> anyhow::Result<StreamReport> {
-        let report = job::run(&mut self.link, program, start, self.operator, on_progress)?;
+        let report = job::run(&mut self.link, program, start, on_progress)?;
         if let Some(s) = &report.final_status {
             self.status = Some(s.clone());
         }
         Ok(report)
     }
 
-    /// Runs MDI blocks as a small job.
+    /// Runs MDI blocks as a small job, after the start check (a refused block is an error with
+    /// `gantry check`'s report, and nothing runs).
     pub fn mdi(
         &mut self,
         blocks: &[String],
         on_progress: &mut dyn FnMut(&Progress) -> Flow,
     ) -> anyhow::Result<(Program, StreamReport)> {
-        let program = Program::from_text(&blocks.join("\n"));
-        let report = self.run_job(&program, JobStart::Beginning, on_progress)?;
+        let text = blocks.join("\n");
+        let cleared = match check_text("mdi", &text, &self.setup) {
+            Ok(c) => c,
+            Err(refused) => anyhow::bail!("{}nothing was run", refused.report),
+        };
+        let program = Program::from_text(&text);
+        let report = self.start_job(&program, JobStart::Beginning, cleared, on_progress)?;
         Ok((program, report))
     }
 

@@ -110,6 +110,11 @@ enum Host {
     Attached,
     /// The host went silent (its job is held; `link.host_lost_stop_s` counts).
     Lost,
+    /// The host stays (`gantry serve`) but the job's owner behind it is gone
+    /// (`HostMsg::OwnerLost`): the job is held as for a lost host and `link.host_lost_stop_s`
+    /// counts, through the server's reconnections, until a sender takes the job over
+    /// (`HostMsg::TakeOver`).
+    OwnerLost,
 }
 
 /// Link endpoint + the glue to the board.
@@ -268,9 +273,18 @@ impl BoardLink {
                     // the line after the last one interpreted.
                     board.resync_stream();
                 }
-                self.host = Host::Attached;
+                // A server reconnecting for an ownerless job is still no owner.
+                if self.host != Host::OwnerLost {
+                    self.host = Host::Attached;
+                }
                 self.last_status = None;
             }
+        }
+        // The ownerless job ended (alarm 20, an abort, its end): the next job has its owner.
+        if self.host == Host::OwnerLost
+            && !matches!(board.state(), State::Run | State::Hold | State::ToolChange)
+        {
+            self.host = Host::Attached;
         }
         if self.host == Host::Attached && !self.endpoint.peer_alive(now_ms, HOST_TIMEOUT_MS) {
             self.host = Host::Lost;
@@ -307,7 +321,8 @@ impl BoardLink {
     fn watch_unattended_job(&mut self, board: &mut Board, now_ms: u32) {
         let limit_s = board.setup().link.host_lost_stop_s;
         let standing = board.feed_held() || board.waiting_for_lines();
-        if self.host != Host::Lost || limit_s == 0 || !standing {
+        let unattended = matches!(self.host, Host::Lost | Host::OwnerLost);
+        if !unattended || limit_s == 0 || !standing {
             self.unattended_since = None;
             return;
         }
@@ -342,6 +357,14 @@ impl BoardLink {
                 let r = board.try_home(axes);
                 answer(board, id, r);
             }
+            // The job's owner behind a server is gone: what a dropped DTR does.
+            HostMessage::OwnerLost => {
+                if self.host == Host::Attached {
+                    self.host = Host::OwnerLost;
+                }
+                board.host_lost();
+            }
+            HostMessage::TakeOver if self.host == Host::OwnerLost => self.host = Host::Attached,
             _ => {}
         }
     }

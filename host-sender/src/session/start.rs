@@ -1,0 +1,68 @@
+//! The one check every program start goes through (`gantry stream`, `--from-line`, `gantry mdi`,
+//! the console's Run, run-from-line and MDI): the whole program interpreted without motion with
+//! the board's setup, as `gantry check` does, before anything moves. A program with an error
+//! does not start. [`Session::start_job`](super::Session::start_job) takes only a [`Cleared`],
+//! which only this check (or the operator's explicit `--no-check`) makes.
+
+use gantry_machine::gcode::ProgramSource;
+use gantry_machine::setup::Setup;
+
+/// Proof that a program passed the start check ([`check_program`]), or that the operator chose to
+/// start it unchecked ([`Cleared::unchecked`]).
+#[derive(Debug)]
+pub struct Cleared {
+    _made_here: (),
+}
+
+impl Cleared {
+    /// The operator asked for no check (`gantry stream --no-check`: a program too long to check
+    /// first; the board still stops at its first error).
+    pub fn unchecked() -> Cleared {
+        Cleared { _made_here: () }
+    }
+}
+
+/// A program the check refused: `gantry check`'s report (every error with its line and caret,
+/// then the summary up to the first), and the error lines.
+#[derive(Clone, Debug)]
+pub struct Refused {
+    pub report: String,
+    pub error_lines: Vec<u32>,
+}
+
+/// Checks the program `name` read from `src` with `setup`: cleared to start, or refused.
+pub fn check_program<S: ProgramSource>(
+    name: &str,
+    src: S,
+    setup: &Setup,
+) -> anyhow::Result<Result<Cleared, Refused>> {
+    let mut out = Vec::new();
+    let (errors, _summary) =
+        crate::check::check_stream(name, src, &setup.interp_config(), Some(setup), &mut out)?;
+    // (The travel is the board's to check: the job starts where the machine stands, which a
+    // check from the setup alone does not know.)
+    if errors == 0 {
+        return Ok(Ok(Cleared { _made_here: () }));
+    }
+    let report = String::from_utf8_lossy(&out).into_owned();
+    let prefix = format!("{name}:");
+    let error_lines = report
+        .lines()
+        .filter_map(|l| l.strip_prefix(&prefix))
+        .filter_map(|rest| rest.split(':').next()?.parse().ok())
+        .collect();
+    Ok(Err(Refused {
+        report,
+        error_lines,
+    }))
+}
+
+/// [`check_program`] on program text.
+pub fn check_text(name: &str, text: &str, setup: &Setup) -> Result<Cleared, Refused> {
+    check_program(
+        name,
+        gantry_machine::gcode::MemorySource::new(text.as_bytes()),
+        setup,
+    )
+    .expect("checking text in memory does not fail")
+}
