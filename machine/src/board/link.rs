@@ -67,6 +67,10 @@ impl LinkProtocol {
     }
 }
 
+/// A USB full-speed bulk packet: what the board takes at once while a connection's protocol is
+/// undecided ([`BoardLink::rx_room`]).
+pub const RX_PACKET: usize = 64;
+
 /// How long undecided realtime bytes wait for more before they count as grbl, ms.
 pub const UNDECIDED_MS: u32 = 50;
 
@@ -204,6 +208,19 @@ impl BoardLink {
                 };
                 self.endpoint.on_bytes(now_ms, bytes, &mut inbox);
             }
+        }
+    }
+
+    /// Bytes the board can take from the port now without dropping any (the main loop reads no
+    /// more: on the USB board the rest waits in the receive pipe, then in the endpoint, which the
+    /// host's NAKs pace). grbl: the receive buffer's room (`grbl/rx.rs`); undecided: a packet,
+    /// so that bytes a grbl decision hands to that buffer fit it; framed: no limit (the link's
+    /// window paces the host).
+    pub fn rx_room(&self) -> usize {
+        match self.protocol {
+            LinkProtocol::Grbl => self.grbl.rx_room(),
+            LinkProtocol::Undecided => RX_PACKET,
+            LinkProtocol::Framed => usize::MAX,
         }
     }
 

@@ -15,7 +15,7 @@
 //!    [`Board::on_inputs`].
 //! 3. **Top-up.** In a plain run, the kernel's queue is filled from what is already planned
 //!    before the link and the interpreter take their share of the pass.
-//! 4. **Host link and controller.** Bytes from the host, at most [`RX_BYTES_PER_PASS`]; the host-loss rule (the host closed the
+//! 4. **Host link and controller.** Bytes from the host, at most [`RX_BYTES_PER_PASS`] and never more than the link can take ([`BoardLink::rx_room`]: the rest waits in the port, flow control); the host-loss rule (the host closed the
 //!    port, DTR dropped: feed hold); the path speed ([`SpeedMeter`], a 20 ms window);
 //!    [`BoardLink::service`]; a tripped probe latch to [`Board::probe_tripped`];
 //!    [`Board::poll`] with the kernel's drained flag; a new home loaded
@@ -342,10 +342,15 @@ impl MainLoop {
         }
 
         // 4. Host link and controller.
-        let mut rx = [0u8; 64];
+        let mut rx = [0u8; super::link::RX_PACKET];
         let mut budget = RX_BYTES_PER_PASS;
         while budget > 0 {
-            let n = port.receive(&mut rx);
+            // Only what the link can take (flow control): the rest stays in the port.
+            let room = link.rx_room().min(rx.len());
+            if room == 0 {
+                break;
+            }
+            let n = port.receive(rx.get_mut(..room).unwrap_or_default());
             if n == 0 {
                 break;
             }

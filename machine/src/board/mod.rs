@@ -972,11 +972,7 @@ impl Board {
             Mode::Job(job) => Some(job),
             _ => None,
         };
-        if let Some(Job {
-            phase: JobPhase::Running(Ending::No),
-            ..
-        }) = job
-        {
+        if job.is_some_and(|j| self.interprets(&j)) {
             self.interpret();
         }
         if let Some(req) = self.source.take_request() {
@@ -1046,6 +1042,27 @@ impl Board {
                 line: self.progress.line,
                 end: how,
             });
+        }
+    }
+
+    /// Whether the interpreter takes lines now: in a running job; and, for a line sender (grbl),
+    /// also in a feed hold or a program stop once the machine stands (not while it decelerates),
+    /// as grbl plans the lines that come during a hold: a character-counting sender gets its
+    /// `ok`s and keeps its receive buffer moving (docs/grbl.md "Streaming and the RX buffer").
+    /// Nothing moves before cycle start; the planner simply fills. A hold for a lost host takes
+    /// nothing.
+    fn interprets(&self, job: &Job) -> bool {
+        match job.phase {
+            JobPhase::Running(Ending::No) => true,
+            JobPhase::Hold {
+                why,
+                ending: Ending::No,
+            } => {
+                job.streamer == Streamer::LineSender
+                    && why != HoldWhy::HostLost
+                    && matches!(self.motion.state(), MotionState::Held | MotionState::Sync)
+            }
+            _ => false,
         }
     }
 

@@ -222,6 +222,13 @@ impl Grbl {
         }
     }
 
+    /// Bytes the link may take from the port now (`BoardLink::rx_room`): the receive buffer's
+    /// room, so that a burst waits in the port (USB: the endpoint is not read, the host's NAKs
+    /// pace the sender) instead of being dropped.
+    pub fn rx_room(&self) -> usize {
+        self.rx.free()
+    }
+
     /// The next bytes for the host; returns how many were written to `out`.
     pub fn poll_transmit(&mut self, out: &mut [u8]) -> Option<usize> {
         match self.out.drain_into(out) {
@@ -528,16 +535,12 @@ impl Grbl {
     /// Reads complete lines while the board and the output can take them.
     fn read_lines(&mut self, board: &mut Board) {
         while !self.flights.is_full() && self.out.room() >= 2 * ANSWER_ROOM {
-            if self.rx.take_overflow() {
-                self.decided(0, Reply::Error(codes::LINE_TOO_LONG));
-                continue;
-            }
             let mut buf = [0u8; LINE_CAPACITY];
-            let Some((n, raw)) = self.rx.peek_line(&mut buf) else {
+            let Some(rx::Peeked { len: n, raw, cut }) = self.rx.peek_line(&mut buf) else {
                 return;
             };
             let text = trim(buf.get(..n).unwrap_or_default());
-            if n > LINE_CAPACITY {
+            if cut || n > LINE_CAPACITY {
                 self.rx.consume(raw);
                 self.decided(raw, Reply::Error(codes::LINE_TOO_LONG));
                 continue;
