@@ -167,7 +167,11 @@ impl Rx {
             let b = self.buf[(self.head + self.read + i) % STORE];
             i += 1;
             if b == b'\n' {
-                return Some(Peeked { len: n, raw: i, cut });
+                return Some(Peeked {
+                    len: n,
+                    raw: i,
+                    cut,
+                });
             }
             if b == CUT && i == 1 {
                 cut = true;
@@ -297,7 +301,11 @@ mod tests {
         assert_eq!(lines.len(), 42);
         assert!(lines[..40].iter().all(|(t, c)| t == b"G0" && !c));
         assert!(lines[40].1, "the line that overran the room is cut");
-        assert_eq!(lines[41], (b"G0X2".to_vec(), false), "never merged: {lines:?}");
+        assert_eq!(
+            lines[41],
+            (b"G0X2".to_vec(), false),
+            "never merged: {lines:?}"
+        );
         // An endless line is cut once the room is gone, and skipped to its end.
         let mut rx = Rx::new();
         for _ in 0..RX_SIZE + 10 {
