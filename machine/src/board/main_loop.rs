@@ -219,7 +219,8 @@ pub struct MainLoop {
     debouncer: Debouncer,
     speed: SpeedMeter,
     latch: Latch,
-    host_port: HostPort,
+    /// The host port as the last pass saw it (`None` before the first pass).
+    host_port: Option<HostPort>,
     save: Save,
     /// Drivers stay disabled from power-up until the first segment goes to the kernel.
     steppers_enabled: bool,
@@ -236,7 +237,7 @@ impl MainLoop {
             debouncer: Debouncer::new(setup.inputs.invert, setup.inputs.debounce_ms),
             speed: SpeedMeter::new(),
             latch: Latch::Armed,
-            host_port: HostPort::Closed,
+            host_port: None,
             save: Save::Done,
             steppers_enabled: false,
             view: KernelView::default(),
@@ -359,13 +360,19 @@ impl MainLoop {
             link.on_bytes(board, now_ms, rx.get(..n).unwrap_or_default());
         }
         let host_port = port.host_port();
-        if self.host_port == HostPort::Open && host_port != HostPort::Open {
-            // The sender closed the port: the host-loss policy now rather than after the
-            // silence timeout (`BoardLink::port_closed`).
-            link.port_closed(board, host_port == HostPort::Closed);
-            port.host_closed();
+        match (self.host_port, host_port) {
+            (Some(HostPort::Open), now) if now != HostPort::Open => {
+                // The sender closed the port: the host-loss policy now rather than after the
+                // silence timeout (`BoardLink::port_closed`).
+                link.port_closed(board, now == HostPort::Closed);
+                port.host_closed();
+            }
+            // A host opened the port (not the state found at the first pass): it may be
+            // greeted (`BoardLink::port_opened`).
+            (Some(before), HostPort::Open) if before != HostPort::Open => link.port_opened(now_ms),
+            _ => {}
         }
-        self.host_port = host_port;
+        self.host_port = Some(host_port);
         let measured = self.speed.update(now_ms, board.machine_position(&k.steps));
         // No job or jog and the kernel drained: at rest now, whatever the last window saw (the
         // status right after a job's end read 93.8 mm/min in Idle). A hold keeps the window:

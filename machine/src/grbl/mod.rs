@@ -136,6 +136,8 @@ pub struct Grbl {
     /// The highest line the interpreter is known to have taken.
     taken_hint: u32,
     setup_changed: bool,
+    /// The banner went out as the port opened: the connection's reset sends no second one.
+    greeted: bool,
     /// The board's probe result last seen (`None` until the first service pass: a result from
     /// before the connection is not announced).
     probe_seen: Option<Option<ProbeResult>>,
@@ -165,6 +167,7 @@ impl Grbl {
             next_line: 1,
             taken_hint: 0,
             setup_changed: false,
+            greeted: false,
             probe_seen: None,
         }
     }
@@ -172,9 +175,29 @@ impl Grbl {
     /// A new connection chose grbl: a fresh session that starts as grbl's power-up does, with
     /// the reset (overrides 100 %, the parser's defaults) and then one banner once the machine is
     /// at rest (a `0x18` among the first bytes joins this reset: no second banner).
-    pub fn connect(&mut self) {
+    /// `greeted`: the banner went out already as the port opened ([`Grbl::greet`]): the reset
+    /// runs without a second one.
+    pub fn connect(&mut self, greeted: bool) {
         *self = Self::new();
         self.session = Session::Resetting;
+        self.greeted = greeted;
+    }
+
+    /// The port opened and no byte came (`BoardLink`): grbl's power-up banner without waiting
+    /// for the sender, as an Arduino grbl greets after the reset its DTR causes. Written while
+    /// the connection's protocol is undecided; a framed host that speaks later gets the
+    /// handshake after it (and discards the text as a broken frame).
+    pub fn greet(&mut self, board: &Board) {
+        self.out.clear();
+        self.banner();
+        if board.state() == State::Alarm {
+            self.out.line("[MSG:'$H'|'$X' to unlock]");
+        }
+    }
+
+    /// Drops output not yet sent (the connection chose the framed protocol).
+    pub fn forget_output(&mut self) {
+        self.out.clear();
     }
 
     /// The connection ended (DTR drop, port closed): grbl mode cannot resume a job later, so a
@@ -265,9 +288,14 @@ impl Grbl {
                 let setup = board.setup().clone();
                 board.set_setup(setup);
             }
-            self.banner();
-            if board.state() == State::Alarm {
-                self.out.line("[MSG:'$H'|'$X' to unlock]");
+            if core::mem::take(&mut self.greeted) {
+                // Greeted at the port's opening: the startup lines still follow the banner.
+                self.startup_due = 0b11;
+            } else {
+                self.banner();
+                if board.state() == State::Alarm {
+                    self.out.line("[MSG:'$H'|'$X' to unlock]");
+                }
             }
         }
         self.settle(board);
@@ -347,6 +375,8 @@ impl Grbl {
                     // Gantry's abort: decelerate on the path, the job ends at rest with the
                     // program-stop sequence (grbl cuts the steps and loses the position).
                     board.abort();
+                    // A reset the sender asked for answers with its own banner.
+                    self.greeted = false;
                     self.busy = Busy::None;
                     self.check_mode = false;
                     self.idle_hold = false;
