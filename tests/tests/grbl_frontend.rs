@@ -1667,3 +1667,58 @@ fn a_burst_of_eight_jogs_in_one_write_runs_all_eight() {
         [8 * STEPS_PER_MM, 5 * STEPS_PER_MM]
     );
 }
+
+/// FreeCAD's grbl post writes `K0.000` on every G17 arc: grbl's parser ignores the off-plane
+/// word, so grbl mode does too, and the arc runs to its exact end (a half circle X0 → X10 and
+/// back, the Y pulses the two arcs' height twice each).
+#[test]
+fn a_freecad_arc_with_k0_runs_in_grbl_mode() {
+    let mut s = Sender::connected();
+    s.send(b"G17 G21 G90\nG1 X0 Y0 F2000\nG2 X10.000 Y0.000 I5.000 J0.000 K0.000 F2000\nG3 X0.000 Y0.000 I-5.000 J0.000 K0.000\n");
+    for _ in 0..20_000 {
+        s.run(1);
+        if s.answers().len() == 4 {
+            break;
+        }
+    }
+    assert_eq!(s.answers(), vec!["ok"; 4], "{:?}", s.seen);
+    assert_eq!(s.ends_idle(20_000)[..2], [0, 0]);
+    assert_eq!(s.eb.pulses[0] as i64, 20 * STEPS_PER_MM);
+    let y = s.eb.pulses[1] as i64;
+    assert!(
+        (y - 20 * STEPS_PER_MM).abs() <= 2,
+        "each arc reaches 5 mm out and back: {y}"
+    );
+}
+
+/// The smaller grbl seams: `$10` beyond a byte is refused (`error:3`) and keeps the mask;
+/// `$I=` answers `ok`; a negative F, S or P is grbl's `error:4`; `M2`/`M30` say
+/// `[MSG:Pgm End]` before their `ok`; `$RST=` says `[MSG:Restoring defaults]`.
+#[test]
+fn small_grbl_seams_answer_as_grbl_does() {
+    let mut s = Sender::connected();
+    s.send(b"$10=99999\n$$\n");
+    s.run(100);
+    assert_eq!(s.answers()[0], "error:3", "{:?}", s.seen);
+    s.assert_seen("$10=1\r\n");
+    s.seen.clear();
+    assert_eq!(s.answer(b"$I=my machine\n", 100), "ok\r\n");
+    s.seen.clear();
+    s.send(b"G1 X1 F-100\nS-5\nG4 P-1\nN-2 G0 X0\n");
+    s.run(200);
+    assert_eq!(s.answers(), vec!["error:4"; 4], "{:?}", s.seen);
+    s.seen.clear();
+    s.send(b"G0 X1\nM2\n");
+    s.run(2000);
+    assert_eq!(s.answers(), ["ok", "ok"], "{:?}", s.seen);
+    s.assert_seen("ok\r\n[MSG:Pgm End]\r\nok\r\n");
+    s.seen.clear();
+    s.send(b"G0 X2\nM30\n");
+    s.run(2000);
+    s.assert_seen("ok\r\n[MSG:Pgm End]\r\nok\r\n");
+    s.ends_idle(5_000);
+    s.seen.clear();
+    s.send(b"$RST=#\n");
+    s.run(200);
+    assert_eq!(s.seen, "[MSG:Restoring defaults]\r\nok\r\n");
+}

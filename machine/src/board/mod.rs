@@ -39,7 +39,7 @@ use crate::controller::lists::ListStatus;
 use crate::controller::outputs::OutputLevels;
 use crate::controller::power_up::PowerUp;
 use crate::controller::{AlarmCode, State};
-use crate::gcode::{GcodeError, Interpreter};
+use crate::gcode::{GcodeError, Interpreter, OffPlaneOffset};
 use crate::motion::config::MotionConfig;
 use crate::motion::kernel::Segment;
 use crate::motion::output_event::OutputEvent;
@@ -382,6 +382,14 @@ impl Board {
         self.source.reset();
         self.source.serve_jumps(streamer == Streamer::ProgramServer);
         self.interp.rewind();
+        // grbl's parser ignores an arc's off-plane offset word (FreeCAD's grbl post writes K0
+        // on G17 arcs); Gantry's own dialect refuses it as LinuxCNC does.
+        self.interp
+            .set_off_plane_offset(if streamer == Streamer::LineSender {
+                OffPlaneOffset::Ignored
+            } else {
+                OffPlaneOffset::Refused
+            });
         if kind == JobKind::Machine {
             // A check goes on from the program's own position, which no motion has followed
             // (grbl's `$C`: the machine position comes back with the reset that ends it).

@@ -79,6 +79,8 @@ struct Flight {
     fate: Fate,
     /// A startup line (`$N0`/`$N1`, its index): answered as `>line:ok`.
     startup: Option<u8>,
+    /// The line has `M2` or `M30`: grbl's `[MSG:Pgm End]` comes before its `ok`.
+    program_end: bool,
 }
 
 /// The front end's session.
@@ -436,8 +438,12 @@ impl Grbl {
         }
     }
 
-    /// The answer of `f`: a startup line's is echoed with it (`>G21G90:ok`).
+    /// The answer of `f`: a startup line's is echoed with it (`>G21G90:ok`); a program end's
+    /// `ok` follows grbl's `[MSG:Pgm End]`.
     fn answer(&mut self, board: &Board, f: &Flight, r: Reply) {
+        if f.program_end && r == Reply::Ok {
+            self.out.line("[MSG:Pgm End]");
+        }
         if let Some(i) = f.startup {
             self.out.byte(b'>');
             if let Some(line) = board.setup().grbl.startup.get(usize::from(i)) {
@@ -557,6 +563,7 @@ impl Grbl {
                 raw: 0,
                 fate: Fate::OnBoard { error: None },
                 startup: Some(i),
+                program_end: false,
             });
             self.next_line = self.next_line.wrapping_add(1).max(1);
         }
@@ -620,6 +627,12 @@ impl Grbl {
                 self.decided(raw, Reply::Error(codes::EXPECTED_LETTER));
                 continue;
             };
+            if has_negative_value(text.as_bytes()) {
+                // grbl refuses a negative F, N, P, S or T as it reads the word (error 4).
+                self.rx.consume(raw);
+                self.decided(raw, Reply::Error(codes::NEGATIVE_VALUE));
+                continue;
+            }
             if !board.setup().grbl.m6_stop && has_m6(text.as_bytes()) {
                 // grbl 1.1 has no tool change: its unsupported-command error, nothing run.
                 self.rx.consume(raw);
@@ -670,6 +683,7 @@ impl Grbl {
                 raw,
                 fate: Fate::OnBoard { error: None },
                 startup: None,
+                program_end: has_program_end(text.as_bytes()),
             });
             self.next_line = self.next_line.wrapping_add(1).max(1);
         }
@@ -682,6 +696,7 @@ impl Grbl {
             raw,
             fate: Fate::Decided(r),
             startup: None,
+            program_end: false,
         });
         self.settle_decided();
     }
@@ -866,8 +881,14 @@ impl Grbl {
                 if let Some(s) = self.idle_gate(board, false) {
                     return s;
                 }
-                Step::Reply(self.restore(board, what))
+                let r = self.restore(board, what);
+                if r == Reply::Ok {
+                    self.out.line("[MSG:Restoring defaults]");
+                }
+                Step::Reply(r)
             }
+            // grbl stores the text to show in `$I`; Gantry's build info is fixed (docs/grbl.md).
+            Command::SetInfo => ok,
             Command::Sleep => {
                 board.abort();
                 board.stop_outputs_at_rest();
@@ -1015,6 +1036,36 @@ fn has_m6(line: &[u8]) -> bool {
             && number.iter().rev().skip(1).all(|&d| d == b'0')
             && number.last() == Some(&b'6')
     })
+}
+
+/// The M word number `n` (`M2`, `M02`, `m30`…) is in the line (blanks and comments dropped).
+fn has_m_code(line: &[u8], n: u32) -> bool {
+    line.iter().enumerate().any(|(i, &c)| {
+        if c | 0x20 != b'm' {
+            return false;
+        }
+        let digits = line.get(i + 1..).unwrap_or_default();
+        let k = digits.iter().take_while(|d| d.is_ascii_digit()).count();
+        let number = digits.get(..k).unwrap_or_default();
+        k > 0
+            && k <= 4
+            && digits.get(k) != Some(&b'.')
+            && number
+                .iter()
+                .fold(0u32, |v, &d| v * 10 + u32::from(d - b'0'))
+                == n
+    })
+}
+
+/// The line ends the program (`M2` or `M30`).
+fn has_program_end(line: &[u8]) -> bool {
+    has_m_code(line, 2) || has_m_code(line, 30)
+}
+
+/// A word grbl requires non-negative has a minus sign: `F-100`, `S-1`, `P-1`, `T-1`, `N-5`.
+fn has_negative_value(line: &[u8]) -> bool {
+    line.windows(2)
+        .any(|w| matches!(w[0] | 0x20, b'f' | b'n' | b'p' | b's' | b't') && w[1] == b'-')
 }
 
 /// The line without leading and trailing blanks.
