@@ -478,6 +478,9 @@ mod tests {
     use crate::controller::AlarmCode;
     use crate::units::NM_PER_MM;
 
+    extern crate std;
+    use std::vec::Vec;
+
     #[derive(Default)]
     struct FakePort {
         kernel: KernelSnapshot,
@@ -486,6 +489,13 @@ mod tests {
         queued: u32,
         dtr: bool,
         saved: u32,
+        /// Bytes waiting in the port (the firmware's USB receive pipe, then its endpoint).
+        rx: Vec<u8>,
+        /// Calls of `receive`, and the bytes they took.
+        reads: u32,
+        taken: usize,
+        /// Everything the board sent.
+        sent: Vec<u8>,
     }
 
     impl BoardPort for FakePort {
@@ -522,13 +532,20 @@ mod tests {
             f(0);
         }
         fn drive_outputs(&mut self, _l: &OutputLevels, _pwm_max: u16, _enabled: bool) {}
-        fn receive(&mut self, _buf: &mut [u8]) -> usize {
-            0
+        fn receive(&mut self, buf: &mut [u8]) -> usize {
+            self.reads += 1;
+            let n = buf.len().min(self.rx.len());
+            buf[..n].copy_from_slice(&self.rx[..n]);
+            self.rx.drain(..n);
+            self.taken += n;
+            n
         }
         fn can_transmit(&mut self, _len: usize) -> bool {
-            false
+            self.dtr
         }
-        fn transmit(&mut self, _frame: &[u8]) {}
+        fn transmit(&mut self, frame: &[u8]) {
+            self.sent.extend_from_slice(frame);
+        }
         fn host_port(&mut self) -> HostPort {
             if self.dtr {
                 HostPort::Open
@@ -612,6 +629,47 @@ mod tests {
         port.kernel.dry_runs = 2;
         main.pass(25, &mut board, &mut link, &mut port);
         assert_eq!(main.underruns(), 2);
+    }
+
+    /// The board's USB read path: the main loop takes bytes from the port (the firmware's
+    /// receive pipe, `firmware/src/control.rs` `Port::receive`) only as the link has room. A
+    /// grbl sender that writes far more than the receive buffer (a job, no counting) while the
+    /// board cannot take lines (this port's kernel never runs a segment, so the planner fills):
+    /// once the buffer is full the port is not read at all (the pipe fills, the USB task stops
+    /// reading the endpoint and the host's NAKs hold the sender), no byte is dropped and no
+    /// line is cut.
+    #[test]
+    fn a_full_receive_buffer_leaves_the_port_unread() {
+        let (mut main, mut board, mut link, mut port) = parts();
+        port.dtr = true;
+        main.pass(0, &mut board, &mut link, &mut port);
+        for i in 0..400 {
+            let line = std::format!("G1 X{}.{:03} F100\n", i / 1000, i % 1000);
+            port.rx.extend_from_slice(line.as_bytes());
+        }
+        let total = port.rx.len();
+        let mut t = 1;
+        while link.rx_room() > 0 || t < 10 {
+            main.pass(t, &mut board, &mut link, &mut port);
+            t += 1;
+            assert!(t < 5_000, "the buffer never filled");
+        }
+        assert_eq!(link.protocol(), crate::board::link::LinkProtocol::Grbl);
+        let (reads, taken) = (port.reads, port.taken);
+        assert!(taken < total && taken > 128, "{taken} of {total} taken");
+        for _ in 0..500 {
+            main.pass(t, &mut board, &mut link, &mut port);
+            t += 1;
+        }
+        assert_eq!(
+            (port.reads, port.taken),
+            (reads, taken),
+            "a full buffer left the port unread"
+        );
+        assert_eq!(port.rx.len(), total - taken, "nothing dropped");
+        let sent = std::string::String::from_utf8_lossy(&port.sent).into_owned();
+        assert!(!sent.contains("error"), "{sent}");
+        assert!(sent.contains("ok\r\n"), "{sent}");
     }
 
     #[test]
