@@ -6,7 +6,10 @@
 //   node cncjs_drive.js URL CNCRC PORT SCENARIO [PROGRAM]
 //
 // SCENARIO: `run` streams PROGRAM; `hold` streams it with +10 % feed override, a feed hold at
-// rest and a cycle start on the way; `jog` jogs by `$J=` and cancels a long jog.
+// rest and a cycle start on the way; `jog` jogs by `$J=` and cancels a long jog; `pauses`
+// streams PROGRAM with three Pause/Resume cycles (CNCjs's `gcode:pause`, which sends `!` and
+// keeps the lines it has in flight, and `gcode:resume`), then eight jog clicks sent at once
+// (X +8 mm exactly), then PROGRAM again: every line written is answered exactly once.
 // Prints one JSON line (the final machine position as CNCjs parsed it, lines acknowledged,
 // errors, what each step observed) and exits 0 when every check of the scenario held.
 'use strict';
@@ -22,6 +25,9 @@ const verbose = !!process.env.VERBOSE;
 const log = (...a) => { if (verbose) console.error('[cncjs]', ...a); };
 
 const result = { scenario, errors: [], checks: {} };
+// Lines written to the board (each ends in a newline; realtime bytes have none) and answers.
+let written = 0;
+let answers = 0;
 let status = null; // CNCjs's parsed grbl status
 let senderStatus = null;
 const command = (...args) => socket.emit('command', port, ...args);
@@ -75,6 +81,26 @@ async function streamDone() {
   await until('idle after the job', (s) => s.activeState === 'Idle', 60000);
 }
 
+// Waits until every line written so far is answered (bounded).
+async function allAnswered(ms) {
+  const t0 = Date.now();
+  while (answers < written) {
+    if (Date.now() - t0 > ms) return fail(`${written} lines written, ${answers} answered`);
+    await sleep(20);
+  }
+}
+
+// Pause, stand at rest for half a second (no motion), resume.
+async function pauseResume(n) {
+  command('gcode:pause');
+  const held = await until('pause ' + n + ' at rest', (s) => s.activeState === 'Hold' && s.subState === 0, 10000);
+  const at = held.mpos.x;
+  await sleep(500);
+  if (status.mpos.x !== at || status.activeState !== 'Hold') return fail('moved while paused');
+  command('gcode:resume');
+  await until('run after resume ' + n, (s) => s.activeState === 'Run', 5000);
+}
+
 const scenarios = {
   async run() {
     await stream();
@@ -95,6 +121,37 @@ const scenarios = {
     command('cyclestart');
     await until('run after cycle start', (s) => s.activeState === 'Run', 5000);
     await streamDone();
+  },
+  async pauses() {
+    await stream();
+    const pauses = [];
+    for (const at of [0.2, 0.5, 0.8]) {
+      const t0 = Date.now();
+      while (!(senderStatus && senderStatus.received >= at * senderStatus.total)) {
+        if (Date.now() - t0 > 120000) return fail('timed out before pause at ' + at);
+        await sleep(20);
+      }
+      pauses.push(senderStatus.received);
+      await pauseResume(pauses.length);
+    }
+    result.checks.paused_at_line = pauses;
+    await streamDone();
+    await allAnswered(10000);
+    const x0 = x(status);
+    // Eight jog clicks at once, as fast clicking on CNCjs's jog button sends them.
+    for (let i = 0; i < 8; i++) command('gcode', '$J=G91 G21 X1 F2000');
+    await until('the jogs to start', (s) => s.activeState === 'Jog', 5000);
+    const jogged = await until('the jogs to end', (s) => s.activeState === 'Idle' && x(s) !== x0, 20000);
+    await allAnswered(10000);
+    await sleep(300);
+    result.checks.jog_clicks = { from: x0, to: x(status) };
+    if (Math.abs(x(status) - x0 - 8) > 1e-9) return fail('eight clicks did not jog X +8 mm: ' + x0 + ' -> ' + jogged.mpos.x);
+    await stream();
+    await streamDone();
+    await allAnswered(10000);
+    result.checks.written = written;
+    result.checks.answered = answers;
+    if (answers !== written) return fail(`${written} lines written, ${answers} answered`);
   },
   async jog() {
     command('gcode', '$J=G91 G21 X5 Y-2 F1200');
@@ -120,8 +177,12 @@ socket.on('connect', () => {
 socket.on('serialport:read', (line) => {
   log('<', line);
   if (/^(error|ALARM)/.test(line)) result.errors.push(line);
+  if (/^(ok|error:)/.test(line)) answers++;
 });
-socket.on('serialport:write', (data) => log('>', JSON.stringify(data)));
+socket.on('serialport:write', (data) => {
+  log('>', JSON.stringify(data));
+  written += (String(data).match(/\n/g) || []).length;
+});
 socket.on('sender:status', (s) => { senderStatus = s; });
 let started = false;
 socket.on('controller:state', (type, state) => {
