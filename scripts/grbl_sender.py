@@ -54,6 +54,19 @@ lines = [l.strip() for l in open(program) if l.strip()]
 held = []
 
 
+def fresh_status(state, limit=10):
+    """The MPos of the first status report asked for from now on that starts with `state`."""
+    t0 = time.time()
+    while time.time() - t0 < limit:
+        asked = time.time()
+        g.realtime(b"?")
+        time.sleep(0.05)
+        st = g.last_status
+        if st.get("time", 0) >= asked and str(st.get("raw", "")).startswith(state):
+            return st["raw"].split("|")[1]
+    return None
+
+
 def press_pauses():
     for at in (0.2, 0.5, 0.8):
         while True:
@@ -62,15 +75,9 @@ def press_pauses():
                     break
             time.sleep(0.01)
         g.pause()
-        t0 = time.time()
-        while not str(g.last_status.get("raw", "")).startswith("<Hold:0") and time.time() - t0 < 10:
-            g.realtime(b"?")
-            time.sleep(0.05)
-        before = g.last_status.get("raw", "")
+        held.append((fresh_status("<Hold:0"), None))
         time.sleep(0.5)
-        g.realtime(b"?")
-        time.sleep(0.1)
-        held.append((before.split("|")[1:2], g.last_status.get("raw", "").split("|")[1:2]))
+        held[-1] = (held[-1][0], fresh_status("<Hold:0"))
         g.resume()
 
 
@@ -84,8 +91,8 @@ g.realtime(b"?")
 time.sleep(0.3)
 status = g.last_status.get("raw", "")
 g.disconnect()
-still = all(a == b and a for a, b in held)
+still = all(a is not None and a == b for a, b in held)
 with lock:
     print(f"lines {len(lines)} acks {acks} errors {len(errors)} ok {ok} wall {elapsed:.1f}s "
-          f"pauses {len(held)} still {still} status {status}")
+          f"pauses {len(held)} still {still} status {status} held {held}")
 sys.exit(0 if ok and acks == len(lines) and not errors and (not pauses or (len(held) == 3 and still)) else 1)
