@@ -1722,3 +1722,27 @@ fn small_grbl_seams_answer_as_grbl_does() {
     s.run(200);
     assert_eq!(s.seen, "[MSG:Restoring defaults]\r\nok\r\n");
 }
+
+/// A connection that opens and says nothing is greeted with the banner after 250 ms (grbl's
+/// power-up banner, for senders that wait for it), once; its first line is then answered with
+/// no second banner, and a soft reset it sends brings the banner again, as grbl's does.
+#[test]
+fn a_silent_connection_is_greeted_with_the_banner_once() {
+    let mut s = Sender::new();
+    s.eb.set_dtr(false);
+    s.run(10);
+    s.eb.set_dtr(true);
+    s.run(200);
+    assert_eq!(s.seen, "", "greeted before 250 ms");
+    s.run(100);
+    assert_eq!(s.seen, format!("\r\n{BANNER}\r\n"));
+    s.run(500);
+    assert_eq!(s.seen.matches(BANNER).count(), 1);
+    s.seen.clear();
+    assert_eq!(s.answer(b"G0 X1\n", 2_000), "ok\r\n");
+    s.send(b"\x18");
+    let reset = s.until(BANNER, 2_000);
+    s.run(100);
+    let after = reset + &s.seen;
+    assert_eq!(after.matches(BANNER).count(), 1, "{after:?}");
+}

@@ -144,11 +144,11 @@ pub struct BoardLink {
 /// A connection before it has spoken.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Opening {
-    /// The board talks (power-up, or the connection has spoken).
+    /// The board talks (power-up, or the connection has chosen its protocol).
     Talking,
     /// The host left (port closed, DTR dropped): the board sends nothing until a new
-    /// connection speaks, so a grbl client that opens the port next reads no frames meant for
-    /// the host that left.
+    /// connection has chosen its protocol by its first bytes, so a grbl client that opens the
+    /// port next reads no frames meant for the host that left.
     Quiet,
     /// The port opened at `since` (DTR rose, a TCP client connected) and nothing came yet: the
     /// grbl banner goes out after [`GREET_MS`] of silence.
@@ -193,14 +193,6 @@ impl BoardLink {
     /// ([`LinkProtocol::decide`]); until they do, they wait here. Queued messages reach the
     /// board as they arrive (program lines into its line ring).
     pub fn on_bytes(&mut self, board: &mut Board, now_ms: u32, bytes: &[u8]) {
-        if bytes.is_empty() {
-            return;
-        }
-        if matches!(self.opening, Opening::Quiet | Opening::Opened { .. }) {
-            // The connection speaks: the board talks again (a greeting stays noted until the
-            // protocol is chosen).
-            self.opening = Opening::Talking;
-        }
         if self.protocol == LinkProtocol::Undecided {
             if self.undecided.is_empty() {
                 self.undecided_since = now_ms;
