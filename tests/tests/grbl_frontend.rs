@@ -1588,7 +1588,7 @@ fn lines_sent_in_a_hold_are_planned_and_answered_and_each_runs_once() {
     );
     let travel: i64 = xs
         .iter()
-        .fold((0, 0), |(at, sum), &x| (x, sum + (x - at as i64).abs()))
+        .fold((0i64, 0i64), |(at, sum), &x| (x, sum + (x - at).abs()))
         .1;
     assert_eq!(
         s.eb.pulses[0] as i64,
