@@ -6,7 +6,11 @@
 #   ends with the step counts of `gantry stream` on the same program and setup;
 # - the same program with CNCjs's feed override +10 %, feed hold (Hold:0 at rest, no motion for
 #   1 s) and cycle start ends with the same step and pulse counts;
-# - `$J=` jogs end on target and CNCjs's jog cancel stops a long jog early.
+# - `$J=` jogs end on target and CNCjs's jog cancel stops a long jog early;
+# - a 2,000-line job with three Pause/Resume cycles (CNCjs keeps its lines in flight across a
+#   pause: the board plans them in the hold), eight jog clicks sent at once between two runs of
+#   it (X exactly +8 mm), every line CNCjs wrote answered exactly once, and the final steps
+#   those of `gantry stream` on the job.
 # Installs CNCjs itself (pinned by scripts/cncjs/package-lock.json) under target/; skips, saying
 # why, only when node/npm are missing or the npm registry cannot be reached.
 set -euo pipefail
@@ -43,15 +47,35 @@ for _ in $(seq 100); do grep -q '"secret"' "$TMP/cncrc" 2>/dev/null && grep -q '
 
 # A small program of our own (moves, arcs, relative moves, a dwell), shared by the sender tests.
 cp scripts/grbl-small.nc "$TMP/small.nc"
+# 2,000 lines: a zig-zag of 0.25 mm segments in absolute coordinates (ends where it ends, whatever
+# jog came before it).
+python3 - "$TMP/long.nc" <<'PY'
+import sys
+with open(sys.argv[1], "w") as f:
+    f.write("G21 G90\nG1 F3000\n")
+    x, y, d = 0, 0, 1
+    for i in range(1998):
+        if (x == 160 and d == 1) or (x == 0 and d == -1):
+            d = -d
+            y += 1
+            f.write(f"G1 Y{y/4:.2f}\n")
+        else:
+            x += d
+            f.write(f"G1 X{x/4:.2f}\n")
+PY
+[ "$(wc -l < "$TMP/long.nc")" = 2000 ] || { echo "FAIL: the job is not 2,000 lines"; exit 1; }
 ref_steps=$("$GANTRY" stream "$TMP/small.nc" | grep '^steps:' | sed 's/steps: *//; s/  */ /g')
+ref_long=$("$GANTRY" stream "$TMP/long.nc" | grep '^steps:' | sed 's/steps: *//; s/  */ /g')
 passed=0
 declare -A pulses
-for scenario in run hold jog; do
+for scenario in run hold jog pauses; do
+  prog=$TMP/small.nc ref=$ref_steps
+  [ "$scenario" = pauses ] && prog=$TMP/long.nc ref=$ref_long
   "$GANTRY" emulate --pty "$TMP/pty" 2> "$TMP/emu-$scenario.log" &
   EMU=$!
   for _ in $(seq 50); do [ -e "$TMP/pty" ] && break; sleep 0.1; done
   summary=$(NODE_PATH="$DIR/node_modules" node scripts/cncjs_drive.js "http://127.0.0.1:$PORT" \
-    "$TMP/cncrc" "$TMP/pty" "$scenario" "$TMP/small.nc") || {
+    "$TMP/cncrc" "$TMP/pty" "$scenario" "$prog") || {
     echo "FAIL CNCjs $scenario: $summary"; tail -20 "$TMP/emu-$scenario.log"; exit 1; }
   sleep 0.5
   kill -INT $EMU; wait $EMU || true
@@ -59,8 +83,8 @@ for scenario in run hold jog; do
   echo "CNCjs $scenario: $summary"
   if [ "$scenario" != jog ]; then
     steps=$(grep -o 'Idle line [0-9]* steps [^p]*' "$TMP/emu-$scenario.log" | tail -1 | sed 's/.*steps //; s/ *$//')
-    echo "CNCjs $scenario: steps via CNCjs [$steps], via gantry stream [$ref_steps]"
-    [ "$steps" = "$ref_steps" ] || { echo "FAIL CNCjs $scenario: step counts differ"; exit 1; }
+    echo "CNCjs $scenario: steps via CNCjs [$steps], via gantry stream [$ref]"
+    [ "$steps" = "$ref" ] || { echo "FAIL CNCjs $scenario: step counts differ"; exit 1; }
     pulses[$scenario]=$(grep -o 'Idle line [0-9]* steps .*pulses .*' "$TMP/emu-$scenario.log" | tail -1 | sed 's/.*pulses //')
   fi
   rm -f "$TMP/pty"

@@ -6,7 +6,11 @@
 //   node cncjs_drive.js URL CNCRC PORT SCENARIO [PROGRAM]
 //
 // SCENARIO: `run` streams PROGRAM; `hold` streams it with +10 % feed override, a feed hold at
-// rest and a cycle start on the way; `jog` jogs by `$J=` and cancels a long jog.
+// rest and a cycle start on the way; `jog` jogs by `$J=` and cancels a long jog; `pauses`
+// streams PROGRAM with three Pause/Resume cycles (CNCjs's `gcode:pause`, which sends `!` and
+// keeps the lines it has in flight, and `gcode:resume`), then eight jog clicks sent at once
+// (X +8 mm exactly), then PROGRAM again: every line of both runs acknowledged once (CNCjs's
+// sender count; CNCjs does not pass the sender's and the jogs' `ok`s on to its clients).
 // Prints one JSON line (the final machine position as CNCjs parsed it, lines acknowledged,
 // errors, what each step observed) and exits 0 when every check of the scenario held.
 'use strict';
@@ -75,6 +79,17 @@ async function streamDone() {
   await until('idle after the job', (s) => s.activeState === 'Idle', 60000);
 }
 
+// Pause, stand at rest for half a second (no motion), resume.
+async function pauseResume(n) {
+  command('gcode:pause');
+  const held = await until('pause ' + n + ' at rest', (s) => s.activeState === 'Hold' && s.subState === 0, 10000);
+  const at = held.mpos.x;
+  await sleep(500);
+  if (status.mpos.x !== at || status.activeState !== 'Hold') return fail('moved while paused');
+  command('gcode:resume');
+  await until('run after resume ' + n, (s) => s.activeState === 'Run', 5000);
+}
+
 const scenarios = {
   async run() {
     await stream();
@@ -95,6 +110,40 @@ const scenarios = {
     command('cyclestart');
     await until('run after cycle start', (s) => s.activeState === 'Run', 5000);
     await streamDone();
+  },
+  async pauses() {
+    await stream();
+    const pauses = [];
+    for (const at of [0.2, 0.5, 0.8]) {
+      const t0 = Date.now();
+      while (!(senderStatus && senderStatus.received >= at * senderStatus.total)) {
+        if (Date.now() - t0 > 120000) return fail('timed out before pause at ' + at);
+        await sleep(20);
+      }
+      pauses.push(senderStatus.received);
+      await pauseResume(pauses.length);
+    }
+    result.checks.paused_at_line = pauses;
+    await streamDone();
+    const first = { lines: senderStatus.total, acknowledged: senderStatus.received };
+    const x0 = x(status);
+    // Eight jog clicks at once, as fast clicking on CNCjs's jog button sends them.
+    for (let i = 0; i < 8; i++) command('gcode', '$J=G91 G21 X1 F2000');
+    await until('the jogs to start', (s) => s.activeState === 'Jog', 5000);
+    await until('X +8 mm at rest', (s) => s.activeState === 'Idle' && Math.abs(x(s) - x0 - 8) < 1e-9, 30000);
+    await sleep(500);
+    result.checks.jog_clicks = { from: x0, to: x(status) };
+    if (Math.abs(x(status) - x0 - 8) > 1e-9) return fail('eight clicks did not jog X +8 mm');
+    senderStatus = null;
+    await stream();
+    // The new run's own count (not a late status of the first).
+    const t1 = Date.now();
+    while (!(senderStatus && senderStatus.received < senderStatus.total)) {
+      if (Date.now() - t1 > 10000) return fail('no progress of the second run');
+      await sleep(20);
+    }
+    await streamDone();
+    result.checks.runs = [first, { lines: senderStatus.total, acknowledged: senderStatus.received }];
   },
   async jog() {
     command('gcode', '$J=G91 G21 X5 Y-2 F1200');

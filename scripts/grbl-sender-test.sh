@@ -6,8 +6,11 @@
 # streams at real time with no lost or repeated line (the step counts) and reports the
 # emulated board's underruns; then the seams of issue 24 (scripts/grbl_seams.py): an error
 # mid-job with the spindle on, a sender killed mid-job and the next client, M98, \$C, \$110 and
-# 20 queued \$J= jogs. Installs the sender itself; skips (saying why) only when PyPI
-# cannot be reached.
+# 20 queued \$J= jogs. Then over TCP (`gantry emulate --tcp`, the same sender through pyserial's
+# socket:// handler): the small program, and the 10,000-line one with the sender's pause and
+# resume pressed three times on the way (lines in flight across each pause are planned in the
+# hold and answered once; no motion in Hold:0), both ending on `gantry stream`'s steps.
+# Installs the sender itself; skips (saying why) only when PyPI cannot be reached.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=target/grbl-sender-venv
@@ -60,6 +63,23 @@ for prog in small long; do
   echo "grbl sender $prog: steps via grbl [$grbl_steps], via gantry stream [$ref_steps], $underruns"
   [ "$grbl_steps" = "$ref_steps" ] || { echo "FAIL grbl sender $prog: step counts differ"; exit 1; }
 done
+for prog in small long; do
+  TPORT=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
+  "$GANTRY" emulate --tcp "127.0.0.1:$TPORT" 2> "$TMP/emu-tcp-$prog.log" &
+  EMU=$!
+  for _ in $(seq 100); do grep -q "board ready" "$TMP/emu-tcp-$prog.log" && break; sleep 0.1; done
+  mode=
+  [ "$prog" = long ] && mode=pauses
+  summary=$("$VENV/bin/python" scripts/grbl_sender.py "socket://127.0.0.1:$TPORT" "$TMP/$prog.nc" $mode) || {
+    echo "FAIL grbl sender over TCP $prog $mode: $summary"; tail -30 "$TMP/emu-tcp-$prog.log"; exit 1; }
+  sleep 0.5
+  kill -INT $EMU; wait $EMU || true
+  tcp_steps=$(grep -o 'Idle line [0-9]* steps [^p]*' "$TMP/emu-tcp-$prog.log" | tail -1 | sed 's/.*steps //; s/ *$//')
+  ref_steps=$("$GANTRY" stream "$TMP/$prog.nc" | grep '^steps:' | sed 's/steps: *//; s/  */ /g')
+  echo "grbl sender over TCP $prog $mode: $summary"
+  echo "grbl sender over TCP $prog: steps [$tcp_steps], via gantry stream [$ref_steps]"
+  [ "$tcp_steps" = "$ref_steps" ] || { echo "FAIL grbl sender over TCP $prog: step counts differ"; exit 1; }
+done
 # The seams (issue 24): an error line mid-job with the spindle on, then a sender killed mid-job
 # (SIGKILL: it closes nothing itself) and the next client (scripts/grbl_seams.py).
 "$GANTRY" emulate --pty "$TMP/pty" 2> "$TMP/emu-seams.log" &
@@ -76,4 +96,4 @@ sleep 1.5
 "$VENV/bin/python" scripts/grbl_seams.py after-kill "$TMP/pty" || seams_fail "a killed sender"
 "$VENV/bin/python" scripts/grbl_seams.py answers "$TMP/pty" || seams_fail "M98, \$C, \$110, \$J="
 kill -INT $EMU; wait $EMU || true
-echo "grbl sender test: 5 passed, 0 failed"
+echo "grbl sender test: 7 passed, 0 failed"

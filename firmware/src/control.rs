@@ -138,6 +138,8 @@ impl BoardPort for Port {
         o.stepper_enable.set_level(level(!steppers_enabled));
     }
 
+    /// `buf` is what the link can take now (the main loop sizes it): the rest stays in the pipe,
+    /// and behind it in the endpoint (`usb::run_rx`).
     fn receive(&mut self, buf: &mut [u8]) -> usize {
         self.io.rx.try_read(buf).unwrap_or(0)
     }

@@ -81,8 +81,11 @@ pub const PIPE_LEN: usize = 512;
 /// Data terminal ready as the host last set it (a terminal or sender has the port open).
 pub static DTR: AtomicBool = AtomicBool::new(false);
 
-/// Host → board: every packet into the receive pipe (the main loop drains it each millisecond).
-/// A full pipe stops reading, so the USB core NAKs and the host waits.
+/// Host → board: every packet into the receive pipe. The main loop takes from the pipe only what
+/// the link has room for (`BoardLink::rx_room`: a grbl sender's receive buffer), so a burst
+/// fills the pipe; a full pipe stops this task reading the endpoint, the USB core NAKs and the
+/// host waits: no byte is dropped (machine/src/board/main_loop.rs,
+/// `a_full_receive_buffer_leaves_the_port_unread`).
 #[embassy_executor::task]
 pub async fn run_rx(mut rx: Receiver<'static, UsbDriver>, pipe: &'static LinkPipe) -> ! {
     // At least the packet size: a smaller buffer fails with BufferOverflow and keeps the packet.

@@ -102,9 +102,16 @@ fn state_text(s: MachineState) -> String {
     }
 }
 
-/// Whether the slave side (the host's port) is open, from the master's poll flags.
-fn host_side_open(fd: RawFd, wait_ms: i32) -> (bool, bool) {
-    let mut fds = [PollFd::new(fd, PollFlags::POLLIN)];
+/// Whether the slave side (the host's port) is open, from the master's poll flags, and (when
+/// `read` asks) whether bytes wait. Without `read` the poll waits for a hang-up only: bytes the
+/// board cannot take yet stay in the pty, and their arrival does not wake this loop.
+fn host_side_open(fd: RawFd, wait_ms: i32, read: bool) -> (bool, bool) {
+    let events = if read {
+        PollFlags::POLLIN
+    } else {
+        PollFlags::empty()
+    };
+    let mut fds = [PollFd::new(fd, events)];
     let _ = poll(&mut fds, wait_ms);
     let ev = fds[0].revents().unwrap_or(PollFlags::empty());
     (
@@ -213,13 +220,18 @@ pub(crate) struct Polled {
 /// The host side of the emulated board: a pty (`--pty`) or a TCP listener (`--tcp`). One
 /// [`run_board`] loop runs the board behind either.
 pub(crate) trait HostSide {
-    /// Waits at most `wait_ms` for bytes; whether a host is there, and the bytes it sent.
+    /// Waits at most `wait_ms` for bytes; whether a host is there, and the bytes it sent, at
+    /// most `buf.len()` (the board's room: the rest stays in the pty or socket; an empty `buf`
+    /// reads nothing and waits only for the host to leave).
     fn poll(&mut self, wait_ms: i32, buf: &mut [u8]) -> anyhow::Result<Polled>;
     /// Whether the host's leaving drops DTR (a pty: its HUPCL flag; TCP: always).
     fn close_drops_dtr(&self) -> bool;
     /// Sends the board's bytes; a full buffer loses them, as a USB port would (the framed
     /// protocol retransmits).
     fn send(&mut self, bytes: &[u8]);
+    /// The host left: what the board sent and it did not read is discarded, so the next client
+    /// reads only what the board says to it (as a USB port's buffers go with the connection).
+    fn discard_unread(&mut self) {}
 }
 
 /// The pty of `--pty`: its master side; the host opens the slave side linked at the path.
@@ -232,7 +244,7 @@ struct PtyHost {
 
 impl HostSide for PtyHost {
     fn poll(&mut self, wait_ms: i32, buf: &mut [u8]) -> anyhow::Result<Polled> {
-        let (open, readable) = host_side_open(self.fd, wait_ms);
+        let (open, readable) = host_side_open(self.fd, wait_ms, !buf.is_empty());
         if open && self.last_termios_check.elapsed().as_millis() >= 5 {
             self.last_termios_check = Instant::now();
             // The master reads the slave's termios (one shared set for the pair).
@@ -241,7 +253,7 @@ impl HostSide for PtyHost {
             }
         }
         let mut read = 0;
-        if readable {
+        if readable && !buf.is_empty() {
             if let Ok(n) = nix::unistd::read(self.fd, buf) {
                 read = n;
             }
@@ -255,6 +267,13 @@ impl HostSide for PtyHost {
 
     fn send(&mut self, bytes: &[u8]) {
         let _ = nix::unistd::write(self.fd, bytes);
+    }
+
+    fn discard_unread(&mut self) {
+        // On the master, the output queue is the slave's unread input.
+        // On the master, the output queue is the slave's unread input, and the input queue what
+        // the departed host wrote that the board did not take.
+        let _ = nix::sys::termios::tcflush(self.fd, nix::sys::termios::FlushArg::TCIOFLUSH);
     }
 }
 
@@ -294,6 +313,9 @@ pub fn run(
         "emulate: board ready on {} ({name}), {axes} axes; {origin}",
         pty.display(),
     );
+    // No host until one opens the port (its opening is a connection the board may greet).
+    let mut board = board;
+    board.set_dtr(false);
     let result = run_board(board, &mut host, state.as_deref(), &ready);
     // Remove the link only when it is still ours.
     if std::fs::read_link(pty).is_ok_and(|t| t == Path::new(&name)) {
@@ -337,7 +359,8 @@ pub(crate) fn run_board(
     let to_save = saved.clone();
     board.on_setup_saved(move |s| *to_save.borrow_mut() = Some(s.clone()));
     while !stop.load(Ordering::SeqCst) {
-        let polled = host.poll(if host_open { 1 } else { 0 }, &mut buf)?;
+        let room = board.rx_room().min(buf.len());
+        let polled = host.poll(if host_open { 1 } else { 0 }, &mut buf[..room])?;
         let open = polled.open;
         if !open {
             // Nothing to wait on while no host has the port open.
@@ -345,6 +368,10 @@ pub(crate) fn run_board(
         }
         if open != host_open {
             host_open = open;
+            if !open {
+                host.discard_unread();
+                board.discard_input();
+            }
             if open {
                 eprintln!("emulate: host opened the port");
                 board.set_dtr(true);
@@ -378,7 +405,8 @@ pub(crate) fn run_board(
             // one pass has to take).
             for ms in 0..behind.min(50) {
                 if ms > 0 && open {
-                    let polled = host.poll(0, &mut buf)?;
+                    let room = board.rx_room().min(buf.len());
+                    let polled = host.poll(0, &mut buf[..room])?;
                     if polled.read > 0 {
                         board.receive(&buf[..polled.read]);
                     }

@@ -52,6 +52,10 @@ use std::ops::{Deref, DerefMut};
 /// Kernel timer counts per millisecond.
 pub const COUNTS_PER_MS: u64 = KERNEL_TIMER_HZ as u64 / 1000;
 
+/// The firmware's USB receive pipe (`firmware/src/usb.rs` `PIPE_LEN`): bytes a port in front of
+/// the emulated board holds for it at most ([`Hardware::rx_room`]).
+pub const RX_PIPE: usize = 512;
+
 /// A change of the board's pins: a timer update that stepped, or the first after the interrupt
 /// changed the dir pins or switched a user output, or a change of the input levels or of the user
 /// outputs in the main loop (then `step` and `period` are 0).
@@ -580,6 +584,17 @@ impl EmulatedBoard {
         self.hw.receive(bytes);
     }
 
+    /// The host left: bytes it sent that the main loop has not read go with it (the port's
+    /// buffers belong to the connection).
+    pub fn discard_input(&mut self) {
+        self.hw.inbox.clear();
+    }
+
+    /// See [`Hardware::rx_room`].
+    pub fn rx_room(&self) -> usize {
+        self.hw.rx_room()
+    }
+
     /// See [`Hardware::take_output`].
     pub fn take_output(&mut self) -> Vec<u8> {
         self.hw.take_output()
@@ -804,8 +819,17 @@ impl Hardware {
         self.now as f64 / KERNEL_TIMER_HZ as f64
     }
 
+    /// Bytes the board's receive pipe takes now: what a port in front of the emulated board
+    /// reads from its host at most (`gantry emulate`), so that bytes the board cannot take yet
+    /// wait in the pty or socket as they wait behind the USB board's endpoint (the firmware's
+    /// pipe, `firmware/src/usb.rs` `PIPE_LEN`, is read by the main loop only as the link has
+    /// room: `BoardLink::rx_room`).
+    pub fn rx_room(&self) -> usize {
+        RX_PIPE.saturating_sub(self.inbox.len())
+    }
+
     /// Bytes from the host (the main loop reads them in its next pass, as the firmware reads
-    /// its USB receive pipe).
+    /// its USB receive pipe). Tests may give any amount; a port honours [`Self::rx_room`].
     pub fn receive(&mut self, bytes: &[u8]) {
         if !bytes.is_empty() {
             self.last_received_ms = Some(self.now_ms());

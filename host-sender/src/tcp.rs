@@ -30,10 +30,15 @@ pub fn check_address(addr: &SocketAddr, allow_remote: bool) -> anyhow::Result<()
     Ok(())
 }
 
+/// Bytes read from the client's socket ahead of the board, at most: a pty's buffer.
+const SOCKET_BUFFER: usize = 4096;
+
 /// The listener and its one client.
 struct TcpHost {
     listener: TcpListener,
     client: Option<TcpStream>,
+    /// Read from the socket, not yet taken by the board.
+    pending: Vec<u8>,
 }
 
 impl HostSide for TcpHost {
@@ -59,29 +64,46 @@ impl HostSide for TcpHost {
                 read: 0,
             });
         };
-        let mut fds = [PollFd::new(c.as_raw_fd(), PollFlags::POLLIN)];
-        let _ = poll(&mut fds, wait_ms);
+        // The socket is read into `pending` up to a pty's buffer (`SOCKET_BUFFER`); the board
+        // is handed only what it has room for (`buf`). Beyond that nothing is read: the bytes
+        // wait in the socket and the sender's writes block, as behind a USB board's endpoint.
+        let room = SOCKET_BUFFER.saturating_sub(self.pending.len());
+        let events = if room > 0 {
+            PollFlags::POLLIN
+        } else {
+            PollFlags::empty()
+        };
+        let wait = if self.pending.is_empty() || room == 0 {
+            wait_ms
+        } else {
+            0
+        };
+        let mut fds = [PollFd::new(c.as_raw_fd(), events)];
+        let _ = poll(&mut fds, wait);
         let ev = fds[0].revents().unwrap_or(PollFlags::empty());
-        if !ev.intersects(PollFlags::POLLIN | PollFlags::POLLHUP | PollFlags::POLLERR) {
-            return Ok(Polled {
-                open: true,
-                read: 0,
-            });
-        }
-        match c.read(buf) {
-            Ok(n) if n > 0 => Ok(Polled {
-                open: true,
-                read: n,
-            }),
-            _ => {
-                eprintln!("emulate: client disconnected");
-                self.client = None;
-                Ok(Polled {
-                    open: false,
-                    read: 0,
-                })
+        if room > 0 && ev.intersects(PollFlags::POLLIN | PollFlags::POLLHUP | PollFlags::POLLERR) {
+            let mut chunk = [0u8; SOCKET_BUFFER];
+            match c.read(&mut chunk[..room]) {
+                Ok(n) if n > 0 => self.pending.extend_from_slice(&chunk[..n]),
+                _ => {
+                    // Gone: what it sent and the board did not take goes with it.
+                    eprintln!("emulate: client disconnected");
+                    self.client = None;
+                    self.pending.clear();
+                    return Ok(Polled {
+                        open: false,
+                        read: 0,
+                    });
+                }
             }
         }
+        let n = buf.len().min(self.pending.len());
+        buf[..n].copy_from_slice(&self.pending[..n]);
+        self.pending.drain(..n);
+        Ok(Polled {
+            open: true,
+            read: n,
+        })
     }
 
     fn close_drops_dtr(&self) -> bool {
@@ -123,6 +145,7 @@ pub fn run(
     let mut host = TcpHost {
         listener,
         client: None,
+        pending: Vec::new(),
     };
     run_board(board, &mut host, state.as_deref(), &ready)
 }

@@ -168,3 +168,144 @@ fn a_grbl_sender_streams_over_tcp_by_character_counting_like_gantry_stream() {
     let _ = child.kill();
     let _ = child.wait();
 }
+
+/// Starts `gantry emulate --tcp 127.0.0.1:0`; the child, its log and its port.
+fn emulate_tcp(
+    setup: &std::path::Path,
+) -> (
+    std::process::Child,
+    std::sync::Arc<std::sync::Mutex<String>>,
+    u16,
+) {
+    let (child, log) = spawn_logged(
+        Command::new(GANTRY)
+            .args(["emulate", "--tcp", "127.0.0.1:0", "--setup"])
+            .arg(setup),
+    );
+    assert!(wait_for(10 * S, || log
+        .lock()
+        .unwrap()
+        .contains("board ready on tcp")));
+    let port = {
+        let text = log.lock().unwrap().clone();
+        let rest = text.split("board ready on tcp 127.0.0.1:").nth(1).unwrap();
+        rest.split(',').next().unwrap().parse().unwrap()
+    };
+    (child, log, port)
+}
+
+/// The status report once it starts with `state` (bounded).
+fn status_when(c: &mut TcpStream, state: &str) -> String {
+    let start = Instant::now();
+    loop {
+        c.write_all(b"?").unwrap();
+        let s = read_until(c, ">\r\n", 5 * S);
+        let report = &s[s.rfind('<').unwrap()..];
+        if report.starts_with(state) {
+            return report.to_owned();
+        }
+        assert!(start.elapsed() < 30 * S, "no {state:?}: {report:?}");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// Over TCP, bytes the board cannot take yet wait in the socket: nothing is dropped. A client
+/// that connects and says nothing is greeted with the banner. Then, as CNCjs does: a feed hold
+/// in Idle, 144 bytes of lines in one write (every line answered `ok` in the hold, nothing
+/// moving), cycle start (each line runs once: the end is the last line's); eight jog clicks in
+/// one write of 160 bytes (eight `ok`, X exactly +8 mm), and the next line is read whole.
+#[test]
+fn over_tcp_a_hold_and_a_jog_burst_lose_nothing_and_a_silent_client_is_greeted() {
+    let dir = Dir::new("grbl-tcp-bursts");
+    let setup = dir.file("fast.toml", FAST_SETUP);
+    let (mut child, _log, port) = emulate_tcp(&setup);
+    let mut c = connect(port);
+    let seen = read_until(&mut c, BANNER, 10 * S);
+    assert_eq!(seen, format!("\r\n{BANNER}\r\n"), "greeted, nothing else");
+
+    c.write_all(b"!").unwrap();
+    status_when(&mut c, "<Hold:0");
+    let xs = [1, 2, 3, 4, 5, 6, 7, 8, 9, 8, 7, 6];
+    let burst: String = xs.iter().map(|x| format!("G1 X{x} F9000\n")).collect();
+    assert_eq!(burst.len(), 144);
+    c.write_all(burst.as_bytes()).unwrap();
+    c.write_all(b"$G\n").unwrap();
+    let mut seen = String::new();
+    let start = Instant::now();
+    while seen.matches("ok\r\n").count() < 13 {
+        assert!(start.elapsed() < 20 * S, "answers in the hold: {seen:?}");
+        read_some(&mut c, &mut seen);
+    }
+    assert!(!seen.contains("error"), "{seen:?}");
+    assert!(status_when(&mut c, "<Hold:0").contains("MPos:0.000,0.000,0.000"));
+    c.write_all(b"~").unwrap();
+    let end = status_when(&mut c, "<Idle");
+    assert!(end.contains("MPos:6.000,0.000,0.000"), "{end:?}");
+
+    let jogs = "$J=G91 G21 X1 F2000\n".repeat(8);
+    assert_eq!(jogs.len(), 160);
+    c.write_all(jogs.as_bytes()).unwrap();
+    let mut seen = String::new();
+    let start = Instant::now();
+    while seen.matches("ok\r\n").count() < 8 {
+        assert!(start.elapsed() < 20 * S, "jog answers: {seen:?}");
+        read_some(&mut c, &mut seen);
+    }
+    assert!(!seen.contains("error"), "{seen:?}");
+    c.write_all(b"G90 G0 Y5\n").unwrap();
+    let answer = read_until(&mut c, "\r\n", 10 * S);
+    assert!(answer.starts_with("ok"), "{answer:?}");
+    let end = status_when(&mut c, "<Idle");
+    assert!(end.contains("MPos:14.000,5.000,0.000"), "{end:?}");
+    drop(c);
+    let _ = child.kill();
+    let _ = child.wait();
+}
+
+/// A grbl sender that opens the port after a `gantry` command reads grbl's banner first, not
+/// frames meant for the command that left: once the host is gone the board sends nothing
+/// until a new connection speaks (or is greeted), and the emulator drops what the departed host
+/// left unread.
+#[test]
+fn after_a_gantry_command_a_grbl_client_first_reads_the_banner() {
+    let dir = Dir::new("grbl-after-gantry");
+    let emu = Emulator::start(&dir, None);
+    let out = gantry(&["status", "--port", emu.port()], 30 * S);
+    assert_eq!(out.code, Some(0), "{out:?}");
+    assert!(emu.wait_log(10 * S, |l| l.contains("host closed the port")));
+    // Long enough for the board's status frames (every 100 ms) to pile up, were any sent.
+    std::thread::sleep(Duration::from_millis(500));
+    let mut port = serialport::new(emu.port(), 115_200)
+        .timeout(Duration::from_millis(20))
+        .open()
+        .unwrap();
+    let mut seen = Vec::new();
+    let start = Instant::now();
+    while !String::from_utf8_lossy(&seen).contains(BANNER) {
+        assert!(
+            start.elapsed() < 10 * S,
+            "no banner: {:?}",
+            String::from_utf8_lossy(&seen)
+        );
+        let mut buf = [0u8; 4096];
+        if let Ok(n) = port.read(&mut buf) {
+            seen.extend_from_slice(&buf[..n]);
+        }
+    }
+    assert_eq!(
+        String::from_utf8_lossy(&seen),
+        format!("\r\n{BANNER}\r\n"),
+        "the first bytes are the banner"
+    );
+    port.write_all(b"?").unwrap();
+    let mut seen = String::new();
+    let start = Instant::now();
+    while !seen.contains(">\r\n") {
+        assert!(start.elapsed() < 10 * S, "no status: {seen:?}");
+        let mut buf = [0u8; 256];
+        if let Ok(n) = port.read(&mut buf) {
+            seen.push_str(&String::from_utf8_lossy(&buf[..n]));
+        }
+    }
+    assert!(seen.starts_with("<Idle|"), "{seen:?}");
+}

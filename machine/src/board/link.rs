@@ -67,6 +67,10 @@ impl LinkProtocol {
     }
 }
 
+/// A USB full-speed bulk packet: what the board takes at once while a connection's protocol is
+/// undecided ([`BoardLink::rx_room`]).
+pub const RX_PACKET: usize = 64;
+
 /// How long undecided realtime bytes wait for more before they count as grbl, ms.
 pub const UNDECIDED_MS: u32 = 50;
 
@@ -138,7 +142,30 @@ pub struct BoardLink {
     /// The first bytes of a connection while they do not tell its protocol, and since when.
     undecided: heapless::Vec<u8, { gantry_proto::MAX_FRAME_LEN }>,
     undecided_since: u32,
+    /// Where the current connection stands before its first bytes.
+    opening: Opening,
 }
+
+/// A connection before it has spoken.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Opening {
+    /// The board talks (power-up, or the connection has chosen its protocol).
+    Talking,
+    /// The host left (port closed, DTR dropped): the board sends nothing until a new
+    /// connection has chosen its protocol by its first bytes, so a grbl client that opens the
+    /// port next reads no frames meant for the host that left.
+    Quiet,
+    /// The port opened at `since` (DTR rose, a TCP client connected) and nothing came yet: the
+    /// grbl banner goes out after [`GREET_MS`] of silence.
+    Opened { since: u32 },
+    /// The banner went out; still nothing received.
+    Greeted,
+}
+
+/// Silence after the port opened before the board greets with grbl's banner, ms: a `gantry`
+/// command speaks at once (its first frame within a few ms), a grbl sender that waits for the
+/// banner gets it well within its own wait.
+pub const GREET_MS: u32 = 250;
 
 impl BoardLink {
     /// `boot_id` must differ at every power-up (the host detects board resets by it).
@@ -158,6 +185,7 @@ impl BoardLink {
             grbl: crate::grbl::Grbl::new(),
             undecided: heapless::Vec::new(),
             undecided_since: 0,
+            opening: Opening::Talking,
         }
     }
 
@@ -192,8 +220,12 @@ impl BoardLink {
     /// The connection speaks `p`: the bytes that waited go to it.
     fn choose(&mut self, board: &mut Board, now_ms: u32, p: LinkProtocol) {
         self.protocol = p;
+        let greeted = core::mem::replace(&mut self.opening, Opening::Talking) == Opening::Greeted;
         if p == LinkProtocol::Grbl {
-            self.grbl.connect();
+            self.grbl.connect(greeted);
+        } else {
+            // A greeting not yet sent is not for this host.
+            self.grbl.forget_output();
         }
         let held = core::mem::take(&mut self.undecided);
         self.deliver(board, now_ms, &held);
@@ -209,6 +241,19 @@ impl BoardLink {
                 };
                 self.endpoint.on_bytes(now_ms, bytes, &mut inbox);
             }
+        }
+    }
+
+    /// Bytes the board can take from the port now without dropping any (the main loop reads no
+    /// more: on the USB board the rest waits in the receive pipe, then in the endpoint, which the
+    /// host's NAKs pace). grbl: the receive buffer's room (`grbl/rx.rs`); undecided: a packet,
+    /// so that bytes a grbl decision hands to that buffer fit it; framed: no limit (the link's
+    /// window paces the host).
+    pub fn rx_room(&self) -> usize {
+        match self.protocol {
+            LinkProtocol::Grbl => self.grbl.rx_room(),
+            LinkProtocol::Undecided => RX_PACKET,
+            LinkProtocol::Framed => usize::MAX,
         }
     }
 
@@ -231,13 +276,34 @@ impl BoardLink {
         }
         self.protocol = LinkProtocol::Undecided;
         self.undecided.clear();
+        self.grbl.forget_output();
+        self.opening = Opening::Quiet;
+    }
+
+    /// A host opened the port (DTR rose, a TCP client connected): with nothing received for
+    /// [`GREET_MS`], the board greets with grbl's banner (docs/grbl.md "How a connection
+    /// chooses").
+    pub fn port_opened(&mut self, now_ms: u32) {
+        if self.protocol == LinkProtocol::Undecided && self.undecided.is_empty() {
+            self.opening = Opening::Opened { since: now_ms };
+        }
     }
 
     /// The next bytes to send (call until `None`); `out` must hold `gantry_proto::MAX_FRAME_LEN`.
     pub fn poll_transmit(&mut self, now_ms: u32, out: &mut [u8]) -> Option<usize> {
         match self.protocol {
             LinkProtocol::Grbl => self.grbl.poll_transmit(out),
-            _ => self.endpoint.poll_transmit(now_ms, out),
+            LinkProtocol::Undecided => {
+                // The greeting, if one is due; frames only for a host that has not left.
+                if let Some(n) = self.grbl.poll_transmit(out) {
+                    return Some(n);
+                }
+                match self.opening {
+                    Opening::Talking => self.endpoint.poll_transmit(now_ms, out),
+                    _ => None,
+                }
+            }
+            LinkProtocol::Framed => self.endpoint.poll_transmit(now_ms, out),
         }
     }
 
@@ -260,6 +326,15 @@ impl BoardLink {
         {
             if let Some(p) = LinkProtocol::decide_after_wait(&self.undecided) {
                 self.choose(board, now_ms, p);
+            }
+        }
+        if let Opening::Opened { since } = self.opening {
+            if self.protocol == LinkProtocol::Undecided
+                && self.undecided.is_empty()
+                && now_ms.wrapping_sub(since) >= GREET_MS
+            {
+                self.grbl.greet(board);
+                self.opening = Opening::Greeted;
             }
         }
         if self.protocol == LinkProtocol::Grbl {

@@ -15,7 +15,7 @@
 //!    [`Board::on_inputs`].
 //! 3. **Top-up.** In a plain run, the kernel's queue is filled from what is already planned
 //!    before the link and the interpreter take their share of the pass.
-//! 4. **Host link and controller.** Bytes from the host, at most [`RX_BYTES_PER_PASS`]; the host-loss rule (the host closed the
+//! 4. **Host link and controller.** Bytes from the host, at most [`RX_BYTES_PER_PASS`] and never more than the link can take ([`BoardLink::rx_room`]: the rest waits in the port, flow control); the host-loss rule (the host closed the
 //!    port, DTR dropped: feed hold); the path speed ([`SpeedMeter`], a 20 ms window);
 //!    [`BoardLink::service`]; a tripped probe latch to [`Board::probe_tripped`];
 //!    [`Board::poll`] with the kernel's drained flag; a new home loaded
@@ -219,7 +219,8 @@ pub struct MainLoop {
     debouncer: Debouncer,
     speed: SpeedMeter,
     latch: Latch,
-    host_port: HostPort,
+    /// The host port as the last pass saw it (`None` before the first pass).
+    host_port: Option<HostPort>,
     save: Save,
     /// Drivers stay disabled from power-up until the first segment goes to the kernel.
     steppers_enabled: bool,
@@ -236,7 +237,7 @@ impl MainLoop {
             debouncer: Debouncer::new(setup.inputs.invert, setup.inputs.debounce_ms),
             speed: SpeedMeter::new(),
             latch: Latch::Armed,
-            host_port: HostPort::Closed,
+            host_port: None,
             save: Save::Done,
             steppers_enabled: false,
             view: KernelView::default(),
@@ -342,10 +343,15 @@ impl MainLoop {
         }
 
         // 4. Host link and controller.
-        let mut rx = [0u8; 64];
+        let mut rx = [0u8; super::link::RX_PACKET];
         let mut budget = RX_BYTES_PER_PASS;
         while budget > 0 {
-            let n = port.receive(&mut rx);
+            // Only what the link can take (flow control): the rest stays in the port.
+            let room = link.rx_room().min(rx.len());
+            if room == 0 {
+                break;
+            }
+            let n = port.receive(rx.get_mut(..room).unwrap_or_default());
             if n == 0 {
                 break;
             }
@@ -354,13 +360,19 @@ impl MainLoop {
             link.on_bytes(board, now_ms, rx.get(..n).unwrap_or_default());
         }
         let host_port = port.host_port();
-        if self.host_port == HostPort::Open && host_port != HostPort::Open {
-            // The sender closed the port: the host-loss policy now rather than after the
-            // silence timeout (`BoardLink::port_closed`).
-            link.port_closed(board, host_port == HostPort::Closed);
-            port.host_closed();
+        match (self.host_port, host_port) {
+            (Some(HostPort::Open), now) if now != HostPort::Open => {
+                // The sender closed the port: the host-loss policy now rather than after the
+                // silence timeout (`BoardLink::port_closed`).
+                link.port_closed(board, now == HostPort::Closed);
+                port.host_closed();
+            }
+            // A host opened the port (not the state found at the first pass): it may be
+            // greeted (`BoardLink::port_opened`).
+            (Some(before), HostPort::Open) if before != HostPort::Open => link.port_opened(now_ms),
+            _ => {}
         }
-        self.host_port = host_port;
+        self.host_port = Some(host_port);
         let measured = self.speed.update(now_ms, board.machine_position(&k.steps));
         // No job or jog and the kernel drained: at rest now, whatever the last window saw (the
         // status right after a job's end read 93.8 mm/min in Idle). A hold keeps the window:
@@ -466,6 +478,9 @@ mod tests {
     use crate::controller::AlarmCode;
     use crate::units::NM_PER_MM;
 
+    extern crate std;
+    use std::vec::Vec;
+
     #[derive(Default)]
     struct FakePort {
         kernel: KernelSnapshot,
@@ -474,6 +489,13 @@ mod tests {
         queued: u32,
         dtr: bool,
         saved: u32,
+        /// Bytes waiting in the port (the firmware's USB receive pipe, then its endpoint).
+        rx: Vec<u8>,
+        /// Calls of `receive`, and the bytes they took.
+        reads: u32,
+        taken: usize,
+        /// Everything the board sent.
+        sent: Vec<u8>,
     }
 
     impl BoardPort for FakePort {
@@ -510,13 +532,20 @@ mod tests {
             f(0);
         }
         fn drive_outputs(&mut self, _l: &OutputLevels, _pwm_max: u16, _enabled: bool) {}
-        fn receive(&mut self, _buf: &mut [u8]) -> usize {
-            0
+        fn receive(&mut self, buf: &mut [u8]) -> usize {
+            self.reads += 1;
+            let n = buf.len().min(self.rx.len());
+            buf[..n].copy_from_slice(&self.rx[..n]);
+            self.rx.drain(..n);
+            self.taken += n;
+            n
         }
         fn can_transmit(&mut self, _len: usize) -> bool {
-            false
+            self.dtr
         }
-        fn transmit(&mut self, _frame: &[u8]) {}
+        fn transmit(&mut self, frame: &[u8]) {
+            self.sent.extend_from_slice(frame);
+        }
         fn host_port(&mut self) -> HostPort {
             if self.dtr {
                 HostPort::Open
@@ -600,6 +629,47 @@ mod tests {
         port.kernel.dry_runs = 2;
         main.pass(25, &mut board, &mut link, &mut port);
         assert_eq!(main.underruns(), 2);
+    }
+
+    /// The board's USB read path: the main loop takes bytes from the port (the firmware's
+    /// receive pipe, `firmware/src/control.rs` `Port::receive`) only as the link has room. A
+    /// grbl sender that writes far more than the receive buffer (a job, no counting) while the
+    /// board cannot take lines (this port's kernel never runs a segment, so the planner fills):
+    /// once the buffer is full the port is not read at all (the pipe fills, the USB task stops
+    /// reading the endpoint and the host's NAKs hold the sender), no byte is dropped and no
+    /// line is cut.
+    #[test]
+    fn a_full_receive_buffer_leaves_the_port_unread() {
+        let (mut main, mut board, mut link, mut port) = parts();
+        port.dtr = true;
+        main.pass(0, &mut board, &mut link, &mut port);
+        for i in 0..400 {
+            let line = std::format!("G1 X{}.{:03} F100\n", i / 1000, i % 1000);
+            port.rx.extend_from_slice(line.as_bytes());
+        }
+        let total = port.rx.len();
+        let mut t = 1;
+        while link.rx_room() > 0 || t < 10 {
+            main.pass(t, &mut board, &mut link, &mut port);
+            t += 1;
+            assert!(t < 5_000, "the buffer never filled");
+        }
+        assert_eq!(link.protocol(), crate::board::link::LinkProtocol::Grbl);
+        let (reads, taken) = (port.reads, port.taken);
+        assert!(taken < total && taken > 128, "{taken} of {total} taken");
+        for _ in 0..500 {
+            main.pass(t, &mut board, &mut link, &mut port);
+            t += 1;
+        }
+        assert_eq!(
+            (port.reads, port.taken),
+            (reads, taken),
+            "a full buffer left the port unread"
+        );
+        assert_eq!(port.rx.len(), total - taken, "nothing dropped");
+        let sent = std::string::String::from_utf8_lossy(&port.sent).into_owned();
+        assert!(!sent.contains("error"), "{sent}");
+        assert!(sent.contains("ok\r\n"), "{sent}");
     }
 
     #[test]

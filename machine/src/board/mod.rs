@@ -40,7 +40,7 @@ use crate::controller::lists::ListStatus;
 use crate::controller::outputs::OutputLevels;
 use crate::controller::power_up::PowerUp;
 use crate::controller::{AlarmCode, State};
-use crate::gcode::{GcodeError, Interpreter};
+use crate::gcode::{GcodeError, Interpreter, OffPlaneOffset};
 use crate::motion::config::MotionConfig;
 use crate::motion::kernel::Segment;
 use crate::motion::output_event::OutputEvent;
@@ -387,6 +387,14 @@ impl Board {
         self.source.reset();
         self.source.serve_jumps(streamer == Streamer::ProgramServer);
         self.interp.rewind();
+        // grbl's parser ignores an arc's off-plane offset word (FreeCAD's grbl post writes K0
+        // on G17 arcs); Gantry's own dialect refuses it as LinuxCNC does.
+        self.interp
+            .set_off_plane_offset(if streamer == Streamer::LineSender {
+                OffPlaneOffset::Ignored
+            } else {
+                OffPlaneOffset::Refused
+            });
         if kind == JobKind::Machine {
             // A check goes on from the program's own position, which no motion has followed
             // (grbl's `$C`: the machine position comes back with the reset that ends it).
@@ -984,11 +992,7 @@ impl Board {
             Mode::Job(job) => Some(job),
             _ => None,
         };
-        if let Some(Job {
-            phase: JobPhase::Running(Ending::No),
-            ..
-        }) = job
-        {
+        if job.is_some_and(|j| self.interprets(&j)) {
             self.interpret();
         }
         if let Some(req) = self.source.take_request() {
@@ -1058,6 +1062,27 @@ impl Board {
                 line: self.progress.line,
                 end: how,
             });
+        }
+    }
+
+    /// Whether the interpreter takes lines now: in a running job; and, for a line sender (grbl),
+    /// also in a feed hold or a program stop once the machine stands (not while it decelerates),
+    /// as grbl plans the lines that come during a hold: a character-counting sender gets its
+    /// `ok`s and keeps its receive buffer moving (docs/grbl.md "Streaming and the RX buffer").
+    /// Nothing moves before cycle start; the planner simply fills. A hold for a lost host takes
+    /// nothing.
+    fn interprets(&self, job: &Job) -> bool {
+        match job.phase {
+            JobPhase::Running(Ending::No) => true,
+            JobPhase::Hold {
+                why,
+                ending: Ending::No,
+            } => {
+                job.streamer == Streamer::LineSender
+                    && why != HoldWhy::HostLost
+                    && matches!(self.motion.state(), MotionState::Held | MotionState::Sync)
+            }
+            _ => false,
         }
     }
 

@@ -100,6 +100,18 @@ impl Default for GixaSetup {
     }
 }
 
+/// What an arc's centre offset word for the axis normal to its plane (`K` on a G17 arc, `J` on
+/// G18, `I` on G19) does.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum OffPlaneOffset {
+    /// Refused (E304), as LinuxCNC refuses it: the word means nothing on that plane.
+    #[default]
+    Refused,
+    /// Ignored, as grbl ignores it (its parser clears I, J and K once it has read the plane's
+    /// two): FreeCAD's grbl post writes `K0.000` on every G17 arc. The grbl front end's jobs.
+    Ignored,
+}
+
 /// The interpreter's setup.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct InterpConfig {
@@ -131,6 +143,8 @@ pub struct InterpConfig {
     pub default_retract: RetractMode,
     /// Gixa job setup (ignored by the RS274 dialect).
     pub gixa: GixaSetup,
+    /// An arc's off-plane centre word (RS274 dialect).
+    pub off_plane_offset: OffPlaneOffset,
 }
 
 impl Default for InterpConfig {
@@ -151,6 +165,7 @@ impl Default for InterpConfig {
             start_inch: false,
             default_retract: RetractMode::InitialLevel,
             gixa: GixaSetup::default(),
+            off_plane_offset: OffPlaneOffset::Refused,
         }
     }
 }

@@ -418,7 +418,7 @@ impl ErrorCode {
             ZeroFeedRate => "feed move with zero feed rate (program an F word)",
             ArcCenterMissing => "arc needs R or I/J/K words",
             ArcMixedFormats => "arc with both R and I/J/K words",
-            ArcOffsetWrongPlane => "arc centre word does not belong to the selected plane",
+            ArcOffsetWrongPlane => "arc centre word of the axis off the plane (K on a G17 arc, J on G18, I on G19): it means nothing there, LinuxCNC refuses it; FreeCAD's grbl post writes K0 on every G17 arc: use its LinuxCNC post, or stream in grbl mode, which ignores the word",
             ArcRadiusTooSmall => "arc radius too small to reach the end point",
             ArcRadiusMismatch => "radius to the arc end point differs from radius to the start point",
             ArcZeroRadius => "zero-radius arc (centre on the start or end point)",

@@ -42,7 +42,7 @@ mod test_vectors;
 pub mod transform;
 
 pub use config::{
-    ArcCenterMode, Dialect, DwellUnits, GixaSetup, InterpConfig, RetractMode, Tool,
+    ArcCenterMode, Dialect, DwellUnits, GixaSetup, InterpConfig, OffPlaneOffset, RetractMode, Tool,
     ToolChangePosition, MAX_TOOLS,
 };
 pub use error::{ErrorCode, GcodeError};

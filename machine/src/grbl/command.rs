@@ -44,6 +44,8 @@ pub enum Command<'a> {
     Restore(Restore),
     /// `$SLP`.
     Sleep,
+    /// `$I=text`: grbl's build info text (accepted, not stored).
+    SetInfo,
 }
 
 /// Parses a `$` line (upper case, no spaces, starting with `$`).
@@ -71,6 +73,7 @@ pub fn parse(line: &[u8]) -> Result<Command<'_>, u16> {
             Command::Home(1 << i)
         }
         [b'J', b'=', words @ ..] => Command::Jog(words),
+        [b'I', b'=', ..] => Command::SetInfo,
         [b'N', n @ (b'0' | b'1'), b'=', line @ ..] => Command::SetStartupLine {
             index: n - b'0',
             line,

@@ -79,6 +79,8 @@ struct Flight {
     fate: Fate,
     /// A startup line (`$N0`/`$N1`, its index): answered as `>line:ok`.
     startup: Option<u8>,
+    /// The line has `M2` or `M30`: grbl's `[MSG:Pgm End]` comes before its `ok`.
+    program_end: bool,
 }
 
 /// The front end's session.
@@ -136,6 +138,8 @@ pub struct Grbl {
     /// The highest line the interpreter is known to have taken.
     taken_hint: u32,
     setup_changed: bool,
+    /// The banner went out as the port opened: the connection's reset sends no second one.
+    greeted: bool,
     /// The board's probe result last seen (`None` until the first service pass: a result from
     /// before the connection is not announced).
     probe_seen: Option<Option<ProbeResult>>,
@@ -165,6 +169,7 @@ impl Grbl {
             next_line: 1,
             taken_hint: 0,
             setup_changed: false,
+            greeted: false,
             probe_seen: None,
         }
     }
@@ -172,9 +177,29 @@ impl Grbl {
     /// A new connection chose grbl: a fresh session that starts as grbl's power-up does, with
     /// the reset (overrides 100 %, the parser's defaults) and then one banner once the machine is
     /// at rest (a `0x18` among the first bytes joins this reset: no second banner).
-    pub fn connect(&mut self) {
+    /// `greeted`: the banner went out already as the port opened ([`Grbl::greet`]): the reset
+    /// runs without a second one.
+    pub fn connect(&mut self, greeted: bool) {
         *self = Self::new();
         self.session = Session::Resetting;
+        self.greeted = greeted;
+    }
+
+    /// The port opened and no byte came (`BoardLink`): grbl's power-up banner without waiting
+    /// for the sender, as an Arduino grbl greets after the reset its DTR causes. Written while
+    /// the connection's protocol is undecided; a framed host that speaks later gets the
+    /// handshake after it (and discards the text as a broken frame).
+    pub fn greet(&mut self, board: &Board) {
+        self.out.clear();
+        self.banner();
+        if board.state() == State::Alarm {
+            self.out.line("[MSG:'$H'|'$X' to unlock]");
+        }
+    }
+
+    /// Drops output not yet sent (the connection chose the framed protocol).
+    pub fn forget_output(&mut self) {
+        self.out.clear();
     }
 
     /// The connection ended (DTR drop, port closed): grbl mode cannot resume a job later, so a
@@ -222,6 +247,13 @@ impl Grbl {
         }
     }
 
+    /// Bytes the link may take from the port now (`BoardLink::rx_room`): the receive buffer's
+    /// room, so that a burst waits in the port (USB: the endpoint is not read, the host's NAKs
+    /// pace the sender) instead of being dropped.
+    pub fn rx_room(&self) -> usize {
+        self.rx.free()
+    }
+
     /// The next bytes for the host; returns how many were written to `out`.
     pub fn poll_transmit(&mut self, out: &mut [u8]) -> Option<usize> {
         match self.out.drain_into(out) {
@@ -258,9 +290,14 @@ impl Grbl {
                 let setup = board.setup().clone();
                 board.set_setup(setup);
             }
-            self.banner();
-            if board.state() == State::Alarm {
-                self.out.line("[MSG:'$H'|'$X' to unlock]");
+            if core::mem::take(&mut self.greeted) {
+                // Greeted at the port's opening: the startup lines still follow the banner.
+                self.startup_due = 0b11;
+            } else {
+                self.banner();
+                if board.state() == State::Alarm {
+                    self.out.line("[MSG:'$H'|'$X' to unlock]");
+                }
             }
         }
         self.settle(board);
@@ -340,6 +377,8 @@ impl Grbl {
                     // Gantry's abort: decelerate on the path, the job ends at rest with the
                     // program-stop sequence (grbl cuts the steps and loses the position).
                     board.abort();
+                    // A reset the sender asked for answers with its own banner.
+                    self.greeted = false;
                     self.busy = Busy::None;
                     self.check_mode = false;
                     self.idle_hold = false;
@@ -399,8 +438,12 @@ impl Grbl {
         }
     }
 
-    /// The answer of `f`: a startup line's is echoed with it (`>G21G90:ok`).
+    /// The answer of `f`: a startup line's is echoed with it (`>G21G90:ok`); a program end's
+    /// `ok` follows grbl's `[MSG:Pgm End]`.
     fn answer(&mut self, board: &Board, f: &Flight, r: Reply) {
+        if f.program_end && r == Reply::Ok {
+            self.out.line("[MSG:Pgm End]");
+        }
         if let Some(i) = f.startup {
             self.out.byte(b'>');
             if let Some(line) = board.setup().grbl.startup.get(usize::from(i)) {
@@ -520,6 +563,7 @@ impl Grbl {
                 raw: 0,
                 fate: Fate::OnBoard { error: None },
                 startup: Some(i),
+                program_end: false,
             });
             self.next_line = self.next_line.wrapping_add(1).max(1);
         }
@@ -528,16 +572,12 @@ impl Grbl {
     /// Reads complete lines while the board and the output can take them.
     fn read_lines(&mut self, board: &mut Board) {
         while !self.flights.is_full() && self.out.room() >= 2 * ANSWER_ROOM {
-            if self.rx.take_overflow() {
-                self.decided(0, Reply::Error(codes::LINE_TOO_LONG));
-                continue;
-            }
             let mut buf = [0u8; LINE_CAPACITY];
-            let Some((n, raw)) = self.rx.peek_line(&mut buf) else {
+            let Some(rx::Peeked { len: n, raw, cut }) = self.rx.peek_line(&mut buf) else {
                 return;
             };
             let text = trim(buf.get(..n).unwrap_or_default());
-            if n > LINE_CAPACITY {
+            if cut || n > LINE_CAPACITY {
                 self.rx.consume(raw);
                 self.decided(raw, Reply::Error(codes::LINE_TOO_LONG));
                 continue;
@@ -587,6 +627,12 @@ impl Grbl {
                 self.decided(raw, Reply::Error(codes::EXPECTED_LETTER));
                 continue;
             };
+            if has_negative_value(text.as_bytes()) {
+                // grbl refuses a negative F, N, P, S or T as it reads the word (error 4).
+                self.rx.consume(raw);
+                self.decided(raw, Reply::Error(codes::NEGATIVE_VALUE));
+                continue;
+            }
             if !board.setup().grbl.m6_stop && has_m6(text.as_bytes()) {
                 // grbl 1.1 has no tool change: its unsupported-command error, nothing run.
                 self.rx.consume(raw);
@@ -637,6 +683,7 @@ impl Grbl {
                 raw,
                 fate: Fate::OnBoard { error: None },
                 startup: None,
+                program_end: has_program_end(text.as_bytes()),
             });
             self.next_line = self.next_line.wrapping_add(1).max(1);
         }
@@ -649,6 +696,7 @@ impl Grbl {
             raw,
             fate: Fate::Decided(r),
             startup: None,
+            program_end: false,
         });
         self.settle_decided();
     }
@@ -845,8 +893,14 @@ impl Grbl {
                 if let Some(s) = self.idle_gate(board, false) {
                     return s;
                 }
-                Step::Reply(self.restore(board, what))
+                let r = self.restore(board, what);
+                if r == Reply::Ok {
+                    self.out.line("[MSG:Restoring defaults]");
+                }
+                Step::Reply(r)
             }
+            // grbl stores the text to show in `$I`; Gantry's build info is fixed (docs/grbl.md).
+            Command::SetInfo => ok,
             Command::Sleep => {
                 board.abort();
                 board.stop_outputs_at_rest();
@@ -994,6 +1048,36 @@ fn has_m6(line: &[u8]) -> bool {
             && number.iter().rev().skip(1).all(|&d| d == b'0')
             && number.last() == Some(&b'6')
     })
+}
+
+/// The M word number `n` (`M2`, `M02`, `m30`…) is in the line (blanks and comments dropped).
+fn has_m_code(line: &[u8], n: u32) -> bool {
+    line.iter().enumerate().any(|(i, &c)| {
+        if c | 0x20 != b'm' {
+            return false;
+        }
+        let digits = line.get(i + 1..).unwrap_or_default();
+        let k = digits.iter().take_while(|d| d.is_ascii_digit()).count();
+        let number = digits.get(..k).unwrap_or_default();
+        k > 0
+            && k <= 4
+            && digits.get(k) != Some(&b'.')
+            && number
+                .iter()
+                .fold(0u32, |v, &d| v * 10 + u32::from(d - b'0'))
+                == n
+    })
+}
+
+/// The line ends the program (`M2` or `M30`).
+fn has_program_end(line: &[u8]) -> bool {
+    has_m_code(line, 2) || has_m_code(line, 30)
+}
+
+/// A word grbl requires non-negative has a minus sign: `F-100`, `S-1`, `P-1`, `T-1`, `N-5`.
+fn has_negative_value(line: &[u8]) -> bool {
+    line.windows(2)
+        .any(|w| matches!(w[0] | 0x20, b'f' | b'n' | b'p' | b's' | b't') && w[1] == b'-')
 }
 
 /// The line without leading and trailing blanks.

@@ -218,6 +218,9 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup) -> Result<(), u16> {
             Some(false) => setup.inputs.invert &= !LIMIT_BITS,
             None => return Err(codes::INVALID_STATEMENT),
         },
+        // grbl keeps a byte (only bits 0 and 1 mean anything in 1.1): a larger value is out of
+        // range rather than cut to its low bits.
+        10 if whole > 255 => return Err(codes::INVALID_STATEMENT),
         10 => setup.grbl.status_mask = u8::try_from(whole & 3).unwrap_or(1),
         11 => setup.path.junction_deviation = positive(nm)?,
         12 => setup.path.chord_tolerance = positive(nm)?,

@@ -17,7 +17,7 @@ use core::ops::ControlFlow;
 use super::block::{
     letter_mask, parse_block_into, Block, BlockError, GGroup, MGroup, TRANSFORM_GROUPS,
 };
-use super::config::{ArcCenterMode, Dialect, DwellUnits, InterpConfig};
+use super::config::{ArcCenterMode, Dialect, DwellUnits, InterpConfig, OffPlaneOffset};
 use super::cycles::{CycleBody, CycleRun};
 use super::error::{ErrorCode, GcodeError};
 use super::expand::{self, Assignments, Expanded};
@@ -345,6 +345,11 @@ impl Interpreter {
     /// Block-delete switch (`/` blocks skipped when on).
     pub fn set_block_delete(&mut self, on: bool) {
         self.config.block_delete = on;
+    }
+
+    /// What an arc's off-plane centre word does (the grbl front end's jobs ignore it).
+    pub fn set_off_plane_offset(&mut self, o: OffPlaneOffset) {
+        self.config.off_plane_offset = o;
     }
 
     /// Optional-stop switch (M1 stops when on).

@@ -542,7 +542,14 @@ impl Interpreter {
             if let (Some(r), true) = (r, has_ijk) {
                 return err(ErrorCode::ArcMixedFormats, Some(r));
             }
-            wrong = b.word(letter(normal));
+            wrong = match self.config.off_plane_offset {
+                OffPlaneOffset::Refused => b.word(letter(normal)),
+                OffPlaneOffset::Ignored => {
+                    // grbl reads and drops it (its parser clears I, J and K after the arc).
+                    let _ = b.take(letter(normal));
+                    None
+                }
+            };
             w_first = b.take(letter(first));
             w_second = b.take(letter(second));
         }
