@@ -15,6 +15,26 @@ impl Interpreter {
             .map_err(|(code, at)| (code, Some((at as u16, at as u16 + 1))))
     }
 
+    /// The label of a computed O-word number `o[expr]` (LinuxCNC's `read_integer_value`: a
+    /// whole number within 0.0001, not negative).
+    pub(super) fn resolve_label(&self, bytes: &[u8], o: &mut OLine) -> Res<()> {
+        let Some(at) = o.computed else {
+            return Ok(());
+        };
+        let mut c = Cursor::new(bytes, at as usize);
+        let v = expr::bracketed(&mut c, &self.reader(), 0)
+            .map_err(|(code, at)| (code, Some((at as u16, at as u16 + 1))))?;
+        let rounded = (v + ONE / 2).div_euclid(ONE);
+        if (v - rounded * ONE).abs() > ONE / 10_000 {
+            return Err((ErrorCode::NotAnInteger, Some(o.cols)));
+        }
+        if !(0..=u32::MAX as i64).contains(&rounded) {
+            return Err((ErrorCode::ValueOutOfRange, Some(o.cols)));
+        }
+        o.label = rounded as Label;
+        Ok(())
+    }
+
     pub(super) fn start_skip(&mut self, label: Label, to: SkipTo) -> Res<Parsed> {
         self.skip = Some(Skip { label, to });
         Ok(Parsed::Nothing)
@@ -34,9 +54,13 @@ impl Interpreter {
     /// A line read while skipping: `Ok(true)` to go on skipping (or the line ended the skip and
     /// is consumed), `Ok(false)` to interpret this line normally.
     pub(super) fn skip_line(&mut self, line: u32, bytes: &[u8]) -> Res<bool> {
-        let (Some(o), Some(skip)) = (oword::parse(bytes), self.skip) else {
+        let (Some(mut o), Some(skip)) = (oword::parse(bytes), self.skip) else {
             return Ok(true);
         };
+        // A computed number that cannot be evaluated here is not the label looked for.
+        if self.resolve_label(bytes, &mut o).is_err() {
+            return Ok(true);
+        }
         if o.label != skip.label {
             return Ok(true);
         }

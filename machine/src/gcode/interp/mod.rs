@@ -751,7 +751,9 @@ impl Interpreter {
                 .iter()
                 .any(|&c| matches!(c, b'O' | b'o' | b'E' | b'e' | b'['));
         let o_line = if control { oword::parse(bytes) } else { None };
-        if let Some(o) = o_line {
+        if let Some(mut o) = o_line {
+            self.resolve_label(bytes, &mut o)
+                .map_err(|e| (n_word(), e))?;
             if o.keyword != Keyword::IfThen {
                 return self.control(line, bytes, o).map_err(|e| (n_word(), e));
             }
