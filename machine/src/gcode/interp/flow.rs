@@ -64,6 +64,10 @@ impl Interpreter {
         if o.label != skip.label {
             return Ok(true);
         }
+        if skip.to == SkipTo::EndSub && matches!(o.keyword, Keyword::EndSub | Keyword::Return) {
+            // LinuxCNC evaluates the value of an `endsub`/`return` of a definition it skips.
+            self.returned = self.return_value(bytes, &o)?;
+        }
         let done = match (skip.to, o.keyword) {
             (SkipTo::EndSub, Keyword::EndSub)
             | (SkipTo::EndIf, Keyword::EndIf)
@@ -96,7 +100,7 @@ impl Interpreter {
                 self.remember_sub(o.label, line)?;
                 self.start_skip(o.label, SkipTo::EndSub)
             }
-            Keyword::EndSub | Keyword::Return => self.o_return(o),
+            Keyword::EndSub | Keyword::Return => self.o_return(bytes, o),
             Keyword::Call => self.o_call(line, bytes, o),
             Keyword::If => {
                 if self.o_value(bytes, &o)? != 0 {
@@ -161,8 +165,10 @@ impl Interpreter {
     /// `o.. endsub` / `o.. return`: back to the caller of the `o.. call` on top (its #1-#30
     /// and loops restored); refused when no call of this label is open.
     #[inline(always)]
-    fn o_return(&mut self, o: OLine) -> Res<Parsed> {
+    fn o_return(&mut self, bytes: &[u8], o: OLine) -> Res<Parsed> {
         let unbalanced = Err((ErrorCode::UnbalancedBlock, Some(o.cols)));
+        // Read with the subroutine's parameters, before the caller's come back.
+        let value = self.return_value(bytes, &o)?;
         let Some(call) = self.ocalls.pop() else {
             return unbalanced;
         };
@@ -174,7 +180,19 @@ impl Interpreter {
             .map_err(|c| (c, None))?;
         self.params.drop_locals_above(self.ocalls.len() as u8);
         self.loops.truncate(call.loops as usize);
+        self.returned = value;
         Ok(Parsed::Jump(call.return_line))
+    }
+
+    /// The optional value of `o… endsub [v]` / `o… return [v]` (`None` without one).
+    fn return_value(&self, bytes: &[u8], o: &OLine) -> Res<Option<Fx>> {
+        let mut c = Cursor::new(bytes, o.rest);
+        if c.peek() != Some(b'[') {
+            return Ok(None);
+        }
+        expr::bracketed(&mut c, &self.reader(), 0)
+            .map(Some)
+            .map_err(|(code, at)| (code, Some((at as u16, at as u16 + 1))))
     }
 
     /// `o.. call [a] [b]...`: the arguments become #1-#30 (the caller's saved), then on to

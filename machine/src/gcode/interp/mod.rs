@@ -171,22 +171,48 @@ struct Reader<'a> {
     state: &'a ModalState,
     /// Inside a G65 macro: an unset local #1-#33 reads as vacant (Fanuc) instead of 0.
     in_macro: bool,
+    /// What the last `endsub`/`return` gave back (`#<_value>`, `#<_value_returned>`).
+    returned: Option<Fx>,
+    /// Lines being skipped: an unset named parameter reads 0 (LinuxCNC evaluates the `endsub`
+    /// value of a definition it skips, and an unset name there is no error).
+    skipping: bool,
+}
+
+/// `#<_value>`: the value the last `o… endsub [v]` / `o… return [v]` gave back (0 without one).
+const VALUE: ParamRef = ParamRef::Named {
+    hash: expr::name_hash(b"_value"),
+    global: true,
+};
+/// `#<_value_returned>`: 1 if the last `endsub`/`return` gave a value back, else 0.
+const VALUE_RETURNED: ParamRef = ParamRef::Named {
+    hash: expr::name_hash(b"_value_returned"),
+    global: true,
+};
+
+/// True for the read-only named parameters the interpreter defines (LinuxCNC's).
+fn read_only(p: ParamRef) -> bool {
+    p == VALUE || p == VALUE_RETURNED
 }
 
 impl ParamRead for Reader<'_> {
     fn read(&self, p: ParamRef) -> Result<Fx, ErrorCode> {
         match p {
+            VALUE => Ok(self.returned.unwrap_or(0)),
+            VALUE_RETURNED => Ok(if self.returned.is_some() { ONE } else { 0 }),
             ParamRef::Numbered(0) => Ok(expr::VACANT),
             ParamRef::Numbered(n)
                 if self.in_macro && (1..=LOCALS as u16).contains(&n) && !self.params.is_set(n) =>
             {
                 Ok(expr::VACANT)
             }
-            _ => self.params.read(p, self.level, self.state),
+            _ => match self.params.read(p, self.level, self.state) {
+                Err(ErrorCode::UndefinedParameter) if self.skipping => Ok(0),
+                r => r,
+            },
         }
     }
     fn exists(&self, p: ParamRef) -> bool {
-        self.params.exists(p, self.level)
+        read_only(p) || self.params.exists(p, self.level)
     }
 }
 
@@ -288,6 +314,8 @@ pub struct Interpreter {
     subs: heapless::Vec<(Label, u32), MAX_SUBS>,
     /// The current line was rewritten by parameter substitution (its columns no longer apply).
     expanded_line: bool,
+    /// What the last `endsub`/`return` gave back (`#<_value>`), `None` without a value.
+    returned: Option<Fx>,
     /// Cutter radius compensation and the moves it holds back (`comp.rs`).
     comp: Comp,
 }
@@ -328,6 +356,7 @@ impl Interpreter {
             ocalls: heapless::Vec::new(),
             subs: heapless::Vec::new(),
             expanded_line: false,
+            returned: None,
             comp: Comp::new(),
         }
     }
@@ -793,7 +822,9 @@ impl Interpreter {
         }
         let level = self.ocalls.len() as u8;
         for &(p, v, at) in &assignments {
-            let done = if v == expr::VACANT {
+            let done = if read_only(p) {
+                Err(ErrorCode::ParameterNumberInvalid)
+            } else if v == expr::VACANT {
                 self.params.make_vacant(p)
             } else {
                 self.params.write(p, v, level, &mut self.state)
@@ -813,6 +844,8 @@ impl Interpreter {
             level: self.ocalls.len() as u8,
             state: &self.state,
             in_macro: !self.macros.is_empty(),
+            returned: self.returned,
+            skipping: self.skip.is_some(),
         }
     }
 
