@@ -219,7 +219,7 @@ mod tests {
         assert_eq!(run("X SIN[0] Y2").unwrap(), ("X0.000000000 Y2".into(), 0));
         assert_eq!(
             run("@#2 ^[360/6]").unwrap(),
-            ("@2.000000000 ^60.000000000".into(), 0)
+            ("@2.000000000^60.000000000".into(), 0)
         );
         assert_eq!(run("#1 5").unwrap_err(), ErrorCode::ExpressionSyntax);
         // A comment without `)` runs to the end of the line; `;` ends it.
