@@ -96,6 +96,7 @@ const CASES: &[Case] = &[
         Some((0, 2)),
     ),
     ("o9 call", cfg_default, ErrorCode::UnknownSubroutine, None),
+    ("M72", cfg_default, ErrorCode::NoSavedModalState, Some((0, 3))),
     ("G0 X", cfg_default, ErrorCode::MissingNumber, Some((3, 4))),
     (
         "G0 (a (b) X1",

@@ -158,10 +158,13 @@ pub enum MGroup {
     Override,
     /// User M codes of the setup.
     User,
+    /// M70 M71 M72 M73: save, invalidate, restore the modal state; save with restore at the
+    /// subroutine's end (LinuxCNC; machine/src/gcode/interp/context.rs).
+    Context,
 }
 
 /// Number of [`MGroup`]s.
-pub const M_GROUPS: usize = 6;
+pub const M_GROUPS: usize = 7;
 
 /// The group of an M code under `config`, or `None` if unknown.
 pub fn m_group(code: u16, config: &InterpConfig) -> Option<MGroup> {
@@ -173,6 +176,7 @@ pub fn m_group(code: u16, config: &InterpConfig) -> Option<MGroup> {
         7..=9 => Coolant,
         48 | 49 => Override,
         c if config.is_user_m_code(c) => User,
+        70..=73 if config.dialect != super::config::Dialect::Gixa => Context,
         _ => return None,
     })
 }

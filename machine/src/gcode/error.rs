@@ -177,6 +177,8 @@ pub enum ErrorCode {
     UnbalancedBlock,
     /// `o<label> call` of a subroutine that is not in the file.
     UnknownSubroutine,
+    /// `M72` (restore the modal state) where no `M70`/`M73` saved one at this call level.
+    NoSavedModalState,
     // --- 8xx cutter radius compensation ---
     /// G41/G42 while compensation is already on.
     CompAlreadyOn,
@@ -285,6 +287,7 @@ impl ErrorCode {
         ErrorCode::ParameterTableFull,
         ErrorCode::UnbalancedBlock,
         ErrorCode::UnknownSubroutine,
+        ErrorCode::NoSavedModalState,
         ErrorCode::CompAlreadyOn,
         ErrorCode::CompPlane,
         ErrorCode::CompForbidden,
@@ -375,6 +378,7 @@ impl ErrorCode {
             ParameterTableFull => 707,
             UnbalancedBlock => 708,
             UnknownSubroutine => 709,
+            NoSavedModalState => 710,
             CompAlreadyOn => 801,
             CompPlane => 802,
             CompForbidden => 803,
@@ -465,6 +469,7 @@ impl ErrorCode {
             ParameterTableFull => "too many parameters, subroutines or nested O-word blocks for the interpreter's tables",
             UnbalancedBlock => "unbalanced O-word block (end without start, or a block left open)",
             UnknownSubroutine => "o-word call of a subroutine that is not in the program",
+            NoSavedModalState => "M72 without a modal state saved by M70 or M73 at this call level",
             EndlessLoop => "endless loop: 10000 subprogram jumps or M99 restarts without any action",
             CompAlreadyOn => "cutter compensation is already on (G40 first)",
             CompPlane => "cutter compensation works only in the XY (G17) and XZ (G18) planes, and the plane cannot change while it is on",

@@ -100,7 +100,7 @@ impl Interpreter {
                 self.remember_sub(o.label, line)?;
                 self.start_skip(o.label, SkipTo::EndSub)
             }
-            Keyword::EndSub | Keyword::Return => self.o_return(bytes, o),
+            Keyword::EndSub | Keyword::Return => self.o_return(line, bytes, o),
             Keyword::Call => self.o_call(line, bytes, o),
             Keyword::If => {
                 if self.o_value(bytes, &o)? != 0 {
@@ -165,10 +165,11 @@ impl Interpreter {
     /// `o.. endsub` / `o.. return`: back to the caller of the `o.. call` on top (its #1-#30
     /// and loops restored); refused when no call of this label is open.
     #[inline(always)]
-    fn o_return(&mut self, bytes: &[u8], o: OLine) -> Res<Parsed> {
+    fn o_return(&mut self, line: u32, bytes: &[u8], o: OLine) -> Res<Parsed> {
         let unbalanced = Err((ErrorCode::UnbalancedBlock, Some(o.cols)));
         // Read with the subroutine's parameters, before the caller's come back.
         let value = self.return_value(bytes, &o)?;
+        let level = self.call_level();
         let Some(call) = self.ocalls.pop() else {
             return unbalanced;
         };
@@ -181,6 +182,7 @@ impl Interpreter {
         self.params.drop_locals_above(self.ocalls.len() as u8);
         self.loops.truncate(call.loops as usize);
         self.returned = value;
+        self.leave_level(level, line)?;
         Ok(Parsed::Jump(call.return_line))
     }
 
@@ -333,6 +335,7 @@ impl Interpreter {
                 self.stack.clear();
                 self.macros.clear();
                 self.clear_control();
+                self.contexts.clear();
                 self.finished = true;
             }
             98 | 99 => {
@@ -351,6 +354,7 @@ impl Interpreter {
                 self.call(line, code.cols, src, call_p, call_l, false)?;
             }
             99 => {
+                let level = self.call_level();
                 let result = match self.stack.last_mut() {
                     Some(top) if top.remaining > 1 => {
                         top.remaining -= 1;
@@ -370,6 +374,7 @@ impl Interpreter {
                                     .map_err(|c| (c, Some(code.cols)))?;
                             }
                         }
+                        self.leave_level(level, line)?;
                         src.jump_to_line(frame.return_line)
                     }
                     None => {

@@ -316,6 +316,8 @@ pub struct Interpreter {
     expanded_line: bool,
     /// What the last `endsub`/`return` gave back (`#<_value>`), `None` without a value.
     returned: Option<Fx>,
+    /// Modal states saved by M70/M73, one a call level (`context.rs`).
+    contexts: heapless::Vec<context::Context, { context::MAX_CONTEXTS }>,
     /// Cutter radius compensation and the moves it holds back (`comp.rs`).
     comp: Comp,
 }
@@ -323,10 +325,11 @@ pub struct Interpreter {
 /// Most subprogram jumps without an action before the program is declared an endless loop.
 pub const MAX_JUMPS_WITHOUT_ACTION: u32 = 10_000;
 
-/// 11,600 B (measured): 10,360 B with the G65 locals stack of 4 levels × 33 values, and
-/// 1,240 B for cutter compensation's look-ahead (`comp.rs`: up to 6 actions held back until
-/// the next move decides the corner), hence 12 KiB.
-const _: () = assert!(core::mem::size_of::<Interpreter>() <= 12 * 1024);
+/// 12,864 B (measured): 10,360 B with the G65 locals stack of 4 levels × 33 values, 1,240 B
+/// for cutter compensation's look-ahead (`comp.rs`: up to 6 actions held back until the next
+/// move decides the corner) and 936 B for the modal states M70/M73 save (`context.rs`: 9
+/// levels × 104 B), hence 13 KiB.
+const _: () = assert!(core::mem::size_of::<Interpreter>() <= 13 * 1024);
 
 type Res<T> = Result<T, BlockError>;
 
@@ -357,6 +360,7 @@ impl Interpreter {
             subs: heapless::Vec::new(),
             expanded_line: false,
             returned: None,
+            contexts: heapless::Vec::new(),
             comp: Comp::new(),
         }
     }
@@ -1180,6 +1184,7 @@ impl Interpreter {
             let (state, rpm) = (self.state.spindle, self.state.rpm);
             self.push(line, Action::Spindle { state, rpm })?;
         }
+        self.modal_context(b, line)?;
         if b.m.iter().any(|(g, _)| *g == MGroup::Coolant) {
             if b.has_m(9) {
                 self.state.mist = false;
@@ -1600,6 +1605,7 @@ struct Prelude {
     f_given: bool,
 }
 
+mod context;
 mod cycle;
 mod flow;
 mod moves;
