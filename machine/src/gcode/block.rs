@@ -59,7 +59,7 @@ pub fn g_group(code: u16) -> Option<GGroup> {
 
 /// Every known G code and its group, the common ones first: [`g_group`] scans it (a `match`
 /// over the codes compiled to 500 B of comparisons in the firmware).
-const G_TABLE: [(u16, GGroup); 77] = {
+const G_TABLE: [(u16, GGroup); 79] = {
     use GGroup::*;
     [
         (G0, Motion),
@@ -85,6 +85,8 @@ const G_TABLE: [(u16, GGroup); 77] = {
         (G76, Motion),
         (G84_2, Motion),
         (G84_3, Motion),
+        (G5, Motion),
+        (G5_1, Motion),
         (G90, Distance),
         (G91, Distance),
         (G17, Plane),

@@ -92,6 +92,8 @@ pub enum ErrorCode {
     CoordinateOverflow,
     /// A centre word is missing in absolute arc-centre mode (G90.1).
     ArcAbsoluteCenterMissing,
+    /// G5 without P and Q (or without I and J when no G5 came before), G5.1 without I and J.
+    SplineWordMissing,
     // --- 4xx canned cycles ---
     /// First block of a cycle without R.
     CycleRMissing,
@@ -250,6 +252,7 @@ impl ErrorCode {
         ErrorCode::InverseTimeFeedMissing,
         ErrorCode::CoordinateOverflow,
         ErrorCode::ArcAbsoluteCenterMissing,
+        ErrorCode::SplineWordMissing,
         ErrorCode::CycleRMissing,
         ErrorCode::CycleDepthMissing,
         ErrorCode::CycleRBelowBottom,
@@ -340,6 +343,7 @@ impl ErrorCode {
             InverseTimeFeedMissing => 311,
             CoordinateOverflow => 312,
             ArcAbsoluteCenterMissing => 313,
+            SplineWordMissing => 314,
             CycleRMissing => 401,
             CycleDepthMissing => 402,
             CycleRBelowBottom => 403,
@@ -432,6 +436,7 @@ impl ErrorCode {
             InverseTimeFeedMissing => "G93 inverse time: every feed move needs an F word",
             CoordinateOverflow => "coordinate, offset or feed out of the representable range",
             ArcAbsoluteCenterMissing => "centre word missing for an arc in absolute centre mode (G90.1)",
+            SplineWordMissing => "G5 needs P and Q (and I and J unless a G5 came before), G5.1 needs I and J",
             CycleRMissing => "canned cycle needs an R word in its first block",
             CycleDepthMissing => "canned cycle needs its depth word (Z in G17) in its first block",
             CycleRBelowBottom => "canned cycle R plane is below the bottom of the hole",

@@ -259,7 +259,10 @@ mod tests {
         assert_eq!((l.label, l.keyword), (18, Keyword::IfThen));
         assert_eq!(parse(b"G0 X1"), None);
         let l = parse(b"O[#1 * 10] call [2]").unwrap();
-        assert_eq!((l.keyword, l.computed, l.cols), (Keyword::Call, Some(1), (0, 10)));
+        assert_eq!(
+            (l.keyword, l.computed, l.cols),
+            (Keyword::Call, Some(1), (0, 10))
+        );
         assert_eq!(parse(b"O[#1 call"), None);
     }
 }

@@ -180,7 +180,11 @@ impl Params {
                     });
                 }
                 let unset = if n == DEBUG_SWITCH { ONE } else { 0 };
-                Ok(self.numbered.iter().find(|e| e.0 == n).map_or(unset, |e| e.1))
+                Ok(self
+                    .numbered
+                    .iter()
+                    .find(|e| e.0 == n)
+                    .map_or(unset, |e| e.1))
             }
             ParamRef::Named { hash, global } => {
                 let level = if global { GLOBAL } else { level };

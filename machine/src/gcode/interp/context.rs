@@ -142,8 +142,8 @@ impl Interpreter {
         s.feed = saved.feed;
         s.feed_raw = saved.feed_raw;
         s.tool_offset = saved.tool_offset;
-        let spindle = s.spindle != saved.spindle
-            || (saved.spindle != Spindle::Off && s.rpm != saved.rpm);
+        let spindle =
+            s.spindle != saved.spindle || (saved.spindle != Spindle::Off && s.rpm != saved.rpm);
         let coolant = (s.mist, s.flood) != (saved.mist, saved.flood);
         s.spindle = saved.spindle;
         s.rpm = saved.rpm;

@@ -27,6 +27,7 @@ use super::lexer::{Lexer, LineStart, Word, MICRO};
 use super::oword::{self, Keyword, Label, OLine};
 use super::params::{Params, LOCALS};
 use super::source::{ProgramSource, SourceError};
+use super::spline::SplineRun;
 use super::state::{CycleMemory, ModalState, MotionMode, Rollback};
 use super::transform::ONE as FACTOR_ONE;
 use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, ProbeMode, Spindle, StopKind};
@@ -294,6 +295,10 @@ pub struct Interpreter {
     state: ModalState,
     queue: ActionQueue,
     cycle: Option<CycleRun>,
+    /// A G5/G5.1 spline being made into arcs, one piece a step (`spline.rs`).
+    spline: Option<SplineRun>,
+    /// The I, J a G5 without them takes: −P, −Q of the G5 before.
+    spline_next_ij: Option<(Nm, Nm)>,
     post: Post,
     stack: heapless::Vec<Frame, MAX_NESTING>,
     /// The locals of every G65 caller on `stack`, innermost last.
@@ -345,6 +350,8 @@ impl Interpreter {
             state: ModalState::new(config),
             queue: ActionQueue::new(),
             cycle: None,
+            spline: None,
+            spline_next_ij: None,
             post: Post::None,
             stack: heapless::Vec::new(),
             macros: heapless::Vec::new(),
@@ -392,7 +399,11 @@ impl Interpreter {
 
     /// True once M2/M30, the closing `%`, `E` or the end of the file was reached.
     pub fn is_finished(&self) -> bool {
-        self.finished && self.queue.is_empty() && self.cycle.is_none() && self.post == Post::None
+        self.finished
+            && self.queue.is_empty()
+            && self.cycle.is_none()
+            && self.spline.is_none()
+            && self.post == Post::None
     }
 
     /// How many times M99 in the main program restarted it.
@@ -409,6 +420,7 @@ impl Interpreter {
     pub fn rewind(&mut self) {
         self.queue.clear();
         self.cycle = None;
+        self.spline = None;
         self.post = Post::None;
         self.stack.clear();
         self.macros.clear();
@@ -505,6 +517,17 @@ impl Interpreter {
             });
             if !more {
                 self.cycle = None;
+            }
+            return Some(ANOTHER_STEP);
+        }
+        if let Some(run) = self.spline.as_mut() {
+            let queue = &mut self.queue;
+            // At most three actions a step; the queue is empty when a step starts.
+            let more = run.step(&mut |c| {
+                let _ = queue.push_back(c);
+            });
+            if !more {
+                self.spline = None;
             }
             return Some(ANOTHER_STEP);
         }
@@ -662,6 +685,7 @@ impl Interpreter {
         self.finished = saved_finished || code == ErrorCode::EndlessLoop;
         self.queue.clear();
         self.cycle = None;
+        self.spline = None;
         self.post = Post::None;
         ControlFlow::Break(Some(GcodeError {
             line,
@@ -1584,6 +1608,7 @@ fn decode_motion(code: u16) -> MotionMode {
         G3 => MotionMode::ArcCcw,
         G80 => MotionMode::None,
         G38_2 | G38_3 | G38_4 | G38_5 => MotionMode::Probe(code),
+        G5 | G5_1 => MotionMode::Spline(code),
         c => MotionMode::Cycle(c),
     }
 }
