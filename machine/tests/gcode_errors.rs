@@ -96,6 +96,12 @@ const CASES: &[Case] = &[
         Some((0, 2)),
     ),
     ("o9 call", cfg_default, ErrorCode::UnknownSubroutine, None),
+    (
+        "M72",
+        cfg_default,
+        ErrorCode::NoSavedModalState,
+        Some((0, 3)),
+    ),
     ("G0 X", cfg_default, ErrorCode::MissingNumber, Some((3, 4))),
     (
         "G0 (a (b) X1",
@@ -249,6 +255,12 @@ const CASES: &[Case] = &[
         cfg_default,
         ErrorCode::ArcAbsoluteCenterMissing,
         None,
+    ),
+    (
+        "G5 X1 Y1 I1 J0 F100",
+        cfg_default,
+        ErrorCode::SplineWordMissing,
+        Some((0, 2)),
     ),
     (
         "G81 X1 Z-1 F1",

@@ -184,3 +184,62 @@ fn fanuc_macro_b_while_do_end_if_then_goto() {
     let e = first_error("END4\n");
     assert_eq!((e.line, e.code), (1, ErrorCode::UnbalancedBlock));
 }
+
+/// M70-M73 beyond what the rs274 goldens compare (tests/golden/rs274/140): the spindle and
+/// coolant a restore switches back, and M73 restoring at the M99 of an M98 call.
+#[test]
+fn m73_restores_spindle_coolant_and_modes_at_m99_and_o_returns() {
+    use gantry_machine::canon::{Action, Spindle};
+    let program = "G21 G90 G17 F100\nM3 S1000\no1 sub\n  M73\n  M5 M8 G91\n  G1 X1\no1 endsub\n\
+                   o1 call\nG1 X5\nM98 P7\nG1 X6\nM2\nO7\nM73\nM4 S200 G91\nG1 X1\nM99\n";
+    let (out, _) = run(program);
+    let actions: Vec<(u32, Action)> = out
+        .into_iter()
+        .map(|r| r.unwrap())
+        .map(|c| (c.line, c.action))
+        .collect();
+    let spindle: Vec<(u32, Spindle, u32)> = actions
+        .iter()
+        .filter_map(|(l, a)| match a {
+            Action::Spindle { state, rpm } => Some((*l, *state, *rpm)),
+            _ => None,
+        })
+        .collect();
+    // M3 (line 2), M5 in the sub (5), back on at its endsub (7); M4 S200 in O7 (15), and M3
+    // S1000 again at its M99 (17).
+    assert_eq!(
+        spindle,
+        [
+            (2, Spindle::Cw, 1000),
+            (5, Spindle::Off, 1000),
+            (7, Spindle::Cw, 1000),
+            (15, Spindle::Ccw, 200),
+            (17, Spindle::Cw, 1000)
+        ]
+    );
+    let coolant: Vec<(u32, bool, bool)> = actions
+        .iter()
+        .filter_map(|(l, a)| match a {
+            Action::Coolant { mist, flood } => Some((*l, *mist, *flood)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(coolant, [(5, false, true), (7, false, false)]);
+    // G91 in each subroutine, G90 again after it: X5 and X6 are absolute.
+    let m = moves(program);
+    assert_eq!(
+        m,
+        [
+            (6, [MM, 0, 0]),
+            (9, [5 * MM, 0, 0]),
+            (16, [6 * MM, 0, 0]),
+            (11, [6 * MM, 0, 0]),
+        ]
+    );
+    // M72 at the top level without M70 is E710; M71 forgets.
+    assert_eq!(first_error("M72\n").code, ErrorCode::NoSavedModalState);
+    assert_eq!(
+        first_error("M70\nM71\nM72\n").code,
+        ErrorCode::NoSavedModalState
+    );
+}

@@ -59,7 +59,7 @@ pub fn g_group(code: u16) -> Option<GGroup> {
 
 /// Every known G code and its group, the common ones first: [`g_group`] scans it (a `match`
 /// over the codes compiled to 500 B of comparisons in the firmware).
-const G_TABLE: [(u16, GGroup); 77] = {
+const G_TABLE: [(u16, GGroup); 79] = {
     use GGroup::*;
     [
         (G0, Motion),
@@ -85,6 +85,8 @@ const G_TABLE: [(u16, GGroup); 77] = {
         (G76, Motion),
         (G84_2, Motion),
         (G84_3, Motion),
+        (G5, Motion),
+        (G5_1, Motion),
         (G90, Distance),
         (G91, Distance),
         (G17, Plane),
@@ -158,10 +160,13 @@ pub enum MGroup {
     Override,
     /// User M codes of the setup.
     User,
+    /// M70 M71 M72 M73: save, invalidate, restore the modal state; save with restore at the
+    /// subroutine's end (LinuxCNC; machine/src/gcode/interp/context.rs).
+    Context,
 }
 
 /// Number of [`MGroup`]s.
-pub const M_GROUPS: usize = 6;
+pub const M_GROUPS: usize = 7;
 
 /// The group of an M code under `config`, or `None` if unknown.
 pub fn m_group(code: u16, config: &InterpConfig) -> Option<MGroup> {
@@ -173,6 +178,7 @@ pub fn m_group(code: u16, config: &InterpConfig) -> Option<MGroup> {
         7..=9 => Coolant,
         48 | 49 => Override,
         c if config.is_user_m_code(c) => User,
+        70..=73 if config.dialect != super::config::Dialect::Gixa => Context,
         _ => return None,
     })
 }

@@ -10,6 +10,10 @@ pub const G1: u16 = 10;
 pub const G2: u16 = 20;
 /// `G3` counter-clockwise arc.
 pub const G3: u16 = 30;
+/// `G5` cubic spline (LinuxCNC).
+pub const G5: u16 = 50;
+/// `G5.1` quadratic spline (LinuxCNC).
+pub const G5_1: u16 = 51;
 /// `G4` dwell.
 pub const G4: u16 = 40;
 /// `G10` offsets and tool table.

@@ -28,8 +28,11 @@ use crate::units::{Nm, Pos};
 /// Actions that can wait for the next compensated move (the move itself and what follows it).
 pub const PENDING: usize = 6;
 
-/// LinuxCNC's tolerance for "no corner" and for concave corners: 0.01 rad in 2⁻⁴⁸ rad.
-const SMALL: i64 = 2_814_749_767_107;
+/// LinuxCNC's tolerance for "no corner" and for concave corners: 0.05 rad in 2⁻⁴⁸ rad
+/// (`TOLERANCE_CONCAVE_CORNER`; a comment in its source says 0.01, the value is 0.05). A line
+/// turning 178° into an arc is thus a 182° turn away from the tool (convex, a corner arc), not
+/// a concave corner (tests/golden/rs274/143-comp-g42-line-turning-178-into-arc).
+const SMALL: i64 = 14_073_748_835_533;
 /// LinuxCNC's allowance for a trimmed arc growing instead of shrinking (it compares the sweep
 /// in radians with 0.0254 in mm programs and 0.001 in inch programs).
 const SWEEP_GROWTH_MM: i64 = 7_149_464_408_451;
@@ -642,7 +645,7 @@ impl Comp {
         };
         let new_end = add(p, scale_to(toward, r as i128));
         let end = with_uv(to, plane, new_end);
-        let (_, beta) = self.corner(op, c, b, side);
+        let (d, beta) = self.corner(op, c, b, side);
         let pi = geometry::PI;
         let concave =
             beta < -SMALL || beta > pi + SMALL || ((beta - pi).abs() < SMALL && !is_inside);
@@ -655,9 +658,12 @@ impl Comp {
         if concave {
             let trim = match self.front_arc() {
                 None => {
-                    // Line to arc: where the last (offset) line meets the offset arc.
-                    let last_dir = self.front_dir();
-                    line_circle(c, last_dir, center, new_radius).ok_or(ErrorCode::CompGouge)?
+                    // Line to arc: where the last line's parallel offset through the tool meets
+                    // the offset arc. After the entry move that is the programmed entry line's
+                    // parallel, not the tool's actual (slanted) entry line (LinuxCNC's
+                    // `convert_arc_comp2` uses the direction square to the tool's offset;
+                    // tests/golden/rs274/142-comp-entry-then-concave-arc).
+                    line_circle(c, d, center, new_radius).ok_or(ErrorCode::CompGouge)?
                 }
                 Some((old_center, old_end, _)) => {
                     if old_center == center {
@@ -750,17 +756,6 @@ impl Comp {
                 Some(((center[a], center[b]), uv(&to, self.plane), dir))
             }
             _ => None,
-        }
-    }
-
-    /// Direction of the waiting straight move at the front of the queue.
-    fn front_dir(&self) -> (i128, i128) {
-        match (self.held.front(), self.start) {
-            (Some(h), Some(s)) => match h.canon.action {
-                Action::Rapid { to } | Action::Feed { to, .. } => sub(uv(&to, self.plane), s),
-                _ => (0, 0),
-            },
-            _ => (0, 0),
         }
     }
 

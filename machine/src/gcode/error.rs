@@ -92,6 +92,8 @@ pub enum ErrorCode {
     CoordinateOverflow,
     /// A centre word is missing in absolute arc-centre mode (G90.1).
     ArcAbsoluteCenterMissing,
+    /// G5 without P and Q (or without I and J when no G5 came before), G5.1 without I and J.
+    SplineWordMissing,
     // --- 4xx canned cycles ---
     /// First block of a cycle without R.
     CycleRMissing,
@@ -177,6 +179,8 @@ pub enum ErrorCode {
     UnbalancedBlock,
     /// `o<label> call` of a subroutine that is not in the file.
     UnknownSubroutine,
+    /// `M72` (restore the modal state) where no `M70`/`M73` saved one at this call level.
+    NoSavedModalState,
     // --- 8xx cutter radius compensation ---
     /// G41/G42 while compensation is already on.
     CompAlreadyOn,
@@ -248,6 +252,7 @@ impl ErrorCode {
         ErrorCode::InverseTimeFeedMissing,
         ErrorCode::CoordinateOverflow,
         ErrorCode::ArcAbsoluteCenterMissing,
+        ErrorCode::SplineWordMissing,
         ErrorCode::CycleRMissing,
         ErrorCode::CycleDepthMissing,
         ErrorCode::CycleRBelowBottom,
@@ -285,6 +290,7 @@ impl ErrorCode {
         ErrorCode::ParameterTableFull,
         ErrorCode::UnbalancedBlock,
         ErrorCode::UnknownSubroutine,
+        ErrorCode::NoSavedModalState,
         ErrorCode::CompAlreadyOn,
         ErrorCode::CompPlane,
         ErrorCode::CompForbidden,
@@ -337,6 +343,7 @@ impl ErrorCode {
             InverseTimeFeedMissing => 311,
             CoordinateOverflow => 312,
             ArcAbsoluteCenterMissing => 313,
+            SplineWordMissing => 314,
             CycleRMissing => 401,
             CycleDepthMissing => 402,
             CycleRBelowBottom => 403,
@@ -375,6 +382,7 @@ impl ErrorCode {
             ParameterTableFull => 707,
             UnbalancedBlock => 708,
             UnknownSubroutine => 709,
+            NoSavedModalState => 710,
             CompAlreadyOn => 801,
             CompPlane => 802,
             CompForbidden => 803,
@@ -428,6 +436,7 @@ impl ErrorCode {
             InverseTimeFeedMissing => "G93 inverse time: every feed move needs an F word",
             CoordinateOverflow => "coordinate, offset or feed out of the representable range",
             ArcAbsoluteCenterMissing => "centre word missing for an arc in absolute centre mode (G90.1)",
+            SplineWordMissing => "G5 needs P and Q (and I and J unless a G5 came before), G5.1 needs I and J",
             CycleRMissing => "canned cycle needs an R word in its first block",
             CycleDepthMissing => "canned cycle needs its depth word (Z in G17) in its first block",
             CycleRBelowBottom => "canned cycle R plane is below the bottom of the hole",
@@ -465,6 +474,7 @@ impl ErrorCode {
             ParameterTableFull => "too many parameters, subroutines or nested O-word blocks for the interpreter's tables",
             UnbalancedBlock => "unbalanced O-word block (end without start, or a block left open)",
             UnknownSubroutine => "o-word call of a subroutine that is not in the program",
+            NoSavedModalState => "M72 without a modal state saved by M70 or M73 at this call level",
             EndlessLoop => "endless loop: 10000 subprogram jumps or M99 restarts without any action",
             CompAlreadyOn => "cutter compensation is already on (G40 first)",
             CompPlane => "cutter compensation works only in the XY (G17) and XZ (G18) planes, and the plane cannot change while it is on",

@@ -135,7 +135,9 @@ pub fn expand(
                     .map_err(|_| (ErrorCode::ParameterTableFull, cols(i)))?;
                 i = c.pos;
             }
-            b'a'..=b'z' | b'A'..=b'Z' => {
+            // A word's letter (LinuxCNC's polar words `@` and `^` too): a value computed by an
+            // expression or a parameter is written out as a number.
+            b'a'..=b'z' | b'A'..=b'Z' | b'@' | b'^' => {
                 out.push(ch).map_err(|_| too_long)?;
                 let mut c = Cursor::new(line, i + 1);
                 let computed = match c.peek() {
@@ -215,6 +217,10 @@ mod tests {
         );
         assert_eq!(run("#1 = [2 * 3] #<a>=#2 G0").unwrap(), (" G0".into(), 2));
         assert_eq!(run("X SIN[0] Y2").unwrap(), ("X0.000000000 Y2".into(), 0));
+        assert_eq!(
+            run("@#2 ^[360/6]").unwrap(),
+            ("@2.000000000^60.000000000".into(), 0)
+        );
         assert_eq!(run("#1 5").unwrap_err(), ErrorCode::ExpressionSyntax);
         // A comment without `)` runs to the end of the line; `;` ends it.
         assert_eq!(

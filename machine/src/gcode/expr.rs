@@ -94,9 +94,12 @@ fn syntax<T>(at: usize) -> Result<T, ExprError> {
 }
 
 /// FNV-1a of a parameter or label name: lower case, blanks removed.
-pub fn name_hash(name: &[u8]) -> u32 {
+pub const fn name_hash(name: &[u8]) -> u32 {
     let mut h: u32 = 0x811c_9dc5;
-    for &c in name {
+    let mut i = 0;
+    while i < name.len() {
+        let c = name[i];
+        i += 1;
         if matches!(c, b' ' | b'\t') {
             continue;
         }

@@ -37,6 +37,7 @@ pub mod lexer;
 pub mod oword;
 pub mod params;
 pub mod source;
+pub mod spline;
 pub mod state;
 mod test_vectors;
 pub mod transform;

@@ -84,6 +84,7 @@ fn fanuc(c: &mut Cursor<'_>) -> Option<OLine> {
             keyword: Keyword::Goto,
             rest: c.pos,
             cols: cols(c.pos),
+            computed: None,
         });
     }
     if c.keyword(b"END") {
@@ -93,6 +94,7 @@ fn fanuc(c: &mut Cursor<'_>) -> Option<OLine> {
             keyword: Keyword::EndWhile,
             rest: c.pos,
             cols: cols(c.pos),
+            computed: None,
         });
     }
     let while_ = c.keyword(b"WHILE");
@@ -124,6 +126,7 @@ fn fanuc(c: &mut Cursor<'_>) -> Option<OLine> {
         keyword,
         rest: cond,
         cols: cols(cond),
+        computed: None,
     })
 }
 
@@ -136,6 +139,9 @@ pub struct OLine {
     pub rest: usize,
     /// Byte columns of the O word.
     pub cols: (u16, u16),
+    /// Where the `[expression]` of a computed number `o[…]` starts (`label` is 0 until the
+    /// interpreter has evaluated it).
+    pub computed: Option<u16>,
 }
 
 const KEYWORDS: [(&[u8], Keyword); 15] = [
@@ -174,7 +180,17 @@ pub fn parse(line: &[u8]) -> Option<OLine> {
     let start = c.pos;
     c.pos += 1;
     let mut end = c.pos;
-    let label = if c.peek() == Some(b'<') {
+    let mut computed = None;
+    let label = if c.peek() == Some(b'[') {
+        // LinuxCNC's computed number `o[#1 * 10]`: the interpreter evaluates it
+        // (`OLine::computed`).
+        computed = Some(c.pos as u16);
+        if !skip_brackets(&mut c) {
+            return None;
+        }
+        end = c.pos;
+        0
+    } else if c.peek() == Some(b'<') {
         let open = c.pos;
         // `get` rather than slicing: no bounds-check panic paths.
         let rest = line.get(open..)?;
@@ -210,6 +226,7 @@ pub fn parse(line: &[u8]) -> Option<OLine> {
         keyword,
         rest: c.pos,
         cols: (start as u16, end as u16),
+        computed,
     })
 }
 
@@ -241,5 +258,11 @@ mod tests {
         let l = parse(b"IF [#1 EQ 1] THEN #2 = 5").unwrap();
         assert_eq!((l.label, l.keyword), (18, Keyword::IfThen));
         assert_eq!(parse(b"G0 X1"), None);
+        let l = parse(b"O[#1 * 10] call [2]").unwrap();
+        assert_eq!(
+            (l.keyword, l.computed, l.cols),
+            (Keyword::Call, Some(1), (0, 10))
+        );
+        assert_eq!(parse(b"O[#1 call"), None);
     }
 }

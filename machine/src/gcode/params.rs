@@ -1,4 +1,4 @@
-//! Parameter storage: numbered `#1`-`#5399` and named `#<local>` / `#<_global>`, in fixed tables.
+//! Parameter storage: numbered `#1`-`#5601` and named `#<local>` / `#<_global>`, in fixed tables.
 //!
 //! Only parameters a program has written take room: [`MAX_NUMBERED`] numbered and [`MAX_NAMED`]
 //! named entries (a full table is error E707). The system parameters LinuxCNC defines are views of
@@ -22,8 +22,11 @@ pub const MAX_NUMBERED: usize = 96;
 pub const MAX_NAMED: usize = 64;
 /// Fanuc Macro B local variables per G65 call level (#1-#33).
 pub const LOCALS: usize = 33;
-/// Largest parameter number.
-pub const MAX_NUMBER: u16 = 5399;
+/// Largest parameter number (LinuxCNC's: its parameter file runs to #5601).
+pub const MAX_NUMBER: u16 = 5601;
+/// LinuxCNC's `(DEBUG,…)` output switch: 1 at start, any value may be written. Gantry keeps
+/// `(DEBUG,…)` a comment, so the switch is stored and read back and changes nothing.
+pub const DEBUG_SWITCH: u16 = 5599;
 
 /// The parameter tables.
 #[derive(Clone, Debug, Default)]
@@ -100,6 +103,13 @@ enum System {
     Work(usize, usize),
     Tool,
     ToolOffset(usize),
+    /// #5410-#5413: the tool's diameter, front and back angle and orientation (LinuxCNC's lathe
+    /// tool data): read-only, 0.
+    ToolGeometry,
+    /// #5600-#5601: LinuxCNC's tool changer fault flag and reason, set by its tool changer;
+    /// Gantry has none, so they read 0 and a write is accepted and has no effect (as in
+    /// rs274, which reloads them from the tool changer).
+    ToolChangerFault,
     Position(usize),
 }
 
@@ -120,6 +130,8 @@ fn system(n: u16) -> Option<System> {
         }
         5400 => Some(System::Tool),
         5401..=5409 => axis(5401).map(System::ToolOffset),
+        5410..=5413 => Some(System::ToolGeometry),
+        5600..=5601 => Some(System::ToolChangerFault),
         5420..=5428 => axis(5420).map(System::Position),
         _ => None,
     }
@@ -148,7 +160,7 @@ impl Params {
     pub fn read(&self, p: ParamRef, level: u8, s: &ModalState) -> Result<Fx, ErrorCode> {
         match p {
             ParamRef::Numbered(n) => {
-                if n == 0 || (n > MAX_NUMBER && system(n).is_none()) {
+                if n == 0 || n > MAX_NUMBER {
                     return Err(ErrorCode::ParameterNumberInvalid);
                 }
                 if let Some(sys) = system(n) {
@@ -163,10 +175,16 @@ impl Params {
                         }
                         System::Tool => s.tool_loaded as Fx * ONE,
                         System::ToolOffset(i) => len(at(&s.tool_offset, i)),
+                        System::ToolGeometry | System::ToolChangerFault => 0,
                         System::Position(i) => nm_to_fx(at(&s.program_position(), i), s.inch),
                     });
                 }
-                Ok(self.numbered.iter().find(|e| e.0 == n).map_or(0, |e| e.1))
+                let unset = if n == DEBUG_SWITCH { ONE } else { 0 };
+                Ok(self
+                    .numbered
+                    .iter()
+                    .find(|e| e.0 == n)
+                    .map_or(unset, |e| e.1))
             }
             ParamRef::Named { hash, global } => {
                 let level = if global { GLOBAL } else { level };
@@ -212,6 +230,7 @@ impl Params {
                         System::Work(w, i) => {
                             *at_mut(s.work_offsets.as_flattened_mut(), w * MAX_AXES + i) = nm
                         }
+                        System::ToolChangerFault => {}
                         _ => return Err(ErrorCode::ParameterNumberInvalid),
                     }
                     return Ok(());

@@ -26,6 +26,8 @@ pub enum MotionMode {
     Cycle(u16),
     /// G38.2..G38.5 (the code in tenths, e.g. 382).
     Probe(u16),
+    /// G5 cubic / G5.1 quadratic spline (the code in tenths: 50, 51).
+    Spline(u16),
 }
 
 /// Data a canned cycle remembers between blocks (cleared by G80 and motion codes).

@@ -296,6 +296,21 @@ fn transformed_arc() -> u32 {
 }
 
 /// Cross-target vectors of the interpreter (see [`crate::vectors`]).
+/// LinuxCNC's own idioms (tests/golden/rs274/133-143, tests/golden/g5): polar words with
+/// expressions, a computed O-word call, a return value, M73 auto-restore, the DEBUG switch, a
+/// G5 cubic and a G5.1 quadratic spline (integer biarcs), a 178° compensated turn into an arc.
+const LINUXCNC_IDIOMS: &[u8] =
+    b"G21 G90 G17 F100\n#5599 = 0\no20 sub\n  M73\n  G91 F300\n  G1 X1\n\
+o20 endsub [#1 * 2]\n#1 = 2\no[#1 * 10] call [3]\nG1 X[#<_value>] Y[#<_value_returned>]\n\
+G0 X0 Y0\nG1 @10 ^[360/6]\nG0 X0 Y0\nG5 I0 J10 P0 Q-10 X20 Y0\nG5 P0 Q10 X40 Y0\n\
+G5.1 I5 J5 X50 Y0\nG0 X-30 Y-110\nG42.1 D0.5\nG1 X-39.500873 Y-104.657107\n\
+G1 X-54.500873 Y-94.657107\nG2 I-1.575966 J-2.552711 X-57.872219 Y-99.613276\nG40\n\
+G1 X-62.872219 Y-114.613276\nM2\n";
+
+fn linuxcnc_idioms() -> u32 {
+    digest_program(LINUXCNC_IDIOMS, &InterpConfig::default())
+}
+
 pub const VECTORS: &[Vector] = &[
     Vector {
         name: "gcode/arcs",
@@ -346,5 +361,10 @@ pub const VECTORS: &[Vector] = &[
         name: "gcode/transformed-arc",
         run: transformed_arc,
         expected: 0xb6d9_ee01,
+    },
+    Vector {
+        name: "gcode/linuxcnc-idioms",
+        run: linuxcnc_idioms,
+        expected: 0x3e73_e377,
     },
 ];

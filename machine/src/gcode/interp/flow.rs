@@ -15,6 +15,26 @@ impl Interpreter {
             .map_err(|(code, at)| (code, Some((at as u16, at as u16 + 1))))
     }
 
+    /// The label of a computed O-word number `o[expr]` (LinuxCNC's `read_integer_value`: a
+    /// whole number within 0.0001, not negative).
+    pub(super) fn resolve_label(&self, bytes: &[u8], o: &mut OLine) -> Res<()> {
+        let Some(at) = o.computed else {
+            return Ok(());
+        };
+        let mut c = Cursor::new(bytes, at as usize);
+        let v = expr::bracketed(&mut c, &self.reader(), 0)
+            .map_err(|(code, at)| (code, Some((at as u16, at as u16 + 1))))?;
+        let rounded = (v + ONE / 2).div_euclid(ONE);
+        if (v - rounded * ONE).abs() > ONE / 10_000 {
+            return Err((ErrorCode::NotAnInteger, Some(o.cols)));
+        }
+        if !(0..=u32::MAX as i64).contains(&rounded) {
+            return Err((ErrorCode::ValueOutOfRange, Some(o.cols)));
+        }
+        o.label = rounded as Label;
+        Ok(())
+    }
+
     pub(super) fn start_skip(&mut self, label: Label, to: SkipTo) -> Res<Parsed> {
         self.skip = Some(Skip { label, to });
         Ok(Parsed::Nothing)
@@ -34,11 +54,19 @@ impl Interpreter {
     /// A line read while skipping: `Ok(true)` to go on skipping (or the line ended the skip and
     /// is consumed), `Ok(false)` to interpret this line normally.
     pub(super) fn skip_line(&mut self, line: u32, bytes: &[u8]) -> Res<bool> {
-        let (Some(o), Some(skip)) = (oword::parse(bytes), self.skip) else {
+        let (Some(mut o), Some(skip)) = (oword::parse(bytes), self.skip) else {
             return Ok(true);
         };
+        // A computed number that cannot be evaluated here is not the label looked for.
+        if self.resolve_label(bytes, &mut o).is_err() {
+            return Ok(true);
+        }
         if o.label != skip.label {
             return Ok(true);
+        }
+        if skip.to == SkipTo::EndSub && matches!(o.keyword, Keyword::EndSub | Keyword::Return) {
+            // LinuxCNC evaluates the value of an `endsub`/`return` of a definition it skips.
+            self.returned = self.return_value(bytes, &o)?;
         }
         let done = match (skip.to, o.keyword) {
             (SkipTo::EndSub, Keyword::EndSub)
@@ -72,7 +100,7 @@ impl Interpreter {
                 self.remember_sub(o.label, line)?;
                 self.start_skip(o.label, SkipTo::EndSub)
             }
-            Keyword::EndSub | Keyword::Return => self.o_return(o),
+            Keyword::EndSub | Keyword::Return => self.o_return(line, bytes, o),
             Keyword::Call => self.o_call(line, bytes, o),
             Keyword::If => {
                 if self.o_value(bytes, &o)? != 0 {
@@ -137,8 +165,11 @@ impl Interpreter {
     /// `o.. endsub` / `o.. return`: back to the caller of the `o.. call` on top (its #1-#30
     /// and loops restored); refused when no call of this label is open.
     #[inline(always)]
-    fn o_return(&mut self, o: OLine) -> Res<Parsed> {
+    fn o_return(&mut self, line: u32, bytes: &[u8], o: OLine) -> Res<Parsed> {
         let unbalanced = Err((ErrorCode::UnbalancedBlock, Some(o.cols)));
+        // Read with the subroutine's parameters, before the caller's come back.
+        let value = self.return_value(bytes, &o)?;
+        let level = self.call_level();
         let Some(call) = self.ocalls.pop() else {
             return unbalanced;
         };
@@ -150,7 +181,20 @@ impl Interpreter {
             .map_err(|c| (c, None))?;
         self.params.drop_locals_above(self.ocalls.len() as u8);
         self.loops.truncate(call.loops as usize);
+        self.returned = value;
+        self.leave_level(level, line)?;
         Ok(Parsed::Jump(call.return_line))
+    }
+
+    /// The optional value of `o… endsub [v]` / `o… return [v]` (`None` without one).
+    fn return_value(&self, bytes: &[u8], o: &OLine) -> Res<Option<Fx>> {
+        let mut c = Cursor::new(bytes, o.rest);
+        if c.peek() != Some(b'[') {
+            return Ok(None);
+        }
+        expr::bracketed(&mut c, &self.reader(), 0)
+            .map(Some)
+            .map_err(|(code, at)| (code, Some((at as u16, at as u16 + 1))))
     }
 
     /// `o.. call [a] [b]...`: the arguments become #1-#30 (the caller's saved), then on to
@@ -291,6 +335,7 @@ impl Interpreter {
                 self.stack.clear();
                 self.macros.clear();
                 self.clear_control();
+                self.contexts.clear();
                 self.finished = true;
             }
             98 | 99 => {
@@ -309,6 +354,7 @@ impl Interpreter {
                 self.call(line, code.cols, src, call_p, call_l, false)?;
             }
             99 => {
+                let level = self.call_level();
                 let result = match self.stack.last_mut() {
                     Some(top) if top.remaining > 1 => {
                         top.remaining -= 1;
@@ -328,6 +374,7 @@ impl Interpreter {
                                     .map_err(|c| (c, Some(code.cols)))?;
                             }
                         }
+                        self.leave_level(level, line)?;
                         src.jump_to_line(frame.return_line)
                     }
                     None => {

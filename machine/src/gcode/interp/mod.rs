@@ -27,6 +27,7 @@ use super::lexer::{Lexer, LineStart, Word, MICRO};
 use super::oword::{self, Keyword, Label, OLine};
 use super::params::{Params, LOCALS};
 use super::source::{ProgramSource, SourceError};
+use super::spline::SplineRun;
 use super::state::{CycleMemory, ModalState, MotionMode, Rollback};
 use super::transform::ONE as FACTOR_ONE;
 use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, ProbeMode, Spindle, StopKind};
@@ -171,22 +172,48 @@ struct Reader<'a> {
     state: &'a ModalState,
     /// Inside a G65 macro: an unset local #1-#33 reads as vacant (Fanuc) instead of 0.
     in_macro: bool,
+    /// What the last `endsub`/`return` gave back (`#<_value>`, `#<_value_returned>`).
+    returned: Option<Fx>,
+    /// Lines being skipped: an unset named parameter reads 0 (LinuxCNC evaluates the `endsub`
+    /// value of a definition it skips, and an unset name there is no error).
+    skipping: bool,
+}
+
+/// `#<_value>`: the value the last `o… endsub [v]` / `o… return [v]` gave back (0 without one).
+const VALUE: ParamRef = ParamRef::Named {
+    hash: expr::name_hash(b"_value"),
+    global: true,
+};
+/// `#<_value_returned>`: 1 if the last `endsub`/`return` gave a value back, else 0.
+const VALUE_RETURNED: ParamRef = ParamRef::Named {
+    hash: expr::name_hash(b"_value_returned"),
+    global: true,
+};
+
+/// True for the read-only named parameters the interpreter defines (LinuxCNC's).
+fn read_only(p: ParamRef) -> bool {
+    p == VALUE || p == VALUE_RETURNED
 }
 
 impl ParamRead for Reader<'_> {
     fn read(&self, p: ParamRef) -> Result<Fx, ErrorCode> {
         match p {
+            VALUE => Ok(self.returned.unwrap_or(0)),
+            VALUE_RETURNED => Ok(if self.returned.is_some() { ONE } else { 0 }),
             ParamRef::Numbered(0) => Ok(expr::VACANT),
             ParamRef::Numbered(n)
                 if self.in_macro && (1..=LOCALS as u16).contains(&n) && !self.params.is_set(n) =>
             {
                 Ok(expr::VACANT)
             }
-            _ => self.params.read(p, self.level, self.state),
+            _ => match self.params.read(p, self.level, self.state) {
+                Err(ErrorCode::UndefinedParameter) if self.skipping => Ok(0),
+                r => r,
+            },
         }
     }
     fn exists(&self, p: ParamRef) -> bool {
-        self.params.exists(p, self.level)
+        read_only(p) || self.params.exists(p, self.level)
     }
 }
 
@@ -268,6 +295,10 @@ pub struct Interpreter {
     state: ModalState,
     queue: ActionQueue,
     cycle: Option<CycleRun>,
+    /// A G5/G5.1 spline being made into arcs, one piece a step (`spline.rs`).
+    spline: Option<SplineRun>,
+    /// The I, J a G5 without them takes: −P, −Q of the G5 before.
+    spline_next_ij: Option<(Nm, Nm)>,
     post: Post,
     stack: heapless::Vec<Frame, MAX_NESTING>,
     /// The locals of every G65 caller on `stack`, innermost last.
@@ -288,6 +319,10 @@ pub struct Interpreter {
     subs: heapless::Vec<(Label, u32), MAX_SUBS>,
     /// The current line was rewritten by parameter substitution (its columns no longer apply).
     expanded_line: bool,
+    /// What the last `endsub`/`return` gave back (`#<_value>`), `None` without a value.
+    returned: Option<Fx>,
+    /// Modal states saved by M70/M73, one a call level (`context.rs`).
+    contexts: heapless::Vec<context::Context, { context::MAX_CONTEXTS }>,
     /// Cutter radius compensation and the moves it holds back (`comp.rs`).
     comp: Comp,
 }
@@ -295,10 +330,11 @@ pub struct Interpreter {
 /// Most subprogram jumps without an action before the program is declared an endless loop.
 pub const MAX_JUMPS_WITHOUT_ACTION: u32 = 10_000;
 
-/// 11,600 B (measured): 10,360 B with the G65 locals stack of 4 levels × 33 values, and
-/// 1,240 B for cutter compensation's look-ahead (`comp.rs`: up to 6 actions held back until
-/// the next move decides the corner), hence 12 KiB.
-const _: () = assert!(core::mem::size_of::<Interpreter>() <= 12 * 1024);
+/// 12,864 B (measured): 10,360 B with the G65 locals stack of 4 levels × 33 values, 1,240 B
+/// for cutter compensation's look-ahead (`comp.rs`: up to 6 actions held back until the next
+/// move decides the corner) and 936 B for the modal states M70/M73 save (`context.rs`: 9
+/// levels × 104 B), hence 13 KiB.
+const _: () = assert!(core::mem::size_of::<Interpreter>() <= 13 * 1024);
 
 type Res<T> = Result<T, BlockError>;
 
@@ -314,6 +350,8 @@ impl Interpreter {
             state: ModalState::new(config),
             queue: ActionQueue::new(),
             cycle: None,
+            spline: None,
+            spline_next_ij: None,
             post: Post::None,
             stack: heapless::Vec::new(),
             macros: heapless::Vec::new(),
@@ -328,6 +366,8 @@ impl Interpreter {
             ocalls: heapless::Vec::new(),
             subs: heapless::Vec::new(),
             expanded_line: false,
+            returned: None,
+            contexts: heapless::Vec::new(),
             comp: Comp::new(),
         }
     }
@@ -364,7 +404,11 @@ impl Interpreter {
 
     /// True once M2/M30, the closing `%`, `E` or the end of the file was reached.
     pub fn is_finished(&self) -> bool {
-        self.finished && self.queue.is_empty() && self.cycle.is_none() && self.post == Post::None
+        self.finished
+            && self.queue.is_empty()
+            && self.cycle.is_none()
+            && self.spline.is_none()
+            && self.post == Post::None
     }
 
     /// How many times M99 in the main program restarted it.
@@ -381,6 +425,7 @@ impl Interpreter {
     pub fn rewind(&mut self) {
         self.queue.clear();
         self.cycle = None;
+        self.spline = None;
         self.post = Post::None;
         self.stack.clear();
         self.macros.clear();
@@ -477,6 +522,17 @@ impl Interpreter {
             });
             if !more {
                 self.cycle = None;
+            }
+            return Some(ANOTHER_STEP);
+        }
+        if let Some(run) = self.spline.as_mut() {
+            let queue = &mut self.queue;
+            // At most three actions a step; the queue is empty when a step starts.
+            let more = run.step(&mut |c| {
+                let _ = queue.push_back(c);
+            });
+            if !more {
+                self.spline = None;
             }
             return Some(ANOTHER_STEP);
         }
@@ -634,6 +690,7 @@ impl Interpreter {
         self.finished = saved_finished || code == ErrorCode::EndlessLoop;
         self.queue.clear();
         self.cycle = None;
+        self.spline = None;
         self.post = Post::None;
         ControlFlow::Break(Some(GcodeError {
             line,
@@ -756,7 +813,9 @@ impl Interpreter {
                 .iter()
                 .any(|&c| matches!(c, b'O' | b'o' | b'E' | b'e' | b'['));
         let o_line = if control { oword::parse(bytes) } else { None };
-        if let Some(o) = o_line {
+        if let Some(mut o) = o_line {
+            self.resolve_label(bytes, &mut o)
+                .map_err(|e| (n_word(), e))?;
             if o.keyword != Keyword::IfThen {
                 return self.control(line, bytes, o).map_err(|e| (n_word(), e));
             }
@@ -796,7 +855,9 @@ impl Interpreter {
         }
         let level = self.ocalls.len() as u8;
         for &(p, v, at) in &assignments {
-            let done = if v == expr::VACANT {
+            let done = if read_only(p) {
+                Err(ErrorCode::ParameterNumberInvalid)
+            } else if v == expr::VACANT {
                 self.params.make_vacant(p)
             } else {
                 self.params.write(p, v, level, &mut self.state)
@@ -816,6 +877,8 @@ impl Interpreter {
             level: self.ocalls.len() as u8,
             state: &self.state,
             in_macro: !self.macros.is_empty(),
+            returned: self.returned,
+            skipping: self.skip.is_some(),
         }
     }
 
@@ -1150,6 +1213,7 @@ impl Interpreter {
             let (state, rpm) = (self.state.spindle, self.state.rpm);
             self.push(line, Action::Spindle { state, rpm })?;
         }
+        self.modal_context(b, line)?;
         if b.m.iter().any(|(g, _)| *g == MGroup::Coolant) {
             if b.has_m(9) {
                 self.state.mist = false;
@@ -1549,6 +1613,7 @@ fn decode_motion(code: u16) -> MotionMode {
         G3 => MotionMode::ArcCcw,
         G80 => MotionMode::None,
         G38_2 | G38_3 | G38_4 | G38_5 => MotionMode::Probe(code),
+        G5 | G5_1 => MotionMode::Spline(code),
         c => MotionMode::Cycle(c),
     }
 }
@@ -1570,6 +1635,7 @@ struct Prelude {
     f_given: bool,
 }
 
+mod context;
 mod cycle;
 mod flow;
 mod moves;

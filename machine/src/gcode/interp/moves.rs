@@ -446,6 +446,7 @@ impl Interpreter {
             MotionMode::ArcCw | MotionMode::ArcCcw => {
                 self.arc(b, line, mode == MotionMode::ArcCw, f_given)?;
             }
+            MotionMode::Spline(code) => self.spline(b, line, code)?,
             MotionMode::Probe(code) => {
                 // LinuxCNC refuses probing under cutter compensation too.
                 self.refuse_under_comp(b.g_cols(code))?;
@@ -494,6 +495,67 @@ impl Interpreter {
     /// place, [`Interpreter::set_transforms`]), so going through the pipeline would rapid to it.
     fn stays_under_transform(&self, b: &Block, g53: bool) -> bool {
         !g53 && self.state.xf.active() && !b.has_any(AXIS_WORDS)
+    }
+
+    /// G5 cubic (`I J` from the start, `P Q` from the end to the control points) and G5.1
+    /// quadratic (`I J` from the start) splines, as LinuxCNC's `convert_spline`: XY plane only,
+    /// not under cutter compensation, transforms or G93; X and Y only. A G5 without I and J
+    /// continues the G5 before it smoothly (its −P, −Q).
+    #[inline(never)]
+    pub(super) fn spline(&mut self, b: &mut Block, line: u32, code: u16) -> Res<()> {
+        let cols = b.g_cols(code);
+        if self.gixa() {
+            return Err((ErrorCode::UnknownGCode, cols));
+        }
+        self.refuse_under_comp(cols)?;
+        let xf = &self.state.xf;
+        if self.state.plane != Plane::XY || xf.active() || xf.polar || self.state.inverse_time {
+            return Err((ErrorCode::NotSupported, cols));
+        }
+        for letter in [b'Z', b'A', b'B', b'C', b'@', b'^'] {
+            if let Some(w) = b.word(letter) {
+                return err(ErrorCode::NotSupported, Some(w));
+            }
+        }
+        if self.state.feed == 0 {
+            return err(ErrorCode::ZeroFeedRate, None);
+        }
+        let missing = Err((ErrorCode::SplineWordMissing, cols));
+        let (i, j) = (b.take(b'I'), b.take(b'J'));
+        let cubic = code == G5;
+        let (p, q) = if cubic {
+            (b.take(b'P'), b.take(b'Q'))
+        } else {
+            (None, None)
+        };
+        let start = self.state.position;
+        let mut to = start;
+        self.target(b, false, &mut to)?;
+        let first = match (i, j) {
+            (Some(i), Some(j)) => (self.len_word(i)?, self.len_word(j)?),
+            (None, None) if cubic => match self.spline_next_ij {
+                Some(ij) => ij,
+                None => return missing,
+            },
+            _ => return missing,
+        };
+        let c1 = (start[0] + first.0, start[1] + first.1);
+        let feed = self.len(self.state.feed);
+        let end = (to[0], to[1]);
+        let run = if cubic {
+            let (Some(p), Some(q)) = (p, q) else {
+                return missing;
+            };
+            let (p, q) = (self.len_word(p)?, self.len_word(q)?);
+            self.spline_next_ij = Some((-p, -q));
+            let c2 = (end.0 + p, end.1 + q);
+            SplineRun::new(line, start, &[c1, c2], end, feed, self.state.inch)
+        } else {
+            SplineRun::new(line, start, &[c1], end, feed, self.state.inch)
+        };
+        self.spline = Some(run);
+        self.state.position = to;
+        Ok(())
     }
 
     #[inline(never)]
