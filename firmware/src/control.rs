@@ -129,9 +129,12 @@ impl BoardPort for Port {
         let o = &mut self.io.outputs;
         o.spindle_enable.set_level(level(l.spindle_enable));
         o.spindle_dir.set_level(level(l.spindle_ccw));
-        let max = u32::from(pwm_max.max(1));
-        o.spindle_pwm
-            .set_duty_cycle_fraction(u32::from(l.spindle_pwm).min(max), max);
+        if !l.laser {
+            // In laser mode the step interrupt owns the compare register (`step::write_power`).
+            let max = u32::from(pwm_max.max(1));
+            o.spindle_pwm
+                .set_duty_cycle_fraction(u32::from(l.spindle_pwm).min(max), max);
+        }
         o.coolant_flood.set_level(level(l.flood));
         o.coolant_mist.set_level(level(l.mist));
         // Active low.

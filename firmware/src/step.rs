@@ -227,6 +227,7 @@ pub fn snapshot() -> KernelSnapshot {
         drained: true,
         stopped: false,
         dry_runs: 0,
+        laser_duty: 0,
     })
 }
 

@@ -65,6 +65,8 @@ pub struct PinEvent {
     pub inputs: u32,
     /// User output pins (bit n = output n), switched before this event's steps.
     pub outputs: u16,
+    /// Laser PWM duty (compare counts of `pwm_max`), switched before this event's steps.
+    pub pwm: u16,
     /// Timer counts of the period this update starts (0: a main-loop event).
     pub period: u32,
 }
@@ -251,6 +253,8 @@ pub struct Hardware {
     tool: u32,
     /// User output pins at the last pin event.
     last_outputs: u16,
+    /// Laser PWM duty at the last pin event.
+    last_pwm: u16,
     /// Input polarity the hardware was given (the firmware's `INVERT`): from the setup at
     /// power-up and with every setup the host pushes.
     invert: u32,
@@ -392,6 +396,7 @@ impl EmulatedBoard {
             tool_lengths: Vec::new(),
             tool: 0,
             last_outputs: 0,
+            last_pwm: 0,
             phys_offset: [0; MAX_AXES],
             arm: 0,
             switch_stop: false,
@@ -870,6 +875,7 @@ impl Hardware {
     fn on_update(&mut self, step: u8, period: u32) {
         let dir = self.clock.regs.dir_pins;
         let outputs = self.clock.regs.outputs;
+        let pwm = self.clock.regs.pwm;
         if step != 0 {
             for (axis, (p, pulses)) in self.pin_steps.iter_mut().zip(&mut self.pulses).enumerate() {
                 if step >> axis & 1 != 0 {
@@ -897,7 +903,8 @@ impl Hardware {
                 self.switch_stop = self.logical_pins() & self.arm & LIMIT_BITS != 0;
             }
         }
-        if step != 0 || dir != self.last_dir || outputs != self.last_outputs {
+        if step != 0 || dir != self.last_dir || outputs != self.last_outputs || pwm != self.last_pwm
+        {
             if let Some(f) = self.observer.as_mut() {
                 f(PinEvent {
                     time: self.now,
@@ -905,11 +912,13 @@ impl Hardware {
                     dir,
                     inputs: self.inputs,
                     outputs,
+                    pwm,
                     period,
                 });
             }
             self.last_dir = dir;
             self.last_outputs = outputs;
+            self.last_pwm = pwm;
         }
     }
 
@@ -923,6 +932,7 @@ impl Hardware {
                 dir: self.last_dir,
                 inputs: self.inputs,
                 outputs: word,
+                pwm: self.last_pwm,
                 period: 0,
             });
         }
@@ -974,6 +984,7 @@ impl BoardPort for Hardware {
                     dir: self.last_dir,
                     inputs: levels.0,
                     outputs: self.last_outputs,
+                    pwm: self.last_pwm,
                     period: 0,
                 });
             }

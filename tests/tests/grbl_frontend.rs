@@ -353,9 +353,16 @@ fn dollar_commands_report_and_write_the_setup() {
     s.answer(b"$100=800\n", 100);
     let a = &s.eb.board.setup().axes[0];
     assert_eq!(a.steps as i64 * MM / a.units_nm, 800);
-    s.send(b"$32=1\n$999=1\n$100=abc\n");
+    s.send(b"$32=2\n$999=1\n$100=abc\n");
     s.run(50);
-    s.assert_seen("error:17\r\nerror:3\r\nerror:2\r\n");
+    s.assert_seen("error:3\r\nerror:3\r\nerror:2\r\n");
+    s.seen.clear();
+    s.answer(b"$32=1\n", 100);
+    assert!(s.eb.board.setup().outputs.laser, "$32=1 sets laser mode");
+    let seen = s.answer(b"$$\n", 100);
+    assert!(seen.contains("$32=1\r\n"), "{seen:?}");
+    s.answer(b"$32=0\n", 100);
+    assert!(!s.eb.board.setup().outputs.laser);
     s.seen.clear();
     s.send(b"G10 L2 P1 X3 Y4\n$#\n");
     let seen = s.until("[PRB:", 500);

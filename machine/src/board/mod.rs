@@ -1111,9 +1111,23 @@ impl Board {
                 self.executing
                     .note(at_rest, seq, canon.line, self.interp.state());
             }
-            let pushed = match self.on_the_fly(&canon) {
-                Some((code, output)) => self.motion.push_output(canon.line, code, output),
-                None => self.motion.push(&canon),
+            let pushed = match (self.on_the_fly(&canon), canon.action) {
+                (Some((code, output)), _) => self.motion.push_output(canon.line, code, output),
+                (None, Action::Spindle { state, rpm }) if self.setup.outputs.laser => {
+                    // Laser mode: no sync point; the power rides on the moves after it
+                    // (docs/laser-plasma.md), and the status shows the modal state at once, as
+                    // grbl's does. A dry run never fires the beam.
+                    if self.overrides.switches.dry_run {
+                        Ok(())
+                    } else {
+                        let pushed = self.motion.push_program(&canon);
+                        if pushed.is_ok() {
+                            self.outputs.set_spindle(state, rpm);
+                        }
+                        pushed
+                    }
+                }
+                (None, _) => self.motion.push_program(&canon),
             };
             match pushed {
                 Ok(()) => {}

@@ -94,6 +94,7 @@ fn kernel_bresenham() -> u32 {
             period: 2400,
             dir: 0b10,
             output: OutputEvent::NONE,
+            power: super::laser::KEEP_DUTY,
         },
         Segment {
             steps: [4, 3, 1, 2, 0, 0],
@@ -101,6 +102,7 @@ fn kernel_bresenham() -> u32 {
             period: 750,
             dir: 0b0101,
             output: OutputEvent::NONE,
+            power: super::laser::KEEP_DUTY,
         },
         Segment::idle(3, 1000),
         Segment {
@@ -109,6 +111,7 @@ fn kernel_bresenham() -> u32 {
             period: 300,
             dir: 0b11_1111,
             output: OutputEvent::NONE,
+            power: super::laser::KEEP_DUTY,
         },
     ];
     let mut src = Fixed(&segs, 0);
