@@ -701,6 +701,11 @@ impl Hardware {
         self.clock.regs.outputs
     }
 
+    /// Laser PWM duty on the pin now (compare counts; laser mode).
+    pub fn laser_pwm(&self) -> u16 {
+        self.clock.regs.pwm
+    }
+
     /// Logical levels of the modelled switches now, and the bits they own.
     fn switch_levels(&self) -> (u32, u32) {
         let p = self.physical();

@@ -35,7 +35,7 @@ pub use messages::{
 /// Protocol version exchanged in the handshake: major in the high byte, minor
 /// in the low byte. Endpoints connect only when the majors are equal (see
 /// `docs/protocol.md`, version policy).
-pub const PROTOCOL_VERSION: u16 = 0x0500;
+pub const PROTOCOL_VERSION: u16 = 0x0600;
 
 /// True when two protocol versions can talk (same major).
 pub const fn versions_compatible(a: u16, b: u16) -> bool {
