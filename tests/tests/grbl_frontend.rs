@@ -1555,3 +1555,35 @@ fn m6_stops_by_default_and_answers_error_20_when_the_setting_says_so() {
     assert_eq!(s.ends_idle(5_000)[0], 2 * STEPS_PER_MM);
     assert_eq!(s.eb.board.outputs().tool, 0);
 }
+
+#[test]
+fn in_laser_mode_fs_reports_the_power_the_beam_fires_at_none_in_g0_or_at_rest() {
+    let mut s = Sender::connected();
+    for set in [&b"$32=1\n"[..], b"$30=1000\n", b"$31=0\n"] {
+        s.answer(set, 100);
+    }
+    s.answer(b"G21 G90 M4 S800\n", 100);
+    // A G0 with the beam modal on: it runs at the rapid rate with the beam off (`A:C` says M4).
+    s.send(b"G0 X30\n");
+    s.until_state_name("<Run", 2_000);
+    s.run(300);
+    let mut seen = Vec::new();
+    for _ in 0..10 {
+        seen.push(s.status());
+        s.run(20);
+    }
+    assert!(seen.iter().all(|st| st.contains("|FS:3000,0")), "{seen:?}");
+    assert!(seen.iter().any(|st| st.contains("|A:C")), "{seen:?}");
+    s.ends_idle(5_000);
+    // A G1 at cruise fires at S (M4: S × speed ÷ F, full S at F).
+    s.send(b"G1 X60 F3000\n");
+    s.until_state_name("<Run", 2_000);
+    s.run(300);
+    let st = s.status();
+    assert!(st.contains("|FS:3000,800"), "{st}");
+    s.ends_idle(5_000);
+    s.run(50);
+    let st = s.status();
+    assert!(st.contains("|FS:0,0"), "at rest the beam is off: {st}");
+    assert!(s.answer(b"$$\n", 100).contains("$32=1\r\n"));
+}
