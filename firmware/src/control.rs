@@ -129,8 +129,11 @@ impl BoardPort for Port {
         let o = &mut self.io.outputs;
         o.spindle_enable.set_level(level(l.spindle_enable));
         o.spindle_dir.set_level(level(l.spindle_ccw));
-        if !l.laser {
-            // In laser mode the step interrupt owns the compare register (`step::write_power`).
+        if l.laser {
+            // The step interrupt owns the compare register (`step.rs` `write_power`); the
+            // period is `pwm_max` counts so a duty count is a compare count.
+            crate::pin_table::spindle_pwm_period(pwm_max);
+        } else {
             let max = u32::from(pwm_max.max(1));
             o.spindle_pwm
                 .set_duty_cycle_fraction(u32::from(l.spindle_pwm).min(max), max);
