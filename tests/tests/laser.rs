@@ -256,3 +256,27 @@ fn a_machine_without_laser_mode_never_touches_the_pwm_from_the_step_interrupt() 
     assert!(events.borrow().iter().all(|e| e.pwm == 0));
     assert_eq!(eb.board.output_levels().laser, false);
 }
+
+#[test]
+fn the_spindle_override_scales_the_laser_power_within_the_s_range() {
+    for (pct, duty) in [(50, 250), (150, 750), (200, 1000)] {
+        let mut eb = board(laser);
+        let events = record(&mut eb);
+        eb.board.set_spindle_override(pct);
+        job(&mut eb, "G21 G90\nM3 S500\nG1 X5 F1200\nM3 S800\nG1 X10\nM2\n");
+        until_state(&mut eb, State::Idle, 20_000);
+        let st: Vec<(u16, i64)> = stretches(&events.borrow())
+            .iter()
+            .map(|s| (s.duty, s.steps))
+            .filter(|(_, n)| *n > 0)
+            .collect();
+        // S800 at 150 % and 200 %: the top of the S range.
+        let second = (800 * u32::from(pct) / 100).min(1000) as u16;
+        let expected = if second == duty {
+            vec![(duty, 10 * STEPS_PER_MM)]
+        } else {
+            vec![(duty, 5 * STEPS_PER_MM), (second, 5 * STEPS_PER_MM)]
+        };
+        assert_eq!(st, expected, "{pct} %");
+    }
+}

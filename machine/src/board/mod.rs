@@ -926,6 +926,8 @@ impl Board {
 
     /// The next step segment for the kernel's queue.
     pub fn next_segment(&mut self) -> Option<Segment> {
+        // Laser mode: the spindle override scales the power of the segments prepared from now.
+        self.motion.set_laser_override(self.overrides.spindle());
         let seg = self.motion.next_segment();
         while let Some(report) = self.motion.take_report() {
             self.progress.line = report.line;

@@ -27,6 +27,17 @@ pub enum LaserPower {
 }
 
 impl LaserPower {
+    /// S scaled by the spindle override `pct` (percent).
+    pub fn scaled(self, pct: u16) -> LaserPower {
+        let scale = |rpm: u32| (u64::from(rpm) * u64::from(pct) / 100).min(u64::from(u32::MAX)) as u32;
+        match self {
+            _ if pct == 100 => self,
+            LaserPower::Constant { rpm } => LaserPower::Constant { rpm: scale(rpm) },
+            LaserPower::Dynamic { rpm } => LaserPower::Dynamic { rpm: scale(rpm) },
+            other => other,
+        }
+    }
+
     /// The power of a program's feed move under spindle state `state` and speed `rpm`.
     pub const fn of(state: Spindle, rpm: u32) -> LaserPower {
         match state {

@@ -982,6 +982,13 @@ impl<const N: usize> Motion<N> {
         self.reset(steps);
     }
 
+    /// Laser mode: the spindle override, percent, that scales S in the segments prepared from
+    /// now on (docs/laser-plasma.md).
+    #[inline(always)]
+    pub fn set_laser_override(&mut self, pct: u16) {
+        self.prep.laser_override = pct;
+    }
+
     /// Feed override in percent (clamped to 10-200), applied at once.
     pub fn set_feed_override(&mut self, pct: u16) {
         let rapid = self.planner.rapid_override();

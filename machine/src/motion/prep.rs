@@ -131,6 +131,8 @@ pub struct Prep {
     history: History,
     /// Laser mode's S → duty map (`None`: segments leave the PWM alone).
     laser: Option<PwmMap>,
+    /// The spindle override, percent, scaling S in laser mode.
+    pub laser_override: u16,
 }
 
 impl Default for Prep {
@@ -172,15 +174,17 @@ impl Prep {
             finished: None,
             history: History::new(),
             laser: None,
+            laser_override: 100,
         }
     }
 
     /// Forgets the head block (after an abort); the step position and the laser map stay.
     pub fn reset(&mut self) {
-        let (position, laser) = (self.position, self.laser);
+        let (position, laser, pct) = (self.position, self.laser, self.laser_override);
         *self = Prep::new();
         self.position = position;
         self.laser = laser;
+        self.laser_override = pct;
     }
 
     /// A new prep for a machine with laser map `laser` (`None`: not a laser machine).
@@ -589,7 +593,7 @@ impl Prep {
             None => KEEP_DUTY,
             // The segment's average speed: its path length over its duration.
             Some(map) => map.segment_duty(
-                b.laser,
+                b.laser.scaled(self.laser_override),
                 mul_div(s - self.s_now, KERNEL_TIMER_HZ as u64, duration.max(1)),
                 b.programmed,
             ),
