@@ -138,8 +138,10 @@ fn m4_duty_is_s_times_speed_over_f_at_every_segment_across_a_corner_and_a_hold()
     // A hold half way up the Y leg, held at rest for 300 ms, then cycle start.
     assert!(eb.run_until(20_000, |b| steps(b)[1] >= 25 * STEPS_PER_MM));
     eb.board.feed_hold();
-    assert!(eb.run_until(2_000, |b| b.board.motion().state() == MotionState::Held
-        && b.isr.snapshot().drained));
+    assert!(
+        eb.run_until(2_000, |b| b.board.motion().state() == MotionState::Held
+            && b.isr.snapshot().drained)
+    );
     let held_at = eb.now();
     eb.run_ms(300);
     assert_eq!(eb.laser_pwm(), 0, "the beam is off in a hold at rest");
@@ -234,7 +236,8 @@ fn s_changes_do_not_stop_the_motion_it_runs_in_its_planned_time() {
     let mut eb = board(laser);
     job(&mut eb, &p);
     let start = eb.now();
-    assert!(eb.run_until(60_000, |b| b.board.state() == State::Idle && !b.isr.kernel.is_busy()));
+    assert!(eb.run_until(60_000, |b| b.board.state() == State::Idle
+        && !b.isr.kernel.is_busy()));
     let took = (eb.now() - start) as f64 / KERNEL_TIMER_HZ as f64;
     assert!(planned < 5.3, "planned {planned:.3} s");
     assert!(
@@ -263,7 +266,10 @@ fn the_spindle_override_scales_the_laser_power_within_the_s_range() {
         let mut eb = board(laser);
         let events = record(&mut eb);
         eb.board.set_spindle_override(pct);
-        job(&mut eb, "G21 G90\nM3 S500\nG1 X5 F1200\nM3 S800\nG1 X10\nM2\n");
+        job(
+            &mut eb,
+            "G21 G90\nM3 S500\nG1 X5 F1200\nM3 S800\nG1 X10\nM2\n",
+        );
         until_state(&mut eb, State::Idle, 20_000);
         let st: Vec<(u16, i64)> = stretches(&events.borrow())
             .iter()

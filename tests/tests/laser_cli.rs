@@ -27,7 +27,10 @@ fn raster_200() -> String {
 
 /// A number after `key` in `text` (`total time: 5.123 s` → 5.123).
 fn number_after(text: &str, key: &str) -> f64 {
-    let at = text.find(key).unwrap_or_else(|| panic!("no {key:?} in {text}")) + key.len();
+    let at = text
+        .find(key)
+        .unwrap_or_else(|| panic!("no {key:?} in {text}"))
+        + key.len();
     text[at..]
         .split_whitespace()
         .next()
@@ -41,7 +44,12 @@ fn a_varying_s_raster_under_m4_streams_in_its_planned_time_and_the_status_shows_
     let setup = dir.file("laser.toml", LASER_SETUP);
     let job = dir.file("raster.nc", &raster_200());
     let planned = gantry(
-        &["simulate", job.to_str().unwrap(), "--setup", setup.to_str().unwrap()],
+        &[
+            "simulate",
+            job.to_str().unwrap(),
+            "--setup",
+            setup.to_str().unwrap(),
+        ],
         60 * S,
     );
     assert_eq!(planned.code, Some(0), "{planned:?}");
@@ -121,7 +129,10 @@ fn the_vcd_records_the_pwm_duty_per_segment_as_s_times_speed_over_f_and_zero_in_
         let ((from, duty), (to, _)) = (w[0], w[1]);
         st.push(Stretch {
             duty,
-            at: (xs.partition_point(|&t| t < from), ys.partition_point(|&t| t < from)),
+            at: (
+                xs.partition_point(|&t| t < from),
+                ys.partition_point(|&t| t < from),
+            ),
             steps: count(xs, from, to) + count(ys, from, to),
             from,
             to,
@@ -132,7 +143,11 @@ fn the_vcd_records_the_pwm_duty_per_segment_as_s_times_speed_over_f_and_zero_in_
         if y == 0 && x < 1280 {
             return None;
         }
-        let k = if y == 0 { (x - 1280) / 320 } else { 100 + y / 320 };
+        let k = if y == 0 {
+            (x - 1280) / 320
+        } else {
+            100 + y / 320
+        };
         (k < 200).then_some(k)
     };
     let nm_per_step = 5_000_000.0 / 3200.0;

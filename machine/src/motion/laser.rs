@@ -29,7 +29,8 @@ pub enum LaserPower {
 impl LaserPower {
     /// S scaled by the spindle override `pct` (percent).
     pub fn scaled(self, pct: u16) -> LaserPower {
-        let scale = |rpm: u32| (u64::from(rpm) * u64::from(pct) / 100).min(u64::from(u32::MAX)) as u32;
+        let scale =
+            |rpm: u32| (u64::from(rpm) * u64::from(pct) / 100).min(u64::from(u32::MAX)) as u32;
         match self {
             _ if pct == 100 => self,
             LaserPower::Constant { rpm } => LaserPower::Constant { rpm: scale(rpm) },
@@ -117,7 +118,10 @@ mod tests {
         assert_eq!(MAP.segment_duty(m4, 0, 100_000), 0);
         assert_eq!(MAP.segment_duty(m3, 1, 100_000), 800);
         assert_eq!(MAP.segment_duty(LaserPower::Off, 100_000, 100_000), 0);
-        assert_eq!(MAP.segment_duty(LaserPower::Keep, 100_000, 100_000), KEEP_DUTY);
+        assert_eq!(
+            MAP.segment_duty(LaserPower::Keep, 100_000, 100_000),
+            KEEP_DUTY
+        );
         assert_eq!(LaserPower::of(Spindle::Ccw, 0), LaserPower::Off);
         assert_eq!(LaserPower::of(Spindle::Off, 500), LaserPower::Off);
     }
