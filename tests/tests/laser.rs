@@ -257,7 +257,7 @@ fn a_machine_without_laser_mode_never_touches_the_pwm_from_the_step_interrupt() 
     job(&mut eb, "G21 G90\nM4 S800\nG1 X5 F1200\nG0 X0\nM5\nM2\n");
     until_state(&mut eb, State::Idle, 20_000);
     assert!(events.borrow().iter().all(|e| e.pwm == 0));
-    assert_eq!(eb.board.output_levels().laser, false);
+    assert!(!eb.board.output_levels().laser);
 }
 
 #[test]
