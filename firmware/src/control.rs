@@ -129,9 +129,15 @@ impl BoardPort for Port {
         let o = &mut self.io.outputs;
         o.spindle_enable.set_level(level(l.spindle_enable));
         o.spindle_dir.set_level(level(l.spindle_ccw));
-        let max = u32::from(pwm_max.max(1));
-        o.spindle_pwm
-            .set_duty_cycle_fraction(u32::from(l.spindle_pwm).min(max), max);
+        if l.laser {
+            // The step interrupt owns the compare register (`step.rs` `write_power`); the
+            // period is `pwm_max` counts so a duty count is a compare count.
+            crate::pin_table::spindle_pwm_period(pwm_max);
+        } else {
+            let max = u32::from(pwm_max.max(1));
+            o.spindle_pwm
+                .set_duty_cycle_fraction(u32::from(l.spindle_pwm).min(max), max);
+        }
         o.coolant_flood.set_level(level(l.flood));
         o.coolant_mist.set_level(level(l.mist));
         // Active low.

@@ -151,6 +151,35 @@ macro_rules! spindle_pwm {
     };
 }
 
+/// The spindle PWM's timer registers and channel index from the board table's channel token
+/// (laser mode: the step interrupt writes the compare register itself).
+macro_rules! spindle_timer {
+    (TIM1_CH1) => {
+        (embassy_stm32::pac::TIM1, 0usize)
+    };
+    (TIM1_CH2) => {
+        (embassy_stm32::pac::TIM1, 1usize)
+    };
+    (TIM1_CH3) => {
+        (embassy_stm32::pac::TIM1, 2usize)
+    };
+    (TIM1_CH4) => {
+        (embassy_stm32::pac::TIM1, 3usize)
+    };
+    (TIM3_CH1) => {
+        (embassy_stm32::pac::TIM3, 0usize)
+    };
+    (TIM3_CH2) => {
+        (embassy_stm32::pac::TIM3, 1usize)
+    };
+    (TIM3_CH3) => {
+        (embassy_stm32::pac::TIM3, 2usize)
+    };
+    (TIM3_CH4) => {
+        (embassy_stm32::pac::TIM3, 3usize)
+    };
+}
+
 /// Spindle PWM frequency (VFD 0-10 V converters and laser drivers take 1 kHz).
 pub const SPINDLE_PWM_HZ: u32 = 1_000;
 
@@ -221,6 +250,35 @@ macro_rules! expand_board {
             $crate::pin_map::pin(stringify!($mist)),
             $($crate::pin_map::pin(stringify!($out))),+
         ];
+        /// Laser mode: sets the spindle PWM's compare register to `duty` timer counts (one
+        /// store; the step interrupt's `write_power`, docs/laser-plasma.md).
+        #[inline(always)]
+        pub fn spindle_pwm_compare(duty: u16) {
+            let (tim, ch) = spindle_timer!($sp_pwm_ch);
+            tim.ccr(ch)
+                .write_value(embassy_stm32::pac::timer::regs::Ccr1ch(u32::from(duty)));
+        }
+
+        /// Laser mode: makes the spindle PWM's period `counts` timer counts (the setup's
+        /// `pwm_range[1]`, so a duty count is a compare count) at about
+        /// [`SPINDLE_PWM_HZ`](crate::pin_map::SPINDLE_PWM_HZ), keeping its timer clock (read
+        /// back from the prescaler and period set for that frequency at start-up). Nothing is
+        /// written when the period is that already.
+        pub fn spindle_pwm_period(counts: u16) {
+            let (tim, _) = spindle_timer!($sp_pwm_ch);
+            let counts = u32::from(counts.max(2));
+            let (psc, arr) = (u32::from(tim.psc().read()), tim.arr().read().0);
+            if arr + 1 == counts {
+                return;
+            }
+            let hz = $crate::pin_map::SPINDLE_PWM_HZ;
+            let clock = hz * (psc + 1) * (arr + 1);
+            let psc = (clock / (hz * counts)).clamp(1, 65_536) - 1;
+            tim.psc().write_value(psc as u16);
+            tim.arr()
+                .write_value(embassy_stm32::pac::timer::regs::ArrCore(counts - 1));
+        }
+
         /// Touch probe input (pull-up, the probe closes to ground): the step interrupt reads
         /// its pin every tick (`step::PROBE_GPIO`), the input task samples it for the status.
         pub const PROBE: PinId = $crate::pin_map::pin(stringify!($probe));

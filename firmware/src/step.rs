@@ -160,7 +160,8 @@ impl SegmentQueue for QueueSource {
 }
 
 /// The interrupt's hardware: TIM2's counter, reload and CCR3 (the step word the update DMA
-/// copies), the dir port and the user output pins.
+/// copies), the dir port, the user output pins and, in laser mode, the spindle PWM's compare
+/// register.
 struct Tim2Dma;
 
 impl StepHardware for Tim2Dma {
@@ -187,6 +188,10 @@ impl StepHardware for Tim2Dma {
     #[inline(always)]
     fn write_output(&mut self, event: OutputEvent) {
         write_output(event);
+    }
+    #[inline(always)]
+    fn write_power(&mut self, duty: u16) {
+        crate::pin_table::spindle_pwm_compare(duty);
     }
     #[inline(always)]
     fn probe_closed(&self) -> bool {
@@ -227,6 +232,7 @@ pub fn snapshot() -> KernelSnapshot {
         drained: true,
         stopped: false,
         dry_runs: 0,
+        laser_duty: 0,
     })
 }
 

@@ -69,6 +69,8 @@ pub struct PinEvent {
     pub inputs: u32,
     /// User output pins (bit n = output n), switched before this event's steps.
     pub outputs: u16,
+    /// Laser PWM duty (compare counts of `pwm_max`), switched before this event's steps.
+    pub pwm: u16,
     /// Timer counts of the period this update starts (0: a main-loop event).
     pub period: u32,
 }
@@ -255,6 +257,8 @@ pub struct Hardware {
     tool: u32,
     /// User output pins at the last pin event.
     last_outputs: u16,
+    /// Laser PWM duty at the last pin event.
+    last_pwm: u16,
     /// Input polarity the hardware was given (the firmware's `INVERT`): from the setup at
     /// power-up and with every setup the host pushes.
     invert: u32,
@@ -396,6 +400,7 @@ impl EmulatedBoard {
             tool_lengths: Vec::new(),
             tool: 0,
             last_outputs: 0,
+            last_pwm: 0,
             phys_offset: [0; MAX_AXES],
             arm: 0,
             switch_stop: false,
@@ -711,6 +716,11 @@ impl Hardware {
         self.clock.regs.outputs
     }
 
+    /// Laser PWM duty on the pin now (compare counts; laser mode).
+    pub fn laser_pwm(&self) -> u16 {
+        self.clock.regs.pwm
+    }
+
     /// Logical levels of the modelled switches now, and the bits they own.
     fn switch_levels(&self) -> (u32, u32) {
         let p = self.physical();
@@ -894,6 +904,7 @@ impl Hardware {
     fn on_update(&mut self, step: u8, period: u32) {
         let dir = self.clock.regs.dir_pins;
         let outputs = self.clock.regs.outputs;
+        let pwm = self.clock.regs.pwm;
         if step != 0 {
             for (axis, (p, pulses)) in self.pin_steps.iter_mut().zip(&mut self.pulses).enumerate() {
                 if step >> axis & 1 != 0 {
@@ -921,7 +932,8 @@ impl Hardware {
                 self.switch_stop = self.logical_pins() & self.arm & LIMIT_BITS != 0;
             }
         }
-        if step != 0 || dir != self.last_dir || outputs != self.last_outputs {
+        if step != 0 || dir != self.last_dir || outputs != self.last_outputs || pwm != self.last_pwm
+        {
             if let Some(f) = self.observer.as_mut() {
                 f(PinEvent {
                     time: self.now,
@@ -929,11 +941,13 @@ impl Hardware {
                     dir,
                     inputs: self.inputs,
                     outputs,
+                    pwm,
                     period,
                 });
             }
             self.last_dir = dir;
             self.last_outputs = outputs;
+            self.last_pwm = pwm;
         }
     }
 
@@ -947,6 +961,7 @@ impl Hardware {
                 dir: self.last_dir,
                 inputs: self.inputs,
                 outputs: word,
+                pwm: self.last_pwm,
                 period: 0,
             });
         }
@@ -998,6 +1013,7 @@ impl BoardPort for Hardware {
                     dir: self.last_dir,
                     inputs: levels.0,
                     outputs: self.last_outputs,
+                    pwm: self.last_pwm,
                     period: 0,
                 });
             }

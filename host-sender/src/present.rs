@@ -275,13 +275,22 @@ pub fn modes_text(s: &Status) -> String {
     format!("{}, {units}", work_system_name(s.work_system))
 }
 
-/// The spindle, coolant and tool as the board drives them: `spindle CW 12000 rpm, flood, tool 3`.
+/// The spindle, coolant and tool as the board drives them: `spindle CW 12000 rpm, flood, tool 3`;
+/// in laser mode `laser M4 S800, power 40.0 %, coolant off, no tool`.
 pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
     use gantry_proto::SpindleStatus;
-    let spindle = match o.spindle {
-        SpindleStatus::Off => "spindle off".to_owned(),
-        SpindleStatus::Cw => format!("spindle CW {} rpm", o.rpm),
-        SpindleStatus::Ccw => format!("spindle CCW {} rpm", o.rpm),
+    let spindle = match (o.laser_permille, o.spindle) {
+        (Some(p), s) => {
+            let mode = match s {
+                SpindleStatus::Off => "laser off".to_owned(),
+                SpindleStatus::Cw => format!("laser M3 S{}", o.rpm),
+                SpindleStatus::Ccw => format!("laser M4 S{}", o.rpm),
+            };
+            format!("{mode}, power {}.{} %", p / 10, p % 10)
+        }
+        (None, SpindleStatus::Off) => "spindle off".to_owned(),
+        (None, SpindleStatus::Cw) => format!("spindle CW {} rpm", o.rpm),
+        (None, SpindleStatus::Ccw) => format!("spindle CCW {} rpm", o.rpm),
     };
     let coolant = match (o.mist, o.flood) {
         (false, false) => "coolant off",
@@ -400,9 +409,14 @@ mod tests {
             mist: true,
             flood: true,
             tool: 2,
+            laser_permille: None,
         };
         assert!(format_status(&running, 3)
             .ends_with("outputs:   spindle CCW 12000 rpm, mist and flood, tool 2"));
+        running.outputs.rpm = 800;
+        running.outputs.laser_permille = Some(405);
+        assert!(format_status(&running, 3)
+            .ends_with("outputs:   laser M4 S800, power 40.5 %, mist and flood, tool 2"));
         assert!(format_status(&status(MachineState::Alarm { code: 99 }), 3)
             .ends_with("alarm:     alarm 99 (unknown to this gantry)"));
         // Every alarm the board can raise has a name and a text.

@@ -186,6 +186,9 @@ pub struct SpindleFile {
     pub rpm_range: Option<(u32, u32)>,
     #[serde(default, deserialize_with = "exact_pair")]
     pub pwm_range: Option<(u16, u16)>,
+    /// Laser mode (docs/laser-plasma.md).
+    #[serde(default)]
+    pub laser: Option<bool>,
 }
 
 #[derive(Debug, Default, Deserialize, Serialize)]
@@ -878,6 +881,9 @@ impl SetupFile {
             s.outputs.pwm_min = num(Key::PwmMin, 0, lo.into())? as u16;
             s.outputs.pwm_max = num(Key::PwmMax, 0, hi.into())? as u16;
         }
+        if let Some(v) = self.spindle.laser {
+            s.outputs.laser = v;
+        }
         for (k, m) in self.mcode.iter().enumerate() {
             let key = format!("mcode[{k}]");
             if !s.program.user_mcodes.contains(&m.code) {
@@ -1219,6 +1225,11 @@ fn controller_toml(s: &Setup, t: &mut String) {
         o.spindle_min_rpm, o.spindle_max_rpm
     );
     let _ = writeln!(t, "pwm_range = [{}, {}]", o.pwm_min, o.pwm_max);
+    let _ = writeln!(
+        t,
+        "laser = {}   # laser mode: S travels with each move, M4 power follows the speed",
+        o.laser
+    );
     for l in &o.mcode_lists {
         let _ = writeln!(
             t,

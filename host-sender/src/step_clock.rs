@@ -32,6 +32,8 @@ pub struct VirtualRegisters {
     pub dir_pins: u8,
     /// User output pin levels (bit n = output n).
     pub outputs: u16,
+    /// Laser PWM duty (compare counts) the interrupt wrote last (laser mode).
+    pub pwm: u16,
     /// The probe pin's raw level (as `controller::inputs` reads it: set = active).
     pub probe: bool,
 }
@@ -54,6 +56,9 @@ impl StepHardware for VirtualRegisters {
     }
     fn write_output(&mut self, event: OutputEvent) {
         self.outputs = event.apply(self.outputs);
+    }
+    fn write_power(&mut self, duty: u16) {
+        self.pwm = duty;
     }
     fn probe_closed(&self) -> bool {
         self.probe
@@ -97,6 +102,7 @@ impl StepClock {
                 step_word: PINS.step_reset,
                 dir_pins: 0,
                 outputs: 0,
+                pwm: 0,
                 probe: false,
             },
             update_at: now,

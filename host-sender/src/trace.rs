@@ -1,5 +1,6 @@
 //! `gantry simulate FILE --vcd out.vcd`: run the job on the emulated board and record its step,
-//! direction, enable, input and user output pins as a VCD trace (GTKWave, PulseView).
+//! direction, enable, input and user output pins as a VCD trace (GTKWave, PulseView), and in
+//! laser mode the laser PWM duty (`laser_pwm`).
 
 use crate::emulator::{EmulatedBoard, PinEvent};
 use crate::link::Client;
@@ -43,6 +44,7 @@ pub fn trace(
             u64::from(StepTiming::from_setup(&setup.drivers).pulse),
             KERNEL_TIMER_HZ,
         ),
+        laser_pwm: setup.outputs.laser,
         from_ns,
         to_ns,
     };
@@ -66,6 +68,7 @@ pub fn trace(
                 enable: enabled,
                 inputs: p.inputs,
                 outputs: p.outputs,
+                pwm: p.pwm,
             };
             if let Err(err) = wr.event(ev) {
                 e.borrow_mut().get_or_insert(err);

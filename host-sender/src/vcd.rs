@@ -2,7 +2,8 @@
 //!
 //! The board (or the emulated board's kernel ticks) hands in [`VcdEvent`]s in time order: the
 //! axes that step at that instant, the direction and enable levels, the input levels and the user
-//! output levels. Each
+//! output levels, and in laser mode the laser PWM duty (a 16-bit `laser_pwm` vector, in compare
+//! counts of `spindle.pwm_range[1]`). Each
 //! step becomes a pulse: high at the event's time, low `pulse_ns` later. Only changes are
 //! written, with a 1 ns timescale, optionally limited to a `--from/--to` window. [`read_vcd`] is a
 //! small reader (enough for the tests and for checking a trace): it counts rising edges per signal.
@@ -28,6 +29,8 @@ pub struct VcdEvent {
     pub inputs: u32,
     /// User output levels (bit n = output n).
     pub outputs: u16,
+    /// Laser PWM duty (written when [`VcdOptions::laser_pwm`] is set).
+    pub pwm: u16,
 }
 
 /// Converts a time in step-kernel timer counts to ns, rounding to the nearest ns.
@@ -70,6 +73,8 @@ pub struct VcdOptions {
     pub outputs: usize,
     /// Step pulse width, ns.
     pub pulse_ns: u64,
+    /// Trace the laser PWM duty as the 16-bit vector `laser_pwm` (laser mode).
+    pub laser_pwm: bool,
     /// Only changes at `from_ns..=to_ns` are written; the state at `from_ns` is the dump's start.
     pub from_ns: Option<u64>,
     pub to_ns: Option<u64>,
@@ -82,6 +87,7 @@ impl Default for VcdOptions {
             inputs: Vec::new(),
             outputs: 0,
             pulse_ns: 2_000,
+            laser_pwm: false,
             from_ns: None,
             to_ns: None,
         }
@@ -166,6 +172,8 @@ struct Emitter<W: Write> {
     to: u64,
     started: bool,
     summary: VcdSummary,
+    /// The laser PWM vector's identifier and value, when traced.
+    pwm: Option<(String, u16)>,
 }
 
 impl<W: Write> Emitter<W> {
@@ -180,6 +188,9 @@ impl<W: Write> Emitter<W> {
         writeln!(self.out, "$dumpvars")?;
         for (id, l) in self.ids.iter().zip(&self.level) {
             writeln!(self.out, "{}{id}", u8::from(*l))?;
+        }
+        if let Some((id, v)) = &self.pwm {
+            writeln!(self.out, "b{v:b} {id}")?;
         }
         writeln!(self.out, "$end")?;
         self.summary.end_ns = self.from;
@@ -205,6 +216,34 @@ impl<W: Write> Emitter<W> {
         writeln!(self.out, "{}{}", u8::from(v), self.ids[sig])?;
         self.summary.end_ns = t;
         Ok(true)
+    }
+
+    /// Sets the laser PWM vector (if traced).
+    fn set_pwm(&mut self, t: u64, v: u16) -> io::Result<()> {
+        match &self.pwm {
+            Some((_, old)) if *old != v => {}
+            _ => return Ok(()),
+        }
+        if t >= self.from && !self.started {
+            self.start()?;
+        }
+        let id = match self.pwm.as_mut() {
+            Some((id, old)) => {
+                *old = v;
+                id.clone()
+            }
+            None => return Ok(()),
+        };
+        if t < self.from || t > self.to {
+            return Ok(());
+        }
+        if self.stamped != Some(t) {
+            writeln!(self.out, "#{t}")?;
+            self.stamped = Some(t);
+        }
+        writeln!(self.out, "b{v:b} {id}")?;
+        self.summary.end_ns = t;
+        Ok(())
     }
 
     /// Ends the step pulses of the axes in `mask`.
@@ -256,6 +295,10 @@ impl<W: Write> VcdWriter<W> {
             writeln!(out, "$var wire 1 {} {name}_dir $end", ids[sig.dir(a)])?;
         }
         writeln!(out, "$var wire 1 {} enable $end", ids[sig.enable()])?;
+        let pwm = opts.laser_pwm.then(|| (ident(sig.count()), 0u16));
+        if let Some((id, _)) = &pwm {
+            writeln!(out, "$var wire 16 {id} laser_pwm $end")?;
+        }
         if !opts.inputs.is_empty() {
             writeln!(out, "$scope module inputs $end")?;
             for (i, name) in opts.inputs.iter().enumerate() {
@@ -286,6 +329,7 @@ impl<W: Write> VcdWriter<W> {
                 to: opts.to_ns.unwrap_or(u64::MAX),
                 started: false,
                 summary: VcdSummary::default(),
+                pwm,
             },
             sig,
             pulse: opts.pulse_ns.max(1),
@@ -348,6 +392,7 @@ impl<W: Write> VcdWriter<W> {
         for n in 0..sig.outputs {
             em.set(e.time_ns, sig.output(n), e.outputs >> n & 1 == 1)?;
         }
+        em.set_pwm(e.time_ns, e.pwm)?;
         let rise = step & !high;
         for a in 0..sig.axes {
             if rise >> a & 1 == 1 && em.set(e.time_ns, sig.step(a), true)? {
@@ -419,6 +464,11 @@ pub struct VcdTrace {
     pub signals: Vec<String>,
     /// Rising edges (0 → 1 after the initial dump) per signal name.
     pub rising: HashMap<String, u64>,
+    /// Times of those rising edges per 1-bit signal name.
+    pub rise_times: HashMap<String, Vec<u64>>,
+    /// Every value of each vector signal (wider than 1 bit): (time, value), the initial dump's
+    /// first.
+    pub values: HashMap<String, Vec<(u64, u64)>>,
     /// Level of each signal at the end.
     pub last: HashMap<String, bool>,
     /// Timescale text, e.g. `1 ns`.
@@ -436,6 +486,7 @@ pub fn read_vcd(text: &str) -> Result<VcdTrace, String> {
     let mut in_defs = true;
     let mut in_dump = false;
     let mut last_time = None;
+    let mut vectors: HashMap<String, String> = HashMap::new();
     while let Some(tok) = toks.next() {
         if in_defs {
             match tok {
@@ -445,7 +496,10 @@ pub fn read_vcd(text: &str) -> Result<VcdTrace, String> {
                         return Err(format!("bad $var: {f:?}"));
                     }
                     if f[1] != "1" {
-                        return Err(format!("{}: only 1-bit signals are supported", f[3]));
+                        vectors.insert(f[2].to_string(), f[3].to_string());
+                        t.values.insert(f[3].to_string(), Vec::new());
+                        t.signals.push(f[3].to_string());
+                        continue;
                     }
                     by_id.insert(f[2].to_string(), f[3].to_string());
                     t.signals.push(f[3].to_string());
@@ -474,6 +528,16 @@ pub fn read_vcd(text: &str) -> Result<VcdTrace, String> {
             "$dumpvars" => in_dump = true,
             "$end" => in_dump = false,
             "$dumpall" | "$dumpon" | "$dumpoff" => {}
+            w if w.starts_with('b') || w.starts_with('B') => {
+                let v = u64::from_str_radix(&w[1..], 2).map_err(|_| format!("bad vector {w}"))?;
+                let id = toks.next().ok_or("vector value without identifier")?;
+                let name = vectors
+                    .get(id)
+                    .ok_or_else(|| format!("unknown vector identifier {id}"))?;
+                if let Some(values) = t.values.get_mut(name) {
+                    values.push((last_time.unwrap_or(0), v));
+                }
+            }
             w if w.starts_with('#') => {
                 let v: u64 = w[1..].parse().map_err(|_| format!("bad time {w}"))?;
                 if last_time.is_some_and(|l| v < l) {
@@ -496,6 +560,10 @@ pub fn read_vcd(text: &str) -> Result<VcdTrace, String> {
                 let prev = level.insert(name.clone(), v).flatten();
                 if !in_dump && prev == Some(false) && v == Some(true) {
                     *t.rising.entry(name.clone()).or_default() += 1;
+                    t.rise_times
+                        .entry(name.clone())
+                        .or_default()
+                        .push(last_time.unwrap_or(0));
                 }
                 if let Some(b) = v {
                     t.last.insert(name.clone(), b);
@@ -521,6 +589,7 @@ mod tests {
             enable: true,
             inputs: 0,
             outputs: 0,
+            pwm: 0,
         }
     }
 

@@ -262,6 +262,7 @@ fn vcd_rising_edges_equal_the_steps_fed_in() {
             enable: true,
             inputs: u32::from(k % 1000 < 10),
             outputs: u16::from(k % 2000 < 100) << 1,
+            pwm: 0,
         });
     }
     let opts = VcdOptions {
@@ -329,6 +330,7 @@ fn vcd_of_the_bracket_run_on_virtual_time() {
                 enable: true,
                 inputs: 0,
                 outputs: 0,
+                pwm: 0,
             };
             w.event(e).unwrap();
         }

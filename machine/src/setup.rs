@@ -220,6 +220,10 @@ pub struct OutputSetup {
     pub pwm_max: u16,
     /// PWM duty at `spindle_min_rpm` (0 is allowed).
     pub pwm_min: u16,
+    /// Laser mode (grbl `$32`, docs/laser-plasma.md): S travels with each move and sets the
+    /// beam's power at the move's first step, M4 scales it with the speed, and the beam is on
+    /// only while a G1/G2/G3 runs.
+    pub laser: bool,
     /// Command lists of user M codes.
     pub mcode_lists: Vec<McodeList, MAX_MCODE_LISTS>,
 }
@@ -408,6 +412,7 @@ impl Default for Setup {
                 spindle_max_rpm: 24_000,
                 pwm_max: 1000,
                 pwm_min: 0,
+                laser: false,
                 mcode_lists: Vec::new(),
             },
             link: LinkSetup {

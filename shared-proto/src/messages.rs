@@ -267,6 +267,9 @@ pub struct OutputsStatus {
     pub flood: bool,
     /// Tool in the spindle (after M6); 0 = none.
     pub tool: u32,
+    /// Laser mode (docs/laser-plasma.md): the beam's power now in per mille of full power
+    /// (the PWM duty over `spindle.pwm_range[1]`; 0 when off); `None`: not a laser machine.
+    pub laser_permille: Option<u16>,
 }
 
 /// Periodic or requested status report.

@@ -118,6 +118,7 @@ fn worst_status() -> Status {
             mist: true,
             flood: true,
             tool: u32::MAX,
+            laser_permille: Some(u16::MAX),
         },
         starved_ms: u32::MAX,
         probe: Some(ProbeStatus {
@@ -162,6 +163,7 @@ fn all_board() -> Vec<BoardMsg> {
                     mist: false,
                     flood: true,
                     tool: 3,
+                    laser_permille: None,
                 },
                 starved_ms: 1_234,
                 probe: (state == MachineState::Check).then_some(ProbeStatus {

@@ -153,6 +153,7 @@ fn m0_switches_spindle_and_coolant_off_and_cycle_start_restores_them() {
             spindle_enable: true,
             spindle_ccw: true,
             spindle_pwm: 250,
+            laser: false,
             mist: true,
             flood: false,
             user: 0

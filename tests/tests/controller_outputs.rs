@@ -55,6 +55,7 @@ fn spindle_and_coolant_outputs_follow_the_program() {
             spindle_enable: true,
             spindle_ccw: false,
             spindle_pwm: 550,
+            laser: false,
             mist: false,
             flood: true,
             user: 0

@@ -21,6 +21,7 @@ const SPINDLE: OutputLevels = OutputLevels {
     spindle_enable: true,
     spindle_ccw: false,
     spindle_pwm: 500,
+    laser: false,
     mist: false,
     flood: false,
     user: 0,

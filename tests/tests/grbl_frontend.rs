@@ -350,9 +350,16 @@ fn dollar_commands_report_and_write_the_setup() {
     s.answer(b"$100=800\n", 100);
     let a = &s.eb.board.setup().axes[0];
     assert_eq!(a.steps as i64 * MM / a.units_nm, 800);
-    s.send(b"$32=1\n$999=1\n$100=abc\n");
+    s.send(b"$32=2\n$999=1\n$100=abc\n");
     s.run(50);
-    s.assert_seen("error:17\r\nerror:3\r\nerror:2\r\n");
+    s.assert_seen("error:3\r\nerror:3\r\nerror:2\r\n");
+    s.seen.clear();
+    s.answer(b"$32=1\n", 100);
+    assert!(s.eb.board.setup().outputs.laser, "$32=1 sets laser mode");
+    let seen = s.answer(b"$$\n", 100);
+    assert!(seen.contains("$32=1\r\n"), "{seen:?}");
+    s.answer(b"$32=0\n", 100);
+    assert!(!s.eb.board.setup().outputs.laser);
     s.seen.clear();
     s.send(b"G10 L2 P1 X3 Y4\n$#\n");
     let seen = s.until("[PRB:", 500);
@@ -1745,4 +1752,35 @@ fn a_silent_connection_is_greeted_with_the_banner_once() {
     s.run(100);
     let after = reset + &s.seen;
     assert_eq!(after.matches(BANNER).count(), 1, "{after:?}");
+
+#[test]
+fn in_laser_mode_fs_reports_the_power_the_beam_fires_at_none_in_g0_or_at_rest() {
+    let mut s = Sender::connected();
+    for set in [&b"$32=1\n"[..], b"$30=1000\n", b"$31=0\n"] {
+        s.answer(set, 100);
+    }
+    s.answer(b"G21 G90 M4 S800\n", 100);
+    // A G0 with the beam modal on: it runs at the rapid rate with the beam off (`A:C` says M4).
+    s.send(b"G0 X30\n");
+    s.until_state_name("<Run", 2_000);
+    s.run(300);
+    let mut seen = Vec::new();
+    for _ in 0..10 {
+        seen.push(s.status());
+        s.run(20);
+    }
+    assert!(seen.iter().all(|st| st.contains("|FS:3000,0")), "{seen:?}");
+    assert!(seen.iter().any(|st| st.contains("|A:C")), "{seen:?}");
+    s.ends_idle(5_000);
+    // A G1 at cruise fires at S (M4: S × speed ÷ F, full S at F).
+    s.send(b"G1 X60 F3000\n");
+    s.until_state_name("<Run", 2_000);
+    s.run(300);
+    let st = s.status();
+    assert!(st.contains("|FS:3000,800"), "{st}");
+    s.ends_idle(5_000);
+    s.run(50);
+    let st = s.status();
+    assert!(st.contains("|FS:0,0"), "at rest the beam is off: {st}");
+    assert!(s.answer(b"$$\n", 100).contains("$32=1\r\n"));
 }

@@ -26,6 +26,7 @@ fn seg(x_steps: u32, ticks: u32, period: u32, dir: u8) -> Segment {
         period,
         dir,
         output: OutputEvent::NONE,
+        power: gantry_machine::motion::laser::KEEP_DUTY,
     }
 }
 
@@ -163,6 +164,7 @@ impl StepHardware for Registers {
     fn write_output(&mut self, event: OutputEvent) {
         self.out_odr = event.apply(self.out_odr as u16).into();
     }
+    fn write_power(&mut self, _duty: u16) {}
     fn probe_closed(&self) -> bool {
         self.probe_idr & PROBE_PIN == 0
     }

@@ -25,6 +25,7 @@ fn seg(steps: [u32; 6], ticks: u32, period: u32, dir: u8) -> Segment {
         period,
         dir,
         output: OutputEvent::NONE,
+        power: gantry_machine::motion::laser::KEEP_DUTY,
     }
 }
 

@@ -61,7 +61,11 @@ function onStatus(s) {
   $("ro").textContent = s.rapid_override;
   $("so").textContent = s.spindle_override;
   $("rpm").textContent = s.rpm;
-  $("rpm-actual").textContent = s.rpm_actual;
+  // Laser mode: the beam's power now instead of the spindle speed commanded.
+  const laser = s.laser_power !== null && s.laser_power !== undefined;
+  $("spindle-label").textContent = laser ? "laser" : "spindle";
+  $("rpm-actual").textContent = laser ? s.laser_power.toFixed(1) : s.rpm_actual;
+  $("spindle-unit").textContent = laser ? "% power now (laser mode)" : "rpm commanded";
   for (const tr of document.querySelectorAll("#offsets tbody tr")) tr.classList.toggle("active", +tr.dataset.p === s.work_system_index + 1);
   $("outputs").textContent = s.outputs;
   $("line").textContent = s.line;

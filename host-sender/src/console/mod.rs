@@ -484,6 +484,8 @@ fn status_json(s: &Status, axes: usize) -> Value {
         "line": s.line,
         "tool": s.outputs.tool,
         "rpm": s.outputs.rpm,
+        // Laser mode: the beam's power now, % (null: not a laser machine).
+        "laser_power": s.outputs.laser_permille.map(|p| f64::from(p) / 10.0),
         "outputs": outputs_text(&s.outputs),
         "homed": homed,
         "inputs": inputs,

@@ -15,4 +15,6 @@ pub struct KernelView {
     pub feed_um_min: u32,
     /// The current or last job's time lost to starvation, ms (machine/src/board/starvation.rs).
     pub starved_ms: u32,
+    /// Laser PWM duty now (compare counts of `pwm_max`; 0 when off or not a laser).
+    pub laser_duty: u16,
 }

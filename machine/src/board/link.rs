@@ -671,7 +671,7 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
         line: board.line(),
         inputs: view.inputs,
         homed: board.homed(),
-        outputs: outputs_status(board.outputs()),
+        outputs: outputs_status(board.outputs(), laser_permille(board, view)),
         starved_ms: view.starved_ms,
         probe: board.probe_result().map(|p| ProbeStatus {
             machine_pos: p.position,
@@ -680,8 +680,17 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
     }
 }
 
+/// Laser mode's beam power now, per mille of full power (`None`: not a laser machine).
+pub(crate) fn laser_permille(board: &Board, view: &KernelView) -> Option<u16> {
+    let o = &board.setup().outputs;
+    o.laser.then(|| {
+        let max = u32::from(o.pwm_max.max(1));
+        ((u32::from(view.laser_duty).min(max) * 1000 + max / 2) / max) as u16
+    })
+}
+
 /// The outputs part of a status report.
-fn outputs_status(o: super::Outputs) -> OutputsStatus {
+fn outputs_status(o: super::Outputs, laser_permille: Option<u16>) -> OutputsStatus {
     use crate::canon::Spindle;
     OutputsStatus {
         spindle: match o.spindle {
@@ -693,5 +702,6 @@ fn outputs_status(o: super::Outputs) -> OutputsStatus {
         mist: o.mist,
         flood: o.flood,
         tool: o.tool,
+        laser_permille,
     }
 }

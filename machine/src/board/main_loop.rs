@@ -384,6 +384,7 @@ impl MainLoop {
             inputs: levels.0,
             feed_um_min: speed_um_min,
             starved_ms: self.starvation.starved_ms(),
+            laser_duty: k.laser_duty,
         };
         port.before_link_service(board);
         link.service(board, now_ms, &self.view);

@@ -946,6 +946,8 @@ impl Board {
 
     /// The next step segment for the kernel's queue.
     pub fn next_segment(&mut self) -> Option<Segment> {
+        // Laser mode: the spindle override scales the power of the segments prepared from now.
+        self.motion.set_laser_override(self.overrides.spindle());
         let seg = self.motion.next_segment();
         while let Some(report) = self.motion.take_report() {
             self.progress.line = report.line;
@@ -1148,9 +1150,23 @@ impl Board {
                 self.executing
                     .note(at_rest, seq, canon.line, self.interp.state());
             }
-            let pushed = match self.on_the_fly(&canon) {
-                Some((code, output)) => self.motion.push_output(canon.line, code, output),
-                None => self.motion.push(&canon),
+            let pushed = match (self.on_the_fly(&canon), canon.action) {
+                (Some((code, output)), _) => self.motion.push_output(canon.line, code, output),
+                (None, Action::Spindle { state, rpm }) if self.setup.outputs.laser => {
+                    // Laser mode: no sync point; the power rides on the moves after it
+                    // (docs/laser-plasma.md), and the status shows the modal state at once, as
+                    // grbl's does. A dry run never fires the beam.
+                    if self.overrides.switches.dry_run {
+                        Ok(())
+                    } else {
+                        let pushed = self.motion.push_program(&canon);
+                        if pushed.is_ok() {
+                            self.outputs.set_spindle(state, rpm);
+                        }
+                        pushed
+                    }
+                }
+                (None, _) => self.motion.push_program(&canon),
             };
             match pushed {
                 Ok(()) => {}

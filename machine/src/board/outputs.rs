@@ -241,7 +241,13 @@ impl OutputState {
         OutputLevels {
             spindle_enable: o.spindle != Spindle::Off,
             spindle_ccw: o.spindle == Spindle::Ccw,
-            spindle_pwm: spindle_duty(setup, o.spindle, rpm),
+            // Laser mode: the step interrupt sets the duty per segment (motion/laser.rs).
+            spindle_pwm: if setup.laser {
+                0
+            } else {
+                spindle_duty(setup, o.spindle, rpm)
+            },
+            laser: setup.laser,
             mist: o.mist,
             flood: o.flood,
             user: self.user,

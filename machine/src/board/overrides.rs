@@ -79,7 +79,8 @@ impl Board {
     }
 
     /// Sets the spindle speed override (clamped to grbl's 10-200 %). It scales the PWM duty of
-    /// [`Board::output_levels`]; the programmed rpm (`outputs().rpm`) stays as programmed.
+    /// [`Board::output_levels`] (in laser mode: of the segments prepared from now on, never above
+    /// the S range); the programmed rpm (`outputs().rpm`) stays as programmed.
     pub fn set_spindle_override(&mut self, pct: u16) {
         self.overrides.spindle = pct.clamp(10, 200);
     }

@@ -14,8 +14,11 @@ pub struct OutputLevels {
     pub spindle_enable: bool,
     /// Counter-clockwise (M4); meaningful while enabled.
     pub spindle_ccw: bool,
-    /// PWM duty in timer counts (`0..=setup.outputs.pwm_max`).
+    /// PWM duty in timer counts (`0..=setup.outputs.pwm_max`); 0 in laser mode, where the step
+    /// interrupt owns the PWM (docs/laser-plasma.md).
     pub spindle_pwm: u16,
+    /// Laser mode: the pin drivers leave the PWM to the step interrupt.
+    pub laser: bool,
     pub mist: bool,
     pub flood: bool,
     /// User outputs, bit n = output n.
@@ -28,6 +31,7 @@ impl OutputLevels {
         spindle_enable: false,
         spindle_ccw: false,
         spindle_pwm: 0,
+        laser: false,
         mist: false,
         flood: false,
         user: 0,

@@ -24,8 +24,6 @@ pub const LINE_TOO_LONG: u16 = 11;
 pub const JOG_TRAVEL: u16 = 15;
 /// grbl: invalid jog command.
 pub const JOG_INVALID: u16 = 16;
-/// grbl: laser mode needs PWM output (answered to `$32=1`: no laser mode here).
-pub const LASER_MODE: u16 = 17;
 /// grbl: undefined feed rate.
 pub const UNDEFINED_FEED: u16 = 22;
 /// Unsupported or invalid G-code command.

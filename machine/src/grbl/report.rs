@@ -120,7 +120,7 @@ pub fn status(
     out.str("|FS:");
     feed(out, i64::from(view.feed_um_min) * 1000, prefs);
     out.byte(b',');
-    out.uint(u64::from(board.outputs().rpm));
+    out.uint(u64::from(spindle_now(board, view)));
     pins(out, InputBits(view.inputs), board);
     // WCO and Ov: when they change, and every 10th report.
     sparse.count = (sparse.count + 1) % 10;
@@ -162,6 +162,23 @@ pub fn status(
     }
     out.byte(b'>');
     out.eol();
+}
+
+/// `FS:`'s spindle value: the programmed S, or in laser mode the S the beam fires at now (the
+/// PWM duty mapped back onto the S range: S × speed ÷ F under M4, 0 while the beam is off in G0,
+/// at rest or in a hold; docs/laser-plasma.md).
+fn spindle_now(board: &Board, view: &KernelView) -> u32 {
+    let o = &board.setup().outputs;
+    if !o.laser {
+        return board.outputs().rpm;
+    }
+    if view.laser_duty == 0 {
+        return 0;
+    }
+    let duty = u64::from(view.laser_duty.max(o.pwm_min) - o.pwm_min);
+    let span = u64::from(o.pwm_max.saturating_sub(o.pwm_min)).max(1);
+    let rpm = u64::from(o.spindle_max_rpm.saturating_sub(o.spindle_min_rpm));
+    (u64::from(o.spindle_min_rpm) + (duty * rpm + span / 2) / span) as u32
 }
 
 /// `Pn:` from the debounced inputs: limit switches by axis, H feed hold, R abort, S cycle start.

@@ -30,7 +30,7 @@ impl Prefs {
 /// grbl numbers with no row of their own in the settings table (machine/src/setup/table.rs):
 /// settings Gantry has no key for (shown with the value it behaves as), `$22` (read from the
 /// homing priorities) and `$25` (the second number of `homing.axis.*.seek_rate`).
-const NOT_IN_TABLE: [u16; 8] = [1, 2, 4, 6, 20, 22, 25, 32];
+const NOT_IN_TABLE: [u16; 7] = [1, 2, 4, 6, 20, 22, 25];
 /// Axis setting groups: steps/mm, max rate, acceleration, travel.
 pub const AXIS_GROUPS: [u16; 4] = [100, 110, 120, 130];
 
@@ -159,7 +159,7 @@ pub fn read(n: u16, setup: &Setup) -> Option<Value> {
         27 => mm_value(h.retract),
         30 => int(i64::from(setup.outputs.spindle_max_rpm)),
         31 => int(i64::from(setup.outputs.spindle_min_rpm)),
-        32 => int(0),
+        32 => int(i64::from(setup.outputs.laser)),
         _ => return None,
     })
 }
@@ -249,9 +249,9 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup) -> Result<(), u16> {
         31 => {
             setup.outputs.spindle_min_rpm = u32::try_from(whole).map_err(|_| codes::BAD_NUMBER)?
         }
-        32 if whole != 0 => return Err(codes::LASER_MODE),
+        32 => setup.outputs.laser = flag.ok_or(codes::INVALID_STATEMENT)?,
         // Settings Gantry has no key for: only the value it behaves as.
-        1 | 2 | 4 | 6 | 20 | 22 | 32 => {
+        1 | 2 | 4 | 6 | 20 | 22 => {
             let shown = read(n, setup).ok_or(codes::INVALID_STATEMENT)?;
             if shown.milli != whole * 1000 {
                 return Err(codes::INVALID_STATEMENT);
@@ -283,7 +283,11 @@ mod tests {
         write(101, 314_159, &mut s).unwrap();
         assert_eq!(read(101, &s), Some(dec(314_159)));
         assert_eq!(write(102, -5_000, &mut s), Err(codes::NEGATIVE_VALUE));
-        assert_eq!(write(32, 1000, &mut s), Err(codes::LASER_MODE));
+        assert_eq!(read(32, &s), Some(int(0)));
+        write(32, 1000, &mut s).unwrap();
+        assert!(s.outputs.laser);
+        assert_eq!(read(32, &s), Some(int(1)));
+        assert_eq!(write(32, 2000, &mut s), Err(codes::INVALID_STATEMENT));
         assert_eq!(write(1, 25_000, &mut s), Err(codes::INVALID_STATEMENT));
         assert_eq!(write(1, 255_000, &mut s), Ok(()));
         write(110, 5_000_000, &mut s).unwrap();

@@ -3,6 +3,7 @@
 //! Speeds are stored in nm/s (or 1e-6 °/s) and accelerations in nm/s², integers throughout.
 //! [`MotionConfig::from_setup`] derives the model from the persistent [`crate::setup::Setup`].
 
+use super::laser::PwmMap;
 use crate::arith::{div_euclid_i128, div_floor_i64};
 use crate::setup::Setup;
 use crate::units::{Nm, Pos, MAX_AXES, NM_PER_MM};
@@ -81,6 +82,8 @@ pub struct MotionConfig {
     pub blend_tolerance: Nm,
     /// Reject moves that leave the travel box.
     pub soft_limits: bool,
+    /// Laser mode's S → PWM map (docs/laser-plasma.md); `None`: not a laser machine.
+    pub laser: Option<PwmMap>,
 }
 
 impl Default for MotionConfig {
@@ -95,6 +98,7 @@ impl Default for MotionConfig {
             arc_max_segments: 0,
             blend_tolerance: 0,
             soft_limits: true,
+            laser: None,
         }
     }
 }
@@ -128,6 +132,12 @@ impl MotionConfig {
             arc_max_segments: setup.path.arc_max_segments,
             blend_tolerance: setup.path.blend_tolerance.max(0),
             soft_limits: true,
+            laser: setup.outputs.laser.then_some(PwmMap {
+                min_rpm: setup.outputs.spindle_min_rpm,
+                max_rpm: setup.outputs.spindle_max_rpm,
+                pwm_min: setup.outputs.pwm_min,
+                pwm_max: setup.outputs.pwm_max,
+            }),
         }
     }
 

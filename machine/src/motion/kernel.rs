@@ -20,12 +20,20 @@
 //! on the user output pins; the owner loads it with [`StepKernel::set_outputs`] when the board
 //! switches outputs itself (command lists at rest, safe state).
 //!
+//! Laser power (docs/laser-plasma.md): a segment's [`Segment::power`] is the PWM duty segment
+//! prep computed for it ([`super::laser`]); the tick that starts the segment reports it in
+//! [`TickOut::power`] (its owner writes the compare register, nothing is computed here), and the
+//! first tick that finds the queue empty after a powered segment, or a latched stop, reports 0:
+//! the beam is off whenever the kernel stands still. [`KEEP_DUTY`] (a machine without laser
+//! mode) is never reported.
+//!
 //! Probing (G38.x, docs/probing.md): the owner passes the probe pin's raw level to every tick.
 //! While the probe latch is armed ([`StepKernel::arm_probe`]) the first tick that sees the pin at
 //! the armed level records the position before its steps ([`StepKernel::probe_latch`]); the
 //! kernel keeps stepping (the board decelerates on the path). Unarmed, the check is one byte
 //! load and a branch per tick.
 
+use super::laser::KEEP_DUTY;
 use super::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 
@@ -44,6 +52,8 @@ pub struct Segment {
     pub dir: u8,
     /// Output switched by the tick that starts this segment (on-the-fly M code), usually none.
     pub output: OutputEvent,
+    /// Laser PWM duty from the segment's first tick ([`KEEP_DUTY`]: leave the PWM alone).
+    pub power: u16,
 }
 
 impl Segment {
@@ -55,7 +65,13 @@ impl Segment {
             period,
             dir: 0,
             output: OutputEvent::NONE,
+            power: KEEP_DUTY,
         }
+    }
+
+    /// The same segment with laser duty `power`.
+    pub const fn with_power(self, power: u16) -> Self {
+        Segment { power, ..self }
     }
 
     /// Number of axes up to and including the highest one that steps.
@@ -93,6 +109,22 @@ pub struct TickOut {
     /// User output to switch now, before this tick's steps (the first tick of a segment that
     /// carries an on-the-fly event); [`OutputEvent::NONE`] on every other tick.
     pub output: OutputEvent,
+    /// Laser PWM duty to write now (the first tick of a powered segment, or 0 as the kernel
+    /// stops); [`KEEP_DUTY`] on every other tick.
+    pub power: u16,
+}
+
+impl TickOut {
+    /// An idle tick (no segment) with direction byte `dir` and laser duty `power`.
+    const fn idle(dir: u8, power: u16) -> TickOut {
+        TickOut {
+            step: 0,
+            dir,
+            period: 0,
+            output: OutputEvent::NONE,
+            power,
+        }
+    }
 }
 
 /// The probe latch of the kernel (docs/probing.md).
@@ -130,6 +162,8 @@ pub struct StepKernel {
     flags: u8,
     /// User output word (bit n = output n) as the kernel's events and its owner left it.
     outputs: u16,
+    /// Laser duty the last powered segment set ([`KEEP_DUTY`]: none, or switched off since).
+    power: u16,
     /// The latched position (the tick that saw the pin), until disarmed.
     probe_at: Option<[i64; MAX_AXES]>,
     /// Times a tick found the queue empty after a segment ([`Self::dry_runs`]).
@@ -164,6 +198,7 @@ impl StepKernel {
             base: [0; MAX_AXES],
             flags: 0,
             outputs: 0,
+            power: KEEP_DUTY,
             probe_at: None,
             dry_runs: 0,
         }
@@ -181,17 +216,11 @@ impl StepKernel {
             self.probe_sample(probe);
         }
         let mut output = OutputEvent::NONE;
+        let mut power = KEEP_DUTY;
         if self.ticks_left == 0 {
             match self.load(src) {
-                Some(event) => output = event,
-                None => {
-                    return TickOut {
-                        step: 0,
-                        dir: self.dir,
-                        period: 0,
-                        output: OutputEvent::NONE,
-                    }
-                }
+                Some(seg) => (output, power) = seg,
+                None => return TickOut::idle(self.dir, self.beam_off()),
             }
         }
         let ticks = self.ticks;
@@ -219,13 +248,25 @@ impl StepKernel {
             dir: self.dir,
             period: self.period,
             output,
+            power,
         }
     }
 
+    /// The duty that switches the beam off when a powered segment left it on (latched as
+    /// off), else [`KEEP_DUTY`]: the kernel stands still.
+    #[inline(always)]
+    fn beam_off(&mut self) -> u16 {
+        if self.power == KEEP_DUTY {
+            return KEEP_DUTY;
+        }
+        self.power = KEEP_DUTY;
+        0
+    }
+
     /// Takes the next segment from `src` and returns its output event (applied to the output
-    /// word); `None` when there is no segment.
+    /// word) and laser duty; `None` when there is no segment.
     #[inline(never)]
-    fn load(&mut self, src: &mut impl SegmentSource) -> Option<OutputEvent> {
+    fn load(&mut self, src: &mut impl SegmentSource) -> Option<(OutputEvent, u16)> {
         self.fold_position();
         let Some(seg) = src.next_segment() else {
             // The first empty look after a segment (`ticks` is ≥ 1 while one was loaded; 0
@@ -246,7 +287,9 @@ impl StepKernel {
         self.dir = seg.dir;
         self.axes = seg.axes_in_use() as u8;
         self.outputs = seg.output.apply(self.outputs);
-        Some(seg.output)
+        // A duty of 0 needs no switching off later.
+        self.power = if seg.power == 0 { KEEP_DUTY } else { seg.power };
+        Some((seg.output, seg.power))
     }
 
     /// Adds the steps of the running segment to the base position.
@@ -309,12 +352,7 @@ impl StepKernel {
             self.ticks_left = 0;
             self.axes = 0;
         }
-        TickOut {
-            step: 0,
-            dir: self.dir,
-            period: 0,
-            output: OutputEvent::NONE,
-        }
+        TickOut::idle(self.dir, self.beam_off())
     }
 
     /// True once a `stop` tick has latched; no step is emitted until [`Self::clear_stop`].
@@ -345,6 +383,15 @@ impl StepKernel {
     /// per-step path.
     pub fn dry_runs(&self) -> u16 {
         self.dry_runs
+    }
+
+    /// Laser duty of the running powered segment, 0 when none is (the beam is off).
+    pub fn laser_duty(&self) -> u16 {
+        if self.power == KEEP_DUTY {
+            0
+        } else {
+            self.power
+        }
     }
 
     /// True while a segment is running (ticks are still due).
@@ -407,6 +454,7 @@ mod tests {
             period: 100,
             dir,
             output: OutputEvent::NONE,
+            power: KEEP_DUTY,
         }
     }
 

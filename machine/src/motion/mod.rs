@@ -6,7 +6,7 @@
 //! latest remembered in [`history`] so a stop can take back what the kernel has not started) →
 //! [`kernel::StepKernel::tick`] (the step interrupt). [`sim`] runs all of it on virtual time.
 //! On-the-fly output changes ([`output_event`]) ride along the same path, from a planner block to
-//! its first segment to the tick that starts it.
+//! its first segment to the tick that starts it, and so does the laser power ([`laser`]).
 
 // Per-axis loops index several parallel arrays by axis number; iterator chains would hide that.
 #![allow(clippy::needless_range_loop)]
@@ -17,6 +17,7 @@ pub mod config;
 pub mod corner;
 pub mod history;
 pub mod kernel;
+pub mod laser;
 pub mod output_event;
 pub mod pipeline;
 pub mod planner;

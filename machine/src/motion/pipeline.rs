@@ -23,18 +23,25 @@
 //! break the contour (both become sync points, run at rest in order), and one followed by no
 //! motion before a sync point, a dwell or the end ([`Motion::flush_output`]) becomes a sync
 //! point itself, so it runs when the motion before it has ended.
+//!
+//! Laser mode (docs/laser-plasma.md, [`super::laser`]): a program's M3/M4/M5 and S
+//! ([`Motion::push_program`]) are no sync points: they set the laser power that each following
+//! feed move of the program carries in its blocks (arc chords included); rapids, and the moves
+//! of jogs, homing and probing ([`Motion::push`]), carry the beam off. `G64 P` merging and
+//! corner rounding are off in laser mode, so every move keeps its own power.
 
 use super::arc::{plane_axes, ArcChords};
 use super::blend::Chain;
 use super::config::MotionConfig;
 use super::corner::{self, MAX_VERTICES};
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
+use super::laser::LaserPower;
 use super::output_event::OutputEvent;
 use super::planner::{direction, junction_limit_sq, Block, BlockKind, LineRequest, Planner, UNIT};
 use super::prep::{BlockOut, BlockReport, Prep, PrepOut, PrepState};
 use crate::arith::{self, mul_div};
 use crate::arith::{polar, QUARTER_TURN};
-use crate::canon::{Action, Canon};
+use crate::canon::{Action, Canon, StopKind};
 use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
 
@@ -91,6 +98,8 @@ struct PendingArc {
     chords: ArcChords,
     line: u32,
     speed: u64,
+    /// The laser power its chords carry.
+    power: LaserPower,
 }
 
 /// A finished feed move (a single move or a merged chain) held back under `G64 P` until the
@@ -153,6 +162,10 @@ pub struct Motion<const N: usize> {
     /// Independent of `flow`: every pair occurs (a hold at a sync point raises it, an abort
     /// raises it as its deceleration starts and keeps decelerating once it is answered).
     drop_wanted: bool,
+    /// Laser mode: the power the program's M3/M4/M5 and S set for its feed moves.
+    laser: LaserPower,
+    /// The power of the line being queued ([`LaserPower::Keep`] without laser mode).
+    line_power: LaserPower,
 }
 
 impl<const N: usize> Motion<N> {
@@ -162,7 +175,7 @@ impl<const N: usize> Motion<N> {
         Motion {
             cfg,
             planner: Planner::new(),
-            prep: Prep::new(),
+            prep: Prep::with_laser(cfg.laser),
             arc: None,
             syncs: Deque::new(),
             position: [0; MAX_AXES],
@@ -175,7 +188,21 @@ impl<const N: usize> Motion<N> {
             flow: Flow::Open,
             pending_output: None,
             drop_wanted: false,
+            laser: unpowered(&cfg),
+            line_power: LaserPower::Keep,
         }
+    }
+
+    /// The power of a move that never fires the beam: off in laser mode, else none.
+    #[inline(always)]
+    fn unpowered(&self) -> LaserPower {
+        unpowered(&self.cfg)
+    }
+
+    /// The laser power the program's feed moves carry now ([`LaserPower::Keep`] without laser
+    /// mode), for status reports.
+    pub fn laser(&self) -> LaserPower {
+        self.laser
     }
 
     pub fn config(&self) -> &MotionConfig {
@@ -222,11 +249,39 @@ impl<const N: usize> Motion<N> {
         true
     }
 
-    /// Queues one canonical action. Non-motion actions that must happen at rest become sync points.
+    /// Queues one canonical action. Non-motion actions that must happen at rest become sync
+    /// points. Its moves never fire a laser (jogs, homing, probing, the board's own moves).
     pub fn push(&mut self, canon: &Canon) -> Result<(), PushError> {
+        self.push_as(canon, false)
+    }
+
+    /// Queues one canonical action of the program: as [`Self::push`], but in laser mode its
+    /// M3/M4/M5 and S set the power of the feed moves after it, without stopping.
+    pub fn push_program(&mut self, canon: &Canon) -> Result<(), PushError> {
+        self.push_as(canon, true)
+    }
+
+    fn push_as(&mut self, canon: &Canon, program: bool) -> Result<(), PushError> {
         self.feed_arc();
         if self.arc.is_some() || !self.has_room(self.reserve(), 0) || self.aborting() {
             return Err(PushError::Full);
+        }
+        self.line_power = match canon.action {
+            Action::Feed { .. } | Action::Arc { .. } if program => self.laser,
+            _ => self.unpowered(),
+        };
+        if self.cfg.laser.is_some() {
+            match canon.action {
+                Action::Spindle { state, rpm } if program => {
+                    self.laser = LaserPower::of(state, rpm);
+                    return Ok(());
+                }
+                // A job's end, abort or tool change leaves the beam off (as the spindle).
+                Action::ToolChange { .. } | Action::Stop(StopKind::End | StopKind::EndRewind) => {
+                    self.laser = LaserPower::Off
+                }
+                _ => {}
+            }
         }
         if let Action::Feed { to, feed } = canon.action {
             return self.push_feed(canon.line, &to, speed_of(feed));
@@ -255,6 +310,7 @@ impl<const N: usize> Motion<N> {
                     chords,
                     line: canon.line,
                     speed: speed_of(feed),
+                    power: self.line_power,
                 });
                 self.feed_arc();
                 Ok(())
@@ -408,7 +464,10 @@ impl<const N: usize> Motion<N> {
             return Err(PushError::Travel { axis });
         }
         let (tolerance, axes) = (self.blend_tolerance, self.cfg.axis_count as usize);
-        let mergeable = tolerance > 0 && !self.exact_stop && self.pending_output.is_none();
+        let mergeable = tolerance > 0
+            && !self.exact_stop
+            && self.pending_output.is_none()
+            && self.cfg.laser.is_none();
         if mergeable {
             let to = self.masked(to);
             if let Some(chain) = self.chain.as_mut() {
@@ -524,6 +583,7 @@ impl<const N: usize> Motion<N> {
             junction_deviation: self.junction_deviation,
             corner_sq,
             output: self.pending_output.map_or(OutputEvent::NONE, |p| p.output),
+            laser: self.line_power,
         };
         // The planner asks for each configured axis's displacement once, in order: the step
         // target is converted and the new end stored as it is read (no displacement arrays
@@ -573,6 +633,7 @@ impl<const N: usize> Motion<N> {
                 return;
             }
             let (line, speed) = (arc.line, arc.speed);
+            self.line_power = arc.power;
             match arc.chords.next_point() {
                 Some(p) => self.queue_line(line, &p, Some(speed)),
                 None => self.arc = None,
@@ -837,6 +898,7 @@ impl<const N: usize> Motion<N> {
         self.position = here;
         self.planner.continue_from(old.unit);
         let exact_stop = core::mem::replace(&mut self.exact_stop, false);
+        self.line_power = self.unpowered();
         if slow > 0 {
             // At the current speed (with the feed override), slowing for the corner.
             self.queue_line(0, &corner, Some(mul_div(v, 100, pct).max(1)));
@@ -895,6 +957,7 @@ impl<const N: usize> Motion<N> {
         self.drop_wanted = false;
         self.steps = self.prep.position();
         self.position = self.cfg.to_nm(&self.steps);
+        self.laser = self.unpowered();
     }
 
     /// Drops everything queued at once, without deceleration, and takes `steps` (normally
@@ -915,7 +978,15 @@ impl<const N: usize> Motion<N> {
         self.blend_tolerance = cfg.blend_tolerance.max(0) as u64;
         self.exact_stop = false;
         self.prep = Prep::new();
+        self.prep.set_laser(cfg.laser);
         self.reset(steps);
+    }
+
+    /// Laser mode: the spindle override, percent, that scales S in the segments prepared from
+    /// now on (docs/laser-plasma.md).
+    #[inline(always)]
+    pub fn set_laser_override(&mut self, pct: u16) {
+        self.prep.laser_override = pct;
     }
 
     /// Feed override in percent (clamped to 10-200), applied at once.
@@ -957,6 +1028,16 @@ fn length(d: &Pos) -> u64 {
         .map(|v| v.unsigned_abs() as u128 * v.unsigned_abs() as u128)
         .sum();
     crate::arith::isqrt_u128(sq) as u64
+}
+
+/// The power of a move that never fires the beam on machine `cfg`: off in laser mode, else none.
+#[inline(always)]
+fn unpowered(cfg: &MotionConfig) -> LaserPower {
+    if cfg.laser.is_some() {
+        LaserPower::Off
+    } else {
+        LaserPower::Keep
+    }
 }
 
 /// nm/min → nm/s.

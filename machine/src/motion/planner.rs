@@ -19,6 +19,7 @@
 //! (override change, resume) recomputes every limit, as grbl does.
 
 use super::config::{MotionConfig, MAX_SPEED};
+use super::laser::LaserPower;
 use super::output_event::OutputEvent;
 use crate::arith::{div_i128, div_u64, isqrt_u128, isqrt_u64, mul_div, sat_mul};
 use crate::units::MAX_AXES;
@@ -95,6 +96,8 @@ pub struct Block {
     kind: Kind,
     /// A line's on-the-fly output, switched as it starts.
     output: OutputEvent,
+    /// What the laser does while the line runs (laser mode).
+    pub laser: LaserPower,
     /// Direction byte (bit i set = axis i moves towards negative).
     pub dir: u8,
     pub rapid: bool,
@@ -109,6 +112,7 @@ impl Block {
     const MARKER: Block = Block {
         kind: Kind::Sync,
         output: OutputEvent::NONE,
+        laser: LaserPower::Keep,
         seq: 0,
         prefix: 0,
         line: 0,
@@ -194,6 +198,8 @@ pub struct LineRequest {
     pub corner_sq: Option<u64>,
     /// On-the-fly output switched as the line starts.
     pub output: OutputEvent,
+    /// What the laser does while the line runs.
+    pub laser: LaserPower,
 }
 
 /// The block ring and the planning state.
@@ -570,6 +576,7 @@ impl<const N: usize> Planner<N> {
         let mut block = Block {
             kind: Kind::Line,
             output: req.output,
+            laser: req.laser,
             seq: self.next_seq,
             prefix: 0,
             line: req.line,
@@ -915,6 +922,7 @@ mod tests {
             junction_deviation: cfg.junction_deviation as u64,
             corner_sq: None,
             output: OutputEvent::NONE,
+            laser: LaserPower::Keep,
         };
         TestLine { req, steps, delta }
     }

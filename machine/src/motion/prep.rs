@@ -14,9 +14,14 @@
 //!
 //! A block's on-the-fly output event goes on the block's first segment only (a hold that stops
 //! and resumes inside the block does not repeat it).
+//!
+//! In laser mode every segment carries the PWM duty of its block's [`super::laser::LaserPower`]
+//! at the segment's average speed ([`PwmMap::segment_duty`]: M4 follows the speed segment by
+//! segment, through ramps, corners, holds and resumes); dwell segments carry 0.
 
 use super::history::{Handed, History, Stand};
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
+use super::laser::{PwmMap, KEEP_DUTY};
 use super::output_event::OutputEvent;
 use super::planner::{Block, BlockKind, Planner};
 use super::profile::Profile;
@@ -124,6 +129,10 @@ pub struct Prep {
     finished: Option<BlockReport>,
     /// The segments handed out lately, to take back the ones the kernel has not started.
     history: History,
+    /// Laser mode's S → duty map (`None`: segments leave the PWM alone).
+    laser: Option<PwmMap>,
+    /// The spindle override, percent, scaling S in laser mode.
+    pub laser_override: u16,
 }
 
 impl Default for Prep {
@@ -164,14 +173,30 @@ impl Prep {
             },
             finished: None,
             history: History::new(),
+            laser: None,
+            laser_override: 100,
         }
     }
 
-    /// Forgets the head block (after an abort); the step position stays.
+    /// Forgets the head block (after an abort); the step position and the laser map stay.
     pub fn reset(&mut self) {
-        let position = self.position;
+        let (position, laser, pct) = (self.position, self.laser, self.laser_override);
         *self = Prep::new();
         self.position = position;
+        self.laser = laser;
+        self.laser_override = pct;
+    }
+
+    /// A new prep for a machine with laser map `laser` (`None`: not a laser machine).
+    pub const fn with_laser(laser: Option<PwmMap>) -> Self {
+        let mut p = Prep::new();
+        p.laser = laser;
+        p
+    }
+
+    /// Sets laser mode's S → duty map (`None`: not a laser machine).
+    pub fn set_laser(&mut self, laser: Option<PwmMap>) {
+        self.laser = laser;
     }
 
     /// Step position at the end of everything prepared so far.
@@ -272,7 +297,8 @@ impl Prep {
                             Stand::Dwelling
                         },
                     });
-                    return PrepOut::Segment(Segment::idle(1, p as u32));
+                    let power = if self.laser.is_some() { 0 } else { KEEP_DUTY };
+                    return PrepOut::Segment(Segment::idle(1, p as u32).with_power(power));
                 }
                 BlockKind::Line { output } => {
                     if let Some(seg) = self.line_segment(output, planner) {
@@ -563,6 +589,15 @@ impl Prep {
             };
             self.position[i] += i64::from(signed[i]);
         }
+        let power = match self.laser {
+            None => KEEP_DUTY,
+            // The segment's average speed: its path length over its duration.
+            Some(map) => map.segment_duty(
+                b.laser.scaled(self.laser_override),
+                mul_div(s - self.s_now, KERNEL_TIMER_HZ as u64, duration.max(1)),
+                b.programmed,
+            ),
+        };
         self.done = c;
         self.s_now = s;
         // `time_speed_at`'s speed is `speed_at(s)`.
@@ -586,6 +621,7 @@ impl Prep {
             period,
             dir: b.dir,
             output: core::mem::take(&mut self.output),
+            power,
         })
     }
 }

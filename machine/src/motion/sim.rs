@@ -97,7 +97,8 @@ impl<const N: usize> Sim<N> {
 
     /// Queues one action: an on-the-fly user M code (see [`Sim::on_the_fly`]) with
     /// [`Motion::push_output`], a G38 probe move as the feed move it is when nothing trips it
-    /// (its longest case), anything else with [`Motion::push`].
+    /// (its longest case, never powered), anything else as the program's with
+    /// [`Motion::push_program`] (in laser mode S and M3/M4/M5 do not stop, as on the board).
     pub fn push(&mut self, c: &Canon) -> Result<(), PushError> {
         if let Action::Probe { to, feed, .. } = c.action {
             let feed_move = Canon {
@@ -115,7 +116,7 @@ impl<const N: usize> Sim<N> {
                 return self.motion.push_output(c.line, code, output);
             }
         }
-        self.motion.push(c)
+        self.motion.push_program(c)
     }
 
     /// Virtual time in seconds × 1000 (milliseconds, rounded down).

@@ -7,7 +7,7 @@ use super::config::MotionConfig;
 use super::kernel::{Segment, SegmentSource, StepKernel};
 use super::output_event::OutputEvent;
 use super::sim::{Sim, SimEvent};
-use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, StopKind};
+use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
 use crate::units::Pos;
 use crate::vectors::{Digest, Vector};
 
@@ -94,6 +94,7 @@ fn kernel_bresenham() -> u32 {
             period: 2400,
             dir: 0b10,
             output: OutputEvent::NONE,
+            power: super::laser::KEEP_DUTY,
         },
         Segment {
             steps: [4, 3, 1, 2, 0, 0],
@@ -101,6 +102,7 @@ fn kernel_bresenham() -> u32 {
             period: 750,
             dir: 0b0101,
             output: OutputEvent::NONE,
+            power: super::laser::KEEP_DUTY,
         },
         Segment::idle(3, 1000),
         Segment {
@@ -109,6 +111,7 @@ fn kernel_bresenham() -> u32 {
             period: 300,
             dir: 0b11_1111,
             output: OutputEvent::NONE,
+            power: super::laser::KEEP_DUTY,
         },
     ];
     let mut src = Fixed(&segs, 0);
@@ -226,6 +229,98 @@ fn odd_ratios_dwell_exact_stop() -> u32 {
     cfg.axes[2].steps = 200;
     cfg.axes[2].units = 1_270_000;
     digest_run(cfg, &ODD_JOB, None, 100)
+}
+
+const fn spindle(line: u32, state: Spindle, rpm: u32) -> Canon {
+    Canon {
+        line,
+        action: Action::Spindle { state, rpm },
+    }
+}
+
+/// Laser mode (docs/laser-plasma.md): M4 with S changing between moves, a G0, an arc, M3 and a
+/// dwell, pushed as the program's; held at 0.25 s and resumed.
+const LASER_JOB: [Canon; 13] = [
+    spindle(1, Spindle::Ccw, 300),
+    feed(2, at(5 * MM, 0, 0), 1200),
+    spindle(3, Spindle::Ccw, 900),
+    feed(3, at(10 * MM, 0, 0), 1200),
+    spindle(4, Spindle::Ccw, 550),
+    feed(4, at(10 * MM, 7 * MM, 0), 2400),
+    rapid(5, at(0, 0, 0)),
+    Canon {
+        line: 6,
+        action: Action::Arc {
+            to: at(0, 6 * MM, 0),
+            center: [0, 3 * MM, 0],
+            plane: Plane::XY,
+            dir: ArcDir::Cw,
+            turns: 1,
+            feed: 900 * MM,
+        },
+    },
+    spindle(7, Spindle::Cw, 700),
+    feed(7, at(4 * MM, 6 * MM, 0), 600),
+    Canon {
+        line: 8,
+        action: Action::Dwell { micros: 20_000 },
+    },
+    feed(9, at(0, 0, 0), 1500),
+    Canon {
+        line: 10,
+        action: Action::Stop(StopKind::End),
+    },
+];
+
+/// Steps, and each laser duty the kernel reports with its time.
+fn laser_m4_power() -> u32 {
+    let cfg = MotionConfig {
+        laser: Some(super::laser::PwmMap {
+            min_rpm: 100,
+            max_rpm: 1000,
+            pwm_min: 20,
+            pwm_max: 999,
+        }),
+        ..MotionConfig::default()
+    };
+    let mut sim: Sim<48> = Sim::new(cfg);
+    let mut d = Digest::new();
+    let (mut next, mut held, mut idle) = (0, false, 0);
+    loop {
+        while next < LASER_JOB.len() && sim.push(&LASER_JOB[next]).is_ok() {
+            next += 1;
+        }
+        if !held && sim.now >= 3_000_000 {
+            sim.motion.feed_hold();
+            held = true;
+        }
+        if held && sim.motion.state() == super::pipeline::MotionState::Held {
+            sim.motion.resume();
+        }
+        let now = sim.now;
+        let out = sim.tick(&mut |e| {
+            if let SimEvent::Step(s) = e {
+                d.u64(s.time);
+                d.bytes(&[s.step, s.dir]);
+            }
+        });
+        if out.power != super::laser::KEEP_DUTY {
+            d.u64(now);
+            d.u64(u64::from(out.power));
+        }
+        if out.period == 0 {
+            idle += 1;
+            if idle > 3 && next >= LASER_JOB.len() {
+                break;
+            }
+        } else {
+            idle = 0;
+        }
+    }
+    for p in sim.kernel.position() {
+        d.i64(p);
+    }
+    d.finish()
 }
 
 /// One action of [`ONFLY_JOB`]: a canonical action, or an on-the-fly output (line, M code,
@@ -454,6 +549,11 @@ pub const VECTORS: &[Vector] = &[
         name: "motion/corner-round",
         run: corner_round,
         expected: 0x8287_09c2,
+    },
+    Vector {
+        name: "motion/laser-m4-power",
+        run: laser_m4_power,
+        expected: 0xbef1_9dee,
     },
 ];
 

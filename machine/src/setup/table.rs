@@ -467,6 +467,9 @@ table! {
     PwmMax => Spindle "pwm_range[1]" Count (1, 65_535), NO_GRBL,
         |s, _i| i64::from(s.outputs.pwm_max);
         [] "" "" "",
+    Laser => Spindle "laser" Bool (0, 1), 32,
+        |s, _i| i64::from(s.outputs.laser);
+        [] "" "" "laser mode (grbl `$32`, docs/laser-plasma.md): `S` changes between G1/G2/G3 moves never stop the motion (S travels with each move and sets the PWM duty at its first step); `M3` constant power, `M4` power scaled by the current speed ÷ the programmed feed at every segment; the beam is off in G0, at rest, in a hold, at M0/M6 stops, in an alarm and at program end, whatever S says. `false`: a milling spindle (every S change stops the motion until the spindle has it)",
 
     McodeCode => Mcode "code" Text ANY, NO_GRBL,
         |_s, _i| 0;

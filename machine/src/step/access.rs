@@ -28,6 +28,8 @@ pub struct KernelSnapshot {
     /// Times the kernel found its queue empty after a segment (wrapping,
     /// [`crate::motion::kernel::StepKernel::dry_runs`]): the main loop counts underruns by it.
     pub dry_runs: u16,
+    /// Laser PWM duty the kernel's segments set last (0 at rest; laser mode only).
+    pub laser_duty: u16,
 }
 
 impl<S: SegmentQueue> StepIsr<S> {
@@ -38,6 +40,7 @@ impl<S: SegmentQueue> StepIsr<S> {
             drained: self.idle && !self.kernel.is_busy() && self.source.is_empty(),
             stopped: self.kernel.is_stopped(),
             dry_runs: self.kernel.dry_runs(),
+            laser_duty: self.kernel.laser_duty(),
         }
     }
 

@@ -21,6 +21,9 @@ pub trait StepHardware {
     fn set_step_word(&mut self, bsrr: u32);
     /// Switches one user output (an on-the-fly M code).
     fn write_output(&mut self, event: OutputEvent);
+    /// Sets the laser PWM duty (compare counts of a PWM period of `pwm_max` counts, laser mode
+    /// only: docs/laser-plasma.md).
+    fn write_power(&mut self, duty: u16);
     /// The touch probe's raw level (true = pin low = closed), for the kernel's probe latch.
     fn probe_closed(&self) -> bool;
 }

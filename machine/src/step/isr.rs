@@ -32,6 +32,7 @@
 use super::hardware::StepHardware;
 use super::pins::PinWords;
 use crate::motion::kernel::{SegmentSource, StepKernel, StepTiming, TickOut, KERNEL_TIMER_HZ};
+use crate::motion::laser::KEEP_DUTY;
 use crate::motion::output_event::OutputEvent;
 
 /// Tick period while the kernel is idle (1 ms), i.e. how often an empty queue is polled.
@@ -77,6 +78,8 @@ pub struct Prepared {
     pub dir: u8,
     /// User output to switch with the dir pins.
     pub output: OutputEvent,
+    /// Laser duty to write with the dir pins ([`KEEP_DUTY`]: none).
+    pub power: u16,
 }
 
 impl Prepared {
@@ -90,6 +93,7 @@ impl Prepared {
         period: 0,
         dir: 0,
         output: OutputEvent::NONE,
+        power: KEEP_DUTY,
     };
 }
 
@@ -120,6 +124,7 @@ impl<S: SegmentSource> StepIsr<S> {
                 dir: 0,
                 period: 0,
                 output: OutputEvent::NONE,
+                power: KEEP_DUTY,
             },
             idle: true,
             timing,
@@ -149,6 +154,11 @@ impl<S: SegmentSource> StepIsr<S> {
         if w.output.is_some() {
             // On-the-fly output: switched before the first step of its block.
             hw.write_output(w.output);
+        }
+        if w.power != KEEP_DUTY {
+            // Laser duty of the segment this step starts (or 0 as the kernel stops): a
+            // compare-register store, computed by segment prep.
+            hw.write_power(w.power);
         }
         hw.set_step_word(w.step_word);
         hw.set_reload(w.reload);
@@ -193,5 +203,6 @@ fn prepare(
         period: tick.period,
         dir: tick.dir,
         output: tick.output,
+        power: tick.power,
     }
 }

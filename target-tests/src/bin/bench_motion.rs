@@ -50,6 +50,7 @@ fn empty_body(_k: &mut StepKernel, src: &mut Repeat) -> TickOut {
         dir: 0,
         period: 1,
         output: OutputEvent::NONE,
+        power: gantry_machine::motion::laser::KEEP_DUTY,
     }
 }
 
@@ -66,6 +67,7 @@ fn tick_cost(axes: usize, body: fn(&mut StepKernel, &mut Repeat) -> TickOut) -> 
         period: 240,
         dir: 0b101,
         output: OutputEvent::NONE,
+        power: gantry_machine::motion::laser::KEEP_DUTY,
     });
     let mut k = StepKernel::new();
     let t0 = now();

@@ -90,6 +90,10 @@ impl<const STAMP: bool> StepHardware for FakeHardware<STAMP> {
         OUTPUT.store(u32::from(event.index() as u8) | 0x100, Ordering::Relaxed);
     }
     #[inline(always)]
+    fn write_power(&mut self, duty: u16) {
+        OUTPUT.store(u32::from(duty) << 16, Ordering::Relaxed);
+    }
+    #[inline(always)]
     fn probe_closed(&self) -> bool {
         PROBE_IDR.load(Ordering::Relaxed) & 1 == 0
     }
@@ -142,6 +146,7 @@ fn run_cost(axes: usize, body: fn(&mut Option<StepIsr<Repeat>>)) -> u64 {
             period: 240,
             dir: 0b101,
             output: OutputEvent::NONE,
+            power: gantry_machine::motion::laser::KEEP_DUTY,
         }),
         timing,
     ));
@@ -529,6 +534,7 @@ fn seg(steps: [u32; 6], ticks: u32, period: u32, dir: u8, output: OutputEvent) -
         period,
         dir,
         output,
+        power: gantry_machine::motion::laser::KEEP_DUTY,
     }
 }
 
