@@ -1752,6 +1752,7 @@ fn a_silent_connection_is_greeted_with_the_banner_once() {
     s.run(100);
     let after = reset + &s.seen;
     assert_eq!(after.matches(BANNER).count(), 1, "{after:?}");
+}
 
 #[test]
 fn in_laser_mode_fs_reports_the_power_the_beam_fires_at_none_in_g0_or_at_rest() {
