@@ -14,6 +14,7 @@ mod controller_support;
 use controller_support::*;
 use gantry_machine::board::link::status_of;
 use gantry_machine::board::main_loop::{SpeedMeter, SEGMENT_QUEUE_DEPTH};
+use gantry_machine::board::ERROR_LIMIT_PRESSED;
 use gantry_machine::controller::{AlarmCode, State};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::setup::Setup;
@@ -103,17 +104,23 @@ fn a_limit_stop_keeps_the_kernel_latched_until_unlock() {
     assert!(eb.kernel_drained());
     assert_eq!(eb.isr.kernel.position(), at);
     assert_eq!(eb.limit_stops, 1);
-    // Unlock: the next pass re-arms the kernel (the pressed switch is disarmed until it
-    // releases, so the axis can be jogged off it).
-    eb.board.unlock();
-    assert_eq!(eb.board.state(), State::Idle);
+    // The switch is still pressed: no unlock (905), the kernel stays latched.
+    assert_eq!(eb.board.try_unlock(), Err(ERROR_LIMIT_PRESSED));
+    eb.run_ms(1);
+    assert!(eb.kernel_latched());
+    // A jog off it (the pressed switch is disarmed until it releases) runs from the alarm: the
+    // next pass re-arms the kernel; at rest the alarm is back, and the unlock clears it.
+    assert!(eb.board.jog(0, -600_000, 2 * MM as u64));
     eb.run_ms(1);
     assert!(!eb.isr.kernel.is_stopped());
     assert!(!eb.kernel_latched());
-    assert!(eb.board.jog(0, -600_000, 2 * MM as u64));
-    until_state(&mut eb, State::Idle, 5_000);
+    until_state(&mut eb, State::Alarm, 5_000);
     assert_eq!(eb.isr.kernel.position()[0], 8 * STEPS_PER_MM + AHEAD);
     assert_eq!(eb.limit_stops, 1);
+    eb.board.unlock();
+    assert_eq!(eb.board.state(), State::Idle);
+    eb.run_ms(1);
+    assert!(!eb.kernel_latched());
 }
 
 #[test]
