@@ -370,3 +370,72 @@ fn an_m0_stop_is_not_ended_by_host_loss() {
     until_state(&mut eb, State::Idle, 10_000);
     assert_eq!(eb.isr.kernel.position()[0], 2 * STEPS_PER_MM);
 }
+
+// ---- the job's owner lost behind a server that stays (`HostMsg::OwnerLost`, protocol 5.1) ----
+
+/// Streams [`LONG_FEED`] until line 4 runs at 2 s link time, then says the job's owner is lost
+/// on the same link, which stays alive (as `gantry serve` does); returns the connected client.
+fn owner_lost_on_a_live_link(host_lost_stop_s: u16) -> Client<EmulatedBoard> {
+    let mut client =
+        Client::connect(board(|s| s.link.host_lost_stop_s = host_lost_stop_s), 2000).unwrap();
+    let program = Program::from_text(LONG_FEED);
+    let report = host_sender::session::stream_program(&mut client, &program, &mut |p| {
+        if p.line >= 4 && p.elapsed_ms >= 2000 {
+            host_sender::session::Flow::Detach
+        } else {
+            host_sender::session::Flow::Continue
+        }
+    })
+    .unwrap();
+    assert!(report.alarms.is_empty());
+    assert_eq!(client.transport.board.state(), State::Run);
+    assert!(client.transport.board.output_levels().spindle_enable);
+    client.send(gantry_proto::HostMsg::OwnerLost).unwrap();
+    client
+}
+
+/// Pumps the live link for `ms` of link time (its keepalives keep the host attached).
+fn keep_link(client: &mut Client<EmulatedBoard>, ms: u32) {
+    for _ in 0..ms / 10 {
+        client.pump(10).unwrap();
+        while client.recv().is_some() {}
+    }
+}
+
+#[test]
+fn an_owner_lost_behind_a_live_link_is_a_lost_host_and_ends_with_alarm_20() {
+    let mut client = owner_lost_on_a_live_link(3);
+    // Held on its path, spindle and coolant off once at rest, exactly as for a dropped DTR.
+    keep_link(&mut client, 300);
+    let eb = &client.transport;
+    assert_eq!(eb.board.state(), State::Hold);
+    assert_eq!(eb.board.motion().state(), MotionState::Held);
+    assert!(!eb.board.output_levels().spindle_enable && !eb.board.output_levels().flood);
+    // The server reconnecting (a new hello, as serve does to drop the lost owner's lines) is
+    // still no owner: the alarm-20 count goes on and ends the job after host_lost_stop_s.
+    client.reconnect();
+    keep_link(&mut client, 2_000);
+    assert_eq!(client.transport.board.state(), State::Hold);
+    keep_link(&mut client, 1_500);
+    assert_eq!(client.transport.board.alarm(), Some(AlarmCode::HostLost));
+}
+
+#[test]
+fn a_take_over_after_an_owner_lost_stops_the_count_and_only_the_operator_resumes() {
+    let mut client = owner_lost_on_a_live_link(3);
+    keep_link(&mut client, 1_000);
+    let held_at = client.transport.isr.kernel.position();
+    client.send(gantry_proto::HostMsg::TakeOver).unwrap();
+    // Twice the limit: no alarm 20, and still held (the take-over resumes nothing).
+    keep_link(&mut client, 6_000);
+    let eb = &client.transport;
+    assert_eq!(eb.board.state(), State::Hold);
+    assert_eq!(eb.board.alarm(), None);
+    assert_eq!(eb.isr.kernel.position(), held_at);
+    // The operator's resume: spindle and flood come back, the job goes on.
+    client.send(gantry_proto::HostMsg::Resume).unwrap();
+    keep_link(&mut client, 100);
+    let eb = &client.transport;
+    assert_eq!(eb.board.state(), State::Run);
+    assert!(eb.board.output_levels().spindle_enable && eb.board.output_levels().flood);
+}

@@ -8,7 +8,7 @@ use crate::link::{Client, Transport};
 use crate::program::{Program, ProgramTarget};
 use anyhow::bail;
 use gantry_proto::lines::{push_record, record_len};
-use gantry_proto::{BoardMsg, HostMsg, LineBatch, Status};
+use gantry_proto::{BoardMsg, HostMsg, LineBatch, MachineState, Status};
 
 /// What the sender is serving now.
 struct Serving {
@@ -319,6 +319,10 @@ fn run_job<T: Transport>(
             match msg {
                 BoardMsg::Status(s) => {
                     progress.line = s.line;
+                    if s.state == MachineState::Run {
+                        // Running again: a later hold is not the gap's.
+                        progress.link_gap_ms = 0;
+                    }
                     progress.status = Some(s);
                 }
                 BoardMsg::Alarm { code, line } => report.alarms.push(BoardAlarm { code, line }),

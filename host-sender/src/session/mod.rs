@@ -300,10 +300,13 @@ impl Session {
     /// The one setup push from setup text (`gantry setup push FILE`, the console's Push): the
     /// text is parsed and validated (an empty or unreadable setup is an error and nothing is
     /// sent), the board's work offsets and G28/G30 positions are kept where the text names none
-    /// (`SetupFile::parse_for_push`), then it is pushed ([`Session::push_setup`]). Returns the
-    /// setup the board now has.
+    /// (`SetupFile::parse_for_push`, the board's setup read again first), then it is pushed
+    /// ([`Session::push_setup`]). Returns the setup the board now has.
     pub fn push_setup_text(&mut self, text: &str) -> anyhow::Result<Setup> {
-        let setup = crate::setup_file::SetupFile::parse_for_push(text, &self.setup)?;
+        // The offsets kept are the board's now (a job or a zero may have changed them since
+        // this session read the setup).
+        let board = pull_setup_over(&mut self.link)?;
+        let setup = crate::setup_file::SetupFile::parse_for_push(text, &board)?;
         self.push_setup(&setup)?;
         Ok(setup)
     }
