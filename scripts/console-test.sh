@@ -42,7 +42,9 @@ for _ in $(seq 50); do [ -e "$TMP/tty" ] && break; sleep 0.1; done
 HTTP=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
 "$GANTRY" serve --port "$TMP/tty" --http "127.0.0.1:$HTTP" > "$TMP/serve.log" 2>&1 &
 SERVE=$!
-for _ in $(seq 100); do grep -q "console is on" "$TMP/serve.log" && break; sleep 0.1; done
+for _ in $(seq 300); do grep -q "token is also in" "$TMP/serve.log" && break; sleep 0.1; done
+# The URL serve printed, with its token (the lock, docs/console.md).
+URL=$(sed -n 's/^serve: the console is on //p' "$TMP/serve.log" | head -1)
 printf 'G21 G90\nG1 X10 F600\nG1 X5 Q7\nM30\n' > "$TMP/bad.nc"
 python3 - "$TMP/job.nc" <<'PY'
 import math, sys
@@ -54,7 +56,7 @@ l += ["G0 Z5", "M30"]
 open(sys.argv[1], "w").write("\n".join(l) + "\n")
 PY
 rc=0
-URL="http://127.0.0.1:$HTTP/" GANTRY=$GANTRY PORT="$TMP/tty" BAD="$TMP/bad.nc" JOB="$TMP/job.nc" \
+URL="$URL" GANTRY=$GANTRY PORT="$TMP/tty" BAD="$TMP/bad.nc" JOB="$TMP/job.nc" \
   SHOT="${SHOT:-$PWD/docs/console.png}" NODE_PATH="$PWD/$DIR/node_modules" \
   node scripts/console_drive.js || rc=$?
 if [ $rc -ne 0 ]; then

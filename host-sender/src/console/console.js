@@ -2,6 +2,9 @@
 // JSON POSTs to the same serve process. No libraries; nothing fetched from elsewhere.
 "use strict";
 const $ = (id) => document.getElementById(id);
+// The printed URL's token has become this page's cookie (serve's lock): keep it out of the
+// address bar, the history and screenshots.
+if (new URLSearchParams(location.search).has("token")) history.replaceState(null, "", location.pathname);
 let status = null, setup = null, path = null, job = null, programName = null, errorLines = [];
 
 function log(text) {

@@ -12,9 +12,12 @@
 //!   `gantry stream` would, and broadcasts its progress with the planner's ETA.
 //!
 //! The job belongs to the serve process, not to the page: closing the page never stops it.
-//! No authentication: the console listens on loopback unless `--allow-remote` (docs/console.md).
+//! Locked ([`lock`]): every request carries the token serve printed; the console listens on
+//! loopback unless `--allow-remote` (docs/console.md).
 
+mod args;
 mod http;
+pub mod lock;
 pub mod program;
 
 use crate::commands::stream::Eta;
@@ -27,6 +30,7 @@ use crate::program_stops;
 use crate::resume::resume_preamble;
 use crate::session::{Flow, JobStart, Overrides, Session, Target};
 use anyhow::Context;
+use args::{num_in, percent, text, whole_in};
 use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::AXIS_LETTERS;
@@ -35,6 +39,7 @@ use serde_json::{json, Value};
 use std::collections::{BTreeMap, VecDeque};
 use std::io::{BufReader, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::{Arc, Condvar, Mutex};
@@ -61,13 +66,14 @@ pub fn check_address(addr: &SocketAddr, allow_remote: bool) -> anyhow::Result<()
     }
     anyhow::ensure!(
         allow_remote,
-        "--http {addr}: not a loopback address; the console has no authentication and anyone who \
-         reaches it can move the machine. Use 127.0.0.1 (and an SSH tunnel for a tablet, \
-         docs/console.md), or add --allow-remote if you mean it"
+        "--http {addr}: not a loopback address; the console speaks plain HTTP, so its token \
+         crosses the network readable by anyone on it, who can then move the machine. Use \
+         127.0.0.1 (and an SSH tunnel for a tablet, docs/console.md), or add --allow-remote if \
+         you mean it"
     );
     eprintln!(
-        "serve: WARNING: the console listens on {addr}, reachable from other hosts, with no \
-         authentication: anyone who reaches it can move the machine"
+        "serve: WARNING: the console listens on {addr}, reachable from other hosts over plain \
+         HTTP: anyone who can read the traffic learns the token and can move the machine"
     );
     Ok(())
 }
@@ -161,6 +167,7 @@ struct Loaded {
 
 struct Console {
     port: String,
+    lock: lock::Lock,
     hub: Hub,
     setup: Mutex<Option<Setup>>,
     program: Mutex<Option<Loaded>>,
@@ -195,13 +202,17 @@ fn now_s() -> f64 {
 }
 
 /// Starts the console for the board `gantry serve` serves on `port` (serve's socket must be bound
-/// already, and [`check_address`] passed); returns once it listens.
-pub fn start(port: &str, opts: &Options) -> anyhow::Result<()> {
+/// already in its private directory `dir`, and [`check_address`] passed); returns once it
+/// listens, with the file that holds the console's token (serve removes it when it ends).
+pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Result<PathBuf> {
     let listener = TcpListener::bind(opts.addr)
         .with_context(|| format!("--http {}: cannot listen", opts.addr))?;
+    let addr = listener.local_addr()?;
+    let lock = lock::Lock::create(&dir.join(lock::token_name(port)), addr.port())?;
     let (tx, rx) = mpsc::channel();
     let console = Arc::new(Console {
         port: port.to_owned(),
+        lock,
         hub: Hub::default(),
         setup: Mutex::new(None),
         program: Mutex::new(None),
@@ -212,7 +223,8 @@ pub fn start(port: &str, opts: &Options) -> anyhow::Result<()> {
     std::thread::Builder::new()
         .name("console-session".into())
         .spawn(move || worker(c, rx))?;
-    let addr = listener.local_addr()?;
+    let url = format!("http://{addr}/?token={}", console.lock.token());
+    let file = console.lock.file().to_owned();
     let c = console;
     std::thread::Builder::new()
         .name("console-http".into())
@@ -224,8 +236,10 @@ pub fn start(port: &str, opts: &Options) -> anyhow::Result<()> {
                     .spawn(move || serve_client(&c, stream, addr));
             }
         })?;
-    eprintln!("serve: the console is on http://{addr}/");
-    Ok(())
+    // Printed once: the URL is the key (a notebook server's way); scripts read the file.
+    eprintln!("serve: the console is on {url}");
+    eprintln!("serve: (its token is also in {})", file.display());
+    Ok(file)
 }
 
 /// The control session: the board's pushed status to every page, the page's requests to the
@@ -609,39 +623,81 @@ fn serve_client(c: &Arc<Console>, stream: TcpStream, addr: SocketAddr) {
     };
     let mut reader = BufReader::new(read_half);
     let mut out = stream;
-    while let Some(req) = http::read_request(&mut reader) {
+    loop {
+        let head = match http::read_head(&mut reader) {
+            Ok(h) => h,
+            Err(http::ReadError::Closed) => return,
+            Err(http::ReadError::Malformed) => {
+                http::refuse_and_close(&mut out, "400 Bad Request", "not an HTTP request\n");
+                return;
+            }
+            Err(http::ReadError::HeaderTooLarge) => {
+                http::refuse_and_close(
+                    &mut out,
+                    "431 Request Header Fields Too Large",
+                    &format!(
+                        "a header line is at most {} bytes, at most {} header lines\n",
+                        http::LINE_MAX,
+                        http::HEADERS_MAX
+                    ),
+                );
+                return;
+            }
+        };
         // A page from elsewhere must not drive the machine through the operator's browser: the
         // Host must be this console's (no DNS rebinding), and a command must be JSON (a
         // cross-site form cannot send that without a CORS preflight, which is never granted).
-        if !req.host_ok(addr) {
-            http::respond(&mut out, "403 Forbidden", "text/plain", b"wrong Host\n");
+        if !head.host_ok(addr) {
+            http::refuse_and_close(&mut out, "403 Forbidden", "wrong Host\n");
             return;
         }
-        let ok = match (req.method.as_str(), req.path.as_str()) {
-            ("GET", "/") | ("GET", "/index.html") => http::respond(
+        // The lock (`lock.rs`): nothing is read, shown or done without the token.
+        if !c.lock.admits(&head) {
+            http::refuse_and_close(
                 &mut out,
-                "200 OK",
-                "text/html; charset=utf-8",
-                PAGE.as_bytes(),
-            ),
-            ("GET", "/console.js") => http::respond(
+                "401 Unauthorized",
+                "the console needs its token: open the URL gantry serve printed \
+                 (the token is also in its runtime directory)\n",
+            );
+            return;
+        }
+        let limit = if head.method == "POST" && head.path == "/api/program" {
+            http::UPLOAD_MAX
+        } else {
+            http::BODY_MAX
+        };
+        if head.content_length > limit {
+            http::refuse_and_close(
                 &mut out,
-                "200 OK",
-                "text/javascript; charset=utf-8",
-                SCRIPT.as_bytes(),
-            ),
-            ("GET", "/console.css") => http::respond(
-                &mut out,
-                "200 OK",
-                "text/css; charset=utf-8",
-                STYLE.as_bytes(),
-            ),
+                "413 Content Too Large",
+                &format!("a request body is at most {limit} bytes here\n"),
+            );
+            return;
+        }
+        let Some(body) = http::read_body(&mut reader, head.content_length) else {
+            return;
+        };
+        // The first visit (the printed URL with its token) gets the cookie; later ones send it.
+        let cookie = if c.lock.in_query(&head) {
+            c.lock.set_cookie()
+        } else {
+            String::new()
+        };
+        let asset = |out: &mut TcpStream, kind: &str, text: &str| {
+            http::respond_with(out, "200 OK", kind, &cookie, text.as_bytes())
+        };
+        let ok = match (head.method.as_str(), head.path.as_str()) {
+            ("GET", "/") | ("GET", "/index.html") => {
+                asset(&mut out, "text/html; charset=utf-8", PAGE)
+            }
+            ("GET", "/console.js") => asset(&mut out, "text/javascript; charset=utf-8", SCRIPT),
+            ("GET", "/console.css") => asset(&mut out, "text/css; charset=utf-8", STYLE),
             ("GET", "/events") => {
                 events(c, out);
                 return;
             }
             ("POST", path) if path.starts_with("/api/") => {
-                if !req.json {
+                if !head.json {
                     http::respond(
                         &mut out,
                         "415 Unsupported Media Type",
@@ -650,10 +706,15 @@ fn serve_client(c: &Arc<Console>, stream: TcpStream, addr: SocketAddr) {
                     );
                     return;
                 }
-                let body: Value = serde_json::from_slice(&req.body).unwrap_or(Value::Null);
-                let (code, v) = match api(c, &path[5..], &body) {
-                    Ok(v) => ("200 OK", v),
-                    Err(e) => ("200 OK", json!({ "ok": false, "error": e })),
+                let (code, v) = match serde_json::from_slice::<Value>(&body) {
+                    Ok(body) if body.is_object() => match api(c, &path[5..], &body) {
+                        Ok(v) => ("200 OK", v),
+                        Err(e) => ("200 OK", json!({ "ok": false, "error": e })),
+                    },
+                    _ => (
+                        "400 Bad Request",
+                        json!({ "ok": false, "error": "the body must be a JSON object" }),
+                    ),
                 };
                 http::respond(&mut out, code, "application/json", v.to_string().as_bytes())
             }
@@ -695,10 +756,6 @@ fn ok(message: String) -> Value {
     json!({ "ok": true, "message": message })
 }
 
-fn num(v: &Value, key: &str) -> Option<f64> {
-    v.get(key).and_then(Value::as_f64).filter(|x| x.is_finite())
-}
-
 fn axis_of(v: &Value) -> Result<u8, String> {
     match v.get("axis") {
         Some(Value::String(s)) => AXIS_LETTERS
@@ -715,43 +772,33 @@ fn axis_of(v: &Value) -> Result<u8, String> {
     }
 }
 
-fn percent(v: &Value, key: &str) -> Result<Option<u16>, String> {
-    match num(v, key) {
-        None => Ok(None),
-        Some(p) if (1.0..=200.0).contains(&p) => Ok(Some(p.round() as u16)),
-        Some(p) => Err(format!("{key} override {p} %: give 1 to 200")),
-    }
-}
-
 fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
     let m = match what {
         "hold" => c.ask(Cmd::Hold)?,
         "resume" | "continue" => c.ask(Cmd::Resume)?,
         "abort" => c.ask(Cmd::Abort)?,
-        "override" => c.ask(Cmd::Overrides(Overrides {
-            feed: percent(body, "feed")?,
-            rapid: percent(body, "rapid")?,
-            spindle: match percent(body, "spindle")? {
-                Some(p) if p < 10 => return Err(format!("spindle override {p} %: give 10 to 200")),
-                p => p,
-            },
-        }))?,
+        "override" => {
+            let o = Overrides {
+                feed: percent(body, "feed", 10, 200)?,
+                rapid: percent(body, "rapid", 1, 100)?,
+                spindle: percent(body, "spindle", 10, 200)?,
+            };
+            if o.feed.is_none() && o.rapid.is_none() && o.spindle.is_none() {
+                return Err("which override? give feed, rapid or spindle".into());
+            }
+            c.ask(Cmd::Overrides(o))?
+        }
         "jog" => {
-            let step = num(body, "step").unwrap_or(0.0);
-            if !(0.0..=1000.0).contains(&step) {
-                return Err(format!("jog step {step} mm: give 0 (continuous) to 1000"));
-            }
-            let feed = num(body, "feed").unwrap_or(1000.0);
-            if !(1.0..=100_000.0).contains(&feed) {
-                return Err(format!("jog feed {feed} mm/min: give 1 to 100000"));
-            }
+            let step = num_in(body, "step", 0.0, 1000.0, " mm")?.unwrap_or(0.0);
+            let feed = num_in(body, "feed", 1.0, 100_000.0, " mm/min")?.unwrap_or(1000.0);
+            let dir = match args::num(body, "dir")? {
+                None => 1,
+                Some(d) if d == 1.0 || d == -1.0 => d as i8,
+                Some(d) => return Err(format!("dir {d}: give 1 or -1")),
+            };
             c.ask(Cmd::Jog {
                 axis: axis_of(body)?,
-                dir: if num(body, "dir").unwrap_or(1.0) < 0.0 {
-                    -1
-                } else {
-                    1
-                },
+                dir,
                 step_nm: (step * 1e6).round() as u64,
                 feed_um_min: (feed * 1000.0).round() as i32,
             })?
@@ -769,41 +816,31 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
         "read_back" => c.ask(Cmd::ReadBack)?,
         "offset" => {
             // G10 L2 P1..P9 (G54..G59.3) with the values given, mm.
-            let p = num(body, "p").unwrap_or(0.0);
-            if !(1.0..=9.0).contains(&p) || p.fract() != 0.0 {
-                return Err("P 1 (G54) to 9 (G59.3)".into());
-            }
+            let p = whole_in(body, "p", 1, 9)?.ok_or("P 1 (G54) to 9 (G59.3)")?;
             let mut block = format!("G21 G10 L2 P{p}");
-            for (i, l) in AXIS_LETTERS.iter().enumerate() {
-                if let Some(v) = body.get(l.to_string()).and_then(Value::as_f64) {
-                    let _ = i;
+            for l in AXIS_LETTERS {
+                // Machine mm, as G10 L2 takes them: within any machine's reach.
+                if let Some(v) = num_in(body, &l.to_string(), -1e6, 1e6, " mm")? {
                     block.push_str(&format!(" {l}{v:.4}"));
                 }
             }
             c.ask(Cmd::Offsets(block))?
         }
         "mdi" => {
-            let line = body
-                .get("line")
-                .and_then(Value::as_str)
-                .unwrap_or("")
-                .trim();
+            let line = text(body, "line")?.unwrap_or("").trim();
             if line.is_empty() {
                 return Err("an empty MDI block".into());
             }
             start_job(c, "mdi".into(), line.to_owned(), None)?
         }
         "program" => {
-            let name = body
-                .get("name")
-                .and_then(Value::as_str)
-                .unwrap_or("program.nc");
+            let name = text(body, "name")?.unwrap_or("program.nc");
             let name: String = name
                 .chars()
                 .filter(|ch| !ch.is_control() && *ch != ':')
                 .take(100)
                 .collect();
-            let text = body.get("text").and_then(Value::as_str).unwrap_or("");
+            let text = text(body, "text")?.ok_or("no program text")?;
             let setup = c
                 .setup
                 .lock()
@@ -829,18 +866,20 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
             return Ok(v);
         }
         "run" => {
-            let from = num(body, "from_line").map(|n| n.max(1.0) as u32);
             let (name, text) = {
                 let p = c.program.lock().expect("program");
                 let p = p.as_ref().ok_or("open a program first")?;
                 (p.name.clone(), p.text.clone())
             };
+            let lines = Program::from_text(&text).len().max(1) as u64;
+            let from = whole_in(body, "from_line", 1, lines)?.map(|n| n as u32);
             start_job(c, name, text, from)?
         }
         "preamble" => {
-            let from = num(body, "from_line").map_or(1, |n| n.max(1.0) as u32);
             let p = c.program.lock().expect("program");
             let p = p.as_ref().ok_or("open a program first")?;
+            let lines = Program::from_text(&p.text).len().max(1) as u64;
+            let from = whole_in(body, "from_line", 1, lines)?.unwrap_or(1) as u32;
             let setup = c
                 .setup
                 .lock()
@@ -854,7 +893,7 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
             return Ok(json!({ "ok": true, "preamble": pre }));
         }
         "setup_check" | "setup_push" => {
-            let text = body.get("toml").and_then(Value::as_str).unwrap_or("");
+            let text = text(body, "toml")?.ok_or("no setup text")?;
             let setup = crate::setup_file::SetupFile::parse(text).map_err(|e| format!("{e:#}"))?;
             if what == "setup_check" {
                 "the setup is valid".into()
