@@ -165,25 +165,21 @@ impl BoardError {
     /// The error as `gantry check` prints it ([`format_error`]: `place:line: N.. error
     /// E231: …`, the source line, a caret under the word the board blamed).
     pub fn describe(&self, place: &str, program: &Program) -> String {
-        let message = ErrorCode::ALL
-            .iter()
-            .find(|c| c.number() == self.code)
-            .map(|c| c.message())
-            .unwrap_or(match self.code {
-                gantry_machine::board::ERROR_SOFT_LIMIT => {
-                    "move exceeds the machine travel (soft limit)"
-                }
-                gantry_machine::board::ERROR_HOMING_REQUIRED => {
-                    "the machine must be homed first (gantry home)"
-                }
-                gantry_machine::board::ERROR_BUSY => {
-                    "the board is busy (a job, a homing cycle or a jog still moving): wait until it is Idle"
-                }
-                gantry_machine::board::ERROR_INVALID_REQUEST => {
-                    "the board cannot carry this out (no such axis, no feed, or no axis to home)"
-                }
-                _ => "unknown error",
-            });
+        let interpreter = || {
+            ErrorCode::ALL
+                .iter()
+                .find(|c| c.number() == self.code)
+                .map(|c| c.message())
+        };
+        // The board's own codes 900-903 share numbers with the interpreter's E900s (transforms):
+        // an error at no line (a refused request or start, a preamble's soft limit) is the
+        // board's; one at a program line is the interpreter's unless it has no such code.
+        let message = if self.line == 0 {
+            board_refusal(self.code).or_else(interpreter)
+        } else {
+            interpreter().or_else(|| board_refusal(self.code))
+        }
+        .unwrap_or("unknown error");
         if self.line == 0 {
             return format!("resume preamble: error {}: {message}", self.code);
         }
@@ -287,6 +283,27 @@ pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
 }
 
 /// `error 900: move exceeds the machine travel (soft limit)` for a refused request's code.
+/// The board's refusal of a request (a jog, homing, unlock, a start) or of a move, by its code
+/// (docs/errors.md "Board refusals"); `None` for a code that is not one of these.
+pub fn board_refusal(code: u16) -> Option<&'static str> {
+    use gantry_machine::board::{
+        ERROR_BUSY, ERROR_HOMING_REQUIRED, ERROR_INVALID_REQUEST, ERROR_SOFT_LIMIT,
+    };
+    Some(match code {
+        ERROR_SOFT_LIMIT => "move exceeds the machine travel (soft limit)",
+        ERROR_HOMING_REQUIRED => "the machine must be homed first (gantry home)",
+        ERROR_BUSY => {
+            "the board is busy (a job, a homing cycle or a jog still moving): wait until it is Idle"
+        }
+        ERROR_INVALID_REQUEST => {
+            "the board cannot carry this out (no such axis, no feed, or no axis to home)"
+        }
+        _ => return None,
+    })
+}
+
+/// The board's answer `code` to a request, in words (the board's refusals first: a request's
+/// answer is never an interpreter error).
 pub fn refusal_text(code: u16) -> String {
     BoardError {
         line: 0,
@@ -314,6 +331,22 @@ pub fn state_words(s: MachineState) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_busy_board_is_busy_not_a_plane_change() {
+        let busy = refusal_text(gantry_machine::board::ERROR_BUSY);
+        assert!(busy.starts_with("error 902: the board is busy"), "{busy}");
+        let homing = refusal_text(gantry_machine::board::ERROR_HOMING_REQUIRED);
+        assert!(homing.contains("homed first"), "{homing}");
+        // At a program line, 902 is the interpreter's.
+        let program = Program::from_text("G68 R30\nG18\n");
+        let e = BoardError {
+            line: 2,
+            code: 902,
+            column: 0,
+        };
+        assert!(e.describe("p.nc", &program).contains("plane change"));
+    }
 
     #[test]
     fn positions_round_half_a_micrometre_away_from_zero() {

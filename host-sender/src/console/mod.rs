@@ -17,6 +17,7 @@
 
 mod args;
 mod http;
+mod loaded;
 pub mod lock;
 pub mod program;
 
@@ -35,12 +36,13 @@ use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::AXIS_LETTERS;
 use gantry_proto::{BoardMsg, MachineState, Status};
+use loaded::Loaded;
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, VecDeque};
 use std::io::{BufReader, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
@@ -159,18 +161,16 @@ enum Cmd {
 
 type Reply = Result<String, String>;
 
-/// The program the page loaded.
-struct Loaded {
-    name: String,
-    text: String,
-}
-
 struct Console {
     port: String,
     lock: lock::Lock,
     hub: Hub,
     setup: Mutex<Option<Setup>>,
-    program: Mutex<Option<Loaded>>,
+    /// The program every page shows (`loaded.rs`), and its last revision number.
+    program: Mutex<Option<Arc<Loaded>>>,
+    rev: AtomicU64,
+    /// Where the tool stands (machine nm), from the newest status.
+    here: Mutex<[i64; 6]>,
     /// A console job thread runs.
     job: AtomicBool,
     /// A request to hold, resume, abort, or continue from the job thread.
@@ -216,6 +216,8 @@ pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Resul
         hub: Hub::default(),
         setup: Mutex::new(None),
         program: Mutex::new(None),
+        rev: AtomicU64::new(0),
+        here: Mutex::new([0; 6]),
         job: AtomicBool::new(false),
         control: Mutex::new(tx),
     });
@@ -271,6 +273,7 @@ fn worker(c: Arc<Console>, rx: mpsc::Receiver<(Cmd, mpsc::Sender<Reply>)>) {
                 Ok(got) => {
                     if let Some(s) = got.statuses.last() {
                         heard = Instant::now();
+                        *c.here.lock().expect("here") = s.machine_pos;
                         c.hub.publish("status", status_json(s, session.axes()));
                     }
                     // A job (any client's: a program, an MDI block) may have set work offsets,
@@ -314,7 +317,7 @@ fn answer(a: anyhow::Result<Option<u16>>, done: &str) -> Reply {
     }
 }
 
-fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
+fn carry_out(s: &mut Session, c: &Arc<Console>, cmd: Cmd) -> Reply {
     let e = |r: anyhow::Result<()>, done: &str| {
         r.map(|()| done.to_owned()).map_err(|e| format!("{e:#}"))
     };
@@ -398,12 +401,14 @@ fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
 
 /// Reads the board's setup again (the work offsets a job or a zero changed, which the board keeps
 /// in it) and shows it to every page.
-fn read_back(s: &mut Session, c: &Console) {
+fn read_back(s: &mut Session, c: &Arc<Console>) {
     match s.reload_setup() {
         Ok(setup) => {
             let setup = setup.clone();
             c.hub.publish("setup", setup_json(&setup));
             *c.setup.lock().expect("setup") = Some(setup);
+            // The work offsets may have changed: the program's path in machine coordinates too.
+            refresh(c);
         }
         Err(e) => c.notice(format!("cannot read the board's setup back: {e:#}")),
     }
@@ -589,6 +594,7 @@ fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
         publish_end(json!({
             "running": false, "name": name, "line": report.last_line, "total": total,
             "completed": report.completed, "aborted": report.aborted,
+            "resume_line": resume_line(&report, from.unwrap_or(1)),
             "errors": errors, "alarms": alarms,
             "elapsed_s": report.elapsed_ms as f64 / 1000.0,
             "link": format!("{:?}", report.link),
@@ -599,6 +605,55 @@ fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
         publish_end(json!({ "running": false, "name": name, "errors": [format!("{e:#}")] }));
     }
     c.job.store(false, Ordering::SeqCst);
+}
+
+/// Checks and draws the program again (the setup, its offsets or the tool's position changed),
+/// on a thread of its own: a long program's check does not hold up the status. The result
+/// replaces the program only if no other was opened meanwhile.
+fn refresh(c: &Arc<Console>) {
+    let Some(old) = c.program.lock().expect("program").clone() else {
+        return;
+    };
+    let Some(setup) = c.setup.lock().expect("setup").clone() else {
+        return;
+    };
+    let here = *c.here.lock().expect("here");
+    let c = c.clone();
+    let _ = std::thread::Builder::new()
+        .name("console-check".into())
+        .spawn(move || {
+            let rev = c.rev.fetch_add(1, Ordering::SeqCst) + 1;
+            let new = Arc::new(Loaded::build(&old.name, &old.text, &setup, &here, rev));
+            let mut p = c.program.lock().expect("program");
+            if p.as_ref().is_some_and(|p| p.rev == old.rev) {
+                *p = Some(new.clone());
+                drop(p);
+                c.hub.publish("program", new.summary.clone());
+            }
+        });
+}
+
+/// The line to run from after a job that did not complete, as `gantry stream` offers it
+/// (commands/stream.rs, its report's `resume:` line): after an abort, an alarm on the path or a
+/// lost link the line the board stood at (not before the run's first line), after an error its
+/// line; `None` after a completed job or one that cannot be resumed by line.
+fn resume_line(report: &crate::session::StreamReport, first_line: u32) -> Option<u32> {
+    use gantry_machine::controller::AlarmCode;
+    let on_path = report
+        .alarms
+        .iter()
+        .any(|a| a.code == AlarmCode::SoftLimit as u16 || a.code == AlarmCode::HostLost as u16);
+    let link_lost = matches!(
+        report.link,
+        crate::session::LinkEnd::Closed | crate::session::LinkEnd::BoardReset
+    );
+    if report.completed {
+        None
+    } else if report.aborted || on_path || link_lost {
+        Some(report.last_line.max(first_line))
+    } else {
+        report.errors.iter().find(|e| e.line != 0).map(|e| e.line)
+    }
 }
 
 /// Starts a job thread unless one runs.
@@ -847,23 +902,16 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
                 .expect("setup")
                 .clone()
                 .ok_or("the board's setup is not read yet")?;
-            let checked = program::check(&name, text, &setup);
-            let path: Value = serde_json::from_str(&program::path_json(text, &setup))
-                .map_err(|e| e.to_string())?;
-            *c.program.lock().expect("program") = Some(Loaded {
-                name: name.clone(),
-                text: text.to_owned(),
-            });
-            let v = json!({
-                "ok": true, "name": name, "lines": Program::from_text(text).len(),
-                "check": checked.text, "errors": checked.errors,
-                "error_lines": checked.error_lines, "seconds": checked.seconds,
-            });
-            c.hub.publish("program", v.clone());
-            let mut v = v;
-            v["path"] = path["pts"].clone();
-            v["source"] = Value::from(text);
-            return Ok(v);
+            let here = *c.here.lock().expect("here");
+            let rev = c.rev.fetch_add(1, Ordering::SeqCst) + 1;
+            let loaded = Arc::new(Loaded::build(&name, text, &setup, &here, rev));
+            *c.program.lock().expect("program") = Some(loaded.clone());
+            c.hub.publish("program", loaded.summary.clone());
+            return Ok(loaded.whole());
+        }
+        "loaded" => {
+            let p = c.program.lock().expect("program").clone();
+            return Ok(p.ok_or("no program is open")?.whole());
         }
         "run" => {
             let (name, text) = {
@@ -873,7 +921,10 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
             };
             let lines = Program::from_text(&text).len().max(1) as u64;
             let from = whole_in(body, "from_line", 1, lines)?.map(|n| n as u32);
-            start_job(c, name, text, from)?
+            let m = start_job(c, name, text, from)?;
+            // The path from where the tool stands now.
+            refresh(c);
+            m
         }
         "preamble" => {
             let p = c.program.lock().expect("program");
@@ -888,7 +939,8 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
                 .ok_or("no setup yet")?;
             let program = Program::from_text(&p.text);
             // Shown before the run; the job computes it again where the machine stands then.
-            let pre = resume_preamble(&program, &p.text, from, &setup, &[0; 6])
+            let here = *c.here.lock().expect("here");
+            let pre = resume_preamble(&program, &p.text, from, &setup, &here)
                 .map_err(|e| format!("{e:#}"))?;
             return Ok(json!({ "ok": true, "preamble": pre }));
         }
