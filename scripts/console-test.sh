@@ -56,7 +56,7 @@ l += ["G0 Z5", "M30"]
 open(sys.argv[1], "w").write("\n".join(l) + "\n")
 PY
 rc=0
-URL="$URL" GANTRY=$GANTRY PORT="$TMP/tty" BAD="$TMP/bad.nc" JOB="$TMP/job.nc" \
+URL="$URL" SERVE_PID=$SERVE GANTRY=$GANTRY PORT="$TMP/tty" BAD="$TMP/bad.nc" JOB="$TMP/job.nc" \
   SHOT="${SHOT:-$PWD/docs/console.png}" NODE_PATH="$PWD/$DIR/node_modules" \
   node scripts/console_drive.js || rc=$?
 if [ $rc -ne 0 ]; then
