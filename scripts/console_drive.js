@@ -8,7 +8,7 @@ const { execFileSync, spawn, spawnSync } = require("child_process");
 const fs = require("fs");
 const path = require("path");
 
-const { URL, GANTRY, PORT, BAD, JOB, SHOT, SERVE_PID } = process.env;
+const { URL, GANTRY, PORT, BAD, JOB, TOOL, SHOT, SERVE_PID } = process.env;
 const BASE = URL.replace(/\?.*$/, "");
 const SHOTS = path.dirname(SHOT);
 const ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -299,6 +299,44 @@ async function waitState(page, want, ms = 10000) {
   await page.waitForFunction(() => document.getElementById("units").textContent === "mm", null, { timeout: 5000 }).catch(() => {});
   check((await text(page, "#work-X")) === "+" + inch.work[0].toFixed(3), "after G21: mm again");
 
+  // The library: an upload is kept (name, size, date, planned time, tools), listed after a
+  // reload; chosen from the list it is checked and runs, its M6 prompts for the tool.
+  page.on("dialog", (d) => d.accept());
+  await page.setInputFiles("#file", TOOL);
+  await page.waitForFunction(() => document.querySelector('#library tr[data-name="tool.nc"]'), null, { timeout: 10000 }).catch(() => {});
+  await page.reload();
+  await waitState(page, "Idle");
+  await page.waitForFunction(() => document.querySelector('#library tr[data-name="tool.nc"]'), null, { timeout: 10000 }).catch(() => {});
+  const row = await page.evaluate(() => [...(document.querySelector('#library tr[data-name="tool.nc"]') || { cells: [] }).cells].map((c) => c.textContent));
+  check(row[0] === "tool.nc" && /B$/.test(row[1]) && /^0:00:\d\d$/.test(row[3]) && row[4] === "T2", "the library keeps tool.nc: " + row.slice(0, 5).join(" | "));
+  await page.click('#library tr[data-name="job.nc"] .lib-open').catch(() => {});
+  await page.waitForFunction(() => /^job\.nc/.test(document.getElementById("prog-name").textContent), null, { timeout: 10000 }).catch(() => {});
+  await page.click('#library tr[data-name="tool.nc"] .lib-open');
+  await page.waitForFunction(() => /^tool\.nc: 8 lines, planned time/.test(document.getElementById("prog-name").textContent), null, { timeout: 10000 }).catch(() => {});
+  check(/^tool\.nc: 8 lines, planned time/.test(await text(page, "#prog-name")) && /tools\s+T2/.test(await text(page, "#check")),
+    "chosen from the library: " + (await text(page, "#prog-name")) + ", the check lists T2");
+  await page.click("#run");
+  check(await waitState(page, "ToolChange", 15000), "the M6 stops the job: ToolChange");
+  await page.waitForFunction(() => !document.getElementById("stop").hidden, null, { timeout: 5000 }).catch(() => {});
+  const m6 = await text(page, "#stop-text");
+  check(/tool 2|T2/.test(m6) && cliStatus().state === "ToolChange", "the M6 prompt: " + JSON.stringify(m6));
+  await page.click("#continue");
+  await page.waitForFunction(() => /tool\.nc: done/.test(document.getElementById("job").textContent), null, { timeout: 20000 }).catch(() => {});
+  const toolDone = cliStatus();
+  check(/tool\.nc: done/.test(await text(page, "#job")) && toolDone.state === "Idle" && /T2|tool 2/.test(toolDone.text),
+    `after Continue the job completes with tool 2 in the spindle (${await text(page, "#job")})`);
+
+  // A macro: kept by serve, run from the page (X back by exactly 1 mm).
+  await page.fill("#macro-name", "left 1");
+  await page.fill("#macro-text", "G91 G0 X-1\nG90");
+  await page.click("#macro-save");
+  await page.waitForFunction(() => document.querySelector('#macros tr[data-name="left 1"]'), null, { timeout: 10000 }).catch(() => {});
+  const mx0 = cliStatus().machine[0];
+  await page.click('#macros tr[data-name="left 1"] .macro-run');
+  await page.waitForFunction(() => /macro left 1: done/.test(document.getElementById("job").textContent), null, { timeout: 20000 }).catch(() => {});
+  const mx1 = cliStatus().machine[0];
+  check(Math.abs(mx0 - mx1 - 1) < 1e-9, `macro "left 1" moved X by exactly -1.000 mm (${mx0} -> ${mx1})`);
+
   // One frame: the tool path, the cross and the box in work coordinates. With G54 moved away from
   // machine zero (jogs of 10 mm, then Zero X and Y), the cross sits on the path being cut.
   await page.selectOption("#step", "10");
@@ -355,6 +393,9 @@ async function waitState(page, want, ms = 10000) {
     check(/new token/.test(await text(page, "#offline-text")), "the page says: " + (await text(page, "#offline-text")));
     await page.goto(url2);
     check(await waitState(page, "Idle"), "the new URL: live again, Idle");
+    await page.waitForFunction(() => document.querySelector('#library tr[data-name="tool.nc"]') && document.querySelector('#macros tr[data-name="left 1"]'), null, { timeout: 10000 }).catch(() => {});
+    const kept = await page.evaluate(() => [...document.querySelectorAll("#library tr[data-name], #macros tr[data-name]")].map((r) => r.dataset.name));
+    check(kept.includes("tool.nc") && kept.includes("job.nc") && kept.includes("left 1"), "after the serve restart the library and the macros are there: " + kept.join(", "));
   } finally {
     again.kill("SIGTERM");
     await new Promise((r) => again.on("close", r));

@@ -21,8 +21,13 @@ struct Console {
     file: String,
 }
 
-fn console(emu: &Emulator) -> Console {
-    let serve = spawn(&["serve", "--port", emu.port(), "--http", "127.0.0.1:0"]);
+fn console(emu: &Emulator, dir: &Dir) -> Console {
+    // The console's library in the test's directory.
+    let serve = spawn_cmd(
+        std::process::Command::new(GANTRY)
+            .args(["serve", "--port", emu.port(), "--http", "127.0.0.1:0"])
+            .env("XDG_DATA_HOME", dir.0.join("data")),
+    );
     assert!(
         wait_for(20 * S, || serve.stderr().contains("token is also in")),
         "serve did not start its console: {}",
@@ -137,7 +142,7 @@ fn vm_hwm_kib(pid: nix::unistd::Pid) -> u64 {
 fn without_the_token_nothing_is_shown_or_done() {
     let dir = Dir::new("console-lock");
     let emu = Emulator::start(&dir, None);
-    let c = console(&emu);
+    let c = console(&emu, &dir);
     let addr = c.addr;
     // The token: 256 bits, in a file only serve's user reads.
     assert_eq!(c.token.len(), 64, "{}", c.token);
@@ -254,7 +259,7 @@ fn without_the_token_nothing_is_shown_or_done() {
 fn headers_and_bodies_are_bounded_and_memory_stays_flat() {
     let dir = Dir::new("console-bounds");
     let emu = Emulator::start(&dir, None);
-    let c = console(&emu);
+    let c = console(&emu, &dir);
     let addr = c.addr;
     let bearer = format!("Authorization: Bearer {}\r\n", c.token);
     // Warm up (threads, the page) before the peak is read.

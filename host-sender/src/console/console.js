@@ -142,6 +142,8 @@ function connect() {
     fetchProgram();
   });
   es.addEventListener("notice", (e) => log(JSON.parse(e.data).text));
+  es.addEventListener("library", (e) => showLibrary(JSON.parse(e.data).programs));
+  es.addEventListener("macros", (e) => showMacros(JSON.parse(e.data).macros));
   es.onerror = async () => {
     offline("connection to gantry serve lost: retrying… (the job, if any, runs on in serve)");
     // The stream gives no status code: ask once whether it is the token (serve restarted).
@@ -356,6 +358,51 @@ $("show-pre").onclick = async () => {
   const v = await post("preamble", { from_line: +$("from").value || 1 });
   $("preamble").hidden = !v.ok;
   if (v.ok) $("preamble").textContent = "preamble sent before line " + ($("from").value || 1) + ":\n" + v.preamble.join("\n");
+};
+
+// ---- library and macros (kept by serve) ----
+const cell = (tr, text) => { const td = document.createElement("td"); td.textContent = text; tr.append(td); return td; };
+const button = (td, label, cls, fn) => { const b = document.createElement("button"); b.textContent = label; b.className = cls; b.onclick = fn; b.disabled = !live; td.append(b); return b; };
+function showLibrary(list) {
+  const tb = document.querySelector("#library tbody");
+  tb.textContent = "";
+  for (const p of list) {
+    const tr = document.createElement("tr");
+    tr.dataset.name = p.name;
+    cell(tr, p.name);
+    cell(tr, p.size < 10240 ? p.size + " B" : Math.round(p.size / 1024) + " KiB");
+    cell(tr, new Date(p.date * 1000).toLocaleString());
+    cell(tr, p.seconds != null ? hms(p.seconds) : p.errors ? p.errors + " errors" : "-");
+    cell(tr, (p.tools || []).map((t) => "T" + t).join(", ") || "none");
+    button(cell(tr, ""), "Open", "lib-open", async () => {
+      $("prog-name").textContent = "checking…";
+      const v = await post("library_open", { name: p.name });
+      if (v.ok) showProgram(v);
+    });
+    button(cell(tr, ""), "Delete", "lib-delete", () => { if (confirm("Remove " + p.name + " from the library?")) post("library_delete", { name: p.name }); });
+    tb.append(tr);
+  }
+}
+function showMacros(list) {
+  const tb = document.querySelector("#macros tbody");
+  tb.textContent = "";
+  for (const m of list) {
+    const tr = document.createElement("tr");
+    tr.dataset.name = m.name;
+    cell(tr, m.name);
+    const pre = document.createElement("pre");
+    pre.textContent = m.text;
+    cell(tr, "").append(pre);
+    button(cell(tr, ""), "Run", "go macro-run", () => post("macro_run", { name: m.name }));
+    button(cell(tr, ""), "Edit", "macro-edit", () => { $("macro-name").value = m.name; $("macro-text").value = m.text; });
+    button(cell(tr, ""), "Delete", "macro-delete", () => { if (confirm("Delete macro " + m.name + "?")) post("macro_delete", { name: m.name }); });
+    tb.append(tr);
+  }
+}
+$("macro-form").onsubmit = async (e) => {
+  e.preventDefault();
+  const v = await post("macro_save", { name: $("macro-name").value, text: $("macro-text").value });
+  if (v.ok) { log(v.message); $("macro-name").value = ""; $("macro-text").value = ""; }
 };
 
 // ---- setup ----

@@ -31,6 +31,7 @@ impl Loaded {
             "name": name, "lines": Program::from_text(text).len(), "rev": rev,
             "check": checked.text, "errors": checked.errors,
             "error_lines": checked.error_lines, "seconds": checked.seconds,
+            "tools": checked.tools, "size": text.len(),
             "from": from,
         });
         Loaded {

@@ -17,6 +17,7 @@
 
 mod args;
 mod http;
+mod library;
 mod loaded;
 pub mod lock;
 pub mod program;
@@ -168,6 +169,8 @@ struct Console {
     setup: Mutex<Option<Setup>>,
     /// The program every page shows (`loaded.rs`), and its last revision number.
     program: Mutex<Option<Arc<Loaded>>>,
+    /// The program library and the macros (`library.rs`), when a data directory is usable.
+    library: Option<library::Library>,
     rev: AtomicU64,
     /// Where the tool stands (machine nm), from the newest status.
     here: Mutex<[i64; 6]>,
@@ -209,6 +212,25 @@ pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Resul
         .with_context(|| format!("--http {}: cannot listen", opts.addr))?;
     let addr = listener.local_addr()?;
     let lock = lock::Lock::create(&dir.join(lock::token_name(port)), addr.port())?;
+    let library = match library::default_dir().map(|d| library::Library::open(&d)) {
+        Some(Ok(l)) => Some(l),
+        Some(Err(e)) => {
+            eprintln!("serve: the console keeps no program library or macros: {e:#}");
+            None
+        }
+        None => {
+            eprintln!(
+                "serve: the console keeps no program library or macros: no XDG_DATA_HOME or HOME"
+            );
+            None
+        }
+    };
+    if let Some(l) = &library {
+        eprintln!(
+            "serve: the console's program library and macros are in {}",
+            l.dir().display()
+        );
+    }
     let (tx, rx) = mpsc::channel();
     let console = Arc::new(Console {
         port: port.to_owned(),
@@ -216,6 +238,7 @@ pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Resul
         hub: Hub::default(),
         setup: Mutex::new(None),
         program: Mutex::new(None),
+        library,
         rev: AtomicU64::new(0),
         here: Mutex::new([0; 6]),
         job: AtomicBool::new(false),
@@ -225,6 +248,14 @@ pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Resul
     std::thread::Builder::new()
         .name("console-session".into())
         .spawn(move || worker(c, rx))?;
+    if let Some(l) = &console.library {
+        console
+            .hub
+            .publish("library", json!({ "programs": l.list() }));
+        console
+            .hub
+            .publish("macros", json!({ "macros": l.macros() }));
+    }
     let url = format!("http://{addr}/?token={}", console.lock.token());
     let file = console.lock.file().to_owned();
     let c = console;
@@ -607,6 +638,23 @@ fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
     c.job.store(false, Ordering::SeqCst);
 }
 
+/// Makes `text` the program every page shows: checked with the board's setup and drawn from
+/// where the tool stands; returns all of it for the page that opened it.
+fn open_program(c: &Arc<Console>, name: &str, text: &str) -> Result<Value, String> {
+    let setup = c
+        .setup
+        .lock()
+        .expect("setup")
+        .clone()
+        .ok_or("the board's setup is not read yet")?;
+    let here = *c.here.lock().expect("here");
+    let rev = c.rev.fetch_add(1, Ordering::SeqCst) + 1;
+    let loaded = Arc::new(Loaded::build(name, text, &setup, &here, rev));
+    *c.program.lock().expect("program") = Some(loaded.clone());
+    c.hub.publish("program", loaded.summary.clone());
+    Ok(loaded.whole())
+}
+
 /// Checks and draws the program again (the setup, its offsets or the tool's position changed),
 /// on a thread of its own: a long program's check does not hold up the status. The result
 /// replaces the program only if no other was opened meanwhile.
@@ -890,24 +938,80 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
         }
         "program" => {
             let name = text(body, "name")?.unwrap_or("program.nc");
-            let name: String = name
-                .chars()
-                .filter(|ch| !ch.is_control() && *ch != ':')
-                .take(100)
-                .collect();
+            let name = library::file_name(name).unwrap_or_else(|_| "program.nc".into());
             let text = text(body, "text")?.ok_or("no program text")?;
-            let setup = c
-                .setup
-                .lock()
-                .expect("setup")
-                .clone()
-                .ok_or("the board's setup is not read yet")?;
-            let here = *c.here.lock().expect("here");
-            let rev = c.rev.fetch_add(1, Ordering::SeqCst) + 1;
-            let loaded = Arc::new(Loaded::build(&name, text, &setup, &here, rev));
-            *c.program.lock().expect("program") = Some(loaded.clone());
-            c.hub.publish("program", loaded.summary.clone());
-            return Ok(loaded.whole());
+            let v = open_program(c, &name, text)?;
+            // Kept in the library (a program chosen there again is stored again: its date).
+            if let Some(lib) = &c.library {
+                if let Err(e) = lib.store(&name, text, &v) {
+                    c.notice(format!("the library did not keep {name}: {e}"));
+                }
+                c.hub.publish("library", json!({ "programs": lib.list() }));
+            }
+            return Ok(v);
+        }
+        "library" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no library (no data directory)")?;
+            return Ok(json!({ "ok": true, "programs": lib.list(), "dir": lib.dir() }));
+        }
+        "library_open" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no library (no data directory)")?;
+            let name = text(body, "name")?.ok_or("which program?")?;
+            let text = lib.read(name)?;
+            let v = open_program(c, &library::file_name(name)?, &text)?;
+            lib.store(&library::file_name(name)?, &text, &v)?;
+            c.hub.publish("library", json!({ "programs": lib.list() }));
+            return Ok(v);
+        }
+        "library_delete" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no library (no data directory)")?;
+            let name = text(body, "name")?.ok_or("which program?")?;
+            lib.remove(name)?;
+            c.hub.publish("library", json!({ "programs": lib.list() }));
+            format!("{name} removed from the library")
+        }
+        "macros" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no macros (no data directory)")?;
+            return Ok(json!({ "ok": true, "macros": lib.macros() }));
+        }
+        "macro_save" | "macro_delete" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no macros (no data directory)")?;
+            let name = text(body, "name")?.ok_or("which macro?")?;
+            let blocks = if what == "macro_save" {
+                Some(text(body, "text")?.ok_or("the macro's blocks?")?)
+            } else {
+                None
+            };
+            lib.set_macro(name, blocks)?;
+            c.hub.publish("macros", json!({ "macros": lib.macros() }));
+            format!(
+                "macro {name} {}",
+                if blocks.is_some() { "kept" } else { "removed" }
+            )
+        }
+        "macro_run" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no macros (no data directory)")?;
+            let name = text(body, "name")?.ok_or("which macro?")?;
+            let blocks = lib.macro_text(name)?;
+            start_job(c, format!("macro {name}"), blocks, None)?
         }
         "loaded" => {
             let p = c.program.lock().expect("program").clone();

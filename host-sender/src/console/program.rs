@@ -24,6 +24,8 @@ pub struct Checked {
     pub error_lines: Vec<u32>,
     /// Planned machine time, s (none when the check found an error).
     pub seconds: Option<f64>,
+    /// Tools the program loads with M6, in order of first use.
+    pub tools: Vec<u32>,
 }
 
 /// Checks `text` (named `name`) with `setup`, as `gantry check NAME` does.
@@ -45,6 +47,7 @@ pub fn check(name: &str, text: &str, setup: &Setup) -> Checked {
         .filter_map(|rest| rest.split(':').next()?.parse().ok())
         .collect();
     let mut seconds = None;
+    let tools = summary.as_ref().map_or_else(Vec::new, |s| s.tools.clone());
     if let Some(s) = &summary {
         if errors == 0 {
             seconds = s.run_time_s;
@@ -56,6 +59,7 @@ pub fn check(name: &str, text: &str, setup: &Setup) -> Checked {
         errors,
         error_lines,
         seconds,
+        tools,
     }
 }
 
