@@ -36,7 +36,10 @@ stop() {
   exit $rc
 }
 trap stop EXIT
-"$GANTRY" emulate --pty "$TMP/tty" > "$TMP/emulate.log" 2>&1 &
+# Probe targets for the probing workflows: a plate (plane) at Z -5, a block X 200-250, Y 100-150
+# with its top at Z 0, far from the programs' paths.
+"$GANTRY" emulate --pty "$TMP/tty" --probe-target plane:-5 --probe-target boss:200,100,250,150,0 \
+  > "$TMP/emulate.log" 2>&1 &
 EMU=$!
 for _ in $(seq 50); do [ -e "$TMP/tty" ] && break; sleep 0.1; done
 HTTP=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')

@@ -371,6 +371,44 @@ async function waitState(page, want, ms = 10000) {
   await page.click("#abort");
   check(await waitState(page, "Idle"), "Abort: Idle");
 
+  // Probing against the emulator's targets, through the page: each workflow's plan is confirmed
+  // (the dialog), then the offsets are set to the µm.
+  const g54 = () => {
+    const m = execFileSync(GANTRY, ["setup", "pull", "--port", PORT], { encoding: "utf8", timeout: 20000 }).match(/^"G54" = \[([^\]]*)\]/m);
+    return m ? m[1].split(",").map(Number) : [];
+  };
+  const dialogs = [];
+  page.on("dialog", (d) => dialogs.push(d.message()));
+  const goTo = async (blocks) => {
+    for (const b of blocks) { await mdi(page, b); await page.waitForFunction(() => /mdi: done/.test(document.getElementById("job").textContent), null, { timeout: 20000 }).catch(() => {}); await waitState(page, "Idle"); }
+  };
+  await goTo(["G53 G0 Z5", "G53 G0 X150 Y50"]);
+  await page.fill("#pz-thickness", "10");
+  await page.fill("#pz-distance", "20");
+  await page.click("#probe-z");
+  await page.waitForFunction(() => /set to|stopped/.test(document.getElementById("probe-result").textContent), null, { timeout: 30000 }).catch(() => {});
+  await waitState(page, "Idle");
+  const zr = await text(page, "#probe-result");
+  const zOff = g54(), zSt = cliStatus();
+  check(dialogs.some((d) => /probe down up to 20 mm/.test(d) && /Start\?/.test(d)), "Z: the plan was shown and asked before moving");
+  check(/contact at machine Z -5\.000/.test(zr) && zOff[2] === -15 && zSt.work[2] === 12 && zSt.machine[2] === -3,
+    `Z touch plate (10 mm on the plane at Z -5): "${zr}"; G54 Z ${zOff[2]} (gantry setup pull), work Z ${zSt.work[2]} after the 2 mm retract`);
+  await page.waitForFunction(() => document.getElementById("off-1-Z").value === "-15.000", null, { timeout: 10000 }).catch(() => {});
+  check((await page.inputValue("#off-1-Z")) === "-15.000", "the offset table shows G54 Z -15.000");
+  await goTo(["G53 G0 Z5", "G53 G0 X206 Y106"]);
+  await page.fill("#pc-clearance", "12");
+  await page.fill("#pc-depth", "8");
+  await page.fill("#pc-diameter", "0");
+  await page.click("#probe-corner");
+  await page.waitForFunction(() => /corner at|stopped/.test(document.getElementById("probe-result").textContent), null, { timeout: 60000 }).catch(() => {});
+  await waitState(page, "Idle");
+  const cr = await text(page, "#probe-result");
+  const cOff = g54(), cSt = cliStatus();
+  check(dialogs.some((d) => /outside corner/.test(d)), "corner: the plan was shown and asked before moving");
+  check(/X 200\.000 \(left face\) and Y 100\.000/.test(cr) && cOff[0] === 200 && cOff[1] === 100 && cOff[2] === -15 &&
+    cSt.machine[0] === 206 && cSt.machine[1] === 106 && cSt.work[0] === 6 && cSt.work[1] === 6,
+    `XY corner of the block at X 200 Y 100: "${cr}"; G54 ${cOff.join(", ")}; back above the start, work X ${cSt.work[0]} Y ${cSt.work[1]}`);
+
   // serve gone: the page greys out, says so and disables every control.
   process.kill(+SERVE_PID, "SIGTERM");
   await page.waitForFunction(() => document.body.classList.contains("offline"), null, { timeout: 15000 }).catch(() => {});

@@ -144,6 +144,11 @@ function connect() {
   es.addEventListener("notice", (e) => log(JSON.parse(e.data).text));
   es.addEventListener("library", (e) => showLibrary(JSON.parse(e.data).programs));
   es.addEventListener("macros", (e) => showMacros(JSON.parse(e.data).macros));
+  es.addEventListener("probe", (e) => {
+    const p = JSON.parse(e.data);
+    $("probe-result").textContent = p.text;
+    $("probe-result").className = p.ok ? "" : "bad";
+  });
   es.onerror = async () => {
     offline("connection to gantry serve lost: retrying… (the job, if any, runs on in serve)");
     // The stream gives no status code: ask once whether it is the token (serve restarted).
@@ -404,6 +409,19 @@ $("macro-form").onsubmit = async (e) => {
   const v = await post("macro_save", { name: $("macro-name").value, text: $("macro-text").value });
   if (v.ok) { log(v.message); $("macro-name").value = ""; $("macro-text").value = ""; }
 };
+
+// ---- probing: the plan is shown and confirmed before anything moves ----
+async function probe(body) {
+  const plan = await post("probe_plan", body);
+  if (!plan.ok) return;
+  if (!confirm(plan.plan + "\n\nStart? The machine moves.")) return;
+  $("probe-result").textContent = "probing…";
+  await post("probe", body);
+}
+$("probe-z").onclick = () => probe({ kind: "z", thickness: +$("pz-thickness").value, distance: +$("pz-distance").value,
+  feed: +$("pz-feed").value, retract: +$("pz-retract").value });
+$("probe-corner").onclick = () => probe({ kind: "corner", clearance: +$("pc-clearance").value, depth: +$("pc-depth").value,
+  diameter: +$("pc-diameter").value, feed: +$("pc-feed").value, retract: +$("pc-retract").value });
 
 // ---- setup ----
 $("setup-toml").addEventListener("input", () => { $("setup-toml").dataset.edited = "1"; });

@@ -20,6 +20,7 @@ mod http;
 mod library;
 mod loaded;
 pub mod lock;
+mod probing;
 pub mod program;
 
 use crate::commands::stream::Eta;
@@ -172,8 +173,9 @@ struct Console {
     /// The program library and the macros (`library.rs`), when a data directory is usable.
     library: Option<library::Library>,
     rev: AtomicU64,
-    /// Where the tool stands (machine nm), from the newest status.
+    /// Where the tool stands (machine nm) and the active work system, from the newest status.
     here: Mutex<[i64; 6]>,
+    system: Mutex<u8>,
     /// A console job thread runs.
     job: AtomicBool,
     /// A request to hold, resume, abort, or continue from the job thread.
@@ -241,6 +243,7 @@ pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Resul
         library,
         rev: AtomicU64::new(0),
         here: Mutex::new([0; 6]),
+        system: Mutex::new(0),
         job: AtomicBool::new(false),
         control: Mutex::new(tx),
     });
@@ -305,6 +308,7 @@ fn worker(c: Arc<Console>, rx: mpsc::Receiver<(Cmd, mpsc::Sender<Reply>)>) {
                     if let Some(s) = got.statuses.last() {
                         heard = Instant::now();
                         *c.here.lock().expect("here") = s.machine_pos;
+                        *c.system.lock().expect("system") = s.work_system;
                         c.hub.publish("status", status_json(s, session.axes()));
                     }
                     // A job (any client's: a program, an MDI block) may have set work offsets,
@@ -704,6 +708,36 @@ fn resume_line(report: &crate::session::StreamReport, first_line: u32) -> Option
     }
 }
 
+/// Runs a probing workflow on a job session of its own (unless a console job runs); its report
+/// goes to every page as a `probe` event.
+fn start_probe(c: &Arc<Console>, probe: probing::Probe) -> Reply {
+    if c.job.swap(true, Ordering::SeqCst) {
+        return Err("a job started from the console is still running".into());
+    }
+    let c2 = c.clone();
+    let run = move || {
+        let result = Session::connect(Target::Port(c2.port.clone()), OnClose::KeepDtr)
+            .map_err(|e| format!("{e:#}"))
+            .and_then(|mut s| probing::run(&mut s, &probe));
+        let (ok, text) = match result {
+            Ok(t) => (true, t),
+            Err(e) => (false, format!("probing stopped: {e}")),
+        };
+        c2.notice(text.clone());
+        c2.hub
+            .publish("probe", json!({ "ok": ok, "text": text, "at": now_s() }));
+        c2.job.store(false, Ordering::SeqCst);
+    };
+    std::thread::Builder::new()
+        .name("console-probe".into())
+        .spawn(run)
+        .map_err(|e| {
+            c.job.store(false, Ordering::SeqCst);
+            e.to_string()
+        })?;
+    Ok("probing started".into())
+}
+
 /// Starts a job thread unless one runs.
 fn start_job(c: &Arc<Console>, name: String, text: String, from: Option<u32>) -> Reply {
     if c.job.swap(true, Ordering::SeqCst) {
@@ -1004,6 +1038,12 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
                 if blocks.is_some() { "kept" } else { "removed" }
             )
         }
+        "probe_plan" => {
+            let p = probing::Probe::from_json(body)?;
+            let system = work_system_name(*c.system.lock().expect("system"));
+            return Ok(json!({ "ok": true, "plan": p.plan(&system) }));
+        }
+        "probe" => start_probe(c, probing::Probe::from_json(body)?)?,
         "macro_run" => {
             let lib = c
                 .library
