@@ -1041,7 +1041,7 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
         "probe_plan" => {
             let p = probing::Probe::from_json(body)?;
             let system = work_system_name(*c.system.lock().expect("system"));
-            return Ok(json!({ "ok": true, "plan": p.plan(&system) }));
+            return Ok(json!({ "ok": true, "plan": p.plan(system) }));
         }
         "probe" => start_probe(c, probing::Probe::from_json(body)?)?,
         "macro_run" => {
