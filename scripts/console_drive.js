@@ -382,10 +382,20 @@ async function waitState(page, want, ms = 10000) {
   const goTo = async (blocks) => {
     for (const b of blocks) { await mdi(page, b); await page.waitForFunction(() => /mdi: done/.test(document.getElementById("job").textContent), null, { timeout: 20000 }).catch(() => {}); await waitState(page, "Idle"); }
   };
+  // A workflow's start, sent again while the previous MDI block's job still runs.
+  const startProbe = async (id) => {
+    for (let i = 0; i < 50; i++) {
+      const answer = page.waitForResponse((r) => r.url().endsWith("/api/probe"), { timeout: 20000 });
+      await page.click(id);
+      const v = await (await answer).json();
+      if (v.ok || !/still running/.test(v.error)) return v;
+      await sleep(300);
+    }
+  };
   await goTo(["G53 G0 Z5", "G53 G0 X150 Y50"]);
   await page.fill("#pz-thickness", "10");
   await page.fill("#pz-distance", "20");
-  await page.click("#probe-z");
+  await startProbe("#probe-z");
   await page.waitForFunction(() => /set to|stopped/.test(document.getElementById("probe-result").textContent), null, { timeout: 30000 }).catch(() => {});
   await waitState(page, "Idle");
   const zr = await text(page, "#probe-result");
@@ -399,7 +409,7 @@ async function waitState(page, want, ms = 10000) {
   await page.fill("#pc-clearance", "12");
   await page.fill("#pc-depth", "8");
   await page.fill("#pc-diameter", "0");
-  await page.click("#probe-corner");
+  await startProbe("#probe-corner");
   await page.waitForFunction(() => /corner at|stopped/.test(document.getElementById("probe-result").textContent), null, { timeout: 60000 }).catch(() => {});
   await waitState(page, "Idle");
   const cr = await text(page, "#probe-result");

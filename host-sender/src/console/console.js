@@ -8,6 +8,8 @@ if (new URLSearchParams(location.search).has("token")) window.history.replaceSta
 let status = null, setup = null, path = null, job = null, programName = null, errorLines = [];
 // The revision of the program shown (serve's, loaded.rs), and the frame the views are drawn in.
 let programRev = null, frame = "work";
+// This page is opening a program (its own upload or library choice): not "another client's".
+let opening = false;
 
 function log(text) {
   const li = document.createElement("li");
@@ -137,7 +139,7 @@ function connect() {
   es.addEventListener("program", (e) => {
     const p = JSON.parse(e.data);
     if (p.rev === programRev) return;
-    if (programName !== null && p.name !== programName) log("program " + p.name + " opened by another client");
+    if (!opening && programName !== null && p.name !== programName) log("program " + p.name + " opened by another client");
     // The listing and path are serve's: read them whenever its revision changes.
     fetchProgram();
   });
@@ -325,7 +327,8 @@ $("file").onchange = async () => {
   if (!f) return;
   const text = await f.text();
   $("prog-name").textContent = "checking…";
-  const v = await post("program", { name: f.name, text });
+  opening = true;
+  const v = await post("program", { name: f.name, text }).finally(() => { opening = false; });
   if (v.ok) showProgram(v);
 };
 
@@ -381,7 +384,8 @@ function showLibrary(list) {
     cell(tr, (p.tools || []).map((t) => "T" + t).join(", ") || "none");
     button(cell(tr, ""), "Open", "lib-open", async () => {
       $("prog-name").textContent = "checking…";
-      const v = await post("library_open", { name: p.name });
+      opening = true;
+      const v = await post("library_open", { name: p.name }).finally(() => { opening = false; });
       if (v.ok) showProgram(v);
     });
     button(cell(tr, ""), "Delete", "lib-delete", () => { if (confirm("Remove " + p.name + " from the library?")) post("library_delete", { name: p.name }); });

@@ -561,7 +561,12 @@ fn setup_json(s: &Setup) -> Value {
 /// Streams `program` (a file from the page, or an MDI block) on a session of its own.
 fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
     let program = Program::from_text(&text);
-    let publish_end = |v: Value| c.hub.publish("job", v);
+    // The job is over for the console before any page hears of it: a page that starts the next
+    // one at once must not be refused as "still running".
+    let publish_end = |v: Value| {
+        c.job.store(false, Ordering::SeqCst);
+        c.hub.publish("job", v)
+    };
     let result = (|| -> anyhow::Result<()> {
         let mut s = Session::connect(Target::Port(c.port.clone()), OnClose::KeepDtr)?;
         s.set_operator(true);
@@ -639,7 +644,6 @@ fn job(c: Arc<Console>, name: String, text: String, from: Option<u32>) {
     if let Err(e) = result {
         publish_end(json!({ "running": false, "name": name, "errors": [format!("{e:#}")] }));
     }
-    c.job.store(false, Ordering::SeqCst);
 }
 
 /// Makes `text` the program every page shows: checked with the board's setup and drawn from
@@ -723,10 +727,10 @@ fn start_probe(c: &Arc<Console>, probe: probing::Probe) -> Reply {
             Ok(t) => (true, t),
             Err(e) => (false, format!("probing stopped: {e}")),
         };
+        c2.job.store(false, Ordering::SeqCst);
         c2.notice(text.clone());
         c2.hub
             .publish("probe", json!({ "ok": ok, "text": text, "at": now_s() }));
-        c2.job.store(false, Ordering::SeqCst);
     };
     std::thread::Builder::new()
         .name("console-probe".into())
