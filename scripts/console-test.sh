@@ -36,14 +36,22 @@ stop() {
   exit $rc
 }
 trap stop EXIT
-"$GANTRY" emulate --pty "$TMP/tty" > "$TMP/emulate.log" 2>&1 &
+# Probe targets for the probing workflows: a plate (plane) at Z -5, a block X 200-250, Y 100-150
+# with its top at Z 0, far from the programs' paths.
+"$GANTRY" emulate --pty "$TMP/tty" --probe-target plane:-5 --probe-target boss:200,100,250,150,0 \
+  > "$TMP/emulate.log" 2>&1 &
 EMU=$!
 for _ in $(seq 50); do [ -e "$TMP/tty" ] && break; sleep 0.1; done
 HTTP=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
+# The console's library and macros in the test's own data directory.
+export XDG_DATA_HOME="$TMP/data"
 "$GANTRY" serve --port "$TMP/tty" --http "127.0.0.1:$HTTP" > "$TMP/serve.log" 2>&1 &
 SERVE=$!
-for _ in $(seq 100); do grep -q "console is on" "$TMP/serve.log" && break; sleep 0.1; done
+for _ in $(seq 300); do grep -q "token is also in" "$TMP/serve.log" && break; sleep 0.1; done
+# The URL serve printed, with its token (the lock, docs/console.md).
+URL=$(sed -n 's/^serve: the console is on //p' "$TMP/serve.log" | head -1)
 printf 'G21 G90\nG1 X10 F600\nG1 X5 Q7\nM30\n' > "$TMP/bad.nc"
+printf 'G21 G90\nG0 Z5\nT2 M6 (the 3 mm end mill)\nG0 X5 Y5\nG1 Z-1 F300\nG1 X15 F600\nG0 Z5\nM30\n' > "$TMP/tool.nc"
 python3 - "$TMP/job.nc" <<'PY'
 import math, sys
 l = ["G21 G90 G17", "G0 X0 Y0 Z5", "G1 Z-1 F300", "M0 (check the clamp)"]
@@ -54,7 +62,7 @@ l += ["G0 Z5", "M30"]
 open(sys.argv[1], "w").write("\n".join(l) + "\n")
 PY
 rc=0
-URL="http://127.0.0.1:$HTTP/" GANTRY=$GANTRY PORT="$TMP/tty" BAD="$TMP/bad.nc" JOB="$TMP/job.nc" \
+URL="$URL" SERVE_PID=$SERVE GANTRY=$GANTRY PORT="$TMP/tty" BAD="$TMP/bad.nc" JOB="$TMP/job.nc" TOOL="$TMP/tool.nc" \
   SHOT="${SHOT:-$PWD/docs/console.png}" NODE_PATH="$PWD/$DIR/node_modules" \
   node scripts/console_drive.js || rc=$?
 if [ $rc -ne 0 ]; then

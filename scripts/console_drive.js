@@ -8,7 +8,9 @@ const { execFileSync, spawn, spawnSync } = require("child_process");
 const fs = require("fs");
 const path = require("path");
 
-const { URL, GANTRY, PORT, BAD, JOB, SHOT } = process.env;
+const { URL, GANTRY, PORT, BAD, JOB, TOOL, SHOT, SERVE_PID } = process.env;
+const BASE = URL.replace(/\?.*$/, "");
+const SHOTS = path.dirname(SHOT);
 const ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
   "--disable-background-networking", "--disable-component-update", "--disable-sync"];
 let failures = 0;
@@ -33,6 +35,52 @@ function cliStatus() {
 }
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const text = (page, sel) => page.locator(sel).textContent();
+// The page shows serve's program: its listing (`lines` lines), a drawn path and the current line.
+async function shows(page, lines) {
+  try {
+    await page.waitForFunction((n) => document.getElementById("L" + n) && document.querySelector("#listing .cur") &&
+      document.getElementById("prog-name").textContent.includes(n + " lines"), lines, { timeout: 10000 });
+  } catch { return false; }
+  return (await pathPixels(page)) > 200;
+}
+// Path-coloured pixels of the top view (feeds blue, cut orange).
+function pathPixels(page) {
+  return page.evaluate(() => {
+    const cv = document.getElementById("top"), d = cv.getContext("2d").getImageData(0, 0, cv.width, cv.height).data;
+    let n = 0;
+    for (let i = 0; i < d.length; i += 4) if (isPath(d[i], d[i + 1], d[i + 2])) n++;
+    return n;
+    function isPath(r, g, b) { return (r > 180 && g > 90 && g < 190 && b < 80) || (b > 180 && g > 140 && r < 140); }
+  });
+}
+// Where the cross is drawn on the top view, and the path pixels around it.
+function crossOnPath(page) {
+  return page.evaluate(() => {
+    const cv = document.getElementById("top"), d = cv.getContext("2d").getImageData(0, 0, cv.width, cv.height).data;
+    const [cx, cy] = window.gantryCross.map(Math.round);
+    let near = 0, x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+    for (let y = 0; y < cv.height; y++) for (let x = 0; x < cv.width; x++) {
+      const i = (y * cv.width + x) * 4, r = d[i], g = d[i + 1], b = d[i + 2];
+      if (!((r > 180 && g > 90 && g < 190 && b < 80) || (b > 180 && g > 140 && r < 140))) continue;
+      x0 = Math.min(x0, x); x1 = Math.max(x1, x); y0 = Math.min(y0, y); y1 = Math.max(y1, y);
+      if (Math.hypot(x - cx, y - cy) <= 8) near++;
+    }
+    // The cross's own red pixels where it is said to be.
+    const i = (cy * cv.width + cx) * 4;
+    return { cx, cy, near, box: [x0, y0, x1, y1].join(","), inside: cx >= x0 && cx <= x1 && cy >= y0 && cy <= y1 && d[i] > 200 && d[i + 1] < 120 };
+  });
+}
+// An MDI block from the page's field; sent again while the previous block's job still runs.
+async function mdi(page, line) {
+  for (let i = 0; i < 50; i++) {
+    const answer = page.waitForResponse((r) => r.url().endsWith("/api/mdi"), { timeout: 20000 });
+    await page.fill("#mdi", line);
+    await page.press("#mdi", "Enter");
+    const v = await (await answer).json();
+    if (v.ok || !/still running/.test(v.error)) return v;
+    await sleep(200);
+  }
+}
 async function waitState(page, want, ms = 10000) {
   try {
     await page.waitForFunction((w) => document.getElementById("state").textContent === w, want, { timeout: ms });
@@ -42,11 +90,19 @@ async function waitState(page, want, ms = 10000) {
 
 (async () => {
   const browser = await chromium.launch({ executablePath: process.env.CHROMIUM || "/usr/bin/chromium", args: ARGS });
+  // The lock: without the printed URL's token (a browser with no cookie) nothing is served.
   let ctx = await browser.newContext({ viewport: { width: 1400, height: 1000 } });
   let page = await ctx.newPage();
+  const locked = await page.goto(BASE);
+  check(locked.status() === 401 && /token/.test(await page.textContent("body")), `no token: ${locked.status()} "${(await page.textContent("body")).trim().slice(0, 40)}…"`);
+  await ctx.close();
+
+  ctx = await browser.newContext({ viewport: { width: 1400, height: 1000 } });
+  page = await ctx.newPage();
   page.on("pageerror", (e) => { console.log("page error: " + e); failures++; });
   await page.goto(URL);
   check(await waitState(page, "Idle"), "the page shows the board Idle from its pushed status");
+  check(page.url() === BASE, "the token is taken out of the address bar: " + page.url());
 
   // Status events arrive at the board's rate (10 Hz): count them for 2 s.
   const rate = await page.evaluate(() => new Promise((res) => {
@@ -94,9 +150,13 @@ async function waitState(page, want, ms = 10000) {
   watch.stdout.on("data", (d) => { watched += d; });
 
   // Running: the readout follows the board within one status period (feed 900 mm/min: 1.5 mm in 0.1 s).
+  // (read before and after the CLI's answer: a loaded machine may take a while to run it)
   const pageX = parseFloat(await text(page, "#mach-X"));
   const cliX = cliStatus().machine[0];
-  check(Math.abs(pageX - cliX) <= 2.5, `running: page X ${pageX} vs gantry status X ${cliX}`);
+  const pageX2 = parseFloat(await text(page, "#mach-X"));
+  const near = Math.min(Math.abs(pageX - cliX), Math.abs(pageX2 - cliX));
+  const between = (cliX - pageX) * (cliX - pageX2) <= 0;
+  check(near <= 2.5 || between, `running: page X ${pageX} .. ${pageX2} vs gantry status X ${cliX}`);
 
   await page.click("#hold");
   check(await waitState(page, "Hold"), "Hold: the page shows Hold");
@@ -127,9 +187,67 @@ async function waitState(page, want, ms = 10000) {
   page = await ctx.newPage();
   await page.goto(URL);
   check(await waitState(page, "Run"), "a new page sees the job running");
+  check(await shows(page, 406), "a new page shows serve's program: listing of 406 lines, path, current line");
+
+  // A reload mid-job, and a second tab: the same listing, path and line, from serve.
+  await page.reload();
+  check(await waitState(page, "Run") && await shows(page, 406), "after a reload mid-job: listing, path and current line back");
+  const tab2 = await ctx.newPage();
+  await tab2.goto(BASE);
+  check(await waitState(tab2, "Run") && await shows(tab2, 406), "a second tab shows the same program and line");
+  await tab2.close();
+
+  // A refusal in the board's words: a jog while the job runs is "busy" (902), not a G-code error.
+  await page.locator("body").click({ position: { x: 5, y: 300 } });
+  await page.keyboard.press("ArrowRight");
+  await page.waitForFunction(() => !document.getElementById("refusal").hidden, null, { timeout: 5000 }).catch(() => {});
+  const refusal = await text(page, "#refusal");
+  check(/busy/.test(refusal) && !/plane/.test(refusal), "a jog while running is refused: " + refusal);
+
+  const lineBefore = cliStatus().line;
   await page.click("#abort");
   check(await waitState(page, "Idle"), "Abort: Idle");
-  check(cliStatus().state === "Idle", "gantry status: Idle");
+  const aborted = cliStatus();
+  check(aborted.state === "Idle", "gantry status: Idle");
+  // Serve's resume line is offered (and survives a reload).
+  await page.waitForFunction(() => !document.getElementById("resume-offer").hidden, null, { timeout: 5000 }).catch(() => {});
+  await page.reload();
+  await waitState(page, "Idle");
+  await page.waitForFunction(() => !document.getElementById("resume-offer").hidden, null, { timeout: 5000 }).catch(() => {});
+  const resumeLine = +(await text(page, "#resume-line"));
+  check(resumeLine >= lineBefore && resumeLine <= 406 && (await page.inputValue("#from")) === String(resumeLine),
+    `after Abort (and a reload) the page offers resume line ${resumeLine} (board was at ${lineBefore}, then ${aborted.line})`);
+  await page.click("#run-resume");
+  check(await waitState(page, "Run", 15000), "Run from the offered line: running");
+  await page.waitForFunction((n) => /from line (\d+)/.test(document.getElementById("job").textContent), resumeLine, { timeout: 10000 }).catch(() => {});
+  const fromText = await text(page, "#job");
+  // The preamble runs as line 0 first; then the board executes from the line.
+  let resumed = cliStatus();
+  for (let i = 0; i < 100 && resumed.line < resumeLine; i++) { await sleep(100); resumed = cliStatus(); }
+  check(fromText.includes("from line " + resumeLine) && resumed.line >= resumeLine, `the job runs from line ${resumeLine}: ${fromText} (board line ${resumed.line})`);
+
+  // The layout at a phone, a tablet and a laptop, mid-job (screenshots in docs/console.md).
+  for (const [w, h] of [[390, 844], [1024, 768], [1280, 800]]) {
+    await page.setViewportSize({ width: w, height: h });
+    await page.evaluate(() => window.scrollTo(0, 0));
+    await sleep(400);
+    const L = await page.evaluate(() => {
+      const r = (id) => document.getElementById(id).getBoundingClientRect();
+      const small = [...document.querySelectorAll("button, select")].filter((b) => b.offsetParent && b.getBoundingClientRect().height < 44).map((b) => b.id || b.textContent);
+      return { sw: document.documentElement.scrollWidth, hold: r("hold"), abort: r("abort"), resume: r("resume"), axes: r("axes"), top: r("top"), progress: r("progress"), readout: r("readout"), small };
+    });
+    await page.screenshot({ path: `${SHOTS}/console-${w}x${h}.png` });
+    check(L.sw <= w, `${w}x${h}: no sideways scrolling (page ${L.sw} px wide)`);
+    check(L.small.length === 0, `${w}x${h}: every button at least 44 px tall` + (L.small.length ? ": " + L.small.join(", ") : ""));
+    const firstScreen = (b) => b.bottom <= h && b.right <= w && b.left >= 0;
+    check(firstScreen(L.hold) && firstScreen(L.resume) && firstScreen(L.abort) && L.axes.top < h,
+      `${w}x${h}: Hold, Resume, Abort and the readout on the first screen`);
+    if (w >= 1024) check(L.progress.top < h && L.top.top < h && L.top.left >= L.readout.right,
+      `${w}x${h}: progress and path beside the readout (path at x ${Math.round(L.top.left)}, readout ends ${Math.round(L.readout.right)})`);
+  }
+  await page.setViewportSize({ width: 1400, height: 1000 });
+  await page.click("#abort");
+  check(await waitState(page, "Idle"), "Abort: Idle again");
 
   // Jog by key: one 1 mm step, exactly.
   await page.selectOption("#step", "1");
@@ -188,8 +306,7 @@ async function waitState(page, want, ms = 10000) {
     "G55 Y 12.5 set in the table: read back on the page and in gantry setup pull");
 
   // Spindle override: the readout follows (programmed S and the speed commanded).
-  await page.fill("#mdi", "M3 S10000");
-  await page.press("#mdi", "Enter");
+  await mdi(page, "M3 S10000");
   await page.waitForFunction(() => document.getElementById("rpm").textContent === "10000", null, { timeout: 5000 }).catch(() => {});
   await page.click("[data-so='10']");
   await page.waitForFunction(() => document.getElementById("so").textContent === "110", null, { timeout: 5000 }).catch(() => {});
@@ -199,12 +316,10 @@ async function waitState(page, want, ms = 10000) {
   await page.click("#ovr-reset");
   await page.waitForFunction(() => document.getElementById("so").textContent === "100", null, { timeout: 5000 }).catch(() => {});
   check(cliStatus().so === 100, "Reset all: spindle override 100 %");
-  await page.fill("#mdi", "M5");
-  await page.press("#mdi", "Enter");
+  await mdi(page, "M5");
 
   // Inch readout after G20: work X 1 mm shows +0.0394 in.
-  await page.fill("#mdi", "G20");
-  await page.press("#mdi", "Enter");
+  await mdi(page, "G20");
   await page.waitForFunction(() => document.getElementById("units").textContent === "in", null, { timeout: 5000 }).catch(() => {});
   await page.locator("body").click({ position: { x: 5, y: 300 } });
   await page.keyboard.press("ArrowRight");
@@ -215,10 +330,159 @@ async function waitState(page, want, ms = 10000) {
   const wantIn = "+" + (inch.work[0] / 25.4).toFixed(4);
   check((await text(page, "#units")) === "in" && (await text(page, "#work-X")) === wantIn && inch.program.includes("G20"),
     `after G20 the readout is in inches: work X ${await text(page, "#work-X")} (gantry status ${inch.work[0]} mm, ${inch.program})`);
-  await page.fill("#mdi", "G21");
-  await page.press("#mdi", "Enter");
+  await mdi(page, "G21");
   await page.waitForFunction(() => document.getElementById("units").textContent === "mm", null, { timeout: 5000 }).catch(() => {});
   check((await text(page, "#work-X")) === "+" + inch.work[0].toFixed(3), "after G21: mm again");
+
+  // The library: an upload is kept (name, size, date, planned time, tools), listed after a
+  // reload; chosen from the list it is checked and runs, its M6 prompts for the tool.
+  page.on("dialog", (d) => d.accept());
+  await page.setInputFiles("#file", TOOL);
+  await page.waitForFunction(() => document.querySelector('#library tr[data-name="tool.nc"]'), null, { timeout: 10000 }).catch(() => {});
+  await page.reload();
+  await waitState(page, "Idle");
+  await page.waitForFunction(() => document.querySelector('#library tr[data-name="tool.nc"]'), null, { timeout: 10000 }).catch(() => {});
+  const row = await page.evaluate(() => [...(document.querySelector('#library tr[data-name="tool.nc"]') || { cells: [] }).cells].map((c) => c.textContent));
+  check(row[0] === "tool.nc" && /B$/.test(row[1]) && /^0:00:\d\d$/.test(row[3]) && row[4] === "T2", "the library keeps tool.nc: " + row.slice(0, 5).join(" | "));
+  await page.click('#library tr[data-name="job.nc"] .lib-open').catch(() => {});
+  await page.waitForFunction(() => /^job\.nc/.test(document.getElementById("prog-name").textContent), null, { timeout: 10000 }).catch(() => {});
+  await page.click('#library tr[data-name="tool.nc"] .lib-open');
+  await page.waitForFunction(() => /^tool\.nc: 8 lines, planned time/.test(document.getElementById("prog-name").textContent), null, { timeout: 10000 }).catch(() => {});
+  check(/^tool\.nc: 8 lines, planned time/.test(await text(page, "#prog-name")) && /tools\s+T2/.test(await text(page, "#check")),
+    "chosen from the library: " + (await text(page, "#prog-name")) + ", the check lists T2");
+  await page.click("#run");
+  check(await waitState(page, "ToolChange", 15000), "the M6 stops the job: ToolChange");
+  await page.waitForFunction(() => !document.getElementById("stop").hidden, null, { timeout: 5000 }).catch(() => {});
+  const m6 = await text(page, "#stop-text");
+  check(/tool 2|T2/.test(m6) && cliStatus().state === "ToolChange", "the M6 prompt: " + JSON.stringify(m6));
+  await page.click("#continue");
+  await page.waitForFunction(() => /tool\.nc: done/.test(document.getElementById("job").textContent), null, { timeout: 20000 }).catch(() => {});
+  const toolDone = cliStatus();
+  check(/tool\.nc: done/.test(await text(page, "#job")) && toolDone.state === "Idle" && /T2|tool 2/.test(toolDone.text),
+    `after Continue the job completes with tool 2 in the spindle (${await text(page, "#job")})`);
+
+  // A macro: kept by serve, run from the page (X back by exactly 1 mm).
+  await page.fill("#macro-name", "left 1");
+  await page.fill("#macro-text", "G91 G0 X-1\nG90");
+  await page.click("#macro-save");
+  await page.waitForFunction(() => document.querySelector('#macros tr[data-name="left 1"]'), null, { timeout: 10000 }).catch(() => {});
+  const mx0 = cliStatus().machine[0];
+  await page.click('#macros tr[data-name="left 1"] .macro-run');
+  await page.waitForFunction(() => /macro left 1: done/.test(document.getElementById("job").textContent), null, { timeout: 20000 }).catch(() => {});
+  const mx1 = cliStatus().machine[0];
+  check(Math.abs(mx0 - mx1 - 1) < 1e-9, `macro "left 1" moved X by exactly -1.000 mm (${mx0} -> ${mx1})`);
+
+  // One frame: the tool path, the cross and the box in work coordinates. With G54 moved away from
+  // machine zero (jogs of 10 mm, then Zero X and Y), the cross sits on the path being cut.
+  await page.selectOption("#step", "10");
+  for (const key of ["ArrowRight", "ArrowRight", "ArrowRight", "ArrowUp", "ArrowUp"]) {
+    await page.locator("body").click({ position: { x: 5, y: 300 } });
+    await page.keyboard.press(key);
+    await sleep(300);
+    await waitState(page, "Idle");
+  }
+  await page.click("#zero-X");
+  await page.click("#zero-Y");
+  await page.waitForFunction(() => document.getElementById("work-Y").textContent === "+0.000", null, { timeout: 5000 }).catch(() => {});
+  const moved = cliStatus();
+  check(moved.machine[0] > 25 && moved.machine[1] > 15 && moved.work[0] === 0 && moved.work[1] === 0, `G54 at machine X ${moved.machine[0]} Y ${moved.machine[1]}`);
+  await page.setInputFiles("#file", JOB);
+  await page.waitForFunction(() => /planned time/.test(document.getElementById("prog-name").textContent));
+  await page.click("#run");
+  check(await waitState(page, "Hold", 15000), "the job runs to its M0 again");
+  await page.click("#continue");
+  await waitState(page, "Run");
+  await page.waitForFunction(() => +document.getElementById("line").textContent > 60, null, { timeout: 30000 }).catch(() => {});
+  await page.click("#hold");
+  await waitState(page, "Hold");
+  await sleep(500);
+  for (const fr of ["work", "machine"]) {
+    await page.selectOption("#frame", fr);
+    await sleep(300);
+    const px = await crossOnPath(page);
+    check(px.near > 0 && px.inside, `${fr} coordinates: the cross (${px.cx}, ${px.cy}) is on the path (${px.near} path pixels within 8 px; path box ${px.box})`);
+  }
+  await page.selectOption("#frame", "work");
+  await page.click("#abort");
+  check(await waitState(page, "Idle"), "Abort: Idle");
+
+  // Probing against the emulator's targets, through the page: each workflow's plan is confirmed
+  // (the dialog), then the offsets are set to the µm.
+  const g54 = () => {
+    const m = execFileSync(GANTRY, ["setup", "pull", "--port", PORT], { encoding: "utf8", timeout: 20000 }).match(/^"G54" = \[([^\]]*)\]/m);
+    return m ? m[1].split(",").map(Number) : [];
+  };
+  const dialogs = [];
+  page.on("dialog", (d) => dialogs.push(d.message()));
+  const goTo = async (blocks) => {
+    for (const b of blocks) { await mdi(page, b); await page.waitForFunction(() => /mdi: done/.test(document.getElementById("job").textContent), null, { timeout: 20000 }).catch(() => {}); await waitState(page, "Idle"); }
+  };
+  // A workflow's start, sent again while the previous MDI block's job still runs.
+  const startProbe = async (id) => {
+    for (let i = 0; i < 50; i++) {
+      const answer = page.waitForResponse((r) => r.url().endsWith("/api/probe"), { timeout: 20000 });
+      await page.click(id);
+      const v = await (await answer).json();
+      if (v.ok || !/still running/.test(v.error)) return v;
+      await sleep(300);
+    }
+  };
+  await goTo(["G53 G0 Z5", "G53 G0 X150 Y50"]);
+  await page.fill("#pz-thickness", "10");
+  await page.fill("#pz-distance", "20");
+  await startProbe("#probe-z");
+  await page.waitForFunction(() => /set to|stopped/.test(document.getElementById("probe-result").textContent), null, { timeout: 30000 }).catch(() => {});
+  await waitState(page, "Idle");
+  const zr = await text(page, "#probe-result");
+  const zOff = g54(), zSt = cliStatus();
+  check(dialogs.some((d) => /probe down up to 20 mm/.test(d) && /Start\?/.test(d)), "Z: the plan was shown and asked before moving");
+  check(/contact at machine Z -5\.000/.test(zr) && zOff[2] === -15 && zSt.work[2] === 12 && zSt.machine[2] === -3,
+    `Z touch plate (10 mm on the plane at Z -5): "${zr}"; G54 Z ${zOff[2]} (gantry setup pull), work Z ${zSt.work[2]} after the 2 mm retract`);
+  await page.waitForFunction(() => document.getElementById("off-1-Z").value === "-15.000", null, { timeout: 10000 }).catch(() => {});
+  check((await page.inputValue("#off-1-Z")) === "-15.000", "the offset table shows G54 Z -15.000");
+  await goTo(["G53 G0 Z5", "G53 G0 X206 Y106"]);
+  await page.fill("#pc-clearance", "12");
+  await page.fill("#pc-depth", "8");
+  await page.fill("#pc-diameter", "0");
+  await startProbe("#probe-corner");
+  await page.waitForFunction(() => /corner at|stopped/.test(document.getElementById("probe-result").textContent), null, { timeout: 60000 }).catch(() => {});
+  await waitState(page, "Idle");
+  const cr = await text(page, "#probe-result");
+  const cOff = g54(), cSt = cliStatus();
+  check(dialogs.some((d) => /outside corner/.test(d)), "corner: the plan was shown and asked before moving");
+  check(/X 200\.000 \(left face\) and Y 100\.000/.test(cr) && cOff[0] === 200 && cOff[1] === 100 && cOff[2] === -15 &&
+    cSt.machine[0] === 206 && cSt.machine[1] === 106 && cSt.work[0] === 6 && cSt.work[1] === 6,
+    `XY corner of the block at X 200 Y 100: "${cr}"; G54 ${cOff.join(", ")}; back above the start, work X ${cSt.work[0]} Y ${cSt.work[1]}`);
+
+  // serve gone: the page greys out, says so and disables every control.
+  process.kill(+SERVE_PID, "SIGTERM");
+  await page.waitForFunction(() => document.body.classList.contains("offline"), null, { timeout: 15000 }).catch(() => {});
+  const gone = await page.evaluate(() => ({
+    banner: getComputedStyle(document.getElementById("offline")).display !== "none" && document.getElementById("offline").textContent,
+    state: document.getElementById("state").textContent,
+    live: [...document.querySelectorAll("button, input, select, textarea")].filter((b) => !b.disabled).length,
+  }));
+  check(gone.banner && gone.state !== "Idle" && gone.live === 0, `serve stopped: banner "${String(gone.banner).trim().slice(0, 60)}…", state "${gone.state}", ${gone.live} controls enabled`);
+  await page.screenshot({ path: `${SHOTS}/console-offline.png` });
+  // serve again (a new token): the page says the token changed; the new URL brings it back.
+  const again = spawn(GANTRY, ["serve", "--port", PORT, "--http", BASE.replace(/^http:\/\//, "").replace(/\/$/, "")]);
+  let againLog = "";
+  again.stderr.on("data", (d) => { againLog += d; });
+  try {
+    for (let i = 0; i < 300 && !/token is also in/.test(againLog); i++) await sleep(100);
+    const url2 = (againLog.match(/the console is on (\S+)/) || [])[1];
+    check(!!url2 && url2 !== URL, "serve restarted with a new token");
+    await page.waitForFunction(() => /new token/.test(document.getElementById("offline-text").textContent), null, { timeout: 15000 }).catch(() => {});
+    check(/new token/.test(await text(page, "#offline-text")), "the page says: " + (await text(page, "#offline-text")));
+    await page.goto(url2);
+    check(await waitState(page, "Idle"), "the new URL: live again, Idle");
+    await page.waitForFunction(() => document.querySelector('#library tr[data-name="tool.nc"]') && document.querySelector('#macros tr[data-name="left 1"]'), null, { timeout: 10000 }).catch(() => {});
+    const kept = await page.evaluate(() => [...document.querySelectorAll("#library tr[data-name], #macros tr[data-name]")].map((r) => r.dataset.name));
+    check(kept.includes("tool.nc") && kept.includes("job.nc") && kept.includes("left 1"), "after the serve restart the library and the macros are there: " + kept.join(", "));
+  } finally {
+    again.kill("SIGTERM");
+    await new Promise((r) => again.on("close", r));
+  }
 
   await browser.close();
   console.log(failures ? `console test: ${failures} FAILED` : "console test: all passed");

@@ -63,9 +63,55 @@ pub(crate) fn setup_origin(state: Option<&Path>, setup: Option<&Path>) -> String
 }
 
 pub(crate) fn save_state(state: &Path, setup: &Setup) -> anyhow::Result<()> {
-    let tmp = state.with_extension("tmp");
-    std::fs::write(&tmp, to_toml(setup))?;
-    std::fs::rename(&tmp, state).with_context(|| format!("cannot write {}", state.display()))
+    replace_file(state, to_toml(setup).as_bytes())
+}
+
+/// Replaces `file` with `bytes` as one step: written to a new file of this process's own in the
+/// same directory (created exclusively, mode 0600, so a link or file planted under its name is
+/// never followed or overwritten), then renamed over `file` (a link at `file` itself is replaced,
+/// not followed).
+fn replace_file(file: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    use std::io::Write;
+    use std::os::unix::fs::OpenOptionsExt;
+    let dir = match file.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = file
+        .file_name()
+        .map_or_else(|| std::ffi::OsString::from("state"), |n| n.to_owned());
+    let stamp = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let mut last = None;
+    for attempt in 0..16u32 {
+        let mut tmp_name = std::ffi::OsString::from(".");
+        tmp_name.push(&name);
+        tmp_name.push(format!(".{}.{stamp:x}{attempt}.tmp", std::process::id()));
+        let tmp = dir.join(tmp_name);
+        let f = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .mode(0o600)
+            .open(&tmp);
+        let mut f = match f {
+            Ok(f) => f,
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                last = Some(e);
+                continue;
+            }
+            Err(e) => return Err(e).with_context(|| format!("cannot create {}", tmp.display())),
+        };
+        let written = f.write_all(bytes).and_then(|()| f.sync_all());
+        drop(f);
+        if let Err(e) = written.and_then(|()| std::fs::rename(&tmp, file)) {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e).with_context(|| format!("cannot write {}", file.display()));
+        }
+        return Ok(());
+    }
+    Err(last.expect("an attempt failed"))
+        .with_context(|| format!("cannot write {}: no free temporary name", file.display()))
 }
 
 /// Links `at` to the pty `target`, replacing an earlier link (never a regular file).
@@ -199,8 +245,7 @@ fn save_position(state: &Path, board: &EmulatedBoard) -> anyhow::Result<()> {
         .zip(board.stood_at)
         .map(|(n, s)| (n + s).to_string())
         .collect();
-    std::fs::write(position_file(state), text.join(" ") + "\n")
-        .with_context(|| format!("cannot write {}", position_file(state).display()))
+    replace_file(&position_file(state), (text.join(" ") + "\n").as_bytes())
 }
 
 /// The longest lag behind the wall clock the board's clock catches up, ms (see [`run_board`]).

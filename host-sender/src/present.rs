@@ -161,9 +161,9 @@ pub fn starved_line(ms: u32) -> String {
     )
 }
 
-/// The text of an error code the board itself gives (a refused request, a stopped jog), not the
-/// interpreter.
-fn board_code_text(code: u16) -> Option<&'static str> {
+/// The text of an error code the board itself gives (a refused request, a move, a stopped jog),
+/// not the interpreter (docs/errors.md "Board refusals"); `None` for a code that is not one.
+pub fn board_code_text(code: u16) -> Option<&'static str> {
     use gantry_machine::board::*;
     Some(match code {
         ERROR_SOFT_LIMIT => "move exceeds the machine travel (soft limit)",
@@ -188,12 +188,21 @@ impl BoardError {
     /// The error as `gantry check` prints it ([`format_error`]: `place:line: N.. error
     /// E231: …`, the source line, a caret under the word the board blamed).
     pub fn describe(&self, place: &str, program: &Program) -> String {
-        let message = ErrorCode::ALL
-            .iter()
-            .find(|c| c.number() == self.code)
-            .map(|c| c.message())
-            .or(board_code_text(self.code))
-            .unwrap_or("unknown error");
+        let interpreter = || {
+            ErrorCode::ALL
+                .iter()
+                .find(|c| c.number() == self.code)
+                .map(|c| c.message())
+        };
+        // The board's own codes 900-903 share numbers with the interpreter's E900s (transforms):
+        // an error at no line (a refused request or start, a preamble's soft limit) is the
+        // board's; one at a program line is the interpreter's unless it has no such code.
+        let message = if self.line == 0 {
+            board_code_text(self.code).or_else(interpreter)
+        } else {
+            interpreter().or_else(|| board_code_text(self.code))
+        }
+        .unwrap_or("unknown error");
         if self.line == 0 {
             return format!("resume preamble: error {}: {message}", self.code);
         }
@@ -306,6 +315,8 @@ pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
 }
 
 /// `error 900: move exceeds the machine travel (soft limit)` for a refused request's code.
+/// The board's answer `code` to a request, in words (the board's refusals first: a request's
+/// answer is never an interpreter error).
 pub fn refusal_text(code: u16) -> String {
     // The board's own codes first: 901-905 are also G-code transform errors (E901-E906), which
     // never answer a request.
@@ -338,6 +349,22 @@ pub fn state_words(s: MachineState) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_busy_board_is_busy_not_a_plane_change() {
+        let busy = refusal_text(gantry_machine::board::ERROR_BUSY);
+        assert!(busy.starts_with("error 902: the board is busy"), "{busy}");
+        let homing = refusal_text(gantry_machine::board::ERROR_HOMING_REQUIRED);
+        assert!(homing.contains("homed first"), "{homing}");
+        // At a program line, 902 is the interpreter's.
+        let program = Program::from_text("G68 R30\nG18\n");
+        let e = BoardError {
+            line: 2,
+            code: 902,
+            column: 0,
+        };
+        assert!(e.describe("p.nc", &program).contains("plane change"));
+    }
 
     #[test]
     fn positions_round_half_a_micrometre_away_from_zero() {

@@ -2,7 +2,14 @@
 // JSON POSTs to the same serve process. No libraries; nothing fetched from elsewhere.
 "use strict";
 const $ = (id) => document.getElementById(id);
+// The printed URL's token has become this page's cookie (serve's lock): keep it out of the
+// address bar, the history and screenshots.
+if (new URLSearchParams(location.search).has("token")) window.history.replaceState(null, "", location.pathname);
 let status = null, setup = null, path = null, job = null, programName = null, errorLines = [];
+// The revision of the program shown (serve's, loaded.rs), and the frame the views are drawn in.
+let programRev = null, frame = "work";
+// This page is opening a program (its own upload or library choice): not "another client's".
+let opening = false;
 
 function log(text) {
   const li = document.createElement("li");
@@ -16,8 +23,9 @@ async function post(what, body) {
     const r = await fetch("/api/" + what, {
       method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body || {}),
     });
+    if (r.status === 401) { offline("the console's token is not valid (serve restarted?): open the URL gantry serve printed"); return { ok: false, error: "401" }; }
     const v = await r.json();
-    if (!v.ok) log(what + ": " + v.error);
+    if (!v.ok) refused(what + ": " + v.error);
     return v;
   } catch (e) { log(what + ": " + e); return { ok: false, error: String(e) }; }
 }
@@ -38,8 +46,55 @@ function buildAxes(letters) {
   }
 }
 
+// A refusal: in the log, and in the top bar until the next one or 15 s.
+let refusedTimer = null;
+function refused(text) {
+  log(text);
+  $("refusal").textContent = text;
+  $("refusal").hidden = false;
+  clearTimeout(refusedTimer);
+  refusedTimer = setTimeout(() => { $("refusal").hidden = true; }, 15000);
+}
+
+// ---- live or not: with no event stream (or no status in 2.5 s) every control is disabled ----
+let live = false, lastStatus = 0;
+function offline(why) {
+  live = false;
+  document.body.classList.add("offline");
+  $("offline").hidden = false;
+  $("offline-text").textContent = why;
+  // Not the board's last state in green: the page does not know it.
+  $("state").textContent = "no link";
+  $("state").className = "state Offline";
+  $("words").textContent = "";
+  for (const el of document.querySelectorAll("button, input, select, textarea")) el.disabled = true;
+}
+function online() {
+  if (live) return;
+  live = true;
+  document.body.classList.remove("offline");
+  $("offline").hidden = true;
+  for (const el of document.querySelectorAll("button, input, select, textarea")) el.disabled = false;
+  gateRun();
+}
+
+// A program whose check failed does not run (the server refuses it too): Run stays disabled
+// until the program is fixed and opened again.
+let programErrors = 0;
+function gateRun() {
+  for (const id of ["run", "run-from"]) {
+    $(id).disabled = !live || programErrors > 0;
+    $(id).title = programErrors ? "the program has errors (see the check): fix it and open it again" : "";
+  }
+}
+setInterval(() => {
+  if (live && Date.now() - lastStatus > 2500) offline("no status from gantry serve for " + Math.round((Date.now() - lastStatus) / 1000) + " s: the readout is stale");
+}, 500);
+
 function onStatus(s) {
   status = s;
+  lastStatus = Date.now();
+  online();
   buildAxes(s.letters);
   // Work position in the executing move's units: mm to the µm, inches to 0.0001 in.
   const inch = s.units === "in", digits = inch ? 4 : 3;
@@ -85,8 +140,9 @@ function showStop(text) {
 }
 
 // ---- events ----
+let es = null;
 function connect() {
-  const es = new EventSource("/events");
+  es = new EventSource("/events");
   es.addEventListener("status", (e) => onStatus(JSON.parse(e.data)));
   es.addEventListener("setup", (e) => {
     setup = JSON.parse(e.data);
@@ -97,10 +153,48 @@ function connect() {
   es.addEventListener("job", (e) => onJob(JSON.parse(e.data)));
   es.addEventListener("program", (e) => {
     const p = JSON.parse(e.data);
-    if (p.name !== programName) log("program " + p.name + " opened by another client");
+    if (p.rev === programRev) return;
+    if (!opening && programName !== null && p.name !== programName) log("program " + p.name + " opened by another client");
+    // The listing and path are serve's: read them whenever its revision changes.
+    fetchProgram();
   });
   es.addEventListener("notice", (e) => log(JSON.parse(e.data).text));
-  es.onerror = () => { $("link").textContent = "connection lost, retrying…"; };
+  es.addEventListener("library", (e) => showLibrary(JSON.parse(e.data).programs));
+  es.addEventListener("macros", (e) => showMacros(JSON.parse(e.data).macros));
+  es.addEventListener("probe", (e) => {
+    const p = JSON.parse(e.data);
+    $("probe-result").textContent = p.text;
+    $("probe-result").className = p.ok ? "" : "bad";
+  });
+  es.onerror = async () => {
+    offline("connection to gantry serve lost: retrying… (the job, if any, runs on in serve)");
+    // The stream gives no status code: ask once whether it is the token (serve restarted).
+    try {
+      const r = await fetch("/api/loaded", { method: "POST", headers: { "Content-Type": "application/json" }, body: "{}" });
+      if (r.status === 401) offline("gantry serve has a new token (it restarted): open the URL it printed");
+    } catch (_) { /* serve is down: the stream retries */ }
+    if (es.readyState === EventSource.CLOSED) setTimeout(connect, 2000);
+  };
+}
+
+async function fetchProgram() {
+  const v = await post("loaded", {});
+  if (v.ok) showProgram(v);
+}
+
+function showProgram(v) {
+  programRev = v.rev;
+  programName = v.name;
+  $("prog-name").textContent = `${v.name}: ${v.lines} lines` + (v.seconds != null ? `, planned time ${hms(v.seconds)}` : "");
+  $("check").textContent = v.check;
+  $("check").className = v.errors ? "bad" : "";
+  errorLines = v.error_lines;
+  programErrors = v.errors || 0;
+  gateRun();
+  listing(v.source, v.error_lines);
+  path = v.path;
+  if (job) { markLine(job.line); offerResume(job); }
+  draw(true);
 }
 
 function hms(s) {
@@ -124,7 +218,18 @@ function onJob(j) {
   }
   showStop(j.running && j.stop ? j.stop : null);
   markLine(j.line);
+  offerResume(j);
   draw(true);
+}
+
+// After a job that stopped short (abort, alarm on the path, an error), serve's resume line: in
+// the from-line field, with a button that runs from it.
+function offerResume(j) {
+  const n = !j.running && j.name === programName ? j.resume_line : null;
+  $("resume-offer").hidden = !n;
+  if (!n) return;
+  $("resume-line").textContent = n;
+  if (document.activeElement !== $("from")) $("from").value = n;
 }
 
 // ---- controls ----
@@ -250,23 +355,10 @@ $("file").onchange = async () => {
   const f = $("file").files[0];
   if (!f) return;
   const text = await f.text();
-  programName = f.name;
   $("prog-name").textContent = "checking…";
-  const v = await post("program", { name: f.name, text });
-  if (!v.ok) return;
-  $("prog-name").textContent = `${v.name}: ${v.lines} lines` + (v.seconds != null ? `, planned time ${hms(v.seconds)}` : "");
-  $("check").textContent = v.check;
-  $("check").className = v.errors ? "bad" : "";
-  errorLines = v.error_lines;
-  // A program whose check failed does not run (the server refuses it too): Run stays disabled
-  // until the program is fixed and opened again.
-  for (const id of ["run", "run-from"]) {
-    $(id).disabled = v.errors > 0;
-    $(id).title = v.errors ? "the program has errors (see the check): fix it and open it again" : "";
-  }
-  listing(v.source, v.error_lines);
-  path = v.path;
-  draw(true);
+  opening = true;
+  const v = await post("program", { name: f.name, text }).finally(() => { opening = false; });
+  if (v.ok) showProgram(v);
 };
 
 function listing(text, errs) {
@@ -298,11 +390,71 @@ function markLine(n) {
 
 $("run").onclick = () => post("run", {});
 $("run-from").onclick = () => post("run", { from_line: +$("from").value || 1 });
+$("run-resume").onclick = () => post("run", { from_line: +$("resume-line").textContent });
 $("show-pre").onclick = async () => {
   const v = await post("preamble", { from_line: +$("from").value || 1 });
   $("preamble").hidden = !v.ok;
   if (v.ok) $("preamble").textContent = "preamble sent before line " + ($("from").value || 1) + ":\n" + v.preamble.join("\n");
 };
+
+// ---- library and macros (kept by serve) ----
+const cell = (tr, text) => { const td = document.createElement("td"); td.textContent = text; tr.append(td); return td; };
+const button = (td, label, cls, fn) => { const b = document.createElement("button"); b.textContent = label; b.className = cls; b.onclick = fn; b.disabled = !live; td.append(b); return b; };
+function showLibrary(list) {
+  const tb = document.querySelector("#library tbody");
+  tb.textContent = "";
+  for (const p of list) {
+    const tr = document.createElement("tr");
+    tr.dataset.name = p.name;
+    cell(tr, p.name);
+    cell(tr, p.size < 10240 ? p.size + " B" : Math.round(p.size / 1024) + " KiB");
+    cell(tr, new Date(p.date * 1000).toLocaleString());
+    cell(tr, p.seconds != null ? hms(p.seconds) : p.errors ? p.errors + " errors" : "-");
+    cell(tr, (p.tools || []).map((t) => "T" + t).join(", ") || "none");
+    button(cell(tr, ""), "Open", "lib-open", async () => {
+      $("prog-name").textContent = "checking…";
+      opening = true;
+      const v = await post("library_open", { name: p.name }).finally(() => { opening = false; });
+      if (v.ok) showProgram(v);
+    });
+    button(cell(tr, ""), "Delete", "lib-delete", () => { if (confirm("Remove " + p.name + " from the library?")) post("library_delete", { name: p.name }); });
+    tb.append(tr);
+  }
+}
+function showMacros(list) {
+  const tb = document.querySelector("#macros tbody");
+  tb.textContent = "";
+  for (const m of list) {
+    const tr = document.createElement("tr");
+    tr.dataset.name = m.name;
+    cell(tr, m.name);
+    const pre = document.createElement("pre");
+    pre.textContent = m.text;
+    cell(tr, "").append(pre);
+    button(cell(tr, ""), "Run", "go macro-run", () => post("macro_run", { name: m.name }));
+    button(cell(tr, ""), "Edit", "macro-edit", () => { $("macro-name").value = m.name; $("macro-text").value = m.text; });
+    button(cell(tr, ""), "Delete", "macro-delete", () => { if (confirm("Delete macro " + m.name + "?")) post("macro_delete", { name: m.name }); });
+    tb.append(tr);
+  }
+}
+$("macro-form").onsubmit = async (e) => {
+  e.preventDefault();
+  const v = await post("macro_save", { name: $("macro-name").value, text: $("macro-text").value });
+  if (v.ok) { log(v.message); $("macro-name").value = ""; $("macro-text").value = ""; }
+};
+
+// ---- probing: the plan is shown and confirmed before anything moves ----
+async function probe(body) {
+  const plan = await post("probe_plan", body);
+  if (!plan.ok) return;
+  if (!confirm(plan.plan + "\n\nStart? The machine moves.")) return;
+  $("probe-result").textContent = "probing…";
+  await post("probe", body);
+}
+$("probe-z").onclick = () => probe({ kind: "z", thickness: +$("pz-thickness").value, distance: +$("pz-distance").value,
+  feed: +$("pz-feed").value, retract: +$("pz-retract").value });
+$("probe-corner").onclick = () => probe({ kind: "corner", clearance: +$("pc-clearance").value, depth: +$("pc-depth").value,
+  diameter: +$("pc-diameter").value, feed: +$("pc-feed").value, retract: +$("pc-retract").value });
 
 // ---- setup ----
 $("setup-toml").addEventListener("input", () => { $("setup-toml").dataset.edited = "1"; });
@@ -326,10 +478,17 @@ const VIEWS = {
   iso: (p) => [(p[0] - p[1]) * 0.866, (p[0] + p[1]) * 0.5 + p[2]],
 };
 const cache = {};
+// One frame for the path, the cross and the box: work coordinates of the active system (machine
+// minus the board's offset, as the readout's work position), or machine coordinates.
+function shift() {
+  if (frame === "machine" || !status) return [0, 0, 0];
+  return [0, 1, 2].map((i) => (status.machine[i] ?? 0) - (status.work[i] ?? 0));
+}
+$("frame").onchange = () => { frame = $("frame").value; draw(true); };
 function box() {
-  // The travel box in the program's coordinates (machine travel shifted by the work offset).
+  // The travel box (machine coordinates) in the frame drawn.
   if (!setup || !status) return null;
-  const off = [0, 1, 2].map((i) => (status.machine[i] ?? 0) - (status.work[i] ?? 0));
+  const off = shift();
   const lo = [0, 1, 2].map((i) => (setup.travel_min[i] ?? 0) - off[i]);
   const hi = [0, 1, 2].map((i) => (setup.travel_max[i] ?? 0) - off[i]);
   return { lo, hi };
@@ -344,31 +503,35 @@ let lastKey = "";
 function draw(force) {
   const b = box();
   const cut = job && job.name === programName ? job.line : 0;
-  const key = JSON.stringify([b, cut, path ? path.length : 0]);
+  const off = shift();
+  const key = JSON.stringify([b, cut, path ? path.length : 0, programRev, frame]);
   const stale = force || key !== lastKey;
   lastKey = key;
   for (const name of ["top", "iso"]) {
     const cv = $(name), proj = VIEWS[name];
     const ctx = cv.getContext("2d");
-    if (stale || !cache[name]) cache[name] = render(cv.width, cv.height, proj, b, cut);
+    if (stale || !cache[name]) cache[name] = render(cv.width, cv.height, proj, b, cut, off);
     const c = cache[name];
     ctx.clearRect(0, 0, cv.width, cv.height);
     ctx.drawImage(c.img, 0, 0);
     if (status && c.map) {
-      const [x, y] = c.map(proj([status.work[0] || 0, status.work[1] || 0, status.work[2] || 0]));
+      const at = frame === "machine" ? status.machine : status.work;
+      const [x, y] = c.map(proj([at[0] || 0, at[1] || 0, at[2] || 0]));
+      if (name === "top") window.gantryCross = [x, y];
       ctx.strokeStyle = "#ff5252"; ctx.lineWidth = 2;
       ctx.beginPath(); ctx.arc(x, y, 6, 0, 7); ctx.moveTo(x - 10, y); ctx.lineTo(x + 10, y); ctx.moveTo(x, y - 10); ctx.lineTo(x, y + 10); ctx.stroke();
     }
   }
 }
-function render(w, h, proj, b, cut) {
+function render(w, h, proj, b, cut, off) {
+  const pt = (i) => [path[i + 2] - off[0], path[i + 3] - off[1], path[i + 4] - off[2]];
   const img = document.createElement("canvas");
   img.width = w; img.height = h;
   const ctx = img.getContext("2d");
   // Fit the program's path (the travel box only when there is none); the box is clipped.
   const pts = [];
   if (b && !(path && path.length)) for (const c of corners(b)) pts.push(proj(c));
-  if (path) for (let i = 0; i < path.length; i += 5) pts.push(proj([path[i + 2], path[i + 3], path[i + 4]]));
+  if (path) for (let i = 0; i < path.length; i += 5) pts.push(proj(pt(i)));
   if (!pts.length) return { img, map: null };
   let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
   for (const [x, y] of pts) { x0 = Math.min(x0, x); x1 = Math.max(x1, x); y0 = Math.min(y0, y); y1 = Math.max(y1, y); }
@@ -389,7 +552,7 @@ function render(w, h, proj, b, cut) {
     ctx.lineWidth = 1.2;
     for (let i = 0; i < path.length; i += 5) {
       const k = path[i], line = path[i + 1];
-      const p = map(proj([path[i + 2], path[i + 3], path[i + 4]]));
+      const p = map(proj(pt(i)));
       if (prev && k !== 2) {
         const st = style(k, line);
         if (st !== cur) { if (cur) ctx.stroke(); ctx.strokeStyle = st; ctx.setLineDash(k === 0 ? [3, 3] : []); ctx.beginPath(); ctx.moveTo(...prev); cur = st; }
@@ -404,4 +567,5 @@ function render(w, h, proj, b, cut) {
   return { img, map };
 }
 
+offline("connecting to gantry serve…");
 connect();

@@ -1,26 +1,57 @@
 //! A minimal HTTP/1.1 server on std's `TcpListener` for the console: one thread per connection,
 //! `GET` for the embedded page and its assets, `GET /events` for Server-Sent Events, `POST` with a
-//! JSON body (`Content-Length`, at most [`BODY_MAX`] bytes) for commands. Nothing is fetched from
-//! elsewhere: the page, its script and its style are compiled into the binary.
+//! JSON body (`Content-Length`) for commands. Nothing is fetched from elsewhere: the page, its
+//! script and its style are compiled into the binary.
+//!
+//! Every read is bounded before anything is allocated for it: a header line at most
+//! [`LINE_MAX`] bytes, at most [`HEADERS_MAX`] header lines (431 beyond either), a body at most
+//! [`BODY_MAX`] bytes (413), so a client that sends an endless header or claims a huge body costs
+//! serve a few kilobytes, never its memory.
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 
-/// The largest request body accepted (a program upload).
-pub const BODY_MAX: usize = 32 << 20;
+/// The longest request or header line read, bytes (with its CRLF).
+pub(crate) const LINE_MAX: usize = 8 << 10;
+/// The most header lines a request may have.
+pub(crate) const HEADERS_MAX: usize = 100;
+/// The largest request body accepted from a client that has not shown the token, and for every
+/// command but a program upload.
+pub(crate) const BODY_MAX: usize = 1 << 20;
+/// The largest program upload (`POST /api/program` with the token): CAM programs of tens of
+/// megabytes are common.
+pub(crate) const UPLOAD_MAX: usize = 32 << 20;
 
-/// One request.
-pub struct Request {
+/// Why a request could not be read.
+#[derive(Debug, PartialEq, Eq)]
+pub(crate) enum ReadError {
+    /// The client closed (or the connection failed) between requests.
+    Closed,
+    /// Not an HTTP request (400).
+    Malformed,
+    /// A header line or the header count beyond the bounds (431).
+    HeaderTooLarge,
+}
+
+/// The head of one request; its body, `content_length` bytes, is read by [`read_body`].
+pub(crate) struct Head {
     pub method: String,
+    /// The path without the query.
     pub path: String,
-    pub body: Vec<u8>,
+    /// The query (after `?`), empty when none.
+    pub query: String,
     /// The `Host` header.
     pub host: String,
     /// The body is `application/json`.
     pub json: bool,
+    /// The `Cookie` header(s), joined with `; `.
+    pub cookie: String,
+    /// The `Authorization` header.
+    pub authorization: String,
+    pub content_length: usize,
 }
 
-impl Request {
+impl Head {
     /// The request names this server in its `Host` header: its own address, or `localhost` with
     /// its port (a name another site resolves to this address, DNS rebinding, is refused).
     pub fn host_ok(&self, addr: std::net::SocketAddr) -> bool {
@@ -34,67 +65,180 @@ impl Request {
                 && h.parse::<std::net::SocketAddr>()
                     .is_ok_and(|a| a.port() == port))
     }
+
+    /// The value of cookie `name`, if sent.
+    pub fn cookie(&self, name: &str) -> Option<&str> {
+        self.cookie
+            .split(';')
+            .filter_map(|c| c.trim().split_once('='))
+            .find(|(k, _)| *k == name)
+            .map(|(_, v)| v)
+    }
+
+    /// The value of query parameter `name`, if given.
+    pub fn query_param(&self, name: &str) -> Option<&str> {
+        self.query
+            .split('&')
+            .filter_map(|p| p.split_once('='))
+            .find(|(k, _)| *k == name)
+            .map(|(_, v)| v)
+    }
+
+    /// The token of an `Authorization: Bearer TOKEN` header.
+    pub fn bearer(&self) -> Option<&str> {
+        let (scheme, token) = self.authorization.trim().split_once(' ')?;
+        scheme.eq_ignore_ascii_case("bearer").then(|| token.trim())
+    }
 }
 
-/// Reads one request from `stream`; `None` when the client closed or sent nonsense.
-pub fn read_request(stream: &mut BufReader<TcpStream>) -> Option<Request> {
-    let mut first = String::new();
-    if stream.read_line(&mut first).ok()? == 0 {
-        return None;
-    }
-    let mut parts = first.split_whitespace();
-    let method = parts.next()?.to_owned();
-    let path = parts.next()?.to_owned();
-    let mut len = 0usize;
-    let mut host = String::new();
-    let mut json = false;
+/// One line of at most `max` bytes (its CRLF or LF removed); reads no further than its end.
+fn read_line(stream: &mut BufReader<TcpStream>, max: usize) -> Result<String, ReadError> {
+    let mut line = Vec::new();
     loop {
-        let mut h = String::new();
-        if stream.read_line(&mut h).ok()? == 0 {
-            return None;
+        let buf = match stream.fill_buf() {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(_) => return Err(ReadError::Closed),
+        };
+        if buf.is_empty() {
+            return Err(if line.is_empty() {
+                ReadError::Closed
+            } else {
+                ReadError::Malformed
+            });
         }
-        let h = h.trim_end();
+        let (take, done) = match buf.iter().position(|&b| b == b'\n') {
+            Some(i) => (i + 1, true),
+            None => (buf.len(), false),
+        };
+        if line.len() + take > max {
+            return Err(ReadError::HeaderTooLarge);
+        }
+        line.extend_from_slice(&buf[..take]);
+        stream.consume(take);
+        if done {
+            break;
+        }
+    }
+    while matches!(line.last(), Some(b'\n' | b'\r')) {
+        line.pop();
+    }
+    String::from_utf8(line).map_err(|_| ReadError::Malformed)
+}
+
+/// Reads the head of one request from `stream`.
+pub(crate) fn read_head(stream: &mut BufReader<TcpStream>) -> Result<Head, ReadError> {
+    let first = read_line(stream, LINE_MAX)?;
+    let mut parts = first.split_whitespace();
+    let method = parts.next().ok_or(ReadError::Malformed)?.to_owned();
+    let target = parts.next().ok_or(ReadError::Malformed)?;
+    let (path, query) = target.split_once('?').unwrap_or((target, ""));
+    let mut head = Head {
+        method,
+        path: path.to_owned(),
+        query: query.to_owned(),
+        host: String::new(),
+        json: false,
+        cookie: String::new(),
+        authorization: String::new(),
+        content_length: 0,
+    };
+    let mut count = 0;
+    loop {
+        let h = read_line(stream, LINE_MAX).map_err(|e| match e {
+            ReadError::Closed => ReadError::Malformed,
+            e => e,
+        })?;
         if h.is_empty() {
             break;
         }
-        if let Some((k, v)) = h.split_once(':') {
-            if k.trim().eq_ignore_ascii_case("content-length") {
-                len = v.trim().parse().ok()?;
-            } else if k.trim().eq_ignore_ascii_case("host") {
-                host = v.trim().to_owned();
-            } else if k.trim().eq_ignore_ascii_case("content-type") {
-                json = v
-                    .trim()
-                    .to_ascii_lowercase()
-                    .starts_with("application/json");
+        count += 1;
+        if count > HEADERS_MAX {
+            return Err(ReadError::HeaderTooLarge);
+        }
+        let Some((k, v)) = h.split_once(':') else {
+            return Err(ReadError::Malformed);
+        };
+        let (k, v) = (k.trim(), v.trim());
+        if k.eq_ignore_ascii_case("content-length") {
+            head.content_length = v.parse().map_err(|_| ReadError::Malformed)?;
+        } else if k.eq_ignore_ascii_case("transfer-encoding") {
+            // Chunked bodies are not taken: a command is small and has a length.
+            return Err(ReadError::Malformed);
+        } else if k.eq_ignore_ascii_case("host") {
+            head.host = v.to_owned();
+        } else if k.eq_ignore_ascii_case("content-type") {
+            head.json = v.to_ascii_lowercase().starts_with("application/json");
+        } else if k.eq_ignore_ascii_case("cookie") {
+            if !head.cookie.is_empty() {
+                head.cookie.push_str("; ");
             }
+            head.cookie.push_str(v);
+        } else if k.eq_ignore_ascii_case("authorization") {
+            head.authorization = v.to_owned();
         }
     }
-    if len > BODY_MAX {
-        return None;
-    }
-    let mut body = vec![0u8; len];
-    stream.read_exact(&mut body).ok()?;
-    Some(Request {
-        method,
-        path,
-        body,
-        host,
-        json,
-    })
+    Ok(head)
 }
 
-/// Writes a whole response.
-pub fn respond(stream: &mut TcpStream, status: &str, content_type: &str, body: &[u8]) -> bool {
+/// Reads a body of `len` bytes (the caller has bounded `len`).
+pub(crate) fn read_body(stream: &mut BufReader<TcpStream>, len: usize) -> Option<Vec<u8>> {
+    let mut body = vec![0u8; len];
+    stream.read_exact(&mut body).ok()?;
+    Some(body)
+}
+
+/// Writes a whole response, with `extra` header lines (each ending in CRLF).
+pub(crate) fn respond_with(
+    stream: &mut TcpStream,
+    status: &str,
+    content_type: &str,
+    extra: &str,
+    body: &[u8],
+) -> bool {
     let head = format!(
-        "HTTP/1.1 {status}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\n\r\n",
+        "HTTP/1.1 {status}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\n{extra}\r\n",
         body.len()
     );
     stream.write_all(head.as_bytes()).is_ok() && stream.write_all(body).is_ok()
 }
 
+/// Writes a whole response.
+pub(crate) fn respond(
+    stream: &mut TcpStream,
+    status: &str,
+    content_type: &str,
+    body: &[u8],
+) -> bool {
+    respond_with(stream, status, content_type, "", body)
+}
+
+/// Answers a request that is refused before its body was read, then closes: the client's
+/// unread bytes are drained for a moment (at most [`BODY_MAX`], 2 s), so that the answer is
+/// not lost to a reset, but never stored.
+pub(crate) fn refuse_and_close(stream: &mut TcpStream, status: &str, text: &str) {
+    let _ = respond_with(
+        stream,
+        status,
+        "text/plain",
+        "Connection: close\r\n",
+        text.as_bytes(),
+    );
+    let _ = stream.flush();
+    let _ = stream.shutdown(std::net::Shutdown::Write);
+    let _ = stream.set_read_timeout(Some(std::time::Duration::from_secs(2)));
+    let mut sink = [0u8; 4096];
+    let mut drained = 0;
+    while drained < BODY_MAX {
+        match stream.read(&mut sink) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => drained += n,
+        }
+    }
+}
+
 /// Starts a Server-Sent Events response.
-pub fn start_events(stream: &mut TcpStream) -> bool {
+pub(crate) fn start_events(stream: &mut TcpStream) -> bool {
     stream
         .write_all(
             b"HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\nConnection: keep-alive\r\n\r\n",
@@ -103,7 +247,7 @@ pub fn start_events(stream: &mut TcpStream) -> bool {
 }
 
 /// One event, `event: KIND` and its JSON data on one line.
-pub fn event_text(kind: &str, data: &str) -> String {
+pub(crate) fn event_text(kind: &str, data: &str) -> String {
     format!(
         "event: {kind}\ndata: {}\n\n",
         data.replace('\n', "\ndata: ")

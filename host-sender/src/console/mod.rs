@@ -12,9 +12,15 @@
 //!   `gantry stream` would, and broadcasts its progress with the planner's ETA.
 //!
 //! The job belongs to the serve process, not to the page: closing the page never stops it.
-//! No authentication: the console listens on loopback unless `--allow-remote` (docs/console.md).
+//! Locked ([`lock`]): every request carries the token serve printed; the console listens on
+//! loopback unless `--allow-remote` (docs/console.md).
 
+mod args;
 mod http;
+mod library;
+mod loaded;
+pub mod lock;
+mod probing;
 pub mod program;
 
 use crate::commands::stream::Eta;
@@ -27,15 +33,18 @@ use crate::program_stops;
 use crate::resume::resume_preamble;
 use crate::session::{Flow, JobStart, Overrides, Session, Target};
 use anyhow::Context;
+use args::{num_in, percent, text, whole_in};
 use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::AXIS_LETTERS;
 use gantry_proto::{BoardMsg, MachineState, Status};
+use loaded::Loaded;
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, VecDeque};
 use std::io::{BufReader, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
@@ -61,13 +70,14 @@ pub fn check_address(addr: &SocketAddr, allow_remote: bool) -> anyhow::Result<()
     }
     anyhow::ensure!(
         allow_remote,
-        "--http {addr}: not a loopback address; the console has no authentication and anyone who \
-         reaches it can move the machine. Use 127.0.0.1 (and an SSH tunnel for a tablet, \
-         docs/console.md), or add --allow-remote if you mean it"
+        "--http {addr}: not a loopback address; the console speaks plain HTTP, so its token \
+         crosses the network readable by anyone on it, who can then move the machine. Use \
+         127.0.0.1 (and an SSH tunnel for a tablet, docs/console.md), or add --allow-remote if \
+         you mean it"
     );
     eprintln!(
-        "serve: WARNING: the console listens on {addr}, reachable from other hosts, with no \
-         authentication: anyone who reaches it can move the machine"
+        "serve: WARNING: the console listens on {addr}, reachable from other hosts over plain \
+         HTTP: anyone who can read the traffic learns the token and can move the machine"
     );
     Ok(())
 }
@@ -157,17 +167,19 @@ enum Cmd {
 
 type Reply = Result<String, String>;
 
-/// The program the page loaded.
-struct Loaded {
-    name: String,
-    text: String,
-}
-
 struct Console {
     port: String,
+    lock: lock::Lock,
     hub: Hub,
     setup: Mutex<Option<Setup>>,
-    program: Mutex<Option<Loaded>>,
+    /// The program every page shows (`loaded.rs`), and its last revision number.
+    program: Mutex<Option<Arc<Loaded>>>,
+    /// The program library and the macros (`library.rs`), when a data directory is usable.
+    library: Option<library::Library>,
+    rev: AtomicU64,
+    /// Where the tool stands (machine nm) and the active work system, from the newest status.
+    here: Mutex<[i64; 6]>,
+    system: Mutex<u8>,
     /// A console job thread runs.
     job: AtomicBool,
     /// A request to hold, resume, abort, or continue from the job thread.
@@ -199,16 +211,43 @@ fn now_s() -> f64 {
 }
 
 /// Starts the console for the board `gantry serve` serves on `port` (serve's socket must be bound
-/// already, and [`check_address`] passed); returns once it listens.
-pub fn start(port: &str, opts: &Options) -> anyhow::Result<()> {
+/// already in its private directory `dir`, and [`check_address`] passed); returns once it
+/// listens, with the file that holds the console's token (serve removes it when it ends).
+pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Result<PathBuf> {
     let listener = TcpListener::bind(opts.addr)
         .with_context(|| format!("--http {}: cannot listen", opts.addr))?;
+    let addr = listener.local_addr()?;
+    let lock = lock::Lock::create(&dir.join(lock::token_name(port)), addr.port())?;
+    let library = match library::default_dir().map(|d| library::Library::open(&d)) {
+        Some(Ok(l)) => Some(l),
+        Some(Err(e)) => {
+            eprintln!("serve: the console keeps no program library or macros: {e:#}");
+            None
+        }
+        None => {
+            eprintln!(
+                "serve: the console keeps no program library or macros: no XDG_DATA_HOME or HOME"
+            );
+            None
+        }
+    };
+    if let Some(l) = &library {
+        eprintln!(
+            "serve: the console's program library and macros are in {}",
+            l.dir().display()
+        );
+    }
     let (tx, rx) = mpsc::channel();
     let console = Arc::new(Console {
         port: port.to_owned(),
+        lock,
         hub: Hub::default(),
         setup: Mutex::new(None),
         program: Mutex::new(None),
+        library,
+        rev: AtomicU64::new(0),
+        here: Mutex::new([0; 6]),
+        system: Mutex::new(0),
         job: AtomicBool::new(false),
         control: Mutex::new(tx),
     });
@@ -216,7 +255,16 @@ pub fn start(port: &str, opts: &Options) -> anyhow::Result<()> {
     std::thread::Builder::new()
         .name("console-session".into())
         .spawn(move || worker(c, rx))?;
-    let addr = listener.local_addr()?;
+    if let Some(l) = &console.library {
+        console
+            .hub
+            .publish("library", json!({ "programs": l.list() }));
+        console
+            .hub
+            .publish("macros", json!({ "macros": l.macros() }));
+    }
+    let url = format!("http://{addr}/?token={}", console.lock.token());
+    let file = console.lock.file().to_owned();
     let c = console;
     std::thread::Builder::new()
         .name("console-http".into())
@@ -228,8 +276,10 @@ pub fn start(port: &str, opts: &Options) -> anyhow::Result<()> {
                     .spawn(move || serve_client(&c, stream, addr));
             }
         })?;
-    eprintln!("serve: the console is on http://{addr}/");
-    Ok(())
+    // Printed once: the URL is the key (a notebook server's way); scripts read the file.
+    eprintln!("serve: the console is on {url}");
+    eprintln!("serve: (its token is also in {})", file.display());
+    Ok(file)
 }
 
 /// The control session: the board's pushed status to every page, the page's requests to the
@@ -261,6 +311,8 @@ fn worker(c: Arc<Console>, rx: mpsc::Receiver<(Cmd, mpsc::Sender<Reply>)>) {
                 Ok(got) => {
                     if let Some(s) = got.statuses.last() {
                         heard = Instant::now();
+                        *c.here.lock().expect("here") = s.machine_pos;
+                        *c.system.lock().expect("system") = s.work_system;
                         c.hub.publish("status", status_json(s, session.axes()));
                     }
                     // A job (any client's: a program, an MDI block) may have set work offsets,
@@ -304,7 +356,7 @@ fn answer(a: anyhow::Result<Option<u16>>, done: &str) -> Reply {
     }
 }
 
-fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
+fn carry_out(s: &mut Session, c: &Arc<Console>, cmd: Cmd) -> Reply {
     let e = |r: anyhow::Result<()>, done: &str| {
         r.map(|()| done.to_owned()).map_err(|e| format!("{e:#}"))
     };
@@ -389,12 +441,14 @@ fn carry_out(s: &mut Session, c: &Console, cmd: Cmd) -> Reply {
 
 /// Reads the board's setup again (the work offsets a job or a zero changed, which the board keeps
 /// in it) and shows it to every page.
-fn read_back(s: &mut Session, c: &Console) {
+fn read_back(s: &mut Session, c: &Arc<Console>) {
     match s.reload_setup() {
         Ok(setup) => {
             let setup = setup.clone();
             c.hub.publish("setup", setup_json(&setup));
             *c.setup.lock().expect("setup") = Some(setup);
+            // The work offsets may have changed: the program's path in machine coordinates too.
+            refresh(c);
         }
         Err(e) => c.notice(format!("cannot read the board's setup back: {e:#}")),
     }
@@ -521,7 +575,12 @@ fn job(
     cleared: crate::session::Cleared,
 ) {
     let program = Program::from_text(&text);
-    let publish_end = |v: Value| c.hub.publish("job", v);
+    // The job is over for the console before any page hears of it: a page that starts the next
+    // one at once must not be refused as "still running".
+    let publish_end = |v: Value| {
+        c.job.store(false, Ordering::SeqCst);
+        c.hub.publish("job", v)
+    };
     let result = (|| -> anyhow::Result<()> {
         let mut s = Session::connect(Target::Port(c.port.clone()), OnClose::KeepDtr)?;
         let setup = s.setup().clone();
@@ -588,6 +647,7 @@ fn job(
         publish_end(json!({
             "running": false, "name": name, "line": report.last_line, "total": total,
             "completed": report.completed, "aborted": report.aborted,
+            "resume_line": resume_line(&report, from.unwrap_or(1)),
             "errors": errors, "alarms": alarms,
             "elapsed_s": report.elapsed_ms as f64 / 1000.0,
             "link": format!("{:?}", report.link),
@@ -597,7 +657,102 @@ fn job(
     if let Err(e) = result {
         publish_end(json!({ "running": false, "name": name, "errors": [format!("{e:#}")] }));
     }
-    c.job.store(false, Ordering::SeqCst);
+}
+
+/// Makes `text` the program every page shows: checked with the board's setup and drawn from
+/// where the tool stands; returns all of it for the page that opened it.
+fn open_program(c: &Arc<Console>, name: &str, text: &str) -> Result<Value, String> {
+    let setup = c
+        .setup
+        .lock()
+        .expect("setup")
+        .clone()
+        .ok_or("the board's setup is not read yet")?;
+    let here = *c.here.lock().expect("here");
+    let rev = c.rev.fetch_add(1, Ordering::SeqCst) + 1;
+    let loaded = Arc::new(Loaded::build(name, text, &setup, &here, rev));
+    *c.program.lock().expect("program") = Some(loaded.clone());
+    c.hub.publish("program", loaded.summary.clone());
+    Ok(loaded.whole())
+}
+
+/// Checks and draws the program again (the setup, its offsets or the tool's position changed),
+/// on a thread of its own: a long program's check does not hold up the status. The result
+/// replaces the program only if no other was opened meanwhile.
+fn refresh(c: &Arc<Console>) {
+    let Some(old) = c.program.lock().expect("program").clone() else {
+        return;
+    };
+    let Some(setup) = c.setup.lock().expect("setup").clone() else {
+        return;
+    };
+    let here = *c.here.lock().expect("here");
+    let c = c.clone();
+    let _ = std::thread::Builder::new()
+        .name("console-check".into())
+        .spawn(move || {
+            let rev = c.rev.fetch_add(1, Ordering::SeqCst) + 1;
+            let new = Arc::new(Loaded::build(&old.name, &old.text, &setup, &here, rev));
+            let mut p = c.program.lock().expect("program");
+            if p.as_ref().is_some_and(|p| p.rev == old.rev) {
+                *p = Some(new.clone());
+                drop(p);
+                c.hub.publish("program", new.summary.clone());
+            }
+        });
+}
+
+/// The line to run from after a job that did not complete, as `gantry stream` offers it
+/// (commands/stream.rs, its report's `resume:` line): after an abort, an alarm on the path or a
+/// lost link the line the board stood at (not before the run's first line), after an error its
+/// line; `None` after a completed job or one that cannot be resumed by line.
+fn resume_line(report: &crate::session::StreamReport, first_line: u32) -> Option<u32> {
+    use gantry_machine::controller::AlarmCode;
+    let on_path = report
+        .alarms
+        .iter()
+        .any(|a| a.code == AlarmCode::SoftLimit as u16 || a.code == AlarmCode::HostLost as u16);
+    let link_lost = matches!(
+        report.link,
+        crate::session::LinkEnd::Closed | crate::session::LinkEnd::BoardReset
+    );
+    if report.completed {
+        None
+    } else if report.aborted || on_path || link_lost {
+        Some(report.last_line.max(first_line))
+    } else {
+        report.errors.iter().find(|e| e.line != 0).map(|e| e.line)
+    }
+}
+
+/// Runs a probing workflow on a job session of its own (unless a console job runs); its report
+/// goes to every page as a `probe` event.
+fn start_probe(c: &Arc<Console>, probe: probing::Probe) -> Reply {
+    if c.job.swap(true, Ordering::SeqCst) {
+        return Err("a job started from the console is still running".into());
+    }
+    let c2 = c.clone();
+    let run = move || {
+        let result = Session::connect(Target::Port(c2.port.clone()), OnClose::KeepDtr)
+            .map_err(|e| format!("{e:#}"))
+            .and_then(|mut s| probing::run(&mut s, &probe));
+        let (ok, text) = match result {
+            Ok(t) => (true, t),
+            Err(e) => (false, format!("probing stopped: {e}")),
+        };
+        c2.job.store(false, Ordering::SeqCst);
+        c2.notice(text.clone());
+        c2.hub
+            .publish("probe", json!({ "ok": ok, "text": text, "at": now_s() }));
+    };
+    std::thread::Builder::new()
+        .name("console-probe".into())
+        .spawn(run)
+        .map_err(|e| {
+            c.job.store(false, Ordering::SeqCst);
+            e.to_string()
+        })?;
+    Ok("probing started".into())
 }
 
 /// Starts a job thread unless one runs, once the program passed the start check
@@ -636,39 +791,81 @@ fn serve_client(c: &Arc<Console>, stream: TcpStream, addr: SocketAddr) {
     };
     let mut reader = BufReader::new(read_half);
     let mut out = stream;
-    while let Some(req) = http::read_request(&mut reader) {
+    loop {
+        let head = match http::read_head(&mut reader) {
+            Ok(h) => h,
+            Err(http::ReadError::Closed) => return,
+            Err(http::ReadError::Malformed) => {
+                http::refuse_and_close(&mut out, "400 Bad Request", "not an HTTP request\n");
+                return;
+            }
+            Err(http::ReadError::HeaderTooLarge) => {
+                http::refuse_and_close(
+                    &mut out,
+                    "431 Request Header Fields Too Large",
+                    &format!(
+                        "a header line is at most {} bytes, at most {} header lines\n",
+                        http::LINE_MAX,
+                        http::HEADERS_MAX
+                    ),
+                );
+                return;
+            }
+        };
         // A page from elsewhere must not drive the machine through the operator's browser: the
         // Host must be this console's (no DNS rebinding), and a command must be JSON (a
         // cross-site form cannot send that without a CORS preflight, which is never granted).
-        if !req.host_ok(addr) {
-            http::respond(&mut out, "403 Forbidden", "text/plain", b"wrong Host\n");
+        if !head.host_ok(addr) {
+            http::refuse_and_close(&mut out, "403 Forbidden", "wrong Host\n");
             return;
         }
-        let ok = match (req.method.as_str(), req.path.as_str()) {
-            ("GET", "/") | ("GET", "/index.html") => http::respond(
+        // The lock (`lock.rs`): nothing is read, shown or done without the token.
+        if !c.lock.admits(&head) {
+            http::refuse_and_close(
                 &mut out,
-                "200 OK",
-                "text/html; charset=utf-8",
-                PAGE.as_bytes(),
-            ),
-            ("GET", "/console.js") => http::respond(
+                "401 Unauthorized",
+                "the console needs its token: open the URL gantry serve printed \
+                 (the token is also in its runtime directory)\n",
+            );
+            return;
+        }
+        let limit = if head.method == "POST" && head.path == "/api/program" {
+            http::UPLOAD_MAX
+        } else {
+            http::BODY_MAX
+        };
+        if head.content_length > limit {
+            http::refuse_and_close(
                 &mut out,
-                "200 OK",
-                "text/javascript; charset=utf-8",
-                SCRIPT.as_bytes(),
-            ),
-            ("GET", "/console.css") => http::respond(
-                &mut out,
-                "200 OK",
-                "text/css; charset=utf-8",
-                STYLE.as_bytes(),
-            ),
+                "413 Content Too Large",
+                &format!("a request body is at most {limit} bytes here\n"),
+            );
+            return;
+        }
+        let Some(body) = http::read_body(&mut reader, head.content_length) else {
+            return;
+        };
+        // The first visit (the printed URL with its token) gets the cookie; later ones send it.
+        let cookie = if c.lock.in_query(&head) {
+            c.lock.set_cookie()
+        } else {
+            String::new()
+        };
+        let asset = |out: &mut TcpStream, kind: &str, text: &str| {
+            http::respond_with(out, "200 OK", kind, &cookie, text.as_bytes())
+        };
+        let ok = match (head.method.as_str(), head.path.as_str()) {
+            ("GET", "/") | ("GET", "/index.html") => {
+                asset(&mut out, "text/html; charset=utf-8", PAGE)
+            }
+            ("GET", "/console.js") => asset(&mut out, "text/javascript; charset=utf-8", SCRIPT),
+            ("GET", "/console.css") => asset(&mut out, "text/css; charset=utf-8", STYLE),
             ("GET", "/events") => {
                 events(c, out);
                 return;
             }
             ("POST", path) if path.starts_with("/api/") => {
-                if !req.json {
+                if !head.json {
                     http::respond(
                         &mut out,
                         "415 Unsupported Media Type",
@@ -677,17 +874,25 @@ fn serve_client(c: &Arc<Console>, stream: TcpStream, addr: SocketAddr) {
                     );
                     return;
                 }
-                // A body that is not JSON is refused, never taken as an empty command.
-                let parsed = if req.body.iter().all(u8::is_ascii_whitespace) {
-                    Ok(Value::Null)
+                // A body that is not a JSON object is refused, never taken as an empty command;
+                // an empty body is a command without arguments.
+                let parsed = if body.iter().all(u8::is_ascii_whitespace) {
+                    Ok(json!({}))
                 } else {
-                    serde_json::from_slice(&req.body).map_err(|e| {
-                        format!("the request is not valid JSON ({e}): nothing was done")
-                    })
+                    match serde_json::from_slice::<Value>(&body) {
+                        Ok(v) if v.is_object() => Ok(v),
+                        Ok(_) => Err("the body must be a JSON object: nothing was done".to_owned()),
+                        Err(e) => Err(format!(
+                            "the request is not valid JSON ({e}): nothing was done"
+                        )),
+                    }
                 };
-                let (code, v) = match parsed.and_then(|body| api(c, &path[5..], &body)) {
-                    Ok(v) => ("200 OK", v),
-                    Err(e) => ("200 OK", json!({ "ok": false, "error": e })),
+                let (code, v) = match parsed {
+                    Ok(body) => match api(c, &path[5..], &body) {
+                        Ok(v) => ("200 OK", v),
+                        Err(e) => ("200 OK", json!({ "ok": false, "error": e })),
+                    },
+                    Err(e) => ("400 Bad Request", json!({ "ok": false, "error": e })),
                 };
                 http::respond(&mut out, code, "application/json", v.to_string().as_bytes())
             }
@@ -729,10 +934,6 @@ fn ok(message: String) -> Value {
     json!({ "ok": true, "message": message })
 }
 
-fn num(v: &Value, key: &str) -> Option<f64> {
-    v.get(key).and_then(Value::as_f64).filter(|x| x.is_finite())
-}
-
 fn axis_of(v: &Value) -> Result<u8, String> {
     match v.get("axis") {
         Some(Value::String(s)) => AXIS_LETTERS
@@ -749,43 +950,33 @@ fn axis_of(v: &Value) -> Result<u8, String> {
     }
 }
 
-fn percent(v: &Value, key: &str) -> Result<Option<u16>, String> {
-    match num(v, key) {
-        None => Ok(None),
-        Some(p) if (1.0..=200.0).contains(&p) => Ok(Some(p.round() as u16)),
-        Some(p) => Err(format!("{key} override {p} %: give 1 to 200")),
-    }
-}
-
 fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
     let m = match what {
         "hold" => c.ask(Cmd::Hold)?,
         "resume" | "continue" => c.ask(Cmd::Resume)?,
         "abort" => c.ask(Cmd::Abort)?,
-        "override" => c.ask(Cmd::Overrides(Overrides {
-            feed: percent(body, "feed")?,
-            rapid: percent(body, "rapid")?,
-            spindle: match percent(body, "spindle")? {
-                Some(p) if p < 10 => return Err(format!("spindle override {p} %: give 10 to 200")),
-                p => p,
-            },
-        }))?,
+        "override" => {
+            let o = Overrides {
+                feed: percent(body, "feed", 10, 200)?,
+                rapid: percent(body, "rapid", 1, 100)?,
+                spindle: percent(body, "spindle", 10, 200)?,
+            };
+            if o.feed.is_none() && o.rapid.is_none() && o.spindle.is_none() {
+                return Err("which override? give feed, rapid or spindle".into());
+            }
+            c.ask(Cmd::Overrides(o))?
+        }
         "jog" => {
-            let step = num(body, "step").unwrap_or(0.0);
-            if !(0.0..=1000.0).contains(&step) {
-                return Err(format!("jog step {step} mm: give 0 (continuous) to 1000"));
-            }
-            let feed = num(body, "feed").unwrap_or(1000.0);
-            if !(1.0..=100_000.0).contains(&feed) {
-                return Err(format!("jog feed {feed} mm/min: give 1 to 100000"));
-            }
+            let step = num_in(body, "step", 0.0, 1000.0, " mm")?.unwrap_or(0.0);
+            let feed = num_in(body, "feed", 1.0, 100_000.0, " mm/min")?.unwrap_or(1000.0);
+            let dir = match args::num(body, "dir")? {
+                None => 1,
+                Some(d) if d == 1.0 || d == -1.0 => d as i8,
+                Some(d) => return Err(format!("dir {d}: give 1 or -1")),
+            };
             c.ask(Cmd::Jog {
                 axis: axis_of(body)?,
-                dir: if num(body, "dir").unwrap_or(1.0) < 0.0 {
-                    -1
-                } else {
-                    1
-                },
+                dir,
                 step_nm: (step * 1e6).round() as u64,
                 feed_um_min: (feed * 1000.0).round() as i32,
             })?
@@ -804,78 +995,128 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
         "read_back" => c.ask(Cmd::ReadBack)?,
         "offset" => {
             // G10 L2 P1..P9 (G54..G59.3) with the values given, mm.
-            let p = num(body, "p").unwrap_or(0.0);
-            if !(1.0..=9.0).contains(&p) || p.fract() != 0.0 {
-                return Err("P 1 (G54) to 9 (G59.3)".into());
-            }
+            let p = whole_in(body, "p", 1, 9)?.ok_or("P 1 (G54) to 9 (G59.3)")?;
             let mut block = format!("G21 G10 L2 P{p}");
-            for (i, l) in AXIS_LETTERS.iter().enumerate() {
-                if let Some(v) = body.get(l.to_string()).and_then(Value::as_f64) {
-                    let _ = i;
+            for l in AXIS_LETTERS {
+                // Machine mm, as G10 L2 takes them: within any machine's reach.
+                if let Some(v) = num_in(body, &l.to_string(), -1e6, 1e6, " mm")? {
                     block.push_str(&format!(" {l}{v:.4}"));
                 }
             }
             c.ask(Cmd::Offsets(block))?
         }
         "mdi" => {
-            let line = body
-                .get("line")
-                .and_then(Value::as_str)
-                .unwrap_or("")
-                .trim();
+            let line = text(body, "line")?.unwrap_or("").trim();
             if line.is_empty() {
                 return Err("an empty MDI block".into());
             }
             start_job(c, "mdi".into(), line.to_owned(), None)?
         }
         "program" => {
-            let name = body
-                .get("name")
-                .and_then(Value::as_str)
-                .unwrap_or("program.nc");
-            let name: String = name
-                .chars()
-                .filter(|ch| !ch.is_control() && *ch != ':')
-                .take(100)
-                .collect();
-            let text = body.get("text").and_then(Value::as_str).unwrap_or("");
-            let setup = c
-                .setup
-                .lock()
-                .expect("setup")
-                .clone()
-                .ok_or("the board's setup is not read yet")?;
-            let checked = program::check(&name, text, &setup);
-            let path: Value = serde_json::from_str(&program::path_json(text, &setup))
-                .map_err(|e| e.to_string())?;
-            *c.program.lock().expect("program") = Some(Loaded {
-                name: name.clone(),
-                text: text.to_owned(),
-            });
-            let v = json!({
-                "ok": true, "name": name, "lines": Program::from_text(text).len(),
-                "check": checked.text, "errors": checked.errors,
-                "error_lines": checked.error_lines, "seconds": checked.seconds,
-            });
-            c.hub.publish("program", v.clone());
-            let mut v = v;
-            v["path"] = path["pts"].clone();
-            v["source"] = Value::from(text);
+            let name = text(body, "name")?.unwrap_or("program.nc");
+            let name = library::file_name(name).unwrap_or_else(|_| "program.nc".into());
+            let text = text(body, "text")?.ok_or("no program text")?;
+            let v = open_program(c, &name, text)?;
+            // Kept in the library (a program chosen there again is stored again: its date).
+            if let Some(lib) = &c.library {
+                if let Err(e) = lib.store(&name, text, &v) {
+                    c.notice(format!("the library did not keep {name}: {e}"));
+                }
+                c.hub.publish("library", json!({ "programs": lib.list() }));
+            }
             return Ok(v);
         }
+        "library" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no library (no data directory)")?;
+            return Ok(json!({ "ok": true, "programs": lib.list(), "dir": lib.dir() }));
+        }
+        "library_open" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no library (no data directory)")?;
+            let name = text(body, "name")?.ok_or("which program?")?;
+            let text = lib.read(name)?;
+            let v = open_program(c, &library::file_name(name)?, &text)?;
+            lib.store(&library::file_name(name)?, &text, &v)?;
+            c.hub.publish("library", json!({ "programs": lib.list() }));
+            return Ok(v);
+        }
+        "library_delete" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no library (no data directory)")?;
+            let name = text(body, "name")?.ok_or("which program?")?;
+            lib.remove(name)?;
+            c.hub.publish("library", json!({ "programs": lib.list() }));
+            format!("{name} removed from the library")
+        }
+        "macros" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no macros (no data directory)")?;
+            return Ok(json!({ "ok": true, "macros": lib.macros() }));
+        }
+        "macro_save" | "macro_delete" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no macros (no data directory)")?;
+            let name = text(body, "name")?.ok_or("which macro?")?;
+            let blocks = if what == "macro_save" {
+                Some(text(body, "text")?.ok_or("the macro's blocks?")?)
+            } else {
+                None
+            };
+            lib.set_macro(name, blocks)?;
+            c.hub.publish("macros", json!({ "macros": lib.macros() }));
+            format!(
+                "macro {name} {}",
+                if blocks.is_some() { "kept" } else { "removed" }
+            )
+        }
+        "probe_plan" => {
+            let p = probing::Probe::from_json(body)?;
+            let system = work_system_name(*c.system.lock().expect("system"));
+            return Ok(json!({ "ok": true, "plan": p.plan(system) }));
+        }
+        "probe" => start_probe(c, probing::Probe::from_json(body)?)?,
+        "macro_run" => {
+            let lib = c
+                .library
+                .as_ref()
+                .ok_or("serve keeps no macros (no data directory)")?;
+            let name = text(body, "name")?.ok_or("which macro?")?;
+            let blocks = lib.macro_text(name)?;
+            start_job(c, format!("macro {name}"), blocks, None)?
+        }
+        "loaded" => {
+            let p = c.program.lock().expect("program").clone();
+            return Ok(p.ok_or("no program is open")?.whole());
+        }
         "run" => {
-            let from = num(body, "from_line").map(|n| n.max(1.0) as u32);
             let (name, text) = {
                 let p = c.program.lock().expect("program");
                 let p = p.as_ref().ok_or("open a program first")?;
                 (p.name.clone(), p.text.clone())
             };
-            start_job(c, name, text, from)?
+            let lines = Program::from_text(&text).len().max(1) as u64;
+            let from = whole_in(body, "from_line", 1, lines)?.map(|n| n as u32);
+            let m = start_job(c, name, text, from)?;
+            // The path from where the tool stands now.
+            refresh(c);
+            m
         }
         "preamble" => {
-            let from = num(body, "from_line").map_or(1, |n| n.max(1.0) as u32);
             let p = c.program.lock().expect("program");
             let p = p.as_ref().ok_or("open a program first")?;
+            let lines = Program::from_text(&p.text).len().max(1) as u64;
+            let from = whole_in(body, "from_line", 1, lines)?.unwrap_or(1) as u32;
             let setup = c
                 .setup
                 .lock()
@@ -884,7 +1125,8 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
                 .ok_or("no setup yet")?;
             let program = Program::from_text(&p.text);
             // Shown before the run; the job computes it again where the machine stands then.
-            let pre = resume_preamble(&program, &p.text, from, &setup, &[0; 6])
+            let here = *c.here.lock().expect("here");
+            let pre = resume_preamble(&program, &p.text, from, &setup, &here)
                 .map_err(|e| format!("{e:#}"))?;
             return Ok(json!({ "ok": true, "preamble": pre }));
         }

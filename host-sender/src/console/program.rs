@@ -24,6 +24,8 @@ pub struct Checked {
     pub error_lines: Vec<u32>,
     /// Planned machine time, s (none when the check found an error).
     pub seconds: Option<f64>,
+    /// Tools the program loads with M6, in order of first use.
+    pub tools: Vec<u32>,
 }
 
 /// Checks `text` (named `name`) with `setup`, as `gantry check NAME` does.
@@ -45,6 +47,7 @@ pub fn check(name: &str, text: &str, setup: &Setup) -> Checked {
         .filter_map(|rest| rest.split(':').next()?.parse().ok())
         .collect();
     let mut seconds = None;
+    let tools = summary.as_ref().map_or_else(Vec::new, |s| s.tools.clone());
     if let Some(s) = &summary {
         if errors == 0 {
             seconds = s.run_time_s;
@@ -56,18 +59,26 @@ pub fn check(name: &str, text: &str, setup: &Setup) -> Checked {
         errors,
         error_lines,
         seconds,
+        tools,
     }
 }
 
 /// The tool path as JSON: `{"pts":[kind,line,x,y,z,…]}` where each point ends a move from the
-/// point before (kind 0 rapid, 1 feed, 2 the first point), mm in the program's coordinates with
-/// no work offset (the page shifts by the board's offset), up to the first error.
-pub fn path_json(text: &str, setup: &Setup) -> String {
+/// point before (kind 0 rapid, 1 feed, 2 the first point), machine mm with the setup's work
+/// offsets, starting where the tool stands (`here`, machine nm: the first move is the one the
+/// machine will make from there), up to the first error. The page draws it in work coordinates
+/// by taking off the board's active work offset, or in machine coordinates.
+pub fn path_json(text: &str, setup: &Setup, here: &[i64; 6]) -> String {
     let mut pts: Vec<(u8, u32, [f64; 3])> = Vec::new();
     // The moves as `gantry preview` takes them (mm, arcs with their geometry).
     let mut moves = MoveAdapter::new(setup);
-    let mut first = true;
-    for c in Actions::new(MemorySource::new(text.as_bytes()), &setup.interp_config()) {
+    moves.start_at(here);
+    let mut actions = Actions::new(MemorySource::new(text.as_bytes()), &setup.interp_config());
+    let mut state = *actions.interp.state();
+    state.position = *here;
+    actions.interp.set_state(state);
+    pts.push((2, 0, [0, 1, 2].map(|i| here[i] as f64 / 1e6)));
+    for c in actions {
         let Some(m) = moves.take(&c) else {
             continue;
         };
@@ -75,18 +86,12 @@ pub fn path_json(text: &str, setup: &Setup) -> String {
             MoveKind::Rapid => 0u8,
             MoveKind::Feed => 1,
             MoveKind::Arc(arc) => {
-                if !first {
-                    for p in arc_interior(m.from, m.to, arc, 0.25, (4, 720)) {
-                        pts.push((1, m.line, p));
-                    }
+                for p in arc_interior(m.from, m.to, arc, 0.25, (4, 720)) {
+                    pts.push((1, m.line, p));
                 }
                 1
             }
         };
-        if first {
-            pts.push((2, m.line, m.to));
-            first = false;
-        }
         pts.push((kind, m.line, m.to));
     }
     let keep = pts.len().div_ceil(POINTS_MAX).max(1);
@@ -123,17 +128,41 @@ mod tests {
     }
 
     #[test]
+    fn the_path_starts_where_the_tool_stands() {
+        // The tool at machine X 5 Y 7 Z -3: the first rapid (Z only) starts there.
+        let here = [5_000_000, 7_000_000, -3_000_000, 0, 0, 0];
+        let j = path_json("G21 G90\nG0 Z1\nG0 X20 Y30\n", &Setup::default(), &here);
+        let v: serde_json::Value = serde_json::from_str(&j).unwrap();
+        let pts: Vec<f64> = v["pts"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        assert_eq!(
+            pts,
+            vec![
+                2.0, 0.0, 5.0, 7.0, -3.0, //
+                0.0, 2.0, 5.0, 7.0, 1.0, //
+                0.0, 3.0, 20.0, 30.0, 1.0
+            ]
+        );
+    }
+
+    #[test]
     fn the_path_follows_lines_and_arcs() {
         let j = path_json(
             "G21 G90\nG0 X0 Y0\nG1 X10 F600\nG3 X0 Y10 I-10 J0\n",
             &Setup::default(),
+            &[0; 6],
         );
         let v: serde_json::Value = serde_json::from_str(&j).unwrap();
         let pts = v["pts"].as_array().unwrap();
         assert_eq!(pts.len() % 5, 0);
-        // Starts at the origin, ends at (0, 10); the arc stays 10 mm from the centre.
+        // Starts where the tool stands (the origin), ends at (0, 10); the arc stays 10 mm from
+        // the centre.
         let first: Vec<f64> = pts[..5].iter().map(|v| v.as_f64().unwrap()).collect();
-        assert_eq!(first, vec![2.0, 2.0, 0.0, 0.0, 0.0]);
+        assert_eq!(first, vec![2.0, 0.0, 0.0, 0.0, 0.0]);
         let n = pts.len() / 5;
         let x = pts[(n - 1) * 5 + 2].as_f64().unwrap();
         let y = pts[(n - 1) * 5 + 3].as_f64().unwrap();

@@ -48,6 +48,11 @@ impl MoveAdapter {
         }
     }
 
+    /// The machine starts at `p` (machine nm) instead of 0,0,0.
+    pub fn start_at(&mut self, p: &Pos) {
+        self.at = mm3(p);
+    }
+
     /// The move of `c`, if it is one.
     pub fn take(&mut self, c: &Canon) -> Option<PreviewMove> {
         let (kind, to, feed) = match c.action {

@@ -134,10 +134,19 @@ pub struct SocketTransport {
 
 impl SocketTransport {
     /// Connects to the server of `port`, if one runs (`None`: no socket, or nobody listens).
-    /// A socket or socket directory of another user is refused (an error), never used.
+    /// A socket of another user is refused (an error), never used. A socket directory that is
+    /// not this user's private one is never used either, but it cannot hold this user's server
+    /// (serve refuses to start there): the command is told why and opens the port itself.
     pub fn connect(port: &str) -> anyhow::Result<Option<Self>> {
-        let Some(path) = socket_path(port)? else {
-            return Ok(None);
+        let path = match socket_path(port) {
+            Ok(Some(path)) => path,
+            Ok(None) => return Ok(None),
+            Err(e) => {
+                eprintln!(
+                    "gantry: {e:#}\n  no gantry serve of yours can be there: opening {port} directly"
+                );
+                return Ok(None);
+            }
         };
         if !check_socket(&path)? {
             return Ok(None);
