@@ -184,12 +184,13 @@ fn free_port() -> u16 {
 }
 
 /// POSTs `body` (raw bytes, as JSON) to the console's `/api/{what}` and returns the answer's JSON.
-fn post(http: u16, what: &str, body: &str) -> serde_json::Value {
+fn post(console: &Http, what: &str, body: &str) -> serde_json::Value {
+    let (http, token) = (console.port, &console.token);
     let mut c = std::net::TcpStream::connect(("127.0.0.1", http)).unwrap();
     c.set_read_timeout(Some(30 * S)).unwrap();
     write!(
         c,
-        "POST /api/{what} HTTP/1.1\r\nHost: 127.0.0.1:{http}\r\nContent-Type: application/json\r\nContent-Length: {}\r\n\r\n{body}",
+        "POST /api/{what} HTTP/1.1\r\nHost: 127.0.0.1:{http}\r\nContent-Type: application/json\r\nAuthorization: Bearer {token}\r\nContent-Length: {}\r\n\r\n{body}",
         body.len()
     )
     .unwrap();
@@ -215,15 +216,30 @@ fn post(http: u16, what: &str, body: &str) -> serde_json::Value {
     }
 }
 
-fn console(port: &str) -> (Running, u16) {
-    let http = free_port();
-    let addr = format!("127.0.0.1:{http}");
+/// The console of a `gantry serve --http`: its port and the token it printed in its URL.
+struct Http {
+    port: u16,
+    token: String,
+}
+
+fn console(port: &str) -> (Running, Http) {
+    let port_http = free_port();
+    let addr = format!("127.0.0.1:{port_http}");
     let server = serve(port, &["--http", &addr]);
     assert!(wait_for(10 * S, || server
         .stderr()
         .contains("the console is on")));
+    let log = server.stderr();
+    let token = log
+        .lines()
+        .find_map(|l| l.split_once("/?token=").map(|(_, t)| t.trim().to_owned()))
+        .expect("the console's URL with its token");
+    let http = Http {
+        port: port_http,
+        token,
+    };
     // The console's session has read the board's setup once `setup_check` knows it.
-    assert!(wait_for(10 * S, || post(http, "read_back", "{}")["ok"] == true));
+    assert!(wait_for(10 * S, || post(&http, "read_back", "{}")["ok"] == true));
     (server, http)
 }
 
@@ -234,7 +250,7 @@ fn the_console_refuses_to_run_a_program_whose_check_failed_and_nothing_moves() {
     let (server, http) = console(emu.port());
     let typo = "G21 G90 G54\nG0 X5 Y5 Z5\nG1 X10 Y10 Z-1 F300 G0\n";
     let body = serde_json::json!({ "name": "typo.ngc", "text": typo }).to_string();
-    let v = post(http, "program", &body);
+    let v = post(&http, "program", &body);
     assert_eq!(v["ok"], true, "{v}");
     assert_eq!(v["errors"], 1, "{v}");
     assert!(
@@ -253,7 +269,7 @@ fn the_console_refuses_to_run_a_program_whose_check_failed_and_nothing_moves() {
             serde_json::json!({ "line": "G1 X10 Y10 Z-1 F300 G0" }).to_string(),
         ),
     ] {
-        let v = post(http, what, &body);
+        let v = post(&http, what, &body);
         assert_eq!(v["ok"], false, "{what} {body}: {v}");
         let e = v["error"].as_str().unwrap();
         assert!(
@@ -269,8 +285,8 @@ fn the_console_refuses_to_run_a_program_whose_check_failed_and_nothing_moves() {
     // Fixed and opened again, it runs.
     let fixed = "G21 G90 G54\nG0 X5 Y5 Z5\nG1 X10 Y10 Z-1 F300\nM30\n";
     let body = serde_json::json!({ "name": "fixed.ngc", "text": fixed }).to_string();
-    assert_eq!(post(http, "program", &body)["errors"], 0);
-    assert_eq!(post(http, "run", "{}")["ok"], true);
+    assert_eq!(post(&http, "program", &body)["errors"], 0);
+    assert_eq!(post(&http, "run", "{}")["ok"], true);
     assert!(
         emu.wait_log(T, |l| l.contains("Idle line 4")),
         "{}",
@@ -300,7 +316,7 @@ fn the_console_refuses_an_empty_or_unreadable_setup_push_and_keeps_the_offsets()
         "{\"toml\": \"[axis.X]\\nmax_rate = ",
         "not json at all",
     ] {
-        let v = post(http, "setup_push", body);
+        let v = post(&http, "setup_push", body);
         assert_eq!(v["ok"], false, "{body}: {v}");
         assert!(
             v["error"].as_str().unwrap().contains("nothing was"),
@@ -311,7 +327,7 @@ fn the_console_refuses_an_empty_or_unreadable_setup_push_and_keeps_the_offsets()
     // A setup that names no work offsets keeps the board's, as `gantry setup push` does.
     let toml = "[axis.X]\nmax_rate = 5000.0\n";
     let v = post(
-        http,
+        &http,
         "setup_push",
         &serde_json::json!({ "toml": toml }).to_string(),
     );
