@@ -177,7 +177,9 @@ enum Command {
         /// Allow a --tcp address other hosts can reach (anyone reaching it can move the machine).
         #[arg(long, requires = "tcp")]
         allow_remote: bool,
-        /// Setup to store in the board (replaces the stored one).
+        /// Setup to store in the board: its machine settings replace the stored ones; the work
+        /// offsets, G28/G30 positions and tool table stored in --state stay unless the file
+        /// names them (as `setup push` does). A new --state takes everything from the file.
         #[arg(long)]
         setup: Option<PathBuf>,
         /// The board's flash: its stored setup, read at start, written when a setup is pushed.

@@ -497,32 +497,64 @@ impl SetupFile {
         Self::parse(&text).with_context(|| format!("in setup file {}", path.display()))
     }
 
-    /// [`SetupFile::load`] for a push to a board whose setup is `board`: the work offsets and
-    /// the G28/G30 positions are the board's (the operator set them with G10, G28.1, G30.1 and
-    /// the board keeps them in flash) unless the file names them, so a push never clears them by
-    /// accident (docs/controller.md "Work offsets").
+    /// [`SetupFile::load`] for a push to a board whose setup is `board`: the work offsets, the
+    /// G28/G30 positions and the tool table are the board's (the operator set them with G10,
+    /// G28.1, G30.1 and the board keeps them in flash) unless the file names them, so a push never
+    /// clears them by accident (docs/controller.md "Work offsets").
     pub fn load_for_push(path: &Path, board: &Setup) -> anyhow::Result<Setup> {
+        Self::load_keeping(path, board).map(|(s, _)| s)
+    }
+
+    /// [`SetupFile::load_for_push`], and what of `stored` it kept that holds anything (for a
+    /// message: "work offsets G54 G55", "G28 position", "tool table (2 tools)"); `gantry emulate
+    /// --setup F --state S` starts from it with S's setup as `stored`.
+    pub fn load_keeping(path: &Path, stored: &Setup) -> anyhow::Result<(Setup, Vec<String>)> {
         let text = Self::read_bounded(path)?;
         let file: SetupFile =
             toml::from_str(&text).with_context(|| format!("in setup file {}", path.display()))?;
-        let (work, g28, g30) = (
+        let (work, g28, g30, tools) = (
             !file.work_offsets.is_empty(),
             file.program.g28_home.is_some(),
             file.program.g30_home.is_some(),
+            !file.tool.is_empty(),
         );
         let mut s = file
             .into_setup()
             .with_context(|| format!("in setup file {}", path.display()))?;
+        let (from, to) = (&stored.program, &mut s.program);
+        let mut kept = Vec::new();
         if !work {
-            s.program.work_offsets = board.program.work_offsets;
+            to.work_offsets = from.work_offsets;
+            let set: Vec<&str> = WORK_SYSTEMS
+                .iter()
+                .zip(&from.work_offsets)
+                .filter(|(_, o)| o.iter().any(|v| *v != 0))
+                .map(|(n, _)| *n)
+                .collect();
+            if !set.is_empty() {
+                kept.push(format!("work offsets {}", set.join(" ")));
+            }
         }
-        if !g28 {
-            s.program.g28_home = board.program.g28_home;
+        for (named, name, at, stored_at) in [
+            (g28, "G28", &mut to.g28_home, &from.g28_home),
+            (g30, "G30", &mut to.g30_home, &from.g30_home),
+        ] {
+            if !named {
+                *at = *stored_at;
+                if stored_at.iter().any(|v| *v != 0) {
+                    kept.push(format!("{name} position"));
+                }
+            }
         }
-        if !g30 {
-            s.program.g30_home = board.program.g30_home;
+        if !tools {
+            to.tools = from.tools.clone();
+            match from.tools.len() {
+                0 => {}
+                1 => kept.push("tool table (1 tool)".into()),
+                n => kept.push(format!("tool table ({n} tools)")),
+            }
         }
-        Ok(s)
+        Ok((s, kept))
     }
 
     /// The file's text, refused beyond [`SETUP_FILE_LIMIT`].
