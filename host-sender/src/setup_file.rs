@@ -157,6 +157,7 @@ pub struct HomingAxisFile {
     /// `"low"` or `"high"`.
     pub seek: Option<String>,
     pub seek_rate: Option<f64>,
+    pub locate_rate: Option<f64>,
     pub retract: Option<f64>,
     pub set_home: Option<bool>,
     pub home_position: Option<f64>,
@@ -849,6 +850,9 @@ impl SetupFile {
             if let Some(v) = a.seek_rate {
                 ha.seek_rate = num(Key::SeekRate, idx, v)?;
             }
+            if let Some(v) = a.locate_rate {
+                ha.locate_rate = num(Key::LocateRate, idx, v)?;
+            }
             if let Some(v) = a.retract {
                 ha.retract = num(Key::Retract, idx, v)?;
             }
@@ -1199,6 +1203,7 @@ fn controller_toml(s: &Setup, t: &mut String) {
         let _ = writeln!(t, "priority = {}   # 0 = not homed", a.priority);
         let _ = writeln!(t, "seek = \"{}\"", if a.seek_low { "low" } else { "high" });
         let _ = writeln!(t, "seek_rate = {}", mm_toml(a.seek_rate));
+        let _ = writeln!(t, "locate_rate = {}", mm_toml(a.locate_rate));
         let _ = writeln!(t, "retract = {}", mm_toml(a.retract));
         let _ = writeln!(t, "set_home = {}", a.set_home);
         let _ = writeln!(t, "home_position = {}", mm_toml(a.home_position));
