@@ -48,6 +48,12 @@ impl MoveAdapter {
         }
     }
 
+    /// Moves from machine position `at` (nm) on: the first move starts there.
+    pub fn starting_at(mut self, at: &Pos) -> Self {
+        self.at = mm3(at);
+        self
+    }
+
     /// The move of `c`, if it is one.
     pub fn take(&mut self, c: &Canon) -> Option<PreviewMove> {
         let (kind, to, feed) = match c.action {

@@ -13,6 +13,7 @@
 pub mod job;
 pub mod setup;
 pub mod socket;
+pub mod standing;
 
 pub use job::{
     continue_job, fresh_status, stream_from_line, stream_program, BoardAlarm, BoardError, Flow,
