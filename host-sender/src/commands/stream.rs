@@ -91,6 +91,11 @@ pub fn run_checked(
     let program = Program::from_text(&text);
     let wall = std::time::Instant::now();
     let from_board = matches!(target, Target::Port(_));
+    // The command that runs this program again on the same board, for the resume hints.
+    let again = match &target {
+        Target::Port(p) => format!("gantry --port {p} stream {}", file.display()),
+        Target::Emulated(_) => format!("gantry stream {}", file.display()),
+    };
     // Someone must be able to continue a tool-change stop: the operator at a terminal (Enter) or
     // a board's cycle-start input. The emulated board fed from a script has neither, so there
     // the program runs through its M6 as the library streams do (no stop that nobody can end).
@@ -176,7 +181,11 @@ pub fn run_checked(
     print_report(
         &report,
         &program,
-        file,
+        &Again {
+            file,
+            command: &again,
+            text: &text,
+        },
         axes,
         wall.elapsed(),
         first_line,
@@ -593,10 +602,35 @@ fn stream_with_progress(
     Ok((report?, stopped_ms))
 }
 
+/// How the report's resume hints run the program again: the command (`gantry --port P stream
+/// FILE`, the port repeated) and the program's text (a line inside O-word control flow resumes
+/// at the block's start, `crate::resume_blocks`).
+struct Again<'a> {
+    file: &'a std::path::Path,
+    command: &'a str,
+    text: &'a str,
+}
+
+impl Again<'_> {
+    /// `COMMAND --from-line N` for a run meant to start at `line`, and why another line when it
+    /// is inside a block.
+    fn run_from(&self, line: u32) -> String {
+        let at = crate::resume_blocks::resumable_line(self.text, line);
+        if at == line {
+            format!("{} --from-line {line}", self.command)
+        } else {
+            format!(
+                "{} --from-line {at}   (line {line} is inside the O-word block that starts at line {at}: it runs again from there)",
+                self.command
+            )
+        }
+    }
+}
+
 fn print_report(
     report: &StreamReport,
     program: &Program,
-    file: &std::path::Path,
+    again: &Again,
     axes: usize,
     wall: std::time::Duration,
     first_line: u32,
@@ -604,7 +638,7 @@ fn print_report(
 ) {
     let resume_line = report.last_line.max(first_line);
     for e in &report.errors {
-        print!("{}", e.describe(&file.display().to_string(), program));
+        print!("{}", e.describe(&again.file.display().to_string(), program));
     }
     for &(axis, max) in &report.limits {
         println!("{}", limit_text(axis, max));
@@ -621,8 +655,8 @@ fn print_report(
             );
             println!("the board, if it is alive, holds the job by itself (host lost) and ends it after link.host_lost_stop_s");
             println!(
-                "resume:   (when the board answers again) gantry stream {} --continue",
-                file.display()
+                "resume:   (when the board answers again) {} --continue",
+                again.command
             );
             return;
         }
@@ -631,12 +665,12 @@ fn print_report(
                 "link closed: gantry serve closed this sender's link mid-job (the board restarted, or the server ended)"
             );
             println!(
-                "resume:   if the board restarted (the job is gone): gantry stream {} --from-line {resume_line}",
-                file.display()
+                "resume:   if the board restarted (the job is gone): {}",
+                again.run_from(resume_line)
             );
             println!(
-                "          if it still holds the job (serve ended): gantry stream {} --continue",
-                file.display()
+                "          if it still holds the job (serve ended): {} --continue",
+                again.command
             );
             return;
         }
@@ -645,9 +679,8 @@ fn print_report(
                 "board reset: the board restarted during the job (power, reset button or watchdog): the job is gone, the spindle stopped"
             );
             println!(
-                "resume:   (after gantry home, or gantry unlock) gantry stream {} --from-line {}",
-                file.display(),
-                resume_line
+                "resume:   (after gantry home, or gantry unlock) {}",
+                again.run_from(resume_line)
             );
             return;
         }
@@ -689,21 +722,20 @@ fn print_report(
     });
     if report.aborted || stopped_on_path {
         println!(
-            "resume:   {}gantry stream {} --from-line {}",
+            "resume:   {}{}",
             if stopped_on_path {
                 "(after gantry unlock) "
             } else {
                 ""
             },
-            file.display(),
-            resume_line
+            again.run_from(resume_line)
         );
     } else if let Some(e) = report.errors.iter().find(|e| e.line != 0) {
         // An error ended the job: everything before its line ran, nothing from it on.
         println!(
-            "resume:   (after fixing line {0}) gantry stream {1} --from-line {0}",
+            "resume:   (after fixing line {}) {}",
             e.line,
-            file.display()
+            again.run_from(e.line)
         );
     }
     if let Some(s) = &report.final_status {
