@@ -446,12 +446,38 @@ fn stream_with_progress(
     // an M6 there, is line 0).
     let mut last_stop_line = None;
     let mut told_closed = false;
-    // Machine time spent standing at holds and stops (M0/M1, M6), for the report.
+    // Machine time spent standing at holds and stops (M0/M1, M6), for the report, on the link
+    // clock the report's machine time is taken on (`Progress::elapsed_ms`): each interval
+    // between two progress calls counts as standing when the machine stood at rest at its start.
+    // Counted first, before any answer returns early, so a wait at a prompt is never dropped.
     let mut stopped_ms = 0u32;
     let mut last_elapsed_ms = 0u32;
+    let mut stood = false;
+    // The in-process emulated board's clock runs only as the link is serviced, flat out while the
+    // job moves; while the operator is asked something it is held to the wall clock's pace from
+    // when the question came (`pace`), so the time standing there is the time the operator took.
+    let mut paced_from = (std::time::Instant::now(), 0u32);
+    let pace = |from: &(std::time::Instant, u32), now_ms: u32| {
+        let board = u64::from(now_ms.saturating_sub(from.1));
+        let wall = from.0.elapsed().as_millis() as u64;
+        if board > wall {
+            std::thread::sleep(std::time::Duration::from_millis(board - wall));
+        }
+    };
     let mut on_progress = |p: &Progress| {
+        if emulated && asking == Asking::Nothing {
+            paced_from = (std::time::Instant::now(), p.elapsed_ms);
+        }
         let ctrl_c = interrupted.swap(false, std::sync::atomic::Ordering::SeqCst);
         let state = p.status.as_ref().map(|s| s.state);
+        if stood {
+            stopped_ms += p.elapsed_ms.saturating_sub(last_elapsed_ms);
+        }
+        last_elapsed_ms = p.elapsed_ms;
+        stood = matches!(
+            state,
+            Some(MachineState::Hold { stopped: true } | MachineState::ToolChange { .. })
+        );
         match asking {
             Asking::AbortAfterHold => {
                 // The link keeps running while the operator answers.
@@ -465,7 +491,12 @@ fn stream_with_progress(
                         Some(Flow::Abort)
                     }
                     (false, Some(Typed::Line(_))) => Some(Flow::Resume),
-                    (false, None) => None,
+                    (false, None) => {
+                        if emulated {
+                            pace(&paced_from, p.elapsed_ms);
+                        }
+                        None
+                    }
                 };
                 if let Some(f) = flow {
                     answered(bar.as_ref());
@@ -520,22 +551,13 @@ fn stream_with_progress(
                     }
                     _ => {
                         if emulated {
-                            // The emulated board's clock runs only as the link is serviced: while
-                            // the operator thinks it runs at the wall clock's pace, not flat out.
-                            std::thread::sleep(std::time::Duration::from_millis(5));
+                            pace(&paced_from, p.elapsed_ms);
                         }
                     }
                 }
             }
             Asking::Nothing => {}
         }
-        if matches!(
-            state,
-            Some(MachineState::Hold { stopped: true } | MachineState::ToolChange { .. })
-        ) {
-            stopped_ms += p.elapsed_ms.saturating_sub(last_elapsed_ms);
-        }
-        last_elapsed_ms = p.elapsed_ms;
         if ctrl_c {
             // Ctrl-C: hold first (decelerate on the path), then ask what to do.
             forget_typed();
