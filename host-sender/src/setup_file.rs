@@ -1181,7 +1181,7 @@ fn controller_toml(s: &Setup, t: &mut String) {
         .collect();
     let _ = writeln!(
         t,
-        "active_low = [{}]   # pins active when low",
+        "active_low = [{}]   # active while the switch is open: the normally-closed switches",
         low.join(", ")
     );
     let _ = writeln!(t, "debounce_ms = {}", i.debounce_ms);
