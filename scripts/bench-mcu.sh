@@ -16,7 +16,7 @@ RUNNER='target.thumbv7em-none-eabihf.runner="qemu-system-arm -machine mps2-an386
 # `key=value` pairs of a benchmark's last `figures` line, one per line.
 figures_of() {
     local bin=$1 out
-    out=$(cd "$ROOT/target-tests" && timeout "$QEMU_TIMEOUT" cargo run -q --release --bin "$bin" --config "$RUNNER")
+    out=$(cd "$ROOT/target-tests" && timeout "$QEMU_TIMEOUT" cargo run -q --release --bin "$bin" --config "$RUNNER" </dev/null)
     printf '%s\n' "$out" >&2
     printf '%s\n' "$out" | sed -n 's/^figures //p' | tail -n 1 | tr ' ' '\n'
 }

@@ -21,6 +21,13 @@ F411_FLASH_LIMIT=${F411_FLASH_LIMIT:-$((224 * 1024))}
 F411_RAM_LIMIT=${F411_RAM_LIMIT:-$((64 * 1024))}
 THUMB=thumbv7em-none-eabihf
 QEMU_TIMEOUT=300
+# Every child gets its own stdin (`</dev/null`): `timeout` runs its command in a process group of
+# its own, outside a terminal's foreground group, and QEMU `-nographic` (or anything else that
+# touches the terminal) would be stopped there by SIGTTIN/SIGTTOU until the timeout kills it.
+# With stdin from /dev/null the run is the same from a terminal as from CI, which has none; the
+# whole script's stdin is /dev/null too, so no other child (nextest, the sender scripts, node,
+# chromium) can wait on the terminal either.
+exec </dev/null
 
 T0=$(date +%s)
 SECTION_T=$T0
@@ -122,19 +129,19 @@ for feature in wrong-vector profile-lines step-window; do
     cargo clippy --release --all-targets --features "$feature" -- -D warnings
 done
 cargo build --release --bin vectors
-timeout "$QEMU_TIMEOUT" cargo run --release --bin vectors || fail "target vectors failed under QEMU"
+timeout "$QEMU_TIMEOUT" cargo run --release --bin vectors </dev/null || fail "target vectors failed under QEMU"
 # The step interrupt body (machine/src/step/isr.rs) against a model of TIM2 and its
 # DMA streams: every step reaches the pins once, direction set-up kept, late interrupts retried.
 # It also prints instructions per step event (counted with -icount shift=0, as the benchmarks in
 # target-tests/README.md are); those figures are information, never asserted.
 timeout "$QEMU_TIMEOUT" cargo run --release --bin bench_step --config \
-    'target.thumbv7em-none-eabihf.runner="qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -icount shift=0,sleep=off -semihosting-config enable=on,target=native -nographic -kernel"' ||
+    'target.thumbv7em-none-eabihf.runner="qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -icount shift=0,sleep=off -semihosting-config enable=on,target=native -nographic -kernel"' </dev/null ||
     fail "the step interrupt's model check failed under QEMU"
 
 section "target tests: the wrong-vector build must fail"
 cargo build --release --bin vectors --features wrong-vector
 set +e
-out=$(timeout "$QEMU_TIMEOUT" cargo run --release --bin vectors --features wrong-vector 2>&1)
+out=$(timeout "$QEMU_TIMEOUT" cargo run --release --bin vectors --features wrong-vector </dev/null 2>&1)
 rc=$?
 set -e
 echo "$out" | tail -n 3

@@ -65,7 +65,13 @@ impl Files {
     }
 
     fn run(&self, out: &str) {
-        preview::run(&self.program, &self.dir.join(out), &Setup::default()).unwrap();
+        preview::run(
+            &self.program,
+            &self.dir.join(out),
+            &Setup::default(),
+            &[0; 6],
+        )
+        .unwrap();
     }
 }
 

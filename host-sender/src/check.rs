@@ -7,13 +7,13 @@ use std::io::Write as _;
 use std::path::Path;
 use std::process::ExitCode;
 
-use crate::check_summary::{summarize_actions, JobSummary};
+use crate::check_summary::{summarize_actions_from, JobSummary};
 use crate::present::{format_error, ErrorReport};
 use crate::preview::source::{Actions, Ended, FileSource};
 use gantry_machine::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
 use gantry_machine::gcode::{GcodeError, InterpConfig, MemorySource, ProgramSource};
 use gantry_machine::setup::Setup;
-use gantry_machine::units::Nm;
+use gantry_machine::units::{Nm, Pos, MAX_AXES};
 use serde::Serialize;
 
 /// Runs `gantry check FILE [--canon]`. Both interpret with the machine `setup` (tool table, work
@@ -21,17 +21,25 @@ use serde::Serialize;
 /// ([`crate::check_summary`]); exit code 1 on errors or when the job would exceed the travel.
 /// The file is read line by line and nothing of it is kept ([`crate::preview::source`]), so
 /// memory stays the same whatever its length.
-pub fn run(file: &Path, canon: bool, setup: &Setup) -> anyhow::Result<ExitCode> {
+///
+/// `at`: where the machine stands when the job starts (nm; `crate::session::standing`).
+pub fn run(file: &Path, canon: bool, setup: &Setup, at: &Pos) -> anyhow::Result<ExitCode> {
     let src = FileSource::open(file)
         .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::with_capacity(1 << 16, stdout.lock());
     let failed = if canon {
-        canon_stream(src, &setup.interp_config(), &mut out)?
+        canon_stream_from(src, &setup.interp_config(), at, &mut out)?
     } else {
         let name = file.display().to_string();
-        let (errors, summary) =
-            check_stream(&name, src, &setup.interp_config(), Some(setup), &mut out)?;
+        let (errors, summary) = check_stream_from(
+            &name,
+            src,
+            &setup.interp_config(),
+            Some(setup),
+            at,
+            &mut out,
+        )?;
         let summary = summary.expect("planned on the setup");
         if errors > 0 {
             writeln!(
@@ -80,7 +88,17 @@ pub fn canon_stream<S: ProgramSource>(
     config: &InterpConfig,
     out: &mut impl std::io::Write,
 ) -> std::io::Result<bool> {
-    let mut actions = Actions::new(src, config);
+    canon_stream_from(src, config, &[0; MAX_AXES], out)
+}
+
+/// [`canon_stream`] with the machine at `at` (nm) when the program starts.
+pub fn canon_stream_from<S: ProgramSource>(
+    src: S,
+    config: &InterpConfig,
+    at: &Pos,
+    out: &mut impl std::io::Write,
+) -> std::io::Result<bool> {
+    let mut actions = Actions::new(src, config).starting_at(at);
     while let Some(c) = actions.next() {
         // The first line the board would refuse: the stream ends there, as at an interpreter error.
         if let Some(e) = actions.src.peek_long_line().filter(|e| c.line >= e.line) {
@@ -335,9 +353,22 @@ pub fn check_stream<S: ProgramSource>(
     setup: Option<&Setup>,
     out: &mut impl std::io::Write,
 ) -> std::io::Result<(usize, Option<JobSummary>)> {
-    let mut actions = Actions::new(src, config);
+    check_stream_from(name, src, config, setup, &[0; MAX_AXES], out)
+}
+
+/// [`check_stream`] of a job that starts with the machine at `at` (nm): the interpreter, the
+/// extents and the planned time start there.
+pub fn check_stream_from<S: ProgramSource>(
+    name: &str,
+    src: S,
+    config: &InterpConfig,
+    setup: Option<&Setup>,
+    at: &Pos,
+    out: &mut impl std::io::Write,
+) -> std::io::Result<(usize, Option<JobSummary>)> {
+    let mut actions = Actions::new(src, config).starting_at(at);
     let summary = match setup {
-        Some(setup) => Some(summarize_actions(actions.by_ref(), setup)),
+        Some(setup) => Some(summarize_actions_from(actions.by_ref(), setup, at)),
         None => {
             actions.by_ref().for_each(drop);
             None
@@ -422,7 +453,14 @@ pub fn check_stream<S: ProgramSource>(
     }
     actions.src.read_rest();
     long_up_to(&mut actions, u32::MAX, name, &mut errors, out)?;
-    if errors == 0 {
+    let leaves = summary.as_ref().and_then(|s| s.leaves_travel);
+    if let (0, Some((line, axis))) = (errors, leaves) {
+        // Not "ok": the job would stop there with a soft-limit alarm (the summary says more).
+        writeln!(
+            out,
+            "{name}: no program errors, {count} actions, but line {line} leaves the {axis} travel"
+        )?;
+    } else if errors == 0 {
         writeln!(out, "{name}: ok, {count} actions")?;
     } else {
         writeln!(

@@ -11,6 +11,7 @@ use crate::preview::source::Actions;
 use gantry_machine::canon::{Action, Canon};
 use gantry_machine::gcode::{MemorySource, RetractMode};
 use gantry_machine::setup::Setup;
+use gantry_machine::units::{Pos, MAX_AXES};
 use std::fmt::Write as _;
 
 /// What the summary found.
@@ -39,8 +40,13 @@ pub struct Aggregates {
 
 impl Aggregates {
     pub fn new(setup: &Setup) -> Self {
+        Self::from(setup, &[0; MAX_AXES])
+    }
+
+    /// Aggregates of a job that starts with the machine at `at` (nm).
+    pub fn from(setup: &Setup, at: &Pos) -> Self {
         Aggregates {
-            adapter: MoveAdapter::new(setup),
+            adapter: MoveAdapter::new(setup).starting_at(at),
             travel: Box3::travel(setup),
             extents: Box3::EMPTY,
             leaves_travel: None,
@@ -90,9 +96,19 @@ impl Aggregates {
 /// planned time (closed form per block, `preview::plan`). A move the planner refuses (beyond the
 /// travel) leaves the time unknown; the aggregates still cover every action.
 pub fn summarize_actions(actions: impl Iterator<Item = Canon>, setup: &Setup) -> JobSummary {
-    let mut agg = Aggregates::new(setup);
+    summarize_actions_from(actions, setup, &[0; MAX_AXES])
+}
+
+/// [`summarize_actions`] of a job that starts with the machine at `at` (nm): the extents and the
+/// planned time include the way from there.
+pub fn summarize_actions_from(
+    actions: impl Iterator<Item = Canon>,
+    setup: &Setup,
+    at: &Pos,
+) -> JobSummary {
+    let mut agg = Aggregates::from(setup, at);
     let mut actions = actions.inspect(|c| agg.add(c));
-    let planned = plan::plan_stream(actions.by_ref(), setup, &mut |_, _| {});
+    let planned = plan::plan_stream_from(actions.by_ref(), setup, at, &mut |_, _| {});
     if planned.is_err() {
         actions.for_each(drop);
     }

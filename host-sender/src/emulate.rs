@@ -29,36 +29,78 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// The board's flash: the stored setup, or the defaults when the file does not exist yet.
-pub(crate) fn load_state(state: Option<&Path>, setup: Option<PathBuf>) -> anyhow::Result<Setup> {
-    if let Some(f) = setup {
-        let s = SetupFile::load(&f)?;
-        if let Some(st) = state {
-            save_state(st, &s)?;
-        }
-        return Ok(s);
-    }
-    match state {
-        Some(st) if st.exists() => SetupFile::load(st)
-            .with_context(|| format!("{}: the emulated board's stored setup", st.display())),
-        _ => Ok(Setup::default()),
-    }
-}
-
-/// Where the emulated board's setup came from and where a pushed one goes, for its ready line.
-pub(crate) fn setup_origin(state: Option<&Path>, setup: Option<&Path>) -> String {
+/// The board's flash at power-up and what its ready line says about it. `--setup F` with a
+/// `--state S` that exists applies F as `gantry setup push F` does: F's machine settings, and
+/// S's work offsets, G28/G30 positions and tool table unless F names them
+/// ([`SetupFile::load_keeping`]), so restarting with the first command line loses no zero. A
+/// state file that does not exist yet takes everything from F.
+pub(crate) fn load_state(
+    state: Option<&Path>,
+    setup: Option<PathBuf>,
+) -> anyhow::Result<(Setup, String)> {
+    let stored = |st: &Path| {
+        SetupFile::load(st)
+            .with_context(|| format!("{}: the emulated board's stored setup", st.display()))
+    };
     match (setup, state) {
-        (Some(f), Some(st)) => format!("setup from {}, stored in {}", f.display(), st.display()),
-        (Some(f), None) => format!(
-            "setup from {} (a pushed setup is forgotten at exit: no --state)",
-            f.display()
-        ),
-        (None, Some(st)) if st.exists() => format!("stored setup: {}", st.display()),
-        (None, Some(st)) => format!(
-            "no stored setup yet, defaults (a pushed setup is stored in {})",
-            st.display()
-        ),
-        (None, None) => "defaults (a pushed setup is forgotten at exit: no --state)".into(),
+        (Some(f), Some(st)) if st.exists() => {
+            let before = stored(st).with_context(|| {
+                format!(
+                    "--setup {} keeps the work offsets and tools stored there; delete {} to take everything from {}",
+                    f.display(),
+                    st.display(),
+                    f.display()
+                )
+            })?;
+            let (s, kept) = SetupFile::load_keeping(&f, &before)?;
+            save_state(st, &s)?;
+            let kept = if kept.is_empty() {
+                "nothing else was stored there".to_owned()
+            } else {
+                format!("kept from there: {}", kept.join(", "))
+            };
+            Ok((
+                s,
+                format!(
+                    "machine settings from {}, stored in {} ({kept})",
+                    f.display(),
+                    st.display()
+                ),
+            ))
+        }
+        (Some(f), Some(st)) => {
+            let s = SetupFile::load(&f)?;
+            save_state(st, &s)?;
+            Ok((
+                s,
+                format!(
+                    "setup from {}, stored in {} (new)",
+                    f.display(),
+                    st.display()
+                ),
+            ))
+        }
+        (Some(f), None) => Ok((
+            SetupFile::load(&f)?,
+            format!(
+                "setup from {} (a pushed setup is forgotten at exit: no --state)",
+                f.display()
+            ),
+        )),
+        (None, Some(st)) if st.exists() => {
+            Ok((stored(st)?, format!("stored setup: {}", st.display())))
+        }
+        (None, Some(st)) => Ok((
+            Setup::default(),
+            format!(
+                "no stored setup yet, defaults (a pushed setup is stored in {})",
+                st.display()
+            ),
+        )),
+        (None, None) => Ok((
+            Setup::default(),
+            "defaults (a pushed setup is forgotten at exit: no --state)".into(),
+        )),
     }
 }
 
@@ -333,8 +375,7 @@ pub fn run(
     probe_targets: &[String],
     cpu: Option<crate::cpu_model::CpuModel>,
 ) -> anyhow::Result<ExitCode> {
-    let origin = setup_origin(state.as_deref(), setup.as_deref());
-    let setup = load_state(state.as_deref(), setup)?;
+    let (setup, origin) = load_state(state.as_deref(), setup)?;
     let axes = setup.axis_count as usize;
     let board = new_board(setup, state.as_deref(), probe_targets, cpu)?;
     let (master, slave) = serialport::TTYPort::pair().context("cannot open a pseudo-terminal")?;

@@ -20,6 +20,7 @@ pub mod preview;
 pub mod program;
 pub mod program_stops;
 pub mod resume;
+pub mod resume_blocks;
 pub mod session;
 pub mod settings_doc;
 pub mod setup_file;

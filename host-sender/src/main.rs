@@ -35,7 +35,9 @@ enum Command {
         /// file or setup goes to stderr only (exit 2). See docs/errors.md.
         #[arg(long)]
         canon: bool,
-        /// Machine setup (dialect, tools, travel) for plain `check` (default: built-in defaults).
+        /// Machine setup (dialect, tools, travel) instead of the board's (default: the board of
+        /// --port / GANTRY_PORT / the one plugged in, and where it stands; with no board the
+        /// built-in defaults).
         #[arg(long)]
         setup: Option<PathBuf>,
     },
@@ -167,7 +169,7 @@ enum Command {
         /// End of the trace window.
         #[arg(long, requires = "vcd")]
         to: Option<String>,
-        /// Machine setup (the plan and the emulated board; default: the built-in one).
+        /// Machine setup (the plan and the emulated board) instead of the board's (as for `check`).
         #[arg(long)]
         setup: Option<PathBuf>,
     },
@@ -184,7 +186,9 @@ enum Command {
         /// Allow a --tcp address other hosts can reach (anyone reaching it can move the machine).
         #[arg(long, requires = "tcp")]
         allow_remote: bool,
-        /// Setup to store in the board (replaces the stored one).
+        /// Setup to store in the board: its machine settings replace the stored ones; the work
+        /// offsets, G28/G30 positions and tool table stored in --state stay unless the file
+        /// names them (as `setup push` does). A new --state takes everything from the file.
         #[arg(long)]
         setup: Option<PathBuf>,
         /// The board's flash: its stored setup, read at start, written when a setup is pushed.
@@ -217,7 +221,7 @@ enum Command {
         /// Output picture; the extension (.png or .svg) picks the format.
         #[arg(short, long)]
         output: PathBuf,
-        /// Machine setup file (travel box, rates); the default setup otherwise.
+        /// Machine setup file (travel box, rates) instead of the board's (as for `check`).
         #[arg(long)]
         setup: Option<PathBuf>,
     },
@@ -392,19 +396,41 @@ fn show_source(
     }
 }
 
+/// The machine `check`, `simulate` and `preview` measure a program against
+/// (`host_sender::session::standing`): `--setup FILE` when given, else the board of `--port`,
+/// `GANTRY_PORT` or the one plugged in (its setup, and where it stands), else the defaults; the
+/// choice is said on stderr (stdout may be JSON).
+fn standing(
+    m: &Machine,
+    setup: Option<PathBuf>,
+    command: &str,
+) -> anyhow::Result<host_sender::session::standing::Standing> {
+    use host_sender::port::{discover, Found};
+    use host_sender::session::standing::{standing, Basis};
+    let basis = match (setup, &m.port) {
+        (Some(f), _) => Basis::File(f),
+        (None, Some(p)) => Basis::Port(p.clone()),
+        (None, None) if m.emulated => Basis::Defaults,
+        (None, None) => match discover()? {
+            Found::One(p) => Basis::Port(p),
+            _ => Basis::Defaults,
+        },
+    };
+    let s = standing(basis)?;
+    eprintln!("gantry {command}: {}", s.origin);
+    Ok(s)
+}
+
 fn simulate(
     file: &std::path::Path,
     json: bool,
     vcd: Option<PathBuf>,
     from: Option<String>,
     to: Option<String>,
-    setup: Option<PathBuf>,
+    machine: host_sender::session::standing::Standing,
 ) -> anyhow::Result<ExitCode> {
-    let setup = match setup {
-        Some(f) => host_sender::setup_file::SetupFile::load(&f)?,
-        None => Default::default(),
-    };
-    let code = host_sender::simulate::run(file, json, &setup)?;
+    let setup = machine.setup;
+    let code = host_sender::simulate::run(file, json, &setup, &machine.at)?;
     let Some(out) = vcd else {
         return Ok(code);
     };
@@ -492,12 +518,8 @@ fn main() -> ExitCode {
         }
     }
     let result = match cli.command {
-        Command::Check { file, canon, setup } => setup
-            .map_or_else(
-                || Ok(Default::default()),
-                |f| host_sender::setup_file::SetupFile::load(&f),
-            )
-            .and_then(|s| host_sender::check::run(&file, canon, &s)),
+        Command::Check { file, canon, setup } => standing(m, setup, "check")
+            .and_then(|s| host_sender::check::run(&file, canon, &s.setup, &s.at)),
         Command::Setup { action } => setup(action, m),
         Command::Stream {
             file,
@@ -647,17 +669,13 @@ fn main() -> ExitCode {
             from,
             to,
             setup,
-        } => simulate(&file, json, vcd, from, to, setup),
+        } => standing(m, setup, "simulate").and_then(|s| simulate(&file, json, vcd, from, to, s)),
         Command::Preview {
             file,
             output,
             setup,
-        } => setup
-            .map_or_else(
-                || Ok(Default::default()),
-                |f| host_sender::setup_file::SetupFile::load(&f),
-            )
-            .and_then(|s| host_sender::preview::run(&file, &output, &s)),
+        } => standing(m, setup, "preview")
+            .and_then(|s| host_sender::preview::run(&file, &output, &s.setup, &s.at)),
     };
     match result {
         Ok(code) => code,

@@ -3,8 +3,11 @@
 //! board there (offsets, tool, spindle, coolant, position, modes) before line `n` is streamed.
 //!
 //! Limits (said to the user): `n` must be a line of the main program (not inside a subprogram),
-//! G28.1/G30.1 positions set before `n` are not restored, and a modal arc or canned-cycle mode is
-//! not restored (the resumed line must name its own G2/G3 or cycle).
+//! nor inside O-word control flow (the refusal names the block's first line, which works:
+//! `crate::resume_blocks`),
+//! G28.1/G30.1 positions set before `n` are not restored, a modal arc or canned-cycle mode is
+//! not restored (the resumed line must name its own G2/G3 or cycle), and numbered parameters
+//! (`#1 = 0` before a loop) are not set by the preamble: the board's interpreter reads its own.
 
 use crate::check::mm_text;
 use crate::program::Program;
@@ -232,6 +235,15 @@ pub fn resume_preamble(
         "--from-line {line}: the program has lines 1 to {}",
         program.len()
     );
+    if let Some(b) = crate::resume_blocks::enclosing_block(text, line).filter(|b| !b.sub) {
+        bail!(
+            "cannot resume from line {line}: it is inside the O-word block that starts at line {0} \
+             (`{1}`), whose end the board would meet without its start; resume from line {0} \
+             (--from-line {0}): the block runs again from its start",
+            b.line,
+            b.text
+        );
+    }
     let (state, clearance) = state_and_clearance_before(text, line, &setup.interp_config())
         .with_context(|| format!("cannot resume from line {line}"))?;
     Ok(preamble_above(&state, setup, current, clearance))

@@ -157,6 +157,7 @@ pub struct HomingAxisFile {
     /// `"low"` or `"high"`.
     pub seek: Option<String>,
     pub seek_rate: Option<f64>,
+    pub locate_rate: Option<f64>,
     pub retract: Option<f64>,
     pub set_home: Option<bool>,
     pub home_position: Option<f64>,
@@ -500,21 +501,33 @@ impl SetupFile {
         Self::parse(&text).with_context(|| format!("in setup file {}", path.display()))
     }
 
-    /// [`SetupFile::load`] for a push to a board whose setup is `board`: the work offsets and
-    /// the G28/G30 positions are the board's (the operator set them with G10, G28.1, G30.1 and
-    /// the board keeps them in flash) unless the file names them, so a push never clears them by
-    /// accident (docs/controller.md "Work offsets").
+    /// [`SetupFile::load`] for a push to a board whose setup is `board`: the work offsets, the
+    /// G28/G30 positions and the tool table are the board's (the operator set them with G10,
+    /// G28.1, G30.1 and the board keeps them in flash) unless the file names them, so a push never
+    /// clears them by accident (docs/controller.md "Work offsets").
     pub fn load_for_push(path: &Path, board: &Setup) -> anyhow::Result<Setup> {
+        Self::load_keeping(path, board).map(|(s, _)| s)
+    }
+
+    /// [`SetupFile::load_for_push`], and what of `stored` it kept that holds anything (for a
+    /// message: "work offsets G54 G55", "G28 position", "tool table (2 tools)"); `gantry emulate
+    /// --setup F --state S` starts from it with S's setup as `stored`.
+    pub fn load_keeping(path: &Path, stored: &Setup) -> anyhow::Result<(Setup, Vec<String>)> {
         let text = Self::read_bounded(path)?;
-        Self::parse_for_push(&text, board)
+        Self::parse_keeping(&text, stored)
             .with_context(|| format!("in setup file {}", path.display()))
     }
 
     /// [`SetupFile::load_for_push`] on setup text (the console's editor; the one push path,
-    /// `crate::session::Session::push_setup_text`). An empty setup (no setting at all: an empty
+    /// `crate::session::Session::push_setup_text`).
+    pub fn parse_for_push(text: &str, board: &Setup) -> anyhow::Result<Setup> {
+        Self::parse_keeping(text, board).map(|(s, _)| s)
+    }
+
+    /// [`SetupFile::load_keeping`] on setup text. An empty setup (no setting at all: an empty
     /// editor, only comments) is refused: pushed, it would set every default (travel, steps per
     /// mm, switch polarity, homing) on the machine.
-    pub fn parse_for_push(text: &str, board: &Setup) -> anyhow::Result<Setup> {
+    pub fn parse_keeping(text: &str, stored: &Setup) -> anyhow::Result<(Setup, Vec<String>)> {
         let table: toml::Table = toml::from_str(text)?;
         anyhow::ensure!(
             !table.is_empty(),
@@ -522,22 +535,47 @@ impl SetupFile {
              console's \"Show the board's\" gives the board's setup to edit)"
         );
         let file: SetupFile = toml::from_str(text)?;
-        let (work, g28, g30) = (
+        let (work, g28, g30, tools) = (
             !file.work_offsets.is_empty(),
             file.program.g28_home.is_some(),
             file.program.g30_home.is_some(),
+            !file.tool.is_empty(),
         );
         let mut s = file.into_setup()?;
+        let (from, to) = (&stored.program, &mut s.program);
+        let mut kept = Vec::new();
         if !work {
-            s.program.work_offsets = board.program.work_offsets;
+            to.work_offsets = from.work_offsets;
+            let set: Vec<&str> = WORK_SYSTEMS
+                .iter()
+                .zip(&from.work_offsets)
+                .filter(|(_, o)| o.iter().any(|v| *v != 0))
+                .map(|(n, _)| *n)
+                .collect();
+            if !set.is_empty() {
+                kept.push(format!("work offsets {}", set.join(" ")));
+            }
         }
-        if !g28 {
-            s.program.g28_home = board.program.g28_home;
+        for (named, name, at, stored_at) in [
+            (g28, "G28", &mut to.g28_home, &from.g28_home),
+            (g30, "G30", &mut to.g30_home, &from.g30_home),
+        ] {
+            if !named {
+                *at = *stored_at;
+                if stored_at.iter().any(|v| *v != 0) {
+                    kept.push(format!("{name} position"));
+                }
+            }
         }
-        if !g30 {
-            s.program.g30_home = board.program.g30_home;
+        if !tools {
+            to.tools = from.tools.clone();
+            match from.tools.len() {
+                0 => {}
+                1 => kept.push("tool table (1 tool)".into()),
+                n => kept.push(format!("tool table ({n} tools)")),
+            }
         }
-        Ok(s)
+        Ok((s, kept))
     }
 
     /// The file's text, refused beyond [`SETUP_FILE_LIMIT`].
@@ -831,6 +869,9 @@ impl SetupFile {
             }
             if let Some(v) = a.seek_rate {
                 ha.seek_rate = num(Key::SeekRate, idx, v)?;
+            }
+            if let Some(v) = a.locate_rate {
+                ha.locate_rate = num(Key::LocateRate, idx, v)?;
             }
             if let Some(v) = a.retract {
                 ha.retract = num(Key::Retract, idx, v)?;
@@ -1163,7 +1204,7 @@ fn controller_toml(s: &Setup, t: &mut String) {
         .collect();
     let _ = writeln!(
         t,
-        "active_low = [{}]   # pins active when low",
+        "active_low = [{}]   # active while the switch is open: the normally-closed switches",
         low.join(", ")
     );
     let _ = writeln!(t, "debounce_ms = {}", i.debounce_ms);
@@ -1185,6 +1226,7 @@ fn controller_toml(s: &Setup, t: &mut String) {
         let _ = writeln!(t, "priority = {}   # 0 = not homed", a.priority);
         let _ = writeln!(t, "seek = \"{}\"", if a.seek_low { "low" } else { "high" });
         let _ = writeln!(t, "seek_rate = {}", mm_toml(a.seek_rate));
+        let _ = writeln!(t, "locate_rate = {}", mm_toml(a.locate_rate));
         let _ = writeln!(t, "retract = {}", mm_toml(a.retract));
         let _ = writeln!(t, "set_home = {}", a.set_home);
         let _ = writeln!(t, "home_position = {}", mm_toml(a.home_position));

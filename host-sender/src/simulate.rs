@@ -72,13 +72,24 @@ pub fn simulate_stream<S: ProgramSource>(
     setup: &Setup,
     on_move: &mut impl FnMut(Move),
 ) -> anyhow::Result<f64> {
-    let mut actions = Actions::new(src, &setup.interp_config());
+    simulate_stream_from(src, setup, &[0; gantry_machine::units::MAX_AXES], on_move)
+}
+
+/// [`simulate_stream`] with the machine at `at` (nm) when the program starts.
+pub fn simulate_stream_from<S: ProgramSource>(
+    src: S,
+    setup: &Setup,
+    at: &gantry_machine::units::Pos,
+    on_move: &mut impl FnMut(Move),
+) -> anyhow::Result<f64> {
+    let mut actions = Actions::new(src, &setup.interp_config()).starting_at(at);
     let mut moves = Moves::default();
-    let planned = crate::preview::plan::plan_stream(actions.by_ref(), setup, &mut |r, _| {
-        if let Some(m) = moves.add(r) {
-            on_move(m);
-        }
-    });
+    let planned =
+        crate::preview::plan::plan_stream_from(actions.by_ref(), setup, at, &mut |r, _| {
+            if let Some(m) = moves.add(r) {
+                on_move(m);
+            }
+        });
     if let Some(m) = moves.current.take() {
         on_move(m);
     }
@@ -156,13 +167,19 @@ pub fn report(moves: &[Move], total: f64, json: bool) -> String {
 
 /// Runs `gantry simulate FILE [--json] [--setup S]`: each move is printed as soon as it is
 /// planned, so the output streams and nothing of the program is held.
-pub fn run(file: &Path, json: bool, setup: &Setup) -> anyhow::Result<ExitCode> {
+/// `at`: where the machine stands when the job starts (nm; `crate::session::standing`).
+pub fn run(
+    file: &Path,
+    json: bool,
+    setup: &Setup,
+    at: &gantry_machine::units::Pos,
+) -> anyhow::Result<ExitCode> {
     let src = FileSource::open(file)
         .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::with_capacity(1 << 16, stdout.lock());
     let mut write_error = None;
-    let total = simulate_stream(src, setup, &mut |m| {
+    let total = simulate_stream_from(src, setup, at, &mut |m| {
         if write_error.is_none() {
             if let Err(e) = writeln!(out, "{}", move_line(&m, json)) {
                 write_error = Some(e);

@@ -5,7 +5,7 @@
 //! behind the pty (`crate::emulate::run_board`), so grbl and the framed protocol both work, and the
 //! log is the same.
 
-use crate::emulate::{load_state, new_board, run_board, setup_origin, HostSide, Polled};
+use crate::emulate::{load_state, new_board, run_board, HostSide, Polled};
 use anyhow::Context;
 use nix::poll::{poll, PollFd, PollFlags};
 use std::io::{ErrorKind, Read, Write};
@@ -130,8 +130,7 @@ pub fn run(
     cpu: Option<crate::cpu_model::CpuModel>,
 ) -> anyhow::Result<ExitCode> {
     check_address(&addr, allow_remote)?;
-    let origin = setup_origin(state.as_deref(), setup.as_deref());
-    let setup = load_state(state.as_deref(), setup)?;
+    let (setup, origin) = load_state(state.as_deref(), setup)?;
     let axes = setup.axis_count;
     let mut board = new_board(setup, state.as_deref(), probe_targets, cpu)?;
     let listener = TcpListener::bind(addr).with_context(|| format!("cannot listen on {addr}"))?;

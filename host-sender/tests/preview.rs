@@ -221,11 +221,11 @@ fn run_writes_png_and_svg_files() {
     .unwrap();
     for out in ["p.png", "p.svg"] {
         let out = dir.join(out);
-        let code = preview::run(&jsonl, &out, &Setup::default()).unwrap();
+        let code = preview::run(&jsonl, &out, &Setup::default(), &[0; 6]).unwrap();
         assert_eq!(code, std::process::ExitCode::SUCCESS);
         assert!(std::fs::metadata(&out).unwrap().len() > 1000);
     }
-    assert!(preview::run(&jsonl, &dir.join("p.jpg"), &Setup::default()).is_err());
+    assert!(preview::run(&jsonl, &dir.join("p.jpg"), &Setup::default(), &[0; 6]).is_err());
     // A program error: the picture shows the program up to it, and the exit code says so.
     let bad = dir.join("bad.jsonl");
     std::fs::write(
@@ -234,7 +234,7 @@ fn run_writes_png_and_svg_files() {
     )
     .unwrap();
     let out = dir.join("bad.svg");
-    let code = preview::run(&bad, &out, &Setup::default()).unwrap();
+    let code = preview::run(&bad, &out, &Setup::default(), &[0; 6]).unwrap();
     assert_eq!(code, std::process::ExitCode::from(1));
     let text = std::fs::read_to_string(&out).unwrap();
     assert_eq!(count(&text, r#"<path class="feed""#), 4);

@@ -38,7 +38,7 @@ fn streamed_svg_is_the_golden_byte_for_byte() {
     let program = dir.0.join("bracket.ngc");
     std::fs::copy(repo("examples/bracket.ngc"), &program).unwrap();
     let out = dir.0.join("bracket.svg");
-    let code = preview::run(&program, &out, &Setup::default()).unwrap();
+    let code = preview::run(&program, &out, &Setup::default(), &[0; 6]).unwrap();
     assert_eq!(code, std::process::ExitCode::SUCCESS);
     let got = std::fs::read_to_string(&out).unwrap();
     let golden = std::fs::read_to_string(repo(GOLDEN)).unwrap();
@@ -60,7 +60,7 @@ fn streamed_png_matches_the_golden_rasterised_whole() {
     let program = dir.0.join("bracket.ngc");
     std::fs::copy(repo("examples/bracket.ngc"), &program).unwrap();
     let out = dir.0.join("bracket.png");
-    preview::run(&program, &out, &Setup::default()).unwrap();
+    preview::run(&program, &out, &Setup::default(), &[0; 6]).unwrap();
     let got = resvg::tiny_skia::Pixmap::decode_png(&std::fs::read(&out).unwrap()).unwrap();
     let whole = raster::rasterise(&std::fs::read_to_string(repo(GOLDEN)).unwrap()).unwrap();
     assert_eq!((got.width(), got.height()), (whole.width(), whole.height()));
@@ -144,7 +144,7 @@ fn preview_memory_does_not_grow_with_the_program() {
         let program = dir.0.join(format!("raster{rows}.ngc"));
         write_raster_program(&program, rows);
         let out = dir.0.join(out);
-        preview::run(&program, &out, &Setup::default()).unwrap();
+        preview::run(&program, &out, &Setup::default(), &[0; 6]).unwrap();
         std::fs::remove_file(&program).unwrap();
         std::fs::remove_file(&out).unwrap();
         peak_rss_kib()

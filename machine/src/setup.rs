@@ -169,9 +169,13 @@ pub struct HomingAxis {
     pub priority: u8,
     /// Seek the min switch (else the max switch).
     pub seek_low: bool,
-    /// Constant seek speed, nm/min (keep it at or below the axis start speed for a ramp-free seek).
+    /// Fast seek speed toward the switch, nm/min (grbl `$25`).
     pub seek_rate: FeedNmPerMin,
-    /// Back-off from the switch at the rapid rate, nm.
+    /// Slow locate speed back onto the switch after the pull-off, nm/min (grbl `$24`); at or
+    /// below the axis start speed the locate has no ramp and stops on the exact step.
+    pub locate_rate: FeedNmPerMin,
+    /// Pull-off between seek and locate, and back-off from the switch at the end, at the rapid
+    /// rate, nm (grbl `$27`).
     pub retract: Nm,
     /// After the retract, set the axis position to `home_position` (the GIXA controller's "Set Home After Retract").
     pub set_home: bool,
@@ -388,7 +392,8 @@ impl Default for Setup {
                 axes: [HomingAxis {
                     priority: 0,
                     seek_low: true,
-                    seek_rate: nm_of_mm(60),
+                    seek_rate: nm_of_mm(2000),
+                    locate_rate: nm_of_mm(60),
                     retract: nm_of_mm(2),
                     set_home: true,
                     home_position: 0,

@@ -1,6 +1,7 @@
 //! Homing (limit-switch seek, docs/controller.md "Homing") on the emulated board: priority order one axis at a
-//! time, constant seek rate, retract at rapid to the exact step, set home, command lists, and the
-//! failure alarms.
+//! time, a fast seek, a pull-off and a slow locate at a constant rate, retract at rapid to the
+//! exact step, set home, command lists, and the failure alarms. Every switch stop counts in
+//! `limit_stops`: the fast seek's and the locate's are the cycle's first two.
 
 mod controller_support;
 
@@ -59,15 +60,18 @@ fn axes_home_in_priority_order_and_the_retract_lands_on_the_exact_step() {
 }
 
 #[test]
-fn the_seek_runs_at_a_constant_rate() {
-    // Seek rate = start speed (60 mm/min = 640 steps/s): no ramp.
+fn the_locate_runs_at_a_constant_rate() {
+    // The fast seek (2000 mm/min) meets the switch 3 mm away and the pull-off at rapid comes
+    // back 2 mm, both within the first 250 ms; the locate then runs at its rate = the start
+    // speed (60 mm/min = 640 steps/s), no ramp, for the 2 mm (2 s) back to the switch.
     let mut eb = machine(|s| s.homing.axes[2].priority = 0);
     let mut counts = Vec::new();
     eb.board.home(0b001);
+    eb.run_until(1_000, |b| b.limit_stops == 1);
     // The first window holds the start: the interrupt's idle poll and its two ticks ahead of
     // the pins (up to 2 ms and two periods, one step of 160 here).
     eb.run_ms(250);
-    for _ in 0..8 {
+    for _ in 0..6 {
         let before = eb.pulses[0];
         eb.run_ms(250);
         counts.push(eb.pulses[0] - before);
@@ -120,8 +124,8 @@ fn command_lists_run_before_seek_before_retract_and_after_retract() {
     assert!(eb.board.home(0));
     eb.run_ms(100);
     assert_eq!(eb.board.output_levels().user, 0b0010);
-    // Seek ends on the switch; the dwell holds the retract back for 300 ms.
-    eb.run_until(30_000, |b| b.limit_stops == 1);
+    // The locate ends on the switch; the dwell holds the retract back for 300 ms.
+    eb.run_until(30_000, |b| b.limit_stops == 2);
     let on_switch = eb.physical()[0];
     assert_eq!(on_switch, -3 * STEPS_PER_MM);
     eb.run_ms(250);
@@ -198,12 +202,12 @@ fn squaring(quiet: bool, edit: impl FnOnce(&mut gantry_machine::setup::Setup)) -
 fn squaring_leaves_both_motors_on_their_switches_then_retracts() {
     let mut eb = squaring(true, |_| {});
     assert!(eb.board.home(0b010));
-    // First stop: motor 0 on its switch, motor 1 dragged along to -2 mm.
-    eb.run_until(30_000, |b| b.limit_stops == 1);
+    // The locate's stop: motor 0 on its switch, motor 1 dragged along to -2 mm.
+    eb.run_until(30_000, |b| b.limit_stops == 2);
     let g = eb.gang.unwrap();
     assert_eq!(g.motors, [-2 * STEPS_PER_MM, -2 * STEPS_PER_MM]);
     // Motor 0 alone seeks (already on its switch: no step), then motor 1 alone.
-    eb.run_until(30_000, |b| b.limit_stops == 3);
+    eb.run_until(30_000, |b| b.limit_stops == 4);
     eb.run_ms(50);
     let g = eb.gang.unwrap();
     assert_eq!(g.motors, g.at, "both motors on their switches");
@@ -227,12 +231,12 @@ fn without_the_directive_each_commanded_switch_hit_of_a_list_is_reported() {
     let mut eb = squaring(false, |_| {});
     assert!(eb.board.home(0b010));
     until_state(&mut eb, State::Idle, 30_000);
-    assert_eq!(eb.limit_stops, 3);
+    assert_eq!(eb.limit_stops, 4);
     let y_min = BoardEvent::Limit {
         axis: 1,
         max: false,
     };
-    // The two `seek` commands of before_retract, not the cycle's seek; no alarm.
+    // The two `seek` commands of before_retract, not the cycle's seek and locate; no alarm.
     assert_eq!(events(&mut eb), vec![y_min, y_min]);
     assert_eq!(eb.board.alarm(), None);
     assert_eq!(eb.board.homed(), 0b010);
@@ -245,7 +249,7 @@ fn an_unexpected_switch_during_a_quiet_list_seek_still_stops_and_alarms() {
     // X has a max switch; it trips while motor 1 alone seeks in the quiet list.
     let mut eb = squaring(true, |s| s.inputs.limit_max = 0b001);
     assert!(eb.board.home(0b010));
-    eb.run_until(30_000, |b| b.limit_stops == 2);
+    eb.run_until(30_000, |b| b.limit_stops == 3);
     eb.run_ms(300);
     assert_eq!(
         eb.board.motion().state(),
@@ -256,7 +260,7 @@ fn an_unexpected_switch_during_a_quiet_list_seek_still_stops_and_alarms() {
     eb.set_pin(LIMIT_MAX_BIT, true);
     until_state(&mut eb, State::Alarm, 1_000);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
-    assert_eq!(eb.limit_stops, 3);
+    assert_eq!(eb.limit_stops, 4);
     // Motor 1 steps every 1.5625 ms: the pass that saw the pin armed the stop before its next step.
     assert_eq!(eb.isr.kernel.position()[1], y);
     assert_eq!(

@@ -28,7 +28,7 @@ fn router(dir: &Dir) -> std::path::PathBuf {
         .replacen("limits_max = []", r#"limits_max = ["X", "Y", "Z"]"#, 1);
     for (axis, prio, seek) in [("X", 2, "low"), ("Y", 3, "low"), ("Z", 1, "high")] {
         text = text.replacen(
-            &format!("[homing.axis.{axis}]\npriority = 0   # 0 = not homed\nseek = \"low\"\nseek_rate = 60.0"),
+            &format!("[homing.axis.{axis}]\npriority = 0   # 0 = not homed\nseek = \"low\"\nseek_rate = 2000.0"),
             &format!("[homing.axis.{axis}]\npriority = {prio}\nseek = \"{seek}\"\nseek_rate = 3000.0"),
             1,
         );

@@ -315,6 +315,8 @@ fn homing_bound_ms(setup: &Setup) -> u32 {
             continue;
         }
         ms += 2 * travel_nm * 60_000 / (h.seek_rate.max(1) as u64);
+        // The locate searches twice the pull-off at the slow rate.
+        ms += 2 * 2 * h.retract.unsigned_abs() * 60_000 / (h.locate_rate.max(1) as u64);
     }
     ms.min(u32::MAX as u64) as u32
 }

@@ -84,6 +84,11 @@ pub fn run_checked(
         "--through-stops answers the stops of the emulated board in this process only: on a \
          machine, only the operator continues a stop (Enter, cycle start, `gantry resume`)"
     );
+    // The command that runs this program again on the same board, for the resume hints.
+    let again = match &target {
+        Target::Port(p) => format!("gantry --port {p} stream {}", file.display()),
+        Target::Emulated(_) => format!("gantry stream {}", file.display()),
+    };
     if matches!(target, Target::Emulated(_)) {
         println!(
             "gantry: no --port given: streaming {} to the emulated board",
@@ -191,7 +196,11 @@ pub fn run_checked(
     print_report(
         &report,
         &program,
-        file,
+        &Again {
+            file,
+            command: &again,
+            text: &text,
+        },
         axes,
         wall.elapsed(),
         first_line,
@@ -466,12 +475,38 @@ fn stream_with_progress(
     // the hold it ended, which is not a new hold to announce.
     let resumed_at: std::cell::Cell<Option<u32>> = std::cell::Cell::new(None);
     let mut told_take_over = false;
-    // Machine time spent standing at holds and stops (M0/M1, M6), for the report.
+    // Machine time spent standing at holds and stops (M0/M1, M6), for the report, on the link
+    // clock the report's machine time is taken on (`Progress::elapsed_ms`): each interval
+    // between two progress calls counts as standing when the machine stood at rest at its start.
+    // Counted first, before any answer returns early, so a wait at a prompt is never dropped.
     let mut stopped_ms = 0u32;
     let mut last_elapsed_ms = 0u32;
+    let mut stood = false;
+    // The in-process emulated board's clock runs only as the link is serviced, flat out while the
+    // job moves; while the operator is asked something it is held to the wall clock's pace from
+    // when the question came (`pace`), so the time standing there is the time the operator took.
+    let mut paced_from = (std::time::Instant::now(), 0u32);
+    let pace = |from: &(std::time::Instant, u32), now_ms: u32| {
+        let board = u64::from(now_ms.saturating_sub(from.1));
+        let wall = from.0.elapsed().as_millis() as u64;
+        if board > wall {
+            std::thread::sleep(std::time::Duration::from_millis(board - wall));
+        }
+    };
     let mut answer = |p: &Progress| {
+        if emulated && asking == Asking::Nothing {
+            paced_from = (std::time::Instant::now(), p.elapsed_ms);
+        }
         let ctrl_c = interrupted.swap(false, std::sync::atomic::Ordering::SeqCst);
         let state = p.status.as_ref().map(|s| s.state);
+        if stood {
+            stopped_ms += p.elapsed_ms.saturating_sub(last_elapsed_ms);
+        }
+        last_elapsed_ms = p.elapsed_ms;
+        stood = matches!(
+            state,
+            Some(MachineState::Hold { stopped: true } | MachineState::ToolChange { .. })
+        );
         let standing = matches!(
             state,
             Some(MachineState::Hold { .. } | MachineState::ToolChange { .. })
@@ -495,7 +530,12 @@ fn stream_with_progress(
                         Some(Flow::Abort)
                     }
                     (false, Some(Typed::Line(_))) => Some(Flow::Resume),
-                    (false, None) => None,
+                    (false, None) => {
+                        if emulated {
+                            pace(&paced_from, p.elapsed_ms);
+                        }
+                        None
+                    }
                 };
                 if let Some(f) = flow {
                     answered(bar.as_ref());
@@ -557,22 +597,13 @@ fn stream_with_progress(
                     }
                     _ => {
                         if emulated {
-                            // The emulated board's clock runs only as the link is serviced: while
-                            // the operator thinks it runs at the wall clock's pace, not flat out.
-                            std::thread::sleep(std::time::Duration::from_millis(5));
+                            pace(&paced_from, p.elapsed_ms);
                         }
                     }
                 }
             }
             Asking::Nothing => {}
         }
-        if matches!(
-            state,
-            Some(MachineState::Hold { stopped: true } | MachineState::ToolChange { .. })
-        ) {
-            stopped_ms += p.elapsed_ms.saturating_sub(last_elapsed_ms);
-        }
-        last_elapsed_ms = p.elapsed_ms;
         if ctrl_c {
             // Ctrl-C: hold first (decelerate on the path), then ask what to do.
             forget_typed();
@@ -694,10 +725,35 @@ fn stream_with_progress(
     Ok((report?, stopped_ms))
 }
 
+/// How the report's resume hints run the program again: the command (`gantry --port P stream
+/// FILE`, the port repeated) and the program's text (a line inside O-word control flow resumes
+/// at the block's start, `crate::resume_blocks`).
+struct Again<'a> {
+    file: &'a std::path::Path,
+    command: &'a str,
+    text: &'a str,
+}
+
+impl Again<'_> {
+    /// `COMMAND --from-line N` for a run meant to start at `line`, and why another line when it
+    /// is inside a block.
+    fn run_from(&self, line: u32) -> String {
+        let at = crate::resume_blocks::resumable_line(self.text, line);
+        if at == line {
+            format!("{} --from-line {line}", self.command)
+        } else {
+            format!(
+                "{} --from-line {at}   (line {line} is inside the O-word block that starts at line {at}: it runs again from there)",
+                self.command
+            )
+        }
+    }
+}
+
 fn print_report(
     report: &StreamReport,
     program: &Program,
-    file: &std::path::Path,
+    again: &Again,
     axes: usize,
     wall: std::time::Duration,
     first_line: u32,
@@ -705,7 +761,7 @@ fn print_report(
 ) {
     let resume_line = report.last_line.max(first_line);
     for e in &report.errors {
-        print!("{}", e.describe(&file.display().to_string(), program));
+        print!("{}", e.describe(&again.file.display().to_string(), program));
     }
     for &(axis, max) in &report.limits {
         println!("{}", limit_text(axis, max));
@@ -722,8 +778,8 @@ fn print_report(
             );
             println!("the board, if it is alive, holds the job by itself (host lost) and ends it after link.host_lost_stop_s");
             println!(
-                "resume:   (when the board answers again) gantry stream {} --continue",
-                file.display()
+                "resume:   (when the board answers again) {} --continue",
+                again.command
             );
             return;
         }
@@ -732,12 +788,12 @@ fn print_report(
                 "link closed: gantry serve closed this sender's link mid-job (the board restarted, or the server ended)"
             );
             println!(
-                "resume:   if the board restarted (the job is gone): gantry stream {} --from-line {resume_line}",
-                file.display()
+                "resume:   if the board restarted (the job is gone): {}",
+                again.run_from(resume_line)
             );
             println!(
-                "          if it still holds the job (serve ended): gantry stream {} --continue",
-                file.display()
+                "          if it still holds the job (serve ended): {} --continue",
+                again.command
             );
             return;
         }
@@ -746,9 +802,8 @@ fn print_report(
                 "board reset: the board restarted during the job (power, reset button or watchdog): the job is gone, the spindle stopped"
             );
             println!(
-                "resume:   (after gantry home, or gantry unlock) gantry stream {} --from-line {}",
-                file.display(),
-                resume_line
+                "resume:   (after gantry home, or gantry unlock) {}",
+                again.run_from(resume_line)
             );
             return;
         }
@@ -790,21 +845,20 @@ fn print_report(
     });
     if report.aborted || stopped_on_path {
         println!(
-            "resume:   {}gantry stream {} --from-line {}",
+            "resume:   {}{}",
             if stopped_on_path {
                 "(after gantry unlock) "
             } else {
                 ""
             },
-            file.display(),
-            resume_line
+            again.run_from(resume_line)
         );
     } else if let Some(e) = report.errors.iter().find(|e| e.line != 0) {
         // An error ended the job: everything before its line ran, nothing from it on.
         println!(
-            "resume:   (after fixing line {0}) gantry stream {1} --from-line {0}",
+            "resume:   (after fixing line {}) {}",
             e.line,
-            file.display()
+            again.run_from(e.line)
         );
     }
     if let Some(s) = &report.final_status {

@@ -71,8 +71,7 @@ pub fn check(name: &str, text: &str, setup: &Setup) -> Checked {
 pub fn path_json(text: &str, setup: &Setup, here: &[i64; 6]) -> String {
     let mut pts: Vec<(u8, u32, [f64; 3])> = Vec::new();
     // The moves as `gantry preview` takes them (mm, arcs with their geometry).
-    let mut moves = MoveAdapter::new(setup);
-    moves.start_at(here);
+    let mut moves = MoveAdapter::new(setup).starting_at(here);
     let mut actions = Actions::new(MemorySource::new(text.as_bytes()), &setup.interp_config());
     let mut state = *actions.interp.state();
     state.position = *here;

@@ -48,9 +48,10 @@ impl MoveAdapter {
         }
     }
 
-    /// The machine starts at `p` (machine nm) instead of 0,0,0.
-    pub fn start_at(&mut self, p: &Pos) {
-        self.at = mm3(p);
+    /// Moves from machine position `at` (nm) on: the first move starts there.
+    pub fn starting_at(mut self, at: &Pos) -> Self {
+        self.at = mm3(at);
+        self
     }
 
     /// The move of `c`, if it is one.

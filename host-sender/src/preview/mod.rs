@@ -138,7 +138,13 @@ fn job_from_actions(
     title: &str,
 ) -> (PreviewJob, Option<String>) {
     let mut moves = Vec::new();
-    let end = pass::each_move(actions, setup, true, &mut |m, peak| moves.push((*m, peak)));
+    let end = pass::each_move(
+        actions,
+        setup,
+        &[0; gantry_machine::units::MAX_AXES],
+        true,
+        &mut |m, peak| moves.push((*m, peak)),
+    );
     let (mut job, note) = heading(title, setup, &end);
     let planned = job.speed_source == SpeedSource::Planned;
     job.moves = moves
@@ -179,6 +185,8 @@ struct ProgramFile<'a> {
     path: &'a Path,
     jsonl: bool,
     setup: &'a Setup,
+    /// Where the machine stands at the start (nm).
+    at: &'a gantry_machine::units::Pos,
 }
 
 impl ProgramFile<'_> {
@@ -193,15 +201,16 @@ impl ProgramFile<'_> {
         if self.jsonl {
             let file = std::fs::File::open(self.path).with_context(cannot)?;
             let mut actions = adapt::JsonlActions::new(std::io::BufReader::new(file));
-            let end = pass::each_move(actions.by_ref(), self.setup, planning, each);
+            let end = pass::each_move(actions.by_ref(), self.setup, self.at, planning, each);
             if let Some(e) = actions.failure.take() {
                 return Err(e);
             }
             return Ok((end, actions.ended.take()));
         }
         let src = source::FileSource::open(self.path).with_context(cannot)?;
-        let mut actions = source::Actions::new(src, &self.setup.interp_config());
-        let end = pass::each_move(actions.by_ref(), self.setup, planning, each);
+        let mut actions =
+            source::Actions::new(src, &self.setup.interp_config()).starting_at(self.at);
+        let end = pass::each_move(actions.by_ref(), self.setup, self.at, planning, each);
         Ok((end, source::ended_error(&actions.ended, "preview")))
     }
 }
@@ -212,12 +221,20 @@ impl ProgramFile<'_> {
 /// Two passes over the file, each in constant memory: the first sums the job up (extents, speed
 /// range, lengths, time: [`svg::StatsBuilder`]), the second draws each move as it comes into its
 /// view's lane ([`lanes`]); no move is kept beyond the planner's look-ahead.
-pub fn run(file: &Path, out: &Path, setup: &Setup) -> anyhow::Result<ExitCode> {
+///
+/// `at`: where the machine stands when the job starts (nm; `crate::session::standing`).
+pub fn run(
+    file: &Path,
+    out: &Path,
+    setup: &Setup,
+    at: &gantry_machine::units::Pos,
+) -> anyhow::Result<ExitCode> {
     let format = Format::from_path(out)?;
     let program = ProgramFile {
         path: file,
         jsonl: file.extension().is_some_and(|e| e == "jsonl"),
         setup,
+        at,
     };
     let title = file
         .file_name()

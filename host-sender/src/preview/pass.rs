@@ -116,14 +116,17 @@ impl Pending<'_> {
 /// Runs `actions` once, calling `each` with every move (speed = programmed feed) and its planned
 /// peak speed (mm/min; `None` for rapids, when not planning, after the planner refused a move, or
 /// for a move without feed blocks). Plans on the `setup` machine when `planning`.
+///
+/// `at`: where the machine stands when the program starts (nm).
 pub fn each_move(
     actions: impl Iterator<Item = Canon>,
     setup: &Setup,
+    at: &gantry_machine::units::Pos,
     planning: bool,
     each: &mut dyn FnMut(&PreviewMove, Option<f64>),
 ) -> PassEnd {
     let pending = RefCell::new(Pending {
-        adapter: MoveAdapter::new(setup),
+        adapter: MoveAdapter::new(setup).starting_at(at),
         moves: VecDeque::new(),
         runs: VecDeque::new(),
         unplanned: !planning,
@@ -131,7 +134,7 @@ pub fn each_move(
     });
     let mut actions = actions.inspect(|c| pending.borrow_mut().action(c));
     let planned = if planning {
-        let r = plan::plan_stream(actions.by_ref(), setup, &mut |report, _| {
+        let r = plan::plan_stream_from(actions.by_ref(), setup, at, &mut |report, _| {
             pending.borrow_mut().block(report)
         });
         let mut p = pending.borrow_mut();

@@ -15,7 +15,7 @@ use gantry_machine::motion::pipeline::PushError;
 use gantry_machine::motion::prep::BlockReport;
 use gantry_machine::motion::sim::{Sim, SimEvent};
 use gantry_machine::setup::Setup;
-use gantry_machine::units::NM_PER_MM;
+use gantry_machine::units::{Pos, MAX_AXES, NM_PER_MM};
 use std::collections::HashMap;
 
 /// Look-ahead ring size used for the preview (as on the board, `motion::pipeline`).
@@ -48,7 +48,18 @@ pub fn plan_stream(
     setup: &Setup,
     on_block: &mut impl FnMut(&BlockReport, u64),
 ) -> Result<u64, (Canon, PushError)> {
+    plan_stream_from(program, setup, &[0; MAX_AXES], on_block)
+}
+
+/// [`plan_stream`] with the machine standing at `at` (nm) when the program starts.
+pub fn plan_stream_from(
+    program: impl IntoIterator<Item = Canon>,
+    setup: &Setup,
+    at: &Pos,
+    on_block: &mut impl FnMut(&BlockReport, u64),
+) -> Result<u64, (Canon, PushError)> {
     let mut sim = machine(setup);
+    sim.motion.set_position(*at);
     sim.run_planned(program, &mut |e| {
         if let SimEvent::Block { report, time } = e {
             on_block(&report, time);

@@ -315,6 +315,15 @@ impl<S: ProgramSource> Actions<S> {
             stopped: false,
         }
     }
+
+    /// The program interpreted from machine position `at` (nm), where the machine stands, as the
+    /// board's interpreter starts a job (`crate::session::standing`).
+    pub fn starting_at(mut self, at: &gantry_machine::units::Pos) -> Self {
+        let mut state = *self.interp.state();
+        state.position = *at;
+        self.interp.set_state(state);
+        self
+    }
 }
 
 impl<S: ProgramSource> Iterator for Actions<S> {

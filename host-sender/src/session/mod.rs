@@ -13,6 +13,7 @@
 pub mod job;
 pub mod setup;
 pub mod socket;
+pub mod standing;
 pub mod start;
 
 pub use job::{

@@ -1,5 +1,5 @@
-//! The homing cycle on the board: lists, seek, retract and set home, axis by axis (docs/controller.md
-//! "Homing"). The pure parts (order, targets, switch bits) are in [`crate::controller::homing`].
+//! The homing cycle on the board: lists, fast seek, pull-off, slow locate, retract and set home,
+//! axis by axis (docs/controller.md "Homing"). The pure parts (order, targets, switch bits) are in [`crate::controller::homing`].
 
 use super::mode::{HomingCycle, HomingPhase, Mode};
 use super::{Board, MotionState, Pos, MAX_AXES};
@@ -174,7 +174,7 @@ impl Board {
                 ) {
                     ListStatus::Running => {}
                     ListStatus::Seek => {
-                        self.push_seek(axis, &at);
+                        self.push_seek(axis, &at, false);
                         h.list_seek = true;
                     }
                     ListStatus::Timeout => {
@@ -185,7 +185,7 @@ impl Board {
                         homing_list = None;
                         match h.phase {
                             Phase::BeforeSeek => {
-                                self.push_seek(axis, &at);
+                                self.push_seek(axis, &at, true);
                                 h.phase = Phase::Seek;
                             }
                             Phase::BeforeRetract => {
@@ -215,10 +215,35 @@ impl Board {
                     }
                 }
             }
-            Phase::Seek => {
+            Phase::Seek | Phase::Locate => {
                 // The seek ran its whole length without meeting the switch.
                 self.enter_alarm(AlarmCode::HomingSwitchNotFound, 0);
                 return;
+            }
+            Phase::SeekStopped => {
+                let mut to = at;
+                to[axis] = homing::retract_target(&ha, at[axis]);
+                let _ = self.motion.push(&Canon {
+                    line: 0,
+                    action: Action::Rapid { to },
+                });
+                h.phase = Phase::PullOff;
+            }
+            Phase::PullOff => {
+                if self.sensed.levels.0 & (1 << homing::switch_bit(axis, &ha)) != 0 {
+                    self.enter_alarm(AlarmCode::HomingPullOffFailed, 0);
+                    return;
+                }
+                let mut to = at;
+                to[axis] = homing::locate_target(&ha, at[axis]);
+                let _ = self.motion.push(&Canon {
+                    line: 0,
+                    action: Action::Feed {
+                        to,
+                        feed: ha.locate_rate,
+                    },
+                });
+                h.phase = Phase::Locate;
             }
             Phase::Retract => {
                 if self.sensed.levels.0 & (1 << homing::switch_bit(axis, &ha)) != 0 {
@@ -242,11 +267,13 @@ impl Board {
         };
     }
 
-    /// Queues a constant-rate seek of `axis` toward its homing switch, over the travel + retract.
-    fn push_seek(&mut self, axis: usize, at: &Pos) {
+    /// Queues a seek of `axis` toward its homing switch over the travel + retract: the fast seek
+    /// at `seek_rate`, a list's `seek` (squaring: where it stops counts) at `locate_rate`.
+    fn push_seek(&mut self, axis: usize, at: &Pos, fast: bool) {
         let mut to = *at;
         to[axis] = homing::seek_target(&self.setup, axis, at[axis]);
-        let feed = self.setup.homing.axes[axis].seek_rate;
+        let h = &self.setup.homing.axes[axis];
+        let feed = if fast { h.seek_rate } else { h.locate_rate };
         let _ = self.motion.push(&Canon {
             line: 0,
             action: Action::Feed { to, feed },
@@ -311,6 +338,32 @@ mod tests {
             assert!(now < 1_000, "the seek never started");
         }
         assert_eq!(b.limit_arm() & X_MIN, X_MIN, "the seek arms its switch");
+        // The fast seek's stop: a pull-off of the retract distance, switch ignored.
+        let seek_stop = steps[0];
+        b.limit_stop(InputBits(X_MIN), &steps);
+        assert_eq!(phase(&b), Some(Phase::SeekStopped));
+        assert_eq!(b.limit_arm() & X_MIN, 0, "the pull-off ignores its switch");
+        // The pass that starts the locate also runs its first segment: the pull-off ended where
+        // the machine stood before that pass.
+        let mut pulled_off = steps[0];
+        while phase(&b) != Some(Phase::Locate) {
+            pulled_off = steps[0];
+            now += 1;
+            pass(&mut b, now, 0, &mut steps);
+            assert!(now < 100_000, "the locate never started");
+        }
+        assert_eq!(pulled_off - seek_stop, 2 * 640, "pulled off 2 mm");
+        assert!(
+            steps[0] < pulled_off,
+            "the locate moves back toward the switch"
+        );
+        assert_eq!(b.limit_arm() & X_MIN, X_MIN, "the locate arms its switch");
+        // The slow locate goes back toward the switch; the switch closes 1 mm off the pull-off.
+        while steps[0] > seek_stop + 640 {
+            now += 1;
+            pass(&mut b, now, 0, &mut steps);
+            assert!(now < 100_000, "the locate never moved");
+        }
         let on_switch = steps[0];
         b.limit_stop(InputBits(X_MIN), &steps);
         assert_eq!(phase(&b), Some(Phase::BeforeRetract));

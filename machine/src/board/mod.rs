@@ -806,6 +806,8 @@ impl Board {
                 {
                     if list_seek {
                         h.list_seek = false;
+                    } else if h.phase == Phase::Seek {
+                        h.phase = Phase::SeekStopped;
                     } else {
                         h.phase = Phase::BeforeRetract;
                     }

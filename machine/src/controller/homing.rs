@@ -1,6 +1,9 @@
 //! Limit-switch seek (homing, docs/controller.md "Homing"): axes one at a time in priority order; for each, the
-//! before-seek list, a constant-rate seek toward the switch (given up after the axis travel), the
-//! before-retract list, a retract at the rapid rate, set home, the after-retract list.
+//! before-seek list, a fast seek toward the switch (given up after the axis travel), a pull-off at
+//! the rapid rate, a slow locate back onto the switch (at or below the start speed, so the switch
+//! stops it on the exact step), the before-retract list, a retract at the rapid rate, set home,
+//! the after-retract list. Only the locate's stop sets the position: the fast seek may stop
+//! harder than the motor can follow, the locate cannot.
 //!
 //! This module holds the pure parts (order, targets, switch bits, phases); the board drives the
 //! motion and the lists.
@@ -14,7 +17,14 @@ use heapless::Vec;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Phase {
     BeforeSeek,
+    /// The fast seek toward the switch (`seek_rate`).
     Seek,
+    /// The switch stopped the fast seek; the pull-off starts at rest.
+    SeekStopped,
+    /// Backing off the switch by the retract distance at the rapid rate.
+    PullOff,
+    /// The slow seek back onto the switch (`locate_rate`).
+    Locate,
     BeforeRetract,
     Retract,
     AfterRetract,
@@ -37,7 +47,7 @@ pub struct Homing {
 impl Homing {
     /// True while a seek toward the axis's switch is moving (the switch is the target).
     pub fn seeking(&self) -> bool {
-        self.phase == Phase::Seek || self.list_seek
+        matches!(self.phase, Phase::Seek | Phase::Locate) || self.list_seek
     }
 }
 
@@ -100,7 +110,20 @@ pub fn seek_target(setup: &Setup, axis: usize, from: Nm) -> Nm {
     }
 }
 
-/// The retract's end point from the switch position `at` (away from the switch).
+/// The locate's end point from the pulled-off position `from`: twice the pull-off back toward the
+/// switch (the fast seek may have stopped past the switch's edge by a few steps, or lost some);
+/// reaching it without the switch is alarm 9.
+pub fn locate_target(h: &HomingAxis, from: Nm) -> Nm {
+    let span = h.retract.max(0).saturating_mul(2);
+    if h.seek_low {
+        from - span
+    } else {
+        from + span
+    }
+}
+
+/// The retract's (and the pull-off's) end point from the switch position `at` (away from the
+/// switch).
 pub fn retract_target(h: &HomingAxis, at: Nm) -> Nm {
     if h.seek_low {
         at + h.retract
@@ -137,5 +160,10 @@ mod tests {
             -3 * NM_PER_MM
         );
         assert_eq!(switch_bit(1, &s.homing.axes[1]), LIMIT_MIN_BIT + 1);
+        // The locate goes back twice the pull-off toward the switch.
+        assert_eq!(
+            locate_target(&s.homing.axes[0], -3 * NM_PER_MM),
+            -7 * NM_PER_MM
+        );
     }
 }

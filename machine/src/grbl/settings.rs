@@ -29,8 +29,8 @@ impl Prefs {
 
 /// grbl numbers with no row of their own in the settings table (machine/src/setup/table.rs):
 /// settings Gantry has no key for (shown with the value it behaves as), `$22` (read from the
-/// homing priorities) and `$25` (the second number of `homing.axis.*.seek_rate`).
-const NOT_IN_TABLE: [u16; 7] = [1, 2, 4, 6, 20, 22, 25];
+/// homing priorities).
+const NOT_IN_TABLE: [u16; 6] = [1, 2, 4, 6, 20, 22];
 /// Axis setting groups: steps/mm, max rate, acceleration, travel.
 pub const AXIS_GROUPS: [u16; 4] = [100, 110, 120, 130];
 
@@ -154,7 +154,8 @@ pub fn read(n: u16, setup: &Setup) -> Option<Value> {
                 .any(|h| h.priority > 0),
         )),
         23 => int(bits(setup, |i| setup.homing.axes[i].seek_low)),
-        24 | 25 => mm_value(h.seek_rate),
+        24 => mm_value(h.locate_rate),
+        25 => mm_value(h.seek_rate),
         26 => int(i64::from(setup.inputs.debounce_ms)),
         27 => mm_value(h.retract),
         30 => int(i64::from(setup.outputs.spindle_max_rpm)),
@@ -231,7 +232,13 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup) -> Result<(), u16> {
                 setup.homing.axes[i].seek_low = whole & 1 << i != 0;
             }
         }
-        24 | 25 => {
+        24 => {
+            let rate = positive(nm)?;
+            for h in &mut setup.homing.axes[..axes] {
+                h.locate_rate = rate;
+            }
+        }
+        25 => {
             let rate = positive(nm)?;
             for h in &mut setup.homing.axes[..axes] {
                 h.seek_rate = rate;

@@ -28,8 +28,9 @@ use crate::gcode::{Dialect, DwellUnits, RetractMode, Tool, ToolChangePosition};
 /// (without this byte), 2 the hand-written one; 3 is postcard through serde again; 4 adds
 /// `program.tool_change_position`, `path.blend_tolerance` and the grbl front end's section; 5
 /// adds `grbl.door_spin_up_ms`. Format 5 is written by hand again, byte for byte as postcard; 6
-/// adds `grbl.m6_stop`; 7 `outputs.laser`. Change it whenever the layout changes.
-pub const FORMAT: u8 = 7;
+/// adds `grbl.m6_stop`; 7 `outputs.laser`; 8 `homing.axes[].locate_rate`. Change it whenever the
+/// layout changes.
+pub const FORMAT: u8 = 8;
 
 /// Writes blob bytes `skip ..` into `out`. With `clip`, bytes beyond `out` are counted and
 /// dropped (a window of the blob); without, they make the encoding fail (`full`).
@@ -294,7 +295,7 @@ code_struct! {
     OperatorSetup { resume_needs_cycle_start, two_hand_start, fro_low, fro_high, dry_run_feed }
     InputSetup { invert, debounce_ms, limit_min, limit_max, hard_limits, feed_hold, abort, fro_pot, adc_max }
     HomingSetup { axes, required, before_seek, before_retract, after_retract }
-    HomingAxis { priority, seek_low, seek_rate, retract, set_home, home_position }
+    HomingAxis { priority, seek_low, seek_rate, locate_rate, retract, set_home, home_position }
     JogSetup { pairs, instant_speed, nudge_distance, nudge_interval_ms, analog_axes, analog_deadband, analog_max_speed }
     OutputSetup { spindle_min_rpm, spindle_max_rpm, pwm_max, pwm_min, laser, mcode_lists }
     McodeList { code, dry_run_disabled, commands }
@@ -448,6 +449,7 @@ mod tests {
                 priority: i as u8 + 1,
                 seek_low: i % 2 == 0,
                 seek_rate: 1_000 + i,
+                locate_rate: 500 + i,
                 retract: 2_000 + i,
                 set_home: i % 3 == 0,
                 home_position: -3_000 - i,

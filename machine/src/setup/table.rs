@@ -417,12 +417,15 @@ table! {
     Seek => HomingAxis "seek" Choice (0, 1), 23,
         |s, i| i64::from(homing_axis(s, i).seek_low);
         ["high", "low"] "" "" "seek the min or the max switch (grbl `$23`, a mask of all axes)",
-    SeekRate => HomingAxis "seek_rate" MmPerMin SPEED, 24,
+    SeekRate => HomingAxis "seek_rate" MmPerMin SPEED, 25,
         |s, i| homing_axis(s, i).seek_rate;
-        [] "" "" "constant seek speed. Keep it at or below the axis `start_speed` so the seek has no ramp and the switch stops it without lost steps (grbl `$24` and `$25` write every axis)",
+        [] "" "" "fast seek toward the switch, with the axis's acceleration; where it stops does not count, so it may be well above the start speed (grbl `$25` writes every axis)",
+    LocateRate => HomingAxis "locate_rate" MmPerMin SPEED, 24,
+        |s, i| homing_axis(s, i).locate_rate;
+        [] "" "" "slow locate back onto the switch after the pull-off; it sets the position, so keep it at or below the axis `start_speed`: no ramp, the switch stops it on the exact step (grbl `$24` writes every axis)",
     Retract => HomingAxis "retract" Mm (0, nm_of_mm(1000)), 27,
         |s, i| homing_axis(s, i).retract;
-        [] "" "" "back-off from the switch at the rapid rate; must release the switch (else alarm 8) (grbl `$27` writes every axis)",
+        [] "" "" "pull-off after the seek and back-off after the locate, at the rapid rate; must release the switch (else alarm 8); the locate searches twice this far (grbl `$27` writes every axis)",
     SetHome => HomingAxis "set_home" Bool (0, 1), NO_GRBL,
         |s, i| i64::from(homing_axis(s, i).set_home);
         [] "" "" "after the retract, the axis position becomes `home_position`",

@@ -12,14 +12,25 @@ use std::time::{Duration, Instant};
 /// The `gantry` binary (built from host-sender's main.rs, see tests/Cargo.toml).
 pub const GANTRY: &str = env!("CARGO_BIN_EXE_gantry-under-test");
 
-/// A fresh directory for one test, removed at the end.
+/// A fresh directory for one test, removed at the end. It holds the test's own runtime
+/// directory (`run/`, mode 0700), the `XDG_RUNTIME_DIR` of every `gantry` the test starts on
+/// this thread ([`spawn_cmd`]).
 pub struct Dir(pub PathBuf);
+
+thread_local! {
+    /// The runtime directory of the newest [`Dir`] of this thread.
+    static RUNTIME_DIR: std::cell::RefCell<Option<PathBuf>> = const { std::cell::RefCell::new(None) };
+}
 
 impl Dir {
     pub fn new(name: &str) -> Dir {
+        use std::os::unix::fs::DirBuilderExt;
         let d = std::env::temp_dir().join(format!("gantry-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).unwrap();
+        let run = d.join("run");
+        std::fs::DirBuilder::new().mode(0o700).create(&run).unwrap();
+        RUNTIME_DIR.with(|r| *r.borrow_mut() = Some(run));
         Dir(d)
     }
 
@@ -259,7 +270,17 @@ pub fn spawn(args: &[&str]) -> Running {
 }
 
 /// Starts the prepared `cmd` (`gantry` with its arguments and environment) as [`spawn`] does.
+///
+/// Unless `cmd` sets `XDG_RUNTIME_DIR` itself, it gets the test's own ([`Dir`]): `gantry serve`
+/// names its socket after the device the port resolves to (`/dev/pts/N`,
+/// host-sender/src/session/socket.rs), and ptys are reused, so with one shared runtime
+/// directory a command of one test could reach the server of another test running at the same
+/// time, whose board had that pty a moment before.
 pub fn spawn_cmd(cmd: &mut Command) -> Running {
+    let own_runtime = cmd.get_envs().any(|(k, _)| k == "XDG_RUNTIME_DIR");
+    if !own_runtime {
+        cmd.env("XDG_RUNTIME_DIR", runtime_dir());
+    }
     let mut child = cmd
         .env_remove("GANTRY_PORT")
         .stdin(Stdio::piped())
@@ -276,6 +297,19 @@ pub fn spawn_cmd(cmd: &mut Command) -> Running {
         stderr,
         started: Instant::now(),
     }
+}
+
+/// The runtime directory of this thread's newest [`Dir`], else one of this process (mode 0700).
+fn runtime_dir() -> PathBuf {
+    use std::os::unix::fs::DirBuilderExt;
+    if let Some(d) = RUNTIME_DIR.with(|r| r.borrow().clone()) {
+        if d.is_dir() {
+            return d;
+        }
+    }
+    let d = std::env::temp_dir().join(format!("gantry-run-{}", std::process::id()));
+    let _ = std::fs::DirBuilder::new().mode(0o700).create(&d);
+    d
 }
 
 /// Runs `gantry ARGS` to its end (at most `limit`), standard input closed.
