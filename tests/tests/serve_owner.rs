@@ -126,7 +126,9 @@ fn a_thousand_status_requests_while_the_board_is_stalled_cause_no_reopen_and_no_
     let emu = Emulator::start(&dir, Some(&setup));
     let port = emu.port().to_owned();
     let server = serve(&port, &[]);
-    let job = dir.file("climb.ngc", &climb());
+    // Thousands of short lines: the server has lines in flight (and resends them) while the
+    // board does not read.
+    let job = dir.file("zigzag.ngc", &zigzag(1500));
     let sender = spawn(&["--port", &port, "stream", job.to_str().unwrap()]);
     assert!(
         wait_for(20 * S, || line_of(&status(&port)) >= 5),
@@ -155,7 +157,7 @@ fn a_thousand_status_requests_while_the_board_is_stalled_cause_no_reopen_and_no_
     let out = sender.wait(T);
     assert_eq!(out.code, Some(0), "{out:?}");
     assert!(
-        out.stdout.contains("job done: last line 34 of 34"),
+        out.stdout.contains("job done: last line 1502 of 1502"),
         "{out:?}"
     );
     let log = emu.log();
@@ -169,8 +171,9 @@ fn a_thousand_status_requests_while_the_board_is_stalled_cause_no_reopen_and_no_
     assert!(!log.contains("host closed the port (DTR drop"), "{log}");
     assert!(!log.contains("Hold"), "{log}");
     let (steps, pulses) = emu.last_counts();
-    assert_eq!(steps, "X 0 Y 9600 Z 0", "{log}");
-    assert_eq!(pulses, "X 384000 Y 9600 Z 0", "{log}");
+    // 1,500 moves of 0.15 mm in X (96 steps each) climbing 0.02 mm (12.8 steps) in Y.
+    assert_eq!(steps, "X 0 Y 19200 Z 0", "{log}");
+    assert_eq!(pulses, "X 144000 Y 19200 Z 0", "{log}");
     drop(server);
 }
 
