@@ -31,8 +31,8 @@ fn a_limit_hit_at_rapid_stops_within_one_tick_and_unhomes_only_that_axis() {
     until_state(&mut eb, State::Idle, 20_000);
     assert_eq!(eb.board.homed(), 0b011);
     let before = eb.physical();
-    // The two homing seeks ended on limit stops of their own.
-    assert_eq!(eb.limit_stops, 2);
+    // Each axis's fast seek and slow locate ended on limit stops of their own.
+    assert_eq!(eb.limit_stops, 4);
     job(&mut eb, "G90 G21\nM3 S12000\nM8\nG0 X100 Y20\nM30\n");
     until_state(&mut eb, State::Alarm, 10_000);
     assert_eq!(eb.board.alarm(), Some(AlarmCode::HardLimit));
@@ -40,7 +40,7 @@ fn a_limit_hit_at_rapid_stops_within_one_tick_and_unhomes_only_that_axis() {
     // reached it, and the steps the interrupt had prepared went out (as on the board).
     let p = eb.physical();
     assert_eq!(p[0], 50 * STEPS_PER_MM + AHEAD);
-    assert_eq!(eb.limit_stops, 3);
+    assert_eq!(eb.limit_stops, 5);
     // Y stopped with X on the same tick: the rapid is a straight line from the start.
     let (dx, dy) = (p[0] - before[0], p[1] - before[1]);
     assert!(dy > 0 && dy < dx, "Y moved {dy} steps while X moved {dx}");

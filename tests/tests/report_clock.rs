@@ -50,7 +50,9 @@ fn the_reports_times_add_up_and_stay_within_the_wall_time() {
         "{machine} != {running} + {standing}: {}",
         out.stdout
     );
-    assert!(standing >= think.as_secs_f64(), "{}", out.stdout);
+    // The sender sees the stop in the board's next status (every 0.1 s), later under load: the
+    // standing time may start a little after the log line the wait was timed from.
+    assert!(standing >= think.as_secs_f64() - 0.5, "{}", out.stdout);
     // The wall time is printed to 10 ms.
     assert!(machine <= wall + 0.005, "{}", out.stdout);
 }
@@ -84,5 +86,5 @@ fn on_the_emulated_board_the_standing_time_is_the_operators_wait() {
         out.stdout
     );
     // At least the wait; not a fraction of it (it was a fifth: one board ms per 5 ms slept).
-    assert!(standing >= think.as_secs_f64(), "{}", out.stdout);
+    assert!(standing >= think.as_secs_f64() - 0.5, "{}", out.stdout);
 }
