@@ -41,6 +41,10 @@ pub const PROTOCOL_VERSION: u16 = 0x0600;
 /// it would stand unacknowledged at the head of the realtime lane).
 pub const JOG_KEEPALIVE_SINCE: u16 = 0x0501;
 
+/// The first version whose board takes [`HostMsg::OwnerLost`] (a 5.0 board gets the feed hold
+/// a server sent before).
+pub const OWNER_LOST_SINCE: u16 = 0x0501;
+
 /// True when two protocol versions can talk (same major).
 pub const fn versions_compatible(a: u16, b: u16) -> bool {
     a >> 8 == b >> 8

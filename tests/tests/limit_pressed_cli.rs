@@ -20,7 +20,7 @@ fn setup(dir: &Dir, homing_required: bool) -> std::path::PathBuf {
         .replacen("limits_min = []", r#"limits_min = ["X", "Y"]"#, 1)
         .replacen("limits_max = []", r#"limits_max = ["X", "Y"]"#, 1)
         .replacen(
-            "[homing.axis.X]\npriority = 0   # 0 = not homed\nseek = \"low\"\nseek_rate = 60.0",
+            "[homing.axis.X]\npriority = 0   # 0 = not homed\nseek = \"low\"\nseek_rate = 2000.0",
             "[homing.axis.X]\npriority = 1\nseek = \"low\"\nseek_rate = 3000.0",
             1,
         );

@@ -135,7 +135,9 @@ fn a_thousand_status_requests_while_the_board_is_stalled_cause_no_reopen_and_no_
         "{}",
         emu.log()
     );
-    // A client of its own through the server.
+    // A client of its own through the server, which listens in this test's runtime directory
+    // (the one every `gantry` this test starts gets: serial_support's `spawn_cmd`).
+    std::env::set_var("XDG_RUNTIME_DIR", runtime_dir());
     let t: Box<dyn Transport> = Box::new(SocketTransport::connect(&port).unwrap().unwrap());
     let mut client = Client::connect(t, 5000).unwrap();
     // The board stops reading for 3 s (its process stopped) while 1,000 status requests come.

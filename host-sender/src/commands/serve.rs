@@ -391,7 +391,10 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
             {
                 // A board of protocol 5.0 knows no `OwnerLost`: it gets the feed hold it got
                 // before (its spindle then stays on at rest).
-                let owner_lost = board.link().peer_version().is_some_and(|v| v & 0xff >= 1);
+                let owner_lost = board
+                    .link()
+                    .peer_version()
+                    .is_some_and(|v| v >= gantry_proto::OWNER_LOST_SINCE);
                 eprintln!(
                     "serve: the command that owned the job went away: the board holds it (host lost)"
                 );

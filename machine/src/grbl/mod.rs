@@ -633,6 +633,12 @@ impl Grbl {
                 self.decided(raw, Reply::Error(codes::NEGATIVE_VALUE));
                 continue;
             }
+            if names_a_spline(text.as_bytes(), board.interpreter().config()) {
+                // grbl has no G5/G5.1 splines: its unsupported-command error, nothing run.
+                self.rx.consume(raw);
+                self.decided(raw, Reply::Error(codes::UNSUPPORTED));
+                continue;
+            }
             if !board.setup().grbl.m6_stop && has_m6(text.as_bytes()) {
                 // grbl 1.1 has no tool change: its unsupported-command error, nothing run.
                 self.rx.consume(raw);
@@ -975,6 +981,9 @@ impl Grbl {
         {
             return Reply::Error(codes::error_number(e.number()));
         }
+        if names_a_spline(line, board.interpreter().config()) {
+            return Reply::Error(codes::UNSUPPORTED);
+        }
         let mut grbl = board.setup().grbl.clone();
         if let Some(line) = grbl.startup.get_mut(usize::from(index)) {
             *line = stored;
@@ -1072,6 +1081,22 @@ fn has_m_code(line: &[u8], n: u32) -> bool {
 /// The line ends the program (`M2` or `M30`).
 fn has_program_end(line: &[u8]) -> bool {
     has_m_code(line, 2) || has_m_code(line, 30)
+}
+
+/// The line is a G5/G5.1 spline block, which grbl does not know (Gantry's own dialect runs
+/// them as LinuxCNC does, machine/src/gcode/spline.rs).
+fn names_a_spline(line: &[u8], config: &crate::gcode::config::InterpConfig) -> bool {
+    use crate::gcode::block::{parse_block, GGroup};
+    use crate::gcode::codes::{G5, G5_1};
+    use crate::gcode::lexer::{Lexer, LineStart};
+    let mut lexer = Lexer::new(line, true);
+    if lexer.start() != LineStart::Block {
+        return false;
+    }
+    parse_block(&mut lexer, config).is_ok_and(|b| {
+        b.g(GGroup::Motion)
+            .is_some_and(|c| matches!(c.code, G5 | G5_1))
+    })
 }
 
 /// A word grbl requires non-negative has a minus sign: `F-100`, `S-1`, `P-1`, `T-1`, `N-5`.

@@ -300,7 +300,7 @@ pub fn spawn_cmd(cmd: &mut Command) -> Running {
 }
 
 /// The runtime directory of this thread's newest [`Dir`], else one of this process (mode 0700).
-fn runtime_dir() -> PathBuf {
+pub fn runtime_dir() -> PathBuf {
     use std::os::unix::fs::DirBuilderExt;
     if let Some(d) = RUNTIME_DIR.with(|r| r.borrow().clone()) {
         if d.is_dir() {
