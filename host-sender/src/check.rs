@@ -342,6 +342,17 @@ pub fn human_report(name: &str, program: &[u8], config: &InterpConfig) -> (Strin
     (String::from_utf8_lossy(&out).into_owned(), errors)
 }
 
+/// The lines that [`check_stream`]'s `report` of the program `name` names an error at
+/// (`NAME:LINE: …`), in report order: the listing marks them, the start check returns them.
+pub fn error_lines(report: &str, name: &str) -> Vec<u32> {
+    let prefix = format!("{name}:");
+    report
+        .lines()
+        .filter_map(|l| l.strip_prefix(&prefix))
+        .filter_map(|rest| rest.split(':').next()?.parse().ok())
+        .collect()
+}
+
 /// Plain `check` of the program in `src`, in one pass: writes every error as it is found (lines
 /// too long for the board merged in line order), then `NAME: ok, N actions` or `NAME: E errors, N
 /// actions`; returns the error count and the job summary, which covers the program up to its

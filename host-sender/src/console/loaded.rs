@@ -23,7 +23,7 @@ pub(crate) struct Loaded {
 impl Loaded {
     /// Checks `text` with `setup` and draws its path from `here` (machine nm).
     pub(crate) fn build(name: &str, text: &str, setup: &Setup, here: &[i64; 6], rev: u64) -> Self {
-        let checked = program::check(name, text, setup);
+        let checked = program::check(name, text, setup, here);
         let path: Value = serde_json::from_str(&program::path_json(text, setup, here))
             .map_or(Value::Null, |mut v: Value| v["pts"].take());
         let from = [0, 1, 2].map(|i| here[i] as f64 / 1e6);

@@ -2,7 +2,7 @@
 //! `gantry check` checks it (the same text: errors with their line and a caret, the summary with
 //! the planned time), and its tool path as polylines for the page's canvas.
 
-use crate::check::check_stream;
+use crate::check::check_stream_from;
 use crate::check_summary::format_summary;
 use crate::preview::adapt::MoveAdapter;
 use crate::preview::geom::arc_interior;
@@ -28,24 +28,22 @@ pub struct Checked {
     pub tools: Vec<u32>,
 }
 
-/// Checks `text` (named `name`) with `setup`, as `gantry check NAME` does.
-pub fn check(name: &str, text: &str, setup: &Setup) -> Checked {
+/// Checks `text` (named `name`) with `setup` for a job that starts with the machine at `here`
+/// (machine nm), as `gantry check --port P NAME` does (`crate::check::check_stream_from`): the
+/// extents and the planned time start where the tool stands.
+pub fn check(name: &str, text: &str, setup: &Setup, here: &[i64; 6]) -> Checked {
     let mut out = Vec::new();
-    let (errors, summary) = check_stream(
+    let (errors, summary) = check_stream_from(
         name,
         MemorySource::new(text.as_bytes()),
         &setup.interp_config(),
         Some(setup),
+        here,
         &mut out,
     )
     .expect("writing to memory does not fail");
     let mut report = String::from_utf8_lossy(&out).into_owned();
-    let prefix = format!("{name}:");
-    let error_lines = report
-        .lines()
-        .filter_map(|l| l.strip_prefix(&prefix))
-        .filter_map(|rest| rest.split(':').next()?.parse().ok())
-        .collect();
+    let error_lines = crate::check::error_lines(&report, name);
     let mut seconds = None;
     let tools = summary.as_ref().map_or_else(Vec::new, |s| s.tools.clone());
     if let Some(s) = &summary {
@@ -117,13 +115,44 @@ mod tests {
     #[test]
     fn the_check_names_the_error_lines_and_the_time() {
         let setup = Setup::default();
-        let ok = check("p.nc", "G21 G90\nG1 X10 F600\nM30\n", &setup);
+        let ok = check("p.nc", "G21 G90\nG1 X10 F600\nM30\n", &setup, &[0; 6]);
         assert_eq!(ok.errors, 0, "{}", ok.text);
         assert!(ok.seconds.unwrap() > 0.9, "{:?}", ok.seconds);
-        let bad = check("p.nc", "G21 G90\nG1 X10 F600\nG1 X5 Q\nM30\n", &setup);
+        let bad = check(
+            "p.nc",
+            "G21 G90\nG1 X10 F600\nG1 X5 Q\nM30\n",
+            &setup,
+            &[0; 6],
+        );
         assert_eq!(bad.errors, 1, "{}", bad.text);
         assert_eq!(bad.error_lines, vec![3], "{}", bad.text);
         assert!(bad.text.contains("p.nc:3:"), "{}", bad.text);
+    }
+
+    /// The page's check figures are `gantry check --port`'s: extents and planned time from where
+    /// the tool stands (an incremental move from X 295 leaves the ±300 mm travel, from 0 it does not).
+    #[test]
+    fn the_check_starts_where_the_tool_stands() {
+        let setup = Setup::default();
+        let text = "G21 G91\nG1 X10 F600\nM30\n";
+        let at_zero = check("p.nc", text, &setup, &[0; 6]);
+        assert!(
+            at_zero.text.contains("within the machine travel"),
+            "{}",
+            at_zero.text
+        );
+        let here = [295_000_000, 0, 0, 0, 0, 0];
+        let near_the_end = check("p.nc", text, &setup, &here);
+        assert!(
+            near_the_end.text.contains("295.000 ..    305.000 mm"),
+            "{}",
+            near_the_end.text
+        );
+        assert!(
+            near_the_end.text.contains("EXCEEDED"),
+            "{}",
+            near_the_end.text
+        );
     }
 
     #[test]

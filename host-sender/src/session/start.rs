@@ -45,12 +45,7 @@ pub fn check_program<S: ProgramSource>(
         return Ok(Ok(Cleared { _made_here: () }));
     }
     let report = String::from_utf8_lossy(&out).into_owned();
-    let prefix = format!("{name}:");
-    let error_lines = report
-        .lines()
-        .filter_map(|l| l.strip_prefix(&prefix))
-        .filter_map(|rest| rest.split(':').next()?.parse().ok())
-        .collect();
+    let error_lines = crate::check::error_lines(&report, name);
     Ok(Err(Refused {
         report,
         error_lines,
