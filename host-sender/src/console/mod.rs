@@ -187,6 +187,13 @@ struct Console {
 }
 
 impl Console {
+    /// The program library serve keeps, or why there is none.
+    fn library(&self) -> Result<&library::Library, String> {
+        self.library
+            .as_ref()
+            .ok_or_else(|| "serve keeps no library (no data directory)".to_owned())
+    }
+
     fn ask(&self, cmd: Cmd) -> Reply {
         let (tx, rx) = mpsc::channel();
         self.control
@@ -1027,29 +1034,21 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
             return Ok(v);
         }
         "library" => {
-            let lib = c
-                .library
-                .as_ref()
-                .ok_or("serve keeps no library (no data directory)")?;
+            let lib = c.library()?;
             return Ok(json!({ "ok": true, "programs": lib.list(), "dir": lib.dir() }));
         }
         "library_open" => {
-            let lib = c
-                .library
-                .as_ref()
-                .ok_or("serve keeps no library (no data directory)")?;
+            let lib = c.library()?;
             let name = text(body, "name")?.ok_or("which program?")?;
             let text = lib.read(name)?;
-            let v = open_program(c, &library::file_name(name)?, &text)?;
-            lib.store(&library::file_name(name)?, &text, &v)?;
+            let name = library::file_name(name)?;
+            let v = open_program(c, &name, &text)?;
+            lib.store(&name, &text, &v)?;
             c.hub.publish("library", json!({ "programs": lib.list() }));
             return Ok(v);
         }
         "library_delete" => {
-            let lib = c
-                .library
-                .as_ref()
-                .ok_or("serve keeps no library (no data directory)")?;
+            let lib = c.library()?;
             let name = text(body, "name")?.ok_or("which program?")?;
             lib.remove(name)?;
             c.hub.publish("library", json!({ "programs": lib.list() }));
