@@ -633,7 +633,7 @@ impl Grbl {
                 self.decided(raw, Reply::Error(codes::NEGATIVE_VALUE));
                 continue;
             }
-            if names_a_spline(text.as_bytes(), board.interpreter().config()) {
+            if has_spline(text.as_bytes()) {
                 // grbl has no G5/G5.1 splines: its unsupported-command error, nothing run.
                 self.rx.consume(raw);
                 self.decided(raw, Reply::Error(codes::UNSUPPORTED));
@@ -976,13 +976,17 @@ impl Grbl {
         if lexer.start() != crate::gcode::lexer::LineStart::Block {
             return Reply::Error(codes::INVALID_STATEMENT);
         }
-        if let Err((e, _)) =
-            crate::gcode::block::parse_block(&mut lexer, board.interpreter().config())
-        {
-            return Reply::Error(codes::error_number(e.number()));
-        }
-        if names_a_spline(line, board.interpreter().config()) {
-            return Reply::Error(codes::UNSUPPORTED);
+        match crate::gcode::block::parse_block(&mut lexer, board.interpreter().config()) {
+            Err((e, _)) => return Reply::Error(codes::error_number(e.number())),
+            // grbl has no G5/G5.1 splines.
+            Ok(b)
+                if b.g(crate::gcode::block::GGroup::Motion).is_some_and(|c| {
+                    matches!(c.code, crate::gcode::codes::G5 | crate::gcode::codes::G5_1)
+                }) =>
+            {
+                return Reply::Error(codes::UNSUPPORTED)
+            }
+            Ok(_) => {}
         }
         let mut grbl = board.setup().grbl.clone();
         if let Some(line) = grbl.startup.get_mut(usize::from(index)) {
@@ -1083,19 +1087,34 @@ fn has_program_end(line: &[u8]) -> bool {
     has_m_code(line, 2) || has_m_code(line, 30)
 }
 
-/// The line is a G5/G5.1 spline block, which grbl does not know (Gantry's own dialect runs
-/// them as LinuxCNC does, machine/src/gcode/spline.rs).
-fn names_a_spline(line: &[u8], config: &crate::gcode::config::InterpConfig) -> bool {
-    use crate::gcode::block::{parse_block, GGroup};
-    use crate::gcode::codes::{G5, G5_1};
-    use crate::gcode::lexer::{Lexer, LineStart};
-    let mut lexer = Lexer::new(line, true);
-    if lexer.start() != LineStart::Block {
-        return false;
-    }
-    parse_block(&mut lexer, config).is_ok_and(|b| {
-        b.g(GGroup::Motion)
-            .is_some_and(|c| matches!(c.code, G5 | G5_1))
+/// The line (blanks and comments already dropped) has a G5 or G5.1 word (`G5`, `G05`, `g5.1`,
+/// `G5.0`): a spline, which grbl does not know (Gantry's own dialect runs them as LinuxCNC does,
+/// machine/src/gcode/spline.rs). Read from the text like [`has_m6`], not by parsing the block a
+/// second time on every grbl line.
+fn has_spline(line: &[u8]) -> bool {
+    line.iter().enumerate().any(|(i, &c)| {
+        if c | 0x20 != b'g' {
+            return false;
+        }
+        let digits = line.get(i + 1..).unwrap_or_default();
+        let n = digits.iter().take_while(|d| d.is_ascii_digit()).count();
+        let number = digits.get(..n).unwrap_or_default();
+        let whole_five = !number.is_empty()
+            && number.iter().rev().skip(1).all(|&d| d == b'0')
+            && number.last() == Some(&b'5');
+        let rest = digits.get(n..).unwrap_or_default();
+        let fraction = match rest.first() {
+            Some(b'.') => {
+                let f = rest.get(1..).unwrap_or_default();
+                let k = f.iter().take_while(|d| d.is_ascii_digit()).count();
+                let tail = f.get(..k).unwrap_or_default();
+                // .0, .1, .10, …: G5 or G5.1; any other fraction is no spline.
+                tail.iter().skip(1).all(|&d| d == b'0')
+                    && matches!(tail.first(), None | Some(b'0' | b'1'))
+            }
+            _ => true,
+        };
+        whole_five && fraction
     })
 }
 
@@ -1114,4 +1133,19 @@ fn trim(mut s: &[u8]) -> &[u8] {
         s = rest;
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::has_spline;
+
+    #[test]
+    fn a_spline_word_is_read_from_the_text() {
+        for line in ["G5X1Y1I1J0P1Q1", "G05X1", "g5.1x1i1j1", "G5.0X1", "G5.10X1", "G1X1G5"] {
+            assert!(has_spline(line.as_bytes()), "{line}");
+        }
+        for line in ["G54X1", "G55", "G50", "G15", "G25", "G5.2X1", "G0X5", "G1X1F5"] {
+            assert!(!has_spline(line.as_bytes()), "{line}");
+        }
+    }
 }
