@@ -1141,10 +1141,19 @@ mod tests {
 
     #[test]
     fn a_spline_word_is_read_from_the_text() {
-        for line in ["G5X1Y1I1J0P1Q1", "G05X1", "g5.1x1i1j1", "G5.0X1", "G5.10X1", "G1X1G5"] {
+        for line in [
+            "G5X1Y1I1J0P1Q1",
+            "G05X1",
+            "g5.1x1i1j1",
+            "G5.0X1",
+            "G5.10X1",
+            "G1X1G5",
+        ] {
             assert!(has_spline(line.as_bytes()), "{line}");
         }
-        for line in ["G54X1", "G55", "G50", "G15", "G25", "G5.2X1", "G0X5", "G1X1F5"] {
+        for line in [
+            "G54X1", "G55", "G50", "G15", "G25", "G5.2X1", "G0X5", "G1X1F5",
+        ] {
             assert!(!has_spline(line.as_bytes()), "{line}");
         }
     }
