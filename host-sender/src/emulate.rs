@@ -425,6 +425,8 @@ pub(crate) fn run_board(
     ctrlc::set_handler(move || s.store(true, Ordering::SeqCst))
         .context("cannot install the SIGINT/SIGTERM handler")?;
     let mut gaps = 0;
+    // The underrun count the state lines last said (0: none said yet).
+    let mut logged_gaps = 0;
     // Every start of the process is a power-up with its own boot id (the firmware counts boots
     // in flash), so a host sees a restarted board as one.
     let boot_id = std::time::SystemTime::now()
@@ -534,8 +536,12 @@ pub(crate) fn run_board(
                 axes_field(&board.isr.kernel.position(), axes),
                 axes_field(&pulses, axes)
             );
-            // Planner starvation so far (grbl streaming is judged by it, docs/grbl.md).
-            eprintln!("emulate: underruns {}", board.starved.gaps);
+            // Planner starvation so far (grbl streaming is judged by it, docs/grbl.md), when it
+            // changed since the last state line that said it (none: nothing to say).
+            if board.starved.gaps != logged_gaps {
+                logged_gaps = board.starved.gaps;
+                eprintln!("emulate: underruns {logged_gaps}");
+            }
         }
     }
     if let Some(st) = state {

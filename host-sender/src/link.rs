@@ -92,6 +92,10 @@ pub struct SerialTransport {
     on_close: OnClose,
     /// Bytes written while the board did not read, sent before anything else.
     out: std::collections::VecDeque<u8>,
+    /// How often the port was taken for gone and reopened (read by the tests: a board that only
+    /// stops reading must never count here).
+    #[cfg_attr(not(test), allow(dead_code))]
+    went_away: u32,
 }
 
 /// Bytes kept for a board that does not read (a few dozen frames). Frames beyond it are dropped
@@ -115,7 +119,24 @@ fn open_port(path: &str, on_close: OnClose) -> serialport::Result<serialport::TT
         .timeout(Duration::from_millis(1))
         .open_native()?;
     set_hang_up_on_close(&port, on_close == OnClose::DropDtr);
+    set_non_blocking(&port);
     Ok(port)
+}
+
+/// Makes writes return what the port took instead of waiting for all of it: the port's poll
+/// says "writable" as soon as there is room for one byte, and a blocking write then waits until
+/// the board has read the whole chunk — for as long as a stalled board does not read (the
+/// caller, `gantry serve`, would stop serving every client meanwhile). Reads still wait at most
+/// the port's timeout (poll first).
+fn set_non_blocking(port: &serialport::TTYPort) {
+    use nix::fcntl::{fcntl, FcntlArg, OFlag};
+    use std::os::fd::AsRawFd;
+    let fd = port.as_raw_fd();
+    // Best effort, as HUPCL: without it a write waits for the board as before.
+    if let Ok(flags) = fcntl(fd, FcntlArg::F_GETFL) {
+        let flags = OFlag::from_bits_truncate(flags) | OFlag::O_NONBLOCK;
+        let _ = fcntl(fd, FcntlArg::F_SETFL(flags));
+    }
 }
 
 /// Sets or clears HUPCL: whether closing the port drops DTR (and RTS). Set explicitly both ways:
@@ -145,6 +166,7 @@ impl SerialTransport {
             start: Instant::now(),
             on_close,
             out: Default::default(),
+            went_away: 0,
         })
     }
 
@@ -177,6 +199,7 @@ impl SerialTransport {
     /// The open port, reopening it after a failure.
     fn port(&mut self) -> anyhow::Result<&mut serialport::TTYPort> {
         if self.port.is_none() {
+            self.went_away += 1;
             let since = Instant::now();
             eprintln!("gantry: {} went away; reopening it", self.path);
             loop {
@@ -238,7 +261,15 @@ impl Transport for SerialTransport {
             match self.port()?.read(&mut buf) {
                 Ok(0) => return Ok(()),
                 Ok(n) => into.extend_from_slice(&buf[..n]),
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => return Ok(()),
+                // Nothing (more) to read now (the port is non-blocking: `set_non_blocking`).
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+                    ) =>
+                {
+                    return Ok(())
+                }
                 // A signal (Ctrl-C) interrupted the read: not a pulled cable.
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => return Ok(()),
                 Err(_) => {
@@ -505,5 +536,83 @@ impl<T: Transport> Client<T> {
     /// newer than its minor must not be sent to it (docs/protocol.md §8).
     pub fn peer_version(&self) -> Option<u16> {
         self.endpoint.peer_version()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serialport::SerialPort;
+
+    /// Frame `seq` of the test: [`FRAME`] bytes, its number repeated (so a cut frame shows).
+    fn frame(seq: u32) -> Vec<u8> {
+        seq.to_le_bytes().iter().copied().cycle().take(FRAME).collect()
+    }
+
+    /// Not a divisor of the 4 KiB chunks `flush_out` writes, nor of [`OUT_LIMIT`]: frames
+    /// straddle the chunks the port takes in part.
+    const FRAME: usize = 100;
+
+    /// A board that stops reading (a pty whose master is never read) is no lost port: the
+    /// transport keeps what the port does not take, up to [`OUT_LIMIT`], drops later frames whole,
+    /// never reopens, and once the board reads again every kept frame arrives whole and in order.
+    #[test]
+    fn a_board_that_stops_reading_is_no_lost_port_and_kept_frames_arrive_whole_in_order() {
+        let (mut master, slave) = serialport::TTYPort::pair().unwrap();
+        let path = slave.name().unwrap();
+        // The transport opens the slave by path, as it opens a board.
+        drop(slave);
+        let mut t = SerialTransport::open_with(&path, OnClose::KeepDtr).unwrap();
+        // Far past what the pty holds (some 64 KiB) plus OUT_LIMIT, on a thread: a write that
+        // waits for the board to read (a blocking port) would never return.
+        let (done, finished) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let mut kept = Vec::new();
+            for seq in 0..3000u32 {
+                let f = frame(seq);
+                if t.out.len() + f.len() <= OUT_LIMIT {
+                    kept.push(seq);
+                }
+                t.write(&f).unwrap();
+                assert_eq!(t.went_away, 0, "frame {seq}: the port was taken for gone");
+                assert!(t.port.is_some());
+            }
+            let _ = done.send((t, kept));
+        });
+        let (mut t, kept) = finished
+            .recv_timeout(Duration::from_secs(60))
+            .expect("the writes ended (a write waited for the board to read, or failed)");
+        assert!(
+            t.out.len() + FRAME > OUT_LIMIT,
+            "the port never filled: {} bytes wait",
+            t.out.len()
+        );
+        assert!(kept.len() < 3000, "no frame was dropped");
+        // The board reads again: everything kept arrives, the transport passing on what waits.
+        master.set_timeout(Duration::from_millis(5)).unwrap();
+        let want = kept.len() * FRAME;
+        let mut got = Vec::new();
+        let mut buf = [0u8; 8192];
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while got.len() < want && Instant::now() < deadline {
+            t.read(&mut Vec::new()).unwrap();
+            match master.read(&mut buf) {
+                Ok(n) => got.extend_from_slice(&buf[..n]),
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                Err(e) => panic!("reading the master: {e}"),
+            }
+        }
+        assert_eq!(got.len(), want, "not every kept frame arrived");
+        assert!(t.out.is_empty());
+        let arrived: Vec<u32> = got
+            .chunks(FRAME)
+            .map(|c| {
+                let seq = u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+                assert_eq!(c, frame(seq).as_slice(), "frame {seq} arrived cut");
+                seq
+            })
+            .collect();
+        assert_eq!(arrived, kept);
+        assert_eq!(t.went_away, 0);
     }
 }

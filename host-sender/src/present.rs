@@ -234,6 +234,19 @@ impl BoardAlarm {
     }
 }
 
+/// The active inputs of a status's `inputs` bits, by name (the setup's names, `x_min`,
+/// `feed_hold` …, `in29` … for bits without one): the CLI's status and the console's readout.
+pub fn input_names(bits: u32) -> Vec<std::borrow::Cow<'static, str>> {
+    use gantry_machine::controller::inputs::INPUT_NAMES;
+    (0..32)
+        .filter(|i| bits >> i & 1 == 1)
+        .map(|i| match INPUT_NAMES.get(i) {
+            Some(n) => std::borrow::Cow::Borrowed(*n),
+            None => std::borrow::Cow::Owned(format!("in{i}")),
+        })
+        .collect()
+}
+
 /// The status as a short table.
 pub fn format_status(s: &Status, axes: usize) -> String {
     let pos = |p: &[i64]| axes_line(p, axes);
@@ -242,7 +255,7 @@ pub fn format_status(s: &Status, axes: usize) -> String {
         .map(|i| AXIS_LETTERS[i])
         .collect();
     format!(
-        "state:     {}\nmachine:   {}\nwork:      {}\nprogram:   {}\nfeed:      {:.1} mm/min, programmed {:.1} mm/min (override feed {} %, rapid {} %, spindle {} %)\nline:      {}\nbuffers:   {} planner blocks, {} lines\ninputs:    {:#010x}\nhomed:     {}\noutputs:   {}",
+        "state:     {}\nmachine:   {}\nwork:      {}\nprogram:   {}\nfeed:      {:.1} mm/min, programmed {:.1} mm/min (override feed {} %, rapid {} %, spindle {} %)\nline:      {}\nbuffers:   {} planner blocks, {} lines\ninputs:    {}\nhomed:     {}\noutputs:   {}",
         state_name(s.state),
         pos(&s.machine_pos),
         pos(&s.work_pos),
@@ -255,7 +268,10 @@ pub fn format_status(s: &Status, axes: usize) -> String {
         s.line,
         s.planner_fill,
         s.queue_fill,
-        s.inputs,
+        match input_names(s.inputs) {
+            n if n.is_empty() => "none active".to_owned(),
+            n => n.join(" "),
+        },
         if homed.is_empty() { "none".into() } else { homed },
         outputs_text(&s.outputs)
     ) + &s.probe.map_or(String::new(), |p| {

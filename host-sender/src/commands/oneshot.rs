@@ -67,6 +67,8 @@ pub fn realtime(target: Target, msg: Option<HostMsg>) -> anyhow::Result<ExitCode
     }
     let expected = expected_after(&m, &before);
     let hold = matches!(m, HostMsg::FeedHold);
+    // A hold is sent whatever the state (a stop is never withheld); at rest it has nothing to do.
+    let idle_hold = if hold { nothing_to_hold(&before) } else { None };
     session.send(m)?;
     session.pump(20)?;
     let mut status = session.status()?;
@@ -95,7 +97,26 @@ pub fn realtime(target: Target, msg: Option<HostMsg>) -> anyhow::Result<ExitCode
             eprintln!("gantry: no hold: the job was ending (abort or alarm) and has ended at rest");
         }
     }
+    if let Some(why) = idle_hold {
+        // Exit 0 as `gantry unlock` without an alarm: the machine stands, as the hold asks.
+        eprintln!("gantry: nothing to hold: {why}");
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Why a feed hold finds nothing to stop in the state of `before`: only motion (a job, a jog,
+/// homing, a hold still decelerating) has something to hold.
+fn nothing_to_hold(before: &Status) -> Option<String> {
+    use gantry_proto::MachineState as S;
+    match before.state {
+        S::Run | S::Jog | S::Homing | S::Check | S::Hold { stopped: false } => None,
+        S::Hold { stopped: true } => Some("the job is already held at rest".into()),
+        S::ToolChange { tool } => Some(format!(
+            "the job stands at its tool change (T{tool}), nothing moves"
+        )),
+        S::Alarm { code } => Some(format!("the board is in {}, nothing moves", alarm_text(code))),
+        other => Some(format!("the board is {}, nothing moves", state_name(other))),
+    }
 }
 
 /// Why a resume (cycle start) would do nothing in the state of `before`: only a feed hold, an

@@ -440,6 +440,38 @@ impl Eta {
     }
 }
 
+/// How far a job is, as the progress bar and lines show it: a fraction that never goes back.
+/// With a plan ([`Eta`]) it is the planned machine time done, which follows every pass of a
+/// loop or a repeated subprogram (the line the board reports goes back there, its file line
+/// number is no measure); without one (a program the planner refuses), the furthest line reached
+/// over the file's lines.
+#[derive(Default)]
+struct Advance {
+    done: f64,
+    furthest: u32,
+}
+
+impl Advance {
+    /// The fraction done (0..=1) and the machine seconds left (with a plan) when the board
+    /// reports `line`, `machine_s` into the job; `lines`: the file's lines.
+    fn at(&mut self, eta: Option<&Eta>, line: u32, lines: u64, machine_s: f64) -> (f64, Option<f64>) {
+        self.furthest = self.furthest.max(line);
+        let (now, left) = match eta {
+            Some(e) if e.total() > 0.0 => {
+                let left = e.left_at(line.max(1), machine_s);
+                (1.0 - left / e.total(), Some(left))
+            }
+            Some(e) => (
+                self.furthest as f64 / lines.max(1) as f64,
+                Some(e.left_at(line.max(1), machine_s)),
+            ),
+            None => (self.furthest as f64 / lines.max(1) as f64, None),
+        };
+        self.done = self.done.max(now.clamp(0.0, 1.0));
+        (self.done, left)
+    }
+}
+
 /// Streams with a live progress bar on a terminal, or a progress line every 10 % otherwise.
 fn stream_with_progress(
     session: &mut Session,
@@ -454,13 +486,15 @@ fn stream_with_progress(
     use std::io::IsTerminal;
     let total = program.len().max(1) as u64;
     let bar = std::io::stderr().is_terminal().then(|| {
-        let b = indicatif::ProgressBar::new(total);
+        // Position in per mille of the job ([`Advance`]), the line the board is at in the message.
+        let b = indicatif::ProgressBar::new(1000);
         b.set_style(
-            indicatif::ProgressStyle::with_template("{bar:30} line {pos}/{len} {percent}%  {msg}")
+            indicatif::ProgressStyle::with_template("{bar:30} {percent}%  {msg}")
                 .expect("valid template"),
         );
         b
     });
+    let mut advance = Advance::default();
     let mut last_decile = 0;
     let interrupted = ctrl_c_flag();
     let mut asking = Asking::Nothing;
@@ -679,17 +713,22 @@ fn stream_with_progress(
             // Running again: the next stop (even on the same line) is announced again.
             last_stop_line = None;
         }
-        let pct = (p.line as u64 * 100 / total).min(100);
         let machine_s = p.elapsed_ms as f64 / 1000.0;
-        let left = match eta {
-            Some(e) => format!("ETA {}", hms(e.left_at(p.line.max(1), machine_s))),
+        let (done, left) = advance.at(eta.as_ref(), p.line, total, machine_s);
+        let pct = (done * 100.0) as u64;
+        let left = match left {
+            Some(l) => format!("ETA {}", hms(l)),
             None => "ETA -".to_owned(),
         };
         let state = state.map_or("-", state_name);
         match &bar {
             Some(b) => {
-                b.set_position((p.line as u64).min(total));
-                b.set_message(format!("{state}  {}  {left}", hms(machine_s)));
+                b.set_position((done * 1000.0) as u64);
+                b.set_message(format!(
+                    "line {}/{total}  {state}  {}  {left}",
+                    p.line.min(total as u32),
+                    hms(machine_s)
+                ));
             }
             None => {
                 if pct / 10 > last_decile {
@@ -897,6 +936,39 @@ mod tests {
         assert!(eta.left_at(7, t) < 2.2);
         // Never back: line 4 reported late (a stale status) keeps the estimate.
         assert!((eta.left_at(4, t) - (total - t)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn progress_never_goes_back_in_a_loop() {
+        use gantry_machine::setup::Setup;
+        // Lines 4-5 run three times, then line 7: the board reports 4 5 4 5 4 5 7, and the
+        // line over the file's 8 lines (the old measure) went back from 62 % to 50 % twice.
+        let program = "G21 G90 F600\nO101 repeat [3]\nG91\nG1 X10\nG1 Y10\nO101 endrepeat\n\
+                       G1 X-20\nM30\n";
+        let eta = Eta::plan(program, &Setup::default()).unwrap();
+        let starts: Vec<(u32, f64)> = eta.timeline.iter().map(|s| (s.line, s.start)).collect();
+        let mut advance = Advance::default();
+        let mut last = 0.0;
+        let mut seen = Vec::new();
+        for (line, start) in starts {
+            // Twice per pass: as it starts and half a second in.
+            for t in [start, start + 0.5] {
+                let (done, left) = advance.at(Some(&eta), line, 8, t);
+                assert!(done >= last, "line {line} at {t} s: {done} after {last}");
+                assert!((done - (1.0 - left.unwrap() / eta.total())).abs() < 1e-9);
+                last = done;
+                seen.push(done);
+            }
+        }
+        // It advances through every pass (not stuck at the loop's first one), up to the end
+        // of line 7's start.
+        assert!(seen.windows(2).filter(|w| w[1] > w[0]).count() >= 12, "{seen:?}");
+        assert!(last > 0.7, "{last}");
+        // Without a plan: the furthest line, held.
+        let mut advance = Advance::default();
+        assert_eq!(advance.at(None, 5, 8, 0.0), (5.0 / 8.0, None));
+        assert_eq!(advance.at(None, 4, 8, 1.0), (5.0 / 8.0, None));
+        assert_eq!(advance.at(None, 7, 8, 2.0), (7.0 / 8.0, None));
     }
 
     #[test]

@@ -34,7 +34,6 @@ use crate::resume::resume_preamble;
 use crate::session::{Flow, JobStart, Overrides, Session, Target};
 use anyhow::Context;
 use args::{num_in, percent, text, whole_in};
-use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::AXIS_LETTERS;
 use gantry_proto::{BoardMsg, MachineState, Status};
@@ -506,12 +505,7 @@ fn status_json(s: &Status, axes: usize) -> Value {
         .filter(|i| s.homed >> i & 1 == 1)
         .map(|i| AXIS_LETTERS[i])
         .collect();
-    let inputs: Vec<&str> = INPUT_NAMES
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| s.inputs >> i & 1 == 1)
-        .map(|(_, n)| *n)
-        .collect();
+    let inputs = crate::present::input_names(s.inputs);
     let alarm = match s.state {
         MachineState::Alarm { code } => Some(alarm_text(code)),
         _ => None,
