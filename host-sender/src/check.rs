@@ -464,6 +464,9 @@ pub fn check_stream_from<S: ProgramSource>(
     }
     actions.src.read_rest();
     long_up_to(&mut actions, u32::MAX, name, &mut errors, out)?;
+    if let (Some(s), Some(setup)) = (&summary, setup) {
+        write_rpm_warnings(name, s, setup, out)?;
+    }
     let leaves = summary.as_ref().and_then(|s| s.leaves_travel);
     if let (0, Some((line, axis))) = (errors, leaves) {
         // Not "ok": the job would stop there with a soft-limit alarm (the summary says more).
@@ -483,9 +486,74 @@ pub fn check_stream_from<S: ProgramSource>(
     Ok((errors, summary))
 }
 
+/// A warning line (`NAME:LINE: warning: …`) for each spindle speed outside the setup's
+/// `spindle.rpm_range`: the board runs the spindle at the end of the range it passes
+/// (docs/settings.md), which the program may not expect. No error: the job may start.
+fn write_rpm_warnings(
+    name: &str,
+    s: &JobSummary,
+    setup: &Setup,
+    out: &mut impl std::io::Write,
+) -> std::io::Result<()> {
+    let (lo, hi) = (setup.outputs.spindle_min_rpm, setup.outputs.spindle_max_rpm);
+    for &(line, rpm) in &s.rpm_clamped {
+        let (side, to) = if rpm > hi {
+            ("above", hi)
+        } else {
+            ("below", lo)
+        };
+        writeln!(
+            out,
+            "{name}:{line}: warning: S{rpm} is {side} the spindle's rpm_range [{lo}, {hi}]: the board clamps it to {to} rpm"
+        )?;
+    }
+    if s.rpm_clamped_more > 0 {
+        writeln!(
+            out,
+            "{name}: warning: {} more spindle speeds outside rpm_range",
+            s.rpm_clamped_more
+        )?;
+    }
+    Ok(())
+}
+
+/// The warning lines of a check's report (`NAME:LINE: warning: …`).
+pub fn warning_lines(report: &str) -> String {
+    report
+        .lines()
+        .filter(|l| l.contains(": warning: "))
+        .map(|l| format!("{l}\n"))
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn spindle_speeds_outside_the_rpm_range_are_warned_with_their_line() {
+        let mut setup = Setup::default();
+        setup.outputs.spindle_min_rpm = 1000;
+        let program = "G21 G90\nM3 S30000\nG1 X1 F100\nS500\nS0\nM5\nS12000 M3\nM30\n";
+        let mut out = Vec::new();
+        let (errors, _) = check_stream(
+            "p.nc",
+            MemorySource::new(program.as_bytes()),
+            &setup.interp_config(),
+            Some(&setup),
+            &mut out,
+        )
+        .unwrap();
+        let out = String::from_utf8(out).unwrap();
+        assert_eq!(errors, 0, "{out}");
+        assert_eq!(
+            warning_lines(&out),
+            "p.nc:2: warning: S30000 is above the spindle's rpm_range [1000, 24000]: the board clamps it to 24000 rpm\n\
+             p.nc:4: warning: S500 is below the spindle's rpm_range [1000, 24000]: the board clamps it to 1000 rpm\n",
+            "{out}"
+        );
+        assert!(out.contains("p.nc: ok, "), "{out}");
+    }
 
     #[test]
     fn millimetres_format() {

@@ -8,7 +8,7 @@ use crate::preview::geom::extend;
 use crate::preview::model::Box3;
 use crate::preview::plan;
 use crate::preview::source::Actions;
-use gantry_machine::canon::{Action, Canon};
+use gantry_machine::canon::{Action, Canon, Spindle};
 use gantry_machine::gcode::{MemorySource, RetractMode};
 use gantry_machine::setup::Setup;
 use gantry_machine::units::{Pos, MAX_AXES};
@@ -26,7 +26,15 @@ pub struct JobSummary {
     /// Planned run time at 100 % override, s (`None` when the planner refused the program).
     pub run_time_s: Option<f64>,
     pub moves: usize,
+    /// Spindle speeds outside the setup's `spindle.rpm_range` (line, S), the first
+    /// [`CLAMPED_KEPT`]: the board clamps them to the range (docs/settings.md).
+    pub rpm_clamped: Vec<(u32, u32)>,
+    /// How many more there were beyond those kept.
+    pub rpm_clamped_more: usize,
 }
+
+/// How many out-of-range spindle speeds a summary names one by one.
+pub const CLAMPED_KEPT: usize = 10;
 
 /// The summary's running aggregates, one action at a time (nothing of the program is kept).
 pub struct Aggregates {
@@ -36,6 +44,10 @@ pub struct Aggregates {
     leaves_travel: Option<(u32, char)>,
     tools: Vec<u32>,
     moves: usize,
+    /// The setup's `spindle.rpm_range`.
+    rpm_range: (u32, u32),
+    rpm_clamped: Vec<(u32, u32)>,
+    rpm_clamped_more: usize,
 }
 
 impl Aggregates {
@@ -52,10 +64,24 @@ impl Aggregates {
             leaves_travel: None,
             tools: Vec::new(),
             moves: 0,
+            rpm_range: (setup.outputs.spindle_min_rpm, setup.outputs.spindle_max_rpm),
+            rpm_clamped: Vec::new(),
+            rpm_clamped_more: 0,
         }
     }
 
     pub fn add(&mut self, c: &Canon) {
+        if let Action::Spindle { state, rpm } = c.action {
+            let (lo, hi) = self.rpm_range;
+            // S0 (and M5) is the spindle off, never clamped.
+            if state != Spindle::Off && rpm != 0 && !(lo..=hi).contains(&rpm) {
+                if self.rpm_clamped.len() < CLAMPED_KEPT {
+                    self.rpm_clamped.push((c.line, rpm));
+                } else {
+                    self.rpm_clamped_more += 1;
+                }
+            }
+        }
         if let Action::ToolChange { tool } = c.action {
             if !self.tools.contains(&tool) {
                 self.tools.push(tool);
@@ -88,6 +114,8 @@ impl Aggregates {
             tools: self.tools,
             run_time_s,
             moves: self.moves,
+            rpm_clamped: self.rpm_clamped,
+            rpm_clamped_more: self.rpm_clamped_more,
         }
     }
 }

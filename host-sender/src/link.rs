@@ -546,7 +546,12 @@ mod tests {
 
     /// Frame `seq` of the test: [`FRAME`] bytes, its number repeated (so a cut frame shows).
     fn frame(seq: u32) -> Vec<u8> {
-        seq.to_le_bytes().iter().copied().cycle().take(FRAME).collect()
+        seq.to_le_bytes()
+            .iter()
+            .copied()
+            .cycle()
+            .take(FRAME)
+            .collect()
     }
 
     /// Not a divisor of the 4 KiB chunks `flush_out` writes, nor of [`OUT_LIMIT`]: frames

@@ -15,13 +15,30 @@ struct Cli {
     #[command(subcommand)]
     command: Command,
     /// Serial port of the board (e.g. /dev/ttyACM0, or the pty of `gantry emulate`), before or
-    /// after the subcommand. Without it (and without GANTRY_PORT): the one Gantry board plugged
-    /// in (by its USB id), else the emulated board (docs/ports.md).
-    #[arg(long, global = true, env = "GANTRY_PORT")]
+    /// after the subcommand, for the commands that use a board. Without it (and without
+    /// GANTRY_PORT): the one Gantry board plugged in (by its USB id), else the emulated board
+    /// (docs/ports.md).
+    #[arg(long, env = "GANTRY_PORT")]
     port: Option<String>,
     /// Use the built-in emulated board even for commands that control a machine (they refuse a
     /// fresh emulated board otherwise, so that a missing --port never goes unnoticed).
-    #[arg(long, global = true)]
+    #[arg(long)]
+    emulated: bool,
+}
+
+/// Which board a command uses: given after the subcommand (the same options before it are the
+/// top level's, [`Cli`]); only the commands that use a board take them, so an offline command's
+/// help does not offer them.
+#[derive(clap::Args, Default)]
+struct Conn {
+    /// Serial port of the board (e.g. /dev/ttyACM0, or the pty of `gantry emulate`). Without
+    /// it (and without GANTRY_PORT): the one Gantry board plugged in, else the emulated board
+    /// (docs/ports.md).
+    #[arg(long, env = "GANTRY_PORT")]
+    port: Option<String>,
+    /// Use the built-in emulated board even for commands that control a machine (they refuse a
+    /// fresh emulated board otherwise, so that a missing --port never goes unnoticed).
+    #[arg(long)]
     emulated: bool,
 }
 
@@ -40,6 +57,8 @@ enum Command {
         /// built-in defaults).
         #[arg(long)]
         setup: Option<PathBuf>,
+        #[command(flatten)]
+        conn: Conn,
     },
     /// Stream a program to the board (with no --port: the emulated board) with progress and a report.
     Stream {
@@ -172,6 +191,8 @@ enum Command {
         /// Machine setup (the plan and the emulated board) instead of the board's (as for `check`).
         #[arg(long)]
         setup: Option<PathBuf>,
+        #[command(flatten)]
+        conn: Conn,
     },
     /// Run the emulated board behind a pseudo-terminal linked at PATH, in real time, until
     /// killed: `gantry … --port PATH` talks to it as to the USB board (docs/ports.md).
@@ -214,6 +235,10 @@ enum Command {
         /// anyone who reaches it can move the machine).
         #[arg(long, requires = "http")]
         allow_remote: bool,
+        /// Serial port of the board to serve (without it and GANTRY_PORT: the one Gantry board
+        /// plugged in).
+        #[arg(long, env = "GANTRY_PORT")]
+        port: Option<String>,
     },
     /// Draw a program's tool path (top, front, side, isometric views) to a PNG or SVG file.
     Preview {
@@ -224,15 +249,48 @@ enum Command {
         /// Machine setup file (travel box, rates) instead of the board's (as for `check`).
         #[arg(long)]
         setup: Option<PathBuf>,
+        #[command(flatten)]
+        conn: Conn,
     },
 }
 
 /// The emulated board's setup (when a command runs without a port).
-#[derive(clap::Args)]
+#[derive(clap::Args, Default)]
 struct BoardArgs {
     /// Machine setup for the emulated board (default: the built-in defaults, docs/settings.md).
     #[arg(long)]
     setup: Option<PathBuf>,
+    #[command(flatten)]
+    conn: Conn,
+}
+
+impl Command {
+    /// The board options given after the subcommand, for the commands that take them.
+    fn conn(&self) -> Option<&Conn> {
+        match self {
+            Command::Check { conn, .. }
+            | Command::Simulate { conn, .. }
+            | Command::Preview { conn, .. } => Some(conn),
+            Command::Stream { board, .. }
+            | Command::Status { board, .. }
+            | Command::Hold { board }
+            | Command::Resume { board }
+            | Command::Abort { board }
+            | Command::Unlock { board }
+            | Command::Override { board, .. }
+            | Command::Jog { board, .. }
+            | Command::Home { board, .. }
+            | Command::Mdi { board, .. } => Some(&board.conn),
+            Command::Setup { action } => match action {
+                SetupAction::Show { conn, .. } => Some(conn),
+                SetupAction::Push { board, .. } | SetupAction::Pull { board, .. } => {
+                    Some(&board.conn)
+                }
+                SetupAction::Check { .. } | SetupAction::Docs { .. } => None,
+            },
+            Command::Serve { .. } | Command::Emulate { .. } => None,
+        }
+    }
 }
 
 impl BoardArgs {
@@ -290,6 +348,8 @@ enum SetupAction {
         /// The built-in defaults, even with a board.
         #[arg(long, conflicts_with = "file")]
         defaults: bool,
+        #[command(flatten)]
+        conn: Conn,
     },
     /// Validate a setup file; every error names the key and the allowed range.
     Check { file: PathBuf },
@@ -317,7 +377,7 @@ enum SetupAction {
 fn setup(action: SetupAction, machine: &Machine) -> anyhow::Result<ExitCode> {
     use host_sender::setup_file::{to_toml, SetupFile};
     match action {
-        SetupAction::Show { file, defaults } => {
+        SetupAction::Show { file, defaults, .. } => {
             let (origin, setup) = match file {
                 Some(f) => (format!("setup file {}", f.display()), SetupFile::load(&f)?),
                 None => show_source(machine, defaults)?,
@@ -326,7 +386,21 @@ fn setup(action: SetupAction, machine: &Machine) -> anyhow::Result<ExitCode> {
             print!("{}", to_toml(&setup));
         }
         SetupAction::Check { file } => {
-            SetupFile::load(&file)?;
+            let text = SetupFile::read_bounded(&file)?;
+            let errors = SetupFile::check_all(&text);
+            if !errors.is_empty() {
+                // Every error, each with its line (as `gantry check` prints a program's).
+                let f = file.display();
+                for (line, e) in &errors {
+                    match line {
+                        0 => eprintln!("{f}: error: {e}"),
+                        n => eprintln!("{f}:{n}: error: {e}"),
+                    }
+                }
+                let n = errors.len();
+                eprintln!("{f}: {n} error{}", if n == 1 { "" } else { "s" });
+                return Ok(ExitCode::from(1));
+            }
             println!("{}: setup is valid", file.display());
         }
         SetupAction::Docs { file, check } => {
@@ -383,7 +457,7 @@ fn show_source(
     if defaults {
         return Ok(("built-in defaults".into(), Default::default()));
     }
-    let no_setup = BoardArgs { setup: None };
+    let no_setup = BoardArgs::default();
     match machine.target(&no_setup, Use::Reads)? {
         Target::Port(p) => Ok((
             format!("board's setup on {p}"),
@@ -497,9 +571,11 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 fn main() -> ExitCode {
     quiet_broken_pipe();
     let cli = Cli::parse();
+    // After the subcommand or before it (the top level's), or GANTRY_PORT (both read it).
+    let conn = cli.command.conn();
     let machine = Machine {
-        port: cli.port,
-        emulated: cli.emulated,
+        port: conn.and_then(|c| c.port.clone()).or(cli.port.clone()),
+        emulated: conn.is_some_and(|c| c.emulated) || cli.emulated,
     };
     let m = &machine;
     // A program is read line by line in bounded memory; a line no G-code program has (a binary
@@ -518,7 +594,9 @@ fn main() -> ExitCode {
         }
     }
     let result = match cli.command {
-        Command::Check { file, canon, setup } => standing(m, setup, "check")
+        Command::Check {
+            file, canon, setup, ..
+        } => standing(m, setup, "check")
             .and_then(|s| host_sender::check::run(&file, canon, &s.setup, &s.at)),
         Command::Setup { action } => setup(action, m),
         Command::Stream {
@@ -630,9 +708,13 @@ fn main() -> ExitCode {
         Command::Mdi { blocks, board } => m
             .target(&board, Use::Controls)
             .and_then(|t| oneshot::mdi(t, &blocks)),
-        Command::Serve { http, allow_remote } => {
+        Command::Serve {
+            http,
+            allow_remote,
+            port,
+        } => {
             let http = http.map(|addr| host_sender::console::Options { addr, allow_remote });
-            match &m.port {
+            match port.as_ref().or(m.port.as_ref()) {
                 Some(p) => host_sender::commands::serve::run(p, http.as_ref()),
                 None => match host_sender::port::discover() {
                     Ok(host_sender::port::Found::One(p)) => {
@@ -669,11 +751,13 @@ fn main() -> ExitCode {
             from,
             to,
             setup,
+            ..
         } => standing(m, setup, "simulate").and_then(|s| simulate(&file, json, vcd, from, to, s)),
         Command::Preview {
             file,
             output,
             setup,
+            ..
         } => standing(m, setup, "preview")
             .and_then(|s| host_sender::preview::run(&file, &output, &s.setup, &s.at)),
     };

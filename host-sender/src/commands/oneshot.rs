@@ -114,7 +114,10 @@ fn nothing_to_hold(before: &Status) -> Option<String> {
         S::ToolChange { tool } => Some(format!(
             "the job stands at its tool change (T{tool}), nothing moves"
         )),
-        S::Alarm { code } => Some(format!("the board is in {}, nothing moves", alarm_text(code))),
+        S::Alarm { code } => Some(format!(
+            "the board is in {}, nothing moves",
+            alarm_text(code)
+        )),
         other => Some(format!("the board is {}, nothing moves", state_name(other))),
     }
 }

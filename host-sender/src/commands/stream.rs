@@ -118,7 +118,10 @@ pub fn run_checked(
         let src = crate::preview::source::FileSource::open(file)
             .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
         match session.check_start(&file.display().to_string(), src)? {
-            Ok(c) => Some(c),
+            Ok(c) => {
+                eprint!("{}", c.warnings);
+                Some(c)
+            }
             Err(refused) => {
                 print!("{}", refusal_text(&refused));
                 return Ok(std::process::ExitCode::from(1));
@@ -454,7 +457,13 @@ struct Advance {
 impl Advance {
     /// The fraction done (0..=1) and the machine seconds left (with a plan) when the board
     /// reports `line`, `machine_s` into the job; `lines`: the file's lines.
-    fn at(&mut self, eta: Option<&Eta>, line: u32, lines: u64, machine_s: f64) -> (f64, Option<f64>) {
+    fn at(
+        &mut self,
+        eta: Option<&Eta>,
+        line: u32,
+        lines: u64,
+        machine_s: f64,
+    ) -> (f64, Option<f64>) {
         self.furthest = self.furthest.max(line);
         let (now, left) = match eta {
             Some(e) if e.total() > 0.0 => {
@@ -962,7 +971,10 @@ mod tests {
         }
         // It advances through every pass (not stuck at the loop's first one), up to the end
         // of line 7's start.
-        assert!(seen.windows(2).filter(|w| w[1] > w[0]).count() >= 12, "{seen:?}");
+        assert!(
+            seen.windows(2).filter(|w| w[1] > w[0]).count() >= 12,
+            "{seen:?}"
+        );
         assert!(last > 0.7, "{last}");
         // Without a plan: the furthest line, held.
         let mut advance = Advance::default();

@@ -12,13 +12,19 @@ use gantry_machine::setup::Setup;
 #[derive(Debug)]
 pub struct Cleared {
     _made_here: (),
+    /// The check's warning lines (spindle speeds the board clamps …), for the operator to see
+    /// before the job starts; empty unchecked.
+    pub warnings: String,
 }
 
 impl Cleared {
     /// The operator asked for no check (`gantry stream --no-check`: a program too long to check
     /// first; the board still stops at its first error).
     pub fn unchecked() -> Cleared {
-        Cleared { _made_here: () }
+        Cleared {
+            _made_here: (),
+            warnings: String::new(),
+        }
     }
 }
 
@@ -41,10 +47,13 @@ pub fn check_program<S: ProgramSource>(
         crate::check::check_stream(name, src, &setup.interp_config(), Some(setup), &mut out)?;
     // (The travel is the board's to check: the job starts where the machine stands, which a
     // check from the setup alone does not know.)
-    if errors == 0 {
-        return Ok(Ok(Cleared { _made_here: () }));
-    }
     let report = String::from_utf8_lossy(&out).into_owned();
+    if errors == 0 {
+        return Ok(Ok(Cleared {
+            _made_here: (),
+            warnings: crate::check::warning_lines(&report),
+        }));
+    }
     let error_lines = crate::check::error_lines(&report, name);
     Ok(Err(Refused {
         report,
