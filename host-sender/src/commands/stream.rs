@@ -119,7 +119,7 @@ pub fn run_checked(
             .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", file.display()))?;
         match session.check_start(&file.display().to_string(), src)? {
             Ok(c) => {
-                eprint!("{}", c.warnings);
+                eprint!("{}", c.warnings());
                 Some(c)
             }
             Err(refused) => {

@@ -11,10 +11,9 @@ use gantry_machine::setup::Setup;
 /// start it unchecked ([`Cleared::unchecked`]).
 #[derive(Debug)]
 pub struct Cleared {
-    _made_here: (),
     /// The check's warning lines (spindle speeds the board clamps …), for the operator to see
-    /// before the job starts; empty unchecked.
-    pub warnings: String,
+    /// before the job starts; empty unchecked. (Private: only this module makes a `Cleared`.)
+    warnings: String,
 }
 
 impl Cleared {
@@ -22,9 +21,13 @@ impl Cleared {
     /// first; the board still stops at its first error).
     pub fn unchecked() -> Cleared {
         Cleared {
-            _made_here: (),
             warnings: String::new(),
         }
+    }
+
+    /// The check's warning lines (`NAME:LINE: warning: …`), empty when there were none.
+    pub fn warnings(&self) -> &str {
+        &self.warnings
     }
 }
 
@@ -50,7 +53,6 @@ pub fn check_program<S: ProgramSource>(
     let report = String::from_utf8_lossy(&out).into_owned();
     if errors == 0 {
         return Ok(Ok(Cleared {
-            _made_here: (),
             warnings: crate::check::warning_lines(&report),
         }));
     }
