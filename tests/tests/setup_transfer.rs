@@ -66,8 +66,10 @@ fn setup_check_refuses_with_the_cores_message_and_exit_code() {
             .output()
             .unwrap()
     };
+    // An invalid setup is exit 1 (every error listed, as `gantry check` does for a program); an
+    // unreadable file stays exit 2.
     let out = run("[axis.X]\nmax_rate = 10\n");
-    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     let mut setup = Setup::default();
     gantry_machine::grbl::settings::write(110, 10_000, &mut setup).unwrap();
@@ -78,7 +80,7 @@ fn setup_check_refuses_with_the_cores_message_and_exit_code() {
     );
     assert!(err.contains(&refusal), "{err}");
     let out = run("[axis.X]\nmax_rate = 300000\n");
-    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(out.status.code(), Some(1));
     assert!(
         String::from_utf8_lossy(&out.stderr)
             .contains("axis.X.max_rate = 300000: must be between 1 and 200000"),
@@ -86,5 +88,11 @@ fn setup_check_refuses_with_the_cores_message_and_exit_code() {
     );
     let out = run("[axis.X]\nmax_rate = 2000\n");
     assert_eq!(out.status.code(), Some(0), "{out:?}");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_gantry-under-test"))
+        .args(["setup", "check"])
+        .arg(dir.join("no-such.toml"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
