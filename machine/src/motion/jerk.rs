@@ -801,4 +801,62 @@ mod tests {
             r.counts
         );
     }
+
+    #[test]
+    fn a_hold_mid_ramp_stops_within_the_jerk_limit_and_resumes() {
+        // One 40 mm move; 24 ms into the ramp up (acceleration still rising) a hold places a
+        // stop at the jerk-limited stopping distance: the tracker stops there smoothly, then
+        // the hold is released and it goes on to the end.
+        let end = Limit {
+            at: 40 * MM,
+            speed: 0,
+            cap: 0,
+        };
+        let cap = 50 * MM * 1000;
+        let q = LIM.step_accel();
+        let mut t = Tracker::default();
+        for _ in 0..12 {
+            t.step(cap, &[end], LIM);
+        }
+        assert!(
+            t.a > 0 && t.a < LIM.accel as i64 && t.v > 0,
+            "mid-ramp: {t:?}"
+        );
+        let hold = Limit {
+            at: t.position_nm() + brake_distance(t.v, t.a, 0, LIM),
+            speed: 0,
+            cap: 0,
+        };
+        let mut steps = 0;
+        loop {
+            let a0 = t.a;
+            let st = t.step(cap, &[hold, end], LIM);
+            assert!(
+                st.a.abs_diff(a0) <= q,
+                "jerk step {} at {t:?}",
+                st.a.abs_diff(a0)
+            );
+            assert!(t.position_nm() <= hold.at);
+            if st.v == 0 && st.a == 0 {
+                break;
+            }
+            steps += 1;
+            assert!(steps < 1_000);
+        }
+        assert!(
+            hold.at - t.position_nm() <= ARRIVED_NM,
+            "{} short",
+            hold.at - t.position_nm()
+        );
+        // Resumed: on along the path to the end.
+        let mut steps = 0;
+        while !(t.v == 0 && t.position_nm() + ARRIVED_NM >= end.at) {
+            let a0 = t.a;
+            let st = t.step(cap, &[end], LIM);
+            assert!(st.a.abs_diff(a0) <= q);
+            assert!(t.position_nm() <= end.at);
+            steps += 1;
+            assert!(steps < 10_000);
+        }
+    }
 }
