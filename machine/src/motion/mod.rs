@@ -16,6 +16,7 @@ pub mod blend;
 pub mod config;
 pub mod corner;
 pub mod history;
+pub mod jerk;
 pub mod kernel;
 pub mod laser;
 pub mod output_event;
