@@ -258,8 +258,12 @@ fn ctrl_c_asks_while_the_link_runs_then_resumes_or_aborts() {
     assert!(!emu.log().contains("Alarm"), "{}", emu.log());
 
     // Ctrl-C, answer "y": the job aborts on its path and ends at rest.
+    // Ctrl-C once this job runs, by its first progress line (not a fixed time after the spawn:
+    // a loaded machine starts the sender later, and a Ctrl-C before its handler is set kills it).
     let mut sender = spawn(&["stream", job, "--port", port]);
-    std::thread::sleep(Duration::from_millis(800));
+    assert!(wait_for(10 * S, || sender
+        .stdout()
+        .contains("progress: line")));
     sender.signal(Signal::SIGINT);
     assert!(wait_for(5 * S, || sender
         .stderr()
