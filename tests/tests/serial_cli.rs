@@ -707,7 +707,7 @@ fn a_hold_during_an_alarm_2_stop_ends_in_the_alarm_at_rest_with_outputs_off() {
     ended_at_rest_with_outputs_off(&emu, "Alarm 2", 190, "Alarm");
 }
 
-/// Issue 25 item 12: a command's answer is the answer to that command. A jog the board refuses
+/// A command's answer is the answer to that command. A jog the board refuses
 /// (error 900) must not poison the next command: the next jog reports success and moves exactly
 /// its distance, an `mdi` after a refused jog completes without the old error.
 #[test]
