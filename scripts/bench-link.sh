@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Link throughput benchmark (issue 29): streams N short collinear lines over `gantry emulate --pty`
+# Link throughput benchmark: streams N short collinear lines over `gantry emulate --pty`
 # and prints the job's time against `gantry simulate`'s planned time for the same program and
 # setup. Not part of CI: each case takes about as long as the program's machine time (~70 s for
 # the two default cases).

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# `gantry preview` against LinuxCNC's `rs274 -g` on the same long program (issue 29 point 4: the
+# `gantry preview` against LinuxCNC's `rs274 -g` on the same long program (the
 # PNG preview in at most 2x rs274's CPU time). Not run in CI (needs rs274: apt-get install
 # linuxcnc-uspace); host-sender/benches/preview.rs is the CI-side benchmark.
 #

@@ -4,7 +4,7 @@
 # method. Checks: every line gets its ok and no error; the final steps equal those of
 # `gantry stream` on the same program and setup; a 10,000-line program of 0.1 mm segments
 # streams at real time with no lost or repeated line (the step counts) and reports the
-# emulated board's underruns; then the seams of issue 24 (scripts/grbl_seams.py): an error
+# emulated board's underruns; then the seams (scripts/grbl_seams.py): an error
 # mid-job with the spindle on, a sender killed mid-job and the next client, M98, \$C, \$110 and
 # 20 queued \$J= jogs; and a LightBurn-style laser raster (\$32=1, then a \`G1 X… S…\` per
 # 0.1 mm pixel under M4, docs/laser-plasma.md): every line answered, the steps those of
@@ -112,7 +112,7 @@ echo "grbl sender laser raster: $summary"
 echo "grbl sender laser raster: steps via grbl [$grbl_steps], via gantry stream [$ref_steps]"
 [ "$grbl_steps" = "$ref_steps" ] || { echo "FAIL grbl sender laser raster: step counts differ"; exit 1; }
 case "$summary" in *"FS:0,0"*) ;; *) echo "FAIL grbl sender laser raster: the beam is not off at the end: $summary"; exit 1;; esac
-# The seams (issue 24): an error line mid-job with the spindle on, then a sender killed mid-job
+# The seams: an error line mid-job with the spindle on, then a sender killed mid-job
 # (SIGKILL: it closes nothing itself) and the next client (scripts/grbl_seams.py).
 "$GANTRY" emulate --pty "$TMP/pty" 2> "$TMP/emu-seams.log" &
 EMU=$!

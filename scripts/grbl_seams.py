@@ -1,4 +1,4 @@
-"""Issue 24's grbl seams, driven by pygrbl-streamer (a grbl client from PyPI, used as-is) against
+"""The grbl seams, driven by pygrbl-streamer (a grbl client from PyPI, used as-is) against
 `gantry emulate --pty` (scripts/grbl-sender-test.sh runs it). Modes:
   error PORT      an error line mid-job with spindle and flood on: the error line gets its
                   error, the moves after it run with the spindle and flood on (every status

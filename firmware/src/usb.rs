@@ -14,14 +14,13 @@ use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::pipe::Pipe;
 use embassy_usb::class::cdc_acm::{CdcAcmClass, ControlChanged, Receiver, Sender, State};
 use embassy_usb::{Builder, UsbDevice};
+// The USB identity the host looks for (shared-proto/src/usb.rs).
+use gantry_proto::usb::{PID, VID};
 use static_cell::StaticCell;
 
 /// The OTG FS driver type.
 pub type UsbDriver = Driver<'static, USB_OTG_FS>;
 
-/// pid.codes test VID/PID; replace with an allocated PID before anything ships.
-const VID: u16 = 0x1209;
-const PID: u16 = 0x0001;
 /// Full-speed bulk packet size.
 const PACKET: u16 = 64;
 

@@ -2,7 +2,7 @@
 //! wavy Z, an arc pair every 50 lines, a rapid between rows), to PNG and to SVG: the whole
 //! command (two passes of interpreter and planner, drawing, encoding). The last line printed is
 //! the figure: `preview_png_lines_per_cpu_s: N` (process CPU time, user + sys, of one more run).
-//! The comparison with LinuxCNC's `rs274 -g` (issue 29 point 4) is scripts/bench-preview.sh,
+//! The comparison with LinuxCNC's `rs274 -g` is scripts/bench-preview.sh,
 //! which needs rs274 and so is not run in CI.
 
 use criterion::{criterion_group, Criterion};

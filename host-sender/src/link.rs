@@ -342,20 +342,7 @@ impl<T: Transport> Client<T> {
 
     /// Opens the link and completes the version handshake (within `timeout_ms` of link time).
     pub fn connect(transport: T, timeout_ms: u32) -> anyhow::Result<Self> {
-        let nonce = std::process::id()
-            ^ 0x5eed_0000
-            ^ NONCES.fetch_add(0x101, std::sync::atomic::Ordering::Relaxed);
-        let mut c = Client {
-            transport,
-            endpoint: HostEndpoint::new_host(Config::USB_MS, nonce),
-            rx: Vec::new(),
-            notices: Vec::new(),
-            stash: Default::default(),
-            board_resets: 0,
-            queued_sent: 0,
-            last_heard_ms: 0,
-            request: first_request_id(nonce),
-        };
+        let mut c = Client::unconnected(transport);
         let start = c.transport.now_ms();
         c.last_heard_ms = start;
         loop {

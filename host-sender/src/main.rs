@@ -447,8 +447,8 @@ fn setup(action: SetupAction, machine: &Machine) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// What `setup show` without a file shows: the board's setup when there is a board (issue 25
-/// item 11: it printed the defaults beside a configured board), else the defaults, saying which.
+/// What `setup show` without a file shows: the board's setup when there is a board (printing
+/// the defaults beside a configured board misled), else the defaults, saying which.
 fn show_source(
     machine: &Machine,
     defaults: bool,
@@ -626,7 +626,7 @@ fn main() -> ExitCode {
             )
         }),
         // The status of a fresh emulated board says nothing of the machine: refused without a
-        // board unless --emulated (issue 25 item 11).
+        // board unless --emulated.
         Command::Status {
             watch: false,
             board,

@@ -2,10 +2,8 @@
 //! `GANTRY_PORT` environment variable, else the one Gantry board plugged in, found by its USB
 //! vendor and product id (`firmware/src/usb.rs`); with none of these, the emulated board.
 
-/// USB vendor id of the Gantry firmware (pid.codes, `firmware/src/usb.rs`).
-pub const GANTRY_VID: u16 = 0x1209;
-/// USB product id of the Gantry firmware (`firmware/src/usb.rs`).
-pub const GANTRY_PID: u16 = 0x0001;
+/// USB vendor and product id of the Gantry firmware (shared-proto/src/usb.rs).
+pub use gantry_proto::usb::{PID as GANTRY_PID, VID as GANTRY_VID};
 
 /// Where a command goes when neither `--port` nor `GANTRY_PORT` names a port.
 #[derive(Debug, PartialEq, Eq)]

@@ -130,7 +130,7 @@ pub enum ListCommand {
         level: bool,
         timeout_ms: u16,
     },
-    /// Seed `#disable_limit_report`, only as the first entry of a list: the switch hits this
+    /// The GIXA controller's `#disable_limit_report`, only as the first entry of a list: the switch hits this
     /// list's `seek` commands cause (squaring) are not reported to the host. Unexpected switches
     /// still stop the machine and raise alarm 1 with their report.
     DisableLimitReport,
@@ -236,7 +236,7 @@ pub struct OutputSetup {
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct McodeList {
     pub code: u16,
-    /// Seed "Disable these commands for Dry Run".
+    /// The GIXA controller's "Disable these commands for Dry Run".
     pub dry_run_disabled: bool,
     pub commands: Vec<ListCommand, MAX_MCODE_COMMANDS>,
 }

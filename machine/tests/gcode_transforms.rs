@@ -135,7 +135,7 @@ fn scaled_arc_keeps_its_direction_and_doubles_its_radius() {
     }
 }
 
-// --- The Fanuc cycles of issue 28 (docs/gcode-transforms.md "Fanuc cycles") ---
+// --- The Fanuc cycles (docs/gcode-transforms.md "Fanuc cycles") ---
 
 fn actions(program: &str, cfg: &InterpConfig) -> Vec<Result<Action, ErrorCode>> {
     let mut it = Interpreter::new(cfg);

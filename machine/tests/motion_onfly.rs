@@ -18,7 +18,8 @@ const STEPS_PER_MM: i64 = 640;
 /// 1125 mm/min = 18.75 mm/s = 12 000 steps/s: exactly 1000 timer counts per step.
 const FEED_MM_MIN: i64 = 1125;
 const CRUISE_PERIOD: u32 = KERNEL_TIMER_HZ / 12_000;
-/// The seed's example in mm: 1.0 in, 6.0 in and 7.0 in along X.
+/// The GIXA controller manual's on-the-fly example (docs/controller.md, on-the-fly M codes) in mm:
+/// 1.0 in, 6.0 in and 7.0 in along X.
 const INCH_UM: i64 = 25_400;
 
 fn x(um: i64) -> Pos {
@@ -131,7 +132,7 @@ fn run(program: &[Step], hold_at: Option<i64>) -> Run {
 }
 
 /// `G1 X1in` / `M14` / `X6in` / `M15` / `X7in` with M14 = set 1, M15 = clear 1.
-fn seed_example() -> Vec<Step> {
+fn gixa_example() -> Vec<Step> {
     vec![
         feed(1, INCH_UM),
         Step::Output(2, 14, on(1)),
@@ -146,7 +147,7 @@ const STEPS_1IN: i64 = 16_256;
 
 #[test]
 fn outputs_between_moves_fire_at_the_junction_step_at_cruise_speed() {
-    let r = run(&seed_example(), None);
+    let r = run(&gixa_example(), None);
     assert_eq!(
         r.outputs,
         vec![
@@ -169,7 +170,7 @@ fn outputs_between_moves_fire_at_the_junction_step_at_cruise_speed() {
 #[test]
 fn the_event_rides_on_the_next_line_block_and_its_first_segment_only() {
     let mut m: Motion<8> = Motion::new(MotionConfig::default());
-    for s in &seed_example()[..3] {
+    for s in &gixa_example()[..3] {
         match *s {
             Step::Push(c) => m.push(&c).unwrap(),
             Step::Output(l, c, e) => m.push_output(l, c, e).unwrap(),
@@ -287,7 +288,7 @@ fn a_hold_across_the_point_fires_the_output_once_at_the_same_step() {
     // while slowing down.
     let mut passed = Vec::new();
     for hold_mm in [20, 24, 25] {
-        let r = run(&seed_example(), Some(hold_mm * STEPS_PER_MM));
+        let r = run(&gixa_example(), Some(hold_mm * STEPS_PER_MM));
         assert_eq!(r.holds.len(), 1, "hold at {hold_mm} mm");
         assert_eq!(r.outputs.len(), 2, "hold at {hold_mm} mm: {:?}", r.outputs);
         assert_eq!((r.outputs[0].0, r.outputs[0].1), (STEPS_1IN, on(1)));

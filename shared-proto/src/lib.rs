@@ -20,6 +20,8 @@ pub mod fault;
 pub mod frame;
 pub mod lines;
 pub mod messages;
+pub mod setup_commit;
+pub mod usb;
 pub mod window;
 
 pub use channel::{

@@ -1,5 +1,5 @@
-//! Feed hold, cycle start and abort inputs on the emulated board, and the seed-003 stop/restore
-//! rules for spindle and coolant.
+//! Feed hold, cycle start and abort inputs on the emulated board, and the stop/restore
+//! rules for spindle and coolant (docs/controller.md).
 
 mod controller_support;
 

@@ -166,7 +166,7 @@ fn abort_during_homing_alarms_at_rest_and_leaves_the_axis_unhomed() {
 
 /// Y is two motors on one step channel, enabled by outputs 0 and 1 (which also gate their
 /// switches); the gantry is racked: motor 0 meets its switch at -2 mm, motor 1 at -3 mm. The
-/// seed's squaring lists, `before_retract` led by `disable_limit_report` when `quiet`.
+/// squaring lists of docs/settings.md, `before_retract` led by `disable_limit_report` when `quiet`.
 fn squaring(quiet: bool, edit: impl FnOnce(&mut gantry_machine::setup::Setup)) -> EmulatedBoard {
     let mut eb = board(|s| {
         s.inputs.limit_min = 0b010;

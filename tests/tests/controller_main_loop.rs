@@ -152,7 +152,7 @@ fn the_host_closing_the_port_holds_a_running_job() {
     assert_eq!(eb.board.state(), State::Idle);
 }
 
-/// Issue 24 (safety): losing the host holds the job on its path with spindle and coolant
+/// Safety: losing the host holds the job on its path with spindle and coolant
 /// running while the tool decelerates along the cut, switches them off once at rest, and a host
 /// that resumes the job gets them back before the motion goes on.
 #[test]
@@ -237,7 +237,7 @@ fn a_setup_from_the_host_is_saved_to_flash_once() {
     assert_eq!(client.transport.setups_saved, 1);
 }
 
-/// Issue 25: work offsets and G28/G30 positions a job sets are the board's to keep: they go to
+/// Work offsets and G28/G30 positions a job sets are the board's to keep: they go to
 /// the setup and to flash once idle, and a board that restarts from that flash has them.
 #[test]
 fn work_offsets_a_job_sets_are_saved_to_flash_and_survive_a_restart() {
@@ -276,7 +276,7 @@ fn work_offsets_a_job_sets_are_saved_to_flash_and_survive_a_restart() {
 #[test]
 fn an_abort_or_a_hold_is_no_underrun() {
     // An abort stops on the path: the kernel drains because the job ends, not because segment
-    // preparation fell behind (issue 25 item 16: each abort was counted as an underrun).
+    // preparation fell behind (each abort was counted as an underrun).
     let zigzag: String = (1..400)
         .map(|i| format!("G1 X{}.{} Y{}\n", i % 50, i % 10, i % 7))
         .collect();

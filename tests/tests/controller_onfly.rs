@@ -30,7 +30,7 @@ fn list(s: &mut Setup, code: u16, dry_run_disabled: bool, commands: &[ListComman
     s.outputs.mcode_lists.push(l).unwrap();
 }
 
-/// M14 = [set 1], M15 = [clear 1] (the seed's example), M16 = [set 2, clear 3] (two entries),
+/// M14 = [set 1], M15 = [clear 1] (the GIXA controller manual's on-the-fly example), M16 = [set 2, clear 3] (two entries),
 /// M17 = [] (no entry), M18 = [set 4] disabled for dry run.
 fn machine(edit: impl FnOnce(&mut Setup)) -> EmulatedBoard {
     board(|s| {
@@ -126,9 +126,9 @@ fn run_to_idle(eb: &mut EmulatedBoard, max_ms: u64) {
     );
 }
 
-/// The seed's example as it is written: `G91 G01 X1.0` / `X5.0 M14` / `X1.0 M15` in inches.
+/// The GIXA controller manual's on-the-fly example as it is written: `G91 G01 X1.0` / `X5.0 M14` / `X1.0 M15` in inches.
 #[test]
-fn the_seed_example_switches_at_one_and_six_inches_at_speed() {
+fn the_gixa_example_switches_at_one_and_six_inches_at_speed() {
     let mut eb = machine(|_| {});
     let events = record(&mut eb);
     // G20 on its own line: an F in the same block is read before the unit change (RS274NGC order).

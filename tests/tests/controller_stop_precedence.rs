@@ -1,4 +1,4 @@
-//! Stops take precedence (issue 13 item 2): a feed hold, a cycle start or a second abort that
+//! Stops take precedence: a feed hold, a cycle start or a second abort that
 //! arrives while an abort or an alarm-2 stop decelerates must not cancel it. Whatever comes in
 //! during the deceleration, the job ends at rest with spindle and coolant off, the job-end event
 //! (and the alarm) reported, and the board in Idle (abort) or Alarm 2 (soft-limit stop).

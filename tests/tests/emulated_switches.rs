@@ -1,4 +1,4 @@
-//! Issue 25 item 6: `gantry emulate` models the machine's switches at the ends of the travel with
+//! `gantry emulate` models the machine's switches at the ends of the travel with
 //! the setup's polarity, and powers up where its state file says the machine stood. Through the
 //! binary: normally-closed switches read open until reached (no alarm 1 on the first move),
 //! `gantry home --port P` returns when homing has ended with the axis homed (item 1), and a

@@ -36,18 +36,20 @@ use serde_json::Value;
 /// They are still run and their differences printed, but they do not fail the test.
 /// Keep in step with the "Known differences" table of tests/golden/rs274/README.md.
 const KNOWN_DIFFERENCES: &[(&str, &str)] = &[
-    // LinuxCNC starts cutter compensation on an arc; seed-002 14.14 requires an error.
+    // LinuxCNC starts cutter compensation on an arc; Fanuc (the Hurco manual, 14.14) requires
+    // an error (tests/golden/rs274/README.md "Known differences").
     (
         "63-g41-arc-start",
         "cutter compensation started by an arc is an error (Fanuc)",
     ),
-    // LinuxCNC rejects `G4 X1.5` (X is an axis word there); Fanuc dwells 1.5 s (seed-002 14.8).
+    // LinuxCNC rejects `G4 X1.5` (X is an axis word there); Fanuc dwells 1.5 s (the Hurco
+    // manual, 14.8).
     (
         "65-g4-x-word",
         "G4 X is a dwell time (Fanuc); LinuxCNC errors",
     ),
     // LinuxCNC rejects L0 on a cycle; Fanuc K0/L0 stores the cycle data without drilling
-    // (seed-002 13.5 "K/L repeat (0 = store only)"), which the interpreter does on purpose.
+    // (the Hurco manual, 13.5: "K/L repeat (0 = store only)"), which the interpreter does on purpose.
     (
         "96-cycle-l0",
         "L0 stores the cycle without drilling (Fanuc); LinuxCNC errors",

@@ -1,6 +1,6 @@
 //! Hand-checked programs for the Fanuc coordinate transforms (docs/gcode-transforms.md): mirror
-//! (G51.1), scaling (G51), rotation (G68) and polar coordinates (G16), most of them the seed
-//! manuals' own examples (Hurco ISNC/BNC §3.10, §3.18, §3.19, §3.23).
+//! (G51.1), scaling (G51), rotation (G68) and polar coordinates (G16), most of them the
+//! examples of the Hurco manual Gantry answers to (its §3.10, §3.18, §3.19, §3.23).
 //!
 //! Each `tests/golden/transforms/NN-name.ngc` runs through `host_sender::check::canon_output`
 //! (what `gantry check --canon FILE` prints) and is compared with `NN-name.expected.jsonl`,

@@ -1025,7 +1025,7 @@ fn a_soft_reset_during_a_jog_stops_it_at_rest_and_check_mode_toggles_mid_stream(
     assert_eq!(s.steps()[0], 2 * STEPS_PER_MM);
 }
 
-/// Issue 24 (safety): an error line mid-job executes nothing and changes nothing else (grbl's
+/// Safety: an error line mid-job executes nothing and changes nothing else (grbl's
 /// interface.md): the job goes on, the lines after it run with the spindle and coolant the
 /// program switched on, and `$G` agrees with the outputs.
 #[test]
@@ -1071,7 +1071,7 @@ fn an_error_mid_job_changes_nothing_and_the_next_lines_cut_with_the_spindle_on()
     assert!(st.contains("|A:SF"), "{st}");
 }
 
-/// Issue 24 (safety): a grbl sender that goes away mid-job (killed, or closing the port without
+/// Safety: a grbl sender that goes away mid-job (killed, or closing the port without
 /// dropping DTR as pyserial does) is a lost host: the job stops on its path, the lines it left
 /// in the buffers never run, spindle and coolant go off at rest, and the next connection is
 /// greeted with the banner as a fresh grbl session.
@@ -1143,7 +1143,7 @@ fn a_grbl_sender_leaving_an_idle_machine_switches_spindle_and_coolant_off() {
     assert!(seen.contains("<Idle") && !seen.contains("|A:"), "{seen:?}");
 }
 
-/// Issue 24: `M98`/`M99` from a grbl sender are answered once with grbl's unsupported-command
+/// `M98`/`M99` from a grbl sender are answered once with grbl's unsupported-command
 /// error; nothing else changes, the lines after them run and the front end stays usable.
 #[test]
 fn m98_and_m99_answer_error_20_once_and_the_job_reads_on() {
@@ -1162,7 +1162,7 @@ fn m98_and_m99_answer_error_20_once_and_the_job_reads_on() {
     assert!(st.starts_with("<Idle|MPos:3.000,"), "{st}");
 }
 
-/// Issue 24: `$C` checks each line from the program's own position, as grbl's parser does: an
+/// `$C` checks each line from the program's own position, as grbl's parser does: an
 /// arc valid from where the program stands passes, incremental moves that add up past the travel
 /// fail, and `$C` off soft-resets (one banner; the parser's position is the machine's again).
 #[test]
@@ -1335,7 +1335,7 @@ fn a_setting_write_and_a_setup_file_give_the_same_refusal_from_the_same_check() 
     assert_eq!(s.eb.board.setup(), &before);
 }
 
-/// Issue 24: `$J=` jogs sent back to back are planned together (grbl's jogging.md): 20 jogs of
+/// `$J=` jogs sent back to back are planned together (grbl's jogging.md): 20 jogs of
 /// 0.5 mm at 1500 mm/min run as one smooth 10 mm move (no stop between them, well within 0.8 s),
 /// and one jog cancel (0x85) stops them all.
 #[test]
@@ -1396,7 +1396,7 @@ fn jogs_sent_back_to_back_are_planned_together_and_one_cancel_stops_them_all() {
     );
 }
 
-/// Issue 24: grbl's hold rules. `!` in Idle holds (`Hold:0`): the next line waits for `~`
+/// The grbl hold rules. `!` in Idle holds (`Hold:0`): the next line waits for `~`
 /// before it moves. `~` while a hold still decelerates (`Hold:1`) is ignored; once the hold is
 /// complete it resumes, and the job ends at its exact end.
 #[test]
@@ -1439,7 +1439,7 @@ fn feed_hold_in_idle_holds_the_next_motion_and_resume_waits_for_the_hold_to_comp
     assert_eq!(s.ends_idle(10_000)[0], 50 * STEPS_PER_MM);
 }
 
-/// Issue 24: the line length limit counts what grbl keeps of a line (blanks and comments are
+/// The line length limit counts what grbl keeps of a line (blanks and comments are
 /// dropped first): a 120-character line that is mostly comment runs; one with 110 characters
 /// of words is refused with `error:11`; blanks do not count either.
 #[test]
@@ -1460,7 +1460,7 @@ fn the_line_limit_counts_the_words_not_the_blanks_and_comments() {
     assert_eq!(s.ends_idle(5_000)[0], 3 * STEPS_PER_MM);
 }
 
-/// Issue 24: a line beyond the travel raises `ALARM:2` at once, as grbl's soft limit does
+/// A line beyond the travel raises `ALARM:2` at once, as grbl's soft limit does
 /// (nothing moves, position kept), then grbl's critical event: `[MSG:Reset to continue]`, and
 /// nothing but a soft reset is taken (`$X` and lines answer `error:9`). After the reset, `$X`
 /// unlocks and the machine moves again.
@@ -1488,7 +1488,7 @@ fn a_soft_limit_is_alarm_2_and_needs_a_reset_before_unlock() {
     assert_eq!(s.ends_idle(5_000)[0], 6 * STEPS_PER_MM);
 }
 
-/// Issue 24: `$X` in alarm 11 (homing required) does not answer a misleading `ok`: Gantry keeps
+/// `$X` in alarm 11 (homing required) does not answer a misleading `ok`: Gantry keeps
 /// the homing lock, so it answers `error:9` and says to home.
 #[test]
 fn unlock_in_the_homing_alarm_answers_error_9_and_says_to_home() {
@@ -1506,7 +1506,7 @@ fn unlock_in_the_homing_alarm_answers_error_9_and_says_to_home() {
     assert_eq!(s.eb.board.state(), State::Alarm);
 }
 
-/// Issue 24: `$SLP` stops everything and reports `Sleep`; only a soft reset wakes the board.
+/// `$SLP` stops everything and reports `Sleep`; only a soft reset wakes the board.
 #[test]
 fn sleep_reports_sleep_and_only_a_reset_wakes_it() {
     let mut s = pwm_sender();
@@ -1532,7 +1532,7 @@ fn sleep_reports_sleep_and_only_a_reset_wakes_it() {
     assert!(s.status().starts_with("<Idle|"));
 }
 
-/// Issue 24: `M6` is a setting. By default Gantry's tool-change stop (`Hold:0`, `~` continues);
+/// `M6` is a setting. By default Gantry's tool-change stop (`Hold:0`, `~` continues);
 /// with `grbl.m6_stop = false`, grbl 1.1's `error:20`: the line runs nothing, the job reads on.
 #[test]
 fn m6_stops_by_default_and_answers_error_20_when_the_setting_says_so() {

@@ -1,12 +1,12 @@
-//! Issue 26 point 3: no import loop between the files of a crate. Every `.rs` file under the
+//! No import loop between the files of a crate. Every `.rs` file under the
 //! `src/` of the workspace's crates is read, its paths into its own crate (`use crate::…`,
 //! `super::…`, `self::…`, grouped `use` trees, and paths written inline such as
 //! `crate::program::n_word(…)`) are resolved to the file that defines the module they name, and
 //! the resulting file graph must have no cycle (a file that imports another which, directly or
 //! through others, imports it back). Doc comments and other comments do not count.
 //!
-//! Known cycles of issue 26.4 in `machine/` are listed in [`ALLOWED`] edge by edge; an edge
-//! listed there that no longer exists fails the test too, so the list only shrinks.
+//! Known cycles may be listed in [`ALLOWED`] edge by edge (none are left); an edge listed there
+//! that no longer exists fails the test too, so the list only shrinks.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

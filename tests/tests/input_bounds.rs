@@ -1,4 +1,4 @@
-//! Issue 25 item 15: no input makes `gantry` read without bound. A program with an endless line
+//! No input makes `gantry` read without bound. A program with an endless line
 //! and `/dev/zero` as a program or a setup file are refused at once with a clear error; an error
 //! quotes at most a line's first 100 characters.
 
@@ -57,7 +57,7 @@ fn an_error_quotes_at_most_the_first_100_characters_of_its_line() {
     assert!(out.stdout.len() < 2000, "{out:?}");
 }
 
-/// Issue 25 item 11: `status` and `setup pull` with no board refuse (a fresh emulated board's
+/// `status` and `setup pull` with no board refuse (a fresh emulated board's
 /// state says nothing of the machine) unless `--emulated` asks for it.
 #[test]
 fn status_and_setup_pull_without_a_board_refuse_unless_emulated() {

@@ -1,4 +1,4 @@
-//! Lines up to 256 characters (issue 28; LinuxCNC's limit) travel end to end: `gantry stream`
+//! Lines up to 256 characters (LinuxCNC's limit) travel end to end: `gantry stream`
 //! packs one into a batch, the board's line ring stores it and the interpreter reads it there.
 //! Through the binary against `gantry emulate --pty`, as a user runs it. A 257-character line
 //! is refused before anything moves, naming its line.

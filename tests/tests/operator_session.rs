@@ -1,4 +1,4 @@
-//! Issue 25 "Prove it": one whole session of a machinist, through the `gantry` binary against
+//! One whole session of a machinist, through the `gantry` binary against
 //! `gantry emulate --pty` (its own process, with switches and a state file), as docs/ports.md
 //! ("A session from power-up to shutdown") describes it: power up, home, zero with `G10 L20`,
 //! restart the board (the offsets are kept), a program with a typo on line 5 (refused, no step

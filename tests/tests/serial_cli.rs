@@ -258,8 +258,12 @@ fn ctrl_c_asks_while_the_link_runs_then_resumes_or_aborts() {
     assert!(!emu.log().contains("Alarm"), "{}", emu.log());
 
     // Ctrl-C, answer "y": the job aborts on its path and ends at rest.
+    // Ctrl-C once this job runs, by its first progress line (not a fixed time after the spawn:
+    // a loaded machine starts the sender later, and a Ctrl-C before its handler is set kills it).
     let mut sender = spawn(&["stream", job, "--port", port]);
-    std::thread::sleep(Duration::from_millis(800));
+    assert!(wait_for(10 * S, || sender
+        .stdout()
+        .contains("progress: line")));
     sender.signal(Signal::SIGINT);
     assert!(wait_for(5 * S, || sender
         .stderr()
@@ -703,7 +707,7 @@ fn a_hold_during_an_alarm_2_stop_ends_in_the_alarm_at_rest_with_outputs_off() {
     ended_at_rest_with_outputs_off(&emu, "Alarm 2", 190, "Alarm");
 }
 
-/// Issue 25 item 12: a command's answer is the answer to that command. A jog the board refuses
+/// A command's answer is the answer to that command. A jog the board refuses
 /// (error 900) must not poison the next command: the next jog reports success and moves exactly
 /// its distance, an `mdi` after a refused jog completes without the old error.
 #[test]

@@ -1,4 +1,4 @@
-//! Issue 25 point 2: `gantry serve` must not go deaf when the board's buffers are full. A job of
+//! `gantry serve` must not go deaf when the board's buffers are full. A job of
 //! thousands of 0.05 mm moves keeps the board's line buffer and planner full; `status`, `hold`,
 //! `override`, `resume` and `abort` from other processes must each act at once (they used to
 //! fail after 3.3 s with "cannot read the board's setup": each command's setup request queued

@@ -1,4 +1,4 @@
-//! Issue 25 item 14: a board restart mid-job under `gantry serve`. The stream ends with a report
+//! A board restart mid-job under `gantry serve`. The stream ends with a report
 //! that says what happened and the commands to resume (not "Connection reset by peer").
 
 mod serial_support;
@@ -55,7 +55,7 @@ fn a_board_restart_under_serve_ends_the_stream_with_the_resume_command() {
     drop(server);
 }
 
-/// Issue 25 item 10: a `gantry serve` whose board went away (the emulator killed) ends at once on
+/// A `gantry serve` whose board went away (the emulator killed) ends at once on
 /// SIGTERM instead of waiting up to a minute for the port to come back.
 #[test]
 fn serve_whose_board_is_gone_ends_at_once_on_sigterm() {

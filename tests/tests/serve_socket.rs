@@ -1,4 +1,4 @@
-//! Issue 25 item 13: `gantry serve`'s socket lives in a private runtime directory (mode 0700),
+//! `gantry serve`'s socket lives in a private runtime directory (mode 0700),
 //! is itself mode 0600 whatever the umask, and a command refuses a socket or directory that
 //! belongs to another user (it could be a fake board planted there) with a clear message.
 //!

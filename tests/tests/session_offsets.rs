@@ -1,4 +1,4 @@
-//! Issue 25: the board keeps what the operator set. Through the `gantry` binary against
+//! The board keeps what the operator set. Through the `gantry` binary against
 //! `gantry emulate --pty --state F` (its flash): a zero set with `G10 L20` survives a power cut
 //! of the board and is shown by `setup pull`; a setup pushed to it is in its flash afterwards.
 
@@ -37,13 +37,13 @@ fn a_zero_set_with_g10_survives_a_restart_and_setup_pull_shows_it() {
     assert!(emu.wait_log(Duration::from_secs(5), |l| l.contains("Idle line")));
     std::thread::sleep(Duration::from_millis(300));
     let (steps, _) = emu.last_counts();
-    // Default 640 steps/mm; the emulated board powers up at 0 (issue 25 item 6 is separate).
+    // Default 640 steps/mm; the emulated board powers up at 0.
     assert_eq!(steps.trim(), "X 7040 Y 3840 Z 0", "{}", emu.log());
     let text = pulled_setup(&dir, emu.port());
     assert!(text.contains("\"G54\" = [10.0, 5.0, 0.0]"), "{text}");
 }
 
-/// Issue 25 item 8: a setup pushed to `gantry emulate --state F` is in its flash: the board
+/// A setup pushed to `gantry emulate --state F` is in its flash: the board
 /// restarted from F has it.
 #[test]
 fn a_pushed_setup_is_saved_and_a_restarted_emulator_comes_back_with_it() {
@@ -77,7 +77,7 @@ fn a_pushed_setup_is_saved_and_a_restarted_emulator_comes_back_with_it() {
     assert!(text.contains("max_rate = 2500.0"), "{text}");
 }
 
-/// Issue 25 item 5: `setup push` of a file that does not name the work offsets keeps the ones the
+/// `setup push` of a file that does not name the work offsets keeps the ones the
 /// operator set on the board; a file that names them sets them.
 #[test]
 fn a_setup_push_keeps_the_boards_offsets_unless_the_file_names_them() {

@@ -1,4 +1,4 @@
-//! Issue 25 item 16, through the binary against `gantry emulate --pty`: `resume` with nothing to
+//! Small seams, through the binary against `gantry emulate --pty`: `resume` with nothing to
 //! resume says so and fails; a jog shorter than one step says why nothing moved; `setup show`
 //! shows the board's setup; `simulate`/`check --canon` into `head` end quietly; the emulator's
 //! ready line says where its setup came from; the progress bar never draws over the Ctrl-C

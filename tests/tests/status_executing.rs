@@ -1,5 +1,5 @@
-//! The status describes the move being executed, not the lines the board has read ahead (issue 25
-//! item 3): work position, work system, units and programmed feed are those of the block the step
+//! The status describes the move being executed, not the lines the board has read ahead:
+//! work position, work system, units and programmed feed are those of the block the step
 //! kernel runs (machine/src/board/executing.rs), in Gantry's status and in grbl's `?` report.
 
 mod controller_support;

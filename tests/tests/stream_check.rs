@@ -1,4 +1,4 @@
-//! Issue 25 item 7: `gantry stream` checks the whole program with the board's setup before the
+//! `gantry stream` checks the whole program with the board's setup before the
 //! first move, as LinuxCNC does: a typo on line 5 is reported in `gantry check`'s format and
 //! nothing moves; `--no-check` streams it and the board stops at the bad line.
 
@@ -53,7 +53,7 @@ fn a_program_with_an_error_is_refused_before_the_first_move() {
     assert_eq!(steps.trim(), "X 7040 Y 0 Z -640", "{}", emu.log());
 }
 
-/// Issue 25 item 4: `--from-line` past a tool change. The preamble's `T1 M6` stops and prompts
+/// `--from-line` past a tool change. The preamble's `T1 M6` stops and prompts
 /// like a program's own M6 (Enter continues it), the tool goes up to a safe height before XY and
 /// comes down to the cut only over the start point, and the job ends where an uninterrupted run
 /// ends. An abort during the preamble suggests the line the run started from, not line 1.

@@ -2,6 +2,7 @@
 //! a `SetupEnd`) and send one (`SetupChunk`s and a `SetupCommit` the board answers by id).
 
 use crate::link::{Client, Transport};
+use gantry_proto::setup_commit::SetupRefusal;
 use gantry_proto::HostMsg;
 
 /// [`setup_push`] over an open link.
@@ -29,10 +30,10 @@ pub fn push_setup_over<T: Transport>(
     })?;
     match client.await_answer(id, 3000)? {
         Some(0) => Ok(()),
-        Some(1) => anyhow::bail!("the board received a damaged setup (length or CRC)"),
-        Some(2) => anyhow::bail!("the board refused the setup as invalid"),
-        Some(3) => anyhow::bail!("the board is not idle: setups are changed only when idle"),
-        Some(c) => anyhow::bail!("the board refused the setup (code {c})"),
+        Some(c) => match SetupRefusal::from_code(c) {
+            Some(r) => anyhow::bail!("{}", r.reason()),
+            None => anyhow::bail!("the board refused the setup (code {c})"),
+        },
         None => anyhow::bail!("the board did not answer the setup within 3 s"),
     }
 }

@@ -3,7 +3,7 @@
 //! The interpreter reads ahead of the motion (the planner holds up to [`super::PLANNER_BLOCKS`]
 //! blocks), so its own offsets and units are those of the last line read, not of the move being
 //! cut: a `G43 H2` read ahead would shift the work position shown while the tool still cuts with
-//! H1 (issue 25 item 3). The board therefore notes, before it queues a motion canon, the modes it
+//! H1. The board therefore notes, before it queues a motion canon, the modes it
 //! runs under ([`BlockModes`]) when they differ from the ones before, tagged with the planner's
 //! next sequence number and the canon's line; segment prep reaching that block makes them the
 //! active ones. The motion itself is untouched: the tags are read, never planned.

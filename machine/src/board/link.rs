@@ -7,6 +7,7 @@ use super::{Board, BoardEvent, JobEnd, JumpTarget};
 use crate::controller::State;
 use crate::setup::{Setup, SETUP_BLOB_MAX};
 use gantry_proto::channel::{QueuedSink, Refusal};
+use gantry_proto::setup_commit::SetupRefusal;
 use gantry_proto::{
     BoardEndpoint, BoardInbound, BoardMsg, Config, HostMessage, Lane, LinkEvent, MachineState,
     OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status,
@@ -555,24 +556,24 @@ impl Inbox<'_> {
             }
             HostMessage::SetupCommit { id, len, crc32 } => {
                 let blob = &self.setup.incoming;
-                let code = if blob.len() != len as usize || gantry_proto::crc::crc32(blob) != crc32
-                {
-                    1
-                } else {
-                    match Setup::from_blob(blob) {
-                        None => 2,
-                        Some(setup) => {
-                            if self.board.set_setup(setup) {
-                                self.setup.changed = true;
-                                0
-                            } else {
-                                3
+                let result =
+                    if blob.len() != len as usize || gantry_proto::crc::crc32(blob) != crc32 {
+                        Err(SetupRefusal::Damaged)
+                    } else {
+                        match Setup::from_blob(blob) {
+                            None => Err(SetupRefusal::Invalid),
+                            Some(setup) => {
+                                if self.board.set_setup(setup) {
+                                    self.setup.changed = true;
+                                    Ok(())
+                                } else {
+                                    Err(SetupRefusal::NotIdle)
+                                }
                             }
                         }
-                    }
-                };
+                    };
                 self.setup.incoming.clear();
-                answer(self.board, id, if code == 0 { Ok(()) } else { Err(code) });
+                answer(self.board, id, result.map_err(SetupRefusal::code));
             }
             HostMessage::SetupRequest => {
                 let mut buf = [0u8; SETUP_BLOB_MAX];

@@ -220,7 +220,7 @@ mod tests {
     }
 
     #[test]
-    fn r_format_centres_from_seed_002() {
+    fn r_format_centres_as_the_hurco_manual_gives_them() {
         let tol = ArcTolerances::for_units(false);
         // G2 X10 Y0 R10 from the origin: centre (5, -8.660254)
         let c = r_format_center((0, 0), (10_000_000, 0), 10_000_000, true, tol).unwrap();

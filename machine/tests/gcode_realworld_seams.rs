@@ -1,4 +1,4 @@
-//! Issue 15's real-world bugs: safe-start lines with G80, G64 Q, `N10.5`, `% text` lines, nested
+//! The real-world bugs: safe-start lines with G80, G64 Q, `N10.5`, `% text` lines, nested
 //! comments and the setup's default retract mode, with exact positions.
 #![allow(clippy::field_reassign_with_default)]
 
