@@ -8,7 +8,7 @@ use anyhow::{bail, Context};
 use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::gcode::RetractMode;
 use gantry_machine::setup::{
-    AxisSetup, Dialect, DwellUnits, Key, KeyName, ListCommand, McodeList, Setup, Tool,
+    AxisSetup, Dialect, DwellUnits, Key, KeyName, ListCommand, McodeList, OrientSetup, Setup, Tool,
     ToolChangePosition, MAX_TOOLS, MAX_USER_MCODES, STARTUP_LINE_LEN, USER_OUTPUTS,
 };
 use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES, NM_PER_MM};
@@ -190,6 +190,10 @@ pub struct SpindleFile {
     /// Laser mode (docs/laser-plasma.md).
     #[serde(default)]
     pub laser: Option<bool>,
+    /// G76's oriented stop: user output, done input, dwell or timeout (docs/settings.md).
+    pub orient_output: Option<u8>,
+    pub orient_done_input: Option<String>,
+    pub orient_dwell_ms: Option<u16>,
 }
 
 #[derive(Debug, Default, Deserialize, Serialize)]
@@ -925,6 +929,22 @@ impl SetupFile {
         if let Some(v) = self.spindle.laser {
             s.outputs.laser = v;
         }
+        let o = &mut s.outputs.orient;
+        if let Some(n) = self.spindle.orient_output {
+            if n >= USER_OUTPUTS {
+                bail!("spindle.orient_output = {n}: a user output 0-{}", USER_OUTPUTS - 1);
+            }
+            o.output = n;
+        }
+        if let Some(name) = &self.spindle.orient_done_input {
+            o.done_input = input_bit("spindle.orient_done_input", name)?;
+        }
+        if let Some(ms) = self.spindle.orient_dwell_ms {
+            o.dwell_ms = ms;
+        }
+        if !o.present() && (o.done_input != OrientSetup::NONE || o.dwell_ms != 0) {
+            bail!("spindle.orient_done_input/orient_dwell_ms: set spindle.orient_output first");
+        }
         for (k, m) in self.mcode.iter().enumerate() {
             let key = format!("mcode[{k}]");
             if !s.program.user_mcodes.contains(&m.code) {
@@ -1272,6 +1292,17 @@ fn controller_toml(s: &Setup, t: &mut String) {
         "laser = {}   # laser mode: S travels with each move, M4 power follows the speed",
         o.laser
     );
+    if o.orient.present() {
+        let _ = writeln!(t, "orient_output = {}   # G76's oriented stop", o.orient.output);
+        if o.orient.done_input != OrientSetup::NONE {
+            let _ = writeln!(
+                t,
+                "orient_done_input = \"{}\"",
+                input_name(o.orient.done_input)
+            );
+        }
+        let _ = writeln!(t, "orient_dwell_ms = {}", o.orient.dwell_ms);
+    }
     for l in &o.mcode_lists {
         let _ = writeln!(
             t,
