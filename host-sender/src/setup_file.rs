@@ -932,7 +932,10 @@ impl SetupFile {
         let o = &mut s.outputs.orient;
         if let Some(n) = self.spindle.orient_output {
             if n >= USER_OUTPUTS {
-                bail!("spindle.orient_output = {n}: a user output 0-{}", USER_OUTPUTS - 1);
+                bail!(
+                    "spindle.orient_output = {n}: a user output 0-{}",
+                    USER_OUTPUTS - 1
+                );
             }
             o.output = n;
         }
@@ -1293,7 +1296,11 @@ fn controller_toml(s: &Setup, t: &mut String) {
         o.laser
     );
     if o.orient.present() {
-        let _ = writeln!(t, "orient_output = {}   # G76's oriented stop", o.orient.output);
+        let _ = writeln!(
+            t,
+            "orient_output = {}   # G76's oriented stop",
+            o.orient.output
+        );
         if o.orient.done_input != OrientSetup::NONE {
             let _ = writeln!(
                 t,
@@ -1485,6 +1492,22 @@ diameter = -1
         assert!(e.to_string().contains("not in program.user_mcodes"), "{e}");
         let e = SetupFile::parse("[spindle]\nrpm_range = [5000, 100]\n").unwrap_err();
         assert!(e.to_string().starts_with("spindle.rpm_range"), "{e}");
+        let e = SetupFile::parse("[spindle]\norient_output = 16\n").unwrap_err();
+        assert!(
+            e.to_string().starts_with("spindle.orient_output = 16"),
+            "{e}"
+        );
+        let e = SetupFile::parse("[spindle]\norient_dwell_ms = 100\n").unwrap_err();
+        assert!(
+            e.to_string().contains("set spindle.orient_output first"),
+            "{e}"
+        );
+        let e = SetupFile::parse("[spindle]\norient_output = 1\norient_done_input = \"in40\"\n")
+            .unwrap_err();
+        assert!(
+            e.to_string().starts_with("spindle.orient_done_input"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -1522,6 +1545,9 @@ analog_axes = ["X", "-"]
 [spindle]
 rpm_range = [6000, 24000]
 pwm_range = [10, 999]
+orient_output = 7
+orient_done_input = "in21"
+orient_dwell_ms = 1500
 [[mcode]]
 code = 101
 dry_run_disabled = true
@@ -1550,6 +1576,15 @@ host_lost_stop_s = 0
         );
         assert_eq!(s.homing.before_retract[0], ListCommand::DisableLimitReport);
         assert_eq!(s.link.host_lost_stop_s, 0);
+        assert_eq!(
+            s.outputs.orient,
+            gantry_machine::setup::OrientSetup {
+                output: 7,
+                done_input: 21,
+                dwell_ms: 1500
+            }
+        );
+        assert!(s.interp_config().spindle_orient);
         assert!(s.is_valid());
         let shown = to_toml(&s);
         assert_eq!(SetupFile::parse(&shown).unwrap(), s);

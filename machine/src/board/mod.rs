@@ -1343,15 +1343,15 @@ impl Board {
             Action::Spindle { state, rpm } => {
                 if state != Spindle::Off {
                     // A spindle that starts is no longer held oriented.
-                    self.outputs.release_orient(self.setup.outputs.orient.output);
+                    self.outputs
+                        .release_orient(self.setup.outputs.orient.output);
                 }
                 self.outputs.set_spindle(state, rpm);
             }
             Action::SpindleOrient if self.setup.outputs.orient.present() => {
                 // Set the orient output, then wait for its done input (or the dwell) at rest:
                 // the shift away from the wall is the next motion (`gcode/cycles.rs`).
-                self.outputs
-                    .run_list(&self.setup.outputs.orient.commands());
+                self.outputs.run_list(&self.setup.outputs.orient.commands());
                 self.perform_sync();
                 return;
             }

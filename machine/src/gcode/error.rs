@@ -447,7 +447,7 @@ impl ErrorCode {
             CycleRBelowBottom => "canned cycle R plane is below the bottom of the hole",
             CycleQInvalid => "peck cycle needs a positive Q (peck depth)",
             CycleDwellMissing => "canned cycle needs a dwell P in its first block",
-            CycleSpindleState => "spindle state wrong for this cycle (G84 needs M3, G74 M4, G86/G87/G88 need the spindle on)",
+            CycleSpindleState => "spindle state wrong for this cycle (G84 needs M3, G74 M4, G76/G86/G87/G88 need the spindle on)",
             CycleInverseTime => "canned cycles cannot run in G93 inverse-time mode",
             CycleRotaryAxis => "rotary axis words are not allowed in a canned-cycle block",
             CycleRepeatInvalid => "canned-cycle repeat count (K/L) must be a whole number >= 0",

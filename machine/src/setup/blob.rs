@@ -605,6 +605,11 @@ mod tests {
         s.outputs.spindle_max_rpm = u32::MAX;
         s.outputs.pwm_max = u16::MAX;
         s.outputs.pwm_min = 1;
+        s.outputs.orient = OrientSetup {
+            output: 15,
+            done_input: 31,
+            dwell_ms: u16::MAX,
+        };
         for i in 0..MAX_MCODE_LISTS {
             let mut l = McodeList {
                 code: 100 + 1000 * i as u16,
