@@ -192,7 +192,7 @@ const VALUE_RETURNED: ParamRef = ParamRef::Named {
 
 /// True for the read-only named parameters the interpreter defines (LinuxCNC's).
 fn read_only(p: ParamRef) -> bool {
-    p == VALUE || p == VALUE_RETURNED
+    p == VALUE || p == VALUE_RETURNED || names::is_predefined(p)
 }
 
 impl ParamRead for Reader<'_> {
@@ -206,6 +206,11 @@ impl ParamRead for Reader<'_> {
             {
                 Ok(expr::VACANT)
             }
+            _ if read_only(p) => names::read(p, self.state, |n| {
+                self.params
+                    .read(ParamRef::Numbered(n), self.level, self.state)
+            })
+            .unwrap_or(Ok(0)),
             _ => match self.params.read(p, self.level, self.state) {
                 Err(ErrorCode::UndefinedParameter) if self.skipping => Ok(0),
                 r => r,
@@ -1643,6 +1648,7 @@ mod context;
 mod cycle;
 mod flow;
 mod moves;
+mod names;
 
 #[cfg(test)]
 mod tests {
