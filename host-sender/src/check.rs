@@ -219,6 +219,8 @@ enum Op<'a> {
         state: &'static str,
         rpm: u32,
     },
+    /// An oriented spindle stop (G76 fine boring; rs274 has no such record).
+    Orient,
     Coolant {
         mist: bool,
         flood: bool,
@@ -297,6 +299,7 @@ pub fn canon_json(c: &Canon) -> String {
             },
             rpm,
         },
+        Action::SpindleOrient => Op::Orient,
         Action::Coolant { mist, flood } => Op::Coolant { mist, flood },
         Action::ToolChange { tool } => Op::Tool { tool },
         Action::UserMCode { code, .. } => Op::Mcode { code: code.into() },

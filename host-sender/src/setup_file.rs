@@ -8,7 +8,7 @@ use anyhow::{bail, Context};
 use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::gcode::RetractMode;
 use gantry_machine::setup::{
-    AxisSetup, Dialect, DwellUnits, Key, KeyName, ListCommand, McodeList, Setup, Tool,
+    AxisSetup, Dialect, DwellUnits, Key, KeyName, ListCommand, McodeList, OrientSetup, Setup, Tool,
     ToolChangePosition, MAX_TOOLS, MAX_USER_MCODES, STARTUP_LINE_LEN, USER_OUTPUTS,
 };
 use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES, NM_PER_MM};
@@ -190,6 +190,10 @@ pub struct SpindleFile {
     /// Laser mode (docs/laser-plasma.md).
     #[serde(default)]
     pub laser: Option<bool>,
+    /// G76's oriented stop: user output, done input, dwell or timeout (docs/settings.md).
+    pub orient_output: Option<u8>,
+    pub orient_done_input: Option<String>,
+    pub orient_dwell_ms: Option<u16>,
 }
 
 #[derive(Debug, Default, Deserialize, Serialize)]
@@ -1066,6 +1070,25 @@ impl SetupFile {
         if let Some(v) = self.spindle.laser {
             s.outputs.laser = v;
         }
+        let o = &mut s.outputs.orient;
+        if let Some(n) = self.spindle.orient_output {
+            if n >= USER_OUTPUTS {
+                bail!(
+                    "spindle.orient_output = {n}: a user output 0-{}",
+                    USER_OUTPUTS - 1
+                );
+            }
+            o.output = n;
+        }
+        if let Some(name) = &self.spindle.orient_done_input {
+            o.done_input = input_bit("spindle.orient_done_input", name)?;
+        }
+        if let Some(ms) = self.spindle.orient_dwell_ms {
+            o.dwell_ms = ms;
+        }
+        if !o.present() && (o.done_input != OrientSetup::NONE || o.dwell_ms != 0) {
+            bail!("spindle.orient_done_input/orient_dwell_ms: set spindle.orient_output first");
+        }
         for (k, m) in self.mcode.iter().enumerate() {
             let key = format!("mcode[{k}]");
             if !s.program.user_mcodes.contains(&m.code) {
@@ -1413,6 +1436,21 @@ fn controller_toml(s: &Setup, t: &mut String) {
         "laser = {}   # laser mode: S travels with each move, M4 power follows the speed",
         o.laser
     );
+    if o.orient.present() {
+        let _ = writeln!(
+            t,
+            "orient_output = {}   # G76's oriented stop",
+            o.orient.output
+        );
+        if o.orient.done_input != OrientSetup::NONE {
+            let _ = writeln!(
+                t,
+                "orient_done_input = \"{}\"",
+                input_name(o.orient.done_input)
+            );
+        }
+        let _ = writeln!(t, "orient_dwell_ms = {}", o.orient.dwell_ms);
+    }
     for l in &o.mcode_lists {
         let _ = writeln!(
             t,
@@ -1595,6 +1633,22 @@ diameter = -1
         assert!(e.to_string().contains("not in program.user_mcodes"), "{e}");
         let e = SetupFile::parse("[spindle]\nrpm_range = [5000, 100]\n").unwrap_err();
         assert!(e.to_string().starts_with("spindle.rpm_range"), "{e}");
+        let e = SetupFile::parse("[spindle]\norient_output = 16\n").unwrap_err();
+        assert!(
+            e.to_string().starts_with("spindle.orient_output = 16"),
+            "{e}"
+        );
+        let e = SetupFile::parse("[spindle]\norient_dwell_ms = 100\n").unwrap_err();
+        assert!(
+            e.to_string().contains("set spindle.orient_output first"),
+            "{e}"
+        );
+        let e = SetupFile::parse("[spindle]\norient_output = 1\norient_done_input = \"in40\"\n")
+            .unwrap_err();
+        assert!(
+            e.to_string().starts_with("spindle.orient_done_input"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -1632,6 +1686,9 @@ analog_axes = ["X", "-"]
 [spindle]
 rpm_range = [6000, 24000]
 pwm_range = [10, 999]
+orient_output = 7
+orient_done_input = "in21"
+orient_dwell_ms = 1500
 [[mcode]]
 code = 101
 dry_run_disabled = true
@@ -1660,6 +1717,15 @@ host_lost_stop_s = 0
         );
         assert_eq!(s.homing.before_retract[0], ListCommand::DisableLimitReport);
         assert_eq!(s.link.host_lost_stop_s, 0);
+        assert_eq!(
+            s.outputs.orient,
+            gantry_machine::setup::OrientSetup {
+                output: 7,
+                done_input: 21,
+                dwell_ms: 1500
+            }
+        );
+        assert!(s.interp_config().spindle_orient);
         assert!(s.is_valid());
         let shown = to_toml(&s);
         assert_eq!(SetupFile::parse(&shown).unwrap(), s);

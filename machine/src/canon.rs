@@ -100,6 +100,10 @@ pub enum Action {
     Dwell { micros: u64 },
     /// Spindle state and speed (rpm).
     Spindle { state: Spindle, rpm: u32 },
+    /// Oriented spindle stop (G76 fine boring at the bottom, the spindle already stopped): at
+    /// rest, the board sets the setup's orient output and waits for its done input or dwell
+    /// (`board/mod.rs`); the next spindle start releases the output.
+    SpindleOrient,
     /// Coolant outputs (M7 mist, M8 flood, M9 both off).
     Coolant { mist: bool, flood: bool },
     /// M6 tool change to tool `tool`.

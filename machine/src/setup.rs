@@ -230,6 +230,56 @@ pub struct OutputSetup {
     pub laser: bool,
     /// Command lists of user M codes.
     pub mcode_lists: Vec<McodeList, MAX_MCODE_LISTS>,
+    /// The oriented spindle stop of G76 fine boring.
+    pub orient: OrientSetup,
+}
+
+/// The oriented spindle stop (`[spindle] orient_*`, docs/settings.md): a user output that tells
+/// the drive to orient and an input that says it has, or a fixed time. Without an output G76
+/// is refused (E411): the bar would shift away from the wall at an unknown angle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct OrientSetup {
+    /// User output (0-15) that commands the orient; [`OrientSetup::NONE`]: no orient.
+    pub output: u8,
+    /// Input bit (an [`crate::controller::inputs::InputBits`] bit) that reads high once the
+    /// spindle is oriented; [`OrientSetup::NONE`]: wait `dwell_ms` instead.
+    pub done_input: u8,
+    /// Without a done input, how long the orient takes; with one, the longest wait for it
+    /// (then alarm `ListInputTimeout`; 0 = wait forever).
+    pub dwell_ms: u16,
+}
+
+impl OrientSetup {
+    /// No output (or no done input).
+    pub const NONE: u8 = u8::MAX;
+    /// No orient: G76 is refused.
+    pub const OFF: OrientSetup = OrientSetup {
+        output: Self::NONE,
+        done_input: Self::NONE,
+        dwell_ms: 0,
+    };
+
+    /// True when the machine can orient its spindle.
+    pub fn present(&self) -> bool {
+        self.output < USER_OUTPUTS
+    }
+
+    /// The orient as a command list run at rest: set the output, then wait for the done input
+    /// or the dwell. The output stays set until the spindle starts again (`board/outputs.rs`).
+    pub(crate) fn commands(&self) -> [ListCommand; 2] {
+        [
+            ListCommand::Set(self.output),
+            if self.done_input == Self::NONE {
+                ListCommand::DwellMs(self.dwell_ms)
+            } else {
+                ListCommand::WaitInput {
+                    bit: self.done_input,
+                    level: true,
+                    timeout_ms: self.dwell_ms,
+                }
+            },
+        ]
+    }
 }
 
 /// The command list of one user M code.
@@ -419,6 +469,7 @@ impl Default for Setup {
                 pwm_min: 0,
                 laser: false,
                 mcode_lists: Vec::new(),
+                orient: OrientSetup::OFF,
             },
             link: LinkSetup {
                 host_lost_stop_s: 60,
@@ -446,6 +497,7 @@ impl Setup {
         c.g28_position = p.g28_home;
         c.g30_position = p.g30_home;
         c.tool_change_position = p.tool_change_position;
+        c.spindle_orient = self.outputs.orient.present();
         for (slot, tool) in c.tools.iter_mut().zip(&p.tools) {
             *slot = *tool;
         }

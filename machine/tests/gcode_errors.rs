@@ -32,6 +32,13 @@ fn cfg_gixa() -> InterpConfig {
     InterpConfig::gixa()
 }
 
+/// A machine with an oriented spindle stop (G76 runs).
+fn cfg_orient() -> InterpConfig {
+    let mut c = InterpConfig::default();
+    c.spindle_orient = true;
+    c
+}
+
 fn cfg_3axis() -> InterpConfig {
     let mut c = InterpConfig::default();
     c.axis_count = 3;
@@ -333,6 +340,18 @@ const CASES: &[Case] = &[
         cfg_default,
         ErrorCode::CycleBackBoreWordMissing,
         Some((8, 11)),
+    ),
+    (
+        "M3 S100 G76 X1 R1 Z-1 I0.1 F1",
+        cfg_default,
+        ErrorCode::CycleNotSupported,
+        Some((8, 11)),
+    ),
+    (
+        "M3 S100 G76 X1 R1 Z-1 Q0.1 F1",
+        cfg_orient,
+        ErrorCode::CycleFineBoreQ,
+        Some((22, 26)),
     ),
     (
         "G10 L3 P1 X1",

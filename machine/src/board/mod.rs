@@ -33,7 +33,7 @@ pub mod source;
 mod starvation;
 pub mod underruns;
 
-use crate::canon::{Action, Canon, StopKind};
+use crate::canon::{Action, Canon, Spindle, StopKind};
 use crate::controller::homing::{self, Phase};
 use crate::controller::inputs::{InputBits, Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 use crate::controller::lists::ListStatus;
@@ -1338,9 +1338,22 @@ impl Board {
         self.progress.line = canon.line;
         match canon.action {
             // Dry run: spindle and coolant stay as they are (the GIXA controller: S has no effect).
-            Action::Spindle { .. } | Action::Coolant { .. } if self.overrides.switches.dry_run => {}
+            Action::Spindle { .. } | Action::SpindleOrient | Action::Coolant { .. }
+                if self.overrides.switches.dry_run => {}
             Action::Spindle { state, rpm } => {
+                if state != Spindle::Off {
+                    // A spindle that starts is no longer held oriented.
+                    self.outputs
+                        .release_orient(self.setup.outputs.orient.output);
+                }
                 self.outputs.set_spindle(state, rpm);
+            }
+            Action::SpindleOrient if self.setup.outputs.orient.present() => {
+                // Set the orient output, then wait for its done input (or the dwell) at rest:
+                // the shift away from the wall is the next motion (`gcode/cycles.rs`).
+                self.outputs.run_list(&self.setup.outputs.orient.commands());
+                self.perform_sync();
+                return;
             }
             Action::Coolant { mist, flood } => {
                 self.outputs.set_coolant(mist, flood);

@@ -91,6 +91,11 @@ impl OutputState {
         self.program.rpm = rpm;
     }
 
+    /// Switches the orient output `output` (a user output) off: the spindle starts again.
+    pub(super) fn release_orient(&mut self, output: u8) {
+        self.user &= !1u16.checked_shl(u32::from(output)).unwrap_or(0);
+    }
+
     /// M7/M8/M9 at its sync point.
     pub(super) fn set_coolant(&mut self, mist: bool, flood: bool) {
         self.program.mist = mist;

@@ -145,6 +145,9 @@ pub struct InterpConfig {
     pub gixa: GixaSetup,
     /// An arc's off-plane centre word (RS274 dialect).
     pub off_plane_offset: OffPlaneOffset,
+    /// The machine has an oriented spindle stop (the setup's `spindle.orient_output`): G76
+    /// fine boring runs; without it G76 is E411.
+    pub spindle_orient: bool,
 }
 
 impl Default for InterpConfig {
@@ -166,6 +169,7 @@ impl Default for InterpConfig {
             default_retract: RetractMode::InitialLevel,
             gixa: GixaSetup::default(),
             off_plane_offset: OffPlaneOffset::Refused,
+            spindle_orient: false,
         }
     }
 }

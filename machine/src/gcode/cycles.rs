@@ -6,11 +6,15 @@
 //! `c`; `offset` converts them to machine coordinates when an action is emitted.
 //!
 //! RS274NGC G87 (back boring) and G88 (boring, manual retract) follow rs274's canonical output
-//! (goldens tests/golden/rs274/112-g87-back-bore and 113-g88-manual-retract). Gantry has no
-//! spindle orientation, so rs274's ORIENT_SPINDLE after each spindle stop has no action. G88, as in
+//! (goldens tests/golden/rs274/112-g87-back-bore and 113-g88-manual-retract). rs274's
+//! ORIENT_SPINDLE after each spindle stop there has no action. G88, as in
 //! LinuxCNC, emits no retract after its program stop: the interpreter takes the tool to be at the
 //! clear level (the operator's job at the stop), and the next move starts from the hole's bottom
 //! if the operator did not retract it.
+//!
+//! G76 fine boring (the Hurco ISNC manual's bore orient, only on a machine whose setup has an
+//! orient output) stops the spindle at the bottom, orients it ([`Action::SpindleOrient`]), moves
+//! the bar off the wall by I/J, rapids out, moves back over the hole and restarts the spindle.
 
 use super::transform::Transform;
 use crate::canon::{Action, Canon, Spindle, StopKind};
@@ -48,6 +52,9 @@ pub enum CycleBody {
     /// RS274NGC G88: feed down, dwell, spindle stop, program stop (the operator retracts by hand),
     /// spindle restart. Like LinuxCNC, no retract is emitted: the next move starts at the bottom.
     BoreManualRetract,
+    /// G76 fine boring: feed down, dwell (P > 0), spindle stop and orient, shift by the offset,
+    /// rapid out, shift back, spindle restart.
+    FineBore,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -93,7 +100,8 @@ pub struct CycleRun {
     pub rpm: u32,
     /// User M code run at each punch position (gixa M10).
     pub punch_m_code: u16,
-    /// G87 offsets on the plane axes (I/J/K of the plane) and the middle level on the drilling axis.
+    /// G87 offsets on the plane axes (I/J/K of the plane) and the middle level on the drilling
+    /// axis; G76's shift on the plane axes.
     pub back_bore_offset: (Nm, Nm),
     pub middle: Nm,
     pub repeats_left: u32,
@@ -396,6 +404,20 @@ impl CycleRun {
                 self.dwell(out);
                 self.spindle(Spindle::Off, out);
                 self.push(out, Action::Stop(StopKind::Pause));
+                self.spindle(self.spindle, out);
+            }
+            CycleBody::FineBore => {
+                let (hole, off) = self.hole_and_offset();
+                self.feed_c(bottom, out);
+                if self.dwell_us > 0 {
+                    self.dwell(out);
+                }
+                self.spindle(Spindle::Off, out);
+                // The board sets the orient output and waits at rest; the shift comes after.
+                self.push(out, Action::SpindleOrient);
+                self.rapid_abc(off.0, off.1, bottom, out);
+                self.rapid_c(clear, out);
+                self.rapid_abc(hole.0, hole.1, clear, out);
                 self.spindle(self.spindle, out);
             }
             CycleBody::PeckFull | CycleBody::PeckChipBreak | CycleBody::Punch => {}

@@ -122,6 +122,9 @@ pub enum ErrorCode {
     CycleNotSupported,
     /// RS274NGC G87 without its I, J and K words in its first block.
     CycleBackBoreWordMissing,
+    /// G76 fine boring with Q: its shift direction is a Fanuc machine parameter; Gantry shifts
+    /// by the block's I/J only.
+    CycleFineBoreQ,
     // --- 5xx offsets, tools, settings ---
     /// G10 with a missing or unsupported L, or P out of range (or a full tool table for L1).
     G10Invalid,
@@ -265,6 +268,7 @@ impl ErrorCode {
         ErrorCode::CyclePeckNotAboveRetract,
         ErrorCode::CycleNotSupported,
         ErrorCode::CycleBackBoreWordMissing,
+        ErrorCode::CycleFineBoreQ,
         ErrorCode::G10Invalid,
         ErrorCode::ToolNotInTable,
         ErrorCode::G53Invalid,
@@ -356,6 +360,7 @@ impl ErrorCode {
             CyclePeckNotAboveRetract => 410,
             CycleNotSupported => 411,
             CycleBackBoreWordMissing => 412,
+            CycleFineBoreQ => 413,
             G10Invalid => 501,
             ToolNotInTable => 502,
             G53Invalid => 503,
@@ -442,13 +447,14 @@ impl ErrorCode {
             CycleRBelowBottom => "canned cycle R plane is below the bottom of the hole",
             CycleQInvalid => "peck cycle needs a positive Q (peck depth)",
             CycleDwellMissing => "canned cycle needs a dwell P in its first block",
-            CycleSpindleState => "spindle state wrong for this cycle (G84 needs M3, G74 M4, G86/G87/G88 need the spindle on)",
+            CycleSpindleState => "spindle state wrong for this cycle (G84 needs M3, G74 M4, G76/G86/G87/G88 need the spindle on)",
             CycleInverseTime => "canned cycles cannot run in G93 inverse-time mode",
             CycleRotaryAxis => "rotary axis words are not allowed in a canned-cycle block",
             CycleRepeatInvalid => "canned-cycle repeat count (K/L) must be a whole number >= 0",
             CyclePeckNotAboveRetract => "G87 peck Q must be larger than the partial-retract distance",
             CycleNotSupported => "canned cycle not supported in this dialect (gixa G73), or not on this board (G76 needs an oriented spindle stop, G84.2/G84.3 a synchronised spindle)",
             CycleBackBoreWordMissing => "G87 back boring needs I, J and K in its first block",
+            CycleFineBoreQ => "G76 fine boring shifts by I and J: Q's direction is a machine parameter (write the shift as I/J)",
             G10Invalid => "G10 needs L1 (P tool), L2 or L20 (P0..P9)",
             ToolNotInTable => "tool not in the tool table",
             G53Invalid => "G53 needs G0 or G1 and absolute distance mode (G90)",

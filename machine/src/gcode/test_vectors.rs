@@ -97,6 +97,7 @@ fn digest_action(d: &mut Digest, a: &Action) {
             }]);
             d.u64(rpm as u64);
         }
+        Action::SpindleOrient => d.bytes(b"o"),
         Action::Coolant { mist, flood } => d.bytes(&[b'c', mist as u8, flood as u8]),
         Action::ToolChange { tool } => {
             d.bytes(b"t");

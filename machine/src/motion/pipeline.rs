@@ -344,6 +344,7 @@ impl<const N: usize> Motion<N> {
                 Ok(())
             }
             Action::Spindle { .. }
+            | Action::SpindleOrient
             | Action::Coolant { .. }
             | Action::ToolChange { .. }
             | Action::UserMCode { .. }

@@ -473,6 +473,15 @@ table! {
     Laser => Spindle "laser" Bool (0, 1), 32,
         |s, _i| i64::from(s.outputs.laser);
         [] "" "" "laser mode (grbl `$32`, docs/laser-plasma.md): `S` changes between G1/G2/G3 moves never stop the motion (S travels with each move and sets the PWM duty at its first step); `M3` constant power, `M4` power scaled by the current speed ÷ the programmed feed at every segment; the beam is off in G0, at rest, in a hold, at M0/M6 stops, in an alarm and at program end, whatever S says. `false`: a milling spindle (every S change stops the motion until the spindle has it)",
+    OrientOutput => Spindle "orient_output" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "a user output 0-15 (as in `set N`)" "none" "the oriented spindle stop of G76 fine boring (docs/gcode-transforms.md, \"Fanuc cycles\"): this output is set at the hole's bottom (spindle stopped) and stays set until the spindle starts again. Without it G76 is refused (E411)",
+    OrientDoneInput => Spindle "orient_done_input" Text ANY, NO_GRBL,
+        |_s, _i| 0;
+        [] "an input name (`in20`, …)" "none" "reads high once the spindle is oriented: the shift off the wall waits for it. None: the orient takes `orient_dwell_ms`",
+    OrientDwellMs => Spindle "orient_dwell_ms" Ms (0, 65_535), NO_GRBL,
+        |s, _i| i64::from(s.outputs.orient.dwell_ms);
+        [] "" "`0`" "without `orient_done_input`, how long the orient takes; with it, the longest wait for the input (then alarm 21, list input timeout; `0` = wait forever)",
 
     McodeCode => Mcode "code" Text ANY, NO_GRBL,
         |_s, _i| 0;

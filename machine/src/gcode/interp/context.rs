@@ -5,8 +5,10 @@
 //! What is saved and restored is what LinuxCNC's `restore_settings` puts back
 //! (docs/gcode-parameters.md "Modal state"): units, plane, distance and arc-distance mode,
 //! feed mode and F, the coordinate system, the tool length offset, the retract mode, the path
-//! mode, S and the spindle, mist and flood. The motion mode is not (LinuxCNC: "a real bad idea"),
-//! nor cutter compensation, which must be ended by G40 in the subroutine that started it.
+//! mode, S and the spindle, mist and flood, cutter compensation when it was off (a subroutine
+//! that left it on is ended as by G40; LinuxCNC's restore runs `G40` then) and a G92 offset that
+//! was in force and is now cleared (as `G92.3`). The motion mode is not (LinuxCNC: "a real bad
+//! idea").
 
 use super::*;
 
@@ -28,6 +30,10 @@ pub(super) struct Saved {
     mist: bool,
     flood: bool,
     tool_offset: Pos,
+    /// Cutter compensation was on (G41/G42/G41.1/G42.1).
+    comp: bool,
+    /// A G92 offset was in force (LinuxCNC's "G92 applied", its parameter #5210).
+    g92: bool,
 }
 
 /// A saved modal state and the call level it belongs to.
@@ -80,6 +86,8 @@ impl Interpreter {
                         mist: s.mist,
                         flood: s.flood,
                         tool_offset: s.tool_offset,
+                        comp: self.comp.is_on(),
+                        g92: s.g92 != [0; MAX_AXES],
                     },
                 };
                 match at.and_then(|i| self.contexts.get_mut(i)) {
@@ -128,9 +136,19 @@ impl Interpreter {
         }
     }
 
-    /// Puts a saved modal state back; the spindle and coolant are switched only if they differ.
+    /// Puts a saved modal state back; compensation is turned off if it was off, the spindle and
+    /// coolant are switched only if they differ.
     fn restore_modes(&mut self, line: u32, saved: &Saved) -> Res<()> {
+        if !saved.comp && self.comp.is_on() {
+            // LinuxCNC's restore executes `G40`: the compensated move that waits ends first.
+            self.comp_off(None)?;
+        }
         let s = &mut self.state;
+        if saved.g92 && s.g92 == [0; MAX_AXES] {
+            // The offset was cleared (G92.1/G92.2): LinuxCNC's restore runs `G92.3`, which puts
+            // back the stored values — the last G92's, perhaps the subroutine's own.
+            s.g92 = s.g92_saved;
+        }
         s.inch = saved.inch;
         s.plane = saved.plane;
         s.absolute = saved.absolute;

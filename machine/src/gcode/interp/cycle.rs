@@ -59,9 +59,11 @@ struct BodyWords {
     dwell_us: u64,
 }
 
-/// The body of cycle `code` in the dialect (`None`: no such cycle).
-fn cycle_body(gixa: bool, code: u16) -> Option<CycleBody> {
+/// The body of cycle `code` in the dialect (`None`: no such cycle, or G76 on a machine
+/// without an oriented spindle stop).
+fn cycle_body(gixa: bool, orient: bool, code: u16) -> Option<CycleBody> {
     Some(match (gixa, code) {
+        (false, G76) if orient => CycleBody::FineBore,
         (false, G73) => CycleBody::PeckChipBreak,
         (_, G81) => CycleBody::Drill,
         (_, G82) => CycleBody::DrillDwell,
@@ -112,7 +114,7 @@ impl Interpreter {
     fn cycle_block(&self, b: &Block, code: u16) -> Res<CycleBlock> {
         let gixa = self.gixa();
         let g_cols = b.g_cols(code);
-        let Some(body) = cycle_body(gixa, code) else {
+        let Some(body) = cycle_body(gixa, self.config.spindle_orient, code) else {
             return Err((ErrorCode::CycleNotSupported, g_cols));
         };
         if self.state.inverse_time {
@@ -179,10 +181,10 @@ impl Interpreter {
                 _ => return Err((ErrorCode::CycleDepthMissing, cb.g_cols)),
             },
         };
-        let back_bore = if cb.body == CycleBody::BackBore {
-            Some(self.back_bore_words(b, cb)?)
-        } else {
-            mem.back_bore
+        let back_bore = match cb.body {
+            CycleBody::BackBore => Some(self.back_bore_words(b, cb)?),
+            CycleBody::FineBore => Some(self.fine_bore_shift(b, cb)?),
+            _ => mem.back_bore,
         };
         let mut repeats = 1u32;
         if !cb.gixa {
@@ -219,6 +221,28 @@ impl Interpreter {
                 None => match self.state.cycle.back_bore {
                     Some(m) if cb.same => m[axis],
                     _ => return Err((ErrorCode::CycleBackBoreWordMissing, cb.g_cols)),
+                },
+            };
+        }
+        Ok(kept)
+    }
+
+    /// G76's shift on the plane axes (I/J in G17, K/I in G18, J/K in G19), indexed by axis: a
+    /// missing word is the remembered one in a repeated G76 block, else 0 (Hurco: I/J are
+    /// signed increments). Q (Fanuc's shift, its direction a machine parameter) is refused.
+    #[inline(always)]
+    fn fine_bore_shift(&self, b: &mut Block, cb: &CycleBlock) -> Res<[Nm; 3]> {
+        if let Some(w) = b.word(b'Q') {
+            return err(ErrorCode::CycleFineBoreQ, Some(w));
+        }
+        let (a, bx, _) = cb.axes;
+        let mut kept = [0; 3];
+        for axis in [a, bx] {
+            kept[axis] = match b.take(b"IJK"[axis]) {
+                Some(w) => self.len_word(w)?,
+                None => match self.state.cycle.back_bore {
+                    Some(m) if cb.same => m[axis],
+                    _ => 0,
                 },
             };
         }
@@ -313,6 +337,13 @@ impl Interpreter {
         let mut dwell_us = 0;
         if gixa {
             dwell_us = self.state.stored_dwell_us;
+        } else if body == CycleBody::FineBore {
+            // P is optional (Hurco: the dwell at the bottom before the orient).
+            dwell_us = match b.take(b'P') {
+                Some(w) => self.dwell_us(w)?,
+                None if cb.same => mem.dwell_us.unwrap_or(0),
+                None => 0,
+            };
         } else if matches!(
             body,
             CycleBody::DrillDwell
@@ -341,9 +372,10 @@ impl Interpreter {
             // G74 taps left-handed: down with M4, reversed to M3 at the bottom.
             CycleBody::Tap if cb.code == G74 => self.state.spindle == Spindle::Ccw,
             CycleBody::Tap => self.state.spindle == Spindle::Cw,
-            CycleBody::BoreSpindleStop | CycleBody::BackBore | CycleBody::BoreManualRetract => {
-                self.state.spindle != Spindle::Off
-            }
+            CycleBody::BoreSpindleStop
+            | CycleBody::BackBore
+            | CycleBody::BoreManualRetract
+            | CycleBody::FineBore => self.state.spindle != Spindle::Off,
             _ => true,
         }
     }
@@ -403,7 +435,7 @@ impl Interpreter {
         run.q = body.q;
         run.clearance = clearance;
         run.dwell_us = body.dwell_us;
-        if let (CycleBody::BackBore, Some(m)) = (cb.body, w.back_bore) {
+        if let (CycleBody::BackBore | CycleBody::FineBore, Some(m)) = (cb.body, w.back_bore) {
             run.back_bore_offset = (m[a], m[bx]);
             // K (the drilling-axis letter) is absolute in G90 and relative to the bottom in G91.
             run.middle = if absolute { m[c] } else { place.bottom + m[c] };

@@ -192,7 +192,7 @@ const VALUE_RETURNED: ParamRef = ParamRef::Named {
 
 /// True for the read-only named parameters the interpreter defines (LinuxCNC's).
 fn read_only(p: ParamRef) -> bool {
-    p == VALUE || p == VALUE_RETURNED
+    p == VALUE || p == VALUE_RETURNED || names::is_predefined(p)
 }
 
 impl ParamRead for Reader<'_> {
@@ -206,6 +206,11 @@ impl ParamRead for Reader<'_> {
             {
                 Ok(expr::VACANT)
             }
+            _ if read_only(p) => names::read(p, self.state, |n| {
+                self.params
+                    .read(ParamRef::Numbered(n), self.level, self.state)
+            })
+            .unwrap_or(Ok(0)),
             _ => match self.params.read(p, self.level, self.state) {
                 Err(ErrorCode::UndefinedParameter) if self.skipping => Ok(0),
                 r => r,
@@ -927,22 +932,7 @@ impl Interpreter {
         let side = match code.code {
             G41 | G41_1 => Side::Left,
             G42 | G42_1 => Side::Right,
-            _ => {
-                let queue = &mut self.queue;
-                let back = self
-                    .comp
-                    .turn_off(&mut |c| {
-                        let _ = queue.push_back(c);
-                    })
-                    .map_err(|c| (c, cols))?;
-                if let Some(programmed) = back {
-                    // LinuxCNC continues from the programmed point (the exit move starts there).
-                    let (first, second, _) = arc_axes(self.state.plane);
-                    self.state.position[first] = programmed[first];
-                    self.state.position[second] = programmed[second];
-                }
-                return Ok(());
-            }
+            _ => return self.comp_off(cols),
         };
         let d = b.take(b'D');
         let diameter = if matches!(code.code, G41_1 | G42_1) {
@@ -981,6 +971,25 @@ impl Interpreter {
         self.comp
             .turn_on(side, diameter / 2, self.state.plane)
             .map_err(|c| (c, cols))
+    }
+
+    /// G40 (and an `M72`/`M73` restore of a state saved without compensation): what waits is
+    /// released, the last move ends where it was aimed.
+    pub(super) fn comp_off(&mut self, cols: Option<(u16, u16)>) -> Res<()> {
+        let queue = &mut self.queue;
+        let back = self
+            .comp
+            .turn_off(&mut |c| {
+                let _ = queue.push_back(c);
+            })
+            .map_err(|c| (c, cols))?;
+        if let Some(programmed) = back {
+            // LinuxCNC continues from the programmed point (the exit move starts there).
+            let (first, second, _) = arc_axes(self.state.plane);
+            self.state.position[first] = programmed[first];
+            self.state.position[second] = programmed[second];
+        }
+        Ok(())
     }
 
     fn gixa(&self) -> bool {
@@ -1639,6 +1648,7 @@ mod context;
 mod cycle;
 mod flow;
 mod moves;
+mod names;
 
 #[cfg(test)]
 mod tests {
