@@ -11,7 +11,9 @@
 #     emulated board as it is and with the F411 CPU model (`gantry emulate --cpu-model f411`).
 # The real-time figures need an unloaded machine: the emulator and the sender are ordinary
 # processes, and a scheduler that leaves them off the CPU for longer than the planner's
-# look-ahead (128 blocks: 13 ms of 0.1 mm pixels at 6,000 mm/min) starves the board.
+# look-ahead (128 blocks: 128 ms of 0.1 mm pixels at 6,000 mm/min, 38 ms of 0.05 mm at
+# 10,000) starves the board; a grbl counting sender slows down already when its `ok` round
+# trip passes ~2 ms (docs/laser-plasma.md "Raster speed").
 # Not part of CI.
 #
 # Usage: scripts/bench-laser.sh [ROWS] [CASE...]
