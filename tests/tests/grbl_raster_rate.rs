@@ -61,7 +61,7 @@ fn raster(px_um: u32, feed: u32, rows: u32) -> Vec<String> {
     ];
     let mut k = 0u32;
     for r in 0..rows {
-        let fwd = r % 2 == 0;
+        let fwd = r.is_multiple_of(2);
         let x = |i: u32| i64::from(if fwd { i } else { n - i }) * i64::from(px_um);
         let over = if fwd { -2000 } else { 2000 };
         p.push(format!(
@@ -181,7 +181,7 @@ fn within_planned(px_um: u32, feed: u32, rows: u32) {
             "{name}: {took:.3} s, planned {planned:.3} s"
         );
         // Ends at the last overscan: X at -2 mm or 52 mm, Y on the last row.
-        let end_x = if rows % 2 == 0 { -2 } else { 52 };
+        let end_x = if rows.is_multiple_of(2) { -2 } else { 52 };
         assert_eq!(
             steps,
             [
