@@ -5,11 +5,15 @@
 #   - the emulated board in-process on its own clock with the F411 CPU model (`gantry stream
 #     --cpu-model f411`): does the Cortex-M4 keep up with the line rate;
 #   - `gantry stream` over `gantry emulate --pty` (the native protocol, real time);
-#   - a grbl counting sender (pygrbl-streamer, scripts/grbl_sender.py, as scripts/grbl-sender-test.sh
-#     installs it) over `gantry emulate --pty`, with `$32=1` sent first.
+#   - grbl counting senders over `gantry emulate --pty`, with `$32=1` sent first: pygrbl-streamer
+#     (scripts/grbl_sender.py, as scripts/grbl-sender-test.sh installs it), and a one-thread
+#     counting sender (scripts/grbl_count.py) that also reports the `ok` round trip, on the
+#     emulated board as it is and with the F411 CPU model (`gantry emulate --cpu-model f411`).
 # The real-time figures need an unloaded machine: the emulator and the sender are ordinary
 # processes, and a scheduler that leaves them off the CPU for longer than the planner's
-# look-ahead (128 blocks: 13 ms of 0.1 mm pixels at 6,000 mm/min) starves the board.
+# look-ahead (128 blocks: 128 ms of 0.1 mm pixels at 6,000 mm/min, 38 ms of 0.05 mm at
+# 10,000) starves the board; a grbl counting sender slows down already when its `ok` round
+# trip passes ~2 ms (docs/laser-plasma.md "Raster speed").
 # Not part of CI.
 #
 # Usage: scripts/bench-laser.sh [ROWS] [CASE...]
@@ -43,6 +47,33 @@ cleanup() { [ -n "$EMU" ] && kill "$EMU" 2>/dev/null; rm -rf "$WORK"; }
 trap cleanup EXIT
 
 ratio() { python3 -c "print(f'{$1/$2:.4f}')"; }
+
+# grbl_run LABEL EMULATE_ARGS SENDER...: the grbl program ($WORK/grbl.nc) streamed by a counting
+# sender over `gantry emulate --pty`; the time is the board's, from the job's start to Idle (its
+# state lines carry its clock), against the planned time.
+grbl_run() {
+  local label=$1 emu_args=$2
+  shift 2
+  rm -f "$pty"
+  # shellcheck disable=SC2086
+  "$G" emulate --pty "$pty" --setup "$WORK/setup.toml" --state "$WORK/state-grbl.toml" $emu_args >"$WORK/emu.log" 2>&1 &
+  EMU=$!
+  for _ in $(seq 100); do [ -e "$pty" ] && break; sleep 0.05; done
+  local summary took under
+  summary=$("$@" "$pty" "$WORK/grbl.nc" || true)
+  sleep 0.3
+  kill -INT "$EMU"; wait "$EMU" 2>/dev/null || true; EMU=
+  took=$(python3 - "$WORK/emu.log" <<'PY'
+import re, sys
+t = [(float(m.group(1)), m.group(2)) for m in re.finditer(r"emulate: ([0-9.]+) s (\w+)", open(sys.argv[1]).read())]
+run = [s for s, st in t if st == "Run"]
+idle = [s for s, st in t if st == "Idle" and run and s > run[0]]
+print(f"{idle[-1] - run[0]:.3f}" if run and idle else "nan")
+PY
+)
+  under=$(sed -n 's/^emulate: underruns \([0-9]*\)$/\1/p' "$WORK/emu.log" | tail -n 1)
+  echo "grbl, $label: $took s, ratio $(ratio "$took" "$planned"), underruns ${under:-0}; $summary"
+}
 
 for case in "${CASES[@]}"; do
   px=${case%%:*}
@@ -87,27 +118,12 @@ PY
   under=$(sed -n 's/^emulate: underruns \([0-9]*\)$/\1/p' "$WORK/emu.log" | tail -n 1)
   echo "gantry stream over the pty: $took s, ratio $(ratio "$took" "$planned"), underruns ${under:-0}"
 
+  printf '$32=1\n' | cat - "$prog" >"$WORK/grbl.nc"
   if "$VENV/bin/python" -c "import pygrbl_streamer" 2>/dev/null; then
-    printf '$32=1\n' | cat - "$prog" >"$WORK/grbl.nc"
-    rm -f "$pty"
-    "$G" emulate --pty "$pty" --setup "$WORK/setup.toml" --state "$WORK/state-grbl.toml" >"$WORK/emu.log" 2>&1 &
-    EMU=$!
-    for _ in $(seq 100); do [ -e "$pty" ] && break; sleep 0.05; done
-    summary=$("$VENV/bin/python" scripts/grbl_sender.py "$pty" "$WORK/grbl.nc" || true)
-    sleep 0.3
-    kill -INT "$EMU"; wait "$EMU" 2>/dev/null || true; EMU=
-    # The board's time from the job's start to Idle: its state lines carry its clock.
-    took=$(python3 - "$WORK/emu.log" <<'PY'
-import re, sys
-t = [(float(m.group(1)), m.group(2)) for m in re.finditer(r"emulate: ([0-9.]+) s (\w+)", open(sys.argv[1]).read())]
-run = [s for s, st in t if st == "Run"]
-idle = [s for s, st in t if st == "Idle" and run and s > run[0]]
-print(f"{idle[-1] - run[0]:.3f}" if run and idle else "nan")
-PY
-)
-    under=$(sed -n 's/^emulate: underruns \([0-9]*\)$/\1/p' "$WORK/emu.log" | tail -n 1)
-    echo "grbl counting sender over the pty: $took s, ratio $(ratio "$took" "$planned"), underruns ${under:-0}; $summary"
+    grbl_run "pygrbl-streamer (scripts/grbl_sender.py)" "" "$VENV/bin/python" scripts/grbl_sender.py
   else
-    echo "grbl counting sender: skipped (run scripts/grbl-sender-test.sh once to install pygrbl-streamer)"
+    echo "pygrbl-streamer: skipped (run scripts/grbl-sender-test.sh once to install it)"
   fi
+  grbl_run "one-thread counting sender (scripts/grbl_count.py)" "" python3 scripts/grbl_count.py
+  grbl_run "one-thread counting sender, F411 CPU model" "--cpu-model f411" python3 scripts/grbl_count.py
 done

@@ -95,6 +95,9 @@ bash scripts/grbl-sender-test.sh
 section "grbl sender (CNCjs from npm) against gantry emulate --pty"
 bash scripts/cncjs-sender-test.sh
 
+section "grbl sender (bCNC from PyPI, its web pendant) against gantry emulate --pty"
+bash scripts/bcnc-sender-test.sh
+
 section "operator console (gantry serve --http) in Debian's headless chromium"
 SHOT="$(mktemp -d)/console.png" bash scripts/console-test.sh
 

@@ -19,15 +19,16 @@ use gantry_machine::board::link::status_of;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::{Pos, AXIS_LETTERS, MAX_AXES};
 use gantry_proto::MachineState;
-use nix::poll::{poll, PollFd, PollFlags};
+use nix::poll::{ppoll, PollFd, PollFlags};
 use nix::sys::termios::{tcgetattr, ControlFlags};
+use nix::sys::time::TimeSpec;
 use serialport::SerialPort;
 use std::os::fd::{AsRawFd, RawFd};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// The board's flash at power-up and what its ready line says about it. `--setup F` with a
 /// `--state S` that exists applies F as `gantry setup push F` does: F's machine settings, and
@@ -193,19 +194,25 @@ fn state_text(s: MachineState) -> String {
 /// Whether the slave side (the host's port) is open, from the master's poll flags, and (when
 /// `read` asks) whether bytes wait. Without `read` the poll waits for a hang-up only: bytes the
 /// board cannot take yet stay in the pty, and their arrival does not wake this loop.
-fn host_side_open(fd: RawFd, wait_ms: i32, read: bool) -> (bool, bool) {
+fn host_side_open(fd: RawFd, wait: Duration, read: bool) -> (bool, bool) {
     let events = if read {
         PollFlags::POLLIN
     } else {
         PollFlags::empty()
     };
     let mut fds = [PollFd::new(fd, events)];
-    let _ = poll(&mut fds, wait_ms);
+    let _ = wait_on(&mut fds, wait);
     let ev = fds[0].revents().unwrap_or(PollFlags::empty());
     (
         !ev.contains(PollFlags::POLLHUP),
         ev.contains(PollFlags::POLLIN),
     )
+}
+
+/// `poll` with a timeout to the microsecond (`ppoll`): poll(2)'s milliseconds round a wait for the
+/// next main-loop pass up to a whole millisecond more, which a host's `ok` round trip would pay.
+pub(crate) fn wait_on(fds: &mut [PollFd], wait: Duration) -> nix::Result<i32> {
+    ppoll(fds, Some(TimeSpec::from(wait)), None)
 }
 
 /// The emulated board of `gantry emulate` (behind a pty or TCP): `setup`, the probe targets
@@ -307,10 +314,10 @@ pub(crate) struct Polled {
 /// The host side of the emulated board: a pty (`--pty`) or a TCP listener (`--tcp`). One
 /// [`run_board`] loop runs the board behind either.
 pub(crate) trait HostSide {
-    /// Waits at most `wait_ms` for bytes; whether a host is there, and the bytes it sent, at
+    /// Waits at most `wait` for bytes; whether a host is there, and the bytes it sent, at
     /// most `buf.len()` (the board's room: the rest stays in the pty or socket; an empty `buf`
     /// reads nothing and waits only for the host to leave).
-    fn poll(&mut self, wait_ms: i32, buf: &mut [u8]) -> anyhow::Result<Polled>;
+    fn poll(&mut self, wait: Duration, buf: &mut [u8]) -> anyhow::Result<Polled>;
     /// Whether the host's leaving drops DTR (a pty: its HUPCL flag; TCP: always).
     fn close_drops_dtr(&self) -> bool;
     /// Sends the board's bytes; a full buffer loses them, as a USB port would (the framed
@@ -330,8 +337,8 @@ struct PtyHost {
 }
 
 impl HostSide for PtyHost {
-    fn poll(&mut self, wait_ms: i32, buf: &mut [u8]) -> anyhow::Result<Polled> {
-        let (open, readable) = host_side_open(self.fd, wait_ms, !buf.is_empty());
+    fn poll(&mut self, wait: Duration, buf: &mut [u8]) -> anyhow::Result<Polled> {
+        let (open, readable) = host_side_open(self.fd, wait, !buf.is_empty());
         if open && self.last_termios_check.elapsed().as_millis() >= 5 {
             self.last_termios_check = Instant::now();
             // The master reads the slave's termios (one shared set for the pair).
@@ -447,12 +454,21 @@ pub(crate) fn run_board(
     let to_save = saved.clone();
     board.on_setup_saved(move |s| *to_save.borrow_mut() = Some(s.clone()));
     while !stop.load(Ordering::SeqCst) {
+        // The pass of virtual millisecond `now_ms` is due when the wall clock reaches it, as the
+        // firmware's 1 ms ticker runs it (`firmware/src/control.rs`): the wait for the host's
+        // bytes ends then, to the microsecond, so bytes wait at most one millisecond for the
+        // pass that reads them (and its `ok`), as on the board, never two.
+        let due_us = (u64::from(board.now_ms()) + skipped_ms) * 1000;
+        let wait = Duration::from_micros(due_us.saturating_sub(start.elapsed().as_micros() as u64));
         let room = board.rx_room().min(buf.len());
-        let polled = host.poll(if host_open { 1 } else { 0 }, &mut buf[..room])?;
+        let polled = host.poll(
+            if host_open { wait } else { Duration::ZERO },
+            &mut buf[..room],
+        )?;
         let open = polled.open;
         if !open {
             // Nothing to wait on while no host has the port open.
-            std::thread::sleep(std::time::Duration::from_millis(1));
+            std::thread::sleep(wait.min(Duration::from_millis(1)));
         }
         if open != host_open {
             host_open = open;
@@ -479,7 +495,8 @@ pub(crate) fn run_board(
         // a real board never is: its clock skips the gap instead of running it in a burst with
         // no host word in it (which the board took for a lost host and held the job).
         let wall_ms = (start.elapsed().as_millis() as u64).saturating_sub(skipped_ms);
-        let behind = wall_ms.saturating_sub(board.now_ms() as u64);
+        // Passes due: those of every virtual millisecond the wall clock has reached.
+        let behind = (wall_ms + 1).saturating_sub(u64::from(board.now_ms()));
         if behind > CATCH_UP_LIMIT_MS {
             skipped_ms += behind;
             eprintln!(
@@ -494,7 +511,7 @@ pub(crate) fn run_board(
             for ms in 0..behind.min(50) {
                 if ms > 0 && open {
                     let room = board.rx_room().min(buf.len());
-                    let polled = host.poll(0, &mut buf[..room])?;
+                    let polled = host.poll(Duration::ZERO, &mut buf[..room])?;
                     if polled.read > 0 {
                         board.receive(&buf[..polled.read]);
                     }

@@ -5,9 +5,9 @@
 //! behind the pty (`crate::emulate::run_board`), so grbl and the framed protocol both work, and the
 //! log is the same.
 
-use crate::emulate::{load_state, new_board, run_board, HostSide, Polled};
+use crate::emulate::{load_state, new_board, run_board, wait_on, HostSide, Polled};
 use anyhow::Context;
-use nix::poll::{poll, PollFd, PollFlags};
+use nix::poll::{PollFd, PollFlags};
 use std::io::{ErrorKind, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::os::fd::AsRawFd;
@@ -42,7 +42,7 @@ struct TcpHost {
 }
 
 impl HostSide for TcpHost {
-    fn poll(&mut self, wait_ms: i32, buf: &mut [u8]) -> anyhow::Result<Polled> {
+    fn poll(&mut self, wait: Duration, buf: &mut [u8]) -> anyhow::Result<Polled> {
         if self.client.is_none() {
             match self.listener.accept() {
                 Ok((c, peer)) => {
@@ -74,12 +74,12 @@ impl HostSide for TcpHost {
             PollFlags::empty()
         };
         let wait = if self.pending.is_empty() || room == 0 {
-            wait_ms
+            wait
         } else {
-            0
+            Duration::ZERO
         };
         let mut fds = [PollFd::new(c.as_raw_fd(), events)];
-        let _ = poll(&mut fds, wait);
+        let _ = wait_on(&mut fds, wait);
         let ev = fds[0].revents().unwrap_or(PollFlags::empty());
         if room > 0 && ev.intersects(PollFlags::POLLIN | PollFlags::POLLHUP | PollFlags::POLLERR) {
             let mut chunk = [0u8; SOCKET_BUFFER];
