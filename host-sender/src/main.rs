@@ -195,7 +195,8 @@ enum Command {
         #[arg(long)]
         state: Option<PathBuf>,
         /// Something the emulated touch probe touches (repeatable; machine coordinates, mm):
-        /// `plane:Z`, `boss:X0,Y0,X1,Y1,TOP` or `hole:X0,Y0,X1,Y1,TOP,BOTTOM` (docs/probing.md).
+        /// `plane:Z`, `boss:X0,Y0,X1,Y1,TOP`, `hole:X0,Y0,X1,Y1,TOP,BOTTOM`,
+        /// `ring:X,Y,D_INSIDE,D_OUTSIDE,TOP` or `cylinder:X,Y,D,TOP` (docs/probing.md).
         #[arg(long = "probe-target", allow_hyphen_values = true)]
         probe_targets: Vec<String>,
         /// Charge each main-loop pass the instructions it costs on this MCU (f411) and log every

@@ -14,6 +14,7 @@ pub mod job;
 pub mod setup;
 pub mod socket;
 pub mod standing;
+pub mod probe;
 pub mod start;
 
 pub use job::{
