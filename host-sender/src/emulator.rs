@@ -515,15 +515,19 @@ impl EmulatedBoard {
         self.switches.push(LimitSwitch { axis, max, at });
     }
 
-    /// Places a probe target (machine coordinates as they are now): from now on the probe pin
-    /// follows the machine position after every step.
+    /// Places a probe target in the frame of the travel and its switches: machine coordinates as
+    /// they are now, plus [`EmulatedBoard::stood_at`] (where the machine stood at power-up, its
+    /// step count 0 there; set it first). The part is fixed to the table, like the switches:
+    /// after homing to the switches the target is where its figures say. From now on the probe
+    /// pin follows the machine position after every step.
     pub fn add_probe_target(&mut self, target: ProbeTarget) {
         let cfg = self.board.motion_config();
         let k = self.isr.kernel.position();
         let phys = self.physical();
+        let stood = cfg.to_steps(&self.stood_at);
         self.hw.probe_frame = Some(ProbeFrame {
             axes: [cfg.axes[0], cfg.axes[1], cfg.axes[2]],
-            origin: [phys[0] - k[0], phys[1] - k[1], phys[2] - k[2]],
+            origin: [0, 1, 2].map(|i| phys[i] - k[i] - stood[i]),
         });
         self.hw.probe_targets.push(target);
         self.hw.probe_raw = self.hw.probe_level();

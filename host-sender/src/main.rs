@@ -215,6 +215,10 @@ enum Command {
         /// anyone who reaches it can move the machine).
         #[arg(long, requires = "http")]
         allow_remote: bool,
+        /// Give the console a new token (the one kept in serve's runtime directory from its last
+        /// start is otherwise used again, so open pages come back; docs/console.md).
+        #[arg(long, requires = "http")]
+        new_token: bool,
     },
     /// Draw a program's tool path (top, front, side, isometric views) to a PNG or SVG file.
     Preview {
@@ -631,8 +635,16 @@ fn main() -> ExitCode {
         Command::Mdi { blocks, board } => m
             .target(&board, Use::Controls)
             .and_then(|t| oneshot::mdi(t, &blocks)),
-        Command::Serve { http, allow_remote } => {
-            let http = http.map(|addr| host_sender::console::Options { addr, allow_remote });
+        Command::Serve {
+            http,
+            allow_remote,
+            new_token,
+        } => {
+            let http = http.map(|addr| host_sender::console::Options {
+                addr,
+                allow_remote,
+                new_token,
+            });
             match &m.port {
                 Some(p) => host_sender::commands::serve::run(p, http.as_ref()),
                 None => match host_sender::port::discover() {

@@ -62,6 +62,8 @@ const ANSWER_MS: u32 = 2000;
 pub struct Options {
     pub addr: SocketAddr,
     pub allow_remote: bool,
+    /// Make a new token even if the one kept from the last start is usable (`lock.rs`).
+    pub new_token: bool,
 }
 
 /// Refuses an address other hosts can reach unless `allow_remote`; warns when allowed.
@@ -227,12 +229,12 @@ fn now_s() -> f64 {
 
 /// Starts the console for the board `gantry serve` serves on `port` (serve's socket must be bound
 /// already in its private directory `dir`, and [`check_address`] passed); returns once it
-/// listens, with the file that holds the console's token (serve removes it when it ends).
+/// listens, with the file that holds the console's token (kept when serve ends: `lock.rs`).
 pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Result<PathBuf> {
     let listener = TcpListener::bind(opts.addr)
         .with_context(|| format!("--http {}: cannot listen", opts.addr))?;
     let addr = listener.local_addr()?;
-    let lock = lock::Lock::create(&dir.join(lock::token_name(port)), addr.port())?;
+    let lock = lock::Lock::open(&dir.join(lock::token_name(port)), addr.port(), opts.new_token)?;
     let library = match library::default_dir().map(|d| library::Library::open(&d)) {
         Some(Ok(l)) => Some(l),
         Some(Err(e)) => {
