@@ -120,15 +120,22 @@ fn kept_token(file: &Path) -> Option<String> {
         .ok()?;
     let m = f.metadata().ok()?;
     let uid = nix::unistd::Uid::current().as_raw();
-    if !m.is_file() || m.nlink() != 1 || m.uid() != uid || m.mode() & 0o777 != 0o600 || m.len() != 65
+    if !m.is_file()
+        || m.nlink() != 1
+        || m.uid() != uid
+        || m.mode() & 0o777 != 0o600
+        || m.len() != 65
     {
         return None;
     }
     let mut text = String::new();
     f.take(65).read_to_string(&mut text).ok()?;
     let token = text.strip_suffix('\n')?;
-    (token.len() == 64 && token.bytes().all(|b| b.is_ascii_hexdigit() && !b.is_ascii_uppercase()))
-        .then(|| token.to_owned())
+    (token.len() == 64
+        && token
+            .bytes()
+            .all(|b| b.is_ascii_hexdigit() && !b.is_ascii_uppercase()))
+    .then(|| token.to_owned())
 }
 
 /// Compares in a time that does not depend on where the first difference is.
@@ -167,7 +174,10 @@ mod tests {
         std::os::unix::fs::symlink(&other, &file).unwrap();
         let via_link = Lock::open(&file, 1, false).unwrap();
         assert_ne!(via_link.token, "a".repeat(64));
-        assert!(!std::fs::symlink_metadata(&file).unwrap().file_type().is_symlink());
+        assert!(!std::fs::symlink_metadata(&file)
+            .unwrap()
+            .file_type()
+            .is_symlink());
         std::fs::write(&file, "not a token\n").unwrap();
         assert_eq!(kept_token(&file), None);
         std::fs::remove_dir_all(&dir).unwrap();

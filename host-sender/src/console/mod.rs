@@ -234,7 +234,11 @@ pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Resul
     let listener = TcpListener::bind(opts.addr)
         .with_context(|| format!("--http {}: cannot listen", opts.addr))?;
     let addr = listener.local_addr()?;
-    let lock = lock::Lock::open(&dir.join(lock::token_name(port)), addr.port(), opts.new_token)?;
+    let lock = lock::Lock::open(
+        &dir.join(lock::token_name(port)),
+        addr.port(),
+        opts.new_token,
+    )?;
     let library = match library::default_dir().map(|d| library::Library::open(&d)) {
         Some(Ok(l)) => Some(l),
         Some(Err(e)) => {
@@ -1094,10 +1098,15 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
         "probe_plan" => {
             let p = probing::from_json(body, c.tool_now())?;
             let system = work_system_name(*c.system.lock().expect("system"));
-            let g30 = c.setup.lock().expect("setup").as_ref().map_or([0.0; 3], |s| {
-                let g = s.program.g30_home;
-                [0, 1, 2].map(|i| g[i] as f64 / 1e6)
-            });
+            let g30 = c
+                .setup
+                .lock()
+                .expect("setup")
+                .as_ref()
+                .map_or([0.0; 3], |s| {
+                    let g = s.program.g30_home;
+                    [0, 1, 2].map(|i| g[i] as f64 / 1e6)
+                });
             return Ok(json!({ "ok": true, "plan": p.plan(system, g30) }));
         }
         "probe" => start_probe(c, probing::from_json(body, c.tool_now())?)?,

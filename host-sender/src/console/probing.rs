@@ -46,13 +46,15 @@ pub(crate) fn from_json(v: &Value, tool: u32) -> Result<Probe, String> {
             retract,
         }),
         Some("bore") => Ok(Probe::Bore {
-            size: num_in(v, "size", 1.0, 500.0, " mm")?.ok_or("size: the bore's diameter at most, mm")?,
+            size: num_in(v, "size", 1.0, 500.0, " mm")?
+                .ok_or("size: the bore's diameter at most, mm")?,
             diameter,
             feed,
             retract,
         }),
         Some("boss") => Ok(Probe::Boss {
-            size: num_in(v, "size", 1.0, 500.0, " mm")?.ok_or("size: the boss's diameter at most, mm")?,
+            size: num_in(v, "size", 1.0, 500.0, " mm")?
+                .ok_or("size: the boss's diameter at most, mm")?,
             approach: approach()?,
             feed,
             retract,
@@ -90,17 +92,26 @@ mod tests {
                 retract: 2.0
             }
         );
-        assert!(z.plan("G54", [0.0; 3]).contains("set G54 Z so that work Z = 10"));
+        assert!(z
+            .plan("G54", [0.0; 3])
+            .contains("set G54 Z so that work Z = 10"));
         assert!(from_json(&json!({"kind": "z", "distance": 1e9}), 0).is_err());
         assert!(from_json(&json!({"kind": "z", "feed": "fast"}), 0).is_err());
         assert!(from_json(&json!({"kind": "bore"}), 0).is_err());
         assert!(from_json(&json!({"kind": "edge", "side": "z+"}), 0).is_err());
         assert!(from_json(&json!({"kind": "corner", "corner": "top"}), 0).is_err());
         let c = from_json(&json!({"kind": "corner", "clearance": 12, "depth": 8}), 0).unwrap();
-        assert!(c.plan("G55", [0.0; 3]).contains("up to 17 mm"), "{}", c.plan("G55", [0.0; 3]));
+        assert!(
+            c.plan("G55", [0.0; 3]).contains("up to 17 mm"),
+            "{}",
+            c.plan("G55", [0.0; 3])
+        );
         // The tool length: the tool in the spindle unless one is named; none is an error.
         let t = json!({"kind": "tool", "setter_z": -20});
-        assert!(matches!(from_json(&t, 2), Ok(Probe::ToolLength { tool: 2, .. })));
+        assert!(matches!(
+            from_json(&t, 2),
+            Ok(Probe::ToolLength { tool: 2, .. })
+        ));
         assert!(from_json(&t, 0).is_err());
         assert!(from_json(&json!({"kind": "tool", "tool": 1.5, "setter_z": 0}), 2).is_err());
         assert!(from_json(&json!({"kind": "tool", "tool": 3}), 2).is_err());

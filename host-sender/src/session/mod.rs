@@ -11,10 +11,10 @@
 //! unlock) travel on the link's realtime lane and never wait behind queued job lines.
 
 pub mod job;
+pub mod probe;
 pub mod setup;
 pub mod socket;
 pub mod standing;
-pub mod probe;
 pub mod start;
 
 pub use job::{

@@ -500,8 +500,7 @@ impl Session {
     ) -> Result<String, String> {
         let s0 = self.probe_start()?;
         let reach = a.clearance + EDGE_MARGIN_MM;
-        let (c, st) =
-            self.touch_face(s0.at, side, a.clearance, a.depth, reach, feed, retract)?;
+        let (c, st) = self.touch_face(s0.at, side, a.clearance, a.depth, reach, feed, retract)?;
         let face = c + side.sign() * a.diameter / 2.0;
         let axis = side.axis();
         let v = s0.offset_for(&st, axis, face, 0.0);
@@ -668,8 +667,14 @@ mod tests {
             retract: 2.0,
         };
         let p = corner.plan("G55", g30);
-        assert!(p.contains("(back-right)") && p.contains("probe X- up to 17 mm"), "{p}");
-        assert!(p.contains("12 mm behind") && p.contains("set G55 X and Y"), "{p}");
+        assert!(
+            p.contains("(back-right)") && p.contains("probe X- up to 17 mm"),
+            "{p}"
+        );
+        assert!(
+            p.contains("12 mm behind") && p.contains("set G55 X and Y"),
+            "{p}"
+        );
         let edge = Probe::Edge {
             side: Side::YMinus,
             approach: a,
@@ -677,7 +682,10 @@ mod tests {
             retract: 2.0,
         };
         let p = edge.plan("G54", g30);
-        assert!(p.contains("probing Y- (the back face)") && p.contains("work Y0"), "{p}");
+        assert!(
+            p.contains("probing Y- (the back face)") && p.contains("work Y0"),
+            "{p}"
+        );
         let tool = Probe::ToolLength {
             tool: 3,
             setter_z: -20.0,
