@@ -355,7 +355,10 @@ impl Session {
         self.status().map_err(|e| format!("{e:#}"))
     }
 
+    /// Where the workflow starts; the board's setup read again first, for the offsets an
+    /// earlier job (another workflow, a program's G10) set.
     fn probe_start(&mut self) -> Result<Start, String> {
+        self.reload_setup().map_err(|e| format!("{e:#}"))?;
         let st = self.status().map_err(|e| format!("{e:#}"))?;
         let ws = usize::from(st.work_system);
         let o = self.setup().program.work_offsets[ws];
