@@ -36,15 +36,43 @@ stop() {
   exit $rc
 }
 trap stop EXIT
-# Probe targets for the probing workflows: a plate (plane) at Z -5, a block X 200-250, Y 100-150
-# with its top at Z 0, far from the programs' paths.
-"$GANTRY" emulate --pty "$TMP/tty" --probe-target plane:-5 --probe-target boss:200,100,250,150,0 \
-  > "$TMP/emulate.log" 2>&1 &
+# The machine: switches at the min ends of X and Y (1 mm beyond the travel, src/emulate.rs), X then
+# Y homed with home_position where the switch + pull-off are (machine coordinates keep their
+# meaning), the G30 position over the tool setter. It powers up 10 mm from each switch.
+"$GANTRY" setup show | python3 -c '
+import sys
+t = sys.stdin.read()
+def sub(a, b):
+    global t
+    assert a in t, a
+    t = t.replace(a, b, 1)
+sub("limits_min = []", "limits_min = [\"X\", \"Y\"]")
+sub("g30_home = [0.0, 0.0, 0.0]", "g30_home = [275.0, -175.0, 20.0]")
+for axis, home, prio in (("X", "-299.0", 1), ("Y", "-199.0", 2)):
+    head = "[homing.axis.%s]\n" % axis
+    i = t.index(head)
+    j = t.index("\n[", i + 1)
+    block = t[i:j].replace("priority = 0", "priority = %d" % prio, 1).replace("seek_rate = 2000.0", "seek_rate = 3000.0", 1)
+    block = block.replace("home_position = 0.0", "home_position = " + home, 1)
+    t = t[:i] + block + t[j:]
+open(sys.argv[1], "w").write(t)
+' "$TMP/machine.toml"
+printf -- '-289000000 -189000000 0\n' > "$TMP/state.toml.position"
+# Probe targets for the probing workflows (machine mm): a plate (plane) at Z -5; a block X 200-250,
+# Y 100-150 with its top at Z 0 (edges and corners); a round boss of 60 mm at X -100 Y 100; a
+# 30 mm bore at X -100 Y -100 (in a ring of 60 mm); the tool setter's top at Z 10, X 270-280,
+# Y -180 to -170 (under the G30 position): all away from the programs' paths.
+"$GANTRY" emulate --pty "$TMP/tty" --setup "$TMP/machine.toml" --state "$TMP/state.toml" \
+  --probe-target plane:-5 --probe-target boss:200,100,250,150,0 \
+  --probe-target cylinder:-100,100,60,0 --probe-target ring:-100,-100,30,60,0 \
+  --probe-target boss:270,-180,280,-170,10 > "$TMP/emulate.log" 2>&1 &
 EMU=$!
 for _ in $(seq 50); do [ -e "$TMP/tty" ] && break; sleep 0.1; done
 HTTP=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
-# The console's library and macros in the test's own data directory.
-export XDG_DATA_HOME="$TMP/data"
+# The console's library and macros in the test's own data directory, serve's socket and token
+# in its own runtime directory (the token is kept there across serve's restarts).
+export XDG_DATA_HOME="$TMP/data" XDG_RUNTIME_DIR="$TMP/run"
+mkdir -m 700 "$XDG_RUNTIME_DIR"
 "$GANTRY" serve --port "$TMP/tty" --http "127.0.0.1:$HTTP" > "$TMP/serve.log" 2>&1 &
 SERVE=$!
 for _ in $(seq 300); do grep -q "token is also in" "$TMP/serve.log" && break; sleep 0.1; done

@@ -104,6 +104,15 @@ async function waitState(page, want, ms = 10000) {
   check(await waitState(page, "Idle"), "the page shows the board Idle from its pushed status");
   check(page.url() === BASE, "the token is taken out of the address bar: " + page.url());
 
+  // Home through the page: X then Y seek their min switches (10 mm away), locate and set home
+  // where machine coordinates already were (home_position = switch + pull-off).
+  await page.click("#home-all");
+  await page.waitForFunction(() => document.getElementById("homed").textContent.replace(/\s/g, "") === "XY", null, { timeout: 30000 }).catch(() => {});
+  await waitState(page, "Idle", 30000);
+  const homed = cliStatus();
+  check(/^homed:\s+X\s*Y\s*$/m.test(homed.text) && homed.machine[0] === -299 && homed.machine[1] === -199 && homed.state === "Idle",
+    `Home all: X and Y homed (page "${await text(page, "#homed")}"), machine X ${homed.machine[0]} Y ${homed.machine[1]} (switches at -301 / -201, 2 mm pull-off)`);
+
   // Status events arrive at the board's rate (10 Hz): count them for 2 s.
   const rate = await page.evaluate(() => new Promise((res) => {
     let n = 0;
@@ -454,6 +463,66 @@ async function waitState(page, want, ms = 10000) {
     cSt.machine[0] === 206 && cSt.machine[1] === 106 && cSt.work[0] === 6 && cSt.work[1] === 6,
     `XY corner of the block at X 200 Y 100: "${cr}"; G54 ${cOff.join(", ")}; back above the start, work X ${cSt.work[0]} Y ${cSt.work[1]}`);
 
+  // The other workflows: each plan asked first, each offset from `gantry setup pull` to the µm.
+  const probeRun = async (id, done, what) => {
+    const asked = dialogs.length;
+    await page.evaluate(() => { document.getElementById("probe-result").textContent = ""; });
+    await startProbe(id);
+    await page.waitForFunction((re) => new RegExp(re).test(document.getElementById("probe-result").textContent), done, { timeout: 90000 }).catch(() => {});
+    await waitState(page, "Idle");
+    check(dialogs.length > asked && new RegExp(what).test(dialogs[dialogs.length - 1]), `${what}: the plan was shown and asked before moving`);
+    return text(page, "#probe-result");
+  };
+  const um = (a, b) => Math.round(a * 1000) === Math.round(b * 1000);
+  // Back-right corner of the block with a 3 mm tool: contacts at X 250 and Y 150, the corner
+  // 1.5 mm inside each (the emulated probe is a point at the tool's centre).
+  await goTo(["G53 G0 Z5", "G53 G0 X244 Y144"]);
+  await page.fill("#pc-diameter", "3");
+  await page.selectOption("#pc-corner", "back-right");
+  const br = await probeRun("#probe-corner", "corner at|stopped", "outside corner \\(back-right\\)");
+  const brOff = g54(), brSt = cliStatus();
+  check(/X 250\.000 \(right face\) and Y 150\.000 \(back face\)/.test(br) && um(brOff[0], 248.5) && um(brOff[1], 148.5) && brOff[2] === -15 &&
+    brSt.machine[0] === 244 && brSt.machine[1] === 144,
+    `back-right corner, tool 3 mm: "${br}"; G54 ${brOff.join(", ")}; back above the start (${brSt.machine.slice(0, 2).join(", ")})`);
+  // One edge: the block's back face, probing Y-; only G54 Y changes.
+  await goTo(["G53 G0 X225 Y146"]);
+  await page.fill("#pc-diameter", "0");
+  await page.selectOption("#pe-side", "y-");
+  const ed = await probeRun("#probe-edge", "face at|stopped", "probing Y- \\(the back face\\)");
+  const edOff = g54();
+  check(/machine Y 150\.000/.test(ed) && edOff[0] === 248.5 && edOff[1] === 150 && edOff[2] === -15,
+    `edge Y- of the block: "${ed}"; G54 ${edOff.join(", ")}`);
+  // The round boss (60 mm at X -100 Y 100), started 2 mm off its centre in X.
+  await goTo(["G53 G0 X-98 Y100"]);
+  await page.fill("#pb-size", "60");
+  const bs = await probeRun("#probe-boss", "centre at|stopped", "Boss centre");
+  const bsOff = g54(), bsSt = cliStatus();
+  check(/X -130\.000 and -70\.000, Y 70\.000 and 130\.000/.test(bs) && /diameter 60\.000/.test(bs) && bsOff[0] === -100 && bsOff[1] === 100 &&
+    bsSt.work[0] === 0 && bsSt.work[1] === 0,
+    `boss: "${bs}"; G54 ${bsOff.join(", ")}; the tool above the centre (work X ${bsSt.work[0]} Y ${bsSt.work[1]})`);
+  // The bore (30 mm at X -100 Y -100): the tool put in it off its centre (3 mm in X, 1 in Y: the X
+  // chord is not the diameter, its middle is the centre), below the top.
+  await goTo(["G53 G0 X-97 Y-101", "G53 G0 Z-3"]);
+  await page.fill("#pb-size", "30");
+  const bo = await probeRun("#probe-bore", "centre at|stopped", "Bore centre");
+  const boOff = g54(), boSt = cliStatus();
+  check(/Y -115\.000 and -85\.000/.test(bo) && /diameter 30\.000/.test(bo) && boOff[0] === -100 && boOff[1] === -100 &&
+    boSt.machine[0] === -100 && boSt.machine[1] === -100 && boSt.machine[2] === -3,
+    `bore: "${bo}"; G54 ${boOff.join(", ")}; the tool at the centre (${boSt.machine.join(", ")})`);
+  // Tool length of the tool in the spindle (T2, from the M6) on the setter under G30 (X 275
+  // Y -175 Z 20): the setter's top at Z 10, a tool of length 0 touches at Z -20: 30 mm.
+  await goTo(["G53 G0 Z5"]);
+  await page.fill("#pt-setter", "-20");
+  await page.fill("#pt-distance", "15");
+  const tl = await probeRun("#probe-tool", "length set|stopped", "Tool length of T2");
+  // The length in use, from the board's status: machine Z - work Z - G54 Z (the board keeps a
+  // G10 L1 length in its interpreter's tool table, not in the setup `gantry setup pull` reads).
+  const tlSt = cliStatus(), tlOff = g54();
+  const inUse = tlSt.machine[2] - tlSt.work[2] - tlOff[2];
+  check(/setter at machine Z 10\.000/.test(tl) && /T2 length set to 30\.000/.test(tl) && um(inUse, 30) && tlSt.machine[0] === 275 &&
+    tlSt.machine[1] === -175 && tlSt.machine[2] === 20,
+    `tool length: "${tl}"; gantry status: length in use ${inUse.toFixed(3)} (machine Z ${tlSt.machine[2]}, work Z ${tlSt.work[2]}, G54 Z ${tlOff[2]}), over the setter at ${tlSt.machine.slice(0, 2).join(", ")}`);
+
   // serve gone: the page greys out, says so and disables every control.
   process.kill(+SERVE_PID, "SIGTERM");
   await page.waitForFunction(() => document.body.classList.contains("offline"), null, { timeout: 15000 }).catch(() => {});
@@ -464,18 +533,20 @@ async function waitState(page, want, ms = 10000) {
   }));
   check(gone.banner && gone.state !== "Idle" && gone.live === 0, `serve stopped: banner "${String(gone.banner).trim().slice(0, 60)}…", state "${gone.state}", ${gone.live} controls enabled`);
   await page.screenshot({ path: `${SHOTS}/console-offline.png` });
-  // serve again (a new token): the page says the token changed; the new URL brings it back.
+  // serve again: it keeps its token (in its private runtime directory), so the same page comes
+  // back live by itself, without a new URL.
   const again = spawn(GANTRY, ["serve", "--port", PORT, "--http", BASE.replace(/^http:\/\//, "").replace(/\/$/, "")]);
   let againLog = "";
   again.stderr.on("data", (d) => { againLog += d; });
   try {
     for (let i = 0; i < 300 && !/token is also in/.test(againLog); i++) await sleep(100);
     const url2 = (againLog.match(/the console is on (\S+)/) || [])[1];
-    check(!!url2 && url2 !== URL, "serve restarted with a new token");
-    await page.waitForFunction(() => /new token/.test(document.getElementById("offline-text").textContent), null, { timeout: 15000 }).catch(() => {});
-    check(/new token/.test(await text(page, "#offline-text")), "the page says: " + (await text(page, "#offline-text")));
-    await page.goto(url2);
-    check(await waitState(page, "Idle"), "the new URL: live again, Idle");
+    check(url2 === URL && /keeps its token/.test(againLog), "serve restarted with the same token: " + (url2 === URL ? "same URL" : url2));
+    await page.waitForFunction(() => !document.body.classList.contains("offline"), null, { timeout: 20000 }).catch(() => {});
+    check(await waitState(page, "Idle") && page.url() === BASE, "the open page is live again by itself, Idle, at " + page.url());
+    const again2 = cliStatus();
+    check(/^homed:\s+X\s*Y\s*$/m.test(again2.text) && again2.machine[0] === 275 && again2.machine[1] === -175,
+      `after the serve restart the board is as it was (homed, at ${again2.machine.slice(0, 2).join(", ")})`);
     await page.waitForFunction(() => document.querySelector('#library tr[data-name="tool.nc"]') && document.querySelector('#macros tr[data-name="left 1"]'), null, { timeout: 10000 }).catch(() => {});
     const kept = await page.evaluate(() => [...document.querySelectorAll("#library tr[data-name], #macros tr[data-name]")].map((r) => r.dataset.name));
     check(kept.includes("tool.nc") && kept.includes("job.nc") && kept.includes("left 1"), "after the serve restart the library and the macros are there: " + kept.join(", "));

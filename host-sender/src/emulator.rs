@@ -105,6 +105,10 @@ pub enum ProbeTarget {
         top: i64,
         bottom: i64,
     },
+    /// A round tube centred on `c` (X, Y) with radii `r[0]..=r[1]` and its top at `top`:
+    /// touching between the two circles at or below the top. Inside it is a bore of radius `r[0]`
+    /// (open down to nothing), outside a boss of radius `r[1]`; `r[0]` = 0 is a round boss.
+    Ring { c: [i64; 2], r: [i64; 2], top: i64 },
 }
 
 impl ProbeTarget {
@@ -124,10 +128,18 @@ impl ProbeTarget {
                     p[2] <= top
                 }
             }
+            ProbeTarget::Ring { c, r, top } => {
+                // Squares of nm: i128 holds them for any travel.
+                let (dx, dy) = (i128::from(p[0] - c[0]), i128::from(p[1] - c[1]));
+                let d2 = dx * dx + dy * dy;
+                let sq = |v: i64| i128::from(v) * i128::from(v);
+                p[2] <= top && sq(r[0]) <= d2 && d2 <= sq(r[1])
+            }
         }
     }
 
-    /// Parses `plane:Z`, `boss:X0,Y0,X1,Y1,TOP` or `hole:X0,Y0,X1,Y1,TOP,BOTTOM` (mm).
+    /// Parses `plane:Z`, `boss:X0,Y0,X1,Y1,TOP`, `hole:X0,Y0,X1,Y1,TOP,BOTTOM`,
+    /// `ring:X,Y,D_INSIDE,D_OUTSIDE,TOP` or `cylinder:X,Y,D,TOP` (mm).
     pub fn parse(text: &str) -> anyhow::Result<ProbeTarget> {
         let (kind, rest) = text.split_once(':').unwrap_or((text, ""));
         let nums: Vec<i64> = rest
@@ -154,8 +166,19 @@ impl ProbeTarget {
                 top,
                 bottom: bottom.min(top),
             },
+            ("ring", &[x, y, d0, d1, top]) if 0 <= d0 && d0 < d1 => ProbeTarget::Ring {
+                c: [x, y],
+                r: [d0 / 2, d1 / 2],
+                top,
+            },
+            ("cylinder", &[x, y, d, top]) if 0 < d => ProbeTarget::Ring {
+                c: [x, y],
+                r: [0, d / 2],
+                top,
+            },
             _ => anyhow::bail!(
-                "probe target {text:?}: expected plane:Z, boss:X0,Y0,X1,Y1,TOP or hole:X0,Y0,X1,Y1,TOP,BOTTOM (mm)"
+                "probe target {text:?}: expected plane:Z, boss:X0,Y0,X1,Y1,TOP, hole:X0,Y0,X1,Y1,TOP,BOTTOM, \
+                 ring:X,Y,D_INSIDE,D_OUTSIDE,TOP (0 <= inside < outside) or cylinder:X,Y,D,TOP (mm)"
             ),
         })
     }
@@ -492,15 +515,19 @@ impl EmulatedBoard {
         self.switches.push(LimitSwitch { axis, max, at });
     }
 
-    /// Places a probe target (machine coordinates as they are now): from now on the probe pin
-    /// follows the machine position after every step.
+    /// Places a probe target in the frame of the travel and its switches: machine coordinates as
+    /// they are now, plus [`EmulatedBoard::stood_at`] (where the machine stood at power-up, its
+    /// step count 0 there; set it first). The part is fixed to the table, like the switches:
+    /// after homing to the switches the target is where its figures say. From now on the probe
+    /// pin follows the machine position after every step.
     pub fn add_probe_target(&mut self, target: ProbeTarget) {
         let cfg = self.board.motion_config();
         let k = self.isr.kernel.position();
         let phys = self.physical();
+        let stood = cfg.to_steps(&self.stood_at);
         self.hw.probe_frame = Some(ProbeFrame {
             axes: [cfg.axes[0], cfg.axes[1], cfg.axes[2]],
-            origin: [phys[0] - k[0], phys[1] - k[1], phys[2] - k[2]],
+            origin: [0, 1, 2].map(|i| phys[i] - k[i] - stood[i]),
         });
         self.hw.probe_targets.push(target);
         self.hw.probe_raw = self.hw.probe_level();
@@ -1191,4 +1218,26 @@ pub fn emulated_with_switches(setup: gantry_machine::setup::Setup) -> EmulatedBo
         board.add_switch(axis, !h.seek_low, at);
     }
     board
+}
+
+#[cfg(test)]
+mod probe_target_tests {
+    use super::ProbeTarget;
+
+    #[test]
+    fn a_ring_is_a_bore_inside_and_a_boss_outside() {
+        let ring = ProbeTarget::parse("ring:100,50,30,60,0").unwrap();
+        let mm = |v: f64| (v * 1e6) as i64;
+        // On the bore's wall (radius 15) and the boss's (radius 30), on and off the X line.
+        assert!(ring.touches([mm(115.0), mm(50.0), mm(-1.0)]));
+        assert!(!ring.touches([mm(114.999), mm(50.0), mm(-1.0)]));
+        assert!(ring.touches([mm(70.0), mm(50.0), mm(-1.0)]));
+        assert!(!ring.touches([mm(69.999), mm(50.0), mm(-1.0)]));
+        assert!(ring.touches([mm(100.0), mm(65.0), mm(0.0)]));
+        assert!(!ring.touches([mm(100.0), mm(65.0), mm(0.001)]));
+        let cyl = ProbeTarget::parse("cylinder:0,0,20,-3").unwrap();
+        assert!(cyl.touches([0, 0, mm(-3.0)]) && !cyl.touches([mm(10.001), 0, mm(-5.0)]));
+        assert!(ProbeTarget::parse("ring:0,0,60,30,0").is_err());
+        assert!(ProbeTarget::parse("cylinder:0,0,0,0").is_err());
+    }
 }

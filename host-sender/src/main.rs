@@ -216,7 +216,8 @@ enum Command {
         #[arg(long)]
         state: Option<PathBuf>,
         /// Something the emulated touch probe touches (repeatable; machine coordinates, mm):
-        /// `plane:Z`, `boss:X0,Y0,X1,Y1,TOP` or `hole:X0,Y0,X1,Y1,TOP,BOTTOM` (docs/probing.md).
+        /// `plane:Z`, `boss:X0,Y0,X1,Y1,TOP`, `hole:X0,Y0,X1,Y1,TOP,BOTTOM`,
+        /// `ring:X,Y,D_INSIDE,D_OUTSIDE,TOP` or `cylinder:X,Y,D,TOP` (docs/probing.md).
         #[arg(long = "probe-target", allow_hyphen_values = true)]
         probe_targets: Vec<String>,
         /// Charge each main-loop pass the instructions it costs on this MCU (f411) and log every
@@ -239,6 +240,10 @@ enum Command {
         /// plugged in).
         #[arg(long, env = "GANTRY_PORT")]
         port: Option<String>,
+        /// Give the console a new token (the one kept in serve's runtime directory from its last
+        /// start is otherwise used again, so open pages come back; docs/console.md).
+        #[arg(long, requires = "http")]
+        new_token: bool,
     },
     /// Draw a program's tool path (top, front, side, isometric views) to a PNG or SVG file.
     Preview {
@@ -712,8 +717,13 @@ fn main() -> ExitCode {
             http,
             allow_remote,
             port,
+            new_token,
         } => {
-            let http = http.map(|addr| host_sender::console::Options { addr, allow_remote });
+            let http = http.map(|addr| host_sender::console::Options {
+                addr,
+                allow_remote,
+                new_token,
+            });
             match port.as_ref().or(m.port.as_ref()) {
                 Some(p) => host_sender::commands::serve::run(p, http.as_ref()),
                 None => match host_sender::port::discover() {

@@ -220,10 +220,11 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
     })
     .context("cannot install the SIGINT/SIGTERM handler")?;
     eprintln!("serve: {port} is served on {}", path.display());
-    let token_file = match http {
-        Some(o) => Some(crate::console::start(port, o, &dir)?),
-        None => None,
-    };
+    // The console's token file stays when serve ends (console/lock.rs): the next serve takes
+    // it again, so an open page comes back by itself.
+    if let Some(o) = http {
+        crate::console::start(port, o, &dir)?;
+    }
     let start = Instant::now();
     let mut peers: Vec<Peer> = Vec::new();
     let mut next_id = 0u32;
@@ -419,9 +420,6 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
         Ok(())
     })();
     let _ = std::fs::remove_file(&path);
-    if let Some(f) = token_file {
-        let _ = std::fs::remove_file(f);
-    }
     eprintln!("serve: stopped");
     result.map(|()| ExitCode::SUCCESS)
 }

@@ -453,8 +453,15 @@ async function probe(body) {
 }
 $("probe-z").onclick = () => probe({ kind: "z", thickness: +$("pz-thickness").value, distance: +$("pz-distance").value,
   feed: +$("pz-feed").value, retract: +$("pz-retract").value });
-$("probe-corner").onclick = () => probe({ kind: "corner", clearance: +$("pc-clearance").value, depth: +$("pc-depth").value,
-  diameter: +$("pc-diameter").value, feed: +$("pc-feed").value, retract: +$("pc-retract").value });
+const xy = () => ({ clearance: +$("pc-clearance").value, depth: +$("pc-depth").value, diameter: +$("pc-diameter").value,
+  feed: +$("pc-feed").value, retract: +$("pc-retract").value });
+$("probe-edge").onclick = () => probe({ kind: "edge", side: $("pe-side").value, ...xy() });
+$("probe-corner").onclick = () => probe({ kind: "corner", corner: $("pc-corner").value, ...xy() });
+$("probe-boss").onclick = () => probe({ kind: "boss", size: +$("pb-size").value, ...xy() });
+$("probe-bore").onclick = () => probe({ kind: "bore", size: +$("pb-size").value, diameter: xy().diameter,
+  feed: xy().feed, retract: xy().retract });
+$("probe-tool").onclick = () => probe({ kind: "tool", setter_z: +$("pt-setter").value, distance: +$("pt-distance").value,
+  feed: +$("pt-feed").value, ...($("pt-tool").value ? { tool: +$("pt-tool").value } : {}) });
 
 // ---- setup ----
 $("setup-toml").addEventListener("input", () => { $("setup-toml").dataset.edited = "1"; });

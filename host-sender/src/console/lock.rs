@@ -5,6 +5,12 @@
 //! given a cookie), the cookie, or an `Authorization: Bearer` header (scripts, reading the file).
 //! Without it the answer is 401 and nothing is done, so another account on the same computer,
 //! which can reach a loopback port but not the directory, cannot move the machine.
+//!
+//! The secret outlives serve ([`Lock::open`]): a serve started again takes the file's token when
+//! the file is still exactly what serve wrote (a regular file, not a link, one name, this user's,
+//! mode 0600, 64 hex digits), so a page left open comes back by itself after a restart. That
+//! gives nothing away: whoever can read the file could read it while serve ran. Anything else
+//! in its place, or `--new-token`, makes a new secret.
 
 use super::http::Head;
 use anyhow::Context;
@@ -20,6 +26,22 @@ pub(crate) struct Lock {
 }
 
 impl Lock {
+    /// The console's lock on `http_port`: the secret kept in `file` when it is one serve wrote
+    /// and `renew` is false (see the module's doc), else a new one. Says which on stderr.
+    pub(crate) fn open(file: &Path, http_port: u16, renew: bool) -> anyhow::Result<Lock> {
+        if !renew {
+            if let Some(token) = kept_token(file) {
+                eprintln!("serve: the console keeps its token (--new-token makes a new one)");
+                return Ok(Lock {
+                    token,
+                    cookie: format!("gantry_console_{http_port}"),
+                    file: file.to_owned(),
+                });
+            }
+        }
+        Lock::create(file, http_port)
+    }
+
     /// Makes a new secret for the console on `http_port` and writes it to `file` (replacing an
     /// earlier one of this user; created afresh, mode 0600, never through a link).
     pub(crate) fn create(file: &Path, http_port: u16) -> anyhow::Result<Lock> {
@@ -87,6 +109,35 @@ impl Lock {
     }
 }
 
+/// The token in `file` if the file is exactly what [`Lock::create`] writes: a regular file (not
+/// followed if a link), one link, owned by this user, mode 0600, a line of 64 hex digits.
+fn kept_token(file: &Path) -> Option<String> {
+    use std::os::unix::fs::{MetadataExt, OpenOptionsExt};
+    let f = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(nix::fcntl::OFlag::O_NOFOLLOW.bits())
+        .open(file)
+        .ok()?;
+    let m = f.metadata().ok()?;
+    let uid = nix::unistd::Uid::current().as_raw();
+    if !m.is_file()
+        || m.nlink() != 1
+        || m.uid() != uid
+        || m.mode() & 0o777 != 0o600
+        || m.len() != 65
+    {
+        return None;
+    }
+    let mut text = String::new();
+    f.take(65).read_to_string(&mut text).ok()?;
+    let token = text.strip_suffix('\n')?;
+    (token.len() == 64
+        && token
+            .bytes()
+            .all(|b| b.is_ascii_hexdigit() && !b.is_ascii_uppercase()))
+    .then(|| token.to_owned())
+}
+
 /// Compares in a time that does not depend on where the first difference is.
 fn same(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0u8, |d, (x, y)| d | (x ^ y)) == 0
@@ -101,6 +152,36 @@ pub(crate) fn token_name(port: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_token_is_kept_only_in_the_file_serve_wrote() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("gantry-lock-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("t.console-token");
+        let first = Lock::open(&file, 1, false).unwrap().token;
+        assert_eq!(Lock::open(&file, 1, false).unwrap().token, first);
+        // --new-token, a readable file, a link or other contents: a new secret.
+        let renewed = Lock::open(&file, 1, true).unwrap().token;
+        assert_ne!(renewed, first);
+        std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let after_chmod = Lock::open(&file, 1, false).unwrap().token;
+        assert_ne!(after_chmod, renewed);
+        let other = dir.join("planted");
+        std::fs::write(&other, format!("{}\n", "a".repeat(64))).unwrap();
+        std::fs::set_permissions(&other, std::fs::Permissions::from_mode(0o600)).unwrap();
+        std::fs::remove_file(&file).unwrap();
+        std::os::unix::fs::symlink(&other, &file).unwrap();
+        let via_link = Lock::open(&file, 1, false).unwrap();
+        assert_ne!(via_link.token, "a".repeat(64));
+        assert!(!std::fs::symlink_metadata(&file)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        std::fs::write(&file, "not a token\n").unwrap();
+        assert_eq!(kept_token(&file), None);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn the_comparison_needs_every_byte() {

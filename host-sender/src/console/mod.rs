@@ -31,6 +31,7 @@ use crate::present::{
 use crate::program::Program;
 use crate::program_stops;
 use crate::resume::resume_preamble;
+use crate::session::probe::Probe;
 use crate::session::{Flow, JobStart, Overrides, Session, Target};
 use anyhow::Context;
 use args::{num_in, percent, text, whole_in};
@@ -60,6 +61,8 @@ const ANSWER_MS: u32 = 2000;
 pub struct Options {
     pub addr: SocketAddr,
     pub allow_remote: bool,
+    /// Make a new token even if the one kept from the last start is usable (`lock.rs`).
+    pub new_token: bool,
 }
 
 /// Refuses an address other hosts can reach unless `allow_remote`; warns when allowed.
@@ -179,6 +182,8 @@ struct Console {
     /// Where the tool stands (machine nm) and the active work system, from the newest status.
     here: Mutex<[i64; 6]>,
     system: Mutex<u8>,
+    /// The tool in the spindle (0 = none), from the newest status.
+    tool: AtomicU64,
     /// A console job thread runs.
     job: AtomicBool,
     /// A request to hold, resume, abort, or continue from the job thread.
@@ -186,6 +191,11 @@ struct Console {
 }
 
 impl Console {
+    /// The tool in the spindle now (0 = none).
+    fn tool_now(&self) -> u32 {
+        u32::try_from(self.tool.load(Ordering::SeqCst)).unwrap_or(0)
+    }
+
     /// The program library serve keeps, or why there is none.
     fn library(&self) -> Result<&library::Library, String> {
         self.library
@@ -218,12 +228,16 @@ fn now_s() -> f64 {
 
 /// Starts the console for the board `gantry serve` serves on `port` (serve's socket must be bound
 /// already in its private directory `dir`, and [`check_address`] passed); returns once it
-/// listens, with the file that holds the console's token (serve removes it when it ends).
+/// listens, with the file that holds the console's token (kept when serve ends: `lock.rs`).
 pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Result<PathBuf> {
     let listener = TcpListener::bind(opts.addr)
         .with_context(|| format!("--http {}: cannot listen", opts.addr))?;
     let addr = listener.local_addr()?;
-    let lock = lock::Lock::create(&dir.join(lock::token_name(port)), addr.port())?;
+    let lock = lock::Lock::open(
+        &dir.join(lock::token_name(port)),
+        addr.port(),
+        opts.new_token,
+    )?;
     let library = match library::default_dir().map(|d| library::Library::open(&d)) {
         Some(Ok(l)) => Some(l),
         Some(Err(e)) => {
@@ -254,6 +268,7 @@ pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Resul
         rev: AtomicU64::new(0),
         here: Mutex::new([0; 6]),
         system: Mutex::new(0),
+        tool: AtomicU64::new(0),
         job: AtomicBool::new(false),
         control: Mutex::new(tx),
     });
@@ -319,6 +334,7 @@ fn worker(c: Arc<Console>, rx: mpsc::Receiver<(Cmd, mpsc::Sender<Reply>)>) {
                         heard = Instant::now();
                         *c.here.lock().expect("here") = s.machine_pos;
                         *c.system.lock().expect("system") = s.work_system;
+                        c.tool.store(u64::from(s.outputs.tool), Ordering::SeqCst);
                         c.hub.publish("status", status_json(s, session.axes()));
                     }
                     // A job (any client's: a program, an MDI block) may have set work offsets,
@@ -728,7 +744,7 @@ fn resume_line(report: &crate::session::StreamReport, first_line: u32) -> Option
 
 /// Runs a probing workflow on a job session of its own (unless a console job runs); its report
 /// goes to every page as a `probe` event.
-fn start_probe(c: &Arc<Console>, probe: probing::Probe) -> Reply {
+fn start_probe(c: &Arc<Console>, probe: Probe) -> Reply {
     if c.job.swap(true, Ordering::SeqCst) {
         return Err("a job started from the console is still running".into());
     }
@@ -736,7 +752,7 @@ fn start_probe(c: &Arc<Console>, probe: probing::Probe) -> Reply {
     let run = move || {
         let result = Session::connect(Target::Port(c2.port.clone()), OnClose::KeepDtr)
             .map_err(|e| format!("{e:#}"))
-            .and_then(|mut s| probing::run(&mut s, &probe));
+            .and_then(|mut s| s.probe(&probe));
         let (ok, text) = match result {
             Ok(t) => (true, t),
             Err(e) => (false, format!("probing stopped: {e}")),
@@ -1074,11 +1090,20 @@ fn api(c: &Arc<Console>, what: &str, body: &Value) -> Result<Value, String> {
             )
         }
         "probe_plan" => {
-            let p = probing::Probe::from_json(body)?;
+            let p = probing::from_json(body, c.tool_now())?;
             let system = work_system_name(*c.system.lock().expect("system"));
-            return Ok(json!({ "ok": true, "plan": p.plan(system) }));
+            let g30 = c
+                .setup
+                .lock()
+                .expect("setup")
+                .as_ref()
+                .map_or([0.0; 3], |s| {
+                    let g = s.program.g30_home;
+                    [0, 1, 2].map(|i| g[i] as f64 / 1e6)
+                });
+            return Ok(json!({ "ok": true, "plan": p.plan(system, g30) }));
         }
-        "probe" => start_probe(c, probing::Probe::from_json(body)?)?,
+        "probe" => start_probe(c, probing::from_json(body, c.tool_now())?)?,
         "macro_run" => {
             let lib = c
                 .library

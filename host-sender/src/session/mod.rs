@@ -11,6 +11,7 @@
 //! unlock) travel on the link's realtime lane and never wait behind queued job lines.
 
 pub mod job;
+pub mod probe;
 pub mod setup;
 pub mod socket;
 pub mod standing;
