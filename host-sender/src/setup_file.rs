@@ -190,6 +190,15 @@ pub struct SpindleFile {
     /// Laser mode (docs/laser-plasma.md).
     #[serde(default)]
     pub laser: Option<bool>,
+    /// Plasma torch mode and its height control (docs/laser-plasma.md "Plasma").
+    #[serde(default)]
+    pub torch: Option<bool>,
+    pub arc_ok_timeout_ms: Option<u16>,
+    pub thc: Option<bool>,
+    pub thc_rate: Option<f64>,
+    pub thc_travel: Option<f64>,
+    pub thc_anti_dive: Option<u8>,
+    pub thc_delay_ms: Option<u16>,
 }
 
 #[derive(Debug, Default, Deserialize, Serialize)]
@@ -925,6 +934,28 @@ impl SetupFile {
         if let Some(v) = self.spindle.laser {
             s.outputs.laser = v;
         }
+        let (sp, t) = (&self.spindle, &mut s.outputs.torch);
+        if let Some(v) = sp.torch {
+            t.on = v;
+        }
+        if let Some(v) = sp.arc_ok_timeout_ms {
+            t.arc_ok_timeout_ms = num(Key::ArcOkTimeoutMs, 0, v.into())? as u16;
+        }
+        if let Some(v) = sp.thc {
+            t.thc = v;
+        }
+        if let Some(v) = sp.thc_rate {
+            t.thc_rate = num(Key::ThcRate, 0, v)?;
+        }
+        if let Some(v) = sp.thc_travel {
+            t.thc_travel = num(Key::ThcTravel, 0, v)?;
+        }
+        if let Some(v) = sp.thc_anti_dive {
+            t.thc_anti_dive = num(Key::ThcAntiDive, 0, v.into())? as u8;
+        }
+        if let Some(v) = sp.thc_delay_ms {
+            t.thc_delay_ms = num(Key::ThcDelayMs, 0, v.into())? as u16;
+        }
         for (k, m) in self.mcode.iter().enumerate() {
             let key = format!("mcode[{k}]");
             if !s.program.user_mcodes.contains(&m.code) {
@@ -1271,6 +1302,20 @@ fn controller_toml(s: &Setup, t: &mut String) {
         t,
         "laser = {}   # laser mode: S travels with each move, M4 power follows the speed",
         o.laser
+    );
+    let p = &o.torch;
+    let _ = writeln!(
+        t,
+        "torch = {}   # plasma: M3 waits for arc-OK, THC from the up/down inputs\n\
+         arc_ok_timeout_ms = {}\nthc = {}\nthc_rate = {}\nthc_travel = {}\n\
+         thc_anti_dive = {}\nthc_delay_ms = {}",
+        p.on,
+        p.arc_ok_timeout_ms,
+        p.thc,
+        mm_toml(p.thc_rate),
+        mm_toml(p.thc_travel),
+        p.thc_anti_dive,
+        p.thc_delay_ms
     );
     for l in &o.mcode_lists {
         let _ = writeln!(

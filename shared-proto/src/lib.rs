@@ -28,8 +28,8 @@ pub use channel::{
 pub use frame::{encode_frame, Frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
 pub use messages::{
     BoardInbound, BoardMsg, Hello, HelloAck, HostMessage, HostMsg, JobEnd, Jog, Lane, LineBatch,
-    MachineState, OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES,
-    LINE_MAX,
+    MachineState, OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, TorchStatus,
+    Wire, AXES, LINE_MAX,
 };
 
 /// Protocol version exchanged in the handshake: major in the high byte, minor

@@ -9,7 +9,7 @@ use crate::setup::{Setup, SETUP_BLOB_MAX};
 use gantry_proto::channel::{QueuedSink, Refusal};
 use gantry_proto::{
     BoardEndpoint, BoardInbound, BoardMsg, Config, HostMessage, Lane, LinkEvent, MachineState,
-    OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status,
+    OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, TorchStatus,
 };
 
 // The line ring stores the link's line records as they come: both sides use one format.
@@ -636,7 +636,18 @@ fn event_message(e: BoardEvent) -> BoardMsg {
 
 /// The status report of the board as the kernel sees it now.
 pub fn status_of(board: &Board, view: &KernelView) -> Status {
-    let machine = board.machine_position(&view.steps);
+    let mut machine = board.machine_position(&view.steps);
+    let torch = board.torch_status().map(|(on, waiting, arc_lost)| {
+        let thc_nm = board.thc_correction_nm();
+        // Z as the program put it: the height correction is shown on its own.
+        machine[crate::motion::thc::THC_AXIS] -= i64::from(thc_nm);
+        TorchStatus {
+            on,
+            waiting,
+            arc_lost,
+            thc_nm,
+        }
+    });
     let modes = board.executing_modes();
     let work = modes.work_position(&machine);
     let state = match board.state() {
@@ -671,7 +682,10 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
         line: board.line(),
         inputs: view.inputs,
         homed: board.homed(),
-        outputs: outputs_status(board.outputs(), laser_permille(board, view)),
+        outputs: OutputsStatus {
+            torch,
+            ..outputs_status(board.outputs(), laser_permille(board, view))
+        },
         starved_ms: view.starved_ms,
         probe: board.probe_result().map(|p| ProbeStatus {
             machine_pos: p.position,
@@ -703,5 +717,6 @@ fn outputs_status(o: super::Outputs, laser_permille: Option<u16>) -> OutputsStat
         flood: o.flood,
         tool: o.tool,
         laser_permille,
+        torch: None,
     }
 }

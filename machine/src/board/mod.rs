@@ -31,9 +31,10 @@ mod probing;
 pub mod source;
 #[cfg(feature = "link")]
 mod starvation;
+mod torch;
 pub mod underruns;
 
-use crate::canon::{Action, Canon, StopKind};
+use crate::canon::{Action, Canon, Spindle, StopKind};
 use crate::controller::homing::{self, Phase};
 use crate::controller::inputs::{InputBits, Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 use crate::controller::lists::ListStatus;
@@ -120,6 +121,8 @@ pub struct Board {
     probing: Probing,
     /// Events, Marks and offset changes for the owner (`board/outbox.rs`).
     outbox: Outbox,
+    /// A plasma torch's arc (`board/torch.rs`).
+    arc: torch::Arc,
 }
 
 /// Where a job stands on its program.
@@ -183,6 +186,7 @@ impl Board {
             jog: JogState::default(),
             probing: Probing::new(),
             outbox: Outbox::new(),
+            arc: torch::Arc::Off,
         }
     }
 
@@ -402,6 +406,8 @@ impl Board {
         }
         self.progress.pending = None;
         self.probing.cancel();
+        // Torch height control is on at every job's start (`M62 P2` switches it off).
+        self.motion.set_thc_enabled(true);
         let phase = if kind == JobKind::Machine && self.hold_input_active() {
             // The feed-hold switch is open: the job waits, held, until it closes.
             JobPhase::Hold {
@@ -649,6 +655,12 @@ impl Board {
         if self.hold_input_active() {
             return;
         }
+        match why {
+            // Plasma: the torch fires again and the motion waits for its arc (`board/torch.rs`).
+            HoldWhy::ArcLost => return self.torch_resume(),
+            HoldWhy::ArcWait => return,
+            _ => {}
+        }
         self.outputs.resume(why.pause() || why == HoldWhy::HostLost);
         if why.pause() {
             self.motion.release_sync();
@@ -663,8 +675,9 @@ impl Board {
     /// setup wants a cycle start for that.
     fn release_hold(&mut self) {
         if let Some(JobPhase::Hold { why, ending }) = self.machine_job() {
-            // (A hold for a lost host waits for a host or a cycle start, not for the switch.)
-            if why.feed() && why != HoldWhy::HostLost {
+            // (A hold for a lost host waits for a host or a cycle start, not for the switch; one
+            // for a lost arc waits for a cycle start, which re-fires the torch.)
+            if why.feed() && why != HoldWhy::HostLost && why != HoldWhy::ArcLost {
                 self.outputs.restore_stopped_spindle();
                 self.motion.resume();
                 self.set_phase(if why.pause() {
@@ -873,6 +886,7 @@ impl Board {
         let was_running = matches!(self.mode, Mode::Job(_));
         self.probing.cancel();
         self.outputs.safe();
+        self.arc = torch::Arc::Off;
         self.jog.end_all();
         self.mode = Mode::Alarm(code);
         self.emit(BoardEvent::Alarm { code, line });
@@ -950,6 +964,16 @@ impl Board {
     pub fn next_segment(&mut self) -> Option<Segment> {
         // Laser mode: the spindle override scales the power of the segments prepared from now.
         self.motion.set_laser_override(self.overrides.spindle());
+        if self.torch() {
+            self.motion.set_thc_command(self.thc_command());
+            if !self.torch_firing() {
+                // At a sync point after the torch went off (the next pierce's M3, a probe move,
+                // the program's end) the height correction is taken out first.
+                if let Some(seg) = self.motion.thc_return_segment() {
+                    return Some(seg);
+                }
+            }
+        }
         let seg = self.motion.next_segment();
         while let Some(report) = self.motion.take_report() {
             self.progress.line = report.line;
@@ -998,6 +1022,9 @@ impl Board {
         };
         if job.is_some_and(|j| self.interprets(&j)) {
             self.interpret();
+        }
+        if self.torch() {
+            self.poll_arc_wait();
         }
         if let Some(req) = self.source.take_request() {
             self.emit(BoardEvent::Jump(req));
@@ -1339,8 +1366,19 @@ impl Board {
         match canon.action {
             // Dry run: spindle and coolant stay as they are (the GIXA controller: S has no effect).
             Action::Spindle { .. } | Action::Coolant { .. } if self.overrides.switches.dry_run => {}
+            Action::Spindle { state, rpm } if self.torch() && state != Spindle::Off => {
+                // The height correction of the last cut comes out before the pierce
+                // (`Board::next_segment`); then the torch fires and the motion waits for arc-OK.
+                if self.motion.thc_correction() != 0 && !self.torch_firing() {
+                    return;
+                }
+                if !self.torch_on_at_sync(state, rpm, canon.line) {
+                    return;
+                }
+            }
             Action::Spindle { state, rpm } => {
                 self.outputs.set_spindle(state, rpm);
+                self.arc = torch::Arc::Off;
             }
             Action::Coolant { mist, flood } => {
                 self.outputs.set_coolant(mist, flood);
