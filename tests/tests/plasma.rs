@@ -314,3 +314,38 @@ fn the_correction_is_taken_out_before_the_next_pierce_and_at_the_end() {
     assert_eq!(z_correction_nm(&eb), 0);
     assert_eq!(steps(&eb)[Z], 3 * STEPS_PER_MM);
 }
+
+#[test]
+fn m62_p2_switches_thc_off_and_m63_p2_on_with_the_next_move() {
+    let mut eb = torch_board(script(Some(10), None, "up:10-60000"), |s| {
+        thc_setup(s);
+        s.outputs.torch.thc_travel = 50 * MM;
+    });
+    job(
+        &mut eb,
+        "G21 G90 G94\nM3 S1000\nM62 P2\nG1 X20 F1200\nM63 P2\nG1 X40\nM5\nM2\n",
+    );
+    until_state(&mut eb, State::Idle, 10_000);
+    assert!(events(&mut eb)
+        .iter()
+        .all(|e| !matches!(e, BoardEvent::Alarm { .. } | BoardEvent::Error { .. })));
+    // Z steps by where X stood: none in the first 20 mm (THC off), some in the second.
+    let (mut x, mut z_off, mut z_on) = (0i64, 0u32, 0u32);
+    for (_, s) in stepping(&eb) {
+        if x < 20 * STEPS_PER_MM {
+            z_off += s.steps[Z];
+        } else if s.steps[0] > 0 {
+            z_on += s.steps[Z];
+        }
+        x += i64::from(s.steps[0]);
+    }
+    assert_eq!(z_off, 0);
+    assert!(z_on > 1000, "Z corrected {z_on} steps with THC back on");
+    // Other ports are not there: M62 P1 is refused.
+    let mut eb = torch_board(script(Some(10), None, ""), |_| {});
+    job(&mut eb, "M62 P1\n");
+    until_state(&mut eb, State::Idle, 1_000);
+    assert!(events(&mut eb)
+        .iter()
+        .any(|e| matches!(e, BoardEvent::Error { line: 1, .. })));
+}

@@ -1181,6 +1181,11 @@ impl Board {
             }
             let pushed = match (self.on_the_fly(&canon), canon.action) {
                 (Some((code, output)), _) => self.motion.push_output(canon.line, code, output),
+                (None, Action::UserMCode { code, .. }) if self.thc_switch(code) => {
+                    // Torch height control off / on with the next move (`motion/thc.rs`).
+                    let output = OutputEvent::thc(code == 63);
+                    self.motion.push_output(canon.line, code, output)
+                }
                 (None, Action::Spindle { state, rpm }) if self.setup.outputs.laser => {
                     // Laser mode: no sync point; the power rides on the moves after it
                     // (docs/laser-plasma.md), and the status shows the modal state at once, as
@@ -1398,6 +1403,10 @@ impl Board {
             Action::Probe { .. } => {
                 self.start_probe(&canon);
                 return;
+            }
+            Action::UserMCode { code, .. } if self.thc_switch(code) => {
+                // No move followed: the switch takes effect here.
+                self.motion.set_thc_enabled(code == 63);
             }
             Action::UserMCode { code, .. } => {
                 let list = self

@@ -65,6 +65,12 @@ impl Board {
         self.setup.outputs.torch.on
     }
 
+    /// `code` is `M62 P2` / `M63 P2` on a torch machine (the interpreter takes M62/M63 only
+    /// with P2), unless a user M code list of the setup claims it.
+    pub(super) fn thc_switch(&self, code: u16) -> bool {
+        self.torch() && matches!(code, 62 | 63) && !self.setup.program.user_mcodes.contains(&code)
+    }
+
     /// The torch is switched on (M3 performed, not stopped).
     pub(super) fn torch_firing(&self) -> bool {
         self.torch() && self.outputs.program().spindle != Spindle::Off

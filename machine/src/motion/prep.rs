@@ -528,6 +528,11 @@ impl Prep {
             self.s_now = 0;
             self.cum = [0; MAX_AXES];
             self.output = output;
+            if let Some(on) = output.thc_switch() {
+                // `M62 P2` / `M63 P2`: height control off / on from this block's first step.
+                self.thc.enabled = on;
+                self.output = OutputEvent::NONE;
+            }
             let v_in = if b.stop_before { 0 } else { self.carry };
             self.reprofile(b, planner, 0, v_in);
             self.owed = if v_in == 0 {
