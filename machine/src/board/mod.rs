@@ -1346,6 +1346,10 @@ impl Board {
         let Some(canon) = self.motion.sync_point().copied() else {
             return;
         };
+        if self.torch() && !self.torch_firing() && self.motion.thc_correction() != 0 {
+            // The height correction of the last cut comes out first (`Board::next_segment`).
+            return;
+        }
         if matches!(self.machine_job(), Some(JobPhase::Hold { why, .. }) if why.pause()) {
             return;
         }
@@ -1372,11 +1376,7 @@ impl Board {
             // Dry run: spindle and coolant stay as they are (the GIXA controller: S has no effect).
             Action::Spindle { .. } | Action::Coolant { .. } if self.overrides.switches.dry_run => {}
             Action::Spindle { state, rpm } if self.torch() && state != Spindle::Off => {
-                // The height correction of the last cut comes out before the pierce
-                // (`Board::next_segment`); then the torch fires and the motion waits for arc-OK.
-                if self.motion.thc_correction() != 0 && !self.torch_firing() {
-                    return;
-                }
+                // The torch fires and the motion waits for arc-OK.
                 if !self.torch_on_at_sync(state, rpm, canon.line) {
                     return;
                 }
