@@ -1376,8 +1376,9 @@ impl Board {
             // Dry run: spindle and coolant stay as they are (the GIXA controller: S has no effect).
             Action::Spindle { .. } | Action::Coolant { .. } if self.overrides.switches.dry_run => {}
             Action::Spindle { state, rpm } if self.torch() && state != Spindle::Off => {
-                // The torch fires and the motion waits for arc-OK.
-                if !self.torch_on_at_sync(state, rpm, canon.line) {
+                // The torch fires and the motion waits for arc-OK (or the job ends in alarm 22).
+                let established = self.torch_on_at_sync(state, rpm, canon.line);
+                if !established {
                     return;
                 }
             }
