@@ -636,18 +636,16 @@ fn event_message(e: BoardEvent) -> BoardMsg {
 
 /// The status report of the board as the kernel sees it now.
 pub fn status_of(board: &Board, view: &KernelView) -> Status {
-    let mut machine = board.machine_position(&view.steps);
-    let torch = board.torch_status().map(|(on, waiting, arc_lost)| {
-        let thc_nm = board.thc_correction_nm();
-        // Z as the program put it: the height correction is shown on its own.
-        machine[crate::motion::thc::THC_AXIS] -= i64::from(thc_nm);
-        TorchStatus {
+    // Z as the program put it: a torch's height correction is shown on its own.
+    let machine = board.reported_position(&view.steps);
+    let torch = board
+        .torch_status()
+        .map(|(on, waiting, arc_lost)| TorchStatus {
             on,
             waiting,
             arc_lost,
-            thc_nm,
-        }
-    });
+            thc_nm: board.thc_correction_nm(),
+        });
     let modes = board.executing_modes();
     let work = modes.work_position(&machine);
     let state = match board.state() {

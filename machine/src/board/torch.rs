@@ -193,6 +193,19 @@ impl Board {
         }
     }
 
+    /// The machine position the status reports for kernel step position `steps`: Z where the
+    /// program put it, the torch height correction left out (it is reported beside it).
+    pub(crate) fn reported_position(
+        &self,
+        steps: &[i64; crate::units::MAX_AXES],
+    ) -> crate::units::Pos {
+        let mut p = self.machine_position(steps);
+        if self.torch() {
+            p[crate::motion::thc::THC_AXIS] -= i64::from(self.thc_correction_nm());
+        }
+        p
+    }
+
     /// The torch height correction now, nm (+ = up).
     pub(crate) fn thc_correction_nm(&self) -> i32 {
         let z = &self.motion.config().axes[crate::motion::thc::THC_AXIS];
