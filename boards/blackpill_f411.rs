@@ -34,6 +34,9 @@ gantry_board! {
     // to free a pin, and what each costs: boards/README.md "Probe or joystick switch".
     joystick_switches: [],
     probe: PC14,
+    // No pins left for the plasma torch's arc-OK and THC up/down inputs: a plasma table on this
+    // board gives up the A axis for them (boards/README.md "Plasma torch inputs").
+    torch_inputs: [],
     spindle_enable: PB0,
     spindle_dir: PB1,
     spindle_pwm: PA8 TIM1_CH1,

@@ -32,6 +32,8 @@ gantry_board! {
     joystick_axes: [PA1, PA4],
     joystick_switches: [PC10, PC11],
     probe: PC12,
+    // Plasma torch (docs/laser-plasma.md "Wiring"): arc-OK, THC up, THC down.
+    torch_inputs: [PB0, PB2, PD2],
     spindle_enable: PB5,
     spindle_dir: PB4,
     spindle_pwm: PA8 TIM1_CH1,

@@ -22,6 +22,8 @@ pub struct PinMap {
     pub joystick_switches: Vec<&'static str>,
     /// Touch probe input (G38.x; polled, and read by the step interrupt every tick).
     pub probe: &'static str,
+    /// Plasma torch inputs: arc-OK, THC up, THC down (polled; none on a board without pins).
+    pub torch_inputs: Vec<&'static str>,
     pub spindle_pwm: (&'static str, &'static str),
     /// Plain outputs as (role, pin).
     pub outputs: Vec<(&'static str, &'static str)>,
@@ -48,6 +50,9 @@ impl PinMap {
             v.push((format!("joystick_switch{i}"), *p));
         }
         v.push(("probe".into(), self.probe));
+        for (role, p) in ["arc_ok", "thc_up", "thc_down"].iter().zip(&self.torch_inputs) {
+            v.push(((*role).into(), *p));
+        }
         v.push(("spindle_pwm".into(), self.spindle_pwm.0));
         for (role, p) in &self.outputs {
             v.push(((*role).into(), *p));
@@ -82,6 +87,7 @@ macro_rules! expand_board {
         joystick_axes: [$jx:ident, $jy:ident],
         joystick_switches: [$($jsw:ident),*],
         probe: $probe:ident,
+        torch_inputs: [$($torch:ident),*],
         spindle_enable: $sp_en:ident,
         spindle_dir: $sp_dir:ident,
         spindle_pwm: $sp_pwm:ident $sp_pwm_ch:ident,
@@ -119,6 +125,7 @@ macro_rules! expand_board {
                 ],
                 joystick_switches: vec![$(stringify!($jsw)),*],
                 probe: stringify!($probe),
+                torch_inputs: vec![$(stringify!($torch)),*],
                 spindle_pwm: (stringify!($sp_pwm), stringify!($sp_pwm_ch)),
                 outputs,
             }

@@ -142,6 +142,7 @@ macro_rules! board_table {
         joystick_axes: [$jx:ident, $jy:ident $(,)?],
         joystick_switches: [$($jsw:ident),* $(,)?],
         probe: $probe:ident,
+        $(torch_inputs: [$($torch:ident),* $(,)?],)?
         spindle_enable: $sp_en:ident,
         spindle_dir: $sp_dir:ident,
         spindle_pwm: $sp_pwm:ident $sp_pwm_ch:ident,
@@ -174,6 +175,7 @@ macro_rules! board_table {
             joystick_axes: [$jx, $jy],
             joystick_switches: [$($jsw),*],
             probe: $probe,
+            torch_inputs: [$($($torch),*)?],
             spindle_enable: $sp_en,
             spindle_dir: $sp_dir,
             spindle_pwm: $sp_pwm $sp_pwm_ch,

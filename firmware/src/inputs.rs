@@ -104,6 +104,12 @@ fn sample(inputs: &Inputs) -> u32 {
     if inputs.probe.is_low() {
         word |= 1 << Signal::Probe as u32;
     }
+    // Arc-OK, THC up, THC down: bits 29-31 in that order.
+    for (i, input) in inputs.torch.iter().enumerate() {
+        if input.is_low() {
+            word |= 1 << (Signal::ArcOk as usize + i);
+        }
+    }
     word
 }
 

@@ -210,6 +210,7 @@ macro_rules! expand_board {
         joystick_axes: [$jx:ident, $jy:ident],
         joystick_switches: [$($jsw:ident),*],
         probe: $probe:ident,
+        torch_inputs: [$($torch:ident),*],
         spindle_enable: $sp_en:ident,
         spindle_dir: $sp_dir:ident,
         spindle_pwm: $sp_pwm:ident $sp_pwm_ch:ident,
@@ -312,6 +313,12 @@ macro_rules! expand_board {
         pub const EXTI_INPUTS: usize = AXES + 4 + LIMIT_MAX_INPUTS;
         /// Number of joystick switches.
         pub const JOYSTICK_SWITCHES: usize = <[&str]>::len(&[$(stringify!($jsw)),*]);
+        /// Number of plasma torch inputs (arc-OK, THC up, THC down; 0 or 3).
+        pub const TORCH_INPUTS: usize = <[&str]>::len(&[$(stringify!($torch)),*]);
+        const _: () = assert!(
+            TORCH_INPUTS == 0 || TORCH_INPUTS == 3,
+            "torch_inputs lists arc-OK, THC up and THC down, or nothing"
+        );
 
         /// Every input of the board, configured with pull-ups (switches close to ground).
         pub struct Inputs {
@@ -319,6 +326,8 @@ macro_rules! expand_board {
             pub exti: [ExtiInput<'static, Async>; EXTI_INPUTS],
             pub joystick_switches: [Input<'static>; JOYSTICK_SWITCHES],
             pub probe: Input<'static>,
+            /// Plasma: arc-OK, THC up, THC down (polled; docs/laser-plasma.md "Wiring").
+            pub torch: [Input<'static>; TORCH_INPUTS],
         }
 
         /// Analog inputs on ADC1.
@@ -393,6 +402,7 @@ macro_rules! expand_board {
                     ],
                     joystick_switches: [$(Input::new(p.$jsw, Pull::Up)),*],
                     probe: Input::new(p.$probe, Pull::Up),
+                    torch: [$(Input::new(p.$torch, Pull::Up)),*],
                 },
                 analog: Analog {
                     fro_pot: p.$fro.degrade_adc(),

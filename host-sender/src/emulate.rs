@@ -14,6 +14,7 @@
 
 use crate::emulator::{EmulatedBoard, ProbeTarget};
 use crate::setup_file::{to_toml, SetupFile};
+use crate::torch_script::{TorchModel, TorchScript};
 use anyhow::Context;
 use gantry_machine::board::link::status_of;
 use gantry_machine::setup::Setup;
@@ -215,15 +216,29 @@ pub(crate) fn wait_on(fds: &mut [PollFd], wait: Duration) -> nix::Result<i32> {
     ppoll(fds, Some(TimeSpec::from(wait)), None)
 }
 
-/// The emulated board of `gantry emulate` (behind a pty or TCP): `setup`, the probe targets
-/// (`--probe-target`, [`ProbeTarget::parse`]) and the CPU model (`--cpu-model`).
+/// What `gantry emulate` models around the board besides the setup.
+#[derive(Clone, Debug, Default)]
+pub struct BoardOptions {
+    /// What the emulated touch probe touches (`--probe-target`, [`ProbeTarget::parse`]).
+    pub probe_targets: Vec<String>,
+    /// A CPU model (`--cpu-model`, [`crate::cpu_model`]): each main-loop pass takes the time the
+    /// MCU would take, and every gap in the motion is logged on stderr.
+    pub cpu: Option<crate::cpu_model::CpuModel>,
+    /// The plasma power source and height controller (`--arc-ok-delay`, `--no-arc`,
+    /// `--arc-lost-at`, `--thc`; [`crate::torch_script`]). `None`: the default script when the
+    /// setup has a torch, none otherwise.
+    pub torch: Option<TorchScript>,
+}
+
+/// The emulated board of `gantry emulate` (behind a pty or TCP): `setup` and what `opts` model.
 pub(crate) fn new_board(
     setup: Setup,
     state: Option<&Path>,
-    probe_targets: &[String],
-    cpu: Option<crate::cpu_model::CpuModel>,
+    opts: &BoardOptions,
 ) -> anyhow::Result<EmulatedBoard> {
-    let targets = probe_targets
+    let cpu = opts.cpu;
+    let targets = opts
+        .probe_targets
         .iter()
         .map(|t| ProbeTarget::parse(t))
         .collect::<anyhow::Result<Vec<_>>>()?;
@@ -238,6 +253,11 @@ pub(crate) fn new_board(
     if let Some(m) = cpu {
         eprintln!("emulate: CPU model {} at {} MHz", m.name, m.hz / 1_000_000);
     }
+    let torch = opts
+        .torch
+        .clone()
+        .or_else(|| setup.outputs.torch.on.then(TorchScript::default));
+    board.torch = torch.map(TorchModel::new);
     Ok(board)
 }
 
@@ -371,20 +391,16 @@ impl HostSide for PtyHost {
     }
 }
 
-/// Runs the board until SIGINT or SIGTERM.
-/// `probe_targets`: what the emulated touch probe touches ([`ProbeTarget::parse`]); `cpu`: a CPU
-/// model (`--cpu-model`, [`crate::cpu_model`]): each main-loop pass takes the time the MCU would
-/// take, and every gap in the motion (the step kernel ran dry mid-job) is logged on stderr.
+/// Runs the board until SIGINT or SIGTERM, with what `opts` models around it.
 pub fn run(
     pty: &Path,
     setup: Option<PathBuf>,
     state: Option<PathBuf>,
-    probe_targets: &[String],
-    cpu: Option<crate::cpu_model::CpuModel>,
+    opts: &BoardOptions,
 ) -> anyhow::Result<ExitCode> {
     let (setup, origin) = load_state(state.as_deref(), setup)?;
     let axes = setup.axis_count as usize;
-    let board = new_board(setup, state.as_deref(), probe_targets, cpu)?;
+    let board = new_board(setup, state.as_deref(), opts)?;
     let (master, slave) = serialport::TTYPort::pair().context("cannot open a pseudo-terminal")?;
     let name = slave
         .name()

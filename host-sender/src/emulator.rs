@@ -33,6 +33,7 @@
 use crate::cpu_model::{CpuMeter, CpuModel};
 use crate::link::Transport;
 use crate::step_clock::{ClockEvent, StepClock};
+use crate::torch_script::{TorchModel, TORCH_BITS};
 use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::main_loop::{
     BoardPort, HostPort, KernelSnapshot, MainLoop, SEGMENT_QUEUE_DEPTH,
@@ -343,6 +344,9 @@ pub struct Hardware {
     cpu: Option<CpuTime>,
     /// Times the step kernel ran dry in the middle of a job's motion ([`Starved`]).
     pub starved: Starved,
+    /// A scripted plasma power source and height controller (`crate::torch_script`): when set,
+    /// it drives the `arc_ok`, `thc_up` and `thc_down` pins from the torch output.
+    pub torch: Option<TorchModel>,
 }
 
 /// The CPU model's state on the hardware.
@@ -450,6 +454,7 @@ impl EmulatedBoard {
             steppers_enabled: false,
             cpu: None,
             starved: Starved::default(),
+            torch: None,
         };
         EmulatedBoard {
             main: MainLoop::new(&setup),
@@ -775,9 +780,14 @@ impl Hardware {
         (on, owned)
     }
 
-    /// Raw pin levels: the test's pins with the modelled switches' and probe's pins.
+    /// Raw pin levels: the test's pins with the modelled switches', torch inputs' and probe's
+    /// pins.
     pub fn raw_pins(&self) -> u32 {
-        let (on, owned) = self.switch_levels();
+        let (mut on, mut owned) = self.switch_levels();
+        if let Some(t) = &self.torch {
+            on |= t.levels(self.now_ms().into());
+            owned |= TORCH_BITS;
+        }
         let pins = (self.pins & !owned) | ((on ^ self.invert) & owned);
         if self.probe_targets.is_empty() {
             return pins;
@@ -1112,6 +1122,9 @@ impl BoardPort for Hardware {
     }
 
     fn drive_outputs(&mut self, levels: &OutputLevels, _pwm_max: u16, _steppers_enabled: bool) {
+        if let Some(t) = self.torch.as_mut() {
+            t.torch(levels.spindle_enable, self.now / COUNTS_PER_MS);
+        }
         if *levels != self.driven {
             // Spindle, coolant and PWM follow the board once per pass (the user outputs are
             // the kernel's word, exchanged before).

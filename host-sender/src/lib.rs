@@ -27,5 +27,6 @@ pub mod setup_file;
 pub mod simulate;
 pub mod step_clock;
 pub mod tcp;
+pub mod torch_script;
 pub mod trace;
 pub mod vcd;

@@ -224,6 +224,20 @@ enum Command {
         /// underrun (docs/ports.md).
         #[arg(long, value_parser = parse_cpu_model)]
         cpu_model: Option<host_sender::cpu_model::CpuModel>,
+        /// Plasma: the emulated power source's arc-OK comes this long after the torch fires
+        /// (`300ms`, `1.5s`; default 50ms with a torch setup; docs/laser-plasma.md).
+        #[arg(long, value_parser = host_sender::torch_script::parse_ms, conflicts_with = "no_arc")]
+        arc_ok_delay: Option<u64>,
+        /// Plasma: arc-OK never comes (the board raises alarm 22).
+        #[arg(long)]
+        no_arc: bool,
+        /// Plasma: the arc goes out this long after the first firing (once).
+        #[arg(long, value_parser = host_sender::torch_script::parse_ms)]
+        arc_lost_at: Option<u64>,
+        /// Plasma: the height controller's pattern, ms after the torch fired:
+        /// `up:1000-1500,down:2000-2200`.
+        #[arg(long)]
+        thc: Option<String>,
     },
     /// Own the board's port (--port) until killed, and let other `gantry` commands reach the
     /// board through a local socket named after the port while a job runs (docs/ports.md).
@@ -745,15 +759,30 @@ fn main() -> ExitCode {
             state,
             probe_targets,
             cpu_model,
-        } => match (pty, tcp) {
-            (Some(pty), _) => {
-                host_sender::emulate::run(&pty, setup, state, &probe_targets, cpu_model)
+            arc_ok_delay,
+            no_arc,
+            arc_lost_at,
+            thc,
+        } => host_sender::torch_script::from_options(
+            arc_ok_delay,
+            no_arc,
+            arc_lost_at,
+            thc.as_deref(),
+        )
+        .and_then(|torch| {
+            let opts = host_sender::emulate::BoardOptions {
+                probe_targets,
+                cpu: cpu_model,
+                torch,
+            };
+            match (pty, tcp) {
+                (Some(pty), _) => host_sender::emulate::run(&pty, setup, state, &opts),
+                (None, Some(addr)) => {
+                    host_sender::tcp::run(addr, allow_remote, setup, state, &opts)
+                }
+                (None, None) => unreachable!("clap requires --pty or --tcp"),
             }
-            (None, Some(addr)) => {
-                host_sender::tcp::run(addr, allow_remote, setup, state, &probe_targets, cpu_model)
-            }
-            (None, None) => unreachable!("clap requires --pty or --tcp"),
-        },
+        }),
         Command::Simulate {
             file,
             json,

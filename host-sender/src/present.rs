@@ -301,11 +301,13 @@ pub fn modes_text(s: &Status) -> String {
 }
 
 /// The spindle, coolant and tool as the board drives them: `spindle CW 12000 rpm, flood, tool 3`;
-/// in laser mode `laser M4 S800, power 40.0 %, coolant off, no tool`.
+/// in laser mode `laser M4 S800, power 40.0 %, coolant off, no tool`; with a plasma torch
+/// `torch on (arc OK), THC +0.250 mm, coolant off, no tool`.
 pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
     use gantry_proto::SpindleStatus;
-    let spindle = match (o.laser_permille, o.spindle) {
-        (Some(p), s) => {
+    let spindle = match (o.torch, o.laser_permille, o.spindle) {
+        (Some(t), _, _) => torch_text(t),
+        (None, Some(p), s) => {
             let mode = match s {
                 SpindleStatus::Off => "laser off".to_owned(),
                 SpindleStatus::Cw => format!("laser M3 S{}", o.rpm),
@@ -313,9 +315,9 @@ pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
             };
             format!("{mode}, power {}.{} %", p / 10, p % 10)
         }
-        (None, SpindleStatus::Off) => "spindle off".to_owned(),
-        (None, SpindleStatus::Cw) => format!("spindle CW {} rpm", o.rpm),
-        (None, SpindleStatus::Ccw) => format!("spindle CCW {} rpm", o.rpm),
+        (None, None, SpindleStatus::Off) => "spindle off".to_owned(),
+        (None, None, SpindleStatus::Cw) => format!("spindle CW {} rpm", o.rpm),
+        (None, None, SpindleStatus::Ccw) => format!("spindle CCW {} rpm", o.rpm),
     };
     let coolant = match (o.mist, o.flood) {
         (false, false) => "coolant off",
@@ -328,6 +330,19 @@ pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
         t => format!("tool {t}"),
     };
     format!("{spindle}, {coolant}, {tool}")
+}
+
+/// A plasma torch's state: `torch off`, `torch on, waiting for arc-OK`, `torch on (arc OK)`,
+/// `torch off: ARC LOST, job held (cycle start re-fires the torch)`, with the height correction.
+pub fn torch_text(t: gantry_proto::TorchStatus) -> String {
+    let arc = match (t.arc_lost, t.on, t.waiting) {
+        (true, _, _) => "torch off: ARC LOST, job held (cycle start re-fires the torch)",
+        (_, true, true) => "torch on, waiting for arc-OK",
+        (_, true, false) => "torch on (arc OK)",
+        _ => "torch off",
+    };
+    let mm = f64::from(t.thc_nm) / 1e6;
+    format!("{arc}, THC {mm:+.3} mm")
 }
 
 /// `error 900: move exceeds the machine travel (soft limit)` for a refused request's code.
@@ -453,6 +468,7 @@ mod tests {
             flood: true,
             tool: 2,
             laser_permille: None,
+            torch: None,
         };
         assert!(format_status(&running, 3)
             .ends_with("outputs:   spindle CCW 12000 rpm, mist and flood, tool 2"));
@@ -460,6 +476,15 @@ mod tests {
         running.outputs.laser_permille = Some(405);
         assert!(format_status(&running, 3)
             .ends_with("outputs:   laser M4 S800, power 40.5 %, mist and flood, tool 2"));
+        running.outputs.laser_permille = None;
+        running.outputs.torch = Some(gantry_proto::TorchStatus {
+            on: true,
+            waiting: false,
+            arc_lost: false,
+            thc_nm: -250_000,
+        });
+        assert!(format_status(&running, 3)
+            .ends_with("outputs:   torch on (arc OK), THC -0.250 mm, mist and flood, tool 2"));
         assert!(format_status(&status(MachineState::Alarm { code: 99 }), 3)
             .ends_with("alarm:     alarm 99 (unknown to this gantry)"));
         // Every alarm the board can raise has a name and a text.

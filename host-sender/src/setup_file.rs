@@ -194,6 +194,15 @@ pub struct SpindleFile {
     pub orient_output: Option<u8>,
     pub orient_done_input: Option<String>,
     pub orient_dwell_ms: Option<u16>,
+    /// Plasma torch mode and its height control (docs/laser-plasma.md "Plasma").
+    #[serde(default)]
+    pub torch: Option<bool>,
+    pub arc_ok_timeout_ms: Option<u16>,
+    pub thc: Option<bool>,
+    pub thc_rate: Option<f64>,
+    pub thc_travel: Option<f64>,
+    pub thc_anti_dive: Option<u8>,
+    pub thc_delay_ms: Option<u16>,
 }
 
 #[derive(Debug, Default, Deserialize, Serialize)]
@@ -1089,6 +1098,28 @@ impl SetupFile {
         if !o.present() && (o.done_input != OrientSetup::NONE || o.dwell_ms != 0) {
             bail!("spindle.orient_done_input/orient_dwell_ms: set spindle.orient_output first");
         }
+        let (sp, t) = (&self.spindle, &mut s.outputs.torch);
+        if let Some(v) = sp.torch {
+            t.on = v;
+        }
+        if let Some(v) = sp.arc_ok_timeout_ms {
+            t.arc_ok_timeout_ms = num(Key::ArcOkTimeoutMs, 0, v.into())? as u16;
+        }
+        if let Some(v) = sp.thc {
+            t.thc = v;
+        }
+        if let Some(v) = sp.thc_rate {
+            t.thc_rate = num(Key::ThcRate, 0, v)?;
+        }
+        if let Some(v) = sp.thc_travel {
+            t.thc_travel = num(Key::ThcTravel, 0, v)?;
+        }
+        if let Some(v) = sp.thc_anti_dive {
+            t.thc_anti_dive = num(Key::ThcAntiDive, 0, v.into())? as u8;
+        }
+        if let Some(v) = sp.thc_delay_ms {
+            t.thc_delay_ms = num(Key::ThcDelayMs, 0, v.into())? as u16;
+        }
         for (k, m) in self.mcode.iter().enumerate() {
             let key = format!("mcode[{k}]");
             if !s.program.user_mcodes.contains(&m.code) {
@@ -1451,6 +1482,20 @@ fn controller_toml(s: &Setup, t: &mut String) {
         }
         let _ = writeln!(t, "orient_dwell_ms = {}", o.orient.dwell_ms);
     }
+    let p = &o.torch;
+    let _ = writeln!(
+        t,
+        "torch = {}   # plasma: M3 waits for arc-OK, THC from the up/down inputs\n\
+         arc_ok_timeout_ms = {}\nthc = {}\nthc_rate = {}\nthc_travel = {}\n\
+         thc_anti_dive = {}\nthc_delay_ms = {}",
+        p.on,
+        p.arc_ok_timeout_ms,
+        p.thc,
+        mm_toml(p.thc_rate),
+        mm_toml(p.thc_travel),
+        p.thc_anti_dive,
+        p.thc_delay_ms
+    );
     for l in &o.mcode_lists {
         let _ = writeln!(
             t,

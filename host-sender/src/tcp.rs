@@ -126,13 +126,12 @@ pub fn run(
     allow_remote: bool,
     setup: Option<PathBuf>,
     state: Option<PathBuf>,
-    probe_targets: &[String],
-    cpu: Option<crate::cpu_model::CpuModel>,
+    opts: &crate::emulate::BoardOptions,
 ) -> anyhow::Result<ExitCode> {
     check_address(&addr, allow_remote)?;
     let (setup, origin) = load_state(state.as_deref(), setup)?;
     let axes = setup.axis_count;
-    let mut board = new_board(setup, state.as_deref(), probe_targets, cpu)?;
+    let mut board = new_board(setup, state.as_deref(), opts)?;
     let listener = TcpListener::bind(addr).with_context(|| format!("cannot listen on {addr}"))?;
     listener.set_nonblocking(true)?;
     // No host until a client connects.

@@ -228,6 +228,8 @@ pub struct OutputSetup {
     /// beam's power at the move's first step, M4 scales it with the speed, and the beam is on
     /// only while a G1/G2/G3 runs.
     pub laser: bool,
+    /// Plasma torch mode (docs/laser-plasma.md "Plasma"); never with `laser`.
+    pub torch: TorchSetup,
     /// Command lists of user M codes.
     pub mcode_lists: Vec<McodeList, MAX_MCODE_LISTS>,
     /// The oriented spindle stop of G76 fine boring.
@@ -280,6 +282,41 @@ impl OrientSetup {
             },
         ]
     }
+}
+
+/// A plasma torch on the spindle enable output (docs/laser-plasma.md "Plasma"): M3 fires it and
+/// the motion waits for the arc-OK input; torch height control (THC) moves Z from the up/down
+/// inputs while the cut runs at cruise speed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TorchSetup {
+    /// Torch mode on.
+    pub on: bool,
+    /// Longest wait for arc-OK after M3 (or a resume after an arc loss), ms: then alarm 22.
+    pub arc_ok_timeout_ms: u16,
+    /// Torch height control from the `thc_up`/`thc_down` inputs.
+    pub thc: bool,
+    /// Z speed of the height control, nm/min.
+    pub thc_rate: FeedNmPerMin,
+    /// Largest height correction either way, nm.
+    pub thc_travel: Nm,
+    /// Anti-dive: the correction holds below this percentage of the programmed feed.
+    pub thc_anti_dive: u8,
+    /// Time after arc-OK before the height control acts (the pierce settles), ms.
+    pub thc_delay_ms: u16,
+}
+
+impl TorchSetup {
+    /// No torch; 3 s arc-OK wait, THC on at 1200 mm/min within ±5 mm, anti-dive 90 %, 500 ms
+    /// after the pierce.
+    pub const DEFAULT: TorchSetup = TorchSetup {
+        on: false,
+        arc_ok_timeout_ms: 3000,
+        thc: true,
+        thc_rate: 1200 * NM_PER_MM,
+        thc_travel: 5 * NM_PER_MM,
+        thc_anti_dive: 90,
+        thc_delay_ms: 500,
+    };
 }
 
 /// The command list of one user M code.
@@ -468,6 +505,7 @@ impl Default for Setup {
                 pwm_max: 1000,
                 pwm_min: 0,
                 laser: false,
+                torch: TorchSetup::DEFAULT,
                 mcode_lists: Vec::new(),
                 orient: OrientSetup::OFF,
             },

@@ -30,14 +30,14 @@ pub use channel::{
 pub use frame::{encode_frame, Frame, FrameDecoder, Header, Kind, MAX_FRAME_LEN};
 pub use messages::{
     BoardInbound, BoardMsg, Hello, HelloAck, HostMessage, HostMsg, JobEnd, Jog, Lane, LineBatch,
-    MachineState, OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES,
-    LINE_MAX,
+    MachineState, OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, TorchStatus,
+    Wire, AXES, LINE_MAX,
 };
 
 /// Protocol version exchanged in the handshake: major in the high byte, minor
 /// in the low byte. Endpoints connect only when the majors are equal (see
 /// `docs/protocol.md`, version policy).
-pub const PROTOCOL_VERSION: u16 = 0x0600;
+pub const PROTOCOL_VERSION: u16 = 0x0700;
 
 /// The first version whose board takes [`HostMsg::JogKeepalive`] (a 5.0 board cannot decode it:
 /// it would stand unacknowledged at the head of the realtime lane).

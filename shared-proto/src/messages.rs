@@ -270,6 +270,22 @@ pub struct OutputsStatus {
     /// Laser mode (docs/laser-plasma.md): the beam's power now in per mille of full power
     /// (the PWM duty over `spindle.pwm_range[1]`; 0 when off); `None`: not a laser machine.
     pub laser_permille: Option<u16>,
+    /// Plasma torch mode (docs/laser-plasma.md "Plasma"); `None`: not a torch machine.
+    pub torch: Option<TorchStatus>,
+}
+
+/// A plasma torch's state (docs/laser-plasma.md "Plasma").
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TorchStatus {
+    /// The torch is fired (M3).
+    pub on: bool,
+    /// Fired, and the motion waits for arc-OK.
+    pub waiting: bool,
+    /// The job is held because the arc was lost while cutting (cycle start re-fires the torch).
+    pub arc_lost: bool,
+    /// Torch height correction now, nm (+ = up). The Z positions of the status leave it out:
+    /// they are where the program put Z.
+    pub thc_nm: i32,
 }
 
 /// Periodic or requested status report.

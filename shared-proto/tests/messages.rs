@@ -7,7 +7,7 @@ use gantry_proto::lines::{push_record, BATCH_MAX};
 use gantry_proto::messages::SETUP_CHUNK_MAX;
 use gantry_proto::{
     BoardMsg, Hello, HelloAck, HostMsg, JobEnd, Jog, Lane, LineBatch, MachineState, OutputsStatus,
-    ProbeStatus, ProgramTarget, SpindleStatus, Status, Wire, AXES, LINE_MAX,
+    ProbeStatus, ProgramTarget, SpindleStatus, Status, TorchStatus, Wire, AXES, LINE_MAX,
 };
 use serde::{de::DeserializeOwned, Serialize};
 use std::fmt::Debug;
@@ -119,6 +119,12 @@ fn worst_status() -> Status {
             flood: true,
             tool: u32::MAX,
             laser_permille: Some(u16::MAX),
+            torch: Some(TorchStatus {
+                on: true,
+                waiting: true,
+                arc_lost: true,
+                thc_nm: i32::MIN,
+            }),
         },
         starved_ms: u32::MAX,
         probe: Some(ProbeStatus {
@@ -164,6 +170,7 @@ fn all_board() -> Vec<BoardMsg> {
                     flood: true,
                     tool: 3,
                     laser_permille: None,
+                    torch: None,
                 },
                 starved_ms: 1_234,
                 probe: (state == MachineState::Check).then_some(ProbeStatus {

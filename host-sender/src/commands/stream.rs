@@ -687,6 +687,15 @@ fn stream_with_progress(
                     "the job this sender takes over is held (the sender that ran it was lost, \
                      or the job was held before)"
                         .to_owned()
+                } else if p
+                    .status
+                    .as_ref()
+                    .and_then(|st| st.outputs.torch)
+                    .is_some_and(|t| t.arc_lost)
+                {
+                    "the plasma torch lost its arc: the job holds on its path with the torch off \
+                     (going on re-fires the torch and waits for arc-OK before moving)"
+                        .to_owned()
                 } else if p.link_gap_ms > 0 {
                     format!(
                         "the board held the job while its link was silent for {:.1} s (host lost: \

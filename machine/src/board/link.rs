@@ -10,7 +10,7 @@ use gantry_proto::channel::{QueuedSink, Refusal};
 use gantry_proto::setup_commit::SetupRefusal;
 use gantry_proto::{
     BoardEndpoint, BoardInbound, BoardMsg, Config, HostMessage, Lane, LinkEvent, MachineState,
-    OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status,
+    OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, TorchStatus,
 };
 
 // The line ring stores the link's line records as they come: both sides use one format.
@@ -637,7 +637,16 @@ fn event_message(e: BoardEvent) -> BoardMsg {
 
 /// The status report of the board as the kernel sees it now.
 pub fn status_of(board: &Board, view: &KernelView) -> Status {
-    let machine = board.machine_position(&view.steps);
+    // Z as the program put it: a torch's height correction is shown on its own.
+    let machine = board.reported_position(&view.steps);
+    let torch = board
+        .torch_status()
+        .map(|(on, waiting, arc_lost)| TorchStatus {
+            on,
+            waiting,
+            arc_lost,
+            thc_nm: board.thc_correction_nm(),
+        });
     let modes = board.executing_modes();
     let work = modes.work_position(&machine);
     let state = match board.state() {
@@ -672,7 +681,10 @@ pub fn status_of(board: &Board, view: &KernelView) -> Status {
         line: board.line(),
         inputs: view.inputs,
         homed: board.homed(),
-        outputs: outputs_status(board.outputs(), laser_permille(board, view)),
+        outputs: OutputsStatus {
+            torch,
+            ..outputs_status(board.outputs(), laser_permille(board, view))
+        },
         starved_ms: view.starved_ms,
         probe: board.probe_result().map(|p| ProbeStatus {
             machine_pos: p.position,
@@ -704,5 +716,6 @@ fn outputs_status(o: super::Outputs, laser_permille: Option<u16>) -> OutputsStat
         flood: o.flood,
         tool: o.tool,
         laser_permille,
+        torch: None,
     }
 }

@@ -31,6 +31,7 @@ mod probing;
 pub mod source;
 #[cfg(feature = "link")]
 mod starvation;
+mod torch;
 pub mod underruns;
 
 use crate::canon::{Action, Canon, Spindle, StopKind};
@@ -120,6 +121,8 @@ pub struct Board {
     probing: Probing,
     /// Events, Marks and offset changes for the owner (`board/outbox.rs`).
     outbox: Outbox,
+    /// A plasma torch's arc (`board/torch.rs`).
+    arc: torch::Arc,
 }
 
 /// Where a job stands on its program.
@@ -183,6 +186,7 @@ impl Board {
             jog: JogState::default(),
             probing: Probing::new(),
             outbox: Outbox::new(),
+            arc: torch::Arc::Off,
         }
     }
 
@@ -402,6 +406,8 @@ impl Board {
         }
         self.progress.pending = None;
         self.probing.cancel();
+        // Torch height control is on at every job's start (`M62 P2` switches it off).
+        self.motion.set_thc_enabled(true);
         let phase = if kind == JobKind::Machine && self.hold_input_active() {
             // The feed-hold switch is open: the job waits, held, until it closes.
             JobPhase::Hold {
@@ -649,6 +655,12 @@ impl Board {
         if self.hold_input_active() {
             return;
         }
+        match why {
+            // Plasma: the torch fires again and the motion waits for its arc (`board/torch.rs`).
+            HoldWhy::ArcLost => return self.torch_resume(),
+            HoldWhy::ArcWait => return,
+            _ => {}
+        }
         self.outputs.resume(why.pause() || why == HoldWhy::HostLost);
         if why.pause() {
             self.motion.release_sync();
@@ -663,8 +675,9 @@ impl Board {
     /// setup wants a cycle start for that.
     fn release_hold(&mut self) {
         if let Some(JobPhase::Hold { why, ending }) = self.machine_job() {
-            // (A hold for a lost host waits for a host or a cycle start, not for the switch.)
-            if why.feed() && why != HoldWhy::HostLost {
+            // (A hold for a lost host waits for a host or a cycle start, not for the switch; one
+            // for a lost arc waits for a cycle start, which re-fires the torch.)
+            if why.feed() && why != HoldWhy::HostLost && why != HoldWhy::ArcLost {
                 self.outputs.restore_stopped_spindle();
                 self.motion.resume();
                 self.set_phase(if why.pause() {
@@ -873,6 +886,7 @@ impl Board {
         let was_running = matches!(self.mode, Mode::Job(_));
         self.probing.cancel();
         self.outputs.safe();
+        self.arc = torch::Arc::Off;
         self.jog.end_all();
         self.mode = Mode::Alarm(code);
         self.emit(BoardEvent::Alarm { code, line });
@@ -950,6 +964,16 @@ impl Board {
     pub fn next_segment(&mut self) -> Option<Segment> {
         // Laser mode: the spindle override scales the power of the segments prepared from now.
         self.motion.set_laser_override(self.overrides.spindle());
+        if self.torch() {
+            self.motion.set_thc_command(self.thc_command());
+            if !self.torch_firing() {
+                // At a sync point after the torch went off (the next pierce's M3, a probe move,
+                // the program's end) the height correction is taken out first.
+                if let Some(seg) = self.motion.thc_return_segment() {
+                    return Some(seg);
+                }
+            }
+        }
         let seg = self.motion.next_segment();
         while let Some(report) = self.motion.take_report() {
             self.progress.line = report.line;
@@ -998,6 +1022,9 @@ impl Board {
         };
         if job.is_some_and(|j| self.interprets(&j)) {
             self.interpret();
+        }
+        if self.torch() {
+            self.poll_arc_wait();
         }
         if let Some(req) = self.source.take_request() {
             self.emit(BoardEvent::Jump(req));
@@ -1154,6 +1181,11 @@ impl Board {
             }
             let pushed = match (self.on_the_fly(&canon), canon.action) {
                 (Some((code, output)), _) => self.motion.push_output(canon.line, code, output),
+                (None, Action::UserMCode { code, .. }) if self.thc_switch(code) => {
+                    // Torch height control off / on with the next move (`motion/thc.rs`).
+                    let output = OutputEvent::thc(code == 63);
+                    self.motion.push_output(canon.line, code, output)
+                }
                 (None, Action::Spindle { state, rpm }) if self.setup.outputs.laser => {
                     // Laser mode: no sync point; the power rides on the moves after it
                     // (docs/laser-plasma.md), and the status shows the modal state at once, as
@@ -1314,6 +1346,10 @@ impl Board {
         let Some(canon) = self.motion.sync_point().copied() else {
             return;
         };
+        if self.torch() && !self.torch_firing() && self.motion.thc_correction() != 0 {
+            // The height correction of the last cut comes out first (`Board::next_segment`).
+            return;
+        }
         if matches!(self.machine_job(), Some(JobPhase::Hold { why, .. }) if why.pause()) {
             return;
         }
@@ -1340,6 +1376,13 @@ impl Board {
             // Dry run: spindle and coolant stay as they are (the GIXA controller: S has no effect).
             Action::Spindle { .. } | Action::SpindleOrient | Action::Coolant { .. }
                 if self.overrides.switches.dry_run => {}
+            Action::Spindle { state, rpm } if self.torch() && state != Spindle::Off => {
+                // The torch fires and the motion waits for arc-OK (or the job ends in alarm 22).
+                let established = self.torch_on_at_sync(state, rpm, canon.line);
+                if !established {
+                    return;
+                }
+            }
             Action::Spindle { state, rpm } => {
                 if state != Spindle::Off {
                     // A spindle that starts is no longer held oriented.
@@ -1347,6 +1390,7 @@ impl Board {
                         .release_orient(self.setup.outputs.orient.output);
                 }
                 self.outputs.set_spindle(state, rpm);
+                self.arc = torch::Arc::Off;
             }
             Action::SpindleOrient if self.setup.outputs.orient.present() => {
                 // Set the orient output, then wait for its done input (or the dwell) at rest:
@@ -1373,6 +1417,10 @@ impl Board {
             Action::Probe { .. } => {
                 self.start_probe(&canon);
                 return;
+            }
+            Action::UserMCode { code, .. } if self.thc_switch(code) => {
+                // No move followed: the switch takes effect here.
+                self.motion.set_thc_enabled(code == 63);
             }
             Action::UserMCode { code, .. } => {
                 let list = self

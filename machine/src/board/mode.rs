@@ -165,13 +165,19 @@ pub(super) enum HoldWhy {
     /// coolant go off once the machine is at rest (`Board::poll`), restored on resume
     /// (docs/controller.md "Host lost").
     HostLost,
+    /// A plasma torch lost its arc while cutting (docs/laser-plasma.md "Plasma"): a feed hold on
+    /// the path with the torch off; cycle start re-fires it ([`HoldWhy::ArcWait`]).
+    ArcLost,
+    /// After an arc loss, cycle start re-fired the torch: the motion stays held until arc-OK
+    /// comes (then it resumes by itself), alarm 22 after `arc_ok_timeout_ms`.
+    ArcWait,
 }
 
 impl HoldWhy {
     pub(super) fn feed(self) -> bool {
         matches!(
             self,
-            HoldWhy::Feed | HoldWhy::FeedAndPause | HoldWhy::HostLost
+            HoldWhy::Feed | HoldWhy::FeedAndPause | HoldWhy::HostLost | HoldWhy::ArcLost
         )
     }
 

@@ -111,6 +111,9 @@ impl Board {
         if inputs.abort && rose(Signal::Abort) {
             self.abort();
         }
+        if self.torch() && fell(Signal::ArcOk) {
+            self.arc_ok_fell();
+        }
         if inputs.feed_hold {
             if rose(Signal::FeedHold) && self.state() == State::Run {
                 self.feed_hold();

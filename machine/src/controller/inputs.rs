@@ -41,11 +41,17 @@ pub enum Signal {
     /// Touch probe (G38.x, docs/probing.md): active when touching. The step kernel sees its raw
     /// pin too, every tick; this bit is the debounced level for status and the start check.
     Probe = 28,
+    /// Plasma torch (docs/laser-plasma.md "Plasma"): the power source's arc-OK (transfer)
+    /// output, active while the arc is established.
+    ArcOk = 29,
+    /// Torch height controller's "raise" and "lower" outputs (the up/down THC interface).
+    ThcUp = 30,
+    ThcDown = 31,
 }
 
 /// Names of the input bits of [`InputBits`], bit 0 first, as the setup file and traces spell
 /// them (other bits are `inN`).
-pub const INPUT_NAMES: [&str; 29] = [
+pub const INPUT_NAMES: [&str; 32] = [
     "feed_hold",
     "abort",
     "cycle_start1",
@@ -75,6 +81,9 @@ pub const INPUT_NAMES: [&str; 29] = [
     "b_max",
     "c_max",
     "probe",
+    "arc_ok",
+    "thc_up",
+    "thc_down",
 ];
 
 /// First bit of the six min-limit inputs (X..C), then six max-limit inputs.
@@ -218,6 +227,8 @@ mod tests {
         assert_eq!(INPUT_NAMES[LIMIT_MAX_BIT as usize], "x_max");
         assert_eq!(INPUT_NAMES[LIMIT_MAX_BIT as usize + 6], "probe");
         assert_eq!(INPUT_NAMES[Signal::Probe as usize], "probe");
+        assert_eq!(INPUT_NAMES[Signal::ArcOk as usize], "arc_ok");
+        assert_eq!(INPUT_NAMES[Signal::ThcDown as usize], "thc_down");
     }
 
     #[test]

@@ -68,11 +68,14 @@ pub enum AlarmCode {
     HostLost = 20,
     /// A command list waited for an input longer than its timeout.
     ListInputTimeout = 21,
+    /// A plasma torch fired and its arc-OK input did not come within `arc_ok_timeout_ms`
+    /// (docs/laser-plasma.md "Plasma"): torch off, the job ended at rest.
+    NoArc = 22,
 }
 
 impl AlarmCode {
     /// Every alarm, by number.
-    pub const ALL: [AlarmCode; 11] = [
+    pub const ALL: [AlarmCode; 12] = [
         AlarmCode::HardLimit,
         AlarmCode::SoftLimit,
         AlarmCode::ResetDuringMotion,
@@ -84,6 +87,7 @@ impl AlarmCode {
         AlarmCode::HomingRequired,
         AlarmCode::HostLost,
         AlarmCode::ListInputTimeout,
+        AlarmCode::NoArc,
     ];
 
     /// The alarm with this number (as sent over the link).
@@ -105,6 +109,7 @@ impl AlarmCode {
             AlarmCode::HomingRequired => "homing required",
             AlarmCode::HostLost => "host lost",
             AlarmCode::ListInputTimeout => "list input timeout",
+            AlarmCode::NoArc => "no arc",
         }
     }
 
@@ -134,6 +139,9 @@ impl AlarmCode {
                 "the host stayed away while the job stood still: job ended, spindle and coolant off"
             }
             AlarmCode::ListInputTimeout => "command list: input wait timed out",
+            AlarmCode::NoArc => {
+                "the torch fired but arc-OK did not come within arc_ok_timeout_ms: torch off, job ended at rest"
+            }
         }
     }
 }

@@ -163,10 +163,13 @@ pub enum MGroup {
     /// M70 M71 M72 M73: save, invalidate, restore the modal state; save with restore at the
     /// subroutine's end (LinuxCNC; machine/src/gcode/interp/context.rs).
     Context,
+    /// M62 M63 with P2: torch height control off and on with the next move (grblHAL's plasma
+    /// port 2; docs/laser-plasma.md).
+    Digital,
 }
 
 /// Number of [`MGroup`]s.
-pub const M_GROUPS: usize = 7;
+pub const M_GROUPS: usize = 8;
 
 /// The group of an M code under `config`, or `None` if unknown.
 pub fn m_group(code: u16, config: &InterpConfig) -> Option<MGroup> {
@@ -178,6 +181,7 @@ pub fn m_group(code: u16, config: &InterpConfig) -> Option<MGroup> {
         7..=9 => Coolant,
         48 | 49 => Override,
         c if config.is_user_m_code(c) => User,
+        62 | 63 => Digital,
         70..=73 if config.dialect != super::config::Dialect::Gixa => Context,
         _ => return None,
     })

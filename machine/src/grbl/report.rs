@@ -94,7 +94,8 @@ pub fn status(
     sparse: &mut Sparse,
 ) {
     let axes = usize::from(board.setup().axis_count);
-    let machine = board.machine_position(&view.steps);
+    // (A plasma torch's height correction left out of Z, as in the native status.)
+    let machine = board.reported_position(&view.steps);
     // WCO: the offsets of the move being executed (`board/executing.rs`), as grbl's.
     let modes = board.executing_modes();
     out.byte(b'<');

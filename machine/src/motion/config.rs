@@ -4,6 +4,7 @@
 //! [`MotionConfig::from_setup`] derives the model from the persistent [`crate::setup::Setup`].
 
 use super::laser::PwmMap;
+use super::thc::{ThcConfig, THC_AXIS};
 use crate::arith::{div_euclid_i128, div_floor_i64};
 use crate::setup::Setup;
 use crate::units::{Nm, Pos, MAX_AXES, NM_PER_MM};
@@ -84,6 +85,8 @@ pub struct MotionConfig {
     pub soft_limits: bool,
     /// Laser mode's S → PWM map (docs/laser-plasma.md); `None`: not a laser machine.
     pub laser: Option<PwmMap>,
+    /// Torch height control in Z steps (docs/laser-plasma.md "Plasma"); `None`: none.
+    pub thc: Option<ThcConfig>,
 }
 
 impl Default for MotionConfig {
@@ -99,8 +102,26 @@ impl Default for MotionConfig {
             blend_tolerance: 0,
             soft_limits: true,
             laser: None,
+            thc: None,
         }
     }
+}
+
+/// Torch height control's rate and travel in steps of the Z axis `z` (`None` without a torch,
+/// without height control or without a Z axis).
+fn thc_config(setup: &Setup, z: &AxisConfig) -> Option<ThcConfig> {
+    let t = setup.outputs.torch;
+    if !(t.on && t.thc) || usize::from(setup.axis_count) <= THC_AXIS {
+        return None;
+    }
+    // nm/min → steps/s, exactly as the axis's ratio: rate · steps / (units · 60).
+    let rate =
+        i128::from(t.thc_rate.max(0)) * i128::from(z.steps) / (i128::from(z.units.max(1)) * 60);
+    Some(ThcConfig {
+        rate: rate.clamp(1, i128::from(u32::MAX)) as u32,
+        travel: z.nm_to_steps(t.thc_travel.max(0)).min(i64::from(i32::MAX)) as i32,
+        anti_dive: t.thc_anti_dive.min(100),
+    })
 }
 
 fn per_min_to_per_s(v: i64) -> u64 {
@@ -138,6 +159,7 @@ impl MotionConfig {
                 pwm_min: setup.outputs.pwm_min,
                 pwm_max: setup.outputs.pwm_max,
             }),
+            thc: thc_config(setup, &axes[THC_AXIS]),
         }
     }
 

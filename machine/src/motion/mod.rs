@@ -6,7 +6,8 @@
 //! latest remembered in [`history`] so a stop can take back what the kernel has not started) →
 //! [`kernel::StepKernel::tick`] (the step interrupt). [`sim`] runs all of it on virtual time.
 //! On-the-fly output changes ([`output_event`]) ride along the same path, from a planner block to
-//! its first segment to the tick that starts it, and so does the laser power ([`laser`]).
+//! its first segment to the tick that starts it, and so does the laser power ([`laser`]); a plasma
+//! torch's height control ([`thc`]) adds its Z steps to the segments in prep.
 
 // Per-axis loops index several parallel arrays by axis number; iterator chains would hide that.
 #![allow(clippy::needless_range_loop)]
@@ -26,6 +27,7 @@ pub mod prep;
 pub mod profile;
 pub mod sim;
 mod test_vectors;
+pub mod thc;
 
 /// Cross-target vectors of the planner and step kernel (see [`crate::vectors`]).
 pub use test_vectors::VECTORS;

@@ -13,6 +13,9 @@
 pub struct OutputEvent(u8);
 
 const PRESENT: u8 = 0x80;
+/// Not a user output: torch height control switched off or on (`M62 P2` / `M63 P2`), applied by
+/// segment prep at the block's start, never handed to the kernel (`motion/prep.rs`).
+const THC: u8 = 0x40;
 const LEVEL: u8 = 0x10;
 const INDEX: u8 = 0x0f;
 
@@ -26,6 +29,21 @@ impl OutputEvent {
             return None;
         }
         Some(OutputEvent(PRESENT | if on { LEVEL } else { 0 } | n))
+    }
+
+    /// Torch height control switched `on` or off with the block it rides on.
+    pub const fn thc(on: bool) -> OutputEvent {
+        OutputEvent(PRESENT | THC | if on { LEVEL } else { 0 })
+    }
+
+    /// The torch height control switch of [`Self::thc`]: `Some(on)`, else `None`.
+    #[inline(always)]
+    pub const fn thc_switch(self) -> Option<bool> {
+        if self.0 & (PRESENT | THC) == PRESENT | THC {
+            Some(self.0 & LEVEL != 0)
+        } else {
+            None
+        }
     }
 
     /// True unless this is [`OutputEvent::NONE`].

@@ -39,6 +39,7 @@ use super::laser::LaserPower;
 use super::output_event::OutputEvent;
 use super::planner::{direction, junction_limit_sq, Block, BlockKind, LineRequest, Planner, UNIT};
 use super::prep::{BlockOut, BlockReport, Prep, PrepOut, PrepState};
+use super::thc::ThcCommand;
 use crate::arith::{self, mul_div};
 use crate::arith::{polar, QUARTER_TURN};
 use crate::canon::{Action, Canon, StopKind};
@@ -175,7 +176,7 @@ impl<const N: usize> Motion<N> {
         Motion {
             cfg,
             planner: Planner::new(),
-            prep: Prep::with_laser(cfg.laser),
+            prep: Prep::with_laser(cfg.laser, cfg.thc),
             arc: None,
             syncs: Deque::new(),
             position: [0; MAX_AXES],
@@ -246,6 +247,8 @@ impl<const N: usize> Motion<N> {
         self.position = position;
         self.steps = self.cfg.to_steps(&position);
         self.prep.set_position(self.steps);
+        // A new frame: a height correction still in Z is part of the new position.
+        self.prep.thc.absorbed();
         true
     }
 
@@ -980,7 +983,35 @@ impl<const N: usize> Motion<N> {
         self.exact_stop = false;
         self.prep = Prep::new();
         self.prep.set_laser(cfg.laser);
+        self.prep.set_thc(cfg.thc);
         self.reset(steps);
+    }
+
+    /// Torch height control (`motion/thc.rs`): what the inputs ask for the segments prepared
+    /// from now on.
+    #[inline(always)]
+    pub fn set_thc_command(&mut self, cmd: ThcCommand) {
+        self.prep.thc.command = cmd;
+    }
+
+    /// Torch height control switched by the program (`M62 P2` off, `M63 P2` on) or at a job's
+    /// start (on).
+    pub fn set_thc_enabled(&mut self, on: bool) {
+        self.prep.thc.enabled = on;
+    }
+
+    /// The torch height correction made so far, Z steps (+ = up).
+    pub fn thc_correction(&self) -> i32 {
+        self.prep.thc.correction
+    }
+
+    /// At a sync point: a Z-only segment taking the height correction back towards 0 (`None`
+    /// once it is 0, or when not at a sync point).
+    pub fn thc_return_segment(&mut self) -> Option<Segment> {
+        if self.flow != Flow::AtSync {
+            return None;
+        }
+        self.prep.thc_return()
     }
 
     /// Laser mode: the spindle override, percent, that scales S in the segments prepared from

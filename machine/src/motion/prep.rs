@@ -18,6 +18,10 @@
 //! In laser mode every segment carries the PWM duty of its block's [`super::laser::LaserPower`]
 //! at the segment's average speed ([`PwmMap::segment_duty`]: M4 follows the speed segment by
 //! segment, through ramps, corners, holds and resumes); dwell segments carry 0.
+//!
+//! On a plasma machine with torch height control, a segment of a move without Z motion that
+//! runs at cruise speed, at or above the anti-dive share of the programmed feed, also carries
+//! the Z steps [`super::thc::Thc`] adds for the height controller's inputs.
 
 use super::history::{Handed, History, Stand};
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
@@ -25,6 +29,7 @@ use super::laser::{PwmMap, KEEP_DUTY};
 use super::output_event::OutputEvent;
 use super::planner::{Block, BlockKind, Planner};
 use super::profile::Profile;
+use super::thc::{with_z_dir, Thc, ThcConfig, THC_AXIS};
 use crate::arith::{div_u64, isqrt_u64, mul_div, sat_mul};
 use crate::units::MAX_AXES;
 
@@ -133,6 +138,8 @@ pub struct Prep {
     laser: Option<PwmMap>,
     /// The spindle override, percent, scaling S in laser mode.
     pub laser_override: u16,
+    /// Torch height control: the Z steps it adds and the correction made.
+    pub thc: Thc,
 }
 
 impl Default for Prep {
@@ -175,22 +182,45 @@ impl Prep {
             history: History::new(),
             laser: None,
             laser_override: 100,
+            thc: Thc::new(None),
         }
     }
 
-    /// Forgets the head block (after an abort); the step position and the laser map stay.
+    /// Forgets the head block (after an abort); the step position, the laser map and the
+    /// height control's setup stay (its correction is part of that position now).
     pub fn reset(&mut self) {
         let (position, laser, pct) = (self.position, self.laser, self.laser_override);
+        let mut thc = self.thc;
+        thc.absorbed();
         *self = Prep::new();
         self.position = position;
         self.laser = laser;
         self.laser_override = pct;
+        self.thc = thc;
     }
 
-    /// A new prep for a machine with laser map `laser` (`None`: not a laser machine).
-    pub const fn with_laser(laser: Option<PwmMap>) -> Self {
+    /// Sets torch height control's rate and travel (`None`: no height control).
+    pub fn set_thc(&mut self, cfg: Option<ThcConfig>) {
+        self.thc = Thc::new(cfg);
+    }
+
+    /// A Z-only segment taking the height correction back towards 0 (`None` once it is 0); only
+    /// with no block in progress (the board asks at a sync point).
+    pub fn thc_return(&mut self) -> Option<Segment> {
+        if self.active {
+            return None;
+        }
+        let (seg, z) = self.thc.return_segment(SEGMENT_COUNTS)?;
+        self.position[THC_AXIS] += i64::from(z);
+        Some(seg)
+    }
+
+    /// A new prep for a machine with laser map `laser` (`None`: not a laser machine) and torch
+    /// height control `thc` (`None`: none).
+    pub const fn with_laser(laser: Option<PwmMap>, thc: Option<ThcConfig>) -> Self {
         let mut p = Prep::new();
         p.laser = laser;
+        p.thc = Thc::new(thc);
         p
     }
 
@@ -449,6 +479,10 @@ impl Prep {
         for (p, s) in self.position.iter_mut().zip(steps) {
             *p -= s;
         }
+        if planner.head().is_some_and(|b| b.steps[THC_AXIS] == 0) {
+            // The dropped segments are of the head block: its Z steps were all corrections.
+            self.thc.taken_back(steps[THC_AXIS] as i32);
+        }
         if self.state == PrepState::Held {
             // The stop prepared so far was dropped with the segments: decelerate again.
             self.state = PrepState::Holding;
@@ -494,6 +528,11 @@ impl Prep {
             self.s_now = 0;
             self.cum = [0; MAX_AXES];
             self.output = output;
+            if let Some(on) = output.thc_switch() {
+                // `M62 P2` / `M63 P2`: height control off / on from this block's first step.
+                self.thc.enabled = on;
+                self.output = OutputEvent::NONE;
+            }
             let v_in = if b.stop_before { 0 } else { self.carry };
             self.reprofile(b, planner, 0, v_in);
             self.owed = if v_in == 0 {
@@ -589,6 +628,26 @@ impl Prep {
             };
             self.position[i] += i64::from(signed[i]);
         }
+        let mut dir = b.dir;
+        if self.thc.cfg.is_some() && b.steps[THC_AXIS] == 0 {
+            // Cruise: the whole segment inside the profile's cruise at the move's own speed
+            // (not a ramp, a corner's slow-down or a hold), and anti-dive: that speed at least
+            // the set share of the programmed feed.
+            let p = &self.profile;
+            let pct = self.thc.cfg.map_or(0, |c| u64::from(c.anti_dive));
+            let cruise = !self.holding
+                && self.s_now >= p.s1
+                && s <= p.s2
+                && p.vm == self.nominal
+                && p.vm * 100 >= u64::from(b.programmed) * pct;
+            let z = self.thc.steps(cruise, duration, ticks);
+            if z != 0 {
+                steps[THC_AXIS] = z.unsigned_abs();
+                signed[THC_AXIS] = z;
+                self.position[THC_AXIS] += i64::from(z);
+                dir = with_z_dir(dir, z);
+            }
+        }
         let power = match self.laser {
             None => KEEP_DUTY,
             // The segment's average speed: its path length over its duration.
@@ -619,7 +678,7 @@ impl Prep {
             steps,
             ticks,
             period,
-            dir: b.dir,
+            dir,
             output: core::mem::take(&mut self.output),
             power,
         })

@@ -21,7 +21,7 @@
 use super::{
     AxisSetup, DriverSetup, GrblSetup, HomingAxis, HomingSetup, InputSetup, JogSetup, LinkSetup,
     ListCommand, McodeList, OperatorSetup, OrientSetup, OutputSetup, PathSetup, ProgramSetup,
-    Setup,
+    Setup, TorchSetup,
 };
 use crate::gcode::{Dialect, DwellUnits, RetractMode, Tool, ToolChangePosition};
 
@@ -29,9 +29,9 @@ use crate::gcode::{Dialect, DwellUnits, RetractMode, Tool, ToolChangePosition};
 /// (without this byte), 2 the hand-written one; 3 is postcard through serde again; 4 adds
 /// `program.tool_change_position`, `path.blend_tolerance` and the grbl front end's section; 5
 /// adds `grbl.door_spin_up_ms`. Format 5 is written by hand again, byte for byte as postcard; 6
-/// adds `grbl.m6_stop`; 7 `outputs.laser`; 8 `homing.axes[].locate_rate`; 9 `outputs.orient`. Change
-/// it whenever the layout changes.
-pub const FORMAT: u8 = 9;
+/// adds `grbl.m6_stop`; 7 `outputs.laser`; 8 `homing.axes[].locate_rate`; 9 `outputs.orient`; 10
+/// `outputs.torch`. Change it whenever the layout changes.
+pub const FORMAT: u8 = 10;
 
 /// Writes blob bytes `skip ..` into `out`. With `clip`, bytes beyond `out` are counted and
 /// dropped (a window of the blob); without, they make the encoding fail (`full`).
@@ -298,8 +298,9 @@ code_struct! {
     HomingSetup { axes, required, before_seek, before_retract, after_retract }
     HomingAxis { priority, seek_low, seek_rate, locate_rate, retract, set_home, home_position }
     JogSetup { pairs, instant_speed, nudge_distance, nudge_interval_ms, analog_axes, analog_deadband, analog_max_speed }
-    OutputSetup { spindle_min_rpm, spindle_max_rpm, pwm_max, pwm_min, laser, mcode_lists, orient }
+    OutputSetup { spindle_min_rpm, spindle_max_rpm, pwm_max, pwm_min, laser, torch, mcode_lists, orient }
     OrientSetup { output, done_input, dwell_ms }
+    TorchSetup { on, arc_ok_timeout_ms, thc, thc_rate, thc_travel, thc_anti_dive, thc_delay_ms }
     McodeList { code, dry_run_disabled, commands }
     LinkSetup { host_lost_stop_s }
     DriverSetup { step_pulse_ns, dir_setup_ns }

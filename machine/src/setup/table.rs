@@ -483,6 +483,28 @@ table! {
         |s, _i| i64::from(s.outputs.orient.dwell_ms);
         [] "" "`0`" "without `orient_done_input`, how long the orient takes; with it, the longest wait for the input (then alarm 21, list input timeout; `0` = wait forever)",
 
+    Torch => Spindle "torch" Bool (0, 1), NO_GRBL,
+        |s, _i| i64::from(s.outputs.torch.on);
+        [] "not with `laser`" "" "plasma torch mode (docs/laser-plasma.md \"Plasma\"): `M3` fires the torch on the spindle enable output and the motion waits for the `arc_ok` input (alarm 22 after `arc_ok_timeout_ms`); arc-OK lost while cutting holds the job on its path with the torch off; torch height control moves Z from the `thc_up`/`thc_down` inputs",
+    ArcOkTimeoutMs => Spindle "arc_ok_timeout_ms" Ms (100, 60_000), NO_GRBL,
+        |s, _i| i64::from(s.outputs.torch.arc_ok_timeout_ms);
+        [] "" "" "longest wait for arc-OK after `M3` (and after a cycle start that re-fires the torch): then alarm 22 \"no arc\", torch off, at rest",
+    Thc => Spindle "thc" Bool (0, 1), NO_GRBL,
+        |s, _i| i64::from(s.outputs.torch.thc);
+        [] "" "" "torch height control: while the cut runs at cruise speed Z follows `thc_up`/`thc_down`; `M63` (off) and `M62` (on) switch it from the program",
+    ThcRate => Spindle "thc_rate" MmPerMin (nm_of_mm(10), nm_of_mm(10_000)), NO_GRBL,
+        |s, _i| s.outputs.torch.thc_rate;
+        [] "" "" "Z speed of the height control",
+    ThcTravel => Spindle "thc_travel" Mm (0, nm_of_mm(100)), NO_GRBL,
+        |s, _i| s.outputs.torch.thc_travel;
+        [] "" "" "largest height correction up or down from the programmed Z",
+    ThcAntiDive => Spindle "thc_anti_dive" Percent (0, 100), NO_GRBL,
+        |s, _i| i64::from(s.outputs.torch.thc_anti_dive);
+        [] "" "" "anti-dive: the height control holds while the speed is below this share of the programmed feed (and in every acceleration and corner slow-down)",
+    ThcDelayMs => Spindle "thc_delay_ms" Ms (0, 10_000), NO_GRBL,
+        |s, _i| i64::from(s.outputs.torch.thc_delay_ms);
+        [] "" "" "time after arc-OK before the height control acts (the pierce and its lead-in settle)",
+
     McodeCode => Mcode "code" Text ANY, NO_GRBL,
         |_s, _i| 0;
         [] "a code listed in `program.user_mcodes`" "—" "the M code",

@@ -29,6 +29,8 @@ pub enum Reason {
     },
     /// A grbl startup line with a character that is not printable ASCII, or a `$`.
     NotPrintable,
+    /// `torch` with `laser`: one spindle output cannot be both.
+    TorchWithLaser,
 }
 
 impl Reason {
@@ -41,6 +43,7 @@ impl Reason {
             Reason::DeadbandTooWide => "deadband not below half of adc_max",
             Reason::StepRateTooHigh { .. } => "step rate too high for the drivers",
             Reason::NotPrintable => "not printable G-code",
+            Reason::TorchWithLaser => "torch and laser are exclusive",
         }
     }
 }
@@ -102,6 +105,9 @@ impl Setup {
                 let (lo, hi) = (key.value(self, 0), key.next().value(self, 0));
                 return Err(err(key, 0, lo, hi, Reason::Reversed));
             }
+        }
+        if self.outputs.torch.on && self.outputs.laser {
+            return Err(err(Key::Torch, 0, 1, 1, Reason::TorchWithLaser));
         }
         let (band, adc) = (self.jog.analog_deadband, self.inputs.adc_max);
         if u32::from(band) * 2 >= u32::from(adc) {
@@ -214,6 +220,11 @@ impl core::fmt::Display for SetupError {
                 "{name} = {value}: must be between {} and {}{unit}",
                 file_value(key, row.min()),
                 file_value(key, row.max())
+            ),
+            Reason::TorchWithLaser => write!(
+                f,
+                "{name} = true: not with {} = true (one spindle output is a torch or a laser)",
+                KeyName(Key::Laser, 0)
             ),
             Reason::StartAboveMaxRate => write!(
                 f,

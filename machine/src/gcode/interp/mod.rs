@@ -1237,6 +1237,21 @@ impl Interpreter {
             let (mist, flood) = (self.state.mist, self.state.flood);
             self.push(line, Action::Coolant { mist, flood })?;
         }
+        if let Some(&(_, c)) = b.m.iter().find(|(g, _)| *g == MGroup::Digital) {
+            // M62/M63 P2 (grblHAL's plasma port 2): the board switches torch height control off
+            // / on with the next move (docs/laser-plasma.md). Other ports do not exist here.
+            match b.take(b'P') {
+                Some(p) if p.value == 2_000_000 => {}
+                _ => return Err((ErrorCode::UnknownMCode, Some(c.cols))),
+            }
+            self.push(
+                line,
+                Action::UserMCode {
+                    code: c.code,
+                    at_rest: false,
+                },
+            )?;
+        }
         let mut user_codes: heapless::Vec<u16, 5> = heapless::Vec::new();
         for (g, c) in b.m.iter() {
             if *g == MGroup::User {
