@@ -710,3 +710,38 @@ host_lost_stop_s = 0
         assert!(SetupFile::parse("[grbl]\ndoor_spin_up_s = -1\n").is_err());
     }
 }
+
+/// The two walks against each other (the tests above are the file's behaviour, these its table).
+#[cfg(test)]
+mod walk_tests {
+    use super::*;
+
+    #[test]
+    fn every_row_goes_through_the_file_and_back_at_both_ends_of_its_range() {
+        let mut base = Setup::default();
+        let tool = gantry_machine::setup::Tool {
+            number: 1,
+            length: 0,
+            diameter: 0,
+        };
+        base.program.tools.push(tool).unwrap();
+        let mut tried = 0;
+        for r in ROWS.iter().filter(|r| r.unit != Unit::Text) {
+            for i in 0..r.section.count(&base) {
+                for v in [r.min(), r.max()] {
+                    let mut s = base.clone();
+                    r.key.set(&mut s, i, v);
+                    // An end the rules between settings refuse (a start speed above the max
+                    // rate…) cannot be written as a valid file.
+                    if s.validate().is_err() {
+                        continue;
+                    }
+                    tried += 1;
+                    let back = SetupFile::parse(&to_toml(&s)).unwrap();
+                    assert_eq!(back, s, "{:?}[{i}] = {v}", r.key);
+                }
+            }
+        }
+        assert!(tried > 150, "only {tried} row ends were valid setups");
+    }
+}

@@ -618,4 +618,22 @@ mod tests {
             }
         }
     }
+
+    #[test]
+    fn each_setter_writes_what_its_getter_reads_at_both_ends_of_the_range() {
+        for r in ROWS.iter().filter(|r| r.unit != Unit::Text) {
+            let mut s = Setup::default();
+            let _ = s.program.tools.push(Tool::default());
+            for i in 0..r.section.count(&s) {
+                for v in [r.min(), r.max()] {
+                    let mut t = s.clone();
+                    r.key.set(&mut t, i, v);
+                    assert_eq!(r.key.value(&t, i), v, "{:?}[{i}] = {v}", r.key);
+                    // Only the row's own value moved.
+                    r.key.set(&mut t, i, r.key.value(&s, i));
+                    assert_eq!(t, s, "{:?}[{i}]", r.key);
+                }
+            }
+        }
+    }
 }
