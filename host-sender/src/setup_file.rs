@@ -14,7 +14,7 @@ mod codec;
 use anyhow::{bail, Context};
 use gantry_machine::setup::table::{Section, Unit, ROWS, SECTIONS};
 use gantry_machine::setup::{section_name, Key, KeyName, Setup};
-use gantry_machine::units::{Nm, AXIS_LETTERS};
+use gantry_machine::units::Nm;
 use std::fmt::Write as _;
 use std::path::Path;
 use toml::{Table, Value};
@@ -185,7 +185,7 @@ fn read(root: &Table) -> anyhow::Result<Setup> {
                 let Some(axes) = parent.and_then(|p| p.get("axis")) else {
                     continue;
                 };
-                for (letter, v) in table(axes, &format!("{name}"))? {
+                for (letter, v) in table(axes, name)? {
                     let at = format!("{name}.{letter}");
                     let i = codec::axis_in_use(&at, letter, usize::from(s.axis_count))?;
                     read_rows(table(v, &at)?, section, i, &[], &mut s)?;
@@ -373,11 +373,8 @@ pub fn to_toml(s: &Setup) -> String {
         for i in 0..section.count(s) {
             let _ = match section {
                 Section::Top => Ok(()),
-                Section::Axis | Section::HomingAxis => {
-                    writeln!(t, "\n[{name}.{}]", AXIS_LETTERS[i])
-                }
                 Section::Tool | Section::Mcode => writeln!(t, "\n[[{name}]]"),
-                _ => writeln!(t, "\n[{name}]"),
+                _ => writeln!(t, "\n[{}]", place(section, i).trim_end_matches('.')),
             };
             for (key, name) in rows(section) {
                 let note = key.text().note;

@@ -101,16 +101,6 @@ pub(super) fn read(key: Key, i: usize, v: &Value, s: &mut Setup) -> anyhow::Resu
                 _ => s.jog.analog_axes = axes,
             }
         }
-        Key::McodeCode => {
-            let code = v.as_integer().and_then(|c| u16::try_from(c).ok());
-            s.outputs.mcode_lists[i].code =
-                code.with_context(|| format!("{at}: expected an M code number"))?;
-        }
-        Key::McodeDryRunDisabled => {
-            s.outputs.mcode_lists[i].dry_run_disabled = v
-                .as_bool()
-                .with_context(|| format!("{at}: expected true or false"))?;
-        }
         Key::McodeCommands => s.outputs.mcode_lists[i].commands = commands(&at, v)?,
         Key::StartupLines => startup_lines(&at, v, s)?,
         _ => bail!("{at}: not a text setting"),
@@ -180,8 +170,6 @@ pub(super) fn write(key: Key, i: usize, s: &Setup) -> String {
             };
             quoted(p.into_iter().map(letter))
         }
-        Key::McodeCode => s.outputs.mcode_lists[i].code.to_string(),
-        Key::McodeDryRunDisabled => s.outputs.mcode_lists[i].dry_run_disabled.to_string(),
         Key::McodeCommands => {
             let l = &s.outputs.mcode_lists[i];
             let note = if l.on_the_fly().is_some() {

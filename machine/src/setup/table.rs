@@ -27,7 +27,7 @@ pub enum Section {
     HomingAxis,
     Jog,
     Spindle,
-    /// `[[mcode]]`: once per list (text rows only).
+    /// `[[mcode]]`: once per list.
     Mcode,
     Link,
     Drivers,
@@ -273,6 +273,8 @@ macro_rules! table {
             /// Sets the row's value in `s` to `value` (core units, already checked with
             /// [`Key::check`]); text rows do nothing (the host's codecs set them). Only host code
             /// calls it (the setup file reader), so the firmware's linker drops it.
+            // A text row's setter is `()`.
+            #[allow(clippy::no_effect)]
             pub fn set(self, s: &mut Setup, index: usize, value: i64) {
                 match self {
                     $(Key::$key => {
@@ -491,11 +493,11 @@ table! {
         |s, _i| i64::from(s.outputs.laser), |v| s.outputs.laser = v != 0;
         [] "" "" "laser mode (grbl `$32`, docs/laser-plasma.md): `S` changes between G1/G2/G3 moves never stop the motion (S travels with each move and sets the PWM duty at its first step); `M3` constant power, `M4` power scaled by the current speed ÷ the programmed feed at every segment; the beam is off in G0, at rest, in a hold, at M0/M6 stops, in an alarm and at program end, whatever S says. `false`: a milling spindle (every S change stops the motion until the spindle has it)" "   # laser mode: S travels with each move, M4 power follows the speed",
 
-    McodeCode => Mcode "code" Text ANY, NO_GRBL,
-        |_s, _i| 0, |_v| ();
+    McodeCode => Mcode "code" Count (0, 65_535), NO_GRBL,
+        |s, i| i64::from(mcode(s, i).code), |v| mcode_mut(s, i).code = v as u16;
         [] "a code listed in `program.user_mcodes`" "—" "the M code" "",
-    McodeDryRunDisabled => Mcode "dry_run_disabled" Text ANY, NO_GRBL,
-        |_s, _i| 0, |_v| ();
+    McodeDryRunDisabled => Mcode "dry_run_disabled" Bool (0, 1), NO_GRBL,
+        |s, i| i64::from(mcode(s, i).dry_run_disabled), |v| mcode_mut(s, i).dry_run_disabled = v != 0;
         [] "" "`false`" "skip the list during a dry run (the GIXA controller's \"Disable these commands for Dry Run\")" "",
     McodeCommands => Mcode "commands" Text ANY, NO_GRBL,
         |_s, _i| 0, |_v| ();
@@ -534,6 +536,17 @@ table! {
 #[inline(never)]
 fn axis(s: &Setup, i: usize) -> &AxisSetup {
     &s.axes[i]
+}
+
+/// M-code list `i` of `s` (as [`axis`]).
+#[inline(never)]
+fn mcode(s: &Setup, i: usize) -> &super::McodeList {
+    &s.outputs.mcode_lists[i]
+}
+
+/// M-code list `i` of `s` for [`Key::set`].
+fn mcode_mut(s: &mut Setup, i: usize) -> &mut super::McodeList {
+    &mut s.outputs.mcode_lists[i]
 }
 
 /// Axis `i` of `s` for [`Key::set`].
