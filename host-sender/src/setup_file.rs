@@ -1,575 +1,32 @@
 //! The machine setup file: a commented TOML in everyday units (mm, mm/min, mm/s²), read into the
 //! core's exact [`Setup`] and written back out. Every validation error names the key and the range.
 //!
+//! Reader and writer are two walks over the settings table (machine/src/setup/table.rs): each row
+//! gives its key, section and unit, the core's range check and its setter (reading) or getter
+//! (writing) and the comment written after its value. Only the text-valued rows (axis letters,
+//! lists, positions, input names) have codecs of their own, in `codec`.
+//!
 //! Decimal values are converted to integer nanometres with rounding to the nearest nm; the file is
 //! the only place where a float ever touches a setting.
 
+mod codec;
+
 use anyhow::{bail, Context};
-use gantry_machine::controller::inputs::INPUT_NAMES;
-use gantry_machine::gcode::RetractMode;
-use gantry_machine::setup::{
-    AxisSetup, Dialect, DwellUnits, Key, KeyName, ListCommand, McodeList, OrientSetup, Setup, Tool,
-    ToolChangePosition, MAX_TOOLS, MAX_USER_MCODES, STARTUP_LINE_LEN, USER_OUTPUTS,
-};
-use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES, NM_PER_MM};
-use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
+use gantry_machine::setup::table::{Section, Unit, ROWS, SECTIONS};
+use gantry_machine::setup::{section_name, Key, KeyName, Setup};
+use gantry_machine::units::Nm;
 use std::fmt::Write as _;
 use std::path::Path;
+use toml::{Table, Value};
 
-/// A `[a, b]` value read as exactly two elements: the `toml` reader fills a pair from a longer
-/// list and drops the rest silently (`travel = [-300.0, 300.0, 5]` was accepted).
-fn exact_pair<'de, D, A, B>(d: D) -> Result<Option<(A, B)>, D::Error>
-where
-    D: serde::Deserializer<'de>,
-    A: Deserialize<'de>,
-    B: Deserialize<'de>,
-{
-    use serde::de::{Error, IgnoredAny, SeqAccess, Visitor};
-    struct Pair<A, B>(std::marker::PhantomData<(A, B)>);
-    impl<'de, A: Deserialize<'de>, B: Deserialize<'de>> Visitor<'de> for Pair<A, B> {
-        type Value = (A, B);
-        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-            f.write_str("a list of exactly two values")
-        }
-        fn visit_seq<S: SeqAccess<'de>>(self, mut seq: S) -> Result<(A, B), S::Error> {
-            let a = seq
-                .next_element()?
-                .ok_or_else(|| S::Error::invalid_length(0, &self))?;
-            let b = seq
-                .next_element()?
-                .ok_or_else(|| S::Error::invalid_length(1, &self))?;
-            let mut extra = 0;
-            while seq.next_element::<IgnoredAny>()?.is_some() {
-                extra += 1;
-            }
-            if extra > 0 {
-                return Err(S::Error::invalid_length(2 + extra, &self));
-            }
-            Ok((a, b))
-        }
-    }
-    d.deserialize_seq(Pair(std::marker::PhantomData)).map(Some)
-}
-
-/// The file as written by users: every field optional, defaults from [`Setup::default`].
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct SetupFile {
-    /// Axes in use, a prefix of X Y Z A B C.
-    pub axes: Option<Vec<String>>,
-    #[serde(default)]
-    pub axis: BTreeMap<String, AxisFile>,
-    #[serde(default)]
-    pub path: PathFile,
-    #[serde(default)]
-    pub program: ProgramFile,
-    #[serde(default)]
-    pub tool: Vec<ToolFile>,
-    #[serde(default)]
-    pub work_offsets: BTreeMap<String, Vec<f64>>,
-    #[serde(default)]
-    pub operator: OperatorFile,
-    #[serde(default)]
-    pub inputs: InputsFile,
-    #[serde(default)]
-    pub homing: HomingFile,
-    #[serde(default)]
-    pub jog: JogFile,
-    #[serde(default)]
-    pub spindle: SpindleFile,
-    #[serde(default)]
-    pub mcode: Vec<McodeFile>,
-    #[serde(default)]
-    pub link: LinkFile,
-    #[serde(default)]
-    pub drivers: DriversFile,
-    #[serde(default)]
-    pub grbl: GrblFile,
-}
-
-/// The grbl front end's stored settings (docs/grbl.md): `$10`, `$13`, `$N0`/`$N1`, the safety
-/// door's spindle spin-up wait.
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct GrblFile {
-    /// `$10`: bit 0 machine position (else work position), bit 1 buffer state (0-3).
-    pub status_mask: Option<u8>,
-    /// `$13`: positions and feeds in inches.
-    pub report_inches: Option<bool>,
-    /// `$N0`, `$N1`: at most two G-code lines run after the banner.
-    pub startup_lines: Option<Vec<String>>,
-    /// Seconds motion waits for the spindle to spin up after `~` closes the safety door (0-60,
-    /// ms resolution; 0 = no wait).
-    pub door_spin_up_s: Option<f64>,
-    /// `M6` stops for a manual tool change (true), or answers grbl's `error:20` (false).
-    pub m6_stop: Option<bool>,
-}
-
-/// Step and direction signal timing of the stepper drivers, in µs (see their datasheets).
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct DriversFile {
-    /// Width of every step pulse, µs (1-50).
-    pub step_pulse_us: Option<f64>,
-    /// Least time from a direction change to the next step pulse, µs (0-50).
-    pub dir_setup_us: Option<f64>,
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct LinkFile {
-    /// Seconds a job held by host loss waits for the host before it is ended (0 = forever).
-    pub host_lost_stop_s: Option<u16>,
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct InputsFile {
-    /// Inputs whose pin is active low, by name (`feed_hold`, `x_min`, `in20`, …).
-    pub active_low: Option<Vec<String>>,
-    pub debounce_ms: Option<u8>,
-    /// Axes with a min / max limit switch.
-    pub limits_min: Option<Vec<String>>,
-    pub limits_max: Option<Vec<String>>,
-    pub hard_limits: Option<bool>,
-    pub feed_hold: Option<bool>,
-    pub abort: Option<bool>,
-    pub fro_pot: Option<bool>,
-    pub adc_max: Option<u16>,
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct HomingFile {
-    pub required: Option<bool>,
-    pub before_seek: Option<Vec<String>>,
-    pub before_retract: Option<Vec<String>>,
-    pub after_retract: Option<Vec<String>>,
-    #[serde(default)]
-    pub axis: BTreeMap<String, HomingAxisFile>,
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct HomingAxisFile {
-    pub priority: Option<u8>,
-    /// `"low"` or `"high"`.
-    pub seek: Option<String>,
-    pub seek_rate: Option<f64>,
-    pub locate_rate: Option<f64>,
-    pub retract: Option<f64>,
-    pub set_home: Option<bool>,
-    pub home_position: Option<f64>,
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct JogFile {
-    /// `[down/up axis, left/right axis]` per selector position; `"-"` = none.
-    #[serde(default, deserialize_with = "exact_pair")]
-    pub pair0: Option<(String, String)>,
-    #[serde(default, deserialize_with = "exact_pair")]
-    pub pair1: Option<(String, String)>,
-    pub instant_speed: Option<f64>,
-    pub nudge_distance: Option<f64>,
-    pub nudge_interval_ms: Option<u16>,
-    #[serde(default, deserialize_with = "exact_pair")]
-    pub analog_axes: Option<(String, String)>,
-    pub analog_deadband: Option<u16>,
-    pub analog_max_speed: Option<f64>,
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct SpindleFile {
-    #[serde(default, deserialize_with = "exact_pair")]
-    pub rpm_range: Option<(u32, u32)>,
-    #[serde(default, deserialize_with = "exact_pair")]
-    pub pwm_range: Option<(u16, u16)>,
-    /// Laser mode (docs/laser-plasma.md).
-    #[serde(default)]
-    pub laser: Option<bool>,
-    /// G76's oriented stop: user output, done input, dwell or timeout (docs/settings.md).
-    pub orient_output: Option<u8>,
-    pub orient_done_input: Option<String>,
-    pub orient_dwell_ms: Option<u16>,
-    /// Plasma torch mode and its height control (docs/laser-plasma.md "Plasma").
-    #[serde(default)]
-    pub torch: Option<bool>,
-    pub arc_ok_timeout_ms: Option<u16>,
-    pub thc: Option<bool>,
-    pub thc_rate: Option<f64>,
-    pub thc_travel: Option<f64>,
-    pub thc_anti_dive: Option<u8>,
-    pub thc_delay_ms: Option<u16>,
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct McodeFile {
-    pub code: u16,
-    #[serde(default)]
-    pub dry_run_disabled: bool,
-    #[serde(default)]
-    pub commands: Vec<String>,
-}
-
-/// The settings of a parsed setup, each with its key path: a value that is not a table, and an
-/// array of tables (`[[tool]]`, `[[mcode]]`) as one setting (its entries are checked together).
-fn setting_leaves(
-    table: &toml::Table,
-    path: &mut Vec<String>,
-    out: &mut Vec<(Vec<String>, toml::Value)>,
-) {
-    for (k, v) in table {
-        path.push(k.clone());
-        match v {
-            toml::Value::Table(t) => setting_leaves(t, path, out),
-            _ => out.push((path.clone(), v.clone())),
-        }
-        path.pop();
-    }
-}
-
-/// Removes the setting at `path` from `table`.
-fn remove_path(table: &mut toml::Table, path: &[String]) {
-    match path {
-        [] => {}
-        [last] => {
-            table.remove(last);
-        }
-        [first, rest @ ..] => {
-            if let Some(toml::Value::Table(t)) = table.get_mut(first) {
-                remove_path(t, rest);
-            }
-        }
-    }
-}
-
-/// The 1-based line of byte `offset` in `text`.
-fn line_at(text: &str, offset: usize) -> u32 {
-    text[..offset.min(text.len())].matches('\n').count() as u32 + 1
-}
-
-/// The line that sets the dotted key `key` (`axis.X.max_rate`, `tool`), 0 if none is found:
-/// under its `[section]` (or `[[section]]`) header, or as a dotted key.
-fn line_of_key(text: &str, key: &str) -> u32 {
-    let clean = |s: &str| s.replace(['"', '\'', ' '], "");
-    let mut section = String::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.split('#').next().unwrap_or("").trim();
-        if let Some(h) = line.strip_prefix('[') {
-            section = clean(h.trim_start_matches('[').trim_end_matches(']'));
-            if section == key {
-                return i as u32 + 1;
-            }
-        } else if let Some((k, _)) = line.split_once('=') {
-            let k = clean(k);
-            let full = if section.is_empty() {
-                k
-            } else {
-                format!("{section}.{k}")
-            };
-            if full.eq_ignore_ascii_case(key) {
-                return i as u32 + 1;
-            }
-        }
-    }
-    0
-}
-
-fn input_name(bit: u8) -> String {
-    INPUT_NAMES
-        .get(bit as usize)
-        .map_or_else(|| format!("in{bit}"), |n| n.to_string())
-}
-
-fn input_bit(key: &str, name: &str) -> anyhow::Result<u8> {
-    if let Some(i) = INPUT_NAMES
-        .iter()
-        .position(|n| n.eq_ignore_ascii_case(name))
-    {
-        return Ok(i as u8);
-    }
-    match name.strip_prefix("in").and_then(|n| n.parse::<u8>().ok()) {
-        Some(b) if b < 32 => Ok(b),
-        _ => bail!("{key}: unknown input {name:?} (a name such as \"feed_hold\" or \"x_min\", or in0-in31)"),
-    }
-}
-
-/// Axis letter → index among the axes in use (`"-"` → 255 = none).
-fn axis_index(key: &str, name: &str, count: usize, allow_none: bool) -> anyhow::Result<u8> {
-    if allow_none && name == "-" {
-        return Ok(255);
-    }
-    AXIS_LETTERS[..count]
-        .iter()
-        .position(|l| name.eq_ignore_ascii_case(&l.to_string()))
-        .map(|i| i as u8)
-        .ok_or_else(|| {
-            anyhow::anyhow!(
-                "{key} = {name:?}: not an axis in use (axes in use: {:?}{})",
-                &AXIS_LETTERS[..count],
-                if allow_none {
-                    ", or \"-\" for none"
-                } else {
-                    ""
-                }
-            )
-        })
-}
-
-fn axis_mask(key: &str, names: &[String], count: usize) -> anyhow::Result<u8> {
-    let mut m = 0;
-    for n in names {
-        m |= 1 << axis_index(key, n, count, false)?;
-    }
-    Ok(m)
-}
-
-fn axis_names(mask: u8, count: usize) -> String {
-    let v: Vec<String> = (0..count)
-        .filter(|i| mask & (1 << i) != 0)
-        .map(|i| format!("\"{}\"", AXIS_LETTERS[i]))
-        .collect();
-    format!("[{}]", v.join(", "))
-}
-
-/// Parses a list command: `set N`, `clear N`, `dwell MS`, `wait INPUT high|low [TIMEOUT_MS]`,
-/// `disable_limit_report`.
-fn list_command(key: &str, text: &str) -> anyhow::Result<ListCommand> {
-    let w: Vec<&str> = text.split_whitespace().collect();
-    let num = |v: &str, max: u32| -> anyhow::Result<u32> {
-        match v.parse::<u32>() {
-            Ok(n) if n <= max => Ok(n),
-            _ => bail!("{key}: {text:?}: {v:?} must be a whole number 0-{max}"),
-        }
-    };
-    Ok(match w.as_slice() {
-        ["set", n] => ListCommand::Set(num(n, u32::from(USER_OUTPUTS) - 1)? as u8),
-        ["clear", n] => ListCommand::Clear(num(n, u32::from(USER_OUTPUTS) - 1)? as u8),
-        ["dwell", ms] => ListCommand::DwellMs(num(ms, 65_535)? as u16),
-        ["wait", input, level, rest @ ..] if rest.len() <= 1 => ListCommand::WaitInput {
-            bit: input_bit(key, input)?,
-            level: match *level {
-                "high" => true,
-                "low" => false,
-                _ => bail!("{key}: {text:?}: the level must be \"high\" or \"low\""),
-            },
-            timeout_ms: match rest.first() {
-                Some(t) => num(t, 65_535)? as u16,
-                None => 0,
-            },
-        },
-        ["disable_limit_report"] => ListCommand::DisableLimitReport,
-        ["seek"] => ListCommand::Seek,
-        _ => bail!(
-            "{key}: {text:?}: expected \"set N\", \"clear N\", \"dwell MS\", \"wait INPUT high|low [TIMEOUT_MS]\", \"seek\" or \"disable_limit_report\""
-        ),
-    })
-}
-
-fn list_text(c: &ListCommand) -> String {
-    match *c {
-        ListCommand::Set(n) => format!("set {n}"),
-        ListCommand::Clear(n) => format!("clear {n}"),
-        ListCommand::DwellMs(ms) => format!("dwell {ms}"),
-        ListCommand::WaitInput {
-            bit,
-            level,
-            timeout_ms,
-        } => format!(
-            "wait {} {} {timeout_ms}",
-            input_name(bit),
-            if level { "high" } else { "low" }
-        ),
-        ListCommand::DisableLimitReport => "disable_limit_report".into(),
-        ListCommand::Seek => "seek".into(),
-    }
-}
-
-fn list_toml(list: &[ListCommand]) -> String {
-    let v: Vec<String> = list
-        .iter()
-        .map(|c| format!("\"{}\"", list_text(c)))
-        .collect();
-    format!("[{}]", v.join(", "))
-}
-
-fn commands<const N: usize>(
-    key: &str,
-    texts: &[String],
-) -> anyhow::Result<heapless::Vec<ListCommand, N>> {
-    let mut v = heapless::Vec::new();
-    for (i, t) in texts.iter().enumerate() {
-        let c = list_command(&format!("{key}[{i}]"), t)?;
-        if c == ListCommand::DisableLimitReport && i != 0 {
-            bail!("{key}[{i}]: \"disable_limit_report\" must be the first entry of its list");
-        }
-        v.push(c)
-            .map_err(|_| anyhow::anyhow!("{key}: at most {N} commands"))?;
-    }
-    Ok(v)
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct AxisFile {
-    /// `[steps, units]`: this many motor steps move the axis this many mm (or degrees).
-    #[serde(default, deserialize_with = "exact_pair")]
-    pub steps_per: Option<(u32, f64)>,
-    pub max_rate: Option<f64>,
-    pub accel: Option<f64>,
-    pub start_speed: Option<f64>,
-    /// `[min, max]` in machine coordinates.
-    #[serde(default, deserialize_with = "exact_pair")]
-    pub travel: Option<(f64, f64)>,
-    pub invert_dir: Option<bool>,
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct PathFile {
-    pub junction_deviation: Option<f64>,
-    pub feed_shift: Option<f64>,
-    pub chord_tolerance: Option<f64>,
-    pub arc_segment_angle: Option<f64>,
-    pub arc_max_segments: Option<u32>,
-    pub blend_tolerance: Option<f64>,
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct ProgramFile {
-    pub dialect: Option<String>,
-    pub dwell_units: Option<String>,
-    pub peck_clearance: Option<f64>,
-    pub chip_break_retract: Option<f64>,
-    /// Canned-cycle retract when the program sets neither G98 nor G99: "g98" or "g99".
-    pub default_retract: Option<String>,
-    pub user_mcodes: Option<Vec<u16>>,
-    pub g28_home: Option<Vec<f64>>,
-    pub g30_home: Option<Vec<f64>>,
-    /// Where M6 moves before the tool change: axis letter → machine position, mm (Z first).
-    pub tool_change_position: Option<BTreeMap<String, f64>>,
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct ToolFile {
-    pub number: u32,
-    #[serde(default)]
-    pub length: f64,
-    #[serde(default)]
-    pub diameter: f64,
-}
-
-#[derive(Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct OperatorFile {
-    pub resume_needs_cycle_start: Option<bool>,
-    pub two_hand_start: Option<bool>,
-    #[serde(default, deserialize_with = "exact_pair")]
-    pub fro_range: Option<(u16, u16)>,
-    pub dry_run_feed: Option<f64>,
-}
-
-/// Work coordinate system names in offset-table order.
-pub const WORK_SYSTEMS: [&str; 9] = [
-    "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
-];
-
-/// Largest length accepted anywhere in the file, mm (the core is exact to 1 nm over far more).
-const MAX_LENGTH_MM: f64 = 100_000.0;
-
-/// A file value of setting `key` (axis or tool `index`) in the core's integer units, checked
-/// against the settings table's range by the core's own check (machine/src/setup/table.rs), so
-/// the refusal is the one the board and grbl `$x=` give.
-fn num(key: Key, index: usize, v: f64) -> anyhow::Result<i64> {
-    let scaled = if v.is_nan() {
-        i64::MIN
-    } else {
-        (v * key.row().unit.scale() as f64).round() as i64
-    };
-    key.check(index, scaled).map_err(anyhow::Error::new)?;
-    Ok(scaled)
-}
-
-/// `text` as the index of one of `key`'s choices.
-fn choice(key: Key, text: &str) -> anyhow::Result<usize> {
-    let choices = key.text().choices;
-    choices.iter().position(|c| *c == text).ok_or_else(|| {
-        let names: Vec<String> = choices.iter().map(|c| format!("{c:?}")).collect();
-        anyhow::anyhow!(
-            "{} = {text:?}: must be {}",
-            KeyName(key, 0),
-            names.join(" or ")
-        )
-    })
-}
-
-/// Converts a value in mm to nm, checking `lo..=hi` (in mm) and naming `key` on error (the
-/// positions of lists, which have no row of their own in the settings table).
-fn nm(key: &str, v: f64, lo: f64, hi: f64) -> anyhow::Result<Nm> {
-    if !v.is_finite() || v < lo || v > hi {
-        bail!("{key} = {v}: must be between {lo} and {hi}");
-    }
-    Ok((v * NM_PER_MM as f64).round() as Nm)
-}
-
-fn position(key: &str, values: &[f64], axis_count: usize) -> anyhow::Result<[Nm; MAX_AXES]> {
-    if values.len() > axis_count {
-        bail!(
-            "{key}: {} values given but only {axis_count} axes are in use",
-            values.len()
-        );
-    }
-    let mut pos = [0; MAX_AXES];
-    for (i, &v) in values.iter().enumerate() {
-        pos[i] = nm(&format!("{key}[{i}]"), v, -MAX_LENGTH_MM, MAX_LENGTH_MM)?;
-    }
-    Ok(pos)
-}
-
-/// `program.tool_change_position`: each axis named must be in use and its position inside that
-/// axis's travel (the moves of every M6 would otherwise hit the soft limit).
-fn tool_change_position(
-    place: &BTreeMap<String, f64>,
-    s: &Setup,
-) -> anyhow::Result<ToolChangePosition> {
-    let count = s.axis_count as usize;
-    let mut out = ToolChangePosition::default();
-    for (name, &v) in place {
-        let key = format!("program.tool_change_position.{name}");
-        let Some(i) = AXIS_LETTERS[..count]
-            .iter()
-            .position(|l| name.eq_ignore_ascii_case(&l.to_string()))
-        else {
-            bail!(
-                "{key}: not an axis in use (axes in use: {:?})",
-                &AXIS_LETTERS[..count]
-            );
-        };
-        let a = &s.axes[i];
-        let (lo, hi) = (a.travel_min, a.travel_max);
-        let at = nm(&key, v, -MAX_LENGTH_MM, MAX_LENGTH_MM)?;
-        if at < lo || at > hi {
-            bail!(
-                "{key} = {v}: outside the {} travel [{}, {}] (soft limits)",
-                AXIS_LETTERS[i],
-                mm_toml(lo),
-                mm_toml(hi)
-            );
-        }
-        out.axes |= 1 << i;
-        out.at[i] = at;
-    }
-    Ok(out)
-}
+#[cfg(test)]
+use gantry_machine::{setup::ListCommand, units::NM_PER_MM};
 
 /// The largest setup file read, bytes (a full setup with every tool and list is about 10 KiB).
 pub const SETUP_FILE_LIMIT: u64 = 1024 * 1024;
+
+/// The setup file's reader (its writer is [`to_toml`]).
+pub struct SetupFile;
 
 impl SetupFile {
     /// Reads and validates a setup file.
@@ -605,25 +62,28 @@ impl SetupFile {
     /// editor, only comments) is refused: pushed, it would set every default (travel, steps per
     /// mm, switch polarity, homing) on the machine.
     pub fn parse_keeping(text: &str, stored: &Setup) -> anyhow::Result<(Setup, Vec<String>)> {
-        let table: toml::Table = toml::from_str(text)?;
+        let root: Table = toml::from_str(text)?;
         anyhow::ensure!(
-            !table.is_empty(),
+            !root.is_empty(),
             "an empty setup (no setting in it): nothing was pushed (`gantry setup pull` or the \
              console's \"Show the board's\" gives the board's setup to edit)"
         );
-        let file: SetupFile = toml::from_str(text)?;
-        let (work, g28, g30, tools) = (
-            !file.work_offsets.is_empty(),
-            file.program.g28_home.is_some(),
-            file.program.g30_home.is_some(),
-            !file.tool.is_empty(),
+        let program = root.get("program").and_then(Value::as_table);
+        let named = |v: Option<&Value>| v.is_some();
+        let (g28, g30) = (
+            named(program.and_then(|p| p.get("g28_home"))),
+            named(program.and_then(|p| p.get("g30_home"))),
         );
-        let mut s = file.into_setup()?;
+        let tools = root
+            .get("tool")
+            .and_then(Value::as_array)
+            .is_some_and(|a| !a.is_empty());
+        let mut s = read(&root)?;
         let (from, to) = (&stored.program, &mut s.program);
         let mut kept = Vec::new();
-        if !work {
+        if !codec::has_work_offsets(&root) {
             to.work_offsets = from.work_offsets;
-            let set: Vec<&str> = WORK_SYSTEMS
+            let set: Vec<&str> = codec::WORK_SYSTEMS
                 .iter()
                 .zip(&from.work_offsets)
                 .filter(|(_, o)| o.iter().any(|v| *v != 0))
@@ -671,18 +131,17 @@ impl SetupFile {
         Ok(text)
     }
 
-    /// Parses and validates setup text.
+    /// Parses and validates setup text: every value over the defaults.
     pub fn parse(text: &str) -> anyhow::Result<Setup> {
-        let file: SetupFile = toml::from_str(text)?;
-        file.into_setup()
+        read(&toml::from_str(text)?)
     }
 
     /// Every error of setup text (`gantry setup check`), each with its line (0: unknown) and a
-    /// message naming its key: each setting is validated on its own (with `axes`, which decides
-    /// what the others may name), so one bad key does not hide the next; the rules between
-    /// settings are checked once every setting is valid on its own. Empty: the text is valid.
+    /// message naming its key: each setting is read on its own (with `axes`, which decides what
+    /// the others may name), so one bad key does not hide the next; the rules between settings
+    /// are checked once every setting is valid on its own. Empty: the text is valid.
     pub fn check_all(text: &str) -> Vec<(u32, String)> {
-        let table: toml::Table = match toml::from_str(text) {
+        let table: Table = match toml::from_str(text) {
             Ok(t) => t,
             Err(e) => {
                 let line = e.span().map_or(0, |r| line_at(text, r.start));
@@ -694,7 +153,7 @@ impl SetupFile {
         let mut errors = Vec::new();
         let mut valid = table.clone();
         for (path, value) in leaves {
-            let mut t = toml::Table::new();
+            let mut t = Table::new();
             if let Some(axes) = table.get("axes") {
                 t.insert("axes".into(), axes.clone());
             }
@@ -702,16 +161,12 @@ impl SetupFile {
             for seg in &path[..path.len() - 1] {
                 at = at
                     .entry(seg.clone())
-                    .or_insert_with(|| toml::Value::Table(Default::default()))
+                    .or_insert_with(|| Value::Table(Default::default()))
                     .as_table_mut()
                     .expect("a table on the way to a setting");
             }
             at.insert(path[path.len() - 1].clone(), value.clone());
-            let applied = toml::Value::Table(t)
-                .try_into::<SetupFile>()
-                .map_err(anyhow::Error::from)
-                .and_then(|f| f.apply());
-            if let Err(e) = applied {
+            if let Err(e) = apply(&t) {
                 remove_path(&mut valid, &path);
                 let dotted = path.join(".");
                 // (toml's messages run over lines: one line each here.)
@@ -728,11 +183,7 @@ impl SetupFile {
             }
         }
         // The rules between settings, on the settings that are valid on their own.
-        let whole = toml::Value::Table(valid)
-            .try_into::<SetupFile>()
-            .map_err(anyhow::Error::from)
-            .and_then(|f| f.into_setup());
-        if let Err(e) = whole {
+        if let Err(e) = read(&valid) {
             let msg = format!("{e:#}");
             // The key the rule names first (`spindle.rpm_range[0] …`), for its line.
             let key = msg
@@ -746,770 +197,331 @@ impl SetupFile {
         errors.sort_by_key(|&(line, _)| if line == 0 { u32::MAX } else { line });
         errors
     }
+}
 
-    /// Applies the file's values over the defaults, validating each one, then the rules
-    /// between settings.
-    pub fn into_setup(self) -> anyhow::Result<Setup> {
-        let s = self.apply()?;
-        // The rules between settings (start speed, pairs, step rate…): the core's own check.
-        s.validate().map_err(anyhow::Error::new)?;
-        Ok(s)
-    }
-
-    /// [`SetupFile::into_setup`] without the rules between settings.
-    fn apply(self) -> anyhow::Result<Setup> {
-        let mut s = Setup::default();
-        if let Some(axes) = &self.axes {
-            if axes.is_empty() || axes.len() > MAX_AXES {
-                bail!("axes: between 1 and {MAX_AXES} axes, a prefix of X Y Z A B C");
-            }
-            for (i, name) in axes.iter().enumerate() {
-                if !name.eq_ignore_ascii_case(&AXIS_LETTERS[i].to_string()) {
-                    bail!(
-                        "axes[{i}] = {name:?}: expected {:?} (axes are a prefix of X Y Z A B C)",
-                        AXIS_LETTERS[i].to_string()
-                    );
-                }
-            }
-            s.axis_count = axes.len() as u8;
-        }
-        let count = s.axis_count as usize;
-        for (name, a) in &self.axis {
-            let Some(i) = AXIS_LETTERS[..count]
-                .iter()
-                .position(|l| name.eq_ignore_ascii_case(&l.to_string()))
-            else {
-                bail!(
-                    "axis.{name}: not an axis in use (axes in use: {:?})",
-                    &AXIS_LETTERS[..count]
-                );
-            };
-            apply_axis(i, a, &mut s.axes[i])?;
-        }
-        let p = &self.path;
-        if let Some(v) = p.junction_deviation {
-            s.path.junction_deviation = num(Key::JunctionDeviation, 0, v)?;
-        }
-        if let Some(v) = p.feed_shift {
-            s.path.feed_shift = num(Key::FeedShift, 0, v)?;
-        }
-        if let Some(v) = p.chord_tolerance {
-            s.path.chord_tolerance = num(Key::ChordTolerance, 0, v)?;
-        }
-        if let Some(v) = p.arc_segment_angle {
-            s.path.arc_segment_angle_mdeg = num(Key::ArcSegmentAngle, 0, v)? as u32;
-        }
-        if let Some(v) = p.arc_max_segments {
-            s.path.arc_max_segments = v;
-        }
-        if let Some(v) = p.blend_tolerance {
-            s.path.blend_tolerance = num(Key::BlendTolerance, 0, v)?;
-        }
-        let g = &self.program;
-        if let Some(d) = &g.dialect {
-            s.program.dialect = match choice(Key::Dialect, d)? {
-                0 => Dialect::Rs274,
-                _ => Dialect::Gixa,
-            };
-        }
-        if let Some(d) = &g.dwell_units {
-            s.program.dwell_units = match choice(Key::DwellUnits, d)? {
-                0 => DwellUnits::Seconds,
-                _ => DwellUnits::FanucIntegerMillis,
-            };
-        }
-        if let Some(v) = g.peck_clearance {
-            s.program.peck_clearance = num(Key::PeckClearance, 0, v)?;
-        }
-        if let Some(v) = g.chip_break_retract {
-            s.program.chip_break_retract = num(Key::ChipBreakRetract, 0, v)?;
-        }
-        if let Some(r) = &g.default_retract {
-            s.program.default_retract = match choice(Key::DefaultRetract, &r.to_ascii_lowercase())?
-            {
-                0 => RetractMode::InitialLevel,
-                _ => RetractMode::RPlane,
-            };
-        }
-        if let Some(codes) = &g.user_mcodes {
-            for &c in codes {
-                if (0..=9).contains(&c) || c == 30 || c == 98 || c == 99 || c > 999 {
-                    bail!("program.user_mcodes: M{c} is reserved or out of range (allowed 10-999 except 30, 98, 99)");
-                }
-                s.program.user_mcodes.push(c).map_err(|_| {
-                    anyhow::anyhow!("program.user_mcodes: at most {MAX_USER_MCODES} codes")
-                })?;
-            }
-        }
-        if let Some(v) = &g.g28_home {
-            s.program.g28_home = position("program.g28_home", v, count)?;
-        }
-        if let Some(v) = &g.g30_home {
-            s.program.g30_home = position("program.g30_home", v, count)?;
-        }
-        if let Some(place) = &g.tool_change_position {
-            s.program.tool_change_position = tool_change_position(place, &s)?;
-        }
-        for (i, t) in self.tool.iter().enumerate() {
-            if t.number == 0 {
-                bail!("tool[{i}].number: must be 1 or more (T0 is the empty spindle)");
-            }
-            if s.program.tools.iter().any(|x| x.number == t.number) {
-                bail!("tool[{i}].number = {}: tool defined twice", t.number);
-            }
-            let tool = Tool {
-                number: t.number,
-                length: num(Key::ToolLength, i, t.length)?,
-                diameter: num(Key::ToolDiameter, i, t.diameter)?,
-            };
-            s.program
-                .tools
-                .push(tool)
-                .map_err(|_| anyhow::anyhow!("tool: at most {MAX_TOOLS} tools"))?;
-        }
-        for (name, v) in &self.work_offsets {
-            let Some(i) = WORK_SYSTEMS
-                .iter()
-                .position(|w| w.eq_ignore_ascii_case(name))
-            else {
-                bail!("work_offsets.{name}: must be one of {WORK_SYSTEMS:?}");
-            };
-            s.program.work_offsets[i] = position(&format!("work_offsets.{name}"), v, count)?;
-        }
-        let o = &self.operator;
-        if let Some(v) = o.resume_needs_cycle_start {
-            s.operator.resume_needs_cycle_start = v;
-        }
-        if let Some(v) = o.two_hand_start {
-            s.operator.two_hand_start = v;
-        }
-        if let Some((lo, hi)) = o.fro_range {
-            s.operator.fro_low = num(Key::FroLow, 0, lo.into())? as u16;
-            s.operator.fro_high = num(Key::FroHigh, 0, hi.into())? as u16;
-        }
-        if let Some(v) = o.dry_run_feed {
-            s.operator.dry_run_feed = num(Key::DryRunFeed, 0, v)?;
-        }
-        self.apply_controller(&mut s)?;
-        if let Some(v) = self.link.host_lost_stop_s {
-            s.link.host_lost_stop_s = v;
-        }
-        self.apply_drivers(&mut s)?;
-        self.apply_grbl(&mut s)?;
-        Ok(s)
-    }
-
-    /// The `[grbl]` section: startup lines are stored as grbl stores them (upper case, no
-    /// blanks) and checked as the board checks `$N0=` (parsed as a block, no `$` command).
-    fn apply_grbl(&self, s: &mut Setup) -> anyhow::Result<()> {
-        let g = &self.grbl;
-        if let Some(v) = g.status_mask {
-            s.grbl.status_mask = num(Key::StatusMask, 0, v.into())? as u8;
-        }
-        if let Some(v) = g.report_inches {
-            s.grbl.inches = v;
-        }
-        if let Some(v) = g.m6_stop {
-            s.grbl.m6_stop = v;
-        }
-        if let Some(v) = g.door_spin_up_s {
-            s.grbl.door_spin_up_ms = num(Key::DoorSpinUp, 0, v)? as u16;
-        }
-        if let Some(lines) = &g.startup_lines {
-            if lines.len() > 2 {
-                bail!("grbl.startup_lines: at most 2 lines ($N0, $N1)");
-            }
-            for (i, line) in lines.iter().enumerate() {
-                let text: String = line
-                    .chars()
-                    .filter(|c| !c.is_ascii_whitespace())
-                    .map(|c| c.to_ascii_uppercase())
-                    .collect();
-                if !text.bytes().all(|c| (b' '..=b'~').contains(&c)) || text.starts_with('$') {
-                    bail!(
-                        "grbl.startup_lines[{i}] = {line:?}: printable ASCII G-code, no $ command"
-                    );
-                }
-                let mut lexer = gantry_machine::gcode::lexer::Lexer::new(text.as_bytes(), true);
-                lexer.start();
-                let cfg = s.interp_config();
-                if let Err((e, _)) = gantry_machine::gcode::block::parse_block(&mut lexer, &cfg) {
-                    bail!(
-                        "grbl.startup_lines[{i}] = {line:?}: error {}: {e:?}",
-                        e.number()
-                    );
-                }
-                s.grbl.startup[i] = heapless::String::try_from(text.as_str()).map_err(|_| {
-                    anyhow::anyhow!(
-                        "grbl.startup_lines[{i}]: at most {STARTUP_LINE_LEN} characters without blanks"
-                    )
-                })?;
-            }
-        }
-        Ok(())
-    }
-
-    /// The `[drivers]` section (the step rate each axis's max rate needs is checked with the
-    /// rest by [`Setup::validate`]).
-    fn apply_drivers(&self, s: &mut Setup) -> anyhow::Result<()> {
-        let d = &self.drivers;
-        if let Some(v) = d.step_pulse_us {
-            s.drivers.step_pulse_ns = num(Key::StepPulse, 0, v)? as u32;
-        }
-        if let Some(v) = d.dir_setup_us {
-            s.drivers.dir_setup_ns = num(Key::DirSetup, 0, v)? as u32;
-        }
-        Ok(())
-    }
-
-    /// The `[inputs]`, `[homing]`, `[jog]`, `[spindle]` and `[[mcode]]` sections.
-    fn apply_controller(&self, s: &mut Setup) -> anyhow::Result<()> {
-        let count = s.axis_count as usize;
-        let i = &self.inputs;
-        if let Some(names) = &i.active_low {
-            s.inputs.invert = 0;
-            for n in names {
-                s.inputs.invert |= 1 << input_bit("inputs.active_low", n)?;
-            }
-        }
-        if let Some(v) = i.debounce_ms {
-            s.inputs.debounce_ms = num(Key::DebounceMs, 0, v.into())? as u8;
-        }
-        if let Some(v) = &i.limits_min {
-            s.inputs.limit_min = axis_mask("inputs.limits_min", v, count)?;
-        }
-        if let Some(v) = &i.limits_max {
-            s.inputs.limit_max = axis_mask("inputs.limits_max", v, count)?;
-        }
-        if let Some(v) = i.hard_limits {
-            s.inputs.hard_limits = v;
-        }
-        if let Some(v) = i.feed_hold {
-            s.inputs.feed_hold = v;
-        }
-        if let Some(v) = i.abort {
-            s.inputs.abort = v;
-        }
-        if let Some(v) = i.fro_pot {
-            s.inputs.fro_pot = v;
-        }
-        if let Some(v) = i.adc_max {
-            s.inputs.adc_max = num(Key::AdcMax, 0, v.into())? as u16;
-        }
-        let h = &self.homing;
-        if let Some(v) = h.required {
-            s.homing.required = v;
-        }
-        if let Some(v) = &h.before_seek {
-            s.homing.before_seek = commands("homing.before_seek", v)?;
-        }
-        if let Some(v) = &h.before_retract {
-            s.homing.before_retract = commands("homing.before_retract", v)?;
-        }
-        if let Some(v) = &h.after_retract {
-            s.homing.after_retract = commands("homing.after_retract", v)?;
-        }
-        for (name, a) in &h.axis {
-            let key = format!("homing.axis.{name}");
-            let idx = axis_index(&key, name, count, false)? as usize;
-            let ha = &mut s.homing.axes[idx];
-            if let Some(v) = a.priority {
-                ha.priority = v;
-            }
-            if let Some(v) = &a.seek {
-                ha.seek_low = choice(Key::Seek, v).map_err(|_| {
-                    anyhow::anyhow!("{key}.seek = {v:?}: must be \"low\" or \"high\"")
-                })? == 1;
-            }
-            if let Some(v) = a.seek_rate {
-                ha.seek_rate = num(Key::SeekRate, idx, v)?;
-            }
-            if let Some(v) = a.locate_rate {
-                ha.locate_rate = num(Key::LocateRate, idx, v)?;
-            }
-            if let Some(v) = a.retract {
-                ha.retract = num(Key::Retract, idx, v)?;
-            }
-            if let Some(v) = a.set_home {
-                ha.set_home = v;
-            }
-            if let Some(v) = a.home_position {
-                ha.home_position = num(Key::HomePosition, idx, v)?;
-            }
-        }
-        let j = &self.jog;
-        for (k, pair) in [(0, &j.pair0), (1, &j.pair1)] {
-            if let Some((a, b)) = pair {
-                let key = format!("jog.pair{k}");
-                s.jog.pairs[k] = [
-                    axis_index(&key, a, count, true)?,
-                    axis_index(&key, b, count, true)?,
-                ];
-            }
-        }
-        if let Some(v) = j.instant_speed {
-            s.jog.instant_speed = num(Key::InstantSpeed, 0, v)?;
-        }
-        if let Some(v) = j.nudge_distance {
-            s.jog.nudge_distance = num(Key::NudgeDistance, 0, v)?;
-        }
-        if let Some(v) = j.nudge_interval_ms {
-            s.jog.nudge_interval_ms = num(Key::NudgeIntervalMs, 0, v.into())? as u16;
-        }
-        if let Some((a, b)) = &j.analog_axes {
-            s.jog.analog_axes = [
-                axis_index("jog.analog_axes", a, count, true)?,
-                axis_index("jog.analog_axes", b, count, true)?,
-            ];
-        }
-        if let Some(v) = j.analog_deadband {
-            s.jog.analog_deadband = num(Key::AnalogDeadband, 0, v.into())? as u16;
-        }
-        if let Some(v) = j.analog_max_speed {
-            s.jog.analog_max_speed = num(Key::AnalogMaxSpeed, 0, v)?;
-        }
-        if let Some((lo, hi)) = self.spindle.rpm_range {
-            s.outputs.spindle_min_rpm = num(Key::RpmMin, 0, lo.into())? as u32;
-            s.outputs.spindle_max_rpm = num(Key::RpmMax, 0, hi.into())? as u32;
-        }
-        if let Some((lo, hi)) = self.spindle.pwm_range {
-            s.outputs.pwm_min = num(Key::PwmMin, 0, lo.into())? as u16;
-            s.outputs.pwm_max = num(Key::PwmMax, 0, hi.into())? as u16;
-        }
-        if let Some(v) = self.spindle.laser {
-            s.outputs.laser = v;
-        }
-        let o = &mut s.outputs.orient;
-        if let Some(n) = self.spindle.orient_output {
-            if n >= USER_OUTPUTS {
-                bail!(
-                    "spindle.orient_output = {n}: a user output 0-{}",
-                    USER_OUTPUTS - 1
-                );
-            }
-            o.output = n;
-        }
-        if let Some(name) = &self.spindle.orient_done_input {
-            o.done_input = input_bit("spindle.orient_done_input", name)?;
-        }
-        if let Some(ms) = self.spindle.orient_dwell_ms {
-            o.dwell_ms = ms;
-        }
-        if !o.present() && (o.done_input != OrientSetup::NONE || o.dwell_ms != 0) {
-            bail!("spindle.orient_done_input/orient_dwell_ms: set spindle.orient_output first");
-        }
-        let (sp, t) = (&self.spindle, &mut s.outputs.torch);
-        if let Some(v) = sp.torch {
-            t.on = v;
-        }
-        if let Some(v) = sp.arc_ok_timeout_ms {
-            t.arc_ok_timeout_ms = num(Key::ArcOkTimeoutMs, 0, v.into())? as u16;
-        }
-        if let Some(v) = sp.thc {
-            t.thc = v;
-        }
-        if let Some(v) = sp.thc_rate {
-            t.thc_rate = num(Key::ThcRate, 0, v)?;
-        }
-        if let Some(v) = sp.thc_travel {
-            t.thc_travel = num(Key::ThcTravel, 0, v)?;
-        }
-        if let Some(v) = sp.thc_anti_dive {
-            t.thc_anti_dive = num(Key::ThcAntiDive, 0, v.into())? as u8;
-        }
-        if let Some(v) = sp.thc_delay_ms {
-            t.thc_delay_ms = num(Key::ThcDelayMs, 0, v.into())? as u16;
-        }
-        for (k, m) in self.mcode.iter().enumerate() {
-            let key = format!("mcode[{k}]");
-            if !s.program.user_mcodes.contains(&m.code) {
-                bail!(
-                    "{key}.code = {}: not in program.user_mcodes (define the M code there first)",
-                    m.code
-                );
-            }
-            if s.outputs.mcode_lists.iter().any(|l| l.code == m.code) {
-                bail!("{key}.code = {}: list defined twice", m.code);
-            }
-            let list = McodeList {
-                code: m.code,
-                dry_run_disabled: m.dry_run_disabled,
-                commands: commands(&format!("{key}.commands"), &m.commands)?,
-            };
-            s.outputs.mcode_lists.push(list).map_err(|_| {
-                anyhow::anyhow!(
-                    "mcode: at most {} lists",
-                    gantry_machine::setup::MAX_MCODE_LISTS
-                )
-            })?;
-        }
-        Ok(())
+/// The settings of a parsed setup, each with its key path: a value that is not a table, and an
+/// array of tables (`[[tool]]`, `[[mcode]]`) as one setting (its entries are checked together).
+fn setting_leaves(table: &Table, path: &mut Vec<String>, out: &mut Vec<(Vec<String>, Value)>) {
+    for (k, v) in table {
+        path.push(k.clone());
+        match v {
+            Value::Table(t) => setting_leaves(t, path, out),
+            _ => out.push((path.clone(), v.clone())),
+        }
+        path.pop();
     }
 }
 
-/// One `[axis.X]` table (axis `i`); start speed and travel order are checked with the rest by
-/// [`Setup::validate`].
-fn apply_axis(i: usize, a: &AxisFile, axis: &mut AxisSetup) -> anyhow::Result<()> {
-    if let Some((steps, units)) = a.steps_per {
-        axis.steps = num(Key::Steps, i, steps.into())? as u32;
-        axis.units_nm = num(Key::StepUnits, i, units)?;
+/// Removes the setting at `path` from `table`.
+fn remove_path(table: &mut Table, path: &[String]) {
+    match path {
+        [] => {}
+        [last] => {
+            table.remove(last);
+        }
+        [first, rest @ ..] => {
+            if let Some(Value::Table(t)) = table.get_mut(first) {
+                remove_path(t, rest);
+            }
+        }
     }
-    if let Some(v) = a.max_rate {
-        axis.max_rate = num(Key::MaxRate, i, v)?;
+}
+
+/// The 1-based line of byte `offset` in `text`.
+fn line_at(text: &str, offset: usize) -> u32 {
+    text[..offset.min(text.len())].matches('\n').count() as u32 + 1
+}
+
+/// The line that sets the dotted key `key` (`axis.X.max_rate`, `tool`), 0 if none is found:
+/// under its `[section]` (or `[[section]]`) header, or as a dotted key.
+fn line_of_key(text: &str, key: &str) -> u32 {
+    let clean = |s: &str| s.replace(['"', '\'', ' '], "");
+    let mut section = String::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if let Some(h) = line.strip_prefix('[') {
+            section = clean(h.trim_start_matches('[').trim_end_matches(']'));
+            if section == key {
+                return i as u32 + 1;
+            }
+        } else if let Some((k, _)) = line.split_once('=') {
+            let k = clean(k);
+            let full = if section.is_empty() {
+                k
+            } else {
+                format!("{section}.{k}")
+            };
+            if full.eq_ignore_ascii_case(key) {
+                return i as u32 + 1;
+            }
+        }
     }
-    if let Some(v) = a.accel {
-        axis.accel = num(Key::Accel, i, v)?;
+    0
+}
+
+/// The rows of `section` with their key in the file: a `[low, high]` pair (`travel[0]`,
+/// `travel[1]`) once, under its base name, as its first row.
+fn rows(section: Section) -> impl Iterator<Item = (Key, &'static str)> {
+    ROWS.iter()
+        .filter(move |r| r.section == section)
+        .filter_map(|r| {
+            let name = r.key.text().name;
+            (!name.ends_with("[1]")).then(|| (r.key, name.strip_suffix("[0]").unwrap_or(name)))
+        })
+}
+
+/// Where the keys of `section` (item `i`) sit in messages: `axis.X.`, `tool[2].`, `path.`.
+fn place(section: Section, i: usize) -> String {
+    let key = ROWS
+        .iter()
+        .find(|r| r.section == section)
+        .map_or(Key::Axes, |r| r.key);
+    let full = KeyName(key, i).to_string();
+    full[..full.len() - key.text().name.len()].to_string()
+}
+
+/// The file's table names: the sections below the top, and the work offsets (no table rows).
+fn tables() -> impl Iterator<Item = &'static str> {
+    SECTIONS
+        .iter()
+        .filter(|s| !matches!(s, Section::Top | Section::HomingAxis))
+        .map(|s| section_name(*s))
+        .chain(["work_offsets"])
+}
+
+/// Reads the file over the defaults, then the core's rules between settings.
+fn read(root: &Table) -> anyhow::Result<Setup> {
+    let s = apply(root)?;
+    // The rules between settings (start speed, pairs, step rate…): the core's own check.
+    s.validate().map_err(anyhow::Error::new)?;
+    Ok(s)
+}
+
+/// Reads the file over the defaults, section by section in the table's order (the axes before
+/// what is per axis, the program's M codes before the M-code lists), each value checked on its
+/// own; [`read`] adds the rules between settings.
+fn apply(root: &Table) -> anyhow::Result<Setup> {
+    let mut s = Setup::default();
+    let extra: Vec<&str> = tables().collect();
+    for section in SECTIONS {
+        let name = section_name(section);
+        match section {
+            Section::Top => read_rows(root, section, 0, &extra, &mut s)?,
+            Section::Axis | Section::HomingAxis => {
+                let parent = match section {
+                    Section::Axis => Some(root),
+                    _ => root.get("homing").and_then(Value::as_table),
+                };
+                let Some(axes) = parent.and_then(|p| p.get("axis")) else {
+                    continue;
+                };
+                for (letter, v) in table(axes, name)? {
+                    let at = format!("{name}.{letter}");
+                    let i = codec::axis_in_use(&at, letter, usize::from(s.axis_count))?;
+                    read_rows(table(v, &at)?, section, i, &[], &mut s)?;
+                }
+            }
+            Section::Tool | Section::Mcode => {
+                let items = root.get(name).map(|v| {
+                    v.as_array()
+                        .with_context(|| format!("{name}: expected an array of tables [[{name}]]"))
+                });
+                for (k, v) in items.transpose()?.into_iter().flatten().enumerate() {
+                    let t = table(v, &format!("{name}[{k}]"))?;
+                    codec::push_item(section, &mut s)?;
+                    read_rows(t, section, k, &[], &mut s)?;
+                    codec::check_item(section, k, t, &s)?;
+                }
+            }
+            _ => {
+                let Some(v) = root.get(name) else {
+                    continue;
+                };
+                let extra: &[&str] = if section == Section::Homing {
+                    &["axis"]
+                } else {
+                    &[]
+                };
+                read_rows(table(v, name)?, section, 0, extra, &mut s)?;
+            }
+        }
+        if section == Section::Tool {
+            codec::read_work_offsets(root, &mut s)?;
+        }
     }
-    if let Some(v) = a.start_speed {
-        axis.start_speed = num(Key::StartSpeed, i, v)?;
+    Ok(s)
+}
+
+/// `v` as a table, `at` naming it in the error.
+fn table<'a>(v: &'a Value, at: &str) -> anyhow::Result<&'a Table> {
+    v.as_table()
+        .with_context(|| format!("{at}: expected a table, found {}", v.type_str()))
+}
+
+/// One table of `section` (item `i`): every key must be a row's (or in `extra`), each value
+/// is converted by the row's unit, range-checked by the core and set.
+fn read_rows(
+    t: &Table,
+    section: Section,
+    i: usize,
+    extra: &[&str],
+    s: &mut Setup,
+) -> anyhow::Result<()> {
+    let at = place(section, i);
+    for name in t.keys() {
+        if !extra.contains(&name.as_str()) && !rows(section).any(|(_, n)| n == name) {
+            let known: Vec<String> = rows(section).map(|(_, n)| format!("`{n}`")).collect();
+            let known = known
+                .into_iter()
+                .chain(extra.iter().map(|n| format!("`{n}`")));
+            let known: Vec<String> = known.collect();
+            bail!(
+                "{at}{name}: unknown field `{name}`, expected one of {}",
+                known.join(", ")
+            );
+        }
     }
-    if let Some((lo, hi)) = a.travel {
-        axis.travel_min = num(Key::TravelMin, i, lo)?;
-        axis.travel_max = num(Key::TravelMax, i, hi)?;
-    }
-    if let Some(v) = a.invert_dir {
-        axis.invert_dir = v;
+    for (key, name) in rows(section) {
+        let Some(v) = t.get(name) else {
+            continue;
+        };
+        if key.row().unit == Unit::Text {
+            codec::read(key, i, v, s)?;
+        } else if name != key.text().name {
+            let [a, b] = codec::pair(&format!("{at}{name}"), v)?;
+            for (key, v) in [(key, a), (key.next(), b)] {
+                let value = number(key, i, v)?;
+                key.set(s, i, value);
+            }
+        } else {
+            let value = number(key, i, v)?;
+            key.set(s, i, value);
+        }
     }
     Ok(())
 }
 
-/// Millimetres (from nm) as a TOML float: up to 6 decimals, at least one (`5.0`).
-fn mm_toml(v: Nm) -> String {
-    let sign = if v < 0 { "-" } else { "" };
-    let a = v.unsigned_abs();
-    let (int, frac) = (a / NM_PER_MM as u64, a % NM_PER_MM as u64);
-    let frac = format!("{frac:06}");
-    let frac = frac.trim_end_matches('0');
-    if frac.is_empty() {
-        format!("{sign}{int}.0")
-    } else {
-        format!("{sign}{int}.{frac}")
-    }
-}
-
-/// Nanoseconds as µs with exact decimals.
-fn us_text(ns: u32) -> String {
-    let frac = format!("{:03}", ns % 1000);
-    let frac = frac.trim_end_matches('0');
-    if frac.is_empty() {
-        format!("{}.0", ns / 1000)
-    } else {
-        format!("{}.{frac}", ns / 1000)
-    }
-}
-
-fn mm_list(p: &[Nm]) -> String {
-    let items: Vec<String> = p.iter().map(|&v| mm_toml(v)).collect();
-    format!("[{}]", items.join(", "))
-}
-
-/// Writes a setup as a commented setup file that [`SetupFile::parse`] reads back exactly.
-pub fn to_toml(s: &Setup) -> String {
-    let n = s.axis_count as usize;
-    let mut t = String::new();
-    let axes: Vec<String> = AXIS_LETTERS[..n]
-        .iter()
-        .map(|l| format!("\"{l}\""))
-        .collect();
-    let _ = writeln!(
-        t,
-        "# Gantry machine setup. Lengths in mm (degrees for A/B/C), speeds in mm/min,"
-    );
-    let _ = writeln!(
-        t,
-        "# accelerations in mm/s². See docs/settings.md for every key and its range."
-    );
-    let _ = writeln!(t, "axes = [{}]", axes.join(", "));
-    for (i, a) in s.axes[..n].iter().enumerate() {
-        let _ = writeln!(t, "\n[axis.{}]", AXIS_LETTERS[i]);
-        let _ = writeln!(
-            t,
-            "steps_per = [{}, {}]   # motor steps : distance, an exact ratio",
-            a.steps,
-            mm_toml(a.units_nm)
-        );
-        let _ = writeln!(t, "max_rate = {}         # rapid rate", mm_toml(a.max_rate));
-        let _ = writeln!(t, "accel = {}", mm_toml(a.accel));
-        let _ = writeln!(
-            t,
-            "start_speed = {}      # reachable instantly from rest",
-            mm_toml(a.start_speed)
-        );
-        let _ = writeln!(
-            t,
-            "travel = [{}, {}]     # soft limits, machine coordinates",
-            mm_toml(a.travel_min),
-            mm_toml(a.travel_max)
-        );
-        let _ = writeln!(t, "invert_dir = {}", a.invert_dir);
-    }
-    let p = &s.path;
-    let _ = writeln!(t, "\n[path]");
-    let _ = writeln!(t, "junction_deviation = {}", mm_toml(p.junction_deviation));
-    let _ = writeln!(
-        t,
-        "feed_shift = {}        # largest speed jump at a corner",
-        mm_toml(p.feed_shift)
-    );
-    let _ = writeln!(
-        t,
-        "chord_tolerance = {}   # arcs are cut into lines within this error",
-        mm_toml(p.chord_tolerance)
-    );
-    let _ = writeln!(
-        t,
-        "arc_segment_angle = {}.{:03}   # degrees, 0 = no limit",
-        p.arc_segment_angle_mdeg / 1000,
-        p.arc_segment_angle_mdeg % 1000
-    );
-    let _ = writeln!(
-        t,
-        "arc_max_segments = {}    # 0 = no limit",
-        p.arc_max_segments
-    );
-    let _ = writeln!(
-        t,
-        "blend_tolerance = {}   # G64 without P: path tolerance, 0 = off",
-        mm_toml(p.blend_tolerance)
-    );
-    let g = &s.program;
-    let _ = writeln!(t, "\n[program]");
-    let _ = writeln!(
-        t,
-        "dialect = \"{}\"",
-        match g.dialect {
-            Dialect::Rs274 => "ngc",
-            Dialect::Gixa => "gixa",
-        }
-    );
-    let _ = writeln!(
-        t,
-        "dwell_units = \"{}\"",
-        match g.dwell_units {
-            DwellUnits::Seconds => "seconds",
-            DwellUnits::FanucIntegerMillis => "milliseconds",
-        }
-    );
-    let _ = writeln!(t, "peck_clearance = {}", mm_toml(g.peck_clearance));
-    let _ = writeln!(t, "chip_break_retract = {}", mm_toml(g.chip_break_retract));
-    let _ = writeln!(
-        t,
-        "default_retract = \"{}\"",
-        match g.default_retract {
-            RetractMode::InitialLevel => "g98",
-            RetractMode::RPlane => "g99",
-        }
-    );
-    let codes: Vec<String> = g.user_mcodes.iter().map(|c| c.to_string()).collect();
-    let _ = writeln!(t, "user_mcodes = [{}]", codes.join(", "));
-    let _ = writeln!(t, "g28_home = {}", mm_list(&g.g28_home[..n]));
-    let _ = writeln!(t, "g30_home = {}", mm_list(&g.g30_home[..n]));
-    let place = &g.tool_change_position;
-    let set: Vec<String> = (0..n)
-        .filter(|&i| place.axes & (1 << i) != 0)
-        .map(|i| format!("{} = {}", AXIS_LETTERS[i], mm_toml(place.at[i])))
-        .collect();
-    if set.is_empty() {
-        let _ = writeln!(
-            t,
-            "# tool_change_position = {{ Z = 0.0 }}  # M6 moves there first (machine coordinates, Z first)"
-        );
-    } else {
-        let _ = writeln!(
-            t,
-            "tool_change_position = {{ {} }}  # M6 moves there first (machine coordinates, Z first)",
-            set.join(", ")
-        );
-    }
-    for tool in &g.tools {
-        let _ = writeln!(
-            t,
-            "\n[[tool]]\nnumber = {}\nlength = {}\ndiameter = {}",
-            tool.number,
-            mm_toml(tool.length),
-            mm_toml(tool.diameter)
-        );
-    }
-    let _ = writeln!(t, "\n[work_offsets]");
-    for (name, off) in WORK_SYSTEMS.iter().zip(&g.work_offsets) {
-        let _ = writeln!(t, "\"{name}\" = {}", mm_list(&off[..n]));
-    }
-    let o = &s.operator;
-    let _ = writeln!(t, "\n[operator]");
-    let _ = writeln!(
-        t,
-        "resume_needs_cycle_start = {}",
-        o.resume_needs_cycle_start
-    );
-    let _ = writeln!(t, "two_hand_start = {}", o.two_hand_start);
-    let _ = writeln!(t, "fro_range = [{}, {}]", o.fro_low, o.fro_high);
-    let _ = writeln!(t, "dry_run_feed = {}", mm_toml(o.dry_run_feed));
-    controller_toml(s, &mut t);
-    let _ = writeln!(t, "\n[link]");
-    let _ = writeln!(
-        t,
-        "host_lost_stop_s = {}   # a job standing still with the host gone ends (alarm 20) after this; 0 = never",
-        s.link.host_lost_stop_s
-    );
-    let _ = writeln!(t, "\n[drivers]");
-    let _ = writeln!(
-        t,
-        "step_pulse_us = {}   # step pulse width (datasheet minimum: DM542 2.5, DRV8825 1.9)",
-        us_text(s.drivers.step_pulse_ns)
-    );
-    let _ = writeln!(
-        t,
-        "dir_setup_us = {}   # direction change to next step pulse, at least (DM542 5)",
-        us_text(s.drivers.dir_setup_ns)
-    );
-    let g = &s.grbl;
-    let _ = writeln!(t, "\n[grbl]");
-    let _ = writeln!(
-        t,
-        "status_mask = {}   # $10: 1 machine position (0 work position), +2 buffer state",
-        g.status_mask
-    );
-    let _ = writeln!(t, "report_inches = {}   # $13", g.inches);
-    let _ = writeln!(
-        t,
-        "startup_lines = [{:?}, {:?}]   # $N0, $N1: run after the banner unless in alarm",
-        g.startup[0].as_str(),
-        g.startup[1].as_str()
-    );
-    let _ = writeln!(
-        t,
-        "door_spin_up_s = {}   # after ~ closes the safety door, the spindle spins up this long before motion; 0 = no wait",
-        us_text(u32::from(g.door_spin_up_ms)) // thousandths, as for µs
-    );
-    let _ = writeln!(
-        t,
-        "m6_stop = {}   # M6 stops for a manual tool change; false: grbl's error:20",
-        g.m6_stop
-    );
-    t
-}
-
-fn controller_toml(s: &Setup, t: &mut String) {
-    let n = s.axis_count as usize;
-    let i = &s.inputs;
-    let _ = writeln!(t, "\n[inputs]");
-    let low: Vec<String> = (0..32u8)
-        .filter(|b| i.invert & (1 << b) != 0)
-        .map(|b| format!("\"{}\"", input_name(b)))
-        .collect();
-    let _ = writeln!(
-        t,
-        "active_low = [{}]   # active while the switch is open: the normally-closed switches",
-        low.join(", ")
-    );
-    let _ = writeln!(t, "debounce_ms = {}", i.debounce_ms);
-    let _ = writeln!(t, "limits_min = {}", axis_names(i.limit_min, n));
-    let _ = writeln!(t, "limits_max = {}", axis_names(i.limit_max, n));
-    let _ = writeln!(t, "hard_limits = {}", i.hard_limits);
-    let _ = writeln!(t, "feed_hold = {}", i.feed_hold);
-    let _ = writeln!(t, "abort = {}", i.abort);
-    let _ = writeln!(t, "fro_pot = {}", i.fro_pot);
-    let _ = writeln!(t, "adc_max = {}", i.adc_max);
-    let h = &s.homing;
-    let _ = writeln!(t, "\n[homing]");
-    let _ = writeln!(t, "required = {}", h.required);
-    let _ = writeln!(t, "before_seek = {}", list_toml(&h.before_seek));
-    let _ = writeln!(t, "before_retract = {}", list_toml(&h.before_retract));
-    let _ = writeln!(t, "after_retract = {}", list_toml(&h.after_retract));
-    for (k, a) in h.axes[..n].iter().enumerate() {
-        let _ = writeln!(t, "\n[homing.axis.{}]", AXIS_LETTERS[k]);
-        let _ = writeln!(t, "priority = {}   # 0 = not homed", a.priority);
-        let _ = writeln!(t, "seek = \"{}\"", if a.seek_low { "low" } else { "high" });
-        let _ = writeln!(t, "seek_rate = {}", mm_toml(a.seek_rate));
-        let _ = writeln!(t, "locate_rate = {}", mm_toml(a.locate_rate));
-        let _ = writeln!(t, "retract = {}", mm_toml(a.retract));
-        let _ = writeln!(t, "set_home = {}", a.set_home);
-        let _ = writeln!(t, "home_position = {}", mm_toml(a.home_position));
-    }
-    let j = &s.jog;
-    let name = |a: u8| {
-        if (a as usize) < n {
-            AXIS_LETTERS[a as usize].to_string()
+/// A file value of setting `key` (axis or tool `index`) in the core's integer units, checked
+/// against the settings table's range by the core's own check, so the refusal is the one the
+/// board and grbl `$x=` give. Scaled units read decimals; counts read whole numbers.
+fn number(key: Key, index: usize, v: &Value) -> anyhow::Result<i64> {
+    let unit = key.row().unit;
+    let scale = unit.scale();
+    let scaled = |v: f64| {
+        if v.is_nan() {
+            i64::MIN
         } else {
-            "-".to_string()
+            (v * scale as f64).round() as i64
         }
     };
-    let _ = writeln!(t, "\n[jog]");
-    for (k, p) in j.pairs.iter().enumerate() {
-        let _ = writeln!(
-            t,
-            "pair{k} = [\"{}\", \"{}\"]   # [down/up, left/right]",
-            name(p[0]),
-            name(p[1])
-        );
-    }
-    let _ = writeln!(t, "instant_speed = {}", mm_toml(j.instant_speed));
-    let _ = writeln!(t, "nudge_distance = {}", mm_toml(j.nudge_distance));
-    let _ = writeln!(t, "nudge_interval_ms = {}", j.nudge_interval_ms);
-    let _ = writeln!(
-        t,
-        "analog_axes = [\"{}\", \"{}\"]",
-        name(j.analog_axes[0]),
-        name(j.analog_axes[1])
-    );
-    let _ = writeln!(t, "analog_deadband = {}", j.analog_deadband);
-    let _ = writeln!(t, "analog_max_speed = {}", mm_toml(j.analog_max_speed));
-    let o = &s.outputs;
-    let _ = writeln!(t, "\n[spindle]");
-    let _ = writeln!(
-        t,
-        "rpm_range = [{}, {}]",
-        o.spindle_min_rpm, o.spindle_max_rpm
-    );
-    let _ = writeln!(t, "pwm_range = [{}, {}]", o.pwm_min, o.pwm_max);
-    let _ = writeln!(
-        t,
-        "laser = {}   # laser mode: S travels with each move, M4 power follows the speed",
-        o.laser
-    );
-    if o.orient.present() {
-        let _ = writeln!(
-            t,
-            "orient_output = {}   # G76's oriented stop",
-            o.orient.output
-        );
-        if o.orient.done_input != OrientSetup::NONE {
-            let _ = writeln!(
-                t,
-                "orient_done_input = \"{}\"",
-                input_name(o.orient.done_input)
-            );
-        }
-        let _ = writeln!(t, "orient_dwell_ms = {}", o.orient.dwell_ms);
-    }
-    let p = &o.torch;
-    let _ = writeln!(
-        t,
-        "torch = {}   # plasma: M3 waits for arc-OK, THC from the up/down inputs\n\
-         arc_ok_timeout_ms = {}\nthc = {}\nthc_rate = {}\nthc_travel = {}\n\
-         thc_anti_dive = {}\nthc_delay_ms = {}",
-        p.on,
-        p.arc_ok_timeout_ms,
-        p.thc,
-        mm_toml(p.thc_rate),
-        mm_toml(p.thc_travel),
-        p.thc_anti_dive,
-        p.thc_delay_ms
-    );
-    for l in &o.mcode_lists {
-        let _ = writeln!(
-            t,
-            "\n[[mcode]]\ncode = {}\ndry_run_disabled = {}\ncommands = {}{}",
-            l.code,
-            l.dry_run_disabled,
-            list_toml(&l.commands),
-            if l.on_the_fly().is_some() {
-                "   # one output command: switched on the fly, the motion does not stop"
+    let value = match (unit, v) {
+        (Unit::Bool, Value::Boolean(b)) => i64::from(*b),
+        (Unit::Choice, Value::String(text)) => choice(key, index, text)?,
+        (Unit::Bool | Unit::Choice, _) => bail!(
+            "{}: expected {}, found {}",
+            KeyName(key, index),
+            if unit == Unit::Bool {
+                "true or false"
             } else {
-                "   # runs at rest"
-            }
-        );
+                "a string"
+            },
+            v.type_str()
+        ),
+        (_, Value::Integer(n)) if scale == 1 => *n,
+        (_, Value::Integer(n)) if scale > 1 => scaled(*n as f64),
+        (_, Value::Float(f)) if scale > 1 => scaled(*f),
+        _ => bail!(
+            "{}: expected {}, found {}",
+            KeyName(key, index),
+            if scale > 1 {
+                "a number"
+            } else {
+                "a whole number"
+            },
+            v.type_str()
+        ),
+    };
+    key.check(index, value).map_err(anyhow::Error::new)?;
+    Ok(value)
+}
+
+/// `text` as the index of one of `key`'s choices (any case).
+fn choice(key: Key, index: usize, text: &str) -> anyhow::Result<i64> {
+    let choices = key.text().choices;
+    match choices.iter().position(|c| c.eq_ignore_ascii_case(text)) {
+        Some(i) => Ok(i as i64),
+        None => {
+            let names: Vec<String> = choices.iter().map(|c| format!("{c:?}")).collect();
+            bail!(
+                "{} = {text:?}: must be {}",
+                KeyName(key, index),
+                names.join(" or ")
+            )
+        }
     }
+}
+
+/// A value of `scale` units per file unit as a TOML float: exact decimals, at least one (`5.0`).
+fn decimal(v: i64, scale: i64) -> String {
+    let sign = if v < 0 { "-" } else { "" };
+    let scale = scale.unsigned_abs();
+    let (int, frac) = (v.unsigned_abs() / scale, v.unsigned_abs() % scale);
+    let width = scale.ilog10() as usize;
+    let frac = format!("{frac:0width$}");
+    let frac = frac.trim_end_matches('0');
+    format!("{sign}{int}.{}", if frac.is_empty() { "0" } else { frac })
+}
+
+/// Millimetres (from nm) as a TOML float.
+fn mm(v: Nm) -> String {
+    decimal(v, 1_000_000)
+}
+
+/// One value of a numeric row as the file writes it.
+fn value_text(key: Key, v: i64) -> String {
+    match key.row().unit {
+        Unit::Bool => (v != 0).to_string(),
+        Unit::Choice => format!("\"{}\"", key.text().choices[v as usize]),
+        // Degrees keep their three decimals (`0.000`): the file has always written them so.
+        Unit::Degrees => format!("{}.{:03}", v / 1000, v % 1000),
+        u if u.scale() > 1 => decimal(v, u.scale()),
+        _ => v.to_string(),
+    }
+}
+
+/// Writes a setup as a commented setup file that [`SetupFile::parse`] reads back exactly: each
+/// section's table head, then each row's `key = value` and its comment.
+pub fn to_toml(s: &Setup) -> String {
+    let mut t = String::from(
+        "# Gantry machine setup. Lengths in mm (degrees for A/B/C), speeds in mm/min,\n\
+         # accelerations in mm/s². See docs/settings.md for every key and its range.\n",
+    );
+    for section in SECTIONS {
+        let name = section_name(section);
+        for i in 0..section.count(s) {
+            let _ = match section {
+                Section::Top => Ok(()),
+                Section::Tool | Section::Mcode => writeln!(t, "\n[[{name}]]"),
+                _ => writeln!(t, "\n[{}]", place(section, i).trim_end_matches('.')),
+            };
+            for (key, name) in rows(section) {
+                let note = key.text().note;
+                let _ = if key.row().unit == Unit::Text {
+                    writeln!(t, "{}", codec::write(key, i, s))
+                } else if name != key.text().name {
+                    let (a, b) = (key.value(s, i), key.next().value(s, i));
+                    let (a, b) = (value_text(key, a), value_text(key.next(), b));
+                    writeln!(t, "{name} = [{a}, {b}]{note}")
+                } else {
+                    writeln!(t, "{name} = {}{note}", value_text(key, key.value(s, i)))
+                };
+            }
+        }
+        if section == Section::Tool {
+            codec::write_work_offsets(s, &mut t);
+        }
+    }
+    t
 }
 
 #[cfg(test)]
@@ -1678,22 +690,6 @@ diameter = -1
         assert!(e.to_string().contains("not in program.user_mcodes"), "{e}");
         let e = SetupFile::parse("[spindle]\nrpm_range = [5000, 100]\n").unwrap_err();
         assert!(e.to_string().starts_with("spindle.rpm_range"), "{e}");
-        let e = SetupFile::parse("[spindle]\norient_output = 16\n").unwrap_err();
-        assert!(
-            e.to_string().starts_with("spindle.orient_output = 16"),
-            "{e}"
-        );
-        let e = SetupFile::parse("[spindle]\norient_dwell_ms = 100\n").unwrap_err();
-        assert!(
-            e.to_string().contains("set spindle.orient_output first"),
-            "{e}"
-        );
-        let e = SetupFile::parse("[spindle]\norient_output = 1\norient_done_input = \"in40\"\n")
-            .unwrap_err();
-        assert!(
-            e.to_string().starts_with("spindle.orient_done_input"),
-            "{e}"
-        );
     }
 
     #[test]
@@ -1731,9 +727,6 @@ analog_axes = ["X", "-"]
 [spindle]
 rpm_range = [6000, 24000]
 pwm_range = [10, 999]
-orient_output = 7
-orient_done_input = "in21"
-orient_dwell_ms = 1500
 [[mcode]]
 code = 101
 dry_run_disabled = true
@@ -1762,15 +755,6 @@ host_lost_stop_s = 0
         );
         assert_eq!(s.homing.before_retract[0], ListCommand::DisableLimitReport);
         assert_eq!(s.link.host_lost_stop_s, 0);
-        assert_eq!(
-            s.outputs.orient,
-            gantry_machine::setup::OrientSetup {
-                output: 7,
-                done_input: 21,
-                dwell_ms: 1500
-            }
-        );
-        assert!(s.interp_config().spindle_orient);
         assert!(s.is_valid());
         let shown = to_toml(&s);
         assert_eq!(SetupFile::parse(&shown).unwrap(), s);
@@ -1849,5 +833,99 @@ host_lost_stop_s = 0
             "grbl.door_spin_up_s = 60.5: must be between 0 and 60 s"
         );
         assert!(SetupFile::parse("[grbl]\ndoor_spin_up_s = -1\n").is_err());
+    }
+}
+
+/// The two walks against each other (the tests above are the file's behaviour, these its table).
+#[cfg(test)]
+mod walk_tests {
+    use super::*;
+
+    #[test]
+    fn every_row_goes_through_the_file_and_back_at_both_ends_of_its_range() {
+        let mut base = Setup::default();
+        let tool = gantry_machine::setup::Tool {
+            number: 1,
+            length: 0,
+            diameter: 0,
+        };
+        base.program.tools.push(tool).unwrap();
+        let mut tried = 0;
+        for r in ROWS.iter().filter(|r| r.unit != Unit::Text) {
+            for i in 0..r.section.count(&base) {
+                for v in [r.min(), r.max()] {
+                    let mut s = base.clone();
+                    r.key.set(&mut s, i, v);
+                    // An end the rules between settings refuse (a start speed above the max
+                    // rate…) cannot be written as a valid file.
+                    if s.validate().is_err() {
+                        continue;
+                    }
+                    tried += 1;
+                    let back = SetupFile::parse(&to_toml(&s)).unwrap();
+                    assert_eq!(back, s, "{:?}[{i}] = {v}", r.key);
+                }
+            }
+        }
+        assert!(tried > 150, "only {tried} row ends were valid setups");
+    }
+}
+
+#[cfg(test)]
+mod orient_tests {
+    use super::*;
+
+    #[test]
+    fn the_orient_reads_writes_and_refuses_what_it_cannot_use() {
+        let e = SetupFile::parse("[spindle]\norient_output = 16\n").unwrap_err();
+        assert!(
+            e.to_string().starts_with("spindle.orient_output = 16"),
+            "{e}"
+        );
+        let e = SetupFile::parse("[spindle]\norient_dwell_ms = 100\n").unwrap_err();
+        assert!(
+            e.to_string().contains("set spindle.orient_output first"),
+            "{e}"
+        );
+        let e = SetupFile::parse("[spindle]\norient_output = 1\norient_done_input = \"in40\"\n")
+            .unwrap_err();
+        assert!(
+            e.to_string().starts_with("spindle.orient_done_input"),
+            "{e}"
+        );
+        let s = SetupFile::parse(
+            "[spindle]\norient_output = 7\norient_done_input = \"in21\"\norient_dwell_ms = 1500\n",
+        )
+        .unwrap();
+        assert_eq!(
+            s.outputs.orient,
+            gantry_machine::setup::OrientSetup {
+                output: 7,
+                done_input: 21,
+                dwell_ms: 1500
+            }
+        );
+        assert!(s.interp_config().spindle_orient);
+        assert_eq!(SetupFile::parse(&to_toml(&s)).unwrap(), s);
+        let d = Setup::default();
+        assert_eq!(SetupFile::parse(&to_toml(&d)).unwrap(), d);
+    }
+
+    #[test]
+    fn the_torch_settings_read_and_write_and_refuse_the_laser_beside_them() {
+        let s = SetupFile::parse(
+            "[spindle]\ntorch = true\narc_ok_timeout_ms = 500\nthc_rate = 600\nthc_travel = 2.5\n\
+             thc_anti_dive = 80\nthc_delay_ms = 250\n",
+        )
+        .unwrap();
+        let t = &s.outputs.torch;
+        assert!(t.on && t.thc);
+        assert_eq!(t.arc_ok_timeout_ms, 500);
+        assert_eq!(t.thc_rate, 600 * gantry_machine::units::NM_PER_MM);
+        assert_eq!(t.thc_travel, 2_500_000);
+        assert_eq!((t.thc_anti_dive, t.thc_delay_ms), (80, 250));
+        assert_eq!(SetupFile::parse(&to_toml(&s)).unwrap(), s);
+        let e = SetupFile::parse("[spindle]\ntorch = true\nlaser = true\n").unwrap_err();
+        assert!(e.to_string().contains("torch"), "{e}");
     }
 }

@@ -31,6 +31,8 @@ pub enum Reason {
     NotPrintable,
     /// `torch` with `laser`: one spindle output cannot be both.
     TorchWithLaser,
+    /// An orient done input or dwell without the orient output it belongs to.
+    OrientWithoutOutput,
 }
 
 impl Reason {
@@ -44,6 +46,7 @@ impl Reason {
             Reason::StepRateTooHigh { .. } => "step rate too high for the drivers",
             Reason::NotPrintable => "not printable G-code",
             Reason::TorchWithLaser => "torch and laser are exclusive",
+            Reason::OrientWithoutOutput => "orient input or dwell without an orient output",
         }
     }
 }
@@ -108,6 +111,11 @@ impl Setup {
         }
         if self.outputs.torch.on && self.outputs.laser {
             return Err(err(Key::Torch, 0, 1, 1, Reason::TorchWithLaser));
+        }
+        let o = &self.outputs.orient;
+        if !o.present() && (o.done_input != super::OrientSetup::NONE || o.dwell_ms != 0) {
+            let e = Reason::OrientWithoutOutput;
+            return Err(err(Key::OrientDwellMs, 0, o.dwell_ms.into(), 0, e));
         }
         let (band, adc) = (self.jog.analog_deadband, self.inputs.adc_max);
         if u32::from(band) * 2 >= u32::from(adc) {
@@ -220,6 +228,10 @@ impl core::fmt::Display for SetupError {
                 "{name} = {value}: must be between {} and {}{unit}",
                 file_value(key, row.min()),
                 file_value(key, row.max())
+            ),
+            Reason::OrientWithoutOutput => write!(
+                f,
+                "spindle.orient_done_input/orient_dwell_ms: set spindle.orient_output first"
             ),
             Reason::TorchWithLaser => write!(
                 f,

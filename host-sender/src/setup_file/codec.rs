@@ -1,0 +1,549 @@
+//! The setup file's text-valued rows (axis letters, input names, list commands, positions, the
+//! M-code lists, startup lines) and the work offsets: what the settings table
+//! (machine/src/setup/table.rs) cannot read or write by its unit alone.
+
+use super::mm;
+use anyhow::{bail, Context};
+use gantry_machine::controller::inputs::INPUT_NAMES;
+use gantry_machine::setup::table::Section;
+use gantry_machine::setup::{
+    Key, KeyName, ListCommand, McodeList, OrientSetup, Setup, ToolChangePosition, MAX_MCODE_LISTS,
+    MAX_TOOLS, MAX_USER_MCODES, STARTUP_LINE_LEN, USER_OUTPUTS,
+};
+use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES};
+use std::fmt::Write as _;
+use toml::{Table, Value};
+
+/// Work coordinate system names in offset-table order.
+pub(super) const WORK_SYSTEMS: [&str; 9] = [
+    "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
+];
+
+/// Largest length accepted in a position, mm (the core is exact to 1 nm over far more).
+const MAX_LENGTH_MM: f64 = 100_000.0;
+
+/// Reads text row `key` (item `i`) from `v` into `s`.
+pub(super) fn read(key: Key, i: usize, v: &Value, s: &mut Setup) -> anyhow::Result<()> {
+    let at = KeyName(key, i).to_string();
+    let n = usize::from(s.axis_count);
+    match key {
+        Key::Axes => {
+            let names = strings(&at, v)?;
+            if names.is_empty() || names.len() > MAX_AXES {
+                bail!("axes: between 1 and {MAX_AXES} axes, a prefix of X Y Z A B C");
+            }
+            for (i, name) in names.iter().enumerate() {
+                if !name.eq_ignore_ascii_case(&AXIS_LETTERS[i].to_string()) {
+                    bail!(
+                        "axes[{i}] = {name:?}: expected {:?} (axes are a prefix of X Y Z A B C)",
+                        AXIS_LETTERS[i].to_string()
+                    );
+                }
+            }
+            key.set(s, 0, names.len() as i64);
+        }
+        Key::UserMcodes => {
+            for c in array(&at, v)? {
+                let c = c
+                    .as_integer()
+                    .with_context(|| format!("{at}: expected whole numbers"))?;
+                if (0..=9).contains(&c) || c == 30 || c == 98 || c == 99 || !(0..=999).contains(&c)
+                {
+                    bail!(
+                        "{at}: M{c} is reserved or out of range (allowed 10-999 except 30, 98, 99)"
+                    );
+                }
+                let c = c as u16;
+                s.program
+                    .user_mcodes
+                    .push(c)
+                    .ok()
+                    .with_context(|| format!("{at}: at most {MAX_USER_MCODES} codes"))?;
+            }
+        }
+        Key::G28Home => s.program.g28_home = position(&at, v, n)?,
+        Key::G30Home => s.program.g30_home = position(&at, v, n)?,
+        Key::ToolChangePosition => {
+            s.program.tool_change_position = tool_change_position(&at, v, s)?
+        }
+        Key::ActiveLow => {
+            s.inputs.invert = 0;
+            for name in strings(&at, v)? {
+                s.inputs.invert |= 1 << input_bit(&at, name)?;
+            }
+        }
+        Key::LimitsMin | Key::LimitsMax => {
+            let mut mask = 0;
+            for name in strings(&at, v)? {
+                mask |= 1 << axis_index(&at, name, n, false)?;
+            }
+            *if key == Key::LimitsMin {
+                &mut s.inputs.limit_min
+            } else {
+                &mut s.inputs.limit_max
+            } = mask;
+        }
+        Key::BeforeSeek => s.homing.before_seek = commands(&at, v)?,
+        Key::BeforeRetract => s.homing.before_retract = commands(&at, v)?,
+        Key::AfterRetract => s.homing.after_retract = commands(&at, v)?,
+        Key::Pair0 | Key::Pair1 | Key::AnalogAxes => {
+            let [a, b] = pair(&at, v)?;
+            let letter = |v: &Value| {
+                let name = v
+                    .as_str()
+                    .with_context(|| format!("{at}: expected axis letters"))?;
+                axis_index(&at, name, n, true)
+            };
+            let axes = [letter(a)?, letter(b)?];
+            match key {
+                Key::Pair0 => s.jog.pairs[0] = axes,
+                Key::Pair1 => s.jog.pairs[1] = axes,
+                _ => s.jog.analog_axes = axes,
+            }
+        }
+        Key::McodeCommands => s.outputs.mcode_lists[i].commands = commands(&at, v)?,
+        Key::StartupLines => startup_lines(&at, v, s)?,
+        Key::OrientOutput => {
+            let n = v.as_integer().with_context(|| {
+                format!("{at}: expected a user output number 0-{}", USER_OUTPUTS - 1)
+            })?;
+            if !(0..i64::from(USER_OUTPUTS)).contains(&n) {
+                bail!("{at} = {n}: a user output 0-{}", USER_OUTPUTS - 1);
+            }
+            s.outputs.orient.output = n as u8;
+        }
+        Key::OrientDoneInput => {
+            let name = v
+                .as_str()
+                .with_context(|| format!("{at}: expected an input name"))?;
+            s.outputs.orient.done_input = input_bit(&at, name)?;
+        }
+        _ => bail!("{at}: not a text setting"),
+    }
+    Ok(())
+}
+
+/// Text row `key` (item `i`) of `s` as its line in the file (no newline).
+pub(super) fn write(key: Key, i: usize, s: &Setup) -> String {
+    let (name, note) = (key.text().name, key.text().note);
+    let n = usize::from(s.axis_count);
+    let letter = |a: u8| {
+        AXIS_LETTERS
+            .get(usize::from(a))
+            .filter(|_| usize::from(a) < n)
+    };
+    let letter = |a: u8| letter(a).map_or("-".to_string(), |l| l.to_string());
+    let value = match key {
+        Key::Axes => quoted(AXIS_LETTERS[..n].iter()),
+        Key::UserMcodes => {
+            let codes: Vec<String> = s
+                .program
+                .user_mcodes
+                .iter()
+                .map(|c| c.to_string())
+                .collect();
+            format!("[{}]", codes.join(", "))
+        }
+        Key::G28Home => mm_list(&s.program.g28_home[..n]),
+        Key::G30Home => mm_list(&s.program.g30_home[..n]),
+        Key::ToolChangePosition => {
+            let place = &s.program.tool_change_position;
+            let set: Vec<String> = (0..n)
+                .filter(|&i| place.axes & (1 << i) != 0)
+                .map(|i| format!("{} = {}", AXIS_LETTERS[i], mm(place.at[i])))
+                .collect();
+            if set.is_empty() {
+                return format!("# {name} = {{ Z = 0.0 }}{note}");
+            }
+            format!("{{ {} }}", set.join(", "))
+        }
+        Key::ActiveLow => quoted(
+            (0..32u8)
+                .filter(|b| s.inputs.invert & (1 << b) != 0)
+                .map(input_name),
+        ),
+        Key::LimitsMin | Key::LimitsMax => {
+            let mask = if key == Key::LimitsMin {
+                s.inputs.limit_min
+            } else {
+                s.inputs.limit_max
+            };
+            quoted(
+                (0..n)
+                    .filter(|i| mask & (1 << i) != 0)
+                    .map(|i| AXIS_LETTERS[i]),
+            )
+        }
+        Key::BeforeSeek => list_toml(&s.homing.before_seek),
+        Key::BeforeRetract => list_toml(&s.homing.before_retract),
+        Key::AfterRetract => list_toml(&s.homing.after_retract),
+        Key::Pair0 | Key::Pair1 | Key::AnalogAxes => {
+            let p = match key {
+                Key::Pair0 => s.jog.pairs[0],
+                Key::Pair1 => s.jog.pairs[1],
+                _ => s.jog.analog_axes,
+            };
+            quoted(p.into_iter().map(letter))
+        }
+        Key::McodeCommands => {
+            let l = &s.outputs.mcode_lists[i];
+            let note = if l.on_the_fly().is_some() {
+                "   # one output command: switched on the fly, the motion does not stop"
+            } else {
+                "   # runs at rest"
+            };
+            return format!("{name} = {}{note}", list_toml(&l.commands));
+        }
+        Key::OrientOutput if !s.outputs.orient.present() => {
+            return format!("# {name} = 0{note}");
+        }
+        Key::OrientOutput => s.outputs.orient.output.to_string(),
+        Key::OrientDoneInput if s.outputs.orient.done_input == OrientSetup::NONE => {
+            return format!("# {name} = \"in20\"{note}");
+        }
+        Key::OrientDoneInput => format!("{:?}", input_name(s.outputs.orient.done_input)),
+        Key::StartupLines => {
+            let g = &s.grbl;
+            format!("[{:?}, {:?}]", g.startup[0].as_str(), g.startup[1].as_str())
+        }
+        _ => String::new(),
+    };
+    format!("{name} = {value}{note}")
+}
+
+/// A new `[[tool]]` or `[[mcode]]` item for the rows to fill.
+pub(super) fn push_item(section: Section, s: &mut Setup) -> anyhow::Result<()> {
+    if section == Section::Tool {
+        let full = s.program.tools.push(Default::default()).is_err();
+        anyhow::ensure!(!full, "tool: at most {MAX_TOOLS} tools");
+    } else {
+        let list = McodeList {
+            code: 0,
+            dry_run_disabled: false,
+            commands: Default::default(),
+        };
+        let full = s.outputs.mcode_lists.push(list).is_err();
+        anyhow::ensure!(!full, "mcode: at most {MAX_MCODE_LISTS} lists");
+    }
+    Ok(())
+}
+
+/// The rules of item `k` of a `[[tool]]` or `[[mcode]]` array (`t`, as read into `s`): its
+/// number is given and unique, an M code is one of `program.user_mcodes`.
+pub(super) fn check_item(section: Section, k: usize, t: &Table, s: &Setup) -> anyhow::Result<()> {
+    let (name, field) = if section == Section::Tool {
+        ("tool", "number")
+    } else {
+        ("mcode", "code")
+    };
+    anyhow::ensure!(
+        t.contains_key(field),
+        "{name}[{k}]: missing field `{field}`"
+    );
+    if section == Section::Tool {
+        let number = s.program.tools[k].number;
+        if s.program.tools[..k].iter().any(|x| x.number == number) {
+            bail!("tool[{k}].number = {number}: tool defined twice");
+        }
+        return Ok(());
+    }
+    let code = s.outputs.mcode_lists[k].code;
+    if !s.program.user_mcodes.contains(&code) {
+        bail!(
+            "mcode[{k}].code = {code}: not in program.user_mcodes (define the M code there first)"
+        );
+    }
+    if s.outputs.mcode_lists[..k].iter().any(|l| l.code == code) {
+        bail!("mcode[{k}].code = {code}: list defined twice");
+    }
+    Ok(())
+}
+
+/// Does the file set any work offset?
+pub(super) fn has_work_offsets(root: &Table) -> bool {
+    root.get("work_offsets")
+        .and_then(Value::as_table)
+        .is_some_and(|t| !t.is_empty())
+}
+
+/// The `[work_offsets]` table: `"G54" = [x, y, …]`.
+pub(super) fn read_work_offsets(root: &Table, s: &mut Setup) -> anyhow::Result<()> {
+    let Some(v) = root.get("work_offsets") else {
+        return Ok(());
+    };
+    for (name, v) in super::table(v, "work_offsets")? {
+        let Some(i) = WORK_SYSTEMS
+            .iter()
+            .position(|w| w.eq_ignore_ascii_case(name))
+        else {
+            bail!("work_offsets.{name}: must be one of {WORK_SYSTEMS:?}");
+        };
+        s.program.work_offsets[i] = position(
+            &format!("work_offsets.{name}"),
+            v,
+            usize::from(s.axis_count),
+        )?;
+    }
+    Ok(())
+}
+
+pub(super) fn write_work_offsets(s: &Setup, t: &mut String) {
+    let _ = writeln!(t, "\n[work_offsets]");
+    for (name, off) in WORK_SYSTEMS.iter().zip(&s.program.work_offsets) {
+        let _ = writeln!(
+            t,
+            "\"{name}\" = {}",
+            mm_list(&off[..usize::from(s.axis_count)])
+        );
+    }
+}
+
+/// `v` as exactly two values: a `[low, high]` pair.
+pub(super) fn pair<'a>(at: &str, v: &'a Value) -> anyhow::Result<[&'a Value; 2]> {
+    match v.as_array().map(Vec::as_slice) {
+        Some([a, b]) => Ok([a, b]),
+        Some(a) => bail!(
+            "{at}: invalid length {}, expected a list of exactly two values",
+            a.len()
+        ),
+        None => bail!(
+            "{at}: invalid type: {}, expected a list of exactly two values",
+            v.type_str()
+        ),
+    }
+}
+
+fn array<'a>(at: &str, v: &'a Value) -> anyhow::Result<impl Iterator<Item = &'a Value>> {
+    Ok(v.as_array()
+        .with_context(|| format!("{at}: expected a list, found {}", v.type_str()))?
+        .iter())
+}
+
+fn strings<'a>(at: &str, v: &'a Value) -> anyhow::Result<Vec<&'a str>> {
+    array(at, v)?
+        .map(|x| {
+            x.as_str()
+                .with_context(|| format!("{at}: expected a list of strings"))
+        })
+        .collect()
+}
+
+fn quoted<T: std::fmt::Display>(items: impl Iterator<Item = T>) -> String {
+    let v: Vec<String> = items.map(|x| format!("\"{x}\"")).collect();
+    format!("[{}]", v.join(", "))
+}
+
+fn mm_list(p: &[Nm]) -> String {
+    let items: Vec<String> = p.iter().map(|&v| mm(v)).collect();
+    format!("[{}]", items.join(", "))
+}
+
+/// Axis letter `name` as the index of an axis in use (`at` names the table).
+pub(super) fn axis_in_use(at: &str, name: &str, count: usize) -> anyhow::Result<usize> {
+    AXIS_LETTERS[..count]
+        .iter()
+        .position(|l| name.eq_ignore_ascii_case(&l.to_string()))
+        .with_context(|| {
+            format!(
+                "{at}: not an axis in use (axes in use: {:?})",
+                &AXIS_LETTERS[..count]
+            )
+        })
+}
+
+/// Axis letter → index among the axes in use (`"-"` → 255 = none).
+fn axis_index(key: &str, name: &str, count: usize, allow_none: bool) -> anyhow::Result<u8> {
+    if allow_none && name == "-" {
+        return Ok(255);
+    }
+    let none = if allow_none {
+        ", or \"-\" for none"
+    } else {
+        ""
+    };
+    let i = axis_in_use(key, name, count).map_err(|_| {
+        anyhow::anyhow!(
+            "{key} = {name:?}: not an axis in use (axes in use: {:?}{none})",
+            &AXIS_LETTERS[..count]
+        )
+    })?;
+    Ok(i as u8)
+}
+
+fn input_name(bit: u8) -> String {
+    INPUT_NAMES
+        .get(usize::from(bit))
+        .map_or_else(|| format!("in{bit}"), |n| n.to_string())
+}
+
+fn input_bit(key: &str, name: &str) -> anyhow::Result<u8> {
+    if let Some(i) = INPUT_NAMES
+        .iter()
+        .position(|n| n.eq_ignore_ascii_case(name))
+    {
+        return Ok(i as u8);
+    }
+    match name.strip_prefix("in").and_then(|n| n.parse::<u8>().ok()) {
+        Some(b) if b < 32 => Ok(b),
+        _ => bail!("{key}: unknown input {name:?} (a name such as \"feed_hold\" or \"x_min\", or in0-in31)"),
+    }
+}
+
+/// Converts a value in mm to nm, checking ±[`MAX_LENGTH_MM`] and naming `key` on error (the
+/// positions of lists, which have no row of their own in the settings table).
+fn nm(key: &str, v: f64) -> anyhow::Result<Nm> {
+    if !v.is_finite() || !(-MAX_LENGTH_MM..=MAX_LENGTH_MM).contains(&v) {
+        bail!(
+            "{key} = {v}: must be between {} and {MAX_LENGTH_MM}",
+            -MAX_LENGTH_MM
+        );
+    }
+    Ok((v * 1e6).round() as Nm)
+}
+
+fn float(key: &str, v: &Value) -> anyhow::Result<f64> {
+    match v {
+        Value::Integer(n) => Ok(*n as f64),
+        Value::Float(f) => Ok(*f),
+        _ => bail!("{key}: expected a number, found {}", v.type_str()),
+    }
+}
+
+fn position(key: &str, v: &Value, axis_count: usize) -> anyhow::Result<[Nm; MAX_AXES]> {
+    let values: Vec<&Value> = array(key, v)?.collect();
+    if values.len() > axis_count {
+        bail!(
+            "{key}: {} values given but only {axis_count} axes are in use",
+            values.len()
+        );
+    }
+    let mut pos = [0; MAX_AXES];
+    for (i, v) in values.into_iter().enumerate() {
+        let key = format!("{key}[{i}]");
+        pos[i] = nm(&key, float(&key, v)?)?;
+    }
+    Ok(pos)
+}
+
+/// `program.tool_change_position`: each axis named must be in use and its position inside that
+/// axis's travel (the moves of every M6 would otherwise hit the soft limit).
+fn tool_change_position(key: &str, v: &Value, s: &Setup) -> anyhow::Result<ToolChangePosition> {
+    let mut out = ToolChangePosition::default();
+    for (name, v) in super::table(v, key)? {
+        let key = format!("{key}.{name}");
+        let i = axis_in_use(&key, name, usize::from(s.axis_count))?;
+        let (lo, hi) = (s.axes[i].travel_min, s.axes[i].travel_max);
+        let v = float(&key, v)?;
+        let at = nm(&key, v)?;
+        if at < lo || at > hi {
+            bail!(
+                "{key} = {v}: outside the {} travel [{}, {}] (soft limits)",
+                AXIS_LETTERS[i],
+                mm(lo),
+                mm(hi)
+            );
+        }
+        out.axes |= 1 << i;
+        out.at[i] = at;
+    }
+    Ok(out)
+}
+
+/// Parses a list command: `set N`, `clear N`, `dwell MS`, `wait INPUT high|low [TIMEOUT_MS]`,
+/// `seek`, `disable_limit_report`.
+fn list_command(key: &str, text: &str) -> anyhow::Result<ListCommand> {
+    let w: Vec<&str> = text.split_whitespace().collect();
+    let num = |v: &str, max: u32| -> anyhow::Result<u32> {
+        match v.parse::<u32>() {
+            Ok(n) if n <= max => Ok(n),
+            _ => bail!("{key}: {text:?}: {v:?} must be a whole number 0-{max}"),
+        }
+    };
+    let output = u32::from(USER_OUTPUTS) - 1;
+    Ok(match w.as_slice() {
+        ["set", n] => ListCommand::Set(num(n, output)? as u8),
+        ["clear", n] => ListCommand::Clear(num(n, output)? as u8),
+        ["dwell", ms] => ListCommand::DwellMs(num(ms, 65_535)? as u16),
+        ["wait", input, level, rest @ ..] if rest.len() <= 1 => ListCommand::WaitInput {
+            bit: input_bit(key, input)?,
+            level: match *level {
+                "high" => true,
+                "low" => false,
+                _ => bail!("{key}: {text:?}: the level must be \"high\" or \"low\""),
+            },
+            timeout_ms: rest.first().map_or(Ok(0), |t| num(t, 65_535))? as u16,
+        },
+        ["disable_limit_report"] => ListCommand::DisableLimitReport,
+        ["seek"] => ListCommand::Seek,
+        _ => bail!(
+            "{key}: {text:?}: expected \"set N\", \"clear N\", \"dwell MS\", \"wait INPUT high|low [TIMEOUT_MS]\", \"seek\" or \"disable_limit_report\""
+        ),
+    })
+}
+
+fn list_text(c: &ListCommand) -> String {
+    match *c {
+        ListCommand::Set(n) => format!("set {n}"),
+        ListCommand::Clear(n) => format!("clear {n}"),
+        ListCommand::DwellMs(ms) => format!("dwell {ms}"),
+        ListCommand::WaitInput {
+            bit,
+            level,
+            timeout_ms,
+        } => {
+            format!(
+                "wait {} {} {timeout_ms}",
+                input_name(bit),
+                if level { "high" } else { "low" }
+            )
+        }
+        ListCommand::DisableLimitReport => "disable_limit_report".into(),
+        ListCommand::Seek => "seek".into(),
+    }
+}
+
+fn list_toml(list: &[ListCommand]) -> String {
+    quoted(list.iter().map(list_text))
+}
+
+fn commands<const N: usize>(key: &str, v: &Value) -> anyhow::Result<heapless::Vec<ListCommand, N>> {
+    let mut out = heapless::Vec::new();
+    for (i, t) in strings(key, v)?.into_iter().enumerate() {
+        let c = list_command(&format!("{key}[{i}]"), t)?;
+        if c == ListCommand::DisableLimitReport && i != 0 {
+            bail!("{key}[{i}]: \"disable_limit_report\" must be the first entry of its list");
+        }
+        out.push(c)
+            .map_err(|_| anyhow::anyhow!("{key}: at most {N} commands"))?;
+    }
+    Ok(out)
+}
+
+/// `grbl.startup_lines`: stored as grbl stores them (upper case, no blanks) and checked as the
+/// board checks `$N0=` (parsed as a block, no `$` command).
+fn startup_lines(key: &str, v: &Value, s: &mut Setup) -> anyhow::Result<()> {
+    let lines = strings(key, v)?;
+    if lines.len() > 2 {
+        bail!("{key}: at most 2 lines ($N0, $N1)");
+    }
+    for (i, line) in lines.into_iter().enumerate() {
+        let text: String = line
+            .chars()
+            .filter(|c| !c.is_ascii_whitespace())
+            .map(|c| c.to_ascii_uppercase())
+            .collect();
+        if !text.bytes().all(|c| (b' '..=b'~').contains(&c)) || text.starts_with('$') {
+            bail!("{key}[{i}] = {line:?}: printable ASCII G-code, no $ command");
+        }
+        let mut lexer = gantry_machine::gcode::lexer::Lexer::new(text.as_bytes(), true);
+        lexer.start();
+        let cfg = s.interp_config();
+        if let Err((e, _)) = gantry_machine::gcode::block::parse_block(&mut lexer, &cfg) {
+            bail!("{key}[{i}] = {line:?}: error {}: {e:?}", e.number());
+        }
+        s.grbl.startup[i] = heapless::String::try_from(text.as_str()).map_err(|_| {
+            anyhow::anyhow!("{key}[{i}]: at most {STARTUP_LINE_LEN} characters without blanks")
+        })?;
+    }
+    Ok(())
+}
