@@ -12,9 +12,9 @@
 //! without HUPCL (pyserial, bCNC) or is killed is gone all the same, and the next client chooses
 //! its protocol again.
 
-use crate::emulator::{EmulatedBoard, ProbeTarget};
 use crate::setup_file::{to_toml, SetupFile};
 use anyhow::Context;
+use gantry_emulator::{EmulatedBoard, ProbeTarget};
 use gantry_machine::board::link::status_of;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::{Pos, AXIS_LETTERS, MAX_AXES};
@@ -214,7 +214,7 @@ pub(crate) fn new_board(
     setup: Setup,
     state: Option<&Path>,
     probe_targets: &[String],
-    cpu: Option<crate::cpu_model::CpuModel>,
+    cpu: Option<gantry_emulator::cpu_model::CpuModel>,
 ) -> anyhow::Result<EmulatedBoard> {
     let targets = probe_targets
         .iter()
@@ -373,7 +373,7 @@ pub fn run(
     setup: Option<PathBuf>,
     state: Option<PathBuf>,
     probe_targets: &[String],
-    cpu: Option<crate::cpu_model::CpuModel>,
+    cpu: Option<gantry_emulator::cpu_model::CpuModel>,
 ) -> anyhow::Result<ExitCode> {
     let (setup, origin) = load_state(state.as_deref(), setup)?;
     let axes = setup.axis_count as usize;

@@ -56,7 +56,7 @@ enum Command {
         /// Emulated board only: charge each main-loop pass the instructions it costs on this MCU
         /// (f411: the Black Pill at 96 MHz), so the report's underruns show whether it keeps up.
         #[arg(long, value_parser = parse_cpu_model)]
-        cpu_model: Option<host_sender::cpu_model::CpuModel>,
+        cpu_model: Option<gantry_emulator::cpu_model::CpuModel>,
         /// Start without checking the whole program first (for programs too long to check
         /// before they run): the board then stops at the first bad line.
         #[arg(long)]
@@ -201,7 +201,7 @@ enum Command {
         /// Charge each main-loop pass the instructions it costs on this MCU (f411) and log every
         /// underrun (docs/ports.md).
         #[arg(long, value_parser = parse_cpu_model)]
-        cpu_model: Option<host_sender::cpu_model::CpuModel>,
+        cpu_model: Option<gantry_emulator::cpu_model::CpuModel>,
     },
     /// Own the board's port (--port) until killed, and let other `gantry` commands reach the
     /// board through a local socket named after the port while a job runs (docs/ports.md).
@@ -689,9 +689,9 @@ fn main() -> ExitCode {
 }
 
 /// `--cpu-model NAME`.
-fn parse_cpu_model(name: &str) -> Result<host_sender::cpu_model::CpuModel, String> {
-    host_sender::cpu_model::CpuModel::named(name).ok_or_else(|| {
-        let known: Vec<&str> = host_sender::cpu_model::CpuModel::ALL
+fn parse_cpu_model(name: &str) -> Result<gantry_emulator::cpu_model::CpuModel, String> {
+    gantry_emulator::cpu_model::CpuModel::named(name).ok_or_else(|| {
+        let known: Vec<&str> = gantry_emulator::cpu_model::CpuModel::ALL
             .iter()
             .map(|m| m.name)
             .collect();

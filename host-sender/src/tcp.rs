@@ -127,7 +127,7 @@ pub fn run(
     setup: Option<PathBuf>,
     state: Option<PathBuf>,
     probe_targets: &[String],
-    cpu: Option<crate::cpu_model::CpuModel>,
+    cpu: Option<gantry_emulator::cpu_model::CpuModel>,
 ) -> anyhow::Result<ExitCode> {
     check_address(&addr, allow_remote)?;
     let (setup, origin) = load_state(state.as_deref(), setup)?;
