@@ -1,6 +1,6 @@
 //! The main loop task: every millisecond, the core's `MainLoop::pass`
 //! (machine/src/board/main_loop.rs), the very function the emulated board runs
-//! (host-sender/src/emulator.rs). This file is only its port onto the hardware: the step ISR's
+//! (emulator/src/board.rs). This file is only its port onto the hardware: the step ISR's
 //! kernel and queue (`step`), the input pins and limit arming (`inputs`), the ADC (`analog`), the
 //! output pins, the USB pipes and DTR (`usb`), flash (`settings`), the motion marker
 //! (`reset_marker`) and the watchdog. Nothing here decides anything.

@@ -3,8 +3,8 @@
 //! The last line printed is the figure: `stream_lines_per_s: N`.
 
 use criterion::{criterion_group, Criterion};
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::setup::Setup;
-use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
 use host_sender::program::Program;
 use host_sender::session::{stream_program, Flow};

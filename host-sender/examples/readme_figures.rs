@@ -1,8 +1,8 @@
-//! Writes the CPU model's figures table (`host_sender::cpu_model::figures_table`, from
-//! host-sender/src/cpu_model_f411.rs) between its markers in the README given as the argument
+//! Writes the CPU model's figures table (`gantry_emulator::cpu_model::figures_table`, from
+//! emulator/src/cpu_model_f411.rs) between its markers in the README given as the argument
 //! (firmware/README.md). Run by scripts/bench-mcu.sh after it wrote the figures.
 
-use host_sender::cpu_model::{figures_table, with_figures_table, CpuModel};
+use gantry_emulator::cpu_model::{figures_table, with_figures_table, CpuModel};
 
 fn main() -> anyhow::Result<()> {
     let path = std::env::args()

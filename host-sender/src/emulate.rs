@@ -12,10 +12,10 @@
 //! without HUPCL (pyserial, bCNC) or is killed is gone all the same, and the next client chooses
 //! its protocol again.
 
-use crate::emulator::{EmulatedBoard, ProbeTarget};
 use crate::setup_file::{to_toml, SetupFile};
-use crate::torch_script::{TorchModel, TorchScript};
 use anyhow::Context;
+use gantry_emulator::torch_script::{TorchModel, TorchScript};
+use gantry_emulator::{EmulatedBoard, ProbeTarget};
 use gantry_machine::board::link::status_of;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::{Pos, AXIS_LETTERS, MAX_AXES};
@@ -221,11 +221,11 @@ pub(crate) fn wait_on(fds: &mut [PollFd], wait: Duration) -> nix::Result<i32> {
 pub struct BoardOptions {
     /// What the emulated touch probe touches (`--probe-target`, [`ProbeTarget::parse`]).
     pub probe_targets: Vec<String>,
-    /// A CPU model (`--cpu-model`, [`crate::cpu_model`]): each main-loop pass takes the time the
+    /// A CPU model (`--cpu-model`, [`gantry_emulator::cpu_model`]): each main-loop pass takes the time the
     /// MCU would take, and every gap in the motion is logged on stderr.
-    pub cpu: Option<crate::cpu_model::CpuModel>,
+    pub cpu: Option<gantry_emulator::cpu_model::CpuModel>,
     /// The plasma power source and height controller (`--arc-ok-delay`, `--no-arc`,
-    /// `--arc-lost-at`, `--thc`; [`crate::torch_script`]). `None`: the default script when the
+    /// `--arc-lost-at`, `--thc`; [`gantry_emulator::torch_script`]). `None`: the default script when the
     /// setup has a torch, none otherwise.
     pub torch: Option<TorchScript>,
 }

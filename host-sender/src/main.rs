@@ -75,7 +75,7 @@ enum Command {
         /// Emulated board only: charge each main-loop pass the instructions it costs on this MCU
         /// (f411: the Black Pill at 96 MHz), so the report's underruns show whether it keeps up.
         #[arg(long, value_parser = parse_cpu_model)]
-        cpu_model: Option<host_sender::cpu_model::CpuModel>,
+        cpu_model: Option<gantry_emulator::cpu_model::CpuModel>,
         /// Start without checking the whole program first (for programs too long to check
         /// before they run): the board then stops at the first bad line.
         #[arg(long)]
@@ -223,16 +223,16 @@ enum Command {
         /// Charge each main-loop pass the instructions it costs on this MCU (f411) and log every
         /// underrun (docs/ports.md).
         #[arg(long, value_parser = parse_cpu_model)]
-        cpu_model: Option<host_sender::cpu_model::CpuModel>,
+        cpu_model: Option<gantry_emulator::cpu_model::CpuModel>,
         /// Plasma: the emulated power source's arc-OK comes this long after the torch fires
         /// (`300ms`, `1.5s`; default 50ms with a torch setup; docs/laser-plasma.md).
-        #[arg(long, value_parser = host_sender::torch_script::parse_ms, conflicts_with = "no_arc")]
+        #[arg(long, value_parser = gantry_emulator::torch_script::parse_ms, conflicts_with = "no_arc")]
         arc_ok_delay: Option<u64>,
         /// Plasma: arc-OK never comes (the board raises alarm 22).
         #[arg(long)]
         no_arc: bool,
         /// Plasma: the arc goes out this long after the first firing (once).
-        #[arg(long, value_parser = host_sender::torch_script::parse_ms)]
+        #[arg(long, value_parser = gantry_emulator::torch_script::parse_ms)]
         arc_lost_at: Option<u64>,
         /// Plasma: the height controller's pattern, ms after the torch fired:
         /// `up:1000-1500,down:2000-2200`.
@@ -763,7 +763,7 @@ fn main() -> ExitCode {
             no_arc,
             arc_lost_at,
             thc,
-        } => host_sender::torch_script::from_options(
+        } => gantry_emulator::torch_script::from_options(
             arc_ok_delay,
             no_arc,
             arc_lost_at,
@@ -812,9 +812,9 @@ fn main() -> ExitCode {
 }
 
 /// `--cpu-model NAME`.
-fn parse_cpu_model(name: &str) -> Result<host_sender::cpu_model::CpuModel, String> {
-    host_sender::cpu_model::CpuModel::named(name).ok_or_else(|| {
-        let known: Vec<&str> = host_sender::cpu_model::CpuModel::ALL
+fn parse_cpu_model(name: &str) -> Result<gantry_emulator::cpu_model::CpuModel, String> {
+    gantry_emulator::cpu_model::CpuModel::named(name).ok_or_else(|| {
+        let known: Vec<&str> = gantry_emulator::cpu_model::CpuModel::ALL
             .iter()
             .map(|m| m.name)
             .collect();

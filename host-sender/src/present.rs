@@ -143,7 +143,7 @@ pub fn hms(seconds: f64) -> String {
 }
 
 /// The report line on the emulated board's underruns (gaps where its step kernel ran dry mid-job).
-pub fn underrun_line(gaps: u64, cpu: Option<crate::cpu_model::CpuModel>) -> String {
+pub fn underrun_line(gaps: u64, cpu: Option<gantry_emulator::cpu_model::CpuModel>) -> String {
     let model = match cpu {
         Some(m) => format!("CPU model {} at {} MHz", m.name, m.hz / 1_000_000),
         None => "no CPU model: main loop in no time, --cpu-model f411 charges it".to_owned(),

@@ -2,12 +2,12 @@
 //! direction, enable, input and user output pins as a VCD trace (GTKWave, PulseView), and in
 //! laser mode the laser PWM duty (`laser_pwm`).
 
-use crate::emulator::{EmulatedBoard, PinEvent};
 use crate::link::Client;
 use crate::program::Program;
 use crate::session::stream_program;
 use crate::vcd::{counts_to_ns, VcdEvent, VcdOptions, VcdSummary, VcdWriter};
 use anyhow::Context;
+use gantry_emulator::{EmulatedBoard, PinEvent};
 use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::setup::{Setup, USER_OUTPUTS};

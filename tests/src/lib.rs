@@ -1,6 +1,7 @@
 //! Support code for Gantry's whole-system tests: a lossy transport in front of the emulated board,
 //! the core's own simulation of a program as the reference, and generated CAM-like programs.
 
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::canon::Canon;
 use gantry_machine::gcode::{Interpreter, MemorySource};
 use gantry_machine::motion::config::MotionConfig;
@@ -8,7 +9,6 @@ use gantry_machine::motion::sim::{Sim, SimEvent};
 use gantry_machine::setup::Setup;
 use gantry_machine::units::MAX_AXES;
 use gantry_proto::fault::{Faults, FaultyPipe};
-use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Transport;
 use std::fmt::Write as _;
 

@@ -1,16 +1,16 @@
 //! `gantry jog` and `gantry home` over the real protocol: the link carries jog and homing
 //! requests to the board, and Mark presses back to the host.
 
+use gantry_emulator::emulated_with_switches;
 use gantry_machine::setup::Setup;
 use gantry_proto::{BoardMsg, HostMsg, Jog, MachineState};
-use host_sender::emulator::emulated_with_switches;
 use host_sender::link::Client;
 use host_sender::session::fresh_status;
 use host_sender::setup_file::SetupFile;
 
 #[test]
 fn a_host_jog_moves_exactly_the_distance() {
-    let board = host_sender::emulator::EmulatedBoard::new(Setup::default());
+    let board = gantry_emulator::EmulatedBoard::new(Setup::default());
     let mut client = Client::connect(board, 2000).unwrap();
     client
         .send(HostMsg::Jog(Jog {
@@ -59,8 +59,8 @@ fn a_joystick_mark_reaches_the_host() {
     use gantry_machine::controller::inputs::Signal;
     let mut s = Setup::default();
     s.inputs.debounce_ms = 1;
-    let mut client = Client::connect(host_sender::emulator::EmulatedBoard::new(s), 2000).unwrap();
-    let press = |c: &mut Client<host_sender::emulator::EmulatedBoard>, sig: Signal, on: bool| {
+    let mut client = Client::connect(gantry_emulator::EmulatedBoard::new(s), 2000).unwrap();
+    let press = |c: &mut Client<gantry_emulator::EmulatedBoard>, sig: Signal, on: bool| {
         c.transport.set_pin(sig as u32, on)
     };
     // Mark + Release together enter joystick jog; Mark alone is a teach-in mark.

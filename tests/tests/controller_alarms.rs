@@ -5,11 +5,11 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
 use gantry_machine::board::{BoardEvent, JobEnd, ERROR_SOFT_LIMIT};
 use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
 use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 use gantry_machine::motion::pipeline::MotionState;
-use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
 use host_sender::link::Client;
 use host_sender::program::Program;
 use host_sender::session::continue_job;

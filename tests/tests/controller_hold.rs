@@ -22,7 +22,7 @@ fn uninterrupted() -> ([i64; 6], [u64; 6]) {
 /// Holds mid-arc with the feed-hold input; returns the board stopped in the hold.
 fn held_mid_arc(
     edit: impl FnOnce(&mut gantry_machine::setup::Setup),
-) -> host_sender::emulator::EmulatedBoard {
+) -> gantry_emulator::EmulatedBoard {
     let mut eb = board(edit);
     job(&mut eb, ARC_JOB);
     eb.run_until(60_000, |b| b.board.line() == 5);
@@ -205,14 +205,14 @@ fn a_feed_hold_decelerates_from_the_kernels_running_segment_and_resumes_exactly(
     let mut eb = board(|_| {});
     job(&mut eb, "G21 G90\nG1 X100 F3000\nM30\n");
     eb.run_until(10_000, |b| b.isr.kernel.position()[0] >= 20 * STEPS_PER_MM);
-    eb.run_for(host_sender::emulator::COUNTS_PER_MS / 3);
+    eb.run_for(gantry_emulator::COUNTS_PER_MS / 3);
     let (t0, from, queued) = (eb.now(), eb.isr.kernel.position()[0], eb.queued_ms());
     set(&mut eb, Signal::FeedHold, true);
     eb.run_until(5_000, |b| {
         b.board.motion().state() == MotionState::Held && b.kernel_drained()
     });
     let drop = eb.last_drop.expect("the hold took the queue back");
-    let ms = |c: u64| c as f64 / host_sender::emulator::COUNTS_PER_MS as f64;
+    let ms = |c: u64| c as f64 / gantry_emulator::COUNTS_PER_MS as f64;
     let (left, delay) = (ms(drop.running_left), ms(drop.time - t0));
     let (v, a, step) = (50.0, 200.0, 1.0 / STEPS_PER_MM as f64);
     let travelled = (eb.isr.kernel.position()[0] - from) as f64 * step;

@@ -6,12 +6,12 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::board::BoardEvent;
 use gantry_machine::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 use gantry_machine::controller::{AlarmCode, State};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::setup::ListCommand;
-use host_sender::emulator::EmulatedBoard;
 
 /// X seeks its min switch (physical -3 mm) second, Z its max switch (physical +7 mm) first.
 fn machine(edit: impl FnOnce(&mut gantry_machine::setup::Setup)) -> EmulatedBoard {

@@ -6,11 +6,11 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
 use gantry_machine::board::{BoardEvent, ERROR_JOG_DEADMAN};
 use gantry_machine::controller::jog::JOG_DEADMAN_MS;
 use gantry_machine::controller::State;
 use gantry_machine::motion::pipeline::MotionState;
-use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
 
 /// 3000 mm/min = 50 mm/s on X (default acceleration 200 mm/s²: 6.25 mm to stop).
 const FEED_UM_MIN: i32 = 3_000_000;

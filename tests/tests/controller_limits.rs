@@ -9,7 +9,7 @@ use gantry_machine::board::{ERROR_HOMING_REQUIRED, ERROR_LIMIT_PRESSED};
 use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 
 /// X and Y with min switches at -2 mm for homing, X with a max switch at 50 mm.
-fn machine() -> host_sender::emulator::EmulatedBoard {
+fn machine() -> gantry_emulator::EmulatedBoard {
     let mut eb = board(|s| {
         s.inputs.limit_min = 0b011;
         s.inputs.limit_max = 0b001;
@@ -86,7 +86,7 @@ fn with_homing_required_motion_waits_for_homing_after_a_hard_limit() {
     let mut eb = machine();
     let mut s = eb.board.setup().clone();
     s.homing.required = true;
-    let mut eb2 = host_sender::emulator::EmulatedBoard::new(s);
+    let mut eb2 = gantry_emulator::EmulatedBoard::new(s);
     eb2.add_switch(0, false, -2 * MM);
     eb2.add_switch(1, false, -2 * MM);
     eb2.add_switch(0, true, 50 * MM);

@@ -12,6 +12,7 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
 use gantry_machine::board::link::status_of;
 use gantry_machine::board::main_loop::{SpeedMeter, SEGMENT_QUEUE_DEPTH};
 use gantry_machine::board::ERROR_LIMIT_PRESSED;
@@ -19,7 +20,6 @@ use gantry_machine::controller::{AlarmCode, State};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::setup::Setup;
 use gantry_proto::MachineState;
-use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
 use host_sender::link::Client;
 use host_sender::session::push_setup_over;
 

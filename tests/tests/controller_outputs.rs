@@ -5,10 +5,10 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::controller::inputs::Signal;
 use gantry_machine::controller::{AdcReadings, AlarmCode, OutputLevels, State};
 use gantry_machine::setup::{ListCommand, McodeList, Setup};
-use host_sender::emulator::EmulatedBoard;
 
 fn x_speed_mm_min(eb: &mut EmulatedBoard) -> f64 {
     let before = eb.pulses[0];

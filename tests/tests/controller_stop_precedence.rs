@@ -6,11 +6,11 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::board::{BoardEvent, JobEnd};
 use gantry_machine::controller::inputs::Signal;
 use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 use gantry_machine::motion::pipeline::MotionState;
-use host_sender::emulator::EmulatedBoard;
 
 /// 100 mm at 3000 mm/min with spindle and flood on.
 const LONG_CUT: &str = "G21 G90\nM3 S12000\nM8\nG1 X100 F3000\nM30\n";

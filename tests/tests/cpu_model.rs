@@ -1,13 +1,13 @@
-//! The emulated board's CPU model (host-sender/src/cpu_model.rs): a fine-segment 3D program
+//! The emulated board's CPU model (emulator/src/cpu_model.rs): a fine-segment 3D program
 //! streamed to the emulated board with the F411 model on shows underruns at a feed the F411
 //! cannot keep up with, and none at a feed it can; without the model the same fast job has none.
 
 mod fine_lines;
 
 use fine_lines::{fine_lines, Wording};
+use gantry_emulator::cpu_model::CpuModel;
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::setup::Setup;
-use host_sender::cpu_model::CpuModel;
-use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
 use host_sender::program::Program;
 use host_sender::session::{stream_program, Flow};

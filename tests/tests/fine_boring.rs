@@ -8,9 +8,9 @@ mod controller_support;
 mod serial_support;
 
 use controller_support::*;
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::controller::{AlarmCode, State};
 use gantry_machine::setup::OrientSetup;
-use host_sender::emulator::EmulatedBoard;
 use serial_support::{gantry, Dir};
 use std::time::Duration;
 

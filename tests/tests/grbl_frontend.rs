@@ -6,10 +6,10 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::board::link::LinkProtocol;
 use gantry_machine::controller::State;
 use gantry_machine::grbl::{BANNER, RX_SIZE};
-use host_sender::emulator::EmulatedBoard;
 
 /// A grbl sender on the emulated board's port.
 struct Sender {
@@ -476,7 +476,7 @@ fn homing_is_answered_when_it_ends_and_unlocks_the_boot_alarm() {
 #[test]
 fn a_probe_move_reports_its_trip_in_prb_and_the_tool_change_stop_is_hold() {
     let mut s = Sender::connected();
-    s.eb.add_probe_target(host_sender::emulator::ProbeTarget::Plane { z: -5_000_000 });
+    s.eb.add_probe_target(gantry_emulator::ProbeTarget::Plane { z: -5_000_000 });
     s.send(b"$#\n");
     assert!(
         s.until("ok\r\n", 50).contains("[PRB:0.000,0.000,0.000:0]"),
@@ -766,7 +766,7 @@ fn a_soft_reset_puts_the_overrides_back_to_100_and_the_coolant_off() {
 #[test]
 fn a_probe_line_is_answered_after_its_prb_message() {
     let mut s = Sender::connected();
-    s.eb.add_probe_target(host_sender::emulator::ProbeTarget::Plane { z: -2_000_000 });
+    s.eb.add_probe_target(gantry_emulator::ProbeTarget::Plane { z: -2_000_000 });
     s.send(b"G21 G90\nG38.2 Z-10 F200\nG0 Z0\n");
     for _ in 0..30_000 {
         if s.oks() == 3 {
@@ -887,7 +887,7 @@ fn close_the_door(s: &mut Sender) -> u64 {
     sent
 }
 
-const COUNTS_PER_MS: u64 = host_sender::emulator::COUNTS_PER_MS;
+const COUNTS_PER_MS: u64 = gantry_emulator::COUNTS_PER_MS;
 
 #[test]
 fn after_the_door_the_spindle_spins_up_for_the_set_time_before_the_job_resumes() {

@@ -12,12 +12,12 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_emulator::cpu_model::CpuModel;
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::controller::State;
 use gantry_machine::grbl::BANNER;
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::setup::Setup;
-use host_sender::cpu_model::CpuModel;
-use host_sender::emulator::EmulatedBoard;
 use std::collections::VecDeque;
 
 /// The host's turnaround, µs: from the board writing an `ok` to the sender's next line in the

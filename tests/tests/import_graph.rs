@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 const CRATES: &[&str] = &[
     "machine",
     "shared-proto",
+    "emulator",
     "host-sender",
     "settings-store",
     "tests",

@@ -1,5 +1,5 @@
 //! Plasma torch mode on the emulated board (docs/laser-plasma.md "Plasma"), on virtual time with
-//! the scripted power source and height controller (host-sender/src/torch_script.rs): the wait
+//! the scripted power source and height controller (emulator/src/torch_script.rs): the wait
 //! for arc-OK after M3, the "no arc" alarm, the hold when the arc is lost mid-cut (resumed only
 //! by cycle start, which re-fires the torch and waits again), and torch height control's Z
 //! steps: at cruise only, never in ramps, corners or below the anti-dive speed, reported beside
@@ -8,13 +8,13 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_emulator::torch_script::{parse_thc, TorchModel, TorchScript};
+use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
 use gantry_machine::board::link::status_of;
 use gantry_machine::board::BoardEvent;
 use gantry_machine::controller::{AlarmCode, State};
 use gantry_machine::motion::kernel::{Segment, KERNEL_TIMER_HZ};
 use gantry_machine::setup::Setup;
-use host_sender::emulator::{EmulatedBoard, COUNTS_PER_MS};
-use host_sender::torch_script::{parse_thc, TorchModel, TorchScript};
 
 const Z: usize = 2;
 

@@ -5,12 +5,12 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_emulator::{EmulatedBoard, ProbeTarget};
 use gantry_machine::board::link::status_of;
 use gantry_machine::board::{BoardEvent, JobEnd};
 use gantry_machine::controller::{AlarmCode, State};
 use gantry_machine::gcode::expr::ParamRef;
 use gantry_proto::ProbeStatus;
-use host_sender::emulator::{EmulatedBoard, ProbeTarget};
 use host_sender::present::format_status;
 
 /// A parameter's value in µm (program units are mm: values are mm × 10⁹).

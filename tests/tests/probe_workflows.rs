@@ -3,9 +3,9 @@
 //! offset (or the tool length) to the exact latched contacts, read back from the board's setup
 //! and status, and ends where its plan says. The page's run of them is scripts/console_drive.js.
 
+use gantry_emulator::{EmulatedBoard, ProbeTarget};
 use gantry_machine::setup::Setup;
 use gantry_machine::units::NM_PER_MM;
-use host_sender::emulator::{EmulatedBoard, ProbeTarget};
 use host_sender::session::probe::{Approach, Corner, Side};
 use host_sender::session::{Flow, Session};
 

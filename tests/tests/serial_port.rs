@@ -1,8 +1,8 @@
 //! The `--port` path end to end: the sender's serial transport on one end of a pseudo-terminal
 //! pair, the emulated board (paced to the wall clock) on the other.
 
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::setup::Setup;
-use host_sender::emulator::EmulatedBoard;
 use host_sender::link::{Client, SerialTransport};
 use host_sender::program::Program;
 use host_sender::session::{stream_program, Flow};

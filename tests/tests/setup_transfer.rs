@@ -1,8 +1,8 @@
 //! The machine setup travels to the board and back over the real protocol, and a board refuses
 //! a setup while a job runs.
 
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::setup::Setup;
-use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
 use host_sender::program::Program;
 use host_sender::session::{pull_setup_over, push_setup_over};

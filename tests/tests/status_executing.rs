@@ -6,11 +6,11 @@ mod controller_support;
 mod serial_support;
 
 use controller_support::*;
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::board::link::status_of;
 use gantry_machine::controller::State;
 use gantry_machine::gcode::config::Tool;
 use gantry_machine::setup::Setup;
-use host_sender::emulator::EmulatedBoard;
 
 /// T1 10 mm long, T2 22.5 mm.
 fn with_tools(s: &mut Setup) {

@@ -1,17 +1,17 @@
 //! The step interrupt written once (machine/src/step/): the emulated board's timer
-//! (host-sender/src/step_clock.rs) and a register-level stand-in for the firmware's TIM2 and DMA
+//! (emulator/src/step_clock.rs) and a register-level stand-in for the firmware's TIM2 and DMA
 //! streams (the registers as memory words, as target-tests/src/bin/bench_step.rs has them, with
 //! another pin map) run the same scenario — moves with idle gaps between them, a probe move that
 //! trips the probe latch, a move into a limit switch — and must put out the same step edges at
 //! the same timer counts. The emulated board's start-up timing (the 1 ms idle poll and the two
 //! kernel ticks ahead of the pins) is tested with the other step timing, tests/tests/step_timing.rs.
 
+use gantry_emulator::step_clock::{ClockEvent, StepClock};
 use gantry_machine::motion::kernel::{ProbeLatch, Segment, StepTiming};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::motion::sim::SegmentFifo;
 use gantry_machine::setup::DriverSetup;
 use gantry_machine::step::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS, TICKS_AHEAD};
-use host_sender::step_clock::{ClockEvent, StepClock};
 
 /// 1 µs pulses and dir set-up: short periods, so the set-up shows in the timing.
 const FAST: DriverSetup = DriverSetup {

@@ -4,12 +4,12 @@
 //! set-up; the first step after idle waits for the 1 ms idle poll and the two kernel ticks ahead.
 //! Measured on the board's pin events (one per tick that steps or changes direction).
 
+use gantry_emulator::{EmulatedBoard, PinEvent};
 use gantry_machine::board::main_loop::BoardPort;
 use gantry_machine::motion::kernel::{Segment, StepTiming};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::setup::{DriverSetup, Setup};
 use gantry_machine::step::IDLE_PERIOD_COUNTS;
-use host_sender::emulator::{EmulatedBoard, PinEvent};
 use std::cell::RefCell;
 use std::rc::Rc;
 

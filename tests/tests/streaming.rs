@@ -1,10 +1,10 @@
 //! Whole-system streaming tests: the `gantry` sender against the emulated board over the real
 //! protocol. Every job must end exactly where the core's own simulation of the same file ends.
 
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::setup::Setup;
 use gantry_proto::fault::Faults;
 use gantry_proto::MachineState;
-use host_sender::emulator::EmulatedBoard;
 use host_sender::link::{Client, Transport};
 use host_sender::program::Program;
 use host_sender::session::{continue_job, stream_program, BoardAlarm, Flow, StreamReport};

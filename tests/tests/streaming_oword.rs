@@ -2,8 +2,8 @@
 //! its lines again (the board keeps no line it has interpreted), and ends with exactly the steps of
 //! the same program unrolled.
 
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::setup::Setup;
-use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
 use host_sender::program::Program;
 use host_sender::session::{stream_program, Flow, StreamReport};

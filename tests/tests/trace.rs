@@ -29,7 +29,7 @@ fn the_vcd_of_the_example_job_has_every_step_the_board_made() {
 
 #[test]
 fn input_changes_reach_the_pin_observer() {
-    use host_sender::emulator::EmulatedBoard;
+    use gantry_emulator::EmulatedBoard;
     use std::sync::{Arc, Mutex};
     let mut board = EmulatedBoard::new(Setup::default());
     let seen = Arc::new(Mutex::new(Vec::new()));

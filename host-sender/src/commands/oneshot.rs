@@ -6,11 +6,11 @@
 //! closes the link; the board keeps running whatever it runs.
 
 use super::{check_can_start, ctrl_c_flag, print_notices, CONFIRM_MS};
-use crate::emulator::emulated_with_switches;
 use crate::link::OnClose;
 use crate::present::{alarm_text, format_status, limit_text, refusal_text, state_name};
 use crate::session::{Flow, Overrides, Session, Target};
 use anyhow::Context;
+use gantry_emulator::emulated_with_switches;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::AXIS_LETTERS;
 use gantry_proto::{BoardMsg, HostMsg, Status};

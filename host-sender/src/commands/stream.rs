@@ -3,13 +3,13 @@
 //! planner, and the final report.
 
 use super::{check_can_start, ctrl_c_flag};
-use crate::emulator::EmulatedBoard;
 use crate::link::OnClose;
 use crate::present::{axes_line, hms, limit_text, starved_line, state_name, underrun_line};
 use crate::program::Program;
 use crate::program_stops;
 use crate::resume::resume_preamble;
 use crate::session::{Flow, JobStart, LinkEnd, Progress, Session, StreamReport, Target};
+use gantry_emulator::EmulatedBoard;
 use gantry_proto::MachineState;
 
 /// Where `gantry stream` starts the job.
@@ -35,7 +35,7 @@ pub fn run(
     run_with_cpu(file, target, setup, start, None)
 }
 
-/// [`run`] with a CPU model for the emulated board (`--cpu-model`, [`crate::cpu_model`]): its
+/// [`run`] with a CPU model for the emulated board (`--cpu-model`, [`gantry_emulator::cpu_model`]): its
 /// main loop then takes the time the MCU would, and the report's underruns show whether that
 /// MCU keeps up with the program.
 pub fn run_with_cpu(
@@ -43,7 +43,7 @@ pub fn run_with_cpu(
     target: Target,
     setup: gantry_machine::setup::Setup,
     start: Start,
-    cpu: Option<crate::cpu_model::CpuModel>,
+    cpu: Option<gantry_emulator::cpu_model::CpuModel>,
 ) -> anyhow::Result<std::process::ExitCode> {
     run_checked(file, target, setup, start, cpu, true, false)
 }
@@ -69,7 +69,7 @@ pub fn run_checked(
     target: Target,
     setup: gantry_machine::setup::Setup,
     start: Start,
-    cpu: Option<crate::cpu_model::CpuModel>,
+    cpu: Option<gantry_emulator::cpu_model::CpuModel>,
     check: bool,
     through_stops: bool,
 ) -> anyhow::Result<std::process::ExitCode> {

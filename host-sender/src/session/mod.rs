@@ -24,9 +24,9 @@ pub use job::{
 pub use setup::{pull_setup_over, push_setup_over};
 pub use start::{check_program, check_text, Cleared, Refused};
 
-use crate::emulator::EmulatedBoard;
 use crate::link::{Client, OnClose, SerialTransport, Transport};
 use crate::program::Program;
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::setup::Setup;
 use gantry_proto::{BoardMsg, HostMsg, Status};
 

@@ -1,5 +1,5 @@
 //! The board's main loop, once: the firmware (`firmware/src/control.rs`, every millisecond on
-//! the board) and the emulated board (`host-sender/src/emulator.rs`, every virtual millisecond)
+//! the board) and the emulated board (`emulator/src/board.rs`, every virtual millisecond)
 //! both call [`MainLoop::pass`]. Everything that decides anything lives here; what differs
 //! between the two (the step kernel behind an interrupt or on a virtual clock, pins, USB pipes
 //! or a byte buffer, flash, the motion marker) sits behind [`BoardPort`].

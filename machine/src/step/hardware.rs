@@ -1,6 +1,6 @@
 //! What the step interrupt reads and writes: one trait, implemented by the firmware's TIM2 and
 //! DMA (`firmware/src/step.rs`), the emulated board's virtual timer
-//! (`host-sender/src/step_clock.rs`) and the benchmark's registers in RAM
+//! (`emulator/src/step_clock.rs`) and the benchmark's registers in RAM
 //! (`target-tests/src/bin/bench_step.rs`).
 
 use crate::motion::output_event::OutputEvent;

@@ -1,7 +1,7 @@
 //! The step interrupt's body, apart from the registers it writes: one run per step event.
 //!
 //! The firmware runs it in the TIM2 compare-1 interrupt (`firmware/src/step.rs`) over the real
-//! timer and GPIO registers; the emulated board (`host-sender/src/step_clock.rs`) runs it over a
+//! timer and GPIO registers; the emulated board (`emulator/src/step_clock.rs`) runs it over a
 //! timer on its virtual clock; `target-tests/src/bin/bench_step.rs` runs it over a memory-backed
 //! fake of the registers to count its instructions. It reaches the hardware only through
 //! [`StepHardware`].

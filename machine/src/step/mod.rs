@@ -1,7 +1,7 @@
 //! The step interrupt, written once: its body ([`isr`]), the pin words it writes ([`pins`]), the
 //! registers it reaches ([`hardware::StepHardware`]), the main loop's access to its state
 //! ([`access`]) and the pulse timing it keeps ([`timing`]). The firmware's TIM2 and DMA (`firmware/src/step.rs`) and the emulated board's
-//! virtual timer (`host-sender/src/step_clock.rs`) each implement [`StepHardware`] and nothing
+//! virtual timer (`emulator/src/step_clock.rs`) each implement [`StepHardware`] and nothing
 //! more.
 
 pub mod access;

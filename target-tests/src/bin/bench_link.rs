@@ -376,7 +376,7 @@ fn main() -> ! {
         (n + steady.frames / 2) / steady.frames,
         steady_frame / 1000
     );
-    // For scripts/bench-mcu.sh (host-sender/src/cpu_model_f411.rs, firmware/README.md).
+    // For scripts/bench-mcu.sh (emulator/src/cpu_model_f411.rs, firmware/README.md).
     println!(
         "figures link_line={} link_pass={} link_frame={} link_byte={} line_bytes={} lines_per_frame={} lines_per_pass={}",
         steady.link / 1000 / n,

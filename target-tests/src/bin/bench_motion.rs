@@ -335,7 +335,7 @@ fn main() -> ! {
         "kernel instructions/tick: 1 axis {}, 3 axes {}, 6 axes {}; block {}; F411@96MHz 3-axis tick ceiling {} kHz (100% CPU, {} cycles/ISR), {} kHz at 25% CPU",
         t1, t3, t6, block, rate_khz, isr, rate_khz / 4
     );
-    // For scripts/bench-mcu.sh (host-sender/src/cpu_model_f411.rs, firmware/README.md).
+    // For scripts/bench-mcu.sh (emulator/src/cpu_model_f411.rs, firmware/README.md).
     println!(
         "figures interpret_line={} plan_block={} prepare_segment={} kernel_tick_1={} kernel_tick_3={} kernel_tick_6={}",
         interpret, plan, prepare, t1, t3, t6

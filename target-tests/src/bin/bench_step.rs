@@ -592,7 +592,7 @@ fn main() -> ! {
         "step interrupt instructions/step event: 1 axis {}, 3 axes {}, 6 axes {}; +{} entry/exit cycles; F411@96MHz ceiling (100% CPU) {} / {} / {} kHz per axis",
         i1, i3, i6, ENTRY_EXIT, khz(i1), khz(i3), khz(i6)
     );
-    // For scripts/bench-mcu.sh (host-sender/src/cpu_model_f411.rs, firmware/README.md).
+    // For scripts/bench-mcu.sh (emulator/src/cpu_model_f411.rs, firmware/README.md).
     println!(
         "figures step_event_1={} step_event_3={} step_event_6={} step_entry_exit_cycles={}",
         i1, i3, i6, ENTRY_EXIT

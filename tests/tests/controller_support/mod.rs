@@ -2,12 +2,12 @@
 //! straight into the board, and waits on the virtual clock.
 #![allow(dead_code)]
 
+use gantry_emulator::EmulatedBoard;
 use gantry_machine::board::BoardEvent;
 use gantry_machine::controller::inputs::Signal;
 use gantry_machine::controller::State;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::NM_PER_MM;
-use host_sender::emulator::EmulatedBoard;
 use host_sender::link::Client;
 use host_sender::program::Program;
 use host_sender::session::{stream_program, Flow};

@@ -31,7 +31,6 @@
 //! DTR, the flash).
 
 use crate::cpu_model::{CpuMeter, CpuModel};
-use crate::link::Transport;
 use crate::step_clock::{ClockEvent, StepClock};
 use crate::torch_script::{TorchModel, TORCH_BITS};
 use gantry_machine::board::link::{BoardLink, KernelView};
@@ -1185,31 +1184,6 @@ impl BoardPort for Hardware {
                 self.events.push(e);
             }
         }
-    }
-}
-
-/// The emulated board as a transport: waiting runs it on virtual time.
-impl Transport for EmulatedBoard {
-    fn write(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
-        self.receive(bytes);
-        Ok(())
-    }
-
-    fn read(&mut self, into: &mut Vec<u8>) -> anyhow::Result<()> {
-        into.extend(self.take_output());
-        Ok(())
-    }
-
-    fn wait(&mut self, ms: u32) {
-        self.run_for(ms as u64 * COUNTS_PER_MS);
-    }
-
-    fn now_ms(&self) -> u32 {
-        EmulatedBoard::now_ms(self)
-    }
-
-    fn underruns(&self) -> Option<u64> {
-        Some(self.starved.gaps)
     }
 }
 
