@@ -50,7 +50,10 @@ impl PinMap {
             v.push((format!("joystick_switch{i}"), *p));
         }
         v.push(("probe".into(), self.probe));
-        for (role, p) in ["arc_ok", "thc_up", "thc_down"].iter().zip(&self.torch_inputs) {
+        for (role, p) in ["arc_ok", "thc_up", "thc_down"]
+            .iter()
+            .zip(&self.torch_inputs)
+        {
             v.push(((*role).into(), *p));
         }
         v.push(("spindle_pwm".into(), self.spindle_pwm.0));
