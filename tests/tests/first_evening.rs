@@ -35,9 +35,10 @@ fn the_status_names_the_active_inputs() {
     let out = gantry(&["--port", emu.port(), "status"], T);
     assert_eq!(out.code, Some(0), "{out:?}");
     assert!(out.stdout.contains("\ninputs:    none active\n"), "{out:?}");
-    // The names are the setup's and the console's (one table), `inN` beyond them.
+    // The names are the setup's and the console's (one table; bit 31 is the plasma torch
+    // height controller's down input).
     let names = host_sender::present::input_names(1 << 16 | 1 << 28 | 1 << 31);
-    assert_eq!(names, ["x_min", "probe", "in31"]);
+    assert_eq!(names, ["x_min", "probe", "thc_down"]);
 }
 
 #[test]
