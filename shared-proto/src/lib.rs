@@ -37,7 +37,7 @@ pub use messages::{
 /// Protocol version exchanged in the handshake: major in the high byte, minor
 /// in the low byte. Endpoints connect only when the majors are equal (see
 /// `docs/protocol.md`, version policy).
-pub const PROTOCOL_VERSION: u16 = 0x0700;
+pub const PROTOCOL_VERSION: u16 = 0x0800;
 
 /// The first version whose board takes [`HostMsg::JogKeepalive`] (a 5.0 board cannot decode it:
 /// it would stand unacknowledged at the head of the realtime lane).

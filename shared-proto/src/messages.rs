@@ -117,9 +117,13 @@ wire_messages! {
         /// The board validates and applies it (and writes flash only when idle), and answers
         /// with [`BoardMsg::Answer`] `{ id, .. }`.
         Queued SetupCommit { id: u32, len: u32, crc32: u32 },
-        /// Ask the board to send its setup blob (as [`BoardMsg::SetupChunk`]s and a
-        /// [`BoardMsg::SetupEnd`]).
-        Queued SetupRequest,
+        /// Ask the board to send its setup blob: answered by [`BoardMsg::Answer`] `{ id, 0 }`,
+        /// then [`BoardMsg::SetupChunk`]s and a [`BoardMsg::SetupEnd`]. The answer marks where
+        /// this request's transfer begins: a board keeps its unacknowledged frames across host
+        /// sessions and sends them to the next host, so a transfer an earlier host asked for (and
+        /// left before it acknowledged) can arrive first, whole and with a valid CRC, holding
+        /// the setup as it was then.
+        Queued SetupRequest { id: u32 },
         /// Start executing the streamed job from its first line; answered by
         /// [`BoardMsg::Answer`] `{ id, .. }` before any message of the job.
         Queued Start { id: u32 },
@@ -372,7 +376,7 @@ wire_messages! {
         /// The interpreter jumped (M98/M99): stop serving the previous place and serve lines from
         /// `target` on as `Lines { id, .. }`. Lines for older ids are dropped by the board.
         Queued ProgramRequest { id: u16, target: ProgramTarget },
-        /// A chunk of the board's setup blob at byte `offset` (answer to `SetupRequest`).
+        /// A chunk of the board's setup blob at byte `offset` (after the answer to `SetupRequest`).
         Queued SetupChunk {
             offset: u32,
             bytes: Vec<u8, SETUP_CHUNK_MAX>,
@@ -380,7 +384,7 @@ wire_messages! {
         /// The setup blob is complete: `len` bytes with CRC-32/ISO-HDLC `crc32`.
         Queued SetupEnd { len: u32, crc32: u32 },
         /// The answer to the request with this `id` (`Jog`, `Home`, `Unlock`, `Start`,
-        /// `StartFromLine`, `SetupCommit`): 0 = accepted, else why not (error 900 beyond the
+        /// `StartFromLine`, `SetupCommit`, `SetupRequest`): 0 = accepted, else why not (error 900 beyond the
         /// travel, 901 homing required, 902 busy, 903 invalid; for `SetupCommit` 1 = bad length
         /// or CRC, 2 = not a valid setup, 3 = not idle). Queued, after every message the board
         /// queued before it took the request: whatever the host receives on the queued lane

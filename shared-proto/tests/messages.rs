@@ -61,7 +61,7 @@ fn all_host() -> Vec<HostMsg> {
             len: 1000,
             crc32: 0xDEAD_BEEF,
         },
-        HostMsg::SetupRequest,
+        HostMsg::SetupRequest { id: u32::MAX },
         HostMsg::Start { id: 7 },
         HostMsg::StartFromLine {
             id: 8,

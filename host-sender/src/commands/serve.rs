@@ -154,8 +154,10 @@ impl Peer {
         }
     }
 
-    /// Answers a setup request with `blob` as the board would (chunks, then the end).
-    fn send_setup(&mut self, blob: &[u8]) {
+    /// Answers setup request `id` with `blob` as the board would (the answer, the chunks, then
+    /// the end).
+    fn send_setup(&mut self, id: u32, blob: &[u8]) {
+        self.outbox.push_back(BoardMsg::Answer { id, code: 0 });
         for (i, chunk) in blob.chunks(SETUP_CHUNK_MAX).enumerate() {
             self.outbox.push_back(BoardMsg::SetupChunk {
                 offset: (i * SETUP_CHUNK_MAX) as u32,
@@ -284,9 +286,11 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
                 }
                 // The session's setup answers a setup request at once (the command's earlier
                 // queued messages have gone to the board).
-                while matches!(p.pending.front(), Some(HostMsg::SetupRequest)) && !setup_stale {
+                while let (Some(&HostMsg::SetupRequest { id }), false) =
+                    (p.pending.front(), setup_stale)
+                {
                     p.pending.pop_front();
-                    p.send_setup(&setup_blob);
+                    p.send_setup(id, &setup_blob);
                 }
             }
             // Realtime messages go first and never wait for queued ones; they wait here only
@@ -313,7 +317,7 @@ pub fn run(port: &str, http: Option<&crate::console::Options>) -> anyhow::Result
                 let p = &mut peers[turn % n];
                 turn = turn.wrapping_add(1);
                 match p.pending.front() {
-                    None | Some(HostMsg::SetupRequest) => idle += 1,
+                    None | Some(HostMsg::SetupRequest { .. }) => idle += 1,
                     Some(_) => {
                         idle = 0;
                         let msg = p.pending.pop_front().expect("front");

@@ -43,16 +43,28 @@ pub fn pull_setup_over<T: Transport>(
     client: &mut Client<T>,
 ) -> anyhow::Result<gantry_machine::setup::Setup> {
     use gantry_proto::BoardMsg;
-    client.send(HostMsg::SetupRequest)?;
+    let id = client.request_id();
+    client.send(HostMsg::SetupRequest { id })?;
     // Other messages (a job's program requests, errors, job ends) are kept for later.
     let mut kept = Vec::new();
     let result = (|| {
         let mut blob = Vec::new();
         let mut damaged = false;
+        // The board answers the request before its chunks. Chunks before the answer are a
+        // transfer an earlier host asked for and left unacknowledged, which the board sends on
+        // to this one (docs/protocol.md §6): the setup as it was then, not now.
+        let mut answered = false;
         for _ in 0..3000 {
             client.pump(1)?;
             while let Some(msg) = client.recv() {
                 match msg {
+                    BoardMsg::Answer { id: got, code } if got == id => {
+                        if code != 0 {
+                            anyhow::bail!("the board could not send its setup (code {code})");
+                        }
+                        answered = true;
+                    }
+                    BoardMsg::SetupChunk { .. } | BoardMsg::SetupEnd { .. } if !answered => {}
                     // Through `gantry serve` another command's request may restart the
                     // board's transfer (offset 0 again): follow the newest one; the length and
                     // CRC check the result.
@@ -84,4 +96,40 @@ pub fn pull_setup_over<T: Transport>(
     })();
     client.put_back(kept);
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
+    use gantry_machine::setup::Setup;
+
+    /// A host that asked for the setup and went away before acknowledging the board's chunks
+    /// leaves that transfer in the board's send window, and the board sends it on to the next
+    /// host (it keeps its frames across host sessions). The next host's pull must give the setup
+    /// as it is now, not that transfer's: here a setup applied in between (a push from a third
+    /// command) would look undone.
+    #[test]
+    fn a_pull_ignores_the_transfer_an_earlier_host_left_unacknowledged() {
+        let old = Setup::default();
+        let mut first = Client::connect(EmulatedBoard::new(old.clone()), 2000).unwrap();
+        let id = first.request_id();
+        first.send(HostMsg::SetupRequest { id }).unwrap();
+        first.pump(1).unwrap();
+        // The first host is gone: the board sends the whole transfer to nobody.
+        let mut board = first.into_transport();
+        board.run_for(50 * COUNTS_PER_MS);
+        drop(board.take_output());
+        let mut new = old.clone();
+        new.program.work_offsets[0][0] = 1_000_000;
+        assert!(board.board.set_setup(new.clone()));
+
+        let mut second = Client::connect(board, 2000).unwrap();
+        let pulled = pull_setup_over(&mut second).unwrap();
+        assert_eq!(pulled.program.work_offsets[0][0], 1_000_000);
+        assert!(
+            pulled == new,
+            "the pull gave the setup of the earlier host's transfer"
+        );
+    }
 }

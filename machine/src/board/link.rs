@@ -575,15 +575,23 @@ impl Inbox<'_> {
                 self.setup.incoming.clear();
                 answer(self.board, id, result.map_err(SetupRefusal::code));
             }
-            HostMessage::SetupRequest => {
+            HostMessage::SetupRequest { id } => {
                 let mut buf = [0u8; SETUP_BLOB_MAX];
-                if let Some(blob) = self.board.setup().to_blob(&mut buf) {
-                    self.setup.outgoing = Some(SetupOut {
-                        len: blob.len(),
-                        crc32: gantry_proto::crc::crc32(blob),
-                        sent: 0,
-                    });
-                }
+                let result = match self.board.setup().to_blob(&mut buf) {
+                    Some(blob) => {
+                        self.setup.outgoing = Some(SetupOut {
+                            len: blob.len(),
+                            crc32: gantry_proto::crc::crc32(blob),
+                            sent: 0,
+                        });
+                        Ok(())
+                    }
+                    None => Err(SetupRefusal::Invalid),
+                };
+                // Before the chunks (`BoardLink::service` sends the events, this answer among
+                // them, before the transfer): what the host receives before it is no part of
+                // this transfer (messages.rs `SetupRequest`).
+                answer(self.board, id, result.map_err(SetupRefusal::code));
             }
             HostMessage::Start { id } | HostMessage::StartFromLine { id, .. } => {
                 let r = self.board.try_start_job();
