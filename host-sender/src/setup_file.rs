@@ -13,8 +13,8 @@ mod codec;
 
 use anyhow::{bail, Context};
 use gantry_machine::setup::table::{Section, Unit, ROWS, SECTIONS};
-use gantry_machine::setup::{section_name, Key, KeyName, Setup};
-use gantry_machine::units::Nm;
+use gantry_machine::setup::{section_name, Key, KeyName, OrientSetup, Setup, USER_OUTPUTS};
+use gantry_machine::units::{Nm, AXIS_LETTERS};
 use std::fmt::Write as _;
 use std::path::Path;
 use toml::{Table, Value};
@@ -390,60 +390,66 @@ fn read_rows(
         } else if name != key.text().name {
             let [a, b] = codec::pair(&format!("{at}{name}"), v)?;
             for (key, v) in [(key, a), (key.next(), b)] {
-                let value = number(key, i, v)?;
+                let value = read_value(key, i, v, s)?;
                 key.set(s, i, value);
             }
         } else {
-            let value = number(key, i, v)?;
+            let value = read_value(key, i, v, s)?;
             key.set(s, i, value);
         }
     }
     Ok(())
 }
 
-/// A file value of setting `key` (axis or tool `index`) in the core's integer units, checked
-/// against the settings table's range by the core's own check, so the refusal is the one the
-/// board and grbl `$x=` give. Scaled units read decimals; counts read whole numbers.
-fn number(key: Key, index: usize, v: &Value) -> anyhow::Result<i64> {
-    let unit = key.row().unit;
+/// A file value of setting `key` (axis or tool `index`) in the core's integer units, by the
+/// row's unit: scaled units read decimals, counts whole numbers, names (axis letters in use,
+/// inputs) their index. The table's range is checked by the core's own check, so the refusal
+/// is the one the board and grbl `$x=` give.
+fn read_value(key: Key, index: usize, v: &Value, s: &Setup) -> anyhow::Result<i64> {
+    let (unit, at) = (key.row().unit, KeyName(key, index).to_string());
+    let n = usize::from(s.axis_count);
     let scale = unit.scale();
-    let scaled = |v: f64| {
-        if v.is_nan() {
-            i64::MIN
-        } else {
-            (v * scale as f64).round() as i64
-        }
+    let scaled = |v: f64| match v.is_nan() {
+        true => i64::MIN,
+        false => (v * scale as f64).round() as i64,
     };
+    let expected = |what: &str| anyhow::anyhow!("{at}: expected {what}, found {}", v.type_str());
     let value = match (unit, v) {
         (Unit::Bool, Value::Boolean(b)) => i64::from(*b),
+        (Unit::Bool, _) => return Err(expected("true or false")),
         (Unit::Choice, Value::String(text)) => choice(key, index, text)?,
-        (Unit::Bool | Unit::Choice, _) => bail!(
-            "{}: expected {}, found {}",
-            KeyName(key, index),
-            if unit == Unit::Bool {
-                "true or false"
-            } else {
-                "a string"
-            },
-            v.type_str()
-        ),
+        (Unit::Choice, _) => return Err(expected("a string")),
+        (Unit::AxisMask, _) => codec::strings(&at, v)?.iter().try_fold(0, |m, name| {
+            anyhow::Ok(m | 1 << codec::axis_index(&at, name, n, false)?)
+        })?,
+        (Unit::InputMask, _) => codec::strings(&at, v)?.iter().try_fold(0, |m, name| {
+            anyhow::Ok(m | 1 << codec::input_bit(&at, name)?)
+        })?,
+        (Unit::AxisPair, _) => {
+            let letter = |v: &Value| match v.as_str() {
+                Some(name) => codec::axis_index(&at, name, n, true).map(i64::from),
+                None => bail!("{at}: expected axis letters"),
+            };
+            let [a, b] = codec::pair(&at, v)?;
+            letter(a)? | letter(b)? << 8
+        }
+        (Unit::Input, Value::String(name)) => i64::from(codec::input_bit(&at, name)?),
+        (Unit::Input, _) => bail!("{at}: expected an input name"),
+        (Unit::Output, Value::Integer(o)) if (0..i64::from(USER_OUTPUTS)).contains(o) => *o,
+        (Unit::Output, Value::Integer(o)) => bail!("{at} = {o}: a user output 0-{}", OUTPUT_MAX),
+        (Unit::Output, _) => bail!("{at}: expected a user output number 0-{OUTPUT_MAX}"),
         (_, Value::Integer(n)) if scale == 1 => *n,
-        (_, Value::Integer(n)) if scale > 1 => scaled(*n as f64),
+        (_, Value::Integer(n)) => scaled(*n as f64),
         (_, Value::Float(f)) if scale > 1 => scaled(*f),
-        _ => bail!(
-            "{}: expected {}, found {}",
-            KeyName(key, index),
-            if scale > 1 {
-                "a number"
-            } else {
-                "a whole number"
-            },
-            v.type_str()
-        ),
+        _ if scale > 1 => return Err(expected("a number")),
+        _ => return Err(expected("a whole number")),
     };
     key.check(index, value).map_err(anyhow::Error::new)?;
     Ok(value)
 }
+
+/// The highest user output number.
+const OUTPUT_MAX: u8 = USER_OUTPUTS - 1;
 
 /// `text` as the index of one of `key`'s choices (any case).
 fn choice(key: Key, index: usize, text: &str) -> anyhow::Result<i64> {
@@ -477,18 +483,35 @@ fn mm(v: Nm) -> String {
     decimal(v, 1_000_000)
 }
 
-/// One value of a numeric row as the file writes it.
-fn value_text(key: Key, v: i64) -> String {
+/// One value of a row as the file writes it (`n` axes in use).
+fn value_text(key: Key, v: i64, n: usize) -> String {
+    let letter = |a: i64| match AXIS_LETTERS.get(a as usize).filter(|_| (a as usize) < n) {
+        Some(l) => l.to_string(),
+        None => "-".into(),
+    };
+    let bits = |count: usize| (0..count).filter(move |b| v & (1 << b) != 0);
     match key.row().unit {
         Unit::Bool => (v != 0).to_string(),
         Unit::Choice => format!("\"{}\"", key.text().choices[v as usize]),
         // Degrees keep their three decimals (`0.000`): the file has always written them so.
         Unit::Degrees => format!("{}.{:03}", v / 1000, v % 1000),
+        Unit::AxisMask => codec::quoted(bits(n).map(|a| AXIS_LETTERS[a])),
+        Unit::InputMask => codec::quoted(bits(32).map(|b| codec::input_name(b as u8))),
+        Unit::AxisPair => codec::quoted([v & 0xff, v >> 8].into_iter().map(letter)),
+        Unit::Input => format!("{:?}", codec::input_name(v as u8)),
         u if u.scale() > 1 => decimal(v, u.scale()),
         _ => v.to_string(),
     }
 }
 
+/// An output or input row set to none: the example its commented-out line shows.
+fn unset(key: Key, v: i64) -> Option<&'static str> {
+    match key.row().unit {
+        Unit::Output if v > i64::from(OUTPUT_MAX) => Some("0"),
+        Unit::Input if v == i64::from(OrientSetup::NONE) => Some("\"in20\""),
+        _ => None,
+    }
+}
 /// Writes a setup as a commented setup file that [`SetupFile::parse`] reads back exactly: each
 /// section's table head, then each row's `key = value` and its comment.
 pub fn to_toml(s: &Setup) -> String {
@@ -505,15 +528,19 @@ pub fn to_toml(s: &Setup) -> String {
                 _ => writeln!(t, "\n[{}]", place(section, i).trim_end_matches('.')),
             };
             for (key, name) in rows(section) {
-                let note = key.text().note;
+                let (note, v, n) = (key.text().note, key.value(s, i), usize::from(s.axis_count));
                 let _ = if key.row().unit == Unit::Text {
                     writeln!(t, "{}", codec::write(key, i, s))
+                } else if let Some(example) = unset(key, v) {
+                    writeln!(t, "# {name} = {example}{note}")
                 } else if name != key.text().name {
-                    let (a, b) = (key.value(s, i), key.next().value(s, i));
-                    let (a, b) = (value_text(key, a), value_text(key.next(), b));
+                    let (a, b) = (
+                        value_text(key, v, n),
+                        value_text(key.next(), key.next().value(s, i), n),
+                    );
                     writeln!(t, "{name} = [{a}, {b}]{note}")
                 } else {
-                    writeln!(t, "{name} = {}{note}", value_text(key, key.value(s, i)))
+                    writeln!(t, "{name} = {}{note}", value_text(key, v, n))
                 };
             }
         }

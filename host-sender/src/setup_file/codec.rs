@@ -7,8 +7,8 @@ use anyhow::{bail, Context};
 use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::setup::table::Section;
 use gantry_machine::setup::{
-    Key, KeyName, ListCommand, McodeList, OrientSetup, Setup, ToolChangePosition, MAX_MCODE_LISTS,
-    MAX_TOOLS, MAX_USER_MCODES, STARTUP_LINE_LEN, USER_OUTPUTS,
+    Key, KeyName, ListCommand, McodeList, Setup, ToolChangePosition, MAX_MCODE_LISTS, MAX_TOOLS,
+    MAX_USER_MCODES, STARTUP_LINE_LEN, USER_OUTPUTS,
 };
 use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES};
 use std::fmt::Write as _;
@@ -66,58 +66,11 @@ pub(super) fn read(key: Key, i: usize, v: &Value, s: &mut Setup) -> anyhow::Resu
         Key::ToolChangePosition => {
             s.program.tool_change_position = tool_change_position(&at, v, s)?
         }
-        Key::ActiveLow => {
-            s.inputs.invert = 0;
-            for name in strings(&at, v)? {
-                s.inputs.invert |= 1 << input_bit(&at, name)?;
-            }
-        }
-        Key::LimitsMin | Key::LimitsMax => {
-            let mut mask = 0;
-            for name in strings(&at, v)? {
-                mask |= 1 << axis_index(&at, name, n, false)?;
-            }
-            *if key == Key::LimitsMin {
-                &mut s.inputs.limit_min
-            } else {
-                &mut s.inputs.limit_max
-            } = mask;
-        }
         Key::BeforeSeek => s.homing.before_seek = commands(&at, v)?,
         Key::BeforeRetract => s.homing.before_retract = commands(&at, v)?,
         Key::AfterRetract => s.homing.after_retract = commands(&at, v)?,
-        Key::Pair0 | Key::Pair1 | Key::AnalogAxes => {
-            let [a, b] = pair(&at, v)?;
-            let letter = |v: &Value| {
-                let name = v
-                    .as_str()
-                    .with_context(|| format!("{at}: expected axis letters"))?;
-                axis_index(&at, name, n, true)
-            };
-            let axes = [letter(a)?, letter(b)?];
-            match key {
-                Key::Pair0 => s.jog.pairs[0] = axes,
-                Key::Pair1 => s.jog.pairs[1] = axes,
-                _ => s.jog.analog_axes = axes,
-            }
-        }
         Key::McodeCommands => s.outputs.mcode_lists[i].commands = commands(&at, v)?,
         Key::StartupLines => startup_lines(&at, v, s)?,
-        Key::OrientOutput => {
-            let n = v.as_integer().with_context(|| {
-                format!("{at}: expected a user output number 0-{}", USER_OUTPUTS - 1)
-            })?;
-            if !(0..i64::from(USER_OUTPUTS)).contains(&n) {
-                bail!("{at} = {n}: a user output 0-{}", USER_OUTPUTS - 1);
-            }
-            s.outputs.orient.output = n as u8;
-        }
-        Key::OrientDoneInput => {
-            let name = v
-                .as_str()
-                .with_context(|| format!("{at}: expected an input name"))?;
-            s.outputs.orient.done_input = input_bit(&at, name)?;
-        }
         _ => bail!("{at}: not a text setting"),
     }
     Ok(())
@@ -127,12 +80,6 @@ pub(super) fn read(key: Key, i: usize, v: &Value, s: &mut Setup) -> anyhow::Resu
 pub(super) fn write(key: Key, i: usize, s: &Setup) -> String {
     let (name, note) = (key.text().name, key.text().note);
     let n = usize::from(s.axis_count);
-    let letter = |a: u8| {
-        AXIS_LETTERS
-            .get(usize::from(a))
-            .filter(|_| usize::from(a) < n)
-    };
-    let letter = |a: u8| letter(a).map_or("-".to_string(), |l| l.to_string());
     let value = match key {
         Key::Axes => quoted(AXIS_LETTERS[..n].iter()),
         Key::UserMcodes => {
@@ -157,34 +104,9 @@ pub(super) fn write(key: Key, i: usize, s: &Setup) -> String {
             }
             format!("{{ {} }}", set.join(", "))
         }
-        Key::ActiveLow => quoted(
-            (0..32u8)
-                .filter(|b| s.inputs.invert & (1 << b) != 0)
-                .map(input_name),
-        ),
-        Key::LimitsMin | Key::LimitsMax => {
-            let mask = if key == Key::LimitsMin {
-                s.inputs.limit_min
-            } else {
-                s.inputs.limit_max
-            };
-            quoted(
-                (0..n)
-                    .filter(|i| mask & (1 << i) != 0)
-                    .map(|i| AXIS_LETTERS[i]),
-            )
-        }
         Key::BeforeSeek => list_toml(&s.homing.before_seek),
         Key::BeforeRetract => list_toml(&s.homing.before_retract),
         Key::AfterRetract => list_toml(&s.homing.after_retract),
-        Key::Pair0 | Key::Pair1 | Key::AnalogAxes => {
-            let p = match key {
-                Key::Pair0 => s.jog.pairs[0],
-                Key::Pair1 => s.jog.pairs[1],
-                _ => s.jog.analog_axes,
-            };
-            quoted(p.into_iter().map(letter))
-        }
         Key::McodeCommands => {
             let l = &s.outputs.mcode_lists[i];
             let note = if l.on_the_fly().is_some() {
@@ -194,14 +116,6 @@ pub(super) fn write(key: Key, i: usize, s: &Setup) -> String {
             };
             return format!("{name} = {}{note}", list_toml(&l.commands));
         }
-        Key::OrientOutput if !s.outputs.orient.present() => {
-            return format!("# {name} = 0{note}");
-        }
-        Key::OrientOutput => s.outputs.orient.output.to_string(),
-        Key::OrientDoneInput if s.outputs.orient.done_input == OrientSetup::NONE => {
-            return format!("# {name} = \"in20\"{note}");
-        }
-        Key::OrientDoneInput => format!("{:?}", input_name(s.outputs.orient.done_input)),
         Key::StartupLines => {
             let g = &s.grbl;
             format!("[{:?}, {:?}]", g.startup[0].as_str(), g.startup[1].as_str())
@@ -319,7 +233,7 @@ fn array<'a>(at: &str, v: &'a Value) -> anyhow::Result<impl Iterator<Item = &'a 
         .iter())
 }
 
-fn strings<'a>(at: &str, v: &'a Value) -> anyhow::Result<Vec<&'a str>> {
+pub(super) fn strings<'a>(at: &str, v: &'a Value) -> anyhow::Result<Vec<&'a str>> {
     array(at, v)?
         .map(|x| {
             x.as_str()
@@ -328,7 +242,7 @@ fn strings<'a>(at: &str, v: &'a Value) -> anyhow::Result<Vec<&'a str>> {
         .collect()
 }
 
-fn quoted<T: std::fmt::Display>(items: impl Iterator<Item = T>) -> String {
+pub(super) fn quoted<T: std::fmt::Display>(items: impl Iterator<Item = T>) -> String {
     let v: Vec<String> = items.map(|x| format!("\"{x}\"")).collect();
     format!("[{}]", v.join(", "))
 }
@@ -352,7 +266,12 @@ pub(super) fn axis_in_use(at: &str, name: &str, count: usize) -> anyhow::Result<
 }
 
 /// Axis letter → index among the axes in use (`"-"` → 255 = none).
-fn axis_index(key: &str, name: &str, count: usize, allow_none: bool) -> anyhow::Result<u8> {
+pub(super) fn axis_index(
+    key: &str,
+    name: &str,
+    count: usize,
+    allow_none: bool,
+) -> anyhow::Result<u8> {
     if allow_none && name == "-" {
         return Ok(255);
     }
@@ -370,13 +289,13 @@ fn axis_index(key: &str, name: &str, count: usize, allow_none: bool) -> anyhow::
     Ok(i as u8)
 }
 
-fn input_name(bit: u8) -> String {
+pub(super) fn input_name(bit: u8) -> String {
     INPUT_NAMES
         .get(usize::from(bit))
         .map_or_else(|| format!("in{bit}"), |n| n.to_string())
 }
 
-fn input_bit(key: &str, name: &str) -> anyhow::Result<u8> {
+pub(super) fn input_bit(key: &str, name: &str) -> anyhow::Result<u8> {
     if let Some(i) = INPUT_NAMES
         .iter()
         .position(|n| n.eq_ignore_ascii_case(name))

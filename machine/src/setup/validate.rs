@@ -33,6 +33,8 @@ pub enum Reason {
     TorchWithLaser,
     /// An orient done input or dwell without the orient output it belongs to.
     OrientWithoutOutput,
+    /// A limit switch on an axis that is not in use.
+    NotAnAxis,
 }
 
 impl Reason {
@@ -47,6 +49,7 @@ impl Reason {
             Reason::NotPrintable => "not printable G-code",
             Reason::TorchWithLaser => "torch and laser are exclusive",
             Reason::OrientWithoutOutput => "orient input or dwell without an orient output",
+            Reason::NotAnAxis => "an axis not in use",
         }
     }
 }
@@ -93,6 +96,12 @@ impl Setup {
             if a.travel_min > a.travel_max {
                 let e = Reason::Reversed;
                 return Err(err(Key::TravelMin, i, a.travel_min, a.travel_max, e));
+            }
+        }
+        for key in [Key::LimitsMin, Key::LimitsMax] {
+            let extra = key.value(self, 0) >> n;
+            if extra != 0 {
+                return Err(err(key, 0, extra << n, 0, Reason::NotAnAxis));
             }
         }
         let pairs = [
@@ -279,6 +288,7 @@ impl core::fmt::Display for SetupError {
                     Scaled(i64::from(pulse_ns), 1000)
                 )
             }
+            Reason::NotAnAxis => write!(f, "{name}: a limit switch on an axis not in use"),
             Reason::NotPrintable => write!(f, "{name}[{i}]: printable ASCII G-code, no $ command"),
         }
     }
