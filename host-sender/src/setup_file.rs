@@ -35,25 +35,20 @@ impl SetupFile {
         Self::parse(&text).with_context(|| format!("in setup file {}", path.display()))
     }
 
-    /// [`SetupFile::load`] for a push to a board whose setup is `board`: the work offsets, the
-    /// G28/G30 positions and the tool table are the board's (the operator set them with G10,
-    /// G28.1, G30.1 and the board keeps them in flash) unless the file names them, so a push never
-    /// clears them by accident (docs/controller.md "Work offsets").
-    pub fn load_for_push(path: &Path, board: &Setup) -> anyhow::Result<Setup> {
-        Self::load_keeping(path, board).map(|(s, _)| s)
-    }
-
-    /// [`SetupFile::load_for_push`], and what of `stored` it kept that holds anything (for a
-    /// message: "work offsets G54 G55", "G28 position", "tool table (2 tools)"); `gantry emulate
-    /// --setup F --state S` starts from it with S's setup as `stored`.
+    /// [`SetupFile::load`] for a push to a board whose setup is `stored`, and what of it was
+    /// kept that holds anything (for a message: "work offsets G54 G55", "G28 position", "tool
+    /// table (2 tools)"): the work offsets, the G28/G30 positions and the tool table are the
+    /// board's (the operator set them with G10, G28.1, G30.1 and the board keeps them in flash)
+    /// unless the file names them, so a push never clears them by accident (docs/controller.md
+    /// "Work offsets"). `gantry emulate --setup F --state S` starts from it with S's setup.
     pub fn load_keeping(path: &Path, stored: &Setup) -> anyhow::Result<(Setup, Vec<String>)> {
         let text = Self::read_bounded(path)?;
         Self::parse_keeping(&text, stored)
             .with_context(|| format!("in setup file {}", path.display()))
     }
 
-    /// [`SetupFile::load_for_push`] on setup text (the console's editor; the one push path,
-    /// `crate::session::Session::push_setup_text`).
+    /// [`SetupFile::load_keeping`] on setup text without the list (the console's editor; the
+    /// one push path, `crate::session::Session::push_setup_text`).
     pub fn parse_for_push(text: &str, board: &Setup) -> anyhow::Result<Setup> {
         Self::parse_keeping(text, board).map(|(s, _)| s)
     }
@@ -68,24 +63,14 @@ impl SetupFile {
             "an empty setup (no setting in it): nothing was pushed (`gantry setup pull` or the \
              console's \"Show the board's\" gives the board's setup to edit)"
         );
-        let program = root.get("program").and_then(Value::as_table);
-        let named = |v: Option<&Value>| v.is_some();
-        let (g28, g30) = (
-            named(program.and_then(|p| p.get("g28_home"))),
-            named(program.and_then(|p| p.get("g30_home"))),
-        );
-        let tools = root
-            .get("tool")
-            .and_then(Value::as_array)
-            .is_some_and(|a| !a.is_empty());
+        let named = |t: &str, k: &str| root.get(t).and_then(|t| t.get(k)).is_some();
+        let tools = root.get("tool").and_then(Value::as_array);
         let mut s = read(&root)?;
-        let (from, to) = (&stored.program, &mut s.program);
-        let mut kept = Vec::new();
+        let (from, to, mut kept) = (&stored.program, &mut s.program, Vec::new());
         if !codec::has_work_offsets(&root) {
             to.work_offsets = from.work_offsets;
-            let set: Vec<&str> = codec::WORK_SYSTEMS
-                .iter()
-                .zip(&from.work_offsets)
+            let set = codec::WORK_SYSTEMS.iter().zip(&from.work_offsets);
+            let set: Vec<&str> = set
                 .filter(|(_, o)| o.iter().any(|v| *v != 0))
                 .map(|(n, _)| *n)
                 .collect();
@@ -93,18 +78,18 @@ impl SetupFile {
                 kept.push(format!("work offsets {}", set.join(" ")));
             }
         }
-        for (named, name, at, stored_at) in [
-            (g28, "G28", &mut to.g28_home, &from.g28_home),
-            (g30, "G30", &mut to.g30_home, &from.g30_home),
+        for (key, name, at, stored_at) in [
+            ("g28_home", "G28", &mut to.g28_home, &from.g28_home),
+            ("g30_home", "G30", &mut to.g30_home, &from.g30_home),
         ] {
-            if !named {
+            if !named("program", key) {
                 *at = *stored_at;
                 if stored_at.iter().any(|v| *v != 0) {
                     kept.push(format!("{name} position"));
                 }
             }
         }
-        if !tools {
+        if tools.is_none_or(|a| a.is_empty()) {
             to.tools = from.tools.clone();
             match from.tools.len() {
                 0 => {}
@@ -302,23 +287,20 @@ fn read(root: &Table) -> anyhow::Result<Setup> {
 /// own; [`read`] adds the rules between settings.
 fn apply(root: &Table) -> anyhow::Result<Setup> {
     let mut s = Setup::default();
-    let extra: Vec<&str> = tables().collect();
     for section in SECTIONS {
         let name = section_name(section);
         match section {
-            Section::Top => read_rows(root, section, 0, &extra, &mut s)?,
+            Section::Top => read_rows(root, section, 0, &mut s)?,
             Section::Axis | Section::HomingAxis => {
                 let parent = match section {
                     Section::Axis => Some(root),
                     _ => root.get("homing").and_then(Value::as_table),
                 };
-                let Some(axes) = parent.and_then(|p| p.get("axis")) else {
-                    continue;
-                };
-                for (letter, v) in table(axes, name)? {
+                let axes = parent.and_then(|p| p.get("axis")).map(|a| table(a, name));
+                for (letter, v) in axes.transpose()?.into_iter().flatten() {
                     let at = format!("{name}.{letter}");
                     let i = codec::axis_in_use(&at, letter, usize::from(s.axis_count))?;
-                    read_rows(table(v, &at)?, section, i, &[], &mut s)?;
+                    read_rows(table(v, &at)?, section, i, &mut s)?;
                 }
             }
             Section::Tool | Section::Mcode => {
@@ -329,20 +311,14 @@ fn apply(root: &Table) -> anyhow::Result<Setup> {
                 for (k, v) in items.transpose()?.into_iter().flatten().enumerate() {
                     let t = table(v, &format!("{name}[{k}]"))?;
                     codec::push_item(section, &mut s)?;
-                    read_rows(t, section, k, &[], &mut s)?;
+                    read_rows(t, section, k, &mut s)?;
                     codec::check_item(section, k, t, &s)?;
                 }
             }
             _ => {
-                let Some(v) = root.get(name) else {
-                    continue;
-                };
-                let extra: &[&str] = if section == Section::Homing {
-                    &["axis"]
-                } else {
-                    &[]
-                };
-                read_rows(table(v, name)?, section, 0, extra, &mut s)?;
+                if let Some(v) = root.get(name) {
+                    read_rows(table(v, name)?, section, 0, &mut s)?;
+                }
             }
         }
         if section == Section::Tool {
@@ -358,28 +334,21 @@ fn table<'a>(v: &'a Value, at: &str) -> anyhow::Result<&'a Table> {
         .with_context(|| format!("{at}: expected a table, found {}", v.type_str()))
 }
 
-/// One table of `section` (item `i`): every key must be a row's (or in `extra`), each value
+/// One table of `section` (item `i`): every key must be a row's (or a table below), each value
 /// is converted by the row's unit, range-checked by the core and set.
-fn read_rows(
-    t: &Table,
-    section: Section,
-    i: usize,
-    extra: &[&str],
-    s: &mut Setup,
-) -> anyhow::Result<()> {
+fn read_rows(t: &Table, section: Section, i: usize, s: &mut Setup) -> anyhow::Result<()> {
     let at = place(section, i);
-    for name in t.keys() {
-        if !extra.contains(&name.as_str()) && !rows(section).any(|(_, n)| n == name) {
-            let known: Vec<String> = rows(section).map(|(_, n)| format!("`{n}`")).collect();
-            let known = known
-                .into_iter()
-                .chain(extra.iter().map(|n| format!("`{n}`")));
-            let known: Vec<String> = known.collect();
-            bail!(
-                "{at}{name}: unknown field `{name}`, expected one of {}",
-                known.join(", ")
-            );
-        }
+    let below: Vec<&str> = match section {
+        Section::Top => tables().collect(),
+        Section::Homing => vec!["axis"],
+        _ => vec![],
+    };
+    let known = |k: &str| below.contains(&k) || rows(section).any(|(_, n)| n == k);
+    if let Some(name) = t.keys().find(|k| !known(k)) {
+        let names = rows(section).map(|(_, n)| n).chain(below.iter().copied());
+        let names: Vec<String> = names.map(|n| format!("`{n}`")).collect();
+        let names = names.join(", ");
+        bail!("{at}{name}: unknown field `{name}`, expected one of {names}");
     }
     for (key, name) in rows(section) {
         let Some(v) = t.get(name) else {
@@ -387,13 +356,14 @@ fn read_rows(
         };
         if key.row().unit == Unit::Text {
             codec::read(key, i, v, s)?;
-        } else if name != key.text().name {
-            let [a, b] = codec::pair(&format!("{at}{name}"), v)?;
-            for (key, v) in [(key, a), (key.next(), b)] {
-                let value = read_value(key, i, v, s)?;
-                key.set(s, i, value);
-            }
-        } else {
+            continue;
+        }
+        // A `[low, high]` pair sets its two rows.
+        let values = match name != key.text().name {
+            true => codec::pair(&format!("{at}{name}"), v)?.to_vec(),
+            false => vec![v],
+        };
+        for (key, v) in [key, key.next()].into_iter().zip(values) {
             let value = read_value(key, i, v, s)?;
             key.set(s, i, value);
         }

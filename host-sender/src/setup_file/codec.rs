@@ -127,48 +127,49 @@ pub(super) fn write(key: Key, i: usize, s: &Setup) -> String {
 
 /// A new `[[tool]]` or `[[mcode]]` item for the rows to fill.
 pub(super) fn push_item(section: Section, s: &mut Setup) -> anyhow::Result<()> {
-    if section == Section::Tool {
-        let full = s.program.tools.push(Default::default()).is_err();
-        anyhow::ensure!(!full, "tool: at most {MAX_TOOLS} tools");
-    } else {
-        let list = McodeList {
-            code: 0,
-            dry_run_disabled: false,
-            commands: Default::default(),
-        };
-        let full = s.outputs.mcode_lists.push(list).is_err();
-        anyhow::ensure!(!full, "mcode: at most {MAX_MCODE_LISTS} lists");
-    }
+    let full = match section {
+        Section::Tool => s.program.tools.push(Default::default()).is_err(),
+        _ => s.outputs.mcode_lists.push(McodeList::default()).is_err(),
+    };
+    let (name, most) = match section {
+        Section::Tool => ("tool", format!("{MAX_TOOLS} tools")),
+        _ => ("mcode", format!("{MAX_MCODE_LISTS} lists")),
+    };
+    anyhow::ensure!(!full, "{name}: at most {most}");
     Ok(())
 }
 
 /// The rules of item `k` of a `[[tool]]` or `[[mcode]]` array (`t`, as read into `s`): its
 /// number is given and unique, an M code is one of `program.user_mcodes`.
 pub(super) fn check_item(section: Section, k: usize, t: &Table, s: &Setup) -> anyhow::Result<()> {
-    let (name, field) = if section == Section::Tool {
-        ("tool", "number")
-    } else {
-        ("mcode", "code")
+    let (name, field, what, numbers): (_, _, _, Vec<u32>) = match section {
+        Section::Tool => (
+            "tool",
+            "number",
+            "tool",
+            s.program.tools.iter().map(|x| x.number).collect(),
+        ),
+        _ => (
+            "mcode",
+            "code",
+            "list",
+            s.outputs
+                .mcode_lists
+                .iter()
+                .map(|l| u32::from(l.code))
+                .collect(),
+        ),
     };
     anyhow::ensure!(
         t.contains_key(field),
         "{name}[{k}]: missing field `{field}`"
     );
-    if section == Section::Tool {
-        let number = s.program.tools[k].number;
-        if s.program.tools[..k].iter().any(|x| x.number == number) {
-            bail!("tool[{k}].number = {number}: tool defined twice");
-        }
-        return Ok(());
+    let number = numbers[k];
+    if section == Section::Mcode && !s.program.user_mcodes.contains(&(number as u16)) {
+        bail!("mcode[{k}].code = {number}: not in program.user_mcodes (define the M code there first)");
     }
-    let code = s.outputs.mcode_lists[k].code;
-    if !s.program.user_mcodes.contains(&code) {
-        bail!(
-            "mcode[{k}].code = {code}: not in program.user_mcodes (define the M code there first)"
-        );
-    }
-    if s.outputs.mcode_lists[..k].iter().any(|l| l.code == code) {
-        bail!("mcode[{k}].code = {code}: list defined twice");
+    if numbers[..k].contains(&number) {
+        bail!("{name}[{k}].{field} = {number}: {what} defined twice");
     }
     Ok(())
 }
@@ -254,39 +255,27 @@ fn mm_list(p: &[Nm]) -> String {
 
 /// Axis letter `name` as the index of an axis in use (`at` names the table).
 pub(super) fn axis_in_use(at: &str, name: &str, count: usize) -> anyhow::Result<usize> {
-    AXIS_LETTERS[..count]
+    let axes = &AXIS_LETTERS[..count];
+    let i = axes
         .iter()
-        .position(|l| name.eq_ignore_ascii_case(&l.to_string()))
-        .with_context(|| {
-            format!(
-                "{at}: not an axis in use (axes in use: {:?})",
-                &AXIS_LETTERS[..count]
-            )
-        })
+        .position(|l| name.eq_ignore_ascii_case(&l.to_string()));
+    i.with_context(|| format!("{at}: not an axis in use (axes in use: {axes:?})"))
 }
 
-/// Axis letter → index among the axes in use (`"-"` → 255 = none).
-pub(super) fn axis_index(
-    key: &str,
-    name: &str,
-    count: usize,
-    allow_none: bool,
-) -> anyhow::Result<u8> {
-    if allow_none && name == "-" {
-        return Ok(255);
+/// Axis letter `name` of setting `at` as the index of an axis in use (`none`: or `"-"`, 255).
+pub(super) fn axis_index(at: &str, name: &str, count: usize, none: bool) -> anyhow::Result<u8> {
+    let axes = &AXIS_LETTERS[..count];
+    match axes
+        .iter()
+        .position(|l| name.eq_ignore_ascii_case(&l.to_string()))
+    {
+        Some(i) => Ok(i as u8),
+        None if none && name == "-" => Ok(255),
+        None => {
+            let or = if none { ", or \"-\" for none" } else { "" };
+            bail!("{at} = {name:?}: not an axis in use (axes in use: {axes:?}{or})")
+        }
     }
-    let none = if allow_none {
-        ", or \"-\" for none"
-    } else {
-        ""
-    };
-    let i = axis_in_use(key, name, count).map_err(|_| {
-        anyhow::anyhow!(
-            "{key} = {name:?}: not an axis in use (axes in use: {:?}{none})",
-            &AXIS_LETTERS[..count]
-        )
-    })?;
-    Ok(i as u8)
 }
 
 pub(super) fn input_name(bit: u8) -> String {
