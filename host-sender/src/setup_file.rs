@@ -3,8 +3,10 @@
 //!
 //! Reader and writer are two walks over the settings table (machine/src/setup/table.rs): each row
 //! gives its key, section and unit, the core's range check and its setter (reading) or getter
-//! (writing) and the comment written after its value. Only the text-valued rows (axis letters,
-//! lists, positions, input names) have codecs of their own, in `codec`.
+//! (writing) and the comment written after its value. The row's unit says how its integer
+//! reads: scaled decimals, whole numbers, booleans, choices by name, or names (axis letters and
+//! input names as masks and pairs, an input, an output). Only the text-valued rows (the axes in
+//! use, M codes, positions, lists, startup lines) have codecs of their own, in `codec`.
 //!
 //! Decimal values are converted to integer nanometres with rounding to the nearest nm; the file is
 //! the only place where a float ever touches a setting.

@@ -1,6 +1,7 @@
-//! The setup file's text-valued rows (axis letters, input names, list commands, positions, the
-//! M-code lists, startup lines) and the work offsets: what the settings table
-//! (machine/src/setup/table.rs) cannot read or write by its unit alone.
+//! The setup file's text-valued rows (the axes in use, M codes, positions, list commands, startup
+//! lines), the work offsets and the `[[tool]]`/`[[mcode]]` items: what the settings table
+//! (machine/src/setup/table.rs) cannot read or write by its unit alone; and the names (axis
+//! letters, inputs) the walk's value kinds use.
 
 use super::mm;
 use anyhow::{bail, Context};
@@ -82,15 +83,7 @@ pub(super) fn write(key: Key, i: usize, s: &Setup) -> String {
     let n = usize::from(s.axis_count);
     let value = match key {
         Key::Axes => quoted(AXIS_LETTERS[..n].iter()),
-        Key::UserMcodes => {
-            let codes: Vec<String> = s
-                .program
-                .user_mcodes
-                .iter()
-                .map(|c| c.to_string())
-                .collect();
-            format!("[{}]", codes.join(", "))
-        }
+        Key::UserMcodes => format!("{:?}", s.program.user_mcodes.as_slice()),
         Key::G28Home => mm_list(&s.program.g28_home[..n]),
         Key::G30Home => mm_list(&s.program.g30_home[..n]),
         Key::ToolChangePosition => {
@@ -142,23 +135,11 @@ pub(super) fn push_item(section: Section, s: &mut Setup) -> anyhow::Result<()> {
 /// The rules of item `k` of a `[[tool]]` or `[[mcode]]` array (`t`, as read into `s`): its
 /// number is given and unique, an M code is one of `program.user_mcodes`.
 pub(super) fn check_item(section: Section, k: usize, t: &Table, s: &Setup) -> anyhow::Result<()> {
+    let tools = s.program.tools.iter().map(|x| x.number);
+    let codes = s.outputs.mcode_lists.iter().map(|l| u32::from(l.code));
     let (name, field, what, numbers): (_, _, _, Vec<u32>) = match section {
-        Section::Tool => (
-            "tool",
-            "number",
-            "tool",
-            s.program.tools.iter().map(|x| x.number).collect(),
-        ),
-        _ => (
-            "mcode",
-            "code",
-            "list",
-            s.outputs
-                .mcode_lists
-                .iter()
-                .map(|l| u32::from(l.code))
-                .collect(),
-        ),
+        Section::Tool => ("tool", "number", "tool", tools.collect()),
+        _ => ("mcode", "code", "list", codes.collect()),
     };
     anyhow::ensure!(
         t.contains_key(field),
