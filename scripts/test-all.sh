@@ -13,8 +13,9 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 ROOT=$PWD
 unset CARGO_TARGET_DIR
 
-# Board features of the firmware, and the size budget of the default board (F411, issues #7 and
-# #12: the chip has 512 KiB flash / 128 KiB RAM, memory.x gives the program 256 KiB of flash).
+# Board features of the firmware, and the size budget of the default board (F411: the chip has
+# 512 KiB flash / 128 KiB RAM, memory.x gives the program 256 KiB of flash and keeps the rest for
+# the setup's flash sectors; the budget leaves room below both for what the next features add).
 # The limits can be lowered from the environment to check that an overrun fails the run.
 BOARDS=(board-f411 board-f446)
 F411_FLASH_LIMIT=${F411_FLASH_LIMIT:-$((224 * 1024))}
