@@ -142,6 +142,8 @@ for ((set = 0; set < 1 << ${#FEATURES[@]}; set++)); do
     cargo clippy --release --all-targets --features "$list" -- -D warnings
 done
 cargo build --release --bin vectors
+# bench_step's second, stamped copy of the step body is built (linked) too, not only linted.
+cargo build --release --bin bench_step --features step-window
 timeout "$QEMU_TIMEOUT" cargo run --release --bin vectors </dev/null || fail "target vectors failed under QEMU"
 # The step interrupt body (machine/src/step/isr.rs) against a model of TIM2 and its
 # DMA streams: every step reaches the pins once, direction set-up kept, late interrupts retried.

@@ -25,7 +25,7 @@ use toml::{Table, Value};
 use gantry_machine::{setup::ListCommand, units::NM_PER_MM};
 
 /// The largest setup file read, bytes (a full setup with every tool and list is about 10 KiB).
-pub const SETUP_FILE_LIMIT: u64 = 1024 * 1024;
+pub(crate) const SETUP_FILE_LIMIT: u64 = 1024 * 1024;
 
 /// The setup file's reader (its writer is [`to_toml`]).
 pub struct SetupFile;
@@ -43,7 +43,10 @@ impl SetupFile {
     /// board's (the operator set them with G10, G28.1, G30.1 and the board keeps them in flash)
     /// unless the file names them, so a push never clears them by accident (docs/controller.md
     /// "Work offsets"). `gantry emulate --setup F --state S` starts from it with S's setup.
-    pub fn load_keeping(path: &Path, stored: &Setup) -> anyhow::Result<(Setup, Vec<String>)> {
+    pub(crate) fn load_keeping(
+        path: &Path,
+        stored: &Setup,
+    ) -> anyhow::Result<(Setup, Vec<String>)> {
         let text = Self::read_bounded(path)?;
         Self::parse_keeping(&text, stored)
             .with_context(|| format!("in setup file {}", path.display()))
@@ -51,14 +54,17 @@ impl SetupFile {
 
     /// [`SetupFile::load_keeping`] on setup text without the list (the console's editor; the
     /// one push path, `crate::session::Session::push_setup_text`).
-    pub fn parse_for_push(text: &str, board: &Setup) -> anyhow::Result<Setup> {
+    pub(crate) fn parse_for_push(text: &str, board: &Setup) -> anyhow::Result<Setup> {
         Self::parse_keeping(text, board).map(|(s, _)| s)
     }
 
     /// [`SetupFile::load_keeping`] on setup text. An empty setup (no setting at all: an empty
     /// editor, only comments) is refused: pushed, it would set every default (travel, steps per
     /// mm, switch polarity, homing) on the machine.
-    pub fn parse_keeping(text: &str, stored: &Setup) -> anyhow::Result<(Setup, Vec<String>)> {
+    pub(crate) fn parse_keeping(
+        text: &str,
+        stored: &Setup,
+    ) -> anyhow::Result<(Setup, Vec<String>)> {
         let root: Table = toml::from_str(text)?;
         anyhow::ensure!(
             !root.is_empty(),
