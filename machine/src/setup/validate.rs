@@ -293,3 +293,27 @@ impl core::fmt::Display for SetupError {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use std::string::ToString;
+
+    #[test]
+    fn a_limit_switch_on_an_axis_not_in_use_is_refused() {
+        let mut s = Setup::default();
+        s.inputs.limit_max = 0b0100;
+        assert_eq!(s.validate(), Ok(()));
+        s.axis_count = 2;
+        let e = s.validate().unwrap_err();
+        assert_eq!(
+            (e.key, e.value, e.reason),
+            (Key::LimitsMax, 0b0100, Reason::NotAnAxis)
+        );
+        assert_eq!(
+            e.to_string(),
+            "inputs.limits_max: a limit switch on an axis not in use"
+        );
+    }
+}
