@@ -64,7 +64,8 @@ pub fn run(file: &Path, canon: bool, setup: &Setup, at: &Pos) -> anyhow::Result<
 
 /// What `gantry check --canon --setup FILE` prints: the setup's tool table, offsets, G28/G30
 /// positions, axes and dialect apply, as in every other command.
-pub fn canon_for_setup(program: &[u8], setup: &Setup) -> (String, bool) {
+#[cfg(test)]
+pub(crate) fn canon_for_setup(program: &[u8], setup: &Setup) -> (String, bool) {
     canon_output(program, &setup.interp_config())
 }
 
@@ -83,7 +84,7 @@ pub fn canon_output(program: &[u8], config: &InterpConfig) -> (String, bool) {
 
 /// Writes the `check --canon` JSON Lines of the program in `src` as they come; true when an error
 /// (or the first line too long for the board) ended it.
-pub fn canon_stream<S: ProgramSource>(
+pub(crate) fn canon_stream<S: ProgramSource>(
     src: S,
     config: &InterpConfig,
     out: &mut impl std::io::Write,
@@ -92,7 +93,7 @@ pub fn canon_stream<S: ProgramSource>(
 }
 
 /// [`canon_stream`] with the machine at `at` (nm) when the program starts.
-pub fn canon_stream_from<S: ProgramSource>(
+pub(crate) fn canon_stream_from<S: ProgramSource>(
     src: S,
     config: &InterpConfig,
     at: &Pos,
@@ -142,12 +143,12 @@ fn limit_message(n: u64) -> String {
 }
 
 /// `E<code>: <message>`.
-pub fn error_text(e: &GcodeError) -> String {
+pub(crate) fn error_text(e: &GcodeError) -> String {
     format!("E{}: {}", e.code.number(), e.code.message())
 }
 
 /// Millimetres (from nm) with up to 6 decimals, trailing zeros removed.
-pub fn mm_text(nm: Nm) -> String {
+pub(crate) fn mm_text(nm: Nm) -> String {
     let sign = if nm < 0 { "-" } else { "" };
     let a = nm.unsigned_abs();
     let int = a / 1_000_000;
@@ -249,7 +250,7 @@ fn record_json(line: u32, op: Op<'_>) -> String {
 }
 
 /// One canonical action as a JSON object (no newline).
-pub fn canon_json(c: &Canon) -> String {
+pub(crate) fn canon_json(c: &Canon) -> String {
     let op = match c.action {
         Action::Rapid { to } => Op::Rapid { to: xyz(&to) },
         Action::Feed { to, feed } => Op::Feed {
@@ -324,7 +325,7 @@ pub fn canon_json(c: &Canon) -> String {
 }
 
 /// The `{"line":…,"op":"error","message":…}` record that ends `check --canon` output.
-pub fn error_json(line: u32, message: &str) -> String {
+pub(crate) fn error_json(line: u32, message: &str) -> String {
     record_json(line, Op::Error { message })
 }
 
@@ -338,7 +339,8 @@ fn long_line_message(e: &crate::program::WireTextError) -> String {
 }
 
 /// The human-readable report of plain `check` and the number of errors found.
-pub fn human_report(name: &str, program: &[u8], config: &InterpConfig) -> (String, usize) {
+#[cfg(test)]
+pub(crate) fn human_report(name: &str, program: &[u8], config: &InterpConfig) -> (String, usize) {
     let mut out = Vec::new();
     let (errors, _) = check_stream(name, MemorySource::new(program), config, None, &mut out)
         .expect("writing to memory does not fail");
@@ -347,7 +349,7 @@ pub fn human_report(name: &str, program: &[u8], config: &InterpConfig) -> (Strin
 
 /// The lines that [`check_stream`]'s `report` of the program `name` names an error at
 /// (`NAME:LINE: …`), in report order: the listing marks them, the start check returns them.
-pub fn error_lines(report: &str, name: &str) -> Vec<u32> {
+pub(crate) fn error_lines(report: &str, name: &str) -> Vec<u32> {
     let prefix = format!("{name}:");
     report
         .lines()
@@ -360,7 +362,7 @@ pub fn error_lines(report: &str, name: &str) -> Vec<u32> {
 /// too long for the board merged in line order), then `NAME: ok, N actions` or `NAME: E errors, N
 /// actions`; returns the error count and the job summary, which covers the program up to its
 /// first error (planned on `setup`; none without one).
-pub fn check_stream<S: ProgramSource>(
+pub(crate) fn check_stream<S: ProgramSource>(
     name: &str,
     src: S,
     config: &InterpConfig,
@@ -372,7 +374,7 @@ pub fn check_stream<S: ProgramSource>(
 
 /// [`check_stream`] of a job that starts with the machine at `at` (nm): the interpreter, the
 /// extents and the planned time start there.
-pub fn check_stream_from<S: ProgramSource>(
+pub(crate) fn check_stream_from<S: ProgramSource>(
     name: &str,
     src: S,
     config: &InterpConfig,
@@ -521,7 +523,7 @@ fn write_rpm_warnings(
 }
 
 /// The warning lines of a check's report (`NAME:LINE: warning: …`).
-pub fn warning_lines(report: &str) -> String {
+pub(crate) fn warning_lines(report: &str) -> String {
     report
         .lines()
         .filter(|l| l.contains(": warning: "))

@@ -7,37 +7,42 @@ use crate::preview::adapt::MoveAdapter;
 use crate::preview::geom::extend;
 use crate::preview::model::Box3;
 use crate::preview::plan;
+#[cfg(test)]
 use crate::preview::source::Actions;
 use gantry_machine::canon::{Action, Canon, Spindle};
-use gantry_machine::gcode::{MemorySource, RetractMode};
+#[cfg(test)]
+use gantry_machine::gcode::MemorySource;
+use gantry_machine::gcode::RetractMode;
 use gantry_machine::setup::Setup;
-use gantry_machine::units::{Pos, MAX_AXES};
+use gantry_machine::units::Pos;
+#[cfg(test)]
+use gantry_machine::units::MAX_AXES;
 use std::fmt::Write as _;
 
 /// What the summary found.
 #[derive(Clone, Debug, PartialEq)]
-pub struct JobSummary {
+pub(crate) struct JobSummary {
     /// Job extents, mm (X, Y, Z), `None` for a job without motion.
-    pub extents: Option<Box3>,
+    pub(crate) extents: Option<Box3>,
     /// First line whose move leaves the travel, with the axis letter.
-    pub leaves_travel: Option<(u32, char)>,
+    pub(crate) leaves_travel: Option<(u32, char)>,
     /// Tools loaded by M6, in order of first use.
-    pub tools: Vec<u32>,
+    pub(crate) tools: Vec<u32>,
     /// Planned run time at 100 % override, s (`None` when the planner refused the program).
-    pub run_time_s: Option<f64>,
-    pub moves: usize,
+    pub(crate) run_time_s: Option<f64>,
+    pub(crate) moves: usize,
     /// Spindle speeds outside the setup's `spindle.rpm_range` (line, S), the first
     /// [`CLAMPED_KEPT`]: the board clamps them to the range (docs/settings.md).
-    pub rpm_clamped: Vec<(u32, u32)>,
+    pub(crate) rpm_clamped: Vec<(u32, u32)>,
     /// How many more there were beyond those kept.
-    pub rpm_clamped_more: usize,
+    pub(crate) rpm_clamped_more: usize,
 }
 
 /// How many out-of-range spindle speeds a summary names one by one.
-pub const CLAMPED_KEPT: usize = 10;
+pub(crate) const CLAMPED_KEPT: usize = 10;
 
 /// The summary's running aggregates, one action at a time (nothing of the program is kept).
-pub struct Aggregates {
+pub(crate) struct Aggregates {
     adapter: MoveAdapter,
     travel: Box3,
     extents: Box3,
@@ -51,12 +56,8 @@ pub struct Aggregates {
 }
 
 impl Aggregates {
-    pub fn new(setup: &Setup) -> Self {
-        Self::from(setup, &[0; MAX_AXES])
-    }
-
     /// Aggregates of a job that starts with the machine at `at` (nm).
-    pub fn from(setup: &Setup, at: &Pos) -> Self {
+    pub(crate) fn from(setup: &Setup, at: &Pos) -> Self {
         Aggregates {
             adapter: MoveAdapter::new(setup).starting_at(at),
             travel: Box3::travel(setup),
@@ -70,7 +71,7 @@ impl Aggregates {
         }
     }
 
-    pub fn add(&mut self, c: &Canon) {
+    pub(crate) fn add(&mut self, c: &Canon) {
         if let Action::Spindle { state, rpm } = c.action {
             let (lo, hi) = self.rpm_range;
             // S0 (and M5) is the spindle off, never clamped.
@@ -106,7 +107,7 @@ impl Aggregates {
         }
     }
 
-    pub fn finish(self, run_time_s: Option<f64>) -> JobSummary {
+    pub(crate) fn finish(self, run_time_s: Option<f64>) -> JobSummary {
         let e = self.extents;
         JobSummary {
             extents: (!e.is_empty()).then_some(e),
@@ -123,13 +124,14 @@ impl Aggregates {
 /// Summarises a program's actions in one pass, pulled one at a time: the aggregates and the
 /// planned time (closed form per block, `preview::plan`). A move the planner refuses (beyond the
 /// travel) leaves the time unknown; the aggregates still cover every action.
-pub fn summarize_actions(actions: impl Iterator<Item = Canon>, setup: &Setup) -> JobSummary {
+#[cfg(test)]
+pub(crate) fn summarize_actions(actions: impl Iterator<Item = Canon>, setup: &Setup) -> JobSummary {
     summarize_actions_from(actions, setup, &[0; MAX_AXES])
 }
 
 /// [`summarize_actions`] of a job that starts with the machine at `at` (nm): the extents and the
 /// planned time include the way from there.
-pub fn summarize_actions_from(
+pub(crate) fn summarize_actions_from(
     actions: impl Iterator<Item = Canon>,
     setup: &Setup,
     at: &Pos,
@@ -144,13 +146,14 @@ pub fn summarize_actions_from(
 }
 
 /// Interprets and plans `program` on `setup` (only the part before a first error, if any).
-pub fn summarize(program: &[u8], setup: &Setup) -> JobSummary {
+#[cfg(test)]
+pub(crate) fn summarize(program: &[u8], setup: &Setup) -> JobSummary {
     let actions = Actions::new(MemorySource::new(program), &setup.interp_config());
     summarize_actions(actions, setup)
 }
 
 /// The table as printed.
-pub fn format_summary(s: &JobSummary, setup: &Setup) -> String {
+pub(crate) fn format_summary(s: &JobSummary, setup: &Setup) -> String {
     let mut out = String::from("summary\n");
     let _ = writeln!(out, "  moves       {}", s.moves);
     match &s.extents {

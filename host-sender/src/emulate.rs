@@ -263,7 +263,7 @@ pub(crate) fn new_board(
 
 /// How far beyond each end of the travel the emulated machine's switches sit, nm: a move to
 /// the travel's end stays clear of them, a homing seek finds them.
-pub const SWITCH_BEYOND_TRAVEL_NM: i64 = 1_000_000;
+pub(crate) const SWITCH_BEYOND_TRAVEL_NM: i64 = 1_000_000;
 
 /// The switches of the emulated machine: one at each end of the travel of every axis whose limit
 /// input the setup installs (`inputs.limit_min` / `limit_max`), with the setup's polarity (a
@@ -326,9 +326,9 @@ const CATCH_UP_LIMIT_MS: u64 = 200;
 /// One pass's news from the host side of the emulated board's port.
 pub(crate) struct Polled {
     /// A host has the port open (pty) or is connected (TCP).
-    pub open: bool,
+    pub(crate) open: bool,
     /// Bytes read into the buffer.
-    pub read: usize,
+    pub(crate) read: usize,
 }
 
 /// The host side of the emulated board: a pty (`--pty`) or a TCP listener (`--tcp`). One

@@ -59,18 +59,18 @@ impl Transport for Box<dyn Transport> {
 static STOP_REQUESTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 /// This process was asked to stop: [`SerialTransport`] gives up reopening a port at once.
-pub fn request_stop() {
+pub(crate) fn request_stop() {
     STOP_REQUESTED.store(true, std::sync::atomic::Ordering::SeqCst);
 }
 
 /// How long the sender keeps trying to reopen a port that went away (USB cable pulled, board
 /// re-enumerating) before it gives up.
-pub const REOPEN_FOR: Duration = Duration::from_secs(60);
+pub(crate) const REOPEN_FOR: Duration = Duration::from_secs(60);
 
 /// What closing the port does to the board (the firmware takes a DTR drop as a feed hold, see
 /// `firmware/src/control.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OnClose {
+pub(crate) enum OnClose {
     /// Closing drops DTR (the tty's HUPCL, the default): a running job holds at once. For the
     /// sender that owns a job (`stream`, `serve`): if it dies, the machine stops.
     DropDtr,
@@ -101,7 +101,7 @@ pub struct SerialTransport {
 /// Bytes kept for a board that does not read (a few dozen frames). Frames beyond it are dropped
 /// whole, as a noisy line loses them: the protocol sends them again, and its windows bound what
 /// waits (the link's queues are the back-pressure the commands feel).
-pub const OUT_LIMIT: usize = 16 * 1024;
+pub(crate) const OUT_LIMIT: usize = 16 * 1024;
 
 /// A write error that means the port is gone (the device was unplugged or closed under us), as
 /// opposed to a board that is slow to read.
@@ -158,7 +158,7 @@ impl SerialTransport {
         Self::open_with(path, OnClose::DropDtr)
     }
 
-    pub fn open_with(path: &str, on_close: OnClose) -> anyhow::Result<Self> {
+    pub(crate) fn open_with(path: &str, on_close: OnClose) -> anyhow::Result<Self> {
         let port = open_port(path, on_close).map_err(|e| port_error(path, e))?;
         Ok(SerialTransport {
             path: path.to_owned(),
@@ -323,7 +323,7 @@ pub struct Client<T: Transport> {
 
 impl<T: Transport> Client<T> {
     /// A link that has not said hello yet (see [`Client::connect`]).
-    pub fn unconnected(transport: T) -> Self {
+    pub(crate) fn unconnected(transport: T) -> Self {
         let nonce = std::process::id()
             ^ 0x5eed_0000
             ^ NONCES.fetch_add(0x101, std::sync::atomic::Ordering::Relaxed);
@@ -385,7 +385,7 @@ impl<T: Transport> Client<T> {
 
     /// True once for every restart of the board seen since the link opened (its boot id
     /// changed: whatever it was running is gone).
-    pub fn take_board_reset(&mut self) -> bool {
+    pub(crate) fn take_board_reset(&mut self) -> bool {
         if self.board_resets > 0 {
             self.board_resets -= 1;
             return true;
@@ -395,7 +395,7 @@ impl<T: Transport> Client<T> {
 
     /// Link time since the last message from the board, ms (it reports its status every
     /// 100 ms, so more than a second means the board or the cable is gone).
-    pub fn silent_for_ms(&self) -> u32 {
+    pub(crate) fn silent_for_ms(&self) -> u32 {
         self.transport.now_ms().wrapping_sub(self.last_heard_ms)
     }
 
@@ -414,7 +414,7 @@ impl<T: Transport> Client<T> {
     }
 
     /// Queues a message; gives it back when its lane is full (pump and try again).
-    pub fn try_send(&mut self, msg: HostMsg) -> Result<(), Box<HostMsg>> {
+    pub(crate) fn try_send(&mut self, msg: HostMsg) -> Result<(), Box<HostMsg>> {
         let queued = msg.lane() == Lane::Queued;
         self.endpoint
             .send(msg)
@@ -437,17 +437,17 @@ impl<T: Transport> Client<T> {
     }
 
     /// Queued-lane messages handed to the link since it opened.
-    pub fn queued_sent(&self) -> u64 {
+    pub(crate) fn queued_sent(&self) -> u64 {
         self.queued_sent
     }
 
     /// Queued-lane messages not yet acknowledged by the board.
-    pub fn unacked_queued(&self) -> usize {
+    pub(crate) fn unacked_queued(&self) -> usize {
         self.endpoint.unacked(Lane::Queued)
     }
 
     /// Room in the queued lane (messages that can be queued now).
-    pub fn queued_room(&self) -> usize {
+    pub(crate) fn queued_room(&self) -> usize {
         self.endpoint.send_capacity(Lane::Queued)
     }
 
@@ -469,7 +469,7 @@ impl<T: Transport> Client<T> {
     /// Gives messages back to be received again, in order, before any new one (a caller waiting
     /// for one kind of message keeps the others, e.g. a `ProgramRequest` seen while waiting for a
     /// status).
-    pub fn put_back(&mut self, msgs: impl IntoIterator<Item = BoardMsg>) {
+    pub(crate) fn put_back(&mut self, msgs: impl IntoIterator<Item = BoardMsg>) {
         let mut msgs: Vec<_> = msgs.into_iter().collect();
         msgs.extend(self.stash.drain(..));
         self.stash = msgs.into();
@@ -478,7 +478,7 @@ impl<T: Transport> Client<T> {
     /// A new id for a request the board answers (`Jog`, `Home`, `Unlock`, `Start`,
     /// `StartFromLine`, `SetupCommit`; docs/protocol.md "Answers"). Ids of different links (other
     /// processes through `gantry serve`) start far apart.
-    pub fn request_id(&mut self) -> u32 {
+    pub(crate) fn request_id(&mut self) -> u32 {
         self.request = self.request.wrapping_add(1);
         self.request
     }
@@ -488,7 +488,7 @@ impl<T: Transport> Client<T> {
     /// before the answer is not about this request (an earlier command's answer or error, or
     /// another command's through `gantry serve`) and is passed over; what follows the answer
     /// stays for the caller, and alarm and limit reports are kept as notices.
-    pub fn await_answer(&mut self, id: u32, limit_ms: u32) -> anyhow::Result<Option<u16>> {
+    pub(crate) fn await_answer(&mut self, id: u32, limit_ms: u32) -> anyhow::Result<Option<u16>> {
         let start = self.transport.now_ms();
         loop {
             while let Some(msg) = self.recv() {
@@ -506,7 +506,7 @@ impl<T: Transport> Client<T> {
     }
 
     /// The alarm and limit reports received since the last call, oldest first.
-    pub fn take_notices(&mut self) -> Vec<BoardMsg> {
+    pub(crate) fn take_notices(&mut self) -> Vec<BoardMsg> {
         std::mem::take(&mut self.notices)
     }
 
@@ -515,13 +515,13 @@ impl<T: Transport> Client<T> {
         self.transport
     }
 
-    pub fn stats(&self) -> gantry_proto::LinkStats {
+    pub(crate) fn stats(&self) -> gantry_proto::LinkStats {
         self.endpoint.stats()
     }
 
     /// The protocol version the board (or `gantry serve`) announced in the handshake: a message
     /// newer than its minor must not be sent to it (docs/protocol.md §8).
-    pub fn peer_version(&self) -> Option<u16> {
+    pub(crate) fn peer_version(&self) -> Option<u16> {
         self.endpoint.peer_version()
     }
 }

@@ -3,7 +3,7 @@
 //! vendor and product id (`firmware/src/usb.rs`); with none of these, the emulated board.
 
 /// USB vendor and product id of the Gantry firmware (shared-proto/src/usb.rs).
-pub use gantry_proto::usb::{PID as GANTRY_PID, VID as GANTRY_VID};
+pub(crate) use gantry_proto::usb::{PID as GANTRY_PID, VID as GANTRY_VID};
 
 /// Where a command goes when neither `--port` nor `GANTRY_PORT` names a port.
 #[derive(Debug, PartialEq, Eq)]
@@ -15,7 +15,7 @@ pub enum Found {
 }
 
 /// The serial ports of plugged-in Gantry boards (by USB VID/PID).
-pub fn gantry_ports() -> Vec<String> {
+pub(crate) fn gantry_ports() -> Vec<String> {
     let Ok(ports) = serialport::available_ports() else {
         return Vec::new();
     };

@@ -10,28 +10,28 @@ use gantry_proto::{MachineState, Status};
 use std::fmt::Write as _;
 
 /// One error as `check`, `stream` and `mdi` print it (see [`format_error`]).
-pub struct ErrorReport<'a> {
+pub(crate) struct ErrorReport<'a> {
     /// Where the program comes from: a file name, or `mdi`.
-    pub place: &'a str,
+    pub(crate) place: &'a str,
     /// 1-based line in the program.
-    pub line: u32,
+    pub(crate) line: u32,
     /// The block's N word, if it has one.
-    pub n_word: Option<u32>,
+    pub(crate) n_word: Option<u32>,
     /// The interpreter's error number (docs/errors.md); `None` for a host-side check.
-    pub code: Option<u16>,
-    pub message: &'a str,
+    pub(crate) code: Option<u16>,
+    pub(crate) message: &'a str,
     /// The line as written, when known.
-    pub source: Option<&'a str>,
+    pub(crate) source: Option<&'a str>,
     /// 0-based columns `[start, end)` of the word to blame in `source`.
-    pub columns: Option<(u16, u16)>,
+    pub(crate) columns: Option<(u16, u16)>,
 }
 
 /// `place:line: N20 error E211: message`, then the source line and a caret under the bad word
 /// (control characters in the source are shown escaped, never sent to the terminal).
 /// How much of a program line an error quotes, characters.
-pub const QUOTED_CHARS: usize = 100;
+pub(crate) const QUOTED_CHARS: usize = 100;
 
-pub fn format_error(r: &ErrorReport<'_>) -> String {
+pub(crate) fn format_error(r: &ErrorReport<'_>) -> String {
     let n = r.n_word.map(|n| format!(" N{n}")).unwrap_or_default();
     let code = r.code.map(|c| format!(" E{c}")).unwrap_or_default();
     let mut out = format!("{}:{}:{n} error{code}: {}\n", r.place, r.line, r.message);
@@ -61,7 +61,7 @@ pub fn format_error(r: &ErrorReport<'_>) -> String {
 
 /// Program text made safe for a terminal: control characters (an escape sequence in a comment
 /// would otherwise reach the terminal raw) are shown as `\u{1b}`-style escapes.
-pub fn printable(text: &str) -> String {
+pub(crate) fn printable(text: &str) -> String {
     text.chars()
         .flat_map(|c| {
             if c.is_control() {
@@ -74,7 +74,7 @@ pub fn printable(text: &str) -> String {
 }
 
 /// "alarm 2 (soft limit): a block would leave …" for an alarm number.
-pub fn alarm_text(code: u16) -> String {
+pub(crate) fn alarm_text(code: u16) -> String {
     match gantry_machine::controller::AlarmCode::from_number(code) {
         Some(a) => format!("alarm {code} ({}): {}", a.name(), a.message()),
         None => format!("alarm {code} (unknown to this gantry)"),
@@ -82,7 +82,7 @@ pub fn alarm_text(code: u16) -> String {
 }
 
 /// "X max switch" for a limit report.
-pub fn limit_text(axis: u8, max: bool) -> String {
+pub(crate) fn limit_text(axis: u8, max: bool) -> String {
     let letter = gantry_machine::units::AXIS_LETTERS
         .get(axis as usize)
         .copied()
@@ -94,7 +94,7 @@ pub fn limit_text(axis: u8, max: bool) -> String {
 }
 
 /// `Idle`, `Run`, … as users read it.
-pub fn state_name(s: MachineState) -> &'static str {
+pub(crate) fn state_name(s: MachineState) -> &'static str {
     match s {
         MachineState::Idle => "Idle",
         MachineState::Run => "Run",
@@ -110,7 +110,7 @@ pub fn state_name(s: MachineState) -> &'static str {
 /// A length in whole micrometres, half a micrometre rounded away from zero: the one rounding of
 /// every position readout (`gantry status` here, the console's page in `crate::console`), so the
 /// two never differ by a digit (`{:.3}` rounded 28.5625 mm to 28.562, the page to 28.563).
-pub fn um_of_nm(nm: i64) -> i64 {
+pub(crate) fn um_of_nm(nm: i64) -> i64 {
     let um = (nm.unsigned_abs() + 500) / 1000;
     if nm < 0 {
         -(um as i64)
@@ -128,7 +128,7 @@ fn mm_3dp(nm: i64) -> String {
 }
 
 /// A position as `X 1.000  Y 2.000  Z 3.000` (mm, 3 decimals) for the first `axes` axes.
-pub fn axes_line(p: &[i64], axes: usize) -> String {
+pub(crate) fn axes_line(p: &[i64], axes: usize) -> String {
     let names = gantry_machine::units::AXIS_LETTERS;
     (0..axes)
         .map(|i| format!("{} {}", names[i], mm_3dp(p[i])))
@@ -137,13 +137,16 @@ pub fn axes_line(p: &[i64], axes: usize) -> String {
 }
 
 /// Seconds as h:mm:ss.
-pub fn hms(seconds: f64) -> String {
+pub(crate) fn hms(seconds: f64) -> String {
     let s = seconds.max(0.0).round() as u64;
     format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
 }
 
 /// The report line on the emulated board's underruns (gaps where its step kernel ran dry mid-job).
-pub fn underrun_line(gaps: u64, cpu: Option<gantry_emulator::cpu_model::CpuModel>) -> String {
+pub(crate) fn underrun_line(
+    gaps: u64,
+    cpu: Option<gantry_emulator::cpu_model::CpuModel>,
+) -> String {
     let model = match cpu {
         Some(m) => format!("CPU model {} at {} MHz", m.name, m.hz / 1_000_000),
         None => "no CPU model: main loop in no time, --cpu-model f411 charges it".to_owned(),
@@ -153,7 +156,7 @@ pub fn underrun_line(gaps: u64, cpu: Option<gantry_emulator::cpu_model::CpuModel
 
 /// The report line on the job's time lost to starvation (`Status::starved_ms`, counted by the
 /// board: machine/src/board/starvation.rs).
-pub fn starved_line(ms: u32) -> String {
+pub(crate) fn starved_line(ms: u32) -> String {
     format!(
         "starved:  {}.{:03} s (machine time lost because the planner held too little of a program with more lines)",
         ms / 1000,
@@ -163,7 +166,7 @@ pub fn starved_line(ms: u32) -> String {
 
 /// The text of an error code the board itself gives (a refused request, a move, a stopped jog),
 /// not the interpreter (docs/errors.md "Board refusals"); `None` for a code that is not one.
-pub fn board_code_text(code: u16) -> Option<&'static str> {
+pub(crate) fn board_code_text(code: u16) -> Option<&'static str> {
     use gantry_machine::board::*;
     Some(match code {
         ERROR_SOFT_LIMIT => "move exceeds the machine travel (soft limit)",
@@ -187,7 +190,7 @@ pub fn board_code_text(code: u16) -> Option<&'static str> {
 impl BoardError {
     /// The error as `gantry check` prints it ([`format_error`]: `place:line: N.. error
     /// E231: …`, the source line, a caret under the word the board blamed).
-    pub fn describe(&self, place: &str, program: &Program) -> String {
+    pub(crate) fn describe(&self, place: &str, program: &Program) -> String {
         let interpreter = || {
             ErrorCode::ALL
                 .iter()
@@ -287,7 +290,7 @@ pub fn format_status(s: &Status, axes: usize) -> String {
 }
 
 /// Name of work system `n` (0 = G54 .. 8 = G59.3).
-pub fn work_system_name(n: u8) -> &'static str {
+pub(crate) fn work_system_name(n: u8) -> &'static str {
     const NAMES: [&str; 9] = [
         "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
     ];
@@ -295,7 +298,7 @@ pub fn work_system_name(n: u8) -> &'static str {
 }
 
 /// The executing block's work system and units: `G54, G21 (mm)`.
-pub fn modes_text(s: &Status) -> String {
+pub(crate) fn modes_text(s: &Status) -> String {
     let units = if s.inch { "G20 (inch)" } else { "G21 (mm)" };
     format!("{}, {units}", work_system_name(s.work_system))
 }
@@ -303,7 +306,7 @@ pub fn modes_text(s: &Status) -> String {
 /// The spindle, coolant and tool as the board drives them: `spindle CW 12000 rpm, flood, tool 3`;
 /// in laser mode `laser M4 S800, power 40.0 %, coolant off, no tool`; with a plasma torch
 /// `torch on (arc OK), THC +0.250 mm, coolant off, no tool`.
-pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
+pub(crate) fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
     use gantry_proto::SpindleStatus;
     let spindle = match (o.torch, o.laser_permille, o.spindle) {
         (Some(t), _, _) => torch_text(t),
@@ -334,7 +337,7 @@ pub fn outputs_text(o: &gantry_proto::OutputsStatus) -> String {
 
 /// A plasma torch's state: `torch off`, `torch on, waiting for arc-OK`, `torch on (arc OK)`,
 /// `torch off: ARC LOST, job held (cycle start re-fires the torch)`, with the height correction.
-pub fn torch_text(t: gantry_proto::TorchStatus) -> String {
+pub(crate) fn torch_text(t: gantry_proto::TorchStatus) -> String {
     let arc = match (t.arc_lost, t.on, t.waiting) {
         (true, _, _) => "torch off: ARC LOST, job held (cycle start re-fires the torch)",
         (_, true, true) => "torch on, waiting for arc-OK",
@@ -348,7 +351,7 @@ pub fn torch_text(t: gantry_proto::TorchStatus) -> String {
 /// `error 900: move exceeds the machine travel (soft limit)` for a refused request's code.
 /// The board's answer `code` to a request, in words (the board's refusals first: a request's
 /// answer is never an interpreter error).
-pub fn refusal_text(code: u16) -> String {
+pub(crate) fn refusal_text(code: u16) -> String {
     // The board's own codes first: 901-905 are also G-code transform errors (E901-E906), which
     // never answer a request.
     if let Some(text) = board_code_text(code) {
@@ -367,7 +370,7 @@ pub fn refusal_text(code: u16) -> String {
 /// The board's state as the server's log names it: each state the status tells apart has its own
 /// words, so a change is logged once and reads as one (a hold coming to rest goes from "holding"
 /// to "held"; an alarm and a tool change name their code and tool).
-pub fn state_words(s: MachineState) -> String {
+pub(crate) fn state_words(s: MachineState) -> String {
     match s {
         MachineState::Hold { stopped: false } => "holding (stopping)".into(),
         MachineState::Hold { stopped: true } => "held".into(),

@@ -11,11 +11,11 @@ pub struct Program {
 }
 
 /// Where a board asked the sender to continue.
-pub use gantry_proto::ProgramTarget;
+pub(crate) use gantry_proto::ProgramTarget;
 
 /// The longest line a program file may have, bytes: far beyond any G-code line (the board takes
 /// [`LINE_MAX`] once comments and blanks are stripped), short enough to read any line whole.
-pub const FILE_LINE_LIMIT: usize = 64 * 1024;
+pub(crate) const FILE_LINE_LIMIT: usize = 64 * 1024;
 
 /// Reads `path` through once in constant memory and refuses it at the first line longer than
 /// [`FILE_LINE_LIMIT`] (a binary file, `/dev/zero`), naming the line, before anything reads it
@@ -67,16 +67,12 @@ impl Program {
     }
 
     /// Number of lines in the file.
-    pub fn len(&self) -> u32 {
+    pub(crate) fn len(&self) -> u32 {
         self.lines.len() as u32
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.lines.is_empty()
-    }
-
     /// Line `n` as written (1-based).
-    pub fn line(&self, n: u32) -> Option<&str> {
+    pub(crate) fn line(&self, n: u32) -> Option<&str> {
         self.lines
             .get(n.checked_sub(1)? as usize)
             .map(String::as_str)
@@ -84,7 +80,7 @@ impl Program {
 
     /// The text sent for line `n`: comments and blanks removed (they never change what a block
     /// does). `Ok(None)` when nothing is left; `Err` when it is longer than the protocol's limit.
-    pub fn wire_text(&self, n: u32) -> Result<Option<String>, WireTextError> {
+    pub(crate) fn wire_text(&self, n: u32) -> Result<Option<String>, WireTextError> {
         match self.line(n) {
             Some(line) => wire_text_of(n, line),
             None => Ok(None),
@@ -93,7 +89,7 @@ impl Program {
 
     /// The columns `[start, end)` in line `n` as written of the word that starts at 1-based
     /// column `wire_column` of its [`Program::wire_text`] (where the board reports errors).
-    pub fn source_columns(&self, n: u32, wire_column: u16) -> Option<(u16, u16)> {
+    pub(crate) fn source_columns(&self, n: u32, wire_column: u16) -> Option<(u16, u16)> {
         let line = self.line(n)?;
         let start = usize::from(wire_column.checked_sub(1)?);
         // Byte index in `line` of every character sent, in order.
@@ -113,7 +109,7 @@ impl Program {
     }
 
     /// The first line a jump target refers to.
-    pub fn resolve(&self, target: ProgramTarget) -> Option<u32> {
+    pub(crate) fn resolve(&self, target: ProgramTarget) -> Option<u32> {
         match target {
             ProgramTarget::Line(n) => (n >= 1 && n <= self.len() + 1).then_some(n),
             ProgramTarget::Program(p) => self.find(|t| word_value(t, b'O') == Some(p)),
@@ -128,7 +124,7 @@ impl Program {
 
 /// [`Program::wire_text`] of one line `text` numbered `n` (for tools that read a file line by
 /// line: `preview::source::Watched`).
-pub fn wire_text_of(n: u32, text: &str) -> Result<Option<String>, WireTextError> {
+pub(crate) fn wire_text_of(n: u32, text: &str) -> Result<Option<String>, WireTextError> {
     let text = strip(text);
     if text.is_empty() {
         Ok(None)
@@ -144,9 +140,9 @@ pub fn wire_text_of(n: u32, text: &str) -> Result<Option<String>, WireTextError>
 
 /// A line too long for the protocol even after comments and blanks were removed.
 #[derive(Debug, PartialEq, Eq)]
-pub struct WireTextError {
-    pub line: u32,
-    pub len: usize,
+pub(crate) struct WireTextError {
+    pub(crate) line: u32,
+    pub(crate) len: usize,
 }
 
 impl std::fmt::Display for WireTextError {
@@ -204,7 +200,7 @@ fn kept_chars(line: &str) -> Vec<(usize, char)> {
 }
 
 /// The N number of line `n`'s block, if it starts with one.
-pub fn n_word(program: &Program, n: u32) -> Option<u32> {
+pub(crate) fn n_word(program: &Program, n: u32) -> Option<u32> {
     word_value(&strip(program.line(n)?), b'N')
 }
 

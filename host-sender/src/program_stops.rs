@@ -6,7 +6,7 @@
 
 /// A stop the sender announces and waits out with the operator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Stop {
+pub(crate) enum Stop {
     /// M0 (`optional` false) or M1.
     Program { optional: bool },
     /// M6 with the tool named in the block (T word), if any.
@@ -39,7 +39,7 @@ fn whole(v: &str) -> Option<u32> {
 }
 
 /// The operator stop in a block, if any (M6 first: a tool change block may also stop).
-pub fn stop_in(text: &str) -> Option<Stop> {
+pub(crate) fn stop_in(text: &str) -> Option<Stop> {
     let mut stop = None;
     let mut tool = None;
     for (letter, value) in words(text) {
@@ -60,7 +60,7 @@ pub fn stop_in(text: &str) -> Option<Stop> {
 /// What the sender tells the operator at a stop.
 /// The stop the job stands at, if the board's state says it stopped for one: an M6 (the board
 /// names the tool) or an M0/M1 on line `line` of `program` (a feed hold is not a stop).
-pub fn stop_at(
+pub(crate) fn stop_at(
     state: Option<gantry_proto::MachineState>,
     program: &crate::program::Program,
     line: u32,
@@ -78,13 +78,13 @@ pub fn stop_at(
     }
 }
 
-pub fn message(stop: Stop, line: u32) -> String {
+pub(crate) fn message(stop: Stop, line: u32) -> String {
     message_with(stop, line, None)
 }
 
 /// [`message`] with the stop line's comment (`M0 (check the cut)`: the program's word to the
 /// operator); line 0 is a run-from-line preamble's block.
-pub fn message_with(stop: Stop, line: u32, source: Option<&str>) -> String {
+pub(crate) fn message_with(stop: Stop, line: u32, source: Option<&str>) -> String {
     let place = if line == 0 {
         "resume preamble".to_owned()
     } else {

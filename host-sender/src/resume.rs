@@ -50,14 +50,10 @@ impl ProgramSource for UpTo<'_> {
     }
 }
 
-/// The modal state and the tool in the spindle when line `line` is about to run.
-pub fn state_before(text: &str, line: u32, config: &InterpConfig) -> anyhow::Result<ModalState> {
-    Ok(state_and_clearance_before(text, line, config)?.0)
-}
-
-/// [`state_before`] and the highest Z (machine nm) the program moved to before line `line`: its
-/// clearance height, where the preamble may cross the part.
-pub fn state_and_clearance_before(
+/// The modal state and the tool in the spindle when line `line` is about to run, and the highest
+/// Z (machine nm) the program moved to before it: its clearance height, where the preamble may
+/// cross the part.
+pub(crate) fn state_and_clearance_before(
     text: &str,
     line: u32,
     config: &InterpConfig,
@@ -101,15 +97,11 @@ fn axis_words(p: &Pos, axes: usize) -> String {
         .join(" ")
 }
 
-/// The blocks that bring a board standing at machine position `current` to the state `s`.
-/// Lengths are written in mm (G21) until the final block restores the program's units.
-pub fn preamble(s: &ModalState, setup: &Setup, current: &Pos) -> Vec<String> {
-    preamble_above(s, setup, current, None)
-}
-
-/// [`preamble`] whose XY move crosses at `clearance` (machine nm Z) at least: the program's own
-/// clearance height ([`state_and_clearance_before`]).
-pub fn preamble_above(
+/// The blocks that bring a board standing at machine position `current` to the state `s`, its XY
+/// move crossing at `clearance` (machine nm Z) at least: the program's own clearance height
+/// ([`state_and_clearance_before`]). Lengths are written in mm (G21) until the final block
+/// restores the program's units.
+pub(crate) fn preamble_above(
     s: &ModalState,
     setup: &Setup,
     current: &Pos,

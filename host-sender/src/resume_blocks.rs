@@ -8,13 +8,13 @@ use gantry_machine::gcode::oword::{parse, Keyword, Label};
 
 /// An O-word block open at some line.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct OpenBlock {
+pub(crate) struct OpenBlock {
     /// Its first line (1-based).
-    pub line: u32,
+    pub(crate) line: u32,
     /// It is a subroutine definition (`sub`): its lines run only when called.
-    pub sub: bool,
+    pub(crate) sub: bool,
     /// That line's text, trimmed.
-    pub text: String,
+    pub(crate) text: String,
 }
 
 /// How a block ends.
@@ -28,7 +28,7 @@ enum Kind {
 }
 
 /// The outermost O-word block still open when line `line` is reached in file order, if any.
-pub fn enclosing_block(text: &str, line: u32) -> Option<OpenBlock> {
+pub(crate) fn enclosing_block(text: &str, line: u32) -> Option<OpenBlock> {
     let mut open: Vec<(Label, Kind, u32)> = Vec::new();
     for (i, l) in text.lines().enumerate() {
         let n = i as u32 + 1;
@@ -80,7 +80,7 @@ pub fn enclosing_block(text: &str, line: u32) -> Option<OpenBlock> {
 
 /// The line a run meant to start at `line` can start at: `line` itself, or the first line of the
 /// control-flow block around it (never a subroutine's: those lines are refused as before).
-pub fn resumable_line(text: &str, line: u32) -> u32 {
+pub(crate) fn resumable_line(text: &str, line: u32) -> u32 {
     match enclosing_block(text, line) {
         Some(b) if !b.sub => b.line,
         _ => line,

@@ -78,7 +78,7 @@ fn range(row: &Row) -> String {
 }
 
 /// The markdown table of section `sec`.
-pub fn table(sec: Section) -> String {
+pub(crate) fn table(sec: Section) -> String {
     let s = Setup::default();
     let mut out = String::from("| key | default | range | meaning |\n|---|---|---|---|\n");
     let rows: Vec<&Row> = ROWS.iter().filter(|r| r.section == sec).collect();

@@ -3,8 +3,10 @@
 //!
 //! Reader and writer are two walks over the settings table (machine/src/setup/table.rs): each row
 //! gives its key, section and unit, the core's range check and its setter (reading) or getter
-//! (writing) and the comment written after its value. Only the text-valued rows (axis letters,
-//! lists, positions, input names) have codecs of their own, in `codec`.
+//! (writing) and the comment written after its value. The row's unit says how its integer
+//! reads: scaled decimals, whole numbers, booleans, choices by name, or names (axis letters and
+//! input names as masks and pairs, an input, an output). Only the text-valued rows (the axes in
+//! use, M codes, positions, lists, startup lines) have codecs of their own, in `codec`.
 //!
 //! Decimal values are converted to integer nanometres with rounding to the nearest nm; the file is
 //! the only place where a float ever touches a setting.
@@ -13,8 +15,8 @@ mod codec;
 
 use anyhow::{bail, Context};
 use gantry_machine::setup::table::{Section, Unit, ROWS, SECTIONS};
-use gantry_machine::setup::{section_name, Key, KeyName, Setup};
-use gantry_machine::units::Nm;
+use gantry_machine::setup::{section_name, Key, KeyName, OrientSetup, Setup, USER_OUTPUTS};
+use gantry_machine::units::{Nm, AXIS_LETTERS};
 use std::fmt::Write as _;
 use std::path::Path;
 use toml::{Table, Value};
@@ -23,7 +25,7 @@ use toml::{Table, Value};
 use gantry_machine::{setup::ListCommand, units::NM_PER_MM};
 
 /// The largest setup file read, bytes (a full setup with every tool and list is about 10 KiB).
-pub const SETUP_FILE_LIMIT: u64 = 1024 * 1024;
+pub(crate) const SETUP_FILE_LIMIT: u64 = 1024 * 1024;
 
 /// The setup file's reader (its writer is [`to_toml`]).
 pub struct SetupFile;
@@ -35,57 +37,48 @@ impl SetupFile {
         Self::parse(&text).with_context(|| format!("in setup file {}", path.display()))
     }
 
-    /// [`SetupFile::load`] for a push to a board whose setup is `board`: the work offsets, the
-    /// G28/G30 positions and the tool table are the board's (the operator set them with G10,
-    /// G28.1, G30.1 and the board keeps them in flash) unless the file names them, so a push never
-    /// clears them by accident (docs/controller.md "Work offsets").
-    pub fn load_for_push(path: &Path, board: &Setup) -> anyhow::Result<Setup> {
-        Self::load_keeping(path, board).map(|(s, _)| s)
-    }
-
-    /// [`SetupFile::load_for_push`], and what of `stored` it kept that holds anything (for a
-    /// message: "work offsets G54 G55", "G28 position", "tool table (2 tools)"); `gantry emulate
-    /// --setup F --state S` starts from it with S's setup as `stored`.
-    pub fn load_keeping(path: &Path, stored: &Setup) -> anyhow::Result<(Setup, Vec<String>)> {
+    /// [`SetupFile::load`] for a push to a board whose setup is `stored`, and what of it was
+    /// kept that holds anything (for a message: "work offsets G54 G55", "G28 position", "tool
+    /// table (2 tools)"): the work offsets, the G28/G30 positions and the tool table are the
+    /// board's (the operator set them with G10, G28.1, G30.1 and the board keeps them in flash)
+    /// unless the file names them, so a push never clears them by accident (docs/controller.md
+    /// "Work offsets"). `gantry emulate --setup F --state S` starts from it with S's setup.
+    pub(crate) fn load_keeping(
+        path: &Path,
+        stored: &Setup,
+    ) -> anyhow::Result<(Setup, Vec<String>)> {
         let text = Self::read_bounded(path)?;
         Self::parse_keeping(&text, stored)
             .with_context(|| format!("in setup file {}", path.display()))
     }
 
-    /// [`SetupFile::load_for_push`] on setup text (the console's editor; the one push path,
-    /// `crate::session::Session::push_setup_text`).
-    pub fn parse_for_push(text: &str, board: &Setup) -> anyhow::Result<Setup> {
+    /// [`SetupFile::load_keeping`] on setup text without the list (the console's editor; the
+    /// one push path, `crate::session::Session::push_setup_text`).
+    pub(crate) fn parse_for_push(text: &str, board: &Setup) -> anyhow::Result<Setup> {
         Self::parse_keeping(text, board).map(|(s, _)| s)
     }
 
     /// [`SetupFile::load_keeping`] on setup text. An empty setup (no setting at all: an empty
     /// editor, only comments) is refused: pushed, it would set every default (travel, steps per
     /// mm, switch polarity, homing) on the machine.
-    pub fn parse_keeping(text: &str, stored: &Setup) -> anyhow::Result<(Setup, Vec<String>)> {
+    pub(crate) fn parse_keeping(
+        text: &str,
+        stored: &Setup,
+    ) -> anyhow::Result<(Setup, Vec<String>)> {
         let root: Table = toml::from_str(text)?;
         anyhow::ensure!(
             !root.is_empty(),
             "an empty setup (no setting in it): nothing was pushed (`gantry setup pull` or the \
              console's \"Show the board's\" gives the board's setup to edit)"
         );
-        let program = root.get("program").and_then(Value::as_table);
-        let named = |v: Option<&Value>| v.is_some();
-        let (g28, g30) = (
-            named(program.and_then(|p| p.get("g28_home"))),
-            named(program.and_then(|p| p.get("g30_home"))),
-        );
-        let tools = root
-            .get("tool")
-            .and_then(Value::as_array)
-            .is_some_and(|a| !a.is_empty());
+        let named = |t: &str, k: &str| root.get(t).and_then(|t| t.get(k)).is_some();
+        let tools = root.get("tool").and_then(Value::as_array);
         let mut s = read(&root)?;
-        let (from, to) = (&stored.program, &mut s.program);
-        let mut kept = Vec::new();
+        let (from, to, mut kept) = (&stored.program, &mut s.program, Vec::new());
         if !codec::has_work_offsets(&root) {
             to.work_offsets = from.work_offsets;
-            let set: Vec<&str> = codec::WORK_SYSTEMS
-                .iter()
-                .zip(&from.work_offsets)
+            let set = codec::WORK_SYSTEMS.iter().zip(&from.work_offsets);
+            let set: Vec<&str> = set
                 .filter(|(_, o)| o.iter().any(|v| *v != 0))
                 .map(|(n, _)| *n)
                 .collect();
@@ -93,18 +86,18 @@ impl SetupFile {
                 kept.push(format!("work offsets {}", set.join(" ")));
             }
         }
-        for (named, name, at, stored_at) in [
-            (g28, "G28", &mut to.g28_home, &from.g28_home),
-            (g30, "G30", &mut to.g30_home, &from.g30_home),
+        for (key, name, at, stored_at) in [
+            ("g28_home", "G28", &mut to.g28_home, &from.g28_home),
+            ("g30_home", "G30", &mut to.g30_home, &from.g30_home),
         ] {
-            if !named {
+            if !named("program", key) {
                 *at = *stored_at;
                 if stored_at.iter().any(|v| *v != 0) {
                     kept.push(format!("{name} position"));
                 }
             }
         }
-        if !tools {
+        if tools.is_none_or(|a| a.is_empty()) {
             to.tools = from.tools.clone();
             match from.tools.len() {
                 0 => {}
@@ -302,23 +295,20 @@ fn read(root: &Table) -> anyhow::Result<Setup> {
 /// own; [`read`] adds the rules between settings.
 fn apply(root: &Table) -> anyhow::Result<Setup> {
     let mut s = Setup::default();
-    let extra: Vec<&str> = tables().collect();
     for section in SECTIONS {
         let name = section_name(section);
         match section {
-            Section::Top => read_rows(root, section, 0, &extra, &mut s)?,
+            Section::Top => read_rows(root, section, 0, &mut s)?,
             Section::Axis | Section::HomingAxis => {
                 let parent = match section {
                     Section::Axis => Some(root),
                     _ => root.get("homing").and_then(Value::as_table),
                 };
-                let Some(axes) = parent.and_then(|p| p.get("axis")) else {
-                    continue;
-                };
-                for (letter, v) in table(axes, name)? {
+                let axes = parent.and_then(|p| p.get("axis")).map(|a| table(a, name));
+                for (letter, v) in axes.transpose()?.into_iter().flatten() {
                     let at = format!("{name}.{letter}");
                     let i = codec::axis_in_use(&at, letter, usize::from(s.axis_count))?;
-                    read_rows(table(v, &at)?, section, i, &[], &mut s)?;
+                    read_rows(table(v, &at)?, section, i, &mut s)?;
                 }
             }
             Section::Tool | Section::Mcode => {
@@ -329,20 +319,14 @@ fn apply(root: &Table) -> anyhow::Result<Setup> {
                 for (k, v) in items.transpose()?.into_iter().flatten().enumerate() {
                     let t = table(v, &format!("{name}[{k}]"))?;
                     codec::push_item(section, &mut s)?;
-                    read_rows(t, section, k, &[], &mut s)?;
+                    read_rows(t, section, k, &mut s)?;
                     codec::check_item(section, k, t, &s)?;
                 }
             }
             _ => {
-                let Some(v) = root.get(name) else {
-                    continue;
-                };
-                let extra: &[&str] = if section == Section::Homing {
-                    &["axis"]
-                } else {
-                    &[]
-                };
-                read_rows(table(v, name)?, section, 0, extra, &mut s)?;
+                if let Some(v) = root.get(name) {
+                    read_rows(table(v, name)?, section, 0, &mut s)?;
+                }
             }
         }
         if section == Section::Tool {
@@ -358,28 +342,21 @@ fn table<'a>(v: &'a Value, at: &str) -> anyhow::Result<&'a Table> {
         .with_context(|| format!("{at}: expected a table, found {}", v.type_str()))
 }
 
-/// One table of `section` (item `i`): every key must be a row's (or in `extra`), each value
+/// One table of `section` (item `i`): every key must be a row's (or a table below), each value
 /// is converted by the row's unit, range-checked by the core and set.
-fn read_rows(
-    t: &Table,
-    section: Section,
-    i: usize,
-    extra: &[&str],
-    s: &mut Setup,
-) -> anyhow::Result<()> {
+fn read_rows(t: &Table, section: Section, i: usize, s: &mut Setup) -> anyhow::Result<()> {
     let at = place(section, i);
-    for name in t.keys() {
-        if !extra.contains(&name.as_str()) && !rows(section).any(|(_, n)| n == name) {
-            let known: Vec<String> = rows(section).map(|(_, n)| format!("`{n}`")).collect();
-            let known = known
-                .into_iter()
-                .chain(extra.iter().map(|n| format!("`{n}`")));
-            let known: Vec<String> = known.collect();
-            bail!(
-                "{at}{name}: unknown field `{name}`, expected one of {}",
-                known.join(", ")
-            );
-        }
+    let below: Vec<&str> = match section {
+        Section::Top => tables().collect(),
+        Section::Homing => vec!["axis"],
+        _ => vec![],
+    };
+    let known = |k: &str| below.contains(&k) || rows(section).any(|(_, n)| n == k);
+    if let Some(name) = t.keys().find(|k| !known(k)) {
+        let names = rows(section).map(|(_, n)| n).chain(below.iter().copied());
+        let names: Vec<String> = names.map(|n| format!("`{n}`")).collect();
+        let names = names.join(", ");
+        bail!("{at}{name}: unknown field `{name}`, expected one of {names}");
     }
     for (key, name) in rows(section) {
         let Some(v) = t.get(name) else {
@@ -387,63 +364,70 @@ fn read_rows(
         };
         if key.row().unit == Unit::Text {
             codec::read(key, i, v, s)?;
-        } else if name != key.text().name {
-            let [a, b] = codec::pair(&format!("{at}{name}"), v)?;
-            for (key, v) in [(key, a), (key.next(), b)] {
-                let value = number(key, i, v)?;
-                key.set(s, i, value);
-            }
-        } else {
-            let value = number(key, i, v)?;
+            continue;
+        }
+        // A `[low, high]` pair sets its two rows.
+        let values = match name != key.text().name {
+            true => codec::pair(&format!("{at}{name}"), v)?.to_vec(),
+            false => vec![v],
+        };
+        for (key, v) in [key, key.next()].into_iter().zip(values) {
+            let value = read_value(key, i, v, s)?;
             key.set(s, i, value);
         }
     }
     Ok(())
 }
 
-/// A file value of setting `key` (axis or tool `index`) in the core's integer units, checked
-/// against the settings table's range by the core's own check, so the refusal is the one the
-/// board and grbl `$x=` give. Scaled units read decimals; counts read whole numbers.
-fn number(key: Key, index: usize, v: &Value) -> anyhow::Result<i64> {
-    let unit = key.row().unit;
+/// A file value of setting `key` (axis or tool `index`) in the core's integer units, by the
+/// row's unit: scaled units read decimals, counts whole numbers, names (axis letters in use,
+/// inputs) their index. The table's range is checked by the core's own check, so the refusal
+/// is the one the board and grbl `$x=` give.
+fn read_value(key: Key, index: usize, v: &Value, s: &Setup) -> anyhow::Result<i64> {
+    let (unit, at) = (key.row().unit, KeyName(key, index).to_string());
+    let n = usize::from(s.axis_count);
     let scale = unit.scale();
-    let scaled = |v: f64| {
-        if v.is_nan() {
-            i64::MIN
-        } else {
-            (v * scale as f64).round() as i64
-        }
+    let scaled = |v: f64| match v.is_nan() {
+        true => i64::MIN,
+        false => (v * scale as f64).round() as i64,
     };
+    let expected = |what: &str| anyhow::anyhow!("{at}: expected {what}, found {}", v.type_str());
     let value = match (unit, v) {
         (Unit::Bool, Value::Boolean(b)) => i64::from(*b),
+        (Unit::Bool, _) => return Err(expected("true or false")),
         (Unit::Choice, Value::String(text)) => choice(key, index, text)?,
-        (Unit::Bool | Unit::Choice, _) => bail!(
-            "{}: expected {}, found {}",
-            KeyName(key, index),
-            if unit == Unit::Bool {
-                "true or false"
-            } else {
-                "a string"
-            },
-            v.type_str()
-        ),
+        (Unit::Choice, _) => return Err(expected("a string")),
+        (Unit::AxisMask, _) => codec::strings(&at, v)?.iter().try_fold(0, |m, name| {
+            anyhow::Ok(m | 1 << codec::axis_index(&at, name, n, false)?)
+        })?,
+        (Unit::InputMask, _) => codec::strings(&at, v)?.iter().try_fold(0, |m, name| {
+            anyhow::Ok(m | 1 << codec::input_bit(&at, name)?)
+        })?,
+        (Unit::AxisPair, _) => {
+            let letter = |v: &Value| match v.as_str() {
+                Some(name) => codec::axis_index(&at, name, n, true).map(i64::from),
+                None => bail!("{at}: expected axis letters"),
+            };
+            let [a, b] = codec::pair(&at, v)?;
+            letter(a)? | letter(b)? << 8
+        }
+        (Unit::Input, Value::String(name)) => i64::from(codec::input_bit(&at, name)?),
+        (Unit::Input, _) => bail!("{at}: expected an input name"),
+        (Unit::Output, Value::Integer(o)) if (0..i64::from(USER_OUTPUTS)).contains(o) => *o,
+        (Unit::Output, Value::Integer(o)) => bail!("{at} = {o}: a user output 0-{}", OUTPUT_MAX),
+        (Unit::Output, _) => bail!("{at}: expected a user output number 0-{OUTPUT_MAX}"),
         (_, Value::Integer(n)) if scale == 1 => *n,
-        (_, Value::Integer(n)) if scale > 1 => scaled(*n as f64),
+        (_, Value::Integer(n)) => scaled(*n as f64),
         (_, Value::Float(f)) if scale > 1 => scaled(*f),
-        _ => bail!(
-            "{}: expected {}, found {}",
-            KeyName(key, index),
-            if scale > 1 {
-                "a number"
-            } else {
-                "a whole number"
-            },
-            v.type_str()
-        ),
+        _ if scale > 1 => return Err(expected("a number")),
+        _ => return Err(expected("a whole number")),
     };
     key.check(index, value).map_err(anyhow::Error::new)?;
     Ok(value)
 }
+
+/// The highest user output number.
+const OUTPUT_MAX: u8 = USER_OUTPUTS - 1;
 
 /// `text` as the index of one of `key`'s choices (any case).
 fn choice(key: Key, index: usize, text: &str) -> anyhow::Result<i64> {
@@ -477,18 +461,35 @@ fn mm(v: Nm) -> String {
     decimal(v, 1_000_000)
 }
 
-/// One value of a numeric row as the file writes it.
-fn value_text(key: Key, v: i64) -> String {
+/// One value of a row as the file writes it (`n` axes in use).
+fn value_text(key: Key, v: i64, n: usize) -> String {
+    let letter = |a: i64| match AXIS_LETTERS.get(a as usize).filter(|_| (a as usize) < n) {
+        Some(l) => l.to_string(),
+        None => "-".into(),
+    };
+    let bits = |count: usize| (0..count).filter(move |b| v & (1 << b) != 0);
     match key.row().unit {
         Unit::Bool => (v != 0).to_string(),
         Unit::Choice => format!("\"{}\"", key.text().choices[v as usize]),
         // Degrees keep their three decimals (`0.000`): the file has always written them so.
         Unit::Degrees => format!("{}.{:03}", v / 1000, v % 1000),
+        Unit::AxisMask => codec::quoted(bits(n).map(|a| AXIS_LETTERS[a])),
+        Unit::InputMask => codec::quoted(bits(32).map(|b| codec::input_name(b as u8))),
+        Unit::AxisPair => codec::quoted([v & 0xff, v >> 8].into_iter().map(letter)),
+        Unit::Input => format!("{:?}", codec::input_name(v as u8)),
         u if u.scale() > 1 => decimal(v, u.scale()),
         _ => v.to_string(),
     }
 }
 
+/// An output or input row set to none: the example its commented-out line shows.
+fn unset(key: Key, v: i64) -> Option<&'static str> {
+    match key.row().unit {
+        Unit::Output if v > i64::from(OUTPUT_MAX) => Some("0"),
+        Unit::Input if v == i64::from(OrientSetup::NONE) => Some("\"in20\""),
+        _ => None,
+    }
+}
 /// Writes a setup as a commented setup file that [`SetupFile::parse`] reads back exactly: each
 /// section's table head, then each row's `key = value` and its comment.
 pub fn to_toml(s: &Setup) -> String {
@@ -505,15 +506,19 @@ pub fn to_toml(s: &Setup) -> String {
                 _ => writeln!(t, "\n[{}]", place(section, i).trim_end_matches('.')),
             };
             for (key, name) in rows(section) {
-                let note = key.text().note;
+                let (note, v, n) = (key.text().note, key.value(s, i), usize::from(s.axis_count));
                 let _ = if key.row().unit == Unit::Text {
                     writeln!(t, "{}", codec::write(key, i, s))
+                } else if let Some(example) = unset(key, v) {
+                    writeln!(t, "# {name} = {example}{note}")
                 } else if name != key.text().name {
-                    let (a, b) = (key.value(s, i), key.next().value(s, i));
-                    let (a, b) = (value_text(key, a), value_text(key.next(), b));
+                    let (a, b) = (
+                        value_text(key, v, n),
+                        value_text(key.next(), key.next().value(s, i), n),
+                    );
                     writeln!(t, "{name} = [{a}, {b}]{note}")
                 } else {
-                    writeln!(t, "{name} = {}{note}", value_text(key, key.value(s, i)))
+                    writeln!(t, "{name} = {}{note}", value_text(key, v, n))
                 };
             }
         }

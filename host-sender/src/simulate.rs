@@ -23,13 +23,13 @@ use gantry_machine::setup::Setup;
 /// One reported move: consecutive blocks of the same source line.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Move {
-    pub line: u32,
+    pub(crate) line: u32,
     /// Speeds in mm/min.
-    pub entry: f64,
-    pub cruise: f64,
-    pub exit: f64,
+    pub(crate) entry: f64,
+    pub(crate) cruise: f64,
+    pub(crate) exit: f64,
     /// Duration in seconds.
-    pub time: f64,
+    pub(crate) time: f64,
 }
 
 /// nm/s → mm/min.
@@ -67,7 +67,7 @@ impl Moves {
 
 /// Simulates the program in `src` on the machine `setup`, calling `on_move` with each move as
 /// soon as it is planned; returns the total time in seconds.
-pub fn simulate_stream<S: ProgramSource>(
+pub(crate) fn simulate_stream<S: ProgramSource>(
     src: S,
     setup: &Setup,
     on_move: &mut impl FnMut(Move),
@@ -76,7 +76,7 @@ pub fn simulate_stream<S: ProgramSource>(
 }
 
 /// [`simulate_stream`] with the machine at `at` (nm) when the program starts.
-pub fn simulate_stream_from<S: ProgramSource>(
+pub(crate) fn simulate_stream_from<S: ProgramSource>(
     src: S,
     setup: &Setup,
     at: &gantry_machine::units::Pos,
@@ -124,7 +124,7 @@ fn round(v: f64, digits: i32) -> f64 {
 }
 
 /// One move as `simulate` prints it (JSON written by serde_json with `json`), without newline.
-pub fn move_line(m: &Move, json: bool) -> String {
+pub(crate) fn move_line(m: &Move, json: bool) -> String {
     if json {
         serde_json::json!({
             "line": m.line,
@@ -143,7 +143,7 @@ pub fn move_line(m: &Move, json: bool) -> String {
 }
 
 /// The last line: `total time: T s`, or `{"total_time": T}`.
-pub fn total_line(total: f64, json: bool) -> String {
+pub(crate) fn total_line(total: f64, json: bool) -> String {
     if json {
         serde_json::json!({ "total_time": round(total, 6) }).to_string()
     } else {
@@ -154,7 +154,8 @@ pub fn total_line(total: f64, json: bool) -> String {
 /// The whole report text. With `json`, JSON Lines written by serde_json: one object per move
 /// (`line`, `entry`, `cruise`, `exit` in mm/min, `time` in s, rounded as in the table), then
 /// `{"total_time": T}`; no other line.
-pub fn report(moves: &[Move], total: f64, json: bool) -> String {
+#[cfg(test)]
+pub(crate) fn report(moves: &[Move], total: f64, json: bool) -> String {
     let mut out = String::new();
     for m in moves {
         out.push_str(&move_line(m, json));

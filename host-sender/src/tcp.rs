@@ -17,7 +17,7 @@ use std::time::Duration;
 
 /// Refuses an address other hosts can reach unless `allow_remote` (a CNC machine must not take
 /// commands from the network by accident); warns when allowed.
-pub fn check_address(addr: &SocketAddr, allow_remote: bool) -> anyhow::Result<()> {
+pub(crate) fn check_address(addr: &SocketAddr, allow_remote: bool) -> anyhow::Result<()> {
     if addr.ip().is_loopback() {
         return Ok(());
     }

@@ -405,11 +405,6 @@ impl<W: Write> VcdWriter<W> {
         Ok(())
     }
 
-    /// What has been written so far.
-    pub fn summary(&self) -> &VcdSummary {
-        &self.em.summary
-    }
-
     /// Ends the last pulses, flushes and returns the summary.
     pub fn finish(mut self) -> io::Result<VcdSummary> {
         self.end()?;
@@ -470,7 +465,7 @@ pub struct VcdTrace {
     /// first.
     pub values: HashMap<String, Vec<(u64, u64)>>,
     /// Level of each signal at the end.
-    pub last: HashMap<String, bool>,
+    pub(crate) last: HashMap<String, bool>,
     /// Timescale text, e.g. `1 ns`.
     pub timescale: String,
     /// Last timestamp.

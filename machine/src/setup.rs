@@ -320,7 +320,7 @@ impl TorchSetup {
 }
 
 /// The command list of one user M code.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct McodeList {
     pub code: u16,
     /// The GIXA controller's "Disable these commands for Dry Run".

@@ -9,9 +9,10 @@
 //! | 2 | `len` (LE): bytes of text, at most [`LINE_MAX`] |
 //! | `len` | the text, comments and blanks stripped by the host |
 //!
-//! The board stores these records exactly as they arrive (its line ring, `machine/src/board/
-//! line_ring.rs`), so a batch is copied once from the decoded frame into the ring and the
-//! interpreter reads each line where it lies. The queued lane's credit the board grants is counted
+//! This module is the one definition of the format. The board stores these records exactly as
+//! they arrive (its line ring, `machine/src/board/line_ring.rs`, reads and writes them with these
+//! functions), so a batch is copied once from the decoded frame into the ring and the interpreter
+//! reads each line where it lies. The queued lane's credit the board grants is counted
 //! in the same bytes: a batch costs its record bytes ([`crate::Wire::charge`]).
 
 /// Longest G-code line (bytes, comments and blanks stripped) the link carries and the board
@@ -39,11 +40,20 @@ pub fn push_record(batch: &mut LineBatch, line_no: u32, text: &[u8]) -> bool {
     if text.len() > LINE_MAX || batch.capacity() - batch.len() < RECORD_HEADER + text.len() {
         return false;
     }
+    let at = batch.len();
     // Cannot fail: room checked above.
-    let _ = batch.extend_from_slice(&line_no.to_le_bytes());
-    let _ = batch.extend_from_slice(&(text.len() as u16).to_le_bytes());
-    let _ = batch.extend_from_slice(text);
+    let _ = batch.resize(at + record_len(text.len()), 0);
+    write_record(&mut batch[at..], line_no, text);
     true
+}
+
+/// Writes the record of line `line_no` into `to`, exactly [`record_len`] of `text` bytes long
+/// (the board's line ring writes a line in place with it).
+pub fn write_record(to: &mut [u8], line_no: u32, text: &[u8]) {
+    let (head, body) = to.split_at_mut(RECORD_HEADER);
+    head[..4].copy_from_slice(&line_no.to_le_bytes());
+    head[4..].copy_from_slice(&(text.len() as u16).to_le_bytes());
+    body.copy_from_slice(text);
 }
 
 /// The bytes [`push_record`] would add for a line of `text_len` bytes.

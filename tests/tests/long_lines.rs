@@ -41,9 +41,8 @@ fn a_256_character_line_streams_over_a_pty_and_257_is_refused() {
     let file = dir.file("long.ngc", &program(256));
     let out = gantry(&["--port", emu.port(), "stream", file.to_str().unwrap()], T);
     assert_eq!(out.code, Some(0), "{out:?}");
-    std::thread::sleep(Duration::from_millis(300));
     // X 10 mm at 640 steps/mm.
-    let (steps, _) = emu.last_counts();
+    let (steps, _) = emu.idle_counts(T);
     assert_eq!(steps.trim(), "X 6400 Y 0 Z 0", "{}", emu.log());
 
     // Still where the 256-character line left it.

@@ -238,7 +238,10 @@ fn ctrl_c_asks_while_the_link_runs_then_resumes_or_aborts() {
     // Ctrl-C, wait past host_lost_stop_s (1 s), answer "n": the job resumes and completes.
     let mut sender = spawn(&["stream", job, "--port", port]);
     assert!(emu.wait_log(10 * S, |l| l.contains(" Run line")));
-    std::thread::sleep(Duration::from_millis(300));
+    // By the sender's first progress line its Ctrl-C handler is set.
+    assert!(wait_for(10 * S, || sender
+        .stdout()
+        .contains("progress: line")));
     sender.signal(Signal::SIGINT);
     assert!(wait_for(5 * S, || sender
         .stderr()
@@ -287,7 +290,9 @@ fn after_a_stream_is_aborted_the_board_takes_the_next_job_at_once() {
     let (emu, job) = zigzag_board(&dir, FAST_SETUP);
     let port = emu.port();
     let mut sender = stream_running(&emu, &job);
-    std::thread::sleep(Duration::from_millis(300));
+    assert!(wait_for(10 * S, || sender
+        .stdout()
+        .contains("progress: line")));
     sender.signal(Signal::SIGINT);
     assert!(wait_for(5 * S, || sender
         .stderr()

@@ -35,8 +35,7 @@ fn a_zero_set_with_g10_survives_a_restart_and_setup_pull_shows_it() {
     let out = gantry(&["--port", emu.port(), "mdi", "G90 G54 G0 X1 Y1"], T);
     assert_eq!(out.code, Some(0), "{out:?}");
     assert!(emu.wait_log(Duration::from_secs(5), |l| l.contains("Idle line")));
-    std::thread::sleep(Duration::from_millis(300));
-    let (steps, _) = emu.last_counts();
+    let (steps, _) = emu.idle_counts(Duration::from_secs(5));
     // Default 640 steps/mm; the emulated board powers up at 0.
     assert_eq!(steps.trim(), "X 7040 Y 3840 Z 0", "{}", emu.log());
     let text = pulled_setup(&dir, emu.port());

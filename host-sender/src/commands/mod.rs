@@ -13,10 +13,10 @@ use gantry_proto::{BoardMsg, MachineState};
 
 /// How long a one-shot command waits for the board to confirm what it asked, ms (an abort's
 /// deceleration from full speed is well under this).
-pub const CONFIRM_MS: u32 = 10_000;
+pub(crate) const CONFIRM_MS: u32 = 10_000;
 
 /// Prints the limit and alarm reports the board sent (squaring lists' switch hits, alarms).
-pub fn print_notices(session: &mut Session) {
+pub(crate) fn print_notices(session: &mut Session) {
     for msg in session.take_notices() {
         match msg {
             BoardMsg::Limit { axis, max } => println!("{}", limit_text(axis, max)),
@@ -28,7 +28,7 @@ pub fn print_notices(session: &mut Session) {
 
 /// Refuses a start the board would refuse, with its reason: in alarm (with what clears it), or
 /// busy with another job, jog or homing cycle.
-pub fn check_can_start(session: &mut Session) -> anyhow::Result<()> {
+pub(crate) fn check_can_start(session: &mut Session) -> anyhow::Result<()> {
     let status = session.status()?;
     match status.state {
         MachineState::Idle => Ok(()),
@@ -51,7 +51,7 @@ pub fn check_can_start(session: &mut Session) -> anyhow::Result<()> {
 }
 
 /// A flag set by Ctrl-C (installed once per process).
-pub fn ctrl_c_flag() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
+pub(crate) fn ctrl_c_flag() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::sync::{Arc, OnceLock};
     static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();

@@ -280,11 +280,6 @@ pub fn mdi(target: Target, blocks: &[String]) -> anyhow::Result<ExitCode> {
     })
 }
 
-/// Sends a setup to the board, which validates it, applies it and saves it to flash (idle only).
-pub fn setup_push(target: Target, setup: &gantry_machine::setup::Setup) -> anyhow::Result<()> {
-    connect(target)?.push_setup(setup)
-}
-
 /// Sends the setup file `file` to the board, keeping the board's work offsets and G28/G30
 /// positions where the file does not name them (the session's one push path,
 /// [`Session::push_setup_text`]); an empty file is refused.

@@ -23,31 +23,6 @@ pub enum Start {
     TakeOver,
 }
 
-/// Runs `gantry stream FILE [--from-line N | --continue]`: progress while it runs, a final
-/// report, exit code 1 on errors. `setup` describes the machine for the run-from-line preamble
-/// (the emulated board runs with it too).
-pub fn run(
-    file: &std::path::Path,
-    target: Target,
-    setup: gantry_machine::setup::Setup,
-    start: Start,
-) -> anyhow::Result<std::process::ExitCode> {
-    run_with_cpu(file, target, setup, start, None)
-}
-
-/// [`run`] with a CPU model for the emulated board (`--cpu-model`, [`gantry_emulator::cpu_model`]): its
-/// main loop then takes the time the MCU would, and the report's underruns show whether that
-/// MCU keeps up with the program.
-pub fn run_with_cpu(
-    file: &std::path::Path,
-    target: Target,
-    setup: gantry_machine::setup::Setup,
-    start: Start,
-    cpu: Option<gantry_emulator::cpu_model::CpuModel>,
-) -> anyhow::Result<std::process::ExitCode> {
-    run_checked(file, target, setup, start, cpu, true, false)
-}
-
 /// The start check's refusal as `gantry stream` prints it: `gantry check`'s report, then why
 /// nothing moved.
 fn refusal_text(refused: &crate::session::Refused) -> String {
@@ -59,7 +34,12 @@ fn refusal_text(refused: &crate::session::Refused) -> String {
     text
 }
 
-/// [`run_with_cpu`], checking the whole program first unless `check` is false (`--no-check`,
+/// Runs `gantry stream FILE [--from-line N | --continue]`: progress while it runs, a final
+/// report, exit code 1 on errors. `setup` describes the machine for the run-from-line preamble
+/// (the emulated board runs with it too); `cpu`, a CPU model for the emulated board
+/// (`--cpu-model`, [`gantry_emulator::cpu_model`]): its main loop then takes the time the MCU
+/// would, and the report's underruns show whether that MCU keeps up with the program. The whole
+/// program is checked first unless `check` is false (`--no-check`,
 /// for programs too long to check before they start). `through_stops` (`--through-stops`, the
 /// emulated board in this process only): every M0/M1 and M6 stop is answered at once, for
 /// unattended runs; without it a stop waits for the operator, and one nobody can answer (standard
@@ -357,7 +337,7 @@ enum Asking {
 /// next one of that line from the last match whose start the job's machine time has reached
 /// (each pass of a repeated line in turn), and within a span (an arc, or passes of one line
 /// back to back) the machine time places the job.
-pub struct Eta {
+pub(crate) struct Eta {
     timeline: Vec<Span>,
     total: f64,
     /// Index of the span matched last (never goes back).
@@ -375,7 +355,7 @@ struct Span {
 }
 
 impl Eta {
-    pub fn plan(text: &str, setup: &gantry_machine::setup::Setup) -> Option<Eta> {
+    pub(crate) fn plan(text: &str, setup: &gantry_machine::setup::Setup) -> Option<Eta> {
         let src = gantry_machine::gcode::MemorySource::new(text.as_bytes());
         let mut actions = crate::preview::source::Actions::new(src, &setup.interp_config());
         let mut timeline: Vec<Span> = Vec::new();
@@ -404,7 +384,7 @@ impl Eta {
     }
 
     /// The job starts at the first pass of `line` (`--from-line`: nothing before it runs).
-    pub fn start_at(&self, line: u32) {
+    pub(crate) fn start_at(&self, line: u32) {
         if let Some(i) = self.timeline.iter().position(|s| s.line >= line) {
             self.cursor.set(i);
             self.offset.set(self.timeline[i].start);
@@ -412,7 +392,7 @@ impl Eta {
     }
 
     /// Machine seconds left when the board executes `line`, `elapsed_s` seconds into the job.
-    pub fn left_at(&self, line: u32, elapsed_s: f64) -> f64 {
+    pub(crate) fn left_at(&self, line: u32, elapsed_s: f64) -> f64 {
         let now = self.offset.get() + elapsed_s.max(0.0);
         let from = self.cursor.get();
         let mut pick = None;
@@ -438,7 +418,7 @@ impl Eta {
     }
 
     /// Total machine time of the program (seconds).
-    pub fn total(&self) -> f64 {
+    pub(crate) fn total(&self) -> f64 {
         self.total
     }
 }

@@ -35,26 +35,26 @@ pub(crate) enum ReadError {
 
 /// The head of one request; its body, `content_length` bytes, is read by [`read_body`].
 pub(crate) struct Head {
-    pub method: String,
+    pub(crate) method: String,
     /// The path without the query.
-    pub path: String,
+    pub(crate) path: String,
     /// The query (after `?`), empty when none.
-    pub query: String,
+    pub(crate) query: String,
     /// The `Host` header.
-    pub host: String,
+    pub(crate) host: String,
     /// The body is `application/json`.
-    pub json: bool,
+    pub(crate) json: bool,
     /// The `Cookie` header(s), joined with `; `.
-    pub cookie: String,
+    pub(crate) cookie: String,
     /// The `Authorization` header.
-    pub authorization: String,
-    pub content_length: usize,
+    pub(crate) authorization: String,
+    pub(crate) content_length: usize,
 }
 
 impl Head {
     /// The request names this server in its `Host` header: its own address, or `localhost` with
     /// its port (a name another site resolves to this address, DNS rebinding, is refused).
-    pub fn host_ok(&self, addr: std::net::SocketAddr) -> bool {
+    pub(crate) fn host_ok(&self, addr: std::net::SocketAddr) -> bool {
         let port = addr.port();
         let h = self.host.to_ascii_lowercase();
         h == addr.to_string()
@@ -67,7 +67,7 @@ impl Head {
     }
 
     /// The value of cookie `name`, if sent.
-    pub fn cookie(&self, name: &str) -> Option<&str> {
+    pub(crate) fn cookie(&self, name: &str) -> Option<&str> {
         self.cookie
             .split(';')
             .filter_map(|c| c.trim().split_once('='))
@@ -76,7 +76,7 @@ impl Head {
     }
 
     /// The value of query parameter `name`, if given.
-    pub fn query_param(&self, name: &str) -> Option<&str> {
+    pub(crate) fn query_param(&self, name: &str) -> Option<&str> {
         self.query
             .split('&')
             .filter_map(|p| p.split_once('='))
@@ -85,7 +85,7 @@ impl Head {
     }
 
     /// The token of an `Authorization: Bearer TOKEN` header.
-    pub fn bearer(&self) -> Option<&str> {
+    pub(crate) fn bearer(&self) -> Option<&str> {
         let (scheme, token) = self.authorization.trim().split_once(' ')?;
         scheme.eq_ignore_ascii_case("bearer").then(|| token.trim())
     }

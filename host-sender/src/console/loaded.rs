@@ -11,13 +11,13 @@ use serde_json::{json, Value};
 
 /// One program as serve holds it.
 pub(crate) struct Loaded {
-    pub name: String,
-    pub text: String,
-    pub rev: u64,
+    pub(crate) name: String,
+    pub(crate) text: String,
+    pub(crate) rev: u64,
     /// What every page shows of it (name, lines, check, errors, error lines, planned time).
-    pub summary: Value,
+    pub(crate) summary: Value,
     /// The tool path (`program::path_json`'s points), machine mm.
-    pub path: Value,
+    pub(crate) path: Value,
 }
 
 impl Loaded {

@@ -19,9 +19,9 @@ mod args;
 mod http;
 mod library;
 mod loaded;
-pub mod lock;
+pub(crate) mod lock;
 mod probing;
-pub mod program;
+pub(crate) mod program;
 
 use crate::commands::stream::Eta;
 use crate::link::OnClose;
@@ -66,7 +66,7 @@ pub struct Options {
 }
 
 /// Refuses an address other hosts can reach unless `allow_remote`; warns when allowed.
-pub fn check_address(addr: &SocketAddr, allow_remote: bool) -> anyhow::Result<()> {
+pub(crate) fn check_address(addr: &SocketAddr, allow_remote: bool) -> anyhow::Result<()> {
     if addr.ip().is_loopback() {
         return Ok(());
     }
@@ -229,7 +229,7 @@ fn now_s() -> f64 {
 /// Starts the console for the board `gantry serve` serves on `port` (serve's socket must be bound
 /// already in its private directory `dir`, and [`check_address`] passed); returns once it
 /// listens, with the file that holds the console's token (kept when serve ends: `lock.rs`).
-pub fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Result<PathBuf> {
+pub(crate) fn start(port: &str, opts: &Options, dir: &std::path::Path) -> anyhow::Result<PathBuf> {
     let listener = TcpListener::bind(opts.addr)
         .with_context(|| format!("--http {}: cannot listen", opts.addr))?;
     let addr = listener.local_addr()?;

@@ -16,22 +16,22 @@ use std::fmt::Write as _;
 const POINTS_MAX: usize = 400_000;
 
 /// What checking a program found.
-pub struct Checked {
+pub(crate) struct Checked {
     /// `gantry check`'s report.
-    pub text: String,
-    pub errors: usize,
+    pub(crate) text: String,
+    pub(crate) errors: usize,
     /// The lines the errors are at (1-based), in order.
-    pub error_lines: Vec<u32>,
+    pub(crate) error_lines: Vec<u32>,
     /// Planned machine time, s (none when the check found an error).
-    pub seconds: Option<f64>,
+    pub(crate) seconds: Option<f64>,
     /// Tools the program loads with M6, in order of first use.
-    pub tools: Vec<u32>,
+    pub(crate) tools: Vec<u32>,
 }
 
 /// Checks `text` (named `name`) with `setup` for a job that starts with the machine at `here`
 /// (machine nm), as `gantry check --port P NAME` does (`crate::check::check_stream_from`): the
 /// extents and the planned time start where the tool stands.
-pub fn check(name: &str, text: &str, setup: &Setup, here: &[i64; 6]) -> Checked {
+pub(crate) fn check(name: &str, text: &str, setup: &Setup, here: &[i64; 6]) -> Checked {
     let mut out = Vec::new();
     let (errors, summary) = check_stream_from(
         name,
@@ -66,7 +66,7 @@ pub fn check(name: &str, text: &str, setup: &Setup, here: &[i64; 6]) -> Checked 
 /// offsets, starting where the tool stands (`here`, machine nm: the first move is the one the
 /// machine will make from there), up to the first error. The page draws it in work coordinates
 /// by taking off the board's active work offset, or in machine coordinates.
-pub fn path_json(text: &str, setup: &Setup, here: &[i64; 6]) -> String {
+pub(crate) fn path_json(text: &str, setup: &Setup, here: &[i64; 6]) -> String {
     let mut pts: Vec<(u8, u32, [f64; 3])> = Vec::new();
     // The moves as `gantry preview` takes them (mm, arcs with their geometry).
     let mut moves = MoveAdapter::new(setup).starting_at(here);

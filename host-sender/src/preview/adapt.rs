@@ -32,15 +32,15 @@ pub fn from_canon(actions: &[Canon], setup: &Setup, title: &str) -> PreviewJob {
 
 /// Canonical actions to [`PreviewMove`]s one at a time (for tools that stream a program), with
 /// the running time estimate of [`from_canon`].
-pub struct MoveAdapter {
+pub(crate) struct MoveAdapter {
     rates: [f64; 3],
     at: P3,
     /// Estimated time so far, s (programmed feeds, no acceleration, dwells included).
-    pub seconds: f64,
+    pub(crate) seconds: f64,
 }
 
 impl MoveAdapter {
-    pub fn new(setup: &Setup) -> Self {
+    pub(crate) fn new(setup: &Setup) -> Self {
         MoveAdapter {
             rates: [0, 1, 2].map(|i| setup.axes[i].max_rate as f64 / NM_PER_MM as f64),
             at: [0.0; 3],
@@ -49,13 +49,13 @@ impl MoveAdapter {
     }
 
     /// Moves from machine position `at` (nm) on: the first move starts there.
-    pub fn starting_at(mut self, at: &Pos) -> Self {
+    pub(crate) fn starting_at(mut self, at: &Pos) -> Self {
         self.at = mm3(at);
         self
     }
 
     /// The move of `c`, if it is one.
-    pub fn take(&mut self, c: &Canon) -> Option<PreviewMove> {
+    pub(crate) fn take(&mut self, c: &Canon) -> Option<PreviewMove> {
         let (kind, to, feed) = match c.action {
             Action::Rapid { to } => (MoveKind::Rapid, mm3(&to), None),
             Action::Feed { to, feed } | Action::Probe { to, feed, .. } => {
@@ -113,7 +113,7 @@ fn estimate_seconds(m: &PreviewMove, rates_mm_min: &[f64; 3]) -> f64 {
 
 /// Canon JSON Lines (tests/golden/rs274/README.md) back into canonical actions. Records other than motion are
 /// skipped; an `error` record ends the program and is returned with its line and message.
-pub fn canon_from_jsonl(text: &str) -> anyhow::Result<Interpreted> {
+pub(crate) fn canon_from_jsonl(text: &str) -> anyhow::Result<Interpreted> {
     let mut actions = JsonlActions::new(text.as_bytes());
     let out: Vec<Canon> = actions.by_ref().collect();
     match actions.failure {
@@ -125,19 +125,19 @@ pub fn canon_from_jsonl(text: &str) -> anyhow::Result<Interpreted> {
 /// Canonical actions read from canon JSON Lines one record at a time (nothing is kept), up to an
 /// `error` record ([`JsonlActions::ended`]) or a record that does not parse
 /// ([`JsonlActions::failure`]).
-pub struct JsonlActions<R> {
+pub(crate) struct JsonlActions<R> {
     lines: std::io::Lines<R>,
     /// Records read.
     n: usize,
     done: bool,
     /// The `error` record that ended the program.
-    pub ended: Option<ProgramError>,
+    pub(crate) ended: Option<ProgramError>,
     /// Why the text could not be read.
-    pub failure: Option<anyhow::Error>,
+    pub(crate) failure: Option<anyhow::Error>,
 }
 
 impl<R: std::io::BufRead> JsonlActions<R> {
-    pub fn new(reader: R) -> Self {
+    pub(crate) fn new(reader: R) -> Self {
         JsonlActions {
             lines: reader.lines(),
             n: 0,

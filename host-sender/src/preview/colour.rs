@@ -1,10 +1,10 @@
 //! The speed colour scale: slow moves blue, fast moves red, with "nice" tick values for the legend.
 
 /// An sRGB colour.
-pub type Rgb = [u8; 3];
+pub(crate) type Rgb = [u8; 3];
 
 /// Colour stops from the slowest (0) to the fastest (1) speed.
-pub const STOPS: [(f64, Rgb); 5] = [
+pub(crate) const STOPS: [(f64, Rgb); 5] = [
     (0.0, [0x3b, 0x4c, 0xc0]),
     (0.25, [0x1c, 0x9a, 0xd6]),
     (0.5, [0x2f, 0x9e, 0x44]),
@@ -13,20 +13,20 @@ pub const STOPS: [(f64, Rgb); 5] = [
 ];
 
 /// `#rrggbb`.
-pub fn hex(c: Rgb) -> String {
+pub(crate) fn hex(c: Rgb) -> String {
     format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }
 
 /// Maps speeds (mm/min) in `lo..=hi` onto [`STOPS`].
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SpeedScale {
-    pub lo: f64,
-    pub hi: f64,
+pub(crate) struct SpeedScale {
+    pub(crate) lo: f64,
+    pub(crate) hi: f64,
 }
 
 impl SpeedScale {
     /// The range of the given speeds; a single speed gets the range 0..=speed.
-    pub fn from_speeds(speeds: impl IntoIterator<Item = f64>) -> Option<SpeedScale> {
+    pub(crate) fn from_speeds(speeds: impl IntoIterator<Item = f64>) -> Option<SpeedScale> {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for v in speeds.into_iter().filter(|v| v.is_finite()) {
             lo = lo.min(v);
@@ -45,16 +45,16 @@ impl SpeedScale {
     }
 
     /// Position of `v` on the scale, 0..=1.
-    pub fn fraction(&self, v: f64) -> f64 {
+    pub(crate) fn fraction(&self, v: f64) -> f64 {
         ((v - self.lo) / (self.hi - self.lo)).clamp(0.0, 1.0)
     }
 
-    pub fn colour(&self, v: f64) -> Rgb {
+    pub(crate) fn colour(&self, v: f64) -> Rgb {
         colour_at(self.fraction(v))
     }
 
     /// Round tick values inside the range (the ends are labelled separately by the legend).
-    pub fn ticks(&self) -> Vec<f64> {
+    pub(crate) fn ticks(&self) -> Vec<f64> {
         let step = nice_step((self.hi - self.lo) / 5.0);
         let mut t = (self.lo / step).ceil() * step;
         let mut out = Vec::new();
@@ -67,7 +67,7 @@ impl SpeedScale {
 }
 
 /// The colour at fraction `f` (0..=1) of the scale.
-pub fn colour_at(f: f64) -> Rgb {
+pub(crate) fn colour_at(f: f64) -> Rgb {
     let f = f.clamp(0.0, 1.0);
     for w in STOPS.windows(2) {
         let ((f0, c0), (f1, c1)) = (w[0], w[1]);
@@ -81,7 +81,7 @@ pub fn colour_at(f: f64) -> Rgb {
 }
 
 /// The smallest of 1, 2, 5 × 10ⁿ that is at least `raw` (for grid lines and ticks).
-pub fn nice_step(raw: f64) -> f64 {
+pub(crate) fn nice_step(raw: f64) -> f64 {
     if raw.is_nan() || raw <= 0.0 || !raw.is_finite() {
         return 1.0;
     }

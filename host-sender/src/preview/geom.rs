@@ -10,10 +10,10 @@ use gantry_machine::canon::Plane;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, TAU};
 
 /// One cubic Bézier piece: start, two control points, end (machine space, mm).
-pub type Cubic = [P3; 4];
+pub(crate) type Cubic = [P3; 4];
 
 /// Plane axes (first, second) and the normal axis, ordered so that CCW turns first → second.
-pub fn plane_axes(plane: Plane) -> (usize, usize, usize) {
+pub(crate) fn plane_axes(plane: Plane) -> (usize, usize, usize) {
     match plane {
         Plane::XY => (0, 1, 2),
         Plane::ZX => (2, 0, 1),
@@ -95,7 +95,7 @@ impl Polar {
 
 /// Points along an arc from `from` to `to` for a polyline: the interior points only (the caller
 /// has both ends), about one every `step_mm` of the sweep, between `min` and `max` segments.
-pub fn arc_interior(
+pub(crate) fn arc_interior(
     from: P3,
     to: P3,
     arc: &ArcGeom,
@@ -136,7 +136,7 @@ pub fn arc_cubics(from: P3, to: P3, arc: &ArcGeom) -> Vec<Cubic> {
 }
 
 /// Path length of a move, mm (helices exactly, spirals to within the radius change).
-pub fn length(m: &PreviewMove) -> f64 {
+pub(crate) fn length(m: &PreviewMove) -> f64 {
     match &m.kind {
         MoveKind::Rapid | MoveKind::Feed => dist(m.from, m.to),
         MoveKind::Arc(arc) => {
@@ -148,13 +148,13 @@ pub fn length(m: &PreviewMove) -> f64 {
 }
 
 /// Euclidean distance, mm.
-pub fn dist(a: P3, b: P3) -> f64 {
+pub(crate) fn dist(a: P3, b: P3) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
 /// Adds a move's exact bounding box to `b`: its end points and, for arcs, every point where the
 /// arc crosses a plane axis (each quarter turn).
-pub fn extend(b: &mut Box3, m: &PreviewMove) {
+pub(crate) fn extend(b: &mut Box3, m: &PreviewMove) {
     b.add(m.from);
     b.add(m.to);
     if let MoveKind::Arc(arc) = &m.kind {
@@ -175,7 +175,8 @@ pub fn extend(b: &mut Box3, m: &PreviewMove) {
 }
 
 /// The bounding box of all moves (empty if there are none).
-pub fn extents<'a>(moves: impl IntoIterator<Item = &'a PreviewMove>) -> Box3 {
+#[cfg(test)]
+pub(crate) fn extents<'a>(moves: impl IntoIterator<Item = &'a PreviewMove>) -> Box3 {
     let mut b = Box3::EMPTY;
     for m in moves {
         extend(&mut b, m);

@@ -31,19 +31,19 @@ use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 
 /// The lane of every view for a move of lane `lane`, as indices into [`Frame::lanes`].
-pub fn lanes_of(frame: &Frame, lane: Lane) -> impl Iterator<Item = usize> {
+pub(crate) fn lanes_of(frame: &Frame, lane: Lane) -> impl Iterator<Item = usize> {
     (0..frame.layout.panels.len()).map(move |p| lane.index(p))
 }
 
 /// Lanes kept in temporary files, for an SVG picture.
-pub struct SvgLanes {
+pub(crate) struct SvgLanes {
     files: Vec<BufWriter<File>>,
 }
 
 impl SvgLanes {
     /// `n` empty lanes, in unnamed files of the temporary directory (removed at once; the space
     /// is freed when they are closed).
-    pub fn new(n: usize) -> anyhow::Result<SvgLanes> {
+    pub(crate) fn new(n: usize) -> anyhow::Result<SvgLanes> {
         let dir = std::env::temp_dir();
         let mut files = Vec::with_capacity(n);
         for k in 0..n {
@@ -61,14 +61,14 @@ impl SvgLanes {
         Ok(SvgLanes { files })
     }
 
-    pub fn put(&mut self, lane: usize, element: &str) -> anyhow::Result<()> {
+    pub(crate) fn put(&mut self, lane: usize, element: &str) -> anyhow::Result<()> {
         self.files[lane]
             .write_all(element.as_bytes())
             .context("writing the preview's temporary file")
     }
 
     /// Writes the whole document: the frame with every lane copied in its place.
-    pub fn write_document(self, frame: &Frame, out: &mut impl Write) -> anyhow::Result<()> {
+    pub(crate) fn write_document(self, frame: &Frame, out: &mut impl Write) -> anyhow::Result<()> {
         let mut files = Vec::with_capacity(self.files.len());
         for f in self.files {
             let mut f = f.into_inner().map_err(|e| e.into_error())?;
@@ -85,7 +85,7 @@ impl SvgLanes {
 /// Moves (straight, in pixels) shorter than this are drawn by [`stamp`] instead of tiny-skia:
 /// at this length a dashed rapid is one dash, and the two drawings differ only by a few levels at
 /// anti-aliased pixels.
-pub const SHORT_PX: f64 = 3.0;
+pub(crate) const SHORT_PX: f64 = 3.0;
 
 /// A lane rasterised so far.
 struct PngLane {
@@ -97,18 +97,18 @@ struct PngLane {
 }
 
 /// Lanes rasterised into pixmaps, for a PNG picture.
-pub struct PngLanes<'f> {
+pub(crate) struct PngLanes<'f> {
     frame: &'f Frame,
     options: usvg::Options<'static>,
     lanes: Vec<PngLane>,
     rapid: Stroke,
     feed: Stroke,
     /// Straight moves shorter than this many pixels are stamped ([`SHORT_PX`]).
-    pub short_px: f64,
+    pub(crate) short_px: f64,
 }
 
 impl<'f> PngLanes<'f> {
-    pub fn new(frame: &'f Frame) -> anyhow::Result<PngLanes<'f>> {
+    pub(crate) fn new(frame: &'f Frame) -> anyhow::Result<PngLanes<'f>> {
         let mut lanes = Vec::with_capacity(frame.lanes.len());
         for mark in &frame.lanes {
             let [x, y, w, h] = frame.layout.panels[mark.panel].plot;
@@ -155,7 +155,7 @@ impl<'f> PngLanes<'f> {
 
     /// Draws move `m` onto lane `lane` (of its view), as resvg draws its SVG element: straight
     /// moves shorter than [`SHORT_PX`] with [`stamp`], the others stroked by tiny-skia.
-    pub fn draw(&mut self, lane: usize, m: &PreviewMove) {
+    pub(crate) fn draw(&mut self, lane: usize, m: &PreviewMove) {
         let frame = self.frame;
         let fit = &frame.layout.panels[frame.lanes[lane].panel].fit;
         let l = &mut self.lanes[lane];
@@ -225,7 +225,7 @@ impl<'f> PngLanes<'f> {
 
     /// The picture: the frame rasterised piece by piece in document order, each lane laid on it
     /// at its place.
-    pub fn finish(mut self) -> anyhow::Result<Pixmap> {
+    pub(crate) fn finish(mut self) -> anyhow::Result<Pixmap> {
         self.clip();
         let frame = self.frame;
         let size = (frame.layout.width, frame.layout.height);
@@ -272,7 +272,14 @@ impl<'f> PngLanes<'f> {
 /// part of its area within the stroke (its centre's distance from the stroke's edge, ±½ px).
 /// For short moves, where stroking a path with tiny-skia costs far more than the few pixels it
 /// touches.
-pub fn stamp(pixmap: &mut Pixmap, a: (f32, f32), b: (f32, f32), half: f32, round: bool, rgb: Rgb) {
+pub(crate) fn stamp(
+    pixmap: &mut Pixmap,
+    a: (f32, f32),
+    b: (f32, f32),
+    half: f32,
+    round: bool,
+    rgb: Rgb,
+) {
     let (w, h) = (pixmap.width() as i32, pixmap.height() as i32);
     let reach = half + 1.0;
     let x0 = ((a.0.min(b.0) - reach).floor() as i32).max(0);

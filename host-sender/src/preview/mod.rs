@@ -18,16 +18,16 @@
 //! [`PreviewJob`] (every move in memory) remains for callers that build a job themselves and for tests.
 
 pub mod adapt;
-pub mod colour;
+pub(crate) mod colour;
 pub mod geom;
-pub mod lanes;
-pub mod model;
-pub mod pass;
-pub mod plan;
+pub(crate) mod lanes;
+pub(crate) mod model;
+pub(crate) mod pass;
+pub(crate) mod plan;
 pub mod raster;
 pub mod source;
 pub mod svg;
-pub mod view;
+pub(crate) mod view;
 
 pub use model::{ArcGeom, Box3, MoveKind, PreviewJob, PreviewMove, ProgramError, SpeedSource};
 pub use svg::{Layout, RenderOptions};
@@ -48,7 +48,7 @@ pub enum Format {
 
 impl Format {
     /// From the output file's extension.
-    pub fn from_path(p: &Path) -> anyhow::Result<Format> {
+    pub(crate) fn from_path(p: &Path) -> anyhow::Result<Format> {
         match p
             .extension()
             .and_then(|e| e.to_str())
@@ -89,7 +89,7 @@ pub struct Prepared {
     /// The interpreter error that ended the program early.
     pub error: Option<ProgramError>,
     /// Why the planner's figures are missing, when they are.
-    pub note: Option<String>,
+    pub(crate) note: Option<String>,
 }
 
 /// Builds the preview job of a program text: interprets it (or reads canon JSON Lines when
@@ -120,7 +120,7 @@ fn planner_note(e: &anyhow::Error) -> String {
 /// Builds the preview job of the program in `src` in one pass: each action becomes a move as it
 /// is interpreted and goes to the planner at once (the moves are kept, for drawing; the actions
 /// and the program text are not). `gantry preview` itself keeps no moves ([`run`]).
-pub fn job_from_source<S: gantry_machine::gcode::ProgramSource>(
+pub(crate) fn job_from_source<S: gantry_machine::gcode::ProgramSource>(
     src: S,
     setup: &Setup,
     title: &str,

@@ -8,7 +8,7 @@ use gantry_machine::setup::Setup;
 use gantry_machine::units::NM_PER_MM;
 
 /// A point in machine coordinates, millimetres (X, Y, Z).
-pub type P3 = [f64; 3];
+pub(crate) type P3 = [f64; 3];
 
 /// The geometry of an arc or helix (G2/G3).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -37,12 +37,12 @@ pub enum MoveKind {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PreviewMove {
     /// 1-based source line.
-    pub line: u32,
+    pub(crate) line: u32,
     pub kind: MoveKind,
-    pub from: P3,
-    pub to: P3,
+    pub(crate) from: P3,
+    pub(crate) to: P3,
     /// Speed used for the colour scale (planned cruise speed, or the programmed feed), mm/min.
-    pub speed_mm_min: Option<f64>,
+    pub(crate) speed_mm_min: Option<f64>,
 }
 
 /// Where the speeds (and the total time) of a job came from; shown in the legend.
@@ -63,7 +63,7 @@ pub struct Box3 {
 
 impl Box3 {
     /// An empty box that any point extends.
-    pub const EMPTY: Box3 = Box3 {
+    pub(crate) const EMPTY: Box3 = Box3 {
         min: [f64::INFINITY; 3],
         max: [f64::NEG_INFINITY; 3],
     };
@@ -79,11 +79,11 @@ impl Box3 {
         b
     }
 
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         (0..3).any(|i| self.min[i] > self.max[i])
     }
 
-    pub fn add(&mut self, p: P3) {
+    pub(crate) fn add(&mut self, p: P3) {
         for (i, v) in p.iter().enumerate() {
             self.min[i] = self.min[i].min(*v);
             self.max[i] = self.max[i].max(*v);
@@ -91,7 +91,7 @@ impl Box3 {
     }
 
     /// The eight corners.
-    pub fn corners(&self) -> [P3; 8] {
+    pub(crate) fn corners(&self) -> [P3; 8] {
         let mut c = [[0.0; 3]; 8];
         for (k, p) in c.iter_mut().enumerate() {
             for (i, v) in p.iter_mut().enumerate() {
@@ -106,7 +106,7 @@ impl Box3 {
     }
 
     /// Whether `inner` lies inside this box (with a 1 nm tolerance).
-    pub fn contains(&self, inner: &Box3) -> bool {
+    pub(crate) fn contains(&self, inner: &Box3) -> bool {
         (0..3).all(|i| inner.min[i] >= self.min[i] - 1e-6 && inner.max[i] <= self.max[i] + 1e-6)
     }
 }
@@ -114,22 +114,22 @@ impl Box3 {
 /// The error that ended a program: its source line and message.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ProgramError {
-    pub line: u32,
-    pub message: String,
+    pub(crate) line: u32,
+    pub(crate) message: String,
 }
 
 /// Canonical actions of a program, and the error that ended it early (if any).
-pub type Interpreted = (Vec<gantry_machine::canon::Canon>, Option<ProgramError>);
+pub(crate) type Interpreted = (Vec<gantry_machine::canon::Canon>, Option<ProgramError>);
 
 /// Everything the renderer draws.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PreviewJob {
     /// Shown as the legend's heading (usually the file name).
-    pub title: String,
+    pub(crate) title: String,
     pub moves: Vec<PreviewMove>,
     /// Total job time, seconds (planned, or estimated — see `speed_source`).
     pub total_time_s: Option<f64>,
-    pub speed_source: SpeedSource,
+    pub(crate) speed_source: SpeedSource,
     /// The machine's travel (soft-limit) box.
     pub travel: Option<Box3>,
 }

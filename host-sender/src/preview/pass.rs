@@ -6,7 +6,7 @@
 //! cut into several chord blocks). Pending moves are grouped in runs of consecutive moves of one
 //! line; a block of line L finishes every run in front of the oldest run of line L, and the run
 //! of line L takes the block's peak if it is the highest so far (feed blocks of non-zero length
-//! only, as `plan::Peaks` counts them). A move's speed is thus the highest planned peak of its own
+//! only). A move's speed is thus the highest planned peak of its own
 //! line's blocks at that point of the program (a line run twice, by a subprogram or a loop, is
 //! coloured per run, not by its highest peak over the whole program).
 
@@ -22,16 +22,16 @@ use std::collections::VecDeque;
 
 /// Pending moves held at most: past this (a line that makes moves without planner blocks, such as
 /// many zero-length moves), the oldest is handed out with the peak known so far.
-pub const MAX_PENDING: usize = 4096;
+pub(crate) const MAX_PENDING: usize = 4096;
 
 /// How a pass ended.
 #[derive(Debug)]
-pub struct PassEnd {
+pub(crate) struct PassEnd {
     /// Time estimate from the programmed feeds, without acceleration, s.
-    pub estimate_s: f64,
+    pub(crate) estimate_s: f64,
     /// Planned job time in kernel timer counts, or the note saying why the planner refused the
     /// program (`None` when the pass did not plan).
-    pub planned: Option<Result<u64, String>>,
+    pub(crate) planned: Option<Result<u64, String>>,
 }
 
 /// Moves whose blocks the planner has not finished.
@@ -98,7 +98,7 @@ impl Pending<'_> {
             self.pop_run();
         }
         if !report.rapid && report.length > 0 {
-            // nm/s → mm/min, as `plan::Peaks`.
+            // nm/s → mm/min.
             let v = report.peak as f64 * 60.0 / NM_PER_MM as f64;
             if let Some(run) = self.runs.front_mut() {
                 run.2 = Some(run.2.map_or(v, |p| p.max(v)));
@@ -118,7 +118,7 @@ impl Pending<'_> {
 /// for a move without feed blocks). Plans on the `setup` machine when `planning`.
 ///
 /// `at`: where the machine stands when the program starts (nm).
-pub fn each_move(
+pub(crate) fn each_move(
     actions: impl Iterator<Item = Canon>,
     setup: &Setup,
     at: &gantry_machine::units::Pos,

@@ -1,13 +1,10 @@
 //! Planner figures for the preview, `gantry check` and `gantry simulate`: runs the core's motion
 //! pipeline on virtual time, each planned block timed in closed form
 //! ([`gantry_machine::motion::sim::Sim::run_planned`]: the profile the board runs, without cutting
-//! it into segments or stepping it), and puts each move's planned peak speed and the job's total
-//! time into a [`PreviewJob`].
-//!
-//! The planner reports per block (arcs are cut into chords), tagged with the source line; a move
-//! takes the highest peak of the feed blocks of its line.
+//! it into segments or stepping it), and reports each finished block with the time it ends and
+//! the job's total time. The planner reports per block (arcs are cut into chords), tagged with the
+//! source line (`preview/pass.rs` gives each move the highest peak of its line's feed blocks).
 
-use super::model::{MoveKind, PreviewJob, SpeedSource};
 use gantry_machine::canon::Canon;
 use gantry_machine::motion::config::MotionConfig;
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
@@ -15,21 +12,20 @@ use gantry_machine::motion::pipeline::PushError;
 use gantry_machine::motion::prep::BlockReport;
 use gantry_machine::motion::sim::{Sim, SimEvent};
 use gantry_machine::setup::Setup;
-use gantry_machine::units::{Pos, MAX_AXES, NM_PER_MM};
-use std::collections::HashMap;
+use gantry_machine::units::{Pos, MAX_AXES};
 
 /// Look-ahead ring size used for the preview (as on the board, `motion::pipeline`).
 const RING: usize = 128;
 
-/// Planned peak speed (mm/min) per source line, and the total time (s), of a program.
-pub struct Plan {
-    pub peak_mm_min: HashMap<u32, f64>,
-    pub total_time_s: f64,
+/// The total time (s) of a program as planned.
+#[cfg(test)]
+pub(crate) struct Plan {
+    pub(crate) total_time_s: f64,
 }
 
 /// The virtual machine the planned time is taken on: the setup's motion, and its on-the-fly M
 /// codes queued as the board queues them.
-pub fn machine(setup: &Setup) -> Box<Sim<RING>> {
+pub(crate) fn machine(setup: &Setup) -> Box<Sim<RING>> {
     let mut sim: Box<Sim<RING>> = Box::new(Sim::new(MotionConfig::from_setup(setup)));
     for l in &setup.outputs.mcode_lists {
         if let Some(output) = l.on_the_fly() {
@@ -43,7 +39,7 @@ pub fn machine(setup: &Setup) -> Box<Sim<RING>> {
 /// calls `on_block` with every block the planner finished and the time it ends (kernel timer
 /// counts from the start); returns the total time in kernel timer counts (dwells included), or
 /// the action the planner refused.
-pub fn plan_stream(
+pub(crate) fn plan_stream(
     program: impl IntoIterator<Item = Canon>,
     setup: &Setup,
     on_block: &mut impl FnMut(&BlockReport, u64),
@@ -52,7 +48,7 @@ pub fn plan_stream(
 }
 
 /// [`plan_stream`] with the machine standing at `at` (nm) when the program starts.
-pub fn plan_stream_from(
+pub(crate) fn plan_stream_from(
     program: impl IntoIterator<Item = Canon>,
     setup: &Setup,
     at: &Pos,
@@ -69,45 +65,18 @@ pub fn plan_stream_from(
 }
 
 /// Kernel timer counts → seconds.
-pub fn seconds(counts: u64) -> f64 {
+pub(crate) fn seconds(counts: u64) -> f64 {
     counts as f64 / KERNEL_TIMER_HZ as f64
 }
 
-/// Peak speeds per line, collected from block reports.
-#[derive(Default)]
-pub struct Peaks(pub HashMap<u32, f64>);
-
-impl Peaks {
-    pub fn add(&mut self, report: &BlockReport) {
-        if !report.rapid && report.length > 0 {
-            // nm/s → mm/min.
-            let v = report.peak as f64 * 60.0 / NM_PER_MM as f64;
-            let e = self.0.entry(report.line).or_insert(0.0);
-            *e = e.max(v);
-        }
-    }
-}
-
-/// Plans `canon` with the machine `setup` on virtual time.
-pub fn plan(canon: &[Canon], setup: &Setup) -> anyhow::Result<Plan> {
-    let mut peaks = Peaks::default();
-    let counts = plan_stream(canon.iter().copied(), setup, &mut |r, _| peaks.add(r))
+/// Plans `canon` with the machine `setup` on virtual time: the total time (tests).
+#[cfg(test)]
+pub(crate) fn plan(canon: &[Canon], setup: &Setup) -> anyhow::Result<Plan> {
+    let counts = plan_stream(canon.iter().copied(), setup, &mut |_, _| {})
         .map_err(|(c, e)| anyhow::anyhow!("line {}: planner refused the move: {e:?}", c.line))?;
     Ok(Plan {
-        peak_mm_min: peaks.0,
         total_time_s: seconds(counts),
     })
-}
-
-/// Replaces the programmed feeds and the estimated time of `job` by the planned figures.
-pub fn apply(job: &mut PreviewJob, plan: &Plan) {
-    for m in job.moves.iter_mut().filter(|m| m.kind != MoveKind::Rapid) {
-        if let Some(v) = plan.peak_mm_min.get(&m.line) {
-            m.speed_mm_min = Some(*v);
-        }
-    }
-    job.total_time_s = Some(plan.total_time_s);
-    job.speed_source = SpeedSource::Planned;
 }
 
 #[cfg(test)]

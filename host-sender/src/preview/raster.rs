@@ -17,7 +17,7 @@ fn fonts() -> fontdb::Database {
 }
 
 /// Parsing options: DejaVu Sans as the default and only font.
-pub fn options() -> usvg::Options<'static> {
+pub(crate) fn options() -> usvg::Options<'static> {
     let mut opt = usvg::Options {
         font_family: "DejaVu Sans".into(),
         ..Default::default()
@@ -35,11 +35,4 @@ pub fn rasterise(svg: &str) -> anyhow::Result<Pixmap> {
         Pixmap::new(size.width(), size.height()).context("preview picture has no size")?;
     resvg::render(&tree, Transform::identity(), &mut pixmap.as_mut());
     Ok(pixmap)
-}
-
-/// Rasterises an SVG document to PNG bytes.
-pub fn svg_to_png(svg: &str) -> anyhow::Result<Vec<u8>> {
-    rasterise(svg)?
-        .encode_png()
-        .context("encoding the preview PNG")
 }

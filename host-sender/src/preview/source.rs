@@ -19,10 +19,10 @@ use std::path::Path;
 
 /// Actions one program may produce at least before it is taken for an endless loop (M99 back to
 /// a label, a `while` that never ends); longer files get [`ACTIONS_PER_LINE`] more per line.
-pub const MIN_ACTION_LIMIT: u64 = 5_000_000;
+pub(crate) const MIN_ACTION_LIMIT: u64 = 5_000_000;
 /// Actions allowed per line read, on top of [`MIN_ACTION_LIMIT`]: the cap grows with the file,
 /// so no program is too long, only one that loops far more than its text.
-pub const ACTIONS_PER_LINE: u64 = 100;
+pub(crate) const ACTIONS_PER_LINE: u64 = 100;
 
 /// Remembered (line, byte offset) pairs, so returns from subprograms do not rescan the file.
 const POSITION_CACHE: usize = 32;
@@ -31,7 +31,7 @@ const PROGRAM_CACHE: usize = 32;
 
 /// A program file read through a buffer, repositioned by seeking: memory stays constant whatever
 /// the file's length (the same jumps as the core's `MemorySource`).
-pub struct FileSource {
+pub(crate) struct FileSource {
     reader: BufReader<File>,
     /// Number and byte offset of the next line.
     line: u32,
@@ -43,7 +43,7 @@ pub struct FileSource {
 }
 
 impl FileSource {
-    pub fn open(path: &Path) -> std::io::Result<Self> {
+    pub(crate) fn open(path: &Path) -> std::io::Result<Self> {
         Ok(FileSource {
             reader: BufReader::with_capacity(1 << 16, File::open(path)?),
             line: 1,
@@ -188,16 +188,16 @@ const RECENT_LINES: usize = 8;
 /// A source whose lines are looked at the first time they are read: lines too long for the board
 /// are queued as [`WireTextError`]s (in file order), and the text of the last few lines read is
 /// kept for error reports.
-pub struct Watched<S> {
-    pub inner: S,
+pub(crate) struct Watched<S> {
+    pub(crate) inner: S,
     /// The highest line number read so far.
-    pub furthest: u32,
+    pub(crate) furthest: u32,
     long: VecDeque<(WireTextError, String)>,
     recent: VecDeque<(u32, Vec<u8>)>,
 }
 
 impl<S: ProgramSource> Watched<S> {
-    pub fn new(inner: S) -> Self {
+    pub(crate) fn new(inner: S) -> Self {
         Watched {
             inner,
             furthest: 0,
@@ -207,17 +207,17 @@ impl<S: ProgramSource> Watched<S> {
     }
 
     /// The next line too long for the board, in file order, found so far, with its text.
-    pub fn take_long_line(&mut self) -> Option<(WireTextError, String)> {
+    pub(crate) fn take_long_line(&mut self) -> Option<(WireTextError, String)> {
         self.long.pop_front()
     }
 
     /// The first long line found and not yet taken.
-    pub fn peek_long_line(&self) -> Option<&WireTextError> {
+    pub(crate) fn peek_long_line(&self) -> Option<&WireTextError> {
         self.long.front().map(|(e, _)| e)
     }
 
     /// The text of `line` if it was among the last lines read.
-    pub fn recent(&self, line: u32) -> Option<String> {
+    pub(crate) fn recent(&self, line: u32) -> Option<String> {
         self.recent
             .iter()
             .rev()
@@ -227,7 +227,7 @@ impl<S: ProgramSource> Watched<S> {
 
     /// Reads the lines after the furthest one read (the interpreter stopped at M2/M30 or an
     /// error), so that long lines there are found too.
-    pub fn read_rest(&mut self) {
+    pub(crate) fn read_rest(&mut self) {
         if self.inner.jump_to_line(self.furthest + 1).is_err() {
             return;
         }
@@ -280,7 +280,7 @@ impl<S: ProgramSource> ProgramSource for Watched<S> {
 
 /// Why [`Actions`] ended.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Ended {
+pub(crate) enum Ended {
     /// Still running, or the program ended (end of file, M2/M30, one pass of an M99 loop).
     No,
     /// The interpreter refused a block.
@@ -290,23 +290,23 @@ pub enum Ended {
 }
 
 /// The action cap for a program whose furthest line read is `lines`.
-pub fn action_limit(lines: u32) -> u64 {
+pub(crate) fn action_limit(lines: u32) -> u64 {
     MIN_ACTION_LIMIT + ACTIONS_PER_LINE * u64::from(lines)
 }
 
 /// A program's canonical actions, one at a time, up to its first error (then [`Actions::ended`]
 /// tells why); after one pass of a main program that loops with M99; at most [`action_limit`].
-pub struct Actions<S> {
-    pub interp: Interpreter,
-    pub src: Watched<S>,
-    pub ended: Ended,
+pub(crate) struct Actions<S> {
+    pub(crate) interp: Interpreter,
+    pub(crate) src: Watched<S>,
+    pub(crate) ended: Ended,
     /// Actions handed out.
-    pub count: u64,
+    pub(crate) count: u64,
     stopped: bool,
 }
 
 impl<S: ProgramSource> Actions<S> {
-    pub fn new(src: S, config: &InterpConfig) -> Self {
+    pub(crate) fn new(src: S, config: &InterpConfig) -> Self {
         Actions {
             interp: Interpreter::new(config),
             src: Watched::new(src),
@@ -318,7 +318,7 @@ impl<S: ProgramSource> Actions<S> {
 
     /// The program interpreted from machine position `at` (nm), where the machine stands, as the
     /// board's interpreter starts a job (`crate::session::standing`).
-    pub fn starting_at(mut self, at: &gantry_machine::units::Pos) -> Self {
+    pub(crate) fn starting_at(mut self, at: &gantry_machine::units::Pos) -> Self {
         let mut state = *self.interp.state();
         state.position = *at;
         self.interp.set_state(state);
@@ -360,7 +360,7 @@ impl<S: ProgramSource> Iterator for Actions<S> {
 }
 
 /// The message of an [`Ended`] error for the preview and the summary.
-pub fn ended_error(ended: &Ended, what: &str) -> Option<ProgramError> {
+pub(crate) fn ended_error(ended: &Ended, what: &str) -> Option<ProgramError> {
     match ended {
         Ended::No => None,
         Ended::Error(e) => Some(ProgramError {
@@ -395,9 +395,9 @@ mod tests {
 
     /// A file in the temp directory, removed when dropped.
     mod tempfile_path {
-        pub struct TempPath(pub std::path::PathBuf);
+        pub(crate) struct TempPath(pub(crate) std::path::PathBuf);
         impl TempPath {
-            pub fn new(text: &str) -> Self {
+            pub(crate) fn new(text: &str) -> Self {
                 use std::sync::atomic::{AtomicU32, Ordering};
                 static N: AtomicU32 = AtomicU32::new(0);
                 let p = std::env::temp_dir().join(format!(

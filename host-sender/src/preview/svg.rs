@@ -35,7 +35,7 @@ impl Default for RenderOptions {
 pub struct Panel {
     pub view: View,
     /// Plot area in pixels: x, y, width, height.
-    pub plot: [f64; 4],
+    pub(crate) plot: [f64; 4],
     /// Machine → pixel mapping of this view.
     pub fit: Fit,
 }
@@ -43,8 +43,8 @@ pub struct Panel {
 /// The picture's geometry, for callers (and tests) that need to find things in it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Layout {
-    pub width: u32,
-    pub height: u32,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
     pub panels: Vec<Panel>,
 }
 
@@ -52,14 +52,14 @@ pub struct Layout {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Stats {
     pub extents: Box3,
-    pub rapids: usize,
-    pub feeds: usize,
-    pub arcs: usize,
-    pub rapid_len_mm: f64,
-    pub feed_len_mm: f64,
-    pub scale: Option<SpeedScale>,
+    pub(crate) rapids: usize,
+    pub(crate) feeds: usize,
+    pub(crate) arcs: usize,
+    pub(crate) rapid_len_mm: f64,
+    pub(crate) feed_len_mm: f64,
+    pub(crate) scale: Option<SpeedScale>,
     /// Where the first move starts and the last one ends.
-    pub ends: Option<(P3, P3)>,
+    pub(crate) ends: Option<(P3, P3)>,
 }
 
 impl Stats {
@@ -75,7 +75,7 @@ impl Stats {
 /// Accumulates [`Stats`] one move at a time, in program order (the sums come out as
 /// [`Stats::of`]'s), so a program can be summed up without keeping its moves.
 #[derive(Clone, Debug)]
-pub struct StatsBuilder {
+pub(crate) struct StatsBuilder {
     stats: Stats,
     /// Lowest and highest speed of the feeds and arcs so far, mm/min.
     speeds: Option<(f64, f64)>,
@@ -100,7 +100,7 @@ impl Default for StatsBuilder {
 }
 
 impl StatsBuilder {
-    pub fn add(&mut self, m: &PreviewMove) {
+    pub(crate) fn add(&mut self, m: &PreviewMove) {
         let s = &mut self.stats;
         extend(&mut s.extents, m);
         s.ends = Some((s.ends.map_or(m.from, |e| e.0), m.to));
@@ -129,7 +129,7 @@ impl StatsBuilder {
         }
     }
 
-    pub fn finish(self) -> Stats {
+    pub(crate) fn finish(self) -> Stats {
         let scale = self
             .speeds
             .and_then(|(lo, hi)| SpeedScale::from_speeds([lo, hi]));
@@ -168,13 +168,13 @@ pub fn render_svg(job: &PreviewJob, opts: &RenderOptions) -> (String, Layout) {
 /// The two groups each view draws its moves in: rapids first (dashed, underneath), then feeds and
 /// arcs in their speed colours.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Lane {
+pub(crate) enum Lane {
     Rapids,
     Feeds,
 }
 
 impl Lane {
-    pub fn of(m: &PreviewMove) -> Lane {
+    pub(crate) fn of(m: &PreviewMove) -> Lane {
         if m.kind == MoveKind::Rapid {
             Lane::Rapids
         } else {
@@ -183,25 +183,25 @@ impl Lane {
     }
 
     /// The index of a view's lane in [`Frame::lanes`].
-    pub fn index(self, panel: usize) -> usize {
+    pub(crate) fn index(self, panel: usize) -> usize {
         panel * 2 + self as usize
     }
 }
 
 /// Where one view's moves of one lane go in the [`Frame`]'s body.
 #[derive(Clone, Debug, PartialEq)]
-pub struct LaneMark {
+pub(crate) struct LaneMark {
     /// Byte offset in the body.
-    pub at: usize,
-    pub panel: usize,
-    pub lane: Lane,
+    pub(crate) at: usize,
+    pub(crate) panel: usize,
+    pub(crate) lane: Lane,
     /// The `<g …>` tags open at that point, outermost first.
-    pub groups: Vec<String>,
+    pub(crate) groups: Vec<String>,
 }
 
 impl LaneMark {
     /// Its index in [`Frame::lanes`].
-    pub fn index(&self) -> usize {
+    pub(crate) fn index(&self) -> usize {
         self.lane.index(self.panel)
     }
 }
@@ -210,24 +210,24 @@ impl LaneMark {
 /// Built from a job's figures ([`Stats`], the title, time and travel box) alone, so the moves can
 /// be streamed into it afterwards ([`Frame::write`], [`super::raster`]).
 #[derive(Clone, Debug)]
-pub struct Frame {
-    pub layout: Layout,
+pub(crate) struct Frame {
+    pub(crate) layout: Layout,
     /// The `<svg …>` tag.
-    pub open: String,
+    pub(crate) open: String,
     /// The white background.
-    pub background: String,
+    pub(crate) background: String,
     /// `<defs>…</defs>`: the speed gradient and the views' clip paths.
-    pub defs: String,
+    pub(crate) defs: String,
     /// The rest of the document, without the closing `</svg>`.
-    pub body: String,
+    pub(crate) body: String,
     /// Lane positions in the body, in order: view 0 rapids, view 0 feeds, view 1 rapids, …
-    pub lanes: Vec<LaneMark>,
+    pub(crate) lanes: Vec<LaneMark>,
     scale: Option<SpeedScale>,
 }
 
 impl Frame {
     /// The frame of `job` (its moves are not looked at: `stats` sums them up).
-    pub fn new(job: &PreviewJob, stats: &Stats, opts: &RenderOptions) -> Frame {
+    pub(crate) fn new(job: &PreviewJob, stats: &Stats, opts: &RenderOptions) -> Frame {
         let (w, h) = (opts.width as f64, opts.height as f64);
         let legend_w = legend_width(w);
         let layout = layout(job, stats, w - legend_w, h, opts);
@@ -283,17 +283,17 @@ impl Frame {
     }
 
     /// The SVG element of move `m` in view `panel` (one line).
-    pub fn element(&self, panel: usize, m: &PreviewMove) -> String {
+    pub(crate) fn element(&self, panel: usize, m: &PreviewMove) -> String {
         move_element(&self.layout.panels[panel].fit, self.scale, m)
     }
 
     /// The stroke colour of move `m`, as its element has it ([`Frame::element`]).
-    pub fn stroke_rgb(&self, m: &PreviewMove) -> Rgb {
+    pub(crate) fn stroke_rgb(&self, m: &PreviewMove) -> Rgb {
         stroke_rgb(self.scale, m)
     }
 
     /// Writes the document, calling `lane` where each lane's moves go.
-    pub fn write<W: std::io::Write>(
+    pub(crate) fn write<W: std::io::Write>(
         &self,
         out: &mut W,
         lane: &mut dyn FnMut(&mut W, &LaneMark) -> std::io::Result<()>,
@@ -889,17 +889,17 @@ fn draw_legend(s: &mut String, job: &PreviewJob, stats: &Stats, x: f64, w: f64, 
 /// A line of text of the legend and the room it takes, in pixels (its width estimated by
 /// [`text_width`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct TextBox {
-    pub text: String,
+pub(crate) struct TextBox {
+    pub(crate) text: String,
     /// Left and right end.
-    pub x0: f64,
-    pub x1: f64,
+    pub(crate) x0: f64,
+    pub(crate) x1: f64,
     /// Baseline.
-    pub y: f64,
-    pub size: f64,
+    pub(crate) y: f64,
+    pub(crate) size: f64,
     /// Anchored at its start (x0), else at its end (x1).
-    pub start: bool,
-    pub fill: &'static str,
+    pub(crate) start: bool,
+    pub(crate) fill: &'static str,
 }
 
 impl TextBox {
@@ -918,7 +918,8 @@ impl TextBox {
     }
 
     /// Whether the two share a line and some of its width.
-    pub fn overlaps(&self, o: &TextBox) -> bool {
+    #[cfg(test)]
+    pub(crate) fn overlaps(&self, o: &TextBox) -> bool {
         (self.y - o.y).abs() < self.size.max(o.size) && self.x0 < o.x1 && o.x0 < self.x1
     }
 }
@@ -926,7 +927,7 @@ impl TextBox {
 /// The width of `t` in DejaVu Sans at `size` px, from its advance widths (em fractions), rounded
 /// up a little: digits 0.636, lower case at most 0.64 but `m` and `w`, spaces and punctuation
 /// about 0.32–0.39.
-pub fn text_width(t: &str, size: f64) -> f64 {
+pub(crate) fn text_width(t: &str, size: f64) -> f64 {
     let em: f64 = t
         .chars()
         .map(|c| match c {
@@ -944,7 +945,7 @@ pub fn text_width(t: &str, size: f64) -> f64 {
 /// The legend's figures under the total time, from baseline `y`: each label at `x0` and its
 /// value ending at `right`. The move count's breakdown goes on a line of its own when the whole
 /// would reach the label (a count of 6 digits or more).
-pub fn figure_rows(stats: &Stats, x0: f64, right: f64, mut y: f64) -> Vec<TextBox> {
+pub(crate) fn figure_rows(stats: &Stats, x0: f64, right: f64, mut y: f64) -> Vec<TextBox> {
     const GAP: f64 = 8.0;
     let total = stats.rapids + stats.feeds + stats.arcs;
     let split = format!(
@@ -1013,7 +1014,7 @@ fn box_table(s: &mut String, title: &str, b: &Box3, x0: f64, right: f64, mut y: 
 }
 
 /// Whether the job stays inside the travel box, and by how much it leaves it on which side.
-pub fn travel_status(t: &Box3, job: &Box3) -> (Vec<String>, &'static str) {
+pub(crate) fn travel_status(t: &Box3, job: &Box3) -> (Vec<String>, &'static str) {
     if job.is_empty() || t.contains(job) {
         return (vec!["✓ job inside machine travel".into()], "#2b8a3e");
     }
@@ -1069,7 +1070,7 @@ fn ellipsize(t: &str, max: usize) -> String {
 }
 
 /// A number with `decimals` decimals, a real minus sign and no "-0".
-pub fn fmt_num(v: f64, decimals: usize) -> String {
+pub(crate) fn fmt_num(v: f64, decimals: usize) -> String {
     let t = format!("{:.*}", decimals, v);
     let zero = t
         .trim_start_matches('-')
@@ -1083,7 +1084,7 @@ pub fn fmt_num(v: f64, decimals: usize) -> String {
 }
 
 /// `12.3 s`, `4 min 05.2 s`, `1 h 02 min 03 s`.
-pub fn fmt_duration(secs: f64) -> String {
+pub(crate) fn fmt_duration(secs: f64) -> String {
     if secs < 60.0 {
         format!("{secs:.1} s")
     } else if secs < 3600.0 {

@@ -29,7 +29,7 @@ impl View {
     }
 
     /// Names of the horizontal and vertical screen axes (orthographic views only).
-    pub fn axis_names(self) -> Option<(&'static str, &'static str)> {
+    pub(crate) fn axis_names(self) -> Option<(&'static str, &'static str)> {
         match self {
             View::Top => Some(("X", "Y")),
             View::Front => Some(("X", "Z")),
@@ -39,7 +39,7 @@ impl View {
     }
 
     /// Projects a machine point to view coordinates (mm, x right, y up).
-    pub fn project(self, p: P3) -> (f64, f64) {
+    pub(crate) fn project(self, p: P3) -> (f64, f64) {
         match self {
             View::Top => (p[0], p[1]),
             View::Front => (p[0], p[2]),
@@ -72,17 +72,17 @@ impl View {
 /// Maps view coordinates (mm, y up) to pixels of a panel (y down).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fit {
-    pub view: View,
+    pub(crate) view: View,
     /// Pixels per mm.
     pub scale: f64,
     /// Pixel position of view coordinate (0, 0).
-    pub ox: f64,
-    pub oy: f64,
+    pub(crate) ox: f64,
+    pub(crate) oy: f64,
 }
 
 impl Fit {
     /// Centres the view bounds `b` in the pixel rectangle `rect` (x, y, w, h) at `scale`.
-    pub fn centred(view: View, b: [f64; 4], rect: [f64; 4], scale: f64) -> Fit {
+    pub(crate) fn centred(view: View, b: [f64; 4], rect: [f64; 4], scale: f64) -> Fit {
         let cx = (b[0] + b[2]) / 2.0;
         let cy = (b[1] + b[3]) / 2.0;
         Fit {
@@ -94,14 +94,14 @@ impl Fit {
     }
 
     /// The largest scale at which bounds `b` fit into a `w`×`h` pixel area.
-    pub fn scale_to_fit(b: [f64; 4], w: f64, h: f64) -> f64 {
+    pub(crate) fn scale_to_fit(b: [f64; 4], w: f64, h: f64) -> f64 {
         let bw = (b[2] - b[0]).max(1e-3);
         let bh = (b[3] - b[1]).max(1e-3);
         (w / bw).min(h / bh)
     }
 
     /// Pixel position of a machine point.
-    pub fn px(&self, p: P3) -> (f64, f64) {
+    pub(crate) fn px(&self, p: P3) -> (f64, f64) {
         let (x, y) = self.view.project(p);
         self.px2(x, y)
     }
@@ -112,7 +112,7 @@ impl Fit {
     }
 
     /// View coordinates of a pixel.
-    pub fn unpx(&self, px: f64, py: f64) -> (f64, f64) {
+    pub(crate) fn unpx(&self, px: f64, py: f64) -> (f64, f64) {
         ((px - self.ox) / self.scale, (self.oy - py) / self.scale)
     }
 }

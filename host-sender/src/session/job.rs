@@ -36,7 +36,7 @@ impl Serving {
 pub struct BoardError {
     pub line: u32,
     pub code: u16,
-    pub column: u16,
+    pub(crate) column: u16,
 }
 
 /// An alarm the board raised, as it reported it.
@@ -68,12 +68,12 @@ pub struct Progress {
 pub struct StreamReport {
     pub completed: bool,
     /// The job was aborted: from this sender (Ctrl-C), another command, or the board's stop input.
-    pub aborted: bool,
+    pub(crate) aborted: bool,
     pub errors: Vec<BoardError>,
     pub alarms: Vec<BoardAlarm>,
     /// Limit switches that stopped motion (axis, max side), in the order reported.
     pub limits: Vec<(u8, bool)>,
-    pub last_line: u32,
+    pub(crate) last_line: u32,
     /// Lines sent (main stream and subprogram serving).
     pub lines_sent: u32,
     pub jumps_served: u32,
@@ -81,12 +81,12 @@ pub struct StreamReport {
     pub elapsed_ms: u32,
     pub final_status: Option<Status>,
     /// How the link to the board ended.
-    pub link: LinkEnd,
+    pub(crate) link: LinkEnd,
 }
 
 /// How the link ended for a stream.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LinkEnd {
+pub(crate) enum LinkEnd {
     /// The board stayed with the sender to the end of the job.
     Kept,
     /// The board said nothing for this long (ms): the sender gave up (the board, if alive, holds
@@ -100,10 +100,10 @@ pub enum LinkEnd {
 }
 
 /// Board silence (ms) after which the sender warns (the board reports its status every 100 ms).
-pub const SILENT_WARN_MS: u32 = 2_000;
+pub(crate) const SILENT_WARN_MS: u32 = 2_000;
 
 /// Board silence (ms) after which the sender gives up on the job.
-pub const SILENT_GIVE_UP_MS: u32 = 10_000;
+pub(crate) const SILENT_GIVE_UP_MS: u32 = 10_000;
 
 /// What the progress callback wants next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -128,7 +128,7 @@ pub fn stream_program<T: Transport>(
 
 /// How a job begins ([`run`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub enum JobStart {
+pub(crate) enum JobStart {
     /// From line 1.
     Beginning,
     /// From this line, after the preamble blocks that rebuild the program's state there
@@ -144,7 +144,7 @@ pub enum JobStart {
 /// a stop"), through the caller's [`Flow::Resume`] (its answer to the operator's Enter or
 /// Continue), the machine's cycle start or another command's `resume`. A job standing at a stop
 /// is waited on for as long as it stands.
-pub fn run<T: Transport>(
+pub(crate) fn run<T: Transport>(
     client: &mut Client<T>,
     program: &Program,
     start: JobStart,
@@ -414,7 +414,7 @@ fn run_job<T: Transport>(
 /// every retransmission halves it. On a noisy line a long frame is likely damaged (at 3 % of bytes
 /// damaged, a frame of 300 bytes almost never arrives whole, one of 40 bytes a third of the time),
 /// and a frame once queued keeps its size until it arrives. Never less than one line.
-pub struct BatchSize {
+pub(crate) struct BatchSize {
     limit: usize,
     retransmits: u32,
     /// Queued messages acknowledged when last asked.
@@ -425,7 +425,7 @@ impl BatchSize {
     /// The smallest limit: one short line with its record header.
     const MIN: usize = 32;
 
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         BatchSize {
             limit: Self::MIN,
             retransmits: 0,
@@ -435,7 +435,7 @@ impl BatchSize {
 
     /// The limit for the next batch, given the link's retransmissions and the queued messages
     /// the board acknowledged so far.
-    pub fn next(&mut self, retransmits: u32, acked: u64) -> usize {
+    pub(crate) fn next(&mut self, retransmits: u32, acked: u64) -> usize {
         let newly_acked = acked.saturating_sub(self.acked);
         self.acked = acked;
         if retransmits != self.retransmits {

@@ -12,17 +12,18 @@
 
 pub mod job;
 pub mod probe;
-pub mod setup;
+pub(crate) mod setup;
 pub mod socket;
 pub mod standing;
-pub mod start;
+pub(crate) mod start;
 
 pub use job::{
-    continue_job, fresh_status, stream_from_line, stream_program, BoardAlarm, BoardError, Flow,
-    JobStart, LinkEnd, Progress, StreamReport, SILENT_GIVE_UP_MS, SILENT_WARN_MS,
+    continue_job, fresh_status, stream_from_line, stream_program, BoardAlarm, Flow, Progress,
+    StreamReport,
 };
+pub(crate) use job::{BoardError, JobStart, LinkEnd};
 pub use setup::{pull_setup_over, push_setup_over};
-pub use start::{check_program, check_text, Cleared, Refused};
+pub(crate) use start::{check_program, check_text, Cleared, Refused};
 
 use crate::link::{Client, OnClose, SerialTransport, Transport};
 use crate::program::Program;
@@ -32,11 +33,11 @@ use gantry_proto::{BoardMsg, HostMsg, Status};
 
 /// What [`Session::pushed_status`] found.
 #[derive(Debug, Default)]
-pub struct Pushed {
+pub(crate) struct Pushed {
     /// Status reports, newest last.
-    pub statuses: Vec<Status>,
+    pub(crate) statuses: Vec<Status>,
     /// Jobs that ended.
-    pub jobs_ended: usize,
+    pub(crate) jobs_ended: usize,
 }
 
 /// Override percentages to set (`None`: leave that one as it is).
@@ -52,7 +53,7 @@ pub struct Overrides {
 
 impl Overrides {
     /// The status shows every override given.
-    pub fn shown_in(&self, s: &Status) -> bool {
+    pub(crate) fn shown_in(&self, s: &Status) -> bool {
         self.feed.is_none_or(|f| s.feed_override == f)
             && self.rapid.is_none_or(|r| s.rapid_override == r)
             && self
@@ -70,7 +71,7 @@ pub enum Target {
 }
 
 /// The link every session uses.
-pub type Link = Client<Box<dyn Transport>>;
+pub(crate) type Link = Client<Box<dyn Transport>>;
 
 /// How long the handshake may take on a port (or through `gantry serve`), ms of link time.
 const CONNECT_MS: u32 = 3000;
@@ -89,7 +90,7 @@ impl Session {
     /// board itself over a port; through `gantry serve` the server answers from the setup it
     /// keeps, so this never waits behind a running job's lines). `on_close`: what closing the
     /// port does to the board ([`OnClose::DropDtr`] for the sender that owns a job).
-    pub fn connect(target: Target, on_close: OnClose) -> anyhow::Result<Session> {
+    pub(crate) fn connect(target: Target, on_close: OnClose) -> anyhow::Result<Session> {
         match target {
             Target::Emulated(setup) => Self::emulated(EmulatedBoard::new((*setup).clone()), *setup),
             Target::Port(p) => {
@@ -117,7 +118,7 @@ impl Session {
     }
 
     /// A session over a connected link whose board has `setup`.
-    pub fn over(link: Link, setup: Setup) -> Session {
+    pub(crate) fn over(link: Link, setup: Setup) -> Session {
         Session {
             link,
             setup,
@@ -128,33 +129,33 @@ impl Session {
 
     /// The session goes through `gantry serve`: `gantry resume` and the other commands reach the
     /// board from another terminal while this session runs a job.
-    pub fn served(&self) -> bool {
+    pub(crate) fn served(&self) -> bool {
         self.served
     }
 
     /// The board's setup (as read when the session opened, or as last pushed or reloaded).
-    pub fn setup(&self) -> &Setup {
+    pub(crate) fn setup(&self) -> &Setup {
         &self.setup
     }
 
     /// The machine's axis count.
-    pub fn axes(&self) -> usize {
+    pub(crate) fn axes(&self) -> usize {
         self.setup.axis_count as usize
     }
 
     /// The link itself, for what the session has no method for (`gantry serve` relays raw
     /// messages).
-    pub fn link(&mut self) -> &mut Link {
+    pub(crate) fn link(&mut self) -> &mut Link {
         &mut self.link
     }
 
     /// The link clock, ms.
-    pub fn now_ms(&self) -> u32 {
+    pub(crate) fn now_ms(&self) -> u32 {
         self.link.transport.now_ms()
     }
 
     /// Exchanges bytes, then lets `ms` milliseconds pass.
-    pub fn pump(&mut self, ms: u32) -> anyhow::Result<()> {
+    pub(crate) fn pump(&mut self, ms: u32) -> anyhow::Result<()> {
         self.link.pump(ms)
     }
 
@@ -167,7 +168,7 @@ impl Session {
     }
 
     /// The newest status seen by the session, without asking (`None` before the first).
-    pub fn last_status(&self) -> Option<&Status> {
+    pub(crate) fn last_status(&self) -> Option<&Status> {
         self.status.as_ref()
     }
 
@@ -175,7 +176,7 @@ impl Session {
     /// how many jobs ended meanwhile (any command's, through `gantry serve`): for a session that
     /// only watches, so nothing on it waits for those `JobDone`s. Every other message is kept for
     /// whoever waits for it.
-    pub fn pushed_status(&mut self) -> anyhow::Result<Pushed> {
+    pub(crate) fn pushed_status(&mut self) -> anyhow::Result<Pushed> {
         self.link.pump(0)?;
         let mut kept = Vec::new();
         let mut got = Pushed::default();
@@ -194,27 +195,27 @@ impl Session {
     }
 
     /// Sends a realtime request (hold, resume, abort, overrides, jog stop, status request).
-    pub fn send(&mut self, msg: HostMsg) -> anyhow::Result<()> {
+    pub(crate) fn send(&mut self, msg: HostMsg) -> anyhow::Result<()> {
         self.link.send(msg)
     }
 
     /// Feed hold: decelerate on the path and hold.
-    pub fn hold(&mut self) -> anyhow::Result<()> {
+    pub(crate) fn hold(&mut self) -> anyhow::Result<()> {
         self.send(HostMsg::FeedHold)
     }
 
     /// Resume a hold or a tool-change stop.
-    pub fn resume(&mut self) -> anyhow::Result<()> {
+    pub(crate) fn resume(&mut self) -> anyhow::Result<()> {
         self.send(HostMsg::Resume)
     }
 
     /// Abort: stop on the path, end the job.
-    pub fn abort(&mut self) -> anyhow::Result<()> {
+    pub(crate) fn abort(&mut self) -> anyhow::Result<()> {
         self.send(HostMsg::Abort)
     }
 
     /// Sets the overrides given (%).
-    pub fn set_overrides(&mut self, o: Overrides) -> anyhow::Result<()> {
+    pub(crate) fn set_overrides(&mut self, o: Overrides) -> anyhow::Result<()> {
         if let Some(f) = o.feed {
             self.send(HostMsg::FeedOverride(f))?;
         }
@@ -241,7 +242,7 @@ impl Session {
 
     /// Jogs `axis` at `feed_um_min` (the sign is the direction) by `distance_nm` (0: until
     /// [`Session::jog_stop`]); the board's answer as [`Session::request`].
-    pub fn jog(
+    pub(crate) fn jog(
         &mut self,
         axis: u8,
         feed_um_min: i32,
@@ -262,7 +263,7 @@ impl Session {
     }
 
     /// Ends a jog.
-    pub fn jog_stop(&mut self) -> anyhow::Result<()> {
+    pub(crate) fn jog_stop(&mut self) -> anyhow::Result<()> {
         self.send(HostMsg::JogStop)
     }
 
@@ -270,7 +271,7 @@ impl Session {
     /// at least every 100 ms; the board ends the jog 250 ms after the last (its dead-man,
     /// docs/controller.md "Jogging"). Not sent to a board older than protocol 5.1, which has no
     /// dead-man and cannot decode it.
-    pub fn jog_keepalive(&mut self) -> anyhow::Result<()> {
+    pub(crate) fn jog_keepalive(&mut self) -> anyhow::Result<()> {
         if self
             .link
             .peer_version()
@@ -282,18 +283,18 @@ impl Session {
     }
 
     /// Starts homing the axes of `axes` (bit 0 = X; 0 = all); the board's answer.
-    pub fn home(&mut self, axes: u8, limit_ms: u32) -> anyhow::Result<Option<u16>> {
+    pub(crate) fn home(&mut self, axes: u8, limit_ms: u32) -> anyhow::Result<Option<u16>> {
         self.request(|id| HostMsg::Home { id, axes }, limit_ms)
     }
 
     /// Clears an alarm; the board's answer.
-    pub fn unlock(&mut self, limit_ms: u32) -> anyhow::Result<Option<u16>> {
+    pub(crate) fn unlock(&mut self, limit_ms: u32) -> anyhow::Result<Option<u16>> {
         self.request(|id| HostMsg::Unlock { id }, limit_ms)
     }
 
     /// Sends `setup` to the board (validated, applied and saved when idle); the session's setup
     /// is then that one.
-    pub fn push_setup(&mut self, setup: &Setup) -> anyhow::Result<()> {
+    pub(crate) fn push_setup(&mut self, setup: &Setup) -> anyhow::Result<()> {
         push_setup_over(&mut self.link, setup)?;
         self.setup = setup.clone();
         Ok(())
@@ -304,7 +305,7 @@ impl Session {
     /// sent), the board's work offsets and G28/G30 positions are kept where the text names none
     /// (`SetupFile::parse_for_push`, the board's setup read again first), then it is pushed
     /// ([`Session::push_setup`]). Returns the setup the board now has.
-    pub fn push_setup_text(&mut self, text: &str) -> anyhow::Result<Setup> {
+    pub(crate) fn push_setup_text(&mut self, text: &str) -> anyhow::Result<Setup> {
         // The offsets kept are the board's now (a job or a zero may have changed them since
         // this session read the setup).
         let board = pull_setup_over(&mut self.link)?;
@@ -321,7 +322,7 @@ impl Session {
 
     /// The start check ([`start`]) of the program `name` read from `src`, with the board's
     /// setup: cleared to start, or refused with `gantry check`'s report.
-    pub fn check_start<S: gantry_machine::gcode::ProgramSource>(
+    pub(crate) fn check_start<S: gantry_machine::gcode::ProgramSource>(
         &self,
         name: &str,
         src: S,
@@ -332,7 +333,7 @@ impl Session {
     /// Starts `program` (from its beginning, or from a line) once it passed the start check, and
     /// runs it to its end (or until `on_progress` detaches), with its progress as events. A job
     /// standing at a stop is waited on: only the operator releases it ([`job::run`]).
-    pub fn start_job(
+    pub(crate) fn start_job(
         &mut self,
         program: &Program,
         start: JobStart,
@@ -348,7 +349,7 @@ impl Session {
 
     /// Takes over the job the board runs (`gantry stream --continue`; it passed its check when
     /// it started) and runs it to its end; a stop it stands at stays until the operator resumes.
-    pub fn take_over_job(
+    pub(crate) fn take_over_job(
         &mut self,
         program: &Program,
         on_progress: &mut dyn FnMut(&Progress) -> Flow,
@@ -387,12 +388,12 @@ impl Session {
     }
 
     /// The alarm and limit reports received since the last call, oldest first.
-    pub fn take_notices(&mut self) -> Vec<BoardMsg> {
+    pub(crate) fn take_notices(&mut self) -> Vec<BoardMsg> {
         self.link.take_notices()
     }
 
     /// Gaps in the motion where the step kernel ran dry (the emulated board only).
-    pub fn underruns(&self) -> Option<u64> {
+    pub(crate) fn underruns(&self) -> Option<u64> {
         self.link.transport.underruns()
     }
 }

@@ -26,7 +26,7 @@ pub enum Side {
 
 impl Side {
     /// Reads `x+`, `x-`, `y+`, `y-`.
-    pub fn parse(text: &str) -> Option<Side> {
+    pub(crate) fn parse(text: &str) -> Option<Side> {
         Some(match text {
             "x+" => Side::XPlus,
             "x-" => Side::XMinus,
@@ -91,7 +91,7 @@ pub enum Corner {
 
 impl Corner {
     /// Reads `front-left`, `front-right`, `back-left`, `back-right`.
-    pub fn parse(text: &str) -> Option<Corner> {
+    pub(crate) fn parse(text: &str) -> Option<Corner> {
         Some(match text {
             "front-left" => Corner::FrontLeft,
             "front-right" => Corner::FrontRight,
@@ -134,7 +134,7 @@ pub struct Approach {
 
 /// One workflow, with its numbers (mm, mm/min) already validated by the client.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Probe {
+pub(crate) enum Probe {
     /// Z from a touch plate of `thickness` on the work: probe down up to `distance`.
     Z {
         thickness: f64,
@@ -192,7 +192,7 @@ const EDGE_MARGIN_MM: f64 = 5.0;
 impl Probe {
     /// What the workflow will do, in words, for the operator to confirm; `system` is the active
     /// work system (G54 …), `g30` the setup's G30 position (machine mm).
-    pub fn plan(&self, system: &str, g30: [f64; 3]) -> String {
+    pub(crate) fn plan(&self, system: &str, g30: [f64; 3]) -> String {
         let nc = "Without contact the board stops in alarm 5.";
         match *self {
             Probe::Z {
@@ -425,7 +425,7 @@ impl Session {
 
     /// Runs `probe` (the board at rest, Idle); returns the report: what was measured and which
     /// offset was set.
-    pub fn probe(&mut self, probe: &Probe) -> Result<String, String> {
+    pub(crate) fn probe(&mut self, probe: &Probe) -> Result<String, String> {
         match *probe {
             Probe::Z {
                 thickness,
@@ -469,7 +469,7 @@ impl Session {
 
     /// Z touch plate: probe down until the tool touches a plate of `thickness` on the work; work
     /// Z is then `thickness` at the contact (Z0 = the work's top); back up by `retract`.
-    pub fn probe_z(
+    pub(crate) fn probe_z(
         &mut self,
         thickness: f64,
         distance: f64,

@@ -5,7 +5,8 @@ use crate::link::{Client, Transport};
 use gantry_proto::setup_commit::SetupRefusal;
 use gantry_proto::HostMsg;
 
-/// [`setup_push`] over an open link.
+/// Sends a setup over an open link; the board validates it, applies it and saves it to flash
+/// (idle only).
 pub fn push_setup_over<T: Transport>(
     client: &mut Client<T>,
     setup: &gantry_machine::setup::Setup,

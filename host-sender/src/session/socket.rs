@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 /// The socket of the server for `port`: `gantry-<port path, '/' as '_'>.sock` in the private
 /// directory [`socket_dir`]; the port path is resolved first, so a link to a port and the port
 /// itself find the same server.
-pub fn socket_name(port: &str) -> String {
+pub(crate) fn socket_name(port: &str) -> String {
     let resolved = std::fs::canonicalize(port).unwrap_or_else(|_| PathBuf::from(port));
     let name: String = resolved
         .to_string_lossy()
@@ -55,7 +55,7 @@ fn check_owner(path: &Path, meta: &std::fs::Metadata) -> anyhow::Result<()> {
 /// be a directory owned by this user and closed to everyone else (no group or other
 /// permission bit), else it is refused with the reason. `None`: it does not exist (and was not
 /// to be created), so no server runs.
-pub fn socket_dir(create: bool) -> anyhow::Result<Option<PathBuf>> {
+pub(crate) fn socket_dir(create: bool) -> anyhow::Result<Option<PathBuf>> {
     use std::os::unix::fs::{DirBuilderExt, PermissionsExt};
     let xdg = std::env::var_os("XDG_RUNTIME_DIR")
         .filter(|d| !d.is_empty())
@@ -104,12 +104,12 @@ pub fn socket_dir(create: bool) -> anyhow::Result<Option<PathBuf>> {
 
 /// The socket of the server for `port` (see [`socket_name`], [`socket_dir`]); `None` when the
 /// directory does not exist.
-pub fn socket_path(port: &str) -> anyhow::Result<Option<PathBuf>> {
+pub(crate) fn socket_path(port: &str) -> anyhow::Result<Option<PathBuf>> {
     Ok(socket_dir(false)?.map(|d| d.join(socket_name(port))))
 }
 
 /// Refuses an existing `path` that is not this user's socket; false when nothing is there.
-pub fn check_socket(path: &Path) -> anyhow::Result<bool> {
+pub(crate) fn check_socket(path: &Path) -> anyhow::Result<bool> {
     use std::os::unix::fs::FileTypeExt;
     match std::fs::symlink_metadata(path) {
         Ok(m) => {
@@ -224,9 +224,4 @@ impl Transport for SocketTransport {
     fn now_ms(&self) -> u32 {
         self.start.elapsed().as_millis() as u32
     }
-}
-
-/// True when a server for `port` answers on its socket (of this user).
-pub fn running(port: &str) -> bool {
-    matches!(SocketTransport::connect(port), Ok(Some(_)))
 }

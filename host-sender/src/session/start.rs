@@ -10,7 +10,7 @@ use gantry_machine::setup::Setup;
 /// Proof that a program passed the start check ([`check_program`]), or that the operator chose to
 /// start it unchecked ([`Cleared::unchecked`]).
 #[derive(Debug)]
-pub struct Cleared {
+pub(crate) struct Cleared {
     /// The check's warning lines (spindle speeds the board clamps …), for the operator to see
     /// before the job starts; empty unchecked. (Private: only this module makes a `Cleared`.)
     warnings: String,
@@ -19,28 +19,27 @@ pub struct Cleared {
 impl Cleared {
     /// The operator asked for no check (`gantry stream --no-check`: a program too long to check
     /// first; the board still stops at its first error).
-    pub fn unchecked() -> Cleared {
+    pub(crate) fn unchecked() -> Cleared {
         Cleared {
             warnings: String::new(),
         }
     }
 
     /// The check's warning lines (`NAME:LINE: warning: …`), empty when there were none.
-    pub fn warnings(&self) -> &str {
+    pub(crate) fn warnings(&self) -> &str {
         &self.warnings
     }
 }
 
 /// A program the check refused: `gantry check`'s report (every error with its line and caret,
-/// then the summary up to the first), and the error lines.
+/// then the summary up to the first).
 #[derive(Clone, Debug)]
-pub struct Refused {
-    pub report: String,
-    pub error_lines: Vec<u32>,
+pub(crate) struct Refused {
+    pub(crate) report: String,
 }
 
 /// Checks the program `name` read from `src` with `setup`: cleared to start, or refused.
-pub fn check_program<S: ProgramSource>(
+pub(crate) fn check_program<S: ProgramSource>(
     name: &str,
     src: S,
     setup: &Setup,
@@ -56,15 +55,11 @@ pub fn check_program<S: ProgramSource>(
             warnings: crate::check::warning_lines(&report),
         }));
     }
-    let error_lines = crate::check::error_lines(&report, name);
-    Ok(Err(Refused {
-        report,
-        error_lines,
-    }))
+    Ok(Err(Refused { report }))
 }
 
 /// [`check_program`] on program text.
-pub fn check_text(name: &str, text: &str, setup: &Setup) -> Result<Cleared, Refused> {
+pub(crate) fn check_text(name: &str, text: &str, setup: &Setup) -> Result<Cleared, Refused> {
     check_program(
         name,
         gantry_machine::gcode::MemorySource::new(text.as_bytes()),

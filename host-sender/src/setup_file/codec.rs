@@ -1,14 +1,15 @@
-//! The setup file's text-valued rows (axis letters, input names, list commands, positions, the
-//! M-code lists, startup lines) and the work offsets: what the settings table
-//! (machine/src/setup/table.rs) cannot read or write by its unit alone.
+//! The setup file's text-valued rows (the axes in use, M codes, positions, list commands, startup
+//! lines), the work offsets and the `[[tool]]`/`[[mcode]]` items: what the settings table
+//! (machine/src/setup/table.rs) cannot read or write by its unit alone; and the names (axis
+//! letters, inputs) the walk's value kinds use.
 
 use super::mm;
 use anyhow::{bail, Context};
 use gantry_machine::controller::inputs::INPUT_NAMES;
 use gantry_machine::setup::table::Section;
 use gantry_machine::setup::{
-    Key, KeyName, ListCommand, McodeList, OrientSetup, Setup, ToolChangePosition, MAX_MCODE_LISTS,
-    MAX_TOOLS, MAX_USER_MCODES, STARTUP_LINE_LEN, USER_OUTPUTS,
+    Key, KeyName, ListCommand, McodeList, Setup, ToolChangePosition, MAX_MCODE_LISTS, MAX_TOOLS,
+    MAX_USER_MCODES, STARTUP_LINE_LEN, USER_OUTPUTS,
 };
 use gantry_machine::units::{Nm, AXIS_LETTERS, MAX_AXES};
 use std::fmt::Write as _;
@@ -66,58 +67,11 @@ pub(super) fn read(key: Key, i: usize, v: &Value, s: &mut Setup) -> anyhow::Resu
         Key::ToolChangePosition => {
             s.program.tool_change_position = tool_change_position(&at, v, s)?
         }
-        Key::ActiveLow => {
-            s.inputs.invert = 0;
-            for name in strings(&at, v)? {
-                s.inputs.invert |= 1 << input_bit(&at, name)?;
-            }
-        }
-        Key::LimitsMin | Key::LimitsMax => {
-            let mut mask = 0;
-            for name in strings(&at, v)? {
-                mask |= 1 << axis_index(&at, name, n, false)?;
-            }
-            *if key == Key::LimitsMin {
-                &mut s.inputs.limit_min
-            } else {
-                &mut s.inputs.limit_max
-            } = mask;
-        }
         Key::BeforeSeek => s.homing.before_seek = commands(&at, v)?,
         Key::BeforeRetract => s.homing.before_retract = commands(&at, v)?,
         Key::AfterRetract => s.homing.after_retract = commands(&at, v)?,
-        Key::Pair0 | Key::Pair1 | Key::AnalogAxes => {
-            let [a, b] = pair(&at, v)?;
-            let letter = |v: &Value| {
-                let name = v
-                    .as_str()
-                    .with_context(|| format!("{at}: expected axis letters"))?;
-                axis_index(&at, name, n, true)
-            };
-            let axes = [letter(a)?, letter(b)?];
-            match key {
-                Key::Pair0 => s.jog.pairs[0] = axes,
-                Key::Pair1 => s.jog.pairs[1] = axes,
-                _ => s.jog.analog_axes = axes,
-            }
-        }
         Key::McodeCommands => s.outputs.mcode_lists[i].commands = commands(&at, v)?,
         Key::StartupLines => startup_lines(&at, v, s)?,
-        Key::OrientOutput => {
-            let n = v.as_integer().with_context(|| {
-                format!("{at}: expected a user output number 0-{}", USER_OUTPUTS - 1)
-            })?;
-            if !(0..i64::from(USER_OUTPUTS)).contains(&n) {
-                bail!("{at} = {n}: a user output 0-{}", USER_OUTPUTS - 1);
-            }
-            s.outputs.orient.output = n as u8;
-        }
-        Key::OrientDoneInput => {
-            let name = v
-                .as_str()
-                .with_context(|| format!("{at}: expected an input name"))?;
-            s.outputs.orient.done_input = input_bit(&at, name)?;
-        }
         _ => bail!("{at}: not a text setting"),
     }
     Ok(())
@@ -127,23 +81,9 @@ pub(super) fn read(key: Key, i: usize, v: &Value, s: &mut Setup) -> anyhow::Resu
 pub(super) fn write(key: Key, i: usize, s: &Setup) -> String {
     let (name, note) = (key.text().name, key.text().note);
     let n = usize::from(s.axis_count);
-    let letter = |a: u8| {
-        AXIS_LETTERS
-            .get(usize::from(a))
-            .filter(|_| usize::from(a) < n)
-    };
-    let letter = |a: u8| letter(a).map_or("-".to_string(), |l| l.to_string());
     let value = match key {
         Key::Axes => quoted(AXIS_LETTERS[..n].iter()),
-        Key::UserMcodes => {
-            let codes: Vec<String> = s
-                .program
-                .user_mcodes
-                .iter()
-                .map(|c| c.to_string())
-                .collect();
-            format!("[{}]", codes.join(", "))
-        }
+        Key::UserMcodes => format!("{:?}", s.program.user_mcodes.as_slice()),
         Key::G28Home => mm_list(&s.program.g28_home[..n]),
         Key::G30Home => mm_list(&s.program.g30_home[..n]),
         Key::ToolChangePosition => {
@@ -157,34 +97,9 @@ pub(super) fn write(key: Key, i: usize, s: &Setup) -> String {
             }
             format!("{{ {} }}", set.join(", "))
         }
-        Key::ActiveLow => quoted(
-            (0..32u8)
-                .filter(|b| s.inputs.invert & (1 << b) != 0)
-                .map(input_name),
-        ),
-        Key::LimitsMin | Key::LimitsMax => {
-            let mask = if key == Key::LimitsMin {
-                s.inputs.limit_min
-            } else {
-                s.inputs.limit_max
-            };
-            quoted(
-                (0..n)
-                    .filter(|i| mask & (1 << i) != 0)
-                    .map(|i| AXIS_LETTERS[i]),
-            )
-        }
         Key::BeforeSeek => list_toml(&s.homing.before_seek),
         Key::BeforeRetract => list_toml(&s.homing.before_retract),
         Key::AfterRetract => list_toml(&s.homing.after_retract),
-        Key::Pair0 | Key::Pair1 | Key::AnalogAxes => {
-            let p = match key {
-                Key::Pair0 => s.jog.pairs[0],
-                Key::Pair1 => s.jog.pairs[1],
-                _ => s.jog.analog_axes,
-            };
-            quoted(p.into_iter().map(letter))
-        }
         Key::McodeCommands => {
             let l = &s.outputs.mcode_lists[i];
             let note = if l.on_the_fly().is_some() {
@@ -194,14 +109,6 @@ pub(super) fn write(key: Key, i: usize, s: &Setup) -> String {
             };
             return format!("{name} = {}{note}", list_toml(&l.commands));
         }
-        Key::OrientOutput if !s.outputs.orient.present() => {
-            return format!("# {name} = 0{note}");
-        }
-        Key::OrientOutput => s.outputs.orient.output.to_string(),
-        Key::OrientDoneInput if s.outputs.orient.done_input == OrientSetup::NONE => {
-            return format!("# {name} = \"in20\"{note}");
-        }
-        Key::OrientDoneInput => format!("{:?}", input_name(s.outputs.orient.done_input)),
         Key::StartupLines => {
             let g = &s.grbl;
             format!("[{:?}, {:?}]", g.startup[0].as_str(), g.startup[1].as_str())
@@ -213,48 +120,37 @@ pub(super) fn write(key: Key, i: usize, s: &Setup) -> String {
 
 /// A new `[[tool]]` or `[[mcode]]` item for the rows to fill.
 pub(super) fn push_item(section: Section, s: &mut Setup) -> anyhow::Result<()> {
-    if section == Section::Tool {
-        let full = s.program.tools.push(Default::default()).is_err();
-        anyhow::ensure!(!full, "tool: at most {MAX_TOOLS} tools");
-    } else {
-        let list = McodeList {
-            code: 0,
-            dry_run_disabled: false,
-            commands: Default::default(),
-        };
-        let full = s.outputs.mcode_lists.push(list).is_err();
-        anyhow::ensure!(!full, "mcode: at most {MAX_MCODE_LISTS} lists");
-    }
+    let full = match section {
+        Section::Tool => s.program.tools.push(Default::default()).is_err(),
+        _ => s.outputs.mcode_lists.push(McodeList::default()).is_err(),
+    };
+    let (name, most) = match section {
+        Section::Tool => ("tool", format!("{MAX_TOOLS} tools")),
+        _ => ("mcode", format!("{MAX_MCODE_LISTS} lists")),
+    };
+    anyhow::ensure!(!full, "{name}: at most {most}");
     Ok(())
 }
 
 /// The rules of item `k` of a `[[tool]]` or `[[mcode]]` array (`t`, as read into `s`): its
 /// number is given and unique, an M code is one of `program.user_mcodes`.
 pub(super) fn check_item(section: Section, k: usize, t: &Table, s: &Setup) -> anyhow::Result<()> {
-    let (name, field) = if section == Section::Tool {
-        ("tool", "number")
-    } else {
-        ("mcode", "code")
+    let tools = s.program.tools.iter().map(|x| x.number);
+    let codes = s.outputs.mcode_lists.iter().map(|l| u32::from(l.code));
+    let (name, field, what, numbers): (_, _, _, Vec<u32>) = match section {
+        Section::Tool => ("tool", "number", "tool", tools.collect()),
+        _ => ("mcode", "code", "list", codes.collect()),
     };
     anyhow::ensure!(
         t.contains_key(field),
         "{name}[{k}]: missing field `{field}`"
     );
-    if section == Section::Tool {
-        let number = s.program.tools[k].number;
-        if s.program.tools[..k].iter().any(|x| x.number == number) {
-            bail!("tool[{k}].number = {number}: tool defined twice");
-        }
-        return Ok(());
+    let number = numbers[k];
+    if section == Section::Mcode && !s.program.user_mcodes.contains(&(number as u16)) {
+        bail!("mcode[{k}].code = {number}: not in program.user_mcodes (define the M code there first)");
     }
-    let code = s.outputs.mcode_lists[k].code;
-    if !s.program.user_mcodes.contains(&code) {
-        bail!(
-            "mcode[{k}].code = {code}: not in program.user_mcodes (define the M code there first)"
-        );
-    }
-    if s.outputs.mcode_lists[..k].iter().any(|l| l.code == code) {
-        bail!("mcode[{k}].code = {code}: list defined twice");
+    if numbers[..k].contains(&number) {
+        bail!("{name}[{k}].{field} = {number}: {what} defined twice");
     }
     Ok(())
 }
@@ -319,7 +215,7 @@ fn array<'a>(at: &str, v: &'a Value) -> anyhow::Result<impl Iterator<Item = &'a 
         .iter())
 }
 
-fn strings<'a>(at: &str, v: &'a Value) -> anyhow::Result<Vec<&'a str>> {
+pub(super) fn strings<'a>(at: &str, v: &'a Value) -> anyhow::Result<Vec<&'a str>> {
     array(at, v)?
         .map(|x| {
             x.as_str()
@@ -328,7 +224,7 @@ fn strings<'a>(at: &str, v: &'a Value) -> anyhow::Result<Vec<&'a str>> {
         .collect()
 }
 
-fn quoted<T: std::fmt::Display>(items: impl Iterator<Item = T>) -> String {
+pub(super) fn quoted<T: std::fmt::Display>(items: impl Iterator<Item = T>) -> String {
     let v: Vec<String> = items.map(|x| format!("\"{x}\"")).collect();
     format!("[{}]", v.join(", "))
 }
@@ -340,43 +236,36 @@ fn mm_list(p: &[Nm]) -> String {
 
 /// Axis letter `name` as the index of an axis in use (`at` names the table).
 pub(super) fn axis_in_use(at: &str, name: &str, count: usize) -> anyhow::Result<usize> {
-    AXIS_LETTERS[..count]
+    let axes = &AXIS_LETTERS[..count];
+    let i = axes
+        .iter()
+        .position(|l| name.eq_ignore_ascii_case(&l.to_string()));
+    i.with_context(|| format!("{at}: not an axis in use (axes in use: {axes:?})"))
+}
+
+/// Axis letter `name` of setting `at` as the index of an axis in use (`none`: or `"-"`, 255).
+pub(super) fn axis_index(at: &str, name: &str, count: usize, none: bool) -> anyhow::Result<u8> {
+    let axes = &AXIS_LETTERS[..count];
+    match axes
         .iter()
         .position(|l| name.eq_ignore_ascii_case(&l.to_string()))
-        .with_context(|| {
-            format!(
-                "{at}: not an axis in use (axes in use: {:?})",
-                &AXIS_LETTERS[..count]
-            )
-        })
-}
-
-/// Axis letter → index among the axes in use (`"-"` → 255 = none).
-fn axis_index(key: &str, name: &str, count: usize, allow_none: bool) -> anyhow::Result<u8> {
-    if allow_none && name == "-" {
-        return Ok(255);
+    {
+        Some(i) => Ok(i as u8),
+        None if none && name == "-" => Ok(255),
+        None => {
+            let or = if none { ", or \"-\" for none" } else { "" };
+            bail!("{at} = {name:?}: not an axis in use (axes in use: {axes:?}{or})")
+        }
     }
-    let none = if allow_none {
-        ", or \"-\" for none"
-    } else {
-        ""
-    };
-    let i = axis_in_use(key, name, count).map_err(|_| {
-        anyhow::anyhow!(
-            "{key} = {name:?}: not an axis in use (axes in use: {:?}{none})",
-            &AXIS_LETTERS[..count]
-        )
-    })?;
-    Ok(i as u8)
 }
 
-fn input_name(bit: u8) -> String {
+pub(super) fn input_name(bit: u8) -> String {
     INPUT_NAMES
         .get(usize::from(bit))
         .map_or_else(|| format!("in{bit}"), |n| n.to_string())
 }
 
-fn input_bit(key: &str, name: &str) -> anyhow::Result<u8> {
+pub(super) fn input_bit(key: &str, name: &str) -> anyhow::Result<u8> {
     if let Some(i) = INPUT_NAMES
         .iter()
         .position(|n| n.eq_ignore_ascii_case(name))

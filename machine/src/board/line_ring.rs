@@ -1,7 +1,7 @@
 //! The board's store of streamed program text: a ring of variable-length line records in the
-//! link's own format (`shared-proto/src/lines.rs`: line number `u32` LE, length `u16` LE, text;
-//! `board/link.rs` checks at compile time that both sides agree), so a batch from a frame is
-//! copied in as it came and the interpreter reads each line where it lies.
+//! link's own format, defined once in `shared-proto/src/lines.rs` (line number `u32` LE, length
+//! `u16` LE, text), so a batch from a frame is copied in as it came and the interpreter reads each
+//! line where it lies.
 //!
 //! Of the buffer's `B` bytes, the first `B - RECORD_MAX` are the ring ([`LineRing::capacity`]). A
 //! record always starts inside the ring and lies in one piece: one that starts near the ring's end
@@ -9,37 +9,12 @@
 //! the bytes that run-on counted for. So the used bytes are exactly the records' bytes, and the
 //! free room ([`LineRing::free`]) is exact: it is the credit the board grants the host.
 
-/// Longest line (bytes) a record holds: LinuxCNC's 256.
-pub const LINE_MAX: usize = 256;
-/// Bytes of a record's header: line number and text length.
-pub const RECORD_HEADER: usize = 6;
-/// Largest record.
-pub const RECORD_MAX: usize = RECORD_HEADER + LINE_MAX;
-
-/// The first record of `bytes`: its line number, its text and the bytes after it; `None` when
-/// `bytes` does not start with a whole, valid record.
-pub fn split_record(bytes: &[u8]) -> Option<(u32, &[u8], &[u8])> {
-    let (head, rest) = bytes.split_first_chunk::<RECORD_HEADER>()?;
-    let line_no = u32::from_le_bytes([head[0], head[1], head[2], head[3]]);
-    let len = u16::from_le_bytes([head[4], head[5]]) as usize;
-    if len > LINE_MAX || len > rest.len() {
-        return None;
-    }
-    let (text, rest) = rest.split_at(len);
-    Some((line_no, text, rest))
-}
+pub use gantry_proto::lines::{split_record, write_record, LINE_MAX, RECORD_HEADER, RECORD_MAX};
 
 /// Checks that `run` is a whole number of valid records; their count, and the last one's line
 /// number, or `None` when it is not.
 pub fn check_run(run: &[u8]) -> Option<(usize, Option<u32>)> {
-    let (mut rest, mut lines, mut last) = (run, 0, None);
-    while !rest.is_empty() {
-        let (line_no, _, after) = split_record(rest)?;
-        lines += 1;
-        last = Some(line_no);
-        rest = after;
-    }
-    Some((lines, last))
+    gantry_proto::lines::check_records(run).map(|r| (r.lines, r.last_line))
 }
 
 /// A buffer of `B` bytes holding line records.
@@ -151,10 +126,7 @@ impl<const B: usize> LineRing<B> {
         let Some(to) = self.buf.get_mut(at..at + len) else {
             return false;
         };
-        let (head, body) = to.split_at_mut(RECORD_HEADER);
-        head[..4].copy_from_slice(&line_no.to_le_bytes());
-        head[4..].copy_from_slice(&(text.len() as u16).to_le_bytes());
-        body.copy_from_slice(text);
+        write_record(to, line_no, text);
         self.used += len;
         self.lines += 1;
         true

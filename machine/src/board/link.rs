@@ -13,12 +13,8 @@ use gantry_proto::{
     OutputsStatus, ProbeStatus, ProgramTarget, SpindleStatus, Status, TorchStatus,
 };
 
-// The line ring stores the link's line records as they come: both sides use one format.
-const _: () = assert!(
-    line_ring::LINE_MAX == gantry_proto::lines::LINE_MAX
-        && line_ring::RECORD_HEADER == gantry_proto::lines::RECORD_HEADER
-        && super::LINE_RING <= u16::MAX as usize
-);
+// The line ring's free bytes are the link's credit, a `u16`.
+const _: () = assert!(super::LINE_RING <= u16::MAX as usize);
 
 /// The protocol a connection speaks, told from its first byte and forgotten when the host
 /// disconnects (DTR drop, port closed): Gantry's framed protocol or grbl 1.1's text

@@ -96,8 +96,18 @@ pub enum Unit {
     Bool,
     /// An index into the row's [`RowText::choices`].
     Choice,
-    /// A list or a name the host reads itself (axis letters, input names, list commands, text);
-    /// no range here.
+    /// A mask of axes in use, axis letters in the file (`["X", "Z"]`).
+    AxisMask,
+    /// A mask of input bits, input names in the file (`["x_min", "in30"]`).
+    InputMask,
+    /// Two axis indices (`a | b << 8`, 255: none), `["Y", "-"]` in the file.
+    AxisPair,
+    /// An input bit, its name in the file; [`super::OrientSetup::NONE`]: none, not written.
+    Input,
+    /// A user output (0-15), as in `set N`; [`super::OrientSetup::NONE`]: none, not written.
+    Output,
+    /// What the host reads with a codec of its own (the axes in use, M codes, positions, list
+    /// commands, startup lines); no range here.
     Text,
 }
 
@@ -393,17 +403,17 @@ table! {
         |s, _i| s.operator.dry_run_feed, |v| s.operator.dry_run_feed = v;
         [] "" "" "feed used for every feed move during a dry run" "",
 
-    ActiveLow => Inputs "active_low" Text ANY, 5,
-        |_s, _i| 0, |_v| ();
+    ActiveLow => Inputs "active_low" InputMask (0, u32::MAX as i64), 5,
+        |s, _i| i64::from(s.inputs.invert), |v| s.inputs.invert = v as u32;
         [] "input names" "`[]`" "inputs that are active while their switch is *open* (pin high): list the normally-closed switches (see input polarity above). Without it a closed switch is active. grbl `$5` sets or clears all limit inputs together" "   # active while the switch is open: the normally-closed switches",
     DebounceMs => Inputs "debounce_ms" Ms (1, 100), 26,
         |s, _i| i64::from(s.inputs.debounce_ms), |v| s.inputs.debounce_ms = v as u8;
         [] "" "" "consecutive equal 1 ms samples before an input level counts. Limit switches stop the step interrupt from the raw pin at once; debouncing only delays the alarm bookkeeping" "",
-    LimitsMin => Inputs "limits_min" Text ANY, NO_GRBL,
-        |_s, _i| 0, |_v| ();
+    LimitsMin => Inputs "limits_min" AxisMask (0, 255), NO_GRBL,
+        |s, _i| i64::from(s.inputs.limit_min), |v| s.inputs.limit_min = v as u8;
         [] "axis letters in use" "`[]`" "axes with a min-side limit switch" "",
-    LimitsMax => Inputs "limits_max" Text ANY, NO_GRBL,
-        |_s, _i| 0, |_v| ();
+    LimitsMax => Inputs "limits_max" AxisMask (0, 255), NO_GRBL,
+        |s, _i| i64::from(s.inputs.limit_max), |v| s.inputs.limit_max = v as u8;
         [] "axis letters in use" "`[]`" "axes with a max-side limit switch" "",
     HardLimits => Inputs "hard_limits" Bool (0, 1), 21,
         |s, _i| i64::from(s.inputs.hard_limits), |v| s.inputs.hard_limits = v != 0;
@@ -455,11 +465,11 @@ table! {
         |s, i| homing_axis(s, i).home_position, |v| homing_axis_mut(s, i).home_position = v;
         [] "" "" "machine position of the axis after the retract" "",
 
-    Pair0 => Jog "pair0" Text ANY, NO_GRBL,
-        |_s, _i| 0, |_v| ();
+    Pair0 => Jog "pair0" AxisPair (0, 65_535), NO_GRBL,
+        |s, _i| pair(s.jog.pairs[0]), |v| s.jog.pairs[0] = unpair(v);
         [] "axis letters or `\"-\"`" "`[\"Y\", \"X\"]`" "joystick axes with the pair selector off: `[S1 down / S4 up, S2 left / S3 right]`" "   # [down/up, left/right]",
-    Pair1 => Jog "pair1" Text ANY, NO_GRBL,
-        |_s, _i| 0, |_v| ();
+    Pair1 => Jog "pair1" AxisPair (0, 65_535), NO_GRBL,
+        |s, _i| pair(s.jog.pairs[1]), |v| s.jog.pairs[1] = unpair(v);
         [] "axis letters or `\"-\"`" "`[\"Z\", \"-\"]`" "the same with the pair selector on" "   # [down/up, left/right]",
     InstantSpeed => Jog "instant_speed" MmPerMin SPEED, NO_GRBL,
         |s, _i| s.jog.instant_speed, |v| s.jog.instant_speed = v;
@@ -470,8 +480,8 @@ table! {
     NudgeIntervalMs => Jog "nudge_interval_ms" Ms (10, 10_000), NO_GRBL,
         |s, _i| i64::from(s.jog.nudge_interval_ms), |v| s.jog.nudge_interval_ms = v as u16;
         [] "" "" "time between nudges while a switch is held" "",
-    AnalogAxes => Jog "analog_axes" Text ANY, NO_GRBL,
-        |_s, _i| 0, |_v| ();
+    AnalogAxes => Jog "analog_axes" AxisPair (0, 65_535), NO_GRBL,
+        |s, _i| pair(s.jog.analog_axes), |v| s.jog.analog_axes = unpair(v);
         [] "axis letters or `\"-\"`" "`[\"X\", \"Y\"]`" "axes of analog stick channels 0 and 1" "",
     AnalogDeadband => Jog "analog_deadband" Count (0, 65_535), NO_GRBL,
         |s, _i| i64::from(s.jog.analog_deadband), |v| s.jog.analog_deadband = v as u16;
@@ -495,11 +505,11 @@ table! {
     Laser => Spindle "laser" Bool (0, 1), 32,
         |s, _i| i64::from(s.outputs.laser), |v| s.outputs.laser = v != 0;
         [] "" "" "laser mode (grbl `$32`, docs/laser-plasma.md): `S` changes between G1/G2/G3 moves never stop the motion (S travels with each move and sets the PWM duty at its first step); `M3` constant power, `M4` power scaled by the current speed ÷ the programmed feed at every segment; the beam is off in G0, at rest, in a hold, at M0/M6 stops, in an alarm and at program end, whatever S says. `false`: a milling spindle (every S change stops the motion until the spindle has it)" "   # laser mode: S travels with each move, M4 power follows the speed",
-    OrientOutput => Spindle "orient_output" Text ANY, NO_GRBL,
-        |_s, _i| 0, |_v| ();
+    OrientOutput => Spindle "orient_output" Output (0, 255), NO_GRBL,
+        |s, _i| i64::from(s.outputs.orient.output), |v| s.outputs.orient.output = v as u8;
         [] "a user output 0-15 (as in `set N`)" "none" "the oriented spindle stop of G76 fine boring (docs/gcode-transforms.md, \"Fanuc cycles\"): this output is set at the hole's bottom (spindle stopped) and stays set until the spindle starts again. Without it G76 is refused (E411)" "   # G76's oriented stop",
-    OrientDoneInput => Spindle "orient_done_input" Text ANY, NO_GRBL,
-        |_s, _i| 0, |_v| ();
+    OrientDoneInput => Spindle "orient_done_input" Input (0, 255), NO_GRBL,
+        |s, _i| i64::from(s.outputs.orient.done_input), |v| s.outputs.orient.done_input = v as u8;
         [] "an input name (`in20`, …)" "none" "reads high once the spindle is oriented: the shift off the wall waits for it. None: the orient takes `orient_dwell_ms`" "",
     OrientDwellMs => Spindle "orient_dwell_ms" Ms (0, 65_535), NO_GRBL,
         |s, _i| i64::from(s.outputs.orient.dwell_ms), |v| s.outputs.orient.dwell_ms = v as u16;
@@ -563,6 +573,16 @@ table! {
     M6Stop => Grbl "m6_stop" Bool (0, 1), NO_GRBL,
         |s, _i| i64::from(s.grbl.m6_stop), |v| s.grbl.m6_stop = v != 0;
         [] "" "" "in grbl mode, `M6` stops for a manual tool change (`Hold:0`, `~` continues), which every sender shows as a hold with its resume button; `false`: grbl 1.1's `error:20`, for senders that handle the tool change themselves and expect grbl's answer (docs/grbl.md)" "   # M6 stops for a manual tool change; false: grbl's error:20",
+}
+
+/// Two axis indices as one [`Unit::AxisPair`] value.
+fn pair(p: [u8; 2]) -> i64 {
+    i64::from(p[0]) | i64::from(p[1]) << 8
+}
+
+/// A [`Unit::AxisPair`] value as its two axis indices.
+fn unpair(v: i64) -> [u8; 2] {
+    [v as u8, (v >> 8) as u8]
 }
 
 /// Axis `i` of `s` for the per-axis rows of [`Key::value`]: one bounds check for all of them

@@ -33,6 +33,8 @@ pub enum Reason {
     TorchWithLaser,
     /// An orient done input or dwell without the orient output it belongs to.
     OrientWithoutOutput,
+    /// A limit switch on an axis that is not in use.
+    NotAnAxis,
 }
 
 impl Reason {
@@ -47,6 +49,7 @@ impl Reason {
             Reason::NotPrintable => "not printable G-code",
             Reason::TorchWithLaser => "torch and laser are exclusive",
             Reason::OrientWithoutOutput => "orient input or dwell without an orient output",
+            Reason::NotAnAxis => "an axis not in use",
         }
     }
 }
@@ -93,6 +96,12 @@ impl Setup {
             if a.travel_min > a.travel_max {
                 let e = Reason::Reversed;
                 return Err(err(Key::TravelMin, i, a.travel_min, a.travel_max, e));
+            }
+        }
+        for key in [Key::LimitsMin, Key::LimitsMax] {
+            let extra = key.value(self, 0) >> n;
+            if extra != 0 {
+                return Err(err(key, 0, extra << n, 0, Reason::NotAnAxis));
             }
         }
         let pairs = [
@@ -279,7 +288,32 @@ impl core::fmt::Display for SetupError {
                     Scaled(i64::from(pulse_ns), 1000)
                 )
             }
+            Reason::NotAnAxis => write!(f, "{name}: a limit switch on an axis not in use"),
             Reason::NotPrintable => write!(f, "{name}[{i}]: printable ASCII G-code, no $ command"),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use std::string::ToString;
+
+    #[test]
+    fn a_limit_switch_on_an_axis_not_in_use_is_refused() {
+        let mut s = Setup::default();
+        s.inputs.limit_max = 0b0100;
+        assert_eq!(s.validate(), Ok(()));
+        s.axis_count = 2;
+        let e = s.validate().unwrap_err();
+        assert_eq!(
+            (e.key, e.value, e.reason),
+            (Key::LimitsMax, 0b0100, Reason::NotAnAxis)
+        );
+        assert_eq!(
+            e.to_string(),
+            "inputs.limits_max: a limit switch on an axis not in use"
+        );
     }
 }

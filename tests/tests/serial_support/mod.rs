@@ -169,6 +169,18 @@ impl Emulator {
         (steps.to_owned(), pulses.to_owned())
     }
 
+    /// [`Emulator::last_counts`] once the last state line is `Idle` (waited for, bounded): a job
+    /// that has ended logs its counts, but its line may still be on its way through the pipe.
+    #[allow(dead_code)]
+    pub fn idle_counts(&self, limit: Duration) -> (String, String) {
+        let idle = |log: &str| {
+            let last = log.lines().rev().find(|l| l.contains(" pulses "));
+            last.is_some_and(|l| l.contains("Idle"))
+        };
+        self.wait_log(limit, idle);
+        self.last_counts()
+    }
+
     /// Stops the process as Ctrl-C does (it writes its state first) and waits for it.
     #[allow(dead_code)]
     pub fn kill_gently(&mut self) {
