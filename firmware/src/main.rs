@@ -21,14 +21,24 @@ mod step_dma;
 mod usb;
 mod watchdog;
 
-#[cfg(all(feature = "board-f411", feature = "board-f446"))]
+#[cfg(any(
+    all(feature = "board-f411", feature = "board-f446"),
+    all(feature = "board-f411", feature = "board-f411-plasma"),
+    all(feature = "board-f411-plasma", feature = "board-f446"),
+))]
 compile_error!("choose exactly one board feature");
 
 /// The board table (pin map) chosen by the `board-*` feature, expanded by `pin_map::gantry_board!`.
 #[cfg(feature = "board-f411")]
 #[path = "../../boards/blackpill_f411.rs"]
 mod pin_table;
-#[cfg(all(feature = "board-f446", not(feature = "board-f411")))]
+#[cfg(all(feature = "board-f411-plasma", not(feature = "board-f411")))]
+#[path = "../../boards/blackpill_f411_plasma.rs"]
+mod pin_table;
+#[cfg(all(
+    feature = "board-f446",
+    not(any(feature = "board-f411", feature = "board-f411-plasma"))
+))]
 #[path = "../../boards/nucleo_f446.rs"]
 mod pin_table;
 

@@ -516,6 +516,15 @@ pub(crate) fn run_board(
         // and held the job).
         let wall_us = (start.elapsed().as_micros() as u64).saturating_sub(skipped_ms * 1000);
         let behind = (wall_us * COUNTS_PER_US).saturating_sub(board.now());
+        // Within a millisecond of the wall clock (the usual wake: a tick or the host's bytes),
+        // the bytes that ended the wait are given to the board once its clock has reached the
+        // wall's, and their pass runs then (below). Further behind (this process was kept off
+        // the CPU), when they came is not known: they go in first, ahead of what the catch-up
+        // reads, and their pass runs at its start.
+        let late = behind > COUNTS_PER_MS;
+        if late && polled.read > 0 {
+            board.receive(&buf[..polled.read]);
+        }
         if behind > CATCH_UP_LIMIT_MS * COUNTS_PER_MS {
             skipped_ms += behind / COUNTS_PER_MS;
             eprintln!(
@@ -547,8 +556,9 @@ pub(crate) fn run_board(
                 }
             }
         }
-        // The bytes that ended the wait, at the board's time now: their pass runs at once.
-        if polled.read > 0 {
+        // The bytes that ended the wait, at the board's time now (the wall's): their pass runs
+        // at once. (Not late, the catch-up above was one step and read nothing into `buf`.)
+        if !late && polled.read > 0 {
             board.receive(&buf[..polled.read]);
             board.run_due();
         }
