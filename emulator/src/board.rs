@@ -712,7 +712,12 @@ impl EmulatedBoard {
             cpu.topped_up = 0;
         }
         let now = self.hw.now_ms();
-        let (main, board, link, hw) = (&mut self.main, &mut self.board, &mut self.link, &mut self.hw);
+        let (main, board, link, hw) = (
+            &mut self.main,
+            &mut self.board,
+            &mut self.link,
+            &mut self.hw,
+        );
         if for_bytes {
             main.host_bytes_pass(now, board, link, hw);
         } else {

@@ -384,12 +384,22 @@ fn the_torch_settings_have_numbers_listed_and_written_like_the_others() {
     let listed: Vec<&str> = seen.lines().filter(|l| l.starts_with('$')).collect();
     // The defaults (docs/laser-plasma.md "Settings"), after the last axis setting.
     let torch = [
-        "$350=0", "$351=0.500", "$356=90", "$358=3.000", "$450=1200.000", "$451=5.000",
+        "$350=0",
+        "$351=0.500",
+        "$356=90",
+        "$358=3.000",
+        "$450=1200.000",
+        "$451=5.000",
     ];
     assert_eq!(listed[listed.len() - torch.len()..], torch, "{seen:?}");
     assert_eq!(listed[listed.len() - torch.len() - 1], "$132=200.000");
     for line in [
-        "$350=2", "$351=1.25", "$356=75", "$358=0.8", "$450=600", "$451=2.5",
+        "$350=2",
+        "$351=1.25",
+        "$356=75",
+        "$358=0.8",
+        "$450=600",
+        "$451=2.5",
     ] {
         let seen = s.answer(format!("{line}\n").as_bytes(), 100);
         assert!(!seen.contains("error"), "{line}: {seen:?}");
@@ -406,7 +416,13 @@ fn the_torch_settings_have_numbers_listed_and_written_like_the_others() {
     let t = s.eb.board.setup().outputs.torch;
     assert!(t.on && !t.thc);
     let seen = s.answer(b"$$\n", 100);
-    for line in ["$350=3", "$351=1.250", "$358=0.800", "$450=600.000", "$451=2.500"] {
+    for line in [
+        "$350=3",
+        "$351=1.250",
+        "$358=0.800",
+        "$450=600.000",
+        "$451=2.500",
+    ] {
         assert!(seen.contains(&format!("{line}\r\n")), "{line}: {seen:?}");
     }
     s.seen.clear();

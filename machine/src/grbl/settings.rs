@@ -395,7 +395,10 @@ mod tests {
         write(351, 1_250, &mut s).unwrap();
         write(358, 800, &mut s).unwrap();
         assert_eq!(
-            (s.outputs.torch.thc_delay_ms, s.outputs.torch.arc_ok_timeout_ms),
+            (
+                s.outputs.torch.thc_delay_ms,
+                s.outputs.torch.arc_ok_timeout_ms
+            ),
             (1250, 800)
         );
         assert_eq!(read(358, &s), Some(dec(800)));
@@ -405,6 +408,9 @@ mod tests {
         assert_eq!(s.outputs.torch.thc_travel, 2_500_000);
         assert_eq!(read(451, &s), Some(dec(2_500)));
         assert_eq!(write(450, 0, &mut s), Err(codes::NEGATIVE_VALUE));
-        assert_eq!(write(351, 70_000_000, &mut s), Err(codes::INVALID_STATEMENT));
+        assert_eq!(
+            write(351, 70_000_000, &mut s),
+            Err(codes::INVALID_STATEMENT)
+        );
     }
 }
