@@ -74,8 +74,8 @@ pub async fn run_device(mut device: UsbDevice<'static, UsbDriver>) -> ! {
 pub type LinkPipe = Pipe<NoopRawMutex, PIPE_LEN>;
 /// Room in each direction: two of the largest frames, so a slow host throttles the board's link
 /// (which keeps unsent frames queued and retransmits) instead of stalling the main loop. The main
-/// loop empties the receive pipe every millisecond, so 512 bytes a millisecond (512 KB/s) is the
-/// ceiling host → board: some 20 times what a job of 0.1 mm segments at 5 m/min needs.
+/// loop reads the receive pipe in a pass for every packet (`RxWake`) and at every tick, at most
+/// 512 bytes a pass, so host → board the USB's full-speed rate is the ceiling, not the tick.
 pub const PIPE_LEN: usize = 512;
 
 /// Raised by the receive task after each packet it put into the receive pipe: the main loop

@@ -2,9 +2,10 @@
 //! the board) and the emulated board (`emulator/src/board.rs`, every virtual millisecond)
 //! both call [`MainLoop::pass`], and [`MainLoop::host_bytes_pass`] as soon as the host's bytes
 //! arrive between two ticks, so a line is answered in the pass its bytes woke (a grbl counting
-//! sender's rate is its `ok` round trip's, docs/laser-plasma.md "Raster speed"). Everything that decides anything lives here; what differs
-//! between the two (the step kernel behind an interrupt or on a virtual clock, pins, USB pipes
-//! or a byte buffer, flash, the motion marker) sits behind [`BoardPort`].
+//! sender's rate is its `ok` round trip's, docs/laser-plasma.md "Raster speed"). Everything
+//! that decides anything lives here; what differs between the two (the step kernel behind an
+//! interrupt or on a virtual clock, pins, USB pipes or a byte buffer, flash, the motion marker)
+//! sits behind [`BoardPort`].
 //!
 //! One pass, in this order (the order is part of the behaviour, see docs/architecture.md
 //! "The main loop"):
