@@ -9,6 +9,9 @@
 #     (scripts/grbl_sender.py, as scripts/grbl-sender-test.sh installs it), and a one-thread
 #     counting sender (scripts/grbl_count.py) that also reports the `ok` round trip, on the
 #     emulated board as it is and with the F411 CPU model (`gantry emulate --cpu-model f411`).
+# First, once: the `ok` round trip of one line at a time over the pty (scripts/grbl_ping.py: an
+# empty line and a `G4 P0`, nothing else in flight), the board's wait for the pass that reads a
+# line plus the host's share, without a planner or line buffer in the way.
 # The real-time figures need an unloaded machine: the emulator and the sender are ordinary
 # processes, and a scheduler that leaves them off the CPU for longer than the planner's
 # look-ahead (128 blocks: 128 ms of 0.1 mm pixels at 6,000 mm/min, 38 ms of 0.05 mm at
@@ -74,6 +77,14 @@ PY
   under=$(sed -n 's/^emulate: underruns \([0-9]*\)$/\1/p' "$WORK/emu.log" | tail -n 1)
   echo "grbl, $label: $took s, ratio $(ratio "$took" "$planned"), underruns ${under:-0}; $summary"
 }
+
+pty=$WORK/pty
+rm -f "$pty"
+"$G" emulate --pty "$pty" --setup "$WORK/setup.toml" --state "$WORK/state-ping.toml" >"$WORK/emu.log" 2>&1 &
+EMU=$!
+for _ in $(seq 100); do [ -e "$pty" ] && break; sleep 0.05; done
+echo "== grbl, one line at a time: $(python3 scripts/grbl_ping.py "$pty" 1000 || true)"
+kill -INT "$EMU"; wait "$EMU" 2>/dev/null || true; EMU=
 
 for case in "${CASES[@]}"; do
   px=${case%%:*}

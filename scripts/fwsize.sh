@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The firmware's size for one board, measured as the budget is checked (scripts/test-all.sh calls
-# this): `bash scripts/fwsize.sh [board-f411|board-f446]` builds the release firmware for the
+# this): `bash scripts/fwsize.sh [board-f411|board-f411-plasma|board-f446]` builds the release firmware for the
 # board and prints one line, `BOARD text T data D bss B flash F ram R` (bytes).
 #
 # Panic locations keep their source paths in flash, so the size would depend on where the

@@ -138,12 +138,18 @@ macro_rules! expand_board {
 
 #[path = "../blackpill_f411.rs"]
 pub mod blackpill_f411;
+#[path = "../blackpill_f411_plasma.rs"]
+pub mod blackpill_f411_plasma;
 #[path = "../nucleo_f446.rs"]
 pub mod nucleo_f446;
 
 /// Every board table's pin map.
 pub fn pin_maps() -> Vec<PinMap> {
-    vec![blackpill_f411::pin_map(), nucleo_f446::pin_map()]
+    vec![
+        blackpill_f411::pin_map(),
+        blackpill_f411_plasma::pin_map(),
+        nucleo_f446::pin_map(),
+    ]
 }
 
 #[cfg(test)]

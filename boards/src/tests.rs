@@ -15,7 +15,7 @@ const RESERVED: &[&str] = &["PA11", "PA12", "PA13", "PA14", "PH0", "PH1"];
 fn board_reserved(b: &PinMap) -> &'static [&'static str] {
     match b.name {
         // PB11 is not bonded on the F411 UFQFPN48.
-        "blackpill-f411" => &["PB11"],
+        "blackpill-f411" | "blackpill-f411-plasma" => &["PB11"],
         // ST-LINK VCP, SWO, LSE crystal.
         "nucleo-f446" => &["PA2", "PA3", "PB3", "PC14", "PC15", "PB11"],
         other => panic!("unknown board {other}: add its reserved pins"),
@@ -195,6 +195,32 @@ fn documented_clock_figures() {
         (168_000_000, 84_000_000)
     );
     assert!(f446.hse_bypass);
+}
+
+/// The F411's plasma table is the default one with the A axis's limit, step and dir pins (PA7,
+/// PB15, PB9) as arc-OK, THC up and THC down, and every other role on its pin, the clocks the
+/// same.
+#[test]
+fn the_f411_plasma_table_trades_the_a_axis_for_the_torch_inputs() {
+    let base = blackpill_f411::pin_map();
+    let plasma = blackpill_f411_plasma::pin_map();
+    assert!(base.torch_inputs.is_empty());
+    assert_eq!(plasma.torch_inputs, ["PA7", "PB15", "PB9"]);
+    assert_eq!((base.step.len(), plasma.step.len()), (4, 3));
+    let torch = ["arc_ok", "thc_up", "thc_down"];
+    let others: Vec<(String, &str)> = base
+        .roles()
+        .into_iter()
+        .filter(|(_, p)| !plasma.torch_inputs.contains(p))
+        .collect();
+    let kept: Vec<(String, &str)> = plasma
+        .roles()
+        .into_iter()
+        .filter(|(r, _)| !torch.contains(&r.as_str()))
+        .collect();
+    assert_eq!(kept, others);
+    assert_eq!(format!("{:?}", plasma.clocks), format!("{:?}", base.clocks));
+    assert_eq!(plasma.probe_chip, base.probe_chip);
 }
 
 #[test]

@@ -3,7 +3,8 @@
 //! ([`crate::step_clock`]) instead of TIM2.
 //!
 //! Virtual time counts kernel timer counts ([`KERNEL_TIMER_HZ`]). The main loop (link service,
-//! interpretation, segment preparation) runs once per virtual millisecond, the step interrupt at
+//! interpretation, segment preparation) runs once per virtual millisecond and, as on the
+//! firmware, as soon as the host's bytes arrive in between, the step interrupt at
 //! the periods it sets (polling the queue every millisecond while idle, two kernel ticks ahead of
 //! the pins), so the emulation runs as fast as the host can while keeping the board's timing.
 //! Every step that reaches the pins is counted per axis, and an optional observer sees every
@@ -249,7 +250,14 @@ pub struct Hardware {
     pub clock: StepClock,
     /// Virtual time, kernel timer counts.
     now: u64,
+    /// When the next tick's pass is due (the firmware's 1 ms ticker).
     next_main_loop: u64,
+    /// When the pass running now ends (the CPU model's time; without it passes take none).
+    cpu_free: u64,
+    /// Bytes arrived that no pass has been woken for yet: the firmware's USB receive task wakes
+    /// the main loop (`firmware/src/control.rs`), which runs a pass for them as soon as the one
+    /// it may be in has ended ([`MainLoop::host_bytes_pass`]).
+    woken: bool,
     /// Step position the step pins have made (the kernel's count less the steps it has
     /// prepared and not emitted yet).
     pin_steps: [i64; MAX_AXES],
@@ -412,6 +420,8 @@ impl EmulatedBoard {
             clock: StepClock::start(0, &timing),
             now: 0,
             next_main_loop: 0,
+            cpu_free: 0,
+            woken: false,
             pin_steps: [0; MAX_AXES],
             pulses: [0; MAX_AXES],
             inputs: 0,
@@ -508,6 +518,8 @@ impl EmulatedBoard {
         self.invert = setup.inputs.invert;
         self.outbox.clear();
         self.inbox.clear();
+        self.woken = false;
+        self.cpu_free = self.now;
         how
     }
 
@@ -583,18 +595,51 @@ impl EmulatedBoard {
         let end = self.now + counts;
         while self.now < end {
             self.release_pass_segments();
-            if self.now >= self.next_main_loop {
-                let busy = self.main_loop();
-                self.next_main_loop = self.now + busy.max(COUNTS_PER_MS);
-            }
+            self.due_passes();
             while self.clock.next_event() <= self.now {
                 self.clock_event();
             }
-            let mut next = self.next_main_loop.min(end).min(self.clock.next_event());
+            // (Each candidate lies ahead: a pass due now has run or waits for `cpu_free`.)
+            let mut next = end
+                .min(self.clock.next_event())
+                .min(self.next_main_loop.max(self.hw.cpu_free));
+            if self.hw.woken {
+                next = next.min(self.hw.cpu_free);
+            }
             if let Some(&(at, _)) = self.cpu.as_ref().and_then(|c| c.pending.front()) {
                 next = next.min(at);
             }
             self.now = next.max(self.now);
+        }
+    }
+
+    /// Runs the passes due now without advancing the clock: the one bytes just given to
+    /// [`Hardware::receive`] woke, as the firmware's main loop runs at once for them (`gantry
+    /// emulate`, whose clock follows the wall clock, answers a line when it arrives).
+    pub fn run_due(&mut self) {
+        self.release_pass_segments();
+        self.due_passes();
+    }
+
+    /// When the next tick's pass is due, virtual time.
+    pub fn next_tick(&self) -> u64 {
+        self.next_main_loop.max(self.hw.cpu_free)
+    }
+
+    /// The passes due now, once the CPU is free: the tick's (every millisecond), then the one
+    /// the host's bytes woke.
+    fn due_passes(&mut self) {
+        if self.now < self.hw.cpu_free {
+            return;
+        }
+        if self.now >= self.next_main_loop {
+            let busy = self.main_loop(false);
+            self.next_main_loop = self.now + busy.max(COUNTS_PER_MS);
+            self.hw.cpu_free = self.now + busy;
+        }
+        if self.hw.woken && self.now >= self.hw.cpu_free {
+            let busy = self.main_loop(true);
+            self.hw.cpu_free = self.now + busy;
         }
     }
 
@@ -657,18 +702,32 @@ impl EmulatedBoard {
         self.main.kernel_latched()
     }
 
-    /// One pass of the board's main loop (the core's, as on the firmware), with this emulation
-    /// as its port. Returns how long it keeps the CPU busy (kernel timer counts): 0 without a CPU
-    /// model.
-    fn main_loop(&mut self) -> u64 {
+    /// One pass of the board's main loop (the core's, as on the firmware), the tick's or the
+    /// one the host's bytes woke (`for_bytes`), with this emulation as its port. Returns how
+    /// long it keeps the CPU busy (kernel timer counts): 0 without a CPU model.
+    fn main_loop(&mut self, for_bytes: bool) -> u64 {
         if let Some(cpu) = self.hw.cpu.as_mut() {
             cpu.pass_start = self.hw.now;
             cpu.before_intake = true;
             cpu.topped_up = 0;
         }
         let now = self.hw.now_ms();
-        self.main
-            .pass(now, &mut self.board, &mut self.link, &mut self.hw);
+        let (main, board, link, hw) = (
+            &mut self.main,
+            &mut self.board,
+            &mut self.link,
+            &mut self.hw,
+        );
+        if for_bytes {
+            main.host_bytes_pass(now, board, link, hw);
+        } else {
+            main.pass(now, board, link, hw);
+        }
+        // The wake is spent with the pass that woke for it, and with any pass that read every
+        // byte (the firmware resets its receive signal when the pipe is empty).
+        if for_bytes || self.hw.inbox.is_empty() {
+            self.hw.woken = false;
+        }
         self.hw.starved.gaps = u64::from(self.main.underruns());
         self.hw.tool = self.board.outputs().tool;
         self.hw.steppers_enabled = self.main.steppers_enabled();
@@ -874,11 +933,14 @@ impl Hardware {
         RX_PIPE.saturating_sub(self.inbox.len())
     }
 
-    /// Bytes from the host (the main loop reads them in its next pass, as the firmware reads
-    /// its USB receive pipe). Tests may give any amount; a port honours [`Self::rx_room`].
+    /// Bytes from the host: they wake the main loop, which reads them in a pass of their own as
+    /// soon as the CPU is free ([`EmulatedBoard::run_for`], [`EmulatedBoard::run_due`]), as the
+    /// firmware's USB receive task wakes its main loop. Tests may give any amount; a port honours
+    /// [`Self::rx_room`].
     pub fn receive(&mut self, bytes: &[u8]) {
         if !bytes.is_empty() {
             self.last_received_ms = Some(self.now_ms());
+            self.woken = true;
         }
         self.inbox.extend_from_slice(bytes);
     }

@@ -1,6 +1,7 @@
 //! The main loop task: every millisecond, the core's `MainLoop::pass`
 //! (machine/src/board/main_loop.rs), the very function the emulated board runs
-//! (emulator/src/board.rs). This file is only its port onto the hardware: the step ISR's
+//! (emulator/src/board.rs), and `MainLoop::host_bytes_pass` as soon as the USB receive task has
+//! put the host's bytes into the pipe (a line is answered when it arrives, not at the next tick). This file is only its port onto the hardware: the step ISR's
 //! kernel and queue (`step`), the input pins and limit arming (`inputs`), the ADC (`analog`), the
 //! output pins, the USB pipes and DTR (`usb`), flash (`settings`), the motion marker
 //! (`reset_marker`) and the watchdog. Nothing here decides anything.
@@ -9,9 +10,10 @@ use crate::inputs::{armed_limit, ARM, INVERT, PINS};
 use crate::pin_table::Outputs;
 use crate::settings::{self, Store};
 use crate::step::{self, STOP};
-use crate::usb::{LinkPipe, DTR};
+use crate::usb::{LinkPipe, RxWake, DTR};
 use crate::{analog, reset_marker, watchdog};
 use core::sync::atomic::Ordering;
+use embassy_futures::select::{select, Either};
 use embassy_stm32::gpio::Level;
 use embassy_time::{Duration, Instant, Ticker};
 use gantry_machine::board::link::BoardLink;
@@ -30,6 +32,8 @@ pub struct Io {
     pub outputs: Outputs,
     pub segments: Producer<'static, Segment>,
     pub rx: &'static LinkPipe,
+    /// Raised with each packet the receive task put into `rx`.
+    pub rx_wake: &'static RxWake,
     pub tx: &'static LinkPipe,
     pub store: Store,
 }
@@ -207,13 +211,27 @@ pub async fn run(io: Io, board: &'static mut Board, link: &'static mut BoardLink
     let mut main = MainLoop::new(board.setup());
     let mut port = Port { io, saved: false };
     let mut ticker = Ticker::every(Duration::from_millis(1));
+    let mut for_bytes = false;
     loop {
         watchdog::feed();
         let now = Instant::now().as_millis() as u32;
-        main.pass(now, board, link, &mut port);
+        if for_bytes {
+            main.host_bytes_pass(now, board, link, &mut port);
+        } else {
+            main.pass(now, board, link, &mut port);
+        }
+        // A pass that read every byte has spent the wake (the emulated board does the same,
+        // `emulator/src/board.rs` `main_loop`); bytes left by the link's flow control keep it.
+        if port.io.rx.is_empty() {
+            port.io.rx_wake.reset();
+        }
         if core::mem::take(&mut port.saved) {
             ticker.reset();
         }
-        ticker.next().await;
+        // The tick first when both are ready, as the emulated board orders them.
+        for_bytes = match select(ticker.next(), port.io.rx_wake.wait()).await {
+            Either::First(()) => false,
+            Either::Second(()) => true,
+        };
     }
 }

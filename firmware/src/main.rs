@@ -21,14 +21,24 @@ mod step_dma;
 mod usb;
 mod watchdog;
 
-#[cfg(all(feature = "board-f411", feature = "board-f446"))]
+#[cfg(any(
+    all(feature = "board-f411", feature = "board-f446"),
+    all(feature = "board-f411", feature = "board-f411-plasma"),
+    all(feature = "board-f411-plasma", feature = "board-f446"),
+))]
 compile_error!("choose exactly one board feature");
 
 /// The board table (pin map) chosen by the `board-*` feature, expanded by `pin_map::gantry_board!`.
 #[cfg(feature = "board-f411")]
 #[path = "../../boards/blackpill_f411.rs"]
 mod pin_table;
-#[cfg(all(feature = "board-f446", not(feature = "board-f411")))]
+#[cfg(all(feature = "board-f411-plasma", not(feature = "board-f411")))]
+#[path = "../../boards/blackpill_f411_plasma.rs"]
+mod pin_table;
+#[cfg(all(
+    feature = "board-f446",
+    not(any(feature = "board-f411", feature = "board-f411-plasma"))
+))]
 #[path = "../../boards/nucleo_f446.rs"]
 mod pin_table;
 
@@ -118,6 +128,8 @@ async fn main(spawner: Spawner) {
     static TX_PIPE: StaticCell<usb::LinkPipe> = StaticCell::new();
     let rx_pipe: &'static usb::LinkPipe = RX_PIPE.init(usb::LinkPipe::new());
     let tx_pipe: &'static usb::LinkPipe = TX_PIPE.init(usb::LinkPipe::new());
+    static RX_WAKE: StaticCell<usb::RxWake> = StaticCell::new();
+    let rx_wake: &'static usb::RxWake = RX_WAKE.init(usb::RxWake::new());
 
     let timing = StepTiming::from_setup(&setup.drivers);
     let segments = step::start(rest.tim2, rest.step_dma, clocks::TIM2_PSC, timing);
@@ -125,7 +137,7 @@ async fn main(spawner: Spawner) {
     let fast = EXECUTOR_FAST.start(interrupt::USART6);
     fast.spawn(token(inputs::run(inputs)));
     spawner.spawn(token(usb::run_device(device)));
-    spawner.spawn(token(usb::run_rx(rx, rx_pipe)));
+    spawner.spawn(token(usb::run_rx(rx, rx_pipe, rx_wake)));
     spawner.spawn(token(usb::run_tx(tx, tx_pipe)));
     spawner.spawn(token(usb::run_control(control)));
     spawner.spawn(token(analog::run(rest.adc1, analog)));
@@ -136,6 +148,7 @@ async fn main(spawner: Spawner) {
             outputs,
             segments,
             rx: rx_pipe,
+            rx_wake,
             tx: tx_pipe,
             store,
         },

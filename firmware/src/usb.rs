@@ -12,6 +12,7 @@ use embassy_stm32::usb::Driver;
 use embassy_stm32::Peri;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::pipe::Pipe;
+use embassy_sync::signal::Signal;
 use embassy_usb::class::cdc_acm::{CdcAcmClass, ControlChanged, Receiver, Sender, State};
 use embassy_usb::{Builder, UsbDevice};
 // The USB identity the host looks for (shared-proto/src/usb.rs).
@@ -73,9 +74,14 @@ pub async fn run_device(mut device: UsbDevice<'static, UsbDriver>) -> ! {
 pub type LinkPipe = Pipe<NoopRawMutex, PIPE_LEN>;
 /// Room in each direction: two of the largest frames, so a slow host throttles the board's link
 /// (which keeps unsent frames queued and retransmits) instead of stalling the main loop. The main
-/// loop empties the receive pipe every millisecond, so 512 bytes a millisecond (512 KB/s) is the
-/// ceiling host → board: some 20 times what a job of 0.1 mm segments at 5 m/min needs.
+/// loop reads the receive pipe in a pass for every packet (`RxWake`) and at every tick, at most
+/// 512 bytes a pass, so host → board the USB's full-speed rate is the ceiling, not the tick.
 pub const PIPE_LEN: usize = 512;
+
+/// Raised by the receive task after each packet it put into the receive pipe: the main loop
+/// (`control.rs`) runs a pass for it at once instead of at the next 1 ms tick, so a grbl line is
+/// answered when it arrives (machine/src/board/main_loop.rs `MainLoop::host_bytes_pass`).
+pub type RxWake = Signal<NoopRawMutex, ()>;
 
 /// Data terminal ready as the host last set it (a terminal or sender has the port open).
 pub static DTR: AtomicBool = AtomicBool::new(false);
@@ -86,7 +92,11 @@ pub static DTR: AtomicBool = AtomicBool::new(false);
 /// host waits: no byte is dropped (machine/src/board/main_loop.rs,
 /// `a_full_receive_buffer_leaves_the_port_unread`).
 #[embassy_executor::task]
-pub async fn run_rx(mut rx: Receiver<'static, UsbDriver>, pipe: &'static LinkPipe) -> ! {
+pub async fn run_rx(
+    mut rx: Receiver<'static, UsbDriver>,
+    pipe: &'static LinkPipe,
+    wake: &'static RxWake,
+) -> ! {
     // At least the packet size: a smaller buffer fails with BufferOverflow and keeps the packet.
     let mut buf = [0u8; PACKET as usize];
     loop {
@@ -96,6 +106,7 @@ pub async fn run_rx(mut rx: Receiver<'static, UsbDriver>, pipe: &'static LinkPip
         while let Ok(n) = rx.read_packet(&mut buf).await {
             // (`get`: the driver never reports more than the buffer; no panic path for it.)
             pipe.write_all(buf.get(..n).unwrap_or_default()).await;
+            wake.signal(());
         }
         defmt::info!("usb: disconnected");
     }

@@ -323,6 +323,11 @@ fn save_position(state: &Path, board: &EmulatedBoard) -> anyhow::Result<()> {
 /// one would be a silence the host never made.
 const CATCH_UP_LIMIT_MS: u64 = 200;
 
+/// Kernel timer counts per millisecond and per microsecond (the board's clock).
+const COUNTS_PER_MS: u64 = gantry_emulator::COUNTS_PER_MS;
+const COUNTS_PER_US: u64 = COUNTS_PER_MS / 1000;
+const KERNEL_TIMER_HZ: u64 = COUNTS_PER_MS * 1000;
+
 /// One pass's news from the host side of the emulated board's port.
 pub(crate) struct Polled {
     /// A host has the port open (pty) or is connected (TCP).
@@ -470,11 +475,12 @@ pub(crate) fn run_board(
     let to_save = saved.clone();
     board.on_setup_saved(move |s| *to_save.borrow_mut() = Some(s.clone()));
     while !stop.load(Ordering::SeqCst) {
-        // The pass of virtual millisecond `now_ms` is due when the wall clock reaches it, as the
-        // firmware's 1 ms ticker runs it (`firmware/src/control.rs`): the wait for the host's
-        // bytes ends then, to the microsecond, so bytes wait at most one millisecond for the
-        // pass that reads them (and its `ok`), as on the board, never two.
-        let due_us = (u64::from(board.now_ms()) + skipped_ms) * 1000;
+        // The next tick's pass is due when the wall clock reaches it, as the firmware's 1 ms
+        // ticker runs it (`firmware/src/control.rs`): the wait for the host's bytes ends then,
+        // to the microsecond. Bytes that end it sooner get a pass of their own at once (below),
+        // as the firmware's USB receive task wakes its main loop: a line is answered when it
+        // arrives, not at the next tick.
+        let due_us = board.next_tick() / COUNTS_PER_US + skipped_ms * 1000;
         let wait = Duration::from_micros(due_us.saturating_sub(start.elapsed().as_micros() as u64));
         let room = board.rx_room().min(buf.len());
         let polled = host.poll(
@@ -503,41 +509,62 @@ pub(crate) fn run_board(
                 board.close_keeping_dtr();
             }
         }
-        if polled.read > 0 {
+        // Virtual time follows the wall clock to the kernel timer count (at most 50 ms at
+        // once). A longer gap than CATCH_UP_LIMIT_MS means this process was stopped (SIGSTOP, a
+        // suspended machine), which a real board never is: its clock skips the gap instead of
+        // running it in a burst with no host word in it (which the board took for a lost host
+        // and held the job).
+        let wall_us = (start.elapsed().as_micros() as u64).saturating_sub(skipped_ms * 1000);
+        let behind = (wall_us * COUNTS_PER_US).saturating_sub(board.now());
+        // Within a millisecond of the wall clock (the usual wake: a tick or the host's bytes),
+        // the bytes that ended the wait are given to the board once its clock has reached the
+        // wall's, and their pass runs then (below). Further behind (this process was kept off
+        // the CPU), when they came is not known: they go in first, ahead of what the catch-up
+        // reads, and their pass runs at its start.
+        let late = behind > COUNTS_PER_MS;
+        if late && polled.read > 0 {
             board.receive(&buf[..polled.read]);
         }
-        // Virtual time follows the wall clock (at most 50 ms at once). A longer gap than
-        // CATCH_UP_LIMIT_MS means this process was stopped (SIGSTOP, a suspended machine), which
-        // a real board never is: its clock skips the gap instead of running it in a burst with
-        // no host word in it (which the board took for a lost host and held the job).
-        let wall_ms = (start.elapsed().as_millis() as u64).saturating_sub(skipped_ms);
-        // Passes due: those of every virtual millisecond the wall clock has reached.
-        let behind = (wall_ms + 1).saturating_sub(u64::from(board.now_ms()));
-        if behind > CATCH_UP_LIMIT_MS {
-            skipped_ms += behind;
+        if behind > CATCH_UP_LIMIT_MS * COUNTS_PER_MS {
+            skipped_ms += behind / COUNTS_PER_MS;
             eprintln!(
                 "emulate: this process was stopped for {:.1} s: the board's clock skips it",
-                behind as f64 / 1000.0
+                behind as f64 / KERNEL_TIMER_HZ as f64
             );
         } else {
             // A millisecond at a time, with the port read and written in between: a real
             // board's bytes arrive while it runs, so a lag behind the wall clock must not turn
             // into a burst of virtual time with no host byte in it (and then a burst of bytes
             // one pass has to take).
-            for ms in 0..behind.min(50) {
-                if ms > 0 && open {
+            let mut left = behind.min(50 * COUNTS_PER_MS);
+            let mut first = true;
+            while left > 0 {
+                if !first && open {
                     let room = board.rx_room().min(buf.len());
                     let polled = host.poll(Duration::ZERO, &mut buf[..room])?;
                     if polled.read > 0 {
                         board.receive(&buf[..polled.read]);
                     }
                 }
-                board.run_ms(1);
+                first = false;
+                let step = left.min(COUNTS_PER_MS);
+                board.run_for(step);
+                left -= step;
                 let out = board.take_output();
                 if open && !out.is_empty() {
                     host.send(&out);
                 }
             }
+        }
+        // The bytes that ended the wait, at the board's time now (the wall's): their pass runs
+        // at once. (Not late, the catch-up above was one step and read nothing into `buf`.)
+        if !late && polled.read > 0 {
+            board.receive(&buf[..polled.read]);
+            board.run_due();
+        }
+        let out = board.take_output();
+        if open && !out.is_empty() {
+            host.send(&out);
         }
         if let Some(setup) = saved.borrow_mut().take() {
             if let Some(st) = state {

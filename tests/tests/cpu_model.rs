@@ -64,12 +64,12 @@ fn stream(program: &str, cpu: Option<CpuModel>, x_end_steps: i64) -> (u64, f64) 
 
 /// The board's starved time (machine/src/board/starvation.rs) is the time the job took beyond
 /// its planned time because the planner held too little. 0.02 mm lines at F30000 need ~11,000
-/// lines/s; written with 143 bytes each ([`wordy_program`]) the link delivers ~3,500 a second
-/// (the board takes at most 512 B a pass), the planner runs short, and the job takes ~1.7 s
-/// longer than the same moves written short and fed in time (1.49 s without the CPU model,
-/// `simulate` plans 1.46 s). The starved time accounts for that time within a few percent, with
-/// the F411 model and without it (the link's limit is the core's, not the model's), and the
-/// short-line job fed in time loses next to nothing.
+/// lines/s; written with 143 bytes each ([`wordy_program`]) the in-process link delivers ~5,300
+/// a second (the board takes at most 512 B a pass, in the tick's pass and in the one each write
+/// wakes), the planner runs short, and the job takes ~0.4 s longer than the same moves written
+/// short and fed in time (1.49 s without the CPU model, `simulate` plans 1.46 s), ~0.7 s with the
+/// F411 model. The starved time accounts for that time within a few percent, with the F411 model
+/// and without it, and the short-line job fed in time loses next to nothing.
 ///
 /// Written short, the same job on the F411 model is bound by the CPU instead: the planner stays
 /// full, the kernel runs dry between long passes, and the report counts underruns
@@ -85,9 +85,11 @@ fn the_starved_time_is_the_time_beyond_the_plan() {
             "F30000 in 143-byte lines, model {}: {took:.3} s, {beyond:.3} s beyond {fed_in_time:.3} s, starved {starved:.3} s, {gaps} underruns",
             cpu.map_or("none", |c| c.name)
         );
-        assert!(beyond > 1.0, "{beyond}");
+        assert!(beyond > 0.25, "{beyond}");
+        // Within 5 % and the speed meter's 20 ms window (the starved time is counted from the
+        // measured speed, `board/starvation.rs`).
         assert!(
-            (starved - beyond).abs() <= 0.05 * beyond,
+            (starved - beyond).abs() <= 0.05 * beyond + 0.02,
             "starved {starved} s of {beyond} s beyond"
         );
     }

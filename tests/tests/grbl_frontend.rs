@@ -373,6 +373,83 @@ fn dollar_commands_report_and_write_the_setup() {
     assert!(seen.contains("error:5"), "no homing set up: {seen:?}");
 }
 
+/// The plasma torch's settings by number (docs/grbl.md): grblHAL's plasma plugin numbers
+/// (`$350` mode, `$351` THC delay in s, `$356` anti-dive %, `$358` arc-OK timeout in s) and
+/// Gantry's own `$450` THC rate, `$451` THC travel; listed by `$$` after the axes, written by
+/// `$N=` through the setup's own checks.
+#[test]
+fn the_torch_settings_have_numbers_listed_and_written_like_the_others() {
+    let mut s = Sender::connected();
+    let seen = s.answer(b"$$\n", 100);
+    let listed: Vec<&str> = seen.lines().filter(|l| l.starts_with('$')).collect();
+    // The defaults (docs/laser-plasma.md "Settings"), after the last axis setting.
+    let torch = [
+        "$350=0",
+        "$351=0.500",
+        "$356=90",
+        "$358=3.000",
+        "$450=1200.000",
+        "$451=5.000",
+    ];
+    assert_eq!(listed[listed.len() - torch.len()..], torch, "{seen:?}");
+    assert_eq!(listed[listed.len() - torch.len() - 1], "$132=200.000");
+    for line in [
+        "$350=2",
+        "$351=1.25",
+        "$356=75",
+        "$358=0.8",
+        "$450=600",
+        "$451=2.5",
+    ] {
+        let seen = s.answer(format!("{line}\n").as_bytes(), 100);
+        assert!(!seen.contains("error"), "{line}: {seen:?}");
+    }
+    let t = s.eb.board.setup().outputs.torch;
+    assert!(t.on && t.thc);
+    assert_eq!(
+        (t.thc_delay_ms, t.thc_anti_dive, t.arc_ok_timeout_ms),
+        (1250, 75, 800)
+    );
+    assert_eq!((t.thc_rate, t.thc_travel), (600 * MM, 2500 * MM / 1000));
+    // Mode 3: the torch with arc-OK only, no height control.
+    s.answer(b"$350=3\n", 100);
+    let t = s.eb.board.setup().outputs.torch;
+    assert!(t.on && !t.thc);
+    let seen = s.answer(b"$$\n", 100);
+    for line in [
+        "$350=3",
+        "$351=1.250",
+        "$358=0.800",
+        "$450=600.000",
+        "$451=2.500",
+    ] {
+        assert!(seen.contains(&format!("{line}\r\n")), "{line}: {seen:?}");
+    }
+    s.seen.clear();
+    // Refused, each leaving the setup as it was: mode 1 (arc-voltage THC: no such input), a
+    // delay above 10 s, an anti-dive above 100 %, a timeout below 0.1 s, a rate of 0; the
+    // torch together with laser mode.
+    s.send(b"$350=1\n$351=11\n$356=101\n$358=0.05\n$450=0\n$32=1\n");
+    s.run(100);
+    assert_eq!(
+        s.answers(),
+        ["error:3", "error:3", "error:3", "error:3", "error:4", "error:3"]
+    );
+    assert_eq!(s.eb.board.setup().outputs.torch, t);
+    assert!(!s.eb.board.setup().outputs.laser);
+    s.seen.clear();
+    s.answer(b"$350=0\n", 100);
+    assert!(!s.eb.board.setup().outputs.torch.on);
+    // The listing fits the output whatever the axis count (here 6).
+    let mut s = Sender::with(|st| st.axis_count = 6);
+    s.send(b"\x18");
+    s.until(BANNER, 500);
+    s.seen.clear();
+    let seen = s.answer(b"$$\n", 100);
+    assert!(seen.contains("$135=600.000\r\n$350=0\r\n"), "{seen:?}");
+    assert!(seen.contains("$451=5.000\r\nok\r\n"), "{seen:?}");
+}
+
 #[test]
 fn jogs_move_exactly_refuse_the_travel_and_cancel() {
     let mut s = Sender::connected();

@@ -1,8 +1,11 @@
 //! The board's main loop, once: the firmware (`firmware/src/control.rs`, every millisecond on
 //! the board) and the emulated board (`emulator/src/board.rs`, every virtual millisecond)
-//! both call [`MainLoop::pass`]. Everything that decides anything lives here; what differs
-//! between the two (the step kernel behind an interrupt or on a virtual clock, pins, USB pipes
-//! or a byte buffer, flash, the motion marker) sits behind [`BoardPort`].
+//! both call [`MainLoop::pass`], and [`MainLoop::host_bytes_pass`] as soon as the host's bytes
+//! arrive between two ticks, so a line is answered in the pass its bytes woke (a grbl counting
+//! sender's rate is its `ok` round trip's, docs/laser-plasma.md "Raster speed"). Everything
+//! that decides anything lives here; what differs between the two (the step kernel behind an
+//! interrupt or on a virtual clock, pins, USB pipes or a byte buffer, flash, the motion marker)
+//! sits behind [`BoardPort`].
 //!
 //! One pass, in this order (the order is part of the behaviour, see docs/architecture.md
 //! "The main loop"):
@@ -12,7 +15,8 @@
 //!    alarm; it is re-armed once the alarm is cleared (or at once when the stop was a homing
 //!    seek's switch).
 //! 2. **Inputs.** Raw pins debounced with the setup's polarity and debounce, the ADC readings:
-//!    [`Board::on_inputs`].
+//!    [`Board::on_inputs`]. At the ticks only: a pass the host's bytes woke keeps the last
+//!    tick's levels.
 //! 3. **Top-up.** In a plain run, the kernel's queue is filled from what is already planned
 //!    before the link and the interpreter take their share of the pass.
 //! 4. **Host link and controller.** Bytes from the host, at most [`RX_BYTES_PER_PASS`] and never more than the link can take ([`BoardLink::rx_room`]: the rest waits in the port, flow control); the host-loss rule (the host closed the
@@ -206,6 +210,14 @@ pub enum HostPort {
     ClosedDtrKept,
 }
 
+/// What started a pass: the millisecond tick, or the host's bytes arriving between two ticks
+/// ([`MainLoop::host_bytes_pass`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Wake {
+    Tick,
+    HostBytes,
+}
+
 /// A setup applied from the host and not yet in flash.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Save {
@@ -298,13 +310,40 @@ impl MainLoop {
         handed_out
     }
 
-    /// One pass of the main loop at `now_ms` (see the module documentation for the order).
+    /// One pass of the main loop at `now_ms`, the millisecond tick's (see the module
+    /// documentation for the order).
     pub fn pass(
         &mut self,
         now_ms: u32,
         board: &mut Board,
         link: &mut BoardLink,
         port: &mut impl BoardPort,
+    ) {
+        self.run(now_ms, board, link, port, Wake::Tick);
+    }
+
+    /// The pass the host's bytes wake between two ticks (the firmware's USB receive task,
+    /// `firmware/src/control.rs`; the emulated board's `receive`): the same pass in the same
+    /// order, so a line that arrives is taken, interpreted and answered now rather than at the
+    /// next tick, with the inputs left to the ticks (the debounce counts samples a millisecond
+    /// apart, `controller::inputs::Debouncer`).
+    pub fn host_bytes_pass(
+        &mut self,
+        now_ms: u32,
+        board: &mut Board,
+        link: &mut BoardLink,
+        port: &mut impl BoardPort,
+    ) {
+        self.run(now_ms, board, link, port, Wake::HostBytes);
+    }
+
+    fn run(
+        &mut self,
+        now_ms: u32,
+        board: &mut Board,
+        link: &mut BoardLink,
+        port: &mut impl BoardPort,
+        wake: Wake,
     ) {
         // 1. A limit stopped the kernel: drop the queue, tell the board, re-arm unless alarmed.
         let k = port.kernel();
@@ -323,11 +362,17 @@ impl MainLoop {
             self.latch = Latch::Armed;
         }
 
-        // 2. Inputs, debounced here (the kernel saw the raw limit pins already).
-        let (levels, changed) = self.debouncer.sample(port.raw_inputs());
-        port.inputs_sampled(levels, changed);
-        let adc = port.adc();
-        board.on_inputs(now_ms, levels, changed, adc);
+        // 2. Inputs, debounced here (the kernel saw the raw limit pins already); at the ticks
+        // only.
+        let levels = if wake == Wake::Tick {
+            let (levels, changed) = self.debouncer.sample(port.raw_inputs());
+            port.inputs_sampled(levels, changed);
+            let adc = port.adc();
+            board.on_inputs(now_ms, levels, changed, adc);
+            levels
+        } else {
+            self.debouncer.levels()
+        };
 
         // 3. The kernel's queue topped up from what is already planned, before the host's
         // bytes and the interpreter take their share of the pass (at thousands of short lines a
@@ -497,6 +542,8 @@ mod tests {
         taken: usize,
         /// Everything the board sent.
         sent: Vec<u8>,
+        /// Input samples taken (debounced levels handed over).
+        samples: u32,
     }
 
     impl BoardPort for FakePort {
@@ -558,6 +605,9 @@ mod tests {
             self.saved += 1;
         }
         fn motion_marker(&mut self, _moving: bool) {}
+        fn inputs_sampled(&mut self, _levels: InputBits, _changed: u32) {
+            self.samples += 1;
+        }
     }
 
     fn parts() -> (MainLoop, Board, BoardLink, FakePort) {
@@ -671,6 +721,32 @@ mod tests {
         let sent = std::string::String::from_utf8_lossy(&port.sent).into_owned();
         assert!(!sent.contains("error"), "{sent}");
         assert!(sent.contains("ok\r\n"), "{sent}");
+    }
+
+    /// A grbl line that arrives between two ticks is taken, interpreted and answered in the pass
+    /// its bytes wake, not at the next tick; that pass leaves the inputs to the ticks.
+    #[test]
+    fn a_line_is_answered_in_the_pass_its_bytes_wake() {
+        let (mut main, mut board, mut link, mut port) = parts();
+        port.dtr = true;
+        port.rx.extend_from_slice(b"\x18");
+        for t in 0..5 {
+            main.pass(t, &mut board, &mut link, &mut port);
+        }
+        let banner = std::string::String::from_utf8_lossy(&port.sent).into_owned();
+        assert!(banner.contains(crate::grbl::BANNER), "{banner}");
+        port.sent.clear();
+        let samples = port.samples;
+        for (i, line) in ["G1 X1 F600\n", "G1 X2\n", "G1 X3\n"].iter().enumerate() {
+            port.rx.extend_from_slice(line.as_bytes());
+            main.host_bytes_pass(5, &mut board, &mut link, &mut port);
+            let sent = std::string::String::from_utf8_lossy(&port.sent).into_owned();
+            assert_eq!(sent.matches("ok\r\n").count(), i + 1, "{sent}");
+        }
+        assert_eq!(port.samples, samples, "no input sample between the ticks");
+        assert_eq!(board.lines_buffered(), 0);
+        main.pass(6, &mut board, &mut link, &mut port);
+        assert_eq!(port.samples, samples + 1);
     }
 
     #[test]

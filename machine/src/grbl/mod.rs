@@ -799,6 +799,11 @@ impl Grbl {
                 if let Some(s) = self.idle_gate(board, true) {
                     return s;
                 }
+                if !self.out.is_empty() {
+                    // The listing (up to 52 lines) goes out whole: it waits for the output to
+                    // drain rather than lose its tail to a full queue.
+                    return Step::Wait;
+                }
                 self.settings(board);
                 ok
             }

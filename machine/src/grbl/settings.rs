@@ -34,18 +34,30 @@ const NOT_IN_TABLE: [u16; 6] = [1, 2, 4, 6, 20, 22];
 /// Axis setting groups: steps/mm, max rate, acceleration, travel.
 pub const AXIS_GROUPS: [u16; 4] = [100, 110, 120, 130];
 
+/// The plasma torch's numbers (the table's rows of 200 and up): grblHAL's plasma plugin numbers
+/// where it has the setting (`$350` mode, `$351` THC delay, `$356` anti-dive, `$358` arc-OK
+/// timeout), Gantry's own in grblHAL's block for settings no public plugin uses (`$450` THC
+/// rate, `$451` THC travel). docs/grbl.md lists them.
+const TORCH_FIRST: u16 = 200;
+
 /// The `$$` numbers, in order: the global settings ascending (the table's grbl numbers below
-/// 100 and [`NOT_IN_TABLE`]), then the table's per-axis groups (`$100`+i…) for each axis in use.
-pub fn numbers(axis_count: u8) -> heapless::Vec<u16, 48> {
+/// 100 and [`NOT_IN_TABLE`]), then the table's per-axis groups (`$100`+i…) for each axis in use,
+/// then the torch's (`$350`…, [`TORCH_FIRST`]) ascending.
+pub fn numbers(axis_count: u8) -> heapless::Vec<u16, 56> {
     let mut v = heapless::Vec::new();
     for n in 0..100 {
         if NOT_IN_TABLE.contains(&n) || ROWS.iter().any(|r| r.grbl == n) {
             let _ = v.push(n);
         }
     }
-    for r in ROWS.iter().filter(|r| (100..NO_GRBL).contains(&r.grbl)) {
+    for r in ROWS.iter().filter(|r| (100..TORCH_FIRST).contains(&r.grbl)) {
         for a in 0..u16::from(axis_count) {
             let _ = v.push(r.grbl + a);
+        }
+    }
+    for n in TORCH_FIRST..NO_GRBL {
+        if ROWS.iter().any(|r| r.grbl == n) {
+            let _ = v.push(n);
         }
     }
     v
@@ -161,6 +173,12 @@ pub fn read(n: u16, setup: &Setup) -> Option<Value> {
         30 => int(i64::from(setup.outputs.spindle_max_rpm)),
         31 => int(i64::from(setup.outputs.spindle_min_rpm)),
         32 => int(i64::from(setup.outputs.laser)),
+        350 => int(torch_mode(setup)),
+        351 => dec(i64::from(setup.outputs.torch.thc_delay_ms)),
+        356 => int(i64::from(setup.outputs.torch.thc_anti_dive)),
+        358 => dec(i64::from(setup.outputs.torch.arc_ok_timeout_ms)),
+        450 => mm_value(setup.outputs.torch.thc_rate),
+        451 => mm_value(setup.outputs.torch.thc_travel),
         _ => return None,
     })
 }
@@ -257,6 +275,30 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup) -> Result<(), u16> {
             setup.outputs.spindle_min_rpm = u32::try_from(whole).map_err(|_| codes::BAD_NUMBER)?
         }
         32 => setup.outputs.laser = flag.ok_or(codes::INVALID_STATEMENT)?,
+        350 => {
+            let t = &mut setup.outputs.torch;
+            match whole {
+                0 => t.on = false,
+                2 | 3 => (t.on, t.thc) = (true, whole == 2),
+                // 1: grblHAL's arc-voltage THC (no such input here).
+                _ => return Err(codes::INVALID_STATEMENT),
+            }
+        }
+        // Seconds with ms resolution (`milli`: ms).
+        351 => {
+            setup.outputs.torch.thc_delay_ms =
+                u16::try_from(milli).map_err(|_| codes::INVALID_STATEMENT)?
+        }
+        356 => {
+            setup.outputs.torch.thc_anti_dive =
+                u8::try_from(whole).map_err(|_| codes::INVALID_STATEMENT)?
+        }
+        358 => {
+            setup.outputs.torch.arc_ok_timeout_ms =
+                u16::try_from(milli).map_err(|_| codes::INVALID_STATEMENT)?
+        }
+        450 => setup.outputs.torch.thc_rate = positive(nm)?,
+        451 => setup.outputs.torch.thc_travel = nm,
         // Settings Gantry has no key for: only the value it behaves as.
         1 | 2 | 4 | 6 | 20 | 22 => {
             let shown = read(n, setup).ok_or(codes::INVALID_STATEMENT)?;
@@ -267,6 +309,17 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup) -> Result<(), u16> {
         _ => return Err(codes::INVALID_STATEMENT),
     }
     Ok(())
+}
+
+/// `$350` as grblHAL's plasma plugin numbers its modes: 0 off, 2 arc-OK with up/down THC, 3
+/// arc-OK only (1, arc-voltage THC, does not exist here).
+fn torch_mode(setup: &Setup) -> i64 {
+    let t = &setup.outputs.torch;
+    match (t.on, t.thc) {
+        (false, _) => 0,
+        (true, true) => 2,
+        (true, false) => 3,
+    }
 }
 
 /// `a / b` in lowest terms.
@@ -314,11 +367,50 @@ mod tests {
             listed.as_slice(),
             [
                 0, 1, 2, 3, 4, 5, 6, 10, 11, 12, 13, 20, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32,
-                100, 101, 110, 111, 120, 121, 130, 131
+                100, 101, 110, 111, 120, 121, 130, 131, 350, 351, 356, 358, 450, 451
             ]
         );
         // Every number listed has a value.
         let s = Setup::default();
         assert!(listed.iter().all(|&n| read(n, &s).is_some()));
+        // Every axis of the most the board has fits the listing.
+        assert_eq!(numbers(MAX_AXES as u8).len(), 22 + 4 * MAX_AXES + 6);
+    }
+
+    #[test]
+    fn the_torch_mode_is_grblhals_plasma_mode_number() {
+        let mut s = Setup::default();
+        assert_eq!(read(350, &s), Some(int(0)));
+        write(350, 2000, &mut s).unwrap();
+        assert!(s.outputs.torch.on && s.outputs.torch.thc);
+        assert_eq!(read(350, &s), Some(int(2)));
+        write(350, 3000, &mut s).unwrap();
+        assert!(s.outputs.torch.on && !s.outputs.torch.thc);
+        assert_eq!(read(350, &s), Some(int(3)));
+        assert_eq!(write(350, 1000, &mut s), Err(codes::INVALID_STATEMENT));
+        assert_eq!(write(350, 4000, &mut s), Err(codes::INVALID_STATEMENT));
+        write(350, 0, &mut s).unwrap();
+        assert!(!s.outputs.torch.on);
+        // Seconds with ms resolution; mm/min and mm as the axis settings.
+        write(351, 1_250, &mut s).unwrap();
+        write(358, 800, &mut s).unwrap();
+        assert_eq!(
+            (
+                s.outputs.torch.thc_delay_ms,
+                s.outputs.torch.arc_ok_timeout_ms
+            ),
+            (1250, 800)
+        );
+        assert_eq!(read(358, &s), Some(dec(800)));
+        write(450, 600_000, &mut s).unwrap();
+        write(451, 2_500, &mut s).unwrap();
+        assert_eq!(s.outputs.torch.thc_rate, 600 * crate::units::NM_PER_MM);
+        assert_eq!(s.outputs.torch.thc_travel, 2_500_000);
+        assert_eq!(read(451, &s), Some(dec(2_500)));
+        assert_eq!(write(450, 0, &mut s), Err(codes::NEGATIVE_VALUE));
+        assert_eq!(
+            write(351, 70_000_000, &mut s),
+            Err(codes::INVALID_STATEMENT)
+        );
     }
 }

@@ -515,27 +515,27 @@ table! {
         |s, _i| i64::from(s.outputs.orient.dwell_ms), |v| s.outputs.orient.dwell_ms = v as u16;
         [] "" "`0`" "without `orient_done_input`, how long the orient takes; with it, the longest wait for the input (then alarm 21, list input timeout; `0` = wait forever)" "",
 
-    Torch => Spindle "torch" Bool (0, 1), NO_GRBL,
+    Torch => Spindle "torch" Bool (0, 1), 350,
         |s, _i| i64::from(s.outputs.torch.on), |v| s.outputs.torch.on = v != 0;
-        [] "not with `laser`" "" "plasma torch mode (docs/laser-plasma.md \"Plasma\"): `M3` fires the torch on the spindle enable output and the motion waits for the `arc_ok` input (alarm 22 after `arc_ok_timeout_ms`); arc-OK lost while cutting holds the job on its path with the torch off; torch height control moves Z from the `thc_up`/`thc_down` inputs" "   # plasma: M3 waits for arc-OK, THC from the up/down inputs",
-    ArcOkTimeoutMs => Spindle "arc_ok_timeout_ms" Ms (100, 60_000), NO_GRBL,
+        [] "not with `laser`" "" "plasma torch mode (docs/laser-plasma.md \"Plasma\"): `M3` fires the torch on the spindle enable output and the motion waits for the `arc_ok` input (alarm 22 after `arc_ok_timeout_ms`); arc-OK lost while cutting holds the job on its path with the torch off; torch height control moves Z from the `thc_up`/`thc_down` inputs. grbl `$350` (grblHAL's plasma mode numbers): 0 off, 2 torch with up/down THC (`thc = true`), 3 torch with arc-OK only (`thc = false`); 1 (arc-voltage THC) is refused" "   # plasma: M3 waits for arc-OK, THC from the up/down inputs",
+    ArcOkTimeoutMs => Spindle "arc_ok_timeout_ms" Ms (100, 60_000), 358,
         |s, _i| i64::from(s.outputs.torch.arc_ok_timeout_ms), |v| s.outputs.torch.arc_ok_timeout_ms = v as u16;
-        [] "" "" "longest wait for arc-OK after `M3` (and after a cycle start that re-fires the torch): then alarm 22 \"no arc\", torch off, at rest" "",
+        [] "" "" "longest wait for arc-OK after `M3` (and after a cycle start that re-fires the torch): then alarm 22 \"no arc\", torch off, at rest (grbl `$358`, in seconds)" "",
     Thc => Spindle "thc" Bool (0, 1), NO_GRBL,
         |s, _i| i64::from(s.outputs.torch.thc), |v| s.outputs.torch.thc = v != 0;
-        [] "" "" "torch height control: while the cut runs at cruise speed Z follows `thc_up`/`thc_down`; `M63` (off) and `M62` (on) switch it from the program" "",
-    ThcRate => Spindle "thc_rate" MmPerMin (nm_of_mm(10), nm_of_mm(10_000)), NO_GRBL,
+        [] "" "" "torch height control: while the cut runs at cruise speed Z follows `thc_up`/`thc_down`; `M62 P2` (off) and `M63 P2` (on) switch it from the program (grbl `$350`: 2 with it, 3 without)" "",
+    ThcRate => Spindle "thc_rate" MmPerMin (nm_of_mm(10), nm_of_mm(10_000)), 450,
         |s, _i| s.outputs.torch.thc_rate, |v| s.outputs.torch.thc_rate = v;
-        [] "" "" "Z speed of the height control" "",
-    ThcTravel => Spindle "thc_travel" Mm (0, nm_of_mm(100)), NO_GRBL,
+        [] "" "" "Z speed of the height control (grbl `$450`, a number of Gantry's own)" "",
+    ThcTravel => Spindle "thc_travel" Mm (0, nm_of_mm(100)), 451,
         |s, _i| s.outputs.torch.thc_travel, |v| s.outputs.torch.thc_travel = v;
-        [] "" "" "largest height correction up or down from the programmed Z" "",
-    ThcAntiDive => Spindle "thc_anti_dive" Percent (0, 100), NO_GRBL,
+        [] "" "" "largest height correction up or down from the programmed Z (grbl `$451`, a number of Gantry's own)" "",
+    ThcAntiDive => Spindle "thc_anti_dive" Percent (0, 100), 356,
         |s, _i| i64::from(s.outputs.torch.thc_anti_dive), |v| s.outputs.torch.thc_anti_dive = v as u8;
-        [] "" "" "anti-dive: the height control holds while the speed is below this share of the programmed feed (and in every acceleration and corner slow-down)" "",
-    ThcDelayMs => Spindle "thc_delay_ms" Ms (0, 10_000), NO_GRBL,
+        [] "" "" "anti-dive: the height control holds while the speed is below this share of the programmed feed (and in every acceleration and corner slow-down; grbl `$356`)" "",
+    ThcDelayMs => Spindle "thc_delay_ms" Ms (0, 10_000), 351,
         |s, _i| i64::from(s.outputs.torch.thc_delay_ms), |v| s.outputs.torch.thc_delay_ms = v as u16;
-        [] "" "" "time after arc-OK before the height control acts (the pierce and its lead-in settle)" "",
+        [] "" "" "time after arc-OK before the height control acts (the pierce and its lead-in settle; grbl `$351`, in seconds)" "",
 
     McodeCode => Mcode "code" Count (0, 65_535), NO_GRBL,
         |s, i| i64::from(mcode(s, i).code), |v| mcode_mut(s, i).code = v as u16;
