@@ -5,7 +5,7 @@
 
 use super::codes;
 use crate::board::LIMIT_BITS;
-use crate::setup::table::{NO_GRBL, ROWS};
+use crate::setup::table::ROWS;
 use crate::setup::{Key, Reason, Setup, SetupError};
 use crate::units::MAX_AXES;
 
@@ -31,21 +31,25 @@ impl Prefs {
 /// settings Gantry has no key for (shown with the value it behaves as), `$22` (read from the
 /// homing priorities).
 const NOT_IN_TABLE: [u16; 6] = [1, 2, 4, 6, 20, 22];
-/// Axis setting groups: steps/mm, max rate, acceleration, travel.
-pub const AXIS_GROUPS: [u16; 4] = [100, 110, 120, 130];
+/// Axis setting groups: steps/mm, max rate, acceleration, travel, jerk (grblHAL's `$800`+i,
+/// mm/s³).
+pub const AXIS_GROUPS: [u16; 5] = [100, 110, 120, 130, 800];
 
 /// The `$$` numbers, in order: the global settings ascending (the table's grbl numbers below
 /// 100 and [`NOT_IN_TABLE`]), then the table's per-axis groups (`$100`+i…) for each axis in use.
-pub fn numbers(axis_count: u8) -> heapless::Vec<u16, 48> {
+pub fn numbers(axis_count: u8) -> heapless::Vec<u16, 64> {
     let mut v = heapless::Vec::new();
     for n in 0..100 {
         if NOT_IN_TABLE.contains(&n) || ROWS.iter().any(|r| r.grbl == n) {
             let _ = v.push(n);
         }
     }
-    for r in ROWS.iter().filter(|r| (100..NO_GRBL).contains(&r.grbl)) {
-        for a in 0..u16::from(axis_count) {
-            let _ = v.push(r.grbl + a);
+    // In number order (the table lists jerk's `$800` beside acceleration).
+    for g in AXIS_GROUPS {
+        if ROWS.iter().any(|r| r.grbl == g) {
+            for a in 0..u16::from(axis_count) {
+                let _ = v.push(g + a);
+            }
         }
     }
     v
@@ -129,6 +133,7 @@ pub fn read(n: u16, setup: &Setup) -> Option<Value> {
             100 => dec(div_round(i64::from(ax.steps) * 1_000_000_000, ax.units_nm)),
             110 => mm_value(ax.max_rate),
             120 => mm_value(ax.accel),
+            800 => mm_value(ax.jerk),
             _ => mm_value(ax.travel_max - ax.travel_min),
         });
     }
@@ -193,6 +198,9 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup) -> Result<(), u16> {
             }
             110 => ax.max_rate = positive(nm)?,
             120 => ax.accel = positive(nm)?,
+            // 0 turns jerk limiting off.
+            800 if nm < 0 => return Err(codes::NEGATIVE_VALUE),
+            800 => ax.jerk = nm,
             _ => ax.travel_max = ax.travel_min + positive(nm)?,
         }
         return Ok(());
@@ -305,6 +313,15 @@ mod tests {
             250 * crate::units::NM_PER_MM
         );
         assert_eq!(read(199, &s), None);
+        // Jerk, grblHAL's `$800`+i in mm/s³: 0 is off, a negative value is refused.
+        assert_eq!(read(801, &s), Some(dec(0)));
+        write(801, 5_000_000, &mut s).unwrap();
+        assert_eq!(s.axes[1].jerk, 5_000 * crate::units::NM_PER_MM);
+        assert_eq!(read(801, &s), Some(dec(5_000_000)));
+        assert_eq!(write(800, -1_000, &mut s), Err(codes::NEGATIVE_VALUE));
+        write(801, 0, &mut s).unwrap();
+        assert_eq!(s.axes[1].jerk, 0);
+        assert_eq!(read(803, &s), None);
     }
 
     #[test]
@@ -314,7 +331,7 @@ mod tests {
             listed.as_slice(),
             [
                 0, 1, 2, 3, 4, 5, 6, 10, 11, 12, 13, 20, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32,
-                100, 101, 110, 111, 120, 121, 130, 131
+                100, 101, 110, 111, 120, 121, 130, 131, 800, 801
             ]
         );
         // Every number listed has a value.

@@ -23,7 +23,12 @@
 //! runs at cruise speed, at or above the anti-dive share of the programmed feed, also carries
 //! the Z steps [`super::thc::Thc`] adds for the height controller's inputs.
 
+mod jerk_line;
+
+pub use jerk_line::JerkSetup;
+
 use super::history::{Handed, History, Stand};
+use super::jerk::Tracker;
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::laser::{PwmMap, KEEP_DUTY};
 use super::output_event::OutputEvent;
@@ -140,6 +145,17 @@ pub struct Prep {
     pub laser_override: u16,
     /// Torch height control: the Z steps it adds and the correction made.
     pub thc: Thc,
+    /// The jerk limit (`None`: trapezoid ramps, `motion/prep/jerk_line.rs` otherwise).
+    jerk: Option<JerkSetup>,
+    /// Jerk-limited mode: the tracker at the end of its current step (head-block coordinates),
+    /// the prepared position (SUB-ths of a nm) and the step's counts not yet handed out.
+    trk: Tracker,
+    p_sub: u64,
+    rem_counts: u64,
+    /// Counts of the steps without a dominant step so far, for the next segment.
+    owed_j: u64,
+    /// A hold's stopping point, nm from the head block's start.
+    hold_at: Option<u64>,
 }
 
 impl Default for Prep {
@@ -183,6 +199,12 @@ impl Prep {
             laser: None,
             laser_override: 100,
             thc: Thc::new(None),
+            jerk: None,
+            trk: jerk_line::REST,
+            p_sub: 0,
+            rem_counts: 0,
+            owed_j: 0,
+            hold_at: None,
         }
     }
 
@@ -190,9 +212,11 @@ impl Prep {
     /// height control's setup stay (its correction is part of that position now).
     pub fn reset(&mut self) {
         let (position, laser, pct) = (self.position, self.laser, self.laser_override);
+        let jerk = self.jerk;
         let mut thc = self.thc;
         thc.absorbed();
         *self = Prep::new();
+        self.jerk = jerk;
         self.position = position;
         self.laser = laser;
         self.laser_override = pct;
@@ -222,6 +246,17 @@ impl Prep {
         p.laser = laser;
         p.thc = Thc::new(thc);
         p
+    }
+
+    /// The same prep with jerk limit `jerk`.
+    pub fn with_jerk(mut self, jerk: Option<JerkSetup>) -> Self {
+        self.jerk = jerk;
+        self
+    }
+
+    /// Sets the jerk limit (`None`: the trapezoid's ramps); only at rest.
+    pub fn set_jerk(&mut self, jerk: Option<JerkSetup>) {
+        self.jerk = jerk;
     }
 
     /// Sets laser mode's S → duty map (`None`: not a laser machine).
@@ -258,6 +293,10 @@ impl Prep {
             self.carry = self.speed();
             self.active = false;
             self.history.end_block();
+            // The tracker goes on from here along the new block, at its speed and acceleration.
+            self.trk.s = 0;
+            self.p_sub = 0;
+            self.rem_counts = 0;
         }
     }
 
@@ -331,7 +370,11 @@ impl Prep {
                     return PrepOut::Segment(Segment::idle(1, p as u32).with_power(power));
                 }
                 BlockKind::Line { output } => {
-                    if let Some(seg) = self.line_segment(output, planner) {
+                    let seg = match self.jerk {
+                        Some(js) => self.jerk_segment(output, planner, js),
+                        None => self.line_segment(output, planner),
+                    };
+                    if let Some(seg) = seg {
                         return PrepOut::Segment(seg);
                     }
                     if self.state == PrepState::Held {
@@ -371,6 +414,21 @@ impl Prep {
                 self.dwell_left = 0;
                 planner.pop();
                 BlockOut::Time(left)
+            }
+            BlockKind::Line { output } if self.jerk.is_some() => {
+                // Jerk-limited: the block's segments, timed.
+                let js = self.jerk.unwrap_or(JerkSetup { jerk: 1, accel: 1 });
+                let seq = head.seq;
+                let mut counts = 0u64;
+                while planner.head().is_some_and(|b| b.seq == seq) {
+                    match self.jerk_segment(output, planner, js) {
+                        Some(seg) => counts += u64::from(seg.ticks) * u64::from(seg.period),
+                        None if self.active => break,
+                        None => {}
+                    }
+                }
+                self.history = History::new();
+                BlockOut::Time(counts)
             }
             BlockKind::Line { output } => {
                 if !self.active {
@@ -457,6 +515,10 @@ impl Prep {
     /// How many of the newest segments handed out can be taken back now ([`History::droppable`]):
     /// segments of the line block in progress.
     pub fn droppable<const N: usize>(&self, planner: &Planner<N>) -> usize {
+        if self.jerk.is_some() {
+            // The tracker's state at an earlier segment is not kept: nothing is taken back.
+            return 0;
+        }
         let active = planner
             .head()
             .filter(|b| self.active && b.is_line())
