@@ -76,6 +76,23 @@ pub struct BlockReport {
     pub exit: u64,
     /// Duration, kernel timer counts.
     pub counts: u64,
+    /// Highest path acceleration (nm/s², either sign) and jerk (nm/s³; [`STEP_JERK`]: the
+    /// acceleration switched at once, the trapezoid) while the block ran.
+    pub accel: u64,
+    pub jerk: u64,
+}
+
+/// [`BlockReport::jerk`] of a trapezoid ramp: the acceleration steps from 0 to its limit.
+pub const STEP_JERK: u64 = u64::MAX;
+
+impl BlockReport {
+    /// A trapezoid block's peaks: its acceleration, switched at once, if its speed changed.
+    fn trapezoid(&mut self, accel: u64) {
+        if self.entry != self.peak || self.exit != self.peak {
+            self.accel = accel;
+            self.jerk = STEP_JERK;
+        }
+    }
 }
 
 /// Result of one preparation step.
@@ -193,6 +210,8 @@ impl Prep {
                 peak: 0,
                 exit: 0,
                 counts: 0,
+                accel: 0,
+                jerk: 0,
             },
             finished: None,
             history: History::new(),
@@ -448,6 +467,8 @@ impl Prep {
                         peak: self.profile.v0,
                         exit: 0,
                         counts: 0,
+                        accel: 0,
+                        jerk: 0,
                     };
                 } else if planner.exit_sq(0) != self.exit_sq
                     || planner.nominal(&head) != self.nominal
@@ -471,6 +492,7 @@ impl Prep {
                 self.report.counts += counts;
                 self.report.peak = self.report.peak.max(self.profile.peak());
                 self.report.exit = self.carry;
+                self.report.trapezoid(head.accel);
                 self.finished = Some(self.report);
                 self.active = false;
                 planner.pop();
@@ -610,6 +632,8 @@ impl Prep {
                 peak: self.profile.v0,
                 exit: 0,
                 counts: 0,
+                accel: 0,
+                jerk: 0,
             };
         } else {
             let hold = self.state == PrepState::Holding;
@@ -645,6 +669,7 @@ impl Prep {
                 self.profile.speed_at(b.length)
             };
             self.report.exit = self.carry;
+            self.report.trapezoid(b.accel);
             self.finished = Some(self.report);
             self.active = false;
             planner.pop();

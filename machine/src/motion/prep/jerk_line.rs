@@ -169,7 +169,18 @@ impl Prep {
                 let ahead = self.ahead(planner, &js);
                 let lim = js.limits(ahead.accel);
                 let cap = u64::from(planner.nominal(&b)) * 1000;
+                let a0 = self.trk.a;
                 let st = self.trk.step(cap, &ahead.limits, lim);
+                // The step's peaks for the block report (host tools; one division a step).
+                self.report.accel = self.report.accel.max(st.a.unsigned_abs());
+                if st.counts > 0 {
+                    let jerk = mul_div(
+                        st.a.abs_diff(a0),
+                        crate::motion::kernel::KERNEL_TIMER_HZ as u64,
+                        st.counts,
+                    );
+                    self.report.jerk = self.report.jerk.max(jerk);
+                }
                 if st.counts == 0 {
                     // At rest on a stop.
                     if self.trk.position_nm() + crate::motion::jerk::ARRIVED_NM >= b.length
@@ -244,6 +255,8 @@ impl Prep {
             peak: self.trk.v / 1000,
             exit: 0,
             counts: 0,
+            accel: 0,
+            jerk: 0,
         };
     }
 
