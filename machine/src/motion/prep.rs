@@ -436,7 +436,11 @@ impl Prep {
             }
             BlockKind::Line { output } if self.jerk.is_some() => {
                 // Jerk-limited: the block's segments, timed.
-                let js = self.jerk.unwrap_or(JerkSetup { jerk: 1, accel: 1 });
+                let js = self.jerk.unwrap_or(JerkSetup {
+                    jerk: 1,
+                    accel: 1,
+                    floor: 1,
+                });
                 let seq = head.seq;
                 let mut counts = 0u64;
                 while planner.head().is_some_and(|b| b.seq == seq) {

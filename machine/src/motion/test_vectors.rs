@@ -579,7 +579,7 @@ pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/jerk-square-arcs",
         run: jerk_square_arcs,
-        expected: 0x7717_872e,
+        expected: 0xc2ca_fade,
     },
     Vector {
         name: "motion/jerk-hold-resume-override",
