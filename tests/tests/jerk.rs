@@ -94,7 +94,11 @@ fn peaks(track: &[(u64, i64)], from: u64, to: u64) -> (f64, f64) {
         let j = (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]) / (dt * dt * dt);
         a_max = a_max.max(a.abs());
         if std::env::var("JERK_DEBUG").is_ok() && j.abs() > 5500.0 {
-            println!("t {} ms pos {:.3} a {a:.0} j {j:.0}", (from / W + m as u64) * 20, w[1]);
+            println!(
+                "t {} ms pos {:.3} a {a:.0} j {j:.0}",
+                (from / W + m as u64) * 20,
+                w[1]
+            );
         }
         j_max = j_max.max(j.abs());
     }
@@ -155,7 +159,10 @@ fn a_hold_mid_ramp_decelerates_within_the_jerk_limit_and_resumes_on_the_path() {
             && b.kernel_drained())
     );
     let held = steps(&eb);
-    assert!(held[0] > 0 && held[0] < 40 * STEPS_PER_MM, "held at {held:?}");
+    assert!(
+        held[0] > 0 && held[0] < 40 * STEPS_PER_MM,
+        "held at {held:?}"
+    );
     eb.run_ms(200);
     eb.board.resume();
     until_state(&mut eb, State::Idle, 30_000);

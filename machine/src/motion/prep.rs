@@ -390,8 +390,10 @@ impl Prep {
                 }
                 BlockKind::Line { output } => {
                     let seg = match self.jerk {
-                        Some(js) => self.jerk_segment(output, planner, js),
-                        None => self.line_segment(output, planner),
+                        Some(js) if cfg!(feature = "jerk") => {
+                            self.jerk_segment(output, planner, js)
+                        }
+                        _ => self.line_segment(output, planner),
                     };
                     if let Some(seg) = seg {
                         return PrepOut::Segment(seg);
@@ -434,7 +436,7 @@ impl Prep {
                 planner.pop();
                 BlockOut::Time(left)
             }
-            BlockKind::Line { output } if self.jerk.is_some() => {
+            BlockKind::Line { output } if cfg!(feature = "jerk") && self.jerk.is_some() => {
                 // Jerk-limited: the block's segments, timed.
                 let js = self.jerk.unwrap_or(JerkSetup {
                     jerk: 1,
@@ -541,7 +543,7 @@ impl Prep {
     /// How many of the newest segments handed out can be taken back now ([`History::droppable`]):
     /// segments of the line block in progress.
     pub fn droppable<const N: usize>(&self, planner: &Planner<N>) -> usize {
-        if self.jerk.is_some() {
+        if cfg!(feature = "jerk") && self.jerk.is_some() {
             // The tracker's state at an earlier segment is not kept: nothing is taken back.
             return 0;
         }

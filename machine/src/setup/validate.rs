@@ -33,6 +33,8 @@ pub enum Reason {
     TorchWithLaser,
     /// An orient done input or dwell without the orient output it belongs to.
     OrientWithoutOutput,
+    /// A jerk limit on a build without jerk-limited motion (gantry-machine's `jerk` feature).
+    JerkNotBuilt,
 }
 
 impl Reason {
@@ -47,6 +49,7 @@ impl Reason {
             Reason::NotPrintable => "not printable G-code",
             Reason::TorchWithLaser => "torch and laser are exclusive",
             Reason::OrientWithoutOutput => "orient input or dwell without an orient output",
+            Reason::JerkNotBuilt => "no jerk-limited motion in this firmware",
         }
     }
 }
@@ -93,6 +96,9 @@ impl Setup {
             if a.travel_min > a.travel_max {
                 let e = Reason::Reversed;
                 return Err(err(Key::TravelMin, i, a.travel_min, a.travel_max, e));
+            }
+            if !cfg!(feature = "jerk") && a.jerk != 0 {
+                return Err(err(Key::Jerk, i, a.jerk, 0, Reason::JerkNotBuilt));
             }
         }
         let pairs = [
@@ -228,6 +234,10 @@ impl core::fmt::Display for SetupError {
                 "{name} = {value}: must be between {} and {}{unit}",
                 file_value(key, row.min()),
                 file_value(key, row.max())
+            ),
+            Reason::JerkNotBuilt => write!(
+                f,
+                "{name} = {value}: this firmware has no jerk-limited motion (set 0)"
             ),
             Reason::OrientWithoutOutput => write!(
                 f,

@@ -123,15 +123,33 @@ impl Prep {
             };
             if let Some(h) = hold {
                 if h <= end && floor > 0 {
-                    push_limit(&mut out.limits, Limit { at: h, speed: 0, cap: 0 });
+                    push_limit(
+                        &mut out.limits,
+                        Limit {
+                            at: h,
+                            speed: 0,
+                            cap: 0,
+                        },
+                    );
                     floor = 0;
                 }
             }
             // A staircase of falling speeds, and everything the step may pass.
             let binding = speed_sq < floor || end <= here + pass;
             if binding && end > here {
-                let speed = if speed_sq == 0 { 0 } else { isqrt_u64(speed_sq) * 1000 };
-                push_limit(&mut out.limits, Limit { at: end, speed, cap });
+                let speed = if speed_sq == 0 {
+                    0
+                } else {
+                    isqrt_u64(speed_sq) * 1000
+                };
+                push_limit(
+                    &mut out.limits,
+                    Limit {
+                        at: end,
+                        speed,
+                        cap,
+                    },
+                );
                 floor = floor.min(speed_sq);
             }
             if next.is_none() || b.stop_after || end > reach || floor == 0 {
@@ -267,7 +285,11 @@ impl Prep {
         };
     }
 
-    fn finish_jerk_block<const N: usize>(&mut self, b: &Block, planner: &mut Planner<N>) -> Option<Segment> {
+    fn finish_jerk_block<const N: usize>(
+        &mut self,
+        b: &Block,
+        planner: &mut Planner<N>,
+    ) -> Option<Segment> {
         let len_sub = b.length * SUB;
         self.trk.s = self.trk.s.saturating_sub(len_sub);
         self.p_sub = self.p_sub.saturating_sub(len_sub);
@@ -277,7 +299,11 @@ impl Prep {
         self.finished = Some(self.report);
         self.active = false;
         planner.pop();
-        if self.state == PrepState::Holding && self.trk.v == 0 && self.trk.a == 0 && self.rem_counts == 0 {
+        if self.state == PrepState::Holding
+            && self.trk.v == 0
+            && self.trk.a == 0
+            && self.rem_counts == 0
+        {
             self.state = PrepState::Held;
         }
         None
@@ -417,7 +443,10 @@ mod tests {
         let (trap, trap_pos, _) = run(program, 0);
         let (jerk, pos, _) = run(program, 5_000);
         assert_eq!(pos, trap_pos);
-        std::println!("trapezoid {trap} jerk {jerk} ratio {}", jerk as f64 / trap as f64);
+        std::println!(
+            "trapezoid {trap} jerk {jerk} ratio {}",
+            jerk as f64 / trap as f64
+        );
         assert!(jerk > trap && jerk < trap * 3 / 2);
     }
 }
