@@ -89,17 +89,10 @@ fn peaks(track: &[(u64, i64)], from: u64, to: u64) -> (f64, f64) {
     let mm = 1.0 / STEPS_PER_MM as f64;
     let samples: Vec<f64> = (from / W..=to / W + 4).map(|m| at(m * W) * mm).collect();
     let (mut a_max, mut j_max) = (0.0f64, 0.0f64);
-    for (m, w) in samples.windows(4).enumerate() {
+    for w in samples.windows(4) {
         let a = (w[2] - 2.0 * w[1] + w[0]) / (dt * dt);
         let j = (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]) / (dt * dt * dt);
         a_max = a_max.max(a.abs());
-        if std::env::var("JERK_DEBUG").is_ok() && j.abs() > 5500.0 {
-            println!(
-                "t {} ms pos {:.3} a {a:.0} j {j:.0}",
-                (from / W + m as u64) * 20,
-                w[1]
-            );
-        }
         j_max = j_max.max(j.abs());
     }
     (a_max, j_max)
@@ -171,8 +164,8 @@ fn a_hold_mid_ramp_decelerates_within_the_jerk_limit_and_resumes_on_the_path() {
     let ev = events.borrow();
     let t = tracks(&ev);
     let end = ev.last().unwrap().time;
-    for i in 0..2 {
-        let (a, j) = peaks(&t[i], started, end);
+    for (i, track) in t.iter().enumerate().take(2) {
+        let (a, j) = peaks(track, started, end);
         // Each axis's share of the path limits (4/5 and 3/5): within the axis limits.
         assert!(a <= 1.1 * ACCEL, "axis {i}: acceleration {a:.0}");
         assert!(j <= 1.1 * JERK, "axis {i}: jerk {j:.0}");

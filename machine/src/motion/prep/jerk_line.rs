@@ -193,7 +193,7 @@ impl Prep {
                 }
                 let ahead = self.ahead(planner, &js);
                 let lim = js.limits(ahead.accel);
-                let cap = u64::from(planner.nominal(&b)) * 1000;
+                let cap = planner.nominal(&b) * 1000;
                 let a0 = self.trk.a;
                 let st = self.trk.step(cap, &ahead.limits, lim);
                 // The step's peaks for the block report (host tools; one division a step).
