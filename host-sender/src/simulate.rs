@@ -6,7 +6,8 @@
 //! (`preview::plan::plan_stream`, `Sim::run_planned`); M codes that switch an output on the fly
 //! do not stop the motion, as on the board. Each move (consecutive planner blocks of one source
 //! line, so an arc is one move) prints its line, entry, cruise (highest) and exit speed in mm/min
-//! and its duration, as soon as it is planned; `--json` prints the same as JSON Lines. The last
+//! and its duration, its peak acceleration and jerk (`step` for the trapezoid, whose acceleration
+//! switches at once), as soon as it is planned; `--json` prints the same as JSON Lines. The last
 //! line is always `total time: T s` (dwells included). Memory stays the same whatever the
 //! program's length.
 use std::io::Write as _;
@@ -30,6 +31,20 @@ pub struct Move {
     pub(crate) exit: f64,
     /// Duration in seconds.
     pub(crate) time: f64,
+    /// Highest path acceleration, mm/s², and jerk, mm/s³ (`None`: the acceleration switched
+    /// at once, the trapezoid's ramps).
+    pub(crate) accel: f64,
+    pub(crate) jerk: Option<f64>,
+}
+
+/// nm/s² (nm/s³) → mm/s² (mm/s³).
+fn mm(v: u64) -> f64 {
+    v as f64 / 1e6
+}
+
+/// A block report's jerk in mm/s³, `None` for the trapezoid's step.
+fn jerk_of(r: &BlockReport) -> Option<f64> {
+    (r.jerk != gantry_machine::motion::prep::STEP_JERK).then(|| mm(r.jerk))
 }
 
 /// nm/s → mm/min.
@@ -52,6 +67,11 @@ impl Moves {
                 m.cruise = m.cruise.max(mm_min(r.peak));
                 m.exit = mm_min(r.exit);
                 m.time += time;
+                m.accel = m.accel.max(mm(r.accel));
+                m.jerk = match (m.jerk, jerk_of(r)) {
+                    (Some(a), Some(b)) => Some(a.max(b)),
+                    _ => None,
+                };
                 None
             }
             _ => self.current.replace(Move {
@@ -60,6 +80,8 @@ impl Moves {
                 cruise: mm_min(r.peak),
                 exit: mm_min(r.exit),
                 time,
+                accel: mm(r.accel),
+                jerk: jerk_of(r),
             }),
         }
     }
@@ -132,12 +154,15 @@ pub(crate) fn move_line(m: &Move, json: bool) -> String {
             "cruise": round(m.cruise, 3),
             "exit": round(m.exit, 3),
             "time": round(m.time, 6),
+            "accel": round(m.accel, 1),
+            "jerk": m.jerk.map(|j| round(j, 0)),
         })
         .to_string()
     } else {
+        let jerk = m.jerk.map_or("step".to_string(), |j| format!("{j:.0}"));
         format!(
-            "line {:>6}  entry {:>9.3}  cruise {:>9.3}  exit {:>9.3} mm/min  time {:>9.6} s",
-            m.line, m.entry, m.cruise, m.exit, m.time
+            "line {:>6}  entry {:>9.3}  cruise {:>9.3}  exit {:>9.3} mm/min  time {:>9.6} s  accel {:>7.1} mm/s²  jerk {jerk:>7} mm/s³",
+            m.line, m.entry, m.cruise, m.exit, m.time, m.accel
         )
     }
 }
@@ -152,7 +177,8 @@ pub(crate) fn total_line(total: f64, json: bool) -> String {
 }
 
 /// The whole report text. With `json`, JSON Lines written by serde_json: one object per move
-/// (`line`, `entry`, `cruise`, `exit` in mm/min, `time` in s, rounded as in the table), then
+/// (`line`, `entry`, `cruise`, `exit` in mm/min, `time` in s, `accel` in mm/s², `jerk` in mm/s³
+/// or null for the trapezoid's step, rounded as in the table), then
 /// `{"total_time": T}`; no other line.
 #[cfg(test)]
 pub(crate) fn report(moves: &[Move], total: f64, json: bool) -> String {
@@ -229,6 +255,29 @@ mod tests {
         assert_eq!(values[0]["entry"], 60.0);
         assert_eq!(values[0]["cruise"], 1200.0);
         assert!((values[1]["total_time"].as_f64().unwrap() - total).abs() < 1e-6);
+        // The trapezoid: its acceleration, switched at once.
+        assert_eq!((m.accel, m.jerk), (200.0, None));
+        assert_eq!(values[0]["jerk"], serde_json::Value::Null);
+    }
+
+    #[test]
+    fn a_jerk_limit_reports_its_peaks_and_costs_its_ramps() {
+        let mut setup = Setup::default();
+        for a in setup.axes.iter_mut() {
+            a.jerk = 5_000_000_000;
+        }
+        let (moves, total) = simulate(b"G21 G90\nG1 X60 F1200\nM2\n", &setup).unwrap();
+        let m = moves[0];
+        // 20 mm/s is above A²/J = 8 mm/s: each ramp reaches 200 mm/s² and lasts
+        // A/J = 40 ms longer than the trapezoid's, from rest (no start-speed jump).
+        assert!(m.accel > 199.0 && m.accel <= 200.0, "{m:?}");
+        let jerk = m.jerk.unwrap();
+        assert!(jerk > 4_900.0 && jerk <= 5_001.0, "{m:?}");
+        assert_eq!(m.entry, 0.0);
+        assert!(total > 3.1 && total < 3.2, "{total}");
+        let json = report(&moves, total, true);
+        let first: serde_json::Value = serde_json::from_str(json.lines().next().unwrap()).unwrap();
+        assert_eq!(first["jerk"].as_f64(), Some(jerk.round()));
     }
 
     #[test]

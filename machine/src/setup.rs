@@ -39,6 +39,8 @@ pub struct AxisSetup {
     pub max_rate: FeedNmPerMin,
     /// Acceleration in nm/s².
     pub accel: i64,
+    /// Jerk limit in nm/s³; 0 = none (trapezoid ramps).
+    pub jerk: i64,
     /// Speed reachable instantly from rest (the GIXA controller's "Starting Speed"), nm/min.
     pub start_speed: FeedNmPerMin,
     /// Soft-limit box in machine coordinates, nm (min ≤ max).
@@ -420,6 +422,7 @@ impl AxisSetup {
             units_nm: nm_of_mm(5),
             max_rate: nm_of_mm(3000),
             accel: nm_of_mm(200),
+            jerk: 0,
             start_speed: nm_of_mm(60),
             travel_min: -nm_of_mm(travel_mm),
             travel_max: nm_of_mm(travel_mm),

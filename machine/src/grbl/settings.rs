@@ -5,7 +5,7 @@
 
 use super::codes;
 use crate::board::LIMIT_BITS;
-use crate::setup::table::{NO_GRBL, ROWS};
+use crate::setup::table::ROWS;
 use crate::setup::{Key, Reason, Setup, SetupError};
 use crate::units::MAX_AXES;
 
@@ -31,8 +31,9 @@ impl Prefs {
 /// settings Gantry has no key for (shown with the value it behaves as), `$22` (read from the
 /// homing priorities).
 const NOT_IN_TABLE: [u16; 6] = [1, 2, 4, 6, 20, 22];
-/// Axis setting groups: steps/mm, max rate, acceleration, travel.
-pub const AXIS_GROUPS: [u16; 4] = [100, 110, 120, 130];
+/// Axis setting groups: steps/mm, max rate, acceleration, travel, jerk (grblHAL's `$800`+i,
+/// mm/s³).
+pub const AXIS_GROUPS: [u16; 5] = [100, 110, 120, 130, 800];
 
 /// The plasma torch's numbers (the table's rows of 200 and up): grblHAL's plasma plugin numbers
 /// where it has the setting (`$350` mode, `$351` THC delay, `$356` anti-dive, `$358` arc-OK
@@ -41,24 +42,33 @@ pub const AXIS_GROUPS: [u16; 4] = [100, 110, 120, 130];
 const TORCH_FIRST: u16 = 200;
 
 /// The `$$` numbers, in order: the global settings ascending (the table's grbl numbers below
-/// 100 and [`NOT_IN_TABLE`]), then the table's per-axis groups (`$100`+i…) for each axis in use,
-/// then the torch's (`$350`…, [`TORCH_FIRST`]) ascending.
-pub fn numbers(axis_count: u8) -> heapless::Vec<u16, 56> {
+/// 100 and [`NOT_IN_TABLE`]), then the table's per-axis groups below the torch's (`$100`+i…)
+/// for each axis in use, then the torch's (`$350`…, [`TORCH_FIRST`]) ascending, then the per-axis
+/// groups above them (jerk's `$800`+i).
+pub fn numbers(axis_count: u8) -> heapless::Vec<u16, 72> {
     let mut v = heapless::Vec::new();
     for n in 0..100 {
         if NOT_IN_TABLE.contains(&n) || ROWS.iter().any(|r| r.grbl == n) {
             let _ = v.push(n);
         }
     }
-    for r in ROWS.iter().filter(|r| (100..TORCH_FIRST).contains(&r.grbl)) {
-        for a in 0..u16::from(axis_count) {
-            let _ = v.push(r.grbl + a);
+    let axis_group = |v: &mut heapless::Vec<u16, 72>, g: u16| {
+        if ROWS.iter().any(|r| r.grbl == g) {
+            for a in 0..u16::from(axis_count) {
+                let _ = v.push(g + a);
+            }
         }
+    };
+    for g in AXIS_GROUPS.into_iter().filter(|&g| g < TORCH_FIRST) {
+        axis_group(&mut v, g);
     }
     for n in TORCH_FIRST..NO_GRBL {
-        if ROWS.iter().any(|r| r.grbl == n) {
+        if !AXIS_GROUPS.contains(&n) && ROWS.iter().any(|r| r.grbl == n) {
             let _ = v.push(n);
         }
+    }
+    for g in AXIS_GROUPS.into_iter().filter(|&g| g >= TORCH_FIRST) {
+        axis_group(&mut v, g);
     }
     v
 }
@@ -141,6 +151,7 @@ pub fn read(n: u16, setup: &Setup) -> Option<Value> {
             100 => dec(div_round(i64::from(ax.steps) * 1_000_000_000, ax.units_nm)),
             110 => mm_value(ax.max_rate),
             120 => mm_value(ax.accel),
+            800 => mm_value(ax.jerk),
             _ => mm_value(ax.travel_max - ax.travel_min),
         });
     }
@@ -211,6 +222,9 @@ pub fn write(n: u16, milli: i64, setup: &mut Setup) -> Result<(), u16> {
             }
             110 => ax.max_rate = positive(nm)?,
             120 => ax.accel = positive(nm)?,
+            // 0 turns jerk limiting off.
+            800 if nm < 0 => return Err(codes::NEGATIVE_VALUE),
+            800 => ax.jerk = nm,
             _ => ax.travel_max = ax.travel_min + positive(nm)?,
         }
         return Ok(());
@@ -358,6 +372,15 @@ mod tests {
             250 * crate::units::NM_PER_MM
         );
         assert_eq!(read(199, &s), None);
+        // Jerk, grblHAL's `$800`+i in mm/s³: 0 is off, a negative value is refused.
+        assert_eq!(read(801, &s), Some(dec(0)));
+        write(801, 5_000_000, &mut s).unwrap();
+        assert_eq!(s.axes[1].jerk, 5_000 * crate::units::NM_PER_MM);
+        assert_eq!(read(801, &s), Some(dec(5_000_000)));
+        assert_eq!(write(800, -1_000, &mut s), Err(codes::NEGATIVE_VALUE));
+        write(801, 0, &mut s).unwrap();
+        assert_eq!(s.axes[1].jerk, 0);
+        assert_eq!(read(803, &s), None);
     }
 
     #[test]
@@ -367,14 +390,14 @@ mod tests {
             listed.as_slice(),
             [
                 0, 1, 2, 3, 4, 5, 6, 10, 11, 12, 13, 20, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32,
-                100, 101, 110, 111, 120, 121, 130, 131, 350, 351, 356, 358, 450, 451
+                100, 101, 110, 111, 120, 121, 130, 131, 350, 351, 356, 358, 450, 451, 800, 801
             ]
         );
         // Every number listed has a value.
         let s = Setup::default();
         assert!(listed.iter().all(|&n| read(n, &s).is_some()));
         // Every axis of the most the board has fits the listing.
-        assert_eq!(numbers(MAX_AXES as u8).len(), 22 + 4 * MAX_AXES + 6);
+        assert_eq!(numbers(MAX_AXES as u8).len(), 22 + 5 * MAX_AXES + 6);
     }
 
     #[test]

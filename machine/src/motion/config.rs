@@ -22,6 +22,8 @@ pub struct AxisConfig {
     pub max_rate: u64,
     /// Acceleration, nm/s².
     pub accel: u64,
+    /// Jerk limit, nm/s³ (0: none, the trapezoid).
+    pub jerk: u64,
     /// Speed reachable instantly from rest (the GIXA controller's "Starting Speed"), nm/s.
     pub start_speed: u64,
     /// Soft-limit box in machine coordinates, nm.
@@ -36,6 +38,7 @@ impl AxisConfig {
         units: 5 * NM_PER_MM,
         max_rate: 50 * NM_PER_MM as u64,
         accel: 200 * NM_PER_MM as u64,
+        jerk: 0,
         start_speed: NM_PER_MM as u64,
         travel_min: -300 * NM_PER_MM,
         travel_max: 300 * NM_PER_MM,
@@ -138,6 +141,7 @@ impl MotionConfig {
                 units: s.units_nm.max(1),
                 max_rate: per_min_to_per_s(s.max_rate).max(1),
                 accel: (s.accel.max(1)) as u64,
+                jerk: s.jerk.max(0) as u64,
                 start_speed: per_min_to_per_s(s.start_speed),
                 travel_min: s.travel_min,
                 travel_max: s.travel_max,

@@ -1,5 +1,5 @@
-//! Jerk-limited speed tracking along the path (groundwork; segment preparation does not use it
-//! yet, so no setting reaches it).
+//! Jerk-limited speed tracking along the path: segment preparation (`motion/prep.rs`) runs it
+//! when every axis in use has a jerk limit (`[axis.X] jerk`).
 //!
 //! The planner's trapezoid (`motion/planner.rs`, `motion/profile.rs`) stays the speed
 //! *envelope*: junction speeds, cruise caps and the stop at the end of what is buffered. A
@@ -341,8 +341,10 @@ impl Tracker {
         let da = lim.step_accel() as i64;
         let big_a = lim.accel as i64;
         let step = |a1: i64| self.advance(a1, da);
-        let lo = (self.a - da).max(-big_a);
-        let hi = (self.a + da).min(big_a);
+        // Within the acceleration limit, or (after the limit dropped: a block of a lower path
+        // acceleration came into reach) back towards it at full jerk.
+        let lo = (self.a - da).max((-big_a).min(self.a + da));
+        let hi = (self.a + da).min(big_a.max(self.a - da));
         // Acceleration `a1` leaves a state that can still stop within the jerk limit (no
         // braking distance is infinite); true from some acceleration up.
         let smooth = |a1: i64| {

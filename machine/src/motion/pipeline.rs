@@ -38,7 +38,7 @@ use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::laser::LaserPower;
 use super::output_event::OutputEvent;
 use super::planner::{direction, junction_limit_sq, Block, BlockKind, LineRequest, Planner, UNIT};
-use super::prep::{BlockOut, BlockReport, Prep, PrepOut, PrepState};
+use super::prep::{BlockOut, BlockReport, JerkSetup, Prep, PrepOut, PrepState};
 use super::thc::ThcCommand;
 use crate::arith::{self, mul_div};
 use crate::arith::{polar, QUARTER_TURN};
@@ -176,7 +176,7 @@ impl<const N: usize> Motion<N> {
         Motion {
             cfg,
             planner: Planner::new(),
-            prep: Prep::with_laser(cfg.laser, cfg.thc),
+            prep: Prep::with_laser(cfg.laser, cfg.thc).with_jerk(JerkSetup::of(&cfg)),
             arc: None,
             syncs: Deque::new(),
             position: [0; MAX_AXES],
@@ -984,6 +984,7 @@ impl<const N: usize> Motion<N> {
         self.prep = Prep::new();
         self.prep.set_laser(cfg.laser);
         self.prep.set_thc(cfg.thc);
+        self.prep.set_jerk(JerkSetup::of(&cfg));
         self.reset(steps);
     }
 

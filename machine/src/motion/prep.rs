@@ -23,7 +23,12 @@
 //! runs at cruise speed, at or above the anti-dive share of the programmed feed, also carries
 //! the Z steps [`super::thc::Thc`] adds for the height controller's inputs.
 
+mod jerk_line;
+
+pub use jerk_line::JerkSetup;
+
 use super::history::{Handed, History, Stand};
+use super::jerk::Tracker;
 use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::laser::{PwmMap, KEEP_DUTY};
 use super::output_event::OutputEvent;
@@ -71,6 +76,23 @@ pub struct BlockReport {
     pub exit: u64,
     /// Duration, kernel timer counts.
     pub counts: u64,
+    /// Highest path acceleration (nm/s², either sign) and jerk (nm/s³; [`STEP_JERK`]: the
+    /// acceleration switched at once, the trapezoid) while the block ran.
+    pub accel: u64,
+    pub jerk: u64,
+}
+
+/// [`BlockReport::jerk`] of a trapezoid ramp: the acceleration steps from 0 to its limit.
+pub const STEP_JERK: u64 = u64::MAX;
+
+impl BlockReport {
+    /// A trapezoid block's peaks: its acceleration, switched at once, if its speed changed.
+    fn trapezoid(&mut self, accel: u64) {
+        if self.entry != self.peak || self.exit != self.peak {
+            self.accel = accel;
+            self.jerk = STEP_JERK;
+        }
+    }
 }
 
 /// Result of one preparation step.
@@ -140,6 +162,17 @@ pub struct Prep {
     pub laser_override: u16,
     /// Torch height control: the Z steps it adds and the correction made.
     pub thc: Thc,
+    /// The jerk limit (`None`: trapezoid ramps, `motion/prep/jerk_line.rs` otherwise).
+    jerk: Option<JerkSetup>,
+    /// Jerk-limited mode: the tracker at the end of its current step (head-block coordinates),
+    /// the prepared position (SUB-ths of a nm) and the step's counts not yet handed out.
+    trk: Tracker,
+    p_sub: u64,
+    rem_counts: u64,
+    /// Counts of the steps without a dominant step so far, for the next segment.
+    owed_j: u64,
+    /// A hold's stopping point, nm from the head block's start.
+    hold_at: Option<u64>,
 }
 
 impl Default for Prep {
@@ -177,12 +210,20 @@ impl Prep {
                 peak: 0,
                 exit: 0,
                 counts: 0,
+                accel: 0,
+                jerk: 0,
             },
             finished: None,
             history: History::new(),
             laser: None,
             laser_override: 100,
             thc: Thc::new(None),
+            jerk: None,
+            trk: jerk_line::REST,
+            p_sub: 0,
+            rem_counts: 0,
+            owed_j: 0,
+            hold_at: None,
         }
     }
 
@@ -190,9 +231,11 @@ impl Prep {
     /// height control's setup stay (its correction is part of that position now).
     pub fn reset(&mut self) {
         let (position, laser, pct) = (self.position, self.laser, self.laser_override);
+        let jerk = self.jerk;
         let mut thc = self.thc;
         thc.absorbed();
         *self = Prep::new();
+        self.jerk = jerk;
         self.position = position;
         self.laser = laser;
         self.laser_override = pct;
@@ -222,6 +265,17 @@ impl Prep {
         p.laser = laser;
         p.thc = Thc::new(thc);
         p
+    }
+
+    /// The same prep with jerk limit `jerk`.
+    pub fn with_jerk(mut self, jerk: Option<JerkSetup>) -> Self {
+        self.jerk = jerk;
+        self
+    }
+
+    /// Sets the jerk limit (`None`: the trapezoid's ramps); only at rest.
+    pub fn set_jerk(&mut self, jerk: Option<JerkSetup>) {
+        self.jerk = jerk;
     }
 
     /// Sets laser mode's S → duty map (`None`: not a laser machine).
@@ -258,6 +312,10 @@ impl Prep {
             self.carry = self.speed();
             self.active = false;
             self.history.end_block();
+            // The tracker goes on from here along the new block, at its speed and acceleration.
+            self.trk.s = 0;
+            self.p_sub = 0;
+            self.rem_counts = 0;
         }
     }
 
@@ -331,7 +389,13 @@ impl Prep {
                     return PrepOut::Segment(Segment::idle(1, p as u32).with_power(power));
                 }
                 BlockKind::Line { output } => {
-                    if let Some(seg) = self.line_segment(output, planner) {
+                    let seg = match self.jerk {
+                        Some(js) if cfg!(feature = "jerk") => {
+                            self.jerk_segment(output, planner, js)
+                        }
+                        _ => self.line_segment(output, planner),
+                    };
+                    if let Some(seg) = seg {
                         return PrepOut::Segment(seg);
                     }
                     if self.state == PrepState::Held {
@@ -372,6 +436,25 @@ impl Prep {
                 planner.pop();
                 BlockOut::Time(left)
             }
+            BlockKind::Line { output } if cfg!(feature = "jerk") && self.jerk.is_some() => {
+                // Jerk-limited: the block's segments, timed.
+                let js = self.jerk.unwrap_or(JerkSetup {
+                    jerk: 1,
+                    accel: 1,
+                    floor: 1,
+                });
+                let seq = head.seq;
+                let mut counts = 0u64;
+                while planner.head().is_some_and(|b| b.seq == seq) {
+                    match self.jerk_segment(output, planner, js) {
+                        Some(seg) => counts += u64::from(seg.ticks) * u64::from(seg.period),
+                        None if self.active => break,
+                        None => {}
+                    }
+                }
+                self.history = History::new();
+                BlockOut::Time(counts)
+            }
             BlockKind::Line { output } => {
                 if !self.active {
                     // Starts the block exactly as `line_segment` does.
@@ -390,6 +473,8 @@ impl Prep {
                         peak: self.profile.v0,
                         exit: 0,
                         counts: 0,
+                        accel: 0,
+                        jerk: 0,
                     };
                 } else if planner.exit_sq(0) != self.exit_sq
                     || planner.nominal(&head) != self.nominal
@@ -413,6 +498,7 @@ impl Prep {
                 self.report.counts += counts;
                 self.report.peak = self.report.peak.max(self.profile.peak());
                 self.report.exit = self.carry;
+                self.report.trapezoid(head.accel);
                 self.finished = Some(self.report);
                 self.active = false;
                 planner.pop();
@@ -457,6 +543,10 @@ impl Prep {
     /// How many of the newest segments handed out can be taken back now ([`History::droppable`]):
     /// segments of the line block in progress.
     pub fn droppable<const N: usize>(&self, planner: &Planner<N>) -> usize {
+        if cfg!(feature = "jerk") && self.jerk.is_some() {
+            // The tracker's state at an earlier segment is not kept: nothing is taken back.
+            return 0;
+        }
         let active = planner
             .head()
             .filter(|b| self.active && b.is_line())
@@ -548,6 +638,8 @@ impl Prep {
                 peak: self.profile.v0,
                 exit: 0,
                 counts: 0,
+                accel: 0,
+                jerk: 0,
             };
         } else {
             let hold = self.state == PrepState::Holding;
@@ -583,6 +675,7 @@ impl Prep {
                 self.profile.speed_at(b.length)
             };
             self.report.exit = self.carry;
+            self.report.trapezoid(b.accel);
             self.finished = Some(self.report);
             self.active = false;
             planner.pop();

@@ -509,6 +509,27 @@ fn corner_round() -> u32 {
     d.finish()
 }
 
+/// The default machine with a jerk limit of 5,000 mm/s³ on every axis (`motion/prep/jerk_line.rs`).
+fn jerk_config() -> MotionConfig {
+    let mut cfg = MotionConfig::default();
+    for a in cfg.axes.iter_mut() {
+        a.jerk = 5_000 * MM as u64;
+    }
+    cfg
+}
+
+fn jerk_square_arcs() -> u32 {
+    let mut d = Digest::new();
+    d.u64(u64::from(digest_run(jerk_config(), &SQUARE, None, 100)));
+    d.u64(u64::from(digest_run(jerk_config(), &ARCS, None, 100)));
+    d.finish()
+}
+
+fn jerk_hold_resume_override() -> u32 {
+    // As `hold_resume_override`, jerk-limited: the hold brakes at the jerk limit.
+    digest_run(jerk_config(), &HOLD_JOB, Some(7_200_000), 150)
+}
+
 pub const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/kernel-bresenham",
@@ -554,6 +575,16 @@ pub const VECTORS: &[Vector] = &[
         name: "motion/laser-m4-power",
         run: laser_m4_power,
         expected: 0xbef1_9dee,
+    },
+    Vector {
+        name: "motion/jerk-square-arcs",
+        run: jerk_square_arcs,
+        expected: 0xc2ca_fade,
+    },
+    Vector {
+        name: "motion/jerk-hold-resume-override",
+        run: jerk_hold_resume_override,
+        expected: 0x6512_14d4,
     },
 ];
 

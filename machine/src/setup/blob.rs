@@ -30,8 +30,8 @@ use crate::gcode::{Dialect, DwellUnits, RetractMode, Tool, ToolChangePosition};
 /// `program.tool_change_position`, `path.blend_tolerance` and the grbl front end's section; 5
 /// adds `grbl.door_spin_up_ms`. Format 5 is written by hand again, byte for byte as postcard; 6
 /// adds `grbl.m6_stop`; 7 `outputs.laser`; 8 `homing.axes[].locate_rate`; 9 `outputs.orient`; 10
-/// `outputs.torch`. Change it whenever the layout changes.
-pub const FORMAT: u8 = 10;
+/// `outputs.torch`; 11 `axes[].jerk`. Change it whenever the layout changes.
+pub const FORMAT: u8 = 11;
 
 /// Writes blob bytes `skip ..` into `out`. With `clip`, bytes beyond `out` are counted and
 /// dropped (a window of the blob); without, they make the encoding fail (`full`).
@@ -288,7 +288,7 @@ macro_rules! code_struct {
 
 code_struct! {
     Setup { axis_count, axes, path, program, operator, inputs, homing, jog, outputs, link, drivers, grbl }
-    AxisSetup { steps, units_nm, max_rate, accel, start_speed, travel_min, travel_max, invert_dir }
+    AxisSetup { steps, units_nm, max_rate, accel, jerk, start_speed, travel_min, travel_max, invert_dir }
     PathSetup { junction_deviation, feed_shift, chord_tolerance, arc_segment_angle_mdeg, arc_max_segments, blend_tolerance }
     ProgramSetup { dialect, dwell_units, peck_clearance, chip_break_retract, default_retract, tools, work_offsets, g28_home, g30_home, user_mcodes, tool_change_position }
     Tool { number, length, diameter }
@@ -531,6 +531,7 @@ mod tests {
             a.units_nm = i64::MIN + i as i64;
             a.max_rate = i64::MAX - i as i64;
             a.accel = -1 - i as i64;
+            a.jerk = 1 << (9 * i);
             a.start_speed = 63 + i as i64;
             a.travel_min = -64 - i as i64;
             a.travel_max = 1 << (7 * i);

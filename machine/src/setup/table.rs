@@ -79,6 +79,8 @@ pub enum Unit {
     MmPerMin,
     /// nm/s², mm/s².
     MmPerS2,
+    /// nm/s³, mm/s³.
+    MmPerS3,
     /// ns, µs.
     Us,
     /// ms, s.
@@ -115,7 +117,7 @@ impl Unit {
     /// Core units per file unit.
     pub const fn scale(self) -> i64 {
         match self {
-            Unit::Mm | Unit::MmPerMin | Unit::MmPerS2 => 1_000_000,
+            Unit::Mm | Unit::MmPerMin | Unit::MmPerS2 | Unit::MmPerS3 => 1_000_000,
             Unit::Us | Unit::S | Unit::Degrees => 1_000,
             _ => 1,
         }
@@ -128,6 +130,7 @@ impl Unit {
             Unit::Us => " µs",
             Unit::S | Unit::Seconds => " s",
             Unit::Degrees => " degrees",
+            Unit::MmPerS3 => " mm/s³",
             Unit::Percent => " %",
             _ => "",
         }
@@ -169,7 +172,7 @@ fn bound_at(i: u8) -> i64 {
 }
 
 /// Every range bound of the table, core units.
-const BOUNDS: [i64; 27] = [
+const BOUNDS: [i64; 28] = [
     i64::MIN,
     i64::MAX,
     0,
@@ -195,6 +198,7 @@ const BOUNDS: [i64; 27] = [
     nm_of_mm(100_000),
     -nm_of_mm(100_000),
     nm_of_mm(200_000),
+    nm_of_mm(1_000_000),
     u32::MAX as i64,
     crate::units::MAX_AXES as i64,
 ];
@@ -317,6 +321,9 @@ table! {
     Accel => Axis "accel" MmPerS2 (nm_of_mm(1), nm_of_mm(100_000)), 120,
         |s, i| axis(s, i).accel, |v| axis_mut(s, i).accel = v;
         [] "" "" "acceleration" "",
+    Jerk => Axis "jerk" MmPerS3 (0, nm_of_mm(1_000_000)), 800,
+        |s, i| axis(s, i).jerk, |v| axis_mut(s, i).jerk = v;
+        [] "" "`0` (off)" "jerk limit (rate of change of the acceleration): with every axis's set, the path's acceleration ramps at most this fast along the whole look-ahead, continuous across junctions, holds included (docs/motion.md, Jerk-limited motion); 0 on any axis in use = the trapezoid ramps (acceleration switched on and off at once). Firmware built without gantry-machine's `jerk` feature (the F411's, for flash) refuses a nonzero value. grbl `$800`+i, grblHAL's number" "              # 0 = off (trapezoid)",
     StartSpeed => Axis "start_speed" MmPerMin (0, nm_of_mm(200_000)), NO_GRBL,
         |s, i| axis(s, i).start_speed, |v| axis_mut(s, i).start_speed = v;
         [] "0-`max_rate`" "" "speed the axis can reach instantly from rest (the GIXA controller's \"Starting Speed\")" "      # reachable instantly from rest",

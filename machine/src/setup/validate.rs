@@ -35,6 +35,8 @@ pub enum Reason {
     OrientWithoutOutput,
     /// A limit switch on an axis that is not in use.
     NotAnAxis,
+    /// A jerk limit on a build without jerk-limited motion (gantry-machine's `jerk` feature).
+    JerkNotBuilt,
 }
 
 impl Reason {
@@ -50,6 +52,7 @@ impl Reason {
             Reason::TorchWithLaser => "torch and laser are exclusive",
             Reason::OrientWithoutOutput => "orient input or dwell without an orient output",
             Reason::NotAnAxis => "an axis not in use",
+            Reason::JerkNotBuilt => "no jerk-limited motion in this firmware",
         }
     }
 }
@@ -96,6 +99,9 @@ impl Setup {
             if a.travel_min > a.travel_max {
                 let e = Reason::Reversed;
                 return Err(err(Key::TravelMin, i, a.travel_min, a.travel_max, e));
+            }
+            if !cfg!(feature = "jerk") && a.jerk != 0 {
+                return Err(err(Key::Jerk, i, a.jerk, 0, Reason::JerkNotBuilt));
             }
         }
         for key in [Key::LimitsMin, Key::LimitsMax] {
@@ -237,6 +243,10 @@ impl core::fmt::Display for SetupError {
                 "{name} = {value}: must be between {} and {}{unit}",
                 file_value(key, row.min()),
                 file_value(key, row.max())
+            ),
+            Reason::JerkNotBuilt => write!(
+                f,
+                "{name} = {value}: this firmware has no jerk-limited motion (set 0)"
             ),
             Reason::OrientWithoutOutput => write!(
                 f,

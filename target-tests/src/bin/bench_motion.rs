@@ -159,6 +159,12 @@ fn block_cost(blend: bool) -> (u64, u64) {
 /// parse alone (`Lexer` + `parse_block` on the same text), the whole `Interpreter::next` (lex,
 /// parse and execute), `Motion::push` (plan) and `Motion::next_segment` (prepare).
 fn line_cost() -> [u64; 4] {
+    let [parse, interpret, plan, prepare, _] = line_cost_with(MotionConfig::default());
+    [parse, interpret, plan, prepare]
+}
+
+/// [`line_cost`] on machine `cfg`, and last the prepare counts × 1000 per segment.
+fn line_cost_with(cfg: MotionConfig) -> [u64; 5] {
     // Fewer lines when profiling: every instruction is logged then.
     const LINES: u32 = if cfg!(feature = "profile-lines") {
         200
@@ -184,7 +190,7 @@ fn line_cost() -> [u64; 4] {
     let mut interp = Interpreter::new(&config);
     // Room for one line at a time (it is pushed, then interpreted).
     let mut source: StreamSource<{ 2 * RECORD_MAX }> = StreamSource::new();
-    let mut motion: Motion<128> = Motion::new(MotionConfig::default());
+    let mut motion: Motion<128> = Motion::new(cfg);
     // Counts and timed calls per stage: interpret, plan, prepare.
     let mut sums = [(0u64, 0u64); 3];
     let mut line = 0u32;
@@ -229,11 +235,13 @@ fn line_cost() -> [u64; 4] {
     let per_line = |(counts, calls): (u64, u64)| {
         (counts * 1000).saturating_sub(calls * overhead) / LINES as u64
     };
+    let (counts, calls) = sums[2];
     [
         per_line((parse, LINES as u64)),
         per_line(sums[0]),
         per_line(sums[1]),
         per_line(sums[2]),
+        (counts * 1000).saturating_sub(calls * overhead) / calls.max(1),
     ]
 }
 
@@ -318,6 +326,17 @@ fn main() -> ! {
         plan,
         prepare,
         interpret + plan + prepare
+    );
+    // Jerk-limited (5,000 mm/s³ on every axis) against the trapezoid, same lines.
+    let mut jerk_cfg = MotionConfig::default();
+    for a in jerk_cfg.axes.iter_mut() {
+        a.jerk = 5_000_000_000;
+    }
+    let [_, _, _, trap_line, trap_seg] = line_cost_with(MotionConfig::default()).map(to_instr);
+    let [_, _, _, jerk_line, jerk_seg] = line_cost_with(jerk_cfg).map(to_instr);
+    println!(
+        "segment prep per line / per segment: trapezoid {} / {}, jerk-limited {} / {} instructions",
+        trap_line, trap_seg, jerk_line, jerk_seg
     );
     let (block, push) = block_cost(false);
     let (block, push) = (to_instr(block), to_instr(push));
