@@ -382,7 +382,8 @@ fn the_torch_settings_have_numbers_listed_and_written_like_the_others() {
     let mut s = Sender::connected();
     let seen = s.answer(b"$$\n", 100);
     let listed: Vec<&str> = seen.lines().filter(|l| l.starts_with('$')).collect();
-    // The defaults (docs/laser-plasma.md "Settings"), after the last axis setting.
+    // The defaults (docs/laser-plasma.md "Settings"), after the last axis setting below them
+    // and before jerk's `$800`+i, in number order.
     let torch = [
         "$350=0",
         "$351=0.500",
@@ -391,8 +392,9 @@ fn the_torch_settings_have_numbers_listed_and_written_like_the_others() {
         "$450=1200.000",
         "$451=5.000",
     ];
-    assert_eq!(listed[listed.len() - torch.len()..], torch, "{seen:?}");
-    assert_eq!(listed[listed.len() - torch.len() - 1], "$132=200.000");
+    let at = listed.iter().position(|l| *l == "$132=200.000").unwrap() + 1;
+    assert_eq!(listed[at..at + torch.len()], torch, "{seen:?}");
+    assert!(listed[at + torch.len()].starts_with("$800="), "{seen:?}");
     for line in [
         "$350=2",
         "$351=1.25",
@@ -447,7 +449,8 @@ fn the_torch_settings_have_numbers_listed_and_written_like_the_others() {
     s.seen.clear();
     let seen = s.answer(b"$$\n", 100);
     assert!(seen.contains("$135=600.000\r\n$350=0\r\n"), "{seen:?}");
-    assert!(seen.contains("$451=5.000\r\nok\r\n"), "{seen:?}");
+    assert!(seen.contains("$451=5.000\r\n$800=0.000\r\n"), "{seen:?}");
+    assert!(seen.contains("$805=0.000\r\nok\r\n"), "{seen:?}");
 }
 
 #[test]

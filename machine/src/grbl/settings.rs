@@ -5,7 +5,7 @@
 
 use super::codes;
 use crate::board::LIMIT_BITS;
-use crate::setup::table::ROWS;
+use crate::setup::table::{NO_GRBL, ROWS};
 use crate::setup::{Key, Reason, Setup, SetupError};
 use crate::units::MAX_AXES;
 
