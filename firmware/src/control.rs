@@ -1,5 +1,5 @@
 //! The main loop task: every millisecond, the core's `MainLoop::pass`
-//! (machine/src/board/main_loop.rs), the very function the emulated board runs
+//! (machine/src/device/main_loop.rs), the very function the emulated board runs
 //! (emulator/src/board.rs). This file is only its port onto the hardware: the step ISR's
 //! kernel and queue (`step`), the input pins and limit arming (`inputs`), the ADC (`analog`), the
 //! output pins, the USB pipes and DTR (`usb`), flash (`settings`), the motion marker
@@ -14,11 +14,11 @@ use crate::{analog, reset_marker, watchdog};
 use core::sync::atomic::Ordering;
 use embassy_stm32::gpio::Level;
 use embassy_time::{Duration, Instant, Ticker};
-use gantry_machine::board::link::BoardLink;
-use gantry_machine::board::main_loop::{BoardPort, HostPort, KernelSnapshot, MainLoop};
+use gantry_machine::board::inputs::InputBits;
 use gantry_machine::board::Board;
-use gantry_machine::controller::inputs::InputBits;
-use gantry_machine::controller::{AdcReadings, OutputLevels};
+use gantry_machine::board::{AdcReadings, OutputLevels};
+use gantry_machine::device::link::BoardLink;
+use gantry_machine::device::main_loop::{BoardPort, HostPort, KernelSnapshot, MainLoop};
 use gantry_machine::motion::kernel::{Segment, StepTiming};
 use gantry_machine::setup::Setup;
 use gantry_machine::units::MAX_AXES;

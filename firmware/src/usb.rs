@@ -83,7 +83,7 @@ pub static DTR: AtomicBool = AtomicBool::new(false);
 /// Host → board: every packet into the receive pipe. The main loop takes from the pipe only what
 /// the link has room for (`BoardLink::rx_room`: a grbl sender's receive buffer), so a burst
 /// fills the pipe; a full pipe stops this task reading the endpoint, the USB core NAKs and the
-/// host waits: no byte is dropped (machine/src/board/main_loop.rs,
+/// host waits: no byte is dropped (machine/src/device/main_loop.rs,
 /// `a_full_receive_buffer_leaves_the_port_unread`).
 #[embassy_executor::task]
 pub async fn run_rx(mut rx: Receiver<'static, UsbDriver>, pipe: &'static LinkPipe) -> ! {

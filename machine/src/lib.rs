@@ -17,10 +17,8 @@
 pub mod arith;
 pub mod board;
 pub mod canon;
-pub mod controller;
+pub mod device;
 pub mod gcode;
-#[cfg(feature = "link")]
-pub mod grbl;
 pub mod motion;
 pub mod setup;
 pub mod step;

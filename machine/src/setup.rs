@@ -110,7 +110,7 @@ pub const MAX_HOMING_COMMANDS: usize = 8;
 pub const MAX_MCODE_LISTS: usize = 8;
 /// Commands one M-code list may hold.
 pub const MAX_MCODE_COMMANDS: usize = 6;
-/// User outputs (bit numbers 0..16 of [`crate::controller::OutputLevels::user`]).
+/// User outputs (bit numbers 0..16 of [`crate::board::OutputLevels::user`]).
 pub const USER_OUTPUTS: u8 = 16;
 
 /// One entry of a command list (homing lists, user M-code lists), the GIXA controller's command lists reduced to
@@ -123,7 +123,7 @@ pub enum ListCommand {
     Clear(u8),
     /// Wait this many milliseconds.
     DwellMs(u16),
-    /// Wait until input bit `bit` (an [`crate::controller::inputs::InputBits`] bit) reads `level`;
+    /// Wait until input bit `bit` (an [`crate::board::inputs::InputBits`] bit) reads `level`;
     /// after `timeout_ms` the controller alarms (0 = wait forever).
     WaitInput {
         bit: u8,
@@ -243,7 +243,7 @@ pub struct OutputSetup {
 pub struct OrientSetup {
     /// User output (0-15) that commands the orient; [`OrientSetup::NONE`]: no orient.
     pub output: u8,
-    /// Input bit (an [`crate::controller::inputs::InputBits`] bit) that reads high once the
+    /// Input bit (an [`crate::board::inputs::InputBits`] bit) that reads high once the
     /// spindle is oriented; [`OrientSetup::NONE`]: wait `dwell_ms` instead.
     pub done_input: u8,
     /// Without a done input, how long the orient takes; with one, the longest wait for it
@@ -267,7 +267,7 @@ impl OrientSetup {
     }
 
     /// The orient as a command list run at rest: set the output, then wait for the done input
-    /// or the dwell. The output stays set until the spindle starts again (`board/outputs.rs`).
+    /// or the dwell. The output stays set until the spindle starts again (`board/outputs/mod.rs`).
     pub(crate) fn commands(&self) -> [ListCommand; 2] {
         [
             ListCommand::Set(self.output),
@@ -354,7 +354,7 @@ impl McodeList {
 /// Characters a grbl startup line (`$N0=`, `$N1=`) holds, at most (grbl stores 79; docs/grbl.md).
 pub const STARTUP_LINE_LEN: usize = 64;
 
-/// The grbl front end's own stored settings (`machine/src/grbl/`, docs/grbl.md): the status
+/// The grbl front end's own stored settings (`machine/src/device/grbl/`, docs/grbl.md): the status
 /// report mask `$10`, inch reports `$13` and the two startup lines `$N0`/`$N1`.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct GrblSetup {
@@ -366,7 +366,7 @@ pub struct GrblSetup {
     /// machine is not in alarm; empty = none.
     pub startup: [heapless::String<STARTUP_LINE_LEN>; 2],
     /// After `~` closes the safety door with the spindle on, motion waits this long for the
-    /// spindle to spin up (`Door:3`, machine/src/grbl/door.rs), ms; 0 = no wait
+    /// spindle to spin up (`Door:3`, machine/src/device/grbl/door.rs), ms; 0 = no wait
     /// ([`Self::DOOR_SPIN_UP_MS`]).
     pub door_spin_up_ms: u16,
     /// `M6` stops for a manual tool change (`Hold:0`, `~` continues: Gantry's stop), or, when

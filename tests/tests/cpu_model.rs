@@ -62,7 +62,7 @@ fn stream(program: &str, cpu: Option<CpuModel>, x_end_steps: i64) -> (u64, f64) 
     (gaps, seconds)
 }
 
-/// The board's starved time (machine/src/board/starvation.rs) is the time the job took beyond
+/// The board's starved time (machine/src/device/starvation.rs) is the time the job took beyond
 /// its planned time because the planner held too little. 0.02 mm lines at F30000 need ~11,000
 /// lines/s; written with 143 bytes each ([`wordy_program`]) the link delivers ~3,500 a second
 /// (the board takes at most 512 B a pass), the planner runs short, and the job takes ~1.7 s

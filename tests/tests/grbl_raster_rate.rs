@@ -4,7 +4,7 @@
 //! with a fixed host turnaround (an `ok` the board wrote at t is answered by the sender's next
 //! bytes in the board's receive pipe at t + `HOST_TURNAROUND_US`: a USB frame each way and the
 //! sender's reaction). The board's part of the round trip is its main-loop cadence (a pass every
-//! millisecond, machine/src/board/main_loop.rs; a line is answered in the pass that reads it);
+//! millisecond, machine/src/device/main_loop.rs; a line is answered in the pass that reads it);
 //! a counting sender gets 127 bytes per round trip, so at 3,333 lines/s of ~17-byte lines the
 //! whole round trip must stay under ~2.2 ms. Real-time figures through `gantry emulate` and a
 //! real sender are scripts/bench-laser.sh's (docs/laser-plasma.md "Raster speed").
@@ -14,8 +14,8 @@ mod controller_support;
 use controller_support::*;
 use gantry_emulator::cpu_model::CpuModel;
 use gantry_emulator::EmulatedBoard;
-use gantry_machine::controller::State;
-use gantry_machine::grbl::BANNER;
+use gantry_machine::board::State;
+use gantry_machine::device::grbl::BANNER;
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::setup::Setup;
 use std::collections::VecDeque;

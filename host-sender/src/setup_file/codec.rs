@@ -4,7 +4,7 @@
 
 use super::mm;
 use anyhow::{bail, Context};
-use gantry_machine::controller::inputs::INPUT_NAMES;
+use gantry_machine::board::inputs::INPUT_NAMES;
 use gantry_machine::setup::table::Section;
 use gantry_machine::setup::{
     Key, KeyName, ListCommand, McodeList, OrientSetup, Setup, ToolChangePosition, MAX_MCODE_LISTS,

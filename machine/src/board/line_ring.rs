@@ -1,6 +1,6 @@
 //! The board's store of streamed program text: a ring of variable-length line records in the
 //! link's own format (`shared-proto/src/lines.rs`: line number `u32` LE, length `u16` LE, text;
-//! `board/link.rs` checks at compile time that both sides agree), so a batch from a frame is
+//! `device/link.rs` checks at compile time that both sides agree), so a batch from a frame is
 //! copied in as it came and the interpreter reads each line where it lies.
 //!
 //! Of the buffer's `B` bytes, the first `B - RECORD_MAX` are the ring ([`LineRing::capacity`]). A

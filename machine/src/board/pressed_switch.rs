@@ -7,8 +7,8 @@
 //! the moment in which the unlocked machine could be driven further into it.
 
 use super::{Board, LIMIT_BITS};
-use crate::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
-use crate::controller::AlarmCode;
+use crate::board::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+use crate::board::state::AlarmCode;
 use crate::units::{Pos, MAX_AXES};
 
 /// Error code of a request refused while a limit switch is pressed: jog the axis off it first.

@@ -379,7 +379,7 @@ impl StepKernel {
 
     /// Times a tick found the segment queue empty after running a segment (wrapping): each is
     /// the kernel running dry, whether the motion ended there or the queue starved it (the main
-    /// loop tells which, `board::main_loop`). Counted where a segment would load, off the
+    /// loop tells which, `device::main_loop`). Counted where a segment would load, off the
     /// per-step path.
     pub fn dry_runs(&self) -> u16 {
         self.dry_runs

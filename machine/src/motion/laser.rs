@@ -4,7 +4,7 @@
 //! at its first tick, so the power changes at the exact step where the block or the speed does.
 //!
 //! A duty of [`KEEP_DUTY`] means "leave the PWM alone": every segment of a machine without laser
-//! mode carries it, so a milling spindle's PWM stays the main loop's (board/outputs.rs).
+//! mode carries it, so a milling spindle's PWM stays the main loop's (board/outputs/mod.rs).
 
 use crate::canon::Spindle;
 

@@ -2,7 +2,7 @@
 //! (in the core's integer units), grbl `$` number, getter ([`Key::value`]), setter ([`Key::set`]),
 //! reference text and file comment. The setup file's reader and writer
 //! (host-sender/src/setup_file.rs: two walks over the rows), [`super::Setup::validate`], the grbl
-//! `$$` listing (machine/src/grbl/settings.rs) and docs/settings.md
+//! `$$` listing (machine/src/device/grbl/settings.rs) and docs/settings.md
 //! (host-sender/src/settings_doc.rs) are all derived from it; docs/architecture.md, "How to add a
 //! setting", walks through a new row.
 //!

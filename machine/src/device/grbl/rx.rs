@@ -2,7 +2,7 @@
 //! not yet taken by its protocol loop; a line it takes leaves the buffer (into grbl's line buffer
 //! and planner), and its `ok` follows once it is planned. So here: the bytes of lines not yet read
 //! out ("unread") count against [`RX_SIZE`] — advertised in `$I`'s `[OPT:…]`, reported in `Bf:`
-//! and the room the link reads the port by (`board/link.rs` `BoardLink::rx_room`) — and a line
+//! and the room the link reads the port by (`device/link.rs` `BoardLink::rx_room`) — and a line
 //! read out for the board ([`Rx::next_line`]) leaves that count at once, though its bytes stay
 //! stored until it is answered ([`Rx::answered`]), to be read again after the board dropped it
 //! unread ([`Rx::rewind`]). A character-counting sender keeps at most 128 unanswered bytes, so

@@ -5,6 +5,8 @@
 //! each bit and reports which signals changed. Limit switches are *also* seen raw by the step
 //! interrupt (docs/controller.md "Safety rules as built"): debouncing here never delays the stop, only the alarm bookkeeping.
 
+pub(crate) mod operator;
+
 use serde::{Deserialize, Serialize};
 
 /// One bit per input signal, as the board's pins are sampled.

@@ -1,16 +1,5 @@
-//! Controller state machine: what the operator, the host and the machine's switches do to a board.
-//!
-//! The firmware and the emulated board both drive this one implementation, so a board and its
-//! emulation behave identically (docs/architecture.md "The main loop").
-
-pub mod homing;
-pub mod inputs;
-pub mod jog;
-pub mod lists;
-pub mod outputs;
-pub mod power_up;
-
-pub use outputs::OutputLevels;
+//! The controller's state and alarm codes, as every status reports them, and the analog readings
+//! the owner samples with the inputs. The state machine itself is [`crate::board::Board`].
 
 use serde::{Deserialize, Serialize};
 

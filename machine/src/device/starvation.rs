@@ -1,6 +1,6 @@
 //! Time lost to starvation: machine time beyond the planned time because the planner held too
 //! little of a program that had more lines (docs/ports.md "Starvation"). The main loop samples
-//! it once per pass (machine/src/board/main_loop.rs); the status report carries the current or
+//! it once per pass (machine/src/device/main_loop.rs); the status report carries the current or
 //! last job's total (`Status::starved_ms`).
 //!
 //! A pass *starves* when the job has moved, runs on its path with lines to come
@@ -12,8 +12,8 @@
 //! `(v_full − v) / v_full`, all of it when the planner is empty. The pass that hands out the
 //! job's first segments starts the count.
 
-use super::{Board, PLANNER_BLOCKS};
 use crate::arith::isqrt_u64;
+use crate::board::{Board, PLANNER_BLOCKS};
 
 /// Where the job stands for the count.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

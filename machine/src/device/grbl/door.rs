@@ -8,10 +8,10 @@
 //! alarm forget the door (the outputs stay off).
 
 use super::report;
-use crate::board::kernel_view::KernelView;
+use crate::board::State;
 use crate::board::{Board, DoorOutputs};
 use crate::canon::Spindle;
-use crate::controller::State;
+use crate::device::kernel_view::KernelView;
 
 /// Where the door stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -4,7 +4,7 @@
 //! A [`ListRunner`] is stepped from the main loop with the time and the debounced inputs; it
 //! never blocks.
 
-use super::inputs::InputBits;
+use crate::board::inputs::InputBits;
 use crate::setup::ListCommand;
 use heapless::Vec;
 

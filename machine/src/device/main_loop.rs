@@ -33,10 +33,10 @@
 use super::link::{BoardLink, KernelView};
 use super::starvation::{Sample, Starvation};
 use super::underruns::Underruns;
-use super::Board;
 use crate::arith::isqrt_u64;
-use crate::controller::inputs::{Debouncer, InputBits};
-use crate::controller::{AdcReadings, OutputLevels, State};
+use crate::board::inputs::{Debouncer, InputBits};
+use crate::board::Board;
+use crate::board::{AdcReadings, OutputLevels, State};
 use crate::motion::kernel::{Segment, StepTiming};
 use crate::motion::pipeline::MotionState;
 use crate::setup::Setup;
@@ -111,7 +111,7 @@ pub trait BoardPort {
     /// Writes the setup to flash (called only with the board idle and the kernel drained).
     fn save_setup(&mut self, setup: &Setup);
     /// The motion marker: set (`true`) before a segment can reach the kernel, cleared once the
-    /// kernel is drained and the position is known (`controller::power_up`).
+    /// kernel is drained and the position is known (`board::power_up`).
     fn motion_marker(&mut self, moving: bool);
     /// Right before each link service: a test harness may take the board's events here instead of
     /// the link. Default: nothing.
@@ -259,7 +259,7 @@ impl MainLoop {
 
     /// Milliseconds the current or last job lost to starvation: machine time beyond the planned
     /// time because the planner held too little of a program with more lines
-    /// (machine/src/board/starvation.rs).
+    /// (machine/src/device/starvation.rs).
     pub fn starved_ms(&self) -> u32 {
         self.starvation.starved_ms()
     }
@@ -476,7 +476,7 @@ mod tests {
     //! The pass's own rules on a port that records what it is asked (the scenario tests on the
     //! emulated board are in tests/tests/controller_main_loop.rs).
     use super::*;
-    use crate::controller::AlarmCode;
+    use crate::board::AlarmCode;
     use crate::units::NM_PER_MM;
 
     extern crate std;
@@ -655,7 +655,7 @@ mod tests {
             t += 1;
             assert!(t < 5_000, "the buffer never filled");
         }
-        assert_eq!(link.protocol(), crate::board::link::LinkProtocol::Grbl);
+        assert_eq!(link.protocol(), crate::device::link::LinkProtocol::Grbl);
         let (reads, taken) = (port.reads, port.taken);
         assert!(taken < total && taken > 128, "{taken} of {total} taken");
         for _ in 0..500 {

@@ -11,8 +11,8 @@
 //! ([`crate::motion::pipeline::Motion::bend`]), so the velocity follows the stick without
 //! stopping.
 
-use super::inputs::{InputBits, Signal};
 use crate::arith::{div_i128, mul_i128};
+use crate::board::inputs::{InputBits, Signal};
 use crate::motion::config::MotionConfig;
 use crate::setup::JogSetup;
 use crate::units::{Nm, Pos, MAX_AXES};

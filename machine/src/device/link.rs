@@ -2,9 +2,9 @@
 //! [`Board`], and reports status and events back. Sans-IO: the owner feeds received bytes in,
 //! drains frames out, and calls [`BoardLink::service`] from its main loop.
 
-use super::{line_ring, Pushed};
-use super::{Board, BoardEvent, JobEnd, JumpTarget};
-use crate::controller::State;
+use crate::board::State;
+use crate::board::{line_ring, Pushed};
+use crate::board::{Board, BoardEvent, JobEnd, JumpTarget};
 use crate::setup::{Setup, SETUP_BLOB_MAX};
 use gantry_proto::channel::{QueuedSink, Refusal};
 use gantry_proto::setup_commit::SetupRefusal;
@@ -17,12 +17,12 @@ use gantry_proto::{
 const _: () = assert!(
     line_ring::LINE_MAX == gantry_proto::lines::LINE_MAX
         && line_ring::RECORD_HEADER == gantry_proto::lines::RECORD_HEADER
-        && super::LINE_RING <= u16::MAX as usize
+        && crate::board::LINE_RING <= u16::MAX as usize
 );
 
 /// The protocol a connection speaks, told from its first byte and forgotten when the host
 /// disconnects (DTR drop, port closed): Gantry's framed protocol or grbl 1.1's text
-/// (`machine/src/grbl/`, docs/grbl.md).
+/// (`machine/src/device/grbl/`, docs/grbl.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LinkProtocol {
     /// Nothing received yet on this connection (the framed link runs meanwhile).
@@ -139,7 +139,7 @@ pub struct BoardLink {
     /// The protocol of the current connection.
     protocol: LinkProtocol,
     /// The grbl front end (used while `protocol` is [`LinkProtocol::Grbl`]).
-    grbl: crate::grbl::Grbl,
+    grbl: super::grbl::Grbl,
     /// The first bytes of a connection while they do not tell its protocol, and since when.
     undecided: heapless::Vec<u8, { gantry_proto::MAX_FRAME_LEN }>,
     undecided_since: u32,
@@ -172,7 +172,11 @@ impl BoardLink {
     /// `boot_id` must differ at every power-up (the host detects board resets by it).
     pub fn new(boot_id: u32) -> Self {
         BoardLink {
-            endpoint: BoardEndpoint::new_board(Config::USB_MS, boot_id, super::LINE_RING as u16),
+            endpoint: BoardEndpoint::new_board(
+                Config::USB_MS,
+                boot_id,
+                crate::board::LINE_RING as u16,
+            ),
             outbox: heapless::Deque::new(),
             last_status: None,
             host: Host::Never,
@@ -183,7 +187,7 @@ impl BoardLink {
                 changed: false,
             },
             protocol: LinkProtocol::Undecided,
-            grbl: crate::grbl::Grbl::new(),
+            grbl: super::grbl::Grbl::new(),
             undecided: heapless::Vec::new(),
             undecided_since: 0,
             opening: Opening::Talking,
@@ -247,7 +251,7 @@ impl BoardLink {
 
     /// Bytes the board can take from the port now without dropping any (the main loop reads no
     /// more: on the USB board the rest waits in the receive pipe, then in the endpoint, which the
-    /// host's NAKs pace). grbl: the receive buffer's room (`grbl/rx.rs`); undecided: a packet,
+    /// host's NAKs pace). grbl: the receive buffer's room (`device/grbl/rx.rs`); undecided: a packet,
     /// so that bytes a grbl decision hands to that buffer fit it; framed: no limit (the link's
     /// window paces the host).
     pub fn rx_room(&self) -> usize {
@@ -703,7 +707,7 @@ pub(crate) fn laser_permille(board: &Board, view: &KernelView) -> Option<u16> {
 }
 
 /// The outputs part of a status report.
-fn outputs_status(o: super::Outputs, laser_permille: Option<u16>) -> OutputsStatus {
+fn outputs_status(o: crate::board::Outputs, laser_permille: Option<u16>) -> OutputsStatus {
     use crate::canon::Spindle;
     OutputsStatus {
         spindle: match o.spindle {

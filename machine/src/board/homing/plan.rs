@@ -8,7 +8,7 @@
 //! This module holds the pure parts (order, targets, switch bits, phases); the board drives the
 //! motion and the lists.
 
-use super::inputs::limit_bit;
+use crate::board::inputs::limit_bit;
 use crate::setup::{HomingAxis, Setup};
 use crate::units::{Nm, MAX_AXES};
 use heapless::Vec;
@@ -135,7 +135,7 @@ pub fn retract_target(h: &HomingAxis, at: Nm) -> Nm {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::controller::inputs::LIMIT_MIN_BIT;
+    use crate::board::inputs::LIMIT_MIN_BIT;
     use crate::units::NM_PER_MM;
 
     #[test]

@@ -4,11 +4,11 @@
 use super::settings::Prefs;
 use super::text::Out;
 use super::RX_SIZE;
-use crate::board::kernel_view::KernelView;
+use crate::board::inputs::{InputBits, Signal};
+use crate::board::State;
 use crate::board::{Board, PLANNER_BLOCKS};
 use crate::canon::{Plane, Spindle};
-use crate::controller::inputs::{InputBits, Signal};
-use crate::controller::State;
+use crate::device::kernel_view::KernelView;
 use crate::gcode::state::MotionMode;
 use crate::units::{Pos, NM_PER_MM};
 
