@@ -105,11 +105,11 @@ pub struct OperatorSetup {
 }
 
 /// Commands a homing list (before seek, before retract, after retract) may hold.
-pub const MAX_HOMING_COMMANDS: usize = 8;
+pub(crate) const MAX_HOMING_COMMANDS: usize = 8;
 /// User M codes that may carry a command list.
 pub const MAX_MCODE_LISTS: usize = 8;
 /// Commands one M-code list may hold.
-pub const MAX_MCODE_COMMANDS: usize = 6;
+pub(crate) const MAX_MCODE_COMMANDS: usize = 6;
 /// User outputs (bit numbers 0..16 of [`crate::board::OutputLevels::user`]).
 pub const USER_OUTPUTS: u8 = 16;
 
@@ -255,7 +255,7 @@ impl OrientSetup {
     /// No output (or no done input).
     pub const NONE: u8 = u8::MAX;
     /// No orient: G76 is refused.
-    pub const OFF: OrientSetup = OrientSetup {
+    pub(crate) const OFF: OrientSetup = OrientSetup {
         output: Self::NONE,
         done_input: Self::NONE,
         dwell_ms: 0,
@@ -386,7 +386,7 @@ impl GrblSetup {
     };
 
     /// Accepted spin-up waits after the safety door, ms: up to a minute (grbl waits 4 s).
-    pub const DOOR_SPIN_UP_MS: core::ops::RangeInclusive<u16> = 0..=60_000;
+    pub(crate) const DOOR_SPIN_UP_MS: core::ops::RangeInclusive<u16> = 0..=60_000;
 }
 
 /// The whole machine setup.
@@ -414,7 +414,7 @@ const fn nm_of_mm(v: i64) -> Nm {
 impl AxisSetup {
     /// A typical router axis: 3200 steps per 5 mm lead screw, 3000 mm/min, 200 mm/s², travel
     /// ±`travel_mm` around the power-up position (which is machine zero until the axis is homed).
-    pub const fn default_linear(travel_mm: i64) -> Self {
+    pub(crate) const fn default_linear(travel_mm: i64) -> Self {
         AxisSetup {
             steps: 3200,
             units_nm: nm_of_mm(5),
@@ -586,7 +586,7 @@ impl Setup {
     /// before a direction change holds it ([`StepTiming::period`]), a few µs per reversal.
     /// Exact: `max_rate · steps / (units · 60)` steps/s times the period in timer counts must not
     /// exceed the timer's counts per second (compared multiplied out, no rounding).
-    pub fn step_rate_fits(&self, a: &AxisSetup) -> bool {
+    pub(crate) fn step_rate_fits(&self, a: &AxisSetup) -> bool {
         let period = StepTiming::from_setup(&self.drivers).min_period;
         let need = a.max_rate.max(0) as u128 * u128::from(a.steps) * u128::from(period);
         let have = a.units_nm.max(1) as u128 * 60 * u128::from(KERNEL_TIMER_HZ);

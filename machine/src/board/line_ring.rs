@@ -31,7 +31,7 @@ pub fn split_record(bytes: &[u8]) -> Option<(u32, &[u8], &[u8])> {
 
 /// Checks that `run` is a whole number of valid records; their count, and the last one's line
 /// number, or `None` when it is not.
-pub fn check_run(run: &[u8]) -> Option<(usize, Option<u32>)> {
+pub(crate) fn check_run(run: &[u8]) -> Option<(usize, Option<u32>)> {
     let (mut rest, mut lines, mut last) = (run, 0, None);
     while !rest.is_empty() {
         let (line_no, _, after) = split_record(rest)?;
@@ -61,7 +61,7 @@ impl<const B: usize> Default for LineRing<B> {
 
 impl<const B: usize> LineRing<B> {
     /// Bytes of records the ring holds.
-    pub const CAPACITY: usize = B - RECORD_MAX;
+    pub(crate) const CAPACITY: usize = B - RECORD_MAX;
     const FITS: () = assert!(
         B >= 2 * RECORD_MAX && Self::CAPACITY <= u16::MAX as usize,
         "a ring holds the longest record and its size fits the link's credit"

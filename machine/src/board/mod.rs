@@ -63,11 +63,11 @@ pub use source::{JumpRequest, JumpTarget, Pushed, StreamSource, LINE_CAPACITY};
 pub use state::{fro_from_adc, AdcReadings, AlarmCode, State};
 
 /// Planner ring size on the board (look-ahead over at least 128 blocks, docs/architecture.md).
-pub const PLANNER_BLOCKS: usize = 128;
+pub(crate) const PLANNER_BLOCKS: usize = 128;
 /// Bytes of line records (`board/line_ring.rs`) the board buffers ahead of the interpreter: the
 /// queued lane's credit. 4 KiB is ~250 short CAM lines, 25 ms of a 10 k lines/s program: more
 /// than a USB or pty round trip plus a main-loop pass (docs/protocol.md "Flow control").
-pub const LINE_RING: usize = 4096;
+pub(crate) const LINE_RING: usize = 4096;
 /// The line ring's buffer: the ring and the run-on room of one record (`line_ring.rs`).
 const LINE_RING_BUFFER: usize = LINE_RING + line_ring::RECORD_MAX;
 

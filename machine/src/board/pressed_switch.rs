@@ -18,7 +18,7 @@ impl Board {
     /// The installed limit switches (hard limits on) that are pressed now, as limit input bits:
     /// the debounced levels, and the switches disarmed by the last hard limit (pressed then, not
     /// released since; they may not show in the debounced levels yet).
-    pub fn pressed_limits(&self) -> u32 {
+    pub(crate) fn pressed_limits(&self) -> u32 {
         let i = &self.setup.inputs;
         if !i.hard_limits {
             return 0;

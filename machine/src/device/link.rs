@@ -70,13 +70,13 @@ impl LinkProtocol {
 
 /// A USB full-speed bulk packet: what the board takes at once while a connection's protocol is
 /// undecided ([`BoardLink::rx_room`]).
-pub const RX_PACKET: usize = 64;
+pub(crate) const RX_PACKET: usize = 64;
 
 /// How long undecided realtime bytes wait for more before they count as grbl, ms.
 pub const UNDECIDED_MS: u32 = 50;
 
 /// Interval between unsolicited status reports, ms.
-pub const STATUS_INTERVAL_MS: u32 = 100;
+pub(crate) const STATUS_INTERVAL_MS: u32 = 100;
 
 /// Silence after which the host counts as gone (four keepalive intervals), ms: the board then
 /// holds a running job on its path (docs/controller.md "Host lost (alarm 20)") until a host reconnects and resumes it, or until
@@ -166,7 +166,7 @@ enum Opening {
 /// Silence after the port opened before the board greets with grbl's banner, ms: a `gantry`
 /// command speaks at once (its first frame within a few ms), a grbl sender that waits for the
 /// banner gets it well within its own wait.
-pub const GREET_MS: u32 = 250;
+pub(crate) const GREET_MS: u32 = 250;
 
 impl BoardLink {
     /// `boot_id` must differ at every power-up (the host detects board resets by it).
@@ -270,7 +270,7 @@ impl BoardLink {
     /// host that dropped DTR is lost: [`Board::host_lost`] (hold, outputs off at rest, the job
     /// kept for `gantry stream --continue`); one that kept DTR up (a one-shot command) leaves
     /// the machine as it is.
-    pub fn port_closed(&mut self, board: &mut Board, dtr_dropped: bool) {
+    pub(crate) fn port_closed(&mut self, board: &mut Board, dtr_dropped: bool) {
         match self.protocol {
             LinkProtocol::Grbl => {
                 board.host_lost();
@@ -288,7 +288,7 @@ impl BoardLink {
     /// A host opened the port (DTR rose, a TCP client connected): with nothing received for
     /// [`GREET_MS`], the board greets with grbl's banner (docs/grbl.md "How a connection
     /// chooses").
-    pub fn port_opened(&mut self, now_ms: u32) {
+    pub(crate) fn port_opened(&mut self, now_ms: u32) {
         if self.protocol == LinkProtocol::Undecided && self.undecided.is_empty() {
             self.opening = Opening::Opened { since: now_ms };
         }
@@ -450,7 +450,7 @@ impl BoardLink {
     }
 
     /// True once after a setup from the host was applied: the owner persists `board.setup()`.
-    pub fn take_setup_changed(&mut self) -> bool {
+    pub(crate) fn take_setup_changed(&mut self) -> bool {
         core::mem::take(&mut self.setup.changed) | self.grbl.take_setup_changed()
     }
 

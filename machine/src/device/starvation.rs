@@ -29,7 +29,7 @@ enum JobClock {
 /// What one pass saw of the planner against the measured speed. Speeds here are in units of
 /// 1.024 µm/s (nm/s shifted right by 10: every product below fits 64 bits without checks).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Sample {
+pub(crate) enum Sample {
     /// The planner held enough (or the job does not run with lines to come).
     Fed,
     /// It held too little: the speed a full planner would allow (0: it was empty).

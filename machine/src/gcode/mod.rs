@@ -53,4 +53,4 @@ pub use state::{ModalState, MotionMode};
 pub use test_vectors::digest_program;
 
 /// Cross-target vectors of the interpreter (see [`crate::vectors`]).
-pub use test_vectors::VECTORS;
+pub(crate) use test_vectors::VECTORS;

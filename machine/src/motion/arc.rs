@@ -108,7 +108,7 @@ impl ArcChords {
     }
 
     /// True once every chord has been handed out.
-    pub fn is_done(&self) -> bool {
+    pub(crate) fn is_done(&self) -> bool {
         self.done >= self.count
     }
 

@@ -78,7 +78,7 @@ impl PwmMap {
     /// The duty of a segment of a block with power `power` and programmed speed `programmed`
     /// (nm/s) whose average speed is `speed` (nm/s): M4 scales S by `speed ÷ programmed`
     /// (never above S), then maps it like S. Runs in segment prep, never in the interrupt.
-    pub fn segment_duty(&self, power: LaserPower, speed: u64, programmed: u32) -> u16 {
+    pub(crate) fn segment_duty(&self, power: LaserPower, speed: u64, programmed: u32) -> u16 {
         match power {
             LaserPower::Keep => KEEP_DUTY,
             LaserPower::Off => 0,

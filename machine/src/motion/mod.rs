@@ -30,4 +30,4 @@ mod test_vectors;
 pub mod thc;
 
 /// Cross-target vectors of the planner and step kernel (see [`crate::vectors`]).
-pub use test_vectors::VECTORS;
+pub(crate) use test_vectors::VECTORS;

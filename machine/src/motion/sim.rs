@@ -19,7 +19,7 @@ use heapless::Deque;
 /// per segment). Not the board's queue: the firmware and the emulated board queue
 /// `device::main_loop::SEGMENT_QUEUE_DEPTH` (15) segments. Kept at 8 here: the motion digests and
 /// the Cortex-M target vectors were recorded with it.
-pub const SEGMENT_QUEUE: usize = 8;
+pub(crate) const SEGMENT_QUEUE: usize = 8;
 
 /// One tick that stepped at least one axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

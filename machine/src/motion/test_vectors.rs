@@ -509,7 +509,7 @@ fn corner_round() -> u32 {
     d.finish()
 }
 
-pub const VECTORS: &[Vector] = &[
+pub(crate) const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/kernel-bresenham",
         run: kernel_bresenham,

@@ -125,7 +125,7 @@ impl Unit {
 }
 
 /// grbl number of a row without one.
-pub const NO_GRBL: u16 = u16::MAX;
+pub(crate) const NO_GRBL: u16 = u16::MAX;
 
 /// A setting as the board checks it (8 bytes: the range is two indices into [`BOUNDS`], which
 /// keeps the table small in the firmware's flash).

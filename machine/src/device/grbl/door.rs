@@ -118,7 +118,7 @@ impl Door {
     }
 
     /// No job may start while the door is open.
-    pub fn blocks_start(&self) -> bool {
+    pub(crate) fn blocks_start(&self) -> bool {
         *self != Door::Closed
     }
 

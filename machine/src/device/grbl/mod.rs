@@ -33,7 +33,7 @@ use crate::device::kernel_view::KernelView;
 /// Longest line (bytes, blanks and comments dropped) the grbl front end takes: more than grbl's
 /// own 80, and with its line end well inside the 128-byte receive buffer grbl senders count on
 /// (`rx.rs`). The framed link carries up to `board::LINE_CAPACITY` (256).
-pub const LINE_CAPACITY: usize = 104;
+pub(crate) const LINE_CAPACITY: usize = 104;
 use crate::board::{AlarmCode, State};
 use crate::setup::STARTUP_LINE_LEN;
 use command::{Command, Restore};
@@ -198,7 +198,7 @@ impl Grbl {
     }
 
     /// Drops output not yet sent (the connection chose the framed protocol).
-    pub fn forget_output(&mut self) {
+    pub(crate) fn forget_output(&mut self) {
         self.out.clear();
     }
 
@@ -263,7 +263,7 @@ impl Grbl {
     }
 
     /// True once after `$x=` changed the setup: the owner persists `board.setup()`.
-    pub fn take_setup_changed(&mut self) -> bool {
+    pub(crate) fn take_setup_changed(&mut self) -> bool {
         core::mem::take(&mut self.setup_changed)
     }
 

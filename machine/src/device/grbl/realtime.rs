@@ -70,7 +70,7 @@ impl Realtime {
 }
 
 /// The feed or spindle override after `step` from `pct` (grbl's range, 10-200 %).
-pub fn feed_after(pct: u16, step: FeedStep) -> u16 {
+pub(crate) fn feed_after(pct: u16, step: FeedStep) -> u16 {
     match step {
         FeedStep::Reset => 100,
         FeedStep::Add(d) => (i32::from(pct) + i32::from(d)).max(10).min(200) as u16,

@@ -81,7 +81,7 @@ impl Sparse {
 }
 
 /// Longest status report, bytes (6 axes of MPos and WCO, every field).
-pub const STATUS_MAX: usize = 260;
+pub(crate) const STATUS_MAX: usize = 260;
 
 /// One status report line.
 pub fn status(
@@ -215,7 +215,7 @@ fn pins(out: &mut Out, levels: InputBits, board: &Board) {
 }
 
 /// `[GC:…]`: the interpreter's modal state.
-pub fn gcode_modes(out: &mut Out, board: &Board, prefs: &Prefs) {
+pub(crate) fn gcode_modes(out: &mut Out, board: &Board, prefs: &Prefs) {
     let s = board.interpreter().state();
     out.str("[GC:");
     match s.motion {
@@ -324,7 +324,7 @@ pub fn probe(out: &mut Out, board: &Board, prefs: &Prefs) {
 }
 
 /// `$I`: version and options (`V` variable spindle; planner blocks; RX buffer bytes).
-pub fn build_info(out: &mut Out) {
+pub(crate) fn build_info(out: &mut Out) {
     out.line("[VER:1.1h.20190830:Gantry]");
     out.str("[OPT:V,");
     out.uint(PLANNER_BLOCKS as u64);

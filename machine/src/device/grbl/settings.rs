@@ -32,7 +32,7 @@ impl Prefs {
 /// homing priorities).
 const NOT_IN_TABLE: [u16; 6] = [1, 2, 4, 6, 20, 22];
 /// Axis setting groups: steps/mm, max rate, acceleration, travel.
-pub const AXIS_GROUPS: [u16; 4] = [100, 110, 120, 130];
+pub(crate) const AXIS_GROUPS: [u16; 4] = [100, 110, 120, 130];
 
 /// The `$$` numbers, in order: the global settings ascending (the table's grbl numbers below
 /// 100 and [`NOT_IN_TABLE`]), then the table's per-axis groups (`$100`+i…) for each axis in use.
