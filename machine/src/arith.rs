@@ -299,7 +299,7 @@ pub fn mul_div_ceil(a: u64, b: u64, c: u64) -> u64 {
 }
 
 /// Angle of the vector (x, y) in binary-angle units, in (−½ turn, ½ turn].
-pub fn atan2(y: i64, x: i64) -> i64 {
+pub(crate) fn atan2(y: i64, x: i64) -> i64 {
     if x == 0 && y == 0 {
         return 0;
     }

@@ -10,15 +10,15 @@
 //! free room ([`LineRing::free`]) is exact: it is the credit the board grants the host.
 
 /// Longest line (bytes) a record holds: LinuxCNC's 256.
-pub const LINE_MAX: usize = 256;
+pub(crate) const LINE_MAX: usize = 256;
 /// Bytes of a record's header: line number and text length.
-pub const RECORD_HEADER: usize = 6;
+pub(crate) const RECORD_HEADER: usize = 6;
 /// Largest record.
 pub const RECORD_MAX: usize = RECORD_HEADER + LINE_MAX;
 
 /// The first record of `bytes`: its line number, its text and the bytes after it; `None` when
 /// `bytes` does not start with a whole, valid record.
-pub fn split_record(bytes: &[u8]) -> Option<(u32, &[u8], &[u8])> {
+pub(crate) fn split_record(bytes: &[u8]) -> Option<(u32, &[u8], &[u8])> {
     let (head, rest) = bytes.split_first_chunk::<RECORD_HEADER>()?;
     let line_no = u32::from_le_bytes([head[0], head[1], head[2], head[3]]);
     let len = u16::from_le_bytes([head[4], head[5]]) as usize;

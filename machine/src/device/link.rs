@@ -73,7 +73,7 @@ impl LinkProtocol {
 pub(crate) const RX_PACKET: usize = 64;
 
 /// How long undecided realtime bytes wait for more before they count as grbl, ms.
-pub const UNDECIDED_MS: u32 = 50;
+pub(crate) const UNDECIDED_MS: u32 = 50;
 
 /// Interval between unsolicited status reports, ms.
 pub(crate) const STATUS_INTERVAL_MS: u32 = 100;

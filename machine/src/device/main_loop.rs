@@ -55,7 +55,7 @@ pub const SEGMENT_QUEUE_DEPTH: usize = SEGMENT_QUEUE_SLOTS - 1;
 /// buffer after a busy moment) is taken over several passes, so one pass's link work cannot
 /// outlast the kernel's queue (docs/architecture.md "One pass, in order"). 512 B a millisecond is
 /// 1.8× what 8 k short lines a second need; the rest waits in the port's buffer.
-pub const RX_BYTES_PER_PASS: usize = 512;
+pub(crate) const RX_BYTES_PER_PASS: usize = 512;
 
 const _: () = assert!(
     SEGMENT_QUEUE_DEPTH <= crate::motion::history::SEGMENT_HISTORY,

@@ -70,7 +70,7 @@ impl Sample {
 
 /// The current (or last) job's time lost to starvation.
 #[derive(Clone, Copy, Debug)]
-pub struct Starvation {
+pub(crate) struct Starvation {
     clock: JobClock,
     /// Lost time, ms × 1000.
     lost: u64,

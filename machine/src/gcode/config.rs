@@ -71,7 +71,7 @@ pub const MAX_TOOLS: usize = 32;
 /// User M-code list size.
 pub(crate) const MAX_USER_M_CODES: usize = 32;
 /// Number of work coordinate systems: G54..G59, G59.1..G59.3.
-pub const WORK_SYSTEMS: usize = 9;
+pub(crate) const WORK_SYSTEMS: usize = 9;
 
 /// Gixa-only setup fields (Job setup).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -91,7 +91,7 @@ fn function_starts(c: &mut Cursor<'_>) -> bool {
 }
 
 /// Substitutes `line` into `out` and collects its assignments.
-pub fn expand(
+pub(crate) fn expand(
     line: &[u8],
     params: &dyn ParamRead,
     out: &mut Expanded,

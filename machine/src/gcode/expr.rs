@@ -288,7 +288,7 @@ fn checked(v: i128) -> Result<Fx, ErrorCode> {
 }
 
 /// `a × b / ONE` rounded half away from zero.
-pub fn mul(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn mul(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
     checked(round_div(
         arith::mul_i128(a as i128, b as i128),
         ONE as i128,
@@ -296,7 +296,7 @@ pub fn mul(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
 }
 
 /// `a × ONE / b` rounded half away from zero.
-pub fn div(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn div(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
     if b == 0 {
         return Err(ErrorCode::DivisionByZero);
     }
@@ -496,7 +496,7 @@ pub(crate) fn atan_deg(y: Fx, x: Fx) -> Fx {
 }
 
 /// √v (v ≥ 0).
-pub fn sqrt(v: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn sqrt(v: Fx) -> Result<Fx, ErrorCode> {
     if v < 0 {
         return Err(ErrorCode::FunctionDomain);
     }
@@ -560,7 +560,7 @@ pub(crate) fn ln(v: Fx) -> Result<Fx, ErrorCode> {
 }
 
 /// e^v: v = k·ln 2 + r with |r| ≤ ln 2 / 2, e^r by its Taylor series.
-pub fn exp(v: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn exp(v: Fx) -> Result<Fx, ErrorCode> {
     let x = v as i128 * ONE as i128;
     let k = round_div(x, LN2_E18);
     if k > 34 {

@@ -26,7 +26,7 @@ pub(crate) fn isqrt_round(v: u128) -> u128 {
 }
 
 /// Length of a 2-D vector, rounded to the nearest nm.
-pub fn hypot(a: Nm, b: Nm) -> Nm {
+pub(crate) fn hypot(a: Nm, b: Nm) -> Nm {
     let s = mul(a as i128, a as i128) + mul(b as i128, b as i128);
     isqrt_round(s as u128) as Nm
 }

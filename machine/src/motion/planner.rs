@@ -689,7 +689,7 @@ impl<const N: usize> Planner<N> {
 
 /// What the machine's axes allow along a straight move.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Direction {
+pub(crate) struct Direction {
     /// Unit vector, 2³⁰ scale.
     pub unit: [i64; MAX_AXES],
     /// Path acceleration and speed with every axis within its limits, nm/s² and nm/s.
@@ -699,7 +699,7 @@ pub struct Direction {
 
 /// The direction of a move by `delta` (nm per axis) and what the axes allow along it; `None`
 /// for no move. (The same limits [`Planner::push_block`] applies.)
-pub fn direction(cfg: &MotionConfig, delta: &[i64; MAX_AXES]) -> Option<Direction> {
+pub(crate) fn direction(cfg: &MotionConfig, delta: &[i64; MAX_AXES]) -> Option<Direction> {
     let axes = cfg.axis_count_in_bounds();
     let len_sq: u128 = delta[..axes]
         .iter()

@@ -77,7 +77,7 @@ impl Homing {
 }
 
 /// Axes of `axes` (0 = all) that have a homing priority, in seek order.
-pub fn order(setup: &Setup, axes: u8) -> Vec<u8, MAX_AXES> {
+pub(crate) fn order(setup: &Setup, axes: u8) -> Vec<u8, MAX_AXES> {
     let n = setup.axis_count as usize;
     let mut v: Vec<u8, MAX_AXES> = Vec::new();
     // Ascending priority, ties in axis order: a scan per priority level instead of a sort (the

@@ -15,7 +15,7 @@ use crate::device::kernel_view::KernelView;
 
 /// Where the door stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Door {
+pub(crate) enum Door {
     /// No door opened (or it was resumed).
     Closed,
     /// Opened: the machine decelerates (`Door:2`).

@@ -18,12 +18,12 @@
 //! error.
 
 pub mod codes;
-pub mod command;
-pub mod door;
+pub(crate) mod command;
+pub(crate) mod door;
 pub mod jog;
-pub mod realtime;
+pub(crate) mod realtime;
 pub mod report;
-pub mod rx;
+pub(crate) mod rx;
 pub mod settings;
 pub mod text;
 
@@ -117,7 +117,7 @@ enum Step {
 }
 
 /// The grbl front end of one connection.
-pub struct Grbl {
+pub(crate) struct Grbl {
     rx: Rx,
     out: Out,
     realtime: Deque<Realtime, 16>,

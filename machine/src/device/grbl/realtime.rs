@@ -3,7 +3,7 @@
 
 /// A realtime command.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Realtime {
+pub(crate) enum Realtime {
     /// `?`: one status report.
     Status,
     /// `!`: feed hold.
@@ -32,7 +32,7 @@ pub enum Realtime {
 
 /// A feed or spindle override step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FeedStep {
+pub(crate) enum FeedStep {
     Reset,
     Add(i16),
 }

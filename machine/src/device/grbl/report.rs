@@ -278,7 +278,7 @@ pub(crate) fn gcode_modes(out: &mut Out, board: &Board, prefs: &Prefs) {
 }
 
 /// `$#`: work systems, G28/G30, G92, tool length offset and the last probe.
-pub fn parameters(out: &mut Out, board: &Board, prefs: &Prefs) {
+pub(crate) fn parameters(out: &mut Out, board: &Board, prefs: &Prefs) {
     let s = board.interpreter().state();
     let axes = usize::from(board.setup().axis_count);
     for (i, w) in s.work_offsets.iter().enumerate().take(6) {

@@ -54,7 +54,7 @@ pub fn numbers(axis_count: u8) -> heapless::Vec<u16, 48> {
 /// The grbl error for a setup `$x=` would leave invalid (table in docs/grbl.md): grbl's
 /// "step rate too high" (12) and "step pulse too short" (6) where they fit, else "invalid
 /// statement" (3), grbl 1.1 having no number for an out-of-range value.
-pub fn refusal(e: &SetupError) -> u16 {
+pub(crate) fn refusal(e: &SetupError) -> u16 {
     match (e.key, e.reason) {
         (_, Reason::StepRateTooHigh { .. }) => 12,
         (Key::StepPulse, _) => 6,
