@@ -40,6 +40,7 @@ use executing::{BlockModes, Executing};
 use homing::plan::Phase;
 use homing::PositionTrust;
 use inputs::operator::Sensed;
+pub use inputs::{fro_from_adc, AdcReadings};
 use inputs::{InputBits, Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 pub use jog::plan::JOG_DEADMAN_MS;
 pub use jog::JogRefused;
@@ -60,7 +61,7 @@ pub use pressed_switch::ERROR_LIMIT_PRESSED;
 pub use probing::ProbeResult;
 use probing::Probing;
 pub use source::{JumpRequest, JumpTarget, Pushed, StreamSource, LINE_CAPACITY};
-pub use state::{fro_from_adc, AdcReadings, AlarmCode, State};
+pub use state::{AlarmCode, State};
 
 /// Planner ring size on the board (look-ahead over at least 128 blocks, docs/architecture.md).
 pub(crate) const PLANNER_BLOCKS: usize = 128;

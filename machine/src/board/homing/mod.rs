@@ -290,8 +290,9 @@ mod tests {
     //! emulated board's switches and kernel are in tests/tests/controller_homing.rs.
     use super::plan::Phase;
     use super::*;
+    use crate::board::inputs::AdcReadings;
     use crate::board::inputs::{InputBits, LIMIT_MIN_BIT};
-    use crate::board::state::{AdcReadings, State};
+    use crate::board::state::State;
     use crate::setup::Setup;
     use crate::units::{MAX_AXES, NM_PER_MM};
 

@@ -2,8 +2,9 @@
 //! switches and the feed-override potentiometer (docs/controller.md "Operator inputs"). The joystick part is in
 //! [`crate::board::jog`].
 
+use super::{fro_from_adc, AdcReadings};
 use super::{InputBits, Signal};
-use crate::board::state::{fro_from_adc, AdcReadings, State};
+use crate::board::state::State;
 use crate::board::Board;
 
 /// The operator's run-mode switches (docs/controller.md "Run modes"). A struct of two switches

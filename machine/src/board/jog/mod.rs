@@ -8,8 +8,9 @@ use super::{
     Board, BoardEvent, MarkEvent, MotionState, ERROR_BUSY, ERROR_HOMING_REQUIRED,
     ERROR_INVALID_REQUEST, ERROR_JOG_DEADMAN, ERROR_LIMIT_PRESSED, ERROR_SOFT_LIMIT,
 };
+use crate::board::inputs::AdcReadings;
 use crate::board::inputs::{InputBits, Signal};
-use crate::board::state::{AdcReadings, State};
+use crate::board::state::State;
 use crate::canon::{Action, Canon};
 use crate::motion::pipeline::PushError;
 use crate::units::{Pos, MAX_AXES};
