@@ -18,7 +18,7 @@
 //! steps it has prepared still go out, as on the board; docs/controller.md "Safety rules as built").
 //!
 //! The firmware's motion marker (a RAM word that survives a reset, see
-//! `gantry_machine::controller::power_up`) is modelled too: [`EmulatedBoard::reset`] restarts the
+//! `gantry_machine::board::power_up`) is modelled too: [`EmulatedBoard::reset`] restarts the
 //! board the way a watchdog, reset-pin or power-on reset would, with the machine standing where it
 //! stopped.
 //!
@@ -34,14 +34,14 @@
 use crate::cpu_model::{CpuMeter, CpuModel};
 use crate::step_clock::{ClockEvent, StepClock};
 use crate::torch_script::{TorchModel, TORCH_BITS};
-use gantry_machine::board::link::{BoardLink, KernelView};
-use gantry_machine::board::main_loop::{
+use gantry_machine::board::inputs::{limit_bit, InputBits, Signal};
+use gantry_machine::board::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
+use gantry_machine::board::{AdcReadings, OutputLevels};
+use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
+use gantry_machine::device::link::{BoardLink, KernelView};
+use gantry_machine::device::main_loop::{
     BoardPort, HostPort, KernelSnapshot, MainLoop, SEGMENT_QUEUE_DEPTH,
 };
-use gantry_machine::board::{Board, BoardEvent, LIMIT_BITS};
-use gantry_machine::controller::inputs::{limit_bit, InputBits, Signal};
-use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
-use gantry_machine::controller::{AdcReadings, OutputLevels};
 use gantry_machine::motion::kernel::{Segment, StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::motion::sim::SegmentFifo;
 use gantry_machine::setup::Setup;
@@ -66,7 +66,7 @@ pub struct PinEvent {
     pub time: u64,
     pub step: u8,
     pub dir: u8,
-    /// Debounced input levels (`controller::inputs::InputBits`).
+    /// Debounced input levels (`board::inputs::InputBits`).
     pub inputs: u32,
     /// User output pins (bit n = output n), switched before this event's steps.
     pub outputs: u16,
@@ -375,7 +375,7 @@ struct CpuTime {
 const AT_PASS_END: u64 = u64::MAX;
 
 /// Underruns as the machine feels them: the main loop's count
-/// (`gantry_machine::board::underruns`), the firmware's own.
+/// (`gantry_machine::device::underruns`), the firmware's own.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Starved {
     /// Times the step kernel ran dry in the middle of a job's motion so far.

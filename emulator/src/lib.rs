@@ -1,5 +1,5 @@
 //! The emulated Gantry board: a board beside `firmware/`, over the same core (`gantry-machine`).
-//! The firmware puts the core's [`gantry_machine::board::main_loop::MainLoop`] and step interrupt
+//! The firmware puts the core's [`gantry_machine::device::main_loop::MainLoop`] and step interrupt
 //! on the STM32's registers; this crate puts them on virtual time and virtual pins, so the CLI
 //! (`host-sender`, which carries its bytes over a pty, TCP or in process) and the system tests
 //! (`tests/`) run the board's own code without hardware.

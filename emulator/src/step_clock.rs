@@ -34,7 +34,7 @@ pub struct VirtualRegisters {
     pub outputs: u16,
     /// Laser PWM duty (compare counts) the interrupt wrote last (laser mode).
     pub pwm: u16,
-    /// The probe pin's raw level (as `controller::inputs` reads it: set = active).
+    /// The probe pin's raw level (as `board::inputs` reads it: set = active).
     pub probe: bool,
 }
 

@@ -9,7 +9,7 @@
 //! down during the spans of the THC pattern. Everything drops when the torch goes off.
 
 use anyhow::{anyhow, bail, Context};
-use gantry_machine::controller::inputs::Signal;
+use gantry_machine::board::inputs::Signal;
 
 /// One span of the height controller's pattern: `up` (else down) from `from_ms` to `to_ms`
 /// after the torch fired.

@@ -1,5 +1,5 @@
 //! The main loop task: every millisecond, the core's `MainLoop::pass`
-//! (machine/src/board/main_loop.rs), the very function the emulated board runs
+//! (machine/src/device/main_loop.rs), the very function the emulated board runs
 //! (emulator/src/board.rs), and `MainLoop::host_bytes_pass` as soon as the USB receive task has
 //! put the host's bytes into the pipe (a line is answered when it arrives, not at the next tick). This file is only its port onto the hardware: the step ISR's
 //! kernel and queue (`step`), the input pins and limit arming (`inputs`), the ADC (`analog`), the
@@ -16,11 +16,11 @@ use core::sync::atomic::Ordering;
 use embassy_futures::select::{select, Either};
 use embassy_stm32::gpio::Level;
 use embassy_time::{Duration, Instant, Ticker};
-use gantry_machine::board::link::BoardLink;
-use gantry_machine::board::main_loop::{BoardPort, HostPort, KernelSnapshot, MainLoop};
+use gantry_machine::board::inputs::InputBits;
 use gantry_machine::board::Board;
-use gantry_machine::controller::inputs::InputBits;
-use gantry_machine::controller::{AdcReadings, OutputLevels};
+use gantry_machine::board::{AdcReadings, OutputLevels};
+use gantry_machine::device::link::BoardLink;
+use gantry_machine::device::main_loop::{BoardPort, HostPort, KernelSnapshot, MainLoop};
 use gantry_machine::motion::kernel::{Segment, StepTiming};
 use gantry_machine::setup::Setup;
 use gantry_machine::units::MAX_AXES;

@@ -20,7 +20,7 @@ use crate::step::STOP;
 use core::sync::atomic::{AtomicU32, Ordering};
 use embassy_futures::select::{select, select_array};
 use embassy_time::{Duration, Timer};
-use gantry_machine::controller::inputs::{Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+use gantry_machine::board::inputs::{Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 
 /// Latest sample: bit = 1 where the switch is closed (pin low), `InputBits` layout.
 pub static PINS: AtomicU32 = AtomicU32::new(0);

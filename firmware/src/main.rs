@@ -180,7 +180,7 @@ fn spawn_failed() -> ! {
 #[inline(never)]
 fn controller_board(
     setup: gantry_machine::setup::Setup,
-    how: gantry_machine::controller::power_up::PowerUp,
+    how: gantry_machine::board::power_up::PowerUp,
 ) -> &'static mut gantry_machine::board::Board {
     static BOARD: StaticCell<gantry_machine::board::Board> = StaticCell::new();
     BOARD.init_with(|| gantry_machine::board::Board::power_up(setup, how))
@@ -188,7 +188,7 @@ fn controller_board(
 
 /// The link endpoint, built once into its static (see [`controller_board`]).
 #[inline(never)]
-fn controller_link(boot_id: u32) -> &'static mut gantry_machine::board::link::BoardLink {
-    static LINK: StaticCell<gantry_machine::board::link::BoardLink> = StaticCell::new();
-    LINK.init_with(|| gantry_machine::board::link::BoardLink::new(boot_id))
+fn controller_link(boot_id: u32) -> &'static mut gantry_machine::device::link::BoardLink {
+    static LINK: StaticCell<gantry_machine::device::link::BoardLink> = StaticCell::new();
+    LINK.init_with(|| gantry_machine::device::link::BoardLink::new(boot_id))
 }

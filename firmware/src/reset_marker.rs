@@ -1,5 +1,5 @@
 //! The motion marker and the reset cause: how the previous run ended (grbl alarm 3, "reset while
-//! in motion"). The decision itself is the core's (`gantry_machine::controller::power_up`); this
+//! in motion"). The decision itself is the core's (`gantry_machine::board::power_up`); this
 //! module only owns the RAM word and reads the MCU's reset flags.
 //!
 //! The marker is one `u32` in cortex-m-rt's `.uninit` section (NOLOAD, inside RAM, neither
@@ -15,7 +15,7 @@
 use core::mem::MaybeUninit;
 use core::ptr::{addr_of, addr_of_mut};
 use embassy_stm32::pac;
-use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
+use gantry_machine::board::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
 
 #[link_section = ".uninit.GANTRY_MOTION_MARKER"]
 static mut MARKER: MaybeUninit<u32> = MaybeUninit::uninit();

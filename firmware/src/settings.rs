@@ -7,7 +7,7 @@
 //! **Writing stalls the CPU**: both chips have a single flash bank, and every instruction fetch
 //! waits while a word is programmed (~16 µs) or a sector erased (1-2 s for 128 KiB). The step
 //! interrupt, USB and the main loop all freeze meanwhile, so the core main loop
-//! (`MainLoop::pass`, machine/src/board/main_loop.rs) asks for a save only with the controller
+//! (`MainLoop::pass`, machine/src/device/main_loop.rs) asks for a save only with the controller
 //! idle and the kernel drained, and the port raises the watchdog timeout around it.
 //!
 //! Loading and saving run to completion here (`block_on`) rather than as awaits in the tasks:

@@ -53,11 +53,11 @@ use gantry_machine::units::MAX_AXES;
 use heapless::spsc::{Consumer, Producer, Queue};
 use static_cell::StaticCell;
 
-/// Slots in the segment queue: the core's one figure (`gantry_machine::board::main_loop`), so the
+/// Slots in the segment queue: the core's one figure (`gantry_machine::device::main_loop`), so the
 /// emulated board queues exactly as many segments. heapless 0.9's SPSC queue holds N - 1: 15
 /// segments of about 2 ms, 30 ms of motion ahead of the kernel, every one of which a stop can
 /// take back ([`drop_newest`]).
-pub const SEGMENT_QUEUE_LEN: usize = gantry_machine::board::main_loop::SEGMENT_QUEUE_SLOTS;
+pub const SEGMENT_QUEUE_LEN: usize = gantry_machine::device::main_loop::SEGMENT_QUEUE_SLOTS;
 
 /// An armed limit switch is active: set by the input task (EXTI, microseconds after the edge) and
 /// the main loop, cleared only by the main loop when it re-arms the kernel. The kernel latches

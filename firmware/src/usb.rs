@@ -80,7 +80,7 @@ pub const PIPE_LEN: usize = 512;
 
 /// Raised by the receive task after each packet it put into the receive pipe: the main loop
 /// (`control.rs`) runs a pass for it at once instead of at the next 1 ms tick, so a grbl line is
-/// answered when it arrives (machine/src/board/main_loop.rs `MainLoop::host_bytes_pass`).
+/// answered when it arrives (machine/src/device/main_loop.rs `MainLoop::host_bytes_pass`).
 pub type RxWake = Signal<NoopRawMutex, ()>;
 
 /// Data terminal ready as the host last set it (a terminal or sender has the port open).
@@ -89,7 +89,7 @@ pub static DTR: AtomicBool = AtomicBool::new(false);
 /// Host → board: every packet into the receive pipe. The main loop takes from the pipe only what
 /// the link has room for (`BoardLink::rx_room`: a grbl sender's receive buffer), so a burst
 /// fills the pipe; a full pipe stops this task reading the endpoint, the USB core NAKs and the
-/// host waits: no byte is dropped (machine/src/board/main_loop.rs,
+/// host waits: no byte is dropped (machine/src/device/main_loop.rs,
 /// `a_full_receive_buffer_leaves_the_port_unread`).
 #[embassy_executor::task]
 pub async fn run_rx(

@@ -8,7 +8,7 @@
 //! on close unless the host cleared HUPCL (`crate::link::OnClose`); the pty's termios carries
 //! that flag, so the emulator passes a DTR drop to the board when HUPCL was set, as the firmware
 //! sees it (`firmware/src/control.rs`), and a close that kept DTR up otherwise
-//! (`HostPort::ClosedDtrKept` in machine/src/board/main_loop.rs): a grbl sender that closes
+//! (`HostPort::ClosedDtrKept` in machine/src/device/main_loop.rs): a grbl sender that closes
 //! without HUPCL (pyserial, bCNC) or is killed is gone all the same, and the next client chooses
 //! its protocol again.
 
@@ -16,7 +16,7 @@ use crate::setup_file::{to_toml, SetupFile};
 use anyhow::Context;
 use gantry_emulator::torch_script::{TorchModel, TorchScript};
 use gantry_emulator::{EmulatedBoard, ProbeTarget};
-use gantry_machine::board::link::status_of;
+use gantry_machine::device::link::status_of;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::{Pos, AXIS_LETTERS, MAX_AXES};
 use gantry_proto::MachineState;
@@ -319,7 +319,7 @@ fn save_position(state: &Path, board: &EmulatedBoard) -> anyhow::Result<()> {
 
 /// The longest lag behind the wall clock the board's clock catches up, ms (see [`run_board`]).
 /// Shorter than the board's shortest wait on its host, the 250 ms jog dead-man
-/// (`machine/src/controller/jog.rs`): a catch-up runs faster than the host writes, so a longer
+/// (`machine/src/board/jog/plan.rs`): a catch-up runs faster than the host writes, so a longer
 /// one would be a silence the host never made.
 const CATCH_UP_LIMIT_MS: u64 = 200;
 
@@ -461,7 +461,7 @@ pub(crate) fn run_board(
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.subsec_nanos() ^ d.as_secs() as u32)
         ^ std::process::id().rotate_left(16);
-    board.link = gantry_machine::board::link::BoardLink::new(boot_id);
+    board.link = gantry_machine::device::link::BoardLink::new(boot_id);
     eprintln!("{ready}");
     let start = Instant::now();
     // Wall time the board's clock skipped (see CATCH_UP_LIMIT_MS).

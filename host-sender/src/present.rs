@@ -75,7 +75,7 @@ pub(crate) fn printable(text: &str) -> String {
 
 /// "alarm 2 (soft limit): a block would leave …" for an alarm number.
 pub(crate) fn alarm_text(code: u16) -> String {
-    match gantry_machine::controller::AlarmCode::from_number(code) {
+    match gantry_machine::board::AlarmCode::from_number(code) {
         Some(a) => format!("alarm {code} ({}): {}", a.name(), a.message()),
         None => format!("alarm {code} (unknown to this gantry)"),
     }
@@ -155,7 +155,7 @@ pub(crate) fn underrun_line(
 }
 
 /// The report line on the job's time lost to starvation (`Status::starved_ms`, counted by the
-/// board: machine/src/board/starvation.rs).
+/// board: machine/src/device/starvation.rs).
 pub(crate) fn starved_line(ms: u32) -> String {
     format!(
         "starved:  {}.{:03} s (machine time lost because the planner held too little of a program with more lines)",
@@ -240,7 +240,7 @@ impl BoardAlarm {
 /// The active inputs of a status's `inputs` bits, by name (the setup's names, `x_min`,
 /// `feed_hold` …, `in29` … for bits without one): the CLI's status and the console's readout.
 pub fn input_names(bits: u32) -> Vec<std::borrow::Cow<'static, str>> {
-    use gantry_machine::controller::inputs::INPUT_NAMES;
+    use gantry_machine::board::inputs::INPUT_NAMES;
     (0..32)
         .filter(|i| bits >> i & 1 == 1)
         .map(|i| match INPUT_NAMES.get(i) {
@@ -491,7 +491,7 @@ mod tests {
         assert!(format_status(&status(MachineState::Alarm { code: 99 }), 3)
             .ends_with("alarm:     alarm 99 (unknown to this gantry)"));
         // Every alarm the board can raise has a name and a text.
-        for a in gantry_machine::controller::AlarmCode::ALL {
+        for a in gantry_machine::board::AlarmCode::ALL {
             assert!(!alarm_text(a as u16).contains("unknown to this gantry"));
         }
     }

@@ -8,7 +8,7 @@ use crate::session::stream_program;
 use crate::vcd::{counts_to_ns, VcdEvent, VcdOptions, VcdSummary, VcdWriter};
 use anyhow::Context;
 use gantry_emulator::{EmulatedBoard, PinEvent};
-use gantry_machine::controller::inputs::INPUT_NAMES;
+use gantry_machine::board::inputs::INPUT_NAMES;
 use gantry_machine::motion::kernel::{StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::setup::{Setup, USER_OUTPUTS};
 use std::cell::RefCell;

@@ -13,9 +13,9 @@
 /// Binary-angle units in one full turn.
 pub const TURN: i64 = 1 << 48;
 /// Half a turn.
-pub const HALF_TURN: i64 = TURN / 2;
+pub(crate) const HALF_TURN: i64 = TURN / 2;
 /// A quarter turn.
-pub const QUARTER_TURN: i64 = TURN / 4;
+pub(crate) const QUARTER_TURN: i64 = TURN / 4;
 
 const ITERATIONS: usize = 40;
 /// Extra precision bits the CORDIC vectors carry.
@@ -109,7 +109,7 @@ fn isqrt_u32(v: u32) -> u32 {
 /// `a.saturating_mul(b)` on u64, out of line: a 64-bit multiply with its overflow check is
 /// ~100 bytes of Cortex-M code, and the motion core needs it in a dozen places.
 #[inline(never)]
-pub fn sat_mul(a: u64, b: u64) -> u64 {
+pub(crate) fn sat_mul(a: u64, b: u64) -> u64 {
     checked_mul_u64(a, b).unwrap_or(u64::MAX)
 }
 
@@ -134,7 +134,7 @@ fn checked_mul_u64(a: u64, b: u64) -> Option<u64> {
 /// rest a binary long division (one compare-and-subtract per quotient bit) written out, a
 /// quarter of the expansion's size. The results are those of the operators.
 #[inline(never)]
-pub fn divrem_u128(n: u128, d: u128) -> (u128, u128) {
+pub(crate) fn divrem_u128(n: u128, d: u128) -> (u128, u128) {
     if let (Ok(n), Ok(d)) = (u64::try_from(n), u64::try_from(d)) {
         return (u128::from(n / d), u128::from(n % d));
     }
@@ -160,13 +160,13 @@ pub fn divrem_u128(n: u128, d: u128) -> (u128, u128) {
 /// (cutter compensation, arc centres and lengths): LLVM expands each i128 product inline on the
 /// Cortex-M4 (~60-90 bytes for operands it cannot prove to be 64-bit, a call is ~20).
 #[inline(never)]
-pub fn mul_i128(a: i128, b: i128) -> i128 {
+pub(crate) fn mul_i128(a: i128, b: i128) -> i128 {
     a * b
 }
 
 /// `n / d` on i128, truncated toward zero like `/` (through [`divrem_u128`]).
 #[inline(never)]
-pub fn div_i128(n: i128, d: i128) -> i128 {
+pub(crate) fn div_i128(n: i128, d: i128) -> i128 {
     let q = divrem_u128(n.unsigned_abs(), d.unsigned_abs()).0 as i128;
     if (n < 0) != (d < 0) {
         -q
@@ -177,7 +177,7 @@ pub fn div_i128(n: i128, d: i128) -> i128 {
 
 /// `n.div_euclid(d)` on i128 (the remainder is never negative), through [`divrem_u128`].
 #[inline(never)]
-pub fn div_euclid_i128(n: i128, d: i128) -> i128 {
+pub(crate) fn div_euclid_i128(n: i128, d: i128) -> i128 {
     let q = div_i128(n, d);
     if n - q * d < 0 {
         if d > 0 {
@@ -191,7 +191,7 @@ pub fn div_euclid_i128(n: i128, d: i128) -> i128 {
 }
 
 /// ⌊√v⌋ of a 128-bit value.
-pub fn isqrt_u128(v: u128) -> u128 {
+pub(crate) fn isqrt_u128(v: u128) -> u128 {
     if v <= u64::MAX as u128 {
         return isqrt_u64(v as u64) as u128;
     }
@@ -211,7 +211,7 @@ pub fn isqrt_u128(v: u128) -> u128 {
 /// A 64-by-64 division is a ~250-instruction library call on ARMv7-M; with a 32-bit divisor this
 /// runs Hacker's Delight `divlu` (two 16-bit quotient digits on the hardware `udiv`) instead.
 #[inline]
-pub fn div_u64(n: u64, d: u64) -> u64 {
+pub(crate) fn div_u64(n: u64, d: u64) -> u64 {
     debug_assert!(d != 0);
     if d > u32::MAX as u64 {
         return n / d;
@@ -229,7 +229,7 @@ pub fn div_u64(n: u64, d: u64) -> u64 {
 /// `n.div_euclid(d)` for `d > 1` through [`div_u64`] (the signed 64-bit library division is a
 /// ~150-instruction call on ARMv7-M).
 #[inline]
-pub fn div_floor_i64(n: i64, d: i64) -> i64 {
+pub(crate) fn div_floor_i64(n: i64, d: i64) -> i64 {
     debug_assert!(d > 1);
     let d = d as u64;
     if n >= 0 {
@@ -299,7 +299,7 @@ pub fn mul_div_ceil(a: u64, b: u64, c: u64) -> u64 {
 }
 
 /// Angle of the vector (x, y) in binary-angle units, in (−½ turn, ½ turn].
-pub fn atan2(y: i64, x: i64) -> i64 {
+pub(crate) fn atan2(y: i64, x: i64) -> i64 {
     if x == 0 && y == 0 {
         return 0;
     }

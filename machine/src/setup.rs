@@ -107,12 +107,12 @@ pub struct OperatorSetup {
 }
 
 /// Commands a homing list (before seek, before retract, after retract) may hold.
-pub const MAX_HOMING_COMMANDS: usize = 8;
+pub(crate) const MAX_HOMING_COMMANDS: usize = 8;
 /// User M codes that may carry a command list.
 pub const MAX_MCODE_LISTS: usize = 8;
 /// Commands one M-code list may hold.
-pub const MAX_MCODE_COMMANDS: usize = 6;
-/// User outputs (bit numbers 0..16 of [`crate::controller::OutputLevels::user`]).
+pub(crate) const MAX_MCODE_COMMANDS: usize = 6;
+/// User outputs (bit numbers 0..16 of [`crate::board::OutputLevels::user`]).
 pub const USER_OUTPUTS: u8 = 16;
 
 /// One entry of a command list (homing lists, user M-code lists), the GIXA controller's command lists reduced to
@@ -125,7 +125,7 @@ pub enum ListCommand {
     Clear(u8),
     /// Wait this many milliseconds.
     DwellMs(u16),
-    /// Wait until input bit `bit` (an [`crate::controller::inputs::InputBits`] bit) reads `level`;
+    /// Wait until input bit `bit` (an [`crate::board::inputs::InputBits`] bit) reads `level`;
     /// after `timeout_ms` the controller alarms (0 = wait forever).
     WaitInput {
         bit: u8,
@@ -245,7 +245,7 @@ pub struct OutputSetup {
 pub struct OrientSetup {
     /// User output (0-15) that commands the orient; [`OrientSetup::NONE`]: no orient.
     pub output: u8,
-    /// Input bit (an [`crate::controller::inputs::InputBits`] bit) that reads high once the
+    /// Input bit (an [`crate::board::inputs::InputBits`] bit) that reads high once the
     /// spindle is oriented; [`OrientSetup::NONE`]: wait `dwell_ms` instead.
     pub done_input: u8,
     /// Without a done input, how long the orient takes; with one, the longest wait for it
@@ -257,7 +257,7 @@ impl OrientSetup {
     /// No output (or no done input).
     pub const NONE: u8 = u8::MAX;
     /// No orient: G76 is refused.
-    pub const OFF: OrientSetup = OrientSetup {
+    pub(crate) const OFF: OrientSetup = OrientSetup {
         output: Self::NONE,
         done_input: Self::NONE,
         dwell_ms: 0,
@@ -269,7 +269,7 @@ impl OrientSetup {
     }
 
     /// The orient as a command list run at rest: set the output, then wait for the done input
-    /// or the dwell. The output stays set until the spindle starts again (`board/outputs.rs`).
+    /// or the dwell. The output stays set until the spindle starts again (`board/outputs/mod.rs`).
     pub(crate) fn commands(&self) -> [ListCommand; 2] {
         [
             ListCommand::Set(self.output),
@@ -356,7 +356,7 @@ impl McodeList {
 /// Characters a grbl startup line (`$N0=`, `$N1=`) holds, at most (grbl stores 79; docs/grbl.md).
 pub const STARTUP_LINE_LEN: usize = 64;
 
-/// The grbl front end's own stored settings (`machine/src/grbl/`, docs/grbl.md): the status
+/// The grbl front end's own stored settings (`machine/src/device/grbl/`, docs/grbl.md): the status
 /// report mask `$10`, inch reports `$13` and the two startup lines `$N0`/`$N1`.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct GrblSetup {
@@ -368,7 +368,7 @@ pub struct GrblSetup {
     /// machine is not in alarm; empty = none.
     pub startup: [heapless::String<STARTUP_LINE_LEN>; 2],
     /// After `~` closes the safety door with the spindle on, motion waits this long for the
-    /// spindle to spin up (`Door:3`, machine/src/grbl/door.rs), ms; 0 = no wait
+    /// spindle to spin up (`Door:3`, machine/src/device/grbl/door.rs), ms; 0 = no wait
     /// ([`Self::DOOR_SPIN_UP_MS`]).
     pub door_spin_up_ms: u16,
     /// `M6` stops for a manual tool change (`Hold:0`, `~` continues: Gantry's stop), or, when
@@ -388,7 +388,7 @@ impl GrblSetup {
     };
 
     /// Accepted spin-up waits after the safety door, ms: up to a minute (grbl waits 4 s).
-    pub const DOOR_SPIN_UP_MS: core::ops::RangeInclusive<u16> = 0..=60_000;
+    pub(crate) const DOOR_SPIN_UP_MS: core::ops::RangeInclusive<u16> = 0..=60_000;
 }
 
 /// The whole machine setup.
@@ -416,7 +416,7 @@ const fn nm_of_mm(v: i64) -> Nm {
 impl AxisSetup {
     /// A typical router axis: 3200 steps per 5 mm lead screw, 3000 mm/min, 200 mm/s², travel
     /// ±`travel_mm` around the power-up position (which is machine zero until the axis is homed).
-    pub const fn default_linear(travel_mm: i64) -> Self {
+    pub(crate) const fn default_linear(travel_mm: i64) -> Self {
         AxisSetup {
             steps: 3200,
             units_nm: nm_of_mm(5),
@@ -589,7 +589,7 @@ impl Setup {
     /// before a direction change holds it ([`StepTiming::period`]), a few µs per reversal.
     /// Exact: `max_rate · steps / (units · 60)` steps/s times the period in timer counts must not
     /// exceed the timer's counts per second (compared multiplied out, no rounding).
-    pub fn step_rate_fits(&self, a: &AxisSetup) -> bool {
+    pub(crate) fn step_rate_fits(&self, a: &AxisSetup) -> bool {
         let period = StepTiming::from_setup(&self.drivers).min_period;
         let need = a.max_rate.max(0) as u128 * u128::from(a.steps) * u128::from(period);
         let have = a.units_nm.max(1) as u128 * 60 * u128::from(KERNEL_TIMER_HZ);

@@ -22,4 +22,4 @@ pub const NM_PER_MM: Nm = 1_000_000;
 pub const NM_PER_INCH: Nm = 25_400_000;
 
 /// A feed rate in nanometres (or 1e-6 degree) per minute along the programmed path.
-pub type FeedNmPerMin = i64;
+pub(crate) type FeedNmPerMin = i64;

@@ -5,7 +5,7 @@
 
 /// FNV-1a over a stream of words: cheap, order-sensitive and identical on every target.
 #[derive(Clone, Copy, Debug)]
-pub struct Digest(u32);
+pub(crate) struct Digest(u32);
 
 impl Default for Digest {
     fn default() -> Self {
@@ -46,7 +46,7 @@ pub struct Vector {
 }
 
 /// Every group of vectors, in the order the harnesses run them.
-pub const GROUPS: &[&[Vector]] = &[crate::gcode::VECTORS, crate::motion::VECTORS];
+pub(crate) const GROUPS: &[&[Vector]] = &[crate::gcode::VECTORS, crate::motion::VECTORS];
 
 /// Every vector of every group.
 pub fn all() -> impl Iterator<Item = &'static Vector> {

@@ -22,7 +22,7 @@
 //!
 //! Flash writes stall code fetch on the single-bank F4 parts (a 128 KiB sector erase takes 1-2 s),
 //! so a changed setup is saved only with the controller idle and the machine at rest: that rule
-//! lives once, in the core's main loop (`gantry_machine::board::main_loop`, step 6 of
+//! lives once, in the core's main loop (`gantry_machine::device::main_loop`, step 6 of
 //! `MainLoop::pass`), which calls the firmware's `BoardPort::save_setup`.
 #![no_std]
 

@@ -224,7 +224,7 @@ pub enum MachineState {
     },
     Jog,
     /// Motion refused until unlock (and homing where required); `code` is the alarm number
-    /// (`gantry_machine::controller::AlarmCode`, grbl's numbering where the meaning is the same).
+    /// (`gantry_machine::board::AlarmCode`, grbl's numbering where the meaning is the same).
     Alarm {
         code: u16,
     },

@@ -1,5 +1,5 @@
 //! Why a board refuses a pushed setup: the code of the `Answer` to a `SetupCommit`
-//! (docs/protocol.md "Answers"), written by the board (`machine/src/board/link.rs`) and read by
+//! (docs/protocol.md "Answers"), written by the board (`machine/src/device/link.rs`) and read by
 //! the host (`host-sender/src/session/setup.rs`). Code 0 is acceptance, as for every answer.
 
 /// A refused `SetupCommit`.

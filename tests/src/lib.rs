@@ -87,7 +87,7 @@ impl Transport for FaultyBoard {
             if self
                 .outage
                 .is_some_and(|(from, to)| now >= from && now < to)
-                && self.board.board.state() == gantry_machine::controller::State::Hold
+                && self.board.board.state() == gantry_machine::board::State::Hold
             {
                 self.held_in_outage_ms += 1;
             }

@@ -56,7 +56,7 @@ fn homing_over_the_link_seeks_retracts_and_sets_home() {
 
 #[test]
 fn a_joystick_mark_reaches_the_host() {
-    use gantry_machine::controller::inputs::Signal;
+    use gantry_machine::board::inputs::Signal;
     let mut s = Setup::default();
     s.inputs.debounce_ms = 1;
     let mut client = Client::connect(gantry_emulator::EmulatedBoard::new(s), 2000).unwrap();

@@ -6,9 +6,9 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
+use gantry_machine::board::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
+use gantry_machine::board::{AlarmCode, OutputLevels, State};
 use gantry_machine::board::{BoardEvent, JobEnd, ERROR_SOFT_LIMIT};
-use gantry_machine::controller::power_up::{PowerUp, ResetCause, MARKER_IDLE, MARKER_MOVING};
-use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 use gantry_machine::motion::pipeline::MotionState;
 use host_sender::link::Client;
 use host_sender::program::Program;
@@ -113,7 +113,7 @@ fn a_block_beyond_the_travel_in_a_running_job_stops_it_on_the_path_with_alarm_2(
     // ramp from 20 mm/s from where the kernel stood (X 72.43): the alarm stop is a feed
     // hold's deceleration on the path, never an abrupt stop. The hold lands between two passes,
     // so the next pass rewinds into every queued segment; the alarm is raised by the interpreter
-    // inside a pass whose top-up (machine/src/board/main_loop.rs step 3) had already handed out
+    // inside a pass whose top-up (machine/src/device/main_loop.rs step 3) had already handed out
     // line 77's segments, and a stop rewinds only into the block in progress: its ramp starts
     // at X 73 and ends further on, at the end of line 77.
     let mut twin = homed_x_board();

@@ -4,9 +4,9 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_machine::board::inputs::Signal;
+use gantry_machine::board::{OutputLevels, State};
 use gantry_machine::canon::Spindle;
-use gantry_machine::controller::inputs::Signal;
-use gantry_machine::controller::{OutputLevels, State};
 use gantry_machine::motion::pipeline::MotionState;
 
 const ARC_JOB: &str = "G21 G90\nM3 S12000\nM8\nG1 X10 F600\nG2 X30 Y0 I10 J0 F600\nG1 Y5\nM30\n";

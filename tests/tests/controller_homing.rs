@@ -7,9 +7,9 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::EmulatedBoard;
+use gantry_machine::board::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
 use gantry_machine::board::BoardEvent;
-use gantry_machine::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
-use gantry_machine::controller::{AlarmCode, State};
+use gantry_machine::board::{AlarmCode, State};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::setup::ListCommand;
 

@@ -7,8 +7,8 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::EmulatedBoard;
-use gantry_machine::controller::inputs::Signal;
-use gantry_machine::controller::{AdcReadings, State};
+use gantry_machine::board::inputs::Signal;
+use gantry_machine::board::{AdcReadings, State};
 
 /// Steps per ms of the emulator's last main-loop pass on X (speed probe).
 fn x_speed_mm_min(eb: &mut EmulatedBoard) -> f64 {

@@ -7,9 +7,9 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
+use gantry_machine::board::State;
+use gantry_machine::board::JOG_DEADMAN_MS;
 use gantry_machine::board::{BoardEvent, ERROR_JOG_DEADMAN};
-use gantry_machine::controller::jog::JOG_DEADMAN_MS;
-use gantry_machine::controller::State;
 use gantry_machine::motion::pipeline::MotionState;
 
 /// 3000 mm/min = 50 mm/s on X (default acceleration 200 mm/s²: 6.25 mm to stop).

@@ -13,8 +13,8 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
-use gantry_machine::controller::inputs::Signal;
-use gantry_machine::controller::{AdcReadings, State};
+use gantry_machine::board::inputs::Signal;
+use gantry_machine::board::{AdcReadings, State};
 use gantry_machine::motion::kernel::{Segment, KERNEL_TIMER_HZ};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::setup::Setup;

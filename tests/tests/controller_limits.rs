@@ -5,8 +5,8 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_machine::board::{AlarmCode, OutputLevels, State};
 use gantry_machine::board::{ERROR_HOMING_REQUIRED, ERROR_LIMIT_PRESSED};
-use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 
 /// X and Y with min switches at -2 mm for homing, X with a max switch at 50 mm.
 fn machine() -> gantry_emulator::EmulatedBoard {

@@ -5,7 +5,7 @@
 mod controller_support;
 
 use controller_support::*;
-use gantry_machine::controller::AlarmCode;
+use gantry_machine::board::AlarmCode;
 use gantry_proto::MachineState;
 use host_sender::link::Client;
 use host_sender::program::Program;

@@ -1,5 +1,5 @@
 //! The emulated board runs the firmware's main loop (`MainLoop::pass` in
-//! machine/src/board/main_loop.rs): where the emulator's own copy used to differ from
+//! machine/src/device/main_loop.rs): where the emulator's own copy used to differ from
 //! firmware/src/control.rs, it now does what the board does.
 //! - the path speed, and `Hold { stopped }` built from it, come from the 20 ms integer window
 //!   (0 once a job has ended and the kernel drained);
@@ -13,10 +13,10 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
-use gantry_machine::board::link::status_of;
-use gantry_machine::board::main_loop::{SpeedMeter, SEGMENT_QUEUE_DEPTH};
 use gantry_machine::board::ERROR_LIMIT_PRESSED;
-use gantry_machine::controller::{AlarmCode, State};
+use gantry_machine::board::{AlarmCode, State};
+use gantry_machine::device::link::status_of;
+use gantry_machine::device::main_loop::{SpeedMeter, SEGMENT_QUEUE_DEPTH};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::setup::Setup;
 use gantry_proto::MachineState;

@@ -7,7 +7,7 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::{EmulatedBoard, PinEvent};
-use gantry_machine::controller::{AlarmCode, State};
+use gantry_machine::board::{AlarmCode, State};
 use gantry_machine::setup::{Dialect, ListCommand, McodeList, Setup};
 use std::cell::RefCell;
 use std::rc::Rc;

@@ -6,8 +6,8 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::EmulatedBoard;
-use gantry_machine::controller::inputs::Signal;
-use gantry_machine::controller::{AdcReadings, AlarmCode, OutputLevels, State};
+use gantry_machine::board::inputs::Signal;
+use gantry_machine::board::{AdcReadings, AlarmCode, OutputLevels, State};
 use gantry_machine::setup::{ListCommand, McodeList, Setup};
 
 fn x_speed_mm_min(eb: &mut EmulatedBoard) -> f64 {

@@ -7,9 +7,9 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::EmulatedBoard;
+use gantry_machine::board::inputs::Signal;
+use gantry_machine::board::{AlarmCode, OutputLevels, State};
 use gantry_machine::board::{BoardEvent, JobEnd};
-use gantry_machine::controller::inputs::Signal;
-use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 use gantry_machine::motion::pipeline::MotionState;
 
 /// 100 mm at 3000 mm/min with spindle and flood on.

@@ -7,9 +7,9 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
+use gantry_machine::board::inputs::Signal;
+use gantry_machine::board::{AlarmCode, OutputLevels, State};
 use gantry_machine::board::{BoardEvent, JobEnd, ERROR_SOFT_LIMIT};
-use gantry_machine::controller::inputs::Signal;
-use gantry_machine::controller::{AlarmCode, OutputLevels, State};
 use gantry_machine::motion::kernel::StepTiming;
 use gantry_machine::motion::pipeline::MotionState;
 use host_sender::link::Client;

@@ -62,7 +62,7 @@ fn stream(program: &str, cpu: Option<CpuModel>, x_end_steps: i64) -> (u64, f64) 
     (gaps, seconds)
 }
 
-/// The board's starved time (machine/src/board/starvation.rs) is the time the job took beyond
+/// The board's starved time (machine/src/device/starvation.rs) is the time the job took beyond
 /// its planned time because the planner held too little. 0.02 mm lines at F30000 need ~11,000
 /// lines/s; written with 143 bytes each ([`wordy_program`]) the in-process link delivers ~5,300
 /// a second (the board takes at most 512 B a pass, in the tick's pass and in the one each write
@@ -87,7 +87,7 @@ fn the_starved_time_is_the_time_beyond_the_plan() {
         );
         assert!(beyond > 0.25, "{beyond}");
         // Within 5 % and the speed meter's 20 ms window (the starved time is counted from the
-        // measured speed, `board/starvation.rs`).
+        // measured speed, `device/starvation.rs`).
         assert!(
             (starved - beyond).abs() <= 0.05 * beyond + 0.02,
             "starved {starved} s of {beyond} s beyond"

@@ -9,7 +9,7 @@ mod serial_support;
 
 use controller_support::*;
 use gantry_emulator::EmulatedBoard;
-use gantry_machine::controller::{AlarmCode, State};
+use gantry_machine::board::{AlarmCode, State};
 use gantry_machine::setup::OrientSetup;
 use serial_support::{gantry, Dir};
 use std::time::Duration;

@@ -1,4 +1,4 @@
-//! The grbl 1.1 front end (`machine/src/grbl/`) on the emulated board, byte for byte as a grbl
+//! The grbl 1.1 front end (`machine/src/device/grbl/`) on the emulated board, byte for byte as a grbl
 //! sender sees it: detection, banner, `ok`/`error:N`, realtime bytes, status reports and the
 //! `$10` mask, `$` commands and settings, `$J=` jogs, check mode, soft reset mid-job and
 //! character counting against the advertised RX buffer.
@@ -7,9 +7,9 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::EmulatedBoard;
-use gantry_machine::board::link::LinkProtocol;
-use gantry_machine::controller::State;
-use gantry_machine::grbl::{BANNER, RX_SIZE};
+use gantry_machine::board::State;
+use gantry_machine::device::grbl::{BANNER, RX_SIZE};
+use gantry_machine::device::link::LinkProtocol;
 
 /// A grbl sender on the emulated board's port.
 struct Sender {
@@ -1348,7 +1348,7 @@ fn a_setting_write_and_a_setup_file_give_the_same_refusal_from_the_same_check() 
     // Through grbl `$x=`: the setup after the write, validated as `$x=` does.
     let grbl = |number: u16, milli: i64| {
         let mut setup = gantry_machine::setup::Setup::default();
-        gantry_machine::grbl::settings::write(number, milli, &mut setup).unwrap();
+        gantry_machine::device::grbl::settings::write(number, milli, &mut setup).unwrap();
         setup.validate().unwrap_err()
     };
     // Through the setup file (`gantry setup check`/`push`): the core's SetupError is the error.

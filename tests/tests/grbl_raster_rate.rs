@@ -4,7 +4,7 @@
 //! with a fixed host turnaround (an `ok` the board wrote at t is answered by the sender's next
 //! bytes in the board's receive pipe at t + `HOST_TURNAROUND_US`: a USB frame each way and the
 //! sender's reaction). The board's part of the round trip is the pass the bytes wake (the
-//! firmware's USB receive task wakes its main loop at once, machine/src/board/main_loop.rs
+//! firmware's USB receive task wakes its main loop at once, machine/src/device/main_loop.rs
 //! `MainLoop::host_bytes_pass`; a line is answered in that pass when the planner has room):
 //! nothing without a CPU model, that pass's time on the F411's. A counting sender gets 127
 //! bytes per round trip, so at 3,333 lines/s of ~17-byte lines the whole round trip must stay
@@ -16,8 +16,8 @@ mod controller_support;
 use controller_support::*;
 use gantry_emulator::cpu_model::CpuModel;
 use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
-use gantry_machine::controller::State;
-use gantry_machine::grbl::BANNER;
+use gantry_machine::board::State;
+use gantry_machine::device::grbl::BANNER;
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::setup::Setup;
 use std::collections::VecDeque;

@@ -5,7 +5,7 @@
 
 mod serial_support;
 
-use gantry_machine::grbl::{BANNER, RX_SIZE};
+use gantry_machine::device::grbl::{BANNER, RX_SIZE};
 use serial_support::*;
 use std::collections::VecDeque;
 use std::io::{Read, Write};

@@ -7,6 +7,9 @@
 //!
 //! Known cycles may be listed in [`ALLOWED`] edge by edge (none are left); an edge listed there
 //! that no longer exists fails the test too, so the list only shrinks.
+//!
+//! Between the core's top-level modules the arrows run one way: [`MACHINE_LAYERS`] orders them
+//! bottom up, and no file may import a module of a layer above its own.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -25,6 +28,26 @@ const CRATES: &[&str] = &[
 /// are left for now, each with the issue that names it. Removing such an edge from the code means
 /// removing it here.
 const ALLOWED: &[(&str, &str, &str)] = &[];
+
+/// The core's (`machine/src/`) top-level modules in layers, the bottom layer first. A file may
+/// import its own layer and the layers below, never one above: the device drives the board, the
+/// board drives the interpreter and the motion, and nothing below looks back up. Every top-level
+/// module is in exactly one layer (a new module must be placed here).
+///
+/// The middle layer's modules lean on each other and are peers: the step kernel's timing
+/// (`step/timing.rs`) is re-exported by `motion/kernel.rs` while the step interrupt
+/// (`step/isr.rs`) drives motion's kernel; `MotionConfig::from_setup` (`motion/config.rs`) reads
+/// the setup, which names motion's output events and step's driver timing; the cross-target
+/// vectors (`vectors.rs`) list the interpreter's and the motion core's, which use its digest, and
+/// the interpreter's transform vector steps its program through motion's simulator. Their files
+/// still form no cycle (the test above).
+const MACHINE_LAYERS: &[&[&str]] = &[
+    &["arith", "units"],
+    &["canon"],
+    &["gcode", "motion", "step", "setup", "vectors"],
+    &["board"],
+    &["device"],
+];
 
 /// The source with comments, string and character literals blanked out (newlines kept).
 fn strip(src: &str) -> String {
@@ -474,6 +497,84 @@ fn no_file_of_a_crate_imports_itself_back_through_others() {
         "allowed edges that no longer exist (remove them from ALLOWED): {allowed_unused:?}"
     );
     assert!(report.is_empty(), "{report}");
+}
+
+/// The top-level module of a crate's file (`machine/src/board/jog/mod.rs` → `board`); `None`
+/// for the crate root.
+fn top_module(root: &Path, krate: &str, file: &str) -> Option<String> {
+    let src = root.join(krate).join("src");
+    module_of(&src, &root.join(file)).into_iter().next()
+}
+
+/// Imports from a lower layer of [`MACHINE_LAYERS`] into a higher one, and top-level modules in
+/// no layer (or in two), in `g` (the machine crate's file graph), one line each.
+fn layer_violations(root: &Path, g: &BTreeMap<String, BTreeSet<String>>) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut layer_of: BTreeMap<&str, usize> = BTreeMap::new();
+    for (i, layer) in MACHINE_LAYERS.iter().enumerate() {
+        for m in *layer {
+            if layer_of.insert(m, i).is_some() {
+                out.push(format!("{m} is in two layers"));
+            }
+        }
+    }
+    let mut unplaced = BTreeSet::new();
+    for (from, tos) in g {
+        let Some(a) = top_module(root, "machine", from) else {
+            continue;
+        };
+        let Some(&la) = layer_of.get(a.as_str()) else {
+            unplaced.insert(a);
+            continue;
+        };
+        for to in tos {
+            let Some(b) = top_module(root, "machine", to) else {
+                continue;
+            };
+            match layer_of.get(b.as_str()) {
+                Some(&lb) if lb > la => out.push(format!(
+                    "{from} ({a}, layer {la}) imports {to} ({b}, layer {lb})"
+                )),
+                Some(_) => {}
+                None => {
+                    unplaced.insert(b);
+                }
+            }
+        }
+    }
+    for m in unplaced {
+        out.push(format!(
+            "top-level module {m} is in no layer of MACHINE_LAYERS"
+        ));
+    }
+    out
+}
+
+#[test]
+fn no_folder_of_the_core_imports_a_folder_above_it() {
+    let root = workspace_root();
+    let g = graph(&root, "machine");
+    let violations = layer_violations(&root, &g);
+    assert!(
+        violations.is_empty(),
+        "imports against the core's layering (MACHINE_LAYERS, bottom first: {MACHINE_LAYERS:?}):\n    {}",
+        violations.join("\n    ")
+    );
+}
+
+#[test]
+fn the_layer_check_sees_an_import_from_below() {
+    let root = workspace_root();
+    let mut g = graph(&root, "machine");
+    assert!(layer_violations(&root, &g).is_empty());
+    // The board importing the main loop would be an arrow back up.
+    g.entry("machine/src/board/torch.rs".to_owned())
+        .or_default()
+        .insert("machine/src/device/main_loop.rs".to_owned());
+    assert_eq!(
+        layer_violations(&root, &g),
+        ["machine/src/board/torch.rs (board, layer 3) imports machine/src/device/main_loop.rs (device, layer 4)"]
+    );
 }
 
 #[test]

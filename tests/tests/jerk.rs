@@ -14,7 +14,7 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::{EmulatedBoard, PinEvent};
-use gantry_machine::controller::State;
+use gantry_machine::board::State;
 use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::setup::Setup;

@@ -10,9 +10,9 @@ mod controller_support;
 use controller_support::*;
 use gantry_emulator::torch_script::{parse_thc, TorchModel, TorchScript};
 use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
-use gantry_machine::board::link::status_of;
 use gantry_machine::board::BoardEvent;
-use gantry_machine::controller::{AlarmCode, State};
+use gantry_machine::board::{AlarmCode, State};
+use gantry_machine::device::link::status_of;
 use gantry_machine::motion::kernel::{Segment, KERNEL_TIMER_HZ};
 use gantry_machine::setup::Setup;
 

@@ -6,9 +6,9 @@ mod controller_support;
 
 use controller_support::*;
 use gantry_emulator::{EmulatedBoard, ProbeTarget};
-use gantry_machine::board::link::status_of;
+use gantry_machine::board::{AlarmCode, State};
 use gantry_machine::board::{BoardEvent, JobEnd};
-use gantry_machine::controller::{AlarmCode, State};
+use gantry_machine::device::link::status_of;
 use gantry_machine::gcode::expr::ParamRef;
 use gantry_proto::ProbeStatus;
 use host_sender::present::format_status;
@@ -296,13 +296,13 @@ fn a_job_with_two_tools_measures_each_length_with_the_probe_and_cuts_at_the_same
         );
         set(
             &mut eb,
-            gantry_machine::controller::inputs::Signal::CycleStart1,
+            gantry_machine::board::inputs::Signal::CycleStart1,
             true,
         );
         eb.run_ms(5);
         set(
             &mut eb,
-            gantry_machine::controller::inputs::Signal::CycleStart1,
+            gantry_machine::board::inputs::Signal::CycleStart1,
             false,
         );
     }

@@ -45,7 +45,7 @@ fn a_setup_is_refused_while_a_job_runs() {
     .unwrap();
     assert_eq!(
         client.transport.board.state(),
-        gantry_machine::controller::State::Run
+        gantry_machine::board::State::Run
     );
     let err = push_setup_over(&mut client, &Setup::default()).unwrap_err();
     assert!(err.to_string().contains("not idle"), "{err}");
@@ -72,7 +72,7 @@ fn setup_check_refuses_with_the_cores_message_and_exit_code() {
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     let mut setup = Setup::default();
-    gantry_machine::grbl::settings::write(110, 10_000, &mut setup).unwrap();
+    gantry_machine::device::grbl::settings::write(110, 10_000, &mut setup).unwrap();
     let refusal = setup.validate().unwrap_err().to_string();
     assert_eq!(
         refusal,

@@ -7,8 +7,8 @@ mod serial_support;
 
 use controller_support::*;
 use gantry_emulator::EmulatedBoard;
-use gantry_machine::board::link::status_of;
-use gantry_machine::controller::State;
+use gantry_machine::board::State;
+use gantry_machine::device::link::status_of;
 use gantry_machine::gcode::config::Tool;
 use gantry_machine::setup::Setup;
 

@@ -5,7 +5,7 @@
 //! Measured on the board's pin events (one per tick that steps or changes direction).
 
 use gantry_emulator::{EmulatedBoard, PinEvent};
-use gantry_machine::board::main_loop::BoardPort;
+use gantry_machine::device::main_loop::BoardPort;
 use gantry_machine::motion::kernel::{Segment, StepTiming};
 use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::setup::{DriverSetup, Setup};

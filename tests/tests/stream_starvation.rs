@@ -1,4 +1,4 @@
-//! The stream report's time lost to starvation (machine/src/board/starvation.rs, carried in
+//! The stream report's time lost to starvation (machine/src/device/starvation.rs, carried in
 //! the board's status), through the `gantry` binary: very short lines, long on the wire, streamed
 //! over a pty to `gantry emulate --cpu-model f411` lose time, the example job streamed to the
 //! emulated board loses none.

@@ -196,7 +196,7 @@ fn a_new_host_takes_over_a_job_after_the_cable_was_pulled() {
     let held_at = transport.board.isr.kernel.position();
     assert_eq!(
         transport.board.board.state(),
-        gantry_machine::controller::State::Hold
+        gantry_machine::board::State::Hold
     );
     transport.wait(500);
     assert_eq!(
@@ -277,7 +277,7 @@ fn after_a_short_cable_pull_the_same_host_leaves_the_job_held_until_the_operator
     assert!((1_000..=2_500).contains(&gap_reported), "{gap_reported}");
     assert!(report.completed, "{:?}", report.errors);
     let board = &client.transport.board;
-    assert!(board.board.state() == gantry_machine::controller::State::Idle);
+    assert!(board.board.state() == gantry_machine::board::State::Idle);
     let r = reference(&program, &setup);
     assert_eq!(board.isr.kernel.position(), r.steps);
     assert_eq!(board.pulses, r.pulses);

@@ -6,10 +6,10 @@
 mod controller_support;
 
 use controller_support::*;
+use gantry_machine::board::inputs::Signal;
+use gantry_machine::board::State;
 use gantry_machine::board::{BoardEvent, JobEnd};
 use gantry_machine::canon::Spindle;
-use gantry_machine::controller::inputs::Signal;
-use gantry_machine::controller::State;
 use gantry_machine::setup::ToolChangePosition;
 
 /// X -20, Y 30, Z 10 mm in machine coordinates.

@@ -1,7 +1,7 @@
 //! The emulated board's underrun count through the `gantry` binary: `gantry emulate --pty
 //! --cpu-model f411` logs each time its step kernel ran dry mid-job ("N so far") and, at each
 //! state change, the count the main loop keeps ("underruns N"). Both are the one count of the
-//! core's main loop (machine/src/board/underruns.rs); before, the first was the emulator's own
+//! core's main loop (machine/src/device/underruns.rs); before, the first was the emulator's own
 //! and the second the main loop's pass count, and they disagreed.
 
 mod serial_support;

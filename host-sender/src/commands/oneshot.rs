@@ -388,7 +388,7 @@ pub fn home(target: Target, axes: u8) -> anyhow::Result<ExitCode> {
 /// What to do about the limit switches `status` shows pressed (error 905): the switch and the
 /// jog that takes the axis off it and back inside the travel (`gantry jog X -2`), one per switch.
 fn pressed_switch_hint(status: &Status, setup: &Setup) -> Option<String> {
-    use gantry_machine::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+    use gantry_machine::board::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
     let mut jogs = Vec::new();
     let axes = setup.axes.iter().zip(status.machine_pos).zip(AXIS_LETTERS);
     for (axis, ((a, at), letter)) in axes.take(setup.axis_count as usize).enumerate() {
@@ -582,7 +582,7 @@ pub fn jog(target: Target, axis: u8, how: JogMove, feed_mm_min: f64) -> anyhow::
         println!(
             "the board stopped the jog: no keepalive from this command for {} ms (it was stopped, \
              too slow or cut off from the board)",
-            gantry_machine::controller::jog::JOG_DEADMAN_MS
+            gantry_machine::board::JOG_DEADMAN_MS
         );
         return Ok(ExitCode::from(1));
     }

@@ -16,7 +16,7 @@
 //! when that command's connection ends mid-job (killed, crashed, terminal closed), the server
 //! tells the board its job's owner is lost (`HostMsg::OwnerLost`), which the board takes exactly
 //! as a lost direct host (hold on the path, spindle and coolant off at rest, the
-//! `link.host_lost_stop_s` count: the policy is the core's, `machine/src/board/link.rs`); a later
+//! `link.host_lost_stop_s` count: the policy is the core's, `machine/src/device/link.rs`); a later
 //! `stream --continue` through the server takes the job over, and the operator resumes it. When
 //! the server itself ends, its port closes with DTR dropped: the board holds.
 

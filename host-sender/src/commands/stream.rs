@@ -877,8 +877,8 @@ fn print_report(
     }
     // Abort, alarm 2 and alarm 20 stop the job on its path with the position kept.
     let stopped_on_path = report.alarms.iter().any(|a| {
-        a.code == gantry_machine::controller::AlarmCode::SoftLimit as u16
-            || a.code == gantry_machine::controller::AlarmCode::HostLost as u16
+        a.code == gantry_machine::board::AlarmCode::SoftLimit as u16
+            || a.code == gantry_machine::board::AlarmCode::HostLost as u16
     });
     if report.aborted || stopped_on_path {
         println!(

@@ -724,7 +724,7 @@ fn refresh(c: &Arc<Console>) {
 /// lost link the line the board stood at (not before the run's first line), after an error its
 /// line; `None` after a completed job or one that cannot be resumed by line.
 fn resume_line(report: &crate::session::StreamReport, first_line: u32) -> Option<u32> {
-    use gantry_machine::controller::AlarmCode;
+    use gantry_machine::board::AlarmCode;
     let on_path = report
         .alarms
         .iter()

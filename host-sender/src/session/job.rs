@@ -312,7 +312,7 @@ fn run_job<T: Transport>(
         // A gap in the board's messages (this process stalled, the cable came back) changes
         // nothing here: a job the board held meanwhile (host lost) stays held until the operator
         // resumes it; the gap is reported with the progress.
-        if silent > gantry_machine::board::link::HOST_TIMEOUT_MS {
+        if silent > gantry_machine::device::link::HOST_TIMEOUT_MS {
             progress.link_gap_ms = silent;
         }
         while let Some(msg) = client.recv() {

@@ -5,7 +5,7 @@
 
 use super::mm;
 use anyhow::{bail, Context};
-use gantry_machine::controller::inputs::INPUT_NAMES;
+use gantry_machine::board::inputs::INPUT_NAMES;
 use gantry_machine::setup::table::Section;
 use gantry_machine::setup::{
     Key, KeyName, ListCommand, McodeList, Setup, ToolChangePosition, MAX_MCODE_LISTS, MAX_TOOLS,

@@ -20,7 +20,7 @@ const RING: usize = 4;
 
 /// The modal offsets and units a block runs under.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct BlockModes {
+pub(crate) struct BlockModes {
     /// Total offset from program to machine coordinates (work offset + G92 + tool length), nm.
     pub offset: Pos,
     /// Work system 0..8 = G54..G59.3.
@@ -40,7 +40,7 @@ impl BlockModes {
     }
 
     /// Work position of the machine position `machine`: minus these offsets.
-    pub fn work_position(&self, machine: &Pos) -> Pos {
+    pub(crate) fn work_position(&self, machine: &Pos) -> Pos {
         let mut w = *machine;
         for (w, o) in w.iter_mut().zip(self.offset) {
             *w -= o;
@@ -69,7 +69,7 @@ impl Change {
 /// (a `heapless::Deque` moved its 64-byte entries with a `memmove` the firmware had no other use
 /// for: 1.5 KiB of F411 flash).
 #[derive(Clone, Debug)]
-pub struct Executing {
+pub(crate) struct Executing {
     ring: [Change; RING],
     /// Index of the active entry.
     active: usize,

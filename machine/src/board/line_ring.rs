@@ -36,7 +36,7 @@ impl<const B: usize> Default for LineRing<B> {
 
 impl<const B: usize> LineRing<B> {
     /// Bytes of records the ring holds.
-    pub const CAPACITY: usize = B - RECORD_MAX;
+    pub(crate) const CAPACITY: usize = B - RECORD_MAX;
     const FITS: () = assert!(
         B >= 2 * RECORD_MAX && Self::CAPACITY <= u16::MAX as usize,
         "a ring holds the longest record and its size fits the link's credit"

@@ -9,38 +9,26 @@
 //! from the kernel's running segment.
 
 // Without the `link` feature nothing in this crate drives the board (its owner is
-// `main_loop::MainLoop`), so the methods only the main loop and the link call are dead there.
+// `device::main_loop::MainLoop`), so the methods only the main loop and the link call are dead there.
 #![cfg_attr(not(feature = "link"), allow(dead_code))]
 
 pub mod executing;
-mod homing_cycle;
-mod jogging;
-pub mod kernel_view;
+mod homing;
+pub mod inputs;
+mod jog;
 pub mod line_ring;
-#[cfg(feature = "link")]
-pub mod link;
-#[cfg(feature = "link")]
-pub mod main_loop;
 mod mode;
-mod operator;
 mod outbox;
 mod outputs;
 mod overrides;
+pub mod power_up;
 mod pressed_switch;
 mod probing;
 pub mod source;
-#[cfg(feature = "link")]
-mod starvation;
+mod state;
 mod torch;
-pub mod underruns;
 
 use crate::canon::{Action, Canon, Spindle, StopKind};
-use crate::controller::homing::{self, Phase};
-use crate::controller::inputs::{InputBits, Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
-use crate::controller::lists::ListStatus;
-use crate::controller::outputs::OutputLevels;
-use crate::controller::power_up::PowerUp;
-use crate::controller::{AlarmCode, State};
 use crate::gcode::{GcodeError, Interpreter, OffPlaneOffset};
 use crate::motion::config::MotionConfig;
 use crate::motion::kernel::Segment;
@@ -49,30 +37,38 @@ use crate::motion::pipeline::{Motion, MotionState, PushError};
 use crate::setup::Setup;
 use crate::units::{Pos, MAX_AXES};
 use executing::{BlockModes, Executing};
-use homing_cycle::PositionTrust;
-pub use jogging::JogRefused;
-use jogging::JogState;
+use homing::plan::Phase;
+use homing::PositionTrust;
+use inputs::operator::Sensed;
+pub use inputs::{fro_from_adc, AdcReadings};
+use inputs::{InputBits, Signal, LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+pub use jog::plan::JOG_DEADMAN_MS;
+pub use jog::JogRefused;
+use jog::JogState;
 pub use mode::Streamer;
 use mode::{
     Ending, HoldWhy, HomingCycle, HomingPhase, Job, JobKind, JobPhase, Jogging, Mode, Ramp,
 };
-use operator::Sensed;
 use outbox::Outbox;
 pub use outbox::{BoardEvent, JobEnd, MarkEvent};
+pub use outputs::levels::OutputLevels;
+use outputs::lists::ListStatus;
 use outputs::OutputState;
 pub use outputs::{DoorOutputs, Outputs};
 use overrides::Overrides;
+use power_up::PowerUp;
 pub use pressed_switch::ERROR_LIMIT_PRESSED;
 pub use probing::ProbeResult;
 use probing::Probing;
 pub use source::{JumpRequest, JumpTarget, Pushed, StreamSource, LINE_CAPACITY};
+pub use state::{AlarmCode, State};
 
 /// Planner ring size on the board (look-ahead over at least 128 blocks, docs/architecture.md).
-pub const PLANNER_BLOCKS: usize = 128;
+pub(crate) const PLANNER_BLOCKS: usize = 128;
 /// Bytes of line records (`board/line_ring.rs`) the board buffers ahead of the interpreter: the
 /// queued lane's credit. 4 KiB is ~250 short CAM lines, 25 ms of a 10 k lines/s program: more
 /// than a USB or pty round trip plus a main-loop pass (docs/protocol.md "Flow control").
-pub const LINE_RING: usize = 4096;
+pub(crate) const LINE_RING: usize = 4096;
 /// The line ring's buffer: the ring and the run-on room of one record (`line_ring.rs`).
 const LINE_RING_BUFFER: usize = LINE_RING + line_ring::RECORD_MAX;
 
@@ -87,7 +83,7 @@ pub const ERROR_BUSY: u16 = 902;
 /// to home.
 pub const ERROR_INVALID_REQUEST: u16 = 903;
 /// Error code reported when the board ended a continuous host jog because no keepalive came for
-/// [`crate::controller::jog::JOG_DEADMAN_MS`] (the host was killed, stopped or cut off).
+/// [`JOG_DEADMAN_MS`] (the host was killed, stopped or cut off).
 pub const ERROR_JOG_DEADMAN: u16 = 904;
 /// Every limit-switch bit of [`InputBits`].
 pub const LIMIT_BITS: u32 = (0x3f << LIMIT_MIN_BIT) | (0x3f << LIMIT_MAX_BIT);
@@ -107,15 +103,15 @@ pub struct Board {
     progress: Progress,
     /// The offsets, units and programmed speed of the block being executed (`board/executing.rs`).
     executing: Executing,
-    /// Spindle, coolant, tool and user outputs with what the stops saved (`board/outputs.rs`).
+    /// Spindle, coolant, tool and user outputs with what the stops saved (`board/outputs/mod.rs`).
     outputs: OutputState,
     /// Feed and spindle overrides and the run switches (`board/overrides.rs`).
     overrides: Overrides,
-    /// Which axes are homed and whether the position is trusted (`board/homing_cycle.rs`).
+    /// Which axes are homed and whether the position is trusted (`board/homing/`).
     position: PositionTrust,
-    /// Time, input levels and the kernel's drained flag, as last heard (`board/operator.rs`).
+    /// Time, input levels and the kernel's drained flag, as last heard (`board/inputs/operator.rs`).
     sensed: Sensed,
-    /// Host jogs and the joystick (`board/jogging.rs`).
+    /// Host jogs and the joystick (`board/jog/`).
     jog: JogState,
     /// A G38 probe move of the job and the last result (`board/probing.rs`).
     probing: Probing,
@@ -154,7 +150,7 @@ impl Board {
     /// in a static while calls such as `Interpreter::new` run in between; firmware/README.md).
     #[inline(always)]
     pub fn power_up(setup: Setup, how: PowerUp) -> Self {
-        let needs_home = setup.homing.required && !homing::order(&setup, 0).is_empty();
+        let needs_home = setup.homing.required && !homing::plan::order(&setup, 0).is_empty();
         let alarm = if how == PowerUp::MotionInterrupted {
             // grbl alarm 3: the steps in flight when the reset came are unknown.
             Some(AlarmCode::ResetDuringMotion)
@@ -203,7 +199,7 @@ impl Board {
     }
 
     /// Main-loop time from the last [`Board::on_inputs`], ms: the board's clock (the grbl door's
-    /// spin-up wait, `machine/src/grbl/door.rs`; the jog dead-man, `board/jogging.rs`).
+    /// spin-up wait, `machine/src/device/grbl/door.rs`; the jog dead-man, `board/jog/`).
     pub fn now_ms(&self) -> u32 {
         self.sensed.now_ms
     }
@@ -281,7 +277,7 @@ impl Board {
         )
     }
 
-    /// Replaces the grbl front end's section of the setup (`machine/src/grbl/`), in any state:
+    /// Replaces the grbl front end's section of the setup (`machine/src/device/grbl/`), in any state:
     /// nothing else of the core reads it, so nothing is rebuilt.
     pub(crate) fn set_grbl_setup(&mut self, grbl: crate::setup::GrblSetup) {
         self.setup.grbl = grbl;
@@ -339,7 +335,7 @@ impl Board {
         self.outbox.take_event()
     }
 
-    fn emit(&mut self, e: BoardEvent) {
+    pub(crate) fn emit(&mut self, e: BoardEvent) {
         self.outbox.emit(e);
     }
 
@@ -539,7 +535,7 @@ impl Board {
         self.outbox.take_offsets_changed()
     }
 
-    /// Spindle and coolant off if the machine stands idle (a grbl sender left, `grbl/mod.rs`
+    /// Spindle and coolant off if the machine stands idle (a grbl sender left, `device/grbl/mod.rs`
     /// `Grbl::disconnect`); a job's outputs go off when it stops.
     pub(crate) fn stop_outputs_at_rest(&mut self) {
         if matches!(self.mode, Mode::Idle) {
@@ -621,7 +617,7 @@ impl Board {
     /// interpreter has consumed every line it was given, the end of the program has not come, and
     /// everything queued has run (the kernel drained at the last [`Board::poll`]) — the machine
     /// stands still with spindle and coolant as the program left them. With the host gone this
-    /// wait never ends by itself; [`link::BoardLink`] bounds it like a hold (alarm 20).
+    /// wait never ends by itself; [`crate::device::link::BoardLink`] bounds it like a hold (alarm 20).
     pub fn waiting_for_lines(&self) -> bool {
         self.machine_job() == Some(JobPhase::Running(Ending::No))
             && self.progress.pending.is_none()
@@ -749,7 +745,7 @@ impl Board {
     }
 
     /// The host has stayed away for `link.host_lost_stop_s` while the job was held or waited for
-    /// lines ([`link::BoardLink`] decides): end the job and raise alarm 20 at rest (every output
+    /// lines ([`crate::device::link::BoardLink`] decides): end the job and raise alarm 20 at rest (every output
     /// off), with the line it stopped in.
     pub(crate) fn host_lost_stop(&mut self) {
         if matches!(
@@ -805,7 +801,7 @@ impl Board {
         if let Some(c) = self.homing_cycle() {
             let h = &c.homing;
             let axis = h.axis();
-            let bit = 1 << homing::switch_bit(axis, &self.setup.homing.axes[axis]);
+            let bit = 1 << homing::plan::switch_bit(axis, &self.setup.homing.axes[axis]);
             let list_seek = h.list_seek;
             if h.seeking() && tripped == bit {
                 let reported = list_seek && c.list.as_ref().is_none_or(|l| l.reports_limits());
@@ -851,7 +847,7 @@ impl Board {
         let mut arm = self.sensed.armed(if i.hard_limits { installed } else { 0 });
         if let Some(HomingCycle { homing: h, .. }) = self.homing_cycle() {
             let axis = h.axis();
-            let bit = 1 << homing::switch_bit(axis, &self.setup.homing.axes[axis]);
+            let bit = 1 << homing::plan::switch_bit(axis, &self.setup.homing.axes[axis]);
             if h.seeking() {
                 arm |= bit;
             } else {

@@ -1,16 +1,16 @@
 //! What the board is doing, as one value: [`Mode`] says whether it is idle, running a job (and in
 //! which phase: running, held, stopping), in an alarm, homing or jogging. The status's
 //! [`State`] is derived from it ([`Mode::state`]); the rules that move between modes are in
-//! `board/mod.rs` (jobs, alarms), `board/homing_cycle.rs` and `board/jogging.rs`.
+//! `board/mod.rs` (jobs, alarms), `board/homing/` and `board/jog/`.
 //!
 //! Stops take precedence: once a job is [`JobPhase::Stopping`] (an abort, or an alarm stop such
 //! as alarm 2 or 20 decelerating on the path) nothing but the rest of the machine ends it: a feed
 //! hold, a cycle start or another abort leaves it as it is, and it ends at rest with the
 //! program-stop sequence or its alarm.
 
-use crate::controller::homing::Homing;
-use crate::controller::lists::ListRunner;
-use crate::controller::{AlarmCode, State};
+use crate::board::homing::plan::Homing;
+use crate::board::outputs::lists::ListRunner;
+use crate::board::state::{AlarmCode, State};
 
 /// The board's mode. Not `PartialEq`: a derived comparison would compare a homing cycle's lists
 /// too (940 B of F411 flash, measured, for nothing); test a mode with `matches!`.
@@ -73,7 +73,7 @@ pub(super) enum Jogging {
 /// A homing cycle, running or aborted.
 #[derive(Clone, Debug)]
 pub(super) enum HomingPhase {
-    /// Lists, seek, retract and set home, axis by axis (`board/homing_cycle.rs`).
+    /// Lists, seek, retract and set home, axis by axis (`board/homing/`).
     Cycle(HomingCycle),
     /// Aborted: the seek decelerates; alarm 6 at rest.
     Aborting,

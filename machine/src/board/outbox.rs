@@ -3,7 +3,7 @@
 //! stored offsets (the owner writes the setup to flash).
 
 use super::source::JumpRequest;
-use crate::controller::AlarmCode;
+use crate::board::state::AlarmCode;
 use crate::units::Pos;
 use heapless::Deque;
 

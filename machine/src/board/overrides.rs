@@ -5,8 +5,8 @@
 //! program's own spindle and coolant state lives in [`OutputState`](super::outputs::OutputState);
 //! these act on top of it.
 
+use super::inputs::operator::RunSwitches;
 use super::mode::{JobPhase, Mode};
-use super::operator::RunSwitches;
 use super::outputs::DoorOutputs;
 use super::Board;
 use crate::motion::pipeline::MotionState;

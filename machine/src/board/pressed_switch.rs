@@ -7,8 +7,8 @@
 //! the moment in which the unlocked machine could be driven further into it.
 
 use super::{Board, LIMIT_BITS};
-use crate::controller::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
-use crate::controller::AlarmCode;
+use crate::board::inputs::{LIMIT_MAX_BIT, LIMIT_MIN_BIT};
+use crate::board::state::AlarmCode;
 use crate::units::{Pos, MAX_AXES};
 
 /// Error code of a request refused while a limit switch is pressed: jog the axis off it first.
@@ -18,7 +18,7 @@ impl Board {
     /// The installed limit switches (hard limits on) that are pressed now, as limit input bits:
     /// the debounced levels, and the switches disarmed by the last hard limit (pressed then, not
     /// released since; they may not show in the debounced levels yet).
-    pub fn pressed_limits(&self) -> u32 {
+    pub(crate) fn pressed_limits(&self) -> u32 {
         let i = &self.setup.inputs;
         if !i.hard_limits {
             return 0;

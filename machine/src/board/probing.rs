@@ -13,9 +13,9 @@
 
 use super::mode::{Job, JobPhase};
 use super::{Board, Mode};
+use crate::board::inputs::Signal;
+use crate::board::state::AlarmCode;
 use crate::canon::{Action, Canon, ProbeMode};
-use crate::controller::inputs::Signal;
-use crate::controller::AlarmCode;
 use crate::motion::pipeline::{MotionState, PushError};
 use crate::units::{Pos, MAX_AXES};
 

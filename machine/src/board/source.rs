@@ -87,7 +87,7 @@ impl<const B: usize> StreamSource<B> {
     }
 
     /// Whether the host serves jumps (subprograms, O-word loops); set for each job.
-    pub fn serve_jumps(&mut self, served: bool) {
+    pub(crate) fn serve_jumps(&mut self, served: bool) {
         self.jumps_served = served;
     }
 
@@ -151,7 +151,7 @@ impl<const B: usize> StreamSource<B> {
     }
 
     /// The next jump request to send to the host.
-    pub fn take_request(&mut self) -> Option<JumpRequest> {
+    pub(crate) fn take_request(&mut self) -> Option<JumpRequest> {
         self.pending.take()
     }
 

@@ -6,9 +6,9 @@
 
 use super::mode::{HoldWhy, JobPhase};
 use super::Board;
+use crate::board::inputs::Signal;
+use crate::board::state::AlarmCode;
 use crate::canon::Spindle;
-use crate::controller::inputs::Signal;
-use crate::controller::AlarmCode;
 use crate::motion::pipeline::MotionState;
 use crate::motion::thc::ThcCommand;
 

@@ -47,13 +47,13 @@ pub enum GGroup {
 }
 
 /// Number of [`GGroup`]s.
-pub const G_GROUPS: usize = 16;
+pub(crate) const G_GROUPS: usize = 16;
 
 /// The `g_set` bits of the transform groups (scaling, rotation, polar, mirror).
-pub const TRANSFORM_GROUPS: u16 = 0xf << GGroup::Scaling as u16;
+pub(crate) const TRANSFORM_GROUPS: u16 = 0xf << GGroup::Scaling as u16;
 
 /// The group of a G code in tenths, or `None` if unknown.
-pub fn g_group(code: u16) -> Option<GGroup> {
+pub(crate) fn g_group(code: u16) -> Option<GGroup> {
     G_TABLE.iter().find(|e| e.0 == code).map(|e| e.1)
 }
 
@@ -172,7 +172,7 @@ pub enum MGroup {
 pub const M_GROUPS: usize = 8;
 
 /// The group of an M code under `config`, or `None` if unknown.
-pub fn m_group(code: u16, config: &InterpConfig) -> Option<MGroup> {
+pub(crate) fn m_group(code: u16, config: &InterpConfig) -> Option<MGroup> {
     use MGroup::*;
     Some(match code {
         0 | 1 | 2 | 30 | 98 | 99 => Flow,
@@ -195,7 +195,7 @@ pub struct Code {
 }
 
 /// Most M words in one block (as LinuxCNC).
-pub const MAX_M_WORDS: usize = 5;
+pub(crate) const MAX_M_WORDS: usize = 5;
 
 /// One parsed block.
 #[derive(Clone, Debug)]
@@ -246,7 +246,7 @@ const fn slot(l: u8) -> usize {
 }
 
 /// The mask of `letters` for [`Block::has_any`] (for constants).
-pub const fn letter_mask<const N: usize>(letters: &[u8; N]) -> u32 {
+pub(crate) const fn letter_mask<const N: usize>(letters: &[u8; N]) -> u32 {
     let mut mask = 0;
     let mut i = 0;
     while i < N {
@@ -257,7 +257,7 @@ pub const fn letter_mask<const N: usize>(letters: &[u8; N]) -> u32 {
 }
 
 /// A block error with the columns to blame.
-pub type BlockError = (ErrorCode, Option<(u16, u16)>);
+pub(crate) type BlockError = (ErrorCode, Option<(u16, u16)>);
 
 impl Default for Block {
     fn default() -> Self {
@@ -295,7 +295,7 @@ impl Block {
 
     /// The word of the first letter of `mask` ([`letter_mask`]) the block has, in the order of
     /// the letters' slots (`A`..`Z`, `@`, `^`).
-    pub fn first_word(&self, mask: u32) -> Option<Word> {
+    pub(crate) fn first_word(&self, mask: u32) -> Option<Word> {
         let bits = self.present & mask;
         if bits == 0 {
             return None;
@@ -315,7 +315,7 @@ impl Block {
 
     /// The block has a word of any letter of `mask` ([`letter_mask`]): one test where a loop of
     /// [`Self::has`] calls cost ~60 Cortex-M4 instructions a line.
-    pub fn has_any(&self, mask: u32) -> bool {
+    pub(crate) fn has_any(&self, mask: u32) -> bool {
         self.present & mask != 0
     }
 
@@ -327,7 +327,7 @@ impl Block {
     }
 
     /// True if the block has no value word outside `mask` (see [`letter_mask`]).
-    pub fn has_only(&self, mask: u32) -> bool {
+    pub(crate) fn has_only(&self, mask: u32) -> bool {
         self.present & !mask == 0
     }
 
@@ -376,18 +376,18 @@ impl Block {
     }
 
     /// True if the block has a G code of a group in `mask` (bits of [`GGroup`]).
-    pub fn has_g_in(&self, mask: u16) -> bool {
+    pub(crate) fn has_g_in(&self, mask: u16) -> bool {
         self.g_set & mask != 0
     }
 
     /// True if the block has a G code of any group other than `group`.
-    pub fn has_g_besides(&self, group: GGroup) -> bool {
+    pub(crate) fn has_g_besides(&self, group: GGroup) -> bool {
         self.g_set & !(1 << group as u16) != 0
     }
 
     /// The G code given for a group.
     #[inline(always)]
-    pub fn g_of(&self, group: GGroup) -> Option<u16> {
+    pub(crate) fn g_of(&self, group: GGroup) -> Option<u16> {
         self.g(group).map(|c| c.code)
     }
 
@@ -397,12 +397,12 @@ impl Block {
     }
 
     /// True if the block has this M code.
-    pub fn has_m(&self, code: u16) -> bool {
+    pub(crate) fn has_m(&self, code: u16) -> bool {
         self.m.iter().any(|(_, c)| c.code == code)
     }
 
     /// The columns of a G code in the block.
-    pub fn g_cols(&self, code: u16) -> Option<(u16, u16)> {
+    pub(crate) fn g_cols(&self, code: u16) -> Option<(u16, u16)> {
         g_group(code).and_then(|grp| self.g(grp).map(|c| c.cols))
     }
 
@@ -435,7 +435,7 @@ pub fn parse_block(lexer: &mut Lexer<'_>, config: &InterpConfig) -> Result<Block
 /// [`parse_block`] into a new block the caller owns (`Block::new()`): the interpreter's per-line
 /// path fills its block in place, since moving an 830-byte `Block` through return values costs
 /// ~700 Cortex-M4 instructions a copy (target-tests/src/bin/bench_motion.rs, per-line figures).
-pub fn parse_block_into(
+pub(crate) fn parse_block_into(
     lexer: &mut Lexer<'_>,
     config: &InterpConfig,
     b: &mut Block,

@@ -3,79 +3,79 @@
 //! and the block parser decide on one.
 
 /// `G0` rapid.
-pub const G0: u16 = 0;
+pub(crate) const G0: u16 = 0;
 /// `G1` linear feed.
 pub const G1: u16 = 10;
 /// `G2` clockwise arc.
-pub const G2: u16 = 20;
+pub(crate) const G2: u16 = 20;
 /// `G3` counter-clockwise arc.
-pub const G3: u16 = 30;
+pub(crate) const G3: u16 = 30;
 /// `G5` cubic spline (LinuxCNC).
-pub const G5: u16 = 50;
+pub(crate) const G5: u16 = 50;
 /// `G5.1` quadratic spline (LinuxCNC).
-pub const G5_1: u16 = 51;
+pub(crate) const G5_1: u16 = 51;
 /// `G4` dwell.
-pub const G4: u16 = 40;
+pub(crate) const G4: u16 = 40;
 /// `G10` offsets and tool table.
-pub const G10: u16 = 100;
+pub(crate) const G10: u16 = 100;
 /// `G15` polar coordinates off (Fanuc).
-pub const G15: u16 = 150;
+pub(crate) const G15: u16 = 150;
 /// `G16` polar coordinates: first plane axis radius, second angle (Fanuc).
-pub const G16: u16 = 160;
+pub(crate) const G16: u16 = 160;
 /// `G17` XY plane.
-pub const G17: u16 = 170;
+pub(crate) const G17: u16 = 170;
 /// `G18` ZX plane.
-pub const G18: u16 = 180;
+pub(crate) const G18: u16 = 180;
 /// `G19` YZ plane.
-pub const G19: u16 = 190;
+pub(crate) const G19: u16 = 190;
 /// `G20` inches.
 pub const G20: u16 = 200;
 /// `G21` millimetres.
 pub const G21: u16 = 210;
 /// `G28` go to the G28 position.
-pub const G28: u16 = 280;
+pub(crate) const G28: u16 = 280;
 /// `G28.1` store the G28 position.
-pub const G28_1: u16 = 281;
+pub(crate) const G28_1: u16 = 281;
 /// `G30` go to the G30 position.
-pub const G30: u16 = 300;
+pub(crate) const G30: u16 = 300;
 /// `G30.1` store the G30 position.
-pub const G30_1: u16 = 301;
+pub(crate) const G30_1: u16 = 301;
 /// `G38.2` probe toward the workpiece, alarm without contact.
-pub const G38_2: u16 = 382;
+pub(crate) const G38_2: u16 = 382;
 /// `G38.3` probe toward the workpiece, no alarm without contact.
-pub const G38_3: u16 = 383;
+pub(crate) const G38_3: u16 = 383;
 /// `G38.4` probe away from the workpiece, alarm without loss of contact.
-pub const G38_4: u16 = 384;
+pub(crate) const G38_4: u16 = 384;
 /// `G38.5` probe away from the workpiece, no alarm without loss of contact.
-pub const G38_5: u16 = 385;
+pub(crate) const G38_5: u16 = 385;
 /// `G40` cutter compensation off.
-pub const G40: u16 = 400;
+pub(crate) const G40: u16 = 400;
 /// `G41` cutter compensation left.
-pub const G41: u16 = 410;
+pub(crate) const G41: u16 = 410;
 /// `G42` cutter compensation right.
-pub const G42: u16 = 420;
+pub(crate) const G42: u16 = 420;
 /// `G41.1` cutter compensation left, diameter in the block.
-pub const G41_1: u16 = 411;
+pub(crate) const G41_1: u16 = 411;
 /// `G42.1` cutter compensation right, diameter in the block.
-pub const G42_1: u16 = 421;
+pub(crate) const G42_1: u16 = 421;
 /// `G43` tool length offset from the table.
-pub const G43: u16 = 430;
+pub(crate) const G43: u16 = 430;
 /// `G43.1` dynamic tool length offset.
-pub const G43_1: u16 = 431;
+pub(crate) const G43_1: u16 = 431;
 /// `G49` tool length offset off.
-pub const G49: u16 = 490;
+pub(crate) const G49: u16 = 490;
 /// `G50` scaling off (Fanuc).
-pub const G50: u16 = 500;
+pub(crate) const G50: u16 = 500;
 /// `G50.1` programmable mirror off (Fanuc).
-pub const G50_1: u16 = 501;
+pub(crate) const G50_1: u16 = 501;
 /// `G51` scaling on (Fanuc).
-pub const G51: u16 = 510;
+pub(crate) const G51: u16 = 510;
 /// `G51.1` programmable mirror on (Fanuc).
-pub const G51_1: u16 = 511;
+pub(crate) const G51_1: u16 = 511;
 /// `G52` local offset.
-pub const G52: u16 = 520;
+pub(crate) const G52: u16 = 520;
 /// `G53` machine coordinates for this block.
-pub const G53: u16 = 530;
+pub(crate) const G53: u16 = 530;
 /// `G54` first work system (`G54`..`G59` are 540..590, then `G59.1`..`G59.3`).
 pub const G54: u16 = 540;
 /// `G55` second work system.
@@ -89,74 +89,74 @@ pub const G58: u16 = 580;
 /// `G59` sixth work system.
 pub const G59: u16 = 590;
 /// `G59.1` seventh work system.
-pub const G59_1: u16 = 591;
+pub(crate) const G59_1: u16 = 591;
 /// `G59.2` eighth work system.
-pub const G59_2: u16 = 592;
+pub(crate) const G59_2: u16 = 592;
 /// `G59.3` ninth work system.
-pub const G59_3: u16 = 593;
+pub(crate) const G59_3: u16 = 593;
 /// `G61` exact path.
-pub const G61: u16 = 610;
+pub(crate) const G61: u16 = 610;
 /// `G61.1` exact stop.
-pub const G61_1: u16 = 611;
+pub(crate) const G61_1: u16 = 611;
 /// `G64` blending with a tolerance.
-pub const G64: u16 = 640;
+pub(crate) const G64: u16 = 640;
 /// `G65` Fanuc macro call.
-pub const G65: u16 = 650;
+pub(crate) const G65: u16 = 650;
 /// `G68` coordinate rotation (Fanuc).
 pub const G68: u16 = 680;
 /// `G69` coordinate rotation off (Fanuc).
-pub const G69: u16 = 690;
+pub(crate) const G69: u16 = 690;
 /// `G73` peck drilling with chip break.
-pub const G73: u16 = 730;
+pub(crate) const G73: u16 = 730;
 /// `G74` left-hand tapping (Fanuc).
-pub const G74: u16 = 740;
+pub(crate) const G74: u16 = 740;
 /// `G76` fine boring (Fanuc).
-pub const G76: u16 = 760;
+pub(crate) const G76: u16 = 760;
 /// `G80` cancel the canned cycle.
-pub const G80: u16 = 800;
+pub(crate) const G80: u16 = 800;
 /// `G81` drilling.
-pub const G81: u16 = 810;
+pub(crate) const G81: u16 = 810;
 /// `G82` drilling with dwell.
-pub const G82: u16 = 820;
+pub(crate) const G82: u16 = 820;
 /// `G83` peck drilling.
-pub const G83: u16 = 830;
+pub(crate) const G83: u16 = 830;
 /// `G84` tapping.
-pub const G84: u16 = 840;
+pub(crate) const G84: u16 = 840;
 /// `G84.2` rigid tapping, right hand (Fanuc).
-pub const G84_2: u16 = 842;
+pub(crate) const G84_2: u16 = 842;
 /// `G84.3` rigid tapping, left hand (Fanuc).
-pub const G84_3: u16 = 843;
+pub(crate) const G84_3: u16 = 843;
 /// `G85` boring, feed out.
-pub const G85: u16 = 850;
+pub(crate) const G85: u16 = 850;
 /// `G86` boring, spindle stop, rapid out.
-pub const G86: u16 = 860;
+pub(crate) const G86: u16 = 860;
 /// `G87` back boring (the gixa dialect: peck with chip break).
-pub const G87: u16 = 870;
+pub(crate) const G87: u16 = 870;
 /// `G88` boring, manual retract (the gixa dialect: punch).
-pub const G88: u16 = 880;
+pub(crate) const G88: u16 = 880;
 /// `G89` boring with dwell, feed out.
-pub const G89: u16 = 890;
+pub(crate) const G89: u16 = 890;
 /// `G90` absolute distances.
-pub const G90: u16 = 900;
+pub(crate) const G90: u16 = 900;
 /// `G90.1` absolute arc centres.
-pub const G90_1: u16 = 901;
+pub(crate) const G90_1: u16 = 901;
 /// `G91` incremental distances.
-pub const G91: u16 = 910;
+pub(crate) const G91: u16 = 910;
 /// `G91.1` incremental arc centres.
-pub const G91_1: u16 = 911;
+pub(crate) const G91_1: u16 = 911;
 /// `G92` set the G92 offset.
-pub const G92: u16 = 920;
+pub(crate) const G92: u16 = 920;
 /// `G92.1` clear the G92 offset and its stored copy.
-pub const G92_1: u16 = 921;
+pub(crate) const G92_1: u16 = 921;
 /// `G92.2` clear the G92 offset, keep the stored copy.
-pub const G92_2: u16 = 922;
+pub(crate) const G92_2: u16 = 922;
 /// `G92.3` restore the stored G92 offset.
-pub const G92_3: u16 = 923;
+pub(crate) const G92_3: u16 = 923;
 /// `G93` inverse time feed.
-pub const G93: u16 = 930;
+pub(crate) const G93: u16 = 930;
 /// `G94` units per minute feed.
-pub const G94: u16 = 940;
+pub(crate) const G94: u16 = 940;
 /// `G98` retract to the initial level.
-pub const G98: u16 = 980;
+pub(crate) const G98: u16 = 980;
 /// `G99` retract to R.
-pub const G99: u16 = 990;
+pub(crate) const G99: u16 = 990;

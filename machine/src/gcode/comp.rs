@@ -26,7 +26,7 @@ use crate::arith::mul_i128 as mul;
 use crate::units::{Nm, Pos};
 
 /// Actions that can wait for the next compensated move (the move itself and what follows it).
-pub const PENDING: usize = 6;
+pub(crate) const PENDING: usize = 6;
 
 /// LinuxCNC's tolerance for "no corner" and for concave corners: 0.05 rad in 2⁻⁴⁸ rad
 /// (`TOLERANCE_CONCAVE_CORNER`; a comment in its source says 0.01, the value is 0.05). A line
@@ -298,7 +298,7 @@ impl Comp {
     }
 
     /// Starts catching the next motion action (the programmed move of a compensated block).
-    pub fn start_catching(&mut self) {
+    pub(crate) fn start_catching(&mut self) {
         self.capture = Capture::Waiting;
     }
 
@@ -314,7 +314,7 @@ impl Comp {
     }
 
     /// The caught programmed move, if the block made one; catching ends.
-    pub fn caught(&mut self) -> Option<Canon> {
+    pub(crate) fn caught(&mut self) -> Option<Canon> {
         let c = match self.capture {
             Capture::Caught(c) => Some(c),
             _ => None,
@@ -329,12 +329,12 @@ impl Comp {
     }
 
     /// True when G41/G42 is in force (whatever the radius).
-    pub fn is_on(&self) -> bool {
+    pub(crate) fn is_on(&self) -> bool {
         self.mode != Mode::Off
     }
 
     /// True when nothing here differs from [`Comp::new`].
-    pub fn is_idle(&self) -> bool {
+    pub(crate) fn is_idle(&self) -> bool {
         self.mode == Mode::Off && self.held.is_empty() && !self.arc_not_allowed
     }
 
@@ -350,7 +350,7 @@ impl Comp {
 
     /// The point relative moves and missing axis words start from: the programmed end of the
     /// last compensated move instead of the tool position (LinuxCNC's `find_ends`).
-    pub fn program_base(&self, position: Pos) -> Pos {
+    pub(crate) fn program_base(&self, position: Pos) -> Pos {
         if self.compensating() {
             with_uv(position, self.plane, uv(&self.programmed, self.plane))
         } else {
@@ -359,7 +359,12 @@ impl Comp {
     }
 
     /// G41/G42 (radius = half the diameter; negative swaps the side, as LinuxCNC).
-    pub fn turn_on(&mut self, side: Side, radius: Nm, plane: Plane) -> Result<(), ErrorCode> {
+    pub(crate) fn turn_on(
+        &mut self,
+        side: Side,
+        radius: Nm,
+        plane: Plane,
+    ) -> Result<(), ErrorCode> {
         if plane == Plane::YZ {
             return Err(ErrorCode::CompPlane);
         }
@@ -382,7 +387,10 @@ impl Comp {
 
     /// G40: releases what waits (the last move ends where it was aimed). Returns the point the
     /// interpreter continues from in the plane (the programmed end, as LinuxCNC), if it moved.
-    pub fn turn_off(&mut self, out: &mut dyn FnMut(Canon)) -> Result<Option<Pos>, ErrorCode> {
+    pub(crate) fn turn_off(
+        &mut self,
+        out: &mut dyn FnMut(Canon),
+    ) -> Result<Option<Pos>, ErrorCode> {
         let mut back = None;
         if self.compensating() {
             let tool = uv(&self.tool, self.plane);
@@ -420,12 +428,12 @@ impl Comp {
     }
 
     /// A straight move was made without compensation: the next arc is allowed again.
-    pub fn straight_done(&mut self) {
+    pub(crate) fn straight_done(&mut self) {
         self.arc_not_allowed = false;
     }
 
     /// An arc is about to be made: refused right after G40 and as the entry move.
-    pub fn check_arc(&self) -> Result<(), ErrorCode> {
+    pub(crate) fn check_arc(&self) -> Result<(), ErrorCode> {
         if self.arc_not_allowed {
             return Err(ErrorCode::CompArcAfterExit);
         }

@@ -69,9 +69,9 @@ pub struct ToolChangePosition {
 /// Tool-table size.
 pub const MAX_TOOLS: usize = 32;
 /// User M-code list size.
-pub const MAX_USER_M_CODES: usize = 32;
+pub(crate) const MAX_USER_M_CODES: usize = 32;
 /// Number of work coordinate systems: G54..G59, G59.1..G59.3.
-pub const WORK_SYSTEMS: usize = 9;
+pub(crate) const WORK_SYSTEMS: usize = 9;
 
 /// Gixa-only setup fields (Job setup).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -186,7 +186,7 @@ impl InterpConfig {
     }
 
     /// True if `code` is one of the setup's user M codes.
-    pub fn is_user_m_code(&self, code: u16) -> bool {
+    pub(crate) fn is_user_m_code(&self, code: u16) -> bool {
         code != 0 && self.user_m_codes.contains(&code)
     }
 

@@ -25,7 +25,7 @@ pub const MAX_ACTIONS_PER_STEP: usize = 8;
 
 /// What a cycle does at the bottom and on the way out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CycleBody {
+pub(crate) enum CycleBody {
     /// G81: feed down, rapid out.
     Drill,
     /// G82: feed down, dwell, rapid out.
@@ -69,7 +69,7 @@ enum Phase {
 
 /// One canned-cycle block being expanded.
 #[derive(Clone, Copy, Debug)]
-pub struct CycleRun {
+pub(crate) struct CycleRun {
     pub line: u32,
     pub body: CycleBody,
     /// gixa positioning and retract rules.
@@ -487,7 +487,7 @@ impl CycleRun {
     }
 
     /// Program position after the whole run (for the interpreter's state).
-    pub fn final_program_position(&self) -> Pos {
+    pub(crate) fn final_program_position(&self) -> Pos {
         let mut run = *self;
         if self.polar_step.is_some() {
             for _ in 0..self.repeats_left {

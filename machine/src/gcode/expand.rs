@@ -9,24 +9,24 @@ use super::error::ErrorCode;
 use super::expr::{self, Cursor, Fx, ParamRead, ParamRef, ONE};
 
 /// Longest line after substitution.
-pub const EXPANDED_MAX: usize = 384;
+pub(crate) const EXPANDED_MAX: usize = 384;
 /// Most assignments on one line.
-pub const MAX_ASSIGNMENTS: usize = 12;
+pub(crate) const MAX_ASSIGNMENTS: usize = 12;
 
 /// The substituted line.
-pub type Expanded = heapless::Vec<u8, EXPANDED_MAX>;
+pub(crate) type Expanded = heapless::Vec<u8, EXPANDED_MAX>;
 /// The assignments of one line, in order: target, value, column of the target's `#`.
-pub type Assignments = heapless::Vec<(ParamRef, Fx, u16), MAX_ASSIGNMENTS>;
+pub(crate) type Assignments = heapless::Vec<(ParamRef, Fx, u16), MAX_ASSIGNMENTS>;
 
 /// An error and the columns in the source line.
-pub type ExpandError = (ErrorCode, (u16, u16));
+pub(crate) type ExpandError = (ErrorCode, (u16, u16));
 
 fn cols(at: usize) -> (u16, u16) {
     (at as u16, at as u16 + 1)
 }
 
 /// True if the line needs substitution (a `#` or `[` outside comments).
-pub fn needs_expansion(line: &[u8]) -> bool {
+pub(crate) fn needs_expansion(line: &[u8]) -> bool {
     let mut in_comment = false;
     for &c in line {
         match c {
@@ -41,7 +41,7 @@ pub fn needs_expansion(line: &[u8]) -> bool {
 }
 
 /// Writes a value as a decimal with nine places; false if the line is full.
-pub fn write_fx(out: &mut Expanded, v: Fx) -> bool {
+pub(crate) fn write_fx(out: &mut Expanded, v: Fx) -> bool {
     // Written from the end (nine decimals, the point, the integer's digits, the sign: at most
     // 9 + 1 + 20 + 1 bytes) through an iterator over the slots: no indexing, so no
     // bounds-check panic paths.
@@ -91,7 +91,7 @@ fn function_starts(c: &mut Cursor<'_>) -> bool {
 }
 
 /// Substitutes `line` into `out` and collects its assignments.
-pub fn expand(
+pub(crate) fn expand(
     line: &[u8],
     params: &dyn ParamRead,
     out: &mut Expanded,

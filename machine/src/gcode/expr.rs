@@ -17,7 +17,7 @@ pub type Fx = i64;
 /// 1.0 as an [`Fx`].
 pub const ONE: Fx = 1_000_000_000;
 /// Deepest bracket nesting of one expression (bounds the recursion on the board's stack).
-pub const MAX_DEPTH: u8 = 16;
+pub(crate) const MAX_DEPTH: u8 = 16;
 
 /// A parameter named in a program.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -37,7 +37,7 @@ pub trait ParamRead {
 }
 
 /// An expression error: code and the byte offset where it was found.
-pub type ExprError = (ErrorCode, usize);
+pub(crate) type ExprError = (ErrorCode, usize);
 
 /// A cursor over one line, skipping blanks (RS274NGC allows spaces anywhere).
 pub struct Cursor<'a> {
@@ -94,7 +94,7 @@ fn syntax<T>(at: usize) -> Result<T, ExprError> {
 }
 
 /// FNV-1a of a parameter or label name: lower case, blanks removed.
-pub const fn name_hash(name: &[u8]) -> u32 {
+pub(crate) const fn name_hash(name: &[u8]) -> u32 {
     let mut h: u32 = 0x811c_9dc5;
     let mut i = 0;
     while i < name.len() {
@@ -110,7 +110,7 @@ pub const fn name_hash(name: &[u8]) -> u32 {
 }
 
 /// Reads `<name>` (the cursor is on `<`): returns (hash, global).
-pub fn read_name(c: &mut Cursor<'_>) -> Result<(u32, bool), ExprError> {
+pub(crate) fn read_name(c: &mut Cursor<'_>) -> Result<(u32, bool), ExprError> {
     c.expect(b'<')?;
     let start = c.pos;
     // `get` rather than slicing: no bounds-check panic paths (`start` is within the line).
@@ -130,7 +130,7 @@ pub fn read_name(c: &mut Cursor<'_>) -> Result<(u32, bool), ExprError> {
 }
 
 /// Reads a parameter reference after `#`: `#12`, `#<name>`, `#[expr]`, `##1`.
-pub fn read_param_ref(
+pub(crate) fn read_param_ref(
     c: &mut Cursor<'_>,
     params: &dyn ParamRead,
     depth: u8,
@@ -148,7 +148,11 @@ pub fn read_param_ref(
 }
 
 /// Evaluates a bracketed expression; the cursor is on `[`.
-pub fn bracketed(c: &mut Cursor<'_>, params: &dyn ParamRead, depth: u8) -> Result<Fx, ExprError> {
+pub(crate) fn bracketed(
+    c: &mut Cursor<'_>,
+    params: &dyn ParamRead,
+    depth: u8,
+) -> Result<Fx, ExprError> {
     if depth >= MAX_DEPTH {
         return Err((ErrorCode::ExpressionSyntax, c.pos));
     }
@@ -161,10 +165,10 @@ pub fn bracketed(c: &mut Cursor<'_>, params: &dyn ParamRead, depth: u8) -> Resul
 /// Fanuc's "vacant" value (#0, and an unset local inside a G65 macro): only a bare `#n` carries
 /// it (`#2 = #0` leaves #2 vacant, `X#0` is no X word); EQ and NE tell it from 0, every other
 /// operator, function and bracket counts it as 0 (docs/gcode-parameters.md).
-pub const VACANT: Fx = i64::MIN;
+pub(crate) const VACANT: Fx = i64::MIN;
 
 /// A value with vacant counted as 0.
-pub fn or_zero(v: Fx) -> Fx {
+pub(crate) fn or_zero(v: Fx) -> Fx {
     if v == VACANT {
         0
     } else {
@@ -284,7 +288,7 @@ fn checked(v: i128) -> Result<Fx, ErrorCode> {
 }
 
 /// `a × b / ONE` rounded half away from zero.
-pub fn mul(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn mul(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
     checked(round_div(
         arith::mul_i128(a as i128, b as i128),
         ONE as i128,
@@ -292,7 +296,7 @@ pub fn mul(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
 }
 
 /// `a × ONE / b` rounded half away from zero.
-pub fn div(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn div(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
     if b == 0 {
         return Err(ErrorCode::DivisionByZero);
     }
@@ -393,7 +397,11 @@ fn number(c: &mut Cursor<'_>) -> Result<Fx, ExprError> {
 }
 
 /// A real value: number, parameter, `[expr]`, unary minus/plus, or a function.
-pub fn real_value(c: &mut Cursor<'_>, params: &dyn ParamRead, depth: u8) -> Result<Fx, ExprError> {
+pub(crate) fn real_value(
+    c: &mut Cursor<'_>,
+    params: &dyn ParamRead,
+    depth: u8,
+) -> Result<Fx, ExprError> {
     if depth >= MAX_DEPTH {
         return syntax(c.pos);
     }
@@ -477,18 +485,18 @@ fn binary_to_deg(angle: i64) -> Fx {
 }
 
 /// (cos, sin) of an angle in degrees.
-pub fn sin_cos_deg(deg: Fx) -> (Fx, Fx) {
+pub(crate) fn sin_cos_deg(deg: Fx) -> (Fx, Fx) {
     let (c, s) = arith::polar(ONE, deg_to_binary(deg));
     (c, s)
 }
 
 /// ATAN[y]/[x] in degrees, in (−180, 180].
-pub fn atan_deg(y: Fx, x: Fx) -> Fx {
+pub(crate) fn atan_deg(y: Fx, x: Fx) -> Fx {
     binary_to_deg(arith::atan2(y, x))
 }
 
 /// √v (v ≥ 0).
-pub fn sqrt(v: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn sqrt(v: Fx) -> Result<Fx, ErrorCode> {
     if v < 0 {
         return Err(ErrorCode::FunctionDomain);
     }
@@ -507,12 +515,12 @@ fn one_minus_square_root(v: Fx) -> Result<Fx, ErrorCode> {
 }
 
 /// ASIN in degrees.
-pub fn asin_deg(v: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn asin_deg(v: Fx) -> Result<Fx, ErrorCode> {
     Ok(atan_deg(v, one_minus_square_root(v)?))
 }
 
 /// ACOS in degrees.
-pub fn acos_deg(v: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn acos_deg(v: Fx) -> Result<Fx, ErrorCode> {
     Ok(atan_deg(one_minus_square_root(v)?, v))
 }
 
@@ -522,7 +530,7 @@ const E18: i128 = 1_000_000_000_000_000_000;
 const LN2_E18: i128 = 693_147_180_559_945_309;
 
 /// Natural logarithm (v > 0): v = m·2^k with m in [1, 2), ln m = 2·atanh((m−1)/(m+1)).
-pub fn ln(v: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn ln(v: Fx) -> Result<Fx, ErrorCode> {
     if v <= 0 {
         return Err(ErrorCode::FunctionDomain);
     }
@@ -552,7 +560,7 @@ pub fn ln(v: Fx) -> Result<Fx, ErrorCode> {
 }
 
 /// e^v: v = k·ln 2 + r with |r| ≤ ln 2 / 2, e^r by its Taylor series.
-pub fn exp(v: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn exp(v: Fx) -> Result<Fx, ErrorCode> {
     let x = v as i128 * ONE as i128;
     let k = round_div(x, LN2_E18);
     if k > 34 {
@@ -575,7 +583,7 @@ pub fn exp(v: Fx) -> Result<Fx, ErrorCode> {
 }
 
 /// a ** b: exact repeated multiplication for whole exponents, e^(b·ln a) otherwise.
-pub fn pow(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
+pub(crate) fn pow(a: Fx, b: Fx) -> Result<Fx, ErrorCode> {
     if b % ONE == 0 && (b / ONE).abs() <= 64 {
         let n = b / ONE;
         let mut r = ONE;

@@ -10,12 +10,12 @@ use crate::arith::mul_i128 as mul;
 use crate::units::Nm;
 
 /// Floor of the square root of `v` (the motion core's, one copy in flash for every caller).
-pub fn isqrt(v: u128) -> u128 {
+pub(crate) fn isqrt(v: u128) -> u128 {
     crate::arith::isqrt_u128(v)
 }
 
 /// Square root rounded to the nearest integer.
-pub fn isqrt_round(v: u128) -> u128 {
+pub(crate) fn isqrt_round(v: u128) -> u128 {
     let r = isqrt(v);
     // (r + 0.5)^2 = r^2 + r + 0.25 ; round up when v > r^2 + r.
     if v > r * r + r {
@@ -26,19 +26,19 @@ pub fn isqrt_round(v: u128) -> u128 {
 }
 
 /// Length of a 2-D vector, rounded to the nearest nm.
-pub fn hypot(a: Nm, b: Nm) -> Nm {
+pub(crate) fn hypot(a: Nm, b: Nm) -> Nm {
     let s = mul(a as i128, a as i128) + mul(b as i128, b as i128);
     isqrt_round(s as u128) as Nm
 }
 
 /// Length of a 3-D vector, rounded.
-pub fn hypot3(a: Nm, b: Nm, c: Nm) -> Nm {
+pub(crate) fn hypot3(a: Nm, b: Nm, c: Nm) -> Nm {
     let s = mul(a as i128, a as i128) + mul(b as i128, b as i128) + mul(c as i128, c as i128);
     isqrt_round(s as u128) as Nm
 }
 
 /// Divides rounding half away from zero.
-pub fn div_round(n: i128, d: i128) -> i128 {
+pub(crate) fn div_round(n: i128, d: i128) -> i128 {
     let q = crate::arith::div_i128(n, d);
     let r = n - q * d;
     if 2 * r.abs() >= d.abs() {
@@ -54,7 +54,7 @@ pub fn div_round(n: i128, d: i128) -> i128 {
 
 /// LinuxCNC's arc tolerances for the current length units, in nm.
 #[derive(Clone, Copy, Debug)]
-pub struct ArcTolerances {
+pub(crate) struct ArcTolerances {
     /// Smallest radius (and largest R-format chord excess).
     pub radius: Nm,
     /// Absolute start/end radius difference allowed when the relative error exceeds 0.1 %.
@@ -63,7 +63,7 @@ pub struct ArcTolerances {
 
 impl ArcTolerances {
     /// Metric: 0.00127 mm and 0.02·√2 mm; inch: 0.00005 in and 0.002·√2 in.
-    pub fn for_units(inch: bool) -> Self {
+    pub(crate) fn for_units(inch: bool) -> Self {
         if inch {
             ArcTolerances {
                 radius: 1_270,
@@ -80,7 +80,7 @@ impl ArcTolerances {
 
 /// Checks an I/J/K arc: both radii above the minimum, end on the circle within LinuxCNC's rule
 /// (error if |r1-r2| > 100·abs, or if the relative error > 0.1 % and |r1-r2| > abs).
-pub fn check_center_arc(
+pub(crate) fn check_center_arc(
     start: (Nm, Nm),
     end: (Nm, Nm),
     center: (Nm, Nm),
@@ -102,7 +102,7 @@ pub fn check_center_arc(
 
 /// Centre of an R-format arc (LinuxCNC `arc_data_r`): positive R is the short way, negative R the
 /// long way; `cw` is G2.
-pub fn r_format_center(
+pub(crate) fn r_format_center(
     start: (Nm, Nm),
     end: (Nm, Nm),
     radius: Nm,
@@ -162,7 +162,7 @@ pub fn sweep(start: (Nm, Nm), end: (Nm, Nm), center: (Nm, Nm), ccw: bool, turns:
 }
 
 /// Path length of a helical arc: sqrt((sweep·r)^2 + normal^2), in nm.
-pub fn arc_length(sweep: i128, radius: Nm, normal: Nm) -> i128 {
+pub(crate) fn arc_length(sweep: i128, radius: Nm, normal: Nm) -> i128 {
     let planar = mul(sweep, radius as i128) >> 48;
     let s = mul(planar, planar) + mul(normal as i128, normal as i128);
     isqrt_round(s as u128) as i128
@@ -171,7 +171,7 @@ pub fn arc_length(sweep: i128, radius: Nm, normal: Nm) -> i128 {
 /// LinuxCNC's polar coordinates: the XY end point (program coordinates) of a block with a
 /// radius `@` (nm) and/or an angle `^` (10⁻⁶ degree) from `current`. In G90 a missing radius or
 /// angle is the current point's; in G91 both add to the current point's.
-pub fn polar_end(
+pub(crate) fn polar_end(
     current: (Nm, Nm),
     radius: Option<Nm>,
     angle_udeg: Option<i64>,

@@ -7,7 +7,7 @@
 use super::error::ErrorCode;
 
 /// Scale of [`Word::value`]: the number times 10^6.
-pub const MICRO: i64 = 1_000_000;
+pub(crate) const MICRO: i64 = 1_000_000;
 
 /// Largest magnitude of any number (< 10^9 before the point).
 const MAX_INTEGER_DIGITS: u32 = 9;
@@ -58,7 +58,7 @@ pub enum LineStart {
 }
 
 /// A lexer error: code and the columns to blame.
-pub type LexError = (ErrorCode, (u16, u16));
+pub(crate) type LexError = (ErrorCode, (u16, u16));
 
 /// Word scanner over one line.
 pub struct Lexer<'a> {
@@ -159,7 +159,7 @@ impl<'a> Lexer<'a> {
     }
 
     /// The next word, `Ok(None)` at the end of the line.
-    pub fn next_word(&mut self) -> Result<Option<Word>, LexError> {
+    pub(crate) fn next_word(&mut self) -> Result<Option<Word>, LexError> {
         self.skip_ignorable()?;
         if self.pos >= self.line.len() {
             return Ok(None);

@@ -29,15 +29,15 @@ pub mod comp;
 pub mod config;
 pub mod cycles;
 pub mod error;
-pub mod expand;
+pub(crate) mod expand;
 pub mod expr;
 pub mod geometry;
-pub mod interp;
+pub(crate) mod interp;
 pub mod lexer;
 pub mod oword;
 pub mod params;
 pub mod source;
-pub mod spline;
+pub(crate) mod spline;
 pub mod state;
 mod test_vectors;
 pub mod transform;
@@ -53,4 +53,4 @@ pub use state::{ModalState, MotionMode};
 pub use test_vectors::digest_program;
 
 /// Cross-target vectors of the interpreter (see [`crate::vectors`]).
-pub use test_vectors::VECTORS;
+pub(crate) use test_vectors::VECTORS;

@@ -39,7 +39,7 @@ pub enum Keyword {
 }
 
 /// Label bit of Fanuc `WHILE … DOn` / `ENDn` loops (never equal to an `o` label).
-pub const FANUC_LOOP: Label = 2 << 32;
+pub(crate) const FANUC_LOOP: Label = 2 << 32;
 
 /// Reads an unsigned integer at the cursor (blanks skipped), if any.
 fn digits(c: &mut Cursor<'_>) -> Option<u64> {

@@ -17,16 +17,16 @@ use super::state::ModalState;
 use crate::units::{Nm, MAX_AXES};
 
 /// Numbered parameters a program may hold at once.
-pub const MAX_NUMBERED: usize = 96;
+pub(crate) const MAX_NUMBERED: usize = 96;
 /// Named parameters a program may hold at once (locals of every call level and globals).
-pub const MAX_NAMED: usize = 64;
+pub(crate) const MAX_NAMED: usize = 64;
 /// Fanuc Macro B local variables per G65 call level (#1-#33).
-pub const LOCALS: usize = 33;
+pub(crate) const LOCALS: usize = 33;
 /// Largest parameter number (LinuxCNC's: its parameter file runs to #5601).
-pub const MAX_NUMBER: u16 = 5601;
+pub(crate) const MAX_NUMBER: u16 = 5601;
 /// LinuxCNC's `(DEBUG,…)` output switch: 1 at start, any value may be written. Gantry keeps
 /// `(DEBUG,…)` a comment, so the switch is stored and read back and changes nothing.
-pub const DEBUG_SWITCH: u16 = 5599;
+pub(crate) const DEBUG_SWITCH: u16 = 5599;
 
 /// The parameter tables.
 #[derive(Clone, Debug, Default)]
@@ -69,7 +69,7 @@ fn copy_entry<T: Copy>(to: &mut T, from: &T) {
 }
 
 /// nm to the program's length units as an [`Fx`] (mm ×10⁹ or inch ×10⁹).
-pub fn nm_to_fx(nm: Nm, inch: bool) -> Fx {
+pub(crate) fn nm_to_fx(nm: Nm, inch: bool) -> Fx {
     if inch {
         crate::arith::div_i128(nm as i128 * 10_000, 254) as i64
     } else {
@@ -78,7 +78,7 @@ pub fn nm_to_fx(nm: Nm, inch: bool) -> Fx {
 }
 
 /// An [`Fx`] length in program units to nm, rounded.
-pub fn fx_to_nm(v: Fx, inch: bool) -> Nm {
+pub(crate) fn fx_to_nm(v: Fx, inch: bool) -> Nm {
     let n = if inch {
         crate::arith::div_i128(v as i128 * 254, 10_000)
     } else {
@@ -257,13 +257,13 @@ impl Params {
     }
 
     /// True if numbered parameter `n` has been written (and not made vacant).
-    pub fn is_set(&self, n: u16) -> bool {
+    pub(crate) fn is_set(&self, n: u16) -> bool {
         self.numbered.iter().any(|e| e.0 == n)
     }
 
     /// Fanuc `#n = #0`: numbered parameter `n` becomes unset (vacant in a G65 macro, 0 elsewhere).
     /// System parameters and named ones cannot be vacant (E706).
-    pub fn make_vacant(&mut self, p: ParamRef) -> Result<(), ErrorCode> {
+    pub(crate) fn make_vacant(&mut self, p: ParamRef) -> Result<(), ErrorCode> {
         match p {
             ParamRef::Numbered(n) if (1..=MAX_NUMBER).contains(&n) && system(n).is_none() => {
                 keep(&mut self.numbered, |e| e.0 != n);
@@ -274,12 +274,12 @@ impl Params {
     }
 
     /// Forgets the named locals of every level above `level` (a subroutine returned).
-    pub fn drop_locals_above(&mut self, level: u8) {
+    pub(crate) fn drop_locals_above(&mut self, level: u8) {
         keep(&mut self.named, |e| e.1 == GLOBAL || e.1 <= level);
     }
 
     /// Numbered parameters #1-#30 as (bit mask of the set ones, values), for a call to save.
-    pub fn save_args(&self) -> (u32, [Fx; 30]) {
+    pub(crate) fn save_args(&self) -> (u32, [Fx; 30]) {
         let mut mask = 0u32;
         let mut v = [0; 30];
         for &(n, x) in &self.numbered {
@@ -292,7 +292,7 @@ impl Params {
     }
 
     /// Replaces #1-#30 by a saved set (a call's arguments, or the caller's on return).
-    pub fn restore_args(&mut self, mask: u32, values: &[Fx; 30]) -> Result<(), ErrorCode> {
+    pub(crate) fn restore_args(&mut self, mask: u32, values: &[Fx; 30]) -> Result<(), ErrorCode> {
         keep(&mut self.numbered, |e| !(1..=30).contains(&e.0));
         for (i, &v) in values.iter().enumerate() {
             if mask & (1 << i) != 0 {
@@ -306,7 +306,7 @@ impl Params {
 
     /// Fanuc's local variables #1-#[`LOCALS`] as (bit mask of the set ones, values): a G65 macro
     /// call saves the caller's.
-    pub fn save_locals(&self) -> (u64, [Fx; LOCALS]) {
+    pub(crate) fn save_locals(&self) -> (u64, [Fx; LOCALS]) {
         let mut mask = 0u64;
         let mut v = [0; LOCALS];
         for &(n, x) in &self.numbered {
@@ -319,7 +319,11 @@ impl Params {
     }
 
     /// Replaces #1-#[`LOCALS`] by a saved set (a macro's arguments, or the caller's on M99).
-    pub fn restore_locals(&mut self, mask: u64, values: &[Fx; LOCALS]) -> Result<(), ErrorCode> {
+    pub(crate) fn restore_locals(
+        &mut self,
+        mask: u64,
+        values: &[Fx; LOCALS],
+    ) -> Result<(), ErrorCode> {
         keep(&mut self.numbered, |e| !(1..=LOCALS as u16).contains(&e.0));
         for (i, &v) in values.iter().enumerate() {
             if mask & (1 << i) != 0 {

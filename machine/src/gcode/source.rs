@@ -255,7 +255,7 @@ pub fn find_target<P>(
 /// block-delete slash skipped: how a jump finds its target line. Public so that every
 /// [`ProgramSource`] (the host's file source, host-sender/src/preview/source.rs) finds the same
 /// lines as [`MemorySource`].
-pub fn leading_number(line: &[u8], letters: &[u8]) -> Option<u32> {
+pub(crate) fn leading_number(line: &[u8], letters: &[u8]) -> Option<u32> {
     let mut i = 0;
     while i < line.len() && (line[i] == b' ' || line[i] == b'\t' || line[i] == b'/') {
         i += 1;

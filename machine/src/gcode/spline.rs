@@ -21,7 +21,7 @@ const UNIT: i128 = 1 << 24;
 const DU_DEN: i128 = 100_000;
 /// Degree of the curve; [`SplineRun::points`] holds `degree + 1` points.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Degree {
+pub(crate) enum Degree {
     /// G5.1: start, control point, end.
     Quadratic,
     /// G5: start, two control points, end.
@@ -30,7 +30,7 @@ pub enum Degree {
 
 /// A spline being made into arcs.
 #[derive(Clone, Debug)]
-pub struct SplineRun {
+pub(crate) struct SplineRun {
     pub line: u32,
     degree: Degree,
     /// Control points in the plane (machine nm).

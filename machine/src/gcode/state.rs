@@ -132,7 +132,7 @@ impl core::ops::DerefMut for ModalState {
 /// (target-tests/src/bin/bench_motion.rs). It lives on the stack for one block (no heap to box
 /// the large variant into; only the variant in use is written).
 #[allow(clippy::large_enum_variant)]
-pub enum Rollback {
+pub(crate) enum Rollback {
     Whole(ModalState),
     Modes(Modes),
 }
@@ -207,7 +207,7 @@ impl ModalState {
     /// only its written axes: building the whole [`ModalState::offset`] cost ~250 Cortex-M4
     /// instructions a line, target-tests/src/bin/bench_motion.rs).
     #[inline]
-    pub fn axis_offset(&self, axis: usize) -> Nm {
+    pub(crate) fn axis_offset(&self, axis: usize) -> Nm {
         self.work_offsets[self.work_system as usize][axis] + self.g92[axis] + self.tool_offset[axis]
     }
 
@@ -223,7 +223,7 @@ impl ModalState {
 
     /// The program point of the current position: the work point before the transforms (X, Y,
     /// Z), the work point itself on the other axes and when no transform is in force.
-    pub fn program_point(&self) -> Pos {
+    pub(crate) fn program_point(&self) -> Pos {
         let mut p = self.program_position();
         if self.xf.active() {
             let w = [p[0], p[1], p[2]];
@@ -250,7 +250,7 @@ impl ModalState {
     /// Resets what M2/M30 reset (Fanuc/LinuxCNC): G54, G17, G90, G94, G80 → G0, the setup's
     /// retract mode (G98 by default), M5, M9, G50.1 G50 G69 G15, G92
     /// offsets off (saved values kept). Units, tool offset and path mode survive.
-    pub fn reset_at_program_end(&mut self, config: &InterpConfig) {
+    pub(crate) fn reset_at_program_end(&mut self, config: &InterpConfig) {
         let fresh = ModalState::new(config);
         self.motion = MotionMode::Rapid;
         self.motion_before_cycle = MotionMode::Rapid;

@@ -312,7 +312,7 @@ fn linuxcnc_idioms() -> u32 {
     digest_program(LINUXCNC_IDIOMS, &InterpConfig::default())
 }
 
-pub const VECTORS: &[Vector] = &[
+pub(crate) const VECTORS: &[Vector] = &[
     Vector {
         name: "gcode/arcs",
         run: arcs,

@@ -40,7 +40,7 @@ pub struct Transform {
 
 impl Transform {
     /// No transform (G50.1, G50, G69, G15).
-    pub const OFF: Transform = Transform {
+    pub(crate) const OFF: Transform = Transform {
         on: false,
         mirror: 0,
         mirror_twice: [0; 3],
@@ -125,7 +125,7 @@ impl Transform {
     }
 
     /// Sets the rotation angle (10⁻⁶ degree, + turns the first plane axis toward the second).
-    pub fn set_angle(&mut self, udeg: i64) {
+    pub(crate) fn set_angle(&mut self, udeg: i64) {
         self.angle = div_round(udeg as i128 * TURN as i128, 360_000_000) as i64;
     }
 }

@@ -29,7 +29,7 @@ pub struct ArcChords {
 }
 
 /// Plane axes in the order that makes counter-clockwise positive (G17 XY, G18 ZX, G19 YZ).
-pub fn plane_axes(plane: Plane) -> (usize, usize, usize) {
+pub(crate) fn plane_axes(plane: Plane) -> (usize, usize, usize) {
     match plane {
         Plane::XY => (0, 1, 2),
         Plane::ZX => (2, 0, 1),
@@ -108,7 +108,7 @@ impl ArcChords {
     }
 
     /// True once every chord has been handed out.
-    pub fn is_done(&self) -> bool {
+    pub(crate) fn is_done(&self) -> bool {
         self.done >= self.count
     }
 

@@ -17,11 +17,11 @@ use crate::units::{Pos, MAX_AXES};
 use heapless::Vec;
 
 /// Most programmed moves one chain merges.
-pub const MAX_POINTS: usize = 32;
+pub(crate) const MAX_POINTS: usize = 32;
 
 /// Longest chord (per axis, nm) a chain may span: 2²⁵ nm ≈ 33.5 mm. Longer moves gain nothing
 /// from merging, and the bound keeps every product of the distance test within 128 bits.
-pub const MAX_CHORD: i64 = 1 << 25;
+pub(crate) const MAX_CHORD: i64 = 1 << 25;
 
 /// Short feed moves held back to run as one chord.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -103,7 +103,13 @@ impl Chain {
 /// With `d = to − start` and `v = p − start`: in order when `0 ≤ v·d` does not decrease and
 /// stays `≤ d·d`; near when `|v|²·|d|² − (v·d)² ≤ tolerance²·|d|²` (squared distance to the
 /// chord's line times |d|², exact in integers).
-pub fn chord_holds(start: &Pos, points: &[Pos], to: &Pos, tolerance: u64, axes: usize) -> bool {
+pub(crate) fn chord_holds(
+    start: &Pos,
+    points: &[Pos],
+    to: &Pos,
+    tolerance: u64,
+    axes: usize,
+) -> bool {
     let axes = axes.min(MAX_AXES);
     // The sums fit 64 bits (|dᵢ| ≤ 2²⁵, |vᵢ| ≤ 2²⁶: |d|² < 6·2⁵⁰, |v|² < 6·2⁵², |v·d| < 6·2⁵¹);
     // only the distance test's products need 128 bits. Summed in i64, not i128: a 128-bit

@@ -10,7 +10,7 @@ use crate::setup::Setup;
 use crate::units::{Nm, Pos, MAX_AXES, NM_PER_MM};
 
 /// Highest speed the planner represents, nm/s (≈ 257 m/min); keeps squared speeds in a `u64`.
-pub const MAX_SPEED: u64 = u32::MAX as u64;
+pub(crate) const MAX_SPEED: u64 = u32::MAX as u64;
 
 /// One axis of the machine.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -169,7 +169,7 @@ impl MotionConfig {
 
     /// The axis count as an index bound the compiler knows is within `MAX_AXES` (loops over the
     /// axes then index without bounds checks).
-    pub fn axis_count_in_bounds(&self) -> usize {
+    pub(crate) fn axis_count_in_bounds(&self) -> usize {
         usize::from(self.axis_count).min(MAX_AXES)
     }
 
@@ -194,7 +194,7 @@ impl MotionConfig {
     }
 
     /// First axis whose travel box `p` leaves, if soft limits are on.
-    pub fn travel_violation(&self, p: &Pos) -> Option<usize> {
+    pub(crate) fn travel_violation(&self, p: &Pos) -> Option<usize> {
         if !self.soft_limits {
             return None;
         }

@@ -27,7 +27,7 @@ use crate::units::{Pos, MAX_AXES};
 use heapless::Vec;
 
 /// Most vertices of one rounded corner (its polygon is `n − 1` planner blocks).
-pub const MAX_VERTICES: usize = 6;
+pub(crate) const MAX_VERTICES: usize = 6;
 
 /// Corners turning by less than this (sin(α/2) in 2³⁰ units: about 0.11°) are not rounded:
 /// their junction speed is far above any feed.

@@ -16,11 +16,11 @@ use crate::units::MAX_AXES;
 use heapless::Deque;
 
 /// Segments remembered: at least the deepest kernel queue an owner keeps (the firmware's 15).
-pub const SEGMENT_HISTORY: usize = 16;
+pub(crate) const SEGMENT_HISTORY: usize = 16;
 
 /// Where prep stood after a segment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Stand {
+pub(crate) enum Stand {
     /// Inside a line block.
     Inside,
     /// At the end of a line block or a dwell (the next block not started).
@@ -33,7 +33,7 @@ pub enum Stand {
 
 /// Prep's state after one segment it handed out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Handed {
+pub(crate) struct Handed {
     /// Signed steps the segment made per axis.
     pub steps: [i32; MAX_AXES],
     /// Sequence number of the segment's block.
@@ -47,7 +47,7 @@ pub struct Handed {
 
 impl Handed {
     /// At rest, nothing before.
-    pub const REST: Handed = Handed {
+    pub(crate) const REST: Handed = Handed {
         steps: [0; MAX_AXES],
         seq: 0,
         done: 0,
@@ -58,7 +58,7 @@ impl Handed {
 
 /// The last [`SEGMENT_HISTORY`] segments handed out, and prep's state before the oldest of them.
 #[derive(Clone, Debug)]
-pub struct History {
+pub(crate) struct History {
     /// Prep's state before the oldest remembered segment (the base), then the state after each
     /// remembered segment, oldest first; empty at rest with nothing remembered. The base is the
     /// front entry rather than a field of its own, so recording a segment once the history is
@@ -108,7 +108,7 @@ impl History {
     /// How many of the newest segments prep can take back while it works on the block numbered
     /// `active` (`None`: no block in progress): only segments of that line block, and only back
     /// to a place inside it or to the end of the block before it.
-    pub fn droppable(&self, active: Option<u32>) -> usize {
+    pub(crate) fn droppable(&self, active: Option<u32>) -> usize {
         let Some(seq) = active else {
             return 0;
         };
@@ -134,7 +134,7 @@ impl History {
     }
 
     /// The block of the newest segment ends with it (a move cut short where prep stands).
-    pub fn end_block(&mut self) {
+    pub(crate) fn end_block(&mut self) {
         if self.segments() == 0 {
             return;
         }
@@ -147,7 +147,7 @@ impl History {
 
     /// Forgets the newest `k` segments (at most [`Self::droppable`]); returns prep's state after
     /// the last one kept and the signed steps the forgotten ones would have made.
-    pub fn take_back(&mut self, k: usize) -> (Handed, [i64; MAX_AXES]) {
+    pub(crate) fn take_back(&mut self, k: usize) -> (Handed, [i64; MAX_AXES]) {
         let mut steps = [0i64; MAX_AXES];
         for _ in 0..k.min(self.segments()) {
             let Some(h) = self.states.pop_back() else {

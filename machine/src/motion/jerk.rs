@@ -185,7 +185,7 @@ pub struct Tracker {
 
 impl Tracker {
     /// Path position, nm (rounded down).
-    pub fn position_nm(&self) -> u64 {
+    pub(crate) fn position_nm(&self) -> u64 {
         self.s / SUB
     }
 

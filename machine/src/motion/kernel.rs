@@ -70,7 +70,7 @@ impl Segment {
     }
 
     /// The same segment with laser duty `power`.
-    pub const fn with_power(self, power: u16) -> Self {
+    pub(crate) const fn with_power(self, power: u16) -> Self {
         Segment { power, ..self }
     }
 
@@ -328,7 +328,7 @@ impl StepKernel {
     }
 
     /// Stops watching the probe pin and forgets a latched position.
-    pub fn disarm_probe(&mut self) {
+    pub(crate) fn disarm_probe(&mut self) {
         self.flags &= !PROBE_MASK;
         self.probe_at = None;
     }
@@ -373,13 +373,13 @@ impl StepKernel {
 
     /// Loads the user output word (the board switched outputs itself: a command list at rest, an
     /// alarm's safe state). The owner drives the pins to it.
-    pub fn set_outputs(&mut self, word: u16) {
+    pub(crate) fn set_outputs(&mut self, word: u16) {
         self.outputs = word;
     }
 
     /// Times a tick found the segment queue empty after running a segment (wrapping): each is
     /// the kernel running dry, whether the motion ended there or the queue starved it (the main
-    /// loop tells which, `board::main_loop`). Counted where a segment would load, off the
+    /// loop tells which, `device::main_loop`). Counted where a segment would load, off the
     /// per-step path.
     pub fn dry_runs(&self) -> u16 {
         self.dry_runs

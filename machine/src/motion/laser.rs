@@ -4,7 +4,7 @@
 //! at its first tick, so the power changes at the exact step where the block or the speed does.
 //!
 //! A duty of [`KEEP_DUTY`] means "leave the PWM alone": every segment of a machine without laser
-//! mode carries it, so a milling spindle's PWM stays the main loop's (board/outputs.rs).
+//! mode carries it, so a milling spindle's PWM stays the main loop's (board/outputs/mod.rs).
 
 use crate::canon::Spindle;
 
@@ -78,7 +78,7 @@ impl PwmMap {
     /// The duty of a segment of a block with power `power` and programmed speed `programmed`
     /// (nm/s) whose average speed is `speed` (nm/s): M4 scales S by `speed ÷ programmed`
     /// (never above S), then maps it like S. Runs in segment prep, never in the interrupt.
-    pub fn segment_duty(&self, power: LaserPower, speed: u64, programmed: u32) -> u16 {
+    pub(crate) fn segment_duty(&self, power: LaserPower, speed: u64, programmed: u32) -> u16 {
         match power {
             LaserPower::Keep => KEEP_DUTY,
             LaserPower::Off => 0,

@@ -16,7 +16,7 @@ pub mod arc;
 pub mod blend;
 pub mod config;
 pub mod corner;
-pub mod history;
+pub(crate) mod history;
 pub mod jerk;
 pub mod kernel;
 pub mod laser;
@@ -27,7 +27,7 @@ pub mod prep;
 pub mod profile;
 pub mod sim;
 mod test_vectors;
-pub mod thc;
+pub(crate) mod thc;
 
 /// Cross-target vectors of the planner and step kernel (see [`crate::vectors`]).
-pub use test_vectors::VECTORS;
+pub(crate) use test_vectors::VECTORS;

@@ -38,7 +38,7 @@ impl OutputEvent {
 
     /// The torch height control switch of [`Self::thc`]: `Some(on)`, else `None`.
     #[inline(always)]
-    pub const fn thc_switch(self) -> Option<bool> {
+    pub(crate) const fn thc_switch(self) -> Option<bool> {
         if self.0 & (PRESENT | THC) == PRESENT | THC {
             Some(self.0 & LEVEL != 0)
         } else {

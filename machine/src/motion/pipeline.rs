@@ -47,7 +47,7 @@ use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
 
 /// Sync points the queue holds at once.
-pub const MAX_SYNCS: usize = 16;
+pub(crate) const MAX_SYNCS: usize = 16;
 
 /// Why a canonical action was not taken.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -260,7 +260,7 @@ impl<const N: usize> Motion<N> {
 
     /// Queues one canonical action of the program: as [`Self::push`], but in laser mode its
     /// M3/M4/M5 and S set the power of the feed moves after it, without stopping.
-    pub fn push_program(&mut self, canon: &Canon) -> Result<(), PushError> {
+    pub(crate) fn push_program(&mut self, canon: &Canon) -> Result<(), PushError> {
         self.push_as(canon, true)
     }
 
@@ -734,7 +734,7 @@ impl<const N: usize> Motion<N> {
     /// Host planning tools: like [`Self::next_segment`], but the head block whole, timed in
     /// closed form ([`Prep::next_block`]): `Some(counts)` for a finished line or dwell block,
     /// `None` at a sync point or with nothing queued. Not for a board: nothing is stepped.
-    pub fn next_block(&mut self) -> Option<u64> {
+    pub(crate) fn next_block(&mut self) -> Option<u64> {
         if self.flow == Flow::AtSync {
             return None;
         }
@@ -776,7 +776,7 @@ impl<const N: usize> Motion<N> {
     }
 
     /// The report of the block segment prep finished last (once).
-    pub fn take_report(&mut self) -> Option<BlockReport> {
+    pub(crate) fn take_report(&mut self) -> Option<BlockReport> {
         self.prep.take_report()
     }
 
@@ -815,7 +815,7 @@ impl<const N: usize> Motion<N> {
     /// ramps to it at the move's acceleration from the end of the kernel's running segment once
     /// the owner has dropped the queued ones (like a feed override without the queue's lag).
     /// Ignored while holding or stopping.
-    pub fn change_speed(&mut self, feed: i64) {
+    pub(crate) fn change_speed(&mut self, feed: i64) {
         if self.prep.state == PrepState::Running && !self.aborting() {
             self.planner.set_programmed_speed(speed_of(feed));
             self.drop_wanted = true;
@@ -825,7 +825,7 @@ impl<const N: usize> Motion<N> {
     /// Asks the owner to drop the queued segments (see [`Self::drop_request`]) without changing
     /// anything else: after [`Self::segments_dropped`], prep stands at the end of the kernel's
     /// running segment (for a [`Self::bend`]).
-    pub fn request_drop(&mut self) {
+    pub(crate) fn request_drop(&mut self) {
         self.drop_wanted = true;
     }
 
@@ -976,7 +976,7 @@ impl<const N: usize> Motion<N> {
     /// Takes a new machine model and drops everything queued, in place, at step position `steps`
     /// (like [`Self::new`] followed by a position, but without a second `Motion` — tens of KiB —
     /// on the MCU's stack). Overrides are kept.
-    pub fn reconfigure(&mut self, cfg: MotionConfig, steps: [i64; MAX_AXES]) {
+    pub(crate) fn reconfigure(&mut self, cfg: MotionConfig, steps: [i64; MAX_AXES]) {
         self.cfg = cfg;
         self.junction_deviation = blend_deviation(&cfg, cfg.blend_tolerance);
         self.blend_tolerance = cfg.blend_tolerance.max(0) as u64;
@@ -991,24 +991,24 @@ impl<const N: usize> Motion<N> {
     /// Torch height control (`motion/thc.rs`): what the inputs ask for the segments prepared
     /// from now on.
     #[inline(always)]
-    pub fn set_thc_command(&mut self, cmd: ThcCommand) {
+    pub(crate) fn set_thc_command(&mut self, cmd: ThcCommand) {
         self.prep.thc.command = cmd;
     }
 
     /// Torch height control switched by the program (`M62 P2` off, `M63 P2` on) or at a job's
     /// start (on).
-    pub fn set_thc_enabled(&mut self, on: bool) {
+    pub(crate) fn set_thc_enabled(&mut self, on: bool) {
         self.prep.thc.enabled = on;
     }
 
     /// The torch height correction made so far, Z steps (+ = up).
-    pub fn thc_correction(&self) -> i32 {
+    pub(crate) fn thc_correction(&self) -> i32 {
         self.prep.thc.correction
     }
 
     /// At a sync point: a Z-only segment taking the height correction back towards 0 (`None`
     /// once it is 0, or when not at a sync point).
-    pub fn thc_return_segment(&mut self) -> Option<Segment> {
+    pub(crate) fn thc_return_segment(&mut self) -> Option<Segment> {
         if self.flow != Flow::AtSync {
             return None;
         }
@@ -1018,7 +1018,7 @@ impl<const N: usize> Motion<N> {
     /// Laser mode: the spindle override, percent, that scales S in the segments prepared from
     /// now on (docs/laser-plasma.md).
     #[inline(always)]
-    pub fn set_laser_override(&mut self, pct: u16) {
+    pub(crate) fn set_laser_override(&mut self, pct: u16) {
         self.prep.laser_override = pct;
     }
 

@@ -185,7 +185,7 @@ impl Block {
 /// A line to plan, in machine terms (its displacement per axis comes from the function given to
 /// [`Planner::push_block`]).
 #[derive(Clone, Copy, Debug)]
-pub struct LineRequest {
+pub(crate) struct LineRequest {
     pub line: u32,
     /// Programmed speed, nm/s; `None` = rapid.
     pub speed: Option<u64>,
@@ -343,7 +343,7 @@ impl<const N: usize> Planner<N> {
 
     /// Sets the programmed speed (nm/s) of every queued feed block and replans (a jog's new
     /// speed; rapids keep theirs).
-    pub fn set_programmed_speed(&mut self, speed: u64) {
+    pub(crate) fn set_programmed_speed(&mut self, speed: u64) {
         for b in self.ring.iter_mut() {
             if b.is_line() && !b.rapid {
                 // MAX_SPEED is u32::MAX.
@@ -379,7 +379,7 @@ impl<const N: usize> Planner<N> {
     }
 
     /// Speed² the block `offset` must exit with at most (reverse-pass limit).
-    pub fn exit_sq(&self, offset: usize) -> u64 {
+    pub(crate) fn exit_sq(&self, offset: usize) -> u64 {
         let b = self.at(offset);
         if b.stop_after {
             return self.stop_exit_sq(b);
@@ -465,7 +465,7 @@ impl<const N: usize> Planner<N> {
     }
 
     /// Adds a non-motion block (dwell or sync); the machine stops before it.
-    pub fn push_marker(&mut self, block: Block) -> bool {
+    pub(crate) fn push_marker(&mut self, block: Block) -> bool {
         self.changed();
         if self.is_full() {
             return false;
@@ -487,7 +487,7 @@ impl<const N: usize> Planner<N> {
     /// `axis_move(i)` gives the displacement of configured axis `i` as (steps, nm); it is called
     /// once per configured axis, in order (the pipeline converts and books its new end there: no
     /// zero-filled displacement arrays built and copied per line).
-    pub fn push_block(
+    pub(crate) fn push_block(
         &mut self,
         cfg: &MotionConfig,
         req: &LineRequest,
@@ -620,7 +620,7 @@ impl<const N: usize> Planner<N> {
     /// The ring is empty and the machine still moves along `unit` (2³⁰ scale): the next line
     /// blends with that direction (junction limits) instead of starting from rest. Segment prep
     /// carries the speed.
-    pub fn continue_from(&mut self, unit: [i64; MAX_AXES]) {
+    pub(crate) fn continue_from(&mut self, unit: [i64; MAX_AXES]) {
         self.changed();
         if self.is_empty() {
             self.prev_unit = Some(unit);
@@ -629,7 +629,7 @@ impl<const N: usize> Planner<N> {
     }
 
     /// Recomputes every entry limit (after an override change or a resume).
-    pub fn replan_all(&mut self) {
+    pub(crate) fn replan_all(&mut self) {
         self.changed();
         for off in 0..self.len() {
             self.at_mut(off).nominal = self.override_speed(self.at(off));
@@ -689,7 +689,7 @@ impl<const N: usize> Planner<N> {
 
 /// What the machine's axes allow along a straight move.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Direction {
+pub(crate) struct Direction {
     /// Unit vector, 2³⁰ scale.
     pub unit: [i64; MAX_AXES],
     /// Path acceleration and speed with every axis within its limits, nm/s² and nm/s.
@@ -699,7 +699,7 @@ pub struct Direction {
 
 /// The direction of a move by `delta` (nm per axis) and what the axes allow along it; `None`
 /// for no move. (The same limits [`Planner::push_block`] applies.)
-pub fn direction(cfg: &MotionConfig, delta: &[i64; MAX_AXES]) -> Option<Direction> {
+pub(crate) fn direction(cfg: &MotionConfig, delta: &[i64; MAX_AXES]) -> Option<Direction> {
     let axes = cfg.axis_count_in_bounds();
     let len_sq: u128 = delta[..axes]
         .iter()

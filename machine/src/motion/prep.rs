@@ -39,7 +39,7 @@ use crate::arith::{div_u64, isqrt_u64, mul_div, sat_mul};
 use crate::units::MAX_AXES;
 
 /// Target segment duration in kernel timer counts (2 ms).
-pub const SEGMENT_COUNTS: u64 = KERNEL_TIMER_HZ as u64 / SEGMENTS_PER_SECOND;
+pub(crate) const SEGMENT_COUNTS: u64 = KERNEL_TIMER_HZ as u64 / SEGMENTS_PER_SECOND;
 
 /// Segments per second at the target duration (a whole divisor of the timer rate, so a speed's
 /// nm per segment is one division).
@@ -55,7 +55,7 @@ const AMASS_PERIODS: [u64; 3] = [
 
 /// Run / hold state of segment preparation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PrepState {
+pub(crate) enum PrepState {
     Running,
     /// Decelerating on the path towards a stop.
     Holding,
@@ -97,7 +97,7 @@ impl BlockReport {
 
 /// Result of one preparation step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PrepOut {
+pub(crate) enum PrepOut {
     Segment(Segment),
     /// The head block is a sync point: wait for the kernel to drain, act, then pop it.
     Sync,
@@ -107,7 +107,7 @@ pub enum PrepOut {
 
 /// Result of [`Prep::next_block`]: one whole block in closed form.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BlockOut {
+pub(crate) enum BlockOut {
     /// A line or dwell block finished; its duration in kernel timer counts.
     Time(u64),
     /// The head block is a sync point (as [`PrepOut::Sync`]).
@@ -118,7 +118,7 @@ pub enum BlockOut {
 
 /// Segment preparation state for the head block.
 #[derive(Clone, Debug)]
-pub struct Prep {
+pub(crate) struct Prep {
     pub state: PrepState,
     /// The head block is checked out.
     active: bool,
@@ -243,13 +243,13 @@ impl Prep {
     }
 
     /// Sets torch height control's rate and travel (`None`: no height control).
-    pub fn set_thc(&mut self, cfg: Option<ThcConfig>) {
+    pub(crate) fn set_thc(&mut self, cfg: Option<ThcConfig>) {
         self.thc = Thc::new(cfg);
     }
 
     /// A Z-only segment taking the height correction back towards 0 (`None` once it is 0); only
     /// with no block in progress (the board asks at a sync point).
-    pub fn thc_return(&mut self) -> Option<Segment> {
+    pub(crate) fn thc_return(&mut self) -> Option<Segment> {
         if self.active {
             return None;
         }
@@ -260,7 +260,7 @@ impl Prep {
 
     /// A new prep for a machine with laser map `laser` (`None`: not a laser machine) and torch
     /// height control `thc` (`None`: none).
-    pub const fn with_laser(laser: Option<PwmMap>, thc: Option<ThcConfig>) -> Self {
+    pub(crate) const fn with_laser(laser: Option<PwmMap>, thc: Option<ThcConfig>) -> Self {
         let mut p = Prep::new();
         p.laser = laser;
         p.thc = Thc::new(thc);
@@ -279,7 +279,7 @@ impl Prep {
     }
 
     /// Sets laser mode's S → duty map (`None`: not a laser machine).
-    pub fn set_laser(&mut self, laser: Option<PwmMap>) {
+    pub(crate) fn set_laser(&mut self, laser: Option<PwmMap>) {
         self.laser = laser;
     }
 
@@ -295,12 +295,12 @@ impl Prep {
     }
 
     /// True while the head block is partly prepared.
-    pub fn is_active(&self) -> bool {
+    pub(crate) fn is_active(&self) -> bool {
         self.active
     }
 
     /// Path position (nm into the head block) at the end of what is prepared.
-    pub fn path_position(&self) -> u64 {
+    pub(crate) fn path_position(&self) -> u64 {
         self.s_now
     }
 
@@ -329,7 +329,7 @@ impl Prep {
     }
 
     /// The report of the last finished block, once.
-    pub fn take_report(&mut self) -> Option<BlockReport> {
+    pub(crate) fn take_report(&mut self) -> Option<BlockReport> {
         self.finished.take()
     }
 
@@ -413,7 +413,7 @@ impl Prep {
     /// The step position, the carried speed and the block report end as after its last segment.
     /// Only while running (a hold is never planned this way); segments handed out before can no
     /// longer be taken back.
-    pub fn next_block<const N: usize>(&mut self, planner: &mut Planner<N>) -> BlockOut {
+    pub(crate) fn next_block<const N: usize>(&mut self, planner: &mut Planner<N>) -> BlockOut {
         if self.state != PrepState::Running {
             return BlockOut::Idle;
         }
@@ -542,7 +542,7 @@ impl Prep {
 
     /// How many of the newest segments handed out can be taken back now ([`History::droppable`]):
     /// segments of the line block in progress.
-    pub fn droppable<const N: usize>(&self, planner: &Planner<N>) -> usize {
+    pub(crate) fn droppable<const N: usize>(&self, planner: &Planner<N>) -> usize {
         if cfg!(feature = "jerk") && self.jerk.is_some() {
             // The tracker's state at an earlier segment is not kept: nothing is taken back.
             return 0;

@@ -64,7 +64,15 @@ impl Profile {
 
     /// [`Self::plan`] in place: segment prep (`motion/prep.rs`) re-plans its profile at every
     /// block start, and building it where it lives saves two 80-byte copies on the MCU.
-    pub fn replan(&mut self, s0: u64, v0: u64, length: u64, vc: u64, exit_sq: u64, accel: u64) {
+    pub(crate) fn replan(
+        &mut self,
+        s0: u64,
+        v0: u64,
+        length: u64,
+        vc: u64,
+        exit_sq: u64,
+        accel: u64,
+    ) {
         let two_a = accel.saturating_mul(2);
         let rem = length.saturating_sub(s0);
         let gain = sat_mul(two_a, rem);
@@ -156,7 +164,7 @@ impl Profile {
     }
 
     /// Speed at path position `s` (nm/s).
-    pub fn speed_at(&self, s: u64) -> u64 {
+    pub(crate) fn speed_at(&self, s: u64) -> u64 {
         let two_a = self.accel.saturating_mul(2);
         if s <= self.s1 {
             if s <= self.s0 {
@@ -184,7 +192,7 @@ impl Profile {
 
     /// Time from `s0` to `s` (kernel timer counts) and the speed there (nm/s): [`Self::time_at`]
     /// and [`Self::speed_at`] with one square root instead of two in the ramps.
-    pub fn time_speed_at(&self, s: u64) -> (u64, u64) {
+    pub(crate) fn time_speed_at(&self, s: u64) -> (u64, u64) {
         if s <= self.s1 {
             let v = self.speed_at(s);
             (self.ramp_time(self.v0, v), v)

@@ -17,9 +17,9 @@ use heapless::Deque;
 
 /// Segments queued between prep and the kernel in this planner-level simulation (≈ 16 ms at 2 ms
 /// per segment). Not the board's queue: the firmware and the emulated board queue
-/// `board::main_loop::SEGMENT_QUEUE_DEPTH` (15) segments. Kept at 8 here: the motion digests and
+/// `device::main_loop::SEGMENT_QUEUE_DEPTH` (15) segments. Kept at 8 here: the motion digests and
 /// the Cortex-M target vectors were recorded with it.
-pub const SEGMENT_QUEUE: usize = 8;
+pub(crate) const SEGMENT_QUEUE: usize = 8;
 
 /// One tick that stepped at least one axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

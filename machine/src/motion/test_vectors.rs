@@ -530,7 +530,7 @@ fn jerk_hold_resume_override() -> u32 {
     digest_run(jerk_config(), &HOLD_JOB, Some(7_200_000), 150)
 }
 
-pub const VECTORS: &[Vector] = &[
+pub(crate) const VECTORS: &[Vector] = &[
     Vector {
         name: "motion/kernel-bresenham",
         run: kernel_bresenham,

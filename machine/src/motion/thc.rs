@@ -17,13 +17,13 @@ use super::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 
 /// The axis torch height control moves.
-pub const THC_AXIS: usize = 2;
+pub(crate) const THC_AXIS: usize = 2;
 const Z_DIR: u8 = 1 << THC_AXIS;
 const HZ: u64 = KERNEL_TIMER_HZ as u64;
 
 /// What the height controller's inputs ask for now (as the board lets them through).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum ThcCommand {
+pub(crate) enum ThcCommand {
     /// Keep the height (no input, both, or the control is not allowed now).
     #[default]
     Hold,
@@ -46,7 +46,7 @@ pub struct ThcConfig {
 
 /// Torch height control's state in segment prep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Thc {
+pub(crate) struct Thc {
     /// `None`: not a torch machine with height control (no segment ever changes).
     pub cfg: Option<ThcConfig>,
     /// What the inputs ask, set by the board before each segment.
@@ -102,7 +102,7 @@ impl Thc {
 
     /// A Z-only segment (about 2 ms at `thc_rate`) that takes the correction back towards 0, or
     /// `None` once it is 0. The board hands these out at a sync point after the torch went off.
-    pub fn return_segment(&mut self, segment_counts: u64) -> Option<(Segment, i32)> {
+    pub(crate) fn return_segment(&mut self, segment_counts: u64) -> Option<(Segment, i32)> {
         let cfg = self.cfg?;
         if self.correction == 0 {
             return None;
@@ -132,14 +132,14 @@ impl Thc {
     }
 
     /// The owner dropped segments that carried `z` signed Z steps of correction.
-    pub fn taken_back(&mut self, z: i32) {
+    pub(crate) fn taken_back(&mut self, z: i32) {
         self.correction -= z;
         self.carry = 0;
     }
 
     /// The correction became part of the position (an abort or a limit stop takes the machine's
     /// step position as it is): nothing left to take out.
-    pub fn absorbed(&mut self) {
+    pub(crate) fn absorbed(&mut self) {
         self.correction = 0;
         self.carry = 0;
     }
@@ -147,7 +147,7 @@ impl Thc {
 
 /// The direction byte of a segment of a move with direction byte `dir` after `z` correction
 /// steps were added (a move without Z motion: its Z bit is free).
-pub const fn with_z_dir(dir: u8, z: i32) -> u8 {
+pub(crate) const fn with_z_dir(dir: u8, z: i32) -> u8 {
     if z < 0 {
         dir | Z_DIR
     } else if z > 0 {

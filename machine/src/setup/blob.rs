@@ -31,7 +31,7 @@ use crate::gcode::{Dialect, DwellUnits, RetractMode, Tool, ToolChangePosition};
 /// adds `grbl.door_spin_up_ms`. Format 5 is written by hand again, byte for byte as postcard; 6
 /// adds `grbl.m6_stop`; 7 `outputs.laser`; 8 `homing.axes[].locate_rate`; 9 `outputs.orient`; 10
 /// `outputs.torch`; 11 `axes[].jerk`. Change it whenever the layout changes.
-pub const FORMAT: u8 = 11;
+pub(crate) const FORMAT: u8 = 11;
 
 /// Writes blob bytes `skip ..` into `out`. With `clip`, bytes beyond `out` are counted and
 /// dropped (a window of the blob); without, they make the encoding fail (`full`).

@@ -2,7 +2,7 @@
 //! (in the core's integer units), grbl `$` number, getter ([`Key::value`]), setter ([`Key::set`]),
 //! reference text and file comment. The setup file's reader and writer
 //! (host-sender/src/setup_file.rs: two walks over the rows), [`super::Setup::validate`], the grbl
-//! `$$` listing (machine/src/grbl/settings.rs) and docs/settings.md
+//! `$$` listing (machine/src/device/grbl/settings.rs) and docs/settings.md
 //! (host-sender/src/settings_doc.rs) are all derived from it; docs/architecture.md, "How to add a
 //! setting", walks through a new row.
 //!
@@ -138,7 +138,7 @@ impl Unit {
 }
 
 /// grbl number of a row without one.
-pub const NO_GRBL: u16 = u16::MAX;
+pub(crate) const NO_GRBL: u16 = u16::MAX;
 
 /// A setting as the board checks it (8 bytes: the range is two indices into [`BOUNDS`], which
 /// keeps the table small in the firmware's flash).

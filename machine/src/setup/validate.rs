@@ -1,7 +1,7 @@
 //! The one validation of a setup ([`Setup::validate`]): every range of the settings table
 //! (machine/src/setup/table.rs) and the rules between settings. `gantry setup check`/`push`
 //! (host-sender/src/setup_file.rs), the board's setup push (`Setup::from_blob`) and grbl `$x=`
-//! writes (machine/src/grbl/mod.rs) all refuse a setup through it, with the same [`SetupError`].
+//! writes (machine/src/device/grbl/mod.rs) all refuse a setup through it, with the same [`SetupError`].
 
 use super::table::{Key, Section, Unit, ROWS};
 use super::Setup;

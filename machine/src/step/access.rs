@@ -1,7 +1,7 @@
 //! The step interrupt's state as the main loop reaches it (between two runs: the firmware holds
 //! the interrupt off meanwhile, `firmware/src/step.rs` `with_kernel`; the emulated board runs
 //! one or the other on its virtual clock). Each method is one of the main loop's port calls
-//! (`board::main_loop::BoardPort`), so both boards answer them with the same code.
+//! (`device::main_loop::BoardPort`), so both boards answer them with the same code.
 
 use super::isr::StepIsr;
 use crate::motion::kernel::{ProbeLatch, SegmentSource};

@@ -85,7 +85,7 @@ pub struct Prepared {
 impl Prepared {
     /// The writes of an idle kernel at power-up: no step, dir pins left low, a poll a period
     /// later.
-    pub const IDLE: Prepared = Prepared {
+    pub(crate) const IDLE: Prepared = Prepared {
         dir_word: 0,
         step_word: 0,
         reload: IDLE_PERIOD_COUNTS - 1,

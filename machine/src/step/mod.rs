@@ -4,11 +4,11 @@
 //! virtual timer (`emulator/src/step_clock.rs`) each implement [`StepHardware`] and nothing
 //! more.
 
-pub mod access;
-pub mod hardware;
-pub mod isr;
-pub mod pins;
-pub mod timing;
+pub(crate) mod access;
+pub(crate) mod hardware;
+pub(crate) mod isr;
+pub(crate) mod pins;
+pub(crate) mod timing;
 
 pub use access::{KernelSnapshot, SegmentQueue};
 pub use hardware::StepHardware;

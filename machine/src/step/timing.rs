@@ -19,9 +19,9 @@ pub struct DriverSetup {
 impl DriverSetup {
     /// Accepted step pulse widths, ns: 1-50 µs (the step interrupt cannot end a pulse much
     /// sooner than 1 µs after starting it).
-    pub const PULSE_NS: core::ops::RangeInclusive<u32> = 1_000..=50_000;
+    pub(crate) const PULSE_NS: core::ops::RangeInclusive<u32> = 1_000..=50_000;
     /// Accepted direction set-up times, ns: 0-50 µs.
-    pub const DIR_SETUP_NS: core::ops::RangeInclusive<u32> = 0..=50_000;
+    pub(crate) const DIR_SETUP_NS: core::ops::RangeInclusive<u32> = 0..=50_000;
 
     /// 2.5 µs pulse, 5 µs direction set-up: the minimums of the most demanding common driver,
     /// the opto-isolated Leadshine DM542 (pulse ≥ 2.5 µs, direction ≥ 5 µs ahead of the pulse);

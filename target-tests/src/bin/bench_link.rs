@@ -4,7 +4,7 @@
 //! `send_lines`): blanks stripped (`G1X-99.893Y-6.789F3000`, as `Program::wire_text` sends it),
 //! packed with `gantry_proto::lines::push_record` into `HostMsg::Lines` batches, a new batch
 //! whenever the queued lane has a free place. The board takes them the way its main loop does
-//! (machine/src/board/main_loop.rs, one pass per virtual millisecond) through the public API
+//! (machine/src/device/main_loop.rs, one pass per virtual millisecond) through the public API
 //! only: `BoardLink::on_bytes` in 64-byte reads (frame decoder, COBS, CRC, the batch read in
 //! place and copied into the line ring, the receive window), `BoardLink::service` twice (status
 //! reports, credit) and `BoardLink::poll_transmit` (acks, status frames); those are the link.
@@ -24,8 +24,8 @@
 
 use core::hint::black_box;
 use cortex_m_rt::entry;
-use gantry_machine::board::link::{BoardLink, KernelView};
 use gantry_machine::board::Board;
+use gantry_machine::device::link::{BoardLink, KernelView};
 use gantry_machine::setup::Setup;
 use gantry_proto::lines::{push_record, record_len, BATCH_MAX};
 use gantry_proto::{Config, HostEndpoint, HostMsg, Lane, LineBatch, MAX_FRAME_LEN};
@@ -187,7 +187,7 @@ impl Rig {
         t.rx_bytes += len as u64;
         let view = KernelView::default();
         // Out of the timed part: the board transmits through one frame-sized buffer a pass
-        // (machine/src/board/main_loop.rs); zeroing this 16-frame one took ~1,950 instructions.
+        // (machine/src/device/main_loop.rs); zeroing this 16-frame one took ~1,950 instructions.
         let mut out = [0u8; 16 * MAX_FRAME_LEN];
         // The board's pass: receive, service, motion, service, transmit.
         let t0 = now();

@@ -3,9 +3,9 @@
 #![allow(dead_code)]
 
 use gantry_emulator::EmulatedBoard;
+use gantry_machine::board::inputs::Signal;
 use gantry_machine::board::BoardEvent;
-use gantry_machine::controller::inputs::Signal;
-use gantry_machine::controller::State;
+use gantry_machine::board::State;
 use gantry_machine::setup::Setup;
 use gantry_machine::units::NM_PER_MM;
 use host_sender::link::Client;

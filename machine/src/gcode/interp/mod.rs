@@ -34,11 +34,11 @@ use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, ProbeMode, Spindle, S
 use crate::units::{Nm, Pos, MAX_AXES};
 
 /// Capacity of the per-block action queue (a block expands to at most 10 actions; cycle steps to 7).
-pub const QUEUE_CAPACITY: usize = 12;
+pub(crate) const QUEUE_CAPACITY: usize = 12;
 /// Deepest subprogram nesting.
-pub const MAX_NESTING: usize = 16;
+pub(crate) const MAX_NESTING: usize = 16;
 /// Deepest G65 macro nesting (Fanuc allows 4 levels).
-pub const MAX_MACRO_NESTING: usize = 4;
+pub(crate) const MAX_MACRO_NESTING: usize = 4;
 
 /// Fanuc G65 argument specification I: the variable each letter sets (0 = not an argument).
 const G65_ARGUMENT: [u8; 26] = [
@@ -97,11 +97,11 @@ struct Frame {
 type SavedLocals = (u64, [Fx; LOCALS]);
 
 /// Deepest `o.. call` nesting.
-pub const MAX_O_CALLS: usize = 8;
+pub(crate) const MAX_O_CALLS: usize = 8;
 /// Most O-word loops open at once.
-pub const MAX_LOOPS: usize = 16;
+pub(crate) const MAX_LOOPS: usize = 16;
 /// Subroutine definitions remembered (label → line).
-pub const MAX_SUBS: usize = 24;
+pub(crate) const MAX_SUBS: usize = 24;
 
 /// What a skip over lines looks for (a false `if`, a `sub` definition, a `break`...).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -333,7 +333,7 @@ pub struct Interpreter {
 }
 
 /// Most subprogram jumps without an action before the program is declared an endless loop.
-pub const MAX_JUMPS_WITHOUT_ACTION: u32 = 10_000;
+pub(crate) const MAX_JUMPS_WITHOUT_ACTION: u32 = 10_000;
 
 /// 12,864 B (measured): 10,360 B with the G65 locals stack of 4 levels × 33 values, 1,240 B
 /// for cutter compensation's look-ahead (`comp.rs`: up to 6 actions held back until the next
@@ -393,12 +393,12 @@ impl Interpreter {
     }
 
     /// What an arc's off-plane centre word does (the grbl front end's jobs ignore it).
-    pub fn set_off_plane_offset(&mut self, o: OffPlaneOffset) {
+    pub(crate) fn set_off_plane_offset(&mut self, o: OffPlaneOffset) {
         self.config.off_plane_offset = o;
     }
 
     /// Optional-stop switch (M1 stops when on).
-    pub fn set_optional_stop(&mut self, on: bool) {
+    pub(crate) fn set_optional_stop(&mut self, on: bool) {
         self.config.optional_stop = on;
     }
 
@@ -408,7 +408,7 @@ impl Interpreter {
     }
 
     /// True once M2/M30, the closing `%`, `E` or the end of the file was reached.
-    pub fn is_finished(&self) -> bool {
+    pub(crate) fn is_finished(&self) -> bool {
         self.finished
             && self.queue.is_empty()
             && self.cycle.is_none()
@@ -451,7 +451,7 @@ impl Interpreter {
     /// results hold the end position). Writes #5061-#5066 (the trip position, or where the
     /// move ended, in the program's coordinates and units as LinuxCNC does) and #5070 (1 when
     /// the probe tripped, else 0), and continues from `at`.
-    pub fn probe_done(&mut self, at: Pos, tripped: Option<Pos>) {
+    pub(crate) fn probe_done(&mut self, at: Pos, tripped: Option<Pos>) {
         self.state.position = at;
         let found = tripped.unwrap_or(at);
         let offset = self.state.offset();

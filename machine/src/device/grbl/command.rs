@@ -4,7 +4,7 @@ use super::codes;
 
 /// What `$$RST=` restores.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Restore {
+pub(crate) enum Restore {
     /// `$RST=$`: the numbered settings to their defaults.
     Settings,
     /// `$RST=#`: work offsets and G28/G30 positions to zero.
@@ -15,7 +15,7 @@ pub enum Restore {
 
 /// A system command.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Command<'a> {
+pub(crate) enum Command<'a> {
     /// `$`: the help line.
     Help,
     /// `$$`: every numbered setting.

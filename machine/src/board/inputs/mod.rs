@@ -5,6 +5,8 @@
 //! each bit and reports which signals changed. Limit switches are *also* seen raw by the step
 //! interrupt (docs/controller.md "Safety rules as built"): debouncing here never delays the stop, only the alarm bookkeeping.
 
+pub(crate) mod operator;
+
 use serde::{Deserialize, Serialize};
 
 /// One bit per input signal, as the board's pins are sampled.
@@ -180,6 +182,24 @@ impl Debouncer {
     }
 }
 
+/// Analog readings the firmware samples with the inputs (raw ADC counts, `0..=setup.inputs.adc_max`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AdcReadings {
+    /// Feed-rate override potentiometer (`None`: not sampled).
+    pub fro: Option<u16>,
+    /// Analog joystick channels 0 and 1 (`None`: no analog stick).
+    pub stick: Option<[u16; 2]>,
+}
+
+/// Feed override (percent) from a potentiometer reading: `0..=adc_max` maps linearly onto
+/// `low..=high`, rounded to the nearest percent.
+pub fn fro_from_adc(adc: u16, adc_max: u16, low: u16, high: u16) -> u16 {
+    let max = u32::from(adc_max.max(1));
+    let a = u32::from(adc).min(max);
+    let span = u32::from(high.saturating_sub(low));
+    (u32::from(low) + (a * span + max / 2) / max) as u16
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -237,5 +257,13 @@ mod tests {
         b.set_bit(LIMIT_MIN_BIT + 2, true);
         b.set_bit(LIMIT_MAX_BIT, true);
         assert_eq!((b.limits_min(), b.limits_max()), (0b100, 0b1));
+    }
+
+    #[test]
+    fn fro_pot_maps_the_adc_range_onto_the_percent_range() {
+        assert_eq!(fro_from_adc(0, 4095, 30, 130), 30);
+        assert_eq!(fro_from_adc(4095, 4095, 30, 130), 130);
+        assert_eq!(fro_from_adc(2048, 4095, 30, 130), 80);
+        assert_eq!(fro_from_adc(5000, 4095, 10, 200), 200);
     }
 }

@@ -8,14 +8,14 @@
 //! alarm forget the door (the outputs stay off).
 
 use super::report;
-use crate::board::kernel_view::KernelView;
+use crate::board::State;
 use crate::board::{Board, DoorOutputs};
 use crate::canon::Spindle;
-use crate::controller::State;
+use crate::device::kernel_view::KernelView;
 
 /// Where the door stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Door {
+pub(crate) enum Door {
     /// No door opened (or it was resumed).
     Closed,
     /// Opened: the machine decelerates (`Door:2`).
@@ -118,7 +118,7 @@ impl Door {
     }
 
     /// No job may start while the door is open.
-    pub fn blocks_start(&self) -> bool {
+    pub(crate) fn blocks_start(&self) -> bool {
         *self != Door::Closed
     }
 

@@ -2,9 +2,9 @@
 //! [`Board`], and reports status and events back. Sans-IO: the owner feeds received bytes in,
 //! drains frames out, and calls [`BoardLink::service`] from its main loop.
 
-use super::{line_ring, Pushed};
-use super::{Board, BoardEvent, JobEnd, JumpTarget};
-use crate::controller::State;
+use crate::board::State;
+use crate::board::{line_ring, Pushed};
+use crate::board::{Board, BoardEvent, JobEnd, JumpTarget};
 use crate::setup::{Setup, SETUP_BLOB_MAX};
 use gantry_proto::channel::{QueuedSink, Refusal};
 use gantry_proto::setup_commit::SetupRefusal;
@@ -14,11 +14,11 @@ use gantry_proto::{
 };
 
 // The line ring's free bytes are the link's credit, a `u16`.
-const _: () = assert!(super::LINE_RING <= u16::MAX as usize);
+const _: () = assert!(crate::board::LINE_RING <= u16::MAX as usize);
 
 /// The protocol a connection speaks, told from its first byte and forgotten when the host
 /// disconnects (DTR drop, port closed): Gantry's framed protocol or grbl 1.1's text
-/// (`machine/src/grbl/`, docs/grbl.md).
+/// (`machine/src/device/grbl/`, docs/grbl.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LinkProtocol {
     /// Nothing received yet on this connection (the framed link runs meanwhile).
@@ -66,13 +66,13 @@ impl LinkProtocol {
 
 /// A USB full-speed bulk packet: what the board takes at once while a connection's protocol is
 /// undecided ([`BoardLink::rx_room`]).
-pub const RX_PACKET: usize = 64;
+pub(crate) const RX_PACKET: usize = 64;
 
 /// How long undecided realtime bytes wait for more before they count as grbl, ms.
-pub const UNDECIDED_MS: u32 = 50;
+pub(crate) const UNDECIDED_MS: u32 = 50;
 
 /// Interval between unsolicited status reports, ms.
-pub const STATUS_INTERVAL_MS: u32 = 100;
+pub(crate) const STATUS_INTERVAL_MS: u32 = 100;
 
 /// Silence after which the host counts as gone (four keepalive intervals), ms: the board then
 /// holds a running job on its path (docs/controller.md "Host lost (alarm 20)") until a host reconnects and resumes it, or until
@@ -135,7 +135,7 @@ pub struct BoardLink {
     /// The protocol of the current connection.
     protocol: LinkProtocol,
     /// The grbl front end (used while `protocol` is [`LinkProtocol::Grbl`]).
-    grbl: crate::grbl::Grbl,
+    grbl: super::grbl::Grbl,
     /// The first bytes of a connection while they do not tell its protocol, and since when.
     undecided: heapless::Vec<u8, { gantry_proto::MAX_FRAME_LEN }>,
     undecided_since: u32,
@@ -162,13 +162,17 @@ enum Opening {
 /// Silence after the port opened before the board greets with grbl's banner, ms: a `gantry`
 /// command speaks at once (its first frame within a few ms), a grbl sender that waits for the
 /// banner gets it well within its own wait.
-pub const GREET_MS: u32 = 250;
+pub(crate) const GREET_MS: u32 = 250;
 
 impl BoardLink {
     /// `boot_id` must differ at every power-up (the host detects board resets by it).
     pub fn new(boot_id: u32) -> Self {
         BoardLink {
-            endpoint: BoardEndpoint::new_board(Config::USB_MS, boot_id, super::LINE_RING as u16),
+            endpoint: BoardEndpoint::new_board(
+                Config::USB_MS,
+                boot_id,
+                crate::board::LINE_RING as u16,
+            ),
             outbox: heapless::Deque::new(),
             last_status: None,
             host: Host::Never,
@@ -179,7 +183,7 @@ impl BoardLink {
                 changed: false,
             },
             protocol: LinkProtocol::Undecided,
-            grbl: crate::grbl::Grbl::new(),
+            grbl: super::grbl::Grbl::new(),
             undecided: heapless::Vec::new(),
             undecided_since: 0,
             opening: Opening::Talking,
@@ -243,7 +247,7 @@ impl BoardLink {
 
     /// Bytes the board can take from the port now without dropping any (the main loop reads no
     /// more: on the USB board the rest waits in the receive pipe, then in the endpoint, which the
-    /// host's NAKs pace). grbl: the receive buffer's room (`grbl/rx.rs`); undecided: a packet,
+    /// host's NAKs pace). grbl: the receive buffer's room (`device/grbl/rx.rs`); undecided: a packet,
     /// so that bytes a grbl decision hands to that buffer fit it; framed: no limit (the link's
     /// window paces the host).
     pub fn rx_room(&self) -> usize {
@@ -262,7 +266,7 @@ impl BoardLink {
     /// host that dropped DTR is lost: [`Board::host_lost`] (hold, outputs off at rest, the job
     /// kept for `gantry stream --continue`); one that kept DTR up (a one-shot command) leaves
     /// the machine as it is.
-    pub fn port_closed(&mut self, board: &mut Board, dtr_dropped: bool) {
+    pub(crate) fn port_closed(&mut self, board: &mut Board, dtr_dropped: bool) {
         match self.protocol {
             LinkProtocol::Grbl => {
                 board.host_lost();
@@ -280,7 +284,7 @@ impl BoardLink {
     /// A host opened the port (DTR rose, a TCP client connected): with nothing received for
     /// [`GREET_MS`], the board greets with grbl's banner (docs/grbl.md "How a connection
     /// chooses").
-    pub fn port_opened(&mut self, now_ms: u32) {
+    pub(crate) fn port_opened(&mut self, now_ms: u32) {
         if self.protocol == LinkProtocol::Undecided && self.undecided.is_empty() {
             self.opening = Opening::Opened { since: now_ms };
         }
@@ -442,7 +446,7 @@ impl BoardLink {
     }
 
     /// True once after a setup from the host was applied: the owner persists `board.setup()`.
-    pub fn take_setup_changed(&mut self) -> bool {
+    pub(crate) fn take_setup_changed(&mut self) -> bool {
         core::mem::take(&mut self.setup.changed) | self.grbl.take_setup_changed()
     }
 
@@ -707,7 +711,7 @@ pub(crate) fn laser_permille(board: &Board, view: &KernelView) -> Option<u16> {
 }
 
 /// The outputs part of a status report.
-fn outputs_status(o: super::Outputs, laser_permille: Option<u16>) -> OutputsStatus {
+fn outputs_status(o: crate::board::Outputs, laser_permille: Option<u16>) -> OutputsStatus {
     use crate::canon::Spindle;
     OutputsStatus {
         spindle: match o.spindle {

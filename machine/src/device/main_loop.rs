@@ -37,10 +37,10 @@
 use super::link::{BoardLink, KernelView};
 use super::starvation::{Sample, Starvation};
 use super::underruns::Underruns;
-use super::Board;
 use crate::arith::isqrt_u64;
-use crate::controller::inputs::{Debouncer, InputBits};
-use crate::controller::{AdcReadings, OutputLevels, State};
+use crate::board::inputs::{Debouncer, InputBits};
+use crate::board::Board;
+use crate::board::{AdcReadings, OutputLevels, State};
 use crate::motion::kernel::{Segment, StepTiming};
 use crate::motion::pipeline::MotionState;
 use crate::setup::Setup;
@@ -59,7 +59,7 @@ pub const SEGMENT_QUEUE_DEPTH: usize = SEGMENT_QUEUE_SLOTS - 1;
 /// buffer after a busy moment) is taken over several passes, so one pass's link work cannot
 /// outlast the kernel's queue (docs/architecture.md "One pass, in order"). 512 B a millisecond is
 /// 1.8× what 8 k short lines a second need; the rest waits in the port's buffer.
-pub const RX_BYTES_PER_PASS: usize = 512;
+pub(crate) const RX_BYTES_PER_PASS: usize = 512;
 
 const _: () = assert!(
     SEGMENT_QUEUE_DEPTH <= crate::motion::history::SEGMENT_HISTORY,
@@ -115,7 +115,7 @@ pub trait BoardPort {
     /// Writes the setup to flash (called only with the board idle and the kernel drained).
     fn save_setup(&mut self, setup: &Setup);
     /// The motion marker: set (`true`) before a segment can reach the kernel, cleared once the
-    /// kernel is drained and the position is known (`controller::power_up`).
+    /// kernel is drained and the position is known (`board::power_up`).
     fn motion_marker(&mut self, moving: bool);
     /// Right before each link service: a test harness may take the board's events here instead of
     /// the link. Default: nothing.
@@ -271,7 +271,7 @@ impl MainLoop {
 
     /// Milliseconds the current or last job lost to starvation: machine time beyond the planned
     /// time because the planner held too little of a program with more lines
-    /// (machine/src/board/starvation.rs).
+    /// (machine/src/device/starvation.rs).
     pub fn starved_ms(&self) -> u32 {
         self.starvation.starved_ms()
     }
@@ -326,7 +326,7 @@ impl MainLoop {
     /// `firmware/src/control.rs`; the emulated board's `receive`): the same pass in the same
     /// order, so a line that arrives is taken, interpreted and answered now rather than at the
     /// next tick, with the inputs left to the ticks (the debounce counts samples a millisecond
-    /// apart, `controller::inputs::Debouncer`).
+    /// apart, `board::inputs::Debouncer`).
     pub fn host_bytes_pass(
         &mut self,
         now_ms: u32,
@@ -521,7 +521,7 @@ mod tests {
     //! The pass's own rules on a port that records what it is asked (the scenario tests on the
     //! emulated board are in tests/tests/controller_main_loop.rs).
     use super::*;
-    use crate::controller::AlarmCode;
+    use crate::board::AlarmCode;
     use crate::units::NM_PER_MM;
 
     extern crate std;
@@ -705,7 +705,7 @@ mod tests {
             t += 1;
             assert!(t < 5_000, "the buffer never filled");
         }
-        assert_eq!(link.protocol(), crate::board::link::LinkProtocol::Grbl);
+        assert_eq!(link.protocol(), crate::device::link::LinkProtocol::Grbl);
         let (reads, taken) = (port.reads, port.taken);
         assert!(taken < total && taken > 128, "{taken} of {total} taken");
         for _ in 0..500 {
@@ -734,7 +734,7 @@ mod tests {
             main.pass(t, &mut board, &mut link, &mut port);
         }
         let banner = std::string::String::from_utf8_lossy(&port.sent).into_owned();
-        assert!(banner.contains(crate::grbl::BANNER), "{banner}");
+        assert!(banner.contains(crate::device::grbl::BANNER), "{banner}");
         port.sent.clear();
         let samples = port.samples;
         for (i, line) in ["G1 X1 F600\n", "G1 X2\n", "G1 X3\n"].iter().enumerate() {

@@ -5,32 +5,32 @@
 //! lost) and 21 (command list timeout) have no grbl counterpart.
 
 /// grbl: expected command letter.
-pub const EXPECTED_LETTER: u16 = 1;
+pub(crate) const EXPECTED_LETTER: u16 = 1;
 /// grbl: bad number format.
-pub const BAD_NUMBER: u16 = 2;
+pub(crate) const BAD_NUMBER: u16 = 2;
 /// grbl: `$` statement not recognised or not supported.
-pub const INVALID_STATEMENT: u16 = 3;
+pub(crate) const INVALID_STATEMENT: u16 = 3;
 /// grbl: negative value.
-pub const NEGATIVE_VALUE: u16 = 4;
+pub(crate) const NEGATIVE_VALUE: u16 = 4;
 /// grbl: homing not enabled.
-pub const HOMING_DISABLED: u16 = 5;
+pub(crate) const HOMING_DISABLED: u16 = 5;
 /// grbl: `$` command only valid when idle.
-pub const IDLE_ONLY: u16 = 8;
+pub(crate) const IDLE_ONLY: u16 = 8;
 /// grbl: G-code locked out during alarm or jog.
-pub const LOCKED: u16 = 9;
+pub(crate) const LOCKED: u16 = 9;
 /// grbl: line too long.
-pub const LINE_TOO_LONG: u16 = 11;
+pub(crate) const LINE_TOO_LONG: u16 = 11;
 /// grbl: jog target beyond the travel.
-pub const JOG_TRAVEL: u16 = 15;
+pub(crate) const JOG_TRAVEL: u16 = 15;
 /// grbl: invalid jog command.
-pub const JOG_INVALID: u16 = 16;
+pub(crate) const JOG_INVALID: u16 = 16;
 /// grbl: undefined feed rate.
-pub const UNDEFINED_FEED: u16 = 22;
+pub(crate) const UNDEFINED_FEED: u16 = 22;
 /// Unsupported or invalid G-code command.
-pub const UNSUPPORTED: u16 = 20;
+pub(crate) const UNSUPPORTED: u16 = 20;
 
 /// The grbl number for a Gantry error number.
-pub fn error_number(gantry: u16) -> u16 {
+pub(crate) fn error_number(gantry: u16) -> u16 {
     match gantry {
         101 | 103 | 106 => EXPECTED_LETTER,
         102 | 104 | 105 => BAD_NUMBER,

@@ -3,7 +3,7 @@
 
 /// A realtime command.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Realtime {
+pub(crate) enum Realtime {
     /// `?`: one status report.
     Status,
     /// `!`: feed hold.
@@ -32,7 +32,7 @@ pub enum Realtime {
 
 /// A feed or spindle override step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FeedStep {
+pub(crate) enum FeedStep {
     Reset,
     Add(i16),
 }
@@ -70,7 +70,7 @@ impl Realtime {
 }
 
 /// The feed or spindle override after `step` from `pct` (grbl's range, 10-200 %).
-pub fn feed_after(pct: u16, step: FeedStep) -> u16 {
+pub(crate) fn feed_after(pct: u16, step: FeedStep) -> u16 {
     match step {
         FeedStep::Reset => 100,
         FeedStep::Add(d) => (i32::from(pct) + i32::from(d)).max(10).min(200) as u16,

@@ -1,5 +1,5 @@
 //! Underruns as the machine feels them, counted once for both boards by the main loop
-//! (`board/main_loop.rs`): the step kernel found its queue empty in Run after the job had moved,
+//! (`device/main_loop.rs`): the step kernel found its queue empty in Run after the job had moved,
 //! while the main loop's pass before left motion queued or the planner empty before the
 //! program's end (lines not interpreted or not received yet), not at a sync point, a hold, a
 //! program stop or the job's start and end. One per time the kernel ran dry

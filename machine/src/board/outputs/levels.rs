@@ -40,7 +40,7 @@ impl OutputLevels {
 
 /// PWM duty for `rpm`: `spindle_min_rpm..=spindle_max_rpm` maps linearly onto
 /// `pwm_min..=pwm_max` (clamped at both ends); a stopped spindle or S0 gives duty 0.
-pub fn spindle_duty(setup: &OutputSetup, state: Spindle, rpm: u32) -> u16 {
+pub(crate) fn spindle_duty(setup: &OutputSetup, state: Spindle, rpm: u32) -> u16 {
     if state == Spindle::Off || rpm == 0 {
         return 0;
     }

@@ -1,10 +1,11 @@
 //! Operator inputs of one main-loop pass: feed hold, abort, cycle start (two-hand), the run-mode
 //! switches and the feed-override potentiometer (docs/controller.md "Operator inputs"). The joystick part is in
-//! [`super::jogging`].
+//! [`crate::board::jog`].
 
-use super::Board;
-use crate::controller::inputs::{InputBits, Signal};
-use crate::controller::{fro_from_adc, AdcReadings, State};
+use super::{fro_from_adc, AdcReadings};
+use super::{InputBits, Signal};
+use crate::board::state::State;
+use crate::board::Board;
 
 /// The operator's run-mode switches (docs/controller.md "Run modes"). A struct of two switches
 /// grouped by concern rather than one four-valued enum: the two are independent (every
@@ -12,7 +13,7 @@ use crate::controller::{fro_from_adc, AdcReadings, State};
 /// from the host or the switch input at any time), so an enum would only spell out their product
 /// and make each setter rebuild the other switch's half.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(super) struct RunSwitches {
+pub(in crate::board) struct RunSwitches {
     /// Feed moves at `operator.dry_run_feed`, spindle and coolant untouched, M-code lists flagged
     /// `dry_run_disabled` skipped.
     pub dry_run: bool,
@@ -23,13 +24,13 @@ pub(super) struct RunSwitches {
 /// What the board last heard from its owner: the main-loop time and debounced input levels of
 /// the last [`Board::on_inputs`], the kernel's drained flag of the last [`Board::poll`], and the
 /// limit switches ignored until they release.
-pub(super) struct Sensed {
+pub(in crate::board) struct Sensed {
     /// Main-loop time, ms.
-    pub(super) now_ms: u32,
+    pub(in crate::board) now_ms: u32,
     /// Debounced logical input levels.
-    pub(super) levels: InputBits,
+    pub(in crate::board) levels: InputBits,
     /// The kernel was drained (segment queue empty, kernel idle).
-    pub(super) drained: bool,
+    pub(in crate::board) drained: bool,
     /// Limit bits ignored until they release (a switch still pressed when the alarm was raised).
     disarmed: u32,
     /// When the last switch was disarmed, ms: its debounced level may show it pressed only a
@@ -40,7 +41,7 @@ pub(super) struct Sensed {
 impl Sensed {
     /// Nothing heard yet: time 0, every input low, the kernel drained.
     #[inline(always)]
-    pub(super) const fn new() -> Self {
+    pub(in crate::board) const fn new() -> Self {
         Sensed {
             now_ms: 0,
             levels: InputBits(0),
@@ -66,18 +67,18 @@ impl Sensed {
     }
 
     /// Ignores the limit bits of `bits` until they release.
-    pub(super) fn disarm(&mut self, bits: u32) {
+    pub(in crate::board) fn disarm(&mut self, bits: u32) {
         self.disarmed |= bits;
         self.disarmed_at = self.now_ms;
     }
 
     /// The limit bits ignored until they release.
-    pub(super) fn disarmed_bits(&self) -> u32 {
+    pub(in crate::board) fn disarmed_bits(&self) -> u32 {
         self.disarmed
     }
 
     /// The limit bits of `installed` not disarmed.
-    pub(super) fn armed(&self, installed: u32) -> u32 {
+    pub(in crate::board) fn armed(&self, installed: u32) -> u32 {
         installed & !self.disarmed
     }
 }
@@ -91,7 +92,7 @@ impl Board {
     }
 
     /// The inputs of one main-loop pass (every millisecond): `levels` are the debounced logical
-    /// levels ([`crate::controller::inputs::Debouncer`] with the setup's polarity and debounce),
+    /// levels ([`super::Debouncer`] with the setup's polarity and debounce),
     /// `changed` the bits that changed with this sample, `adc` the analog readings. Drives feed
     /// hold, abort, cycle start, the switches (single block, optional stop, block delete), the
     /// feed-override potentiometer and the joystick.

@@ -2,7 +2,7 @@
 //! not yet taken by its protocol loop; a line it takes leaves the buffer (into grbl's line buffer
 //! and planner), and its `ok` follows once it is planned. So here: the bytes of lines not yet read
 //! out ("unread") count against [`RX_SIZE`] — advertised in `$I`'s `[OPT:…]`, reported in `Bf:`
-//! and the room the link reads the port by (`board/link.rs` `BoardLink::rx_room`) — and a line
+//! and the room the link reads the port by (`device/link.rs` `BoardLink::rx_room`) — and a line
 //! read out for the board ([`Rx::next_line`]) leaves that count at once, though its bytes stay
 //! stored until it is answered ([`Rx::answered`]), to be read again after the board dropped it
 //! unread ([`Rx::rewind`]). A character-counting sender keeps at most 128 unanswered bytes, so
@@ -38,7 +38,7 @@ const CUT: u8 = 0x00;
 
 /// A line as [`Rx::peek_line`] found it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Peeked {
+pub(crate) struct Peeked {
     /// Length without blanks, comments and end (bytes past the output's length are not copied).
     pub len: usize,
     /// Stored length, its end included (what [`Rx::consume`] and [`Rx::answered`] take).
@@ -48,7 +48,7 @@ pub struct Peeked {
 }
 
 /// The received bytes, oldest unanswered first.
-pub struct Rx {
+pub(crate) struct Rx {
     buf: [u8; STORE],
     /// Index of the oldest unanswered byte.
     head: usize,
@@ -153,7 +153,7 @@ impl Rx {
 
     /// The next complete unread line without its blanks, comments and end, copied into `out`.
     /// Not consumed: [`Rx::consume`] does that.
-    pub fn peek_line(&self, out: &mut [u8]) -> Option<Peeked> {
+    pub(crate) fn peek_line(&self, out: &mut [u8]) -> Option<Peeked> {
         if self.complete == 0 {
             return None;
         }
@@ -222,7 +222,7 @@ impl Rx {
     }
 
     /// A complete line waits to be read.
-    pub fn has_line(&self) -> bool {
+    pub(crate) fn has_line(&self) -> bool {
         self.complete > 0
     }
 }

@@ -4,11 +4,11 @@
 use super::settings::Prefs;
 use super::text::Out;
 use super::RX_SIZE;
-use crate::board::kernel_view::KernelView;
+use crate::board::inputs::{InputBits, Signal};
+use crate::board::State;
 use crate::board::{Board, PLANNER_BLOCKS};
 use crate::canon::{Plane, Spindle};
-use crate::controller::inputs::{InputBits, Signal};
-use crate::controller::State;
+use crate::device::kernel_view::KernelView;
 use crate::gcode::state::MotionMode;
 use crate::units::{Pos, NM_PER_MM};
 
@@ -81,7 +81,7 @@ impl Sparse {
 }
 
 /// Longest status report, bytes (6 axes of MPos and WCO, every field).
-pub const STATUS_MAX: usize = 260;
+pub(crate) const STATUS_MAX: usize = 260;
 
 /// One status report line.
 pub fn status(
@@ -215,7 +215,7 @@ fn pins(out: &mut Out, levels: InputBits, board: &Board) {
 }
 
 /// `[GC:…]`: the interpreter's modal state.
-pub fn gcode_modes(out: &mut Out, board: &Board, prefs: &Prefs) {
+pub(crate) fn gcode_modes(out: &mut Out, board: &Board, prefs: &Prefs) {
     let s = board.interpreter().state();
     out.str("[GC:");
     match s.motion {
@@ -278,7 +278,7 @@ pub fn gcode_modes(out: &mut Out, board: &Board, prefs: &Prefs) {
 }
 
 /// `$#`: work systems, G28/G30, G92, tool length offset and the last probe.
-pub fn parameters(out: &mut Out, board: &Board, prefs: &Prefs) {
+pub(crate) fn parameters(out: &mut Out, board: &Board, prefs: &Prefs) {
     let s = board.interpreter().state();
     let axes = usize::from(board.setup().axis_count);
     for (i, w) in s.work_offsets.iter().enumerate().take(6) {
@@ -324,7 +324,7 @@ pub fn probe(out: &mut Out, board: &Board, prefs: &Prefs) {
 }
 
 /// `$I`: version and options (`V` variable spindle; planner blocks; RX buffer bytes).
-pub fn build_info(out: &mut Out) {
+pub(crate) fn build_info(out: &mut Out) {
     out.line("[VER:1.1h.20190830:Gantry]");
     out.str("[OPT:V,");
     out.uint(PLANNER_BLOCKS as u64);

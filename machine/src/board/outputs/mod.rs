@@ -4,11 +4,14 @@
 //! its sync point. The stop/restore rules (docs/controller.md "Outputs", "Safety rules as built")
 //! are the methods of [`OutputState`]; when they apply is decided in `board/mod.rs`.
 
+pub mod levels;
+pub(crate) mod lists;
+
+use crate::board::inputs::InputBits;
 use crate::canon::Spindle;
-use crate::controller::inputs::InputBits;
-use crate::controller::lists::{ListRunner, ListStatus};
-use crate::controller::outputs::{spindle_duty, OutputLevels};
 use crate::setup::{ListCommand, OutputSetup};
+use levels::{spindle_duty, OutputLevels};
+use lists::{ListRunner, ListStatus};
 
 /// Output levels the controller drives (spindle, coolant, tool), as the program set them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,7 +41,7 @@ impl Outputs {
     }
 }
 
-/// Spindle and coolant as the grbl safety door found them (`machine/src/grbl/door.rs`).
+/// Spindle and coolant as the grbl safety door found them (`machine/src/device/grbl/door.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DoorOutputs {
     spindle: Spindle,

@@ -5,7 +5,7 @@
 use heapless::Deque;
 
 /// Bytes waiting for the host (the longest answer, `$$`, is about 600 bytes).
-pub const TX_SIZE: usize = 1024;
+pub(crate) const TX_SIZE: usize = 1024;
 
 /// The outgoing text. Answers are pushed whole (the caller checks [`Out::room`] first), so a
 /// status report never lands inside another line.
@@ -40,7 +40,7 @@ impl Out {
     }
 
     /// Moves up to `out.len()` bytes into `out`; returns how many.
-    pub fn drain_into(&mut self, out: &mut [u8]) -> usize {
+    pub(crate) fn drain_into(&mut self, out: &mut [u8]) -> usize {
         let mut n = 0;
         while n < out.len() {
             let Some(b) = self.bytes.pop_front() else {
@@ -65,7 +65,7 @@ impl Out {
     }
 
     /// Ends a line as grbl does (`\r\n`).
-    pub fn eol(&mut self) {
+    pub(crate) fn eol(&mut self) {
         self.str("\r\n");
     }
 
@@ -74,7 +74,7 @@ impl Out {
         self.eol();
     }
 
-    pub fn uint(&mut self, v: u64) {
+    pub(crate) fn uint(&mut self, v: u64) {
         // Digits from the last one (a u64 has at most 20), written out from the first.
         let mut digits = [0u8; 20];
         let mut first = digits.len();
@@ -131,7 +131,7 @@ impl Out {
 /// Parses a decimal number (`-12.5`, `+3`, `.25`) and returns it times `scale` (at most 2^31),
 /// rounded to the nearest integer; `None` for anything else or a result beyond ±2^62. Digits past
 /// the ninth decimal are ignored.
-pub fn parse_scaled(s: &[u8], scale: i64) -> Option<i64> {
+pub(crate) fn parse_scaled(s: &[u8], scale: i64) -> Option<i64> {
     let (neg, digits) = match s.split_first() {
         Some((b'-', rest)) => (true, rest),
         Some((b'+', rest)) => (false, rest),

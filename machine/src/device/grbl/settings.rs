@@ -33,7 +33,7 @@ impl Prefs {
 const NOT_IN_TABLE: [u16; 6] = [1, 2, 4, 6, 20, 22];
 /// Axis setting groups: steps/mm, max rate, acceleration, travel, jerk (grblHAL's `$800`+i,
 /// mm/s³).
-pub const AXIS_GROUPS: [u16; 5] = [100, 110, 120, 130, 800];
+pub(crate) const AXIS_GROUPS: [u16; 5] = [100, 110, 120, 130, 800];
 
 /// The plasma torch's numbers (the table's rows of 200 and up): grblHAL's plasma plugin numbers
 /// where it has the setting (`$350` mode, `$351` THC delay, `$356` anti-dive, `$358` arc-OK
@@ -76,7 +76,7 @@ pub fn numbers(axis_count: u8) -> heapless::Vec<u16, 72> {
 /// The grbl error for a setup `$x=` would leave invalid (table in docs/grbl.md): grbl's
 /// "step rate too high" (12) and "step pulse too short" (6) where they fit, else "invalid
 /// statement" (3), grbl 1.1 having no number for an out-of-range value.
-pub fn refusal(e: &SetupError) -> u16 {
+pub(crate) fn refusal(e: &SetupError) -> u16 {
     match (e.key, e.reason) {
         (_, Reason::StepRateTooHigh { .. }) => 12,
         (Key::StepPulse, _) => 6,

@@ -8,14 +8,14 @@
 //! This module holds the pure parts (order, targets, switch bits, phases); the board drives the
 //! motion and the lists.
 
-use super::inputs::limit_bit;
+use crate::board::inputs::limit_bit;
 use crate::setup::{HomingAxis, Setup};
 use crate::units::{Nm, MAX_AXES};
 use heapless::Vec;
 
 /// Where one axis's homing stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Phase {
+pub(crate) enum Phase {
     BeforeSeek,
     /// The fast seek toward the switch (`seek_rate`).
     Seek,
@@ -77,7 +77,7 @@ impl Homing {
 }
 
 /// Axes of `axes` (0 = all) that have a homing priority, in seek order.
-pub fn order(setup: &Setup, axes: u8) -> Vec<u8, MAX_AXES> {
+pub(crate) fn order(setup: &Setup, axes: u8) -> Vec<u8, MAX_AXES> {
     let n = setup.axis_count as usize;
     let mut v: Vec<u8, MAX_AXES> = Vec::new();
     // Ascending priority, ties in axis order: a scan per priority level instead of a sort (the
@@ -93,13 +93,13 @@ pub fn order(setup: &Setup, axes: u8) -> Vec<u8, MAX_AXES> {
 }
 
 /// The input bit of the switch an axis seeks.
-pub const fn switch_bit(axis: usize, h: &HomingAxis) -> u32 {
+pub(crate) const fn switch_bit(axis: usize, h: &HomingAxis) -> u32 {
     limit_bit(axis, !h.seek_low)
 }
 
 /// The seek's end point from `from`: the whole travel span plus the retract toward the switch.
 /// Reaching it without the switch means the switch was not found.
-pub fn seek_target(setup: &Setup, axis: usize, from: Nm) -> Nm {
+pub(crate) fn seek_target(setup: &Setup, axis: usize, from: Nm) -> Nm {
     let a = &setup.axes[axis];
     let h = &setup.homing.axes[axis];
     let span = a.travel_max.saturating_sub(a.travel_min) + h.retract.max(0);
@@ -113,7 +113,7 @@ pub fn seek_target(setup: &Setup, axis: usize, from: Nm) -> Nm {
 /// The locate's end point from the pulled-off position `from`: twice the pull-off back toward the
 /// switch (the fast seek may have stopped past the switch's edge by a few steps, or lost some);
 /// reaching it without the switch is alarm 9.
-pub fn locate_target(h: &HomingAxis, from: Nm) -> Nm {
+pub(crate) fn locate_target(h: &HomingAxis, from: Nm) -> Nm {
     let span = h.retract.max(0).saturating_mul(2);
     if h.seek_low {
         from - span
@@ -124,7 +124,7 @@ pub fn locate_target(h: &HomingAxis, from: Nm) -> Nm {
 
 /// The retract's (and the pull-off's) end point from the switch position `at` (away from the
 /// switch).
-pub fn retract_target(h: &HomingAxis, at: Nm) -> Nm {
+pub(crate) fn retract_target(h: &HomingAxis, at: Nm) -> Nm {
     if h.seek_low {
         at + h.retract
     } else {
@@ -135,7 +135,7 @@ pub fn retract_target(h: &HomingAxis, at: Nm) -> Nm {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::controller::inputs::LIMIT_MIN_BIT;
+    use crate::board::inputs::LIMIT_MIN_BIT;
     use crate::units::NM_PER_MM;
 
     #[test]

@@ -1,16 +1,5 @@
-//! Controller state machine: what the operator, the host and the machine's switches do to a board.
-//!
-//! The firmware and the emulated board both drive this one implementation, so a board and its
-//! emulation behave identically (docs/architecture.md "The main loop").
-
-pub mod homing;
-pub mod inputs;
-pub mod jog;
-pub mod lists;
-pub mod outputs;
-pub mod power_up;
-
-pub use outputs::OutputLevels;
+//! The controller's state and alarm codes, as every status reports them. The state machine
+//! itself is [`crate::board::Board`].
 
 use serde::{Deserialize, Serialize};
 
@@ -146,24 +135,6 @@ impl AlarmCode {
     }
 }
 
-/// Analog readings the firmware samples with the inputs (raw ADC counts, `0..=setup.inputs.adc_max`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct AdcReadings {
-    /// Feed-rate override potentiometer (`None`: not sampled).
-    pub fro: Option<u16>,
-    /// Analog joystick channels 0 and 1 (`None`: no analog stick).
-    pub stick: Option<[u16; 2]>,
-}
-
-/// Feed override (percent) from a potentiometer reading: `0..=adc_max` maps linearly onto
-/// `low..=high`, rounded to the nearest percent.
-pub fn fro_from_adc(adc: u16, adc_max: u16, low: u16, high: u16) -> u16 {
-    let max = u32::from(adc_max.max(1));
-    let a = u32::from(adc).min(max);
-    let span = u32::from(high.saturating_sub(low));
-    (u32::from(low) + (a * span + max / 2) / max) as u16
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -176,13 +147,5 @@ mod tests {
         assert_eq!(AlarmCode::from_number(2), Some(AlarmCode::SoftLimit));
         assert_eq!(AlarmCode::from_number(4), Some(AlarmCode::ProbeFailInitial));
         assert_eq!(AlarmCode::from_number(7), None);
-    }
-
-    #[test]
-    fn fro_pot_maps_the_adc_range_onto_the_percent_range() {
-        assert_eq!(fro_from_adc(0, 4095, 30, 130), 30);
-        assert_eq!(fro_from_adc(4095, 4095, 30, 130), 130);
-        assert_eq!(fro_from_adc(2048, 4095, 30, 130), 80);
-        assert_eq!(fro_from_adc(5000, 4095, 10, 200), 200);
     }
 }

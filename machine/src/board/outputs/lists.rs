@@ -4,16 +4,16 @@
 //! A [`ListRunner`] is stepped from the main loop with the time and the debounced inputs; it
 //! never blocks.
 
-use super::inputs::InputBits;
+use crate::board::inputs::InputBits;
 use crate::setup::ListCommand;
 use heapless::Vec;
 
 /// Longest list the runner holds.
-pub const RUNNER_CAPACITY: usize = 8;
+pub(crate) const RUNNER_CAPACITY: usize = 8;
 
 /// What a list is doing after a step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ListStatus {
+pub(crate) enum ListStatus {
     /// Waiting (dwell or input); step again later.
     Running,
     /// Every command has run.
@@ -26,7 +26,7 @@ pub enum ListStatus {
 
 /// Runs one command list.
 #[derive(Clone, Debug, Default)]
-pub struct ListRunner {
+pub(crate) struct ListRunner {
     commands: Vec<ListCommand, RUNNER_CAPACITY>,
     next: usize,
     /// The running wait started at this time (ms).
@@ -51,7 +51,7 @@ impl ListRunner {
 
     /// True when switch hits during this list's sequence are reported to the host (the list does
     /// not start with `DisableLimitReport`).
-    pub fn reports_limits(&self) -> bool {
+    pub(crate) fn reports_limits(&self) -> bool {
         !self.limit_report_disabled
     }
 

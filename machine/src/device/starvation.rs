@@ -1,6 +1,6 @@
 //! Time lost to starvation: machine time beyond the planned time because the planner held too
 //! little of a program that had more lines (docs/ports.md "Starvation"). The main loop samples
-//! it once per pass (machine/src/board/main_loop.rs); the status report carries the current or
+//! it once per pass (machine/src/device/main_loop.rs); the status report carries the current or
 //! last job's total (`Status::starved_ms`).
 //!
 //! A pass *starves* when the job has moved, runs on its path with lines to come
@@ -12,8 +12,8 @@
 //! `(v_full − v) / v_full`, all of it when the planner is empty. The pass that hands out the
 //! job's first segments starts the count.
 
-use super::{Board, PLANNER_BLOCKS};
 use crate::arith::isqrt_u64;
+use crate::board::{Board, PLANNER_BLOCKS};
 
 /// Where the job stands for the count.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,7 +29,7 @@ enum JobClock {
 /// What one pass saw of the planner against the measured speed. Speeds here are in units of
 /// 1.024 µm/s (nm/s shifted right by 10: every product below fits 64 bits without checks).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Sample {
+pub(crate) enum Sample {
     /// The planner held enough (or the job does not run with lines to come).
     Fed,
     /// It held too little: the speed a full planner would allow (0: it was empty).
@@ -70,7 +70,7 @@ impl Sample {
 
 /// The current (or last) job's time lost to starvation.
 #[derive(Clone, Copy, Debug)]
-pub struct Starvation {
+pub(crate) struct Starvation {
     clock: JobClock,
     /// Lost time, ms × 1000.
     lost: u64,

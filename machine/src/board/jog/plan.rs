@@ -11,14 +11,14 @@
 //! ([`crate::motion::pipeline::Motion::bend`]), so the velocity follows the stick without
 //! stopping.
 
-use super::inputs::{InputBits, Signal};
 use crate::arith::{div_i128, mul_i128};
+use crate::board::inputs::{InputBits, Signal};
 use crate::motion::config::MotionConfig;
 use crate::setup::JogSetup;
 use crate::units::{Nm, Pos, MAX_AXES};
 
 /// Speed steps of the analog stick: the deflection is quantised so noise does not restart jogs.
-pub const ANALOG_LEVELS: i64 = 8;
+pub(crate) const ANALOG_LEVELS: i64 = 8;
 
 /// The dead-man of a continuous host jog: the board ends it with a controlled stop when no
 /// keepalive (or the jog itself) arrived for this long, on the board's clock. Senders keep it
@@ -29,7 +29,7 @@ pub const JOG_DEADMAN_MS: u32 = 250;
 
 /// When a continuous host jog last heard from its host (board milliseconds).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Deadman {
+pub(crate) struct Deadman {
     heard_ms: u32,
 }
 
@@ -52,7 +52,7 @@ impl Deadman {
 
 /// Jog mode selected by the joystick's selector switches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum JogMode {
+pub(crate) enum JogMode {
     /// Rapid rates with acceleration.
     Accelerated,
     /// Constant jog speed (`jog.instant_speed`), no ramp.
@@ -62,7 +62,7 @@ pub enum JogMode {
 }
 
 /// The mode the selector switches choose.
-pub fn mode_of(levels: InputBits) -> JogMode {
+pub(crate) fn mode_of(levels: InputBits) -> JogMode {
     if levels.get(Signal::Nudge) {
         JogMode::Nudge
     } else if levels.get(Signal::Accelerated) {
@@ -74,7 +74,7 @@ pub fn mode_of(levels: InputBits) -> JogMode {
 
 /// Direction (-1, 0, +1) per axis the stick's switches ask for. S1 down / S4 up drive the pair's
 /// first axis, S2 left / S3 right its second; opposite switches together cancel.
-pub fn stick_directions(levels: InputBits, jog: &JogSetup) -> [i8; MAX_AXES] {
+pub(crate) fn stick_directions(levels: InputBits, jog: &JogSetup) -> [i8; MAX_AXES] {
     let pair = jog.pairs[levels.get(Signal::PairSelect) as usize];
     let mut d = [0i8; MAX_AXES];
     let mut add = |axis: u8, minus: Signal, plus: Signal| {
@@ -89,7 +89,7 @@ pub fn stick_directions(levels: InputBits, jog: &JogSetup) -> [i8; MAX_AXES] {
 
 /// Signed speed (nm/min) of an analog channel: neutral within the deadband around the centre,
 /// then [`ANALOG_LEVELS`] equal steps up to `analog_max_speed` at full deflection.
-pub fn analog_speed(reading: u16, adc_max: u16, jog: &JogSetup) -> i64 {
+pub(crate) fn analog_speed(reading: u16, adc_max: u16, jog: &JogSetup) -> i64 {
     let centre = i64::from(adc_max) / 2;
     let dev = i64::from(reading) - centre;
     let db = i64::from(jog.analog_deadband);
@@ -106,7 +106,7 @@ pub fn analog_speed(reading: u16, adc_max: u16, jog: &JogSetup) -> i64 {
 /// analog stick's signed speeds): `distance` on every moving axis, or (distance `None`) as far
 /// along `dirs` as the soft-limit box allows. `None` when the jog cannot move (no direction,
 /// already at the edge, or the increment leaves the box).
-pub fn jog_target(
+pub(crate) fn jog_target(
     cfg: &MotionConfig,
     from: &Pos,
     dirs: &[i64; MAX_AXES],
@@ -155,7 +155,7 @@ pub fn jog_target(
 
 /// True when the direction weights `a` and `b` point the same way (parallel, same sense): an
 /// analog deflection that changes only the speed.
-pub fn same_direction(a: &[i64; MAX_AXES], b: &[i64; MAX_AXES]) -> bool {
+pub(crate) fn same_direction(a: &[i64; MAX_AXES], b: &[i64; MAX_AXES]) -> bool {
     let wide = |x: i64, y: i64| mul_i128(i128::from(x), i128::from(y));
     let dot: i128 = a.iter().zip(b).map(|(&x, &y)| wide(x, y)).sum();
     if dot <= 0 {
@@ -166,7 +166,7 @@ pub fn same_direction(a: &[i64; MAX_AXES], b: &[i64; MAX_AXES]) -> bool {
 
 /// Integer square root (floor) of a u128, for path speeds of the analog stick (the motion
 /// core's, one copy in flash for every caller).
-pub fn isqrt(v: u128) -> u128 {
+pub(crate) fn isqrt(v: u128) -> u128 {
     crate::arith::isqrt_u128(v)
 }
 

@@ -1,6 +1,6 @@
 //! grbl 1.1 on the board's own port (docs/grbl.md): the text front end a grbl sender (UGS, CNCjs,
 //! bCNC, Candle…) talks to when the first bytes of a connection are text rather than a framed
-//! message (`board::link::LinkProtocol`). It feeds the same [`Board`] the framed link feeds: lines
+//! message (`device::link::LinkProtocol`). It feeds the same [`Board`] the framed link feeds: lines
 //! go to the board's line buffer as the program source of a job, realtime bytes act as the
 //! framed protocol's realtime messages do, and the answers come back as grbl's text.
 //!
@@ -18,23 +18,23 @@
 //! error.
 
 pub mod codes;
-pub mod command;
-pub mod door;
+pub(crate) mod command;
+pub(crate) mod door;
 pub mod jog;
-pub mod realtime;
+pub(crate) mod realtime;
 pub mod report;
-pub mod rx;
+pub(crate) mod rx;
 pub mod settings;
 pub mod text;
 
-use crate::board::kernel_view::KernelView;
 use crate::board::{Board, BoardEvent, JogRefused, ProbeResult, Streamer};
+use crate::device::kernel_view::KernelView;
 
 /// Longest line (bytes, blanks and comments dropped) the grbl front end takes: more than grbl's
 /// own 80, and with its line end well inside the 128-byte receive buffer grbl senders count on
 /// (`rx.rs`). The framed link carries up to `board::LINE_CAPACITY` (256).
-pub const LINE_CAPACITY: usize = 104;
-use crate::controller::{AlarmCode, State};
+pub(crate) const LINE_CAPACITY: usize = 104;
+use crate::board::{AlarmCode, State};
 use crate::setup::STARTUP_LINE_LEN;
 use command::{Command, Restore};
 use door::Door;
@@ -117,7 +117,7 @@ enum Step {
 }
 
 /// The grbl front end of one connection.
-pub struct Grbl {
+pub(crate) struct Grbl {
     rx: Rx,
     out: Out,
     realtime: Deque<Realtime, 16>,
@@ -198,7 +198,7 @@ impl Grbl {
     }
 
     /// Drops output not yet sent (the connection chose the framed protocol).
-    pub fn forget_output(&mut self) {
+    pub(crate) fn forget_output(&mut self) {
         self.out.clear();
     }
 
@@ -263,11 +263,11 @@ impl Grbl {
     }
 
     /// True once after `$x=` changed the setup: the owner persists `board.setup()`.
-    pub fn take_setup_changed(&mut self) -> bool {
+    pub(crate) fn take_setup_changed(&mut self) -> bool {
         core::mem::take(&mut self.setup_changed)
     }
 
-    /// One service of the link (twice per main-loop pass, `board/main_loop.rs`).
+    /// One service of the link (twice per main-loop pass, `device/main_loop.rs`).
     pub fn service(&mut self, board: &mut Board, view: &KernelView) {
         self.realtime_commands(board, view);
         self.door.poll(board, view);

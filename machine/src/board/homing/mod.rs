@@ -1,13 +1,15 @@
 //! The homing cycle on the board: lists, fast seek, pull-off, slow locate, retract and set home,
-//! axis by axis (docs/controller.md "Homing"). The pure parts (order, targets, switch bits) are in [`crate::controller::homing`].
+//! axis by axis (docs/controller.md "Homing"). The pure parts (order, targets, switch bits) are in [`plan`].
+
+pub(crate) mod plan;
 
 use super::mode::{HomingCycle, HomingPhase, Mode};
 use super::{Board, MotionState, Pos, MAX_AXES};
+use crate::board::outputs::lists::{ListRunner, ListStatus};
+use crate::board::state::AlarmCode;
 use crate::canon::{Action, Canon};
-use crate::controller::homing::{self, Homing, Phase};
-use crate::controller::lists::{ListRunner, ListStatus};
-use crate::controller::AlarmCode;
 use crate::setup::Setup;
+use plan::{Homing, Phase};
 
 /// Which axes are homed, and whether the machine position can be trusted at all.
 pub(super) struct PositionTrust {
@@ -50,7 +52,7 @@ impl PositionTrust {
 
     /// Some axis with a homing priority is not homed.
     fn some_axis_unhomed(&self, setup: &Setup) -> bool {
-        homing::order(setup, 0)
+        plan::order(setup, 0)
             .iter()
             .any(|&a| self.homed & (1 << a) == 0)
     }
@@ -113,7 +115,7 @@ impl Board {
         // pulls off, as homing does.
         let seeks = h.order.iter().fold(0u32, |m, &a| {
             let a = usize::from(a);
-            m | 1 << homing::switch_bit(a, &self.setup.homing.axes[a])
+            m | 1 << plan::switch_bit(a, &self.setup.homing.axes[a])
         });
         if self.pressed_limits() & !seeks != 0 {
             return Err(super::ERROR_LIMIT_PRESSED);
@@ -190,7 +192,7 @@ impl Board {
                             }
                             Phase::BeforeRetract => {
                                 let mut to = at;
-                                to[axis] = homing::retract_target(&ha, at[axis]);
+                                to[axis] = plan::retract_target(&ha, at[axis]);
                                 let _ = self.motion.push(&Canon {
                                     line: 0,
                                     action: Action::Rapid { to },
@@ -222,7 +224,7 @@ impl Board {
             }
             Phase::SeekStopped => {
                 let mut to = at;
-                to[axis] = homing::retract_target(&ha, at[axis]);
+                to[axis] = plan::retract_target(&ha, at[axis]);
                 let _ = self.motion.push(&Canon {
                     line: 0,
                     action: Action::Rapid { to },
@@ -230,12 +232,12 @@ impl Board {
                 h.phase = Phase::PullOff;
             }
             Phase::PullOff => {
-                if self.sensed.levels.0 & (1 << homing::switch_bit(axis, &ha)) != 0 {
+                if self.sensed.levels.0 & (1 << plan::switch_bit(axis, &ha)) != 0 {
                     self.enter_alarm(AlarmCode::HomingPullOffFailed, 0);
                     return;
                 }
                 let mut to = at;
-                to[axis] = homing::locate_target(&ha, at[axis]);
+                to[axis] = plan::locate_target(&ha, at[axis]);
                 let _ = self.motion.push(&Canon {
                     line: 0,
                     action: Action::Feed {
@@ -246,7 +248,7 @@ impl Board {
                 h.phase = Phase::Locate;
             }
             Phase::Retract => {
-                if self.sensed.levels.0 & (1 << homing::switch_bit(axis, &ha)) != 0 {
+                if self.sensed.levels.0 & (1 << plan::switch_bit(axis, &ha)) != 0 {
                     self.enter_alarm(AlarmCode::HomingPullOffFailed, 0);
                     return;
                 }
@@ -271,7 +273,7 @@ impl Board {
     /// at `seek_rate`, a list's `seek` (squaring: where it stops counts) at `locate_rate`.
     fn push_seek(&mut self, axis: usize, at: &Pos, fast: bool) {
         let mut to = *at;
-        to[axis] = homing::seek_target(&self.setup, axis, at[axis]);
+        to[axis] = plan::seek_target(&self.setup, axis, at[axis]);
         let h = &self.setup.homing.axes[axis];
         let feed = if fast { h.seek_rate } else { h.locate_rate };
         let _ = self.motion.push(&Canon {
@@ -286,10 +288,11 @@ mod tests {
     //! The cycle's phase as the core holds it (`Mode::Homing { phase }`), on the core alone: a
     //! stand-in kernel runs every segment the moment it is handed out. The scenarios on the
     //! emulated board's switches and kernel are in tests/tests/controller_homing.rs.
+    use super::plan::Phase;
     use super::*;
-    use crate::controller::homing::Phase;
-    use crate::controller::inputs::{InputBits, LIMIT_MIN_BIT};
-    use crate::controller::{AdcReadings, State};
+    use crate::board::inputs::AdcReadings;
+    use crate::board::inputs::{InputBits, LIMIT_MIN_BIT};
+    use crate::board::state::State;
     use crate::setup::Setup;
     use crate::units::{MAX_AXES, NM_PER_MM};
 

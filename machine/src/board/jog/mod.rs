@@ -1,17 +1,20 @@
 //! Jogging on the board: host jogs and the joystick (switches, modes, Mark/Release, analog
-//! stick), docs/controller.md "Jogging". Targets and stick mapping are in [`crate::controller::jog`].
+//! stick), docs/controller.md "Jogging". Targets and stick mapping are in [`plan`].
+
+pub(crate) mod plan;
 
 use super::mode::{Jogging, Mode};
 use super::{
     Board, BoardEvent, MarkEvent, MotionState, ERROR_BUSY, ERROR_HOMING_REQUIRED,
     ERROR_INVALID_REQUEST, ERROR_JOG_DEADMAN, ERROR_LIMIT_PRESSED, ERROR_SOFT_LIMIT,
 };
+use crate::board::inputs::AdcReadings;
+use crate::board::inputs::{InputBits, Signal};
+use crate::board::state::State;
 use crate::canon::{Action, Canon};
-use crate::controller::inputs::{InputBits, Signal};
-use crate::controller::jog::{self, Deadman, JogMode};
-use crate::controller::{AdcReadings, State};
 use crate::motion::pipeline::PushError;
 use crate::units::{Pos, MAX_AXES};
+use plan::{Deadman, JogMode};
 
 /// Why [`Board::jog_to`] refused a jog.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -151,7 +154,7 @@ impl Board {
         if jogging == Jogging::Moves && self.homing_missing() {
             return Err(ERROR_HOMING_REQUIRED);
         }
-        let Some(to) = jog::jog_target(self.motion.config(), &from, &dirs, distance) else {
+        let Some(to) = plan::jog_target(self.motion.config(), &from, &dirs, distance) else {
             return Err(ERROR_SOFT_LIMIT);
         };
         let feed = i64::from(velocity_um_min.unsigned_abs()) * 1000;
@@ -173,7 +176,7 @@ impl Board {
     }
 
     /// The host's keepalive for its continuous jog (`HostMessage::JogKeepalive`): the jog goes
-    /// on for another [`jog::JOG_DEADMAN_MS`]. Without a continuous host jog it does nothing.
+    /// on for another [`plan::JOG_DEADMAN_MS`]. Without a continuous host jog it does nothing.
     pub fn jog_keepalive(&mut self) {
         let now = self.sensed.now_ms;
         if let Some(d) = &mut self.jog.deadman {
@@ -182,7 +185,7 @@ impl Board {
     }
 
     /// Host jog of several axes to the machine position `to` at `feed` nm/min (grbl's `$J=`,
-    /// `machine/src/grbl/jog.rs`): from idle, or queued behind the host jogs still moving (grbl's
+    /// `machine/src/device/grbl/jog.rs`): from idle, or queued behind the host jogs still moving (grbl's
     /// jogging.md: a stream of jogs is planned together, so a jog wheel or a held key moves
     /// smoothly, and one jog cancel stops them all); refused while a cancel is stopping them.
     /// A target beyond the soft limits is refused as a whole (grbl error 15), never clipped.
@@ -320,8 +323,8 @@ impl Board {
                 position,
             });
         }
-        let mode = jog::mode_of(levels);
-        let dirs = jog::stick_directions(levels, &self.setup.jog);
+        let mode = plan::mode_of(levels);
+        let dirs = plan::stick_directions(levels, &self.setup.jog);
         let mut want = None;
         if let Some(m) = self.analog_request(adc) {
             want = Some(m);
@@ -346,7 +349,7 @@ impl Board {
             if self.motion.state() != MotionState::Idle {
                 if let (JogMotion::Stick(run), Some(new)) = (self.jog.motion, want) {
                     if run.analog && new.analog {
-                        if jog::same_direction(&run.dirs, &new.dirs) {
+                        if plan::same_direction(&run.dirs, &new.dirs) {
                             // Only the speed changes: ramp to it without stopping.
                             self.motion.change_speed(new.feed);
                             self.jog.motion = JogMotion::Stick(new);
@@ -396,7 +399,7 @@ impl Board {
         for (ch, &axis) in j.analog_axes.iter().enumerate() {
             if axis < self.setup.axis_count {
                 if let (Some(d), Some(&s)) = (dirs.get_mut(usize::from(axis)), stick.get(ch)) {
-                    *d = jog::analog_speed(s, self.setup.inputs.adc_max, j);
+                    *d = plan::analog_speed(s, self.setup.inputs.adc_max, j);
                 }
             }
         }
@@ -406,7 +409,7 @@ impl Board {
             .sum();
         (sq != 0).then(|| StickMove {
             dirs,
-            feed: jog::isqrt(sq) as i64,
+            feed: plan::isqrt(sq) as i64,
             analog: true,
         })
     }
@@ -423,7 +426,7 @@ impl Board {
         let cfg = *self.motion.config();
         if self
             .motion
-            .bend(m.feed, |from| jog::jog_target(&cfg, from, &m.dirs, None))
+            .bend(m.feed, |from| plan::jog_target(&cfg, from, &m.dirs, None))
         {
             self.jog.motion = JogMotion::Stick(m);
         } else if self.motion.state() != MotionState::Idle {
@@ -438,7 +441,7 @@ impl Board {
         let from = self.motion.queued_position();
         // At the edge already: remember the request so it is not retried every millisecond.
         self.jog.motion = JogMotion::Stick(m);
-        let Some(to) = jog::jog_target(self.motion.config(), &from, &m.dirs, None) else {
+        let Some(to) = plan::jog_target(self.motion.config(), &from, &m.dirs, None) else {
             return;
         };
         let action = if m.feed == 0 {
@@ -454,7 +457,7 @@ impl Board {
         let from = self.motion.queued_position();
         let d = self.setup.jog.nudge_distance;
         let w = dirs.map(i64::from);
-        if let Some(to) = jog::jog_target(self.motion.config(), &from, &w, Some(d)) {
+        if let Some(to) = plan::jog_target(self.motion.config(), &from, &w, Some(d)) {
             let feed = self.setup.jog.instant_speed;
             let _ = self.motion.push(&Canon {
                 line: 0,
