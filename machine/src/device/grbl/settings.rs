@@ -62,10 +62,17 @@ pub fn numbers(axis_count: u8) -> heapless::Vec<u16, 72> {
     for g in AXIS_GROUPS.into_iter().filter(|&g| g < TORCH_FIRST) {
         axis_group(&mut v, g);
     }
-    for n in TORCH_FIRST..NO_GRBL {
-        if !AXIS_GROUPS.contains(&n) && ROWS.iter().any(|r| r.grbl == n) {
-            let _ = v.push(n);
-        }
+    // The torch's numbers ascending, found row by row: the next one is the least above the last
+    // (a handful of passes over the table, not one probe per number up to `NO_GRBL`).
+    let mut last = TORCH_FIRST - 1;
+    while let Some(n) = ROWS
+        .iter()
+        .map(|r| r.grbl)
+        .filter(|&g| g > last && g != NO_GRBL && !AXIS_GROUPS.contains(&g))
+        .min()
+    {
+        let _ = v.push(n);
+        last = n;
     }
     for g in AXIS_GROUPS.into_iter().filter(|&g| g >= TORCH_FIRST) {
         axis_group(&mut v, g);
