@@ -42,9 +42,9 @@ use gantry_machine::device::link::{BoardLink, KernelView};
 use gantry_machine::device::main_loop::{
     BoardPort, HostPort, KernelSnapshot, MainLoop, SEGMENT_QUEUE_DEPTH,
 };
-use gantry_machine::motion::kernel::{Segment, StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::motion::sim::SegmentFifo;
 use gantry_machine::setup::Setup;
+use gantry_machine::step::kernel::{Segment, StepTiming, KERNEL_TIMER_HZ};
 use gantry_machine::step::{Run, StepIsr};
 use gantry_machine::units::{Pos, MAX_AXES};
 use std::collections::VecDeque;

@@ -11,8 +11,8 @@
 //! Step pins are bits 0..6 of the step word and dir pins bits 0..6 of the dir port ([`PINS`]), so
 //! the words read back as the kernel's step and dir bytes.
 
-use gantry_machine::motion::kernel::{SegmentSource, StepTiming};
-use gantry_machine::motion::output_event::OutputEvent;
+use gantry_machine::step::kernel::{SegmentSource, StepTiming};
+use gantry_machine::step::output_event::OutputEvent;
 use gantry_machine::step::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS};
 
 /// Step pin n and dir pin n of axis n, bit n of their ports.

@@ -10,7 +10,7 @@ use embassy_stm32::rcc::{
     PllSource, Sysclk,
 };
 use embassy_stm32::time::Hertz;
-use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
+use gantry_machine::step::kernel::KERNEL_TIMER_HZ;
 
 const fn pll_m(m: u32) -> PllPreDiv {
     assert!(m >= 2 && m <= 63, "PLL M is 2..=63");

@@ -47,7 +47,7 @@ use embassy_executor::{InterruptExecutor, SpawnError, SpawnToken, Spawner};
 use embassy_stm32::gpio::Output;
 use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
-use gantry_machine::motion::kernel::StepTiming;
+use gantry_machine::step::kernel::StepTiming;
 use static_cell::StaticCell;
 
 /// Runs tasks that must react within microseconds (inputs), on a spare USART6 vector at P1.

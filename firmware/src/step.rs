@@ -44,8 +44,8 @@ use embassy_stm32::pac::timer::regs::SrGp16;
 use embassy_stm32::peripherals::TIM2;
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::Peri;
-use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming};
-use gantry_machine::motion::output_event::OutputEvent;
+use gantry_machine::step::kernel::{Segment, SegmentSource, StepTiming};
+use gantry_machine::step::output_event::OutputEvent;
 use gantry_machine::step::{
     KernelSnapshot, PinWords, Run, SegmentQueue, StepHardware, StepIsr, IDLE_PERIOD_COUNTS,
 };

@@ -16,10 +16,10 @@ use std::process::ExitCode;
 
 use crate::preview::source::{Actions, Ended, FileSource};
 use gantry_machine::gcode::{MemorySource, ProgramSource};
-use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::motion::pipeline::PushError;
 use gantry_machine::motion::prep::BlockReport;
 use gantry_machine::setup::Setup;
+use gantry_machine::step::kernel::KERNEL_TIMER_HZ;
 
 /// One reported move: consecutive blocks of the same source line.
 #[derive(Clone, Copy, Debug, PartialEq)]

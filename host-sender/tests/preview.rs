@@ -302,8 +302,8 @@ fn vcd_rising_edges_equal_the_steps_fed_in() {
 #[test]
 fn vcd_of_the_bracket_run_on_virtual_time() {
     use gantry_machine::motion::config::MotionConfig;
-    use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
     use gantry_machine::motion::sim::{Sim, SimEvent};
+    use gantry_machine::step::kernel::KERNEL_TIMER_HZ;
     use host_sender::vcd::{counts_to_ns, VcdWriter};
 
     let setup = Setup::default();

@@ -19,11 +19,10 @@
 //! - [`gcode`]: the interpreter (`Interpreter`, `MemorySource`, `ErrorCode`); the CLI checks and
 //!   previews programs with it before sending, and its block parser checks a setup file's
 //!   startup lines.
-//! - [`motion`]: planner, segment prep and step kernel (`Motion`, `MotionConfig`, `StepKernel`,
-//!   `sim`); the CLI estimates and previews with it, the emulator steps its kernel on a virtual
-//!   clock, the target tests time it on Cortex-M4.
-//! - [`step`]: the step interrupt (`StepIsr`) over a `StepHardware`: the firmware's TIM2 and the
-//!   emulator's virtual TIM2 implement it.
+//! - [`motion`]: planner and segment prep (`Motion`, `MotionConfig`, `sim`); the CLI estimates
+//!   and previews with it, the target tests time it on Cortex-M4.
+//! - [`step`]: the step kernel (`step::kernel::StepKernel`) and the step interrupt (`StepIsr`)
+//!   over a `StepHardware`: the firmware's TIM2 and the emulator's virtual TIM2 implement it.
 //! - [`setup`]: the machine setup (`Setup`), its flash blob and its settings table; the CLI's setup
 //!   file, the firmware's settings store and the tests build setups from it.
 //! - [`vectors`]: the cross-target vectors the host tests and the QEMU harness both run.

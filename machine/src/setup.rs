@@ -343,8 +343,8 @@ impl McodeList {
     /// exactly one `set n` or `clear n` (n < 16) does not stop the motion, its output switches at
     /// the M code's exact place on the path. `None` for any other list (no entry, several, a
     /// dwell or a wait): the motion stops and the list runs at rest.
-    pub fn on_the_fly(&self) -> Option<crate::motion::output_event::OutputEvent> {
-        use crate::motion::output_event::OutputEvent;
+    pub fn on_the_fly(&self) -> Option<crate::step::output_event::OutputEvent> {
+        use crate::step::output_event::OutputEvent;
         match self.commands.as_slice() {
             [ListCommand::Set(n)] => OutputEvent::new(*n, true),
             [ListCommand::Clear(n)] => OutputEvent::new(*n, false),

@@ -183,7 +183,7 @@ fn errors_as_linuxcnc() {
 
 #[test]
 fn the_cross_target_vector_program_runs_without_errors() {
-    // The program of the "gcode/cutter-comp" vector (machine/src/gcode/test_vectors.rs).
+    // The program of the "gcode/cutter-comp" vector (machine/src/vectors/gcode.rs).
     let program = "G21 G90 G17\nG0 X10 Y-10\nG41.1 D5.08 G1 X10 Y0 F200\nX50\n\
 G3 X50 Y30 R15\nG1 X35\nG2 X25 Y30 R5\nG1 X10\nG3 X10 Y0 R15\nG1 Z-1\nG40 G1 X10 Y-10\n\
 G42.1 D3 X0 Y0\nY40\nX40\nY0\nX0\nG40 X-10 Y-10\nG18\nG42.1 D4 G1 X10 Z0\nZ-10\n\

@@ -5,11 +5,11 @@
 use gantry_machine::arith::isqrt_u64;
 use gantry_machine::canon::{Action, Canon, PathMode};
 use gantry_machine::motion::config::MotionConfig;
-use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::motion::planner::{junction_limit_sq, UNIT};
 use gantry_machine::motion::prep::BlockReport;
 use gantry_machine::motion::sim::{Sim, SimEvent, StepEvent};
+use gantry_machine::step::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::units::{Pos, MAX_AXES};
 
 const MM: i64 = 1_000_000;

@@ -4,12 +4,12 @@
 
 use gantry_machine::canon::{Action, Canon};
 use gantry_machine::motion::config::MotionConfig;
-use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
-use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::motion::pipeline::{Motion, MotionState};
 use gantry_machine::motion::planner::BlockKind;
 use gantry_machine::motion::prep::BlockReport;
 use gantry_machine::motion::sim::{Sim, SimEvent};
+use gantry_machine::step::kernel::KERNEL_TIMER_HZ;
+use gantry_machine::step::output_event::OutputEvent;
 use gantry_machine::units::Pos;
 
 const UM: i64 = 1_000;

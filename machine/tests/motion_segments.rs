@@ -4,9 +4,9 @@
 
 use gantry_machine::canon::{Action, Canon};
 use gantry_machine::motion::config::MotionConfig;
-use gantry_machine::motion::kernel::Segment;
 use gantry_machine::motion::pipeline::Motion;
 use gantry_machine::motion::profile::Profile;
+use gantry_machine::step::kernel::Segment;
 
 const MM: i64 = 1_000_000;
 

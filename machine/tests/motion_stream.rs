@@ -3,8 +3,8 @@
 use gantry_machine::arith::{polar, TURN};
 use gantry_machine::canon::{Action, Canon};
 use gantry_machine::motion::config::MotionConfig;
-use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::motion::sim::{Sim, SimEvent};
+use gantry_machine::step::kernel::KERNEL_TIMER_HZ;
 
 /// 100 000 chords of 0.1 mm around a 20 mm circle at F3000 (generated canon, as a CAM post would).
 fn circle_program(blocks: u32) -> impl Iterator<Item = Canon> {

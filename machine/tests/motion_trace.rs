@@ -2,9 +2,9 @@
 
 use gantry_machine::canon::{Action, ArcDir, Canon, Plane};
 use gantry_machine::motion::config::MotionConfig;
-use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::motion::sim::{Sim, SimEvent, StepEvent};
+use gantry_machine::step::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::units::{Pos, MAX_AXES};
 
 const MM: i64 = 1_000_000;

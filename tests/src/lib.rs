@@ -137,7 +137,7 @@ pub fn reference(program: &str, setup: &Setup) -> Reference {
     Reference {
         steps: sim.kernel.position(),
         pulses,
-        seconds: sim.now as f64 / gantry_machine::motion::kernel::KERNEL_TIMER_HZ as f64,
+        seconds: sim.now as f64 / gantry_machine::step::kernel::KERNEL_TIMER_HZ as f64,
     }
 }
 

@@ -15,9 +15,9 @@ use controller_support::*;
 use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
 use gantry_machine::board::inputs::Signal;
 use gantry_machine::board::{AdcReadings, State};
-use gantry_machine::motion::kernel::{Segment, KERNEL_TIMER_HZ};
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::setup::Setup;
+use gantry_machine::step::kernel::{Segment, KERNEL_TIMER_HZ};
 
 /// Default axis acceleration, mm/s².
 const ACCEL: f64 = 200.0;

@@ -18,8 +18,8 @@ use gantry_emulator::cpu_model::CpuModel;
 use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
 use gantry_machine::board::State;
 use gantry_machine::device::grbl::BANNER;
-use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::setup::Setup;
+use gantry_machine::step::kernel::KERNEL_TIMER_HZ;
 use std::collections::VecDeque;
 
 /// The host's turnaround, µs: from the board writing an `ok` to the sender's next line in the

@@ -8,9 +8,9 @@ mod controller_support;
 use controller_support::*;
 use gantry_emulator::{EmulatedBoard, PinEvent};
 use gantry_machine::board::State;
-use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::motion::pipeline::MotionState;
 use gantry_machine::setup::Setup;
+use gantry_machine::step::kernel::KERNEL_TIMER_HZ;
 use std::cell::RefCell;
 use std::rc::Rc;
 

@@ -13,8 +13,8 @@ use gantry_emulator::{EmulatedBoard, COUNTS_PER_MS};
 use gantry_machine::board::BoardEvent;
 use gantry_machine::board::{AlarmCode, State};
 use gantry_machine::device::link::status_of;
-use gantry_machine::motion::kernel::{Segment, KERNEL_TIMER_HZ};
 use gantry_machine::setup::Setup;
+use gantry_machine::step::kernel::{Segment, KERNEL_TIMER_HZ};
 
 const Z: usize = 2;
 

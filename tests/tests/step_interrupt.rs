@@ -7,10 +7,10 @@
 //! kernel ticks ahead of the pins) is tested with the other step timing, tests/tests/step_timing.rs.
 
 use gantry_emulator::step_clock::{ClockEvent, StepClock};
-use gantry_machine::motion::kernel::{ProbeLatch, Segment, StepTiming};
-use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::motion::sim::SegmentFifo;
 use gantry_machine::setup::DriverSetup;
+use gantry_machine::step::kernel::{ProbeLatch, Segment, StepTiming};
+use gantry_machine::step::output_event::OutputEvent;
 use gantry_machine::step::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS, TICKS_AHEAD};
 
 /// 1 µs pulses and dir set-up: short periods, so the set-up shows in the timing.
@@ -26,7 +26,7 @@ fn seg(x_steps: u32, ticks: u32, period: u32, dir: u8) -> Segment {
         period,
         dir,
         output: OutputEvent::NONE,
-        power: gantry_machine::motion::laser::KEEP_DUTY,
+        power: gantry_machine::step::kernel::KEEP_DUTY,
     }
 }
 

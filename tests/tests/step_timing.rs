@@ -6,9 +6,9 @@
 
 use gantry_emulator::{EmulatedBoard, PinEvent};
 use gantry_machine::device::main_loop::BoardPort;
-use gantry_machine::motion::kernel::{Segment, StepTiming};
-use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::setup::{DriverSetup, Setup};
+use gantry_machine::step::kernel::{Segment, StepTiming};
+use gantry_machine::step::output_event::OutputEvent;
 use gantry_machine::step::IDLE_PERIOD_COUNTS;
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -25,7 +25,7 @@ fn seg(steps: [u32; 6], ticks: u32, period: u32, dir: u8) -> Segment {
         period,
         dir,
         output: OutputEvent::NONE,
-        power: gantry_machine::motion::laser::KEEP_DUTY,
+        power: gantry_machine::step::kernel::KEEP_DUTY,
     }
 }
 

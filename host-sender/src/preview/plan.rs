@@ -7,11 +7,11 @@
 
 use gantry_machine::canon::Canon;
 use gantry_machine::motion::config::MotionConfig;
-use gantry_machine::motion::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::motion::pipeline::PushError;
 use gantry_machine::motion::prep::BlockReport;
 use gantry_machine::motion::sim::{Sim, SimEvent};
 use gantry_machine::setup::Setup;
+use gantry_machine::step::kernel::KERNEL_TIMER_HZ;
 use gantry_machine::units::{Pos, MAX_AXES};
 
 /// Look-ahead ring size used for the preview (as on the board, `motion::pipeline`).

@@ -41,9 +41,9 @@ use crate::arith::isqrt_u64;
 use crate::board::inputs::{Debouncer, InputBits};
 use crate::board::Board;
 use crate::board::{AdcReadings, OutputLevels, State};
-use crate::motion::kernel::{Segment, StepTiming};
 use crate::motion::pipeline::MotionState;
 use crate::setup::Setup;
+use crate::step::kernel::{Segment, StepTiming};
 use crate::units::{Pos, MAX_AXES};
 
 pub use crate::step::KernelSnapshot;

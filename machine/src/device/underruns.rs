@@ -3,7 +3,7 @@
 //! while the main loop's pass before left motion queued or the planner empty before the
 //! program's end (lines not interpreted or not received yet), not at a sync point, a hold, a
 //! program stop or the job's start and end. One per time the kernel ran dry
-//! ([`crate::motion::kernel::StepKernel::dry_runs`]), however long it stood.
+//! ([`crate::step::kernel::StepKernel::dry_runs`]), however long it stood.
 
 /// The main loop's underrun account.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -39,7 +39,6 @@ pub mod params;
 pub mod source;
 pub(crate) mod spline;
 pub mod state;
-mod test_vectors;
 pub mod transform;
 
 pub use config::{
@@ -50,7 +49,3 @@ pub use error::{ErrorCode, GcodeError};
 pub use interp::Interpreter;
 pub use source::{MemorySource, ProgramSource, SourceError};
 pub use state::{ModalState, MotionMode};
-pub use test_vectors::digest_program;
-
-/// Cross-target vectors of the interpreter (see [`crate::vectors`]).
-pub(crate) use test_vectors::VECTORS;

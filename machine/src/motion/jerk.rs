@@ -23,8 +23,8 @@
 //! `Δs = v·dt + (2a + a')·dt²/6` have no rounding at all (`dt` = 1/500 s). Braking distances
 //! are rounded up and carry a small margin.
 
-use super::kernel::KERNEL_TIMER_HZ;
 use crate::arith::{divrem_u128, isqrt_u128, mul_div};
+use crate::step::kernel::KERNEL_TIMER_HZ;
 
 /// Position sub-units per nm: `Δs = v·dt + (2a + a')·dt²/6` is a whole number of them for
 /// speeds in pm/s and accelerations in nm/s² at `dt` = 1/500 s.

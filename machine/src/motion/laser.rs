@@ -8,9 +8,7 @@
 
 use crate::canon::Spindle;
 
-/// Segment duty meaning "no change" (not a laser machine). A laser's duty stays below it
-/// ([`PwmMap::duty`] clamps to `KEEP_DUTY - 1`).
-pub const KEEP_DUTY: u16 = u16::MAX;
+pub use crate::step::kernel::KEEP_DUTY;
 
 /// What the beam does during one line block.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -34,15 +34,15 @@ use super::arc::{plane_axes, ArcChords};
 use super::blend::Chain;
 use super::config::MotionConfig;
 use super::corner::{self, MAX_VERTICES};
-use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::laser::LaserPower;
-use super::output_event::OutputEvent;
 use super::planner::{direction, junction_limit_sq, Block, BlockKind, LineRequest, Planner, UNIT};
 use super::prep::{BlockOut, BlockReport, JerkSetup, Prep, PrepOut, PrepState};
 use super::thc::ThcCommand;
 use crate::arith::{self, mul_div};
 use crate::arith::{polar, QUARTER_TURN};
 use crate::canon::{Action, Canon, StopKind};
+use crate::step::kernel::{Segment, KERNEL_TIMER_HZ};
+use crate::step::output_event::OutputEvent;
 use crate::units::{Pos, MAX_AXES};
 use heapless::Deque;
 

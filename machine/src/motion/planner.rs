@@ -20,8 +20,8 @@
 
 use super::config::{MotionConfig, MAX_SPEED};
 use super::laser::LaserPower;
-use super::output_event::OutputEvent;
 use crate::arith::{div_i128, div_u64, isqrt_u128, isqrt_u64, mul_div, sat_mul};
+use crate::step::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 use heapless::Deque;
 

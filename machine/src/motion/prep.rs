@@ -29,13 +29,13 @@ pub use jerk_line::JerkSetup;
 
 use super::history::{Handed, History, Stand};
 use super::jerk::Tracker;
-use super::kernel::{Segment, KERNEL_TIMER_HZ};
 use super::laser::{PwmMap, KEEP_DUTY};
-use super::output_event::OutputEvent;
 use super::planner::{Block, BlockKind, Planner};
 use super::profile::Profile;
 use super::thc::{with_z_dir, Thc, ThcConfig, THC_AXIS};
 use crate::arith::{div_u64, isqrt_u64, mul_div, sat_mul};
+use crate::step::kernel::{Segment, KERNEL_TIMER_HZ};
+use crate::step::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 
 /// Target segment duration in kernel timer counts (2 ms).

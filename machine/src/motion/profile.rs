@@ -6,8 +6,8 @@
 //! (`Δv / a` in ramps, `Δs / v` in the cruise), so segment times never accumulate rounding error.
 //! Speeds are nm/s, accelerations nm/s², times kernel timer counts.
 
-use super::kernel::KERNEL_TIMER_HZ;
 use crate::arith::{div_u64, isqrt_u64, mul_div, sat_mul};
+use crate::step::kernel::KERNEL_TIMER_HZ;
 
 const HZ: u64 = KERNEL_TIMER_HZ as u64;
 

@@ -7,12 +7,12 @@
 //! the kernel has drained (override [`Sim::auto_release`] to act on them yourself).
 
 use super::config::MotionConfig;
-use super::kernel::{Segment, SegmentSource, StepKernel, TickOut, KERNEL_TIMER_HZ};
-use super::output_event::OutputEvent;
 use super::pipeline::{Motion, MotionState, PushError};
 use super::prep::BlockReport;
 use crate::canon::{Action, Canon};
 use crate::setup::MAX_MCODE_LISTS;
+use crate::step::kernel::{Segment, SegmentSource, StepKernel, TickOut, KERNEL_TIMER_HZ};
+use crate::step::output_event::OutputEvent;
 use heapless::Deque;
 
 /// Segments queued between prep and the kernel in this planner-level simulation (≈ 16 ms at 2 ms
@@ -56,6 +56,12 @@ pub enum SimEvent {
 /// The SPSC segment queue between prep and the kernel.
 #[derive(Default)]
 pub struct SegmentFifo<const Q: usize>(pub Deque<Segment, Q>);
+
+impl<const Q: usize> crate::step::SegmentQueue for SegmentFifo<Q> {
+    fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
 
 impl<const Q: usize> SegmentSource for SegmentFifo<Q> {
     fn next_segment(&mut self) -> Option<Segment> {

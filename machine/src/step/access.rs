@@ -4,8 +4,8 @@
 //! (`device::main_loop::BoardPort`), so both boards answer them with the same code.
 
 use super::isr::StepIsr;
-use crate::motion::kernel::{ProbeLatch, SegmentSource};
-use crate::motion::output_event::OutputEvent;
+use crate::step::kernel::{ProbeLatch, SegmentSource};
+use crate::step::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 
 /// A segment queue the interrupt takes segments from, as the main loop sees it.
@@ -26,7 +26,7 @@ pub struct KernelSnapshot {
     /// prepared: every step has reached the pins.
     pub drained: bool,
     /// Times the kernel found its queue empty after a segment (wrapping,
-    /// [`crate::motion::kernel::StepKernel::dry_runs`]): the main loop counts underruns by it.
+    /// [`crate::step::kernel::StepKernel::dry_runs`]): the main loop counts underruns by it.
     pub dry_runs: u16,
     /// Laser PWM duty the kernel's segments set last (0 at rest; laser mode only).
     pub laser_duty: u16,
@@ -86,11 +86,5 @@ impl<S: SegmentQueue> StepIsr<S> {
         self.next.output = OutputEvent::NONE;
         self.after.output = OutputEvent::NONE;
         Some(word)
-    }
-}
-
-impl<const Q: usize> SegmentQueue for crate::motion::sim::SegmentFifo<Q> {
-    fn is_empty(&self) -> bool {
-        self.0.is_empty()
     }
 }

@@ -31,9 +31,9 @@
 
 use super::hardware::StepHardware;
 use super::pins::PinWords;
-use crate::motion::kernel::{SegmentSource, StepKernel, StepTiming, TickOut, KERNEL_TIMER_HZ};
-use crate::motion::laser::KEEP_DUTY;
-use crate::motion::output_event::OutputEvent;
+use crate::step::kernel::KEEP_DUTY;
+use crate::step::kernel::{SegmentSource, StepKernel, StepTiming, TickOut, KERNEL_TIMER_HZ};
+use crate::step::output_event::OutputEvent;
 
 /// Tick period while the kernel is idle (1 ms), i.e. how often an empty queue is polled.
 pub const IDLE_PERIOD_COUNTS: u32 = KERNEL_TIMER_HZ / 1_000;

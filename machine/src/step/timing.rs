@@ -1,6 +1,6 @@
 //! The step timer's clock and the step pulse shape the drivers need, in its counts: what the step
 //! interrupt (`isr.rs`) times every period with, what the setup checks step rates against
-//! (`setup.rs`), and what segment prep's periods count in (`motion/kernel.rs` re-exports it).
+//! (`setup.rs`), and what segment prep's periods count in (`step/kernel.rs` re-exports it).
 
 use serde::{Deserialize, Serialize};
 

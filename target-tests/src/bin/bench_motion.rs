@@ -20,9 +20,9 @@ use gantry_machine::gcode::block::parse_block;
 use gantry_machine::gcode::lexer::Lexer;
 use gantry_machine::gcode::{InterpConfig, Interpreter};
 use gantry_machine::motion::config::MotionConfig;
-use gantry_machine::motion::kernel::{Segment, SegmentSource, StepKernel, TickOut};
-use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::motion::pipeline::{Motion, PushError};
+use gantry_machine::step::kernel::{Segment, SegmentSource, StepKernel, TickOut};
+use gantry_machine::step::output_event::OutputEvent;
 use gantry_target_tests::clock::{self, now, timer_overhead};
 use gantry_target_tests::program::program_line;
 use gantry_target_tests::{exit, println};
@@ -50,7 +50,7 @@ fn empty_body(_k: &mut StepKernel, src: &mut Repeat) -> TickOut {
         dir: 0,
         period: 1,
         output: OutputEvent::NONE,
-        power: gantry_machine::motion::laser::KEEP_DUTY,
+        power: gantry_machine::step::kernel::KEEP_DUTY,
     }
 }
 
@@ -67,7 +67,7 @@ fn tick_cost(axes: usize, body: fn(&mut StepKernel, &mut Repeat) -> TickOut) -> 
         period: 240,
         dir: 0b101,
         output: OutputEvent::NONE,
-        power: gantry_machine::motion::laser::KEEP_DUTY,
+        power: gantry_machine::step::kernel::KEEP_DUTY,
     });
     let mut k = StepKernel::new();
     let t0 = now();

@@ -30,9 +30,9 @@ use core::hint::black_box;
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::entry;
-use gantry_machine::motion::kernel::{Segment, SegmentSource, StepTiming, KERNEL_TIMER_HZ};
-use gantry_machine::motion::output_event::OutputEvent;
 use gantry_machine::setup::DriverSetup;
+use gantry_machine::step::kernel::{Segment, SegmentSource, StepTiming, KERNEL_TIMER_HZ};
+use gantry_machine::step::output_event::OutputEvent;
 use gantry_machine::step::{PinWords, Run, StepHardware, StepIsr, IDLE_PERIOD_COUNTS};
 use gantry_target_tests::clock::{self, now};
 use gantry_target_tests::{exit, println};
@@ -146,7 +146,7 @@ fn run_cost(axes: usize, body: fn(&mut Option<StepIsr<Repeat>>)) -> u64 {
             period: 240,
             dir: 0b101,
             output: OutputEvent::NONE,
-            power: gantry_machine::motion::laser::KEEP_DUTY,
+            power: gantry_machine::step::kernel::KEEP_DUTY,
         }),
         timing,
     ));
@@ -534,7 +534,7 @@ fn seg(steps: [u32; 6], ticks: u32, period: u32, dir: u8, output: OutputEvent) -
         period,
         dir,
         output,
-        power: gantry_machine::motion::laser::KEEP_DUTY,
+        power: gantry_machine::step::kernel::KEEP_DUTY,
     }
 }
 

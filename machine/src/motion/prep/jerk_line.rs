@@ -25,10 +25,10 @@ use crate::arith::{isqrt_u64, mul_div};
 use crate::motion::config::MotionConfig;
 use crate::motion::history::{Handed, Stand};
 use crate::motion::jerk::{brake_distance, Limit, Limits, Tracker, SUB};
-use crate::motion::kernel::Segment;
-use crate::motion::laser::KEEP_DUTY;
-use crate::motion::output_event::OutputEvent;
 use crate::motion::planner::{Block, Planner};
+use crate::step::kernel::Segment;
+use crate::step::kernel::KEEP_DUTY;
+use crate::step::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 
 /// Most limits one tracker step checks.
@@ -201,7 +201,7 @@ impl Prep {
                 if st.counts > 0 {
                     let jerk = mul_div(
                         st.a.abs_diff(a0),
-                        crate::motion::kernel::KERNEL_TIMER_HZ as u64,
+                        crate::step::kernel::KERNEL_TIMER_HZ as u64,
                         st.counts,
                     );
                     self.report.jerk = self.report.jerk.max(jerk);
@@ -345,7 +345,7 @@ impl Prep {
                 b.laser.scaled(self.laser_override),
                 mul_div(
                     s - self.s_now,
-                    crate::motion::kernel::KERNEL_TIMER_HZ as u64,
+                    crate::step::kernel::KERNEL_TIMER_HZ as u64,
                     duration.max(1),
                 ),
                 b.programmed,

@@ -3,13 +3,13 @@
 //! Every step event (virtual tick time, step byte, direction byte) and the final step position
 //! feed a [`Digest`], so any difference in integer arithmetic between targets shows up.
 
-use super::config::MotionConfig;
-use super::kernel::{Segment, SegmentSource, StepKernel};
-use super::output_event::OutputEvent;
-use super::sim::{Sim, SimEvent};
+use super::{Digest, Vector};
 use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
+use crate::motion::config::MotionConfig;
+use crate::motion::sim::{Sim, SimEvent};
+use crate::step::kernel::{Segment, SegmentSource, StepKernel};
+use crate::step::output_event::OutputEvent;
 use crate::units::Pos;
-use crate::vectors::{Digest, Vector};
 
 const MM: i64 = 1_000_000;
 
@@ -58,7 +58,7 @@ fn digest_run(cfg: MotionConfig, program: &[Canon], hold_at: Option<u64>, fro: u
                 held = true;
             }
         }
-        if held && sim.motion.state() == super::pipeline::MotionState::Held {
+        if held && sim.motion.state() == crate::motion::pipeline::MotionState::Held {
             sim.motion.resume();
         }
         if sim.tick(&mut on).period == 0 {
@@ -94,7 +94,7 @@ fn kernel_bresenham() -> u32 {
             period: 2400,
             dir: 0b10,
             output: OutputEvent::NONE,
-            power: super::laser::KEEP_DUTY,
+            power: crate::motion::laser::KEEP_DUTY,
         },
         Segment {
             steps: [4, 3, 1, 2, 0, 0],
@@ -102,7 +102,7 @@ fn kernel_bresenham() -> u32 {
             period: 750,
             dir: 0b0101,
             output: OutputEvent::NONE,
-            power: super::laser::KEEP_DUTY,
+            power: crate::motion::laser::KEEP_DUTY,
         },
         Segment::idle(3, 1000),
         Segment {
@@ -111,7 +111,7 @@ fn kernel_bresenham() -> u32 {
             period: 300,
             dir: 0b11_1111,
             output: OutputEvent::NONE,
-            power: super::laser::KEEP_DUTY,
+            power: crate::motion::laser::KEEP_DUTY,
         },
     ];
     let mut src = Fixed(&segs, 0);
@@ -275,7 +275,7 @@ const LASER_JOB: [Canon; 13] = [
 /// Steps, and each laser duty the kernel reports with its time.
 fn laser_m4_power() -> u32 {
     let cfg = MotionConfig {
-        laser: Some(super::laser::PwmMap {
+        laser: Some(crate::motion::laser::PwmMap {
             min_rpm: 100,
             max_rpm: 1000,
             pwm_min: 20,
@@ -294,7 +294,7 @@ fn laser_m4_power() -> u32 {
             sim.motion.feed_hold();
             held = true;
         }
-        if held && sim.motion.state() == super::pipeline::MotionState::Held {
+        if held && sim.motion.state() == crate::motion::pipeline::MotionState::Held {
             sim.motion.resume();
         }
         let now = sim.now;
@@ -304,7 +304,7 @@ fn laser_m4_power() -> u32 {
                 d.bytes(&[s.step, s.dir]);
             }
         });
-        if out.power != super::laser::KEEP_DUTY {
+        if out.power != crate::motion::laser::KEEP_DUTY {
             d.u64(now);
             d.u64(u64::from(out.power));
         }
@@ -390,7 +390,7 @@ fn onfly_outputs() -> u32 {
             sim.motion.set_feed_override(70);
             held = true;
         }
-        if held && sim.motion.state() == super::pipeline::MotionState::Held {
+        if held && sim.motion.state() == crate::motion::pipeline::MotionState::Held {
             sim.motion.resume();
         }
         if sim.tick(&mut on).period == 0 {
@@ -410,7 +410,7 @@ fn onfly_outputs() -> u32 {
 }
 
 /// `G64 P0.01` over 240 short moves (30 µm along X on a parabola with ±1 µm of CAM rounding
-/// noise, then back along Y): the blend's chord tests ([`super::blend::chord_holds`]) decide which
+/// noise, then back along Y): the blend's chord tests ([`crate::motion::blend::chord_holds`]) decide which
 /// moves merge; the digest takes every step and, first, the verdicts of a sweep of chord tests.
 fn blend_chain() -> u32 {
     let mut d = Digest::new();
@@ -422,7 +422,7 @@ fn blend_chain() -> u32 {
             *p = at(j * 100_000, (j * j * k * 37) % 9_001 - 4_500, (k * j) % 3);
         }
         let to = at(900_000, (k * 7_919) % 20_001 - 10_000, k % 5);
-        d.bytes(&[super::blend::chord_holds(&start, &points, &to, 5_000, 3) as u8]);
+        d.bytes(&[crate::motion::blend::chord_holds(&start, &points, &to, 5_000, 3) as u8]);
     }
     let mut program = [rapid(0, at(0, 0, 0)); 241];
     program[0] = Canon {
@@ -487,7 +487,7 @@ fn corner_round() -> u32 {
         );
         let tol = (k as u64 * 3_733) % 200_000 + 1_000;
         let lengths = ((k as u64 * 999_983) % 9_000_000, 4_000_000);
-        match super::corner::round(&cfg, &a, &p, &b, lengths, tol) {
+        match crate::motion::corner::round(&cfg, &a, &p, &b, lengths, tol) {
             Some(c) => {
                 d.u64(c.radius);
                 d.u64(c.speed_sq);

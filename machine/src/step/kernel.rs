@@ -21,7 +21,7 @@
 //! switches outputs itself (command lists at rest, safe state).
 //!
 //! Laser power (docs/laser-plasma.md): a segment's [`Segment::power`] is the PWM duty segment
-//! prep computed for it ([`super::laser`]); the tick that starts the segment reports it in
+//! prep computed for it (`crate::motion::laser`); the tick that starts the segment reports it in
 //! [`TickOut::power`] (its owner writes the compare register, nothing is computed here), and the
 //! first tick that finds the queue empty after a powered segment, or a latched stop, reports 0:
 //! the beam is off whenever the kernel stands still. [`KEEP_DUTY`] (a machine without laser
@@ -33,11 +33,14 @@
 //! kernel keeps stepping (the board decelerates on the path). Unarmed, the check is one byte
 //! load and a branch per tick.
 
-use super::laser::KEEP_DUTY;
 use super::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 
-pub use crate::step::timing::{ns_to_counts, StepTiming, KERNEL_TIMER_HZ};
+pub use super::timing::{ns_to_counts, StepTiming, KERNEL_TIMER_HZ};
+
+/// Segment duty meaning "no change" (not a laser machine). A laser's duty stays below it
+/// (`crate::motion::laser::PwmMap::duty` clamps to `KEEP_DUTY - 1`).
+pub const KEEP_DUTY: u16 = u16::MAX;
 
 /// A piece of motion at a constant tick rate with exact per-axis step counts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

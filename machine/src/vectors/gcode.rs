@@ -1,13 +1,13 @@
 //! Cross-target vectors: embedded programs interpreted and every action (and error) digested.
 //!
-//! The host test in `vectors.rs` and the QEMU Cortex-M4 harness run the same functions; equal
+//! The host test in `vectors/mod.rs` and the QEMU Cortex-M4 harness run the same functions; equal
 //! digests prove the interpreter bit-identical on both instruction sets.
 
-use super::config::{DwellUnits, InterpConfig};
-use super::interp::Interpreter;
-use super::source::MemorySource;
+use super::{Digest, Vector};
 use crate::canon::{Action, ArcDir, Plane, Spindle, StopKind};
-use crate::vectors::{Digest, Vector};
+use crate::gcode::config::{DwellUnits, InterpConfig};
+use crate::gcode::Interpreter;
+use crate::gcode::MemorySource;
 
 /// Interprets `program` with `config` and digests every action and error.
 pub fn digest_program(program: &[u8], config: &InterpConfig) -> u32 {
@@ -162,9 +162,9 @@ G0 X[FIX[-2.5] + FUP[2.1]] Y[ABS[-3] XOR 0] Z[#<_r> LE 12.5]\nG0 X[1/0]\nM30\n";
 
 /// Every expression function over a sweep of inputs, digested (errors as their code).
 fn functions() -> u32 {
-    use super::expr::{self, ONE};
+    use crate::gcode::expr::{self, ONE};
     let mut d = Digest::new();
-    let mut put = |r: Result<i64, super::error::ErrorCode>| match r {
+    let mut put = |r: Result<i64, crate::gcode::ErrorCode>| match r {
         Ok(v) => d.i64(v),
         Err(e) => d.u64(e.number() as u64),
     };
