@@ -8,21 +8,32 @@
 //! input names as masks and pairs, an input, an output). Only the text-valued rows (the axes in
 //! use, M codes, positions, lists, startup lines) have codecs of their own, in `codec`.
 //!
+//! One job a module: `read` walks the table reading, `write` walks it writing, `codec` holds
+//! the text-valued rows' codecs, `check` finds every error of a file (`gantry setup check`) and
+//! `keep` what a push leaves of the board's own (offsets, G28/G30, tools).
+//!
 //! Decimal values are converted to integer nanometres with rounding to the nearest nm; the file is
 //! the only place where a float ever touches a setting.
 
+mod check;
 mod codec;
+mod keep;
+mod read;
+mod write;
 
-use anyhow::{bail, Context};
-use gantry_machine::setup::table::{Section, Unit, ROWS, SECTIONS};
-use gantry_machine::setup::{section_name, Key, KeyName, OrientSetup, Setup, USER_OUTPUTS};
-use gantry_machine::units::{Nm, AXIS_LETTERS};
-use std::fmt::Write as _;
+pub use write::to_toml;
+
+use read::{read, table};
+use write::mm;
+
+use anyhow::Context;
+use gantry_machine::setup::table::{Section, ROWS, SECTIONS};
+use gantry_machine::setup::{section_name, Key, KeyName, Setup, USER_OUTPUTS};
 use std::path::Path;
-use toml::{Table, Value};
+use toml::Table;
 
 #[cfg(test)]
-use gantry_machine::{setup::ListCommand, units::NM_PER_MM};
+use gantry_machine::{setup::table::Unit, setup::ListCommand, units::NM_PER_MM};
 
 /// The largest setup file read, bytes (a full setup with every tool and list is about 10 KiB).
 pub(crate) const SETUP_FILE_LIMIT: u64 = 1024 * 1024;
@@ -71,41 +82,8 @@ impl SetupFile {
             "an empty setup (no setting in it): nothing was pushed (`gantry setup pull` or the \
              console's \"Show the board's\" gives the board's setup to edit)"
         );
-        let named = |t: &str, k: &str| root.get(t).and_then(|t| t.get(k)).is_some();
-        let tools = root.get("tool").and_then(Value::as_array);
-        let mut s = read(&root)?;
-        let (from, to, mut kept) = (&stored.program, &mut s.program, Vec::new());
-        if !codec::has_work_offsets(&root) {
-            to.work_offsets = from.work_offsets;
-            let set = codec::WORK_SYSTEMS.iter().zip(&from.work_offsets);
-            let set: Vec<&str> = set
-                .filter(|(_, o)| o.iter().any(|v| *v != 0))
-                .map(|(n, _)| *n)
-                .collect();
-            if !set.is_empty() {
-                kept.push(format!("work offsets {}", set.join(" ")));
-            }
-        }
-        for (key, name, at, stored_at) in [
-            ("g28_home", "G28", &mut to.g28_home, &from.g28_home),
-            ("g30_home", "G30", &mut to.g30_home, &from.g30_home),
-        ] {
-            if !named("program", key) {
-                *at = *stored_at;
-                if stored_at.iter().any(|v| *v != 0) {
-                    kept.push(format!("{name} position"));
-                }
-            }
-        }
-        if tools.is_none_or(|a| a.is_empty()) {
-            to.tools = from.tools.clone();
-            match from.tools.len() {
-                0 => {}
-                1 => kept.push("tool table (1 tool)".into()),
-                n => kept.push(format!("tool table ({n} tools)")),
-            }
-        }
-        Ok((s, kept))
+        let s = read(&root)?;
+        Ok(keep::boards_own(&root, s, stored))
     }
 
     /// The file's text, refused beyond [`SETUP_FILE_LIMIT`].
@@ -134,123 +112,12 @@ impl SetupFile {
     /// the others may name), so one bad key does not hide the next; the rules between settings
     /// are checked once every setting is valid on its own. Empty: the text is valid.
     pub fn check_all(text: &str) -> Vec<(u32, String)> {
-        let table: Table = match toml::from_str(text) {
-            Ok(t) => t,
-            Err(e) => {
-                let line = e.span().map_or(0, |r| line_at(text, r.start));
-                return vec![(line, e.message().trim().to_owned())];
-            }
-        };
-        let mut leaves = Vec::new();
-        setting_leaves(&table, &mut Vec::new(), &mut leaves);
-        let mut errors = Vec::new();
-        let mut valid = table.clone();
-        for (path, value) in leaves {
-            let mut t = Table::new();
-            if let Some(axes) = table.get("axes") {
-                t.insert("axes".into(), axes.clone());
-            }
-            let mut at = &mut t;
-            for seg in &path[..path.len() - 1] {
-                at = at
-                    .entry(seg.clone())
-                    .or_insert_with(|| Value::Table(Default::default()))
-                    .as_table_mut()
-                    .expect("a table on the way to a setting");
-            }
-            at.insert(path[path.len() - 1].clone(), value.clone());
-            if let Err(e) = apply(&t) {
-                remove_path(&mut valid, &path);
-                let dotted = path.join(".");
-                // (toml's messages run over lines: one line each here.)
-                let msg = format!("{e:#}")
-                    .split_whitespace()
-                    .collect::<Vec<_>>()
-                    .join(" ");
-                let msg = if msg.contains(path[path.len() - 1].as_str()) {
-                    msg
-                } else {
-                    format!("{dotted}: {msg}")
-                };
-                errors.push((line_of_key(text, &dotted), msg));
-            }
-        }
-        // The rules between settings, on the settings that are valid on their own.
-        if let Err(e) = read(&valid) {
-            let msg = format!("{e:#}");
-            // The key the rule names first (`spindle.rpm_range[0] …`), for its line.
-            let key = msg
-                .split([':', ' ', '=', '['])
-                .next()
-                .unwrap_or_default()
-                .to_owned();
-            errors.push((line_of_key(text, &key), msg));
-        }
-        // In file order; one without a line last.
-        errors.sort_by_key(|&(line, _)| if line == 0 { u32::MAX } else { line });
-        errors
+        check::every_error(text)
     }
 }
 
-/// The settings of a parsed setup, each with its key path: a value that is not a table, and an
-/// array of tables (`[[tool]]`, `[[mcode]]`) as one setting (its entries are checked together).
-fn setting_leaves(table: &Table, path: &mut Vec<String>, out: &mut Vec<(Vec<String>, Value)>) {
-    for (k, v) in table {
-        path.push(k.clone());
-        match v {
-            Value::Table(t) => setting_leaves(t, path, out),
-            _ => out.push((path.clone(), v.clone())),
-        }
-        path.pop();
-    }
-}
-
-/// Removes the setting at `path` from `table`.
-fn remove_path(table: &mut Table, path: &[String]) {
-    match path {
-        [] => {}
-        [last] => {
-            table.remove(last);
-        }
-        [first, rest @ ..] => {
-            if let Some(Value::Table(t)) = table.get_mut(first) {
-                remove_path(t, rest);
-            }
-        }
-    }
-}
-
-/// The 1-based line of byte `offset` in `text`.
-fn line_at(text: &str, offset: usize) -> u32 {
-    text[..offset.min(text.len())].matches('\n').count() as u32 + 1
-}
-
-/// The line that sets the dotted key `key` (`axis.X.max_rate`, `tool`), 0 if none is found:
-/// under its `[section]` (or `[[section]]`) header, or as a dotted key.
-fn line_of_key(text: &str, key: &str) -> u32 {
-    let clean = |s: &str| s.replace(['"', '\'', ' '], "");
-    let mut section = String::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.split('#').next().unwrap_or("").trim();
-        if let Some(h) = line.strip_prefix('[') {
-            section = clean(h.trim_start_matches('[').trim_end_matches(']'));
-            if section == key {
-                return i as u32 + 1;
-            }
-        } else if let Some((k, _)) = line.split_once('=') {
-            let k = clean(k);
-            let full = if section.is_empty() {
-                k
-            } else {
-                format!("{section}.{k}")
-            };
-            if full.eq_ignore_ascii_case(key) {
-                return i as u32 + 1;
-            }
-        }
-    }
-    0
-}
+/// The highest user output number.
+const OUTPUT_MAX: u8 = USER_OUTPUTS - 1;
 
 /// The rows of `section` with their key in the file: a `[low, high]` pair (`travel[0]`,
 /// `travel[1]`) once, under its base name, as its first row.
@@ -280,253 +147,6 @@ fn tables() -> impl Iterator<Item = &'static str> {
         .filter(|s| !matches!(s, Section::Top | Section::HomingAxis))
         .map(|s| section_name(*s))
         .chain(["work_offsets"])
-}
-
-/// Reads the file over the defaults, then the core's rules between settings.
-fn read(root: &Table) -> anyhow::Result<Setup> {
-    let s = apply(root)?;
-    // The rules between settings (start speed, pairs, step rate…): the core's own check.
-    s.validate().map_err(anyhow::Error::new)?;
-    Ok(s)
-}
-
-/// Reads the file over the defaults, section by section in the table's order (the axes before
-/// what is per axis, the program's M codes before the M-code lists), each value checked on its
-/// own; [`read`] adds the rules between settings.
-fn apply(root: &Table) -> anyhow::Result<Setup> {
-    let mut s = Setup::default();
-    for section in SECTIONS {
-        let name = section_name(section);
-        match section {
-            Section::Top => read_rows(root, section, 0, &mut s)?,
-            Section::Axis | Section::HomingAxis => {
-                let parent = match section {
-                    Section::Axis => Some(root),
-                    _ => root.get("homing").and_then(Value::as_table),
-                };
-                let axes = parent.and_then(|p| p.get("axis")).map(|a| table(a, name));
-                for (letter, v) in axes.transpose()?.into_iter().flatten() {
-                    let at = format!("{name}.{letter}");
-                    let i = codec::axis_in_use(&at, letter, usize::from(s.axis_count))?;
-                    read_rows(table(v, &at)?, section, i, &mut s)?;
-                }
-            }
-            Section::Tool | Section::Mcode => {
-                let items = root.get(name).map(|v| {
-                    v.as_array()
-                        .with_context(|| format!("{name}: expected an array of tables [[{name}]]"))
-                });
-                for (k, v) in items.transpose()?.into_iter().flatten().enumerate() {
-                    let t = table(v, &format!("{name}[{k}]"))?;
-                    codec::push_item(section, &mut s)?;
-                    read_rows(t, section, k, &mut s)?;
-                    codec::check_item(section, k, t, &s)?;
-                }
-            }
-            _ => {
-                if let Some(v) = root.get(name) {
-                    read_rows(table(v, name)?, section, 0, &mut s)?;
-                }
-            }
-        }
-        if section == Section::Tool {
-            codec::read_work_offsets(root, &mut s)?;
-        }
-    }
-    Ok(s)
-}
-
-/// `v` as a table, `at` naming it in the error.
-fn table<'a>(v: &'a Value, at: &str) -> anyhow::Result<&'a Table> {
-    v.as_table()
-        .with_context(|| format!("{at}: expected a table, found {}", v.type_str()))
-}
-
-/// One table of `section` (item `i`): every key must be a row's (or a table below), each value
-/// is converted by the row's unit, range-checked by the core and set.
-fn read_rows(t: &Table, section: Section, i: usize, s: &mut Setup) -> anyhow::Result<()> {
-    let at = place(section, i);
-    let below: Vec<&str> = match section {
-        Section::Top => tables().collect(),
-        Section::Homing => vec!["axis"],
-        _ => vec![],
-    };
-    let known = |k: &str| below.contains(&k) || rows(section).any(|(_, n)| n == k);
-    if let Some(name) = t.keys().find(|k| !known(k)) {
-        let names = rows(section).map(|(_, n)| n).chain(below.iter().copied());
-        let names: Vec<String> = names.map(|n| format!("`{n}`")).collect();
-        let names = names.join(", ");
-        bail!("{at}{name}: unknown field `{name}`, expected one of {names}");
-    }
-    for (key, name) in rows(section) {
-        let Some(v) = t.get(name) else {
-            continue;
-        };
-        if key.row().unit == Unit::Text {
-            codec::read(key, i, v, s)?;
-            continue;
-        }
-        // A `[low, high]` pair sets its two rows.
-        let values = match name != key.text().name {
-            true => codec::pair(&format!("{at}{name}"), v)?.to_vec(),
-            false => vec![v],
-        };
-        for (key, v) in [key, key.next()].into_iter().zip(values) {
-            let value = read_value(key, i, v, s)?;
-            key.set(s, i, value);
-        }
-    }
-    Ok(())
-}
-
-/// A file value of setting `key` (axis or tool `index`) in the core's integer units, by the
-/// row's unit: scaled units read decimals, counts whole numbers, names (axis letters in use,
-/// inputs) their index. The table's range is checked by the core's own check, so the refusal
-/// is the one the board and grbl `$x=` give.
-fn read_value(key: Key, index: usize, v: &Value, s: &Setup) -> anyhow::Result<i64> {
-    let (unit, at) = (key.row().unit, KeyName(key, index).to_string());
-    let n = usize::from(s.axis_count);
-    let scale = unit.scale();
-    let scaled = |v: f64| match v.is_nan() {
-        true => i64::MIN,
-        false => (v * scale as f64).round() as i64,
-    };
-    let expected = |what: &str| anyhow::anyhow!("{at}: expected {what}, found {}", v.type_str());
-    let value = match (unit, v) {
-        (Unit::Bool, Value::Boolean(b)) => i64::from(*b),
-        (Unit::Bool, _) => return Err(expected("true or false")),
-        (Unit::Choice, Value::String(text)) => choice(key, index, text)?,
-        (Unit::Choice, _) => return Err(expected("a string")),
-        (Unit::AxisMask, _) => codec::strings(&at, v)?.iter().try_fold(0, |m, name| {
-            anyhow::Ok(m | 1 << codec::axis_index(&at, name, n, false)?)
-        })?,
-        (Unit::InputMask, _) => codec::strings(&at, v)?.iter().try_fold(0, |m, name| {
-            anyhow::Ok(m | 1 << codec::input_bit(&at, name)?)
-        })?,
-        (Unit::AxisPair, _) => {
-            let letter = |v: &Value| match v.as_str() {
-                Some(name) => codec::axis_index(&at, name, n, true).map(i64::from),
-                None => bail!("{at}: expected axis letters"),
-            };
-            let [a, b] = codec::pair(&at, v)?;
-            letter(a)? | letter(b)? << 8
-        }
-        (Unit::Input, Value::String(name)) => i64::from(codec::input_bit(&at, name)?),
-        (Unit::Input, _) => bail!("{at}: expected an input name"),
-        (Unit::Output, Value::Integer(o)) if (0..i64::from(USER_OUTPUTS)).contains(o) => *o,
-        (Unit::Output, Value::Integer(o)) => bail!("{at} = {o}: a user output 0-{}", OUTPUT_MAX),
-        (Unit::Output, _) => bail!("{at}: expected a user output number 0-{OUTPUT_MAX}"),
-        (_, Value::Integer(n)) if scale == 1 => *n,
-        (_, Value::Integer(n)) => scaled(*n as f64),
-        (_, Value::Float(f)) if scale > 1 => scaled(*f),
-        _ if scale > 1 => return Err(expected("a number")),
-        _ => return Err(expected("a whole number")),
-    };
-    key.check(index, value).map_err(anyhow::Error::new)?;
-    Ok(value)
-}
-
-/// The highest user output number.
-const OUTPUT_MAX: u8 = USER_OUTPUTS - 1;
-
-/// `text` as the index of one of `key`'s choices (any case).
-fn choice(key: Key, index: usize, text: &str) -> anyhow::Result<i64> {
-    let choices = key.text().choices;
-    match choices.iter().position(|c| c.eq_ignore_ascii_case(text)) {
-        Some(i) => Ok(i as i64),
-        None => {
-            let names: Vec<String> = choices.iter().map(|c| format!("{c:?}")).collect();
-            bail!(
-                "{} = {text:?}: must be {}",
-                KeyName(key, index),
-                names.join(" or ")
-            )
-        }
-    }
-}
-
-/// A value of `scale` units per file unit as a TOML float: exact decimals, at least one (`5.0`).
-fn decimal(v: i64, scale: i64) -> String {
-    let sign = if v < 0 { "-" } else { "" };
-    let scale = scale.unsigned_abs();
-    let (int, frac) = (v.unsigned_abs() / scale, v.unsigned_abs() % scale);
-    let width = scale.ilog10() as usize;
-    let frac = format!("{frac:0width$}");
-    let frac = frac.trim_end_matches('0');
-    format!("{sign}{int}.{}", if frac.is_empty() { "0" } else { frac })
-}
-
-/// Millimetres (from nm) as a TOML float.
-fn mm(v: Nm) -> String {
-    decimal(v, 1_000_000)
-}
-
-/// One value of a row as the file writes it (`n` axes in use).
-fn value_text(key: Key, v: i64, n: usize) -> String {
-    let letter = |a: i64| match AXIS_LETTERS.get(a as usize).filter(|_| (a as usize) < n) {
-        Some(l) => l.to_string(),
-        None => "-".into(),
-    };
-    let bits = |count: usize| (0..count).filter(move |b| v & (1 << b) != 0);
-    match key.row().unit {
-        Unit::Bool => (v != 0).to_string(),
-        Unit::Choice => format!("\"{}\"", key.text().choices[v as usize]),
-        // Degrees keep their three decimals (`0.000`): the file has always written them so.
-        Unit::Degrees => format!("{}.{:03}", v / 1000, v % 1000),
-        Unit::AxisMask => codec::quoted(bits(n).map(|a| AXIS_LETTERS[a])),
-        Unit::InputMask => codec::quoted(bits(32).map(|b| codec::input_name(b as u8))),
-        Unit::AxisPair => codec::quoted([v & 0xff, v >> 8].into_iter().map(letter)),
-        Unit::Input => format!("{:?}", codec::input_name(v as u8)),
-        u if u.scale() > 1 => decimal(v, u.scale()),
-        _ => v.to_string(),
-    }
-}
-
-/// An output or input row set to none: the example its commented-out line shows.
-fn unset(key: Key, v: i64) -> Option<&'static str> {
-    match key.row().unit {
-        Unit::Output if v > i64::from(OUTPUT_MAX) => Some("0"),
-        Unit::Input if v == i64::from(OrientSetup::NONE) => Some("\"in20\""),
-        _ => None,
-    }
-}
-/// Writes a setup as a commented setup file that [`SetupFile::parse`] reads back exactly: each
-/// section's table head, then each row's `key = value` and its comment.
-pub fn to_toml(s: &Setup) -> String {
-    let mut t = String::from(
-        "# Gantry machine setup. Lengths in mm (degrees for A/B/C), speeds in mm/min,\n\
-         # accelerations in mm/s². See docs/settings.md for every key and its range.\n",
-    );
-    for section in SECTIONS {
-        let name = section_name(section);
-        for i in 0..section.count(s) {
-            let _ = match section {
-                Section::Top => Ok(()),
-                Section::Tool | Section::Mcode => writeln!(t, "\n[[{name}]]"),
-                _ => writeln!(t, "\n[{}]", place(section, i).trim_end_matches('.')),
-            };
-            for (key, name) in rows(section) {
-                let (note, v, n) = (key.text().note, key.value(s, i), usize::from(s.axis_count));
-                let _ = if key.row().unit == Unit::Text {
-                    writeln!(t, "{}", codec::write(key, i, s))
-                } else if let Some(example) = unset(key, v) {
-                    writeln!(t, "# {name} = {example}{note}")
-                } else if name != key.text().name {
-                    let (a, b) = (
-                        value_text(key, v, n),
-                        value_text(key.next(), key.next().value(s, i), n),
-                    );
-                    writeln!(t, "{name} = [{a}, {b}]{note}")
-                } else {
-                    writeln!(t, "{name} = {}{note}", value_text(key, v, n))
-                };
-            }
-        }
-        if section == Section::Tool {
-            codec::write_work_offsets(s, &mut t);
-        }
-    }
-    t
 }
 
 #[cfg(test)]
