@@ -11,23 +11,12 @@ import os
 import select
 import sys
 import time
-import tty
+
+from grbl_port import open_after_reset
 
 port, program = sys.argv[1], sys.argv[2]
 rx = int(sys.argv[3]) if len(sys.argv) > 3 else 127
-fd = os.open(port, os.O_RDWR | os.O_NOCTTY)
-tty.setraw(fd)
-os.write(fd, b"\x18")
-buf = b""
-deadline = time.time() + 5
-while b"Grbl" not in buf and time.time() < deadline:
-    if select.select([fd], [], [], 0.5)[0]:
-        buf += os.read(fd, 4096)
-if b"Grbl" not in buf:
-    sys.exit("no banner after a soft reset")
-# Whatever follows the banner (startup lines, messages) before the job starts.
-while select.select([fd], [], [], 0.2)[0]:
-    os.read(fd, 4096)
+fd = open_after_reset(port)
 lines = [l.strip() for l in open(program) if l.strip()]
 pending = []  # (bytes, time written) of unanswered lines, oldest first
 in_flight = 0

@@ -12,22 +12,12 @@ import os
 import select
 import sys
 import time
-import tty
+
+from grbl_port import open_after_reset
 
 port = sys.argv[1]
 count = int(sys.argv[2]) if len(sys.argv) > 2 else 1000
-fd = os.open(port, os.O_RDWR | os.O_NOCTTY)
-tty.setraw(fd)
-os.write(fd, b"\x18")
-buf = b""
-deadline = time.time() + 5
-while b"Grbl" not in buf and time.time() < deadline:
-    if select.select([fd], [], [], 0.5)[0]:
-        buf += os.read(fd, 4096)
-if b"Grbl" not in buf:
-    sys.exit("no banner after a soft reset")
-while select.select([fd], [], [], 0.2)[0]:
-    os.read(fd, 4096)
+fd = open_after_reset(port)
 
 
 def ping(line):
