@@ -9,7 +9,8 @@
 //! use, M codes, positions, lists, startup lines) have codecs of their own, in `codec`.
 //!
 //! One job a module: `read` walks the table reading, `write` walks it writing, `codec` holds
-//! the text-valued rows' codecs, `check` finds every error of a file (`gantry setup check`) and
+//! the text-valued rows' codecs and the value helpers both walks use, `layout` where
+//! each row sits in the file, `check` finds every error of a file (`gantry setup check`) and
 //! `keep` what a push leaves of the board's own (offsets, G28/G30, tools).
 //!
 //! Decimal values are converted to integer nanometres with rounding to the nearest nm; the file is
@@ -18,22 +19,25 @@
 mod check;
 mod codec;
 mod keep;
+mod layout;
 mod read;
 mod write;
 
 pub use write::to_toml;
 
-use read::{read, table};
-use write::mm;
+use read::read;
 
 use anyhow::Context;
-use gantry_machine::setup::table::{Section, ROWS, SECTIONS};
-use gantry_machine::setup::{section_name, Key, KeyName, Setup, USER_OUTPUTS};
+use gantry_machine::setup::Setup;
 use std::path::Path;
 use toml::Table;
 
 #[cfg(test)]
-use gantry_machine::{setup::table::Unit, setup::ListCommand, units::NM_PER_MM};
+use gantry_machine::{
+    setup::table::{Unit, ROWS},
+    setup::ListCommand,
+    units::NM_PER_MM,
+};
 
 /// The largest setup file read, bytes (a full setup with every tool and list is about 10 KiB).
 pub(crate) const SETUP_FILE_LIMIT: u64 = 1024 * 1024;
@@ -114,39 +118,6 @@ impl SetupFile {
     pub fn check_all(text: &str) -> Vec<(u32, String)> {
         check::every_error(text)
     }
-}
-
-/// The highest user output number.
-const OUTPUT_MAX: u8 = USER_OUTPUTS - 1;
-
-/// The rows of `section` with their key in the file: a `[low, high]` pair (`travel[0]`,
-/// `travel[1]`) once, under its base name, as its first row.
-fn rows(section: Section) -> impl Iterator<Item = (Key, &'static str)> {
-    ROWS.iter()
-        .filter(move |r| r.section == section)
-        .filter_map(|r| {
-            let name = r.key.text().name;
-            (!name.ends_with("[1]")).then(|| (r.key, name.strip_suffix("[0]").unwrap_or(name)))
-        })
-}
-
-/// Where the keys of `section` (item `i`) sit in messages: `axis.X.`, `tool[2].`, `path.`.
-fn place(section: Section, i: usize) -> String {
-    let key = ROWS
-        .iter()
-        .find(|r| r.section == section)
-        .map_or(Key::Axes, |r| r.key);
-    let full = KeyName(key, i).to_string();
-    full[..full.len() - key.text().name.len()].to_string()
-}
-
-/// The file's table names: the sections below the top, and the work offsets (no table rows).
-fn tables() -> impl Iterator<Item = &'static str> {
-    SECTIONS
-        .iter()
-        .filter(|s| !matches!(s, Section::Top | Section::HomingAxis))
-        .map(|s| section_name(*s))
-        .chain(["work_offsets"])
 }
 
 #[cfg(test)]

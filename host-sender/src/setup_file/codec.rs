@@ -1,9 +1,9 @@
 //! The setup file's text-valued rows (the axes in use, M codes, positions, list commands, startup
 //! lines), the work offsets and the `[[tool]]`/`[[mcode]]` items: what the settings table
 //! (machine/src/setup/table.rs) cannot read or write by its unit alone; and the names (axis
-//! letters, inputs) the walk's value kinds use.
+//! letters, inputs) the walk's value kinds use, and the TOML value helpers both walks share
+//! (a table, a pair, exact decimals).
 
-use super::mm;
 use anyhow::{bail, Context};
 use gantry_machine::board::inputs::INPUT_NAMES;
 use gantry_machine::setup::table::Section;
@@ -167,7 +167,7 @@ pub(super) fn read_work_offsets(root: &Table, s: &mut Setup) -> anyhow::Result<(
     let Some(v) = root.get("work_offsets") else {
         return Ok(());
     };
-    for (name, v) in super::table(v, "work_offsets")? {
+    for (name, v) in table(v, "work_offsets")? {
         let Some(i) = WORK_SYSTEMS
             .iter()
             .position(|w| w.eq_ignore_ascii_case(name))
@@ -318,7 +318,7 @@ fn position(key: &str, v: &Value, axis_count: usize) -> anyhow::Result<[Nm; MAX_
 /// axis's travel (the moves of every M6 would otherwise hit the soft limit).
 fn tool_change_position(key: &str, v: &Value, s: &Setup) -> anyhow::Result<ToolChangePosition> {
     let mut out = ToolChangePosition::default();
-    for (name, v) in super::table(v, key)? {
+    for (name, v) in table(v, key)? {
         let key = format!("{key}.{name}");
         let i = axis_in_use(&key, name, usize::from(s.axis_count))?;
         let (lo, hi) = (s.axes[i].travel_min, s.axes[i].travel_max);
@@ -435,4 +435,26 @@ fn startup_lines(key: &str, v: &Value, s: &mut Setup) -> anyhow::Result<()> {
         })?;
     }
     Ok(())
+}
+
+/// `v` as a table, `at` naming it in the error.
+pub(super) fn table<'a>(v: &'a Value, at: &str) -> anyhow::Result<&'a Table> {
+    v.as_table()
+        .with_context(|| format!("{at}: expected a table, found {}", v.type_str()))
+}
+
+/// A value of `scale` units per file unit as a TOML float: exact decimals, at least one (`5.0`).
+pub(super) fn decimal(v: i64, scale: i64) -> String {
+    let sign = if v < 0 { "-" } else { "" };
+    let scale = scale.unsigned_abs();
+    let (int, frac) = (v.unsigned_abs() / scale, v.unsigned_abs() % scale);
+    let width = scale.ilog10() as usize;
+    let frac = format!("{frac:0width$}");
+    let frac = frac.trim_end_matches('0');
+    format!("{sign}{int}.{}", if frac.is_empty() { "0" } else { frac })
+}
+
+/// Millimetres (from nm) as a TOML float.
+pub(super) fn mm(v: Nm) -> String {
+    decimal(v, 1_000_000)
 }

@@ -1,7 +1,8 @@
 //! The reader: a walk over the settings table (machine/src/setup/table.rs), section by section,
 //! each value converted by its row's unit, range-checked by the core and set.
 
-use super::{codec, place, rows, tables, OUTPUT_MAX};
+use super::codec::{self, table};
+use super::layout::{place, rows, tables, OUTPUT_MAX};
 use anyhow::{bail, Context};
 use gantry_machine::setup::table::{Section, Unit, SECTIONS};
 use gantry_machine::setup::{section_name, Key, KeyName, Setup, USER_OUTPUTS};
@@ -59,12 +60,6 @@ pub(super) fn apply(root: &Table) -> anyhow::Result<Setup> {
         }
     }
     Ok(s)
-}
-
-/// `v` as a table, `at` naming it in the error.
-pub(super) fn table<'a>(v: &'a Value, at: &str) -> anyhow::Result<&'a Table> {
-    v.as_table()
-        .with_context(|| format!("{at}: expected a table, found {}", v.type_str()))
 }
 
 /// One table of `section` (item `i`): every key must be a row's (or a table below), each value

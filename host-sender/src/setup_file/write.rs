@@ -1,27 +1,12 @@
 //! The writer: a walk over the settings table (machine/src/setup/table.rs), each row's
 //! `key = value` and its comment, in the table's order.
 
-use super::{codec, place, rows, OUTPUT_MAX};
+use super::codec::{self, decimal};
+use super::layout::{place, rows, OUTPUT_MAX};
 use gantry_machine::setup::table::{Section, Unit, SECTIONS};
 use gantry_machine::setup::{section_name, Key, OrientSetup, Setup};
-use gantry_machine::units::{Nm, AXIS_LETTERS};
+use gantry_machine::units::AXIS_LETTERS;
 use std::fmt::Write as _;
-
-/// A value of `scale` units per file unit as a TOML float: exact decimals, at least one (`5.0`).
-fn decimal(v: i64, scale: i64) -> String {
-    let sign = if v < 0 { "-" } else { "" };
-    let scale = scale.unsigned_abs();
-    let (int, frac) = (v.unsigned_abs() / scale, v.unsigned_abs() % scale);
-    let width = scale.ilog10() as usize;
-    let frac = format!("{frac:0width$}");
-    let frac = frac.trim_end_matches('0');
-    format!("{sign}{int}.{}", if frac.is_empty() { "0" } else { frac })
-}
-
-/// Millimetres (from nm) as a TOML float.
-pub(super) fn mm(v: Nm) -> String {
-    decimal(v, 1_000_000)
-}
 
 /// One value of a row as the file writes it (`n` axes in use).
 fn value_text(key: Key, v: i64, n: usize) -> String {

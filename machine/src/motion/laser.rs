@@ -8,7 +8,7 @@
 
 use crate::canon::Spindle;
 
-pub use crate::step::kernel::KEEP_DUTY;
+use crate::step::kernel::KEEP_DUTY;
 
 /// What the beam does during one line block.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

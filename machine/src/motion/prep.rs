@@ -29,12 +29,12 @@ pub use jerk_line::JerkSetup;
 
 use super::history::{Handed, History, Stand};
 use super::jerk::Tracker;
-use super::laser::{PwmMap, KEEP_DUTY};
+use super::laser::PwmMap;
 use super::planner::{Block, BlockKind, Planner};
 use super::profile::Profile;
 use super::thc::{with_z_dir, Thc, ThcConfig, THC_AXIS};
 use crate::arith::{div_u64, isqrt_u64, mul_div, sat_mul};
-use crate::step::kernel::{Segment, KERNEL_TIMER_HZ};
+use crate::step::kernel::{Segment, KEEP_DUTY, KERNEL_TIMER_HZ};
 use crate::step::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 

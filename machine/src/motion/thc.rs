@@ -11,8 +11,7 @@
 //! beside it, and takes it out with Z-only segments at the first sync point after the torch went
 //! off ([`Thc::return_segment`]), so every pierce starts at the programmed height.
 
-use crate::step::kernel::KEEP_DUTY;
-use crate::step::kernel::{Segment, KERNEL_TIMER_HZ};
+use crate::step::kernel::{Segment, KEEP_DUTY, KERNEL_TIMER_HZ};
 use crate::step::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 

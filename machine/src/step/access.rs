@@ -4,8 +4,8 @@
 //! (`device::main_loop::BoardPort`), so both boards answer them with the same code.
 
 use super::isr::StepIsr;
-use crate::step::kernel::{ProbeLatch, SegmentSource};
-use crate::step::output_event::OutputEvent;
+use super::kernel::{ProbeLatch, SegmentSource};
+use super::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 
 /// A segment queue the interrupt takes segments from, as the main loop sees it.

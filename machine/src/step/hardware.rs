@@ -3,7 +3,7 @@
 //! (`emulator/src/step_clock.rs`) and the benchmark's registers in RAM
 //! (`target-tests/src/bin/bench_step.rs`).
 
-use crate::step::output_event::OutputEvent;
+use super::output_event::OutputEvent;
 
 /// The registers the body reads and writes (TIM2 and GPIO on the board, plain memory in the
 /// benchmark).

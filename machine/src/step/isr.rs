@@ -30,10 +30,9 @@
 //! next period, and the word the hardware copies at an unprepared update is the reset word.
 
 use super::hardware::StepHardware;
+use super::kernel::{SegmentSource, StepKernel, StepTiming, TickOut, KEEP_DUTY, KERNEL_TIMER_HZ};
+use super::output_event::OutputEvent;
 use super::pins::PinWords;
-use crate::step::kernel::KEEP_DUTY;
-use crate::step::kernel::{SegmentSource, StepKernel, StepTiming, TickOut, KERNEL_TIMER_HZ};
-use crate::step::output_event::OutputEvent;
 
 /// Tick period while the kernel is idle (1 ms), i.e. how often an empty queue is polled.
 pub const IDLE_PERIOD_COUNTS: u32 = KERNEL_TIMER_HZ / 1_000;

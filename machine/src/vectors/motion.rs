@@ -7,7 +7,7 @@ use super::{Digest, Vector};
 use crate::canon::{Action, ArcDir, Canon, PathMode, Plane, Spindle, StopKind};
 use crate::motion::config::MotionConfig;
 use crate::motion::sim::{Sim, SimEvent};
-use crate::step::kernel::{Segment, SegmentSource, StepKernel};
+use crate::step::kernel::{Segment, SegmentSource, StepKernel, KEEP_DUTY};
 use crate::step::output_event::OutputEvent;
 use crate::units::Pos;
 
@@ -94,7 +94,7 @@ fn kernel_bresenham() -> u32 {
             period: 2400,
             dir: 0b10,
             output: OutputEvent::NONE,
-            power: crate::motion::laser::KEEP_DUTY,
+            power: KEEP_DUTY,
         },
         Segment {
             steps: [4, 3, 1, 2, 0, 0],
@@ -102,7 +102,7 @@ fn kernel_bresenham() -> u32 {
             period: 750,
             dir: 0b0101,
             output: OutputEvent::NONE,
-            power: crate::motion::laser::KEEP_DUTY,
+            power: KEEP_DUTY,
         },
         Segment::idle(3, 1000),
         Segment {
@@ -111,7 +111,7 @@ fn kernel_bresenham() -> u32 {
             period: 300,
             dir: 0b11_1111,
             output: OutputEvent::NONE,
-            power: crate::motion::laser::KEEP_DUTY,
+            power: KEEP_DUTY,
         },
     ];
     let mut src = Fixed(&segs, 0);
@@ -304,7 +304,7 @@ fn laser_m4_power() -> u32 {
                 d.bytes(&[s.step, s.dir]);
             }
         });
-        if out.power != crate::motion::laser::KEEP_DUTY {
+        if out.power != KEEP_DUTY {
             d.u64(now);
             d.u64(u64::from(out.power));
         }

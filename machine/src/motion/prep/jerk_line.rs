@@ -26,8 +26,7 @@ use crate::motion::config::MotionConfig;
 use crate::motion::history::{Handed, Stand};
 use crate::motion::jerk::{brake_distance, Limit, Limits, Tracker, SUB};
 use crate::motion::planner::{Block, Planner};
-use crate::step::kernel::Segment;
-use crate::step::kernel::KEEP_DUTY;
+use crate::step::kernel::{Segment, KEEP_DUTY};
 use crate::step::output_event::OutputEvent;
 use crate::units::MAX_AXES;
 
