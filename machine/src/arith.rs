@@ -190,6 +190,26 @@ pub(crate) fn div_euclid_i128(n: i128, d: i128) -> i128 {
     }
 }
 
+/// The greatest common divisor of `a` and `b` (`a` when `b` is 0), by Stein's binary method
+/// (no division).
+pub(crate) fn gcd_u64(mut a: u64, mut b: u64) -> u64 {
+    if a == 0 || b == 0 {
+        return a | b;
+    }
+    let shift = (a | b).trailing_zeros();
+    a >>= a.trailing_zeros();
+    loop {
+        b >>= b.trailing_zeros();
+        if a > b {
+            core::mem::swap(&mut a, &mut b);
+        }
+        b -= a;
+        if b == 0 {
+            return a << shift;
+        }
+    }
+}
+
 /// ⌊√v⌋ of a 128-bit value.
 pub(crate) fn isqrt_u128(v: u128) -> u128 {
     if v <= u64::MAX as u128 {
@@ -493,6 +513,23 @@ impl XorShift {
 #[cfg(test)]
 mod tests {
     use super::XorShift;
+
+    #[test]
+    fn gcd_u64_divides_both_and_leaves_coprime_quotients() {
+        let mut rng = XorShift(0x853C_49E6_748F_EA9B);
+        for _ in 0..2_000 {
+            let k = 1 + rng.next() % 1_000_000;
+            let (a, b) = (k * (rng.next() % 10_000_000), k * (rng.next() % 10_000_000));
+            let g = super::gcd_u64(a, b);
+            if a == 0 && b == 0 {
+                assert_eq!(g, 0);
+                continue;
+            }
+            assert!(a % g == 0 && b % g == 0, "{a} {b} {g}");
+            assert_eq!(super::gcd_u64(a / g, b / g), 1, "{a} {b} {g}");
+        }
+        assert_eq!(super::gcd_u64(5_000_000_000_000, 200_000_000), 200_000_000);
+    }
 
     #[test]
     fn div_floor_i64_is_div_euclid() {

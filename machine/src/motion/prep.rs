@@ -28,7 +28,7 @@ mod jerk_line;
 pub use jerk_line::JerkSetup;
 
 use super::history::{Handed, History, Stand};
-use super::jerk::Tracker;
+use super::jerk::{Limits, Tracker};
 use super::laser::PwmMap;
 use super::planner::{Block, BlockKind, Planner};
 use super::profile::Profile;
@@ -173,6 +173,13 @@ pub(crate) struct Prep {
     owed_j: u64,
     /// A hold's stopping point, nm from the head block's start.
     hold_at: Option<u64>,
+    /// The last reach of the limits' scan (`jerk_line.rs`, `Prep::ahead`): the same speed,
+    /// acceleration and limits at cruise, step after step.
+    reach: Option<((u64, i64, Limits), u64)>,
+    /// The run of open junctions the last scan found (`jerk_line.rs`).
+    open_run: Option<jerk_line::OpenRun>,
+    /// The last two path accelerations asked for and their limits (`Prep::path_limits`).
+    path_limits: [(u64, Limits); 2],
 }
 
 impl Default for Prep {
@@ -224,6 +231,9 @@ impl Prep {
             rem_counts: 0,
             owed_j: 0,
             hold_at: None,
+            reach: None,
+            open_run: None,
+            path_limits: [(0, Limits { accel: 0, jerk: 0 }); 2],
         }
     }
 
@@ -276,6 +286,9 @@ impl Prep {
     /// Sets the jerk limit (`None`: the trapezoid's ramps); only at rest.
     pub fn set_jerk(&mut self, jerk: Option<JerkSetup>) {
         self.jerk = jerk;
+        self.reach = None;
+        self.open_run = None;
+        self.path_limits = Prep::new().path_limits;
     }
 
     /// Sets laser mode's S → duty map (`None`: not a laser machine).
