@@ -44,6 +44,7 @@ out=emulator/src/cpu_model_f411.rs
     echo "    interpret_line: $(need interpret_line),"
     echo "    plan_block: $(need plan_block),"
     echo "    prepare_segment: $(need prepare_segment),"
+    echo "    prepare_jerk_segment: $(need prepare_jerk_segment),"
     echo "    kernel_tick: [$(need kernel_tick_1), $(need kernel_tick_3), $(need kernel_tick_6)],"
     echo "    step_event: [$(need step_event_1), $(need step_event_3), $(need step_event_6)],"
     echo "    step_entry_exit_cycles: $(need step_entry_exit_cycles),"

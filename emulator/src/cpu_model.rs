@@ -20,6 +20,7 @@
 //! of firmware/README.md from it ([`figures_table`]; a test keeps the two equal).
 
 use gantry_machine::board::Board;
+use gantry_machine::motion::prep::JerkSetup;
 
 /// What the QEMU benchmarks measured on the firmware's Cortex-M4 code, instructions unless
 /// named otherwise (`cpu_model_f411.rs`, written by scripts/bench-mcu.sh).
@@ -32,6 +33,10 @@ pub struct Measured {
     pub plan_block: u64,
     /// Preparing one segment (`Motion::next_segment`; a short block is one segment).
     pub prepare_segment: u64,
+    /// The same with a jerk limit on every axis (5,000 mm/s³; `motion/prep/jerk_line.rs`): two
+    /// segments a short line there (the tracker's 2 ms step crosses one block end), each
+    /// charged half the step's own cost, more than a step over many shorter blocks costs.
+    pub prepare_jerk_segment: u64,
     /// The step kernel's tick alone for 1, 3 and 6 axes stepping (`bench_motion`).
     pub kernel_tick: [u64; 3],
     /// The step interrupt per step event, kernel tick included, for 1, 3 and 6 axes stepping
@@ -60,6 +65,15 @@ pub const F411_MEASURED: Measured = include!("cpu_model_f411.rs");
 const MEASURED_AXES: [u64; 3] = [1, 3, 6];
 
 impl Measured {
+    /// Instructions of preparing one segment, jerk-limited or not.
+    pub fn segment(&self, jerk: bool) -> u64 {
+        if jerk {
+            self.prepare_jerk_segment
+        } else {
+            self.prepare_segment
+        }
+    }
+
     /// Cycles of one step interrupt that stepped `axes` axes (at least one): the measured
     /// instructions (one per cycle), linear between the measured axis counts, plus entry and exit.
     pub fn step_event_cycles(&self, axes: u32) -> u64 {
@@ -123,7 +137,7 @@ impl CpuModel {
             + work.bytes * f.link_byte
             + work.lines * f.interpret_line
             + work.blocks * f.plan_block
-            + work.segments * f.prepare_segment
+            + work.segments * f.segment(work.jerk)
     }
 }
 
@@ -136,6 +150,8 @@ pub struct PassWork {
     pub lines: u64,
     pub blocks: u64,
     pub segments: u64,
+    /// Whether the segments were jerk-limited ones.
+    pub jerk: bool,
 }
 
 /// Markers around the generated table in firmware/README.md.
@@ -196,6 +212,11 @@ pub fn figures_table(model: &CpuModel) -> String {
             "a short block is one segment".to_owned(),
         ),
         (
+            "short G1 line, jerk-limited (5,000 mm/s³): prepare a segment".to_owned(),
+            grouped(f.prepare_jerk_segment),
+            "two segments a line (`motion/prep/jerk_line.rs`)".to_owned(),
+        ),
+        (
             "short G1 line: the board's link (`bench_link`)".to_owned(),
             grouped(f.link_line),
             format!(
@@ -247,8 +268,10 @@ pub struct CpuMeter {
     last_seq: Option<u32>,
     /// Source line of the newest block seen (a line's blocks count as one interpreted line).
     last_line: u32,
-    /// Segments handed out in the pass running now.
+    /// Segments handed out in the pass running now, and whether the board prepares them
+    /// jerk-limited (as of the last pass).
     pub segments: u64,
+    jerk: bool,
     /// Main-loop instructions so far, and the passes that took longer than 1 ms.
     pub instructions: u64,
     pub long_passes: u64,
@@ -265,6 +288,7 @@ impl CpuMeter {
             last_seq: None,
             last_line: 0,
             segments: 0,
+            jerk: false,
             instructions: 0,
             long_passes: 0,
         }
@@ -310,19 +334,21 @@ impl CpuMeter {
 
     /// Kernel timer counts of preparing one segment, the CPU's whole attention on it.
     pub fn segment_counts(&self, timer_hz: u64) -> u64 {
-        (self.model.figures.prepare_segment * timer_hz).div_ceil(self.model.hz)
+        (self.model.figures.segment(self.jerk) * timer_hz).div_ceil(self.model.hz)
     }
 
     /// A pass started at `start` (kernel timer counts) and did its work on `board`: returns its
     /// duration in kernel timer counts.
     pub fn pass_done(&mut self, board: &Board, start: u64, timer_hz: u64) -> u64 {
         let (blocks, lines) = self.planned(board);
+        self.jerk = JerkSetup::of(board.motion().config()).is_some();
         let work = PassWork {
             frames: core::mem::take(&mut self.rx_frames),
             bytes: core::mem::take(&mut self.rx_bytes),
             lines,
             blocks,
             segments: core::mem::take(&mut self.segments),
+            jerk: self.jerk,
         };
         let instructions = self.model.pass(&work);
         self.instructions += instructions;

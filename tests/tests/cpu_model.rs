@@ -119,3 +119,46 @@ fn the_f411_model_starves_the_kernel_only_where_the_f411_would() {
     eprintln!("0.05 mm lines at F6000, F411 model: {gaps} underruns, {t:.3} s");
     assert_eq!(gaps, 0, "underruns at 6,000 mm/min");
 }
+
+/// [`fast_machine`] with a jerk limit of 1,000,000 mm/s³ on every axis (A/J = 10 ms at 10 m/s²).
+fn fast_jerk_machine() -> Setup {
+    let mut setup = fast_machine();
+    for a in setup.axes.iter_mut() {
+        a.jerk = 1_000_000_000_000;
+    }
+    setup
+}
+
+#[test]
+fn the_f411_model_keeps_up_with_8000_jerk_limited_chords_a_second() {
+    // 0.02 mm lines at F9600 (160 mm/s, 8,000 lines/s): the jerk-limited braking in the
+    // 128-block look-ahead (2.56 mm) still allows ~180 mm/s, so the feed, not the buffer, sets
+    // the line rate. The F411 model charges each segment the jerk-limited figure (two segments
+    // a line at 0.1 mm, emulator/src/cpu_model_f411.rs); here a 2 ms step crosses ~16 blocks,
+    // so that over-charges the tracker's own step. X ends at −50 mm, every step there.
+    let program = fine_program(9_600, 20);
+    let run = |cpu: Option<CpuModel>| {
+        let mut board = EmulatedBoard::new(fast_jerk_machine());
+        board.set_cpu_model(cpu);
+        let mut client = Client::connect(board, 2000).unwrap();
+        let report = stream_program(&mut client, &Program::from_text(&program), &mut |_| {
+            Flow::Continue
+        })
+        .unwrap();
+        assert!(report.completed, "{:?}", report.errors);
+        assert_eq!(client.transport.isr.kernel.position()[0], -8_000);
+        (
+            client.transport.starved.gaps,
+            report.elapsed_ms as f64 / 1000.0,
+        )
+    };
+    let (gaps, with_model) = run(Some(CpuModel::F411));
+    let (free_gaps, without) = run(None);
+    eprintln!(
+        "0.02 mm lines at F9600, jerk-limited: F411 model {gaps} underruns, {with_model:.3} s; \
+         no model {free_gaps} underruns, {without:.3} s"
+    );
+    assert_eq!(free_gaps, 0, "underruns without the CPU model");
+    assert_eq!(gaps, 0, "underruns on the F411 model");
+    assert!(with_model <= without * 1.02, "{with_model} {without}");
+}

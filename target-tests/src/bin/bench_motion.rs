@@ -356,8 +356,8 @@ fn main() -> ! {
     );
     // For scripts/bench-mcu.sh (emulator/src/cpu_model_f411.rs, firmware/README.md).
     println!(
-        "figures interpret_line={} plan_block={} prepare_segment={} kernel_tick_1={} kernel_tick_3={} kernel_tick_6={}",
-        interpret, plan, prepare, t1, t3, t6
+        "figures interpret_line={} plan_block={} prepare_segment={} prepare_jerk_segment={} kernel_tick_1={} kernel_tick_3={} kernel_tick_6={}",
+        interpret, plan, prepare, jerk_seg, t1, t3, t6
     );
     exit(true)
 }
