@@ -393,7 +393,12 @@ mod tests {
             lines: 1,
             blocks: 1,
             segments: 1,
+            jerk: false,
         };
+        assert_eq!(
+            m.pass(&PassWork { jerk: true, ..line }) - m.pass(&line),
+            f.prepare_jerk_segment - f.prepare_segment
+        );
         assert_eq!(
             m.pass(&line),
             f.link_pass

@@ -141,7 +141,14 @@ pub(crate) fn divrem_u128(n: u128, d: u128) -> (u128, u128) {
     if d > n {
         return (0, n);
     }
-    // d ≠ 0 here (n ≥ d and n > u64::MAX or d > u64::MAX). Align d's top bit with n's.
+    if let Ok(d) = u64::try_from(d) {
+        // A 64-bit divisor: two 64-by-32-bit quotient digits instead of a pass per bit.
+        let (hi, lo) = ((n >> 64) as u64, n as u64);
+        let (q_hi, r_hi) = (hi / d, hi % d);
+        let (q_lo, r) = div_128_by_64(r_hi, lo, d);
+        return ((u128::from(q_hi) << 64) | u128::from(q_lo), u128::from(r));
+    }
+    // d > u64::MAX here (n ≥ d). Align d's top bit with n's.
     let shift = d.leading_zeros() - n.leading_zeros();
     let mut d = d << shift;
     let (mut q, mut r) = (0u128, n);
@@ -154,6 +161,47 @@ pub(crate) fn divrem_u128(n: u128, d: u128) -> (u128, u128) {
         d >>= 1;
     }
     (q, r)
+}
+
+/// `(hi·2⁶⁴ + lo) / d` and its remainder for `hi < d` (the quotient fits in 64 bits): Knuth's
+/// algorithm D on 32-bit digits (Hacker's Delight, `divlu`), each quotient digit estimated
+/// from a 64-by-32-bit division ([`div_u64`], the Cortex-M4's hardware divider) and corrected
+/// at most twice.
+fn div_128_by_64(hi: u64, lo: u64, d: u64) -> (u64, u64) {
+    const B: u64 = 1 << 32;
+    debug_assert!(hi < d);
+    let s = d.leading_zeros();
+    let d = d << s;
+    let (dn1, dn0) = (d >> 32, d & (B - 1));
+    let un32 = if s == 0 {
+        hi
+    } else {
+        (hi << s) | (lo >> (64 - s))
+    };
+    let un10 = lo << s;
+    let (un1, un0) = (un10 >> 32, un10 & (B - 1));
+    let digit = |un: u64, low: u64| {
+        let mut q = div_u64(un, dn1);
+        let mut rhat = un - q * dn1;
+        while q >= B || q * dn0 > (rhat << 32) + low {
+            q -= 1;
+            rhat += dn1;
+            if rhat >= B {
+                break;
+            }
+        }
+        q
+    };
+    let q1 = digit(un32, un1);
+    let un21 = (un32 << 32)
+        .wrapping_add(un1)
+        .wrapping_sub(q1.wrapping_mul(d));
+    let q0 = digit(un21, un0);
+    let r = (un21 << 32)
+        .wrapping_add(un0)
+        .wrapping_sub(q0.wrapping_mul(d))
+        >> s;
+    ((q1 << 32) | q0, r)
 }
 
 /// `a * b` on i128 (overflow as `*`). Out of line for the wide products of the geometry code
@@ -513,6 +561,27 @@ impl XorShift {
 #[cfg(test)]
 mod tests {
     use super::XorShift;
+
+    #[test]
+    fn divrem_u128_is_the_division() {
+        let mut rng = XorShift(0xBB67_AE85_84CA_A73B);
+        for _ in 0..200_000 {
+            let n = (u128::from(rng.next()) << 64 | u128::from(rng.next())) >> (rng.next() % 128);
+            let d = (u128::from(rng.next()) << 64 | u128::from(rng.next())) >> (rng.next() % 128);
+            if d == 0 {
+                continue;
+            }
+            assert_eq!(super::divrem_u128(n, d), (n / d, n % d), "{n} / {d}");
+        }
+        for (n, d) in [
+            (u128::MAX, 1),
+            (u128::MAX, u64::MAX as u128),
+            (1 << 64, 3),
+            (u128::MAX, 1 << 63),
+        ] {
+            assert_eq!(super::divrem_u128(n, d), (n / d, n % d), "{n} / {d}");
+        }
+    }
 
     #[test]
     fn gcd_u64_divides_both_and_leaves_coprime_quotients() {

@@ -94,6 +94,22 @@ pub fn program_line(i: u32) -> TextLine {
     l
 }
 
+/// Line `i` of a contour whose speed the look-ahead bounds: 0.03 mm chords of a 20 mm circle
+/// at F3000 (the 128-block ring holds 3.84 mm, so the speed is that of a stop within it), as
+/// `G1 X.. Y.. F3000` with the circle's centre at (−20, 0) mm.
+pub fn contour_line(i: u32) -> TextLine {
+    // 0.0015 rad a chord (0.03 mm at r = 20 mm), in binary-angle units.
+    let step = (gantry_machine::arith::TURN as i128 * 15_000 / 62_831_853) as i64;
+    let (x, y) = gantry_machine::arith::polar(20_000, step * i64::from(i));
+    let mut l = TextLine::new();
+    l.push_str(b"G1 X");
+    l.push_milli(x - 20_000);
+    l.push_str(b" Y");
+    l.push_milli(y);
+    l.push_str(b" F3000");
+    l
+}
+
 /// [`program_line`] with `pad` more bytes: a trailing comment (`(...)`), for the per-byte share
 /// of a cost.
 pub fn padded_line(i: u32, pad: usize) -> TextLine {

@@ -86,11 +86,26 @@ fn jerk_phase(v: u64, a0: i128, da: i128, j: u64) -> u128 {
     let js = if da < 0 { -j } else { j };
     // (6·v·da·js/1000 + 3·a0·da² + da³) / (6·js²), the v term in pm/s.
     let num = 6 * (v as i128) * da * js + 1000 * (3 * a0 * da * da + da * da * da);
-    let den = 6000 * j * j;
     if num <= 0 {
         return 0;
     }
-    ceil_div(num as u128, den as u128)
+    // ⌈⌈n/J⌉/6000J⌉ = ⌈n/6000J²⌉: two divisions by 64-bit divisors (`divrem_u128`'s digit
+    // path) instead of one by a 128-bit one (a loop pass per quotient bit).
+    ceil_div(ceil_div(num as u128, j as u128), (6000 * j) as u128)
+}
+
+/// `k·d / 1000` rounded toward zero (as `i128` division rounds), split at `d`'s thousands so
+/// that no 128-bit division is left: `divrem_u128` takes a loop pass per quotient bit, some 70
+/// here, where the remainder's share is a 64-bit division by 1000 (hardware-assisted while
+/// `k·999` fits in 64 bits: jerk limits under 1.8·10¹⁶ nm/s³, the setting's limit is 10¹⁵).
+fn times_per_mille(k: u64, d: i128) -> i128 {
+    let (q, r) = (d.unsigned_abs() / 1000, (d.unsigned_abs() % 1000) as u64);
+    let m = i128::from(k) * q as i128 + i128::from(mul_div(k, r, 1000));
+    if d < 0 {
+        -m
+    } else {
+        m
+    }
 }
 
 /// Length (nm) of the shortest jerk-limited deceleration from speed `v` (pm/s) and acceleration
@@ -120,7 +135,7 @@ pub fn brake_distance(v: u64, a: i64, w: u64, lim: Limits) -> u64 {
         jerk_phase(v, a, -a, lim.jerk)
     } else {
         // Deepest acceleration m of the ramp: (a² − 2m²)/(2J) = −(v − w), at most A.
-        let m_sq = (a * a + 2 * j * (vi - wi) / 1000) / 2;
+        let m_sq = (a * a + times_per_mille(2 * lim.jerk, v as i128 - w as i128)) / 2;
         let full = m_sq >= big_a * big_a;
         let m = if full {
             big_a
@@ -233,7 +248,9 @@ impl Tracker {
                 return None;
             }
         }
-        let ds = crate::arith::div_i128(ds, 4 * q * q);
+        // Truncating by 4q and then by q is truncating by 4q² (two 64-bit divisors, see
+        // `jerk_phase`).
+        let ds = crate::arith::div_i128(crate::arith::div_i128(ds, 4 * q), q);
         if ds < 0 {
             return None;
         }
@@ -401,40 +418,58 @@ impl Tracker {
                     .all(|l| l.at <= here || brake_distance(t.v, t.a, l.speed, lim) < u64::MAX)
             })
         };
-        let floor = if smooth(lo) {
-            Some(lo)
-        } else if !smooth(hi) {
-            None
-        } else {
-            let (mut l, mut h) = (lo, hi);
-            while h - l > 1 {
-                let mid = l + (h - l) / 2;
-                if smooth(mid) {
-                    h = mid;
-                } else {
-                    l = mid;
+        // The lowest such acceleration within the step's range, asked for only when holding
+        // the acceleration does not fit.
+        let floor = || {
+            if smooth(lo) {
+                Some(lo)
+            } else if !smooth(hi) {
+                None
+            } else {
+                let (mut l, mut h) = (lo, hi);
+                while h - l > 1 {
+                    let mid = l + (h - l) / 2;
+                    if smooth(mid) {
+                        h = mid;
+                    } else {
+                        l = mid;
+                    }
                 }
+                Some(h)
             }
-            Some(h)
         };
         // Highest `a1` in [from, hi] whose step `shape` fits (fits are an interval reaching
-        // down to `from` when `from` fits: braking distances grow with the acceleration).
-        let highest = |from: i64, shape: &dyn Fn(i64) -> Option<Tracker>| {
+        // down to `from` when `from` fits: braking distances grow with the acceleration). The
+        // first guesses are `hi` and holding the acceleration, the last step's choice, which
+        // the answer is usually within a few units of (steady braking for the end of the
+        // buffer): three probes then, where the whole range takes five or six.
+        let highest = |from: &dyn Fn() -> Option<i64>, shape: &dyn Fn(i64) -> Option<Tracker>| {
             let miss =
                 |a1: i64| shape(a1).map_or(i128::MAX, |t| Self::miss(self.v, &t, cap, limits, lim));
             let at_hi = miss(hi);
             if at_hi <= 0 {
                 return Some(hi);
             }
+            let hold = self.a.clamp(lo, hi);
+            let at_hold = if hold < hi { miss(hold) } else { at_hi };
+            if at_hold <= 0 {
+                return Some(highest_fit((hold, at_hold), (hi, at_hi), &miss));
+            }
+            let from = from()?;
             let at_from = miss(from);
-            (at_from <= 0).then(|| highest_fit((from, at_from), (hi, at_hi), &miss))
+            let upper = if from < hold {
+                (hold, at_hold)
+            } else {
+                (hi, at_hi)
+            };
+            (at_from <= 0).then(|| highest_fit((from, at_from), upper, &miss))
         };
         let natural = |a1: i64| step(a1);
         let turn = |a1: i64| self.advance_turn(a1, da, big_a);
-        let chosen = match floor.and_then(|f| highest(f, &natural)) {
+        let chosen = match highest(&floor, &natural) {
             Some(a1) => step(a1),
             // The braking ramp turns inside this step: the step deepens and releases.
-            None => highest(lo, &turn).and_then(|a1| self.advance_turn(a1, da, big_a)),
+            None => highest(&|| Some(lo), &turn).and_then(|a1| self.advance_turn(a1, da, big_a)),
         };
         if let Some(next) = chosen {
             return self.commit(next);
@@ -486,7 +521,7 @@ impl Tracker {
             }
         };
         let by_turn = turn_floor.and_then(|a1| self.advance_turn(a1, da, big_a));
-        let by_ramp = floor.and_then(step);
+        let by_ramp = floor().and_then(step);
         let pick = match (by_ramp, by_turn) {
             (Some(r), Some(t)) => {
                 if Self::excess(&t, limits, lim) < Self::excess(&r, limits, lim) {
@@ -541,9 +576,12 @@ impl Tracker {
 /// did not at least halve, which bounds it at twice the halving search's probes. On the
 /// tracker's searches it takes about a quarter fewer (each probe is a step and a braking
 /// distance per limit, in 128-bit arithmetic the Cortex-M4 does in software; the test
-/// `the_false_position_search_finds_the_halving_searchs_answer`).
+/// `the_false_position_search_finds_the_bound_the_halving_search_finds`).
 fn highest_fit(l: (i64, i128), h: (i64, i128), miss: &dyn Fn(i64) -> i128) -> i64 {
     let ((mut l, mut ml), (mut h, mut mh)) = (l, h);
+    if ml == 0 || ml == -1 {
+        return l;
+    }
     // Which end the last probe replaced: -1 low, 1 high.
     let mut last = 0i8;
     let mut halve = false;
@@ -560,6 +598,11 @@ fn highest_fit(l: (i64, i128), h: (i64, i128), miss: &dyn Fn(i64) -> i128) -> i6
             (l + off).clamp(l + 1, h - 1)
         };
         let m = miss(x);
+        if m == 0 || m == -1 {
+            // On the bound to the nm (or pm/s), which is all a miss resolves: a higher `x`
+            // could only meet it as closely.
+            return x;
+        }
         if m <= 0 {
             if last == -1 {
                 mh = (mh / 2).max(1);
@@ -640,7 +683,7 @@ mod tests {
     }
 
     #[test]
-    fn the_false_position_search_finds_the_halving_searchs_answer() {
+    fn the_false_position_search_finds_the_bound_the_halving_search_finds() {
         // Rising misses of the shapes the tracker meets: a quadratic with a plateau at 0 below
         // its root (the cap once rounding hides small accelerations), a square root (a braking
         // distance) and a step in units (two limits of different kinds).
@@ -686,7 +729,12 @@ mod tests {
                 miss(x)
             };
             let found = highest_fit((l, miss(l)), (h, miss(h)), &counted);
-            assert_eq!(found, root, "case {case}");
+            // The highest that fits, or one on the bound to the unit the miss resolves.
+            let m = miss(found);
+            assert!(
+                m <= 0 && (found == root || m >= -1),
+                "case {case}: {found} {m}"
+            );
             probes += count.get();
             let (mut a, mut b) = (l, h);
             while b - a > 1 {
@@ -708,6 +756,17 @@ mod tests {
             probes <= 2 * halvings + 600,
             "{probes} probes, {halvings} halvings"
         );
+    }
+
+    #[test]
+    fn times_per_mille_is_the_128_bit_division() {
+        let mut rng = XorShift(0x6A09_E667_F3BC_C909);
+        for _ in 0..20_000 {
+            let k = rng.next() >> 4;
+            let d = (rng.next() >> (rng.next() % 40)) as i128
+                * if rng.next().is_multiple_of(2) { 1 } else { -1 };
+            assert_eq!(times_per_mille(k, d), i128::from(k) * d / 1000, "{k} {d}");
+        }
     }
 
     #[test]

@@ -323,7 +323,7 @@ table! {
         [] "" "" "acceleration" "",
     Jerk => Axis "jerk" MmPerS3 (0, nm_of_mm(1_000_000)), 800,
         |s, i| axis(s, i).jerk, |v| axis_mut(s, i).jerk = v;
-        [] "" "`0` (off)" "jerk limit (rate of change of the acceleration): with every axis's set, the path's acceleration ramps at most this fast along the whole look-ahead, continuous across junctions, holds included (docs/motion.md, Jerk-limited motion); 0 on any axis in use = the trapezoid ramps (acceleration switched on and off at once). Firmware built without gantry-machine's `jerk` feature (the F411's, for flash) refuses a nonzero value. grbl `$800`+i, grblHAL's number" "              # 0 = off (trapezoid)",
+        [] "" "`0` (off)" "jerk limit (rate of change of the acceleration): with every axis's set, the path's acceleration ramps at most this fast along the whole look-ahead, continuous across junctions, holds included (docs/motion.md, Jerk-limited motion); 0 on any axis in use = the trapezoid ramps (acceleration switched on and off at once). Firmware built without gantry-machine's `jerk` feature (the F411 boards', for flash; the F446's has it) refuses a nonzero value. grbl `$800`+i, grblHAL's number" "              # 0 = off (trapezoid)",
     StartSpeed => Axis "start_speed" MmPerMin (0, nm_of_mm(200_000)), NO_GRBL,
         |s, i| axis(s, i).start_speed, |v| axis_mut(s, i).start_speed = v;
         [] "0-`max_rate`" "" "speed the axis can reach instantly from rest (the GIXA controller's \"Starting Speed\")" "      # reachable instantly from rest",

@@ -24,7 +24,7 @@ use gantry_machine::motion::pipeline::{Motion, PushError};
 use gantry_machine::step::kernel::{Segment, SegmentSource, StepKernel, TickOut};
 use gantry_machine::step::output_event::OutputEvent;
 use gantry_target_tests::clock::{self, now, timer_overhead};
-use gantry_target_tests::program::program_line;
+use gantry_target_tests::program::{contour_line, program_line, TextLine};
 use gantry_target_tests::{exit, println};
 
 /// A segment source that hands out the same segment for ever.
@@ -159,12 +159,13 @@ fn block_cost(blend: bool) -> (u64, u64) {
 /// parse alone (`Lexer` + `parse_block` on the same text), the whole `Interpreter::next` (lex,
 /// parse and execute), `Motion::push` (plan) and `Motion::next_segment` (prepare).
 fn line_cost() -> [u64; 4] {
-    let [parse, interpret, plan, prepare, _] = line_cost_with(MotionConfig::default());
+    let [parse, interpret, plan, prepare, _] =
+        line_cost_with(MotionConfig::default(), program_line);
     [parse, interpret, plan, prepare]
 }
 
 /// [`line_cost`] on machine `cfg`, and last the prepare counts × 1000 per segment.
-fn line_cost_with(cfg: MotionConfig) -> [u64; 5] {
+fn line_cost_with(cfg: MotionConfig, program_line: fn(u32) -> TextLine) -> [u64; 5] {
     // Fewer lines when profiling: every instruction is logged then.
     const LINES: u32 = if cfg!(feature = "profile-lines") {
         200
@@ -278,10 +279,26 @@ fn helper_costs() {
         acc = acc.wrapping_add(p.time_at(black_box(50_000)));
     }
     let plan = (now() - t0) * 40 / N;
+    // One braking distance as the jerk-limited tracker's probes ask for it: from 35 mm/s and a
+    // small acceleration to rest at 200 mm/s², 5,000 mm/s³ (motion/jerk.rs).
+    let lim = gantry_machine::motion::jerk::Limits {
+        accel: 200_000_000,
+        jerk: 5_000_000_000_000,
+    };
+    let t0 = now();
+    for i in 0..N {
+        acc = acc.wrapping_add(gantry_machine::motion::jerk::brake_distance(
+            black_box(35_000_000_000 + i * 1_000),
+            black_box(1_000_000),
+            0,
+            lim,
+        ));
+    }
+    let brake = (now() - t0) * 40 / N;
     black_box(acc);
     println!(
-        "helpers: isqrt_u64 {} instr, mul_div {} instr, Profile::plan + time_at {} instr",
-        sqrt, md, plan
+        "helpers: isqrt_u64 {} instr, mul_div {} instr, Profile::plan + time_at {} instr, jerk brake_distance {} instr",
+        sqrt, md, plan, brake
     );
 }
 
@@ -332,11 +349,21 @@ fn main() -> ! {
     for a in jerk_cfg.axes.iter_mut() {
         a.jerk = 5_000_000_000;
     }
-    let [_, _, _, trap_line, trap_seg] = line_cost_with(MotionConfig::default()).map(to_instr);
-    let [_, _, _, jerk_line, jerk_seg] = line_cost_with(jerk_cfg).map(to_instr);
+    let [_, _, _, trap_line, trap_seg] =
+        line_cost_with(MotionConfig::default(), program_line).map(to_instr);
+    let [_, _, _, jerk_line, jerk_seg] = line_cost_with(jerk_cfg, program_line).map(to_instr);
     println!(
         "segment prep per line / per segment: trapezoid {} / {}, jerk-limited {} / {} instructions",
         trap_line, trap_seg, jerk_line, jerk_seg
+    );
+    // The same on a contour the look-ahead bounds (0.03 mm chords): the jerk-limited tracker
+    // brakes for the end of the buffer every step.
+    let [_, _, _, trap_c_line, trap_c_seg] =
+        line_cost_with(MotionConfig::default(), contour_line).map(to_instr);
+    let [_, _, _, jerk_c_line, jerk_c_seg] = line_cost_with(jerk_cfg, contour_line).map(to_instr);
+    println!(
+        "0.03 mm contour, segment prep per line / per segment: trapezoid {} / {}, jerk-limited {} / {} instructions",
+        trap_c_line, trap_c_seg, jerk_c_line, jerk_c_seg
     );
     let (block, push) = block_cost(false);
     let (block, push) = (to_instr(block), to_instr(push));
