@@ -82,16 +82,28 @@ fn jerk_phase(v: u64, a0: i128, da: i128, j: u64) -> u128 {
     if da == 0 {
         return 0;
     }
+    // ⌈(6·v·|da|·J/1000 + 3·a0·da² + da³) / (6·J²)⌉ (the v term in pm/s), whose one-fraction
+    // numerator overflows 128 bits at the settings' limits (2 m/s, 10 m/s², 10⁶ mm/s³): each
+    // term divided on its own, `v·|da|/(1000J)` and `da²·(3a0 + da)/(6J²)`, and their two
+    // remainders, under `6000·J²` together, add at most 2.
     let j = j as i128;
-    let js = if da < 0 { -j } else { j };
-    // (6·v·da·js/1000 + 3·a0·da² + da³) / (6·js²), the v term in pm/s.
-    let num = 6 * (v as i128) * da * js + 1000 * (3 * a0 * da * da + da * da * da);
-    if num <= 0 {
-        return 0;
-    }
-    // ⌈⌈n/J⌉/6000J⌉ = ⌈n/6000J²⌉: two divisions by 64-bit divisors (`divrem_u128`'s digit
-    // path) instead of one by a 128-bit one (a loop pass per quotient bit).
-    ceil_div(ceil_div(num as u128, j as u128), (6000 * j) as u128)
+    let per_mille = 1000 * j;
+    let speed = i128::from(v) * da.abs();
+    let (q1, r1) = (speed / per_mille, speed % per_mille);
+    let cube = da * da * (3 * a0 + da);
+    let six_j2 = 6 * j * j;
+    let q2 = crate::arith::div_euclid_i128(cube, six_j2);
+    let r2 = cube - q2 * six_j2;
+    let rest = 6 * j * r1 + 1000 * r2;
+    let den = 1000 * six_j2;
+    let up = if rest == 0 {
+        0
+    } else if rest <= den {
+        1
+    } else {
+        2
+    };
+    (q1 + q2 + up).max(0) as u128
 }
 
 /// `k·d / 1000` rounded toward zero (as `i128` division rounds), split at `d`'s thousands so
@@ -756,6 +768,39 @@ mod tests {
             probes <= 2 * halvings + 600,
             "{probes} probes, {halvings} halvings"
         );
+    }
+
+    #[test]
+    fn jerk_phase_is_the_one_fraction_ceiling() {
+        // Where `(6·v·da·J + 1000·(3·a0·da² + da³)) / (6000·J²)` fits in 128 bits, the split
+        // sum is its ceiling exactly.
+        let mut rng = XorShift(0x3C6E_F372_FE94_F82B);
+        let mut checked = 0;
+        for _ in 0..50_000 {
+            let j = 50_000_000 + rng.next() % 1_000_000_000_000_000;
+            let v = rng.next() % 2_000_000_000_000;
+            let a0 = (rng.next() % 20_000_000_000) as i128 - 10_000_000_000;
+            let da = (rng.next() % 20_000_000_000) as i128 - 10_000_000_000;
+            let (ji, vi) = (j as i128, v as i128);
+            let js = if da < 0 { -ji } else { ji };
+            let num = (6 * vi)
+                .checked_mul(da)
+                .and_then(|x| x.checked_mul(js))
+                .and_then(|x| x.checked_add(1000 * (3 * a0 * da * da + da * da * da)));
+            let Some(num) = num else { continue };
+            let want = if da == 0 || num <= 0 {
+                0
+            } else {
+                (num as u128).div_ceil((6000 * ji * ji) as u128)
+            };
+            assert_eq!(
+                jerk_phase(v, a0, da, j),
+                want,
+                "v {v} a0 {a0} da {da} j {j}"
+            );
+            checked += 1;
+        }
+        assert!(checked > 10_000, "{checked}");
     }
 
     #[test]
