@@ -432,24 +432,7 @@ impl Tracker {
         };
         // The lowest such acceleration within the step's range, asked for only when holding
         // the acceleration does not fit.
-        let floor = || {
-            if smooth(lo) {
-                Some(lo)
-            } else if !smooth(hi) {
-                None
-            } else {
-                let (mut l, mut h) = (lo, hi);
-                while h - l > 1 {
-                    let mid = l + (h - l) / 2;
-                    if smooth(mid) {
-                        h = mid;
-                    } else {
-                        l = mid;
-                    }
-                }
-                Some(h)
-            }
-        };
+        let floor = || lowest_true(lo, hi, &smooth);
         // Highest `a1` in [from, hi] whose step `shape` fits (fits are an interval reaching
         // down to `from` when `from` fits: braking distances grow with the acceleration). The
         // first guesses are `hi` and holding the acceleration, the last step's choice, which
@@ -515,22 +498,7 @@ impl Tracker {
                 self.advance_turn(a1, da, big_a)
                     .is_some_and(|t| Self::excess(&t, limits, lim) < i128::MAX)
             };
-            if smooth_turn(lo) {
-                Some(lo)
-            } else if !smooth_turn(hi) {
-                None
-            } else {
-                let (mut l, mut h) = (lo, hi);
-                while h - l > 1 {
-                    let mid = l + (h - l) / 2;
-                    if smooth_turn(mid) {
-                        h = mid;
-                    } else {
-                        l = mid;
-                    }
-                }
-                Some(h)
-            }
+            lowest_true(lo, hi, &smooth_turn)
         };
         let by_turn = turn_floor.and_then(|a1| self.advance_turn(a1, da, big_a));
         let by_ramp = floor().and_then(step);
@@ -580,6 +548,27 @@ impl Tracker {
             forced,
         }
     }
+}
+
+/// The lowest `x` in `[lo, hi]` with `holds(x)`, for `holds` false below some point and true
+/// from it on (`None` when it does not hold at `hi`), by halving.
+fn lowest_true(lo: i64, hi: i64, holds: &dyn Fn(i64) -> bool) -> Option<i64> {
+    if holds(lo) {
+        return Some(lo);
+    }
+    if !holds(hi) {
+        return None;
+    }
+    let (mut l, mut h) = (lo, hi);
+    while h - l > 1 {
+        let mid = l + (h - l) / 2;
+        if holds(mid) {
+            h = mid;
+        } else {
+            l = mid;
+        }
+    }
+    Some(h)
 }
 
 /// The highest `x` in `[l, h)` with `miss(x) ≤ 0`, given `miss(l) ≤ 0 < miss(h)` and `miss`
