@@ -101,8 +101,8 @@ pub(super) struct OpenRun {
 }
 
 impl OpenRun {
-    /// The run once its first block `head` (length nm, acceleration) has left: `None` when
-    /// nothing is left or that block held the run's least acceleration.
+    /// The run once its first block `head` (`length` nm) has left: `None` when nothing is left
+    /// or its least acceleration has been stale for more than [`STALE_POPS`] blocks.
     pub(super) fn after_pop(self, head: u32, length: u64) -> Option<OpenRun> {
         if self.first != head {
             return Some(self);
